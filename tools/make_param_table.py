@@ -1,0 +1,143 @@
+"""Build vehicles/data/px4_params.csv from the PX4 parameter metadata in shared/.
+
+The source table (px4_parameters.csv, from the PX4 metadata QGroundControl ships, ~v1.12) gives
+names, types, ranges and units. We keep the groups a multicopter SITL instance really runs and
+apply the defaults of current PX4 + the SITL/multicopter start-up scripts (PX4_COMPAT.md §7/§13).
+Parameters that current PX4 has but the old table lacks are added from PX4_COMPAT.md §7 only.
+
+Run:  python tools/make_param_table.py ../shared/px4_parameters.csv vehicles/data/px4_params.csv
+"""
+
+from __future__ import annotations
+
+import csv
+import sys
+
+KEEP_GROUPS = {
+    "Commander",
+    "Mission",
+    "Return Mode",
+    "Return To Land",
+    "Geofence",
+    "Multicopter Position Control",
+    "Multicopter Attitude Control",
+    "Multicopter Rate Control",
+    "Battery Calibration",
+    "MAVLink",
+    "System",
+    "Land Detector",
+    "EKF2",
+    "Sensors",
+    "Sensor Calibration",
+    "Data Link Loss",
+    "SD Logging",
+    "Failure Detector",
+    "GPS",
+    "Hover Thrust Estimator",
+    "Follow target",
+    "Precision Land",
+    "Circuit Breaker",
+    "SITL",
+    "Events",
+    "Telemetry",
+    "Miscellaneous",
+    "Mixer Output",
+}
+
+# Current PX4 defaults and SITL / multicopter overrides (PX4_COMPAT.md §7, §9, §13).
+OVERRIDES = {
+    "SYS_AUTOSTART": "10016",  # none_iris: a quad with no external simulator
+    "MAV_PROTO_VER": "2",
+    "MAV_TYPE": "2",
+    "COM_OF_LOSS_T": "1.0",
+    "GF_ACTION": "2",
+    "MPC_Z_VEL_MAX_DN": "1.5",
+    "MPC_Z_VEL_MAX_UP": "3.0",
+    "RTL_LAND_DELAY": "0",
+    "COM_RC_IN_MODE": "1",
+    "COM_LOW_BAT_ACT": "3",
+    "NAV_ACC_RAD": "2.0",
+    "RTL_RETURN_ALT": "30",
+    "RTL_DESCEND_ALT": "10",
+    "NAV_LOITER_RAD": "80",
+    "RTL_MIN_DIST": "10",
+    "MIS_DIST_1WP": "10000",
+    "MIS_TAKEOFF_ALT": "2.5",
+    "MPC_XY_CRUISE": "5.0",
+    "MPC_XY_VEL_MAX": "12.0",
+    "MPC_TKO_SPEED": "1.5",
+    "MPC_LAND_SPEED": "0.7",
+    "MPC_THR_HOVER": "0.6",
+    "NAV_DLL_ACT": "0",
+    "NAV_RCL_ACT": "2",
+    "COM_DL_LOSS_T": "10",
+    "COM_DISARM_LAND": "2.0",
+    "COM_DISARM_PRFLT": "10.0",
+    "COM_ARM_WO_GPS": "1",
+    "COM_TAKEOFF_ACT": "0",
+    "COM_CPU_MAX": "-1",
+    "BAT1_N_CELLS": "4",
+    "BAT1_V_CHARGED": "4.05",
+    "BAT1_V_EMPTY": "3.6",
+    "BAT_LOW_THR": "0.15",
+    "BAT_CRIT_THR": "0.07",
+    "BAT_EMERGEN_THR": "0.05",
+    "CAL_ACC0_ID": "1310988",
+    "CAL_GYRO0_ID": "1310988",
+    "CAL_MAG0_ID": "197388",
+    "SDLOG_MODE": "1",
+    "SYS_FAILURE_EN": "1",
+    "LNDMC_Z_VEL_MAX": "0.25",
+    "EKF2_REQ_GPS_H": "0.5",
+}
+
+# In current PX4 but not in the old metadata table: (type, default, unit, group, description).
+ADDED = {
+    "MIS_TKO_LAND_REQ": ("INT32", "0", "", "Mission", "Mission takeoff/landing required"),
+    "MPC_Z_V_AUTO_UP": ("FLOAT", "3.0", "m/s", "Multicopter Position Control", "Automatic ascent velocity"),
+    "MPC_Z_V_AUTO_DN": ("FLOAT", "1.5", "m/s", "Multicopter Position Control", "Automatic descent velocity"),
+    "MPC_LAND_CRWL": ("FLOAT", "0.3", "m/s", "Multicopter Position Control", "Land crawl descend rate"),
+    "COM_RCL_EXCEPT": ("INT32", "0", "", "Commander", "RC loss exceptions"),
+    "COM_DLL_EXCEPT": ("INT32", "0", "", "Commander", "Datalink loss exceptions"),
+    "COM_OBC_LOSS_T": ("FLOAT", "5.0", "s", "Commander", "Offboard computer loss timeout"),
+    "COM_FAIL_ACT_T": ("FLOAT", "5.0", "s", "Commander", "Delay between failsafe condition and action"),
+    "COM_HOME_EN": ("INT32", "1", "", "Commander", "Allows setting the home position"),
+    "COM_ARMABLE": ("INT32", "1", "", "Commander", "Flag to allow arming"),
+    "COM_RAM_MAX": ("FLOAT", "-1", "%", "Commander", "Maximum allowed RAM usage to pass checks"),
+    "COM_MODE_ARM_CHK": ("INT32", "1", "", "Commander", "Enable mode-specific arming checks"),
+    "GF_PREDICT": ("INT32", "0", "", "Geofence", "Use predictive geofence"),
+    "SIM_BAT_ENABLE": ("INT32", "1", "", "SITL", "Simulator battery enabled"),
+    "EKF2_EN": ("INT32", "1", "", "EKF2", "EKF2 enable"),
+    "LNDMC_ALT_GND": ("FLOAT", "2.0", "m", "Land Detector", "Ground effect altitude"),
+    "SYS_VEHICLE_RESP": ("FLOAT", "-0.4", "", "Multicopter Position Control", "Vehicle responsiveness"),
+}
+
+FIELDS = ["name", "type", "default", "min", "max", "unit", "group", "short_desc"]
+
+
+def main(src: str, dst: str) -> None:
+    rows = []
+    with open(src, newline="") as f:
+        for row in csv.DictReader(f):
+            if row["group"] not in KEEP_GROUPS or row["type"] not in ("INT32", "FLOAT"):
+                continue
+            row["default"] = OVERRIDES.get(row["name"], row["default"])
+            rows.append({k: row[k] for k in FIELDS})
+    have = {r["name"] for r in rows}
+    for name, (typ, default, unit, group, desc) in ADDED.items():
+        if name not in have:
+            rows.append(dict(name=name, type=typ, default=default, min="", max="", unit=unit,
+                             group=group, short_desc=desc))
+    missing = set(OVERRIDES) - {r["name"] for r in rows}
+    if missing:
+        raise SystemExit(f"overrides for unknown parameters: {sorted(missing)}")
+    rows.sort(key=lambda r: r["name"])
+    with open(dst, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=FIELDS, lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+    print(f"{len(rows)} parameters -> {dst}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2])

@@ -1,0 +1,162 @@
+"""Typed PX4 parameter store: one per vehicle, owned by the autopilot.
+
+Invariants:
+- Only PX4's two types exist: INT32 and FLOAT (REAL32). Values are stored as Python int / float
+  (floats rounded through float32 so that what is read back equals what went over the wire).
+- Indices are dense (0..count-1), stable for the life of the store, in name order as PX4's
+  ``param_find`` table is.
+- Names come from ``data/px4_params.csv`` (PX4 metadata; see tools/make_param_table.py). A name that
+  is not there does not exist: ``set`` refuses it.
+- Observers registered with ``on_change`` are called after every successful change, so the
+  gateway can broadcast PARAM_VALUE and the autopilot can re-read what it caches.
+"""
+
+from __future__ import annotations
+
+import csv
+import enum
+import struct
+import zlib
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from importlib import resources
+
+
+class ParamType(enum.IntEnum):
+    """MAV_PARAM_TYPE values PX4 uses."""
+
+    INT32 = 6
+    REAL32 = 9
+
+
+@dataclass(frozen=True)
+class ParamInfo:
+    name: str
+    type: ParamType
+    default: int | float
+    min: float | None
+    max: float | None
+    unit: str
+    group: str
+    description: str
+
+
+def _f32(value: float) -> float:
+    return struct.unpack("<f", struct.pack("<f", float(value)))[0]
+
+
+def _coerce(ptype: ParamType, value: float) -> int | float:
+    if ptype is ParamType.INT32:
+        ivalue = int(value)
+        if ivalue != value or not -(2**31) <= ivalue < 2**31:
+            raise ValueError(f"{value!r} is not an INT32")
+        return ivalue
+    return _f32(value)
+
+
+def load_param_table() -> list[ParamInfo]:
+    """The shipped PX4 parameter table, sorted by name."""
+    text = resources.files("vehicles").joinpath("data/px4_params.csv").read_text()
+    infos = []
+    for row in csv.DictReader(text.splitlines()):
+        ptype = ParamType.INT32 if row["type"] == "INT32" else ParamType.REAL32
+        infos.append(
+            ParamInfo(
+                name=row["name"],
+                type=ptype,
+                default=_coerce(ptype, float(row["default"])),
+                min=float(row["min"]) if row["min"] else None,
+                max=float(row["max"]) if row["max"] else None,
+                unit=row["unit"],
+                group=row["group"],
+                description=row["short_desc"],
+            )
+        )
+    infos.sort(key=lambda i: i.name)
+    return infos
+
+
+_TABLE: list[ParamInfo] | None = None
+
+
+def param_table() -> list[ParamInfo]:
+    global _TABLE
+    if _TABLE is None:
+        _TABLE = load_param_table()
+    return _TABLE
+
+
+class ParamStore:
+    """Dense, typed, observable parameter values for one vehicle."""
+
+    def __init__(self, overrides: Mapping[str, float] | None = None,
+                 table: Iterable[ParamInfo] | None = None) -> None:
+        self._infos = list(table) if table is not None else param_table()
+        self._index = {info.name: i for i, info in enumerate(self._infos)}
+        self._values: list[int | float] = [info.default for info in self._infos]
+        self._observers: list[Callable[[str, int | float], None]] = []
+        for name, value in (overrides or {}).items():
+            if not self.set(name, value):
+                raise KeyError(f"unknown PX4 parameter {name!r}")
+
+    # --- lookup -------------------------------------------------------------------------------
+    def __contains__(self, name: str) -> bool:
+        return name in self._index
+
+    def __len__(self) -> int:
+        return len(self._infos)
+
+    @property
+    def count(self) -> int:
+        return len(self._infos)
+
+    def index_of(self, name: str) -> int:
+        return self._index[name]
+
+    def info(self, name_or_index: str | int) -> ParamInfo:
+        if isinstance(name_or_index, str):
+            return self._infos[self._index[name_or_index]]
+        return self._infos[name_or_index]
+
+    def __getitem__(self, name: str) -> int | float:
+        return self._values[self._index[name]]
+
+    def get(self, name: str, default: float | None = None) -> int | float | None:
+        i = self._index.get(name)
+        return default if i is None else self._values[i]
+
+    def value_at(self, index: int) -> int | float:
+        return self._values[index]
+
+    def items(self) -> Iterable[tuple[ParamInfo, int | float]]:
+        return zip(self._infos, self._values)
+
+    # --- change -------------------------------------------------------------------------------
+    def set(self, name: str, value: float) -> bool:
+        """Set a value, coerced to the parameter's type. False if the name does not exist."""
+        i = self._index.get(name)
+        if i is None:
+            return False
+        new = _coerce(self._infos[i].type, value)
+        if new != self._values[i]:
+            self._values[i] = new
+            for observer in list(self._observers):
+                observer(name, new)
+        return True
+
+    def on_change(self, observer: Callable[[str, int | float], None]) -> None:
+        self._observers.append(observer)
+
+    def changed_from_default(self) -> dict[str, int | float]:
+        return {
+            info.name: value for info, value in zip(self._infos, self._values) if value != info.default
+        }
+
+    def hash32(self) -> int:
+        """A 32-bit hash over names and values (PX4's ``_HASH_CHECK`` role: equal iff same set)."""
+        crc = 0
+        for info, value in zip(self._infos, self._values):
+            crc = zlib.crc32(info.name.encode(), crc)
+            packed = struct.pack("<i" if info.type is ParamType.INT32 else "<f", value)
+            crc = zlib.crc32(packed, crc)
+        return crc & 0xFFFFFFFF

@@ -1,0 +1,173 @@
+"""Value types shared by physics, controllers, autopilot and (read-only) the gateway.
+
+Rules:
+- Every quantity carries its unit and frame in its name: ``_m``, ``_mps``, ``_rad``, ``_radps``,
+  ``_ned`` (north-east-down, local to the vehicle's EKF origin = its spawn point), ``_frd`` (body
+  forward-right-down).
+- Quaternions are (w, x, y, z) and rotate body FRD vectors into NED.
+- Setpoints use NaN for "not commanded" (PX4's convention). They are validated where built.
+- Nothing here knows about MAVLink, sockets or the wall clock.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+# Earth constants used by the flat-earth projection (PX4 lib/geo uses the same radius).
+EARTH_RADIUS_M = 6371000.0
+GRAVITY_MPS2 = 9.80665
+
+
+class NavState(enum.IntEnum):
+    """PX4 ``vehicle_status.nav_state`` values (msg/VehicleStatus.msg)."""
+
+    MANUAL = 0
+    ALTCTL = 1
+    POSCTL = 2
+    AUTO_MISSION = 3
+    AUTO_LOITER = 4
+    AUTO_RTL = 5
+    POSITION_SLOW = 6
+    ACRO = 10
+    DESCEND = 12
+    TERMINATION = 13
+    OFFBOARD = 14
+    STAB = 15
+    AUTO_TAKEOFF = 17
+    AUTO_LAND = 18
+    AUTO_FOLLOW_TARGET = 19
+    AUTO_PRECLAND = 20
+    ORBIT = 21
+
+
+class LandedState(enum.IntEnum):
+    """MAV_LANDED_STATE values; PX4 never reports UNDEFINED (0)."""
+
+    ON_GROUND = 1
+    IN_AIR = 2
+    TAKEOFF = 3
+    LANDING = 4
+
+
+class CommandResult(enum.IntEnum):
+    """MAV_RESULT values, returned by every autopilot command method."""
+
+    ACCEPTED = 0
+    TEMPORARILY_REJECTED = 1
+    DENIED = 2
+    UNSUPPORTED = 3
+    FAILED = 4
+    IN_PROGRESS = 5
+    CANCELLED = 6
+
+
+class Severity(enum.IntEnum):
+    """MAV_SEVERITY values for status texts."""
+
+    EMERGENCY = 0
+    ALERT = 1
+    CRITICAL = 2
+    ERROR = 3
+    WARNING = 4
+    NOTICE = 5
+    INFO = 6
+    DEBUG = 7
+
+
+@dataclass(frozen=True)
+class GeoPoint:
+    lat_deg: float
+    lon_deg: float
+    alt_amsl_m: float
+
+    def offset_ned(self, north_m: float, east_m: float, down_m: float) -> GeoPoint:
+        """Flat-earth (equirectangular) projection, good to centimetres over a few km."""
+        lat = self.lat_deg + math.degrees(north_m / EARTH_RADIUS_M)
+        lon = self.lon_deg + math.degrees(
+            east_m / (EARTH_RADIUS_M * math.cos(math.radians(self.lat_deg)))
+        )
+        return GeoPoint(lat, lon, self.alt_amsl_m - down_m)
+
+    def ned_of(self, other: GeoPoint) -> tuple[float, float, float]:
+        """NED offset (m) of ``other`` relative to this point (inverse of ``offset_ned``)."""
+        north = math.radians(other.lat_deg - self.lat_deg) * EARTH_RADIUS_M
+        east = (
+            math.radians(other.lon_deg - self.lon_deg)
+            * EARTH_RADIUS_M
+            * math.cos(math.radians(self.lat_deg))
+        )
+        return (north, east, self.alt_amsl_m - other.alt_amsl_m)
+
+
+# PX4 SITL default home (gazebo-classic iris / jMAVSim), PX4_COMPAT.md §9.
+PX4_SITL_HOME = GeoPoint(47.397742, 8.545594, 488.0)
+
+
+@dataclass(frozen=True)
+class VehicleState:
+    """Kinematic truth of one vehicle at ``time_s`` (simulated seconds since boot)."""
+
+    time_s: float
+    position_ned_m: np.ndarray
+    velocity_ned_mps: np.ndarray
+    acceleration_ned_mps2: np.ndarray
+    attitude_q: np.ndarray  # (w, x, y, z), FRD -> NED
+    rates_frd_radps: np.ndarray
+
+    @staticmethod
+    def at_rest(time_s: float = 0.0) -> VehicleState:
+        z = np.zeros(3)
+        return VehicleState(time_s, z.copy(), z.copy(), z.copy(), np.array([1.0, 0, 0, 0]), z.copy())
+
+    def euler_rad(self) -> tuple[float, float, float]:
+        """(roll, pitch, yaw) in radians, ZYX convention as PX4's Eulerf."""
+        w, x, y, z = (float(v) for v in self.attitude_q)
+        roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+        pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        return roll, pitch, yaw
+
+
+@dataclass(frozen=True)
+class HomePosition:
+    geo: GeoPoint
+    position_ned_m: tuple[float, float, float]
+    yaw_rad: float
+
+
+@dataclass(frozen=True)
+class BatteryState:
+    voltage_v: float
+    current_a: float
+    remaining: float  # 0..1
+    consumed_mah: float
+    cell_count: int
+
+
+@dataclass(frozen=True)
+class StatusText:
+    seq: int
+    time_s: float
+    severity: Severity
+    text: str
+
+
+@dataclass(frozen=True)
+class VehicleStatus:
+    """What the commander publishes: the gateway builds HEARTBEAT/SYS_STATUS/EXT_SYS_STATE from it."""
+
+    time_s: float
+    armed: bool
+    nav_state: NavState
+    landed_state: LandedState
+    position_valid: bool  # EKF/GPS ready: SYS_STATUS GPS health, home can be set
+    prearm_ok: bool  # arming possible in the current mode right now
+    failsafe: bool
+    terminated: bool
+    battery: BatteryState
+    home: HomePosition | None = None
+    extra: dict = field(default_factory=dict)
