@@ -1,0 +1,111 @@
+#!/usr/bin/env python3
+"""How fast is one vehicle? Prints ratios measured in this one run.
+
+1. bare PyBullet: CPU seconds to step one rigid body 250 times (one simulated second) with the
+   two external-force calls a quadrotor needs per step — the physics floor.
+2. as fast as possible: the whole simulation (physics, autopilot, telemetry on both links
+   through netsim) with no client, simulated seconds per wall second.
+3. real time: the daemon as `cornet run` starts it (UDP sockets, pacer), no client, for a few
+   wall seconds: achieved real-time factor and CPU seconds per vehicle-second.
+
+The CPU cost per vehicle-second is then given as a multiple of the bare PyBullet cost.
+
+    .venv/bin/python bench/realtime.py [--sim-seconds 60] [--wall-seconds 10]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import platform
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+import pybullet  # noqa: E402
+
+from gateway.app import Daemon, RunConfig  # noqa: E402
+from gateway.sim import PHYSICS_DT_S, Simulation  # noqa: E402
+from tests.e2e.daemon import free_port_offset  # noqa: E402
+
+
+def bare_pybullet_cpu_per_sim_s(sim_s: float) -> float:
+    cid = pybullet.connect(pybullet.DIRECT)
+    try:
+        pybullet.setGravity(0, 0, -9.81, physicsClientId=cid)
+        pybullet.setTimeStep(PHYSICS_DT_S, physicsClientId=cid)
+        plane = pybullet.createCollisionShape(pybullet.GEOM_PLANE, physicsClientId=cid)
+        pybullet.createMultiBody(0, plane, physicsClientId=cid)
+        box = pybullet.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[0.2, 0.2, 0.05],
+                                            physicsClientId=cid)
+        body = pybullet.createMultiBody(2.0, box, basePosition=[0, 0, 1.0], physicsClientId=cid)
+        steps = int(sim_s / PHYSICS_DT_S)
+        t0 = time.process_time()
+        for _ in range(steps):
+            pybullet.applyExternalForce(body, -1, (0, 0, 19.6), (0, 0, 1.0), pybullet.WORLD_FRAME,
+                                        physicsClientId=cid)
+            pybullet.applyExternalTorque(body, -1, (0, 0, 0), pybullet.WORLD_FRAME,
+                                         physicsClientId=cid)
+            pybullet.stepSimulation(physicsClientId=cid)
+        return (time.process_time() - t0) / sim_s
+    finally:
+        pybullet.disconnect(cid)
+
+
+def as_fast_as_possible(sim_s: float) -> tuple[float, float]:
+    sim = Simulation(1)
+    try:
+        w0, c0 = time.perf_counter(), time.process_time()
+        sim.run(until=sim_s)
+        wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    finally:
+        sim.close()
+    return sim_s / wall, cpu / sim_s
+
+
+async def _real_time(wall_s: float) -> tuple[float, float]:
+    daemon = Daemon(RunConfig(vehicles=1, port_offset=free_port_offset(1)))
+    await daemon.open()
+    task = asyncio.create_task(daemon.pacer.run())
+    try:
+        await asyncio.sleep(1.0)  # settle
+        s0, w0, c0 = daemon.sim.now, time.perf_counter(), time.process_time()
+        await asyncio.sleep(wall_s)
+        sim = daemon.sim.now - s0
+        wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    finally:
+        task.cancel()
+        try:
+            await task
+        except asyncio.CancelledError:
+            pass
+        daemon.close()
+    return sim / wall, cpu / sim
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sim-seconds", type=float, default=60.0)
+    parser.add_argument("--wall-seconds", type=float, default=10.0)
+    args = parser.parse_args()
+
+    bare = bare_pybullet_cpu_per_sim_s(args.sim_seconds)
+    afap_rtf, afap_cpu = as_fast_as_possible(args.sim_seconds)
+    rt_rtf, rt_cpu = asyncio.run(_real_time(args.wall_seconds))
+
+    print(f"machine: {platform.machine()} {os.cpu_count()} cores, Python "
+          f"{platform.python_version()}, pybullet {pybullet.getAPIVersion()}")
+    print(f"{'measure':<52}{'value':>12}")
+    print(f"{'bare PyBullet CPU per simulated second (1 body)':<52}{bare * 1e3:>10.2f}ms")
+    print(f"{'as fast as possible: sim s per wall s (1 vehicle)':<52}{afap_rtf:>12.1f}")
+    print(f"{'as fast as possible: CPU per vehicle-second':<52}{afap_cpu * 1e3:>10.1f}ms")
+    print(f"{'real time: sim s per wall s (1 vehicle, daemon)':<52}{rt_rtf:>12.3f}")
+    print(f"{'real time: CPU per vehicle-second':<52}{rt_cpu * 1e3:>10.1f}ms")
+    print(f"{'real time: CPU per vehicle-second / bare PyBullet':<52}{rt_cpu / bare:>12.1f}")
+    print(f"{'as fast as possible: CPU per vehicle-s / bare':<52}{afap_cpu / bare:>12.1f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,146 @@
+"""The asyncio shell: binds the PX4 ports, runs the pacer, stops cleanly on SIGINT/SIGTERM.
+
+Everything that touches sockets, signals or the wall clock lives here, in pacer.py and in
+endpoint.py; the simulation itself (gateway/sim.py) runs on simulated time only.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import errno
+import logging
+import signal
+import sys
+import time
+from dataclasses import dataclass
+
+from gateway.endpoint import UdpEndpoint
+from gateway.mavlink.session import LinkKind
+from gateway.pacer import Pacer
+from gateway.sim import NetworkConfig, Simulation, px4_ports
+
+log = logging.getLogger(__name__)
+
+STATUS_PERIOD_S = 10.0
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    vehicles: int = 1
+    network: NetworkConfig = NetworkConfig()
+    port_offset: int = 0
+    bind: str = "127.0.0.1"
+    remote_host: str = "127.0.0.1"
+    speed: float = 1.0
+
+
+class PortInUse(OSError):
+    def __init__(self, port: int, bind: str) -> None:
+        super().__init__(errno.EADDRINUSE, f"UDP port {bind}:{port} is already in use")
+        self.port = port
+
+
+class Daemon:
+    def __init__(self, config: RunConfig) -> None:
+        self.config = config
+        self.sim = Simulation(config.vehicles, config.network)
+        self.pacer = Pacer(self.sim.kernel, speed=config.speed)
+        self.endpoints: dict[tuple[int, LinkKind], UdpEndpoint] = {}
+        self.sim.on_downlink = self._send
+
+    def _send(self, index: int, kind: LinkKind, datagram: bytes, peer: object) -> None:
+        self.endpoints[(index, kind)].send(datagram, peer)  # type: ignore[arg-type]
+
+    def _receiver(self, index: int, kind: LinkKind):
+        def on_datagram(data: bytes, addr: tuple[str, int]) -> None:
+            self.pacer.sync()  # stamp the datagram with the simulated time of its arrival
+            self.sim.inject(index, kind, data, addr)
+
+        return on_datagram
+
+    async def open(self) -> None:
+        loop = asyncio.get_running_loop()
+        cfg = self.config
+        try:
+            for i in range(cfg.vehicles):
+                for kind in (LinkKind.GCS, LinkKind.API):
+                    ports = px4_ports(i, kind, cfg.port_offset)
+                    endpoint = UdpEndpoint(f"vehicle {i + 1} {kind.name} :{ports.local}",
+                                           (cfg.remote_host, ports.remote),
+                                           self._receiver(i, kind))
+                    try:
+                        await loop.create_datagram_endpoint(
+                            lambda e=endpoint: e, local_addr=(cfg.bind, ports.local))
+                    except OSError as exc:
+                        if exc.errno == errno.EADDRINUSE:
+                            raise PortInUse(ports.local, cfg.bind) from exc
+                        raise
+                    self.endpoints[(i, kind)] = endpoint
+        except BaseException:
+            self.close()
+            raise
+        # Simulated time starts now that the ports are bound; the vehicle talks first (as PX4
+        # SITL does): the first telemetry goes out as soon as the pacer runs.
+        self.pacer = Pacer(self.sim.kernel, speed=cfg.speed)
+
+    def close(self) -> None:
+        for endpoint in self.endpoints.values():
+            endpoint.close()
+        self.sim.close()
+
+    def status_line(self) -> str:
+        stats = self.sim.link_stats()
+        up = sum(s["delivered"] for n, s in stats.items() if n.endswith("/up"))
+        down = sum(s["delivered"] for n, s in stats.items() if n.endswith("/down"))
+        dropped = sum(sum(s["dropped"].values()) for s in stats.values())
+        malformed = sum(link.session.stats.get("rx_malformed", 0)
+                        for link in self.sim.links.values())
+        return (f"sim_t={self.sim.now:.1f}s rtf={self.pacer.real_time_factor():.2f} "
+                f"vehicles={self.config.vehicles} datagrams_up={up} datagrams_down={down} "
+                f"net_dropped={dropped} malformed={malformed} internal_errors={self.sim.internal_errors} "
+                f"slips={self.pacer.slips}")
+
+    async def _report(self) -> None:
+        while True:
+            await asyncio.sleep(STATUS_PERIOD_S)
+            log.info("%s", self.status_line())
+
+
+async def serve(config: RunConfig, ready_out=sys.stdout) -> int:
+    daemon = Daemon(config)
+    await daemon.open()
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        loop.add_signal_handler(sig, stop.set)
+    cfg = config
+    ports = ", ".join(
+        f"v{i + 1} gcs {px4_ports(i, LinkKind.GCS, cfg.port_offset).local}"
+        f"->{px4_ports(i, LinkKind.GCS, cfg.port_offset).remote}"
+        f" api {px4_ports(i, LinkKind.API, cfg.port_offset).local}"
+        f"->{px4_ports(i, LinkKind.API, cfg.port_offset).remote}"
+        for i in range(min(cfg.vehicles, 4))
+    ) + (" ..." if cfg.vehicles > 4 else "")
+    print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.model}, {ports}",
+          file=ready_out, flush=True)
+    t0 = time.monotonic()
+    tasks = [asyncio.create_task(daemon.pacer.run(), name="pacer"),
+             asyncio.create_task(daemon._report(), name="status"),
+             asyncio.create_task(stop.wait(), name="stop")]
+    try:
+        done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+        for task in done:
+            if task.get_name() != "stop" and task.exception() is not None:
+                raise task.exception()  # a crashed pacer must not look like a clean stop
+    finally:
+        for task in tasks:
+            task.cancel()
+        for task in tasks:
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.remove_signal_handler(sig)
+        log.info("stopping after %.1f s: %s", time.monotonic() - t0, daemon.status_line())
+        daemon.close()
+    return 0

@@ -1,0 +1,242 @@
+"""Command protocol server: COMMAND_LONG / COMMAND_INT / legacy SET_MODE → vehicle → COMMAND_ACK.
+
+Source: PX4_COMPAT.md §3 (AUTOPILOT_VERSION), §4 (mavlink_receiver.cpp handle_message_command_*,
+Commander::handle_command), §12 item 7–8.
+Rules:
+- Only target_system ∈ {0, own} and target_component ∈ {0, 1} are handled; anything else is
+  silently ignored (no ACK). REQUEST_AUTOPILOT_CAPABILITIES / REQUEST_PROTOCOL_VERSION ignore the
+  component, as in PX4.
+- The ACK goes to the sender's sysid/compid, from compid 1, progress 0, result_param2 0.
+- A requested message is emitted before its ACK (same send buffer, in order).
+- COMMAND_INT x/y are degE7 (INT32_MAX = unset → NaN), z as-is (AMSL). The frame is ignored, as
+  PX4 ≤ 1.16 does: QGC sends 0, MAVSDK4 3, MAVSDK 5 — all work (PX4 main would reject ≠ 5).
+- Every command is answered at once (never IN_PROGRESS): unknown → UNSUPPORTED.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+from gateway.mavlink.codec import (
+    CRC_EXTRA_PROTOCOL_VERSION,
+    MSG_ID_PROTOCOL_VERSION,
+    PROTOCOL_VERSION_PAYLOAD,
+)
+from gateway.mavlink.modes import decode_set_mode
+from gateway.mavlink.telemetry import STREAMS_BY_ID, home_position
+from vehicles.types import CommandResult, Severity
+
+if TYPE_CHECKING:
+    from gateway.mavlink.session import Session
+
+M = mavlink2
+
+ACCEPTED = CommandResult.ACCEPTED
+TEMPORARILY_REJECTED = CommandResult.TEMPORARILY_REJECTED
+DENIED = CommandResult.DENIED
+UNSUPPORTED = CommandResult.UNSUPPORTED
+FAILED = CommandResult.FAILED
+
+FORCE_MAGIC = 21196  # COMPONENT_ARM_DISARM p2: forced arm/disarm (kill)
+INT32_MAX = 2**31 - 1
+INT32_MAX_AS_FLOAT32 = 2147483648.0  # what INT32_MAX becomes in a float param
+
+# AUTOPILOT_VERSION as PX4 SITL fills it (§3), minus MAVLink FTP (32): we do not serve FTP.
+CAPABILITIES = 59647 & ~32
+FLIGHT_SW_VERSION = 0x010F00FF  # v1.15.0 release
+FLIGHT_CUSTOM_VERSION = list(b"c0rnet01")  # "git hash" bytes
+UID_BASE = 0x434F524E45540000  # "CORNET\0\0"; + sysid so every vehicle differs
+
+# Message ids QGC asks for that we do not serve: answering at once keeps its connect fast (§10).
+REFUSED_MESSAGES = frozenset({397, 395, 435})  # COMPONENT_METADATA/_INFORMATION, AVAILABLE_MODES
+
+ROI_COMMANDS = frozenset({
+    M.MAV_CMD_DO_SET_ROI, M.MAV_CMD_DO_SET_ROI_LOCATION, M.MAV_CMD_DO_SET_ROI_NONE,
+    M.MAV_CMD_NAV_ROI,
+})
+ANY_COMPONENT_COMMANDS = frozenset({
+    M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, M.MAV_CMD_REQUEST_PROTOCOL_VERSION,
+})
+
+
+@dataclass(frozen=True)
+class Command:
+    """A command with COMMAND_INT's integers already converted (p5/p6 degrees, p7 AMSL)."""
+
+    command: int
+    params: tuple[float, float, float, float, float, float, float]
+    src_system: int
+    src_component: int
+    is_int: bool = False
+
+    def p(self, n: int) -> float:
+        return self.params[n - 1]
+
+
+def _eq(value: float, target: float) -> bool:
+    return not math.isnan(value) and abs(value - target) < 1e-3
+
+
+class CommandService:
+    def __init__(self, session: Session) -> None:
+        self.s = session
+        self._handlers: dict[int, Callable[[Command, float], int | None]] = {
+            M.MAV_CMD_COMPONENT_ARM_DISARM: self._arm_disarm,
+            M.MAV_CMD_NAV_TAKEOFF: self._takeoff,
+            M.MAV_CMD_NAV_LAND: lambda c, t: self.s.vehicle.land(t),
+            M.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda c, t: self.s.vehicle.return_to_launch(t),
+            M.MAV_CMD_DO_SET_MODE: self._set_mode,
+            M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
+            M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._autopilot_capabilities,
+            M.MAV_CMD_REQUEST_PROTOCOL_VERSION: self._protocol_version,
+            M.MAV_CMD_GET_HOME_POSITION: self._home_position,
+            M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_message_interval,
+            M.MAV_CMD_GET_MESSAGE_INTERVAL: lambda c, t: self._send_interval(int(c.p(1))),
+            M.MAV_CMD_PREFLIGHT_CALIBRATION: lambda c, t: TEMPORARILY_REJECTED,
+            M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
+                lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
+            M.MAV_CMD_RUN_PREARM_CHECKS: lambda c, t: ACCEPTED,
+        }
+        for cmd in ROI_COMMANDS:
+            self._handlers[cmd] = lambda c, t: ACCEPTED
+
+    # --- inbound ------------------------------------------------------------------------------
+    def on_command_long(self, msg: M.MAVLink_command_long_message, now_s: float) -> None:
+        cmd = Command(msg.command, (msg.param1, msg.param2, msg.param3, msg.param4, msg.param5,
+                                    msg.param6, msg.param7), msg.get_srcSystem(),
+                      msg.get_srcComponent())
+        if not self._for_us(msg, cmd.command):
+            return
+        if msg.param5 == INT32_MAX_AS_FLOAT32 and msg.param6 == INT32_MAX_AS_FLOAT32:
+            self.ack(cmd, DENIED)  # looks like a COMMAND_INT sent as COMMAND_LONG
+            return
+        self.dispatch(cmd, now_s)
+
+    def on_command_int(self, msg: M.MAVLink_command_int_message, now_s: float) -> None:
+        if not self._for_us(msg, msg.command):
+            return
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        if msg.x == 0x7FF80000 and msg.y == 0x7FF80000:
+            self.ack(Command(msg.command, (math.nan,) * 7, *src, True), DENIED)
+            return
+        lat = math.nan if msg.x == INT32_MAX else msg.x * 1e-7
+        lon = math.nan if msg.y == INT32_MAX else msg.y * 1e-7
+        cmd = Command(msg.command, (msg.param1, msg.param2, msg.param3, msg.param4, lat, lon,
+                                    msg.z), *src, True)
+        self.dispatch(cmd, now_s)
+
+    def on_set_mode(self, msg: M.MAVLink_set_mode_message, now_s: float) -> None:
+        """Legacy SET_MODE (11): PX4 converts it to DO_SET_MODE and ACKs it as 176."""
+        if msg.target_system not in (0, self.s.sysid):
+            self.s.stats.rx_other_target += 1
+            return
+        main, sub = (msg.custom_mode >> 16) & 0xFF, (msg.custom_mode >> 24) & 0xFF
+        cmd = Command(M.MAV_CMD_DO_SET_MODE, (float(msg.base_mode), float(main), float(sub), 0.0,
+                                              0.0, 0.0, 0.0), msg.get_srcSystem(),
+                      msg.get_srcComponent())
+        self.dispatch(cmd, now_s)
+
+    def _for_us(self, msg: M.MAVLink_message, command: int) -> bool:
+        comp_ok = msg.target_component in (0, 1) or command in ANY_COMPONENT_COMMANDS
+        if msg.target_system in (0, self.s.sysid) and comp_ok:
+            return True
+        self.s.stats.rx_other_target += 1
+        return False
+
+    def dispatch(self, cmd: Command, now_s: float) -> None:
+        handler = self._handlers.get(cmd.command)
+        result = UNSUPPORTED if handler is None else handler(cmd, now_s)
+        if result is not None:
+            self.ack(cmd, int(result))
+
+    def ack(self, cmd: Command, result: int) -> None:
+        self.s.send(self.s.encoder.pack(M.MAVLink_command_ack_message, cmd.command, result, 0, 0,
+                                        cmd.src_system, cmd.src_component))
+
+    # --- handlers: return a MAV_RESULT, or None for "no ACK" -------------------------------
+    def _arm_disarm(self, cmd: Command, now_s: float) -> int | None:
+        forced = _eq(cmd.p(2), FORCE_MAGIC)
+        if _eq(cmd.p(1), 1.0):
+            return self.s.vehicle.arm(now_s, forced=forced)
+        if _eq(cmd.p(1), 0.0):
+            return self.s.vehicle.disarm(now_s, forced=forced)
+        self.s.statustext.local(now_s, Severity.CRITICAL, "Unsupported ARM_DISARM param")
+        return None
+
+    def _takeoff(self, cmd: Command, now_s: float) -> int:
+        return self.s.vehicle.takeoff(now_s, alt_amsl_m=cmd.p(7))
+
+    def _set_mode(self, cmd: Command, now_s: float) -> int:
+        base, main, sub = cmd.p(1), cmd.p(2), cmd.p(3)
+        if math.isnan(base):
+            return DENIED
+        nav = decode_set_mode(int(base), _int_or(main, -1), _int_or(sub, 0))
+        if nav is None:
+            self.s.statustext.local(now_s, Severity.CRITICAL, "Unsupported auto mode")
+            return TEMPORARILY_REJECTED
+        return self.s.vehicle.set_nav_state(now_s, nav)
+
+    def _request_message(self, cmd: Command, now_s: float) -> int:
+        msg_id = _int_or(cmd.p(1), -1)
+        if msg_id == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            self.s.send(self.autopilot_version())
+            return ACCEPTED
+        if msg_id == MSG_ID_PROTOCOL_VERSION:
+            return self._protocol_version(cmd, now_s)
+        if msg_id == M.MAVLINK_MSG_ID_MESSAGE_INTERVAL:
+            return self._send_interval(_int_or(cmd.p(2), -1))
+        if msg_id in REFUSED_MESSAGES:
+            return UNSUPPORTED
+        spec = STREAMS_BY_ID.get(msg_id)
+        if spec is None:
+            return UNSUPPORTED
+        frame = spec.builder(self.s.encoder, self.s.snapshot(now_s))
+        if frame is None:
+            return DENIED  # e.g. HOME_POSITION before home is set
+        self.s.send(frame)
+        return ACCEPTED
+
+    def _autopilot_capabilities(self, cmd: Command, now_s: float) -> int:
+        self.s.send(self.autopilot_version())
+        return ACCEPTED
+
+    def _protocol_version(self, cmd: Command, now_s: float) -> int:
+        self.s.send(self.s.encoder.frame(MSG_ID_PROTOCOL_VERSION, CRC_EXTRA_PROTOCOL_VERSION,
+                                         PROTOCOL_VERSION_PAYLOAD))
+        return ACCEPTED
+
+    def _home_position(self, cmd: Command, now_s: float) -> int:
+        frame = home_position(self.s.encoder, self.s.snapshot(now_s))
+        if frame is None:
+            return DENIED
+        self.s.send(frame)
+        return ACCEPTED
+
+    def _set_message_interval(self, cmd: Command, now_s: float) -> int:
+        ok = self.s.scheduler.set_interval(_int_or(cmd.p(1), -1), cmd.p(2), now_s)
+        return ACCEPTED if ok else FAILED
+
+    def _send_interval(self, msg_id: int) -> int:
+        interval = self.s.scheduler.interval_us(msg_id)
+        self.s.send(self.s.encoder.pack(M.MAVLink_message_interval_message, msg_id & 0xFFFF,
+                                        interval))
+        return ACCEPTED
+
+    def autopilot_version(self) -> bytes:
+        uid = (UID_BASE + self.s.sysid) & 0xFFFFFFFFFFFFFFFF
+        return self.s.encoder.pack(
+            M.MAVLink_autopilot_version_message, CAPABILITIES, FLIGHT_SW_VERSION,
+            FLIGHT_SW_VERSION, 0, 0, FLIGHT_CUSTOM_VERSION, FLIGHT_CUSTOM_VERSION, [0] * 8, 0, 0,
+            uid, [0] * 18)
+
+
+def _int_or(value: float, default: int) -> int:
+    if math.isnan(value) or math.isinf(value):
+        return default
+    return int(round(value))
+

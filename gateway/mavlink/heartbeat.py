@@ -1,0 +1,85 @@
+"""HEARTBEAT, SYS_STATUS and EXTENDED_SYS_STATE from the commander's VehicleStatus.
+
+Source: PX4_COMPAT.md §2 (HEARTBEAT.hpp), §3 (SYS_STATUS.hpp + MAVSDK health rules), §8.
+- HEARTBEAT: type = MAV_TYPE param, autopilot PX4 (12), mavlink_version 3, modes from modes.py.
+- system_status: UNINIT until the position estimate is valid, STANDBY disarmed, ACTIVE armed,
+  CRITICAL armed in failsafe, FLIGHT_TERMINATION once terminated. PX4 never sends BOOT.
+- SYS_STATUS bits, and why (MAVSDK telemetry_impl.cpp):
+  is_global_position_ok = GPS (32) in present AND health → GPS health follows position_valid;
+  is_armable = PREARM_CHECK in health; QGC "Ready To Fly" additionally needs PREARM in enabled.
+  Gyro/accel/mag present+healthy → MAVSDK calibration flags true.
+"""
+
+from __future__ import annotations
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+from gateway.mavlink.codec import Encoder
+from gateway.mavlink.modes import heartbeat_modes
+from vehicles.types import VehicleStatus
+
+MAV_AUTOPILOT_PX4 = 12
+MAV_TYPE_QUADROTOR = 2
+MAVLINK_VERSION = 3
+
+# MAV_STATE
+MAV_STATE_UNINIT = 0
+MAV_STATE_STANDBY = 3
+MAV_STATE_ACTIVE = 4
+MAV_STATE_CRITICAL = 5
+MAV_STATE_FLIGHT_TERMINATION = 8
+
+# MAV_SYS_STATUS_SENSOR bits used below
+SENSOR_GPS = 0x20
+SENSOR_XY_POSITION_CONTROL = 0x4000  # PX4 maps its local position estimate here
+SENSOR_PREARM_CHECK = 0x10000000
+
+# Healthy PX4 SITL (§3): gyro|accel|mag|baro|gps|att_stab|xy_pos|ahrs|logging|battery.
+SENSORS_PRESENT = 0x0320482F
+# All mapped bits healthy (absent components still report healthy in PX4), without PREARM.
+SENSORS_HEALTH = 0x0321C83F
+POSITION_SENSORS = SENSOR_GPS | SENSOR_XY_POSITION_CONTROL
+
+MAV_VTOL_STATE_UNDEFINED = 0
+
+
+def system_status(status: VehicleStatus) -> int:
+    if status.terminated:
+        return MAV_STATE_FLIGHT_TERMINATION
+    if status.armed:
+        return MAV_STATE_CRITICAL if status.failsafe else MAV_STATE_ACTIVE
+    return MAV_STATE_STANDBY if status.position_valid else MAV_STATE_UNINIT
+
+
+def sensor_bits(status: VehicleStatus) -> tuple[int, int, int]:
+    """(present, enabled, health) of SYS_STATUS."""
+    present = SENSORS_PRESENT
+    enabled = SENSORS_PRESENT
+    health = SENSORS_HEALTH
+    if not status.position_valid:
+        health &= ~POSITION_SENSORS
+    if status.prearm_ok:
+        health |= SENSOR_PREARM_CHECK
+        enabled |= SENSOR_PREARM_CHECK
+    return present, enabled, health
+
+
+def build_heartbeat(enc: Encoder, status: VehicleStatus, mav_type: int) -> bytes:
+    base, custom = heartbeat_modes(status.nav_state, status.armed)
+    return enc.pack(mavlink2.MAVLink_heartbeat_message, mav_type, MAV_AUTOPILOT_PX4, base, custom,
+                    system_status(status), MAVLINK_VERSION)
+
+
+def build_sys_status(enc: Encoder, status: VehicleStatus) -> bytes:
+    present, enabled, health = sensor_bits(status)
+    bat = status.battery
+    voltage_mv = min(max(int(round(bat.voltage_v * 1000.0)), 0), 65534)
+    current_ca = min(max(int(round(bat.current_a * 100.0)), -1), 32767)
+    remaining = min(max(int(round(bat.remaining * 100.0)), 0), 100)
+    return enc.pack(mavlink2.MAVLink_sys_status_message, present, enabled, health,
+                    0, voltage_mv, current_ca, remaining, 0, 0, 0, 0, 0, 0)
+
+
+def build_extended_sys_state(enc: Encoder, status: VehicleStatus) -> bytes:
+    return enc.pack(mavlink2.MAVLink_extended_sys_state_message, MAV_VTOL_STATE_UNDEFINED,
+                    int(status.landed_state))

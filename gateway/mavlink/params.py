@@ -1,0 +1,191 @@
+"""Parameter protocol server over the vehicle's ParamStore.
+
+Source: PX4_COMPAT.md §7 (mavlink_parameters.cpp; MAVSDK mavlink_parameter_client.cpp; QGC
+ParameterManager.cc).
+Rules and invariants:
+- Every PARAM_VALUE carries param_count = store.count and its dense param_index.
+- INT32 values travel BYTEWISE: the int's four bytes sit in the float field. We pack the int
+  directly (never through a Python float) so signalling-NaN bit patterns survive.
+- PARAM_REQUEST_LIST: `_HASH_CHECK` first (type UINT32, index 65535, value = hash bytes), then
+  every index 0..N−1, PARAM_BURST per PARAM_TICK_S so a ~700-param list takes ≈0.4 s without
+  starving telemetry. A LIST during a running list restarts at 0 without the hash.
+- PARAM_SET success: echo on this link; every *other* change (other links, the autopilot) arrives
+  through the store's on_change observer and is sent here too. Our own set is not echoed twice.
+- Errors answer PARAM_ERROR (345, PX4 ≥ 1.17); PX4 ≤ 1.16 would stay silent.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import weakref
+from typing import TYPE_CHECKING
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+from vehicles.params import ParamType
+
+if TYPE_CHECKING:
+    from gateway.mavlink.session import Session
+
+M = mavlink2
+
+HASH_CHECK_NAME = "_HASH_CHECK"
+HASH_CHECK_INDEX = 65535  # index −1 as uint16
+MAV_PARAM_TYPE_UINT32 = 5
+PARAM_BURST = 16  # PARAM_VALUEs per tick of a list transfer
+PARAM_TICK_S = 0.01
+PARAM_ID_LEN = 16
+
+# MAV_PARAM_ERROR (common.xml 2025; pymavlink 2.4.50 only knows 0..5)
+PARAM_ERROR_DOES_NOT_EXIST = 1
+PARAM_ERROR_READ_ONLY = 5
+PARAM_ERROR_TYPE_UNSUPPORTED = 6
+PARAM_ERROR_TYPE_MISMATCH = 7
+
+# PARAM_VALUE wire layout: param_value(4 bytes), param_count u16, param_index u16, id[16], type u8
+_PV_INT = struct.Struct("<iHH16sB")
+_PV_FLOAT = struct.Struct("<fHH16sB")
+_PV_UINT = struct.Struct("<IHH16sB")
+_PV = M.MAVLink_param_value_message
+_PE_STRUCT = struct.Struct("<hBB16sB")  # PARAM_ERROR: index, target sys, target comp, id, error
+
+
+def float_bits_to_int32(value: float) -> int:
+    return struct.unpack("<i", struct.pack("<f", value))[0]
+
+
+class ParamService:
+    def __init__(self, session: Session) -> None:
+        self.s = session
+        self.store = session.vehicle.params
+        self._list_next: int | None = None  # next index of a running list transfer
+        self._list_due_s = math.inf
+        self._own_set: str | None = None  # name being set by this link (echo sent explicitly)
+        ref = weakref.ref(self)
+
+        def observer(name: str, value: int | float) -> None:
+            svc = ref()
+            if svc is not None:
+                svc._on_change(name)
+
+        self.store.on_change(observer)
+
+    # --- timer --------------------------------------------------------------------------------
+    def get_timer(self) -> float:
+        return self._list_due_s
+
+    def handle_timer(self, now_s: float) -> None:
+        if self._list_next is None or now_s < self._list_due_s:
+            return
+        count = self.store.count
+        end = min(self._list_next + PARAM_BURST, count)
+        for i in range(self._list_next, end):
+            self.s.send(self.param_value(i))
+        if end >= count:
+            self._list_next, self._list_due_s = None, math.inf
+        else:
+            self._list_next, self._list_due_s = end, now_s + PARAM_TICK_S
+
+    # --- inbound ------------------------------------------------------------------------------
+    def on_request_list(self, msg: M.MAVLink_param_request_list_message, now_s: float) -> None:
+        if not self._for_us(msg):
+            return
+        if self._list_next is None:
+            self.s.send(self.hash_check())
+        self._list_next, self._list_due_s = 0, now_s
+
+    def on_request_read(self, msg: M.MAVLink_param_request_read_message, now_s: float) -> None:
+        if not self._for_us(msg):
+            return
+        if msg.param_index < 0:
+            name = msg.param_id
+            if name == HASH_CHECK_NAME:
+                self.s.send(self.hash_check())
+            elif name in self.store:
+                self.s.send(self.param_value(self.store.index_of(name)))
+            else:
+                self._error(msg, name, -1, PARAM_ERROR_DOES_NOT_EXIST)
+        elif msg.param_index < self.store.count:
+            self.s.send(self.param_value(msg.param_index))
+        else:
+            self._error(msg, "", msg.param_index, PARAM_ERROR_DOES_NOT_EXIST)
+
+    def on_set(self, msg: M.MAVLink_param_set_message, now_s: float) -> None:
+        if not self._for_us(msg):
+            return
+        name = msg.param_id
+        if name == HASH_CHECK_NAME:
+            # QGC: its cache matches, stop streaming the list.
+            self._list_next, self._list_due_s = None, math.inf
+            self._error(msg, name, -1, PARAM_ERROR_READ_ONLY)
+            return
+        if name not in self.store:
+            self._error(msg, name, -1, PARAM_ERROR_DOES_NOT_EXIST)
+            return
+        index = self.store.index_of(name)
+        if msg.param_type not in (ParamType.INT32, ParamType.REAL32):
+            self._error(msg, name, index, PARAM_ERROR_TYPE_UNSUPPORTED)
+            return
+        if msg.param_type != self.store.info(index).type:
+            self._error(msg, name, index, PARAM_ERROR_TYPE_MISMATCH)
+            return
+        if msg.param_type == ParamType.INT32:
+            value: float = float_bits_to_int32_raw(msg)
+        else:
+            value = msg.param_value
+        self._own_set = name
+        try:
+            self.store.set(name, value)
+        except ValueError:
+            pass  # non-finite float etc.: PX4 would store it; we echo the unchanged value
+        finally:
+            self._own_set = None
+        self.s.send(self.param_value(index))
+
+    def _for_us(self, msg: M.MAVLink_message) -> bool:
+        if msg.target_system in (0, self.s.sysid) and msg.target_component in (0, 1):
+            return True
+        self.s.stats.rx_other_target += 1
+        return False
+
+    def _on_change(self, name: str) -> None:
+        if name != self._own_set:
+            self.s.send(self.param_value(self.store.index_of(name)))
+
+    # --- outbound -----------------------------------------------------------------------------
+    def param_value(self, index: int) -> bytes:
+        info = self.store.info(index)
+        value = self.store.value_at(index)
+        pid = info.name.encode("ascii")
+        if info.type is ParamType.INT32:
+            payload = _PV_INT.pack(int(value), self.store.count, index, pid, ParamType.INT32)
+        else:
+            payload = _PV_FLOAT.pack(value, self.store.count, index, pid, ParamType.REAL32)
+        return self.s.encoder.frame(_PV.id, _PV.crc_extra, payload)
+
+    def hash_check(self) -> bytes:
+        payload = _PV_UINT.pack(self.store.hash32(), self.store.count, HASH_CHECK_INDEX,
+                                HASH_CHECK_NAME.encode(), MAV_PARAM_TYPE_UINT32)
+        return self.s.encoder.frame(_PV.id, _PV.crc_extra, payload)
+
+    def _error(self, msg: M.MAVLink_message, name: str, index: int, error: int) -> None:
+        payload = _PE_STRUCT.pack(index, msg.get_srcSystem(), msg.get_srcComponent(),
+                                  name.encode("ascii", "replace")[:PARAM_ID_LEN], error)
+        cls = M.MAVLink_param_error_message
+        self.s.send(self.s.encoder.frame(cls.id, cls.crc_extra, payload))
+
+
+def float_bits_to_int32_raw(msg: M.MAVLink_param_set_message) -> int:
+    """The int32 a client put bytewise into PARAM_SET.param_value, read from the raw frame.
+
+    Re-packing the decoded float would quieten signalling-NaN patterns, so read payload bytes
+    0..3 (param_value is first on the wire) from the frame; pad if MAVLink 2 trimmed zeros.
+    (pymavlink's ``msg._payload`` uses the v1 header length, so it is wrong for v2 frames.)
+    """
+    buf = getattr(msg, "_msgbuf", None)
+    if buf:
+        header_len = 10 if buf[0] == 0xFD else 6
+        raw = bytes(buf[header_len:header_len + min(4, buf[1])]).ljust(4, b"\0")
+        return struct.unpack("<i", raw)[0]
+    return float_bits_to_int32(msg.param_value)

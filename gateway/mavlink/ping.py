@@ -1,0 +1,35 @@
+"""PING and TIMESYNC responders (PX4_COMPAT.md §3 items 5–6).
+
+- PING with target 0/0 is a request: answer with the same time_usec/seq, target = sender.
+  Pings addressed to someone are replies to others' requests: ignored (we never ping).
+- TIMESYNC with tc1 == 0 is a request: answer tc1 = our clock (simulated ns since boot),
+  ts1 echoed. tc1 ≠ 0 is a reply: ignored.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+if TYPE_CHECKING:
+    from gateway.mavlink.session import Session
+
+M = mavlink2
+
+
+class PingService:
+    def __init__(self, session: Session) -> None:
+        self.s = session
+
+    def on_ping(self, msg: M.MAVLink_ping_message, now_s: float) -> None:
+        if msg.target_system != 0 or msg.target_component != 0:
+            return
+        self.s.send(self.s.encoder.pack(M.MAVLink_ping_message, msg.time_usec, msg.seq,
+                                        msg.get_srcSystem(), msg.get_srcComponent()))
+
+    def on_timesync(self, msg: M.MAVLink_timesync_message, now_s: float) -> None:
+        if msg.tc1 != 0:
+            return
+        # pymavlink 2.4.50's TIMESYNC has no target fields (added to common.xml later).
+        self.s.send(self.s.encoder.pack(M.MAVLink_timesync_message, int(now_s * 1e9), msg.ts1))

@@ -1,0 +1,150 @@
+"""Sans-IO MAVLink session: one per (vehicle, link). Bytes + ``now`` in, datagrams out.
+
+The asyncio shell drives it exactly like aioquic's QuicConnection:
+
+    s = Session(vehicle, LinkKind.API, now_s=0.0)
+    s.receive_datagram(data, now_s)      # a datagram arrived (never raises)
+    s.handle_timer(now_s)                # at s.get_timer(): emit due telemetry, paced params …
+    for d in s.datagrams_to_send(now_s): # then drain; frames packed into ≤ 1400-byte datagrams
+        link.send(d)
+
+Rules and invariants:
+- Time is simulated seconds since boot (time_boot_ms = now_s·1000); no wall clock, no I/O here.
+- Identity: sysid = vehicle.params['MAV_SYS_ID'], compid 1; MAVLink 2 out, one seq per link.
+- Inbound frames addressed to another system are dropped and counted (``rx_other_target``);
+  messages nobody handles are counted (``rx_unhandled``).
+- A GCS heartbeat (type 6) marks the link "GCS present" (STATUSTEXT gating) and is forwarded
+  to ``vehicle.on_gcs_heartbeat(now_s)`` when the vehicle has it (data-link-loss failsafe).
+- Services live one per module; this file only routes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+from gateway.mavlink.codec import DecodeStats, Decoder, Encoder, pack_datagrams
+from gateway.mavlink.commands import CommandService
+from gateway.mavlink.params import ParamService
+from gateway.mavlink.ping import PingService
+from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
+from gateway.mavlink.telemetry import NEVER, LinkKind, Scheduler, Snapshot
+
+__all__ = ["LinkKind", "Session", "SessionStats"]
+
+M = mavlink2
+COMPONENT_ID = 1
+MAV_TYPE_GCS = 6
+
+
+@dataclass
+class SessionStats(DecodeStats):
+    rx_other_target: int = 0  # addressed to another sysid/compid
+    rx_unhandled: int = 0  # valid, for us (or broadcast), but no service handles it
+    tx_frames: int = 0
+    tx_datagrams: int = 0
+    tx_bytes: int = 0
+
+    def as_dict(self) -> dict[str, int]:
+        return asdict(self)
+
+    def get(self, name: str, default: int = 0) -> int:
+        """Mapping-style access for the shell's status line."""
+        return getattr(self, name, default)
+
+    def __getitem__(self, name: str) -> int:
+        return getattr(self, name)
+
+
+class Session:
+    def __init__(self, vehicle: Any, kind: LinkKind, now_s: float = 0.0, *,
+                 boot_unix_s: float | None = None) -> None:
+        self.vehicle = vehicle
+        self.kind = kind
+        self.sysid = int(vehicle.params["MAV_SYS_ID"])
+        self.compid = COMPONENT_ID
+        self.boot_unix_s = boot_unix_s  # SYSTEM_TIME.time_unix_usec = 0 when None
+        self.stats = SessionStats()
+        self.encoder = Encoder(self.sysid, self.compid)
+        self._decoder = Decoder(self.stats)
+        self._out: list[bytes] = []
+        self.last_gcs_heartbeat_s = -math.inf
+        self.scheduler = Scheduler(kind, now_s)
+        self.commands = CommandService(self)
+        self.params = ParamService(self)
+        self.statustext = StatusTextService(self)
+        self.ping = PingService(self)
+        self._routes: dict[int, Callable[[Any, float], None]] = {
+            M.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
+            M.MAVLINK_MSG_ID_COMMAND_LONG: self.commands.on_command_long,
+            M.MAVLINK_MSG_ID_COMMAND_INT: self.commands.on_command_int,
+            M.MAVLINK_MSG_ID_SET_MODE: self.commands.on_set_mode,
+            M.MAVLINK_MSG_ID_PARAM_REQUEST_LIST: self.params.on_request_list,
+            M.MAVLINK_MSG_ID_PARAM_REQUEST_READ: self.params.on_request_read,
+            M.MAVLINK_MSG_ID_PARAM_SET: self.params.on_set,
+            M.MAVLINK_MSG_ID_PING: self.ping.on_ping,
+            M.MAVLINK_MSG_ID_TIMESYNC: self.ping.on_timesync,
+        }
+
+    # --- the sans-IO contract -----------------------------------------------------------------
+    def receive_datagram(self, data: bytes, now_s: float) -> None:
+        for msg in self._decoder.feed(data, now_s):
+            target = getattr(msg, "target_system", 0)
+            if target not in (0, self.sysid):
+                self.stats.rx_other_target += 1
+                continue
+            route = self._routes.get(msg.get_msgId())
+            if route is None:
+                self.stats.rx_unhandled += 1
+                continue
+            route(msg, now_s)
+
+    def datagrams_to_send(self, now_s: float) -> list[bytes]:
+        if not self._out:
+            return []
+        datagrams = pack_datagrams(self._out)
+        self._out = []
+        self.stats.tx_datagrams += len(datagrams)
+        self.stats.tx_bytes += sum(len(d) for d in datagrams)
+        return datagrams
+
+    def get_timer(self) -> float | None:
+        t = self.params.get_timer()
+        if self.scheduler.next_us < NEVER:
+            t = min(t, self.scheduler.next_us * 1e-6)
+        return None if math.isinf(t) else t
+
+    def handle_timer(self, now_s: float) -> None:
+        due = self.scheduler.due(now_s)
+        if due:
+            snap = self.snapshot(now_s)
+            enc = self.encoder
+            for spec in due:
+                frame = spec.builder(enc, snap)
+                if frame is not None:
+                    self.send(frame)
+        self.statustext.poll(now_s)
+        self.params.handle_timer(now_s)
+
+    # --- for the services ---------------------------------------------------------------------
+    def send(self, frame: bytes) -> None:
+        self._out.append(frame)
+        self.stats.tx_frames += 1
+
+    def snapshot(self, now_s: float) -> Snapshot:
+        return Snapshot(self.vehicle, now_s, self.boot_unix_s)
+
+    def gcs_present(self, now_s: float) -> bool:
+        return now_s - self.last_gcs_heartbeat_s <= GCS_PRESENT_S
+
+    def _on_heartbeat(self, msg: M.MAVLink_heartbeat_message, now_s: float) -> None:
+        if msg.type != MAV_TYPE_GCS:
+            return
+        self.last_gcs_heartbeat_s = now_s
+        hook = getattr(self.vehicle, "on_gcs_heartbeat", None)
+        if hook is not None:
+            hook(now_s)

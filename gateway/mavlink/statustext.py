@@ -1,0 +1,70 @@
+"""STATUSTEXT: the vehicle's append-only text log → this link, with PX4's gating.
+
+Source: PX4_COMPAT.md §8 (always-on streams), §10 (tab suffix), §11 (texts).
+Rules:
+- A cursor per link drains ``vehicle.status_texts(after_seq)``; texts are consumed whether or
+  not they are sent (PX4 drops them too), so nothing piles up while no GCS listens.
+- Sent only while a MAV_TYPE_GCS heartbeat arrived on this link within GCS_PRESENT_S, and only
+  texts younger than MAX_AGE_S.
+- PX4's trailing tab (marks texts duplicated by events) is stripped: we send no events.
+- Texts longer than 50 bytes are chunked MAVLink-2 style: non-zero ``id`` shared by the chunks,
+  ``chunk_seq`` 0.., the last chunk shorter than 50 (an empty one if the length divides by 50).
+- ``local()`` queues a gateway-originated text (e.g. "Unsupported auto mode") for this link only.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+from vehicles.types import Severity
+
+if TYPE_CHECKING:
+    from gateway.mavlink.session import Session
+
+GCS_PRESENT_S = 2.5
+MAX_AGE_S = 5.0
+CHUNK_LEN = 50
+MAX_PER_TICK = 20  # PX4 STATUSTEXT is limited to ~20 Hz; a burst beyond this waits a tick
+
+
+class StatusTextService:
+    def __init__(self, session: Session) -> None:
+        self.s = session
+        self._cursor = -1
+        self._next_id = 1
+        self._pending: list[tuple[float, int, str]] = []  # (time_s, severity, text)
+
+    def local(self, now_s: float, severity: Severity, text: str) -> None:
+        self._pending.append((now_s, int(severity), text))
+
+    def poll(self, now_s: float) -> None:
+        texts = getattr(self.s.vehicle, "status_texts", None)
+        if texts is not None:
+            for t in texts(self._cursor):
+                self._cursor = max(self._cursor, t.seq)
+                self._pending.append((t.time_s, int(t.severity), t.text))
+        if not self._pending:
+            return
+        if not self.s.gcs_present(now_s):
+            self._pending.clear()
+            return
+        batch, self._pending = self._pending[:MAX_PER_TICK], self._pending[MAX_PER_TICK:]
+        for time_s, severity, text in batch:
+            if now_s - time_s < MAX_AGE_S:
+                for frame in self.frames(severity, text):
+                    self.s.send(frame)
+
+    def frames(self, severity: int, text: str) -> list[bytes]:
+        data = text.rstrip("\t").encode("utf-8", "replace")
+        enc = self.s.encoder
+        cls = mavlink2.MAVLink_statustext_message
+        if len(data) <= CHUNK_LEN:
+            return [enc.pack(cls, severity, data, 0, 0)]
+        msg_id = self._next_id
+        self._next_id = self._next_id % 0xFFFF + 1
+        chunks = [data[i:i + CHUNK_LEN] for i in range(0, len(data), CHUNK_LEN)]
+        if len(chunks[-1]) == CHUNK_LEN:
+            chunks.append(b"")
+        return [enc.pack(cls, severity, c, msg_id, n) for n, c in enumerate(chunks)]

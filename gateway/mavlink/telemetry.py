@@ -1,0 +1,315 @@
+"""Telemetry streams: one table of (message, builder, default rate per link kind), one scheduler.
+
+Source: PX4_COMPAT.md §8 (configure_streams_to_default NORMAL + SITL overrides for the GCS link,
+ONBOARD for the API link) and the field conventions listed there.
+Rules:
+- Deadlines are integer microseconds of simulated time, so streams of commensurate rates fire
+  in the same wake-up (all 50 Hz streams go out together) and counts are exact.
+- A late wake-up sends each due stream once and re-phases it; it never bursts to catch up.
+- A builder returns None when it has nothing to say (HOME_POSITION before home is set).
+- SET_MESSAGE_INTERVAL may enable any message that has a builder, on either link.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+from gateway.mavlink.codec import Encoder
+from gateway.mavlink.heartbeat import build_extended_sys_state, build_heartbeat, build_sys_status
+
+M = mavlink2
+
+# GPS_RAW_INT constants of PX4's SITL GPS (sensor_gps_sim / gz bridge), §8.
+GPS_FIX_TYPE_3D = 3
+GPS_SATELLITES = 10
+GPS_EPH_CM = 70
+GPS_EPV_CM = 110
+GPS_H_ACC_MM = 900
+GPS_V_ACC_MM = 1780
+UINT16_UNKNOWN = 65535
+INT16_MAX = 32767
+
+# MISSION_CURRENT while no mission exists (§6): total 65535? PX4 sends the count or 65535 if none.
+MISSION_TOTAL_NONE = 65535
+MISSION_STATE_NO_MISSION = 1
+
+# BATTERY_STATUS enums
+MAV_BATTERY_FUNCTION_ALL = 1
+MAV_BATTERY_TYPE_LIPO = 1
+MAV_BATTERY_CHARGE_STATE_OK = 1
+MAV_BATTERY_CHARGE_STATE_LOW = 2
+MAV_BATTERY_CHARGE_STATE_CRITICAL = 3
+MAV_BATTERY_CHARGE_STATE_EMERGENCY = 4
+
+
+class LinkKind(enum.Enum):
+    GCS = "gcs"  # PX4 "normal" mode link → 14550
+    API = "api"  # PX4 "onboard" mode link → 14540+i
+
+
+class Snapshot:
+    """What one wake-up reads from the vehicle; each property is read at most once."""
+
+    def __init__(self, vehicle: Any, now_s: float, boot_unix_s: float | None) -> None:
+        self.vehicle = vehicle
+        self.now_s = now_s
+        self.boot_unix_s = boot_unix_s
+        self.time_boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
+        self.time_usec = int(now_s * 1e6)
+
+    @cached_property
+    def state(self) -> Any:
+        return self.vehicle.state
+
+    @cached_property
+    def status(self) -> Any:
+        return self.vehicle.status
+
+    @cached_property
+    def geo(self) -> Any:
+        return self.vehicle.global_position
+
+    @cached_property
+    def euler(self) -> tuple[float, float, float]:
+        return self.state.euler_rad()
+
+    @cached_property
+    def home_alt_m(self) -> float:
+        home = self.status.home
+        return home.geo.alt_amsl_m if home is not None else self.vehicle.origin.alt_amsl_m
+
+    @cached_property
+    def mav_type(self) -> int:
+        return int(self.vehicle.params.get("MAV_TYPE", 2))
+
+
+def _deg_e7(deg: float) -> int:
+    return int(round(deg * 1e7))
+
+
+def _cdeg(rad: float) -> int:
+    return int(round(math.degrees(rad) % 360.0 * 100.0)) % 36000
+
+
+def _f(v: Any) -> float:
+    return float(v)
+
+
+def heartbeat(enc: Encoder, s: Snapshot) -> bytes:
+    return build_heartbeat(enc, s.status, s.mav_type)
+
+
+def sys_status(enc: Encoder, s: Snapshot) -> bytes:
+    return build_sys_status(enc, s.status)
+
+
+def extended_sys_state(enc: Encoder, s: Snapshot) -> bytes:
+    return build_extended_sys_state(enc, s.status)
+
+
+def attitude(enc: Encoder, s: Snapshot) -> bytes:
+    roll, pitch, yaw = s.euler
+    p, q, r = s.state.rates_frd_radps
+    return enc.pack(M.MAVLink_attitude_message, s.time_boot_ms, roll, pitch, yaw,
+                    _f(p), _f(q), _f(r))
+
+
+def attitude_quaternion(enc: Encoder, s: Snapshot) -> bytes:
+    w, x, y, z = (float(c) for c in s.state.attitude_q)
+    p, q, r = s.state.rates_frd_radps
+    return enc.pack(M.MAVLink_attitude_quaternion_message, s.time_boot_ms, w, x, y, z,
+                    _f(p), _f(q), _f(r))
+
+
+def local_position_ned(enc: Encoder, s: Snapshot) -> bytes:
+    x, y, z = s.state.position_ned_m
+    vx, vy, vz = s.state.velocity_ned_mps
+    return enc.pack(M.MAVLink_local_position_ned_message, s.time_boot_ms, _f(x), _f(y), _f(z),
+                    _f(vx), _f(vy), _f(vz))
+
+
+def global_position_int(enc: Encoder, s: Snapshot) -> bytes:
+    g = s.geo
+    vx, vy, vz = s.state.velocity_ned_mps
+    return enc.pack(M.MAVLink_global_position_int_message, s.time_boot_ms, _deg_e7(g.lat_deg),
+                    _deg_e7(g.lon_deg), int(round(g.alt_amsl_m * 1000.0)),
+                    int(round((g.alt_amsl_m - s.home_alt_m) * 1000.0)),
+                    int(round(vx * 100.0)), int(round(vy * 100.0)), int(round(vz * 100.0)),
+                    _cdeg(s.euler[2]))
+
+
+def gps_raw_int(enc: Encoder, s: Snapshot) -> bytes:
+    g = s.geo
+    vn, ve, _ = s.state.velocity_ned_mps
+    speed = math.hypot(vn, ve)
+    cog = _cdeg(math.atan2(ve, vn)) if speed > 0.1 else UINT16_UNKNOWN
+    alt_mm = int(round(g.alt_amsl_m * 1000.0))
+    return enc.pack(M.MAVLink_gps_raw_int_message, s.time_usec, GPS_FIX_TYPE_3D,
+                    _deg_e7(g.lat_deg), _deg_e7(g.lon_deg), alt_mm, GPS_EPH_CM, GPS_EPV_CM,
+                    int(round(speed * 100.0)), cog, GPS_SATELLITES, alt_mm, GPS_H_ACC_MM,
+                    GPS_V_ACC_MM, 0, 0, 0)
+
+
+def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:
+    vn, ve, vd = s.state.velocity_ned_mps
+    speed = math.hypot(vn, ve)
+    throttle = s.status.extra.get("throttle", 0.0) if s.status.armed else 0.0
+    return enc.pack(M.MAVLink_vfr_hud_message, speed, speed, _cdeg(s.euler[2]) // 100,
+                    int(round(max(0.0, min(1.0, throttle)) * 100.0)), s.geo.alt_amsl_m, -_f(vd))
+
+
+def altitude(enc: Encoder, s: Snapshot) -> bytes:
+    amsl = s.geo.alt_amsl_m
+    local = -float(s.state.position_ned_m[2])
+    return enc.pack(M.MAVLink_altitude_message, s.time_usec, amsl, amsl, local,
+                    amsl - s.home_alt_m, math.nan, math.nan)
+
+
+def _charge_state(remaining: float, params: Any) -> int:
+    if remaining <= params.get("BAT_EMERGEN_THR", 0.05):
+        return MAV_BATTERY_CHARGE_STATE_EMERGENCY
+    if remaining <= params.get("BAT_CRIT_THR", 0.07):
+        return MAV_BATTERY_CHARGE_STATE_CRITICAL
+    if remaining <= params.get("BAT_LOW_THR", 0.15):
+        return MAV_BATTERY_CHARGE_STATE_LOW
+    return MAV_BATTERY_CHARGE_STATE_OK
+
+
+def battery_status(enc: Encoder, s: Snapshot) -> bytes:
+    bat = s.status.battery
+    cells = max(1, min(10, int(bat.cell_count)))
+    cell_mv = min(int(round(bat.voltage_v * 1000.0 / cells)), 65534)
+    voltages = [cell_mv] * cells + [UINT16_UNKNOWN] * (10 - cells)
+    return enc.pack(M.MAVLink_battery_status_message, 0, MAV_BATTERY_FUNCTION_ALL,
+                    MAV_BATTERY_TYPE_LIPO, INT16_MAX, voltages,
+                    int(round(bat.current_a * 100.0)), int(round(bat.consumed_mah)), -1,
+                    int(round(bat.remaining * 100.0)), 0,
+                    _charge_state(bat.remaining, s.vehicle.params), [0, 0, 0, 0], 0, 0)
+
+
+def home_position(enc: Encoder, s: Snapshot) -> bytes | None:
+    home = s.status.home
+    if home is None:
+        return None
+    x, y, z = home.position_ned_m
+    q = [math.cos(home.yaw_rad / 2.0), 0.0, 0.0, math.sin(home.yaw_rad / 2.0)]
+    return enc.pack(M.MAVLink_home_position_message, _deg_e7(home.geo.lat_deg),
+                    _deg_e7(home.geo.lon_deg), int(round(home.geo.alt_amsl_m * 1000.0)),
+                    float(x), float(y), float(z), q, 0.0, 0.0, 0.0, s.time_usec)
+
+
+def system_time(enc: Encoder, s: Snapshot) -> bytes:
+    unix_us = 0 if s.boot_unix_s is None else int((s.boot_unix_s + s.now_s) * 1e6)
+    return enc.pack(M.MAVLink_system_time_message, unix_us, s.time_boot_ms)
+
+
+def mission_current(enc: Encoder, s: Snapshot) -> bytes:
+    # Until a mission service exists: "no mission" keeps MAVSDK's mission progress sane.
+    return enc.pack(M.MAVLink_mission_current_message, 0, MISSION_TOTAL_NONE,
+                    MISSION_STATE_NO_MISSION, 0)
+
+
+Builder = Callable[[Encoder, Snapshot], "bytes | None"]
+
+
+@dataclass(frozen=True)
+class StreamSpec:
+    msg_id: int
+    builder: Builder
+    gcs_hz: float  # PX4 "normal" mode with the SITL px4-rc.mavlink overrides
+    api_hz: float  # PX4 "onboard" mode
+
+    def default_hz(self, kind: LinkKind) -> float:
+        return self.gcs_hz if kind is LinkKind.GCS else self.api_hz
+
+
+STREAMS: tuple[StreamSpec, ...] = (
+    StreamSpec(M.MAVLINK_MSG_ID_HEARTBEAT, heartbeat, 1.0, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_SYS_STATUS, sys_status, 1.0, 5.0),
+    StreamSpec(M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, extended_sys_state, 1.0, 5.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE, attitude, 50.0, 100.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION, attitude_quaternion, 50.0, 50.0),
+    StreamSpec(M.MAVLINK_MSG_ID_LOCAL_POSITION_NED, local_position_ned, 50.0, 30.0),
+    StreamSpec(M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, global_position_int, 50.0, 50.0),
+    # Onboard sends GPS_RAW_INT on every GPS update; PX4's simulated GPS runs at 10 Hz.
+    StreamSpec(M.MAVLINK_MSG_ID_GPS_RAW_INT, gps_raw_int, 5.0, 10.0),
+    StreamSpec(M.MAVLINK_MSG_ID_HOME_POSITION, home_position, 0.5, 0.5),
+    StreamSpec(M.MAVLINK_MSG_ID_VFR_HUD, vfr_hud, 4.0, 10.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ALTITUDE, altitude, 1.0, 10.0),
+    StreamSpec(M.MAVLINK_MSG_ID_BATTERY_STATUS, battery_status, 0.5, 0.5),
+    StreamSpec(M.MAVLINK_MSG_ID_SYSTEM_TIME, system_time, 0.0, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_MISSION_CURRENT, mission_current, 1.0, 1.0),
+)
+STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
+# HEARTBEAT rate is fixed (PX4: SET_MESSAGE_INTERVAL on it → FAILED).
+FIXED_RATE_IDS = frozenset({M.MAVLINK_MSG_ID_HEARTBEAT})
+
+NEVER = 1 << 62
+
+
+def _interval_us(hz: float) -> int:
+    return int(round(1e6 / hz)) if hz > 0 else 0
+
+
+class Scheduler:
+    """Per-stream integer-µs deadlines; ``next_us`` is the earliest of them."""
+
+    def __init__(self, kind: LinkKind, now_s: float) -> None:
+        self.kind = kind
+        start = int(round(now_s * 1e6))
+        self._interval_us: dict[int, int] = {}
+        self._next_us: dict[int, int] = {}
+        for spec in STREAMS:
+            iv = _interval_us(spec.default_hz(kind))
+            self._interval_us[spec.msg_id] = iv
+            self._next_us[spec.msg_id] = start if iv else NEVER
+        self.next_us = self._min()
+
+    def _min(self) -> int:
+        return min(self._next_us.values())
+
+    def interval_us(self, msg_id: int) -> int:
+        """MESSAGE_INTERVAL semantics: µs, −1 disabled, 0 unknown/not available."""
+        if msg_id not in self._interval_us:
+            return 0
+        return self._interval_us[msg_id] or -1
+
+    def set_interval(self, msg_id: int, interval_us: float, now_s: float) -> bool:
+        """SET_MESSAGE_INTERVAL p2: −1 stop, 0 default, > 0 interval µs. False if refused."""
+        spec = STREAMS_BY_ID.get(msg_id)
+        if spec is None or msg_id in FIXED_RATE_IDS or math.isnan(interval_us):
+            return False
+        if interval_us < 0:
+            iv = 0
+        elif interval_us == 0:
+            iv = _interval_us(spec.default_hz(self.kind))
+        else:
+            iv = max(1, int(round(interval_us)))
+        self._interval_us[msg_id] = iv
+        self._next_us[msg_id] = int(round(now_s * 1e6)) if iv else NEVER
+        self.next_us = self._min()
+        return True
+
+    def due(self, now_s: float) -> list[StreamSpec]:
+        """Streams due at ``now_s``, with their deadlines advanced."""
+        now_us = int(round(now_s * 1e6))
+        if now_us < self.next_us:
+            return []
+        out = []
+        for msg_id, nxt in self._next_us.items():
+            if nxt <= now_us:
+                iv = self._interval_us[msg_id]
+                nxt += iv
+                if nxt <= now_us:  # late wake-up: re-phase, never burst
+                    nxt = now_us + iv
+                self._next_us[msg_id] = nxt
+                out.append(STREAMS_BY_ID[msg_id])
+        self.next_us = self._min()
+        return out

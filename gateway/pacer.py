@@ -1,0 +1,77 @@
+"""The pacer: the only place that maps the wall clock onto simulated time.
+
+``sync()`` runs the kernel up to the simulated time that corresponds to "now" on the wall clock;
+``run()`` sleeps until the wall-clock moment of the kernel's next event and syncs again. If the
+CPU cannot keep up, the pacer lets simulated time slip (the physics never stalls, it just runs
+slower than real time) rather than trying to catch up in a burst; slips and the achieved
+real-time factor are counted.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import time
+from collections.abc import Callable
+
+from netsim.kernel import Kernel
+
+MAX_LAG_S = 0.2  # wall-clock lag beyond which simulated time slips instead of catching up
+MAX_SLEEP_S = 0.05
+
+
+class Pacer:
+    def __init__(self, kernel: Kernel, speed: float = 1.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        if not speed > 0:
+            raise ValueError("speed must be positive")
+        self.kernel = kernel
+        self.speed = speed
+        self._clock = clock
+        self._wall0 = clock()
+        self._sim0 = kernel.now
+        self.slips = 0
+        self.slipped_s = 0.0
+        self._rtf_wall0 = self._wall0
+        self._rtf_sim0 = self._sim0
+
+    def _target(self, wall: float) -> float:
+        return self._sim0 + (wall - self._wall0) * self.speed
+
+    def sync(self) -> None:
+        """Bring the kernel to the simulated time of the present wall-clock moment."""
+        target = self._target(self._clock())
+        now = self.kernel.now
+        if target <= now:
+            return
+        lag = (target - now) / self.speed
+        if lag > MAX_LAG_S:
+            # Fell behind (CPU overload, a stalled event loop): re-anchor so we stay MAX_LAG_S
+            # behind the wall clock instead of running a long burst.
+            slip = target - now - MAX_LAG_S * self.speed
+            self._sim0 -= slip
+            self.slips += 1
+            self.slipped_s += slip
+            target -= slip
+        self.kernel.run(until=target)
+
+    def real_time_factor(self) -> float:
+        """Simulated seconds per wall second since the previous call."""
+        wall = self._clock()
+        sim = self.kernel.now
+        dw = wall - self._rtf_wall0
+        rtf = (sim - self._rtf_sim0) / dw if dw > 0 else 0.0
+        self._rtf_wall0, self._rtf_sim0 = wall, sim
+        return rtf
+
+    async def run(self) -> None:
+        """Run forever (until cancelled)."""
+        while True:
+            self.sync()
+            nxt = self.kernel.peek()
+            if math.isinf(nxt):
+                delay = MAX_SLEEP_S
+            else:
+                delay = (nxt - self._target(self._clock())) / self.speed
+                delay = min(max(delay, 0.0), MAX_SLEEP_S)
+            await asyncio.sleep(delay)

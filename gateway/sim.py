@@ -1,0 +1,209 @@
+"""The simulation assembly: kernel + world + per-link MAVLink sessions + network links.
+
+No sockets and no wall clock here: this is the whole data path of the daemon on simulated time,
+so tests (and lockstep users) drive it with ``sim.run(until=...)``. The asyncio shell adds only
+the pacer (wall clock → ``run``) and UDP endpoints (``inject`` in, ``on_downlink`` out).
+
+Path of one datagram (STYLE.md "one message, fewest hops"):
+  inject → uplink Link (model: delay/drop) → delivery event → Session.receive_datagram → vehicle
+  session timer / reply → Session.datagrams_to_send → downlink Link → delivery → on_downlink.
+
+Invariants:
+- One kernel owns time. Physics runs on a fixed 250 Hz grid (priority PHYSICS, so at equal
+  times the world is stepped before packets are delivered and telemetry is sampled).
+- Each session has at most one pending timer event in the heap, rescheduled after every call
+  into the session.
+- Every random draw comes from a stream named after its link, seeded from ``NetworkConfig.seed``.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from gateway.mavlink.session import LinkKind, Session
+from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
+from netsim.link import Link
+from netsim.models import make_model
+from vehicles.params import ParamStore
+from vehicles.world import World
+
+log = logging.getLogger(__name__)
+
+PHYSICS_DT_S = 0.004  # 250 Hz, PX4 SITL lockstep rate
+
+# PX4 SITL port scheme (PX4_COMPAT.md §1.1) for instance i.
+GCS_LOCAL_BASE = 18570
+GCS_REMOTE_PORT = 14550
+API_LOCAL_BASE = 14580
+API_REMOTE_BASE = 14540
+API_REMOTE_MAX = 14549  # PX4 sends instances > 9 to 14549
+
+
+@dataclass(frozen=True)
+class Ports:
+    """UDP ports of one vehicle link: what the vehicle binds and where it talks first."""
+
+    local: int
+    remote: int
+
+
+def px4_ports(index: int, kind: LinkKind, offset: int = 0) -> Ports:
+    if kind is LinkKind.GCS:
+        return Ports(GCS_LOCAL_BASE + index + offset, GCS_REMOTE_PORT + offset)
+    return Ports(API_LOCAL_BASE + index + offset,
+                 min(API_REMOTE_BASE + index, API_REMOTE_MAX) + offset)
+
+
+@dataclass(frozen=True)
+class NetworkConfig:
+    """The embedded network: one model for every link direction (scenarios refine this later)."""
+
+    model: str = "ideal"
+    params: dict = field(default_factory=dict)
+    seed: int = 0
+
+    @staticmethod
+    def from_flags(latency_ms: float, jitter_ms: float, loss: float, seed: int) -> NetworkConfig:
+        if latency_ms == 0 and jitter_ms == 0 and loss == 0:
+            return NetworkConfig("ideal", {}, seed)
+        return NetworkConfig(
+            "fixed",
+            {"latency_s": latency_ms / 1e3, "jitter_s": jitter_ms / 1e3, "loss": loss},
+            seed,
+        )
+
+
+# (vehicle index, link kind, datagram, peer): peer is the opaque address of the client the
+# link last heard a valid MAVLink frame from, or None before that (then: PX4's preset remote).
+DownlinkHandler = Callable[[int, LinkKind, bytes, object], None]
+
+
+class VehicleLink:
+    """One MAVLink link of one vehicle: a session between an uplink and a downlink."""
+
+    def __init__(self, sim: Simulation, index: int, kind: LinkKind, session: Session) -> None:
+        self.sim = sim
+        self.index = index
+        self.kind = kind
+        self.session = session
+        self.name = f"v{index + 1}/{kind.name.lower()}"
+        net = sim.network
+        kernel = sim.kernel
+        self.uplink = Link(
+            kernel,
+            make_model(net.model, net.params, seed=net.seed, stream_name=f"{self.name}/up"),
+            self._on_uplink_delivered,
+            name=f"{self.name}/up",
+        )
+        self.downlink = Link(
+            kernel,
+            make_model(net.model, net.params, seed=net.seed, stream_name=f"{self.name}/down"),
+            self._on_downlink_delivered,
+            name=f"{self.name}/down",
+        )
+        self.peer: object = None
+        self._timer: Event | None = None
+        self._timer_at = math.inf
+
+    # --- uplink: client → vehicle ---------------------------------------------------------------
+    def _on_uplink_delivered(self, packet: bytes, peer: object) -> None:
+        stats = self.session.stats
+        ours_before = stats.rx_frames - stats.rx_other_target
+        try:
+            self.session.receive_datagram(packet, self.sim.kernel.now)
+        except Exception:
+            # A bug in handling one message must not take down every vehicle of the daemon.
+            self.sim.internal_errors += 1
+            log.exception("%s: error while handling a datagram", self.name)
+        if stats.rx_frames - stats.rx_other_target != ours_before and peer is not None:
+            # PX4 replies to the client it hears (PX4_COMPAT.md §1.2). Only a datagram that
+            # held a valid frame for this vehicle moves the peer, so garbage or traffic for
+            # other systems cannot hijack the link, and a restarted client is followed.
+            self.peer = peer
+        self.service()
+
+    # --- downlink: vehicle → client -------------------------------------------------------------
+    def _on_downlink_delivered(self, packet: bytes, peer: object) -> None:
+        handler = self.sim.on_downlink
+        if handler is not None:
+            handler(self.index, self.kind, packet, peer)
+
+    def _on_timer(self) -> None:
+        self._timer = None
+        self._timer_at = math.inf
+        try:
+            self.session.handle_timer(self.sim.kernel.now)
+        except Exception:
+            self.sim.internal_errors += 1
+            log.exception("%s: error in a session timer", self.name)
+        self.service()
+
+    def service(self) -> None:
+        """Push what the session wants to send into the downlink; re-arm its one timer."""
+        now = self.sim.kernel.now
+        for datagram in self.session.datagrams_to_send(now):
+            self.downlink.send(datagram, self.peer)
+        deadline = self.session.get_timer()
+        if deadline is None:
+            deadline = math.inf
+        if deadline == self._timer_at:
+            return
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        self._timer_at = deadline
+        if deadline < math.inf:
+            self._timer = self.sim.kernel.schedule(max(deadline, now), self._on_timer)
+
+
+class Simulation:
+    def __init__(self, vehicles: int, network: NetworkConfig | None = None,
+                 param_overrides: dict[str, float] | None = None,
+                 physics_dt_s: float = PHYSICS_DT_S) -> None:
+        if vehicles < 1:
+            raise ValueError("need at least one vehicle")
+        self.kernel = Kernel()
+        self.network = network or NetworkConfig()
+        self.world = World(dt_s=physics_dt_s)
+        self.on_downlink: DownlinkHandler | None = None
+        self.internal_errors = 0
+        self.vehicles = []
+        self.links: dict[tuple[int, LinkKind], VehicleLink] = {}
+        for i in range(vehicles):
+            params = ParamStore({"MAV_SYS_ID": i + 1, **(param_overrides or {})})
+            vehicle = self.world.add_vehicle(index=i, params=params)
+            self.vehicles.append(vehicle)
+            for kind in (LinkKind.GCS, LinkKind.API):
+                session = Session(vehicle, kind, now_s=0.0)
+                self.links[(i, kind)] = VehicleLink(self, i, kind, session)
+        self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,
+                               priority=PRIORITY_PHYSICS)
+        for link in self.links.values():
+            link.service()
+
+    @property
+    def now(self) -> float:
+        return self.kernel.now
+
+    def inject(self, index: int, kind: LinkKind, datagram: bytes, peer: object = None) -> None:
+        """A datagram from client ``peer`` arrives at the vehicle's port now: into the uplink."""
+        self.links[(index, kind)].uplink.send(datagram, peer)
+
+    def run(self, until: float) -> None:
+        self.kernel.run(until=until)
+
+    def link_stats(self) -> dict[str, dict]:
+        out = {}
+        for link in self.links.values():
+            out[link.uplink.name] = link.uplink.stats.as_dict()
+            out[link.downlink.name] = link.downlink.stats.as_dict()
+        return out
+
+    def close(self) -> None:
+        self._physics.cancel()
+        close = getattr(self.world, "close", None)
+        if close is not None:
+            close()

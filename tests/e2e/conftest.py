@@ -1,0 +1,19 @@
+import pytest
+
+from tests.e2e.daemon import start_daemon
+
+
+@pytest.fixture
+def daemon_factory():
+    started = []
+
+    def make(*args, vehicles=1):
+        d = start_daemon(*args, vehicles=vehicles)
+        started.append(d)
+        return d
+
+    yield make
+    for d in started:
+        code, took = d.stop()
+        assert code == 0, f"daemon exit code {code}\n{d.log_tail()}"
+        assert took < 2.0, f"daemon took {took:.2f} s to stop"

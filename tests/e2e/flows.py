@@ -1,0 +1,71 @@
+"""The MAVSDK-Python (3.x, gRPC) example flow, with measurements, used by several tests."""
+
+from __future__ import annotations
+
+import asyncio
+from dataclasses import dataclass
+
+from mavsdk import System
+
+from tests.e2e.daemon import free_tcp_port
+
+
+@dataclass
+class FlightReport:
+    hover_alt_min_m: float
+    hover_alt_max_m: float
+    disarmed_after_landing: bool
+    status_texts: list[str]
+
+
+async def _first(gen, predicate, timeout_s: float, what: str):
+    async def scan():
+        async for item in gen:
+            if predicate(item):
+                return item
+
+    try:
+        return await asyncio.wait_for(scan(), timeout_s)
+    except asyncio.TimeoutError:
+        raise AssertionError(f"timed out after {timeout_s} s waiting for {what}") from None
+
+
+async def takeoff_hover_land(udp_port: int, hover_s: float = 5.0,
+                             timeout_scale: float = 1.0) -> FlightReport:
+    drone = System(port=free_tcp_port())
+    await drone.connect(system_address=f"udpin://0.0.0.0:{udp_port}")
+    texts: list[str] = []
+
+    async def collect_texts():
+        async for t in drone.telemetry.status_text():
+            texts.append(t.text)
+
+    text_task = asyncio.ensure_future(collect_texts())
+    try:
+        t = timeout_scale
+        await _first(drone.core.connection_state(), lambda s: s.is_connected, 30 * t, "connection")
+        await _first(drone.telemetry.health(),
+                     lambda h: h.is_global_position_ok and h.is_home_position_ok, 30 * t, "health")
+        await drone.action.arm()
+        await drone.action.takeoff()
+        await _first(drone.telemetry.in_air(), bool, 20 * t, "in_air")
+        # Takeoff climbs at 1.5 m/s to 2.5 m; then the vehicle holds.
+        await _first(drone.telemetry.position(), lambda p: p.relative_altitude_m > 2.3, 30 * t,
+                     "takeoff altitude")
+        await asyncio.sleep(2.0)
+        alts = []
+
+        async def sample():
+            async for p in drone.telemetry.position():
+                alts.append(p.relative_altitude_m)
+
+        sampler = asyncio.ensure_future(sample())
+        await asyncio.sleep(hover_s)
+        sampler.cancel()
+        await drone.action.land()
+        await _first(drone.telemetry.in_air(), lambda x: not x, 60 * t, "landed")
+        await _first(drone.telemetry.armed(), lambda a: not a, 15 * t, "auto-disarm")
+        return FlightReport(min(alts), max(alts), True, texts)
+    finally:
+        text_task.cancel()
+        drone._stop_mavsdk_server()

@@ -1,0 +1,46 @@
+"""The command line as a user meets it: bad flags, busy ports, clean stop."""
+
+import socket
+import subprocess
+
+import pytest
+
+from tests.e2e.daemon import cornet_command, free_port_offset, start_daemon
+
+pytestmark = [pytest.mark.e2e]
+
+
+@pytest.mark.parametrize("flags, words", [
+    (["--vehicles", "0"], "--vehicles"),
+    (["--loss", "1.5"], "loss"),
+    (["--latency-ms", "-3"], "--latency-ms"),
+    (["--latency-ms", "abc"], "--latency-ms"),
+    (["--log-level", "loud"], "--log-level"),
+    (["--frobnicate"], "--frobnicate"),
+])
+def test_bad_flags_exit_2_with_a_message(flags, words):
+    out = subprocess.run(cornet_command() + ["run", *flags], capture_output=True, text=True,
+                         timeout=30)
+    assert out.returncode == 2
+    assert words in out.stderr
+
+
+def test_port_in_use_is_named():
+    k = free_port_offset(1)
+    blocker = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    blocker.bind(("127.0.0.1", 14580 + k))
+    try:
+        out = subprocess.run(cornet_command() + ["run", "--port-offset", str(k)],
+                             capture_output=True, text=True, timeout=60)
+    finally:
+        blocker.close()
+    assert out.returncode == 2
+    assert str(14580 + k) in out.stderr
+
+
+def test_ready_then_sigterm_exits_0_quickly():
+    d = start_daemon(vehicles=2)
+    assert "ready" in d.ready_line
+    code, took = d.stop()
+    assert code == 0, d.log_tail()
+    assert took < 2.0

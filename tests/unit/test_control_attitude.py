@@ -1,0 +1,102 @@
+"""Attitude, rate control and mixer: pure-library tests (no physics engine)."""
+
+import ast
+import math
+import pathlib
+
+import pytest
+
+from vehicles.airframe import X500
+from vehicles.control.attitude_control import (
+    AttitudeControl,
+    AttitudeControlGains,
+    thrust_to_attitude,
+)
+from vehicles.control.mixer import Mixer
+from vehicles.control.quat import q_dcm_z, q_yaw
+from vehicles.control.rate_control import RateControl, RateControlGains
+from vehicles.params import ParamStore
+
+LEVEL = (1.0, 0.0, 0.0, 0.0)
+CONTROL_DIR = pathlib.Path(__file__).resolve().parents[2] / "vehicles" / "control"
+
+
+def test_controllers_import_only_numpy_math_and_own_modules():
+    allowed = {"math", "numpy", "dataclasses", "__future__", "vehicles.types", "vehicles.control"}
+    for path in CONTROL_DIR.glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            for name in names:
+                assert any(name == a or name.startswith(a + ".") for a in allowed), (path, name)
+
+
+@pytest.mark.parametrize("yaw", [0.0, 1.0, -2.5, math.pi / 2])
+def test_thrust_to_attitude_body_z_opposes_thrust_and_keeps_yaw(yaw):
+    thrust = (0.2, -0.1, -0.5)
+    sp = thrust_to_attitude(thrust, yaw)
+    bz = q_dcm_z(sp.attitude_q)
+    n = math.sqrt(sum(t * t for t in thrust))
+    assert bz == pytest.approx(tuple(-t / n for t in thrust))
+    assert sp.thrust_body_norm == pytest.approx(n)
+    level = thrust_to_attitude((0.0, 0.0, -0.5), yaw)
+    assert q_yaw(level.attitude_q) == pytest.approx(yaw)
+
+
+def att_control():
+    return AttitudeControl(AttitudeControlGains.from_params(ParamStore()))
+
+
+def test_attitude_error_gives_rate_towards_setpoint_and_is_limited():
+    # Setpoint: tilted forward-right (thrust towards north-east).
+    sp = thrust_to_attitude((0.1, 0.1, -0.5), 0.0)
+    rates = att_control().update(LEVEL, sp.attitude_q)
+    assert rates[0] > 0.0  # roll right to move east
+    assert rates[1] < 0.0  # pitch nose down to move north
+    big = thrust_to_attitude((0.0, 0.0, -0.5), 3.0)
+    r = att_control().update(LEVEL, big.attitude_q)
+    assert abs(r[2]) <= math.radians(200.0) + 1e-9
+    assert r[2] > 0.0
+
+
+def test_rate_control_pushes_towards_setpoint_and_freezes_integrator_when_landed():
+    rc = RateControl(RateControlGains.from_params(ParamStore()))
+    torque = rc.update(0.004, (0.0, 0.0, 0.0), (1.0, -1.0, 0.5), landed=True)
+    assert torque[0] > 0 and torque[1] < 0 and torque[2] > 0
+    for _ in range(100):
+        rc.update(0.004, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0), landed=True)
+    assert rc._int == [0.0, 0.0, 0.0]
+
+
+def mixer():
+    return Mixer(X500.mixer_rows())
+
+
+def test_mixer_hover_is_equal_thrust_and_sqrt_command():
+    out = mixer().mix(0.5, (0.0, 0.0, 0.0))
+    assert out.rotor_thrust_norm == pytest.approx((0.5,) * 4)
+    assert out.motor_u == pytest.approx((math.sqrt(0.5),) * 4)
+
+
+def test_mixer_geometry_signs():
+    # Roll right: left rotors (2 rear-left, 3 front-left) up.
+    t = mixer().mix(0.5, (0.2, 0.0, 0.0)).rotor_thrust_norm
+    assert t[1] > t[0] and t[2] > t[3]
+    # Pitch up: front rotors (1, 3) up.
+    t = mixer().mix(0.5, (0.0, 0.2, 0.0)).rotor_thrust_norm
+    assert t[0] > t[1] and t[2] > t[3]
+    # Yaw right (clockwise from above): CCW rotors (1, 2) up.
+    t = mixer().mix(0.5, (0.0, 0.0, 0.2)).rotor_thrust_norm
+    assert t[0] > t[2] and t[1] > t[3]
+
+
+def test_mixer_keeps_roll_pitch_over_yaw_when_saturated():
+    out = mixer().mix(0.9, (0.3, 0.0, 1.0))
+    t = out.rotor_thrust_norm
+    assert all(0.0 <= x <= 1.0 for x in t)
+    # Roll difference between left and right survives in full (0.3 · 2 · 0.5 per side pair).
+    assert (t[1] + t[2]) - (t[0] + t[3]) == pytest.approx(0.6, abs=1e-9)
+    assert out.saturation_positive[2]

@@ -1,0 +1,141 @@
+"""Parameter protocol: complete paced list, bytewise INT32, read, set echo + broadcast, errors."""
+
+import struct
+
+from pymavlink.dialects.v20 import common as M
+
+from gateway.mavlink.session import LinkKind, Session
+from test_mavlink_support import Client, FakeVehicle, make, of_type
+
+
+def raw_value(msg) -> bytes:
+    """PARAM_VALUE.param_value's four wire bytes (exact even for NaN bit patterns)."""
+    buf = bytes(msg.get_msgbuf())
+    return buf[10:10 + buf[1]].ljust(25, b"\0")[:4]
+
+
+def test_param_list_complete_and_paced():
+    vehicle, session, client = make()
+    store = vehicle.params
+    got = client.send(M.MAVLink_param_request_list_message(1, 1))
+    hash_msg = of_type(got, "PARAM_VALUE")
+    assert [(m.param_id, m.param_index, m.param_type, m.param_count) for m in hash_msg] == [
+        ("_HASH_CHECK", 65535, 5, store.count)]
+    assert struct.unpack("<I", raw_value(hash_msg[0]))[0] == store.hash32()
+    values = of_type(client.run_until(1.0), "PARAM_VALUE")
+    assert [m.param_index for m in values] == list(range(store.count))
+    assert {m.param_count for m in values} == {store.count}
+    assert [m.param_id for m in values] == [info.name for info, _ in store.items()]
+    for m, (info, value) in zip(values, store.items()):
+        assert m.param_type == int(info.type)
+        if m.param_type == 6:
+            assert struct.unpack("<i", raw_value(m))[0] == value  # bytewise
+        else:
+            assert struct.unpack("<f", raw_value(m))[0] == value
+    assert client.now_s == 1.0
+    assert all(len(d) <= 1400 for d in client.datagrams)
+
+
+def test_param_list_leaves_room_for_telemetry():
+    vehicle, session, client = make(LinkKind.GCS)
+    client.run_until(0.5)
+    client.send(M.MAVLink_param_request_list_message(1, 1))
+    got = client.run_until(1.0)
+    assert len(of_type(got, "PARAM_VALUE")) == vehicle.params.count
+    assert abs(len(of_type(got, "ATTITUDE")) - 25) <= 1  # 50 Hz kept up during the list
+
+
+def test_second_list_restarts_without_hash():
+    vehicle, session, client = make()
+    client.send(M.MAVLink_param_request_list_message(1, 1))
+    client.run_until(0.05)
+    got = client.send(M.MAVLink_param_request_list_message(0, 0))
+    assert of_type(got, "PARAM_VALUE") == []
+    values = of_type(client.run_until(2.0), "PARAM_VALUE")
+    assert [m.param_index for m in values] == list(range(vehicle.params.count))
+
+
+def test_param_read_by_name_index_and_hash():
+    vehicle, session, client = make()
+    store = vehicle.params
+    got = client.send(M.MAVLink_param_request_read_message(1, 1, b"MIS_TAKEOFF_ALT", -1))
+    (m,) = got
+    assert (m.param_id, m.param_type, m.param_index) == ("MIS_TAKEOFF_ALT", 9,
+                                                         store.index_of("MIS_TAKEOFF_ALT"))
+    assert abs(m.param_value - 2.5) < 1e-6
+    (m,) = client.send(M.MAVLink_param_request_read_message(1, 1, b"", 3))
+    assert m.param_index == 3 and m.param_id == store.info(3).name
+    (m,) = client.send(M.MAVLink_param_request_read_message(1, 1, b"_HASH_CHECK", -1))
+    assert m.param_index == 65535 and m.param_type == 5
+    (m,) = client.send(M.MAVLink_param_request_read_message(1, 1, b"MAV_SYS_ID", -1))
+    assert (m.param_type, struct.unpack("<i", raw_value(m))[0]) == (6, 1)
+
+
+def test_param_read_unknown_gives_param_error():
+    _, _, client = make()
+    (m,) = client.send(M.MAVLink_param_request_read_message(1, 1, b"NO_SUCH_PARAM", -1))
+    assert (m.get_type(), m.param_id, m.error, m.target_system, m.target_component) == (
+        "PARAM_ERROR", "NO_SUCH_PARAM", 1, 245, 190)
+    (m,) = client.send(M.MAVLink_param_request_read_message(1, 1, b"", 30000))
+    assert m.get_type() == "PARAM_ERROR" and m.param_index == 30000
+
+
+def _int_as_float(value: int) -> float:
+    return struct.unpack("<f", struct.pack("<i", value))[0]
+
+
+def test_param_set_echo_and_broadcast_to_other_links():
+    vehicle = FakeVehicle()
+    api = Session(vehicle, LinkKind.API)
+    gcs = Session(vehicle, LinkKind.GCS)
+    c_api, c_gcs = Client(api), Client(gcs, 255, 190)
+    got = c_api.send(M.MAVLink_param_set_message(1, 1, b"MIS_TAKEOFF_ALT", 10.0, 9))
+    assert [(m.param_id, m.param_value, m.param_type) for m in got] == [
+        ("MIS_TAKEOFF_ALT", 10.0, 9)]
+    assert vehicle.params["MIS_TAKEOFF_ALT"] == 10.0
+    (b,) = c_gcs.drain()
+    assert (b.param_id, b.param_value, b.param_count) == ("MIS_TAKEOFF_ALT", 10.0,
+                                                          vehicle.params.count)
+    # INT32 set bytewise; the echo carries the same bytes
+    got = c_gcs.send(M.MAVLink_param_set_message(1, 1, b"NAV_DLL_ACT", _int_as_float(2), 6))
+    assert [struct.unpack("<i", raw_value(m))[0] for m in got] == [2]
+    assert vehicle.params["NAV_DLL_ACT"] == 2
+    assert [m.param_id for m in c_api.drain()] == ["NAV_DLL_ACT"]
+    # a change made by the autopilot itself reaches every link
+    vehicle.params.set("RTL_RETURN_ALT", 40.0)
+    assert [m.param_id for m in c_api.drain()] == ["RTL_RETURN_ALT"]
+    assert [m.param_id for m in c_gcs.drain()] == ["RTL_RETURN_ALT"]
+    # setting the same value again still echoes (MAVSDK waits for it), no broadcast
+    assert len(c_api.send(M.MAVLink_param_set_message(1, 1, b"RTL_RETURN_ALT", 40.0, 9))) == 1
+    assert c_gcs.drain() == []
+
+
+def test_param_set_negative_int_bytewise_is_exact():
+    vehicle, session, client = make()
+    name = "CAL_ACC0_ID"
+    assert vehicle.params.info(name).type == 6
+    for value in (-1, -8388607, 2139095041):  # NaN bit patterns, incl. signalling NaN
+        raw = struct.pack("<i", value)
+        # put the int's bytes in the float field (first on the wire) and frame it
+        msg = M.MAVLink_param_set_message(1, 1, name.encode(), 0.0, 6)
+        payload = raw + msg.unpacker.pack(0.0, 1, 1, name.encode(), 6)[4:]
+        mav = M.MAVLink(None, 245, 190)
+        frame = msg._pack(mav, msg.crc_extra, payload)
+        session.receive_datagram(frame, 0.0)
+        (echo,) = client.drain()
+        assert vehicle.params[name] == value
+        assert raw_value(echo) == raw
+
+
+def test_param_set_errors():
+    vehicle, _, client = make()
+    (m,) = client.send(M.MAVLink_param_set_message(1, 1, b"NO_SUCH_PARAM", 1.0, 9))
+    assert (m.get_type(), m.error) == ("PARAM_ERROR", 1)
+    (m,) = client.send(M.MAVLink_param_set_message(1, 1, b"MIS_TAKEOFF_ALT", 1.0, 6))
+    assert (m.get_type(), m.error) == ("PARAM_ERROR", 7)  # TYPE_MISMATCH
+    (m,) = client.send(M.MAVLink_param_set_message(1, 1, b"MIS_TAKEOFF_ALT", 1.0, 4))
+    assert (m.get_type(), m.error) == ("PARAM_ERROR", 6)  # TYPE_UNSUPPORTED
+    (m,) = client.send(M.MAVLink_param_set_message(1, 1, b"_HASH_CHECK", 1.0, 5))
+    assert (m.get_type(), m.error) == ("PARAM_ERROR", 5)  # READ_ONLY
+    assert vehicle.params["MIS_TAKEOFF_ALT"] == 2.5
+    assert client.send(M.MAVLink_param_set_message(9, 1, b"MIS_TAKEOFF_ALT", 1.0, 9)) == []

@@ -1,0 +1,352 @@
+"""Session: heartbeat/modes, SYS_STATUS health, streams and rates, commands, ping, statustext."""
+
+import math
+
+import pytest
+from pymavlink.dialects.v20 import common as M
+
+from gateway.mavlink import modes
+from gateway.mavlink.session import LinkKind
+from test_mavlink_support import acks, make, of_type
+from vehicles.types import NavState, Severity
+
+# PX4_COMPAT.md §2: every NavState → (custom_mode, base disarmed, base armed)
+EXPECTED_MODES = {
+    NavState.MANUAL: (65536, 81, 209),
+    NavState.ALTCTL: (131072, 81, 209),
+    NavState.POSCTL: (196608, 81, 209),
+    NavState.ORBIT: (16973824, 17, 145),
+    NavState.POSITION_SLOW: (33751040, 81, 209),
+    NavState.AUTO_TAKEOFF: (33816576, 29, 157),
+    NavState.AUTO_LOITER: (50593792, 29, 157),
+    NavState.AUTO_MISSION: (67371008, 29, 157),
+    NavState.AUTO_RTL: (84148224, 29, 157),
+    NavState.AUTO_LAND: (100925440, 29, 157),
+    NavState.DESCEND: (100925440, 29, 157),
+    NavState.AUTO_FOLLOW_TARGET: (134479872, 17, 145),
+    NavState.AUTO_PRECLAND: (151257088, 29, 157),
+    NavState.ACRO: (327680, 65, 193),
+    NavState.OFFBOARD: (393216, 17, 145),
+    NavState.STAB: (458752, 81, 209),
+    NavState.TERMINATION: (655360, 1, 129),
+}
+
+
+def test_mode_table_covers_every_nav_state():
+    assert set(EXPECTED_MODES) == set(NavState) == set(modes.MODE_TABLE)
+
+
+@pytest.mark.parametrize("nav", list(NavState), ids=lambda n: n.name)
+@pytest.mark.parametrize("armed", [False, True])
+def test_heartbeat_modes(nav, armed):
+    vehicle, session, client = make()
+    vehicle.nav_state, vehicle.armed = nav, armed
+    vehicle.position_valid = True
+    hb = of_type(client.run_until(0.001), "HEARTBEAT")[0]
+    custom, base_disarmed, base_armed = EXPECTED_MODES[nav]
+    assert hb.custom_mode == custom
+    assert hb.base_mode == (base_armed if armed else base_disarmed)
+    assert (hb.type, hb.autopilot, hb.mavlink_version) == (2, 12, 3)
+    assert hb.get_srcSystem() == 1 and hb.get_srcComponent() == 1
+
+
+@pytest.mark.parametrize("nav", [n for n in NavState if n is not NavState.DESCEND],
+                         ids=lambda n: n.name)
+def test_do_set_mode_round_trip(nav):
+    vehicle, session, client = make()
+    main, sub = modes.split_custom_mode(modes.custom_mode_of(nav))
+    got = client.command_long(M.MAV_CMD_DO_SET_MODE, 1, main, sub)
+    assert [a.result for a in acks(got)] == [0]
+    assert vehicle.calls[-1] == ("set_nav_state", 0.0, nav)
+
+
+def test_do_set_mode_special_cases():
+    vehicle, session, client = make()
+    assert acks(client.command_long(M.MAV_CMD_DO_SET_MODE, 1, 4, 0))[0].result == 0
+    assert vehicle.calls[-1][2] is NavState.AUTO_MISSION
+    n_calls = len(vehicle.calls)
+    for main, sub in [(4, 1), (4, 7), (9, 0), (42, 0)]:
+        assert acks(client.command_long(M.MAV_CMD_DO_SET_MODE, 129, main, sub))[0].result == 1
+    assert len(vehicle.calls) == n_calls
+    # legacy SET_MODE (11) is ACKed as DO_SET_MODE
+    got = client.send(M.MAVLink_set_mode_message(1, 1, modes.custom_mode_of(NavState.AUTO_RTL)))
+    assert [(a.command, a.result) for a in acks(got)] == [(176, 0)]
+    assert vehicle.nav_state is NavState.AUTO_RTL
+
+
+def test_system_status_progression():
+    vehicle, session, client = make()
+
+    def state():
+        client.now_s = max(client.now_s, session.get_timer())
+        session.handle_timer(client.now_s)
+        hb = of_type(client.drain(), "HEARTBEAT")
+        return hb[-1].system_status if hb else state()
+
+    assert state() == 0
+    vehicle.position_valid = True
+    assert state() == 3
+    vehicle.armed = True
+    assert state() == 4
+    vehicle.failsafe = True
+    assert state() == 5
+    vehicle.terminated = True
+    assert state() == 8
+
+
+def _mavsdk_health(ss):
+    """MAVSDK3/4 telemetry_impl.cpp rules (PX4_COMPAT.md §3)."""
+    gps = 32
+    return {
+        "global": bool(ss.onboard_control_sensors_present & gps
+                       and ss.onboard_control_sensors_health & gps),
+        "armable": bool(ss.onboard_control_sensors_health & 0x10000000),
+        "gyro": bool(ss.onboard_control_sensors_present & 1 and ss.onboard_control_sensors_health & 1),
+        "accel": bool(ss.onboard_control_sensors_health & 2),
+        "mag": bool(ss.onboard_control_sensors_present & 4 and ss.onboard_control_sensors_health & 4),
+    }
+
+
+def test_sys_status_health_bits():
+    vehicle, session, client = make()
+    ss = of_type(client.run_until(0.001), "SYS_STATUS")[0]
+    assert ss.onboard_control_sensors_present == 0x0320482F
+    assert ss.onboard_control_sensors_enabled == 0x0320482F
+    assert _mavsdk_health(ss) == {"global": False, "armable": False, "gyro": True, "accel": True,
+                                  "mag": True}
+    vehicle.become_ready()
+    ss = of_type(client.run_until(1.001), "SYS_STATUS")[-1]
+    assert ss.onboard_control_sensors_health == 0x1321C83F
+    assert ss.onboard_control_sensors_enabled == 0x1320482F
+    assert all(_mavsdk_health(ss).values())
+    assert ss.voltage_battery == 16200 and ss.battery_remaining == 90
+
+
+def _counts(kind, seconds=10.0):
+    vehicle, session, client = make(kind)
+    vehicle.become_ready()
+    msgs = client.run_until(seconds)
+    counts = {}
+    for m in msgs:
+        counts[m.get_type()] = counts.get(m.get_type(), 0) + 1
+    return counts
+
+
+@pytest.mark.parametrize("kind, expected", [
+    (LinkKind.GCS, {"HEARTBEAT": 1, "SYS_STATUS": 1, "EXTENDED_SYS_STATE": 1, "ATTITUDE": 50,
+                    "ATTITUDE_QUATERNION": 50, "LOCAL_POSITION_NED": 50,
+                    "GLOBAL_POSITION_INT": 50, "GPS_RAW_INT": 5, "HOME_POSITION": 0.5,
+                    "VFR_HUD": 4, "ALTITUDE": 1, "BATTERY_STATUS": 0.5, "MISSION_CURRENT": 1}),
+    (LinkKind.API, {"HEARTBEAT": 1, "SYS_STATUS": 5, "EXTENDED_SYS_STATE": 5, "ATTITUDE": 100,
+                    "ATTITUDE_QUATERNION": 50, "LOCAL_POSITION_NED": 30,
+                    "GLOBAL_POSITION_INT": 50, "GPS_RAW_INT": 10, "HOME_POSITION": 0.5,
+                    "VFR_HUD": 10, "ALTITUDE": 10, "BATTERY_STATUS": 0.5, "SYSTEM_TIME": 1,
+                    "MISSION_CURRENT": 1}),
+], ids=["gcs", "api"])
+def test_stream_rates(kind, expected):
+    counts = _counts(kind)
+    assert set(counts) == set(expected)
+    for name, hz in expected.items():
+        assert abs(counts[name] - hz * 10) <= 1, (name, counts[name])
+
+
+def test_home_position_only_once_home_is_set():
+    vehicle, session, client = make()
+    assert of_type(client.run_until(5.0), "HOME_POSITION") == []
+    got = client.command_long(M.MAV_CMD_REQUEST_MESSAGE, 242)
+    assert [a.result for a in acks(got)] == [2] and len(got) == 1
+    vehicle.become_ready()
+    got = client.command_long(M.MAV_CMD_REQUEST_MESSAGE, 242)
+    assert [m.get_type() for m in got] == ["HOME_POSITION", "COMMAND_ACK"]
+    assert got[0].latitude == 473977420 and got[0].altitude == 488000
+    assert len(of_type(client.run_until(10.0), "HOME_POSITION")) in (2, 3)
+
+
+def test_global_position_fields():
+    vehicle, session, client = make()
+    vehicle.become_ready()
+    vehicle.move_to(10.0, 0.0, -5.0)
+    gp = of_type(client.run_until(0.001), "GLOBAL_POSITION_INT")[0]
+    assert gp.relative_alt == 5000 and gp.alt == 493000
+    assert gp.lat > 473977420
+    gps = of_type(client.run_until(0.2), "GPS_RAW_INT")[0]
+    assert (gps.fix_type, gps.satellites_visible, gps.eph, gps.epv) == (3, 10, 70, 110)
+
+
+def test_request_message_emits_message_before_ack():
+    vehicle, session, client = make()
+    got = client.command_long(M.MAV_CMD_REQUEST_MESSAGE, 148)
+    assert [m.get_type() for m in got] == ["AUTOPILOT_VERSION", "COMMAND_ACK"]
+    av, ack = got
+    assert av.capabilities == 59647 - 32 and av.capabilities & 4 and av.capabilities & 16
+    assert av.flight_sw_version == 0x010F00FF
+    assert (ack.command, ack.result, ack.target_system, ack.target_component) == (512, 0, 245, 190)
+    assert ack.get_srcSystem() == 1 and ack.get_srcComponent() == 1
+    got = client.command_long(M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1, target_component=0)
+    assert [m.get_type() for m in got] == ["AUTOPILOT_VERSION", "COMMAND_ACK"]
+    # PROTOCOL_VERSION (300) is unknown to pymavlink 2.4.50: it arrives as an unknown frame
+    got = client.command_long(M.MAV_CMD_REQUEST_MESSAGE, 300)
+    raw = bytes(got[0].get_msgbuf())
+    assert raw[7:10] == (300).to_bytes(3, "little") and acks(got)
+    payload = raw[10:10 + raw[1]].ljust(22, b"\0")  # MAVLink 2 trims trailing zeros
+    assert payload[:6] == bytes([200, 0, 100, 0, 200, 0])  # version 200, min 100, max 200
+    assert acks(got)[0].result == 0
+    for msg_id in (397, 395, 435, 9999):
+        assert [a.result for a in acks(client.command_long(M.MAV_CMD_REQUEST_MESSAGE, msg_id))] == [3]
+    got = client.command_long(M.MAV_CMD_REQUEST_MESSAGE, 30)  # any streamed message
+    assert [m.get_type() for m in got] == ["ATTITUDE", "COMMAND_ACK"]
+
+
+def test_uid_differs_per_sysid():
+    _, _, c1 = make(sysid=1)
+    _, _, c2 = make(sysid=2)
+    a = c1.command_long(M.MAV_CMD_REQUEST_MESSAGE, 148)[0]
+    b = c2.command_long(M.MAV_CMD_REQUEST_MESSAGE, 148, target_system=2)[0]
+    assert a.uid != b.uid and b.get_srcSystem() == 2
+
+
+def test_message_interval_commands():
+    vehicle, session, client = make(LinkKind.GCS)
+    got = client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 32, 200_000)  # LPN 5 Hz
+    assert acks(got)[0].result == 0
+    got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, 32)
+    assert [(m.get_type()) for m in got] == ["MESSAGE_INTERVAL", "COMMAND_ACK"]
+    assert got[0].interval_us == 200_000 and got[0].message_id == 32
+    got = client.command_long(M.MAV_CMD_REQUEST_MESSAGE, 244, 30)
+    assert got[0].message_id == 30 and got[0].interval_us == 20_000
+    assert acks(client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 33, -1))[0].result == 0
+    assert acks(client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 2, 1e6))[0].result == 0
+    for bad in (0, 9999):  # HEARTBEAT is fixed; unknown stream
+        assert acks(client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, bad, 1e6))[0].result == 4
+    msgs = client.run_until(10.0)
+    assert abs(len(of_type(msgs, "LOCAL_POSITION_NED")) - 50) <= 1
+    assert of_type(msgs, "GLOBAL_POSITION_INT") == []
+    assert abs(len(of_type(msgs, "SYSTEM_TIME")) - 10) <= 1
+    assert acks(client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 33, 0))[0].result == 0
+    msgs = client.run_until(20.0)
+    assert abs(len(of_type(msgs, "GLOBAL_POSITION_INT")) - 500) <= 1
+    got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, 147)
+    assert got[0].interval_us == 2_000_000
+
+
+def test_arm_takeoff_land_commands():
+    vehicle, session, client = make()
+    assert acks(client.command_long(M.MAV_CMD_COMPONENT_ARM_DISARM, 1))[0].result == 1
+    vehicle.become_ready()
+    assert acks(client.command_long(M.MAV_CMD_COMPONENT_ARM_DISARM, 1))[0].result == 0
+    assert vehicle.armed and vehicle.calls[-1] == ("arm", 0.0, False)
+    got = client.command_long(M.MAV_CMD_NAV_TAKEOFF, *([math.nan] * 7))
+    assert acks(got)[0].result == 0 and math.isnan(vehicle.calls[-1][2])
+    client.command_long(M.MAV_CMD_NAV_TAKEOFF, -1, 0, 0, math.nan, math.nan, math.nan, 498.0)
+    assert vehicle.calls[-1] == ("takeoff", 0.0, 498.0)
+    assert acks(client.command_long(M.MAV_CMD_NAV_LAND, *([math.nan] * 7)))[0].result == 0
+    assert acks(client.command_long(M.MAV_CMD_NAV_RETURN_TO_LAUNCH))[0].result == 0
+    assert vehicle.nav_state is NavState.AUTO_RTL
+    got = client.command_long(M.MAV_CMD_COMPONENT_ARM_DISARM, 0, 21196)
+    assert acks(got)[0].result == 0 and vehicle.calls[-1] == ("disarm", 0.0, True)
+    n = len(vehicle.calls)
+    assert client.command_long(M.MAV_CMD_COMPONENT_ARM_DISARM, 2) == []  # no ACK
+    assert len(vehicle.calls) == n
+
+
+def test_command_int_takeoff_and_frames():
+    vehicle, session, client = make()
+    vehicle.become_ready()
+    for frame in (0, 3, 5, 6):
+        got = client.send(M.MAVLink_command_int_message(1, 1, frame, M.MAV_CMD_NAV_TAKEOFF, 0, 0,
+                                                        -1, 0, 0, math.nan, 2**31 - 1,
+                                                        2**31 - 1, 500.0))
+        assert [(a.command, a.result) for a in acks(got)] == [(22, 0)]
+        assert vehicle.calls[-1] == ("takeoff", 0.0, 500.0)
+
+
+@pytest.mark.parametrize("command, params, result", [
+    (M.MAV_CMD_PREFLIGHT_CALIBRATION, (1,), 1),
+    (M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, (0,), 0),
+    (M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, (1,), 2),
+    (M.MAV_CMD_RUN_PREARM_CHECKS, (), 0),
+    (M.MAV_CMD_DO_SET_ROI_LOCATION, (0, 0, 0, 0, 47.4, 8.5, 500), 0),
+    (M.MAV_CMD_DO_SET_ROI_NONE, (), 0),
+    (M.MAV_CMD_GET_HOME_POSITION, (), 2),
+    (M.MAV_CMD_DO_DIGICAM_CONTROL, (), 3),
+    (31999, (), 3),
+    (M.MAV_CMD_NAV_TAKEOFF, (0, 0, 0, 0, 2147483648.0, 2147483648.0, 0), 2),  # INT32_MAX p5/p6
+])
+def test_command_results(command, params, result):
+    _, _, client = make()
+    got = client.command_long(command, *params)
+    assert [(a.command, a.result, a.target_system, a.target_component) for a in got] == [
+        (command, result, 245, 190)]
+
+
+@pytest.mark.parametrize("target_system, target_component, answered", [
+    (0, 0, True), (1, 1, True), (0, 1, True), (1, 0, True), (2, 1, False), (1, 190, False),
+    (1, 100, False),
+])
+def test_command_target_filtering(target_system, target_component, answered):
+    _, session, client = make()
+    got = client.command_long(M.MAV_CMD_RUN_PREARM_CHECKS, target_system=target_system,
+                              target_component=target_component)
+    assert bool(acks(got)) is answered
+
+
+def test_capabilities_request_ignores_component():
+    _, _, client = make()
+    got = client.command_long(M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1, target_component=190)
+    assert [m.get_type() for m in got] == ["AUTOPILOT_VERSION", "COMMAND_ACK"]
+
+
+def test_ping_and_timesync():
+    _, session, client = make()
+    client.now_s = 2.5
+    got = client.send(M.MAVLink_ping_message(123456, 7, 0, 0))
+    assert [(m.time_usec, m.seq, m.target_system, m.target_component) for m in got] == [
+        (123456, 7, 245, 190)]
+    assert client.send(M.MAVLink_ping_message(1, 1, 1, 1)) == []  # a reply, not a request
+    got = client.send(M.MAVLink_timesync_message(0, 999))
+    assert [(m.tc1, m.ts1) for m in got] == [(2_500_000_000, 999)]
+    assert client.send(M.MAVLink_timesync_message(5, 999)) == []
+
+
+def test_gcs_heartbeat_tracking():
+    vehicle, session, client = make()
+    client.now_s = 1.0
+    client.heartbeat(M.MAV_TYPE_QUADROTOR)
+    assert vehicle.gcs_heartbeats == [] and not session.gcs_present(1.0)
+    client.heartbeat()
+    assert vehicle.gcs_heartbeats == [1.0] and session.gcs_present(3.5)
+    assert not session.gcs_present(3.6)
+
+
+def test_statustext_gating_and_chunking():
+    vehicle, session, client = make()
+    vehicle.say(0.0, "before any GCS\t")
+    assert of_type(client.run_until(0.5), "STATUSTEXT") == []  # no GCS heartbeat: dropped
+    client.heartbeat()
+    vehicle.say(0.5, "Takeoff detected\t", Severity.INFO)
+    vehicle.say(-10.0, "too old")
+    long = "x" * 120
+    vehicle.say(0.5, long, Severity.WARNING)
+    texts = of_type(client.run_until(1.0), "STATUSTEXT")
+    assert [(t.text, t.id, t.chunk_seq) for t in texts[:1]] == [("Takeoff detected", 0, 0)]
+    chunks = texts[1:]
+    assert [c.chunk_seq for c in chunks] == [0, 1, 2] and len({c.id for c in chunks}) == 1
+    assert chunks[0].id != 0 and "".join(c.text for c in chunks) == long
+    assert all(c.severity == Severity.WARNING for c in chunks)
+    client.now_s = 5.0  # GCS heartbeat 4.5 s old: gated again
+    vehicle.say(5.0, "late")
+    assert of_type(client.run_until(6.0), "STATUSTEXT") == []
+
+
+def test_unsupported_auto_mode_text_when_gcs_present():
+    vehicle, session, client = make()
+    client.heartbeat()
+    client.command_long(M.MAV_CMD_DO_SET_MODE, 1, 4, 1)
+    texts = of_type(client.run_until(0.05), "STATUSTEXT")
+    assert [t.text for t in texts] == ["Unsupported auto mode"]
+
+
+def test_unhandled_messages_are_counted():
+    _, session, client = make()
+    client.send(M.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0))
+    assert session.stats.rx_unhandled == 1 and session.stats.get("rx_frames") == 1

@@ -1,0 +1,118 @@
+"""Commander tables and rules, without physics."""
+
+import pytest
+
+from vehicles.commander import (
+    ARMING_DENIED_TEXT,
+    MODE_TABLE,
+    POSITION_VALID_DELAY_S,
+    ArmEvent,
+    Commander,
+    SwitchRule,
+)
+from vehicles.params import ParamStore
+from vehicles.status_log import StatusLog
+from vehicles.types import CommandResult, NavState
+
+REQUESTABLE = {NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_RTL}
+
+
+def make(nav_state=NavState.AUTO_LOITER, position_valid=True, armed=False, landed=True):
+    log = StatusLog()
+    c = Commander(ParamStore(), log)
+    c.position_valid = position_valid
+    c.nav_state = nav_state
+    c.armed = armed
+    c.landed = landed
+    return c, log
+
+
+def test_mode_table_covers_every_nav_state():
+    assert set(MODE_TABLE) == set(NavState)
+
+
+def test_boot_state_is_hold_disarmed_without_position():
+    c = Commander(ParamStore(), StatusLog())
+    assert (c.nav_state, c.armed, c.position_valid) == (NavState.AUTO_LOITER, False, False)
+    assert not c.update(POSITION_VALID_DELAY_S / 2, landed=True)
+    assert c.update(POSITION_VALID_DELAY_S, landed=True)
+    assert c.position_valid
+
+
+@pytest.mark.parametrize("current", list(NavState))
+@pytest.mark.parametrize("target", list(NavState))
+def test_every_mode_request_from_every_mode_has_a_defined_answer(current, target):
+    c, _ = make(current)
+    result = c.request_nav_state(0.0, target)
+    if target in REQUESTABLE:
+        assert result is CommandResult.ACCEPTED
+        assert c.nav_state is target
+    else:
+        assert MODE_TABLE[target].switch is not SwitchRule.ALLOWED
+        assert result is CommandResult.TEMPORARILY_REJECTED
+        assert c.nav_state is current
+
+
+@pytest.mark.parametrize("target", sorted(REQUESTABLE))
+def test_mode_requests_need_a_position_estimate(target):
+    c, _ = make(position_valid=False)
+    assert c.request_nav_state(0.0, target) is CommandResult.TEMPORARILY_REJECTED
+
+
+@pytest.mark.parametrize("current", list(NavState))
+@pytest.mark.parametrize("event", list(ArmEvent))
+def test_every_mode_times_every_arming_event(current, event):
+    armed = event is not ArmEvent.ARM
+    c, log = make(current, armed=armed, landed=True)
+    if event is ArmEvent.ARM:
+        result = c.arm(0.0)
+        expected = MODE_TABLE[current].arming_allowed
+        assert c.armed is expected
+        assert result is (CommandResult.ACCEPTED if expected else CommandResult.TEMPORARILY_REJECTED)
+        if not expected:
+            assert log.after(0)[-1].text == ARMING_DENIED_TEXT
+        return
+    if event is ArmEvent.DISARM:
+        assert c.disarm(0.0) is CommandResult.ACCEPTED
+    elif event is ArmEvent.KILL:
+        c.landed = False
+        assert c.disarm(0.0, forced=True) is CommandResult.ACCEPTED
+    else:  # AUTO_DISARM: preflight timeout
+        c.update(100.0, landed=True)
+    assert not c.armed
+    fallback = MODE_TABLE[current].after_disarm
+    assert c.nav_state is (fallback if fallback is not None else current)
+
+
+def test_arming_denied_before_position_valid():
+    c, log = make(position_valid=False)
+    assert c.arm(0.0) is CommandResult.TEMPORARILY_REJECTED
+    assert c.arm(0.0, forced=True) is CommandResult.TEMPORARILY_REJECTED
+    assert [t.text for t in log.after(0)] == [ARMING_DENIED_TEXT] * 2
+
+
+def test_already_armed_is_accepted_and_com_armable_zero_denies():
+    c, _ = make(armed=True)
+    assert c.arm(0.0) is CommandResult.ACCEPTED
+    c2 = Commander(ParamStore({"COM_ARMABLE": 0}), StatusLog())
+    c2.position_valid = True
+    assert c2.arm(0.0) is CommandResult.TEMPORARILY_REJECTED
+
+
+def test_disarm_denied_in_air_unless_forced():
+    c, log = make(armed=True, landed=False)
+    assert c.disarm(0.0) is CommandResult.TEMPORARILY_REJECTED
+    assert c.armed
+    assert log.after(0)[-1].text == "Disarming denied: not landed"
+    assert c.disarm(0.0, forced=True) is CommandResult.ACCEPTED
+    assert not c.armed
+    assert log.after(0)[-1].text == "Disarmed by external command"
+
+
+def test_status_log_sequence_and_bound():
+    log = StatusLog(capacity=3)
+    for i in range(5):
+        log.info(float(i), f"t{i}")
+    assert [t.seq for t in log.after(0)] == [3, 4, 5]
+    assert [t.text for t in log.after(4)] == ["t4"]
+    assert log.after(5) == []

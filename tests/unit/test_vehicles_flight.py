@@ -1,0 +1,213 @@
+"""Whole vehicles in a PyBullet World: physics + autopilot, on simulated time only."""
+
+import math
+
+import numpy as np
+import pytest
+
+from vehicles.params import ParamStore
+from vehicles.types import CommandResult, LandedState, NavState
+from vehicles.world import World
+
+
+class Sim:
+    def __init__(self, n=1, **overrides):
+        self.world = World(dt_s=0.004)
+        self.vehicles = [self.world.add_vehicle(i, ParamStore({"MAV_SYS_ID": i + 1, **overrides}))
+                         for i in range(n)]
+        self.t = 0.0
+        self.v = self.vehicles[0]
+
+    def run(self, seconds, until=None):
+        for _ in range(int(round(seconds / self.world.dt_s))):
+            self.world.step(self.t)
+            self.t = self.world.time_s
+            if until is not None and until():
+                return True
+        return False
+
+    def texts(self, v=None):
+        return [s.text for s in (v or self.v).status_texts(0)]
+
+    def close(self):
+        self.world.close()
+
+
+@pytest.fixture
+def sim():
+    s = Sim()
+    yield s
+    s.close()
+
+
+def take_off(sim, v=None):
+    v = v or sim.v
+    sim.run(1.2)
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+    assert v.takeoff(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(15.0, until=lambda: v.status.nav_state is NavState.AUTO_LOITER)
+
+
+def test_disarmed_vehicle_rests_still_on_the_ground(sim):
+    sim.run(3.0)
+    s = sim.v.state
+    assert np.allclose(s.position_ned_m, 0.0, atol=2e-3)
+    assert np.allclose(s.velocity_ned_mps, 0.0, atol=1e-3)
+    assert abs(s.euler_rad()[2]) < 1e-6  # spawned facing north
+    st = sim.v.status
+    assert st.landed_state is LandedState.ON_GROUND and not st.armed
+    assert st.nav_state is NavState.AUTO_LOITER
+
+
+def test_position_valid_and_home_after_boot(sim):
+    assert sim.v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
+    assert sim.v.status.home is None and not sim.v.status.position_valid
+    assert "Arming denied: Resolve system health failures first" in sim.texts()
+    sim.run(1.2)
+    st = sim.v.status
+    assert st.position_valid and st.prearm_ok and st.home is not None
+    assert st.home.geo.alt_amsl_m == pytest.approx(sim.v.origin.alt_amsl_m, abs=0.01)
+
+
+def test_takeoff_reaches_default_altitude_then_holds_steady(sim):
+    take_off(sim)
+    assert sim.v.status.landed_state is LandedState.IN_AIR
+    sim.run(3.0)
+    z = -sim.v.state.position_ned_m[2]
+    assert z == pytest.approx(2.5, abs=0.3)
+    start = sim.v.state.position_ned_m.copy()
+    worst = 0.0
+    for _ in range(100):  # 10 s of Hold, sampled every 0.1 s
+        sim.run(0.1)
+        worst = max(worst, float(np.linalg.norm(sim.v.state.position_ned_m - start)))
+    assert worst < 0.1
+    texts = sim.texts()
+    assert texts[:3] == ["Armed by external command", "Using default takeoff altitude: 2.5 m",
+                         "Takeoff detected"]
+
+
+def test_landed_state_is_takeoff_during_the_climb(sim):
+    sim.run(1.2)
+    sim.v.arm(sim.t)
+    sim.v.takeoff(sim.t)
+    sim.run(1.0)
+    assert sim.v.status.landed_state is LandedState.TAKEOFF
+
+
+def test_takeoff_altitude_param_changes_the_height():
+    sim = Sim(MIS_TAKEOFF_ALT=6.0)
+    try:
+        take_off(sim)
+        sim.run(3.0)
+        assert -sim.v.state.position_ned_m[2] == pytest.approx(6.0, abs=0.3)
+        assert "Using default takeoff altitude: 6.0 m" in sim.texts()
+    finally:
+        sim.close()
+
+
+def test_takeoff_to_explicit_amsl_altitude(sim):
+    sim.run(1.2)
+    sim.v.arm(sim.t)
+    sim.v.takeoff(sim.t, alt_amsl_m=sim.v.origin.alt_amsl_m + 4.0)
+    sim.run(10.0)
+    assert -sim.v.state.position_ned_m[2] == pytest.approx(4.0, abs=0.3)
+
+
+def test_land_touches_down_and_auto_disarms_two_seconds_later(sim):
+    take_off(sim)
+    sim.run(2.0)
+    assert sim.v.land(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(1.0) is False
+    assert sim.v.status.landed_state is LandedState.LANDING
+    assert sim.run(20.0, until=lambda: sim.v.status.landed_state is LandedState.ON_GROUND)
+    landed_at = sim.t
+    assert sim.run(5.0, until=lambda: not sim.v.status.armed)
+    assert sim.t - landed_at == pytest.approx(2.0, abs=0.1)  # COM_DISARM_LAND
+    assert sim.v.status.nav_state is NavState.AUTO_LOITER  # Land forbids arming -> Hold
+    assert abs(sim.v.state.position_ned_m[2]) < 0.02
+    texts = sim.texts()
+    assert texts[-3:] == ["Landing at current position", "Landing detected", "Disarmed by landing"]
+
+
+def test_auto_disarm_ten_seconds_after_arming_without_takeoff(sim):
+    sim.run(1.2)
+    armed_at = sim.t
+    sim.v.arm(sim.t)
+    assert sim.run(12.0, until=lambda: not sim.v.status.armed)
+    assert sim.t - armed_at == pytest.approx(10.0, abs=0.05)  # COM_DISARM_PRFLT
+    assert sim.texts()[-1] == "Disarmed by auto preflight disarming"
+    assert np.allclose(sim.v.state.position_ned_m, 0.0, atol=2e-3)  # idle never lifted it
+
+
+def test_disarm_denied_in_air_unless_forced(sim):
+    take_off(sim)
+    assert sim.v.disarm(sim.t) is CommandResult.TEMPORARILY_REJECTED
+    assert sim.v.status.armed
+    assert sim.v.disarm(sim.t, forced=True) is CommandResult.ACCEPTED
+    sim.run(0.5)
+    assert not sim.v.status.armed
+    assert sim.v.state.velocity_ned_mps[2] > 1.0  # motors off: falling
+
+
+def test_manual_modes_mission_and_offboard_are_rejected(sim):
+    sim.run(1.2)
+    for mode in (NavState.MANUAL, NavState.POSCTL, NavState.ALTCTL, NavState.STAB, NavState.ACRO,
+                 NavState.AUTO_MISSION, NavState.OFFBOARD):
+        assert sim.v.set_nav_state(sim.t, mode) is CommandResult.TEMPORARILY_REJECTED
+    assert sim.v.status.nav_state is NavState.AUTO_LOITER
+
+
+def test_rtl_returns_home_and_lands():
+    sim = Sim(RTL_RETURN_ALT=8.0, RTL_DESCEND_ALT=4.0)
+    try:
+        take_off(sim)
+        sim.v.reposition(sim.t, (25.0, -15.0, -5.0))
+        sim.run(15.0)
+        assert sim.v.state.position_ned_m == pytest.approx((25.0, -15.0, -5.0), abs=0.3)
+        assert sim.v.return_to_launch(sim.t) is CommandResult.ACCEPTED
+        climbed = []
+        assert sim.run(60.0, until=lambda: climbed.append(-sim.v.state.position_ned_m[2])
+                       or not sim.v.status.armed)
+        assert max(climbed) == pytest.approx(8.0, abs=0.5)
+        home = np.array(sim.v.status.home.position_ned_m)
+        assert np.linalg.norm(sim.v.state.position_ned_m[:2] - home[:2]) < 1.0
+        assert sim.v.status.nav_state is NavState.AUTO_LOITER
+        assert "Returning to launch" in sim.texts() and "Disarmed by landing" in sim.texts()
+    finally:
+        sim.close()
+
+
+def test_two_vehicles_in_one_world_do_not_interact():
+    sim = Sim(n=2)
+    try:
+        a, b = sim.vehicles
+        assert np.linalg.norm(np.subtract(World.spawn_offset_ned_m(1), World.spawn_offset_ned_m(0))) >= 5
+        take_off(sim, a)
+        sim.run(2.0)
+        assert -a.state.position_ned_m[2] == pytest.approx(2.5, abs=0.3)
+        assert np.allclose(b.state.position_ned_m, 0.0, atol=2e-3)
+        assert not b.status.armed and b.status_texts(0) == []
+        assert a.origin != b.origin
+        ga, gb = a.global_position, b.global_position
+        assert a.origin.ned_of(gb)[1] == pytest.approx(5.0, abs=0.05)  # b sits 5 m east of a
+        assert ga.alt_amsl_m - gb.alt_amsl_m == pytest.approx(2.5, abs=0.3)
+    finally:
+        sim.close()
+
+
+def test_battery_drains_while_armed_but_not_below_min(sim):
+    take_off(sim)
+    b0 = sim.v.status.battery
+    assert b0.cell_count == 4 and b0.current_a > 5.0
+    sim.run(40.0)
+    b1 = sim.v.status.battery
+    assert b1.remaining == pytest.approx(0.5)  # SIM_BAT_MIN_PCT
+    assert b1.voltage_v < b0.voltage_v and b1.consumed_mah > b0.consumed_mah
+
+
+def test_state_time_and_attitude_frames(sim):
+    sim.run(1.2)
+    s = sim.v.state
+    assert s.time_s == pytest.approx(sim.t)
+    assert np.linalg.norm(s.attitude_q) == pytest.approx(1.0)
+    assert s.attitude_q[0] == pytest.approx(1.0, abs=1e-6)  # level, facing north

@@ -1,0 +1,110 @@
+"""One parameter source per airframe, shared by the physics backend and the controllers.
+
+Rules:
+- Values are physical (SI units in the names); the body frame is FRD, rotor positions are FRD.
+- Rotors are listed in PX4 motor order (motor 1..4 = index 0..3 here).
+- Derived quantities (max thrust, hover thrust, mixer rows) are computed here once, so the
+  controller and the plant can never disagree about the geometry.
+
+Source of the X500 numbers: PX4/PX4-gazebo-models ``models/x500_base/model.sdf`` (mass 2.0 kg,
+ixx = iyy = 0.021667, izz = 0.04 kg m², rotors at (±0.174, ±0.174) m) and ``models/x500/model.sdf``
+(MulticopterMotorModel: motorConstant 8.54858e-06 N/(rad/s)², momentConstant 0.016 m,
+maxRotVelocity 1000 rad/s, timeConstantUp 0.0125 s, timeConstantDown 0.025 s;
+rotor_0 (+x,-y FLU = front-right) ccw, rotor_1 rear-left ccw, rotor_2 front-left cw,
+rotor_3 rear-right cw). Collision box after the sdf's 0.354 m square base plate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from vehicles.types import GRAVITY_MPS2
+
+
+@dataclass(frozen=True)
+class Rotor:
+    """One rotor: position in body FRD (m) and spin direction seen from above."""
+
+    position_frd_m: tuple[float, float, float]
+    ccw: bool
+
+    @property
+    def yaw_sign(self) -> float:
+        # A CCW rotor's reaction torque turns the body clockwise seen from above, i.e. positive
+        # yaw about FRD z (PX4 CA_ROTORx_KM > 0 for CCW).
+        return 1.0 if self.ccw else -1.0
+
+
+def _x500_rotors() -> tuple[Rotor, ...]:
+    arm = 0.174
+    return (
+        Rotor((arm, arm, 0.0), ccw=True),  # motor 1 front-right
+        Rotor((-arm, -arm, 0.0), ccw=True),  # motor 2 rear-left
+        Rotor((arm, -arm, 0.0), ccw=False),  # motor 3 front-left
+        Rotor((-arm, arm, 0.0), ccw=False),  # motor 4 rear-right
+    )
+
+
+@dataclass(frozen=True)
+class Airframe:
+    name: str = "x500"
+    mass_kg: float = 2.0
+    ixx_kgm2: float = 0.02166666666666667
+    iyy_kgm2: float = 0.02166666666666667
+    izz_kgm2: float = 0.04
+    rotors: tuple[Rotor, ...] = field(default_factory=_x500_rotors)
+    motor_constant_n_per_radps2: float = 8.54858e-06
+    moment_constant_m: float = 0.016
+    max_rotor_speed_radps: float = 1000.0
+    motor_time_constant_up_s: float = 0.0125
+    motor_time_constant_down_s: float = 0.025
+    # Linear body drag (N per m/s), not in the sdf: a small value so that cruise needs a tilt.
+    linear_drag_n_per_mps: float = 0.25
+    # Collision box (full size, m) centred on the centre of mass.
+    collision_box_m: tuple[float, float, float] = (0.354, 0.354, 0.1)
+    # Normalized torque 1.0 changes each rotor's normalized thrust by this much (PX4's allocation
+    # normalization gives about ±0.5 per motor for full roll/pitch on a symmetric quad X).
+    torque_to_thrust_rp: float = 0.5
+    torque_to_thrust_yaw: float = 0.5
+
+    @property
+    def rotor_count(self) -> int:
+        return len(self.rotors)
+
+    @property
+    def max_rotor_thrust_n(self) -> float:
+        return self.motor_constant_n_per_radps2 * self.max_rotor_speed_radps**2
+
+    @property
+    def max_total_thrust_n(self) -> float:
+        return self.rotor_count * self.max_rotor_thrust_n
+
+    @property
+    def hover_thrust_norm(self) -> float:
+        """Collective normalized thrust (0..1) that balances gravity."""
+        return self.mass_kg * GRAVITY_MPS2 / self.max_total_thrust_n
+
+    @property
+    def rest_height_m(self) -> float:
+        """Height of the centre of mass above the ground when resting on it."""
+        return self.collision_box_m[2] / 2.0
+
+    def mixer_rows(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
+        """Per-rotor normalized-thrust change for unit normalized roll, pitch and yaw torque.
+
+        Roll (about +x FRD, right side down) needs more thrust on the left (y < 0) rotors; pitch
+        (nose up) needs more thrust in front (x > 0); yaw needs more thrust on the rotors whose
+        reaction torque is positive.
+        """
+        roll = tuple(
+            -self.torque_to_thrust_rp * math.copysign(1.0, r.position_frd_m[1]) for r in self.rotors
+        )
+        pitch = tuple(
+            self.torque_to_thrust_rp * math.copysign(1.0, r.position_frd_m[0]) for r in self.rotors
+        )
+        yaw = tuple(self.torque_to_thrust_yaw * r.yaw_sign for r in self.rotors)
+        return roll, pitch, yaw
+
+
+X500 = Airframe()

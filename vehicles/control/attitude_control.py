@@ -1,0 +1,113 @@
+"""Pure library: thrust vector + yaw -> attitude setpoint; attitude P -> body rate setpoint.
+
+Follows PX4:
+- ``src/modules/mc_pos_control/PositionControl/ControlMath.cpp`` ``thrustToAttitude`` /
+  ``bodyzToAttitude`` (desired body z = -thrust direction, body x from the yaw setpoint).
+- ``src/modules/mc_att_control/AttitudeControl/AttitudeControl.cpp`` ``update``: quaternion
+  controller that first aligns the thrust axis (reduced attitude) and mixes yaw in with weight
+  MC_YAW_WEIGHT, rate setpoint = MC_*_P times the sin(half-angle) error, limited to MC_*RATE_MAX.
+
+Rules: quaternions (w, x, y, z), FRD -> NED; gains are PX4's (1/s), used unscaled; pure functions
+and one stateless class, no physics engine and no clock.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from vehicles.control.quat import (
+    Quat,
+    Vec3,
+    cross,
+    norm,
+    q_canonical,
+    q_conj,
+    q_dcm_z,
+    q_from_dcm_columns,
+    q_from_two_vectors,
+    q_mul,
+)
+
+
+@dataclass(frozen=True)
+class AttitudeSetpoint:
+    attitude_q: Quat
+    thrust_body_norm: float  # collective thrust, 0..1 (body -z)
+
+
+@dataclass(frozen=True)
+class AttitudeControlGains:
+    p_roll: float
+    p_pitch: float
+    p_yaw: float
+    yaw_weight: float
+    rate_max_frd_radps: Vec3
+
+    @staticmethod
+    def from_params(params) -> AttitudeControlGains:
+        p = params
+        return AttitudeControlGains(
+            p_roll=float(p["MC_ROLL_P"]),
+            p_pitch=float(p["MC_PITCH_P"]),
+            p_yaw=float(p["MC_YAW_P"]),
+            yaw_weight=float(p["MC_YAW_WEIGHT"]),
+            rate_max_frd_radps=(
+                math.radians(float(p["MC_ROLLRATE_MAX"])),
+                math.radians(float(p["MC_PITCHRATE_MAX"])),
+                math.radians(float(p["MC_YAWRATE_MAX"])),
+            ),
+        )
+
+
+def thrust_to_attitude(thrust_ned: Vec3, yaw_rad: float) -> AttitudeSetpoint:
+    """ControlMath::thrustToAttitude: body z opposite to the thrust vector, nose towards yaw."""
+    bz = (-thrust_ned[0], -thrust_ned[1], -thrust_ned[2])
+    n = norm(bz)
+    if n * n < 1.2e-7:
+        bz, n = (0.0, 0.0, 1.0), 1.0
+    bz = (bz[0] / n, bz[1] / n, bz[2] / n)
+    y_c = (-math.sin(yaw_rad), math.cos(yaw_rad), 0.0)
+    bx = cross(y_c, bz)
+    if bz[2] < 0.0:
+        bx = (-bx[0], -bx[1], -bx[2])
+    if abs(bz[2]) < 1e-6:
+        bx = (0.0, 0.0, 1.0)
+    nx = norm(bx)
+    bx = (bx[0] / nx, bx[1] / nx, bx[2] / nx)
+    by = cross(bz, bx)
+    return AttitudeSetpoint(q_from_dcm_columns(bx, by, bz), norm(thrust_ned))
+
+
+class AttitudeControl:
+    """Stateless apart from its gains (PX4's AttitudeControl has no integrator either)."""
+
+    def __init__(self, gains: AttitudeControlGains) -> None:
+        self.gains = gains
+        self._yaw_w = min(max(gains.yaw_weight, 0.0), 1.0)
+        # PX4 setProportionalGain: compensate the yaw weight's rescaling of the output.
+        p_yaw = gains.p_yaw / self._yaw_w if self._yaw_w > 1e-4 else gains.p_yaw
+        self._p = (gains.p_roll, gains.p_pitch, p_yaw)
+
+    def update(self, attitude_q: Quat, attitude_sp_q: Quat) -> Vec3:
+        q = attitude_q
+        qd = attitude_sp_q
+        e_z = q_dcm_z(q)
+        e_z_d = q_dcm_z(qd)
+        qd_red = q_from_two_vectors(e_z, e_z_d)
+        if abs(qd_red[1]) > 1.0 - 1e-5 or abs(qd_red[2]) > 1.0 - 1e-5:
+            qd_red = qd  # roll or pitch near 180 deg: use the full attitude
+        else:
+            qd_red = q_mul(qd_red, q)
+        q_mix = q_canonical(q_mul(q_conj(qd_red), qd))
+        w = min(max(q_mix[0], -1.0), 1.0)
+        z = min(max(q_mix[3], -1.0), 1.0)
+        qd = q_mul(qd_red, (math.cos(self._yaw_w * math.acos(w)), 0.0, 0.0,
+                            math.sin(self._yaw_w * math.asin(z))))
+        qe = q_canonical(q_mul(q_conj(q), qd))
+        lim = self.gains.rate_max_frd_radps
+        out = []
+        for i in range(3):
+            r = 2.0 * qe[i + 1] * self._p[i]
+            out.append(min(max(r, -lim[i]), lim[i]))
+        return (out[0], out[1], out[2])

@@ -1,0 +1,85 @@
+"""Pure library: collective thrust + normalized torque -> motor commands (PX4 quad-X order).
+
+Follows the idea of PX4 ``src/modules/control_allocator/ControlAllocation/
+ControlAllocationSequentialDesaturation.cpp`` with airmode disabled (``mixAirmodeDisabled``):
+roll/pitch first, thrust may only be *reduced* to make room at the top, roll/pitch are scaled down
+if a motor would go below zero, then yaw is added with whatever headroom is left. So roll and
+pitch always win over yaw.
+
+Rules:
+- Input thrust is normalized collective thrust (0..1); torques are normalized (-1..1); the rows
+  (per-rotor thrust change per unit torque) come from the airframe geometry.
+- Output per motor: the command ``u`` in 0..1 that the plant turns into rotor speed
+  ``u * max_rotor_speed``. Since rotor thrust is k·ω², ``u = sqrt(normalized rotor thrust)`` makes
+  the plant linear in thrust.
+- Also reports per-axis saturation so the rate integrator can stop winding up.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class MixerOutput:
+    motor_u: tuple[float, ...]  # 0..1 commands, PX4 motor order
+    rotor_thrust_norm: tuple[float, ...]  # 0..1 per rotor
+    saturation_positive: tuple[bool, bool, bool]
+    saturation_negative: tuple[bool, bool, bool]
+
+
+class Mixer:
+    def __init__(self, rows: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]],
+                 idle_thrust_norm: float = 0.0) -> None:
+        self._roll, self._pitch, self._yaw = rows
+        self._n = len(self._roll)
+        self.idle_thrust_norm = idle_thrust_norm
+
+    def mix(self, thrust: float, torque: tuple[float, float, float]) -> MixerOutput:
+        n = self._n
+        roll, pitch, yaw = torque
+        thrust = min(max(thrust, 0.0), 1.0)
+        rp = [roll * self._roll[i] + pitch * self._pitch[i] for i in range(n)]
+        sat_pos = [False, False, False]
+        sat_neg = [False, False, False]
+        # Airmode disabled: only reduce thrust to unsaturate the top.
+        over = max(thrust + r for r in rp) - 1.0
+        if over > 0.0:
+            thrust = max(thrust - over, 0.0)
+        low = min(rp)
+        if thrust + low < 0.0 or max(thrust + r for r in rp) > 1.0:
+            # Scale roll/pitch down so every motor stays within [0, 1].
+            span_low = -low if low < 0.0 else 0.0
+            high = max(rp)
+            k = 1.0
+            if span_low > 0.0:
+                k = min(k, thrust / span_low)
+            if high > 0.0 and thrust + high > 1.0:
+                k = min(k, (1.0 - thrust) / high)
+            rp = [r * k for r in rp]
+            for axis, v in ((0, roll), (1, pitch)):
+                if v > 0.0:
+                    sat_pos[axis] = True
+                elif v < 0.0:
+                    sat_neg[axis] = True
+        # Yaw with the remaining headroom.
+        s = 1.0
+        for i in range(n):
+            y = yaw * self._yaw[i]
+            base = thrust + rp[i]
+            if y > 1e-9:
+                s = min(s, max(1.0 - base, 0.0) / y)
+            elif y < -1e-9:
+                s = min(s, max(base, 0.0) / -y)
+        if s < 1.0:
+            if yaw > 0.0:
+                sat_pos[2] = True
+            elif yaw < 0.0:
+                sat_neg[2] = True
+        lo = self.idle_thrust_norm
+        out = tuple(min(max(thrust + rp[i] + s * yaw * self._yaw[i], lo), 1.0) for i in range(n))
+        return MixerOutput(
+            tuple(math.sqrt(t) for t in out), out, (sat_pos[0], sat_pos[1], sat_pos[2]),
+            (sat_neg[0], sat_neg[1], sat_neg[2]),
+        )

@@ -1,0 +1,85 @@
+"""Multicopter land detector after PX4 ``src/modules/land_detector/MulticopterLandDetector.cpp``.
+
+Stages (each with PX4's hysteresis from LandDetector.h): ground contact (commanded descent at
+>= 90 % of MPC_LAND_SPEED but no vertical movement above LNDMC_Z_VEL_MAX and no horizontal movement
+above LNDMC_XY_VEL_MAX, 0.35 s) -> maybe landed (ground contact and thrust below
+MPC_THR_MIN + 30 % of (hover - MPC_THR_MIN), 0.25 s) -> landed (0.3 s). While the position
+controller sees ground contact it cuts thrust (PX4 ``limit_thrust_during_landing``), which is what
+makes the thrust low. Takeoff: a landed, armed vehicle climbing faster than LNDMC_Z_VEL_MAX for
+TAKEOFF_TRIGGER_S is in the air. Disarmed means landed. Pure logic; time is an argument.
+"""
+
+from __future__ import annotations
+
+import math
+
+GROUND_CONTACT_TRIGGER_S = 0.35
+MAYBE_LANDED_TRIGGER_S = 0.25
+LANDED_TRIGGER_S = 0.3
+TAKEOFF_TRIGGER_S = 0.1
+LOW_THRUST_THRESHOLD = 0.3
+
+
+class _Hysteresis:
+    """True only after the condition has held for ``delay_s``; drops at once."""
+
+    def __init__(self, delay_s: float) -> None:
+        self.delay_s = delay_s
+        self.state = False
+        self._since: float | None = None
+
+    def update(self, now_s: float, condition: bool) -> bool:
+        if not condition:
+            self._since = None
+            self.state = False
+        else:
+            if self._since is None:
+                self._since = now_s
+            self.state = now_s - self._since >= self.delay_s - 1e-9
+        return self.state
+
+    def reset(self) -> None:
+        self.state = False
+        self._since = None
+
+
+class LandDetector:
+    def __init__(self, params) -> None:
+        self._params = params
+        self.landed = True
+        self.ground_contact = False
+        self.maybe_landed = False
+        self._contact = _Hysteresis(GROUND_CONTACT_TRIGGER_S)
+        self._maybe = _Hysteresis(MAYBE_LANDED_TRIGGER_S)
+        self._landed = _Hysteresis(LANDED_TRIGGER_S)
+        self._takeoff = _Hysteresis(TAKEOFF_TRIGGER_S)
+
+    def update(self, now_s: float, armed: bool, velocity_ned_mps: tuple[float, float, float],
+               velocity_sp_z_mps: float, thrust_norm: float, hover_thrust: float) -> None:
+        p = self._params
+        if not armed:
+            self.landed, self.ground_contact, self.maybe_landed = True, False, False
+            for h in (self._contact, self._maybe, self._landed, self._takeoff):
+                h.reset()
+            return
+        z_vel_max = float(p["LNDMC_Z_VEL_MAX"])
+        if self.landed:
+            if self._takeoff.update(now_s, -velocity_ned_mps[2] > z_vel_max):
+                self.landed = False
+                for h in (self._contact, self._maybe, self._landed):
+                    h.reset()
+            return
+        land_speed_thr = 0.9 * max(float(p["MPC_LAND_SPEED"]), 0.1)
+        max_climb = min(0.5 * land_speed_thr, z_vel_max)
+        vertical = abs(velocity_ned_mps[2]) > max_climb
+        horizontal = math.hypot(velocity_ned_mps[0], velocity_ned_mps[1]) > float(
+            p["LNDMC_XY_VEL_MAX"])
+        in_descend = math.isfinite(velocity_sp_z_mps) and velocity_sp_z_mps >= land_speed_thr
+        self.ground_contact = self._contact.update(now_s, not vertical and not horizontal and in_descend)
+        thr_min = float(p["MPC_THR_MIN"])
+        low_thrust = thrust_norm <= thr_min + (hover_thrust - thr_min) * LOW_THRUST_THRESHOLD
+        self.maybe_landed = self._maybe.update(now_s, self.ground_contact and low_thrust)
+        if self._landed.update(now_s, self.maybe_landed):
+            self.landed = True
+            self.ground_contact = self.maybe_landed = False
+            self._takeoff.reset()

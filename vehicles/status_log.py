@@ -1,0 +1,49 @@
+"""Append-only, bounded log of status texts (PX4 mavlink_log_* → STATUSTEXT).
+
+Invariants: ``seq`` starts at 1 and increases by one per text, never reused; only the newest
+``capacity`` texts are kept; ``after(seq)`` returns texts with a larger seq, oldest first, so each
+gateway session keeps its own cursor. Texts are stored without PX4's trailing tab.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import deque
+
+from vehicles.types import Severity, StatusText
+
+log = logging.getLogger(__name__)
+
+STATUS_LOG_CAPACITY = 100
+
+
+class StatusLog:
+    def __init__(self, name: str = "", capacity: int = STATUS_LOG_CAPACITY) -> None:
+        self._texts: deque[StatusText] = deque(maxlen=capacity)
+        self._seq = 0
+        self._name = name
+
+    @property
+    def last_seq(self) -> int:
+        return self._seq
+
+    def add(self, time_s: float, severity: Severity, text: str) -> StatusText:
+        self._seq += 1
+        entry = StatusText(self._seq, time_s, severity, text)
+        self._texts.append(entry)
+        log.info("%s t=%.3f [%s] %s", self._name, time_s, severity.name, text)
+        return entry
+
+    def info(self, time_s: float, text: str) -> None:
+        self.add(time_s, Severity.INFO, text)
+
+    def warning(self, time_s: float, text: str) -> None:
+        self.add(time_s, Severity.WARNING, text)
+
+    def critical(self, time_s: float, text: str) -> None:
+        self.add(time_s, Severity.CRITICAL, text)
+
+    def after(self, seq: int) -> list[StatusText]:
+        if seq >= self._seq:
+            return []
+        return [t for t in self._texts if t.seq > seq]

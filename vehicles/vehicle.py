@@ -1,0 +1,137 @@
+"""One vehicle: autopilot + simulated GPS/home + battery, over a body owned by the physics World.
+
+This is the object the gateway talks to (vehicles/README.md contract). Rules:
+- Every method takes simulated time; nothing here touches the wall clock or PyBullet.
+- ``state`` and ``status`` are frozen snapshots built lazily (at most once per physics step) so
+  the 250 Hz loop does not allocate them for vehicles nobody is looking at.
+- Local NED is relative to ``origin`` (the spawn point on the ground, = EKF origin).
+- ``_measure`` / ``_control`` are called by the World only.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from vehicles.airframe import Airframe
+from vehicles.autopilot import Autopilot
+from vehicles.params import ParamStore
+from vehicles.types import (
+    CommandResult,
+    GeoPoint,
+    NavState,
+    StatusText,
+    VehicleState,
+    VehicleStatus,
+)
+
+Vec3 = tuple[float, float, float]
+
+
+class Measurement(NamedTuple):
+    """Kinematic truth of one step, as plain floats (a NamedTuple: cheap to build at 250 Hz)."""
+
+    position_ned_m: Vec3
+    velocity_ned_mps: Vec3
+    attitude_q: tuple[float, float, float, float]  # (w, x, y, z), FRD -> NED
+    rates_frd_radps: Vec3
+
+
+class Vehicle:
+    def __init__(self, index: int, params: ParamStore, airframe: Airframe, origin: GeoPoint,
+                 dt_s: float, boot_time_s: float = 0.0) -> None:
+        self.index = index
+        self.params = params
+        self.airframe = airframe
+        self.origin = origin
+        self._dt_s = dt_s
+        self._autopilot = Autopilot(params, airframe, origin, dt_s, boot_time_s,
+                                    name=f"vehicle{index}")
+        self._time_s = boot_time_s
+        self._meas: Measurement | None = None
+        self._accel: Vec3 = (0.0, 0.0, 0.0)
+        self._state: VehicleState | None = None
+        self._rotor_speed_radps: list[float] = [0.0] * airframe.rotor_count
+
+    # --- World hooks ---------------------------------------------------------------------------
+    def _measure(self, time_s: float, meas: Measurement) -> None:
+        prev = self._meas
+        if prev is not None and time_s > self._time_s:
+            dt = time_s - self._time_s
+            v0, v1 = prev.velocity_ned_mps, meas.velocity_ned_mps
+            self._accel = ((v1[0] - v0[0]) / dt, (v1[1] - v0[1]) / dt, (v1[2] - v0[2]) / dt)
+        self._meas = meas
+        self._time_s = time_s
+        self._state = None
+
+    def _control(self, now_s: float) -> tuple[float, ...] | None:
+        assert self._meas is not None
+        return self._autopilot.update(now_s, self._meas, self._accel)
+
+    # --- README contract ---------------------------------------------------------------------
+    @property
+    def autopilot(self) -> Autopilot:
+        return self._autopilot
+
+    @property
+    def state(self) -> VehicleState:
+        if self._state is None:
+            m = self._meas
+            assert m is not None
+            self._state = VehicleState(
+                self._time_s, np.array(m.position_ned_m), np.array(m.velocity_ned_mps),
+                np.array(self._accel), np.array(m.attitude_q), np.array(m.rates_frd_radps),
+            )
+        return self._state
+
+    @property
+    def status(self) -> VehicleStatus:
+        ap = self._autopilot
+        c = ap.commander
+        return VehicleStatus(
+            time_s=self._time_s,
+            armed=c.armed,
+            nav_state=c.nav_state,
+            landed_state=ap.landed_state,
+            position_valid=c.position_valid,
+            prearm_ok=c.prearm_ok(),
+            failsafe=False,
+            terminated=c.terminated,
+            battery=ap.battery.state(),
+            home=ap.home,
+            extra={"thrust_norm": ap.thrust_norm,
+                   "rotor_speed_radps": tuple(self._rotor_speed_radps)},
+        )
+
+    @property
+    def global_position(self) -> GeoPoint:
+        assert self._meas is not None
+        n, e, d = self._meas.position_ned_m
+        return self.origin.offset_ned(n, e, d)
+
+    def status_texts(self, after_seq: int = 0) -> list[StatusText]:
+        return self._autopilot.log.after(after_seq)
+
+    def arm(self, now_s: float, forced: bool = False) -> CommandResult:
+        return self._autopilot.arm(now_s, forced)
+
+    def disarm(self, now_s: float, forced: bool = False) -> CommandResult:
+        return self._autopilot.disarm(now_s, forced)
+
+    def takeoff(self, now_s: float, alt_amsl_m: float = math.nan) -> CommandResult:
+        return self._autopilot.takeoff(now_s, alt_amsl_m)
+
+    def land(self, now_s: float) -> CommandResult:
+        return self._autopilot.land(now_s)
+
+    def return_to_launch(self, now_s: float) -> CommandResult:
+        return self._autopilot.return_to_launch(now_s)
+
+    def reposition(self, now_s: float, target_ned_m: tuple[float, float, float]) -> CommandResult:
+        """Extra (not yet in the README contract): Hold at a local NED target, like DO_REPOSITION."""
+        return self._autopilot.reposition(now_s, target_ned_m)
+
+    def set_nav_state(self, now_s: float, nav_state: NavState) -> CommandResult:
+        return self._autopilot.set_nav_state(now_s, nav_state)
