@@ -48,7 +48,7 @@ class Vehicle:
         self.origin = origin
         self._dt_s = dt_s
         self._autopilot = Autopilot(params, airframe, origin, dt_s, boot_time_s,
-                                    name=f"vehicle{index}")
+                                    name=f"vehicle {index + 1}")
         self._time_s = boot_time_s
         self._meas: Measurement | None = None
         self._accel: Vec3 = (0.0, 0.0, 0.0)
