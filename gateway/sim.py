@@ -22,6 +22,7 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from gateway.mavlink.session import LinkKind, Session
 from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
@@ -42,8 +43,7 @@ API_REMOTE_BASE = 14540
 API_REMOTE_MAX = 14549  # PX4 sends instances > 9 to 14549
 
 
-@dataclass(frozen=True)
-class Ports:
+class Ports(NamedTuple):
     """UDP ports of one vehicle link: what the vehicle binds and where it talks first."""
 
     local: int
