@@ -13,12 +13,15 @@ import logging
 import signal
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 
 from gateway.endpoint import UdpEndpoint
 from gateway.mavlink.session import LinkKind
 from gateway.pacer import Pacer
+from gateway import persist
 from gateway.sim import NetworkConfig, Simulation, px4_ports
+from vehicles.params import ParamStore
 
 log = logging.getLogger(__name__)
 
@@ -33,6 +36,8 @@ class RunConfig:
     bind: str = "127.0.0.1"
     remote_host: str = "127.0.0.1"
     speed: float = 1.0
+    state_dir: Path | None = None  # parameters persist here, per vehicle
+    params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
 
 
 class PortInUse(OSError):
@@ -44,10 +49,18 @@ class PortInUse(OSError):
 class Daemon:
     def __init__(self, config: RunConfig) -> None:
         self.config = config
-        self.sim = Simulation(config.vehicles, config.network)
+        self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for)
         self.pacer = Pacer(self.sim.kernel, speed=config.speed)
         self.endpoints: dict[tuple[int, LinkKind], UdpEndpoint] = {}
         self.sim.on_downlink = self._send
+
+    def _params_for(self, index: int) -> ParamStore:
+        store = ParamStore({"MAV_SYS_ID": index + 1})
+        if self.config.state_dir is not None:
+            persist.attach(store, self.config.state_dir, index + 1)
+        for name, value in self.config.params.items():
+            store.set(name, value)
+        return store
 
     def _send(self, index: int, kind: LinkKind, datagram: bytes, peer: object) -> None:
         self.endpoints[(index, kind)].send(datagram, peer)  # type: ignore[arg-type]

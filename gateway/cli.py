@@ -5,9 +5,12 @@ from __future__ import annotations
 import argparse
 import asyncio
 import logging
+import os
 import sys
+from pathlib import Path
 
 LOG_LEVELS = ("debug", "info", "warning", "error")
+ENV_PARAM_PREFIX = "PX4_PARAM_"
 MAX_VEHICLES = 1000
 MAX_PORT = 65535
 
@@ -62,7 +65,38 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar="K", help="shift every local and remote port by K (default 0)")
     run.add_argument("--log-level", choices=LOG_LEVELS, default="info", metavar="L",
                      help=f"one of {', '.join(LOG_LEVELS)} (default info)")
+    run.add_argument("--state-dir", type=Path, default=None, metavar="DIR",
+                     help="keep each vehicle's changed parameters in DIR/vehicle-<sysid>/ across "
+                     "restarts (default: not kept)")
+    run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                     help="set a PX4 parameter on every vehicle at start (repeatable); "
+                     "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
     return parser
+
+
+def _parse_params(parser: argparse.ArgumentParser, flags: list[str],
+                  environ: dict[str, str]) -> dict[str, float]:
+    from vehicles.params import ParamStore
+
+    pairs = [(f"--param {flag}", flag) for flag in flags]
+    pairs += [(f"environment {k}", f"{k[len(ENV_PARAM_PREFIX):]}={v}")
+              for k, v in sorted(environ.items()) if k.startswith(ENV_PARAM_PREFIX)]
+    store = ParamStore()
+    out: dict[str, float] = {}
+    for where, text in pairs:
+        name, sep, value_text = text.partition("=")
+        if not sep or not name:
+            parser.error(f"{where}: expected NAME=VALUE, e.g. MIS_TAKEOFF_ALT=5")
+        if name not in store:
+            parser.error(f"{where}: no PX4 parameter named {name!r}")
+        try:
+            value = float(value_text)
+            store.set(name, value)
+        except ValueError:
+            kind = store.info(name).type.name
+            parser.error(f"{where}: {value_text!r} is not a valid {kind} value for {name}")
+        out[name] = value
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -74,13 +108,30 @@ def main(argv: list[str] | None = None) -> int:
     return 2
 
 
+def _subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentParser:
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return action.choices[name]
+    raise KeyError(name)
+
+
 def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    parser = _subparser(parser, "run")  # errors then show `cornet run` usage
     if not 1 <= args.vehicles <= MAX_VEHICLES:
         parser.error(f"--vehicles must be between 1 and {MAX_VEHICLES}, got {args.vehicles}")
     highest = 18570 + args.vehicles - 1 + args.port_offset
     if highest > MAX_PORT:
         parser.error(f"--port-offset {args.port_offset} with {args.vehicles} vehicles needs "
                      f"port {highest} > {MAX_PORT}; use a smaller offset")
+    params = _parse_params(parser, args.param, dict(os.environ))
+    if args.state_dir is not None:
+        try:
+            args.state_dir.mkdir(parents=True, exist_ok=True)
+            probe = args.state_dir / ".cornet-write-test"
+            probe.write_text("")
+            probe.unlink()
+        except OSError as exc:
+            parser.error(f"--state-dir {args.state_dir}: not a writable directory ({exc.strerror})")
     logging.basicConfig(
         level=args.log_level.upper(),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
@@ -94,6 +145,8 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         vehicles=args.vehicles,
         network=NetworkConfig.from_flags(args.latency_ms, args.jitter_ms, args.loss, args.seed),
         port_offset=args.port_offset,
+        state_dir=args.state_dir,
+        params=params,
     )
     try:
         return asyncio.run(serve(config))

@@ -159,10 +159,18 @@ class VehicleLink:
             self._timer = self.sim.kernel.schedule(max(deadline, now), self._on_timer)
 
 
+def default_params(index: int, overrides: dict[str, float] | None = None) -> ParamStore:
+    """PX4 defaults, MAV_SYS_ID = instance + 1 (as PX4's rcS sets it), then ``overrides``."""
+    return ParamStore({"MAV_SYS_ID": index + 1, **(overrides or {})})
+
+
 class Simulation:
     def __init__(self, vehicles: int, network: NetworkConfig | None = None,
                  param_overrides: dict[str, float] | None = None,
-                 physics_dt_s: float = PHYSICS_DT_S) -> None:
+                 physics_dt_s: float = PHYSICS_DT_S,
+                 params_for: Callable[[int], ParamStore] | None = None) -> None:
+        """``params_for(index)`` builds each vehicle's parameter store (default:
+        ``default_params(index, param_overrides)``); the shell uses it to add persistence."""
         if vehicles < 1:
             raise ValueError("need at least one vehicle")
         self.kernel = Kernel()
@@ -173,7 +181,10 @@ class Simulation:
         self.vehicles = []
         self.links: dict[tuple[int, LinkKind], VehicleLink] = {}
         for i in range(vehicles):
-            params = ParamStore({"MAV_SYS_ID": i + 1, **(param_overrides or {})})
+            if params_for is not None:
+                params = params_for(i)
+            else:
+                params = default_params(i, param_overrides)
             vehicle = self.world.add_vehicle(index=i, params=params)
             self.vehicles.append(vehicle)
             for kind in (LinkKind.GCS, LinkKind.API):

@@ -17,6 +17,10 @@ pytestmark = [pytest.mark.e2e]
     (["--latency-ms", "abc"], "--latency-ms"),
     (["--log-level", "loud"], "--log-level"),
     (["--frobnicate"], "--frobnicate"),
+    (["--param", "NOT_A_PX4_PARAM=1"], "NOT_A_PX4_PARAM"),
+    (["--param", "MAV_TYPE=1.5"], "INT32"),
+    (["--param", "MIS_TAKEOFF_ALT"], "NAME=VALUE"),
+    (["--state-dir", "/proc/cornet-cannot-be-here"], "--state-dir"),
 ])
 def test_bad_flags_exit_2_with_a_message(flags, words):
     out = subprocess.run(cornet_command() + ["run", *flags], capture_output=True, text=True,

@@ -86,3 +86,36 @@ def test_gcs_sees_all_vehicles_reads_every_param_and_sets_one(daemon_factory):
         assert msg is not None and msg.param_value == pytest.approx(2.5)  # vehicle 1 unchanged
     finally:
         conn.close()
+
+
+def test_parameters_survive_a_restart_with_state_dir(daemon_factory, tmp_path):
+    d = daemon_factory("--state-dir", str(tmp_path), "--param", "MPC_XY_CRUISE=7")
+    conn = gcs(d.gcs_port())
+    try:
+        conn.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS,
+                                mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        assert heartbeats_by_sysid(conn, {1})
+        conn.mav.param_set_send(1, 1, b"MIS_TAKEOFF_ALT", 6.5,
+                                mavutil.mavlink.MAV_PARAM_TYPE_REAL32)
+        assert conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=5,
+                               condition="PARAM_VALUE.param_id=='MIS_TAKEOFF_ALT'")
+    finally:
+        conn.close()
+    assert d.stop()[0] == 0
+
+    d2 = daemon_factory("--state-dir", str(tmp_path))
+    conn = gcs(d2.gcs_port())
+    try:
+        conn.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS,
+                                mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        assert heartbeats_by_sysid(conn, {1})
+        values = {}
+        for name in ("MIS_TAKEOFF_ALT", "MPC_XY_CRUISE"):
+            conn.mav.param_request_read_send(1, 1, name.encode(), -1)
+            msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=5,
+                                  condition=f"PARAM_VALUE.param_id=='{name}'")
+            values[name] = msg.param_value
+        assert values["MIS_TAKEOFF_ALT"] == pytest.approx(6.5)
+        assert values["MPC_XY_CRUISE"] == pytest.approx(7.0)  # --param was saved too
+    finally:
+        conn.close()
