@@ -16,10 +16,10 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from gateway import persist
 from gateway.endpoint import UdpEndpoint
 from gateway.mavlink.session import LinkKind
 from gateway.pacer import Pacer
-from gateway import persist
 from gateway.sim import NetworkConfig, Simulation, px4_ports
 from vehicles.params import ParamStore
 
@@ -111,8 +111,8 @@ class Daemon:
                         for link in self.sim.links.values())
         return (f"sim_t={self.sim.now:.1f}s rtf={self.pacer.real_time_factor():.2f} "
                 f"vehicles={self.config.vehicles} datagrams_up={up} datagrams_down={down} "
-                f"net_dropped={dropped} malformed={malformed} internal_errors={self.sim.internal_errors} "
-                f"slips={self.pacer.slips}")
+                f"net_dropped={dropped} malformed={malformed} "
+                f"internal_errors={self.sim.internal_errors} slips={self.pacer.slips}")
 
     async def _report(self) -> None:
         while True:

@@ -16,7 +16,8 @@ _BATCH = 1024
 
 def named_generator(seed: int, name: str) -> np.random.Generator:
     """A numpy Generator determined by ``seed`` and ``name`` only."""
-    return np.random.default_rng(np.random.SeedSequence([seed & 0xFFFFFFFF, zlib.crc32(name.encode())]))
+    entropy = [seed & 0xFFFFFFFF, zlib.crc32(name.encode())]
+    return np.random.default_rng(np.random.SeedSequence(entropy))
 
 
 class UniformStream:

@@ -50,7 +50,8 @@ def make_model(name: str, params: dict[str, Any], *, seed: int, stream_name: str
     try:
         factory = _REGISTRY[name]
     except KeyError:
-        raise ValueError(f"unknown link model {name!r} (known: {', '.join(model_names())})") from None
+        known = ", ".join(model_names())
+        raise ValueError(f"unknown link model {name!r} (known: {known})") from None
     return factory(rng=UniformStream(seed, stream_name), **params)
 
 
