@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from mavsdk import System
 
 from tests.e2e.daemon import free_tcp_port
+from tests.e2e.persona import first
 
 
 @dataclass
@@ -16,18 +17,6 @@ class FlightReport:
     hover_alt_max_m: float
     disarmed_after_landing: bool
     status_texts: list[str]
-
-
-async def _first(gen, predicate, timeout_s: float, what: str):
-    async def scan():
-        async for item in gen:
-            if predicate(item):
-                return item
-
-    try:
-        return await asyncio.wait_for(scan(), timeout_s)
-    except asyncio.TimeoutError:
-        raise AssertionError(f"timed out after {timeout_s} s waiting for {what}") from None
 
 
 async def takeoff_hover_land(udp_port: int, hover_s: float = 5.0,
@@ -43,14 +32,14 @@ async def takeoff_hover_land(udp_port: int, hover_s: float = 5.0,
     text_task = asyncio.ensure_future(collect_texts())
     try:
         t = timeout_scale
-        await _first(drone.core.connection_state(), lambda s: s.is_connected, 30 * t, "connection")
-        await _first(drone.telemetry.health(),
+        await first(drone.core.connection_state(), lambda s: s.is_connected, 30 * t, "connection")
+        await first(drone.telemetry.health(),
                      lambda h: h.is_global_position_ok and h.is_home_position_ok, 30 * t, "health")
         await drone.action.arm()
         await drone.action.takeoff()
-        await _first(drone.telemetry.in_air(), bool, 20 * t, "in_air")
+        await first(drone.telemetry.in_air(), bool, 20 * t, "in_air")
         # Takeoff climbs at 1.5 m/s to 2.5 m; then the vehicle holds.
-        await _first(drone.telemetry.position(), lambda p: p.relative_altitude_m > 2.3, 30 * t,
+        await first(drone.telemetry.position(), lambda p: p.relative_altitude_m > 2.3, 30 * t,
                      "takeoff altitude")
         await asyncio.sleep(2.0)
         alts = []
@@ -63,8 +52,8 @@ async def takeoff_hover_land(udp_port: int, hover_s: float = 5.0,
         await asyncio.sleep(hover_s)
         sampler.cancel()
         await drone.action.land()
-        await _first(drone.telemetry.in_air(), lambda x: not x, 60 * t, "landed")
-        await _first(drone.telemetry.armed(), lambda a: not a, 15 * t, "auto-disarm")
+        await first(drone.telemetry.in_air(), lambda x: not x, 60 * t, "landed")
+        await first(drone.telemetry.armed(), lambda a: not a, 15 * t, "auto-disarm")
         return FlightReport(min(alts), max(alts), True, texts)
     finally:
         text_task.cancel()

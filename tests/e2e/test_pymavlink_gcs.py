@@ -6,46 +6,9 @@ import time
 import pytest
 from pymavlink import mavutil
 
+from tests.e2e.gcs import gcs, heartbeats_by_sysid, read_all_params
+
 pytestmark = [pytest.mark.e2e]
-
-
-def gcs(port: int):
-    return mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255,
-                                      source_component=190, dialect="common")
-
-
-def heartbeats_by_sysid(conn, want: set[int], timeout_s: float = 15.0) -> dict[int, object]:
-    seen = {}
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline and set(seen) != want:
-        msg = conn.recv_match(type="HEARTBEAT", blocking=True, timeout=0.5)
-        if msg is not None and msg.get_srcComponent() == 1:
-            seen[msg.get_srcSystem()] = msg
-    return seen
-
-
-def read_all_params(conn, sysid: int, timeout_s: float = 30.0) -> tuple[int, dict[int, object]]:
-    """PARAM_REQUEST_LIST, then re-request missing indices like QGC does."""
-    conn.mav.param_request_list_send(sysid, 1)
-    got: dict[int, object] = {}
-    count = None
-    deadline = time.monotonic() + timeout_s
-    last_rx = time.monotonic()
-    while time.monotonic() < deadline:
-        msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=0.3)
-        if msg is not None and msg.get_srcSystem() == sysid:
-            last_rx = time.monotonic()
-            if msg.param_id == "_HASH_CHECK":
-                continue
-            assert count is None or msg.param_count == count, "param_count changed"
-            count = msg.param_count
-            got[msg.param_index] = msg
-        if count is not None and len(got) == count:
-            break
-        if count is not None and time.monotonic() - last_rx > 0.5:
-            for idx in [i for i in range(count) if i not in got][:10]:
-                conn.mav.param_request_read_send(sysid, 1, b"", idx)
-    return count, got
 
 
 def test_gcs_sees_all_vehicles_reads_every_param_and_sets_one(daemon_factory):
@@ -71,7 +34,8 @@ def test_gcs_sees_all_vehicles_reads_every_param_and_sets_one(daemon_factory):
             assert struct.unpack("<i", struct.pack("<f", sys_id.param_value))[0] == sysid
             assert names["MIS_TAKEOFF_ALT"].param_value == pytest.approx(2.5)
 
-        conn.mav.param_set_send(2, 1, b"MIS_TAKEOFF_ALT", 6.0, mavutil.mavlink.MAV_PARAM_TYPE_REAL32)
+        conn.mav.param_set_send(2, 1, b"MIS_TAKEOFF_ALT", 6.0,
+                                mavutil.mavlink.MAV_PARAM_TYPE_REAL32)
         deadline = time.monotonic() + 10
         echo = None
         while time.monotonic() < deadline:

@@ -1,0 +1,55 @@
+"""Shared by the MAVSDK examples: connect as the MSDK-Py examples do, wait for a healthy vehicle."""
+
+import argparse
+import math
+
+from mavsdk import System
+
+EARTH_RADIUS_M = 6371000.0
+
+
+def arguments(description: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--port", type=int, default=14540,
+                        help="UDP port to listen on (vehicle i talks to 14540+i)")
+    parser.add_argument("--grpc-port", type=int, default=50051, help="mavsdk_server gRPC port")
+    return parser.parse_args()
+
+
+async def connect(port: int, grpc_port: int) -> System:
+    drone = System(port=grpc_port)
+    await drone.connect(system_address=f"udpin://0.0.0.0:{port}")
+    print("Waiting for drone to connect...")
+    async for state in drone.core.connection_state():
+        if state.is_connected:
+            print("-- Connected to drone!")
+            break
+    print("Waiting for drone to have a global position estimate...")
+    async for health in drone.telemetry.health():
+        if health.is_global_position_ok and health.is_home_position_ok:
+            print("-- Global position estimate OK")
+            break
+    return drone
+
+
+def offset(lat_deg: float, lon_deg: float, north_m: float, east_m: float) -> tuple[float, float]:
+    """The point north_m / east_m away (flat earth, fine over a few km)."""
+    return (lat_deg + math.degrees(north_m / EARTH_RADIUS_M),
+            lon_deg + math.degrees(east_m / (EARTH_RADIUS_M * math.cos(math.radians(lat_deg)))))
+
+
+async def first_value(stream):
+    """The next value of a MAVSDK telemetry stream."""
+    async for value in stream:
+        return value
+
+
+async def wait_landed(drone) -> None:
+    async for in_air in drone.telemetry.in_air():
+        if not in_air:
+            print("-- Landed")
+            break
+    async for armed in drone.telemetry.armed():
+        if not armed:
+            print("-- Disarmed")
+            break
