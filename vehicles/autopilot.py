@@ -13,6 +13,10 @@ Rules and invariants:
   (PX4 ``limit_thrust_during_landing``).
 - Gains come from PX4 parameter names, re-read when a parameter changes. No scale factors are
   applied: the mixer's normalization (airframe.py) makes PX4's rate gains fit this plant.
+- OFFBOARD bypasses navigator and trajectory (offboard.py); TERMINATION cuts the motors.
+- Auto-mode yaw setpoints are slewed at MPC_YAWRAUTO_MAX (FlightTaskAuto yaw rate limit).
+- Failsafe inputs (battery level, geofence, offboard freshness) are gathered here every 50 Hz
+  tick and handed to the commander, which owns the failsafe state machine.
 - Time is an argument; nothing here calls a clock or a physics engine.
 """
 
@@ -30,20 +34,34 @@ from vehicles.control.attitude_control import (
     thrust_to_attitude,
 )
 from vehicles.control.mixer import Mixer
-from vehicles.control.position_control import PositionControl, PositionControlGains, PositionSetpoint
+from vehicles.control.position_control import (
+    PositionControl,
+    PositionControlGains,
+    PositionSetpoint,
+)
 from vehicles.control.quat import q_yaw
 from vehicles.control.rate_control import RateControl, RateControlGains
 from vehicles.control.trajectory import TrajectoryLimiter
+from vehicles.failsafe import FailsafeFlags
+from vehicles.geofence import Geofence
 from vehicles.land_detector import LandDetector
 from vehicles.navigator import NavContext, Navigator, NavSetpoint, auto_limits
+from vehicles.offboard import Offboard, acceleration_to_thrust
+from vehicles.plan_types import PlanType
+from vehicles.plans import PlanStore
 from vehicles.status_log import StatusLog
-from vehicles.types import CommandResult, GeoPoint, HomePosition, LandedState, NavState
+from vehicles.types import CommandResult, GeoPoint, HomePosition, LandedState, NavState, Severity
 
 POSITION_CONTROL_DIVIDER = 5  # 250 Hz / 5 = 50 Hz
 # Motors spin at this normalized thrust when armed and idle (PX4 idle PWM / CA idle).
 IDLE_THRUST_NORM = 0.02
 # The navigator must ask for this much climb before a landed vehicle spools up.
 TAKEOFF_TRIGGER_M = 0.2
+BATTERY_TEXTS = {
+    1: (Severity.WARNING, "Low battery level, return advised"),
+    2: (Severity.CRITICAL, "Critical battery level, land now"),
+    3: (Severity.EMERGENCY, "Emergency battery level, land immediately"),
+}
 
 
 class Autopilot:
@@ -55,7 +73,16 @@ class Autopilot:
         self.dt_s = dt_s
         self.log = StatusLog(name)
         self.commander = Commander(params, self.log, boot_time_s)
-        self.navigator = Navigator()
+        self.plans = PlanStore()
+        self.navigator = Navigator(self.plans)
+        self.geofence = Geofence(params)
+        self.plans.on_change(self._plan_changed)
+        self.offboard = Offboard()
+        self._rates_sp: tuple[float, float, float] | None = None
+        self._yaw_sp = math.nan
+        self._prev_nav_state: NavState | None = None
+        self._fence_breach: str | None = None
+        self._battery_level = 0
         self.land_detector = LandDetector(params)
         self.battery = BatterySim(params, airframe.hover_thrust_norm)
         self.trajectory = TrajectoryLimiter()
@@ -76,6 +103,12 @@ class Autopilot:
         self._sat_neg = (False, False, False)
         self.time_s = boot_time_s
 
+    def _plan_changed(self, plan_type: PlanType) -> None:
+        if plan_type is PlanType.FENCE:
+            self.geofence.load(self.plans.get(PlanType.FENCE), self.origin)
+        if plan_type is PlanType.MISSION:
+            self.navigator.cruise_mps = math.nan  # a new mission starts at cruise speed
+
     def _load_gains(self) -> None:
         self.position_control = PositionControl(
             PositionControlGains.from_params(self.params, hover_thrust=self._hover))
@@ -83,9 +116,11 @@ class Autopilot:
         self.rate_control = RateControl(RateControlGains.from_params(self.params))
 
     # --- commands (the Vehicle API delegates here) -----------------------------------------------
-    def arm(self, now_s: float, forced: bool = False) -> CommandResult:
+    def arm(self, now_s: float, forced: bool = False,
+            text: str = "Armed by external command") -> CommandResult:
         was_armed = self.commander.armed
-        result = self.commander.arm(now_s, forced)
+        self._refresh_requirements(now_s)
+        result = self.commander.arm(now_s, forced, text)
         if result is CommandResult.ACCEPTED and not was_armed:
             self._set_home()
         return result
@@ -120,18 +155,86 @@ class Autopilot:
         return result
 
     def set_nav_state(self, now_s: float, nav_state: NavState) -> CommandResult:
+        self._refresh_requirements(now_s)
         if nav_state is NavState.AUTO_RTL and self.home is None:
             return CommandResult.TEMPORARILY_REJECTED
         if nav_state is NavState.AUTO_TAKEOFF:
             return self.takeoff(now_s)
         return self.commander.request_nav_state(now_s, nav_state)
 
+    # --- missions, offboard, actions (README "the PX4 persona") ----------------------------------
+    def _refresh_requirements(self, now_s: float) -> None:
+        c = self.commander
+        c.mission_valid = self.navigator.mission.valid()
+        c.offboard_available = self.offboard.fresh(now_s, float(self.params["COM_OF_LOSS_T"]))
+        c.home_valid = self.home is not None
+
+    def start_mission(self, now_s: float, first_seq: int = -1) -> CommandResult:
+        """MISSION_START (Commander.cpp): Mission mode and arm."""
+        mission = self.navigator.mission
+        if not mission.valid():
+            self.log.critical(now_s, "Mission start denied! No valid mission")
+            return CommandResult.DENIED
+        if first_seq >= len(mission.items):
+            return CommandResult.DENIED
+        if first_seq >= 0:
+            mission.set_current(first_seq)
+        if (self.set_nav_state(now_s, NavState.AUTO_MISSION) is not CommandResult.ACCEPTED
+                or self.arm(now_s, text="Armed by mission start") is not CommandResult.ACCEPTED):
+            self.log.critical(now_s, "Mission start denied")
+            return CommandResult.TEMPORARILY_REJECTED
+        return CommandResult.ACCEPTED
+
+    def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
+             yaw_rad: float = math.nan, speed_mps: float = math.nan) -> CommandResult:
+        """DO_REPOSITION: Hold at a global target (navigator.cpp handle reposition)."""
+        if self._meas is None or not self.commander.position_valid:
+            return CommandResult.TEMPORARILY_REJECTED
+        n, e, d = self._meas.position_ned_m
+        if not (math.isnan(lat_deg) or math.isnan(lon_deg)):
+            n, e, _ = self.origin.ned_of(GeoPoint(lat_deg, lon_deg, self.origin.alt_amsl_m))
+        if not math.isnan(alt_amsl_m):
+            d = self.origin.alt_amsl_m - alt_amsl_m
+        if self.geofence.enabled and self.geofence.check(
+                (n, e, d), self.home.position_ned_m if self.home else None) is not None:
+            self.log.critical(now_s, "Reposition is outside geofence")
+            return CommandResult.DENIED
+        result = self.set_nav_state(now_s, NavState.AUTO_LOITER)
+        if result is CommandResult.ACCEPTED:
+            if speed_mps > 0:
+                self.navigator.set_cruise_mps(speed_mps)
+            if self.commander.armed:  # the navigator acts only when armed
+                self.navigator.hold.hint = (n, e, d)
+                self.navigator.hold.hint_yaw = yaw_rad
+                self.navigator.reactivate()
+        return result
+
+    def change_speed(self, now_s: float, speed_mps: float) -> CommandResult:
+        self.navigator.set_cruise_mps(speed_mps)
+        return CommandResult.ACCEPTED
+
+    def set_home(self, now_s: float, geo: GeoPoint | None = None) -> CommandResult:
+        if not int(self.params["COM_HOME_EN"]) or not self.commander.position_valid:
+            return CommandResult.TEMPORARILY_REJECTED
+        if geo is None:
+            self._set_home()
+            return CommandResult.ACCEPTED
+        if not all(math.isfinite(v) for v in (geo.lat_deg, geo.lon_deg, geo.alt_amsl_m)):
+            return CommandResult.DENIED
+        yaw = self.home.yaw_rad if self.home else 0.0
+        self.home = HomePosition(geo, self.origin.ned_of(geo), yaw)
+        return CommandResult.ACCEPTED
+
+    def terminate(self, now_s: float) -> CommandResult:
+        return self.commander.terminate(now_s)
+
     # --- status ------------------------------------------------------------------------------
     @property
     def landed_state(self) -> LandedState:
         if self.land_detector.landed:
             return LandedState.ON_GROUND
-        if self.commander.nav_state is NavState.AUTO_TAKEOFF:
+        if self.commander.nav_state is NavState.AUTO_TAKEOFF or (
+                self._nav_sp is not None and self._nav_sp.taking_off):
             return LandedState.TAKEOFF
         if self._nav_sp is not None and self._nav_sp.landing:
             return LandedState.LANDING
@@ -156,12 +259,13 @@ class Autopilot:
         if self._tick % POSITION_CONTROL_DIVIDER == 0:
             self._update_slow(now_s, meas, accel_ned_mps2)
         self._tick += 1
-        if not cmd.armed:
+        if not cmd.armed or cmd.terminated:
             return None
         if self._idle:
             self.rate_control.reset()
             return self.mixer.mix(0.0, (0.0, 0.0, 0.0)).motor_u
-        rates_sp = self.attitude_control.update(meas.attitude_q, self._att_sp.attitude_q)
+        rates_sp = (self._rates_sp if self._rates_sp is not None
+                    else self.attitude_control.update(meas.attitude_q, self._att_sp.attitude_q))
         torque = self.rate_control.update(self.dt_s, meas.rates_frd_radps, rates_sp,
                                           landed=self.land_detector.landed,
                                           saturation_positive=self._sat_pos,
@@ -170,44 +274,98 @@ class Autopilot:
         self._sat_pos, self._sat_neg = out.saturation_positive, out.saturation_negative
         return out.motor_u
 
+    def _failsafe_flags(self, now_s: float, pos) -> FailsafeFlags:
+        p = self.params
+        remaining = self.battery.state().remaining
+        level = 0
+        for i, name in enumerate(("BAT_LOW_THR", "BAT_CRIT_THR", "BAT_EMERGEN_THR")):
+            if remaining <= float(p[name]):
+                level = i + 1
+        if level > self._battery_level:  # framework.cpp notifyUser texts per battery cause
+            self.log.add(now_s, BATTERY_TEXTS[level][0], BATTERY_TEXTS[level][1])
+        self._battery_level = level
+        breach = None
+        if self.geofence.enabled and self.home is not None and int(p["GF_ACTION"]) != 0:
+            breach = self.geofence.check(pos, self.home.position_ned_m)
+        if breach is not None and self._fence_breach is None:
+            self.log.critical(now_s, breach)
+        self._fence_breach = breach
+        c = self.commander
+        return FailsafeFlags(armed=c.armed, user_nav_state=c.user_nav_state,
+                             offboard_lost=not c.offboard_available, battery_warning=level,
+                             geofence_breached=breach is not None)
+
     def _update_slow(self, now_s: float, meas, accel) -> None:
         cmd = self.commander
         dt = self.dt_s * POSITION_CONTROL_DIVIDER
         ld = self.land_detector
         ld.update(now_s, cmd.armed, meas.velocity_ned_mps, self._vel_sp_z, self._thrust, self._hover)
         was_armed = cmd.armed
-        if cmd.update(now_s, ld.landed):
+        pos, vel = meas.position_ned_m, meas.velocity_ned_mps
+        self._refresh_requirements(now_s)
+        if cmd.nav_state is NavState.AUTO_MISSION and not cmd.mission_valid:
+            cmd.switch_by_vehicle(NavState.AUTO_LOITER)  # mission cleared under our feet
+        if cmd.update(now_s, ld.landed, self._failsafe_flags(now_s, pos)):
             self._set_home()
         self.battery.update(now_s, cmd.armed, self._thrust if cmd.armed else 0.0)
         if was_armed and not cmd.armed:
             ld.update(now_s, False, meas.velocity_ned_mps, 0.0, 0.0, self._hover)
         yaw = q_yaw(meas.attitude_q)
-        pos, vel = meas.position_ned_m, meas.velocity_ned_mps
         if not self._flying:
             self.trajectory.reset(pos, vel)
         ctx = NavContext(now_s, self.params, self.log, cmd.armed, ld.landed, pos, vel, yaw,
                          self.home, self.trajectory.position_ned_m, self.trajectory.stopping_point(
                              self._nav_sp.limits if self._nav_sp else auto_limits(self.params)),
-                         self._switch_by_vehicle)
+                         self._switch_by_vehicle, self.origin, self.navigator.cruise_mps,
+                         self.navigator.set_cruise_mps)
+        entered = cmd.nav_state is not self._prev_nav_state
+        self._prev_nav_state = cmd.nav_state
+        self._rates_sp = None
+        if cmd.nav_state in (NavState.OFFBOARD, NavState.TERMINATION):
+            self.navigator.deactivate(ctx)
+            self._nav_sp = None
+            if entered:
+                self.offboard.on_entry(yaw)
+            if cmd.nav_state is NavState.OFFBOARD and not cmd.terminated:
+                self._update_offboard(now_s, dt, meas, accel, yaw)
+            else:
+                self._set_idle(meas)
+            return
         nav_sp = self.navigator.update(cmd.nav_state, ctx)
         self._nav_sp = nav_sp
         wants_climb = (nav_sp.target_ned_m[2] < pos[2] - TAKEOFF_TRIGGER_M
                        if not math.isnan(nav_sp.target_ned_m[2]) else nav_sp.vz_cmd_mps < -0.1)
         if not cmd.armed or nav_sp.idle or (ld.landed and not wants_climb):
-            self._idle = True
-            self._flying = False
-            self._thrust = 0.0
-            self._vel_sp_z = 0.0
-            self.position_control.reset_integral()
-            self.rate_control.reset()
-            self._att_sp = AttitudeSetpoint(meas.attitude_q, 0.0)
+            self._set_idle(meas)
             return
+        if not self._flying or math.isnan(self._yaw_sp):
+            self._yaw_sp = yaw
         self._idle = False
         self._flying = True
         p_sp, v_sp, a_sp = self.trajectory.update(dt, nav_sp.target_ned_m, nav_sp.limits,
                                                   nav_sp.vz_cmd_mps, pos[2])
-        out = self.position_control.update(dt, pos, vel, accel,
-                                           PositionSetpoint(p_sp, v_sp, nav_sp.yaw_rad, a_sp))
+        if not math.isnan(nav_sp.yaw_rad):
+            step = math.radians(float(self.params["MPC_YAWRAUTO_MAX"])) * dt
+            err = math.remainder(nav_sp.yaw_rad - self._yaw_sp, math.tau)
+            self._yaw_sp = math.remainder(self._yaw_sp + min(max(err, -step), step), math.tau)
+        self._apply_position_control(dt, meas, accel, PositionSetpoint(p_sp, v_sp, self._yaw_sp,
+                                                                       a_sp), yaw)
+
+    def _set_idle(self, meas) -> None:
+        self._idle = True
+        self._flying = False
+        self._thrust = 0.0
+        self._vel_sp_z = 0.0
+        self._yaw_sp = math.nan
+        self.position_control.reset_integral()
+        self.rate_control.reset()
+        self._att_sp = AttitudeSetpoint(meas.attitude_q, 0.0)
+
+    def _apply_position_control(self, dt: float, meas, accel, sp: PositionSetpoint,
+                                yaw: float) -> None:
+        ld = self.land_detector
+        out = self.position_control.update(dt, meas.position_ned_m, meas.velocity_ned_mps,
+                                           accel, sp)
         thrust = out.thrust_ned
         yaw_sp = out.yaw_rad if not math.isnan(out.yaw_rad) else yaw
         self._vel_sp_z = out.velocity_sp_ned_mps[2]
@@ -218,9 +376,53 @@ class Autopilot:
         self._att_sp = thrust_to_attitude(thrust, yaw_sp)
         self._thrust = self._att_sp.thrust_body_norm
 
+    def _update_offboard(self, now_s: float, dt: float, meas, accel, yaw: float) -> None:
+        """Offboard setpoints straight to the controllers (mc_pos_control, no smoothing)."""
+        pos, vel = meas.position_ned_m, meas.velocity_ned_mps
+        self.trajectory.reset(pos, vel)  # leaving offboard brakes from the real state
+        oc = self.offboard.command(now_s, yaw)
+        if oc is None or not self.commander.armed:
+            self._set_idle(meas)
+            return
+        sp = oc.setpoint
+        ld = self.land_detector
+        if oc.kind in ("position", "acceleration"):
+            p, v, a = sp.position_ned_m, sp.velocity_ned_mps, sp.acceleration_ned_mps2
+            wants_climb = ((not math.isnan(p[2]) and p[2] < pos[2] - TAKEOFF_TRIGGER_M)
+                           or (not math.isnan(v[2]) and v[2] < -0.1)
+                           or (not math.isnan(a[2]) and a[2] < -0.1))
+            if ld.landed and not wants_climb:
+                self._set_idle(meas)
+                return
+            self._idle = False
+            self._flying = True
+            if oc.kind == "position":
+                self._apply_position_control(dt, meas, accel, PositionSetpoint(p, v, oc.yaw_rad, a),
+                                             yaw)
+                return
+            g = self.position_control.gains
+            acc = tuple(0.0 if math.isnan(x) else x for x in a)
+            thrust = acceleration_to_thrust(acc, g.hover_thrust, g.tilt_max_rad)
+            self._att_sp = thrust_to_attitude(thrust, oc.yaw_rad)
+            self._vel_sp_z = math.nan
+        else:
+            self._idle = False
+            self._flying = False
+            self._vel_sp_z = math.nan
+            thrust = 0.0 if math.isnan(sp.thrust) else min(max(sp.thrust, 0.0), 1.0)
+            if oc.kind == "attitude":
+                self._att_sp = AttitudeSetpoint(sp.attitude_q, thrust)
+            else:
+                self._att_sp = AttitudeSetpoint(meas.attitude_q, thrust)
+                self._rates_sp = tuple(0.0 if math.isnan(x) else x
+                                       for x in sp.body_rates_frd_radps)
+        self._thrust = self._att_sp.thrust_body_norm
+
     def _switch_by_vehicle(self, nav_state: NavState, hold_at: tuple[float, float, float] | None
                            ) -> None:
         if nav_state is NavState.AUTO_LOITER:
             self.navigator.hold.hint = hold_at
+        if nav_state is NavState.AUTO_RTL and self.home is None:
+            nav_state = NavState.AUTO_LAND
         self.commander.switch_by_vehicle(nav_state)
 

@@ -11,6 +11,15 @@ Rules and invariants:
   (stands in for EKF2 + GPS convergence); the autopilot sets home then and on every arming.
 - Arming always runs the pre-arm checks (also when forced, like PX4 for external commands).
   Already armed -> ACCEPTED. Disarm in the air only when forced (kill).
+- Mission and Offboard have extra requirements (``needs_mission`` / ``needs_offboard``, PX4
+  mode_req_mission / mode_req_offboard_signal): the autopilot keeps ``mission_valid`` and
+  ``offboard_available`` current.
+- ``user_nav_state`` is the mode the user (or the vehicle itself) asked for; ``nav_state`` is what
+  runs: the failsafe state machine (failsafe.py) may override it while a failsafe is active.
+- Data-link loss (Commander::dataLinkCheck): the timer starts at the first GCS heartbeat; no
+  heartbeat for COM_DL_LOSS_T -> "Connection to ground station lost"; a new one -> "GCS connection
+  regained". The mode is not restored automatically.
+- Termination (DO_FLIGHTTERMINATION or a failsafe) is final: motors off, mode TERMINATION.
 - Status texts are PX4's strings (without the trailing tab).
 - Time is an argument; nothing here knows physics or MAVLink.
 """
@@ -18,8 +27,9 @@ Rules and invariants:
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+from vehicles.failsafe import Action, Failsafe, FailsafeFlags
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, NavState
 
@@ -32,7 +42,7 @@ ARMING_DENIED_TEXT = "Arming denied: Resolve system health failures first"
 class SwitchRule(enum.Enum):
     ALLOWED = "allowed"  # ACCEPTED (TEMPORARILY_REJECTED without position if it needs one)
     NEEDS_MANUAL_CONTROL = "needs_manual_control"  # no RC/joystick in SITL -> rejected
-    NOT_YET = "not_yet"  # implemented in a later task (Mission, Offboard, ...) -> rejected
+    NOT_YET = "not_yet"  # not implemented (Follow Me, Orbit, Precision Land) -> rejected
     FAILSAFE_ONLY = "failsafe_only"  # entered by the vehicle itself, never by request
 
 
@@ -52,14 +62,26 @@ class ModeSpec:
     needs_position: bool
     arming_allowed: bool
     after_disarm: NavState | None  # fallback once disarmed; None = stay
+    needs_mission: bool = False  # a valid mission must be stored
+    needs_offboard: bool = False  # an offboard setpoint younger than COM_OF_LOSS_T
 
 
 _L = NavState.AUTO_LOITER
+
+# What a failsafe action makes the vehicle fly (failsafe.cpp modeFromAction).
+ACTION_NAV_STATE: dict[Action, NavState] = {
+    Action.HOLD: NavState.AUTO_LOITER,
+    Action.RTL: NavState.AUTO_RTL,
+    Action.LAND: NavState.AUTO_LAND,
+    Action.DESCEND: NavState.DESCEND,
+    Action.TERMINATE: NavState.TERMINATION,
+}
 MODE_TABLE: dict[NavState, ModeSpec] = {
     NavState.MANUAL: ModeSpec("Manual", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
     NavState.ALTCTL: ModeSpec("Altitude", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
     NavState.POSCTL: ModeSpec("Position", SwitchRule.NEEDS_MANUAL_CONTROL, True, True, None),
-    NavState.AUTO_MISSION: ModeSpec("Mission", SwitchRule.NOT_YET, True, True, None),
+    NavState.AUTO_MISSION: ModeSpec("Mission", SwitchRule.ALLOWED, True, True, None,
+                                    needs_mission=True),
     NavState.AUTO_LOITER: ModeSpec("Hold", SwitchRule.ALLOWED, True, True, None),
     NavState.AUTO_RTL: ModeSpec("Return", SwitchRule.ALLOWED, True, False, _L),
     NavState.POSITION_SLOW: ModeSpec("Position Slow", SwitchRule.NEEDS_MANUAL_CONTROL, True, True,
@@ -67,7 +89,8 @@ MODE_TABLE: dict[NavState, ModeSpec] = {
     NavState.ACRO: ModeSpec("Acro", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
     NavState.DESCEND: ModeSpec("Descend", SwitchRule.FAILSAFE_ONLY, False, False, _L),
     NavState.TERMINATION: ModeSpec("Termination", SwitchRule.FAILSAFE_ONLY, False, False, None),
-    NavState.OFFBOARD: ModeSpec("Offboard", SwitchRule.NOT_YET, True, True, None),
+    NavState.OFFBOARD: ModeSpec("Offboard", SwitchRule.ALLOWED, True, True, None,
+                                needs_offboard=True),
     NavState.STAB: ModeSpec("Stabilized", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
     NavState.AUTO_TAKEOFF: ModeSpec("Takeoff", SwitchRule.ALLOWED, True, True, None),
     NavState.AUTO_LAND: ModeSpec("Land", SwitchRule.ALLOWED, True, False, _L),
@@ -84,6 +107,13 @@ class Commander:
         self._boot_time_s = boot_time_s
         self.armed = False
         self.nav_state = NavState.AUTO_LOITER
+        self.user_nav_state = NavState.AUTO_LOITER
+        self.mission_valid = False
+        self.offboard_available = False
+        self.home_valid = False
+        self.failsafe = Failsafe(params, status_log)
+        self.gcs_lost = False
+        self._gcs_seen_s: float | None = None
         self.position_valid = False
         self.terminated = False
         self.landed = True
@@ -96,6 +126,11 @@ class Commander:
         return (self.position_valid and int(self._params["COM_ARMABLE"]) == 1
                 and not self.terminated and MODE_TABLE[self.nav_state].arming_allowed)
 
+    @property
+    def failsafe_active(self) -> bool:
+        """vehicle_status.failsafe (PX4 selects no action while disarmed)."""
+        return self.armed and self.failsafe.in_failsafe
+
     def mode_request_result(self, target: NavState) -> CommandResult:
         """How a request to switch to ``target`` would be answered right now (pure query)."""
         spec = MODE_TABLE[target]
@@ -105,16 +140,37 @@ class Commander:
             return CommandResult.TEMPORARILY_REJECTED
         if spec.needs_position and not self.position_valid:
             return CommandResult.TEMPORARILY_REJECTED
+        if (spec.needs_mission and not self.mission_valid) or (
+                spec.needs_offboard and not self.offboard_available):
+            return CommandResult.TEMPORARILY_REJECTED
         return CommandResult.ACCEPTED
 
     # --- requests -----------------------------------------------------------------------------
     def request_nav_state(self, now_s: float, target: NavState) -> CommandResult:
         result = self.mode_request_result(target)
         if result is CommandResult.ACCEPTED:
-            self.nav_state = target
+            self.nav_state = self.user_nav_state = target
+            self.failsafe.user_mode_changed()
         return result
 
-    def arm(self, now_s: float, forced: bool = False) -> CommandResult:
+    def terminate(self, now_s: float) -> CommandResult:
+        """DO_FLIGHTTERMINATION: only when armed; final until reboot."""
+        if not self.armed:
+            return CommandResult.DENIED
+        if not self.terminated:
+            self._log.critical(now_s, "Flight termination active")
+        self.terminated = True
+        self.nav_state = NavState.TERMINATION
+        return CommandResult.ACCEPTED
+
+    def on_gcs_heartbeat(self, now_s: float) -> None:
+        if self.gcs_lost:
+            self._log.info(now_s, "GCS connection regained")
+        self.gcs_lost = False
+        self._gcs_seen_s = now_s
+
+    def arm(self, now_s: float, forced: bool = False,
+            text: str = "Armed by external command") -> CommandResult:
         if self.armed:
             return CommandResult.ACCEPTED
         if not self.prearm_ok():
@@ -125,7 +181,7 @@ class Commander:
         self._armed_at_s = now_s
         self.have_taken_off_since_arming = False
         self._landed_since_s = None
-        self._log.info(now_s, "Armed by external command")
+        self._log.info(now_s, text)
         return CommandResult.ACCEPTED
 
     def disarm(self, now_s: float, forced: bool = False) -> CommandResult:
@@ -142,11 +198,19 @@ class Commander:
         self._log.info(now_s, text)
         fallback = MODE_TABLE[self.nav_state].after_disarm
         if fallback is not None:
-            self.nav_state = fallback
+            self.nav_state = self.user_nav_state = fallback
+        elif not self.terminated:
+            self.nav_state = self.user_nav_state
 
     # --- periodic -----------------------------------------------------------------------------
-    def update(self, now_s: float, landed: bool) -> bool:
-        """Advance timers; returns True when the position estimate has just become valid."""
+    def update(self, now_s: float, landed: bool, flags: FailsafeFlags | None = None) -> bool:
+        """Advance timers; returns True when the position estimate has just become valid.
+
+        ``flags`` (battery, geofence, offboard inputs from the autopilot) run the failsafes."""
+        self._update_data_link(now_s)
+        if flags is not None:
+            self._update_failsafe(now_s, replace(flags, armed=self.armed, gcs_lost=self.gcs_lost,
+                                                 user_nav_state=self.user_nav_state))
         became_valid = False
         if not self.position_valid and now_s - self._boot_time_s >= POSITION_VALID_DELAY_S - 1e-9:
             self.position_valid = became_valid = True
@@ -175,6 +239,29 @@ class Commander:
                 self._disarm(now_s, "Disarmed by auto preflight disarming")
         return became_valid
 
+    def _update_data_link(self, now_s: float) -> None:
+        if self._gcs_seen_s is None or self.gcs_lost:
+            return
+        if now_s - self._gcs_seen_s > float(self._params["COM_DL_LOSS_T"]):
+            self.gcs_lost = True
+            self._log.critical(now_s, "Connection to ground station lost")
+
+    def _update_failsafe(self, now_s: float, flags: FailsafeFlags) -> None:
+        action = self.failsafe.update(now_s, flags)
+        if self.terminated:
+            return
+        if action is Action.TERMINATE:
+            self.terminate(now_s)
+        elif action is Action.DISARM and self.armed:
+            self._disarm(now_s, "Disarmed by failsafe")
+        elif action in ACTION_NAV_STATE:
+            target = ACTION_NAV_STATE[action]
+            if target is NavState.AUTO_RTL and not self.home_valid:
+                target = NavState.AUTO_LAND
+            self.nav_state = target
+        elif self.armed:
+            self.nav_state = self.user_nav_state
+
     def switch_by_vehicle(self, target: NavState) -> None:
         """A switch the vehicle makes itself (takeoff done -> Hold): no request rules apply."""
-        self.nav_state = target
+        self.nav_state = self.user_nav_state = target

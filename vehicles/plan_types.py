@@ -134,6 +134,13 @@ class MissionStatus:
     mission_id: int  # CRC32 opaque ids
     fence_id: int
     rally_id: int
+    # The newest reached seqs, oldest first (up to REACHED_HISTORY). Several items can be reached
+    # in one tick (a waypoint followed by DO_* items): a reader that saw reached_count k takes the
+    # last (reached_count - k) entries as the new MISSION_ITEM_REACHED events.
+    reached_history: tuple[int, ...] = ()
+
+
+REACHED_HISTORY = 32
 
 
 def _finite_or_nan(values: tuple[float, ...], what: str) -> None:

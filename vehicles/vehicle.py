@@ -18,6 +18,7 @@ import numpy as np
 from vehicles.airframe import Airframe
 from vehicles.autopilot import Autopilot
 from vehicles.params import ParamStore
+from vehicles.plan_types import MissionStatus, OffboardSetpoint, PlanItem, PlanResult, PlanType
 from vehicles.types import (
     CommandResult,
     GeoPoint,
@@ -97,7 +98,7 @@ class Vehicle:
             landed_state=ap.landed_state,
             position_valid=c.position_valid,
             prearm_ok=c.prearm_ok(),
-            failsafe=False,
+            failsafe=c.failsafe_active,
             terminated=c.terminated,
             battery=ap.battery.state(),
             home=ap.home,
@@ -135,3 +136,48 @@ class Vehicle:
 
     def set_nav_state(self, now_s: float, nav_state: NavState) -> CommandResult:
         return self._autopilot.set_nav_state(now_s, nav_state)
+
+    # --- plans (MISSION / FENCE / RALLY) --------------------------------------------------------
+    def plan(self, plan_type: PlanType) -> tuple[PlanItem, ...]:
+        return self._autopilot.plans.get(plan_type)
+
+    def set_plan(self, now_s: float, plan_type: PlanType, items) -> PlanResult:
+        return self._autopilot.plans.set(plan_type, items)
+
+    def clear_plan(self, now_s: float, plan_type: PlanType) -> PlanResult:
+        return self._autopilot.plans.clear(plan_type)
+
+    def plan_id(self, plan_type: PlanType) -> int:
+        return self._autopilot.plans.plan_id(plan_type)
+
+    def set_current_mission_item(self, now_s: float, seq: int) -> bool:
+        return self._autopilot.navigator.mission.set_current(seq)
+
+    @property
+    def mission_status(self) -> MissionStatus:
+        ap = self._autopilot
+        return ap.navigator.mission.status(ap.commander.nav_state)
+
+    def start_mission(self, now_s: float, first_seq: int = -1) -> CommandResult:
+        return self._autopilot.start_mission(now_s, first_seq)
+
+    # --- offboard -----------------------------------------------------------------------------
+    def set_offboard_setpoint(self, now_s: float, setpoint: OffboardSetpoint) -> None:
+        self._autopilot.offboard.set(now_s, setpoint)
+
+    # --- actions ------------------------------------------------------------------------------
+    def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
+             yaw_rad: float = math.nan, speed_mps: float = math.nan) -> CommandResult:
+        return self._autopilot.goto(now_s, lat_deg, lon_deg, alt_amsl_m, yaw_rad, speed_mps)
+
+    def change_speed(self, now_s: float, speed_mps: float) -> CommandResult:
+        return self._autopilot.change_speed(now_s, speed_mps)
+
+    def set_home(self, now_s: float, geo: GeoPoint | None = None) -> CommandResult:
+        return self._autopilot.set_home(now_s, geo)
+
+    def terminate(self, now_s: float) -> CommandResult:
+        return self._autopilot.terminate(now_s)
+
+    def on_gcs_heartbeat(self, now_s: float) -> None:
+        self._autopilot.commander.on_gcs_heartbeat(now_s)

@@ -20,10 +20,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from pymavlink.dialects.v20 import common as mavlink2
-
 # fastcrc (a pymavlink dependency, and what pymavlink itself uses) computes the X.25 CRC.
 from fastcrc import crc16 as _fastcrc16
+from pymavlink.dialects.v20 import common as mavlink2
 
 
 def _crc16(data: bytes) -> int:

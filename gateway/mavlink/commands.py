@@ -10,7 +10,11 @@ Rules:
 - A requested message is emitted before its ACK (same send buffer, in order).
 - COMMAND_INT x/y are degE7 (INT32_MAX = unset → NaN), z as-is (AMSL). The frame is ignored, as
   PX4 ≤ 1.16 does: QGC sends 0, MAVSDK4 3, MAVSDK 5 — all work (PX4 main would reject ≠ 5).
-- Every command is answered at once (never IN_PROGRESS): unknown → UNSUPPORTED.
+- Every command is answered at once (never IN_PROGRESS): unknown → UNSUPPORTED, and so is a
+  contract command the vehicle object does not implement (yet).
+- DO_REPOSITION: p2 must be exactly MAV_DO_REPOSITION_FLAGS_CHANGE_MODE (PX4 Commander:
+  uint32(p2) != 1 → UNSUPPORTED); p1 ≤ 0/NaN = default speed; p4 yaw rad; NaN lat/lon/alt = keep
+  (QGC's pause sends all of them NaN → brake and hold). z is AMSL whatever the frame (≤ 1.16).
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from gateway.mavlink.codec import (
 )
 from gateway.mavlink.modes import decode_set_mode
 from gateway.mavlink.telemetry import STREAMS_BY_ID, home_position
-from vehicles.types import CommandResult, Severity
+from vehicles.types import CommandResult, GeoPoint, Severity
 
 if TYPE_CHECKING:
     from gateway.mavlink.session import Session
@@ -45,6 +49,8 @@ FAILED = CommandResult.FAILED
 FORCE_MAGIC = 21196  # COMPONENT_ARM_DISARM p2: forced arm/disarm (kill)
 INT32_MAX = 2**31 - 1
 INT32_MAX_AS_FLOAT32 = 2147483648.0  # what INT32_MAX becomes in a float param
+REPOSITION_FLAGS_CHANGE_MODE = 1  # MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, the only flag PX4 takes
+SPEED_RESET = -1.0  # DO_CHANGE_SPEED: ≤ 0 → back to the cruise speed
 
 # AUTOPILOT_VERSION as PX4 SITL fills it (§3), minus MAVLink FTP (32): we do not serve FTP.
 CAPABILITIES = 59647 & ~32
@@ -101,6 +107,11 @@ class CommandService:
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
                 lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
             M.MAV_CMD_RUN_PREARM_CHECKS: lambda c, t: ACCEPTED,
+            M.MAV_CMD_DO_REPOSITION: self._reposition,
+            M.MAV_CMD_DO_CHANGE_SPEED: self._change_speed,
+            M.MAV_CMD_DO_SET_HOME: self._set_home,
+            M.MAV_CMD_MISSION_START: self._mission_start,
+            M.MAV_CMD_DO_FLIGHTTERMINATION: self._terminate,
         }
         for cmd in ROI_COMMANDS:
             self._handlers[cmd] = lambda c, t: ACCEPTED
@@ -181,6 +192,49 @@ class CommandService:
             return TEMPORARILY_REJECTED
         return self.s.vehicle.set_nav_state(now_s, nav)
 
+    def _vehicle(self, name: str) -> Callable[..., int] | None:
+        return getattr(self.s.vehicle, name, None)
+
+    def _reposition(self, cmd: Command, now_s: float) -> int:
+        goto = self._vehicle("goto")
+        p2 = cmd.p(2)
+        flags = int(p2) if math.isfinite(p2) and p2 >= 0 else 0  # PX4: uint32_t(param2)
+        if goto is None or flags != REPOSITION_FLAGS_CHANGE_MODE:
+            return UNSUPPORTED
+        speed = cmd.p(1) if math.isfinite(cmd.p(1)) and cmd.p(1) > 0 else math.nan
+        lat, lon, alt, yaw = (_finite_or_nan(cmd.p(n)) for n in (5, 6, 7, 4))
+        return goto(now_s, lat, lon, alt, yaw_rad=yaw, speed_mps=speed)
+
+    def _change_speed(self, cmd: Command, now_s: float) -> int:
+        change_speed = self._vehicle("change_speed")
+        if change_speed is None:
+            return UNSUPPORTED
+        speed = cmd.p(2) if math.isfinite(cmd.p(2)) else SPEED_RESET
+        return change_speed(now_s, speed)
+
+    def _set_home(self, cmd: Command, now_s: float) -> int:
+        set_home = self._vehicle("set_home")
+        if set_home is None:
+            return UNSUPPORTED
+        if cmd.p(1) > 0.5:  # use the current position
+            return set_home(now_s, None)
+        lat, lon, alt = cmd.p(5), cmd.p(6), cmd.p(7)
+        if not all(math.isfinite(v) for v in (lat, lon, alt)):
+            return DENIED
+        return set_home(now_s, GeoPoint(lat, lon, alt))
+
+    def _mission_start(self, cmd: Command, now_s: float) -> int:
+        start = self._vehicle("start_mission")
+        if start is None:
+            return UNSUPPORTED
+        return start(now_s, _int_or(cmd.p(1), -1))
+
+    def _terminate(self, cmd: Command, now_s: float) -> int:
+        terminate = self._vehicle("terminate")
+        if terminate is None:
+            return UNSUPPORTED
+        return terminate(now_s) if cmd.p(1) > 0.5 else DENIED
+
     def _request_message(self, cmd: Command, now_s: float) -> int:
         msg_id = _int_or(cmd.p(1), -1)
         if msg_id == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
@@ -233,6 +287,10 @@ class CommandService:
             M.MAVLink_autopilot_version_message, CAPABILITIES, FLIGHT_SW_VERSION,
             FLIGHT_SW_VERSION, 0, 0, FLIGHT_CUSTOM_VERSION, FLIGHT_CUSTOM_VERSION, [0] * 8, 0, 0,
             uid, [0] * 18)
+
+
+def _finite_or_nan(value: float) -> float:
+    return value if math.isfinite(value) else math.nan
 
 
 def _int_or(value: float, default: int) -> int:

@@ -27,8 +27,10 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
 
-from gateway.mavlink.codec import DecodeStats, Decoder, Encoder, pack_datagrams
+from gateway.mavlink.codec import Decoder, DecodeStats, Encoder, pack_datagrams
 from gateway.mavlink.commands import CommandService
+from gateway.mavlink.mission import MissionService
+from gateway.mavlink.offboard import OffboardService
 from gateway.mavlink.params import ParamService
 from gateway.mavlink.ping import PingService
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
@@ -45,6 +47,8 @@ MAV_TYPE_GCS = 6
 class SessionStats(DecodeStats):
     rx_other_target: int = 0  # addressed to another sysid/compid
     rx_unhandled: int = 0  # valid, for us (or broadcast), but no service handles it
+    offboard_setpoints: int = 0  # setpoints handed to the vehicle
+    offboard_dropped: int = 0  # setpoint messages that were unusable (frame, inf, nothing set)
     tx_frames: int = 0
     tx_datagrams: int = 0
     tx_bytes: int = 0
@@ -78,6 +82,8 @@ class Session:
         self.params = ParamService(self)
         self.statustext = StatusTextService(self)
         self.ping = PingService(self)
+        self.mission = MissionService(self)
+        self.offboard = OffboardService(self)
         self._routes: dict[int, Callable[[Any, float], None]] = {
             M.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
             M.MAVLINK_MSG_ID_COMMAND_LONG: self.commands.on_command_long,
@@ -88,6 +94,18 @@ class Session:
             M.MAVLINK_MSG_ID_PARAM_SET: self.params.on_set,
             M.MAVLINK_MSG_ID_PING: self.ping.on_ping,
             M.MAVLINK_MSG_ID_TIMESYNC: self.ping.on_timesync,
+            M.MAVLINK_MSG_ID_MISSION_COUNT: self.mission.on_count,
+            M.MAVLINK_MSG_ID_MISSION_ITEM_INT: self.mission.on_item_int,
+            M.MAVLINK_MSG_ID_MISSION_ITEM: self.mission.on_item,
+            M.MAVLINK_MSG_ID_MISSION_REQUEST_LIST: self.mission.on_request_list,
+            M.MAVLINK_MSG_ID_MISSION_REQUEST_INT: self.mission.on_request_int,
+            M.MAVLINK_MSG_ID_MISSION_REQUEST: self.mission.on_request,
+            M.MAVLINK_MSG_ID_MISSION_ACK: self.mission.on_ack,
+            M.MAVLINK_MSG_ID_MISSION_CLEAR_ALL: self.mission.on_clear_all,
+            M.MAVLINK_MSG_ID_MISSION_SET_CURRENT: self.mission.on_set_current,
+            M.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED: self.offboard.on_local_ned,
+            M.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT: self.offboard.on_global_int,
+            M.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self.offboard.on_attitude_target,
         }
 
     # --- the sans-IO contract -----------------------------------------------------------------
@@ -113,7 +131,7 @@ class Session:
         return datagrams
 
     def get_timer(self) -> float | None:
-        t = self.params.get_timer()
+        t = min(self.params.get_timer(), self.mission.get_timer())
         if self.scheduler.next_us < NEVER:
             t = min(t, self.scheduler.next_us * 1e-6)
         return None if math.isinf(t) else t
@@ -127,6 +145,7 @@ class Session:
                 frame = spec.builder(enc, snap)
                 if frame is not None:
                     self.send(frame)
+        self.mission.handle_timer(now_s)
         self.statustext.poll(now_s)
         self.params.handle_timer(now_s)
 

@@ -23,6 +23,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.codec import Encoder
 from gateway.mavlink.heartbeat import build_extended_sys_state, build_heartbeat, build_sys_status
+from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
 
 M = mavlink2
 
@@ -35,10 +36,6 @@ GPS_H_ACC_MM = 900
 GPS_V_ACC_MM = 1780
 UINT16_UNKNOWN = 65535
 INT16_MAX = 32767
-
-# MISSION_CURRENT while no mission exists (§6): total 65535? PX4 sends the count or 65535 if none.
-MISSION_TOTAL_NONE = 65535
-MISSION_STATE_NO_MISSION = 1
 
 # BATTERY_STATUS enums
 MAV_BATTERY_FUNCTION_ALL = 1
@@ -211,9 +208,8 @@ def system_time(enc: Encoder, s: Snapshot) -> bytes:
 
 
 def mission_current(enc: Encoder, s: Snapshot) -> bytes:
-    # Until a mission service exists: "no mission" keeps MAVSDK's mission progress sane.
-    return enc.pack(M.MAVLink_mission_current_message, 0, MISSION_TOTAL_NONE,
-                    MISSION_STATE_NO_MISSION, 0)
+    # The 1 Hz copy; mission.py sends it on every change of the current item (§6).
+    return pack_mission_current(enc, mission_status_of(s.vehicle))
 
 
 Builder = Callable[[Encoder, Snapshot], "bytes | None"]

@@ -5,17 +5,17 @@ import random
 import pytest
 from pymavlink.dialects.v20 import common as M
 from pymavlink.generator.mavcrc import x25crc
+from test_mavlink_support import FakeVehicle, acks, make
 
 from gateway.mavlink import telemetry
 from gateway.mavlink.codec import (
     CRC_EXTRA_PROTOCOL_VERSION,
-    DecodeStats,
     Decoder,
+    DecodeStats,
     Encoder,
     pack_datagrams,
 )
 from gateway.mavlink.session import LinkKind
-from test_mavlink_support import FakeVehicle, acks, make
 
 
 def test_protocol_version_crc_extra_matches_xml_definition():

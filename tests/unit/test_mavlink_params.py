@@ -3,9 +3,9 @@
 import struct
 
 from pymavlink.dialects.v20 import common as M
+from test_mavlink_support import Client, FakeVehicle, make, of_type
 
 from gateway.mavlink.session import LinkKind, Session
-from test_mavlink_support import Client, FakeVehicle, make, of_type
 
 
 def raw_value(msg) -> bytes:

@@ -4,10 +4,10 @@ import math
 
 import pytest
 from pymavlink.dialects.v20 import common as M
+from test_mavlink_support import acks, make, of_type
 
 from gateway.mavlink import modes
 from gateway.mavlink.session import LinkKind
-from test_mavlink_support import acks, make, of_type
 from vehicles.types import NavState, Severity
 
 # PX4_COMPAT.md §2: every NavState → (custom_mode, base disarmed, base armed)

@@ -8,16 +8,26 @@ MAVSDK/QGC, paired with a Session in memory (h11 ConnectionPair style): no socke
 from __future__ import annotations
 
 import math
+import zlib
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.session import LinkKind, Session
 from vehicles.params import ParamStore
+from vehicles.plan_types import (
+    MissionState,
+    MissionStatus,
+    OffboardSetpoint,
+    PlanItem,
+    PlanResult,
+    PlanType,
+)
 from vehicles.types import (
     PX4_SITL_HOME,
     BatteryState,
     CommandResult,
+    GeoPoint,
     HomePosition,
     LandedState,
     NavState,
@@ -46,6 +56,14 @@ class FakeVehicle:
         self.texts: list[StatusText] = []
         self.calls: list[tuple] = []
         self.gcs_heartbeats: list[float] = []
+        # missions / offboard (README "Missions, offboard, actions and failsafes")
+        self.plans: dict[PlanType, tuple[PlanItem, ...]] = {t: () for t in PlanType}
+        self.plan_result: PlanResult | None = None  # force set_plan's answer in a test
+        self.current_seq = 0
+        self.reached_seq = -1
+        self.reached_count = 0
+        self.mission_finished = False
+        self.setpoints: list[tuple[float, OffboardSetpoint]] = []
 
     # --- contract -------------------------------------------------------------------------
     @property
@@ -112,10 +130,102 @@ class FakeVehicle:
     def on_gcs_heartbeat(self, now_s: float) -> None:
         self.gcs_heartbeats.append(now_s)
 
-    def move_to(self, north_m: float, east_m: float, down_m: float) -> None:
+    # --- plans ------------------------------------------------------------------------------
+    def plan(self, plan_type: PlanType) -> tuple[PlanItem, ...]:
+        return self.plans[plan_type]
+
+    def set_plan(self, now_s: float, plan_type: PlanType, items) -> PlanResult:
+        items = tuple(items)
+        self.calls.append(("set_plan", now_s, plan_type, items))
+        if self.plan_result is not None:
+            return self.plan_result
+        if [i.seq for i in items] != list(range(len(items))) or any(
+                i.mission_type != plan_type for i in items):
+            return PlanResult.INVALID_SEQUENCE
+        self.plans[plan_type] = items
+        if plan_type is PlanType.MISSION:
+            self.current_seq = next((i.seq for i in items if i.current), 0)
+            self.reached_seq, self.mission_finished = -1, False
+        return PlanResult.ACCEPTED
+
+    def clear_plan(self, now_s: float, plan_type: PlanType) -> PlanResult:
+        self.calls.append(("clear_plan", now_s, plan_type))
+        self.plans[plan_type] = ()
+        if plan_type is PlanType.MISSION:
+            self.current_seq = 0
+        return PlanResult.ACCEPTED
+
+    def plan_id(self, plan_type: PlanType) -> int:
+        items = self.plans[plan_type]
+        return zlib.crc32(repr(items).encode()) if items else 0
+
+    def set_current_mission_item(self, now_s: float, seq: int) -> bool:
+        self.calls.append(("set_current", now_s, seq))
+        if not 0 <= seq < len(self.plans[PlanType.MISSION]):
+            return False
+        self.current_seq = seq
+        return True
+
+    @property
+    def mission_status(self) -> MissionStatus:
+        count = len(self.plans[PlanType.MISSION])
+        in_mission = self.nav_state is NavState.AUTO_MISSION
+        if count == 0:
+            state = MissionState.NO_MISSION
+        elif self.mission_finished:
+            state = MissionState.COMPLETE
+        elif in_mission:
+            state = MissionState.ACTIVE
+        else:
+            state = MissionState.PAUSED if self.reached_seq >= 0 else MissionState.NOT_STARTED
+        return MissionStatus(self.current_seq, count, state, in_mission, self.reached_seq,
+                             self.reached_count, self.plan_id(PlanType.MISSION),
+                             self.plan_id(PlanType.FENCE), self.plan_id(PlanType.RALLY))
+
+    def reach(self, seq: int) -> None:
+        """Test helper: the navigator reached item ``seq`` and moved on."""
+        self.reached_seq, self.reached_count = seq, self.reached_count + 1
+        self.current_seq = min(seq + 1, len(self.plans[PlanType.MISSION]) - 1)
+
+    def start_mission(self, now_s: float, first_seq: int = -1) -> CommandResult:
+        self.calls.append(("start_mission", now_s, first_seq))
+        if not self.plans[PlanType.MISSION]:
+            return CommandResult.DENIED
+        self.nav_state, self.armed = NavState.AUTO_MISSION, True
+        return CommandResult.ACCEPTED
+
+    # --- offboard and actions ---------------------------------------------------------------
+    def set_offboard_setpoint(self, now_s: float, sp: OffboardSetpoint) -> None:
+        self.setpoints.append((now_s, sp))
+
+    def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
+             yaw_rad: float = math.nan, speed_mps: float = math.nan) -> CommandResult:
+        self.calls.append(("goto", now_s, lat_deg, lon_deg, alt_amsl_m, yaw_rad, speed_mps))
+        self.nav_state = NavState.AUTO_LOITER
+        return CommandResult.ACCEPTED
+
+    def change_speed(self, now_s: float, speed_mps: float) -> CommandResult:
+        self.calls.append(("change_speed", now_s, speed_mps))
+        return CommandResult.ACCEPTED
+
+    def set_home(self, now_s: float, geo: GeoPoint | None) -> CommandResult:
+        self.calls.append(("set_home", now_s, geo))
+        geo = self.global_position if geo is None else geo
+        self.home = HomePosition(geo, self.origin.ned_of(geo), 0.0)
+        return CommandResult.ACCEPTED
+
+    def terminate(self, now_s: float) -> CommandResult:
+        self.calls.append(("terminate", now_s))
+        if not self.armed:
+            return CommandResult.DENIED
+        self.terminated, self.nav_state = True, NavState.TERMINATION
+        return CommandResult.ACCEPTED
+
+    def move_to(self, north_m: float, east_m: float, down_m: float, yaw_rad: float = 0.0) -> None:
         z = np.zeros(3)
+        q = np.array([math.cos(yaw_rad / 2), 0.0, 0.0, math.sin(yaw_rad / 2)])
         self.state = VehicleState(self.state.time_s, np.array([north_m, east_m, down_m]), z.copy(),
-                                  z.copy(), np.array([1.0, 0, 0, 0]), z.copy())
+                                  z.copy(), q, z.copy())
 
 
 class Client:

@@ -14,14 +14,18 @@ from vehicles.params import ParamStore
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, NavState
 
-REQUESTABLE = {NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_RTL}
+REQUESTABLE = {NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_RTL,
+               NavState.AUTO_MISSION, NavState.OFFBOARD}
 
 
-def make(nav_state=NavState.AUTO_LOITER, position_valid=True, armed=False, landed=True):
+def make(nav_state=NavState.AUTO_LOITER, position_valid=True, armed=False, landed=True,
+         mission_valid=True, offboard_available=True):
     log = StatusLog()
     c = Commander(ParamStore(), log)
     c.position_valid = position_valid
-    c.nav_state = nav_state
+    c.mission_valid = mission_valid
+    c.offboard_available = offboard_available
+    c.nav_state = c.user_nav_state = nav_state
     c.armed = armed
     c.landed = landed
     return c, log
@@ -51,6 +55,39 @@ def test_every_mode_request_from_every_mode_has_a_defined_answer(current, target
         assert MODE_TABLE[target].switch is not SwitchRule.ALLOWED
         assert result is CommandResult.TEMPORARILY_REJECTED
         assert c.nav_state is current
+
+
+@pytest.mark.parametrize("mission_valid", [False, True])
+@pytest.mark.parametrize("offboard_available", [False, True])
+@pytest.mark.parametrize("target", list(NavState))
+def test_mission_and_offboard_requirements(target, mission_valid, offboard_available):
+    c, _ = make(mission_valid=mission_valid, offboard_available=offboard_available)
+    spec = MODE_TABLE[target]
+    result = c.request_nav_state(0.0, target)
+    blocked = (spec.needs_mission and not mission_valid) or (
+        spec.needs_offboard and not offboard_available)
+    if target in REQUESTABLE and not blocked:
+        assert result is CommandResult.ACCEPTED
+    else:
+        assert result is CommandResult.TEMPORARILY_REJECTED
+        assert c.nav_state is NavState.AUTO_LOITER
+    assert spec.needs_mission is (target is NavState.AUTO_MISSION)
+    assert spec.needs_offboard is (target is NavState.OFFBOARD)
+
+
+@pytest.mark.parametrize("current", list(NavState))
+@pytest.mark.parametrize("armed", [False, True])
+def test_termination_from_every_mode(current, armed):
+    c, _ = make(current, armed=armed, landed=not armed)
+    result = c.terminate(0.0)
+    if not armed:
+        assert result is CommandResult.DENIED and not c.terminated
+        return
+    assert result is CommandResult.ACCEPTED
+    assert c.terminated and c.nav_state is NavState.TERMINATION
+    assert not c.prearm_ok()
+    # Final: no mode request is honoured any more.
+    assert c.request_nav_state(0.0, NavState.AUTO_LOITER) is CommandResult.TEMPORARILY_REJECTED
 
 
 @pytest.mark.parametrize("target", sorted(REQUESTABLE))

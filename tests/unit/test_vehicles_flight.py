@@ -1,6 +1,5 @@
 """Whole vehicles in a PyBullet World: physics + autopilot, on simulated time only."""
 
-import math
 
 import numpy as np
 import pytest

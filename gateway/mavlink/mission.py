@@ -1,0 +1,369 @@
+"""Mission protocol server (mission / fence / rally) for one link, as PX4's MavlinkMissionManager.
+
+Source: PX4_COMPAT.md §6 and PX4 src/modules/mavlink/mavlink_mission.cpp; shape after MAVSDK's
+mavlink_mission_transfer_server (one state machine, named timeouts, result codes).
+Rules and invariants:
+- Accepted only with target_system == own (0 is not enough) and target_component ∈ {0, 1, 190}.
+- Upload: MISSION_COUNT → MISSION_REQUEST_INT seq 0.. (legacy MISSION_REQUEST after the client
+  answers MISSION_ACK UNSUPPORTED, or once it sends float MISSION_ITEMs) → items are buffered
+  here; only the complete list goes to ``vehicle.set_plan`` and its PlanResult is the MISSION_ACK.
+  So a lost, aborted or timed-out upload never leaves a half-written plan. The vehicle validates
+  (frames, commands): an invalid item is reported when the list is complete, not at the item
+  (PX4 aborts at the bad item; the ACK code is the same).
+- The expected item is re-requested every RETRY_S; TIMEOUT_S without anything from the partner
+  aborts the transfer with "Operation timeout". Out-of-sequence items are ignored (the retry
+  re-requests). A repeat of the last item after completion is re-ACKed with the same result.
+- One upload per vehicle at a time across all links (PX4's static _transfer_in_progress): a
+  MISSION_COUNT while another link uploads → MISSION_ACK ERROR.
+- Download: MISSION_REQUEST_LIST → MISSION_COUNT → the client requests each seq (INT or legacy)
+  → MISSION_ITEM_INT / MISSION_ITEM → client MISSION_ACK. The list is snapshotted at
+  REQUEST_LIST, so a concurrent upload elsewhere cannot mix two plans into one download.
+  An empty plan answers COUNT 0 and stays idle. The client drives retries (PX4 never resends).
+- MISSION_CURRENT goes out at once on this link after MISSION_SET_CURRENT, and on every link
+  whenever ``vehicle.mission_status.current_seq`` changes (checked at each wake-up); the 1 Hz
+  stream is in telemetry.py. MISSION_ITEM_REACHED goes out when ``reached_count`` changes, then
+  REACHED_REPEATS more times at 1 Hz (PX4: "send the reached message another 10 times").
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import math
+from typing import TYPE_CHECKING, Any
+
+from pymavlink.dialects.v20 import common as mavlink2
+
+from gateway.mavlink.mission_items import (
+    item_from_float,
+    item_from_int,
+    mission_status_of,
+    pack_item,
+    pack_item_reached,
+    pack_mission_current,
+    plan_type_of,
+)
+from vehicles.plan_types import PlanItem, PlanResult, PlanType
+from vehicles.plans import CAPACITY  # one source: what the vehicle can store
+from vehicles.types import Severity
+
+if TYPE_CHECKING:
+    from gateway.mavlink.session import Session
+
+M = mavlink2
+
+RETRY_S = 0.25  # MAVLINK_MISSION_RETRY_TIMEOUT_DEFAULT: re-request the expected item
+TIMEOUT_S = 5.0  # MAVLINK_MISSION_PROTOCOL_TIMEOUT_DEFAULT: give the transfer up
+REACHED_REPEATS = 10  # MISSION_ITEM_REACHED repeats after the first one
+REPEAT_INTERVAL_S = 1.0
+MISSION_TYPE_ALL = 255
+MISSION_COMPONENTS = frozenset({0, 1, 190})  # autopilot, broadcast, MAV_COMP_ID_MISSIONPLANNER
+
+# MAV_MISSION_RESULT codes this module produces itself (the vehicle's come as PlanResult).
+ACCEPTED = PlanResult.ACCEPTED
+ERROR = PlanResult.ERROR
+UNSUPPORTED = PlanResult.UNSUPPORTED
+NO_SPACE = PlanResult.NO_SPACE
+OPERATION_CANCELLED = 15
+
+# Per-vehicle upload owner, shared by every link's service (PX4: static _transfer_in_progress).
+_UPLOADS: dict[int, MissionService] = {}
+
+
+class Phase(enum.Enum):
+    IDLE = "idle"
+    UPLOAD = "upload"  # PX4 MAVLINK_WPM_STATE_GETLIST
+    DOWNLOAD = "download"  # PX4 MAVLINK_WPM_STATE_SENDLIST
+
+
+class MissionService:
+    def __init__(self, session: Session) -> None:
+        self.s = session
+        self.phase = Phase.IDLE
+        self.partner = (0, 0)
+        self.mission_type = int(PlanType.MISSION)
+        self.count = 0
+        self.seq = 0  # upload: next expected item; download: next item to be requested
+        self.int_mode = True
+        self._items: list[PlanItem] = []
+        self._download: tuple[PlanItem, ...] = ()
+        self._retry_at = math.inf
+        self._timeout_at = math.inf
+        # (partner, mission_type, last seq, result) of the last completed upload, for re-ACKs
+        self._completed: tuple[tuple[int, int], int, int, int] | None = None
+        st = mission_status_of(session.vehicle)
+        self._last_current = st.current_seq
+        self._last_reached_count = st.reached_count
+        self._reached_seq = -1
+        self._repeats_left = 0
+        self._repeat_at = math.inf
+
+    # --- helpers ------------------------------------------------------------------------------
+    @property
+    def vehicle(self) -> Any:
+        return self.s.vehicle
+
+    def _for_us(self, msg: Any) -> bool:
+        if msg.target_system == self.s.sysid and msg.target_component in MISSION_COMPONENTS:
+            return True
+        self.s.stats.rx_other_target += 1
+        return False
+
+    def _text(self, now_s: float, text: str, severity: Severity = Severity.CRITICAL) -> None:
+        self.s.statustext.local(now_s, severity, text)
+
+    def ack(self, to: tuple[int, int], result: int, mission_type: int) -> None:
+        self.s.send(self.s.encoder.pack(M.MAVLink_mission_ack_message, to[0], to[1], int(result),
+                                        mission_type & 0xFF))
+
+    def _heard(self, now_s: float) -> None:
+        self._timeout_at = now_s + TIMEOUT_S
+
+    def _idle(self) -> None:
+        if self.phase is Phase.UPLOAD and _UPLOADS.get(id(self.vehicle)) is self:
+            del _UPLOADS[id(self.vehicle)]
+        self.phase = Phase.IDLE
+        self._items = []
+        self._download = ()
+        self._retry_at = self._timeout_at = math.inf
+
+    def _other_upload_active(self, now_s: float) -> bool:
+        owner = _UPLOADS.get(id(self.vehicle))
+        return (owner is not None and owner is not self and owner.s.vehicle is self.vehicle
+                and owner.phase is Phase.UPLOAD and now_s < owner._timeout_at)
+
+    def _request(self, now_s: float) -> None:
+        cls = M.MAVLink_mission_request_int_message if self.int_mode else \
+            M.MAVLink_mission_request_message
+        self.s.send(self.s.encoder.pack(cls, self.partner[0], self.partner[1], self.seq,
+                                        self.mission_type))
+        self._retry_at = now_s + RETRY_S
+
+    # --- upload -------------------------------------------------------------------------------
+    def on_count(self, msg: M.MAVLink_mission_count_message, now_s: float) -> None:
+        if not self._for_us(msg):
+            return
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        if self.phase is Phase.DOWNLOAD and self.seq >= self.count:
+            self._idle()  # every item was sent and only the client's ACK got lost
+        if self.phase is Phase.UPLOAD:
+            self._heard(now_s)
+            if self.seq == 0 and src == self.partner:
+                self._request(now_s)  # our first request was lost: the client repeats COUNT
+            else:
+                self._text(now_s, "WPM: REJ. CMD: Busy")
+                self.ack(src, ERROR, msg.mission_type)
+            return
+        if self.phase is Phase.DOWNLOAD:
+            self._text(now_s, "WPM: IGN MISSION_COUNT: Busy")
+            self.ack(src, ERROR, msg.mission_type)
+            return
+        ptype = plan_type_of(msg.mission_type)
+        if ptype is None or not hasattr(self.vehicle, "set_plan"):
+            self.ack(src, UNSUPPORTED, msg.mission_type)
+            return
+        if self._other_upload_active(now_s):
+            self.ack(src, ERROR, msg.mission_type)
+            return
+        if msg.count > CAPACITY[ptype]:
+            self.ack(src, NO_SPACE, msg.mission_type)
+            return
+        self._completed = None
+        if msg.count == 0:
+            self.ack(src, self.vehicle.clear_plan(now_s, ptype), msg.mission_type)
+            return
+        self.phase = Phase.UPLOAD
+        _UPLOADS[id(self.vehicle)] = self
+        self.partner, self.mission_type, self.count, self.seq = src, int(ptype), msg.count, 0
+        self._items = []
+        self._heard(now_s)
+        self._request(now_s)
+
+    def on_item_int(self, msg: M.MAVLink_mission_item_int_message, now_s: float) -> None:
+        self._on_item(msg, item_from_int(msg), True, now_s)
+
+    def on_item(self, msg: M.MAVLink_mission_item_message, now_s: float) -> None:
+        self._on_item(msg, item_from_float(msg), False, now_s)
+
+    def _on_item(self, msg: Any, item: PlanItem, is_int: bool, now_s: float) -> None:
+        if not self._for_us(msg):
+            return
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        self.int_mode = is_int  # PX4 follows the client's item flavour from here on
+        if msg.mission_type != self.mission_type:
+            self.ack(src, ERROR, msg.mission_type)
+            return
+        if self.phase is Phase.IDLE:
+            done = self._completed
+            if done is not None and done[:3] == (src, msg.mission_type, msg.seq):
+                self.ack(src, done[3], msg.mission_type)  # our final ACK was lost
+            else:
+                self._text(now_s, "IGN MISSION_ITEM: No transfer")
+                self.ack(src, ERROR, msg.mission_type)
+            return
+        if self.phase is Phase.DOWNLOAD:
+            self._text(now_s, "IGN MISSION_ITEM: Busy")
+            self.ack(src, ERROR, msg.mission_type)
+            return
+        if src != self.partner:
+            return
+        self._heard(now_s)
+        if msg.seq != self.seq:
+            return  # a duplicate or a jump ahead: ignored, the retry timer re-requests
+        self._items.append(item)
+        self.seq += 1
+        if self.seq < self.count:
+            self._request(now_s)
+            return
+        items, ptype = tuple(self._items), PlanType(self.mission_type)
+        self._idle()
+        result = int(self.vehicle.set_plan(now_s, ptype, items))
+        self._completed = (self.partner, self.mission_type, self.count - 1, result)
+        self.ack(self.partner, result, self.mission_type)
+
+    # --- download -----------------------------------------------------------------------------
+    def on_request_list(self, msg: M.MAVLink_mission_request_list_message, now_s: float) -> None:
+        if not self._for_us(msg):
+            return
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        if self.phase is Phase.DOWNLOAD and self.seq >= self.count:
+            self._idle()
+        busy = self.phase is Phase.UPLOAD or (
+            self.phase is Phase.DOWNLOAD and msg.mission_type != self.mission_type)
+        if busy:
+            self._text(now_s, "Mission download request ignored, already active", Severity.INFO)
+            return
+        ptype = plan_type_of(msg.mission_type)
+        if ptype is None:
+            self.ack(src, UNSUPPORTED, msg.mission_type)
+            return
+        self._idle()
+        plan = getattr(self.vehicle, "plan", None)
+        items = tuple(plan(ptype)) if plan is not None else ()
+        self.partner, self.mission_type, self.count, self.seq = src, int(ptype), len(items), 0
+        if items:
+            self.phase = Phase.DOWNLOAD
+            self._download = items
+            self._heard(now_s)
+        self.s.send(self.s.encoder.pack(M.MAVLink_mission_count_message, src[0], src[1],
+                                        len(items), int(ptype)))
+
+    def on_request_int(self, msg: M.MAVLink_mission_request_int_message, now_s: float) -> None:
+        self._on_request(msg, True, now_s)
+
+    def on_request(self, msg: M.MAVLink_mission_request_message, now_s: float) -> None:
+        self._on_request(msg, False, now_s)
+
+    def _on_request(self, msg: Any, is_int: bool, now_s: float) -> None:
+        if not self._for_us(msg):
+            return
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        self.int_mode = is_int
+        if self.phase is Phase.IDLE:
+            return  # PX4 ignores stray requests silently (buggy OSDs send them)
+        if src != self.partner:
+            self._text(now_s, "WPM: REJ. CMD: partner id mismatch")
+            return
+        if self.phase is Phase.UPLOAD:
+            self._text(now_s, "WPM: REJ. CMD: Busy")
+            return
+        if msg.mission_type != self.mission_type:
+            return
+        self._heard(now_s)
+        if msg.seq == self.seq and self.seq < self.count:
+            self.seq += 1
+        elif msg.seq != self.seq - 1:  # neither the next item nor a repeat of the last one
+            mission_type = self.mission_type
+            self._idle()
+            self.ack(src, ERROR, mission_type)
+            self._text(now_s, "WPM: REJ. CMD: Req. WP was unexpected")
+            return
+        item = self._download[msg.seq]
+        if self.mission_type == PlanType.MISSION:  # PX4 marks the current item on download
+            current = int(msg.seq == mission_status_of(self.vehicle).current_seq)
+            item = dataclasses.replace(item, current=current)
+        self.s.send(pack_item(self.s.encoder, item, msg.seq, self.mission_type, src,
+                              self.int_mode))
+
+    def on_ack(self, msg: M.MAVLink_mission_ack_message, now_s: float) -> None:
+        if not self._for_us(msg) or self.phase is Phase.IDLE:
+            return
+        if (msg.get_srcSystem(), msg.get_srcComponent()) != self.partner:
+            self._text(now_s, "REJ. WP CMD: partner id mismatch")
+            return
+        if self.phase is Phase.DOWNLOAD:
+            if msg.mission_type == self.mission_type:
+                self._idle()  # whatever the result: the client is done
+            return
+        if msg.type == UNSUPPORTED:  # the client cannot do MISSION_ITEM_INT (or the reverse)
+            self.int_mode = not self.int_mode
+            self._heard(now_s)
+            self._request(now_s)
+        elif msg.type == OPERATION_CANCELLED:
+            self._idle()
+
+    # --- clear / set current ------------------------------------------------------------------
+    def on_clear_all(self, msg: M.MAVLink_mission_clear_all_message, now_s: float) -> None:
+        if not self._for_us(msg):
+            return
+        src = (msg.get_srcSystem(), msg.get_srcComponent())
+        if self.phase is not Phase.IDLE:
+            self._text(now_s, "WPM: IGN CLEAR CMD: Busy")
+            return
+        if msg.mission_type == MISSION_TYPE_ALL:
+            types = list(PlanType)
+        else:
+            ptype = plan_type_of(msg.mission_type)
+            types = [] if ptype is None else [ptype]
+        if not types or not hasattr(self.vehicle, "clear_plan"):
+            self.ack(src, UNSUPPORTED, msg.mission_type)
+            return
+        self._completed = None
+        results = [int(self.vehicle.clear_plan(now_s, t)) for t in types]
+        failed = [r for r in results if r != ACCEPTED]
+        self.ack(src, failed[0] if failed else ACCEPTED, msg.mission_type)
+
+    def on_set_current(self, msg: M.MAVLink_mission_set_current_message, now_s: float) -> None:
+        if not self._for_us(msg):
+            return
+        if self.phase is not Phase.IDLE:
+            self._text(now_s, "WPM: IGN WP CURR CMD: Busy")
+            return
+        setter = getattr(self.vehicle, "set_current_mission_item", None)
+        if setter is None or not setter(now_s, msg.seq):
+            self._text(now_s, "WPM: WP CURR CMD: Not in list")
+            return
+        st = mission_status_of(self.vehicle)
+        self._last_current = st.current_seq
+        self.s.send(pack_mission_current(self.s.encoder, st))  # MAVSDK waits for exactly this
+
+    # --- timers -------------------------------------------------------------------------------
+    def get_timer(self) -> float:
+        return min(self._retry_at, self._timeout_at, self._repeat_at)
+
+    def handle_timer(self, now_s: float) -> None:
+        if self.phase is not Phase.IDLE and now_s >= self._timeout_at:
+            self._text(now_s, "Operation timeout")
+            self._idle()
+        elif self.phase is Phase.UPLOAD and now_s >= self._retry_at:
+            self._request(now_s)
+        self._poll_status(now_s)
+
+    def _poll_status(self, now_s: float) -> None:
+        st = mission_status_of(self.vehicle)
+        enc = self.s.encoder
+        if st.current_seq != self._last_current:
+            self._last_current = st.current_seq
+            if 0 <= st.current_seq < st.count:
+                self.s.send(pack_mission_current(enc, st))
+        if st.reached_count != self._last_reached_count:
+            self._last_reached_count = st.reached_count
+            if st.reached_seq >= 0 and st.count > 0:
+                self._reached_seq = st.reached_seq
+                self.s.send(pack_item_reached(enc, st.reached_seq))
+                self._repeats_left = REACHED_REPEATS
+                self._repeat_at = now_s + REPEAT_INTERVAL_S
+        if self._repeats_left > 0 and now_s >= self._repeat_at:
+            self.s.send(pack_item_reached(enc, self._reached_seq))
+            self._repeats_left -= 1
+            self._repeat_at = now_s + REPEAT_INTERVAL_S if self._repeats_left else math.inf

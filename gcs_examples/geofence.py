@@ -1,0 +1,51 @@
+#!/usr/bin/env python3
+"""Upload a 30 m square inclusion geofence, then fly out of it: PX4's GF_ACTION (Hold) stops us.
+
+A goto outside the fence would be refused ("Reposition is outside geofence"), so the vehicle
+leaves the fence under offboard velocity control, as a misbehaving companion computer would.
+"""
+
+import asyncio
+
+from _common import arguments, connect, first_value, offset, wait_landed
+from mavsdk.geofence import FenceType, GeofenceData, Point, Polygon
+from mavsdk.offboard import VelocityNedYaw
+
+
+async def run(port: int, grpc_port: int) -> None:
+    drone = await connect(port, grpc_port)
+    home = await first_value(drone.telemetry.home())
+    lat0, lon0 = home.latitude_deg, home.longitude_deg
+    corners = [offset(lat0, lon0, n, e) for n, e in [(-15, -15), (15, -15), (15, 15), (-15, 15)]]
+    polygon = Polygon([Point(lat, lon) for lat, lon in corners], FenceType.INCLUSION)
+    print("-- Uploading the geofence")
+    await drone.geofence.upload_geofence(GeofenceData([polygon], []))
+
+    async def texts():
+        async for t in drone.telemetry.status_text():
+            print(f"   [{t.type}] {t.text}")
+
+    text_task = asyncio.ensure_future(texts())
+    await drone.action.arm()
+    await drone.action.takeoff()
+    await asyncio.sleep(8)
+    print("-- Flying north at 3 m/s in offboard, towards the fence")
+    await drone.offboard.set_velocity_ned(VelocityNedYaw(3.0, 0.0, 0.0, 0.0))
+    await drone.offboard.start()
+    await asyncio.sleep(15)
+    async for mode in drone.telemetry.flight_mode():
+        print(f"-- Flight mode now: {mode}")
+        break
+    async for pv in drone.telemetry.position_velocity_ned():
+        print(f"-- Stopped {pv.position.north_m:.1f} m north of the start")
+        break
+    print("-- Landing")
+    await drone.offboard.stop()
+    await drone.action.land()
+    await wait_landed(drone)
+    text_task.cancel()
+
+
+if __name__ == "__main__":
+    args = arguments(__doc__.splitlines()[0])
+    asyncio.run(run(args.port, args.grpc_port))

@@ -1,0 +1,127 @@
+"""The PX4 persona with unmodified MAVSDK-Python 3.x: offboard, missions, goto/hold/RTL, params."""
+
+import asyncio
+import math
+
+import pytest
+from mavsdk.mission import MissionItem, MissionPlan
+from mavsdk.offboard import PositionNedYaw, VelocityBodyYawspeed
+
+from tests.e2e.persona import (
+    HOME_LAT,
+    HOME_LON,
+    connected,
+    distance_m,
+    first,
+    land_and_disarm,
+    latest,
+    offset_deg,
+)
+
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
+
+
+def near(pv, n, e, d, tol):
+    p = pv.position
+    return math.dist((p.north_m, p.east_m, p.down_m), (n, e, d)) < tol
+
+
+@pytest.mark.asyncio
+async def test_offboard_position_then_body_velocity(daemon_factory):
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        await drone.action.arm()
+        await drone.offboard.set_position_ned(PositionNedYaw(0.0, 0.0, 0.0, 0.0))
+        await drone.offboard.start()
+        for n, e, dn in [(0, 0, -5), (10, 0, -5), (10, 10, -8)]:
+            await drone.offboard.set_position_ned(PositionNedYaw(n, e, dn, 0.0))
+            await first(drone.telemetry.position_velocity_ned(),
+                        lambda pv, n=n, e=e, dn=dn: near(pv, n, e, dn, 0.7), 40,
+                        f"offboard position ({n}, {e}, {dn})")
+        await drone.offboard.set_position_ned(PositionNedYaw(10, 10, -8, 90.0))
+        await first(drone.telemetry.heading(), lambda h: abs(h.heading_deg - 90) < 5, 20,
+                    "yaw 90")
+        start = (await latest(drone.telemetry.position_velocity_ned())).position
+        await drone.offboard.set_velocity_body(VelocityBodyYawspeed(2.0, 0.0, 0.0, 0.0))
+        await asyncio.sleep(4)
+        end = (await latest(drone.telemetry.position_velocity_ned())).position
+        assert end.east_m - start.east_m > 4.0, (start, end)  # forward = east when facing 90°
+        assert abs(end.north_m - start.north_m) < 1.5, (start, end)
+        await drone.offboard.stop()
+        await drone.action.land()
+        await land_and_disarm(drone)
+
+
+def square_mission(side_m: float = 20.0) -> list[MissionItem]:
+    items = []
+    for i, (n, e) in enumerate([(side_m, 0), (side_m, side_m), (0, side_m), (0, 0)]):
+        lat, lon = offset_deg(HOME_LAT, HOME_LON, n + 2, e + 2)
+        items.append(MissionItem(lat, lon, 12.0 + i, 5.0, True, float("nan"), float("nan"),
+                                 MissionItem.CameraAction.NONE, float("nan"), float("nan"),
+                                 float("nan"), float("nan"), float("nan"),
+                                 MissionItem.VehicleAction.NONE))
+    return items
+
+
+@pytest.mark.asyncio
+async def test_mission_square_with_return(daemon_factory):
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        items = square_mission()
+        await drone.mission.set_return_to_launch_after_mission(True)
+        await drone.mission.upload_mission(MissionPlan(items))
+        downloaded = await drone.mission.download_mission()
+        assert len(downloaded.mission_items) == len(items)
+        for up, down in zip(items, downloaded.mission_items, strict=True):
+            assert up.latitude_deg == pytest.approx(down.latitude_deg, abs=1e-7)
+            assert up.longitude_deg == pytest.approx(down.longitude_deg, abs=1e-7)
+            assert up.relative_altitude_m == pytest.approx(down.relative_altitude_m, abs=1e-3)
+        home = await latest(drone.telemetry.home())
+        await drone.action.arm()
+        await drone.mission.start_mission()
+        progress = await first(drone.mission.mission_progress(),
+                               lambda p: p.total > 0 and p.current == p.total, 240,
+                               "mission progress to reach total")
+        assert progress.total == len(items)
+        await land_and_disarm(drone, 180)
+        pos = await latest(drone.telemetry.position())
+        assert distance_m(home.latitude_deg, home.longitude_deg,
+                          pos.latitude_deg, pos.longitude_deg) < 2.0
+
+
+@pytest.mark.asyncio
+async def test_takeoff_altitude_params_goto_hold_and_return(daemon_factory):
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        assert await drone.action.get_takeoff_altitude() == pytest.approx(2.5)
+        await drone.action.set_takeoff_altitude(6.0)
+        assert await drone.param.get_param_float("MIS_TAKEOFF_ALT") == pytest.approx(6.0)
+        all_params = await drone.param.get_all_params()
+        assert len(all_params.int_params) + len(all_params.float_params) >= 100
+        await drone.action.arm()
+        await drone.action.takeoff()
+        await first(drone.telemetry.position(), lambda p: p.relative_altitude_m > 5.7, 30,
+                    "takeoff to 6 m")
+        await asyncio.sleep(3)
+        assert 5.7 < (await latest(drone.telemetry.position())).relative_altitude_m < 6.3
+
+        home = await latest(drone.telemetry.home())
+        lat, lon = offset_deg(home.latitude_deg, home.longitude_deg, 21.0, 28.0)  # 35 m away
+        amsl = home.absolute_altitude_m + 15.0
+        await drone.action.goto_location(lat, lon, amsl, 0.0)
+
+        def arrived(p):
+            return distance_m(lat, lon, p.latitude_deg, p.longitude_deg) < 1.5 and \
+                abs(p.absolute_altitude_m - amsl) < 1.5
+
+        await first(drone.telemetry.position(), arrived, 60, "goto target")
+        await drone.action.hold()
+        for _ in range(10):
+            await asyncio.sleep(0.5)
+            assert arrived(await latest(drone.telemetry.position()))
+
+        await drone.action.return_to_launch()
+        await land_and_disarm(drone, 120)
+        pos = await latest(drone.telemetry.position())
+        assert distance_m(home.latitude_deg, home.longitude_deg,
+                          pos.latitude_deg, pos.longitude_deg) < 2.0

@@ -1,0 +1,538 @@
+"""Mission protocol server (mission / fence / rally) against the FakeVehicle, in memory.
+
+The lossy tests run a MAVSDK-like client state machine (0.5 s timeouts, 5 retries, plus QGC's
+re-send of the last item when the final ACK is missing) over a seeded network that drops 20 %
+of the datagrams both ways, on virtual time (MAVSDK's mission_transfer_lossy, STYLE habit 10).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import random
+
+import pytest
+from pymavlink.dialects.v20 import common as M
+from test_mavlink_support import Client, FakeVehicle, make, of_type
+
+from gateway.mavlink import mission
+from gateway.mavlink.session import LinkKind, Session
+from vehicles.plan_types import PlanItem, PlanResult, PlanType
+from vehicles.types import NavState
+
+LAT, LON = 473977420, 85455940
+NAN = math.nan
+
+
+def wp(seq, lat=LAT, lon=LON, alt=10.0, cmd=16, frame=6, current=0, mission_type=0,
+       params=(0.0, 3.0, 0.0, NAN)):
+    return PlanItem(seq, frame, cmd, current, 1, *params, lat, lon, alt, mission_type)
+
+
+def mavsdk_mission() -> list[PlanItem]:
+    """MSDK-Py examples/mission.py: 3 fly-through waypoints at 25 m with speed 10, then RTL."""
+    items = []
+    for k in range(3):
+        items.append(wp(len(items), LAT + 1000 * k, LON + 500 * k, 25.0, current=int(k == 0)))
+        items.append(PlanItem(len(items), 2, 178, 0, 1, 1.0, 10.0, -1.0, 0.0, 0, 0, NAN))
+    items.append(PlanItem(len(items), 2, 20, 0, 1, NAN, NAN, NAN, NAN, 0, 0, NAN))
+    return items
+
+
+def fence_items() -> list[PlanItem]:
+    return [PlanItem(i, 0, 5001, 0, 1, 4.0, 0, 0, 0, LAT + dx, LON + dy, 0.0, 1)
+            for i, (dx, dy) in enumerate([(0, 0), (5000, 0), (5000, 5000), (0, 5000)])] + [
+        PlanItem(4, 0, 5004, 0, 1, 30.0, 0, 0, 0, LAT + 2000, LON + 2000, 0.0, 1)]
+
+
+def rally_items() -> list[PlanItem]:
+    return [PlanItem(i, 3, 5100, 0, 1, 0, 0, 0, 0, LAT + 300 * i, LON, 20.0 + i, 2)
+            for i in range(3)]
+
+
+def item_int_msg(item: PlanItem, target=(1, 1)) -> M.MAVLink_mission_item_int_message:
+    return M.MAVLink_mission_item_int_message(
+        *target, item.seq, item.frame, item.command, item.current, item.autocontinue,
+        item.param1, item.param2, item.param3, item.param4, item.x, item.y, item.z,
+        item.mission_type)
+
+
+def same(a: PlanItem, b: PlanItem, xy_tol: int = 0) -> bool:
+    """Field-by-field equality with NaN == NaN (float32 on the wire); x/y within xy_tol."""
+    for name in PlanItem.__dataclass_fields__:
+        x, y = getattr(a, name), getattr(b, name)
+        if name in ("x", "y"):
+            if abs(x - y) > xy_tol:
+                return False
+        elif isinstance(x, float) and math.isnan(x):
+            if not math.isnan(y):
+                return False
+        elif isinstance(x, float):
+            if abs(x - y) > 1e-4 * max(1.0, abs(x)):
+                return False
+        elif x != y:
+            return False
+    return True
+
+
+def item_from_wire(m, mission_type) -> PlanItem:
+    if m.get_type() == "MISSION_ITEM_INT":
+        x, y = m.x, m.y
+    else:
+        scale = 1e7 if m.frame in (0, 3, 5, 6) else 1.0
+        x, y = int(round(m.x * scale)), int(round(m.y * scale))
+    return PlanItem(m.seq, m.frame, m.command, m.current, m.autocontinue, m.param1, m.param2,
+                    m.param3, m.param4, x, y, m.z, m.mission_type)
+
+
+def upload(client: Client, items, mission_type=0, target=(1, 1)):
+    """Perfect-link upload answering every request; returns all messages received."""
+    got = client.send(M.MAVLink_mission_count_message(*target, len(items), mission_type))
+    out = list(got)
+    for _ in range(len(items) + 1):
+        reqs = [m for m in got if m.get_type() in ("MISSION_REQUEST_INT", "MISSION_REQUEST")]
+        if not reqs:
+            break
+        got = client.send(item_int_msg(items[reqs[-1].seq], target))
+        out += got
+    return out
+
+
+def download(client: Client, mission_type=0, use_int=True, target=(1, 1)):
+    got = client.send(M.MAVLink_mission_request_list_message(*target, mission_type))
+    count = of_type(got, "MISSION_COUNT")
+    assert count and count[0].mission_type == mission_type
+    items = []
+    cls = M.MAVLink_mission_request_int_message if use_int else M.MAVLink_mission_request_message
+    name = "MISSION_ITEM_INT" if use_int else "MISSION_ITEM"
+    for seq in range(count[0].count):
+        m = of_type(client.send(cls(*target, seq, mission_type)), name)
+        assert len(m) == 1 and m[0].seq == seq
+        items.append(item_from_wire(m[0], mission_type))
+    client.send(M.MAVLink_mission_ack_message(*target, 0, mission_type))
+    return items
+
+
+def mission_acks(msgs):
+    return [(m.type, m.mission_type) for m in of_type(msgs, "MISSION_ACK")]
+
+
+# --- upload / download ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("plan_type, items", [
+    (PlanType.MISSION, mavsdk_mission()),
+    (PlanType.FENCE, fence_items()),
+    (PlanType.RALLY, rally_items()),
+], ids=["mission", "fence", "rally"])
+def test_upload_download_round_trip(plan_type, items):
+    vehicle, session, client = make()
+    got = upload(client, items, int(plan_type))
+    reqs = of_type(got, "MISSION_REQUEST_INT")
+    assert [r.seq for r in reqs] == list(range(len(items)))
+    assert all((r.target_system, r.target_component, r.mission_type) == (245, 190, plan_type)
+               for r in reqs)
+    assert mission_acks(got) == [(0, plan_type)]
+    ack = of_type(got, "MISSION_ACK")[0]
+    assert (ack.target_system, ack.target_component) == (245, 190)
+    assert len(vehicle.plans[plan_type]) == len(items)
+    assert all(same(a, b) for a, b in zip(vehicle.plans[plan_type], items))
+    back = download(client, int(plan_type))
+    assert len(back) == len(items) and all(same(a, b) for a, b in zip(back, items))
+    assert session.mission.phase is mission.Phase.IDLE
+
+
+def test_mavsdk_upload_is_prompt_and_sets_current():
+    vehicle, session, client = make()
+    got = client.send(M.MAVLink_mission_count_message(1, 190, 7, 0))
+    assert [(m.get_type(), m.seq) for m in got] == [("MISSION_REQUEST_INT", 0)]  # no waiting
+    got = upload(client, mavsdk_mission(), 0, target=(1, 190))
+    assert mission_acks(got) == [(0, 0)]
+    set_plan = [c for c in vehicle.calls if c[0] == "set_plan"]
+    assert len(set_plan) == 1 and [i.command for i in set_plan[0][3]] == [
+        16, 178, 16, 178, 16, 178, 20]
+    # MISSION_CURRENT now reports the mission: total 7, not started
+    mc = of_type(client.run_until(1.5), "MISSION_CURRENT")[-1]
+    assert (mc.seq, mc.total, mc.mission_state, mc.mission_mode) == (0, 7, 2, 2)
+
+
+def test_legacy_float_client():
+    """A client that answers MISSION_REQUEST_INT with MISSION_ACK UNSUPPORTED gets REQUESTs."""
+    vehicle, session, client = make()
+    items = rally_items()
+    got = client.send(M.MAVLink_mission_count_message(1, 1, len(items), 2))
+    assert of_type(got, "MISSION_REQUEST_INT")[0].seq == 0
+    got = client.send(M.MAVLink_mission_ack_message(1, 1, 3, 2))  # UNSUPPORTED
+    assert [(m.get_type(), m.seq) for m in got] == [("MISSION_REQUEST", 0)]
+    for it in items:
+        assert got[-1].get_type() in ("MISSION_REQUEST", "MISSION_ACK")
+        got = client.send(M.MAVLink_mission_item_message(
+            1, 1, it.seq, it.frame, it.command, it.current, it.autocontinue, it.param1,
+            it.param2, it.param3, it.param4, it.x * 1e-7, it.y * 1e-7, it.z, 2))
+    assert mission_acks(got) == [(0, 2)]
+    # float32 degrees resolve ~4e-6° at 47° (why MISSION_ITEM_INT exists): ≤ 0.5 m here
+    stored = vehicle.plans[PlanType.RALLY]
+    assert len(stored) == 3 and all(same(a, b, xy_tol=50) for a, b in zip(stored, items))
+    back = download(client, 2, use_int=False)
+    assert all(same(a, b, xy_tol=50) for a, b in zip(back, stored))
+
+
+def test_count_zero_clears_and_clear_all():
+    vehicle, session, client = make()
+    upload(client, mavsdk_mission())
+    upload(client, fence_items(), 1)
+    got = client.send(M.MAVLink_mission_count_message(1, 1, 0, 0))
+    assert mission_acks(got) == [(0, 0)] and vehicle.plans[PlanType.MISSION] == ()
+    got = client.send(M.MAVLink_mission_clear_all_message(1, 1, 1))
+    assert mission_acks(got) == [(0, 1)] and vehicle.plans[PlanType.FENCE] == ()
+    upload(client, rally_items(), 2)
+    got = client.send(M.MAVLink_mission_clear_all_message(1, 1, 255))
+    assert mission_acks(got) == [(0, 255)]
+    assert all(p == () for p in vehicle.plans.values())
+    for t in (0, 1, 2):  # empty plans download as COUNT 0 (QGC's connect sequence)
+        got = client.send(M.MAVLink_mission_request_list_message(1, 190, t))
+        assert [(m.get_type(), m.count, m.mission_type) for m in got] == [
+            ("MISSION_COUNT", 0, t)]
+    assert session.mission.phase is mission.Phase.IDLE
+
+
+@pytest.mark.parametrize("mission_type, count, result", [
+    (0, mission.CAPACITY[PlanType.MISSION] + 1, 4),
+    (1, 65, 4), (2, 33, 4), (1, 64, None), (2, 32, None),
+    (7, 3, 3),  # unknown mission type → UNSUPPORTED
+])
+def test_counts_and_capacity(mission_type, count, result):
+    _, session, client = make()
+    got = client.send(M.MAVLink_mission_count_message(1, 1, count, mission_type))
+    if result is None:
+        assert of_type(got, "MISSION_REQUEST_INT") and not of_type(got, "MISSION_ACK")
+    else:
+        assert mission_acks(got) == [(result, mission_type)]
+        assert session.mission.phase is mission.Phase.IDLE
+
+
+def test_unknown_type_download_and_clear():
+    _, _, client = make()
+    assert mission_acks(client.send(M.MAVLink_mission_request_list_message(1, 1, 9))) == [(3, 9)]
+    assert mission_acks(client.send(M.MAVLink_mission_clear_all_message(1, 1, 9))) == [(3, 9)]
+
+
+@pytest.mark.parametrize("target, answered", [
+    ((1, 1), True), ((1, 0), True), ((1, 190), True), ((0, 1), False), ((2, 1), False),
+    ((1, 100), False),
+])
+def test_target_rules(target, answered):
+    _, session, client = make()
+    got = client.send(M.MAVLink_mission_request_list_message(*target, 0))
+    assert bool(of_type(got, "MISSION_COUNT")) is answered
+
+
+def test_out_of_order_duplicate_and_partial_items():
+    vehicle, session, client = make()
+    items = mavsdk_mission()
+    client.send(M.MAVLink_mission_count_message(1, 1, len(items), 0))
+    assert client.send(item_int_msg(items[2])) == []  # ahead of time: ignored
+    got = client.send(item_int_msg(items[0]))
+    assert [(m.get_type(), m.seq) for m in got] == [("MISSION_REQUEST_INT", 1)]
+    assert client.send(item_int_msg(items[0])) == []  # duplicate: ignored
+    got = client.run_until(0.3)  # the retry re-requests the expected item
+    assert [m.seq for m in of_type(got, "MISSION_REQUEST_INT")] == [1]
+    for it in items[1:-1]:
+        client.send(item_int_msg(it))
+    assert not [c for c in vehicle.calls if c[0] == "set_plan"]  # nothing stored half-way
+    assert vehicle.plans[PlanType.MISSION] == ()
+    got = client.send(item_int_msg(items[-1]))
+    assert mission_acks(got) == [(0, 0)]
+    # our ACK was lost → the client repeats the last item → same ACK again, nothing re-stored
+    got = client.send(item_int_msg(items[-1]))
+    assert mission_acks(got) == [(0, 0)]
+    assert len([c for c in vehicle.calls if c[0] == "set_plan"]) == 1
+    # any other item with no transfer → ERROR
+    got = client.send(item_int_msg(items[1]))
+    assert mission_acks(got) == [(1, 0)]
+
+
+def test_vehicle_rejection_is_the_ack():
+    vehicle, _, client = make()
+    vehicle.plan_result = PlanResult.UNSUPPORTED_FRAME
+    got = upload(client, rally_items(), 2)
+    assert mission_acks(got) == [(2, 2)] and vehicle.plans[PlanType.RALLY] == ()
+
+
+def test_item_of_wrong_type_or_from_other_partner():
+    vehicle, session, client = make()
+    items = fence_items()
+    client.send(M.MAVLink_mission_count_message(1, 1, len(items), 1))
+    got = client.send(item_int_msg(wp(0)))  # mission_type 0 during a fence upload
+    assert mission_acks(got) == [(1, 0)]
+    other = Client(session, sysid=255, compid=190)
+    assert other.send(item_int_msg(items[0])) == []
+    got = other.send(M.MAVLink_mission_count_message(1, 1, 2, 0))  # busy here
+    assert mission_acks(got) == [(1, 0)]
+    assert session.mission.phase is mission.Phase.UPLOAD and session.mission.seq == 0
+    got = upload(client, items, 1)
+    assert mission_acks(got) == [(0, 1)]
+
+
+def test_retry_and_timeout_on_virtual_time():
+    vehicle, session, client = make()
+    client.heartbeat()
+    items = mavsdk_mission()
+    client.send(M.MAVLink_mission_count_message(1, 1, len(items), 0))
+    client.send(item_int_msg(items[0]))
+    t0 = client.now_s
+    got = client.run_until(t0 + 4.0)
+    client.heartbeat()  # keep the GCS "present" so the text is sent
+    got += client.run_until(t0 + 6.0)
+    reqs = of_type(got, "MISSION_REQUEST_INT")
+    assert all(r.seq == 1 for r in reqs)
+    assert len(reqs) == int(mission.TIMEOUT_S / mission.RETRY_S) - 1
+    texts = [t.text for t in of_type(got, "STATUSTEXT")]
+    assert texts == ["Operation timeout"]
+    assert session.mission.phase is mission.Phase.IDLE
+    assert vehicle.plans[PlanType.MISSION] == () and not [
+        c for c in vehicle.calls if c[0] == "set_plan"]
+    # a repeated COUNT before any item re-requests seq 0 (our first request got lost)
+    client.send(M.MAVLink_mission_count_message(1, 1, len(items), 0))
+    got = client.send(M.MAVLink_mission_count_message(1, 1, len(items), 0))
+    assert [(m.get_type(), m.seq) for m in got] == [("MISSION_REQUEST_INT", 0)]
+
+
+def test_download_errors_and_timeout():
+    vehicle, session, client = make()
+    client.heartbeat()
+    upload(client, mavsdk_mission())
+    got = client.send(M.MAVLink_mission_request_list_message(1, 1, 0))
+    assert of_type(got, "MISSION_COUNT")[0].count == 7
+    client.send(M.MAVLink_mission_request_int_message(1, 1, 0, 0))
+    got = client.send(M.MAVLink_mission_request_int_message(1, 1, 0, 0))  # repeat is fine
+    assert of_type(got, "MISSION_ITEM_INT")[0].seq == 0
+    got = client.send(M.MAVLink_mission_request_int_message(1, 1, 5, 0))  # skipping ahead
+    assert mission_acks(got) == [(1, 0)] and session.mission.phase is mission.Phase.IDLE
+    assert [t.text for t in of_type(client.run_until(0.1), "STATUSTEXT")] == [
+        "WPM: REJ. CMD: Req. WP was unexpected"]
+    client.send(M.MAVLink_mission_request_list_message(1, 1, 0))
+    client.run_until(client.now_s + 4.0)  # the client went away
+    client.heartbeat()
+    got = client.run_until(client.now_s + 1.5)
+    assert [t.text for t in of_type(got, "STATUSTEXT")] == ["Operation timeout"]
+    assert session.mission.phase is mission.Phase.IDLE
+    # upload while downloading on the same link → ERROR (PX4 "IGN MISSION_COUNT: Busy")
+    client.send(M.MAVLink_mission_request_list_message(1, 1, 0))
+    got = client.send(M.MAVLink_mission_count_message(1, 1, 1, 0))
+    assert mission_acks(got) == [(1, 0)]
+
+
+def test_concurrent_upload_on_another_link_is_refused():
+    vehicle = FakeVehicle()
+    s1, s2 = Session(vehicle, LinkKind.API), Session(vehicle, LinkKind.GCS)
+    c1, c2 = Client(s1), Client(s2, sysid=255, compid=190)
+    items = mavsdk_mission()
+    c1.send(M.MAVLink_mission_count_message(1, 1, len(items), 0))
+    c1.send(item_int_msg(items[0]))
+    got = c2.send(M.MAVLink_mission_count_message(1, 1, 3, 2))
+    assert mission_acks(got) == [(1, 2)]
+    assert download(c2, 0) == []  # downloads on the other link still work (old, empty plan)
+    for it in items[1:]:
+        got = c1.send(item_int_msg(it))
+    assert mission_acks(got) == [(0, 0)]
+    got = upload(c2, rally_items(), 2)  # free again
+    assert mission_acks(got) == [(0, 2)]
+
+
+def test_stale_upload_owner_does_not_block_forever():
+    vehicle = FakeVehicle()
+    s1, s2 = Session(vehicle, LinkKind.API), Session(vehicle, LinkKind.GCS)
+    c1, c2 = Client(s1), Client(s2, sysid=255, compid=190)
+    c1.send(M.MAVLink_mission_count_message(1, 1, 3, 0))
+    del s1, c1  # that link is gone without ever timing out its transfer
+    c2.now_s = mission.TIMEOUT_S + 0.1
+    got = upload(c2, rally_items(), 2)
+    assert mission_acks(got) == [(0, 2)]
+
+
+# --- set current / MISSION_CURRENT / MISSION_ITEM_REACHED -------------------------------------
+
+def test_set_current_answers_with_mission_current():
+    vehicle, session, client = make()
+    client.heartbeat()
+    got = client.send(M.MAVLink_mission_set_current_message(1, 1, 0))
+    assert of_type(got, "MISSION_CURRENT") == []
+    assert [t.text for t in of_type(client.run_until(0.1), "STATUSTEXT")] == [
+        "WPM: WP CURR CMD: Not in list"]
+    upload(client, mavsdk_mission())
+    got = client.send(M.MAVLink_mission_set_current_message(1, 1, 4))
+    assert [(m.get_type(), m.seq, m.total) for m in got] == [("MISSION_CURRENT", 4, 7)]
+    assert vehicle.current_seq == 4
+    got = of_type(client.run_until(client.now_s + 0.5), "MISSION_CURRENT")
+    assert len(got) <= 1 and all(m.seq == 4 for m in got)  # at most the 1 Hz copy
+
+
+def test_mission_current_stream_and_change_on_every_link():
+    vehicle = FakeVehicle()
+    s1, s2 = Session(vehicle, LinkKind.API), Session(vehicle, LinkKind.GCS)
+    c1, c2 = Client(s1), Client(s2)
+    mc = of_type(c1.run_until(0.5), "MISSION_CURRENT")
+    assert [(m.seq, m.total, m.mission_state) for m in mc] == [(0, 65535, 1)]
+    upload(c1, mavsdk_mission())
+    c2.run_until(0.9)
+    vehicle.nav_state = NavState.AUTO_MISSION
+    vehicle.current_seq = 2  # the navigator moved on
+    for c in (c1, c2):
+        got = of_type(c.run_until(1.0), "MISSION_CURRENT")
+        assert [(m.seq, m.total, m.mission_state, m.mission_mode) for m in got] == [
+            (2, 7, 3, 1)]
+    mc = of_type(c1.run_until(10.0), "MISSION_CURRENT")
+    assert 8 <= len(mc) <= 10  # 1 Hz
+
+
+def test_item_reached_then_ten_repeats():
+    vehicle, session, client = make()
+    upload(client, mavsdk_mission())
+    client.run_until(0.5)
+    vehicle.nav_state = NavState.AUTO_MISSION
+    vehicle.reach(0)
+    got = client.run_until(0.6)
+    assert [m.seq for m in of_type(got, "MISSION_ITEM_REACHED")] == [0]
+    assert [m.seq for m in of_type(got, "MISSION_CURRENT")] == [1]
+    got = client.run_until(20.0)
+    reached = of_type(got, "MISSION_ITEM_REACHED")
+    assert [m.seq for m in reached] == [0] * mission.REACHED_REPEATS
+    # a new reach restarts the repeats with the new seq; COMPLETE at the end (MAVSDK finished)
+    vehicle.reach(6)
+    vehicle.mission_finished = True
+    got = client.run_until(22.5)
+    assert [m.seq for m in of_type(got, "MISSION_ITEM_REACHED")] == [6, 6, 6]
+    assert of_type(got, "MISSION_CURRENT")[-1].mission_state == 5
+
+
+# --- lossy network ------------------------------------------------------------------------------
+
+class LossyLink:
+    """Client ↔ Session with seeded datagram loss both ways, on virtual time."""
+
+    def __init__(self, session: Session, seed: int, loss: float = 0.2) -> None:
+        self.rng = random.Random(seed)
+        self.loss = loss
+        self.session = session
+        self.client = Client(session)
+        self.now_s = 0.0
+        self.dropped = 0
+
+    def send(self, msg) -> None:
+        data = self.client.encode(msg)
+        if self.rng.random() < self.loss:
+            self.dropped += 1
+            return
+        self.session.receive_datagram(data, self.now_s)
+
+    def step(self, dt_s: float = 0.01) -> list:
+        """Advance time, run due timers, return what survived the downlink."""
+        self.now_s += dt_s
+        t = self.session.get_timer()
+        if t is not None and t <= self.now_s:
+            self.session.handle_timer(self.now_s)
+        got = []
+        for d in self.session.datagrams_to_send(self.now_s):
+            if self.rng.random() < self.loss:
+                self.dropped += 1
+                continue
+            got.extend(self.client.rx.parse_buffer(d) or [])
+        return got
+
+
+TIMEOUT_S, RETRIES = 0.5, 5  # MAVSDK mission transfer client
+
+
+def lossy_upload(link: LossyLink, items, mission_type) -> int | None:
+    """MAVSDK-like upload (+ QGC's resend of the last item); result code or None on timeout."""
+    link.send(M.MAVLink_mission_count_message(1, 1, len(items), mission_type))
+    deadline, retries, last = link.now_s + TIMEOUT_S, 0, None
+    while True:
+        for m in link.step():
+            kind = m.get_type()
+            if kind == "MISSION_REQUEST_INT" and m.mission_type == mission_type:
+                last = items[m.seq]
+                link.send(item_int_msg(last))
+                deadline, retries = link.now_s + TIMEOUT_S, 0
+            elif kind == "MISSION_ACK" and m.mission_type == mission_type:
+                return m.type
+        if link.now_s >= deadline:
+            retries += 1
+            if retries > RETRIES:
+                return None
+            if last is None:
+                link.send(M.MAVLink_mission_count_message(1, 1, len(items), mission_type))
+            else:
+                link.send(item_int_msg(last))
+            deadline = link.now_s + TIMEOUT_S
+
+
+def lossy_download(link: LossyLink, mission_type) -> list[PlanItem] | None:
+    def ask(seq):
+        if seq is None:
+            link.send(M.MAVLink_mission_request_list_message(1, 1, mission_type))
+        else:
+            link.send(M.MAVLink_mission_request_int_message(1, 1, seq, mission_type))
+
+    want, count, items = None, None, []
+    ask(want)
+    deadline, retries = link.now_s + TIMEOUT_S, 0
+    while True:
+        progressed = False
+        for m in link.step():
+            if m.get_type() == "MISSION_COUNT" and want is None:
+                count, progressed = m.count, True
+                want = 0
+            elif m.get_type() == "MISSION_ITEM_INT" and m.seq == want:
+                items.append(item_from_wire(m, mission_type))
+                want, progressed = want + 1, True
+        if count is not None and want == count:
+            link.send(M.MAVLink_mission_ack_message(1, 1, 0, mission_type))
+            return items
+        if progressed:
+            ask(want)
+            deadline, retries = link.now_s + TIMEOUT_S, 0
+        elif link.now_s >= deadline:
+            retries += 1
+            if retries > RETRIES:
+                return None
+            ask(want)
+            deadline = link.now_s + TIMEOUT_S
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5])
+def test_lossy_upload_and_download(seed):
+    vehicle = FakeVehicle()
+    session = Session(vehicle, LinkKind.API)
+    for msg_id in list(session.scheduler._interval_us):  # quiet link: only mission traffic
+        session.scheduler.set_interval(msg_id, -1, 0.0)
+    link = LossyLink(session, seed)
+    old_plan = tuple(wp(n, current=int(n == 0)) for n in range(3))
+    vehicle.plans[PlanType.MISSION] = old_plan
+    items = [dataclasses.replace(it, seq=n, current=int(n == 0))
+             for n, it in enumerate(mavsdk_mission() * 3)]
+
+    def plan_ok():
+        plan = vehicle.plans[PlanType.MISSION]
+        return plan == old_plan or (
+            len(plan) == len(items) and all(same(a, b) for a, b in zip(plan, items)))
+
+    result = None
+    for _attempt in range(10):  # the user retries a failed upload, as MAVSDK callers do
+        result = lossy_upload(link, items, 0)
+        assert plan_ok(), f"seed {seed}: half-written plan"
+        if result == 0:
+            break
+        link.step(mission.TIMEOUT_S + 0.1)  # let the server give a broken transfer up
+    assert result == 0, f"seed {seed}: upload never succeeded"
+    assert all(len(c[3]) == len(items) for c in vehicle.calls if c[0] == "set_plan")
+    assert all(same(a, b) for a, b in zip(vehicle.plans[PlanType.MISSION], items))
+    assert link.dropped > 0
+    back = None
+    for _attempt in range(10):
+        back = lossy_download(link, 0)
+        if back is not None:
+            break
+        link.step(mission.TIMEOUT_S + 0.1)
+    assert back is not None and len(back) == len(items), f"seed {seed}"
+    assert all(same(a, b) for a, b in zip(back, items)), f"seed {seed}"

@@ -1,0 +1,170 @@
+"""Failsafes (data link, offboard, battery, geofence) and Return to rally points."""
+
+import math
+
+import pytest
+
+from tests.unit.test_vehicles_flight import Sim, take_off
+from tests.unit.test_vehicles_mission import item
+from vehicles.failsafe import CHECKS, Action, Failsafe, FailsafeFlags
+from vehicles.params import ParamStore
+from vehicles.plan_types import MavCmd, PlanResult, PlanType
+from vehicles.status_log import StatusLog
+from vehicles.types import CommandResult, NavState
+
+
+def make_sim(**overrides):
+    s = Sim(**overrides)
+    s.run(1.2)
+    return s
+
+
+@pytest.fixture
+def sim():
+    s = make_sim()
+    yield s
+    s.close()
+
+
+# --- the pure state machine ------------------------------------------------------------------
+FLAG_FOR_CHECK = {
+    "gcs_connection_lost": dict(gcs_lost=True),
+    "offboard_signal_lost": dict(offboard_lost=True, user_nav_state=NavState.OFFBOARD),
+    "battery_warning": dict(battery_warning=3),
+    "geofence_breached": dict(geofence_breached=True),
+}
+
+
+def test_every_check_has_a_trigger_in_this_test():
+    assert {c.name for c in CHECKS} == set(FLAG_FOR_CHECK)
+
+
+@pytest.mark.parametrize("check", [c.name for c in CHECKS])
+def test_each_check_holds_then_acts_and_clears_on_disarm(check):
+    params = ParamStore({"NAV_DLL_ACT": 2, "GF_ACTION": 3, "COM_LOW_BAT_ACT": 3})
+    log = StatusLog()
+    fs = Failsafe(params, log)
+    base = dict(armed=True, user_nav_state=NavState.AUTO_LOITER)
+    assert fs.update(0.0, FailsafeFlags(**base)) is Action.NONE
+    flags = FailsafeFlags(**{**base, **FLAG_FOR_CHECK[check]})
+    assert fs.update(1.0, flags) is Action.HOLD  # COM_FAIL_ACT_T = 5 s hold first
+    assert log.after(0)[-1].text == "Failsafe activated, entering Hold for 5 seconds"
+    expected = Action.LAND if check == "battery_warning" else Action.RTL
+    assert fs.update(6.1, flags) is expected
+    assert log.after(0)[-1].text == "Failsafe activated"
+    assert fs.in_failsafe
+    assert fs.update(7.0, FailsafeFlags(**{**flags.__dict__, "armed": False})) is Action.NONE
+
+
+def test_terminate_has_no_delay_and_never_clears():
+    fs = Failsafe(ParamStore({"GF_ACTION": 4}), StatusLog())
+    flags = FailsafeFlags(armed=True, user_nav_state=NavState.AUTO_LOITER, geofence_breached=True)
+    assert fs.update(0.0, flags) is Action.TERMINATE
+    assert fs.update(1.0, FailsafeFlags(armed=False, user_nav_state=NavState.AUTO_LOITER)) \
+        is Action.TERMINATE
+
+
+def test_user_mode_change_takes_over():
+    fs = Failsafe(ParamStore({"GF_ACTION": 2}), StatusLog())
+    flags = FailsafeFlags(armed=True, user_nav_state=NavState.AUTO_MISSION, geofence_breached=True)
+    assert fs.update(0.0, flags) is Action.HOLD
+    fs.user_mode_changed()
+    assert fs.update(0.1, flags) is Action.NONE
+
+
+# --- in flight -------------------------------------------------------------------------------
+def test_data_link_loss_default_does_nothing(sim):
+    v = sim.v
+    take_off(sim)
+    v.on_gcs_heartbeat(sim.t)
+    sim.run(16.0)
+    assert "Connection to ground station lost" in sim.texts()
+    assert v.status.nav_state is NavState.AUTO_LOITER and not v.status.failsafe
+    v.on_gcs_heartbeat(sim.t)
+    assert sim.texts()[-1] == "GCS connection regained"
+
+
+def test_data_link_loss_returns_with_nav_dll_act_2():
+    sim = make_sim(NAV_DLL_ACT=2)
+    try:
+        v = sim.v
+        take_off(sim)
+        sim.run(20.0)  # no GCS heartbeat ever: no data-link failsafe
+        assert not v.status.failsafe
+        v.on_gcs_heartbeat(sim.t)
+        t0 = sim.t
+        assert sim.run(12.0, until=lambda: v.status.failsafe)
+        assert sim.t - t0 == pytest.approx(10.0, abs=0.1)  # COM_DL_LOSS_T
+        assert v.status.nav_state is NavState.AUTO_LOITER
+        assert sim.run(6.0, until=lambda: v.status.nav_state is NavState.AUTO_RTL)
+        assert sim.t - t0 == pytest.approx(15.0, abs=0.2)  # + COM_FAIL_ACT_T
+        v.on_gcs_heartbeat(sim.t)  # regained: PX4 keeps returning
+        sim.run(1.0)
+        assert v.status.nav_state is NavState.AUTO_RTL
+        assert sim.run(60.0, until=lambda: not v.status.armed)
+    finally:
+        sim.close()
+
+
+def test_geofence_circle_violation_holds(sim):
+    v = sim.v
+    fence = [item(0, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, 0.0, 0.0, 0.0, v.origin, p1=20.0,
+                  mission_type=PlanType.FENCE)]
+    assert v.set_plan(sim.t, PlanType.FENCE, fence) is PlanResult.ACCEPTED
+    take_off(sim)
+    outside = v.origin.offset_ned(40.0, 0.0, -2.5)
+    assert v.goto(sim.t, outside.lat_deg, outside.lon_deg, outside.alt_amsl_m) \
+        is CommandResult.DENIED
+    assert sim.texts()[-1] == "Reposition is outside geofence"
+    # Fly out in offboard (not checked against the fence) and get caught.
+    from vehicles.plan_types import OffboardSetpoint
+    sp = OffboardSetpoint(velocity_ned_mps=(4.0, 0.0, 0.0))
+    v.set_offboard_setpoint(sim.t, sp)
+    assert v.set_nav_state(sim.t, NavState.OFFBOARD) is CommandResult.ACCEPTED
+    def out():
+        v.set_offboard_setpoint(sim.t, sp)
+        return v.status.failsafe
+    assert sim.run(10.0, until=out)
+    assert "Geofence violation" in sim.texts()
+    assert v.status.nav_state is NavState.AUTO_LOITER
+    sim.run(3.0, until=lambda: v.set_offboard_setpoint(sim.t, sp))  # stream on: no offboard loss
+    assert v.status.nav_state is NavState.AUTO_LOITER
+    assert math.hypot(*v.state.position_ned_m[:2]) < 26.0
+    assert math.hypot(*v.state.velocity_ned_mps[:2]) < 0.3
+
+
+def test_rtl_lands_at_closer_rally_point(sim):
+    v = sim.v
+    rally = [item(0, MavCmd.NAV_RALLY_POINT, 30.0, 10.0, 0.0, v.origin,
+                  mission_type=PlanType.RALLY)]
+    assert v.set_plan(sim.t, PlanType.RALLY, rally) is PlanResult.ACCEPTED
+    take_off(sim)
+    g = v.origin.offset_ned(35.0, 10.0, -5.0)
+    v.goto(sim.t, g.lat_deg, g.lon_deg, g.alt_amsl_m)
+    sim.run(12.0)
+    assert v.return_to_launch(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(90.0, until=lambda: not v.status.armed)
+    p = v.state.position_ned_m
+    assert math.hypot(p[0] - 30.0, p[1] - 10.0) < 1.5
+    assert "RTL: land at destination" in sim.texts()
+
+
+def test_battery_emergency_lands():
+    sim = make_sim(SIM_BAT_MIN_PCT=0.0, SIM_BAT_DRAIN=40.0)
+    try:
+        v = sim.v
+        take_off(sim)  # ~3 s of the 40 s battery
+        v.goto(sim.t, *_above(v, 10.0))
+        assert sim.run(40.0, until=lambda: v.status.nav_state is NavState.AUTO_LAND)
+        texts = sim.texts()
+        assert "Low battery level, return advised" in texts
+        assert "Emergency battery level, land immediately" in texts
+        assert v.status.battery.remaining <= 0.05 + 1e-3
+        assert sim.run(40.0, until=lambda: not v.status.armed)
+    finally:
+        sim.close()
+
+
+def _above(v, alt):
+    g = v.global_position
+    return g.lat_deg, g.lon_deg, v.origin.alt_amsl_m + alt

@@ -1,0 +1,218 @@
+"""Plans (validation, ids) and Mission mode flown on the physics World."""
+
+import math
+
+import pytest
+
+from tests.unit.test_vehicles_flight import Sim
+from vehicles.plan_types import MavCmd, MavFrame, MissionState, PlanItem, PlanResult, PlanType
+from vehicles.plans import plan_crc32, validate_plan
+from vehicles.types import CommandResult, NavState
+
+REL = MavFrame.GLOBAL_RELATIVE_ALT_INT
+NAN = math.nan
+
+
+def item(seq, cmd, n=0.0, e=0.0, alt=0.0, origin=None, frame=REL, p1=0.0, p2=0.0, p4=NAN,
+         current=0, mission_type=PlanType.MISSION):
+    if origin is not None:
+        g = origin.offset_ned(n, e, 0.0)
+        x, y = round(g.lat_deg * 1e7), round(g.lon_deg * 1e7)
+    else:
+        x = y = 0
+    return PlanItem(seq, frame, cmd, current, 1, p1, p2, 0.0, p4, x, y, alt, mission_type)
+
+
+def waypoints(v, points, rtl=False):
+    items = [item(i, MavCmd.NAV_WAYPOINT, n, e, alt, v.origin) for i, (n, e, alt) in enumerate(points)]
+    if rtl:
+        items.append(item(len(items), MavCmd.NAV_RETURN_TO_LAUNCH, frame=MavFrame.MISSION))
+    return items
+
+
+SQUARE = [(20.0, 0.0, 12.0), (20.0, 20.0, 15.0), (0.0, 20.0, 12.0), (0.0, 0.0, 15.0)]
+
+
+@pytest.fixture
+def sim():
+    s = Sim()
+    s.run(1.2)
+    yield s
+    s.close()
+
+
+# --- plans -----------------------------------------------------------------------------------
+def test_plan_store_accepts_replaces_and_clears(sim):
+    v = sim.v
+    assert v.plan_id(PlanType.MISSION) == 0
+    assert v.mission_status.state is MissionState.NO_MISSION
+    items = waypoints(v, SQUARE)
+    assert v.set_plan(sim.t, PlanType.MISSION, items) is PlanResult.ACCEPTED
+    assert v.plan(PlanType.MISSION) == tuple(items)
+    assert v.plan_id(PlanType.MISSION) == plan_crc32(items) != 0
+    st = v.mission_status
+    assert (st.count, st.state, st.current_seq, st.mission_id) == (
+        4, MissionState.NOT_STARTED, 0, v.plan_id(PlanType.MISSION))
+    bad = items[:2] + [item(2, 9999, frame=MavFrame.MISSION)]
+    assert v.set_plan(sim.t, PlanType.MISSION, bad) is PlanResult.UNSUPPORTED
+    assert v.plan(PlanType.MISSION) == tuple(items)  # atomic: old plan kept
+    assert v.clear_plan(sim.t, PlanType.MISSION) is PlanResult.ACCEPTED
+    assert v.plan(PlanType.MISSION) == () and v.plan_id(PlanType.MISSION) == 0
+
+
+def test_item_with_current_flag_sets_start_index(sim):
+    items = waypoints(sim.v, SQUARE)
+    items[2] = item(2, MavCmd.NAV_WAYPOINT, 0, 20, 12, sim.v.origin, current=1)
+    sim.v.set_plan(sim.t, PlanType.MISSION, items)
+    assert sim.v.mission_status.current_seq == 2
+
+
+@pytest.mark.parametrize("plan_type,items,expected", [
+    (PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, frame=1)], PlanResult.UNSUPPORTED_FRAME),
+    (PlanType.MISSION, [item(0, MavCmd.DO_CHANGE_SPEED, frame=1)], PlanResult.UNSUPPORTED_FRAME),
+    (PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, frame=MavFrame.MISSION)],
+     PlanResult.UNSUPPORTED_FRAME),
+    (PlanType.MISSION, [item(0, 12345)], PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(1, MavCmd.NAV_WAYPOINT)], PlanResult.INVALID_SEQUENCE),
+    (PlanType.MISSION, [item(0, MavCmd.DO_CHANGE_SPEED, frame=MavFrame.MISSION, p2=3.0),
+                        item(1, 2000, frame=MavFrame.MISSION), item(2, 205, frame=MavFrame.MISSION),
+                        item(3, MavCmd.NAV_WAYPOINT)], PlanResult.ACCEPTED),
+    (PlanType.FENCE, [item(i, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3) for i in range(3)],
+     PlanResult.ACCEPTED),
+    (PlanType.FENCE, [item(i, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3) for i in range(2)],
+     PlanResult.INVALID_PARAM1),
+    (PlanType.FENCE, [item(i, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=2) for i in range(2)],
+     PlanResult.INVALID_PARAM1),
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3),
+                      item(1, MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION, p1=3),
+                      item(2, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3)],
+     PlanResult.INVALID_PARAM1),
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, p1=0.0)], PlanResult.INVALID_PARAM1),
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION, p1=30.0)], PlanResult.ACCEPTED),
+    (PlanType.FENCE, [item(0, MavCmd.NAV_WAYPOINT)], PlanResult.UNSUPPORTED),
+    (PlanType.RALLY, [item(0, MavCmd.NAV_RALLY_POINT)], PlanResult.ACCEPTED),
+    (PlanType.RALLY, [item(0, MavCmd.NAV_RALLY_POINT, frame=MavFrame.MISSION)],
+     PlanResult.UNSUPPORTED_FRAME),
+    (PlanType.RALLY, [item(i, MavCmd.NAV_RALLY_POINT) for i in range(33)], PlanResult.NO_SPACE),
+])
+def test_plan_validation(plan_type, items, expected):
+    assert validate_plan(plan_type, items) is expected
+
+
+# --- mission mode ----------------------------------------------------------------------------
+def test_mission_mode_rejected_without_mission(sim):
+    v = sim.v
+    assert v.set_nav_state(sim.t, NavState.AUTO_MISSION) is CommandResult.TEMPORARILY_REJECTED
+    assert v.start_mission(sim.t) is CommandResult.DENIED
+    assert "Mission start denied! No valid mission" in sim.texts()
+    assert not v.status.armed
+
+
+def fly_mission(sim, items, timeout_s=120.0, visit=None):
+    v = sim.v
+    reached, closest = [], {}
+    last = 0
+    def watch():
+        nonlocal last
+        st = v.mission_status
+        if st.reached_count != last:
+            new = st.reached_history[len(st.reached_history) - (st.reached_count - last):]
+            reached.extend(new)
+            last = st.reached_count
+            p = v.state.position_ned_m
+            for i in new:
+                if visit and i < len(visit):  # where the vehicle was when the item was reached
+                    closest[i] = (math.hypot(p[0] - visit[i][0], p[1] - visit[i][1]), -p[2])
+        return st.state is MissionState.COMPLETE and not v.status.armed
+    done = sim.run(timeout_s, until=watch)
+    return done, reached, closest
+
+
+def test_square_mission_from_the_ground_with_rtl(sim):
+    v = sim.v
+    assert v.set_plan(sim.t, PlanType.MISSION, waypoints(v, SQUARE, rtl=True)) is PlanResult.ACCEPTED
+    assert v.set_nav_state(sim.t, NavState.AUTO_MISSION) is CommandResult.ACCEPTED  # MAVSDK way
+    assert v.mission_status.state is MissionState.ACTIVE
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+    t0 = sim.t
+    done, reached, closest = fly_mission(sim, None, visit=SQUARE)
+    assert done, (v.status, v.mission_status, sim.texts()[-5:])
+    assert sim.t - t0 < 110
+    assert reached == [0, 1, 2, 3, 4]
+    for i, (n, e, alt) in enumerate(SQUARE):
+        d, h = closest[i]
+        assert d < 2.0, (i, d)  # NAV_ACC_RAD
+        assert h == pytest.approx(alt, abs=1.0), (i, h)
+    texts = sim.texts()
+    assert "Executing Mission" in texts
+    assert "Climb to 12.0 meters above home" in texts
+    assert "Returning to launch" in texts and "Disarmed by landing" in texts
+    p = v.state.position_ned_m
+    assert math.hypot(p[0], p[1]) < 2.0
+    assert v.status.nav_state is NavState.AUTO_LOITER
+    assert v.mission_status.state is MissionState.COMPLETE
+
+
+def test_mission_start_arms_takeoff_item_speed_change_and_loiter_at_end(sim):
+    v = sim.v
+    o = v.origin
+    items = [item(0, MavCmd.NAV_TAKEOFF, alt=5.0, origin=o),
+             item(1, MavCmd.DO_CHANGE_SPEED, frame=MavFrame.MISSION, p1=1, p2=8.0),
+             item(2, 2000, frame=MavFrame.MISSION),  # IMAGE_START_CAPTURE: accepted, skipped
+             item(3, MavCmd.NAV_WAYPOINT, 30.0, 0.0, 8.0, o, p1=2.0)]
+    assert v.set_plan(sim.t, PlanType.MISSION, items) is PlanResult.ACCEPTED
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert v.status.armed and "Armed by mission start" in sim.texts()
+    top_speed = 0.0
+    def done():
+        nonlocal top_speed
+        top_speed = max(top_speed, math.hypot(*v.state.velocity_ned_mps[:2]))
+        return v.mission_status.state is MissionState.COMPLETE
+    assert sim.run(40.0, until=done)
+    assert v.mission_status.reached_seq == 3
+    assert top_speed > 6.5  # DO_CHANGE_SPEED 8 m/s, not the 5 m/s cruise
+    assert "Mission finished, loitering" in sim.texts()
+    sim.run(3.0)
+    p = v.state.position_ned_m
+    assert v.status.nav_state is NavState.AUTO_MISSION and v.status.armed
+    assert math.hypot(p[0] - 30.0, p[1]) < 1.5 and -p[2] == pytest.approx(8.0, abs=0.8)
+
+
+def test_pause_with_hold_resume_and_set_current(sim):
+    v = sim.v
+    pts = [(40.0, 0.0, 10.0), (40.0, 40.0, 10.0), (0.0, 40.0, 10.0)]
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, pts))
+    assert v.set_current_mission_item(sim.t, 5) is False
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(40.0, until=lambda: v.mission_status.reached_seq == 0)
+    sim.run(2.0)
+    assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED  # pause
+    sim.run(4.0)
+    st = v.mission_status
+    assert st.state is MissionState.PAUSED and st.current_seq == 1 and not st.in_mission_mode
+    held = v.state.position_ned_m.copy()
+    sim.run(3.0)
+    assert math.dist(held, v.state.position_ned_m) < 0.5
+    # Jump ahead while paused, then resume: item 1 is skipped.
+    assert v.set_current_mission_item(sim.t, 2) is True
+    assert v.mission_status.current_seq == 2
+    assert v.set_nav_state(sim.t, NavState.AUTO_MISSION) is CommandResult.ACCEPTED
+    assert sim.run(60.0, until=lambda: v.mission_status.state is MissionState.COMPLETE)
+    assert v.mission_status.reached_seq == 2
+    p = v.state.position_ned_m
+    assert math.hypot(p[0] - 0.0, p[1] - 40.0) < 2.0
+
+
+def test_land_item_lands_at_its_position_and_disarms(sim):
+    v = sim.v
+    o = v.origin
+    items = [item(0, MavCmd.NAV_WAYPOINT, 10.0, 5.0, 6.0, o),
+             item(1, MavCmd.NAV_LAND, 15.0, 10.0, 0.0, o)]
+    v.set_plan(sim.t, PlanType.MISSION, items)
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(60.0, until=lambda: not v.status.armed)
+    texts = sim.texts()
+    assert "Mission finished, landed" in texts
+    assert v.mission_status.state is MissionState.COMPLETE
+    p = v.state.position_ned_m
+    assert math.hypot(p[0] - 15.0, p[1] - 10.0) < 1.0

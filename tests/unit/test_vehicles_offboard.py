@@ -1,0 +1,192 @@
+"""Offboard mode and the actions (goto / change_speed / set_home / terminate) on the World."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tests.unit.test_vehicles_flight import Sim, take_off
+from vehicles.control.quat import q_yaw
+from vehicles.plan_types import OffboardSetpoint
+from vehicles.types import CommandResult, GeoPoint, LandedState, NavState
+
+
+@pytest.fixture
+def sim():
+    s = Sim()
+    s.run(1.2)
+    yield s
+    s.close()
+
+
+def stream(sim, sp, seconds, until=None):
+    """Send ``sp`` at 20 Hz (MAVSDK's resend rate) while the world runs."""
+    steps = int(round(0.05 / sim.world.dt_s))
+    for _ in range(int(round(seconds / 0.05))):
+        sim.v.set_offboard_setpoint(sim.t, sp)
+        for _ in range(steps):
+            sim.world.step(sim.t)
+            sim.t = sim.world.time_s
+        if until is not None and until():
+            return True
+    return False
+
+
+def start_offboard(sim, sp):
+    v = sim.v
+    assert v.set_nav_state(sim.t, NavState.OFFBOARD) is CommandResult.TEMPORARILY_REJECTED
+    v.set_offboard_setpoint(sim.t, sp)
+    assert v.set_nav_state(sim.t, NavState.OFFBOARD) is CommandResult.ACCEPTED
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+
+
+def test_offboard_refused_with_stale_setpoint(sim):
+    v = sim.v
+    v.set_offboard_setpoint(sim.t, OffboardSetpoint(position_ned_m=(0, 0, -5)))
+    sim.run(1.5)  # older than COM_OF_LOSS_T = 1 s
+    assert v.set_nav_state(sim.t, NavState.OFFBOARD) is CommandResult.TEMPORARILY_REJECTED
+    assert v.status.nav_state is NavState.AUTO_LOITER
+
+
+def test_offboard_position_takeoff_and_steps(sim):
+    v = sim.v
+    sp = OffboardSetpoint(position_ned_m=(0.0, 0.0, -5.0), yaw_rad=0.0)
+    start_offboard(sim, sp)  # armed on the ground in offboard: the setpoint above takes off
+    for target in [(0.0, 0.0, -5.0), (10.0, 0.0, -5.0), (10.0, 10.0, -8.0)]:
+        sp = OffboardSetpoint(position_ned_m=target, yaw_rad=math.radians(90))
+        stream(sim, sp, 10.0)
+        assert np.linalg.norm(v.state.position_ned_m - np.array(target)) < 0.7, target
+    assert v.status.nav_state is NavState.OFFBOARD
+    assert v.status.landed_state is LandedState.IN_AIR
+    assert q_yaw(tuple(v.state.attitude_q)) == pytest.approx(math.radians(90), abs=0.05)
+
+
+def test_offboard_velocity_with_yaw_rate(sim):
+    v = sim.v
+    take_off(sim)
+    sp = OffboardSetpoint(velocity_ned_mps=(0.0, 0.0, 0.0))
+    start_offboard(sim, sp)
+    # A body-frame "2 m/s forward" already rotated to NED by the gateway, plus a yaw rate.
+    sp = OffboardSetpoint(velocity_ned_mps=(2.0, 1.0, -0.5), yaw_rate_radps=0.3)
+    yaw0 = q_yaw(tuple(v.state.attitude_q))
+    stream(sim, sp, 4.0)
+    vel = v.state.velocity_ned_mps
+    assert np.allclose(vel, (2.0, 1.0, -0.5), atol=0.3)
+    yaw1 = q_yaw(tuple(v.state.attitude_q))
+    assert math.remainder(yaw1 - yaw0, math.tau) == pytest.approx(1.2, abs=0.25)
+
+
+def test_offboard_attitude_and_thrust(sim):
+    v = sim.v
+    take_off(sim)
+    hover = v.airframe.hover_thrust_norm
+    level = OffboardSetpoint(attitude_q=(1.0, 0.0, 0.0, 0.0), thrust=hover + 0.05)
+    start_offboard(sim, level)
+    z0 = v.state.position_ned_m[2]
+    stream(sim, level, 2.0)
+    assert v.state.position_ned_m[2] < z0 - 0.3  # more than hover thrust climbs
+    pitch = math.radians(-10)  # nose down: accelerate north
+    q = (math.cos(pitch / 2), 0.0, math.sin(pitch / 2), 0.0)
+    stream(sim, OffboardSetpoint(attitude_q=q, thrust=hover / math.cos(pitch)), 2.0)
+    assert v.state.euler_rad()[1] == pytest.approx(pitch, abs=0.03)
+    assert v.state.velocity_ned_mps[0] > 1.5
+
+
+def test_offboard_body_rates(sim):
+    v = sim.v
+    take_off(sim)
+    hover = v.airframe.hover_thrust_norm
+    sp = OffboardSetpoint(body_rates_frd_radps=(0.0, 0.0, 0.5), thrust=hover)
+    start_offboard(sim, sp)
+    stream(sim, sp, 1.0)
+    assert v.state.rates_frd_radps[2] == pytest.approx(0.5, abs=0.1)
+
+
+def test_offboard_loss_holds_then_returns(sim):
+    v = sim.v
+    take_off(sim)
+    sp = OffboardSetpoint(position_ned_m=(15.0, 0.0, -5.0))
+    start_offboard(sim, sp)
+    stream(sim, sp, 6.0)
+    lost_at = sim.t
+    assert sim.run(3.0, until=lambda: v.status.failsafe)
+    assert v.status.nav_state is NavState.AUTO_LOITER  # COM_FAIL_ACT_T hold first
+    assert sim.t - lost_at == pytest.approx(1.0, abs=0.1)  # COM_OF_LOSS_T
+    assert "Failsafe activated, entering Hold for 5 seconds" in sim.texts()
+    assert sim.run(6.0, until=lambda: v.status.nav_state is NavState.AUTO_RTL)
+    assert sim.t - lost_at == pytest.approx(6.0, abs=0.2)
+    assert sim.texts()[-3:].count("Failsafe activated") == 1
+    assert sim.run(60.0, until=lambda: not v.status.armed)
+    p = v.state.position_ned_m
+    assert math.hypot(p[0], p[1]) < 1.5
+    assert v.status.nav_state is NavState.AUTO_LOITER and not v.status.failsafe
+
+
+# --- actions ---------------------------------------------------------------------------------
+def test_goto_35m_at_15m(sim):
+    v = sim.v
+    take_off(sim)
+    g = v.origin.offset_ned(25.0, -24.5, -15.0)
+    assert v.goto(sim.t, g.lat_deg, g.lon_deg, g.alt_amsl_m, math.radians(45)) is CommandResult.ACCEPTED
+    assert v.status.nav_state is NavState.AUTO_LOITER
+    sim.run(20.0)
+    assert np.linalg.norm(v.state.position_ned_m - np.array((25.0, -24.5, -15.0))) < 1.5
+    assert q_yaw(tuple(v.state.attitude_q)) == pytest.approx(math.radians(45), abs=0.05)
+    # NaN lat/lon keeps the position, a new altitude only climbs.
+    assert v.goto(sim.t, math.nan, math.nan, g.alt_amsl_m + 5.0) is CommandResult.ACCEPTED
+    sim.run(8.0)
+    assert np.linalg.norm(v.state.position_ned_m - np.array((25.0, -24.5, -20.0))) < 1.0
+
+
+def test_goto_speed_and_change_speed(sim):
+    v = sim.v
+    take_off(sim)
+    g = v.origin.offset_ned(60.0, 0.0, -2.5)
+    assert v.change_speed(sim.t, 10.0) is CommandResult.ACCEPTED
+    v.goto(sim.t, g.lat_deg, g.lon_deg, g.alt_amsl_m)
+    top = 0.0
+    def fast():
+        nonlocal top
+        top = max(top, v.state.velocity_ned_mps[0])
+        return False
+    sim.run(6.0, until=fast)
+    assert top == pytest.approx(10.0, abs=1.0)
+    v.change_speed(sim.t, -1.0)  # back to MPC_XY_CRUISE 5 m/s
+    g = v.origin.offset_ned(0.0, 0.0, -2.5)
+    v.goto(sim.t, g.lat_deg, g.lon_deg, g.alt_amsl_m, speed_mps=3.0)
+    top = 0.0
+    def slow():
+        nonlocal top
+        top = max(top, -v.state.velocity_ned_mps[0])
+        return False
+    sim.run(10.0, until=slow)
+    assert top == pytest.approx(3.0, abs=0.5)
+
+
+def test_goto_on_the_ground_does_not_take_off(sim):
+    v = sim.v
+    v.arm(sim.t)
+    g = v.origin.offset_ned(20.0, 0.0, -10.0)
+    assert v.goto(sim.t, g.lat_deg, g.lon_deg, g.alt_amsl_m) is CommandResult.ACCEPTED
+    sim.run(3.0)
+    assert v.status.landed_state is LandedState.ON_GROUND
+    assert abs(v.state.position_ned_m[2]) < 0.1
+
+
+def test_set_home_and_terminate(sim):
+    v = sim.v
+    here = v.global_position
+    target = GeoPoint(here.lat_deg + 1e-4, here.lon_deg, here.alt_amsl_m + 3.0)
+    assert v.set_home(sim.t, target) is CommandResult.ACCEPTED
+    assert v.status.home.geo == target
+    assert v.status.home.position_ned_m[2] == pytest.approx(-3.0, abs=1e-3)
+    assert v.set_home(sim.t, GeoPoint(math.nan, 0.0, 0.0)) is CommandResult.DENIED
+    assert v.set_home(sim.t, None) is CommandResult.ACCEPTED
+    assert v.status.home.geo.alt_amsl_m == pytest.approx(here.alt_amsl_m, abs=0.01)
+    assert v.terminate(sim.t) is CommandResult.DENIED  # disarmed
+    take_off(sim)
+    assert v.terminate(sim.t) is CommandResult.ACCEPTED
+    assert v.status.nav_state is NavState.TERMINATION and v.status.terminated
+    sim.run(2.0)
+    assert v.state.position_ned_m[2] > -0.3  # fell
+    assert v.arm(sim.t) is CommandResult.ACCEPTED or not v.status.prearm_ok

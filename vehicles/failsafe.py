@@ -1,0 +1,230 @@
+"""Failsafe state machine after PX4 ``commander/failsafe/failsafe.cpp`` + ``framework.cpp``.
+
+Rules and invariants (PX4 semantics, simplified to what SITL exercises):
+- ``CHECKS`` is a table: one row per failsafe condition with the function that tells whether the
+  condition holds and the function that maps the parameters to an ``ActionOptions`` (action and
+  clear condition). A test proves every row is exercised.
+- Every tick each check reports its condition. A new failing condition adds its action; when the
+  condition clears, ``WHEN_CONDITION_CLEARS`` actions go away, the others stay until a mode change
+  or disarm (``ON_MODE_CHANGE_OR_DISARM``), disarm (``ON_DISARM``) or never (Terminate).
+- The selected action is the most severe one. Adding an action worse than Warn starts the
+  COM_FAIL_ACT_T hold delay: the vehicle holds first ("Failsafe activated, entering Hold for N
+  seconds") and then takes the action ("Failsafe activated"). Terminate/Disarm skip the delay.
+- A user mode change while a failsafe is active is a user takeover: the action is dropped until a
+  new one is added. Terminate is never cleared. Disarmed -> no action.
+- Pure: time is an argument; the caller turns the action into a nav_state.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+from vehicles.status_log import StatusLog
+from vehicles.types import NavState
+
+
+class Action(enum.IntEnum):
+    """failsafe.h Action, in PX4's severity order."""
+
+    NONE = 0
+    WARN = 1
+    FALLBACK_POSCTRL = 2
+    FALLBACK_ALTCTRL = 3
+    FALLBACK_STABILIZED = 4
+    HOLD = 5
+    RTL = 6
+    LAND = 7
+    DESCEND = 8
+    DISARM = 9
+    TERMINATE = 10
+
+
+class Clear(enum.Enum):
+    WHEN_CONDITION_CLEARS = "when_condition_clears"
+    ON_MODE_CHANGE_OR_DISARM = "on_mode_change_or_disarm"
+    ON_DISARM = "on_disarm"
+    NEVER = "never"
+
+
+@dataclass(frozen=True)
+class ActionOptions:
+    action: Action
+    clear: Clear = Clear.WHEN_CONDITION_CLEARS
+    failing: bool = True  # the condition currently holds (PX4 state_failure)
+
+
+@dataclass(frozen=True)
+class FailsafeFlags:
+    """Inputs of one tick (PX4 failsafe_flags + state)."""
+
+    armed: bool
+    user_nav_state: NavState
+    gcs_lost: bool = False
+    offboard_lost: bool = False
+    battery_warning: int = 0  # 0 none, 1 low, 2 critical, 3 emergency
+    geofence_breached: bool = False
+
+
+# NAV_DLL_ACT / NAV_RCL_ACT values: 0 disabled, 1 Hold, 2 Return, 3 Land, 5 Terminate, 6 Disarm.
+def from_nav_dll_or_rcl_act(value: int) -> ActionOptions:
+    table = {1: ActionOptions(Action.HOLD),
+             2: ActionOptions(Action.RTL, Clear.ON_MODE_CHANGE_OR_DISARM),
+             3: ActionOptions(Action.LAND, Clear.ON_MODE_CHANGE_OR_DISARM),
+             5: ActionOptions(Action.TERMINATE, Clear.NEVER),
+             6: ActionOptions(Action.DISARM)}
+    return table.get(value, ActionOptions(Action.NONE))
+
+
+def from_offboard_loss_act(params) -> ActionOptions:
+    """COM_OBL_RC_ACT; the manual fallbacks need sticks SITL does not have -> NAV_RCL_ACT
+    (failsafe.cpp checkModeFallback)."""
+    value = int(params["COM_OBL_RC_ACT"])
+    table = {3: ActionOptions(Action.RTL, Clear.ON_MODE_CHANGE_OR_DISARM),
+             4: ActionOptions(Action.LAND, Clear.ON_MODE_CHANGE_OR_DISARM),
+             5: ActionOptions(Action.HOLD),
+             6: ActionOptions(Action.TERMINATE, Clear.NEVER),
+             7: ActionOptions(Action.DISARM)}
+    if value in table:
+        return table[value]
+    return from_nav_dll_or_rcl_act(int(params["NAV_RCL_ACT"]))  # 0/1/2 Position/Alt/Stabilized
+
+
+def from_battery_act(params, level: int) -> ActionOptions:
+    """COM_LOW_BAT_ACT: 0 warn, 2 Land, 3 Return at critical / Land at emergency."""
+    act = int(params["COM_LOW_BAT_ACT"])
+    if level <= 1 or act == 0:
+        return ActionOptions(Action.WARN)
+    if level == 2 and act == 3:
+        return ActionOptions(Action.RTL, Clear.ON_MODE_CHANGE_OR_DISARM)
+    return ActionOptions(Action.LAND, Clear.ON_DISARM)
+
+
+def from_gf_act(params) -> ActionOptions:
+    """GF_ACTION: 0 none, 1 warn, 2 Hold, 3 Return, 4 Terminate, 5 Land."""
+    table = {1: ActionOptions(Action.WARN),
+             2: ActionOptions(Action.HOLD, Clear.ON_MODE_CHANGE_OR_DISARM),
+             3: ActionOptions(Action.RTL, Clear.ON_MODE_CHANGE_OR_DISARM),
+             4: ActionOptions(Action.TERMINATE, Clear.NEVER),
+             5: ActionOptions(Action.LAND, Clear.ON_MODE_CHANGE_OR_DISARM)}
+    return table.get(int(params["GF_ACTION"]), ActionOptions(Action.NONE))
+
+
+# COM_DLL_EXCEPT bits (failsafe.cpp): which user modes ignore a data-link loss.
+_DLL_EXCEPT_MODES = {
+    1: {NavState.AUTO_MISSION},
+    2: {NavState.AUTO_LOITER, NavState.AUTO_RTL, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND,
+        NavState.AUTO_PRECLAND},
+    4: {NavState.OFFBOARD},
+}
+
+
+def _dll_condition(f: FailsafeFlags, params) -> bool:
+    if not f.gcs_lost or f.user_nav_state in (NavState.AUTO_LAND, NavState.AUTO_PRECLAND):
+        return False
+    bits = int(params["COM_DLL_EXCEPT"])
+    return not any(bits & bit and f.user_nav_state in modes for bit, modes in _DLL_EXCEPT_MODES.items())
+
+
+@dataclass(frozen=True)
+class Check:
+    name: str
+    condition: Callable[[FailsafeFlags, object], bool]
+    options: Callable[[FailsafeFlags, object], ActionOptions]
+
+
+CHECKS: tuple[Check, ...] = (
+    Check("gcs_connection_lost", _dll_condition,
+          lambda f, p: from_nav_dll_or_rcl_act(int(p["NAV_DLL_ACT"]))),
+    Check("offboard_signal_lost",
+          lambda f, p: f.offboard_lost and f.user_nav_state is NavState.OFFBOARD,
+          lambda f, p: from_offboard_loss_act(p)),
+    Check("battery_warning", lambda f, p: f.battery_warning > 0,
+          lambda f, p: from_battery_act(p, f.battery_warning)),
+    Check("geofence_breached", lambda f, p: f.geofence_breached, lambda f, p: from_gf_act(p)),
+)
+
+
+class Failsafe:
+    def __init__(self, params, log: StatusLog) -> None:
+        self._params = params
+        self._log = log
+        self.actions: dict[str, ActionOptions] = {}
+        self.selected = Action.NONE
+        self._delay_until = -math.inf
+        self._user_takeover = False
+        self._last_armed = False
+
+    @property
+    def in_failsafe(self) -> bool:
+        """vehicle_status.failsafe: an action other than None/Warn is being taken."""
+        return self.selected > Action.WARN
+
+    def user_mode_changed(self) -> None:
+        """The user asked for a mode: a takeover while in failsafe, clears mode-change actions."""
+        self._remove(Clear.ON_MODE_CHANGE_OR_DISARM)
+        if self.in_failsafe and self.selected is not Action.TERMINATE:
+            self._user_takeover = True
+
+    def _remove(self, clear: Clear) -> None:
+        for name in [n for n, a in self.actions.items() if not a.failing and a.clear is clear]:
+            del self.actions[name]
+
+    def update(self, now_s: float, flags: FailsafeFlags) -> Action:
+        if flags.armed != self._last_armed:
+            self._remove(Clear.ON_DISARM)
+            self._remove(Clear.ON_MODE_CHANGE_OR_DISARM)
+            self._user_takeover = False
+            self._last_armed = flags.armed
+        p = self._params
+        for check in CHECKS:
+            failing = check.condition(flags, p)
+            current = self.actions.get(check.name)
+            if failing:
+                opts = check.options(flags, p)
+                if opts.action is Action.NONE:
+                    continue
+                if current is None or opts.action > current.action:
+                    self._add(now_s, check.name, opts)
+                else:
+                    self.actions[check.name] = replace(current, failing=True)
+            elif current is not None and current.failing:
+                if current.clear is Clear.WHEN_CONDITION_CLEARS:
+                    del self.actions[check.name]
+                else:
+                    self.actions[check.name] = replace(current, failing=False)
+        if not any(a.action >= Action.HOLD for a in self.actions.values()):
+            self._delay_until = -math.inf  # clearDelayIfNeeded
+        action, delayed = self._select(now_s, flags)
+        if action > self.selected and action > Action.NONE:
+            if action is Action.HOLD and delayed is not Action.NONE:
+                secs = int(self._delay_until - now_s + 0.5)
+                self._log.critical(now_s, f"Failsafe activated, entering Hold for {secs} seconds")
+            else:
+                self._log.critical(now_s, "Failsafe activated")
+        self.selected = action
+        return action
+
+    def _add(self, now_s: float, name: str, opts: ActionOptions) -> None:
+        self.actions[name] = opts
+        delay = float(self._params["COM_FAIL_ACT_T"])
+        if (opts.action > Action.WARN and delay > 0.1 and now_s >= self._delay_until
+                and opts.clear is not Clear.NEVER):
+            self._delay_until = now_s + delay
+        if opts.action >= Action.HOLD:
+            self._user_takeover = False
+
+    def _select(self, now_s: float, flags: FailsafeFlags) -> tuple[Action, Action]:
+        if self.selected is Action.TERMINATE:
+            return Action.TERMINATE, Action.NONE
+        if not flags.armed:
+            return Action.NONE, Action.NONE
+        worst = max((a.action for a in self.actions.values()), default=Action.NONE)
+        if self._user_takeover and worst is not Action.TERMINATE:
+            return Action.NONE, Action.NONE
+        if (now_s < self._delay_until and worst > Action.WARN
+                and worst not in (Action.DISARM, Action.TERMINATE)):
+            return Action.HOLD, worst
+        return worst, Action.NONE

@@ -1,0 +1,198 @@
+"""Navigator core: setpoint/context types, the NavMode hooks and the basic modes Hold, Takeoff, Land.
+
+After PX4 ``src/modules/navigator`` (NavigatorMode hooks ``on_activation`` / ``on_active`` /
+``on_inactive``; loiter.cpp, takeoff.cpp, land.cpp). Mission and Return live in nav_mission.py and
+nav_rtl.py; navigator.py wires them together.
+
+Rules and invariants:
+- Targets are local NED; a NaN target z means vertical velocity control at ``vz_cmd_mps``.
+- A mode asks for a mode change (takeoff done -> Hold) through ``ctx.switch_to``; the commander
+  applies it.
+- Horizontal auto speed is ``ctx.cruise_mps`` (MPC_XY_CRUISE unless DO_CHANGE_SPEED /
+  DO_REPOSITION / a mission DO_CHANGE_SPEED set another, navigator.cpp ``get_cruising_speed``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from vehicles.control.trajectory import TrajectoryLimits
+from vehicles.status_log import StatusLog
+from vehicles.types import GeoPoint, HomePosition, NavState
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class NavSetpoint:
+    target_ned_m: Vec3
+    yaw_rad: float
+    limits: TrajectoryLimits
+    vz_cmd_mps: float = 0.0
+    idle: bool = False  # stay on the ground with motors at idle
+    landing: bool = False  # LandedState.LANDING while in the air
+    taking_off: bool = False  # LandedState.TAKEOFF (mission takeoff)
+
+
+@dataclass
+class NavContext:
+    """What a mode may look at and do during one tick (built by the autopilot)."""
+
+    now_s: float
+    params: object
+    log: StatusLog
+    armed: bool
+    landed: bool
+    position_ned_m: Vec3
+    velocity_ned_mps: Vec3
+    yaw_rad: float
+    home: HomePosition | None
+    setpoint_ned_m: Vec3  # where the trajectory carrot is now
+    stopping_point_ned_m: Vec3
+    switch_to: Callable[[NavState, Vec3 | None], None] = field(default=lambda s, p: None)
+    origin: GeoPoint | None = None  # EKF origin: lat/lon of plan items -> local NED
+    cruise_mps: float = math.nan  # NaN = MPC_XY_CRUISE
+    set_cruise_mps: Callable[[float], None] = field(default=lambda v: None)
+
+    @property
+    def speed_xy_mps(self) -> float:
+        if math.isnan(self.cruise_mps):
+            return float(self.params["MPC_XY_CRUISE"])
+        return min(self.cruise_mps, float(self.params["MPC_XY_VEL_MAX"]))
+
+    def limits(self, **kw) -> TrajectoryLimits:
+        """Auto-mode limits at the current cruise speed."""
+        kw.setdefault("speed_xy_mps", self.speed_xy_mps)
+        return auto_limits(self.params, **kw)
+
+    @property
+    def home_alt_amsl_m(self) -> float:
+        if self.home is not None:
+            return self.home.geo.alt_amsl_m
+        return self.origin.alt_amsl_m if self.origin is not None else 0.0
+
+
+def auto_limits(params, speed_xy_mps: float | None = None, speed_up_mps: float | None = None,
+                speed_down_mps: float | None = None) -> TrajectoryLimits:
+    p = params
+    return TrajectoryLimits(
+        speed_xy_mps=float(p["MPC_XY_CRUISE"]) if speed_xy_mps is None else speed_xy_mps,
+        speed_up_mps=float(p["MPC_Z_V_AUTO_UP"]) if speed_up_mps is None else speed_up_mps,
+        speed_down_mps=float(p["MPC_Z_V_AUTO_DN"]) if speed_down_mps is None else speed_down_mps,
+        acc_xy_mps2=float(p["MPC_ACC_HOR"]),
+        acc_up_mps2=float(p["MPC_ACC_UP_MAX"]),
+        acc_down_mps2=float(p["MPC_ACC_DOWN_MAX"]),
+    )
+
+
+def land_speed_mps(params, height_m: float) -> float:
+    """PX4 FlightTaskAuto: MPC_Z_V_AUTO_DN above MPC_LAND_ALT1, MPC_LAND_SPEED below MPC_LAND_ALT2."""
+    fast, slow = float(params["MPC_Z_V_AUTO_DN"]), float(params["MPC_LAND_SPEED"])
+    alt1, alt2 = float(params["MPC_LAND_ALT1"]), float(params["MPC_LAND_ALT2"])
+    if height_m >= alt1 or alt1 <= alt2:
+        return fast if height_m >= alt2 else slow
+    if height_m <= alt2:
+        return slow
+    return slow + (fast - slow) * (height_m - alt2) / (alt1 - alt2)
+
+
+class NavMode:
+    def on_activation(self, ctx: NavContext) -> None:
+        pass
+
+    def on_inactive(self, ctx: NavContext) -> None:
+        pass
+
+    def on_active(self, ctx: NavContext) -> NavSetpoint:
+        raise NotImplementedError
+
+
+class Hold(NavMode):
+    """Loiter: brake and hold the stopping point (or a point handed over by the previous mode)."""
+
+    def __init__(self) -> None:
+        self.target: Vec3 = (0.0, 0.0, 0.0)
+        self.yaw = 0.0
+        self.hint: Vec3 | None = None
+        self.hint_yaw = math.nan
+
+    def on_activation(self, ctx: NavContext) -> None:
+        if self.hint is not None and not ctx.landed:
+            self.target = self.hint
+        elif ctx.landed:
+            self.target = ctx.position_ned_m
+        else:
+            self.target = ctx.stopping_point_ned_m
+        self.yaw = ctx.yaw_rad if math.isnan(self.hint_yaw) or ctx.landed else self.hint_yaw
+        self.hint = None
+        self.hint_yaw = math.nan
+
+    def on_active(self, ctx: NavContext) -> NavSetpoint:
+        if ctx.landed:
+            # On the ground Hold keeps the motors idle and follows the vehicle.
+            self.target = ctx.position_ned_m
+            return NavSetpoint(self.target, ctx.yaw_rad, ctx.limits(), idle=True)
+        return NavSetpoint(self.target, self.yaw, ctx.limits())
+
+
+class Takeoff(NavMode):
+    def __init__(self) -> None:
+        self.requested_alt_amsl_m = math.nan
+        self.origin_alt_amsl_m = 0.0
+        self.target: Vec3 = (0.0, 0.0, 0.0)
+        self.yaw = 0.0
+
+    def on_activation(self, ctx: NavContext) -> None:
+        p = ctx.params
+        x, y, z = ctx.position_ned_m
+        if math.isnan(self.requested_alt_amsl_m):
+            alt = float(p["MIS_TAKEOFF_ALT"])
+            ctx.log.info(ctx.now_s, f"Using default takeoff altitude: {alt:.1f} m")
+            target_z = z - alt
+        else:
+            target_z = self.origin_alt_amsl_m - self.requested_alt_amsl_m
+        if not ctx.landed and target_z > z:
+            ctx.log.info(ctx.now_s, "Already higher than takeoff altitude")
+            target_z = z
+        self.target = (x, y, target_z)
+        self.yaw = ctx.yaw_rad
+        self.requested_alt_amsl_m = math.nan
+
+    def on_active(self, ctx: NavContext) -> NavSetpoint:
+        p = ctx.params
+        limits = auto_limits(p, speed_up_mps=float(p["MPC_TKO_SPEED"]))
+        if not ctx.armed:
+            return NavSetpoint(self.target, self.yaw, limits, idle=True)
+        reached = (abs(ctx.position_ned_m[2] - self.target[2]) < float(p["NAV_MC_ALT_RAD"])
+                   and abs(ctx.setpoint_ned_m[2] - self.target[2]) < 1e-3)
+        if not ctx.landed and reached:
+            # COM_TAKEOFF_ACT = 0: hold at the takeoff point.
+            ctx.switch_to(NavState.AUTO_LOITER, self.target)
+        return NavSetpoint(self.target, self.yaw, limits)
+
+
+class Land(NavMode):
+    def __init__(self) -> None:
+        self.target_xy = (0.0, 0.0)
+        self.yaw = 0.0
+        self.announce = True
+
+    def on_activation(self, ctx: NavContext) -> None:
+        if self.announce:
+            ctx.log.info(ctx.now_s, "Landing at current position")
+        sp = ctx.position_ned_m if ctx.landed else ctx.stopping_point_ned_m
+        self.target_xy = (sp[0], sp[1])
+        self.yaw = ctx.yaw_rad
+
+    def on_active(self, ctx: NavContext) -> NavSetpoint:
+        height = -ctx.position_ned_m[2]
+        speed = land_speed_mps(ctx.params, height)
+        limits = auto_limits(ctx.params, speed_down_mps=speed)
+        if ctx.landed:
+            return NavSetpoint(ctx.position_ned_m, self.yaw, limits, idle=True)
+        return NavSetpoint((self.target_xy[0], self.target_xy[1], math.nan), self.yaw, limits,
+                           vz_cmd_mps=speed, landing=True)
+
+

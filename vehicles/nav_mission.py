@@ -1,0 +1,317 @@
+"""Mission mode: executes the stored MISSION plan item by item.
+
+After PX4 ``src/modules/navigator/mission_base.cpp`` / ``mission.cpp`` (current index, auto
+takeoff when started on the ground, "Mission finished, loitering|landed", resume at the current
+item after a pause) and ``mission_block.cpp`` (``is_mission_item_reached_or_completed``: horizontal
+acceptance radius = param2 or NAV_ACC_RAD, vertical NAV_MC_ALT_RAD, then the hold time param1).
+
+Rules and invariants:
+- ``current`` is the index of the item being executed; leaving Mission mode keeps it (pause),
+  re-entering restarts that item. ``set_current`` and a new upload restart at that item.
+- Items without a position are executed at once and count as reached (PX4 reports
+  MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/servo items are accepted and skipped.
+- NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission.
+- Yaw: param4 (deg) when given, else the travel direction (MPC_YAW_MODE 0).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
+from vehicles.plan_types import (
+    REACHED_HISTORY,
+    MavCmd,
+    MissionState,
+    MissionStatus,
+    PlanItem,
+    PlanType,
+)
+from vehicles.plans import PlanStore, item_ned
+from vehicles.types import NavState
+
+Vec3 = tuple[float, float, float]
+
+# Items that move the vehicle (the rest is executed instantly).
+GOTO_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.NAV_LOITER_UNLIM,
+                           MavCmd.NAV_LOITER_TO_ALT})
+TAKEOFF_COMMANDS = frozenset({MavCmd.NAV_TAKEOFF, 84})  # + NAV_VTOL_TAKEOFF
+LAND_COMMANDS = frozenset({MavCmd.NAV_LAND, 85})  # + NAV_VTOL_LAND
+DELAY_COMMANDS = frozenset({MavCmd.NAV_DELAY, MavCmd.CONDITION_DELAY})
+# Below this horizontal distance the heading is no longer updated (avoids spinning on arrival).
+YAW_LOCK_DIST_M = 1.0
+
+
+class Mission(NavMode):
+    def __init__(self, plans: PlanStore) -> None:
+        self.plans = plans
+        self.current = 0
+        self.finished = False
+        self.reached_seq = -1
+        self.reached_count = 0
+        self._history: deque[int] = deque(maxlen=REACHED_HISTORY)
+        self._reached_any = False
+        self._jumps_done: dict[int, int] = {}
+        self._phase = "start"  # start | takeoff | goto | wait | approach | land | done
+        self._target: Vec3 = (0.0, 0.0, 0.0)
+        self._yaw = 0.0
+        self._fixed_yaw = math.nan
+        self._wait_until = 0.0
+        self._acc_rad = 2.0
+        self._auto_takeoff = False
+        plans.on_change(self._plan_changed)
+        self._plan_changed(PlanType.MISSION)
+
+    # --- bookkeeping ---------------------------------------------------------------------------
+    @property
+    def items(self) -> tuple[PlanItem, ...]:
+        return self.plans.get(PlanType.MISSION)
+
+    def _plan_changed(self, plan_type: PlanType) -> None:
+        if plan_type is not PlanType.MISSION:
+            return
+        items = self.items
+        self.current = next((i for i, it in enumerate(items) if it.current), 0)
+        self.finished = False
+        self.reached_seq = -1
+        self._reached_any = False
+        self._jumps_done.clear()
+        self._phase = "start"
+
+    def valid(self) -> bool:
+        return len(self.items) > 0
+
+    def set_current(self, seq: int) -> bool:
+        if not 0 <= seq < len(self.items):
+            return False
+        self.current = seq
+        self.finished = False
+        self._phase = "start"
+        return True
+
+    def status(self, nav_state: NavState) -> MissionStatus:
+        count = len(self.items)
+        if count == 0:
+            state = MissionState.NO_MISSION
+        elif self.finished:
+            state = MissionState.COMPLETE
+        elif nav_state is NavState.AUTO_MISSION:
+            state = MissionState.ACTIVE
+        elif self._reached_any:
+            state = MissionState.PAUSED
+        else:
+            state = MissionState.NOT_STARTED
+        p = self.plans
+        return MissionStatus(
+            current_seq=min(self.current, max(count - 1, 0)), count=count, state=state,
+            in_mission_mode=nav_state is NavState.AUTO_MISSION, reached_seq=self.reached_seq,
+            reached_count=self.reached_count, mission_id=p.plan_id(PlanType.MISSION),
+            fence_id=p.plan_id(PlanType.FENCE), rally_id=p.plan_id(PlanType.RALLY),
+            reached_history=tuple(self._history))
+
+    def _reached(self, seq: int) -> None:
+        self.reached_seq = seq
+        self.reached_count += 1
+        self._history.append(seq)
+        self._reached_any = True
+
+    # --- NavMode hooks -------------------------------------------------------------------------
+    def on_activation(self, ctx: NavContext) -> None:
+        if self.finished:  # a finished mission starts over
+            self.current, self.finished = 0, False
+            self._jumps_done.clear()
+        ctx.log.info(ctx.now_s, "Executing Mission")
+        self._phase = "start"
+        self._yaw = ctx.yaw_rad
+
+    def on_active(self, ctx: NavContext) -> NavSetpoint:
+        if not ctx.armed or (ctx.landed and self.finished):
+            self._phase = "start" if not self.finished else "done"
+            self._target = ctx.position_ned_m
+            return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
+        if self._phase == "start":
+            self._start_item(ctx)
+        if self._phase == "done":
+            return NavSetpoint(self._target, self._yaw, ctx.limits())
+        if ctx.landed and self._phase not in ("takeoff", "land"):
+            self._begin_takeoff(ctx, self._takeoff_alt(ctx), auto=True)
+        return self._run_phase(ctx)
+
+    # --- item handling ------------------------------------------------------------------------
+    def _start_item(self, ctx: NavContext) -> None:
+        items = self.items
+        for _ in range(len(items) + 1):  # bounded: DO_JUMP loops cannot hang a tick
+            if self.current >= len(items):
+                self._finish(ctx)
+                return
+            item = items[self.current]
+            cmd = item.command
+            if cmd in GOTO_COMMANDS:
+                self._begin_goto(ctx, item)
+                return
+            if cmd in TAKEOFF_COMMANDS:
+                home_z = ctx.home.position_ned_m[2] if ctx.home else 0.0
+                item_z = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2]
+                if self._begin_takeoff(ctx, home_z - item_z, auto=False):
+                    return
+                self._reached(self.current)  # already higher: the takeoff item is done
+                self.current += 1
+                continue
+            if cmd in LAND_COMMANDS:
+                n, e, _ = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
+                # mission.cpp: fly to the landing point at the current altitude, then descend.
+                self._target = (n, e, ctx.position_ned_m[2])
+                self._phase = "approach"
+                return
+            if cmd in DELAY_COMMANDS and item.param1 > 0:
+                self._target = ctx.position_ned_m if ctx.landed else ctx.stopping_point_ned_m
+                self._wait_until = ctx.now_s + item.param1
+                self._fixed_yaw = math.nan
+                self._phase = "wait"
+                return
+            if cmd == MavCmd.NAV_RETURN_TO_LAUNCH:
+                self._reached(self.current)
+                self.finished = True
+                self._phase = "done"
+                ctx.switch_to(NavState.AUTO_RTL, None)
+                return
+            if cmd == MavCmd.DO_JUMP:
+                self._do_jump(item)
+                continue
+            if cmd == MavCmd.DO_CHANGE_SPEED:
+                self._change_speed(ctx, item)
+            # Everything else (camera, gimbal, ROI, servo, DO_SET_HOME, DO_LAND_START, ...) is
+            # accepted and skipped.
+            self._reached(self.current)
+            self.current += 1
+        self._finish(ctx)
+
+    def _change_speed(self, ctx: NavContext, item: PlanItem) -> None:
+        # param1 speed type: 0 air / 1 ground (horizontal); 2 climb / 3 descent are ignored.
+        if int(item.param1) in (0, 1):
+            ctx.set_cruise_mps(item.param2 if item.param2 > 0 else math.nan)
+
+    def _do_jump(self, item: PlanItem) -> None:
+        target, repeats = int(item.param1), int(item.param2)
+        done = self._jumps_done.get(item.seq, 0)
+        if 0 <= target < len(self.items) and (repeats < 0 or done < repeats):
+            self._jumps_done[item.seq] = done + 1
+            self.current = target
+        else:
+            self.current += 1
+
+    def _takeoff_alt(self, ctx: NavContext) -> float:
+        """Auto takeoff: max(MIS_TAKEOFF_ALT, the next positional item's altitude above home)."""
+        alt = float(ctx.params["MIS_TAKEOFF_ALT"])
+        home_z = ctx.home.position_ned_m[2] if ctx.home else 0.0
+        for item in self.items[self.current:]:
+            if item.command in GOTO_COMMANDS or item.command in TAKEOFF_COMMANDS:
+                if ctx.origin is not None:
+                    alt = max(alt, home_z - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2])
+                break
+        return alt
+
+    def _begin_takeoff(self, ctx: NavContext, alt_above_home_m: float, auto: bool) -> bool:
+        """Start a vertical climb; False when already higher (nothing to do)."""
+        x, y, z = ctx.position_ned_m
+        home_z = ctx.home.position_ned_m[2] if ctx.home else 0.0
+        target_z = home_z - alt_above_home_m
+        if not ctx.landed and target_z >= z - float(ctx.params["NAV_MC_ALT_RAD"]):
+            return False
+        if ctx.landed:
+            ctx.log.info(ctx.now_s, f"Climb to {alt_above_home_m:.1f} meters above home")
+        self._target = (x, y, target_z)
+        self._fixed_yaw = ctx.yaw_rad
+        self._auto_takeoff = auto
+        self._phase = "takeoff"
+        return True
+
+    def _begin_goto(self, ctx: NavContext, item: PlanItem) -> None:
+        self._target = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
+        acc = item.param2 if item.command == MavCmd.NAV_WAYPOINT else 0.0
+        self._acc_rad = acc if acc > 0 else float(ctx.params["NAV_ACC_RAD"])
+        yaw = item.param4 if item.command in (MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME) else math.nan
+        self._fixed_yaw = math.radians(yaw) if math.isfinite(yaw) else math.nan
+        self._phase = "goto"
+
+    def _run_phase(self, ctx: NavContext) -> NavSetpoint:
+        p = ctx.params
+        x, y, z = ctx.position_ned_m
+        tx, ty, tz = self._target
+        alt_rad = float(p["NAV_MC_ALT_RAD"])
+        if self._phase == "takeoff":
+            if not ctx.landed and abs(z - tz) < alt_rad:
+                if not self._auto_takeoff:
+                    self._reached(self.current)
+                    self.current += 1
+                self._phase = "start"
+                self._start_item(ctx)
+                return self._run_phase(ctx) if self._phase != "done" else self._hold(ctx)
+            limits = ctx.limits(speed_up_mps=float(p["MPC_TKO_SPEED"]))
+            return NavSetpoint(self._target, self._fixed_yaw, limits, taking_off=True)
+        if self._phase == "goto":
+            dist = math.hypot(tx - x, ty - y)
+            if math.isnan(self._fixed_yaw) and dist > YAW_LOCK_DIST_M:
+                self._yaw = math.atan2(ty - y, tx - x)
+            elif not math.isnan(self._fixed_yaw):
+                self._yaw = self._fixed_yaw
+            if dist < self._acc_rad and abs(z - tz) < alt_rad:
+                item = self.items[self.current]
+                if item.command == MavCmd.NAV_LOITER_UNLIM:
+                    if self.reached_seq != self.current:
+                        self._reached(self.current)
+                    return NavSetpoint(self._target, self._yaw, ctx.limits())
+                hold = item.param1 if item.command in (MavCmd.NAV_WAYPOINT,
+                                                       MavCmd.NAV_LOITER_TIME) else 0.0
+                if hold > 0:
+                    self._wait_until = ctx.now_s + hold
+                    self._phase = "wait"
+                    self._fixed_yaw = self._yaw
+                else:
+                    return self._advance(ctx)
+            else:
+                return NavSetpoint(self._target, self._yaw, ctx.limits())
+        if self._phase == "wait":
+            if ctx.now_s >= self._wait_until:
+                return self._advance(ctx)
+            return NavSetpoint(self._target, self._yaw, ctx.limits())
+        if self._phase == "approach":
+            if math.hypot(tx - x, ty - y) < float(p["NAV_ACC_RAD"]) / 2 or ctx.landed:
+                self._phase = "land"
+            else:
+                if math.hypot(tx - x, ty - y) > YAW_LOCK_DIST_M:
+                    self._yaw = math.atan2(ty - y, tx - x)
+                return NavSetpoint(self._target, self._yaw, ctx.limits())
+        # land
+        if ctx.landed:
+            self._reached(self.current)
+            self.current += 1
+            self._start_item(ctx)
+            return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
+        speed = land_speed_mps(p, -z)
+        return NavSetpoint((tx, ty, math.nan), self._yaw, ctx.limits(speed_down_mps=speed),
+                           vz_cmd_mps=speed, landing=True)
+
+    def _advance(self, ctx: NavContext) -> NavSetpoint:
+        self._reached(self.current)
+        self.current += 1
+        self._phase = "start"
+        self._start_item(ctx)
+        if self._phase in ("goto", "approach", "wait", "takeoff"):
+            return self._run_phase(ctx)
+        return self._hold(ctx)
+
+    def _hold(self, ctx: NavContext) -> NavSetpoint:
+        return NavSetpoint(self._target, self._yaw, ctx.limits(), idle=ctx.landed)
+
+    def _finish(self, ctx: NavContext) -> None:
+        self.finished = True
+        self._phase = "done"
+        self.current = max(len(self.items) - 1, 0)
+        if ctx.landed:
+            ctx.log.info(ctx.now_s, "Mission finished, landed")
+            self._target = ctx.position_ned_m
+        else:
+            ctx.log.info(ctx.now_s, "Mission finished, loitering")
+            self._target = ctx.stopping_point_ned_m

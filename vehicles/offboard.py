@@ -1,0 +1,87 @@
+"""Offboard: the latest external setpoint, its freshness, and how it maps onto the controllers.
+
+After PX4 ``mavlink_receiver.cpp`` (every valid setpoint refreshes offboard_control_mode, in any
+mode), ``commander/HealthAndArmingChecks/checks/offboardCheck.cpp`` (the mode is available while a
+setpoint is younger than COM_OF_LOSS_T) and ``mc_pos_control`` (offboard trajectory setpoints go
+straight to PositionControl, no smoothing; velocity and tilt limits still apply).
+
+Rules:
+- ``OffboardSetpoint`` arrives in local NED (the gateway rotated body frames). NaN = not commanded.
+- Priority as PX4's control-mode flags: position / velocity / acceleration setpoints use the
+  position controller (acceleration alone becomes a thrust vector directly); otherwise an attitude
+  quaternion + thrust bypasses position control; otherwise body rates + thrust bypass attitude
+  control too.
+- Yaw: ``yaw_rad`` if given, else ``yaw_rate_radps`` integrated, else the yaw held since entry.
+- Pure: time is an argument; no physics engine.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from vehicles.control.position_control import limit_tilt
+from vehicles.plan_types import OffboardSetpoint
+from vehicles.types import GRAVITY_MPS2
+
+Vec3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class OffboardCommand:
+    """What the autopilot should feed its controllers this tick (exactly one kind is set)."""
+
+    kind: str  # "position" (pos/vel/acc through PositionControl), "acceleration", "attitude", "rates"
+    setpoint: OffboardSetpoint
+    yaw_rad: float
+
+
+def acceleration_to_thrust(acc_ned: Vec3, hover_thrust: float, tilt_max_rad: float) -> Vec3:
+    """PositionControl::_accelerationControl for a pure acceleration setpoint."""
+    bz = (-acc_ned[0], -acc_ned[1], GRAVITY_MPS2)
+    n = math.sqrt(bz[0] ** 2 + bz[1] ** 2 + bz[2] ** 2)
+    bz = limit_tilt((bz[0] / n, bz[1] / n, bz[2] / n), tilt_max_rad)
+    collective = (acc_ned[2] * (hover_thrust / GRAVITY_MPS2) - hover_thrust) / bz[2]
+    collective = min(collective, 0.0)
+    return (bz[0] * collective, bz[1] * collective, bz[2] * collective)
+
+
+class Offboard:
+    def __init__(self) -> None:
+        self.setpoint: OffboardSetpoint | None = None
+        self.received_s = -math.inf
+        self._yaw_sp = math.nan
+        self._last_s: float | None = None
+
+    def set(self, now_s: float, setpoint: OffboardSetpoint) -> None:
+        self.setpoint = setpoint
+        self.received_s = now_s
+
+    def fresh(self, now_s: float, timeout_s: float) -> bool:
+        return self.setpoint is not None and now_s - self.received_s <= timeout_s
+
+    def on_entry(self, yaw_rad: float) -> None:
+        self._yaw_sp = yaw_rad
+        self._last_s = None
+
+    def command(self, now_s: float, yaw_rad: float) -> OffboardCommand | None:
+        sp = self.setpoint
+        if sp is None:
+            return None
+        dt = 0.0 if self._last_s is None else max(now_s - self._last_s, 0.0)
+        self._last_s = now_s
+        if math.isnan(self._yaw_sp):
+            self._yaw_sp = yaw_rad
+        if not math.isnan(sp.yaw_rad):
+            self._yaw_sp = sp.yaw_rad
+        elif not math.isnan(sp.yaw_rate_radps):
+            self._yaw_sp = math.remainder(self._yaw_sp + sp.yaw_rate_radps * dt, math.tau)
+        if sp.has_position or sp.has_velocity:
+            kind = "position"
+        elif sp.has_acceleration:
+            kind = "acceleration"
+        elif sp.attitude_q is not None:
+            kind = "attitude"
+        else:
+            kind = "rates"
+        return OffboardCommand(kind, sp, self._yaw_sp)

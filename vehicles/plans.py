@@ -1,0 +1,163 @@
+"""Plan storage and validation: mission, geofence and rally items (PX4 dataman + mavlink_mission).
+
+After PX4 ``src/modules/mavlink/mavlink_mission.cpp`` (``parse_mavlink_mission_item``: accepted
+frames and commands, MAV_MISSION_RESULT codes) and ``src/modules/navigator/geofence.cpp``
+(polygon vertex groups, circles).
+
+Rules and invariants:
+- One immutable tuple of ``PlanItem`` per ``PlanType``; ``set`` validates the whole list first and
+  replaces the stored one only when it is ACCEPTED (atomic, like PX4 switching dataman slots).
+- Positional items need a global frame (0, 3, 5, 6); items without a position also accept
+  MAV_FRAME_MISSION (2). Anything else -> UNSUPPORTED_FRAME; unknown commands -> UNSUPPORTED.
+- ``plan_id`` is an opaque CRC32 of the items (0 when empty), as PX4's MISSION_ACK/CURRENT ids.
+- ``item_ned`` converts an item's position to the vehicle's local NED frame: relative-altitude
+  frames are relative to home, the others AMSL.
+- Observers registered with ``on_change`` learn which plan changed (the navigator resets the
+  mission index, the geofence rebuilds itself).
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+import zlib
+from collections.abc import Callable, Sequence
+
+from vehicles.plan_types import MavCmd, MavFrame, PlanItem, PlanResult, PlanType
+from vehicles.types import GeoPoint
+
+GLOBAL_FRAMES = frozenset({MavFrame.GLOBAL, MavFrame.GLOBAL_RELATIVE_ALT, MavFrame.GLOBAL_INT,
+                           MavFrame.GLOBAL_RELATIVE_ALT_INT})
+RELATIVE_FRAMES = frozenset({MavFrame.GLOBAL_RELATIVE_ALT, MavFrame.GLOBAL_RELATIVE_ALT_INT})
+
+# Mission commands PX4 accepts with a position (mavlink_mission.cpp, global-frame branch).
+POSITIONAL_COMMANDS = frozenset({
+    16, 17, 19, 21, 22, 31,  # waypoint, loiter unlim/time, land, takeoff, loiter to alt
+    80, 195, 201,  # NAV_ROI, DO_SET_ROI_LOCATION, DO_SET_ROI
+    84, 85,  # VTOL takeoff / land
+    4501,  # CONDITION_GATE
+})
+# Mission commands without a position (MAV_FRAME_MISSION branch), plus CONDITION_YAW and
+# DO_SET_SERVO which the navigator accepts and skips.
+NON_POSITIONAL_COMMANDS = frozenset({
+    20, 93, 112, 114, 115,  # RTL, NAV_DELAY, CONDITION_DELAY / DISTANCE / YAW
+    177, 178, 179, 183, 187, 189,  # DO_JUMP, CHANGE_SPEED, SET_HOME, SET_SERVO, SET_ACTUATOR, LAND_START
+    196, 197, 198,  # ROI wpnext offset / none / sysid
+    200, 203, 204, 205, 206, 211, 212, 214,  # camera / mount / gripper / autotune / trigger interval
+    260, 400, 530, 532, 534,  # oblique survey, arm/disarm, camera mode / focus / source
+    1000, 1001, 2000, 2001, 2003, 2500, 2501, 3000, 42600,  # gimbal, capture, transition, winch
+})
+FENCE_COMMANDS = frozenset({MavCmd.NAV_FENCE_RETURN_POINT, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+                            MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+                            MavCmd.NAV_FENCE_CIRCLE_INCLUSION, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION})
+POLYGON_COMMANDS = frozenset({MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+                              MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION})
+
+# PX4 dataman capacities (the mission one is large in SITL); the gateway refuses bigger
+# uploads with MAV_MISSION_NO_SPACE before any item is transferred.
+CAPACITY = {PlanType.MISSION: 2000, PlanType.FENCE: 64, PlanType.RALLY: 32}
+
+
+def validate_plan(plan_type: PlanType, items: Sequence[PlanItem]) -> PlanResult:
+    if len(items) > CAPACITY[plan_type]:
+        return PlanResult.NO_SPACE
+    for i, item in enumerate(items):
+        if item.seq != i:
+            return PlanResult.INVALID_SEQUENCE
+        result = _validate_item(plan_type, item)
+        if result is not PlanResult.ACCEPTED:
+            return result
+    if plan_type is PlanType.FENCE:
+        return _validate_fence_shape(items)
+    return PlanResult.ACCEPTED
+
+
+def _validate_item(plan_type: PlanType, item: PlanItem) -> PlanResult:
+    cmd, frame = item.command, item.frame
+    if plan_type is PlanType.MISSION:
+        if cmd in POSITIONAL_COMMANDS:
+            return PlanResult.ACCEPTED if frame in GLOBAL_FRAMES else PlanResult.UNSUPPORTED_FRAME
+        if cmd in NON_POSITIONAL_COMMANDS:
+            # PX4 uses MAV_FRAME_MISSION; GCSes sometimes tag these with a global frame (harmless).
+            ok = frame == MavFrame.MISSION or frame in GLOBAL_FRAMES
+            return PlanResult.ACCEPTED if ok else PlanResult.UNSUPPORTED_FRAME
+        return PlanResult.UNSUPPORTED
+    allowed = FENCE_COMMANDS if plan_type is PlanType.FENCE else {MavCmd.NAV_RALLY_POINT}
+    if cmd not in allowed:
+        return PlanResult.UNSUPPORTED
+    if frame not in GLOBAL_FRAMES:
+        return PlanResult.UNSUPPORTED_FRAME
+    return PlanResult.ACCEPTED
+
+
+def _validate_fence_shape(items: Sequence[PlanItem]) -> PlanResult:
+    """geofence.cpp: a polygon is p1 consecutive vertices of one kind, p1 >= 3; circles r > 0."""
+    i = 0
+    while i < len(items):
+        item = items[i]
+        if item.command in POLYGON_COMMANDS:
+            n = int(item.param1) if math.isfinite(item.param1) else 0
+            if n < 3 or i + n > len(items):
+                return PlanResult.INVALID_PARAM1
+            group = items[i:i + n]
+            if any(g.command != item.command or int(g.param1) != n for g in group):
+                return PlanResult.INVALID_PARAM1
+            i += n
+            continue
+        if item.command in (MavCmd.NAV_FENCE_CIRCLE_INCLUSION, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION):
+            if not (math.isfinite(item.param1) and item.param1 > 0.0):
+                return PlanResult.INVALID_PARAM1
+        i += 1
+    return PlanResult.ACCEPTED
+
+
+def plan_crc32(items: Sequence[PlanItem]) -> int:
+    """Opaque id of a plan: CRC32 over the packed items (0 for an empty plan)."""
+    if not items:
+        return 0
+    crc = 0
+    for it in items:
+        crc = zlib.crc32(struct.pack("<HHHBBffffiifB", it.seq, it.command, 0, it.frame,
+                                     it.current & 0xFF, it.param1, it.param2, it.param3,
+                                     it.param4, it.x, it.y, it.z, it.mission_type & 0xFF), crc)
+    return crc or 1
+
+
+def item_geo(item: PlanItem, home_alt_amsl_m: float) -> GeoPoint:
+    alt = item.z + home_alt_amsl_m if item.frame in RELATIVE_FRAMES else item.z
+    return GeoPoint(item.lat_deg, item.lon_deg, alt)
+
+
+def item_ned(item: PlanItem, origin: GeoPoint, home_alt_amsl_m: float) -> tuple[float, float, float]:
+    """The item's position in the local NED frame of ``origin``."""
+    return origin.ned_of(item_geo(item, home_alt_amsl_m))
+
+
+class PlanStore:
+    def __init__(self) -> None:
+        self._plans: dict[PlanType, tuple[PlanItem, ...]] = {t: () for t in PlanType}
+        self._ids: dict[PlanType, int] = {t: 0 for t in PlanType}
+        self._observers: list[Callable[[PlanType], None]] = []
+
+    def on_change(self, callback: Callable[[PlanType], None]) -> None:
+        self._observers.append(callback)
+
+    def get(self, plan_type: PlanType) -> tuple[PlanItem, ...]:
+        return self._plans[PlanType(plan_type)]
+
+    def plan_id(self, plan_type: PlanType) -> int:
+        return self._ids[PlanType(plan_type)]
+
+    def set(self, plan_type: PlanType, items: Sequence[PlanItem]) -> PlanResult:
+        plan_type = PlanType(plan_type)
+        items = tuple(items)
+        result = validate_plan(plan_type, items)
+        if result is PlanResult.ACCEPTED:
+            self._plans[plan_type] = items
+            self._ids[plan_type] = plan_crc32(items)
+            for cb in self._observers:
+                cb(plan_type)
+        return result
+
+    def clear(self, plan_type: PlanType) -> PlanResult:
+        return self.set(plan_type, ())
