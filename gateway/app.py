@@ -45,6 +45,9 @@ class PortInUse(OSError):
         super().__init__(errno.EADDRINUSE, f"UDP port {bind}:{port} is already in use")
         self.port = port
 
+    def __str__(self) -> str:
+        return str(self.strerror)
+
 
 class Daemon:
     def __init__(self, config: RunConfig) -> None:

@@ -42,3 +42,23 @@ def read_all_params(conn, sysid: int, timeout_s: float = 30.0) -> tuple[int, dic
             for idx in [i for i in range(count) if i not in got][:10]:
                 conn.mav.param_request_read_send(sysid, 1, b"", idx)
     return count, got
+
+
+def upload_mission(conn, sysid: int, items: list[tuple[int, int, float, float, float]],
+                   mission_type: int = 0, timeout_s: float = 15.0) -> int:
+    """MISSION_COUNT → MISSION_REQUEST_INT … → MISSION_ACK; items are (command, frame, lat, lon,
+    alt). Returns the MISSION_ACK result."""
+    conn.mav.mission_count_send(sysid, 1, len(items), mission_type)
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        msg = conn.recv_match(type=["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"],
+                              blocking=True, timeout=0.5)
+        if msg is None or msg.get_srcSystem() != sysid:
+            continue
+        if msg.get_type() == "MISSION_ACK":
+            return msg.type
+        command, frame, lat, lon, alt = items[msg.seq]
+        conn.mav.mission_item_int_send(sysid, 1, msg.seq, frame, command, int(msg.seq == 0), 1,
+                                       0, 0, 0, float("nan"), int(lat * 1e7), int(lon * 1e7), alt,
+                                       mission_type)
+    raise AssertionError("mission upload timed out")

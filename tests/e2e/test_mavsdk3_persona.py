@@ -125,3 +125,16 @@ async def test_takeoff_altitude_params_goto_hold_and_return(daemon_factory):
         pos = await latest(drone.telemetry.position())
         assert distance_m(home.latitude_deg, home.longitude_deg,
                           pos.latitude_deg, pos.longitude_deg) < 2.0
+
+
+@pytest.mark.asyncio
+async def test_mission_upload_over_a_lossy_link(daemon_factory):
+    d = daemon_factory("--loss", "0.2", "--seed", "11")
+    async with connected(d.api_port()) as drone:
+        items = square_mission()
+        for _ in range(3):  # three uploads and downloads, each through 20 % loss both ways
+            await drone.mission.upload_mission(MissionPlan(items))
+            downloaded = await drone.mission.download_mission()
+            got = [v for i in downloaded.mission_items for v in (i.latitude_deg, i.longitude_deg)]
+            want = [v for i in items for v in (i.latitude_deg, i.longitude_deg)]
+            assert got == pytest.approx(want, abs=1e-7)

@@ -1,0 +1,104 @@
+"""The GCS link as QGroundControl uses it, with three vehicles on the shared port 14550."""
+
+import math
+import time
+
+import pytest
+from pymavlink import mavutil
+
+from tests.e2e.gcs import gcs, heartbeats_by_sysid, read_all_params
+
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
+
+M = mavutil.mavlink
+
+
+def command(conn, sysid: int, cmd: int, *params: float, timeout_s: float = 5.0):
+    p = list(params) + [0.0] * (7 - len(params))
+    conn.mav.command_long_send(sysid, 1, cmd, 0, *p)
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=0.5)
+        if ack is not None and ack.get_srcSystem() == sysid and ack.command == cmd:
+            return ack
+    raise AssertionError(f"no COMMAND_ACK for {cmd} from {sysid}")
+
+
+def request_message(conn, sysid: int, msg_id: int, msg_type: str):
+    """REQUEST_MESSAGE: PX4 sends the message, then its ACK (both consumed here)."""
+    conn.mav.command_long_send(sysid, 1, M.MAV_CMD_REQUEST_MESSAGE, 0, msg_id, 0, 0, 0, 0, 0, 0)
+    msg = conn.recv_match(type=msg_type, blocking=True, timeout=5,
+                          condition=f"{msg_type}._header.srcSystem=={sysid}")
+    ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=5,
+                          condition=f"COMMAND_ACK._header.srcSystem=={sysid}")
+    assert ack is not None and ack.command == M.MAV_CMD_REQUEST_MESSAGE and ack.result == 0
+    return msg
+
+
+def test_qgc_connect_sequence_rates_and_guided_flight(daemon_factory):
+    d = daemon_factory(vehicles=3)
+    conn = gcs(d.gcs_port())
+    try:
+        assert set(heartbeats_by_sysid(conn, {1, 2, 3})) == {1, 2, 3}
+        conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        for sysid in (1, 2, 3):
+            version = request_message(conn, sysid, M.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+                                      "AUTOPILOT_VERSION")
+            assert version is not None
+            assert version.capabilities & M.MAV_PROTOCOL_CAPABILITY_MISSION_INT
+            assert not version.capabilities & M.MAV_PROTOCOL_CAPABILITY_FTP
+            # What QGC asks next and must not wait for: refused at once.
+            for msg_id in (435, 397, 395):
+                ack = command(conn, sysid, M.MAV_CMD_REQUEST_MESSAGE, msg_id)
+                assert ack.result == M.MAV_RESULT_UNSUPPORTED
+            count, got = read_all_params(conn, sysid)
+            assert count >= 100 and sorted(got) == list(range(count))
+            for mission_type in (0, 1, 2):
+                conn.mav.mission_request_list_send(sysid, 1, mission_type)
+                msg = conn.recv_match(
+                    type="MISSION_COUNT", blocking=True, timeout=5,
+                    condition=f"MISSION_COUNT._header.srcSystem=={sysid} and "
+                              f"MISSION_COUNT.mission_type=={mission_type}")
+                assert msg is not None and msg.count == 0, (sysid, mission_type)
+
+        counts = {(s, t): 0 for s in (1, 2, 3) for t in ("ATTITUDE", "GLOBAL_POSITION_INT")}
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 5.0:
+            msg = conn.recv_match(type=["ATTITUDE", "GLOBAL_POSITION_INT"], blocking=True,
+                                  timeout=0.2)
+            if msg is not None and (msg.get_srcSystem(), msg.get_type()) in counts:
+                counts[(msg.get_srcSystem(), msg.get_type())] += 1
+        for (sysid, kind), n in counts.items():
+            minimum = 5 if kind == "ATTITUDE" else 3
+            assert n / 5.0 >= minimum, (sysid, kind, n)
+
+        # QGC's guided takeoff: NAV_TAKEOFF with an AMSL altitude, then arm; then land.
+        pos = conn.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=5,
+                              condition="GLOBAL_POSITION_INT._header.srcSystem==2")
+        amsl = pos.alt / 1000.0 + 4.0
+        nan = math.nan
+        assert command(conn, 2, M.MAV_CMD_NAV_TAKEOFF, -1, 0, 0, nan, nan, nan,
+                       amsl).result == M.MAV_RESULT_ACCEPTED
+        assert command(conn, 2, M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == \
+            M.MAV_RESULT_ACCEPTED
+        deadline = time.monotonic() + 30
+        rel = 0.0
+        while time.monotonic() < deadline and rel < 3.7:
+            msg = conn.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=1,
+                                  condition="GLOBAL_POSITION_INT._header.srcSystem==2")
+            rel = msg.relative_alt / 1000.0 if msg else rel
+            conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        assert rel >= 3.7
+        assert command(conn, 2, M.MAV_CMD_NAV_LAND, 0, 0, 0, nan, nan, nan,
+                       nan).result == M.MAV_RESULT_ACCEPTED
+        deadline = time.monotonic() + 60
+        armed = True
+        while time.monotonic() < deadline and armed:
+            hb = conn.recv_match(type="HEARTBEAT", blocking=True, timeout=1,
+                                 condition="HEARTBEAT._header.srcSystem==2")
+            if hb is not None:
+                armed = bool(hb.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED)
+            conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        assert not armed, "vehicle 2 did not land and disarm"
+    finally:
+        conn.close()
