@@ -25,9 +25,8 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from gateway.mavlink.session import LinkKind, Session
+from netsim.backend import EmbeddedBackend, NetworkBackend, uniform_router
 from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
-from netsim.link import Link
-from netsim.models import make_model
 from vehicles.params import ParamStore
 from vehicles.world import World
 
@@ -90,20 +89,12 @@ class VehicleLink:
         self.kind = kind
         self.session = session
         self.name = f"v{index + 1}/{kind.name.lower()}"
-        net = sim.network
-        kernel = sim.kernel
-        self.uplink = Link(
-            kernel,
-            make_model(net.model, net.params, seed=net.seed, stream_name=f"{self.name}/up"),
-            self._on_uplink_delivered,
-            name=f"{self.name}/up",
-        )
-        self.downlink = Link(
-            kernel,
-            make_model(net.model, net.params, seed=net.seed, stream_name=f"{self.name}/down"),
-            self._on_downlink_delivered,
-            name=f"{self.name}/down",
-        )
+        vehicle_node = f"v{index + 1}"
+        client_node = "gcs" if kind is LinkKind.GCS else f"api{index + 1}"
+        self.uplink = sim.backend.make_link(f"{self.name}/up", client_node, vehicle_node,
+                                            self._on_uplink_delivered)
+        self.downlink = sim.backend.make_link(f"{self.name}/down", vehicle_node, client_node,
+                                              self._on_downlink_delivered)
         self.peer: object = None
         self._timer: Event | None = None
         self._timer_at = math.inf
@@ -175,6 +166,9 @@ class Simulation:
             raise ValueError("need at least one vehicle")
         self.kernel = Kernel()
         self.network = network or NetworkConfig()
+        self.backend: NetworkBackend = EmbeddedBackend(
+            self.kernel, uniform_router(self.network.model, self.network.params),
+            seed=self.network.seed)
         self.world = World(dt_s=physics_dt_s)
         self.on_downlink: DownlinkHandler | None = None
         self.internal_errors = 0
@@ -192,12 +186,29 @@ class Simulation:
                 self.links[(i, kind)] = VehicleLink(self, i, kind, session)
         self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,
                                priority=PRIORITY_PHYSICS)
+        # CORNET: the physics clock is the reference; mobility reaches the network once per
+        # sync period (scheduled after the physics step of the same instant).
+        self._spawn_ned = [self.world.spawn_offset_ned_m(i) for i in range(vehicles)]
+        self._mobility = Ticker(self.kernel, self.backend.sync_period_s, self._push_mobility,
+                                priority=PRIORITY_PHYSICS)
         for link in self.links.values():
             link.service()
 
     @property
     def now(self) -> float:
         return self.kernel.now
+
+    def vehicle_positions_ned_m(self) -> dict[str, tuple[float, float, float]]:
+        """Every vehicle's position in the world frame (NED from the world's home), by node."""
+        out = {}
+        for i, vehicle in enumerate(self.vehicles):
+            n, e, d = (float(x) for x in vehicle.state.position_ned_m)
+            n0, e0 = self._spawn_ned[i]
+            out[f"v{i + 1}"] = (n0 + n, e0 + e, d)
+        return out
+
+    def _push_mobility(self, now_s: float) -> None:
+        self.backend.update_mobility(now_s, self.vehicle_positions_ned_m())
 
     def inject(self, index: int, kind: LinkKind, datagram: bytes, peer: object = None) -> None:
         """A datagram from client ``peer`` arrives at the vehicle's port now: into the uplink."""
@@ -215,6 +226,8 @@ class Simulation:
 
     def close(self) -> None:
         self._physics.cancel()
+        self._mobility.cancel()
+        self.backend.close()
         close = getattr(self.world, "close", None)
         if close is not None:
             close()

@@ -31,11 +31,19 @@ class LinkModel(Protocol):
 
 ModelFactory = Callable[..., LinkModel]
 _REGISTRY: dict[str, ModelFactory] = {}
+_POSITIONAL: set[str] = set()
 
 
-def register_model(name: str) -> Callable[[ModelFactory], ModelFactory]:
+def register_model(name: str, *, positional: bool = False
+                   ) -> Callable[[ModelFactory], ModelFactory]:
+    """Register a model factory. A ``positional`` model is also given ``mobility`` (a
+    netsim.backend.Mobility), ``src`` and ``dst`` (node names), to look up where its hop's ends
+    are; the others never see positions."""
+
     def deco(factory: ModelFactory) -> ModelFactory:
         _REGISTRY[name] = factory
+        if positional:
+            _POSITIONAL.add(name)
         return factory
 
     return deco
@@ -45,14 +53,21 @@ def model_names() -> list[str]:
     return sorted(_REGISTRY)
 
 
-def make_model(name: str, params: dict[str, Any], *, seed: int, stream_name: str) -> LinkModel:
+def make_model(name: str, params: dict[str, Any], *, seed: int, stream_name: str,
+               mobility: Any = None, src: str = "", dst: str = "") -> LinkModel:
     """Build model ``name`` with ``params``; ``stream_name`` names its random stream."""
     try:
         factory = _REGISTRY[name]
     except KeyError:
         known = ", ".join(model_names())
         raise ValueError(f"unknown link model {name!r} (known: {known})") from None
-    return factory(rng=UniformStream(seed, stream_name), **params)
+    rng = UniformStream(seed, stream_name)
+    try:
+        if name in _POSITIONAL:
+            return factory(rng=rng, mobility=mobility, src=src, dst=dst, **params)
+        return factory(rng=rng, **params)
+    except TypeError as exc:  # an unknown or missing parameter name
+        raise ValueError(f"link model {name!r}: {exc}") from None
 
 
 # Register the built-in models.
