@@ -3,6 +3,10 @@
 
 A goto outside the fence would be refused ("Reposition is outside geofence"), so the vehicle
 leaves the fence under offboard velocity control, as a misbehaving companion computer would.
+What follows is PX4's failsafe chain: the breach switches to Hold; MAVSDK stops streaming
+offboard setpoints a few seconds after the vehicle left Offboard; that is an offboard loss, whose
+action (COM_OBL_RC_ACT, with no RC: NAV_RCL_ACT = Return) is more severe than Hold, so after the
+COM_FAIL_ACT_T delay the vehicle returns home and lands. Watch the status texts.
 """
 
 import asyncio
