@@ -16,11 +16,13 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gateway import persist
+from gateway import persist, zmq_pub
 from gateway.endpoint import UdpEndpoint
 from gateway.mavlink.session import LinkKind
 from gateway.pacer import Pacer
 from gateway.sim import NetworkConfig, Simulation, px4_ports
+from gateway.watch import format_link_table
+from gateway.zmq_pub import Publisher
 from vehicles.params import ParamStore
 
 log = logging.getLogger(__name__)
@@ -37,6 +39,7 @@ class RunConfig:
     remote_host: str = "127.0.0.1"
     speed: float = 1.0
     state_dir: Path | None = None  # parameters persist here, per vehicle
+    zmq_pub: str | None = None  # e.g. tcp://127.0.0.1:5556: states, link stats, packet events
     params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
 
 
@@ -52,7 +55,13 @@ class PortInUse(OSError):
 class Daemon:
     def __init__(self, config: RunConfig) -> None:
         self.config = config
-        self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for)
+        self.publisher = Publisher(config.zmq_pub) if config.zmq_pub else None
+        self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
+                              tracer=self.publisher.packet_event if self.publisher else None)
+        if self.publisher is not None:
+            pub, sim = self.publisher, self.sim
+            sim.every(zmq_pub.STATE_PERIOD_S, lambda now: pub.vehicle_states(now, sim))
+            sim.every(zmq_pub.LINKS_PERIOD_S, lambda now: pub.link_stats(now, sim))
         self.pacer = Pacer(self.sim.kernel, speed=config.speed)
         self.endpoints: dict[tuple[int, LinkKind], UdpEndpoint] = {}
         self.sim.on_downlink = self._send
@@ -104,6 +113,8 @@ class Daemon:
         for endpoint in self.endpoints.values():
             endpoint.close()
         self.sim.close()
+        if self.publisher is not None:
+            self.publisher.close()
 
     def status_line(self) -> str:
         stats = self.sim.link_stats()
@@ -116,6 +127,10 @@ class Daemon:
                 f"vehicles={self.config.vehicles} datagrams_up={up} datagrams_down={down} "
                 f"net_dropped={dropped} malformed={malformed} "
                 f"internal_errors={self.sim.internal_errors} slips={self.pacer.slips}")
+
+    def log_link_stats(self) -> None:
+        """On SIGUSR1 and at exit: every link's counters and latency percentiles."""
+        log.info("%s", format_link_table(self.sim.link_stats(), self.sim.now))
 
     async def _report(self) -> None:
         while True:
@@ -130,6 +145,7 @@ async def serve(config: RunConfig, ready_out=sys.stdout) -> int:
     stop = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
+    loop.add_signal_handler(signal.SIGUSR1, daemon.log_link_stats)
     cfg = config
     ports = ", ".join(
         f"v{i + 1} gcs {px4_ports(i, LinkKind.GCS, cfg.port_offset).local}"
@@ -155,8 +171,9 @@ async def serve(config: RunConfig, ready_out=sys.stdout) -> int:
         for task in tasks:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
-        for sig in (signal.SIGINT, signal.SIGTERM):
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1):
             loop.remove_signal_handler(sig)
+        daemon.log_link_stats()
         log.info("stopping after %.1f s: %s", time.monotonic() - t0, daemon.status_line())
         daemon.close()
     return 0

@@ -68,9 +68,20 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--state-dir", type=Path, default=None, metavar="DIR",
                      help="keep each vehicle's changed parameters in DIR/vehicle-<sysid>/ across "
                      "restarts (default: not kept)")
+    run.add_argument("--zmq-pub", default=None, metavar="ENDPOINT",
+                     help="publish vehicle states, link statistics and packet events on a "
+                     "ZeroMQ PUB socket, e.g. tcp://127.0.0.1:5556 (schema: docs/zmq.md)")
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
+    for name, helptext in (("watch", "live table of vehicles and link quality from --zmq-pub"),
+                           ("stats", "print every link's counters once, from --zmq-pub")):
+        p = sub.add_parser(name, help=helptext, description=helptext)
+        p.add_argument("--zmq", default=None, metavar="ENDPOINT",
+                       help="the daemon's --zmq-pub endpoint (default tcp://127.0.0.1:5556)")
+        if name == "watch":
+            p.add_argument("--duration", type=_non_negative(float, "--duration"), default=None,
+                           metavar="S", help="stop after S seconds (default: until Ctrl-C)")
     return parser
 
 
@@ -104,6 +115,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "run":
         return _run(parser, args)
+    if args.command in ("watch", "stats"):
+        from gateway import watch
+
+        endpoint = args.zmq or watch.DEFAULT_ENDPOINT
+        if args.command == "watch":
+            return watch.watch(endpoint, duration_s=args.duration)
+        return watch.stats(endpoint)
     parser.error(f"unknown command {args.command!r}")
     return 2
 
@@ -147,9 +165,15 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         port_offset=args.port_offset,
         state_dir=args.state_dir,
         params=params,
+        zmq_pub=args.zmq_pub,
     )
+    import zmq
+
     try:
         return asyncio.run(serve(config))
+    except zmq.ZMQError as exc:
+        print(f"cornet: --zmq-pub {args.zmq_pub}: {exc}", file=sys.stderr)
+        return 2
     except PortInUse as exc:
         print(f"cornet: {exc}; is another cornet or PX4 SITL running? "
               f"Stop it or choose another --port-offset.", file=sys.stderr)

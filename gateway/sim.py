@@ -27,6 +27,7 @@ from typing import NamedTuple
 from gateway.mavlink.session import LinkKind, Session
 from netsim.backend import EmbeddedBackend, NetworkBackend, uniform_router
 from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
+from netsim.link import Tracer
 from vehicles.params import ParamStore
 from vehicles.world import World
 
@@ -159,7 +160,8 @@ class Simulation:
     def __init__(self, vehicles: int, network: NetworkConfig | None = None,
                  param_overrides: dict[str, float] | None = None,
                  physics_dt_s: float = PHYSICS_DT_S,
-                 params_for: Callable[[int], ParamStore] | None = None) -> None:
+                 params_for: Callable[[int], ParamStore] | None = None,
+                 tracer: Tracer | None = None) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence."""
         if vehicles < 1:
@@ -168,7 +170,8 @@ class Simulation:
         self.network = network or NetworkConfig()
         self.backend: NetworkBackend = EmbeddedBackend(
             self.kernel, uniform_router(self.network.model, self.network.params),
-            seed=self.network.seed)
+            seed=self.network.seed, tracer=tracer)
+        self._observers: list[Ticker] = []
         self.world = World(dt_s=physics_dt_s)
         self.on_downlink: DownlinkHandler | None = None
         self.internal_errors = 0
@@ -207,6 +210,12 @@ class Simulation:
             out[f"v{i + 1}"] = (n0 + n, e0 + e, d)
         return out
 
+    def every(self, period_s: float, callback: Callable[[float], None]) -> Ticker:
+        """Call ``callback(now)`` every ``period_s`` of simulated time (observers: logs, ZMQ)."""
+        ticker = Ticker(self.kernel, period_s, callback)
+        self._observers.append(ticker)
+        return ticker
+
     def _push_mobility(self, now_s: float) -> None:
         self.backend.update_mobility(now_s, self.vehicle_positions_ned_m())
 
@@ -227,6 +236,8 @@ class Simulation:
     def close(self) -> None:
         self._physics.cancel()
         self._mobility.cancel()
+        for ticker in self._observers:
+            ticker.cancel()
         self.backend.close()
         close = getattr(self.world, "close", None)
         if close is not None:

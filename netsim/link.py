@@ -14,6 +14,7 @@ Rules and invariants:
 
 from __future__ import annotations
 
+from bisect import bisect_left
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -26,6 +27,11 @@ Deliver = Callable[[bytes, Any], None]
 Tracer = Callable[[str, str, float, int, str], None]  # (event, link, time_s, size, detail)
 
 
+# Latency histogram bucket upper edges: 0, then 10 µs × 1.25^k up to ~60 s (about 70 buckets):
+# percentiles to within 25 % without keeping every sample.
+LATENCY_EDGES_S: tuple[float, ...] = (0.0,) + tuple(10e-6 * 1.25**k for k in range(71))
+
+
 @dataclass
 class LinkStats:
     sent: int = 0
@@ -36,10 +42,33 @@ class LinkStats:
     dropped: Counter = field(default_factory=Counter)
     latency_sum_s: float = 0.0
     latency_max_s: float = 0.0
+    latency_histogram: list[int] = field(default_factory=lambda: [0] * (len(LATENCY_EDGES_S) + 1))
+    late_delivered: int = 0  # external backends: delivered after their sync cycle (policy deliver)
 
     @property
     def dropped_total(self) -> int:
         return sum(self.dropped.values())
+
+    def record_delivery(self, latency_s: float, size: int) -> None:
+        self.delivered += 1
+        self.bytes_delivered += size
+        self.latency_sum_s += latency_s
+        if latency_s > self.latency_max_s:
+            self.latency_max_s = latency_s
+        self.latency_histogram[bisect_left(LATENCY_EDGES_S, latency_s)] += 1
+
+    def latency_percentile_s(self, q: float) -> float:
+        """Upper edge of the histogram bucket holding the q-quantile (0 < q <= 1)."""
+        n = sum(self.latency_histogram)
+        if n == 0:
+            return 0.0
+        rank = q * n
+        seen = 0
+        for i, count in enumerate(self.latency_histogram):
+            seen += count
+            if seen >= rank:
+                return min(LATENCY_EDGES_S[min(i, len(LATENCY_EDGES_S) - 1)], self.latency_max_s)
+        return self.latency_max_s
 
     def as_dict(self) -> dict[str, Any]:
         mean = self.latency_sum_s / self.delivered if self.delivered else 0.0
@@ -50,7 +79,10 @@ class LinkStats:
             "bytes_delivered": self.bytes_delivered,
             "in_flight": self.in_flight,
             "dropped": dict(self.dropped),
+            "late_delivered": self.late_delivered,
             "latency_mean_ms": round(mean * 1e3, 3),
+            "latency_p50_ms": round(self.latency_percentile_s(0.5) * 1e3, 3),
+            "latency_p99_ms": round(self.latency_percentile_s(0.99) * 1e3, 3),
             "latency_max_ms": round(self.latency_max_s * 1e3, 3),
         }
 
@@ -91,12 +123,7 @@ class Link:
     def _arrive(self, packet: bytes, meta: Any, sent_at: float) -> None:
         stats = self.stats
         stats.in_flight -= 1
-        stats.delivered += 1
-        stats.bytes_delivered += len(packet)
-        latency = self.kernel.now - sent_at
-        stats.latency_sum_s += latency
-        if latency > stats.latency_max_s:
-            stats.latency_max_s = latency
+        stats.record_delivery(self.kernel.now - sent_at, len(packet))
         if self.tracer is not None:
             self.tracer("recv", self.name, self.kernel.now, len(packet), "")
         self._deliver(packet, meta)

@@ -154,3 +154,17 @@ def test_bad_model_config():
 
 def test_drop_reasons_are_counter_names():
     assert Drop.LOSS.value == "loss"
+
+
+def test_latency_percentiles_from_the_histogram():
+    k = Kernel()
+    link, got = _link(k, latency_s=0.05, jitter_s=0.05, seed=4)
+    for i in range(5000):
+        k.schedule(i * 0.001, link.send, b"x")
+    k.run()
+    s = link.stats
+    # Uniform delay on [0, 0.1] s: p50 ≈ 50 ms, p99 ≈ 99 ms, to the histogram's 25 % resolution.
+    assert 0.04 <= s.latency_percentile_s(0.5) <= 0.0625
+    assert 0.09 <= s.latency_percentile_s(0.99) <= 0.1
+    d = s.as_dict()
+    assert d["latency_p50_ms"] <= d["latency_p99_ms"] <= d["latency_max_ms"]

@@ -1,0 +1,104 @@
+"""The outside data path: vehicle states, link statistics and packet events on a ZeroMQ PUB socket.
+
+For external tools (plots, dashboards, `cornet watch`). Publishing never blocks the simulation:
+the socket sends with NOBLOCK and a bounded high-water mark, and a message that does not fit is
+counted as dropped. The schema is documented in docs/zmq.md; every message carries ``"v"``.
+
+Messages are two frames: the topic (ASCII) and a JSON object.
+  cornet.state   10 Hz simulated: every vehicle's mode, arming, position, velocity, battery
+  cornet.links   1 Hz simulated: every link direction's counters and latency percentiles
+  cornet.packet  each datagram event on a link: send / drop (with reason) / recv
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+
+import zmq
+
+from gateway.mavlink.modes import custom_mode_of
+from vehicles.types import NavState
+
+log = logging.getLogger(__name__)
+
+SCHEMA_VERSION = 1
+STATE_PERIOD_S = 0.1
+LINKS_PERIOD_S = 1.0
+SEND_HWM = 10_000
+
+TOPIC_STATE = b"cornet.state"
+TOPIC_LINKS = b"cornet.links"
+TOPIC_PACKET = b"cornet.packet"
+
+# QGC's names for PX4 modes (PX4_COMPAT.md §2), for humans reading the stream.
+MODE_NAMES = {
+    NavState.MANUAL: "Manual", NavState.ALTCTL: "Altitude", NavState.POSCTL: "Position",
+    NavState.AUTO_MISSION: "Mission", NavState.AUTO_LOITER: "Hold", NavState.AUTO_RTL: "Return",
+    NavState.ACRO: "Acro", NavState.DESCEND: "Land", NavState.TERMINATION: "Termination",
+    NavState.OFFBOARD: "Offboard", NavState.STAB: "Stabilized", NavState.AUTO_TAKEOFF: "Takeoff",
+    NavState.AUTO_LAND: "Land", NavState.AUTO_FOLLOW_TARGET: "Follow Me",
+    NavState.AUTO_PRECLAND: "Precision Land", NavState.ORBIT: "Orbit",
+    NavState.POSITION_SLOW: "Position Slow",
+}
+
+
+def _r(x: float, digits: int = 3) -> float:
+    return round(float(x), digits)
+
+
+class Publisher:
+    def __init__(self, endpoint: str, context: zmq.Context | None = None) -> None:
+        self._ctx = context or zmq.Context.instance()
+        self.socket = self._ctx.socket(zmq.PUB)
+        self.socket.setsockopt(zmq.SNDHWM, SEND_HWM)
+        self.socket.setsockopt(zmq.LINGER, 0)
+        self.socket.bind(endpoint)
+        self.endpoint = endpoint
+        self.sent = 0
+        self.dropped = 0
+
+    def publish(self, topic: bytes, body: dict) -> None:
+        body["v"] = SCHEMA_VERSION
+        try:
+            self.socket.send_multipart([topic, json.dumps(body, separators=(",", ":")).encode()],
+                                       flags=zmq.NOBLOCK)
+            self.sent += 1
+        except zmq.Again:
+            self.dropped += 1
+
+    # --- what the simulation hands over -----------------------------------------------------
+    def vehicle_states(self, now_s: float, sim) -> None:
+        world = sim.vehicle_positions_ned_m()
+        out = []
+        for i, v in enumerate(sim.vehicles):
+            status = v.status
+            geo = v.global_position
+            home = status.home
+            n, e, d = world[f"v{i + 1}"]
+            vel = v.state.velocity_ned_mps
+            out.append({
+                "sysid": i + 1,
+                "mode": MODE_NAMES.get(status.nav_state, status.nav_state.name),
+                "custom_mode": custom_mode_of(status.nav_state),
+                "armed": status.armed,
+                "landed_state": status.landed_state.name,
+                "failsafe": status.failsafe,
+                "lat_deg": _r(geo.lat_deg, 7), "lon_deg": _r(geo.lon_deg, 7),
+                "alt_amsl_m": _r(geo.alt_amsl_m),
+                "rel_alt_m": _r(geo.alt_amsl_m - home.geo.alt_amsl_m) if home else None,
+                "world_ned_m": [_r(n), _r(e), _r(d)],
+                "velocity_ned_mps": [_r(vel[0]), _r(vel[1]), _r(vel[2])],
+                "battery_remaining": _r(status.battery.remaining),
+            })
+        self.publish(TOPIC_STATE, {"t": _r(now_s, 4), "vehicles": out})
+
+    def link_stats(self, now_s: float, sim) -> None:
+        self.publish(TOPIC_LINKS, {"t": _r(now_s, 4), "links": sim.link_stats()})
+
+    def packet_event(self, event: str, link: str, time_s: float, size: int, detail: str) -> None:
+        self.publish(TOPIC_PACKET, {"t": _r(time_s, 6), "event": event, "link": link,
+                                    "size": size, "detail": detail})
+
+    def close(self) -> None:
+        self.socket.close(0)
