@@ -78,10 +78,13 @@ def test_data_link_loss_with_nav_dll_act_return(daemon_factory):
         for command, params in [(400, [1, 0, 0, 0, 0, 0, 0]),
                                 (22, [-1, 0, 0, float("nan"), float("nan"), float("nan"),
                                       float("nan")])]:
-            ground.mav.command_long_send(1, 1, command, 0, *params)
-            ack = ground.recv_match(type="COMMAND_ACK", blocking=True, timeout=3,
-                                    condition=f"COMMAND_ACK.command=={command}")
-            assert ack is not None and ack.result == 0, (command, ack)
+            for _ in range(3):  # a GCS retries an unanswered command (QGC: 3 s, 3 times)
+                ground.mav.command_long_send(1, 1, command, 0, *params)
+                ack = ground.recv_match(type="COMMAND_ACK", blocking=True, timeout=3,
+                                        condition=f"COMMAND_ACK.command=={command}")
+                if ack is not None:
+                    break
+            assert ack is not None and ack.result == 0, (command, ack, d.log_tail())
             hb(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         deadline = time.monotonic() + 8
         while time.monotonic() < deadline:  # climbing and holding, GCS still there
