@@ -24,6 +24,7 @@ from gateway.sim import NetworkConfig, Simulation, px4_ports
 from gateway.watch import format_link_table
 from gateway.zmq_pub import Publisher
 from vehicles.params import ParamStore
+from vehicles.types import PX4_SITL_HOME, GeoPoint
 
 log = logging.getLogger(__name__)
 
@@ -33,13 +34,14 @@ STATUS_PERIOD_S = 10.0
 @dataclass(frozen=True)
 class RunConfig:
     vehicles: int = 1
-    network: NetworkConfig = NetworkConfig()
+    network: NetworkConfig = field(default_factory=NetworkConfig)
     port_offset: int = 0
     bind: str = "127.0.0.1"
     remote_host: str = "127.0.0.1"
     speed: float = 1.0
     state_dir: Path | None = None  # parameters persist here, per vehicle
     zmq_pub: str | None = None  # e.g. tcp://127.0.0.1:5556: states, link stats, packet events
+    home: GeoPoint = PX4_SITL_HOME  # the world's home: vehicles spawn around it
     params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
 
 
@@ -57,7 +59,8 @@ class Daemon:
         self.config = config
         self.publisher = Publisher(config.zmq_pub) if config.zmq_pub else None
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
-                              tracer=self.publisher.packet_event if self.publisher else None)
+                              tracer=self.publisher.packet_event if self.publisher else None,
+                              home=config.home, realtime=True)
         if self.publisher is not None:
             pub, sim = self.publisher, self.sim
             sim.every(zmq_pub.STATE_PERIOD_S, lambda now: pub.vehicle_states(now, sim))
@@ -154,7 +157,7 @@ async def serve(config: RunConfig, ready_out=sys.stdout) -> int:
         f"->{px4_ports(i, LinkKind.API, cfg.port_offset).remote}"
         for i in range(min(cfg.vehicles, 4))
     ) + (" ..." if cfg.vehicles > 4 else "")
-    print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.model}, {ports}",
+    print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.summary}, {ports}",
           file=ready_out, flush=True)
     t0 = time.monotonic()
     tasks = [asyncio.create_task(daemon.pacer.run(), name="pacer"),

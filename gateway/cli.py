@@ -7,6 +7,7 @@ import asyncio
 import logging
 import os
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 LOG_LEVELS = ("debug", "info", "warning", "error")
@@ -51,20 +52,23 @@ def build_parser() -> argparse.ArgumentParser:
         description="Start N simulated PX4 vehicles. Vehicle i binds UDP 18570+i (GCS link, "
         "talks to 14550) and 14580+i (API link, talks to 14540+i), like PX4 SITL.",
     )
-    run.add_argument("--vehicles", type=int, default=1, metavar="N",
-                     help="number of vehicles (default 1)")
+    run.add_argument("--scenario", type=Path, default=None, metavar="FILE",
+                     help="a scenario file (TOML: vehicles, network topology and models, sync "
+                     "period, late policy); see scenarios/ and docs/scenarios.md")
+    run.add_argument("--vehicles", type=int, default=None, metavar="N",
+                     help="number of vehicles (default 1, or the scenario's)")
     run.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,
                      metavar="X", help="one-way network latency in ms on every link (default 0)")
     run.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=0.0,
                      metavar="Y", help="uniform jitter +-Y ms (default 0)")
     run.add_argument("--loss", type=_probability, default=0.0, metavar="P",
                      help="packet loss probability per datagram, 0..1 (default 0)")
-    run.add_argument("--seed", type=int, default=0, metavar="S",
-                     help="seed of every random stream (default 0)")
+    run.add_argument("--seed", type=_non_negative(int, "--seed"), default=None, metavar="S",
+                     help="seed of every random stream (default 0, or the scenario's)")
     run.add_argument("--port-offset", type=_non_negative(int, "--port-offset"), default=0,
                      metavar="K", help="shift every local and remote port by K (default 0)")
-    run.add_argument("--log-level", choices=LOG_LEVELS, default="info", metavar="L",
-                     help=f"one of {', '.join(LOG_LEVELS)} (default info)")
+    run.add_argument("--log-level", choices=LOG_LEVELS, default=None, metavar="L",
+                     help=f"one of {', '.join(LOG_LEVELS)} (default info, or the scenario's)")
     run.add_argument("--state-dir", type=Path, default=None, metavar="DIR",
                      help="keep each vehicle's changed parameters in DIR/vehicle-<sysid>/ across "
                      "restarts (default: not kept)")
@@ -74,6 +78,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
+    check = sub.add_parser("check", help="validate a scenario file and say what it sets up",
+                           description="Validate a scenario file. Exit 0 and a summary if it is "
+                           "good; exit 2 and the key that is wrong if not.")
+    check.add_argument("scenario", type=Path, metavar="FILE")
     for name, helptext in (("watch", "live table of vehicles and link quality from --zmq-pub"),
                            ("stats", "print every link's counters once, from --zmq-pub")):
         p = sub.add_parser(name, help=helptext, description=helptext)
@@ -115,6 +123,15 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "run":
         return _run(parser, args)
+    if args.command == "check":
+        from gateway.scenario import ScenarioError, describe, load
+
+        try:
+            print(describe(load(args.scenario)))
+        except ScenarioError as exc:
+            print(f"cornet check: {exc}", file=sys.stderr)
+            return 2
+        return 0
     if args.command in ("watch", "stats"):
         from gateway import watch
 
@@ -135,13 +152,34 @@ def _subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentP
 
 def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     parser = _subparser(parser, "run")  # errors then show `cornet run` usage
+    from gateway.scenario import NetworkConfig, Scenario, ScenarioError, load
+
+    if args.scenario is not None:
+        try:
+            scenario = load(args.scenario)
+        except ScenarioError as exc:
+            parser.error(str(exc))
+        flags = [f for f, v in (("--latency-ms", args.latency_ms), ("--jitter-ms", args.jitter_ms),
+                                ("--loss", args.loss)) if v]
+        if flags:
+            parser.error(f"{', '.join(flags)}: the scenario {args.scenario} defines the network; "
+                         "set it there (or drop --scenario)")
+        network = scenario.network
+        if args.seed is not None:
+            network = replace(network, seed=args.seed)
+    else:
+        scenario = Scenario(source="flags")
+        network = NetworkConfig.from_flags(args.latency_ms, args.jitter_ms, args.loss,
+                                           args.seed or 0)
+    if args.vehicles is None:
+        args.vehicles = scenario.vehicles
     if not 1 <= args.vehicles <= MAX_VEHICLES:
         parser.error(f"--vehicles must be between 1 and {MAX_VEHICLES}, got {args.vehicles}")
     highest = 18570 + args.vehicles - 1 + args.port_offset
     if highest > MAX_PORT:
         parser.error(f"--port-offset {args.port_offset} with {args.vehicles} vehicles needs "
                      f"port {highest} > {MAX_PORT}; use a smaller offset")
-    params = _parse_params(parser, args.param, dict(os.environ))
+    params = {**scenario.params, **_parse_params(parser, args.param, dict(os.environ))}
     if args.state_dir is not None:
         try:
             args.state_dir.mkdir(parents=True, exist_ok=True)
@@ -151,17 +189,17 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         except OSError as exc:
             parser.error(f"--state-dir {args.state_dir}: not a writable directory ({exc.strerror})")
     logging.basicConfig(
-        level=args.log_level.upper(),
+        level=(args.log_level or scenario.log_level or "info").upper(),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
         stream=sys.stderr,
     )
     # Imported here so that `cornet --help` and flag errors stay fast.
     from gateway.app import PortInUse, RunConfig, serve
-    from gateway.sim import NetworkConfig
 
     config = RunConfig(
         vehicles=args.vehicles,
-        network=NetworkConfig.from_flags(args.latency_ms, args.jitter_ms, args.loss, args.seed),
+        network=network,
+        home=scenario.home,
         port_offset=args.port_offset,
         state_dir=args.state_dir,
         params=params,

@@ -13,7 +13,8 @@ Invariants:
   times the world is stepped before packets are delivered and telemetry is sampled).
 - Each session has at most one pending timer event in the heap, rescheduled after every call
   into the session.
-- Every random draw comes from a stream named after its link, seeded from ``NetworkConfig.seed``.
+- Every random draw comes from a stream named after its link (and hop), seeded from
+  ``NetworkConfig.seed``.
 """
 
 from __future__ import annotations
@@ -21,14 +22,16 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from gateway.mavlink.session import LinkKind, Session
-from netsim.backend import EmbeddedBackend, NetworkBackend, uniform_router
+from gateway.scenario import NetworkConfig
+from netsim.backend import EmbeddedBackend, NetworkBackend
 from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
 from netsim.link import Tracer
+from netsim.topology import make_router
 from vehicles.params import ParamStore
+from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.world import World
 
 log = logging.getLogger(__name__)
@@ -55,25 +58,6 @@ def px4_ports(index: int, kind: LinkKind, offset: int = 0) -> Ports:
         return Ports(GCS_LOCAL_BASE + index + offset, GCS_REMOTE_PORT + offset)
     return Ports(API_LOCAL_BASE + index + offset,
                  min(API_REMOTE_BASE + index, API_REMOTE_MAX) + offset)
-
-
-@dataclass(frozen=True)
-class NetworkConfig:
-    """The embedded network: one model for every link direction (scenarios refine this later)."""
-
-    model: str = "ideal"
-    params: dict = field(default_factory=dict)
-    seed: int = 0
-
-    @staticmethod
-    def from_flags(latency_ms: float, jitter_ms: float, loss: float, seed: int) -> NetworkConfig:
-        if latency_ms == 0 and jitter_ms == 0 and loss == 0:
-            return NetworkConfig("ideal", {}, seed)
-        return NetworkConfig(
-            "fixed",
-            {"latency_s": latency_ms / 1e3, "jitter_s": jitter_ms / 1e3, "loss": loss},
-            seed,
-        )
 
 
 # (vehicle index, link kind, datagram, peer): peer is the opaque address of the client the
@@ -151,6 +135,24 @@ class VehicleLink:
             self._timer = self.sim.kernel.schedule(max(deadline, now), self._on_timer)
 
 
+def make_backend(kernel: Kernel, network: NetworkConfig, tracer: Tracer | None = None, *,
+                 realtime: bool = False) -> NetworkBackend:
+    """The network backend a scenario names (see gateway/scenario.py). ``realtime``: the
+    daemon's pacer runs the kernel against the wall clock, so an external backend must never
+    make it wait (late packets then follow the late policy); otherwise it runs in lockstep."""
+    if network.backend == "embedded":
+        router, positions = make_router(network.topology)
+        return EmbeddedBackend(kernel, router, seed=network.seed,
+                               sync_period_s=network.sync_period_s, fixed_positions=positions,
+                               tracer=tracer)
+    from netsim.ns3.bridge import Ns3Backend  # imported on demand: it spawns a process
+
+    config = dict(network.ns3)
+    config.setdefault("engine", "reference" if network.backend == "ns3-reference" else "ns3")
+    return Ns3Backend(kernel, config, seed=network.seed, sync_period_s=network.sync_period_s,
+                      late_policy=network.late_policy, realtime=realtime, tracer=tracer)
+
+
 def default_params(index: int, overrides: dict[str, float] | None = None) -> ParamStore:
     """PX4 defaults, MAV_SYS_ID = instance + 1 (as PX4's rcS sets it), then ``overrides``."""
     return ParamStore({"MAV_SYS_ID": index + 1, **(overrides or {})})
@@ -161,18 +163,18 @@ class Simulation:
                  param_overrides: dict[str, float] | None = None,
                  physics_dt_s: float = PHYSICS_DT_S,
                  params_for: Callable[[int], ParamStore] | None = None,
-                 tracer: Tracer | None = None) -> None:
+                 tracer: Tracer | None = None, home: GeoPoint = PX4_SITL_HOME,
+                 realtime: bool = False) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence."""
         if vehicles < 1:
             raise ValueError("need at least one vehicle")
         self.kernel = Kernel()
         self.network = network or NetworkConfig()
-        self.backend: NetworkBackend = EmbeddedBackend(
-            self.kernel, uniform_router(self.network.model, self.network.params),
-            seed=self.network.seed, tracer=tracer)
+        self.backend: NetworkBackend = make_backend(self.kernel, self.network, tracer,
+                                                    realtime=realtime)
         self._observers: list[Ticker] = []
-        self.world = World(dt_s=physics_dt_s)
+        self.world = World(dt_s=physics_dt_s, home=home)
         self.on_downlink: DownlinkHandler | None = None
         self.internal_errors = 0
         self.vehicles = []
@@ -194,6 +196,9 @@ class Simulation:
         self._spawn_ned = [self.world.spawn_offset_ned_m(i) for i in range(vehicles)]
         self._mobility = Ticker(self.kernel, self.backend.sync_period_s, self._push_mobility,
                                 priority=PRIORITY_PHYSICS)
+        start = getattr(self.backend, "start", None)
+        if start is not None:  # an external backend: set its network up before time runs
+            start()
         for link in self.links.values():
             link.service()
 

@@ -71,4 +71,8 @@ def make_model(name: str, params: dict[str, Any], *, seed: int, stream_name: str
 
 
 # Register the built-in models.
+from netsim.models import burst as _burst  # noqa: E402,F401
 from netsim.models import fixed as _fixed  # noqa: E402,F401
+from netsim.models import outage as _outage  # noqa: E402,F401
+from netsim.models import queue as _queue  # noqa: E402,F401
+from netsim.models import wireless as _wireless  # noqa: E402,F401

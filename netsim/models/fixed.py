@@ -25,10 +25,12 @@ class IdealModel:
 class FixedModel:
     def __init__(self, rng: UniformStream, latency_s: float = 0.0, jitter_s: float = 0.0,
                  loss: float = 0.0) -> None:
-        if latency_s < 0 or jitter_s < 0:
-            raise ValueError("latency and jitter must be >= 0")
+        if not latency_s >= 0:
+            raise ValueError(f"fixed: latency_s must be >= 0, got {latency_s!r}")
+        if not jitter_s >= 0:
+            raise ValueError(f"fixed: jitter_s must be >= 0, got {jitter_s!r}")
         if not 0.0 <= loss <= 1.0:
-            raise ValueError("loss must be a probability in [0, 1]")
+            raise ValueError(f"fixed: loss must be a probability in [0, 1], got {loss!r}")
         self.latency_s = latency_s
         self.jitter_s = jitter_s
         self.loss = loss

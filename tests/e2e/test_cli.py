@@ -48,3 +48,21 @@ def test_ready_then_sigterm_exits_0_quickly():
     code, took = d.stop()
     assert code == 0, d.log_tail()
     assert took < 2.0
+
+
+def test_check_accepts_shipped_scenarios_and_names_bad_keys(tmp_path):
+    ok = subprocess.run(cornet_command() + ["check", "scenarios/lossy-wifi.toml"],
+                        capture_output=True, text=True, timeout=30)
+    assert ok.returncode == 0 and "topology star" in ok.stdout, ok.stderr
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[network]\ntopology = 'star'\nradio = {model = 'wireless', mcs = 9}\n")
+    out = subprocess.run(cornet_command() + ["check", str(bad)], capture_output=True, text=True,
+                         timeout=30)
+    assert out.returncode == 2 and "network.radio" in out.stderr and "mcs" in out.stderr
+    out = subprocess.run(cornet_command() + ["run", "--scenario", str(bad)], capture_output=True,
+                         text=True, timeout=30)
+    assert out.returncode == 2 and "network.radio" in out.stderr
+    out = subprocess.run(cornet_command() + ["run", "--scenario", "scenarios/ideal.toml",
+                                             "--loss", "0.1"], capture_output=True, text=True,
+                         timeout=30)
+    assert out.returncode == 2 and "--loss" in out.stderr

@@ -1,0 +1,231 @@
+"""Scenario files: vehicles, network (topology, models, seeds), sync period, late policy, logging.
+
+A scenario is a TOML file (docs/scenarios.md shows every key):
+
+    [vehicles]
+    count = 3                       # how many
+    home = {lat_deg = 47.397742, lon_deg = 8.545594, alt_amsl_m = 488.0}
+    airframe = "x500"
+    params = {NAV_DLL_ACT = 2}      # PX4 parameters set on every vehicle at start
+
+    [network]
+    backend = "embedded"            # or "ns3"
+    seed = 1
+    sync_period_s = 0.02            # mobility → network, and external backends' cycle
+    late_policy = "drop"            # "drop" (the CORNET paper's rule) or "deliver"
+    topology = "star"               # the rest of [network] is netsim.topology's
+    ...
+
+    [logging]
+    level = "info"
+
+Every error names the key's path and the file (``lossy.toml: network.radio.mcs: ...``); the CLI
+turns it into exit code 2. Nothing here opens a socket: loading a scenario also validates every
+model parameter, so ``cornet check`` catches what ``cornet run`` would trip on.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from netsim.topology import make_router
+from vehicles.params import ParamStore
+from vehicles.types import PX4_SITL_HOME, GeoPoint
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+BACKENDS = ("embedded", "ns3", "ns3-reference")
+LATE_POLICIES = ("drop", "deliver")
+AIRFRAMES = ("x500",)
+LOG_LEVELS = ("debug", "info", "warning", "error")
+DEFAULT_SYNC_PERIOD_S = 0.02
+MAX_VEHICLES = 1000
+NETWORK_OWN_KEYS = ("backend", "seed", "sync_period_s", "late_policy", "ns3")
+
+
+class ScenarioError(ValueError):
+    """A scenario problem; the message names the key path."""
+
+
+@dataclass(frozen=True)
+class NetworkConfig:
+    """What the simulation needs to build its network backend."""
+
+    backend: str = "embedded"
+    topology: dict = field(default_factory=dict)  # netsim.topology config ([network] minus ours)
+    seed: int = 0
+    sync_period_s: float = DEFAULT_SYNC_PERIOD_S
+    late_policy: str = "drop"
+    ns3: dict = field(default_factory=dict)  # options of the ns-3 backend
+
+    @property
+    def summary(self) -> str:
+        topo = self.topology.get("topology", "direct")
+        if self.backend != "embedded":
+            return f"{self.backend}/{self.ns3.get('topology', 'adhoc')}"
+        if topo == "direct":
+            link = self.topology.get("link")
+            model = "ideal" if link is None else link.get("model", "fixed")
+            return f"{self.backend}/{model}"
+        return f"{self.backend}/{topo}"
+
+    @staticmethod
+    def from_flags(latency_ms: float, jitter_ms: float, loss: float, seed: int) -> NetworkConfig:
+        """The CLI's --latency-ms/--jitter-ms/--loss: one `fixed` hop on every link direction."""
+        if latency_ms == 0 and jitter_ms == 0 and loss == 0:
+            return NetworkConfig(seed=seed)
+        link = {"model": "fixed", "latency_s": latency_ms / 1e3, "jitter_s": jitter_ms / 1e3,
+                "loss": loss}
+        return NetworkConfig(topology={"topology": "direct", "link": link}, seed=seed)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    source: str
+    vehicles: int = 1
+    home: GeoPoint = PX4_SITL_HOME
+    airframe: str = "x500"
+    params: dict[str, float] = field(default_factory=dict)
+    network: NetworkConfig = field(default_factory=NetworkConfig)
+    log_level: str | None = None
+
+
+def _table(doc: dict, key: str, path: str) -> dict:
+    value = doc.get(key, {})
+    if not isinstance(value, dict):
+        raise ScenarioError(f"{path}: expected a table, got {type(value).__name__}")
+    return value
+
+
+def _unknown(table: dict, known: tuple[str, ...], path: str) -> None:
+    for key in table:
+        if key not in known:
+            raise ScenarioError(f"{path}.{key}: unknown key (known: {', '.join(known)})"
+                                if path else f"{key}: unknown table (known: {', '.join(known)})")
+
+
+def _number(value: Any, path: str, *, minimum: float | None = None, integer: bool = False,
+            positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+            (integer and not isinstance(value, int)) or not math.isfinite(value):
+        raise ScenarioError(f"{path}: expected {'an integer' if integer else 'a number'}, "
+                            f"got {value!r}")
+    if minimum is not None and value < minimum:
+        raise ScenarioError(f"{path}: must be >= {minimum}, got {value!r}")
+    if positive and value <= 0:
+        raise ScenarioError(f"{path}: must be > 0, got {value!r}")
+    return value
+
+
+def _choice(value: Any, choices: tuple[str, ...], path: str) -> str:
+    if value not in choices:
+        raise ScenarioError(f"{path}: expected one of {', '.join(choices)}, got {value!r}")
+    return value
+
+
+def parse(doc: dict, source: str = "<scenario>") -> Scenario:
+    _unknown(doc, ("vehicles", "network", "logging"), "")
+    veh = _table(doc, "vehicles", "vehicles")
+    _unknown(veh, ("count", "home", "airframe", "params"), "vehicles")
+    count = int(_number(veh.get("count", 1), "vehicles.count", integer=True, minimum=1))
+    if count > MAX_VEHICLES:
+        raise ScenarioError(f"vehicles.count: at most {MAX_VEHICLES}, got {count}")
+    home = PX4_SITL_HOME
+    if "home" in veh:
+        h = _table(veh, "home", "vehicles.home")
+        _unknown(h, ("lat_deg", "lon_deg", "alt_amsl_m"), "vehicles.home")
+        lat = _number(h.get("lat_deg", home.lat_deg), "vehicles.home.lat_deg")
+        lon = _number(h.get("lon_deg", home.lon_deg), "vehicles.home.lon_deg")
+        if not -90 <= lat <= 90 or not -180 <= lon <= 180:
+            raise ScenarioError("vehicles.home: latitude must be within ±90 and longitude ±180")
+        home = GeoPoint(lat, lon, _number(h.get("alt_amsl_m", home.alt_amsl_m),
+                                          "vehicles.home.alt_amsl_m"))
+    airframe = _choice(veh.get("airframe", "x500"), AIRFRAMES, "vehicles.airframe")
+    params = _params(_table(veh, "params", "vehicles.params"))
+
+    net = _table(doc, "network", "network")
+    backend = _choice(net.get("backend", "embedded"), BACKENDS, "network.backend")
+    seed = int(_number(net.get("seed", 0), "network.seed", integer=True, minimum=0))
+    sync = _number(net.get("sync_period_s", DEFAULT_SYNC_PERIOD_S), "network.sync_period_s",
+                   positive=True)
+    late = _choice(net.get("late_policy", "drop"), LATE_POLICIES, "network.late_policy")
+    ns3 = _table(net, "ns3", "network.ns3")
+    if backend != "embedded":
+        from netsim.ns3.bridge import CONFIG_KEYS
+
+        _unknown(ns3, tuple(sorted(CONFIG_KEYS)), "network.ns3")
+    elif ns3:
+        raise ScenarioError("network.ns3: only used with backend = \"ns3\"")
+    topology = {k: v for k, v in net.items() if k not in NETWORK_OWN_KEYS}
+    try:
+        make_router(topology, path="network")  # validates topology and every model parameter
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None
+    network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3))
+
+    logging_table = _table(doc, "logging", "logging")
+    _unknown(logging_table, ("level",), "logging")
+    level = logging_table.get("level")
+    if level is not None:
+        _choice(level, LOG_LEVELS, "logging.level")
+    return Scenario(source, count, home, airframe, params, network, level)
+
+
+def _params(table: dict) -> dict[str, float]:
+    store = ParamStore()
+    out = {}
+    for name, value in table.items():
+        path = f"vehicles.params.{name}"
+        if name not in store:
+            raise ScenarioError(f"{path}: no PX4 parameter of that name")
+        value = _number(value, path)
+        try:
+            store.set(name, value)
+        except ValueError:
+            raise ScenarioError(f"{path}: {value!r} is not a valid "
+                                f"{store.info(name).type.name} value") from None
+        out[name] = value
+    return out
+
+
+def load(path: str | Path) -> Scenario:
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ScenarioError(f"{path}: cannot read ({exc.strerror})") from None
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    try:
+        return parse(doc, str(path))
+    except ScenarioError as exc:
+        raise ScenarioError(f"{path}: {exc}") from None
+
+
+def describe(s: Scenario) -> str:
+    """A few lines saying what the scenario sets up (what `cornet check` prints)."""
+    net = s.network
+    topo = net.topology.get("topology", "direct")
+    if net.backend != "embedded":
+        topo = f"{net.ns3.get('topology', 'adhoc')} (ns-3)"
+    lines = [f"{s.source}: ok",
+             f"  vehicles: {s.vehicles} × {s.airframe} around {s.home.lat_deg:.6f}, "
+             f"{s.home.lon_deg:.6f}, {s.home.alt_amsl_m:.1f} m AMSL"
+             + (f"; params {s.params}" if s.params else ""),
+             f"  network: backend {net.backend}, topology {topo}, seed {net.seed}, sync period "
+             f"{net.sync_period_s * 1e3:.0f} ms, late policy {net.late_policy}"]
+    for key in ("link", "ap", "gcs", "radio", "wired", "channel", "api_clients", "outages"):
+        if key in net.topology:
+            lines.append(f"  {key}: {net.topology[key]}")
+    for key, value in net.ns3.items():
+        lines.append(f"  ns3.{key}: {value}")
+    return "\n".join(lines)

@@ -1,0 +1,466 @@
+"""The ns-3 backend: links whose packets cross a network simulated by another process.
+
+``Ns3Backend`` implements ``netsim.backend.NetworkBackend``. It starts an engine process
+(``cornet-ns3``, the C++ ns-3 program, or the pure-Python reference engine) and drives it over ZMQ
+REQ/REP with the protocol of README.md, once per sync period.
+
+Rules and invariants:
+- The physics clock is the reference (CORNET). A cycle runs at each ``update_mobility`` call, which
+  the simulation makes every ``sync_period_s``: the packets sent since the previous cycle go to the
+  engine with their send times and the current positions, and the engine answers with delivery
+  times or drops.
+- Pipeline delay. A packet is only known to the engine at the end of the cycle it was sent in,
+  so the engine simulates it shifted by ``pipeline_s``: one sync period in lockstep mode, two in
+  real-time mode (the engine then has one whole period of wall time to answer). Each packet is
+  injected at ``send_time + pipeline_s`` and delivered on the kernel at its engine delivery time,
+  so end-to-end latency = ns-3 latency + ``pipeline_s``; ``net_latency_*`` in the link stats is
+  ns-3's own part. This is the smallest shift for which an engine that answers in time never
+  produces a delivery time in the kernel's past.
+- Lockstep (``realtime=False``): each cycle waits for the engine's reply (up to ``timeout_s`` of
+  wall time), so nothing is ever late and runs are deterministic.
+- Real time (``realtime=True``): the physics never waits. A cycle sends its request and returns;
+  later cycles poll for the reply without blocking, while packets queue for the next request. A
+  delivery whose time has passed when its reply is read is *late*: policy ``drop`` counts it in
+  ``dropped["late"]`` (the paper's rule), ``deliver`` delivers it now and counts it in
+  ``late_delivered``. The hang timeout is measured in simulated seconds (≈ wall seconds there).
+- An engine that dies, hangs past ``timeout_s`` or cannot start is *lost*: logged once, every
+  packet in flight or sent afterwards is dropped with reason ``backend``, the physics keeps
+  running. ``strict=True`` raises ``Ns3Error`` instead. The engine is not restarted.
+- Every link direction keeps ``sent == delivered + sum(dropped) + in_flight``.
+- Node kinds come from names: ``v<N>`` vehicle, ``ap…`` access point, anything else a ground node
+  (wired to the AP in the ``ap`` topology, a radio in ``adhoc``). All links must be made before the
+  first cycle, which starts the engine's network (init + warm-up, blocking once).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import zmq
+
+from netsim.kernel import PRIORITY_NETWORK, Kernel
+from netsim.link import Deliver, LinkStats, Tracer
+from netsim.models import Drop
+
+log = logging.getLogger("netsim.ns3")
+
+PROTOCOL_VERSION = 1
+HERE = pathlib.Path(__file__).resolve().parent
+BINARY = HERE / "build" / "cornet-ns3"
+ENGINES = ("ns3", "reference")
+LATE_POLICIES = ("drop", "deliver")
+DROP_BACKEND = "backend"  # the engine was lost: its cycle's packets never came back
+POLL_SLICE_MS = 50  # lockstep waits in slices, to notice a dead engine before the timeout
+CONFIG_KEYS = {"engine", "binary", "topology", "nodes", "wifi", "propagation", "wired",
+               "warmup_s", "drop_after_s", "timeout_s", "init_timeout_s", "reference"}
+
+Vec3 = tuple[float, float, float]
+
+
+class Ns3Error(RuntimeError):
+    """The engine is missing, refused a request, or was lost with ``strict=True``."""
+
+
+class Ns3BuildMissing(Ns3Error):
+    pass
+
+
+def build_missing_message(binary: pathlib.Path = BINARY) -> str:
+    return (f"ns-3 build missing: {binary} not found; run `make ns3` "
+            "(needs libns3-dev, libzmq3-dev, cppzmq-dev, libgsl-dev: `make ns3-deps`)")
+
+
+def _die_with_parent() -> None:
+    """In the engine's child process (Linux): SIGTERM it when the daemon dies, so a crash of
+    the daemon or a backend that was never closed leaves no engine behind."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import signal
+
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGTERM))
+
+
+def node_kind(name: str) -> str:
+    if re.fullmatch(r"v\d+", name):
+        return "vehicle"
+    if re.fullmatch(r"ap\d*", name):  # "ap", "ap2" — not "api1", an API client
+        return "ap"
+    return "ground"
+
+
+@dataclass
+class Ns3LinkStats(LinkStats):
+    """LinkStats plus ns-3's own share of the latency (without the pipeline delay)."""
+
+    net_latency_sum_s: float = 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        out = super().as_dict()
+        mean = self.net_latency_sum_s / self.delivered if self.delivered else 0.0
+        out["net_latency_mean_ms"] = round(mean * 1e3, 3)
+        return out
+
+
+class Ns3Link:
+    """One direction of one link; packets wait in the backend for the next cycle."""
+
+    def __init__(self, backend: Ns3Backend, name: str, src: str, dst: str,
+                 deliver: Deliver) -> None:
+        self.name = name
+        self.src = src
+        self.dst = dst
+        self.stats = Ns3LinkStats()
+        self._backend = backend
+        self.deliver = deliver
+
+    def send(self, packet: bytes, meta: Any = None) -> None:
+        self._backend._send(self, packet, meta)
+
+
+@dataclass
+class _Packet:
+    id: int
+    link: Ns3Link
+    packet: bytes
+    meta: Any
+    sent_at_s: float
+    inject_at_s: float = 0.0
+    net_latency_s: float = 0.0  # ns-3's delivery time - injection time
+
+
+class Ns3Backend:
+    def __init__(self, kernel: Kernel, config: Mapping[str, Any] | None = None, *,
+                 seed: int = 0, sync_period_s: float = 0.02, late_policy: str = "drop",
+                 realtime: bool = False, strict: bool = False,
+                 tracer: Tracer | None = None) -> None:
+        config = dict(config or {})
+        unknown = set(config) - CONFIG_KEYS
+        if unknown:
+            raise ValueError(f"ns-3 backend: unknown config keys {sorted(unknown)} "
+                             f"(known: {sorted(CONFIG_KEYS)})")
+        if late_policy not in LATE_POLICIES:
+            raise ValueError(f"late_policy must be one of {LATE_POLICIES}, not {late_policy!r}")
+        if not sync_period_s > 0:
+            raise ValueError("sync_period_s must be positive")
+        self.engine = config.get("engine", "ns3")
+        if self.engine not in ENGINES:
+            raise ValueError(f"ns-3 backend: engine must be one of {ENGINES}, not {self.engine!r}")
+        self.kernel = kernel
+        self.config = config
+        self.seed = seed
+        self.sync_period_s = sync_period_s
+        self.late_policy = late_policy
+        self.realtime = realtime
+        self.strict = strict
+        self.tracer = tracer
+        self.pipeline_s = (2 if realtime else 1) * sync_period_s
+        self.timeout_s = float(config.get("timeout_s", 5.0))
+        self.init_timeout_s = float(config.get("init_timeout_s", 30.0))
+        self.links: dict[str, Ns3Link] = {}
+        self.nodes: dict[str, str] = {}  # name -> kind, in order of appearance
+        self.positions: dict[str, Vec3] = {}
+        for name, spec in (config.get("nodes") or {}).items():
+            self.nodes[name] = spec.get("kind", node_kind(name))
+            if "position" in spec:
+                self.positions[name] = tuple(float(x) for x in spec["position"])
+        if config.get("topology", "adhoc") == "ap" and not any(
+                k == "ap" for k in self.nodes.values()):
+            self.nodes["ap"] = "ap"
+        # Engine-side state.
+        self.started = False
+        self.lost: str | None = None  # why the engine was lost, once it is
+        self.cycles = 0
+        self.cycles_lost = 0
+        self.replies_late = 0  # real time: replies read one or more cycles after their request
+        self.ready_reply: dict[str, Any] = {}
+        self._next_id = 0
+        self._outbox: list[_Packet] = []
+        self._in_flight: dict[int, _Packet] = {}
+        self._engine_until_s = 0.0
+        self._awaiting_since_s: float | None = None  # real time: a request is out
+        self._proc: subprocess.Popen | None = None
+        self._released = False
+        self._tmpdir = tempfile.mkdtemp(prefix="cornet-ns3-")
+        self._ctx = zmq.Context()
+        self._sock = self._ctx.socket(zmq.REQ)
+        self._sock.setsockopt(zmq.LINGER, 0)
+        # After a timeout we never send on this socket again, but these keep REQ usable.
+        self._sock.setsockopt(zmq.REQ_RELAXED, 1)
+        self._sock.setsockopt(zmq.REQ_CORRELATE, 1)
+        self.endpoint = f"ipc://{self._tmpdir}/engine.sock"
+        try:
+            self._sock.bind(self.endpoint)
+            self._spawn()
+        except BaseException:
+            self._release()
+            raise
+
+    # -- engine process ---------------------------------------------------------------------
+
+    def _command(self) -> list[str]:
+        if self.engine == "reference":
+            return [sys.executable, "-m", "netsim.ns3.reference_engine", self.endpoint]
+        binary = pathlib.Path(self.config.get("binary", BINARY))
+        if not binary.is_file():
+            raise Ns3BuildMissing(build_missing_message(binary))
+        return [str(binary), self.endpoint]
+
+    def _spawn(self) -> None:
+        env = dict(os.environ)
+        # ns-3 reads NS_LOG in static constructors, before main: a user's NS_LOG=* would flood
+        # stderr with every component's log and slow each cycle by orders of magnitude.
+        env.pop("NS_LOG", None)
+        root = str(HERE.parent.parent)
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [root, env.get("PYTHONPATH")]))
+        self._proc = subprocess.Popen(self._command(), env=env, stdin=subprocess.DEVNULL,
+                                      stdout=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+
+    def _engine_gone(self) -> str | None:
+        if self._proc is not None and self._proc.poll() is not None:
+            return f"engine process exited with code {self._proc.returncode}"
+        return None
+
+    def _request(self, message: dict[str, Any], timeout_s: float) -> dict[str, Any] | None:
+        """Send and wait up to ``timeout_s`` wall seconds; None if the engine died or hung."""
+        # Blocking send: the engine process may not have connected yet (a REQ socket with no
+        # peer holds the message); a timeout here means it never did.
+        self._sock.setsockopt(zmq.SNDTIMEO, max(1, int(timeout_s * 1e3)))
+        try:
+            self._sock.send(json.dumps(message).encode())
+        except zmq.Again:
+            return None
+        waited_ms = 0
+        while waited_ms < timeout_s * 1e3:
+            if self._sock.poll(POLL_SLICE_MS):
+                return self._read_reply()
+            waited_ms += POLL_SLICE_MS
+            if self._engine_gone():
+                return None
+        return None
+
+    def _read_reply(self) -> dict[str, Any]:
+        reply = json.loads(self._sock.recv())
+        if reply.get("op") == "error":
+            raise Ns3Error(f"{self.engine} engine refused a request: {reply.get('error')}")
+        if reply.get("v") != PROTOCOL_VERSION:
+            raise Ns3Error(f"{self.engine} engine speaks protocol {reply.get('v')}, "
+                           f"not {PROTOCOL_VERSION}")
+        return reply
+
+    # -- NetworkBackend ---------------------------------------------------------------------
+
+    def make_link(self, name: str, src: str, dst: str, deliver: Deliver) -> Ns3Link:
+        if name in self.links:
+            raise ValueError(f"link {name!r} exists")
+        for node in (src, dst):
+            if node not in self.nodes:
+                if self.started:
+                    raise ValueError(f"node {node!r} is unknown to the running engine: make "
+                                     "every link before the first sync cycle")
+                self.nodes[node] = node_kind(node)
+        link = Ns3Link(self, name, src, dst, deliver)
+        self.links[name] = link
+        return link
+
+    def update_mobility(self, now_s: float, positions_ned_m: Mapping[str, Vec3]) -> None:
+        self.positions.update({k: tuple(map(float, v)) for k, v in positions_ned_m.items()})
+        if self.lost is not None:
+            self._drop_all(DROP_BACKEND)
+            return
+        if not self.started:
+            self.start()
+            if self.lost is not None:
+                return
+        if self.realtime:
+            self._cycle_realtime()
+        else:
+            self._cycle_lockstep()
+
+    def close(self) -> None:
+        if self._proc is not None and self._proc.poll() is None and self.lost is None \
+                and self._awaiting_since_s is None:
+            try:
+                self._request({"v": PROTOCOL_VERSION, "op": "close"}, 2.0)
+            except (zmq.ZMQError, Ns3Error):
+                pass
+        self._release()
+
+    # -- cycles -----------------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Init the engine's network and run its warm-up (once, blocking, before the first
+        cycle: the simulation's first ``update_mobility`` calls it if nobody did)."""
+        if self.started:
+            return
+        self.started = True
+        nodes = [{"name": name, "kind": kind,
+                  "position": list(self.positions.get(name, (0.0, 0.0, 0.0)))}
+                 for name, kind in self.nodes.items()]
+        message = {"v": PROTOCOL_VERSION, "op": "init", "seed": self.seed, "nodes": nodes,
+                   "topology": self.config.get("topology", "adhoc")}
+        for key in ("wifi", "propagation", "wired", "warmup_s", "drop_after_s", "reference"):
+            if key in self.config:
+                message[key] = self.config[key]
+        reply = self._request(message, self.init_timeout_s)
+        if reply is None:
+            self._lose(self._engine_gone() or
+                       f"no reply to init within {self.init_timeout_s} s")
+            return
+        self.ready_reply = reply
+        self._engine_until_s = self.kernel.now
+        if reply.get("unassociated"):
+            log.warning("ns-3: stations not associated after the warm-up (out of the AP's "
+                        "range?): %s", ", ".join(reply["unassociated"]))
+
+    def _step_request(self) -> dict[str, Any]:
+        now = self.kernel.now
+        until = now + self.pipeline_s
+        packets = []
+        for p in self._outbox:
+            p.inject_at_s = max(p.sent_at_s + self.pipeline_s, self._engine_until_s)
+            self._in_flight[p.id] = p
+            packets.append({"id": p.id, "src": p.link.src, "dst": p.link.dst,
+                            "size": len(p.packet), "send_time_s": round(p.inject_at_s, 9)})
+        self._outbox = []
+        self._engine_until_s = until
+        self.cycles += 1
+        return {"v": PROTOCOL_VERSION, "op": "step", "until_s": round(until, 9),
+                "positions": {k: list(v) for k, v in self.positions.items()},
+                "packets": packets}
+
+    def _cycle_lockstep(self) -> None:
+        reply = self._request(self._step_request(), self.timeout_s)
+        if reply is None:
+            self._lose(self._engine_gone() or f"no reply within {self.timeout_s} s")
+            return
+        self._apply(reply)
+
+    def _cycle_realtime(self) -> None:
+        now = self.kernel.now
+        if self._awaiting_since_s is not None:
+            if self._sock.poll(0):
+                if now - self._awaiting_since_s > self.sync_period_s + 1e-9:
+                    self.replies_late += 1
+                self._awaiting_since_s = None
+                self._apply(self._read_reply())
+            else:
+                gone = self._engine_gone()
+                if gone or now - self._awaiting_since_s > self.timeout_s:
+                    self._lose(gone or f"no reply within {self.timeout_s} s")
+                return  # still computing: this cycle's packets wait for the next request
+        try:
+            self._sock.send(json.dumps(self._step_request()).encode(), zmq.NOBLOCK)
+        except zmq.Again:  # no engine connected any more
+            self._lose(self._engine_gone() or "engine disconnected")
+            return
+        self._awaiting_since_s = now
+
+    def _apply(self, reply: dict[str, Any]) -> None:
+        now = self.kernel.now
+        for item in reply["delivered"]:
+            p = self._in_flight.pop(item["id"], None)
+            if p is None:
+                continue
+            time_s = float(item["time_s"])
+            p.net_latency_s = time_s - p.inject_at_s
+            if time_s >= now:
+                self.kernel.schedule(time_s, self._arrive, p, priority=PRIORITY_NETWORK)
+            elif self.late_policy == "deliver":
+                p.link.stats.late_delivered += 1
+                self.kernel.schedule(now, self._arrive, p, priority=PRIORITY_NETWORK)
+            else:
+                self._count_drop(p, Drop.LATE.value)
+        for item in reply["dropped"]:
+            p = self._in_flight.pop(item["id"], None)
+            if p is not None:
+                self._count_drop(p, str(item["reason"]))
+
+    def _arrive(self, p: _Packet) -> None:
+        stats = p.link.stats
+        stats.in_flight -= 1
+        stats.record_delivery(self.kernel.now - p.sent_at_s, len(p.packet))
+        stats.net_latency_sum_s += p.net_latency_s
+        if self.tracer is not None:
+            self.tracer("recv", p.link.name, self.kernel.now, len(p.packet), "")
+        p.link.deliver(p.packet, p.meta)
+
+    def _send(self, link: Ns3Link, packet: bytes, meta: Any) -> None:
+        stats = link.stats
+        stats.sent += 1
+        stats.bytes_sent += len(packet)
+        now = self.kernel.now
+        if self.lost is not None:
+            stats.dropped[DROP_BACKEND] += 1
+            if self.tracer is not None:
+                self.tracer("drop", link.name, now, len(packet), DROP_BACKEND)
+            return
+        stats.in_flight += 1
+        if self.tracer is not None:
+            self.tracer("send", link.name, now, len(packet), "")
+        self._outbox.append(_Packet(self._next_id, link, packet, meta, now))
+        self._next_id += 1
+
+    def _count_drop(self, p: _Packet, reason: str) -> None:
+        p.link.stats.in_flight -= 1
+        p.link.stats.dropped[reason] += 1
+        if self.tracer is not None:
+            self.tracer("drop", p.link.name, self.kernel.now, len(p.packet), reason)
+
+    def _drop_all(self, reason: str) -> None:
+        for p in [*self._in_flight.values(), *self._outbox]:
+            self._count_drop(p, reason)
+        self._in_flight.clear()
+        self._outbox.clear()
+
+    def _lose(self, why: str) -> None:
+        """The engine is gone: say so once, drop what it held, stop it, carry on (or raise)."""
+        self.cycles_lost += 1
+        self.lost = why
+        self._awaiting_since_s = None
+        log.error("ns-3 backend (%s engine) lost at t=%.3f s: %s; its packets are dropped "
+                  "(reason %r) and the physics keeps running", self.engine, self.kernel.now,
+                  why, DROP_BACKEND)
+        self._drop_all(DROP_BACKEND)
+        self._stop_process()
+        if self.strict:
+            raise Ns3Error(f"ns-3 backend lost: {why}")
+
+    def _stop_process(self) -> None:
+        proc = self._proc
+        if proc is None or proc.poll() is not None:
+            return
+        proc.terminate()
+        try:
+            proc.wait(timeout=2.0)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+    def _release(self) -> None:
+        if self._released:
+            return
+        self._released = True
+        self._stop_process()
+        if self._proc is not None and self._proc.poll() is None:
+            self._proc.wait()
+        self._sock.close(linger=0)
+        self._ctx.term()
+        shutil.rmtree(self._tmpdir, ignore_errors=True)
+
+    def backend_stats(self) -> dict[str, Any]:
+        """Cycle counters of the co-simulation itself (per-link counters are in each link)."""
+        return {"engine": self.engine, "cycles": self.cycles, "cycles_lost": self.cycles_lost,
+                "replies_late": self.replies_late, "lost": self.lost,
+                "pipeline_ms": round(self.pipeline_s * 1e3, 3)}
