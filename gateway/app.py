@@ -23,6 +23,7 @@ from gateway.pacer import Pacer
 from gateway.sim import NetworkConfig, Simulation, px4_ports
 from gateway.watch import format_link_table
 from gateway.zmq_pub import Publisher
+from netsim.link import Tracer, TraceWriter
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 
@@ -42,7 +43,21 @@ class RunConfig:
     state_dir: Path | None = None  # parameters persist here, per vehicle
     zmq_pub: str | None = None  # e.g. tcp://127.0.0.1:5556: states, link stats, packet events
     home: GeoPoint = PX4_SITL_HOME  # the world's home: vehicles spawn around it
+    packet_trace: Path | None = None  # the network's log: one line per datagram event
     params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
+
+
+def _fan_out(tracers: list[Tracer]) -> Tracer | None:
+    if not tracers:
+        return None
+    if len(tracers) == 1:
+        return tracers[0]
+
+    def trace(*event) -> None:
+        for tracer in tracers:
+            tracer(*event)
+
+    return trace
 
 
 class PortInUse(OSError):
@@ -58,9 +73,11 @@ class Daemon:
     def __init__(self, config: RunConfig) -> None:
         self.config = config
         self.publisher = Publisher(config.zmq_pub) if config.zmq_pub else None
+        self._trace_file = open(config.packet_trace, "w") if config.packet_trace else None
+        tracers = [t for t in (self.publisher.packet_event if self.publisher else None,
+                               TraceWriter(self._trace_file) if self._trace_file else None) if t]
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
-                              tracer=self.publisher.packet_event if self.publisher else None,
-                              home=config.home, realtime=True)
+                              tracer=_fan_out(tracers), home=config.home, realtime=True)
         if self.publisher is not None:
             pub, sim = self.publisher, self.sim
             sim.every(zmq_pub.STATE_PERIOD_S, lambda now: pub.vehicle_states(now, sim))
@@ -118,6 +135,8 @@ class Daemon:
         self.sim.close()
         if self.publisher is not None:
             self.publisher.close()
+        if self._trace_file is not None:
+            self._trace_file.close()
 
     def status_line(self) -> str:
         stats = self.sim.link_stats()

@@ -75,6 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--zmq-pub", default=None, metavar="ENDPOINT",
                      help="publish vehicle states, link statistics and packet events on a "
                      "ZeroMQ PUB socket, e.g. tcp://127.0.0.1:5556 (schema: docs/zmq.md)")
+    run.add_argument("--packet-trace", type=Path, default=None, metavar="FILE",
+                     help="write the packet trace (one line per datagram event: time, send/drop/"
+                     "recv, link, size, delay or drop reason) to FILE")
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
@@ -188,6 +191,9 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
             probe.unlink()
         except OSError as exc:
             parser.error(f"--state-dir {args.state_dir}: not a writable directory ({exc.strerror})")
+    if args.packet_trace is not None and not args.packet_trace.parent.is_dir():
+        parser.error(f"--packet-trace {args.packet_trace}: no directory "
+                     f"{args.packet_trace.parent}")
     logging.basicConfig(
         level=(args.log_level or scenario.log_level or "info").upper(),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
@@ -204,6 +210,7 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         state_dir=args.state_dir,
         params=params,
         zmq_pub=args.zmq_pub,
+        packet_trace=args.packet_trace,
     )
     import zmq
 
