@@ -225,6 +225,14 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         return 2
     except KeyboardInterrupt:
         return 0
+    except Exception as exc:
+        from netsim.ns3.bridge import Ns3BuildMissing, Ns3Error
+
+        if not isinstance(exc, Ns3Error):
+            raise
+        # A missing ns-3 build, or a lost engine with `strict = true`: say why, no traceback.
+        print(f"cornet: network backend: {exc}", file=sys.stderr)
+        return 2 if isinstance(exc, Ns3BuildMissing) else 1
 
 
 if __name__ == "__main__":

@@ -160,7 +160,9 @@ def parse(doc: dict, source: str = "<scenario>") -> Scenario:
     if backend != "embedded":
         from netsim.ns3.bridge import CONFIG_KEYS
 
-        _unknown(ns3, tuple(sorted(CONFIG_KEYS)), "network.ns3")
+        _unknown(ns3, tuple(sorted(CONFIG_KEYS | {"strict"})), "network.ns3")
+        if not isinstance(ns3.get("strict", False), bool):
+            raise ScenarioError("network.ns3.strict: expected true or false")
     elif ns3:
         raise ScenarioError("network.ns3: only used with backend = \"ns3\"")
     topology = {k: v for k, v in net.items() if k not in NETWORK_OWN_KEYS}

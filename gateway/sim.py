@@ -148,9 +148,11 @@ def make_backend(kernel: Kernel, network: NetworkConfig, tracer: Tracer | None =
     from netsim.ns3.bridge import Ns3Backend  # imported on demand: it spawns a process
 
     config = dict(network.ns3)
+    strict = bool(config.pop("strict", False))
     config.setdefault("engine", "reference" if network.backend == "ns3-reference" else "ns3")
     return Ns3Backend(kernel, config, seed=network.seed, sync_period_s=network.sync_period_s,
-                      late_policy=network.late_policy, realtime=realtime, tracer=tracer)
+                      late_policy=network.late_policy, realtime=realtime, strict=strict,
+                      tracer=tracer)
 
 
 def default_params(index: int, overrides: dict[str, float] | None = None) -> ParamStore:
