@@ -10,6 +10,7 @@ import asyncio
 import contextlib
 import errno
 import logging
+import math
 import signal
 import sys
 import time
@@ -30,6 +31,8 @@ from vehicles.types import PX4_SITL_HOME, GeoPoint
 log = logging.getLogger(__name__)
 
 STATUS_PERIOD_S = 10.0
+# PX4 rcS multiplies these by PX4_SIM_SPEED_FACTOR (PX4_COMPAT.md §9).
+SPEED_SCALED_PARAMS = ("COM_DL_LOSS_T", "COM_RC_LOSS_T", "COM_OF_LOSS_T", "COM_OBC_LOSS_T")
 
 
 @dataclass(frozen=True)
@@ -90,6 +93,12 @@ class Daemon:
         store = ParamStore({"MAV_SYS_ID": index + 1})
         if self.config.state_dir is not None:
             persist.attach(store, self.config.state_dir, index + 1)
+        speed = self.config.speed
+        if speed != 1.0 and math.isfinite(speed):
+            # PX4's rcS with PX4_SIM_SPEED_FACTOR: time-outs that wait for clients, who live on
+            # the wall clock, are counted in simulated time, so they are scaled by the factor.
+            for name in SPEED_SCALED_PARAMS:
+                store.set(name, store[name] * speed)
         for name, value in self.config.params.items():
             store.set(name, value)
         return store
@@ -176,7 +185,9 @@ async def serve(config: RunConfig, ready_out=sys.stdout) -> int:
         f"->{px4_ports(i, LinkKind.API, cfg.port_offset).remote}"
         for i in range(min(cfg.vehicles, 4))
     ) + (" ..." if cfg.vehicles > 4 else "")
-    print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.summary}, {ports}",
+    speed = "max" if math.isinf(cfg.speed) else f"{cfg.speed:g}x"
+    print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.summary}, "
+          f"speed {speed}, {ports}",
           file=ready_out, flush=True)
     t0 = time.monotonic()
     tasks = [asyncio.create_task(daemon.pacer.run(), name="pacer"),

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import logging
+import math
 import os
 import sys
 from dataclasses import replace
@@ -14,6 +15,7 @@ LOG_LEVELS = ("debug", "info", "warning", "error")
 ENV_PARAM_PREFIX = "PX4_PARAM_"
 MAX_VEHICLES = 1000
 MAX_PORT = 65535
+MAX_SPEED = 1000.0
 
 
 def _non_negative(kind: type, what: str):
@@ -36,6 +38,20 @@ def _probability(text: str) -> float:
         raise argparse.ArgumentTypeError(f"loss must be a probability, got {text!r}") from None
     if not 0.0 <= value <= 1.0:
         raise argparse.ArgumentTypeError(f"loss must be between 0 and 1 (e.g. 0.2), got {text!r}")
+    return value
+
+
+def _speed(text: str) -> float:
+    if text == "max":
+        return math.inf
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--speed must be a factor like 10, or max; got "
+                                         f"{text!r}") from None
+    if not 0 < value <= MAX_SPEED:
+        raise argparse.ArgumentTypeError(f"--speed must be > 0 and <= {MAX_SPEED:g} (or max), "
+                                         f"got {text!r}")
     return value
 
 
@@ -63,6 +79,11 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar="Y", help="uniform jitter +-Y ms (default 0)")
     run.add_argument("--loss", type=_probability, default=0.0, metavar="P",
                      help="packet loss probability per datagram, 0..1 (default 0)")
+    run.add_argument("--speed", type=_speed, default=1.0, metavar="X",
+                     help="simulated seconds per wall second (default 1): physics, telemetry "
+                     "rates and network all scale, and client time-outs (COM_*_LOSS_T) are "
+                     "scaled as PX4 does with PX4_SIM_SPEED_FACTOR; 'max' runs flat out (for "
+                     "runs without clients)")
     run.add_argument("--seed", type=_non_negative(int, "--seed"), default=None, metavar="S",
                      help="seed of every random stream (default 0, or the scenario's)")
     run.add_argument("--port-offset", type=_non_negative(int, "--port-offset"), default=0,
@@ -211,6 +232,7 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         params=params,
         zmq_pub=args.zmq_pub,
         packet_trace=args.packet_trace,
+        speed=args.speed,
     )
     import zmq
 

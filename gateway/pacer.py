@@ -1,5 +1,10 @@
 """The pacer: the only place that maps the wall clock onto simulated time.
 
+``speed`` scales the mapping (PX4_SIM_SPEED_FACTOR): at 10, ten simulated seconds pass per wall
+second. ``speed = inf`` ("max") runs the kernel flat out in small chunks, yielding to the event
+loop between chunks so that datagrams still get in; it is meant for runs without clients that
+keep wall-clock time-outs.
+
 ``sync()`` runs the kernel up to the simulated time that corresponds to "now" on the wall clock;
 ``run()`` sleeps until the wall-clock moment of the kernel's next event and syncs again. If the
 CPU cannot keep up, the pacer lets simulated time slip (the physics never stalls, it just runs
@@ -18,6 +23,7 @@ from netsim.kernel import Kernel
 
 MAX_LAG_S = 0.2  # wall-clock lag beyond which simulated time slips instead of catching up
 MAX_SLEEP_S = 0.05
+FLAT_OUT_CHUNK_S = 0.05  # speed "max": simulated time run between two looks at the sockets
 
 
 class Pacer:
@@ -38,8 +44,14 @@ class Pacer:
     def _target(self, wall: float) -> float:
         return self._sim0 + (wall - self._wall0) * self.speed
 
+    @property
+    def flat_out(self) -> bool:
+        return math.isinf(self.speed)
+
     def sync(self) -> None:
         """Bring the kernel to the simulated time of the present wall-clock moment."""
+        if self.flat_out:
+            return  # no wall-clock target: time advances in run()
         target = self._target(self._clock())
         now = self.kernel.now
         if target <= now:
@@ -66,6 +78,10 @@ class Pacer:
 
     async def run(self) -> None:
         """Run forever (until cancelled)."""
+        if self.flat_out:
+            while True:
+                self.kernel.run(until=self.kernel.now + FLAT_OUT_CHUNK_S)
+                await asyncio.sleep(0)
         while True:
             self.sync()
             nxt = self.kernel.peek()

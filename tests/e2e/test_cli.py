@@ -66,3 +66,10 @@ def test_check_accepts_shipped_scenarios_and_names_bad_keys(tmp_path):
                                              "--loss", "0.1"], capture_output=True, text=True,
                          timeout=30)
     assert out.returncode == 2 and "--loss" in out.stderr
+
+
+@pytest.mark.parametrize("speed", ["0", "-2", "fast", "5000"])
+def test_bad_speed_exits_2(speed):
+    out = subprocess.run(cornet_command() + ["run", "--speed", speed], capture_output=True,
+                         text=True, timeout=30)
+    assert out.returncode == 2 and "--speed" in out.stderr
