@@ -139,7 +139,7 @@ def test_square_mission_from_the_ground_with_rtl(sim):
     assert done, (v.status, v.mission_status, sim.texts()[-5:])
     assert sim.t - t0 < 110
     assert reached == [0, 1, 2, 3, 4]
-    for i, (n, e, alt) in enumerate(SQUARE):
+    for i, (_n, _e, alt) in enumerate(SQUARE):
         d, h = closest[i]
         assert d < 2.0, (i, d)  # NAV_ACC_RAD
         assert h == pytest.approx(alt, abs=1.0), (i, h)
