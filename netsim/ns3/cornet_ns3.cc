@@ -14,6 +14,7 @@
 //   dropped (with a reason: "loss" for a MAC retry-limit drop or no delivery within
 //   `drop_after_s`, "queue" for a MAC queue drop).
 // - Seeded: same init + same steps -> same replies, byte for byte.
+#include <limits>
 #include "json.h"
 
 #include "ns3/core-module.h"
@@ -299,7 +300,11 @@ std::string Engine::Init(const Json& r)
         if (aps.GetN() != 1)
             throw std::runtime_error("an 'ap' topology needs exactly one node of kind 'ap'");
         Ssid ssid("cornet");
-        mac.SetType("ns3::StaWifiMac", "Ssid", SsidValue(ssid));
+        // A station that misses beacons at the edge of range would drop its association and
+        // re-associate; ns-3 3.37 then aborts ("No BSSID set for the link...") or crashes. A
+        // vehicle stays associated (its losses show as MAC retries and drops instead).
+        mac.SetType("ns3::StaWifiMac", "Ssid", SsidValue(ssid),
+                    "MaxMissedBeacons", UintegerValue(std::numeric_limits<uint32_t>::max()));
         NetDeviceContainer staDevs = wifi.Install(phy, mac, stas);
         mac.SetType("ns3::ApWifiMac", "Ssid", SsidValue(ssid));
         NetDeviceContainer apDevs = wifi.Install(phy, mac, aps);
