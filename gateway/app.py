@@ -19,6 +19,7 @@ from pathlib import Path
 
 from gateway import persist, zmq_pub
 from gateway.endpoint import UdpEndpoint
+from gateway.flightlog import FlightLog, new_run_dir
 from gateway.mavlink.session import LinkKind
 from gateway.pacer import Pacer
 from gateway.sim import NetworkConfig, Simulation, px4_ports
@@ -47,6 +48,7 @@ class RunConfig:
     zmq_pub: str | None = None  # e.g. tcp://127.0.0.1:5556: states, link stats, packet events
     home: GeoPoint = PX4_SITL_HOME  # the world's home: vehicles spawn around it
     packet_trace: Path | None = None  # the network's log: one line per datagram event
+    log_dir: Path | None = None  # flight logs: DIR/run-<date>-<time>/
     params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
 
 
@@ -77,10 +79,17 @@ class Daemon:
         self.config = config
         self.publisher = Publisher(config.zmq_pub) if config.zmq_pub else None
         self._trace_file = open(config.packet_trace, "w") if config.packet_trace else None
+        self.flightlog = None
+        if config.log_dir is not None:
+            run = new_run_dir(config.log_dir, time.strftime("run-%Y%m%d-%H%M%S"))
+            self.flightlog = FlightLog(run, boot_unix_s=time.time())
         tracers = [t for t in (self.publisher.packet_event if self.publisher else None,
-                               TraceWriter(self._trace_file) if self._trace_file else None) if t]
+                               TraceWriter(self._trace_file) if self._trace_file else None,
+                               self.flightlog.tracer if self.flightlog else None) if t]
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
                               tracer=_fan_out(tracers), home=config.home, realtime=True)
+        if self.flightlog is not None:
+            self.flightlog.attach(self.sim)
         if self.publisher is not None:
             pub, sim = self.publisher, self.sim
             sim.every(zmq_pub.STATE_PERIOD_S, lambda now: pub.vehicle_states(now, sim))
@@ -105,10 +114,14 @@ class Daemon:
 
     def _send(self, index: int, kind: LinkKind, datagram: bytes, peer: object) -> None:
         self.endpoints[(index, kind)].send(datagram, peer)  # type: ignore[arg-type]
+        if self.flightlog is not None:
+            self.flightlog.record_datagram("down", index, kind, datagram, self.sim.now)
 
     def _receiver(self, index: int, kind: LinkKind):
         def on_datagram(data: bytes, addr: tuple[str, int]) -> None:
             self.pacer.sync()  # stamp the datagram with the simulated time of its arrival
+            if self.flightlog is not None:
+                self.flightlog.record_datagram("up", index, kind, data, self.sim.now)
             self.sim.inject(index, kind, data, addr)
 
         return on_datagram
@@ -146,6 +159,8 @@ class Daemon:
             self.publisher.close()
         if self._trace_file is not None:
             self._trace_file.close()
+        if self.flightlog is not None:
+            self.flightlog.close()
 
     def status_line(self) -> str:
         stats = self.sim.link_stats()

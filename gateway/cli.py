@@ -96,6 +96,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--zmq-pub", default=None, metavar="ENDPOINT",
                      help="publish vehicle states, link statistics and packet events on a "
                      "ZeroMQ PUB socket, e.g. tcp://127.0.0.1:5556 (schema: docs/zmq.md)")
+    run.add_argument("--log-dir", type=Path, default=None, metavar="DIR",
+                     help="record every run in DIR/run-<date>-<time>/: a .tlog per vehicle link "
+                     "(QGC/MAVProxy format), the vehicles' state (state.csv) and the packet trace; "
+                     "flushed every simulated second; `cornet plot DIR` draws it")
     run.add_argument("--packet-trace", type=Path, default=None, metavar="FILE",
                      help="write the packet trace (one line per datagram event: time, send/drop/"
                      "recv, link, size, delay or drop reason) to FILE")
@@ -106,6 +110,32 @@ def build_parser() -> argparse.ArgumentParser:
                            description="Validate a scenario file. Exit 0 and a summary if it is "
                            "good; exit 2 and the key that is wrong if not.")
     check.add_argument("scenario", type=Path, metavar="FILE")
+    fly = sub.add_parser("fly", help="fly a QGroundControl .plan headless, as fast as possible, "
+                         "and judge it (exit 0 pass, 1 fail)",
+                         description="Fly a QGroundControl .plan (mission, geofence, rally "
+                         "points) on one vehicle in lockstep on the simulated clock, through the "
+                         "same MAVLink sessions as the daemon, and judge it: mission finished, "
+                         "landed, geofence never breached, optional path deviation limit.")
+    fly.add_argument("plan", type=Path, metavar="PLAN")
+    fly.add_argument("--scenario", type=Path, default=None, metavar="FILE")
+    fly.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,
+                     metavar="X")
+    fly.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=0.0,
+                     metavar="Y")
+    fly.add_argument("--loss", type=_probability, default=0.0, metavar="P")
+    fly.add_argument("--seed", type=_non_negative(int, "--seed"), default=0, metavar="S")
+    fly.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
+    fly.add_argument("--time-limit", type=_non_negative(float, "--time-limit"), default=None,
+                     metavar="S", help="simulated seconds before giving up (default 900)")
+    fly.add_argument("--max-deviation", type=_non_negative(float, "--max-deviation"),
+                     default=None, metavar="M", help="fail if the path deviates more (metres)")
+    fly.add_argument("--log-dir", type=Path, default=None, metavar="DIR",
+                     help="record the flight (tlogs, state.csv, packet trace) in DIR")
+    plot = sub.add_parser("plot", help="draw a recorded run: track vs plan, altitude and speed, "
+                          "link latency and loss (PNGs)")
+    plot.add_argument("log_dir", type=Path, metavar="LOGDIR")
+    plot.add_argument("--plan", type=Path, default=None, metavar="FILE",
+                      help="a .plan to draw as the planned track")
     for name, helptext in (("watch", "live table of vehicles and link quality from --zmq-pub"),
                            ("stats", "print every link's counters once, from --zmq-pub")):
         p = sub.add_parser(name, help=helptext, description=helptext)
@@ -147,6 +177,12 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "run":
         return _run(parser, args)
+    if args.command == "fly":
+        return _fly(_subparser(parser, "fly"), args)
+    if args.command == "plot":
+        from gateway import plot
+
+        return plot.main(args.log_dir, args.plan)
     if args.command == "check":
         from gateway.scenario import ScenarioError, describe, load
 
@@ -165,6 +201,40 @@ def main(argv: list[str] | None = None) -> int:
         return watch.stats(endpoint)
     parser.error(f"unknown command {args.command!r}")
     return 2
+
+
+def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    from gateway import fly
+    from gateway.scenario import NetworkConfig, ScenarioError, load
+
+    network = None
+    if args.scenario is not None:
+        try:
+            load(args.scenario)
+        except ScenarioError as exc:
+            parser.error(str(exc))
+    elif args.latency_ms or args.jitter_ms or args.loss or args.seed:
+        network = NetworkConfig.from_flags(args.latency_ms, args.jitter_ms, args.loss, args.seed)
+    if args.log_dir is not None:
+        _writable_dir(parser, args.log_dir, "--log-dir")
+    logging.basicConfig(level="WARNING", format="%(levelname)s %(name)s: %(message)s")
+    kwargs = {"network": network, "scenario": args.scenario,
+              "params": _parse_params(parser, args.param, dict(os.environ)),
+              "max_deviation_m": args.max_deviation, "log_dir": args.log_dir,
+              "progress": lambda line: print(line, file=sys.stderr, flush=True)}
+    if args.time_limit is not None:
+        kwargs["time_limit_s"] = args.time_limit
+    return fly.main(args.plan, **kwargs)
+
+
+def _writable_dir(parser: argparse.ArgumentParser, path: Path, flag: str) -> None:
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".cornet-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        parser.error(f"{flag} {path}: not a writable directory ({exc.strerror})")
 
 
 def _subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentParser:
@@ -205,13 +275,9 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
                      f"port {highest} > {MAX_PORT}; use a smaller offset")
     params = {**scenario.params, **_parse_params(parser, args.param, dict(os.environ))}
     if args.state_dir is not None:
-        try:
-            args.state_dir.mkdir(parents=True, exist_ok=True)
-            probe = args.state_dir / ".cornet-write-test"
-            probe.write_text("")
-            probe.unlink()
-        except OSError as exc:
-            parser.error(f"--state-dir {args.state_dir}: not a writable directory ({exc.strerror})")
+        _writable_dir(parser, args.state_dir, "--state-dir")
+    if args.log_dir is not None:
+        _writable_dir(parser, args.log_dir, "--log-dir")
     if args.packet_trace is not None and not args.packet_trace.parent.is_dir():
         parser.error(f"--packet-trace {args.packet_trace}: no directory "
                      f"{args.packet_trace.parent}")
@@ -233,6 +299,7 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         zmq_pub=args.zmq_pub,
         packet_trace=args.packet_trace,
         speed=args.speed,
+        log_dir=args.log_dir,
     )
     import zmq
 

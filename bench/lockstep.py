@@ -1,0 +1,50 @@
+"""Lockstep speed (issue 5, acceptance 1): the 4-waypoint square (~60 s simulated) flown in-process
+through gateway.testing.Sim, best of 3; prints simulated seconds per wall second, with and
+without flight logs, and where the time goes (one profiled run)."""
+
+import cProfile
+import pstats
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from gateway.testing import Sim  # noqa: E402
+from tests.unit.test_testing_sim import fly_square  # noqa: E402
+
+
+def once(log_dir=None) -> tuple[float, float]:
+    with Sim(1, log_dir=log_dir) as sim:
+        t0 = time.perf_counter()
+        fly_square(sim)
+        return sim.now, time.perf_counter() - t0
+
+
+def main() -> None:
+    for label in ("no logs", "flight logs"):
+        best = None
+        for _ in range(3):
+            with tempfile.TemporaryDirectory() as d:
+                sim_s, wall_s = once(d if label == "flight logs" else None)
+            best = wall_s if best is None else min(best, wall_s)
+        print(f"{label:12}: {sim_s:.1f} s simulated in {best:.3f} s wall = {sim_s / best:.0f}x "
+              f"real time (goal >= 60x)")
+    prof = cProfile.Profile()
+    prof.enable()
+    once()
+    prof.disable()
+    groups = {"physics+autopilot (World.step)": "physics.py:190(step)",
+              "sessions: telemetry/timers (VehicleLink._on_timer)": "sim.py:110(_on_timer)",
+              "uplink delivery → session": "sim.py:87(_on_uplink_delivered)",
+              "downlink delivery → client": "sim.py:105(_on_downlink_delivered)"}
+    stats = pstats.Stats(prof)
+    total = stats.total_tt
+    for name, key in groups.items():
+        cum = sum(v[3] for k, v in stats.stats.items() if f"{Path(k[0]).name}:{k[1]}({k[2]})" == key)
+        print(f"  {name:52} {100 * cum / total:5.1f} %")
+
+
+if __name__ == "__main__":
+    main()

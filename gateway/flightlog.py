@@ -1,0 +1,280 @@
+"""Flight logs of one run: per-link ``.tlog``, a vehicle-state CSV, the packet trace, ``meta.json``.
+
+One directory per run (``new_run_dir`` names one under a base directory):
+
+    meta.json         what ran: vehicles (sysid, EKF origin, spawn offset), home, boot epoch, network
+    v<i>-gcs.tlog     every MAVLink frame on vehicle i's GCS link, both directions (QGC/MAVProxy
+    v<i>-api.tlog     format: 8-byte big-endian µs Unix timestamp + the raw frame, one per frame)
+    state.csv         every vehicle at a fixed simulated rate (STATE_COLUMNS)
+    packets.trace     the network's log (netsim.link.TraceWriter: time event link size detail)
+
+How it is wired (the tracer must exist before the Simulation, which takes it at construction):
+
+    flog = FlightLog(run_dir, boot_unix_s=...)
+    sim = Simulation(n, network, tracer=flog.tracer)       # or fan it out with other tracers
+    flog.attach(sim)                                       # meta.json, state sampling, flushing
+    flog.record_datagram("up", i, kind, datagram, sim.now)   # where a client datagram enters
+    flog.record_datagram("down", i, kind, datagram, sim.now) # in sim.on_downlink
+    flog.close()                                           # on stop (flushes)
+
+Rules and invariants:
+- Timestamps are ``boot_unix_s + simulated time``: no wall clock is read here, so a lockstep run
+  with a fixed epoch writes byte-identical files (the daemon passes its wall-clock start).
+- The tlog records what the client sees: uplink frames when the client sends them (before the
+  simulated network), downlink frames when the network delivers them. A datagram may hold several
+  frames; they are split with the MAVLink length fields and garbage between frames is skipped.
+- Everything is flushed every ``flush_period_s`` of simulated time (1 s) and on ``close``, so a
+  crash loses at most the last second.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import logging
+import math
+import struct
+from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, BinaryIO
+
+from gateway.mavlink.session import LinkKind
+from netsim.link import TraceWriter
+
+if TYPE_CHECKING:
+    from gateway.sim import Simulation
+
+log = logging.getLogger(__name__)
+
+STATE_PERIOD_S = 0.1  # 10 Hz state log
+FLUSH_PERIOD_S = 1.0  # a crash loses at most this much simulated time of logs
+TRACE_FILE = "packets.trace"
+STATE_FILE = "state.csv"
+META_FILE = "meta.json"
+UP, DOWN = "up", "down"
+
+MAGIC_V1 = 0xFE
+MAGIC_V2 = 0xFD
+_TLOG_STAMP = struct.Struct(">Q")
+
+STATE_COLUMNS = (
+    "t_s", "sysid",
+    "n_world_m", "e_world_m", "d_world_m",  # world frame: NED from the world's home
+    "n_m", "e_m", "d_m",  # local frame: NED from the vehicle's EKF origin (its spawn point)
+    "vn_mps", "ve_mps", "vd_mps",
+    "roll_rad", "pitch_rad", "yaw_rad",
+    "mode", "armed", "landed_state",
+    "battery_remaining", "battery_v",
+    "sp_n_m", "sp_e_m", "sp_d_m",  # the position setpoint (trajectory carrot), empty if idle
+    "mission_seq", "mission_state",
+)
+
+
+def tlog_name(index: int, kind: LinkKind) -> str:
+    return f"v{index + 1}-{kind.name.lower()}.tlog"
+
+
+def split_frames(datagram: bytes) -> list[bytes]:
+    """The MAVLink 1/2 frames in a datagram, by their length fields (CRC not checked).
+
+    Bytes that do not start a frame are skipped; a truncated last frame is dropped.
+    """
+    out = []
+    i, n = 0, len(datagram)
+    while i < n:
+        magic = datagram[i]
+        if magic == MAGIC_V2 and i + 3 <= n:
+            size = 12 + datagram[i + 1] + (13 if datagram[i + 2] & 1 else 0)
+        elif magic == MAGIC_V1 and i + 2 <= n:
+            size = 8 + datagram[i + 1]
+        else:
+            i += 1
+            continue
+        if i + size > n:
+            break
+        out.append(datagram[i:i + size])
+        i += size
+    return out
+
+
+def frame_msgid(frame: bytes) -> int:
+    if frame[0] == MAGIC_V2:
+        return frame[7] | (frame[8] << 8) | (frame[9] << 16)
+    return frame[5]
+
+
+def frame_source(frame: bytes) -> tuple[int, int]:
+    """(sysid, compid) of the sender."""
+    if frame[0] == MAGIC_V2:
+        return frame[5], frame[6]
+    return frame[3], frame[4]
+
+
+def read_tlog(path: str | Path) -> Iterator[tuple[float, bytes]]:
+    """(unix time s, frame) for every record of a tlog written here."""
+    data = Path(path).read_bytes()
+    i, n = 0, len(data)
+    while i + 9 <= n:
+        (stamp_us,) = _TLOG_STAMP.unpack_from(data, i)
+        frames = split_frames(data[i + 8:i + 8 + 280])
+        if not frames:
+            break
+        yield stamp_us * 1e-6, frames[0]
+        i += 8 + len(frames[0])
+
+
+def new_run_dir(base: str | Path, name: str) -> Path:
+    """``base/name`` (``name-2``, ``name-3`` … if taken), created: one directory per run.
+
+    The shell passes a wall-clock name (e.g. ``run-20261122-101500``); lockstep runs a fixed one.
+    """
+    base = Path(base)
+    base.mkdir(parents=True, exist_ok=True)
+    path, k = base / name, 1
+    while True:
+        try:
+            path.mkdir()
+            return path
+        except FileExistsError:
+            k += 1
+            path = base / f"{name}-{k}"
+
+
+def _f(x: float, digits: int = 4) -> str:
+    return "" if math.isnan(x) else f"{x:.{digits}f}"
+
+
+class FlightLog:
+    def __init__(self, log_dir: str | Path, *, boot_unix_s: float = 0.0,
+                 state_period_s: float = STATE_PERIOD_S,
+                 flush_period_s: float = FLUSH_PERIOD_S) -> None:
+        self.dir = Path(log_dir)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.boot_unix_s = boot_unix_s
+        self.state_period_s = state_period_s
+        self.flush_period_s = flush_period_s
+        self._trace_file = open(self.dir / TRACE_FILE, "w", encoding="ascii", newline="\n")
+        self.tracer = TraceWriter(self._trace_file)
+        self._tlogs: dict[tuple[int, LinkKind], BinaryIO] = {}
+        self._state_file: io.TextIOWrapper | None = None
+        self._state_csv = None
+        self._sim: Simulation | None = None
+        self._tickers: list = []
+        self.frames = {UP: 0, DOWN: 0}
+        self.closed = False
+
+    # --- wiring -------------------------------------------------------------------------------
+    def attach(self, sim: Simulation, extra_meta: dict | None = None) -> None:
+        """Write meta.json, start the state log and the periodic flush on ``sim``'s clock."""
+        self._sim = sim
+        self._write_meta(sim, extra_meta or {})
+        self._state_file = open(self.dir / STATE_FILE, "w", encoding="ascii", newline="")
+        self._state_csv = csv.writer(self._state_file, lineterminator="\n")
+        self._state_csv.writerow(STATE_COLUMNS)
+        for i, kind in sim.links:
+            self._tlog(i, kind)
+        self._tickers = [sim.every(self.state_period_s, self._sample),
+                         sim.every(self.flush_period_s, lambda now: self.flush())]
+
+    def _write_meta(self, sim: Simulation, extra: dict) -> None:
+        home = getattr(sim.world, "home", None)
+        vehicles = []
+        for i, v in enumerate(sim.vehicles):
+            n0, e0 = sim.world.spawn_offset_ned_m(i)
+            vehicles.append({"index": i, "sysid": int(v.params["MAV_SYS_ID"]),
+                             "origin": [v.origin.lat_deg, v.origin.lon_deg, v.origin.alt_amsl_m],
+                             "spawn_ned_m": [n0, e0],
+                             "tlogs": [tlog_name(i, k) for k in LinkKind]})
+        meta = {"format": "cornet-flightlog/1", "boot_unix_s": self.boot_unix_s,
+                "state_period_s": self.state_period_s,
+                "home": None if home is None else [home.lat_deg, home.lon_deg, home.alt_amsl_m],
+                "network": sim.network.summary, "seed": sim.network.seed,
+                "vehicles": vehicles, **extra}
+        (self.dir / META_FILE).write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
+
+    def _tlog(self, index: int, kind: LinkKind) -> BinaryIO:
+        f = self._tlogs.get((index, kind))
+        if f is None:
+            f = open(self.dir / tlog_name(index, kind), "wb")
+            self._tlogs[(index, kind)] = f
+        return f
+
+    # --- hooks --------------------------------------------------------------------------------
+    def record_datagram(self, direction: str, index: int, kind: LinkKind, datagram: bytes,
+                        t: float) -> None:
+        """A datagram the client sent (``"up"``) or received (``"down"``) at simulated ``t``."""
+        if self.closed:
+            return
+        f = self._tlog(index, kind)
+        stamp = _TLOG_STAMP.pack(int(round((self.boot_unix_s + t) * 1e6)))
+        frames = split_frames(datagram)
+        for frame in frames:
+            f.write(stamp)
+            f.write(frame)
+        self.frames[direction] += len(frames)
+
+    def record_frame(self, direction: str, index: int, kind: LinkKind, frame: bytes,
+                     t: float) -> None:
+        """One already-split frame (see ``record_datagram``)."""
+        if self.closed:
+            return
+        f = self._tlog(index, kind)
+        f.write(_TLOG_STAMP.pack(int(round((self.boot_unix_s + t) * 1e6))))
+        f.write(frame)
+        self.frames[direction] += 1
+
+    def _sample(self, now: float) -> None:
+        sim, w = self._sim, self._state_csv
+        if sim is None or w is None:
+            return
+        world = sim.vehicle_positions_ned_m()
+        for i, v in enumerate(sim.vehicles):
+            st, status = v.state, v.status
+            p, vel = st.position_ned_m, st.velocity_ned_mps
+            roll, pitch, yaw = st.euler_rad()
+            wn, we, wd = world[f"v{i + 1}"]
+            sp = (math.nan,) * 3
+            ap = getattr(v, "autopilot", None)
+            traj = getattr(ap, "trajectory", None)
+            if status.armed and traj is not None and getattr(ap, "_flying", True):
+                sp = traj.position_ned_m
+            ms = getattr(v, "mission_status", None)
+            bat = status.battery
+            w.writerow((f"{now:.3f}", int(v.params["MAV_SYS_ID"]), _f(wn), _f(we), _f(wd),
+                        _f(p[0]), _f(p[1]), _f(p[2]), _f(vel[0]), _f(vel[1]), _f(vel[2]),
+                        _f(roll), _f(pitch), _f(yaw), status.nav_state.name, int(status.armed),
+                        status.landed_state.name, _f(bat.remaining, 3), _f(bat.voltage_v, 3),
+                        _f(sp[0]), _f(sp[1]), _f(sp[2]),
+                        "" if ms is None else ms.current_seq,
+                        "" if ms is None else ms.state.name))
+
+    # --- lifetime -----------------------------------------------------------------------------
+    def flush(self) -> None:
+        if self.closed:
+            return
+        self._trace_file.flush()
+        for f in self._tlogs.values():
+            f.flush()
+        if self._state_file is not None:
+            self._state_file.flush()
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        for ticker in self._tickers:
+            ticker.cancel()
+        self._tickers = []
+        self.flush()
+        self.closed = True
+        self._trace_file.close()
+        for f in self._tlogs.values():
+            f.close()
+        if self._state_file is not None:
+            self._state_file.close()
+
+    def __enter__(self) -> FlightLog:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
