@@ -147,12 +147,20 @@ class Takeoff(NavMode):
     def on_activation(self, ctx: NavContext) -> None:
         p = ctx.params
         x, y, z = ctx.position_ned_m
+        # PX4 navigator/takeoff.cpp: the takeoff altitude is MIS_TAKEOFF_ALT above *home* (not
+        # above the current position, so a repeated takeoff command does not climb further); a
+        # requested altitude below that minimum is raised to it.
+        alt = float(p["MIS_TAKEOFF_ALT"])
+        home_z = ctx.home.position_ned_m[2] if ctx.home is not None else z
+        min_z = home_z - alt
         if math.isnan(self.requested_alt_amsl_m):
-            alt = float(p["MIS_TAKEOFF_ALT"])
             ctx.log.info(ctx.now_s, f"Using default takeoff altitude: {alt:.1f} m")
-            target_z = z - alt
+            target_z = min_z
         else:
             target_z = self.origin_alt_amsl_m - self.requested_alt_amsl_m
+            if target_z > min_z:
+                ctx.log.info(ctx.now_s, f"Using minimum takeoff altitude: {alt:.1f} m")
+                target_z = min_z
         if not ctx.landed and target_z > z:
             ctx.log.info(ctx.now_s, "Already higher than takeoff altitude")
             target_z = z

@@ -127,18 +127,20 @@ async def test_takeoff_altitude_params_goto_hold_and_return(daemon_factory):
                           pos.latitude_deg, pos.longitude_deg) < 2.0
 
 
-async def again_on_timeout(transfer, attempts: int = 3):
+async def again_on_timeout(transfer, attempts: int = 4):
     """MAVSDK gives a transfer step 6 tries (0.5 s apart); at 20 % loss each way a step's round
     trip fails with p = 0.36, six in a row with p = 0.2 %, so a whole upload or download of a few
-    items times out now and then — against PX4 too. A script for lossy links asks again."""
+    items times out now and then — against PX4 too. A script for lossy links asks again (after
+    a time-out MAVSDK may still be winding the old transfer down: BUSY, so wait a moment)."""
     from mavsdk.mission import MissionError
 
     for attempt in range(attempts):
         try:
             return await transfer()
         except MissionError as exc:
-            if "TIMEOUT" not in str(exc) or attempt == attempts - 1:
+            if not ("TIMEOUT" in str(exc) or "BUSY" in str(exc)) or attempt == attempts - 1:
                 raise
+            await asyncio.sleep(1.0)
 
 
 @pytest.mark.asyncio

@@ -210,3 +210,18 @@ def test_state_time_and_attitude_frames(sim):
     assert s.time_s == pytest.approx(sim.t)
     assert np.linalg.norm(s.attitude_q) == pytest.approx(1.0)
     assert s.attitude_q[0] == pytest.approx(1.0, abs=1e-6)  # level, facing north
+
+
+def test_a_repeated_takeoff_command_does_not_climb_higher(sim):
+    # A client retrying NAV_TAKEOFF (its ACK was lost) while the vehicle climbs: PX4 takes off to
+    # MIS_TAKEOFF_ALT above home, not above the current position.
+    v = sim.v
+    sim.run(1.2)
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+    assert v.takeoff(sim.t) is CommandResult.ACCEPTED
+    sim.run(0.8)
+    assert -v.state.position_ned_m[2] > 0.2  # climbing
+    assert v.takeoff(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(15.0, until=lambda: v.status.nav_state is NavState.AUTO_LOITER)
+    sim.run(3.0)
+    assert abs(-v.state.position_ned_m[2] - 2.5) < 0.3
