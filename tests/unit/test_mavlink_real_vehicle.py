@@ -57,10 +57,6 @@ def test_arm_takeoff_land_over_mavlink():
 
 
 def _real_world_with_plans():
-    from vehicles.vehicle import Vehicle
-
-    if not hasattr(Vehicle, "set_plan") or not hasattr(Vehicle, "set_offboard_setpoint"):
-        pytest.skip("vehicles/vehicle.py has no mission/offboard contract yet")
     world = World(dt_s=0.004)
     vehicle = world.add_vehicle(index=0, params=ParamStore({"MAV_SYS_ID": 1}))
     client = Client(Session(vehicle, LinkKind.API, now_s=0.0))
