@@ -30,8 +30,8 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import pybullet  # noqa: E402
 
 from gateway.app import Daemon, RunConfig  # noqa: E402
+from gateway.ports import free_port_offset  # noqa: E402
 from gateway.sim import PHYSICS_DT_S, Simulation  # noqa: E402
-from tests.e2e.daemon import free_port_offset  # noqa: E402
 
 
 def bare_pybullet_cpu_per_sim_s(sim_s: float) -> float:

@@ -278,3 +278,15 @@ class FlightLog:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def resolve_run_dir(log_dir: str | Path) -> Path:
+    """``log_dir`` if it holds meta.json, else its newest run sub-directory (by name)."""
+    path = Path(log_dir)
+    if (path / META_FILE).is_file():
+        return path
+    runs = sorted(p for p in path.iterdir() if (p / META_FILE).is_file()) if path.is_dir() else []
+    if not runs:
+        raise FileNotFoundError(f"{path}: no flight log here (no {META_FILE}, nor in a "
+                                "sub-directory)")
+    return runs[-1]

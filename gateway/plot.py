@@ -29,6 +29,7 @@ from gateway.flightlog import (
     frame_msgid,
     frame_source,
     read_tlog,
+    resolve_run_dir,
 )
 from vehicles.plan_types import MavCmd, PlanItem, PlanType
 from vehicles.plans import GLOBAL_FRAMES, RELATIVE_FRAMES
@@ -39,17 +40,6 @@ OUTPUTS = ("track.png", "altitude_speed.png", "link.png")
 _ITEM_IDS = frozenset({M.MAVLINK_MSG_ID_MISSION_ITEM_INT, M.MAVLINK_MSG_ID_MISSION_ITEM})
 MAX_LINKS_DRAWN = 8  # more links than this: aggregated by direction (up / down)
 DPI = 100
-
-
-def resolve_run_dir(log_dir: str | Path) -> Path:
-    path = Path(log_dir)
-    if (path / META_FILE).is_file():
-        return path
-    runs = sorted(p for p in path.iterdir() if (p / META_FILE).is_file()) if path.is_dir() else []
-    if not runs:
-        raise FileNotFoundError(f"{path}: no flight log here (no {META_FILE}, nor in a "
-                                "sub-directory)")
-    return runs[-1]
 
 
 # --- readers -----------------------------------------------------------------------------------

@@ -33,13 +33,11 @@ altitude is the height above that origin (where the vehicle spawned: its home).
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import json
 import math
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -52,6 +50,8 @@ from typing import Any
 
 import pytest
 
+from gateway.ports import API_CLIENT_PORT, GCS_CLIENT_PORT, free_port_offset, free_tcp_port
+
 __all__ = ["Check", "CornetDaemon", "FlightLogView", "StateSample", "free_port_offset",
            "free_tcp_port", "landed_within", "max_deviation_m", "reached", "start_daemon"]
 
@@ -60,49 +60,6 @@ STOP_TIMEOUT_S = 10.0
 EARTH_RADIUS_M = 6371000.0  # vehicles.types.EARTH_RADIUS_M: the simulator's projection
 META_FILE = "meta.json"
 STATE_FILE = "state.csv"
-# PX4 SITL's UDP ports (shifted by --port-offset): vehicle i's MAVSDK link, QGC's.
-API_CLIENT_PORT = 14540
-GCS_CLIENT_PORT = 14550
-VEHICLE_GCS_PORT = 18570
-VEHICLE_API_PORT = 14580
-OFFSET_STEP = 200
-MIN_VEHICLES_CHECKED = 10  # a scenario file may spawn more vehicles than --vehicles says
-
-
-# --- ports -------------------------------------------------------------------------------------
-def _udp_free(port: int) -> bool:
-    with contextlib.closing(socket.socket(socket.AF_INET, socket.SOCK_DGRAM)) as s:
-        try:
-            s.bind(("0.0.0.0", port))
-        except OSError:
-            return False
-    return True
-
-
-def _ports(offset: int, vehicles: int) -> list[int]:
-    ports = [GCS_CLIENT_PORT + offset]
-    for i in range(vehicles):
-        ports += [VEHICLE_GCS_PORT + i + offset, VEHICLE_API_PORT + i + offset,
-                  API_CLIENT_PORT + min(i, 9) + offset]
-    return ports
-
-
-def free_port_offset(vehicles: int = 1, start: int = 1000, skip: Sequence[int] = ()) -> int:
-    """A ``--port-offset`` at which every UDP port a daemon with ``vehicles`` vehicles and its
-    clients use is free (the search starts at a per-process place, for parallel test runs)."""
-    n = max(vehicles, MIN_VEHICLES_CHECKED)
-    base = start + (os.getpid() % 40) * OFFSET_STEP
-    for k in [*range(base, 40000, OFFSET_STEP), *range(start, base, OFFSET_STEP)]:
-        if k not in skip and all(_udp_free(p) for p in _ports(k, n)):
-            return k
-    raise RuntimeError("no free port offset for cornet run")
-
-
-def free_tcp_port() -> int:
-    """A free local TCP port, e.g. for MAVSDK-Python's ``System(port=...)`` (its gRPC server)."""
-    with contextlib.closing(socket.socket()) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 # --- the daemon ----------------------------------------------------------------------------------
@@ -170,6 +127,8 @@ class CornetDaemon:
         """This daemon's flight-log directory (``log_dir/run-<date>-<time>``)."""
         if self.log_dir is None:
             raise FileNotFoundError("this daemon was started with log_dir=None")
+        from gateway.flightlog import resolve_run_dir
+
         return resolve_run_dir(self.log_dir)
 
     def log(self) -> FlightLogView:
@@ -264,18 +223,6 @@ def start_daemon(*args: str, vehicles: int | None = None, log_dir: str | Path | 
 
 
 # --- flight logs ---------------------------------------------------------------------------------
-def resolve_run_dir(path: str | Path) -> Path:
-    """``path`` if it holds meta.json, else its newest run sub-directory (by name)."""
-    path = Path(path)
-    if (path / META_FILE).is_file():
-        return path
-    runs = sorted(p for p in path.iterdir() if (p / META_FILE).is_file()) if path.is_dir() else []
-    if not runs:
-        raise FileNotFoundError(f"{path}: no flight log here (no {META_FILE}, nor in a "
-                                "sub-directory)")
-    return runs[-1]
-
-
 def _float(s: str) -> float:
     return float(s) if s else math.nan
 
@@ -327,6 +274,8 @@ class FlightLogView:
     ``mavsdk_url(i)`` and ``Sim.api(i)``); paths of the tlogs and the packet trace."""
 
     def __init__(self, run_dir: str | Path) -> None:
+        from gateway.flightlog import resolve_run_dir
+
         self.run_dir = resolve_run_dir(run_dir)
         self.meta: dict = json.loads((self.run_dir / META_FILE).read_text())
         self._by_sysid: dict[int, list[StateSample]] = {}

@@ -1,41 +1,17 @@
 """`cornet run` as a subprocess on free ports, for the examples that start their own daemon."""
 
 import contextlib
-import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
 import time
 from pathlib import Path
 
+from gateway.ports import free_port_offset, free_tcp_port  # noqa: F401 (re-exported)
+
 ROOT = Path(__file__).resolve().parent.parent
 READY_TIMEOUT_S = 60.0
-
-
-def _udp_free(port: int) -> bool:
-    with contextlib.closing(socket.socket(socket.AF_INET, socket.SOCK_DGRAM)) as s:
-        try:
-            s.bind(("0.0.0.0", port))
-        except OSError:
-            return False
-    return True
-
-
-def free_port_offset(vehicles: int = 1) -> int:
-    """An offset K at which every UDP port of the daemon and its clients is free."""
-    for k in range(1000 + (os.getpid() % 40) * 200, 40000, 200):
-        ports = [14550 + k] + [p + i + k for i in range(vehicles) for p in (18570, 14580, 14540)]
-        if all(_udp_free(p) for p in ports):
-            return k
-    raise RuntimeError("no free port offset")
-
-
-def free_tcp_port() -> int:
-    with contextlib.closing(socket.socket()) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class CornetDaemon:

@@ -2,45 +2,18 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
 import time
 from dataclasses import dataclass, field
 
+from gateway.ports import free_port_offset, free_tcp_port  # noqa: F401 (re-exported)
+
 READY_TIMEOUT_S = 30.0
 STOP_TIMEOUT_S = 2.0
-
-
-def _udp_free(port: int) -> bool:
-    with contextlib.closing(socket.socket(socket.AF_INET, socket.SOCK_DGRAM)) as s:
-        try:
-            s.bind(("0.0.0.0", port))
-        except OSError:
-            return False
-    return True
-
-
-def free_port_offset(vehicles: int, start: int = 1000) -> int:
-    """An offset K at which every port a daemon and its clients use is free."""
-    base = start + (os.getpid() % 40) * 200
-    for k in range(base, 40000, 200):
-        ports = [14550 + k]
-        for i in range(vehicles):
-            ports += [18570 + i + k, 14580 + i + k, 14540 + min(i, 9) + k]
-        if all(_udp_free(p) for p in ports):
-            return k
-    raise RuntimeError("no free port offset")
-
-
-def free_tcp_port() -> int:
-    with contextlib.closing(socket.socket()) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @dataclass

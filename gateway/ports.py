@@ -1,0 +1,55 @@
+"""Free local ports for side-by-side daemons (tests, examples, the pytest plugin).
+
+Standard library only, so that importing it (from the pytest plugin, at pytest start-up) loads
+nothing heavy. The port numbers are PX4 SITL's (gateway/sim.py ``px4_ports``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import socket
+from collections.abc import Sequence
+
+API_CLIENT_PORT = 14540  # vehicle i's MAVSDK link: 14540+i (i > 9: 14549)
+GCS_CLIENT_PORT = 14550
+VEHICLE_GCS_PORT = 18570
+VEHICLE_API_PORT = 14580
+OFFSET_STEP = 200
+MIN_VEHICLES_CHECKED = 10  # a scenario file may spawn more vehicles than --vehicles says
+
+
+def udp_free(port: int) -> bool:
+    with contextlib.closing(socket.socket(socket.AF_INET, socket.SOCK_DGRAM)) as s:
+        try:
+            s.bind(("0.0.0.0", port))
+        except OSError:
+            return False
+    return True
+
+
+def daemon_ports(offset: int, vehicles: int) -> list[int]:
+    """Every UDP port a daemon with ``vehicles`` vehicles and its clients use at ``offset``."""
+    ports = [GCS_CLIENT_PORT + offset]
+    for i in range(vehicles):
+        ports += [VEHICLE_GCS_PORT + i + offset, VEHICLE_API_PORT + i + offset,
+                  API_CLIENT_PORT + min(i, 9) + offset]
+    return ports
+
+
+def free_port_offset(vehicles: int = 1, start: int = 1000, skip: Sequence[int] = ()) -> int:
+    """A ``--port-offset`` at which every UDP port a daemon with ``vehicles`` vehicles and its
+    clients use is free (the search starts at a per-process place, for parallel test runs)."""
+    n = max(vehicles, MIN_VEHICLES_CHECKED)
+    base = start + (os.getpid() % 40) * OFFSET_STEP
+    for k in [*range(base, 40000, OFFSET_STEP), *range(start, base, OFFSET_STEP)]:
+        if k not in skip and all(udp_free(p) for p in daemon_ports(k, n)):
+            return k
+    raise RuntimeError("no free port offset for cornet run")
+
+
+def free_tcp_port() -> int:
+    """A free local TCP port, e.g. for MAVSDK-Python's ``System(port=...)`` (its gRPC server)."""
+    with contextlib.closing(socket.socket()) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
