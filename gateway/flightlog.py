@@ -185,7 +185,7 @@ class FlightLog:
             vehicles.append({"index": i, "sysid": int(v.params["MAV_SYS_ID"]),
                              "origin": [v.origin.lat_deg, v.origin.lon_deg, v.origin.alt_amsl_m],
                              "spawn_ned_m": [n0, e0],
-                             "tlogs": [tlog_name(i, k) for k in LinkKind]})
+                             "tlogs": [tlog_name(i, k) for k in sim.link_kinds]})
         meta = {"format": "cornet-flightlog/1", "boot_unix_s": self.boot_unix_s,
                 "state_period_s": self.state_period_s,
                 "home": None if home is None else [home.lat_deg, home.lon_deg, home.alt_amsl_m],

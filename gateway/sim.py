@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 from gateway.mavlink.session import LinkKind, Session
@@ -166,11 +166,17 @@ class Simulation:
                  physics_dt_s: float = PHYSICS_DT_S,
                  params_for: Callable[[int], ParamStore] | None = None,
                  tracer: Tracer | None = None, home: GeoPoint = PX4_SITL_HOME,
-                 realtime: bool = False) -> None:
+                 realtime: bool = False,
+                 link_kinds: Sequence[LinkKind] = (LinkKind.GCS, LinkKind.API)) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
-        ``default_params(index, param_overrides)``); the shell uses it to add persistence."""
+        ``default_params(index, param_overrides)``); the shell uses it to add persistence.
+        ``link_kinds``: the MAVLink links each vehicle has (the daemon: both, as PX4 SITL; an
+        in-process lockstep run may leave out a link no client listens to)."""
         if vehicles < 1:
             raise ValueError("need at least one vehicle")
+        if not link_kinds:
+            raise ValueError("need at least one link kind")
+        self.link_kinds = tuple(k for k in LinkKind if k in link_kinds)
         self.kernel = Kernel()
         self.network = network or NetworkConfig()
         self.backend: NetworkBackend = make_backend(self.kernel, self.network, tracer,
@@ -188,7 +194,7 @@ class Simulation:
                 params = default_params(i, param_overrides)
             vehicle = self.world.add_vehicle(index=i, params=params)
             self.vehicles.append(vehicle)
-            for kind in (LinkKind.GCS, LinkKind.API):
+            for kind in self.link_kinds:
                 session = Session(vehicle, kind, now_s=0.0)
                 self.links[(i, kind)] = VehicleLink(self, i, kind, session)
         self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,

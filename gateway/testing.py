@@ -271,11 +271,15 @@ class Sim:
                  params: dict[str, float] | None = None, home: GeoPoint | None = None,
                  log_dir: str | Path | None = None, boot_unix_s: float = LOCKSTEP_EPOCH_UNIX_S,
                  state_period_s: float = 0.1, heartbeat: bool = True,
-                 physics_dt_s: float = PHYSICS_DT_S, extra_meta: dict | None = None) -> None:
+                 physics_dt_s: float = PHYSICS_DT_S, extra_meta: dict | None = None,
+                 links: Iterable[LinkKind] = (LinkKind.API,)) -> None:
         """Vehicles, network, home and parameters come from ``scenario`` (a path or a parsed
         Scenario) when given, then from the arguments. ``log_dir``: record flight logs there
         (gateway/flightlog.py). ``heartbeat``: each vehicle's API client sends a GCS heartbeat
-        every simulated second, as MAVSDK does."""
+        every simulated second, as MAVSDK does. ``links``: the MAVLink links each vehicle runs.
+        The default is the API link (PX4's onboard link on 14540+i, MAVSDK's); add
+        ``LinkKind.GCS`` for QGC's link. A link nobody reads would cost as much time as the
+        physics, so lockstep runs leave it out unless asked."""
         if isinstance(scenario, (str, Path)):
             scenario = scenario_mod.load(scenario)
         sc = scenario or scenario_mod.Scenario(source="lockstep")
@@ -291,15 +295,17 @@ class Sim:
         self.simulation = Simulation(
             n, network if network is not None else sc.network,
             params_for=lambda i: default_params(i, overrides), tracer=tracer, home=self.home,
-            physics_dt_s=physics_dt_s)
+            physics_dt_s=physics_dt_s, link_kinds=tuple(links))
         if self.flightlog is not None:
             self.flightlog.attach(self.simulation, extra_meta)
         self.clients: dict[tuple[int, LinkKind], Client] = {
-            (i, kind): Client(self, i, kind) for i in range(n) for kind in LinkKind}
+            (i, kind): Client(self, i, kind) for i in range(n)
+            for kind in self.simulation.link_kinds}
         self.simulation.on_downlink = self._on_downlink
         if heartbeat:
             for i in range(n):
-                self.api(i).start_heartbeat()
+                kind = LinkKind.API if LinkKind.API in self.simulation.link_kinds else LinkKind.GCS
+                self.client(i, kind).start_heartbeat()
 
     # --- plumbing -----------------------------------------------------------------------------
     def _inject(self, index: int, kind: LinkKind, datagram: bytes, peer: object) -> None:
@@ -334,13 +340,19 @@ class Sim:
         return self.simulation.vehicles
 
     def client(self, index: int = 0, kind: LinkKind = LinkKind.API) -> Client:
-        return self.clients[(index, kind)]
+        client = self.clients.get((index, kind))
+        if client is None:
+            if not 0 <= index < len(self.vehicles):
+                raise IndexError(f"no vehicle {index} (the Sim has {len(self.vehicles)})")
+            raise KeyError(f"this Sim has no {kind.name} link: create it with "
+                           f"links=(LinkKind.API, LinkKind.GCS)")
+        return client
 
     def api(self, index: int = 0) -> Client:
-        return self.clients[(index, LinkKind.API)]
+        return self.client(index, LinkKind.API)
 
     def gcs(self, index: int = 0) -> Client:
-        return self.clients[(index, LinkKind.GCS)]
+        return self.client(index, LinkKind.GCS)
 
     def state(self, index: int = 0) -> VehicleState:
         return self.simulation.vehicles[index].state

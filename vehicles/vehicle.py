@@ -158,6 +158,13 @@ class Vehicle:
         ap = self._autopilot
         return ap.navigator.mission.status(ap.commander.nav_state)
 
+    @property
+    def mission_progress(self) -> tuple[int, int, int]:
+        """(current item, item count, items reached so far): changes whenever
+        ``mission_status.current_seq`` or ``.reached_count`` does; cheap enough to poll."""
+        m = self._autopilot.navigator.mission
+        return (m.current, len(m.items), m.reached_count)
+
     def start_mission(self, now_s: float, first_seq: int = -1) -> CommandResult:
         return self._autopilot.start_mission(now_s, first_seq)
 

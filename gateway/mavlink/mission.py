@@ -94,6 +94,7 @@ class MissionService:
         st = mission_status_of(session.vehicle)
         self._last_current = st.current_seq
         self._last_reached_count = st.reached_count
+        self._last_progress: object = None  # vehicle.mission_progress at the last full poll
         self._reached_seq = -1
         self._repeats_left = 0
         self._repeat_at = math.inf
@@ -350,6 +351,11 @@ class MissionService:
         self._poll_status(now_s)
 
     def _poll_status(self, now_s: float) -> None:
+        progress = getattr(self.vehicle, "mission_progress", None)
+        if progress is not None:
+            if progress == self._last_progress and now_s < self._repeat_at:
+                return  # nothing to report: no progress and no repeat due
+            self._last_progress = progress
         st = mission_status_of(self.vehicle)
         enc = self.s.encoder
         if st.current_seq != self._last_current:

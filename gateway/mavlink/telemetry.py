@@ -16,7 +16,6 @@ import enum
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
 from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
@@ -51,6 +50,22 @@ class LinkKind(enum.Enum):
     API = "api"  # PX4 "onboard" mode link → 14540+i
 
 
+class _once:
+    """A lazily computed attribute, stored on the instance at first read (like
+    functools.cached_property without its per-access lock, which 3.11 still takes)."""
+
+    def __init__(self, fn: Callable[[Any], Any]) -> None:
+        self.fn = fn
+        self.name = fn.__name__
+
+    def __get__(self, obj: Any, owner: type | None = None) -> Any:
+        if obj is None:
+            return self
+        value = self.fn(obj)
+        obj.__dict__[self.name] = value  # later reads never reach the descriptor
+        return value
+
+
 class Snapshot:
     """What one wake-up reads from the vehicle; each property is read at most once."""
 
@@ -61,28 +76,28 @@ class Snapshot:
         self.time_boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
         self.time_usec = int(now_s * 1e6)
 
-    @cached_property
+    @_once
     def state(self) -> Any:
         return self.vehicle.state
 
-    @cached_property
+    @_once
     def status(self) -> Any:
         return self.vehicle.status
 
-    @cached_property
+    @_once
     def geo(self) -> Any:
         return self.vehicle.global_position
 
-    @cached_property
+    @_once
     def euler(self) -> tuple[float, float, float]:
         return self.state.euler_rad()
 
-    @cached_property
+    @_once
     def home_alt_m(self) -> float:
         home = self.status.home
         return home.geo.alt_amsl_m if home is not None else self.vehicle.origin.alt_amsl_m
 
-    @cached_property
+    @_once
     def mav_type(self) -> int:
         return int(self.vehicle.params.get("MAV_TYPE", 2))
 

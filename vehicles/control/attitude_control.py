@@ -88,26 +88,40 @@ class AttitudeControl:
         # PX4 setProportionalGain: compensate the yaw weight's rescaling of the output.
         p_yaw = gains.p_yaw / self._yaw_w if self._yaw_w > 1e-4 else gains.p_yaw
         self._p = (gains.p_roll, gains.p_pitch, p_yaw)
+        self._sp_q: Quat | None = None  # the last setpoint and its body z axis in NED
+        self._sp_z: Vec3 = (0.0, 0.0, 1.0)
 
     def update(self, attitude_q: Quat, attitude_sp_q: Quat) -> Vec3:
         q = attitude_q
         qd = attitude_sp_q
-        e_z = q_dcm_z(q)
-        e_z_d = q_dcm_z(qd)
-        qd_red = q_from_two_vectors(e_z, e_z_d)
+        # Reduced attitude: the shortest rotation taking body z (q) to the desired body z (qd)
+        # (q_from_two_vectors(q_dcm_z(q), q_dcm_z(qd)), written out: this runs at 250 Hz).
+        w, x, y, z = q
+        ax, ay, az = 2.0 * (x * z + w * y), 2.0 * (y * z - w * x), w * w - x * x - y * y + z * z
+        if qd is not self._sp_q:
+            self._sp_q, self._sp_z = qd, q_dcm_z(qd)
+        bx, by, bz = self._sp_z
+        cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        d = ax * bx + ay * by + az * bz
+        if math.sqrt(cx * cx + cy * cy + cz * cz) < 1e-5 and d < 0.0:
+            qd_red = q_from_two_vectors((ax, ay, az), (bx, by, bz))  # antiparallel: rare
+        else:
+            rw = d + math.sqrt((ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz))
+            n = math.sqrt(rw * rw + cx * cx + cy * cy + cz * cz)
+            qd_red = (rw / n, cx / n, cy / n, cz / n)
         if abs(qd_red[1]) > 1.0 - 1e-5 or abs(qd_red[2]) > 1.0 - 1e-5:
             qd_red = qd  # roll or pitch near 180 deg: use the full attitude
         else:
             qd_red = q_mul(qd_red, q)
         q_mix = q_canonical(q_mul(q_conj(qd_red), qd))
-        w = min(max(q_mix[0], -1.0), 1.0)
-        z = min(max(q_mix[3], -1.0), 1.0)
-        qd = q_mul(qd_red, (math.cos(self._yaw_w * math.acos(w)), 0.0, 0.0,
-                            math.sin(self._yaw_w * math.asin(z))))
-        qe = q_canonical(q_mul(q_conj(q), qd))
-        lim = self.gains.rate_max_frd_radps
-        out = []
-        for i in range(3):
-            r = 2.0 * qe[i + 1] * self._p[i]
-            out.append(min(max(r, -lim[i]), lim[i]))
-        return (out[0], out[1], out[2])
+        mw = min(max(q_mix[0], -1.0), 1.0)
+        mz = min(max(q_mix[3], -1.0), 1.0)
+        yw = self._yaw_w
+        qd = q_mul(qd_red, (math.cos(yw * math.acos(mw)), 0.0, 0.0, math.sin(yw * math.asin(mz))))
+        ew, ex, ey, ez = q_mul((w, -x, -y, -z), qd)
+        if ew < 0.0:
+            ex, ey, ez = -ex, -ey, -ez
+        p0, p1, p2 = self._p
+        l0, l1, l2 = self.gains.rate_max_frd_radps
+        r0, r1, r2 = 2.0 * ex * p0, 2.0 * ey * p1, 2.0 * ez * p2
+        return (min(max(r0, -l0), l0), min(max(r1, -l1), l1), min(max(r2, -l2), l2))

@@ -18,15 +18,17 @@ Rules:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 
-@dataclass(frozen=True)
-class MixerOutput:
+class MixerOutput(NamedTuple):
     motor_u: tuple[float, ...]  # 0..1 commands, PX4 motor order
     rotor_thrust_norm: tuple[float, ...]  # 0..1 per rotor
     saturation_positive: tuple[bool, bool, bool]
     saturation_negative: tuple[bool, bool, bool]
+
+
+_NO_SATURATION = (False, False, False)
 
 
 class Mixer:
@@ -34,52 +36,53 @@ class Mixer:
                  idle_thrust_norm: float = 0.0) -> None:
         self._roll, self._pitch, self._yaw = rows
         self._n = len(self._roll)
+        # Per rotor (roll row, pitch row, yaw row): one tuple to unpack in the 250 Hz loop.
+        self._rows = tuple(zip(self._roll, self._pitch, self._yaw))
         self.idle_thrust_norm = idle_thrust_norm
 
     def mix(self, thrust: float, torque: tuple[float, float, float]) -> MixerOutput:
-        n = self._n
         roll, pitch, yaw = torque
         thrust = min(max(thrust, 0.0), 1.0)
-        rp = [roll * self._roll[i] + pitch * self._pitch[i] for i in range(n)]
-        sat_pos = [False, False, False]
-        sat_neg = [False, False, False]
+        rows = self._rows
+        rp = [roll * r + pitch * p for r, p, _ in rows]
+        sat_pos = sat_neg = _NO_SATURATION
         # Airmode disabled: only reduce thrust to unsaturate the top.
-        over = max(thrust + r for r in rp) - 1.0
+        high = max(rp)
+        over = thrust + high - 1.0
         if over > 0.0:
             thrust = max(thrust - over, 0.0)
         low = min(rp)
-        if thrust + low < 0.0 or max(thrust + r for r in rp) > 1.0:
+        if thrust + low < 0.0 or thrust + high > 1.0:
             # Scale roll/pitch down so every motor stays within [0, 1].
             span_low = -low if low < 0.0 else 0.0
-            high = max(rp)
             k = 1.0
             if span_low > 0.0:
                 k = min(k, thrust / span_low)
             if high > 0.0 and thrust + high > 1.0:
                 k = min(k, (1.0 - thrust) / high)
             rp = [r * k for r in rp]
-            for axis, v in ((0, roll), (1, pitch)):
-                if v > 0.0:
-                    sat_pos[axis] = True
-                elif v < 0.0:
-                    sat_neg[axis] = True
+            sat_pos = (roll > 0.0, pitch > 0.0, False)
+            sat_neg = (roll < 0.0, pitch < 0.0, False)
         # Yaw with the remaining headroom.
         s = 1.0
-        for i in range(n):
-            y = yaw * self._yaw[i]
-            base = thrust + rp[i]
-            if y > 1e-9:
-                s = min(s, max(1.0 - base, 0.0) / y)
-            elif y < -1e-9:
-                s = min(s, max(base, 0.0) / -y)
-        if s < 1.0:
-            if yaw > 0.0:
-                sat_pos[2] = True
-            elif yaw < 0.0:
-                sat_neg[2] = True
+        if yaw != 0.0:
+            for (_, _, yr), r in zip(rows, rp):
+                y = yaw * yr
+                base = thrust + r
+                if y > 1e-9:
+                    s = min(s, max(1.0 - base, 0.0) / y)
+                elif y < -1e-9:
+                    s = min(s, max(base, 0.0) / -y)
+            if s < 1.0:
+                if yaw > 0.0:
+                    sat_pos = (sat_pos[0], sat_pos[1], True)
+                else:
+                    sat_neg = (sat_neg[0], sat_neg[1], True)
         lo = self.idle_thrust_norm
-        out = tuple(min(max(thrust + rp[i] + s * yaw * self._yaw[i], lo), 1.0) for i in range(n))
-        return MixerOutput(
-            tuple(math.sqrt(t) for t in out), out, (sat_pos[0], sat_pos[1], sat_pos[2]),
-            (sat_neg[0], sat_neg[1], sat_neg[2]),
-        )
+        sy = s * yaw
+        out = []
+        for (_, _, yr), r in zip(rows, rp):
+            t = thrust + r + sy * yr
+            out.append(lo if t < lo else (1.0 if t > 1.0 else t))
+        sqrt = math.sqrt
+        return MixerOutput(tuple([sqrt(t) for t in out]), tuple(out), sat_pos, sat_neg)

@@ -52,6 +52,10 @@ class RateControl:
         self._int = [0.0, 0.0, 0.0]
         self._prev_rate: Vec3 | None = None
         self._accel = [0.0, 0.0, 0.0]
+        # Per axis (P, I, D, FF, integrator limit), unpacked once per axis in the 250 Hz loop.
+        self._axes = tuple(zip(gains.p, gains.i, gains.d, gains.ff, gains.int_lim))
+        self._alpha_dt = math.nan  # the derivative filter's alpha for _alpha_dt
+        self._alpha = 0.0
 
     def reset(self) -> None:
         self._int = [0.0, 0.0, 0.0]
@@ -61,27 +65,35 @@ class RateControl:
     def update(self, dt_s: float, rates_frd_radps: Vec3, rates_sp_frd_radps: Vec3, landed: bool,
                saturation_positive: tuple[bool, bool, bool] = (False, False, False),
                saturation_negative: tuple[bool, bool, bool] = (False, False, False)) -> Vec3:
-        g = self.gains
+        accel = self._accel
+        integ = self._int
         # Low-passed derivative of the measured rate (D on measurement, PX4 style).
-        if self._prev_rate is not None:
-            alpha = dt_s / (dt_s + 1.0 / (2.0 * math.pi * D_TERM_CUTOFF_HZ))
+        prev = self._prev_rate
+        if prev is not None:
+            if dt_s != self._alpha_dt:
+                self._alpha = dt_s / (dt_s + 1.0 / (2.0 * math.pi * D_TERM_CUTOFF_HZ))
+                self._alpha_dt = dt_s
+            alpha = self._alpha
             for i in range(3):
-                raw = (rates_frd_radps[i] - self._prev_rate[i]) / dt_s
-                self._accel[i] += alpha * (raw - self._accel[i])
+                raw = (rates_frd_radps[i] - prev[i]) / dt_s
+                accel[i] += alpha * (raw - accel[i])
         self._prev_rate = rates_frd_radps
-        out = []
-        for i in range(3):
-            e = rates_sp_frd_radps[i] - rates_frd_radps[i]
-            u = g.p[i] * e + self._int[i] - g.d[i] * self._accel[i] + g.ff[i] * rates_sp_frd_radps[i]
-            out.append(min(max(u, -1.0), 1.0))
+        out = [0.0, 0.0, 0.0]
+        for i, (kp, ki, kd, kff, lim) in enumerate(self._axes):
+            sp = rates_sp_frd_radps[i]
+            e = sp - rates_frd_radps[i]
+            u = kp * e + integ[i] - kd * accel[i] + kff * sp
+            out[i] = -1.0 if u < -1.0 else (1.0 if u > 1.0 else u)
             if not landed:
-                if saturation_positive[i]:
-                    e = min(e, 0.0)
-                if saturation_negative[i]:
-                    e = max(e, 0.0)
+                if saturation_positive[i] and e > 0.0:
+                    e = 0.0
+                if saturation_negative[i] and e < 0.0:
+                    e = 0.0
                 f = e / _I_FACTOR_RATE_RADPS
-                i_factor = max(0.0, 1.0 - f * f)
-                v = self._int[i] + i_factor * g.i[i] * e * dt_s
+                i_factor = 1.0 - f * f
+                if i_factor < 0.0:
+                    i_factor = 0.0
+                v = integ[i] + i_factor * ki * e * dt_s
                 if math.isfinite(v):
-                    self._int[i] = min(max(v, -g.int_lim[i]), g.int_lim[i])
+                    integ[i] = -lim if v < -lim else (lim if v > lim else v)
         return (out[0], out[1], out[2])
