@@ -8,6 +8,8 @@ Rules and invariants (SimPy's core in miniature):
 - Lower priority values run first. Physics uses ``PRIORITY_PHYSICS`` so that, at equal times,
   the world is stepped before packets are delivered and telemetry is sampled.
 - A cancelled event stays in the heap (cancel is O(1)) and is skipped when popped.
+- Heap entries are (time, priority, seq, event) tuples, so ordering is a C-level tuple
+  comparison (``seq`` is unique, the event itself is never compared).
 - Callbacks may schedule more events, including at ``now``; scheduling in the past is an error.
 """
 
@@ -57,7 +59,7 @@ class Kernel:
 
     def __init__(self, start_s: float = 0.0) -> None:
         self._now = float(start_s)
-        self._heap: list[Event] = []
+        self._heap: list[tuple[float, int, int, Event]] = []
         self._seq = 0
         self.events_processed = 0
 
@@ -70,9 +72,10 @@ class Kernel:
         """Run ``callback(*args)`` at simulated time ``time_s``."""
         if not time_s >= self._now:  # also rejects NaN
             raise SchedulingError(f"cannot schedule at {time_s!r}, now is {self._now!r}")
-        event = Event(time_s, priority, self._seq, callback, args)
-        self._seq += 1
-        heapq.heappush(self._heap, event)
+        seq = self._seq
+        event = Event(time_s, priority, seq, callback, args)
+        self._seq = seq + 1
+        heapq.heappush(self._heap, (time_s, priority, seq, event))
         return event
 
     def call_later(self, delay_s: float, callback: Callable[..., Any], *args: Any,
@@ -82,15 +85,15 @@ class Kernel:
     def peek(self) -> float:
         """Time of the next live event, or +inf if there is none."""
         heap = self._heap
-        while heap and heap[0].cancelled:
+        while heap and heap[0][3].cancelled:
             heapq.heappop(heap)
-        return heap[0].time if heap else math.inf
+        return heap[0][0] if heap else math.inf
 
     def step(self) -> bool:
         """Process the next live event. False if there was none."""
         heap = self._heap
         while heap:
-            event = heapq.heappop(heap)
+            event = heapq.heappop(heap)[3]
             if event.cancelled:
                 continue
             self._now = event.time
@@ -108,21 +111,23 @@ class Kernel:
         if until < self._now:
             raise SchedulingError(f"cannot run until {until!r}, now is {self._now!r}")
         heap = self._heap
+        pop = heapq.heappop
         while heap:
-            event = heap[0]
+            entry = heap[0]
+            event = entry[3]
             if event.cancelled:
-                heapq.heappop(heap)
+                pop(heap)
                 continue
-            if event.time > until:
+            if entry[0] > until:
                 break
-            heapq.heappop(heap)
-            self._now = event.time
+            pop(heap)
+            self._now = entry[0]
             self.events_processed += 1
             event.callback(*event.args)
         self._now = until
 
     def __len__(self) -> int:
-        return sum(1 for e in self._heap if not e.cancelled)
+        return sum(1 for e in self._heap if not e[3].cancelled)
 
 
 class Ticker:

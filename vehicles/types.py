@@ -14,6 +14,7 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -126,6 +127,33 @@ class VehicleState:
     def euler_rad(self) -> tuple[float, float, float]:
         """(roll, pitch, yaw) in radians, ZYX convention as PX4's Eulerf."""
         w, x, y, z = (float(v) for v in self.attitude_q)
+        roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+        pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        return roll, pitch, yaw
+
+
+class Kinematics(NamedTuple):
+    """The same truth as ``VehicleState`` (without acceleration) as plain float tuples: what
+    hot paths read (telemetry builders run hundreds of times per simulated second)."""
+
+    time_s: float
+    position_ned_m: tuple[float, float, float]
+    velocity_ned_mps: tuple[float, float, float]
+    attitude_q: tuple[float, float, float, float]  # (w, x, y, z), FRD -> NED
+    rates_frd_radps: tuple[float, float, float]
+
+    @staticmethod
+    def of(state: VehicleState) -> Kinematics:
+        def f(a) -> tuple[float, ...]:
+            return tuple(float(x) for x in a)
+
+        return Kinematics(state.time_s, f(state.position_ned_m), f(state.velocity_ned_mps),
+                          f(state.attitude_q), f(state.rates_frd_radps))
+
+    def euler_rad(self) -> tuple[float, float, float]:
+        """(roll, pitch, yaw) in radians, ZYX convention as PX4's Eulerf."""
+        w, x, y, z = self.attitude_q
         roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
         pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
         yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))

@@ -22,6 +22,7 @@ from vehicles.plan_types import MissionStatus, OffboardSetpoint, PlanItem, PlanR
 from vehicles.types import (
     CommandResult,
     GeoPoint,
+    Kinematics,
     NavState,
     StatusText,
     VehicleState,
@@ -54,6 +55,7 @@ class Vehicle:
         self._meas: Measurement | None = None
         self._accel: Vec3 = (0.0, 0.0, 0.0)
         self._state: VehicleState | None = None
+        self._kin: Kinematics | None = None
         self._rotor_speed_radps: list[float] = [0.0] * airframe.rotor_count
 
     # --- World hooks ---------------------------------------------------------------------------
@@ -66,6 +68,7 @@ class Vehicle:
         self._meas = meas
         self._time_s = time_s
         self._state = None
+        self._kin = None
 
     def _control(self, now_s: float) -> tuple[float, ...] | None:
         assert self._meas is not None
@@ -86,6 +89,15 @@ class Vehicle:
                 np.array(self._accel), np.array(m.attitude_q), np.array(m.rates_frd_radps),
             )
         return self._state
+
+    @property
+    def kinematics(self) -> Kinematics:
+        if self._kin is None:
+            m = self._meas
+            assert m is not None
+            self._kin = Kinematics(self._time_s, m.position_ned_m, m.velocity_ned_mps,
+                                   m.attitude_q, m.rates_frd_radps)
+        return self._kin
 
     @property
     def status(self) -> VehicleStatus:

@@ -77,10 +77,6 @@ class Snapshot:
         self.time_usec = int(now_s * 1e6)
 
     @_once
-    def state(self) -> Any:
-        return self.vehicle.state
-
-    @_once
     def status(self) -> Any:
         return self.vehicle.status
 
@@ -89,8 +85,13 @@ class Snapshot:
         return self.vehicle.global_position
 
     @_once
+    def kin(self) -> Any:
+        """``vehicle.kinematics``: position, velocity, attitude, rates as plain floats."""
+        return self.vehicle.kinematics
+
+    @_once
     def euler(self) -> tuple[float, float, float]:
-        return self.state.euler_rad()
+        return self.kin.euler_rad()
 
     @_once
     def home_alt_m(self) -> float:
@@ -110,10 +111,6 @@ def _cdeg(rad: float) -> int:
     return int(round(math.degrees(rad) % 360.0 * 100.0)) % 36000
 
 
-def _f(v: Any) -> float:
-    return float(v)
-
-
 def heartbeat(enc: Encoder, s: Snapshot) -> bytes:
     return build_heartbeat(enc, s.status, s.mav_type)
 
@@ -128,28 +125,25 @@ def extended_sys_state(enc: Encoder, s: Snapshot) -> bytes:
 
 def attitude(enc: Encoder, s: Snapshot) -> bytes:
     roll, pitch, yaw = s.euler
-    p, q, r = s.state.rates_frd_radps
-    return enc.pack(M.MAVLink_attitude_message, s.time_boot_ms, roll, pitch, yaw,
-                    _f(p), _f(q), _f(r))
+    p, q, r = s.kin.rates_frd_radps
+    return enc.pack(M.MAVLink_attitude_message, s.time_boot_ms, roll, pitch, yaw, p, q, r)
 
 
 def attitude_quaternion(enc: Encoder, s: Snapshot) -> bytes:
-    w, x, y, z = (float(c) for c in s.state.attitude_q)
-    p, q, r = s.state.rates_frd_radps
-    return enc.pack(M.MAVLink_attitude_quaternion_message, s.time_boot_ms, w, x, y, z,
-                    _f(p), _f(q), _f(r))
+    w, x, y, z = s.kin.attitude_q
+    p, q, r = s.kin.rates_frd_radps
+    return enc.pack(M.MAVLink_attitude_quaternion_message, s.time_boot_ms, w, x, y, z, p, q, r)
 
 
 def local_position_ned(enc: Encoder, s: Snapshot) -> bytes:
-    x, y, z = s.state.position_ned_m
-    vx, vy, vz = s.state.velocity_ned_mps
-    return enc.pack(M.MAVLink_local_position_ned_message, s.time_boot_ms, _f(x), _f(y), _f(z),
-                    _f(vx), _f(vy), _f(vz))
+    x, y, z = s.kin.position_ned_m
+    vx, vy, vz = s.kin.velocity_ned_mps
+    return enc.pack(M.MAVLink_local_position_ned_message, s.time_boot_ms, x, y, z, vx, vy, vz)
 
 
 def global_position_int(enc: Encoder, s: Snapshot) -> bytes:
     g = s.geo
-    vx, vy, vz = s.state.velocity_ned_mps
+    vx, vy, vz = s.kin.velocity_ned_mps
     return enc.pack(M.MAVLink_global_position_int_message, s.time_boot_ms, _deg_e7(g.lat_deg),
                     _deg_e7(g.lon_deg), int(round(g.alt_amsl_m * 1000.0)),
                     int(round((g.alt_amsl_m - s.home_alt_m) * 1000.0)),
@@ -159,7 +153,7 @@ def global_position_int(enc: Encoder, s: Snapshot) -> bytes:
 
 def gps_raw_int(enc: Encoder, s: Snapshot) -> bytes:
     g = s.geo
-    vn, ve, _ = s.state.velocity_ned_mps
+    vn, ve, _ = s.kin.velocity_ned_mps
     speed = math.hypot(vn, ve)
     cog = _cdeg(math.atan2(ve, vn)) if speed > 0.1 else UINT16_UNKNOWN
     alt_mm = int(round(g.alt_amsl_m * 1000.0))
@@ -170,16 +164,16 @@ def gps_raw_int(enc: Encoder, s: Snapshot) -> bytes:
 
 
 def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:
-    vn, ve, vd = s.state.velocity_ned_mps
+    vn, ve, vd = s.kin.velocity_ned_mps
     speed = math.hypot(vn, ve)
     throttle = s.status.extra.get("throttle", 0.0) if s.status.armed else 0.0
     return enc.pack(M.MAVLink_vfr_hud_message, speed, speed, _cdeg(s.euler[2]) // 100,
-                    int(round(max(0.0, min(1.0, throttle)) * 100.0)), s.geo.alt_amsl_m, -_f(vd))
+                    int(round(max(0.0, min(1.0, throttle)) * 100.0)), s.geo.alt_amsl_m, -vd)
 
 
 def altitude(enc: Encoder, s: Snapshot) -> bytes:
     amsl = s.geo.alt_amsl_m
-    local = -float(s.state.position_ned_m[2])
+    local = -s.kin.position_ned_m[2]
     return enc.pack(M.MAVLink_altitude_message, s.time_usec, amsl, amsl, local,
                     amsl - s.home_alt_m, math.nan, math.nan)
 

@@ -29,6 +29,7 @@ from vehicles.types import (
     CommandResult,
     GeoPoint,
     HomePosition,
+    Kinematics,
     LandedState,
     NavState,
     Severity,
@@ -73,6 +74,10 @@ class FakeVehicle:
             landed_state=self.landed_state, position_valid=self.position_valid,
             prearm_ok=self.prearm_ok, failsafe=self.failsafe, terminated=self.terminated,
             battery=BatteryState(16.2, 0.5, 0.9, 12.0, 4), home=self.home)
+
+    @property
+    def kinematics(self) -> Kinematics:
+        return Kinematics.of(self.state)
 
     @property
     def global_position(self):
