@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gateway.progress import ProgressLine
 from gateway.scenario import NetworkConfig, Scenario
 from gateway.testing import Sim, mission_item
 from vehicles.geofence import build_areas
@@ -42,7 +43,7 @@ from vehicles.types import GeoPoint, NavState
 DEFAULT_TIME_LIMIT_S = 900.0
 GEOFENCE_SAMPLE_S = 0.02  # the position-control rate
 POSITION_VALID_TIMEOUT_S = 10.0
-PROGRESS_PERIOD_S = 10.0
+PROGRESS_PERIOD_S = 0.5  # simulated time between progress reports (ProgressLine throttles)
 MISSION_STATE_COMPLETE = 5
 POSITION_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_UNLIM,
                                MavCmd.NAV_LOITER_TURNS, MavCmd.NAV_LOITER_TIME,
@@ -266,13 +267,13 @@ def fly(plan: QgcPlan | str | Path, *, network: NetworkConfig | None = None,
         scenario: str | Path | Scenario | None = None, params: dict[str, float] | None = None,
         time_limit_s: float = DEFAULT_TIME_LIMIT_S, max_deviation_m: float | None = None,
         log_dir: str | Path | None = None, use_plan_home: bool = True,
-        progress: Callable[[str], None] | None = None,
+        progress: ProgressLine | None = None,
         clock: Callable[[], float] = time.perf_counter) -> FlyResult:
     """Fly ``plan`` on vehicle 1 in lockstep and judge it (see the module doc).
 
     ``use_plan_home``: spawn at the plan's plannedHomePosition (else the scenario's / PX4 SITL
-    home). ``progress(line)`` is called every PROGRESS_PERIOD_S of simulated time. Raises
-    PlanFileError for an unreadable plan."""
+    home). ``progress`` shows sim time, real-time factor, mode and mission item (a bar on a
+    terminal, plain periodic lines elsewhere). Raises PlanFileError for an unreadable plan."""
     if not isinstance(plan, QgcPlan):
         plan = load_plan(plan)
     wall0 = clock()
@@ -284,6 +285,8 @@ def fly(plan: QgcPlan | str | Path, *, network: NetworkConfig | None = None,
     try:
         _fly(sim, plan, res, time_limit_s, progress, clock, wall0)
     finally:
+        if progress is not None:
+            progress.close()
         res.sim_s = sim.now
         res.wall_s = clock() - wall0
         sim.close()
@@ -300,7 +303,7 @@ def fly(plan: QgcPlan | str | Path, *, network: NetworkConfig | None = None,
 
 
 def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
-         progress: Callable[[str], None] | None, clock: Callable[[], float],
+         progress: ProgressLine | None, clock: Callable[[], float],
          wall0: float) -> None:
     api = sim.api(0)
     vehicle = sim.vehicles[0]
@@ -344,15 +347,23 @@ def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
     sim.every(GEOFENCE_SAMPLE_S, watch)
     if progress is not None:
         started = sim.now
+        reached: set[int] = set()
+        cursor = [0]  # frames of the API client already looked at
 
         def report(now: float) -> None:
             if now == started:
                 return  # the ticker's first call, at start
             wall = clock() - wall0
             cur = api.last("MISSION_CURRENT")
-            item = f"{cur.seq + 1}/{cur.total}" if cur is not None else "-"
-            progress(f"t={now:.0f} s rtf={now / wall if wall > 0 else 0:.0f}x "
-                     f"mode={vehicle.status.nav_state.name} item={item}")
+            total = len(plan.mission)
+            item = f"{min(cur.seq + 1, total)}/{total}" if cur is not None and total else "-"
+            for m in api.messages("MISSION_ITEM_REACHED", since=cursor[0]):
+                reached.add(m.seq)
+            cursor[0] = len(api.frames)
+            done = len(reached & set(range(total)))
+            progress.update(now, f"t={now:.0f} s rtf={now / wall if wall > 0 else 0:.0f}x "
+                            f"mode={vehicle.status.nav_state.name} item={item}",
+                            fraction=done / total if total else None)
         sim.every(PROGRESS_PERIOD_S, report)
 
     result = api.arm()
