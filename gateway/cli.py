@@ -205,6 +205,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     from gateway import fly
+    from gateway.progress import ProgressLine
     from gateway.scenario import NetworkConfig, ScenarioError, load
 
     network = None
@@ -221,7 +222,7 @@ def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     kwargs = {"network": network, "scenario": args.scenario,
               "params": _parse_params(parser, args.param, dict(os.environ)),
               "max_deviation_m": args.max_deviation, "log_dir": args.log_dir,
-              "progress": lambda line: print(line, file=sys.stderr, flush=True)}
+              "progress": ProgressLine(sys.stderr)}
     if args.time_limit is not None:
         kwargs["time_limit_s"] = args.time_limit
     return fly.main(args.plan, **kwargs)
