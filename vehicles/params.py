@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import enum
+import math
 import struct
 import zlib
 from collections.abc import Callable, Iterable, Mapping
@@ -46,12 +47,19 @@ def _f32(value: float) -> float:
 
 
 def _coerce(ptype: ParamType, value: float) -> int | float:
+    """``value`` as the parameter's type; ValueError for what the type cannot hold (NaN, ±inf,
+    beyond float32 or int32, a fraction for an INT32)."""
+    if not math.isfinite(value):
+        raise ValueError(f"{value!r} is not a finite number")
     if ptype is ParamType.INT32:
         ivalue = int(value)
         if ivalue != value or not -(2**31) <= ivalue < 2**31:
             raise ValueError(f"{value!r} is not an INT32")
         return ivalue
-    return _f32(value)
+    try:
+        return _f32(value)
+    except OverflowError:
+        raise ValueError(f"{value!r} is out of the REAL32 range") from None
 
 
 def load_param_table() -> list[ParamInfo]:
