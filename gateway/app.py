@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from gateway import persist, zmq_pub
-from gateway.endpoint import UdpEndpoint
+from gateway.endpoint import SourceLimiter, UdpEndpoint
 from gateway.flightlog import FlightLog, new_run_dir
 from gateway.mavlink.session import LinkKind
 from gateway.pacer import Pacer
@@ -135,10 +135,10 @@ class Daemon:
                     ports = px4_ports(i, kind, cfg.port_offset)
                     endpoint = UdpEndpoint(f"vehicle {i + 1} {kind.name} :{ports.local}",
                                            (cfg.remote_host, ports.remote),
-                                           self._receiver(i, kind))
+                                           self._receiver(i, kind),
+                                           limiter=SourceLimiter(), clock=self.pacer.wall)
                     try:
-                        await loop.create_datagram_endpoint(
-                            lambda e=endpoint: e, local_addr=(cfg.bind, ports.local))
+                        endpoint.open(loop, (cfg.bind, ports.local))
                     except OSError as exc:
                         if exc.errno == errno.EADDRINUSE:
                             raise PortInUse(ports.local, cfg.bind) from exc
@@ -169,9 +169,12 @@ class Daemon:
         dropped = sum(sum(s["dropped"].values()) for s in stats.values())
         malformed = sum(link.session.stats.get("rx_malformed", 0)
                         for link in self.sim.links.values())
+        limited = sum(e.stats.rx_rate_limited for e in self.endpoints.values())
+        kernel_dropped = sum(e.stats.rx_kernel_dropped for e in self.endpoints.values())
         return (f"sim_t={self.sim.now:.1f}s rtf={self.pacer.real_time_factor():.2f} "
                 f"vehicles={self.config.vehicles} datagrams_up={up} datagrams_down={down} "
-                f"net_dropped={dropped} malformed={malformed} "
+                f"net_dropped={dropped} malformed={malformed} rate_limited={limited} "
+                f"kernel_dropped={kernel_dropped} "
                 f"internal_errors={self.sim.internal_errors} slips={self.pacer.slips}")
 
     def log_link_stats(self) -> None:

@@ -41,6 +41,11 @@ class Pacer:
         self._rtf_wall0 = self._wall0
         self._rtf_sim0 = self._sim0
 
+    def wall(self) -> float:
+        """The wall clock the pacer runs on (for the shell's wall-clock needs, e.g. rate
+        limits); the simulation never reads it."""
+        return self._clock()
+
     def _target(self, wall: float) -> float:
         return self._sim0 + (wall - self._wall0) * self.speed
 

@@ -81,8 +81,13 @@ async def test_flight_survives_garbage_flood(daemon_factory):
     code, _ = d.stop()
     assert code == 0
     stop_line = next(line for line in reversed(d.stderr_lines) if "stopping after" in line)
-    # 3 of 5 kinds are malformed (random, truncated, bad CRC); the kernel may drop a few
-    # datagrams when the socket buffer overflows.
-    m = re.search(r"malformed=(\d+) internal_errors=(\d+)", stop_line)
-    assert m and int(m.group(1)) > 0.5 * TOTAL, stop_line
-    assert int(m.group(2)) == 0, stop_line
+    # One source sends ~5,000 datagrams/s to each port: beyond its token bucket (2,000/s) they
+    # are dropped unread (rate_limited); the kernel may drop a few when the socket buffer is
+    # full. Of those let in, 3 of 5 kinds are malformed (random, truncated, bad CRC).
+    m = re.search(r"malformed=(\d+) rate_limited=(\d+) kernel_dropped=(\d+) "
+                  r"internal_errors=(\d+)", stop_line)
+    assert m, stop_line
+    malformed, limited, kernel_dropped, errors = (int(g) for g in m.groups())
+    assert limited > 0.2 * TOTAL, stop_line
+    assert malformed > 0.5 * (TOTAL - limited - kernel_dropped), stop_line
+    assert errors == 0, stop_line
