@@ -172,3 +172,43 @@ def test_client_killed_and_restarted_mid_mission_picks_up_and_the_mission_finish
         assert landed is not None, "the mission did not finish with a landing"
     finally:
         second.close()
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for task in os.listdir(f"/proc/{pid}/task"):
+        with open(f"/proc/{pid}/task/{task}/children") as f:
+            out += [int(x) for x in f.read().split()]
+    return out
+
+
+def test_ns3_engine_killed_mid_run_the_daemon_keeps_its_clock_and_stops_cleanly(daemon_factory):
+    from netsim.ns3 import BINARY, build_missing_message
+
+    if not BINARY.is_file():
+        pytest.skip(build_missing_message())
+    d = daemon_factory("--scenario", "scenarios/ns3-wifi.toml")
+    conn = gcs(d.api_port(0))
+    try:
+        conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        assert heartbeats_by_sysid(conn, {1}, timeout_s=20)  # through ns-3
+        engines = [p for p in _children(d.proc.pid)
+                   if os.path.basename(os.readlink(f"/proc/{p}/exe")) == BINARY.name]
+        assert len(engines) == 1
+        os.kill(engines[0], signal.SIGKILL)
+        time.sleep(3.0)
+        assert d.proc.poll() is None, d.log_tail()
+        while conn.recv_match(blocking=False) is not None:
+            pass
+        conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        # its network is gone: nothing crosses it any more
+        assert conn.recv_match(type="HEARTBEAT", blocking=True, timeout=2.0) is None
+    finally:
+        conn.close()
+    code, _ = d.stop()
+    d_lines = "\n".join(d.stderr_lines)
+    assert "lost" in d_lines and "ns-3" in d_lines
+    stop_line = next(ln for ln in reversed(d.stderr_lines) if "stopping after" in ln)
+    sim_t = float(stop_line.split("sim_t=")[1].split("s")[0])
+    assert sim_t > 4.0  # the physics clock kept going after the engine died
+    assert code == 0
