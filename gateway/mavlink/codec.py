@@ -1,9 +1,14 @@
 """MAVLink framing for one link: a fast MAVLink 2 encoder and a datagram-at-a-time decoder.
 
 Rules and invariants:
-- Out: always MAVLink 2, unsigned, one sequence counter per link (PX4 `MAV_PROTO_VER` 2 in SITL).
-- In: MAVLink 1 and 2 (pymavlink's v20 parser handles both magics); signed frames are accepted
-  and their signature ignored (PX4 ≤ 1.16 has no signing).
+- Out: always MAVLink 2, one sequence counter per link (PX4 `MAV_PROTO_VER` 2 in SITL); unsigned
+  unless the encoder has a ``Signer`` (signing.py), then every frame is signed.
+- In: MAVLink 1 and 2 (pymavlink's v20 parser handles both magics). Without a ``Verifier`` signed
+  frames are accepted and their signature ignored (PX4 ≤ 1.16 has no signing); with one, frames it
+  rejects are dropped here, before any service sees them, and counted (rx_unsigned,
+  rx_bad_signature, rx_replayed); ``rx_frames`` counts only the frames delivered.
+- Signing off costs the hot paths nothing: ``Encoder.frame`` is only replaced by its signing twin
+  when a signer is given, and ``Decoder.feed`` checks for a verifier once per datagram.
 - UDP carries whole frames: every datagram is parsed on its own and the parser is reset after it,
   so a truncated frame can never swallow the start of the next datagram.
 - ``Decoder.feed`` never raises: garbage, truncated frames, bad CRC and unknown ids are counted
@@ -23,6 +28,8 @@ from typing import Any
 # fastcrc (a pymavlink dependency, and what pymavlink itself uses) computes the X.25 CRC.
 from fastcrc import crc16 as _fastcrc16
 from pymavlink.dialects.v20 import common as mavlink2
+
+from gateway.mavlink.signing import IFLAG_SIGNED, Signer, Verifier
 
 
 def _crc16(data: bytes) -> int:
@@ -81,13 +88,23 @@ def _as_bytes(v: bytes | str) -> bytes:
 
 
 class Encoder:
-    """Frames messages as this link's MAVLink 2 endpoint (sysid, compid, seq)."""
+    """Frames messages as this link's MAVLink 2 endpoint (sysid, compid, seq).
 
-    def __init__(self, sysid: int, compid: int) -> None:
+    With a ``signer`` every frame is signed at simulated time ``now_s``, which the session sets
+    on each of its entry points (frames are signed when built, and built in sending order).
+    """
+
+    def __init__(self, sysid: int, compid: int, signer: Signer | None = None) -> None:
         self.sysid = sysid
         self.compid = compid
         self.seq = 0
+        self.now_s = 0.0
+        self.signer = signer
         self._packers: dict[type, tuple[Callable[..., bytes], tuple, int, int]] = {}
+        if signer is not None:
+            self._sign = signer.sign
+            # An instance attribute shadows the method: the unsigned path keeps no branch.
+            self.frame = self._frame_signed  # type: ignore[method-assign]
 
     def frame(self, msg_id: int, crc_extra: int, payload: bytes) -> bytes:
         """One MAVLink 2 frame around an already-packed payload (trailing zeros trimmed)."""
@@ -99,6 +116,18 @@ class Encoder:
         self.seq = (self.seq + 1) & 0xFF
         crc = _crc16(body + bytes((crc_extra,)))
         return b"\xfd" + body + crc.to_bytes(2, "little")
+
+    def _frame_signed(self, msg_id: int, crc_extra: int, payload: bytes) -> bytes:
+        """``frame`` with the signed flag in the header (it is covered by the CRC) and the
+        signature block appended."""
+        n = len(payload)
+        while n > 1 and payload[n - 1] == 0:
+            n -= 1
+        body = _HEADER.pack(n, IFLAG_SIGNED, 0, self.seq, self.sysid, self.compid,
+                            msg_id & 0xFFFF, msg_id >> 16) + payload[:n]
+        self.seq = (self.seq + 1) & 0xFF
+        crc = _crc16(body + bytes((crc_extra,)))
+        return self._sign(b"\xfd" + body + crc.to_bytes(2, "little"), self.now_s)
 
     def pack(self, cls: type[mavlink2.MAVLink_message], *args: Any) -> bytes:
         """Encode ``cls(*args)``; trailing (extension) arguments may be omitted → zero."""
@@ -117,18 +146,30 @@ class Encoder:
 class DecodeStats:
     rx_datagrams: int = 0
     rx_bytes: int = 0
-    rx_frames: int = 0  # decoded, known message ids, good CRC
+    rx_frames: int = 0  # decoded, known message ids, good CRC (and accepted by the Verifier)
     rx_malformed: int = 0  # bad CRC, garbage bytes, truncated frames, parser errors
     rx_unknown: int = 0  # well-framed but message id not in common.xml
+    rx_bad_datagrams: int = 0  # datagrams with anything unusable in them (malformed or unknown)
+    # signing on (a Verifier), see signing.py. Dropped after decoding, not in rx_frames:
+    rx_unsigned: int = 0  # unsigned or MAVLink 1, not on the accept-unsigned list
+    rx_bad_signature: int = 0  # signature does not match the key (or no room for a new stream)
+    rx_replayed: int = 0  # timestamp not newer than its stream's, or a new stream > 60 s old
+    # ...and delivered (in rx_frames):
+    rx_signed: int = 0  # valid signature, fresh timestamp
 
 
 class Decoder:
-    """Datagram → list of pymavlink messages. Never raises."""
+    """Datagram → list of pymavlink messages. Never raises.
 
-    def __init__(self, stats: DecodeStats) -> None:
+    With a ``verifier`` only the messages it accepts are returned; it counts the others (give it
+    the same stats object).
+    """
+
+    def __init__(self, stats: DecodeStats, verifier: Verifier | None = None) -> None:
         self._mav = mavlink2.MAVLink(None, 0, 0)
         self._mav.robust_parsing = True
         self.stats = stats
+        self.verifier = verifier
         self._next_log_s = -1.0
 
     def feed(self, data: bytes, now_s: float) -> list[mavlink2.MAVLink_message]:
@@ -137,6 +178,7 @@ class Decoder:
         st.rx_bytes += len(data)
         out: list[mavlink2.MAVLink_message] = []
         mav = self._mav
+        bad_before = st.rx_malformed + st.rx_unknown
         try:
             msgs = mav.parse_buffer(data) or ()
             for m in msgs:
@@ -156,6 +198,12 @@ class Decoder:
             self._log(now_s, "parser error: %r", exc)
         finally:
             self._reset()
+        if st.rx_malformed + st.rx_unknown != bad_before:
+            st.rx_bad_datagrams += 1
+        if self.verifier is not None and out:
+            kept = self.verifier.filter(out, now_s)
+            st.rx_frames -= len(out) - len(kept)
+            return kept
         return out
 
     def _reset(self) -> None:

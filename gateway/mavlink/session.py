@@ -16,10 +16,17 @@ Rules and invariants:
 - A GCS heartbeat (type 6) marks the link "GCS present" (STATUSTEXT gating) and is forwarded
   to ``vehicle.on_gcs_heartbeat(now_s)`` when the vehicle has it (data-link-loss failsafe).
 - Services live one per module; this file only routes.
+- Signing (``signing=SigningConfig(...)``, rules in signing.py): every outgoing frame is signed
+  with link_id 0 on the GCS link and 1 on the API link (PX4 SITL starts its GCS instance first,
+  then the onboard one, and signs with the instance number); inbound frames the Verifier rejects
+  never reach a service and are counted (rx_unsigned, rx_bad_signature, rx_replayed).
+  SETUP_SIGNING is refused and counted (``rx_setup_signing_refused``). ``signing=None`` (the
+  default, and PX4 ≤ 1.16): nothing is signed or checked.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -33,20 +40,25 @@ from gateway.mavlink.mission import MissionService
 from gateway.mavlink.offboard import OffboardService
 from gateway.mavlink.params import ParamService
 from gateway.mavlink.ping import PingService
+from gateway.mavlink.signing import Signer, SigningClock, SigningConfig, Verifier
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
 from gateway.mavlink.telemetry import NEVER, LinkKind, Scheduler, Snapshot
 
-__all__ = ["LinkKind", "Session", "SessionStats"]
+__all__ = ["LinkKind", "Session", "SessionStats", "SigningConfig"]
+
+log = logging.getLogger(__name__)
 
 M = mavlink2
 COMPONENT_ID = 1
 MAV_TYPE_GCS = 6
+SIGNING_LINK_ID = {LinkKind.GCS: 0, LinkKind.API: 1}
 
 
 @dataclass
 class SessionStats(DecodeStats):
     rx_other_target: int = 0  # addressed to another sysid/compid
     rx_unhandled: int = 0  # valid, for us (or broadcast), but no service handles it
+    rx_setup_signing_refused: int = 0  # SETUP_SIGNING that passed verification (signing on)
     offboard_setpoints: int = 0  # setpoints handed to the vehicle
     offboard_dropped: int = 0  # setpoint messages that were unusable (frame, inf, nothing set)
     tx_frames: int = 0
@@ -66,15 +78,22 @@ class SessionStats(DecodeStats):
 
 class Session:
     def __init__(self, vehicle: Any, kind: LinkKind, now_s: float = 0.0, *,
-                 boot_unix_s: float | None = None) -> None:
+                 boot_unix_s: float | None = None, signing: SigningConfig | None = None) -> None:
         self.vehicle = vehicle
         self.kind = kind
         self.sysid = int(vehicle.params["MAV_SYS_ID"])
         self.compid = COMPONENT_ID
         self.boot_unix_s = boot_unix_s  # SYSTEM_TIME.time_unix_usec = 0 when None
         self.stats = SessionStats()
-        self.encoder = Encoder(self.sysid, self.compid)
-        self._decoder = Decoder(self.stats)
+        self.signing = signing
+        signer = verifier = None
+        if signing is not None:
+            clock = SigningClock(signing.epoch_unix_s)  # one per link, shared by both directions
+            signer = Signer(signing.key, SIGNING_LINK_ID[kind], clock)
+            verifier = Verifier(signing.key, clock, signing.accept_unsigned, stats=self.stats)
+        self.encoder = Encoder(self.sysid, self.compid, signer)
+        self.encoder.now_s = now_s
+        self._decoder = Decoder(self.stats, verifier)
         self._out: list[bytes] = []
         self.last_gcs_heartbeat_s = -math.inf
         self.scheduler = Scheduler(kind, now_s)
@@ -107,9 +126,12 @@ class Session:
             M.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT: self.offboard.on_global_int,
             M.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self.offboard.on_attitude_target,
         }
+        if signing is not None:
+            self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing
 
     # --- the sans-IO contract -----------------------------------------------------------------
     def receive_datagram(self, data: bytes, now_s: float) -> None:
+        self.encoder.now_s = now_s  # the time replies are signed with
         for msg in self._decoder.feed(data, now_s):
             target = getattr(msg, "target_system", 0)
             if target not in (0, self.sysid):
@@ -137,6 +159,7 @@ class Session:
         return None if math.isinf(t) else t
 
     def handle_timer(self, now_s: float) -> None:
+        self.encoder.now_s = now_s
         due = self.scheduler.due(now_s)
         if due:
             snap = self.snapshot(now_s)
@@ -167,3 +190,11 @@ class Session:
         hook = getattr(self.vehicle, "on_gcs_heartbeat", None)
         if hook is not None:
             hook(now_s)
+
+    def _on_setup_signing(self, msg: M.MAVLink_setup_signing_message, now_s: float) -> None:
+        # Refused: the key is the operator's and shared by every link (signing.py docstring).
+        self.stats.rx_setup_signing_refused += 1
+        if self.stats.rx_setup_signing_refused == 1:
+            log.warning("%s link of system %d: SETUP_SIGNING from %d/%d refused; the signing key "
+                        "is fixed at start-up", self.kind.value, self.sysid, msg.get_srcSystem(),
+                        msg.get_srcComponent())

@@ -14,6 +14,7 @@ import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.session import LinkKind, Session
+from gateway.mavlink.signing import SigningConfig
 from vehicles.params import ParamStore
 from vehicles.plan_types import (
     MissionState,
@@ -245,6 +246,15 @@ class Client:
         self.datagrams: list[bytes] = []
         self.now_s = 0.0
 
+    def sign_with(self, key: bytes, timestamp: int, link_id: int = 0) -> None:
+        """Sign what we send (pymavlink's own signing, from ``timestamp`` on) and accept only
+        frames signed with ``key`` (no accept-unsigned callback)."""
+        self.mav.signing.secret_key = key
+        self.mav.signing.sign_outgoing = True
+        self.mav.signing.link_id = link_id
+        self.mav.signing.timestamp = timestamp
+        self.rx.signing.secret_key = key
+
     def encode(self, msg: M.MAVLink_message) -> bytes:
         data = msg.pack(self.mav)
         self.mav.seq = (self.mav.seq + 1) & 0xFF
@@ -296,7 +306,8 @@ def of_type(msgs: list[M.MAVLink_message], name: str) -> list[M.MAVLink_message]
     return [m for m in msgs if m.get_type() == name]
 
 
-def make(kind: LinkKind = LinkKind.API, sysid: int = 1) -> tuple[FakeVehicle, Session, Client]:
+def make(kind: LinkKind = LinkKind.API, sysid: int = 1,
+         signing: SigningConfig | None = None) -> tuple[FakeVehicle, Session, Client]:
     vehicle = FakeVehicle(sysid)
-    session = Session(vehicle, kind, now_s=0.0)
+    session = Session(vehicle, kind, now_s=0.0, signing=signing)
     return vehicle, session, Client(session)
