@@ -7,7 +7,7 @@ STAMP4 := $(VENV4)/.installed
 VEHICLES ?= 1
 PYTEST_ARGS ?=
 
-.PHONY: run test unit bench clean venv ns3 ns3-deps ns3-if-possible
+.PHONY: run test unit bench clean venv ns3 ns3-deps ns3-if-possible install-service
 
 venv: $(STAMP)
 
@@ -56,6 +56,36 @@ ns3-if-possible:
 	@if dpkg -s $(NS3_DEBS) >/dev/null 2>&1 || { command -v apt-get >/dev/null && [ "$$(id -u)" = 0 ]; }; then \
 		$(MAKE) ns3-deps ns3 || echo "note: the ns-3 backend was not built; its tests will skip"; \
 	else echo "note: no apt-get as root here: the ns-3 backend is not built; its tests will skip"; fi
+
+# `sudo make install-service`: the daemon as a systemd service (README.md, "Running as a service").
+# Copies this tree (without .git, virtualenvs or build output) to $(PREFIX) and builds a venv there
+# with a regular, non-editable install (a venv cannot move, and the service may not read /home);
+# installs the unit, and $(CONFIG_DIR)/cornet.toml only if there is none: an existing
+# configuration is never overwritten. Needs root, and PyPI (or a pip cache) for the venv.
+# PREFIX, CONFIG_DIR and UNIT_DIR may be changed (the unit's paths follow PREFIX and CONFIG_DIR).
+PREFIX ?= /opt/cornet
+CONFIG_DIR ?= /etc/cornet
+UNIT_DIR ?= /etc/systemd/system
+
+install-service:
+	@[ "$$(id -u)" = 0 ] || { echo "install-service: needs root: sudo make install-service"; exit 1; }
+	mkdir -p $(PREFIX)
+	tar -c --exclude=./.git --exclude=./.venv --exclude=./.venv-mavsdk4 --exclude=__pycache__ \
+		--exclude=./.pytest_cache --exclude='*.egg-info' --exclude=./build --exclude=./state \
+		--exclude=./logs -f - . | tar -x --no-same-owner -C $(PREFIX)
+	$(PYTHON) -m venv $(PREFIX)/.venv
+	$(PREFIX)/.venv/bin/pip install --quiet --upgrade pip
+	$(PREFIX)/.venv/bin/pip install --quiet $(PREFIX)
+	mkdir -p $(UNIT_DIR)
+	sed -e 's#/opt/cornet#$(PREFIX)#g' -e 's#/etc/cornet/cornet.toml#$(CONFIG_DIR)/cornet.toml#g' \
+		systemd/cornet.service > $(UNIT_DIR)/cornet.service
+	@if [ -e $(CONFIG_DIR)/cornet.toml ]; then \
+		echo "install-service: keeping $(CONFIG_DIR)/cornet.toml (the example: $(PREFIX)/systemd/cornet.toml)"; \
+	else install -D -m 0644 systemd/cornet.toml $(CONFIG_DIR)/cornet.toml; fi
+	$(PREFIX)/.venv/bin/cornet check $(CONFIG_DIR)/cornet.toml
+	@if [ -d /run/systemd/system ]; then systemctl daemon-reload; \
+	else echo "install-service: systemd is not running here; run 'systemctl daemon-reload' where it is"; fi
+	@echo "install-service: done; start it with: systemctl enable --now cornet"
 
 clean:
 	rm -rf $(VENV) $(VENV4) *.egg-info .pytest_cache

@@ -1,7 +1,12 @@
 """The asyncio shell: binds the PX4 ports, runs the pacer, stops cleanly on SIGINT/SIGTERM.
 
-Everything that touches sockets, signals or the wall clock lives here, in pacer.py and in
-endpoint.py; the simulation itself (gateway/sim.py) runs on simulated time only.
+Everything that touches sockets, signals, systemd or the wall clock lives here, in pacer.py,
+endpoint.py and sdnotify.py; the simulation itself (gateway/sim.py) runs on simulated time only.
+
+Under systemd (Type=notify, systemd/cornet.service): READY=1 once every port is bound and the
+vehicles have started talking; WATCHDOG=1 from the pacer's loop while the simulation is healthy
+(``Watchdog``); SIGHUP re-reads the configuration file and rebuilds the network (RELOADING=1 …
+READY=1); SIGTERM/SIGINT send STOPPING=1, close the logs and exit 0.
 """
 
 from __future__ import annotations
@@ -14,7 +19,8 @@ import math
 import signal
 import sys
 import time
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 from gateway import persist, zmq_pub
@@ -22,6 +28,8 @@ from gateway.endpoint import SourceLimiter, UdpEndpoint
 from gateway.flightlog import FlightLog, new_run_dir
 from gateway.mavlink.session import LinkKind
 from gateway.pacer import Pacer
+from gateway.scenario import ScenarioError
+from gateway.sdnotify import Notifier
 from gateway.sim import NetworkConfig, Simulation, px4_ports
 from gateway.watch import format_link_table
 from gateway.zmq_pub import Publisher
@@ -65,6 +73,59 @@ def _fan_out(tracers: list[Tracer]) -> Tracer | None:
     return trace
 
 
+class Watchdog:
+    """Feeds systemd's watchdog (WATCHDOG=1 every ``interval_s`` of wall time) while the
+    simulation is healthy. Healthy means all of:
+
+    - the pacer's loop runs: ``poll`` is called from it, so a blocked event loop, a hung
+      callback or a crashed pacer stops the pings;
+    - simulated time advanced since the previous ping: the kernel is moving, not stuck;
+    - no unrecovered fatal error: the network backend is not lost (an ns-3 engine that died is
+      not restarted in the process; systemd restarts the whole daemon instead).
+
+    Errors the daemon recovers from — a datagram that raised inside a session
+    (``internal_errors``), the pacer slipping behind the wall clock under load — do not stop the
+    pings: the vehicles still fly. When the pings stop, systemd kills and restarts the unit after
+    WatchdogSec (Restart=on-failure).
+    """
+
+    def __init__(self, notifier: Notifier, sim: Simulation, interval_s: float,
+                 clock: Callable[[], float]) -> None:
+        self.notifier = notifier
+        self.sim = sim
+        self.interval_s = interval_s
+        self._clock = clock
+        self._due = clock()
+        self._last_sim_s = sim.now
+        self._complained = False
+        self.pings = 0
+
+    def problem(self) -> str | None:
+        """Why the simulation is not healthy, or None if it is."""
+        lost = getattr(self.sim.backend, "lost", None)
+        if lost:
+            return f"the network backend was lost ({lost})"
+        if not self.sim.now > self._last_sim_s:
+            return f"simulated time has not advanced since t={self._last_sim_s:.3f} s"
+        return None
+
+    def poll(self) -> None:
+        now = self._clock()
+        if now < self._due:
+            return
+        problem = self.problem()
+        if problem is not None:
+            if not self._complained:
+                log.error("not feeding the systemd watchdog: %s", problem)
+                self._complained = True
+            return
+        self.notifier.watchdog()
+        self.pings += 1
+        self._last_sim_s = self.sim.now
+        self._due = now + self.interval_s
+        self._complained = False
+
+
 class PortInUse(OSError):
     def __init__(self, port: int, bind: str) -> None:
         super().__init__(errno.EADDRINUSE, f"UDP port {bind}:{port} is already in use")
@@ -75,8 +136,9 @@ class PortInUse(OSError):
 
 
 class Daemon:
-    def __init__(self, config: RunConfig) -> None:
+    def __init__(self, config: RunConfig, notifier: Notifier | None = None) -> None:
         self.config = config
+        self.notifier = notifier or Notifier()  # no socket: notifications are no-ops
         self.publisher = Publisher(config.zmq_pub) if config.zmq_pub else None
         self._trace_file = open(config.packet_trace, "w") if config.packet_trace else None
         self.flightlog = None
@@ -177,54 +239,128 @@ class Daemon:
                 f"kernel_dropped={kernel_dropped} "
                 f"internal_errors={self.sim.internal_errors} slips={self.pacer.slips}")
 
+    def short_status(self) -> str:
+        """systemd's STATUS= (what `systemctl status cornet` shows)."""
+        return (f"{self.config.vehicles} vehicle(s), network {self.sim.network.summary}, "
+                f"sim_t={self.sim.now:.0f}s, internal_errors={self.sim.internal_errors}")
+
     def log_link_stats(self) -> None:
         """On SIGUSR1 and at exit: every link's counters and latency percentiles."""
         log.info("%s", format_link_table(self.sim.link_stats(), self.sim.now))
+
+    def reload(self, load: Callable[[], RunConfig] | None) -> bool:
+        """SIGHUP: re-read the configuration file and rebuild the running simulation's network
+        from it; vehicles, sessions and parameters stay. Other changes in the file take effect at
+        the next start (each is logged). An invalid file, or a network that cannot be swapped
+        (ns-3), keeps the running network. True if the file's network is now in effect."""
+        if load is None:
+            log.warning("SIGHUP: started without --config or --scenario; nothing to re-read")
+            return False
+        running = self.sim.network.summary
+        try:
+            new = load()
+        except ScenarioError as exc:
+            log.error("reload failed, keeping the running network (%s): %s", running, exc)
+            return False
+        for f in fields(RunConfig):
+            before, after = getattr(self.config, f.name), getattr(new, f.name)
+            if f.name != "network" and after != before:
+                log.warning("reload: %s changed (%s -> %s); it takes effect at the next start",
+                            f.name, before, after)
+        if new.network == self.sim.network:
+            log.info("reload: the network is unchanged (%s)", running)
+            return True
+        self.pacer.sync()  # the new network starts at the present moment
+        try:
+            self.sim.reload_network(new.network)
+        except ValueError as exc:
+            log.error("reload failed, keeping the running network (%s): %s", running, exc)
+            return False
+        self.config = replace(self.config, network=new.network)
+        log.info("reload: the network is now %s (was %s) from t=%.3f s; vehicles and sessions "
+                 "kept", new.network.summary, running, self.sim.now)
+        return True
 
     async def _report(self) -> None:
         while True:
             await asyncio.sleep(STATUS_PERIOD_S)
             log.info("%s", self.status_line())
+            self.notifier.status(self.short_status())
 
 
-async def serve(config: RunConfig, ready_out=sys.stdout) -> int:
-    daemon = Daemon(config)
-    await daemon.open()
-    loop = asyncio.get_running_loop()
-    stop = asyncio.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
-    loop.add_signal_handler(signal.SIGUSR1, daemon.log_link_stats)
-    cfg = config
-    ports = ", ".join(
+def _ports_text(cfg: RunConfig) -> str:
+    text = ", ".join(
         f"v{i + 1} gcs {px4_ports(i, LinkKind.GCS, cfg.port_offset).local}"
         f"->{px4_ports(i, LinkKind.GCS, cfg.port_offset).remote}"
         f" api {px4_ports(i, LinkKind.API, cfg.port_offset).local}"
         f"->{px4_ports(i, LinkKind.API, cfg.port_offset).remote}"
         for i in range(min(cfg.vehicles, 4))
-    ) + (" ..." if cfg.vehicles > 4 else "")
-    speed = "max" if math.isinf(cfg.speed) else f"{cfg.speed:g}x"
-    print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.summary}, "
-          f"speed {speed}, {ports}",
-          file=ready_out, flush=True)
+    )
+    return text + (" ..." if cfg.vehicles > 4 else "")
+
+
+async def serve(config: RunConfig, ready_out=sys.stdout, *,
+                reload: Callable[[], RunConfig] | None = None,
+                notifier: Notifier | None = None) -> int:
+    """Run the daemon until SIGINT/SIGTERM. ``reload`` re-reads the configuration file on
+    SIGHUP (raising ScenarioError if it is invalid); ``notifier`` talks to systemd (default: as
+    $NOTIFY_SOCKET says, a no-op without it)."""
+    notifier = notifier if notifier is not None else Notifier.from_env()
+    daemon = Daemon(config, notifier)
+    await daemon.open()
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    handled = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGHUP)
+    tasks: list[asyncio.Task] = []
     t0 = time.monotonic()
-    tasks = [asyncio.create_task(daemon.pacer.run(), name="pacer"),
-             asyncio.create_task(daemon._report(), name="status"),
-             asyncio.create_task(stop.wait(), name="stop")]
     try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+        loop.add_signal_handler(signal.SIGUSR1, daemon.log_link_stats)
+
+        def on_sighup() -> None:
+            notifier.reloading(status="reloading the network")
+            try:
+                daemon.reload(reload)
+            finally:  # systemd waits for READY=1 to leave the "reloading" state
+                notifier.ready(status=daemon.short_status())
+
+        loop.add_signal_handler(signal.SIGHUP, on_sighup)
+        # The vehicles talk first, as PX4 SITL does: their first telemetry leaves now, before
+        # anyone is told the daemon is ready.
+        daemon.pacer.sync()
+        cfg = config
+        speed = "max" if math.isinf(cfg.speed) else f"{cfg.speed:g}x"
+        print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.summary}, "
+              f"speed {speed}, {_ports_text(cfg)}",
+              file=ready_out, flush=True)
+        notifier.ready(status=f"serving {cfg.vehicles} vehicle(s) on {cfg.bind}, network "
+                              f"{cfg.network.summary}, speed {speed}")
+        interval = notifier.watchdog_interval_s
+        watchdog = None
+        if interval is not None:
+            watchdog = Watchdog(notifier, daemon.sim, interval, daemon.pacer.wall)
+            log.info("systemd watchdog: pinging every %.3f s while simulated time advances",
+                     interval)
+        tasks = [asyncio.create_task(daemon.pacer.run(watchdog.poll if watchdog else None),
+                                     name="pacer"),
+                 asyncio.create_task(daemon._report(), name="status"),
+                 asyncio.create_task(stop.wait(), name="stop")]
         done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
         for task in done:
             if task.get_name() != "stop" and task.exception() is not None:
                 raise task.exception()  # a crashed pacer must not look like a clean stop
     finally:
+        notifier.stopping(status="stopping")
         for task in tasks:
             task.cancel()
         for task in tasks:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1):
+        for sig in handled:
             loop.remove_signal_handler(sig)
         daemon.log_link_stats()
         log.info("stopping after %.1f s: %s", time.monotonic() - t0, daemon.status_line())
         daemon.close()
+        notifier.close()
     return 0

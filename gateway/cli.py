@@ -4,17 +4,18 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import ipaddress
 import logging
 import math
 import os
 import sys
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 LOG_LEVELS = ("debug", "info", "warning", "error")
 ENV_PARAM_PREFIX = "PX4_PARAM_"
 MAX_VEHICLES = 1000
-MAX_PORT = 65535
 MAX_SPEED = 1000.0
 
 
@@ -55,6 +56,15 @@ def _speed(text: str) -> float:
     return value
 
 
+def _ipv4(text: str) -> str:
+    try:
+        ipaddress.IPv4Address(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--bind must be an IPv4 address such as 127.0.0.1 or "
+                                         f"0.0.0.0, got {text!r}") from None
+    return text
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="cornet",
@@ -68,9 +78,17 @@ def build_parser() -> argparse.ArgumentParser:
         description="Start N simulated PX4 vehicles. Vehicle i binds UDP 18570+i (GCS link, "
         "talks to 14550) and 14580+i (API link, talks to 14540+i), like PX4 SITL.",
     )
+    run.add_argument("--config", type=Path, default=None, metavar="FILE",
+                     help="the daemon's configuration file (TOML): a scenario file whose [daemon] "
+                     "table sets what the flags below set (a flag given wins); SIGHUP re-reads its "
+                     "network. Example: systemd/cornet.toml")
     run.add_argument("--scenario", type=Path, default=None, metavar="FILE",
                      help="a scenario file (TOML: vehicles, network topology and models, sync "
-                     "period, late policy); see scenarios/ and docs/scenarios.md")
+                     "period, late policy); see scenarios/ and docs/scenarios.md. The same "
+                     "format as --config: give one of them")
+    run.add_argument("--bind", type=_ipv4, default=None, metavar="ADDR",
+                     help="the address the vehicles' ports bind to (default 127.0.0.1; 0.0.0.0: "
+                     "every interface)")
     run.add_argument("--vehicles", type=int, default=None, metavar="N",
                      help="number of vehicles (default 1, or the scenario's)")
     run.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,
@@ -79,14 +97,14 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar="Y", help="uniform jitter +-Y ms (default 0)")
     run.add_argument("--loss", type=_probability, default=0.0, metavar="P",
                      help="packet loss probability per datagram, 0..1 (default 0)")
-    run.add_argument("--speed", type=_speed, default=1.0, metavar="X",
+    run.add_argument("--speed", type=_speed, default=None, metavar="X",
                      help="simulated seconds per wall second (default 1): physics, telemetry "
                      "rates and network all scale, and client time-outs (COM_*_LOSS_T) are "
                      "scaled as PX4 does with PX4_SIM_SPEED_FACTOR; 'max' runs flat out (for "
                      "runs without clients)")
     run.add_argument("--seed", type=_non_negative(int, "--seed"), default=None, metavar="S",
                      help="seed of every random stream (default 0, or the scenario's)")
-    run.add_argument("--port-offset", type=_non_negative(int, "--port-offset"), default=0,
+    run.add_argument("--port-offset", type=_non_negative(int, "--port-offset"), default=None,
                      metavar="K", help="shift every local and remote port by K (default 0)")
     run.add_argument("--log-level", choices=LOG_LEVELS, default=None, metavar="L",
                      help=f"one of {', '.join(LOG_LEVELS)} (default info, or the scenario's)")
@@ -106,9 +124,11 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
-    check = sub.add_parser("check", help="validate a scenario file and say what it sets up",
-                           description="Validate a scenario file. Exit 0 and a summary if it is "
-                           "good; exit 2 and the key that is wrong if not.")
+    check = sub.add_parser("check", help="validate a scenario or configuration file and say what "
+                           "it sets up",
+                           description="Validate a scenario file or the daemon's configuration "
+                           "file (--config). Exit 0 and a summary if it is good; exit 2 and the "
+                           "key that is wrong if not.")
     check.add_argument("scenario", type=Path, metavar="FILE")
     fly = sub.add_parser("fly", help="fly a QGroundControl .plan headless, as fast as possible, "
                          "and judge it (exit 0 pass, 1 fail)",
@@ -245,20 +265,27 @@ def _subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentP
     raise KeyError(name)
 
 
-def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
-    parser = _subparser(parser, "run")  # errors then show `cornet run` usage
-    from gateway.scenario import NetworkConfig, Scenario, ScenarioError, load
+def _first(*values: Any) -> Any:
+    """The first value that is set: a flag given, else the file's, else the default."""
+    return next((v for v in values if v is not None), None)
 
-    if args.scenario is not None:
-        try:
-            scenario = load(args.scenario)
-        except ScenarioError as exc:
-            parser.error(str(exc))
+
+def _run_settings(args: argparse.Namespace,
+                  flag_params: dict[str, float]) -> tuple[dict[str, Any], str]:
+    """``cornet run``'s settings from its flags over its configuration file: keyword arguments
+    of ``gateway.app.RunConfig`` and the log level. Raises ScenarioError naming the key or flag.
+    Called at start and again on SIGHUP (the file may have changed; the flags have not)."""
+    from gateway.scenario import NetworkConfig, Scenario, ScenarioError, check_ports, load
+
+    source = _first(args.config, args.scenario)
+    which = "--config" if args.config is not None else "--scenario"
+    if source is not None:
+        scenario = load(source)
         flags = [f for f, v in (("--latency-ms", args.latency_ms), ("--jitter-ms", args.jitter_ms),
                                 ("--loss", args.loss)) if v]
         if flags:
-            parser.error(f"{', '.join(flags)}: the scenario {args.scenario} defines the network; "
-                         "set it there (or drop --scenario)")
+            raise ScenarioError(f"{', '.join(flags)}: {source} defines the network; set it "
+                                f"there (or drop {which})")
         network = scenario.network
         if args.seed is not None:
             network = replace(network, seed=args.seed)
@@ -266,52 +293,77 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         scenario = Scenario(source="flags")
         network = NetworkConfig.from_flags(args.latency_ms, args.jitter_ms, args.loss,
                                            args.seed or 0)
-    if args.vehicles is None:
-        args.vehicles = scenario.vehicles
-    if not 1 <= args.vehicles <= MAX_VEHICLES:
-        parser.error(f"--vehicles must be between 1 and {MAX_VEHICLES}, got {args.vehicles}")
-    highest = 18570 + args.vehicles - 1 + args.port_offset
-    if highest > MAX_PORT:
-        parser.error(f"--port-offset {args.port_offset} with {args.vehicles} vehicles needs "
-                     f"port {highest} > {MAX_PORT}; use a smaller offset")
-    params = {**scenario.params, **_parse_params(parser, args.param, dict(os.environ))}
-    if args.state_dir is not None:
-        _writable_dir(parser, args.state_dir, "--state-dir")
-    if args.log_dir is not None:
-        _writable_dir(parser, args.log_dir, "--log-dir")
-    if args.packet_trace is not None and not args.packet_trace.parent.is_dir():
-        parser.error(f"--packet-trace {args.packet_trace}: no directory "
-                     f"{args.packet_trace.parent}")
+    d = scenario.daemon
+    vehicles = _first(args.vehicles, scenario.vehicles)
+    if not 1 <= vehicles <= MAX_VEHICLES:
+        raise ScenarioError(f"--vehicles must be between 1 and {MAX_VEHICLES}, got {vehicles}")
+    port_offset = _first(args.port_offset, d.port_offset, 0)
+    check_ports(vehicles, port_offset, "--port-offset" if args.port_offset is not None
+                else f"{source}: daemon.port_offset")
+    settings = {
+        "vehicles": vehicles,
+        "network": network,
+        "home": scenario.home,
+        "bind": _first(args.bind, d.bind, "127.0.0.1"),
+        "port_offset": port_offset,
+        "speed": _first(args.speed, d.speed, 1.0),
+        "state_dir": _first(args.state_dir, d.state_dir),
+        "log_dir": _first(args.log_dir, d.log_dir),
+        "zmq_pub": _first(args.zmq_pub, d.zmq_pub),
+        "packet_trace": _first(args.packet_trace, d.packet_trace),
+        "params": {**scenario.params, **flag_params},
+    }
+    return settings, _first(args.log_level, scenario.log_level, "info")
+
+
+def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    parser = _subparser(parser, "run")  # errors then show `cornet run` usage
+    from gateway.scenario import ScenarioError
+
+    if args.config is not None and args.scenario is not None:
+        parser.error("--config and --scenario both name a configuration file; give one of them")
+    source = _first(args.config, args.scenario)
+    flag_params = _parse_params(parser, args.param, dict(os.environ))
+    try:
+        settings, log_level = _run_settings(args, flag_params)
+    except ScenarioError as exc:
+        parser.error(str(exc))
+
+    def where(key: str) -> str:  # what set a setting: its flag, or the file's [daemon] key
+        flag = "--" + key.replace("_", "-")
+        return flag if getattr(args, key) is not None or source is None \
+            else f"{source}: daemon.{key}"
+
+    for key in ("state_dir", "log_dir"):
+        if settings[key] is not None:
+            _writable_dir(parser, settings[key], where(key))
+    trace = settings["packet_trace"]
+    if trace is not None and not trace.parent.is_dir():
+        parser.error(f"{where('packet_trace')} {trace}: no directory {trace.parent}")
     logging.basicConfig(
-        level=(args.log_level or scenario.log_level or "info").upper(),
+        level=log_level.upper(),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
         stream=sys.stderr,
     )
     # Imported here so that `cornet --help` and flag errors stay fast.
     from gateway.app import PortInUse, RunConfig, serve
 
-    config = RunConfig(
-        vehicles=args.vehicles,
-        network=network,
-        home=scenario.home,
-        port_offset=args.port_offset,
-        state_dir=args.state_dir,
-        params=params,
-        zmq_pub=args.zmq_pub,
-        packet_trace=args.packet_trace,
-        speed=args.speed,
-        log_dir=args.log_dir,
-    )
+    config = RunConfig(**settings)
+    reload = None
+    if source is not None:
+        def reload() -> RunConfig:  # SIGHUP: the file again, under the same flags
+            return RunConfig(**_run_settings(args, flag_params)[0])
+
     import zmq
 
     try:
-        return asyncio.run(serve(config))
+        return asyncio.run(serve(config, reload=reload))
     except zmq.ZMQError as exc:
-        print(f"cornet: --zmq-pub {args.zmq_pub}: {exc}", file=sys.stderr)
+        print(f"cornet: {where('zmq_pub')} {config.zmq_pub}: {exc}", file=sys.stderr)
         return 2
     except PortInUse as exc:
         print(f"cornet: {exc}; is another cornet or PX4 SITL running? "
-              f"Stop it or choose another --port-offset.", file=sys.stderr)
+              f"Stop it or choose another {where('port_offset')}.", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 0

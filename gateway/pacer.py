@@ -81,14 +81,19 @@ class Pacer:
         self._rtf_wall0, self._rtf_sim0 = wall, sim
         return rtf
 
-    async def run(self) -> None:
-        """Run forever (until cancelled)."""
+    async def run(self, on_loop: Callable[[], None] | None = None) -> None:
+        """Run forever (until cancelled). ``on_loop`` is called after every run of the kernel:
+        the shell feeds systemd's watchdog from there, so the pings stop when this loop does."""
         if self.flat_out:
             while True:
                 self.kernel.run(until=self.kernel.now + FLAT_OUT_CHUNK_S)
+                if on_loop is not None:
+                    on_loop()
                 await asyncio.sleep(0)
         while True:
             self.sync()
+            if on_loop is not None:
+                on_loop()
             nxt = self.kernel.peek()
             if math.isinf(nxt):
                 delay = MAX_SLEEP_S

@@ -1,6 +1,8 @@
-"""Scenario files: vehicles, network (topology, models, seeds), sync period, late policy, logging.
+"""Scenario files: vehicles, network (topology, models, seeds), sync period, late policy, logging,
+and the daemon's own settings.
 
-A scenario is a TOML file (docs/scenarios.md shows every key):
+A scenario is a TOML file (docs/scenarios.md shows every key); the daemon's configuration file
+(``cornet run --config``, e.g. systemd/cornet.toml) is the same format:
 
     [vehicles]
     count = 3                       # how many
@@ -19,6 +21,16 @@ A scenario is a TOML file (docs/scenarios.md shows every key):
     [logging]
     level = "info"
 
+    [daemon]                        # what `cornet run` flags set; a flag given wins
+    bind = "127.0.0.1"
+    port_offset = 0
+    speed = 1.0                     # or "max"
+    state_dir = "/var/lib/cornet"   # relative paths are relative to the file's directory
+    log_dir = "/var/log/cornet"
+    zmq_pub = "tcp://127.0.0.1:5556"
+    packet_trace = "packets.trace"
+    # log_level = "info"            # or [logging] level: set one of them
+
 Every error names the key's path and the file (``lossy.toml: network.radio.mcs: ...``); the CLI
 turns it into exit code 2. Nothing here opens a socket: loading a scenario also validates every
 model parameter, so ``cornet check`` catches what ``cornet run`` would trip on.
@@ -26,6 +38,7 @@ model parameter, so ``cornet check`` catches what ``cornet run`` would trip on.
 
 from __future__ import annotations
 
+import ipaddress
 import math
 import sys
 from dataclasses import dataclass, field
@@ -47,6 +60,11 @@ AIRFRAMES = ("x500",)
 LOG_LEVELS = ("debug", "info", "warning", "error")
 DEFAULT_SYNC_PERIOD_S = 0.02
 MAX_VEHICLES = 1000
+MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli.py)
+MAX_PORT = 65535
+HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it binds (gateway/sim.py)
+DAEMON_KEYS = ("bind", "port_offset", "speed", "state_dir", "log_dir", "zmq_pub", "packet_trace",
+               "log_level")
 NETWORK_OWN_KEYS = ("backend", "seed", "sync_period_s", "late_policy", "ns3")
 
 
@@ -87,6 +105,20 @@ class NetworkConfig:
 
 
 @dataclass(frozen=True)
+class DaemonSettings:
+    """The ``[daemon]`` table: what `cornet run` flags set. None: not set in the file (the flag,
+    or the built-in default, applies). The log level is ``Scenario.log_level``."""
+
+    bind: str | None = None  # an IPv4 address
+    port_offset: int | None = None
+    speed: float | None = None  # math.inf for "max"
+    state_dir: Path | None = None
+    log_dir: Path | None = None
+    zmq_pub: str | None = None
+    packet_trace: Path | None = None
+
+
+@dataclass(frozen=True)
 class Scenario:
     source: str
     vehicles: int = 1
@@ -95,6 +127,7 @@ class Scenario:
     params: dict[str, float] = field(default_factory=dict)
     network: NetworkConfig = field(default_factory=NetworkConfig)
     log_level: str | None = None
+    daemon: DaemonSettings = field(default_factory=DaemonSettings)
 
 
 def _table(doc: dict, key: str, path: str) -> dict:
@@ -130,8 +163,72 @@ def _choice(value: Any, choices: tuple[str, ...], path: str) -> str:
     return value
 
 
-def parse(doc: dict, source: str = "<scenario>") -> Scenario:
-    _unknown(doc, ("vehicles", "network", "logging"), "")
+def bind_address(value: Any, path: str) -> str:
+    """An IPv4 address to bind the vehicles' ports to (they talk first to 127.0.0.1)."""
+    try:
+        if not isinstance(value, str):
+            raise TypeError(value)  # IPv4Address also takes ints and bytes; a TOML value must not
+        ipaddress.IPv4Address(value)
+    except (ValueError, TypeError):
+        raise ScenarioError(f"{path}: expected an IPv4 address such as 127.0.0.1 or 0.0.0.0, "
+                            f"got {value!r}") from None
+    return value
+
+
+def _speed(value: Any, path: str) -> float:
+    if value == "max":
+        return math.inf
+    if isinstance(value, str):
+        raise ScenarioError(f"{path}: expected a factor like 10, or \"max\"; got {value!r}")
+    speed = _number(value, path, positive=True)
+    if speed > MAX_SPEED:
+        raise ScenarioError(f"{path}: must be <= {MAX_SPEED:g} (or \"max\"), got {value!r}")
+    return float(speed)
+
+
+def _path(value: Any, path: str, base_dir: Path | None) -> Path:
+    if not isinstance(value, str) or not value:
+        raise ScenarioError(f"{path}: expected a path (a non-empty string), got {value!r}")
+    p = Path(value)
+    return base_dir / p if base_dir is not None and not p.is_absolute() else p
+
+
+def check_ports(vehicles: int, port_offset: int, path: str) -> None:
+    highest = HIGHEST_BASE_PORT + vehicles - 1 + port_offset
+    if highest > MAX_PORT:
+        raise ScenarioError(f"{path}: {port_offset} with {vehicles} vehicles needs port "
+                            f"{highest} > {MAX_PORT}; use a smaller offset")
+
+
+def _daemon(table: dict, base_dir: Path | None) -> tuple[DaemonSettings, str | None]:
+    _unknown(table, DAEMON_KEYS, "daemon")
+    out: dict[str, Any] = {}
+    if "bind" in table:
+        out["bind"] = bind_address(table["bind"], "daemon.bind")
+    if "port_offset" in table:
+        out["port_offset"] = int(_number(table["port_offset"], "daemon.port_offset",
+                                         integer=True, minimum=0))
+    if "speed" in table:
+        out["speed"] = _speed(table["speed"], "daemon.speed")
+    for key in ("state_dir", "log_dir", "packet_trace"):
+        if key in table:
+            out[key] = _path(table[key], f"daemon.{key}", base_dir)
+    if "zmq_pub" in table:
+        value = table["zmq_pub"]
+        if not isinstance(value, str) or "://" not in value:
+            raise ScenarioError(f"daemon.zmq_pub: expected a ZeroMQ endpoint such as "
+                                f"tcp://127.0.0.1:5556, got {value!r}")
+        out["zmq_pub"] = value
+    level = table.get("log_level")
+    if level is not None:
+        _choice(level, LOG_LEVELS, "daemon.log_level")
+    return DaemonSettings(**out), level
+
+
+def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -> Scenario:
+    """``base_dir``: where relative paths of ``[daemon]`` point from (``load``: the file's
+    directory); None keeps them relative to the working directory."""
+    _unknown(doc, ("vehicles", "network", "logging", "daemon"), "")
     veh = _table(doc, "vehicles", "vehicles")
     _unknown(veh, ("count", "home", "airframe", "params"), "vehicles")
     count = int(_number(veh.get("count", 1), "vehicles.count", integer=True, minimum=1))
@@ -177,7 +274,15 @@ def parse(doc: dict, source: str = "<scenario>") -> Scenario:
     level = logging_table.get("level")
     if level is not None:
         _choice(level, LOG_LEVELS, "logging.level")
-    return Scenario(source, count, home, airframe, params, network, level)
+
+    daemon, daemon_level = _daemon(_table(doc, "daemon", "daemon"), base_dir)
+    if daemon_level is not None:
+        if level is not None:
+            raise ScenarioError("daemon.log_level: logging.level sets it too; keep one of them")
+        level = daemon_level
+    if daemon.port_offset is not None:
+        check_ports(count, daemon.port_offset, "daemon.port_offset")
+    return Scenario(source, count, home, airframe, params, network, level, daemon)
 
 
 def _params(table: dict) -> dict[str, float]:
@@ -211,7 +316,7 @@ def load(path: str | Path) -> Scenario:
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
     try:
-        return parse(doc, str(path))
+        return parse(doc, str(path), base_dir=path.parent.absolute())
     except ScenarioError as exc:
         raise ScenarioError(f"{path}: {exc}") from None
 
@@ -233,4 +338,11 @@ def describe(s: Scenario) -> str:
             lines.append(f"  {key}: {net.topology[key]}")
     for key, value in net.ns3.items():
         lines.append(f"  ns3.{key}: {value}")
+    d = s.daemon
+    settings = [f"{key} {'max' if key == 'speed' and math.isinf(value) else value}"
+                for key in DAEMON_KEYS if (value := getattr(d, key, None)) is not None]
+    if s.log_level is not None:
+        settings.append(f"log_level {s.log_level}")
+    if settings:
+        lines.append(f"  daemon: {', '.join(settings)}")
     return "\n".join(lines)

@@ -76,6 +76,7 @@ class VehicleLink:
         self.name = f"v{index + 1}/{kind.name.lower()}"
         vehicle_node = f"v{index + 1}"
         client_node = "gcs" if kind is LinkKind.GCS else f"api{index + 1}"
+        self._nodes = (client_node, vehicle_node)  # the uplink's (src, dst)
         self.uplink = sim.backend.make_link(f"{self.name}/up", client_node, vehicle_node,
                                             self._on_uplink_delivered)
         self.downlink = sim.backend.make_link(f"{self.name}/down", vehicle_node, client_node,
@@ -83,6 +84,16 @@ class VehicleLink:
         self.peer: object = None
         self._timer: Event | None = None
         self._timer_at = math.inf
+
+    def rewire(self, backend: NetworkBackend) -> None:
+        """Take both directions from ``backend`` (a reloaded network), keeping their counters:
+        packets already in flight on the old links arrive as the old links decided, and are
+        counted in the same statistics."""
+        uplink = backend.make_link(self.uplink.name, *self._nodes, self._on_uplink_delivered)
+        downlink = backend.make_link(self.downlink.name, *reversed(self._nodes),
+                                     self._on_downlink_delivered)
+        uplink.stats, downlink.stats = self.uplink.stats, self.downlink.stats
+        self.uplink, self.downlink = uplink, downlink
 
     # --- uplink: client → vehicle ---------------------------------------------------------------
     def _on_uplink_delivered(self, packet: bytes, peer: object) -> None:
@@ -179,6 +190,7 @@ class Simulation:
         self.link_kinds = tuple(k for k in LinkKind if k in link_kinds)
         self.kernel = Kernel()
         self.network = network or NetworkConfig()
+        self._tracer = tracer
         self.backend: NetworkBackend = make_backend(self.kernel, self.network, tracer,
                                                     realtime=realtime)
         self._observers: list[Ticker] = []
@@ -238,6 +250,31 @@ class Simulation:
 
     def run(self, until: float) -> None:
         self.kernel.run(until=until)
+
+    def reload_network(self, network: NetworkConfig) -> None:
+        """Rebuild every link's model from ``network`` at the present simulated time, keeping
+        vehicles, sessions, the peers they reply to, and link counters. Packets already in
+        flight arrive as the old models decided. Random streams restart from ``network.seed``
+        (a reload is an input: the same reload at the same time gives the same run).
+
+        Embedded → embedded only: an external backend (ns-3) owns a process whose network is
+        built once, so either side being external raises ValueError and changes nothing; so
+        does an invalid topology."""
+        for what, config in (("running", self.network), ("new", network)):
+            if config.backend != "embedded":
+                raise ValueError(f"the {what} network uses the {config.backend} backend; only "
+                                 "embedded networks can be reloaded (restart the daemon instead)")
+        backend = make_backend(self.kernel, network, self._tracer)
+        for link in self.links.values():
+            link.rewire(backend)
+        old, self.backend, self.network = self.backend, backend, network
+        old.close()
+        # The new models must know where the vehicles are now, not at the next sync tick.
+        self._push_mobility(self.kernel.now)
+        if backend.sync_period_s != self._mobility.period_s:
+            self._mobility.cancel()
+            self._mobility = Ticker(self.kernel, backend.sync_period_s, self._push_mobility,
+                                    priority=PRIORITY_PHYSICS)
 
     def link_stats(self) -> dict[str, dict]:
         out = {}

@@ -1,10 +1,11 @@
 """Scenario files: every shipped one loads; every mistake names its key and the file."""
 
+import math
 import pathlib
 
 import pytest
 
-from gateway.scenario import ScenarioError, describe, load, parse
+from gateway.scenario import DaemonSettings, ScenarioError, describe, load, parse
 from gateway.sim import Simulation
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -62,3 +63,61 @@ def test_file_errors_name_the_file(tmp_path):
     bad.write_text("[network]\nlate_policy = 'maybe'\n")
     with pytest.raises(ScenarioError, match=r"bad\.toml: network\.late_policy"):
         load(bad)
+
+
+# --- the daemon's configuration file: a scenario plus [daemon] -----------------------------------
+
+@pytest.mark.parametrize("doc, key", [
+    ({"daemon": {"bnd": "127.0.0.1"}}, "daemon.bnd: unknown key"),
+    ({"daemon": {"bind": "localhost"}}, "daemon.bind"),
+    ({"daemon": {"bind": "::1"}}, "daemon.bind"),
+    ({"daemon": {"bind": 2130706433}}, "daemon.bind"),  # 127.0.0.1 as an integer
+    ({"daemon": {"port_offset": -1}}, "daemon.port_offset"),
+    ({"daemon": {"port_offset": 1.5}}, "daemon.port_offset"),
+    ({"daemon": {"port_offset": 60000}}, "daemon.port_offset"),  # 18570 + 60000 > 65535
+    ({"vehicles": {"count": 1000}, "daemon": {"port_offset": 46500}}, "daemon.port_offset"),
+    ({"daemon": {"speed": "fast"}}, "daemon.speed"),
+    ({"daemon": {"speed": 0}}, "daemon.speed"),
+    ({"daemon": {"speed": 5000}}, "daemon.speed"),
+    ({"daemon": {"speed": True}}, "daemon.speed"),
+    ({"daemon": {"state_dir": 3}}, "daemon.state_dir"),
+    ({"daemon": {"log_dir": ""}}, "daemon.log_dir"),
+    ({"daemon": {"packet_trace": []}}, "daemon.packet_trace"),
+    ({"daemon": {"zmq_pub": "5556"}}, "daemon.zmq_pub"),
+    ({"daemon": {"log_level": "loud"}}, "daemon.log_level"),
+    ({"daemon": {"log_level": "info"}, "logging": {"level": "info"}}, "daemon.log_level"),
+    ({"daemon": "127.0.0.1"}, "daemon: expected a table"),
+])
+def test_daemon_table_errors_name_the_key(doc, key):
+    with pytest.raises(ScenarioError, match=key.replace(".", r"\.")):
+        parse(doc)
+
+
+def test_daemon_table_values_and_relative_paths(tmp_path):
+    f = tmp_path / "cornet.toml"
+    f.write_text('[daemon]\nbind = "0.0.0.0"\nport_offset = 100\nspeed = "max"\n'
+                 'state_dir = "state"\nlog_dir = "/var/log/cornet"\nzmq_pub = "tcp://127.0.0.1:5556"\n'
+                 'packet_trace = "trace/packets.trace"\nlog_level = "debug"\n')
+    s = load(f)
+    d = s.daemon
+    assert (d.bind, d.port_offset, d.speed) == ("0.0.0.0", 100, math.inf)
+    assert d.state_dir == tmp_path / "state"  # relative to the file, not to the working dir
+    assert d.log_dir == pathlib.Path("/var/log/cornet")
+    assert d.packet_trace == tmp_path / "trace" / "packets.trace"
+    assert d.zmq_pub == "tcp://127.0.0.1:5556" and s.log_level == "debug"
+    assert "daemon: bind 0.0.0.0, port_offset 100, speed max" in describe(s)
+    assert parse({}).daemon == DaemonSettings()  # nothing set: flags and defaults apply
+
+
+def test_shipped_service_config_loads():
+    s = load(ROOT / "systemd" / "cornet.toml")
+    assert s.vehicles == 1 and s.network.backend == "embedded"
+    d = s.daemon
+    assert (d.bind, d.state_dir, d.log_dir) == ("127.0.0.1", pathlib.Path("/var/lib/cornet"),
+                                                pathlib.Path("/var/log/cornet"))
+
+
+def test_speed_limit_matches_the_cli():
+    from gateway import cli, scenario
+
+    assert scenario.MAX_SPEED == cli.MAX_SPEED
