@@ -14,6 +14,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import errno
+import ipaddress
 import logging
 import math
 import signal
@@ -27,6 +28,8 @@ from gateway import persist, zmq_pub
 from gateway.endpoint import SourceLimiter, UdpEndpoint
 from gateway.flightlog import FlightLog, new_run_dir
 from gateway.mavlink.session import LinkKind
+from gateway.mavlink.signing import SigningConfig, SigningKey
+from gateway.metrics import Exporter, MetricsServer
 from gateway.pacer import Pacer
 from gateway.scenario import ScenarioError
 from gateway.sdnotify import Notifier
@@ -58,6 +61,8 @@ class RunConfig:
     packet_trace: Path | None = None  # the network's log: one line per datagram event
     log_dir: Path | None = None  # flight logs: DIR/run-<date>-<time>/
     params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
+    signing_key: SigningKey | None = None  # MAVLink 2 signing on every link (--signing-key)
+    metrics_port: int | None = None  # Prometheus /metrics on bind:port (--metrics-port)
 
 
 def _fan_out(tracers: list[Tracer]) -> Tracer | None:
@@ -126,6 +131,10 @@ class Watchdog:
         self._complained = False
 
 
+class MetricsPortError(OSError):
+    """The metrics HTTP port could not be opened."""
+
+
 class PortInUse(OSError):
     def __init__(self, port: int, bind: str) -> None:
         super().__init__(errno.EADDRINUSE, f"UDP port {bind}:{port} is already in use")
@@ -142,14 +151,21 @@ class Daemon:
         self.publisher = Publisher(config.zmq_pub) if config.zmq_pub else None
         self._trace_file = open(config.packet_trace, "w") if config.packet_trace else None
         self.flightlog = None
+        boot_unix_s = time.time()  # the wall-clock moment of simulated t = 0 (logs, signing)
         if config.log_dir is not None:
             run = new_run_dir(config.log_dir, time.strftime("run-%Y%m%d-%H%M%S"))
-            self.flightlog = FlightLog(run, boot_unix_s=time.time())
+            self.flightlog = FlightLog(run, boot_unix_s=boot_unix_s)
+        signing = None
+        if config.signing_key is not None:
+            signing = SigningConfig(config.signing_key, epoch_unix_s=boot_unix_s)
+            log.info("MAVLink 2 signing on (key %s): unsigned and badly signed frames are "
+                     "refused", config.signing_key.fingerprint)
         tracers = [t for t in (self.publisher.packet_event if self.publisher else None,
                                TraceWriter(self._trace_file) if self._trace_file else None,
                                self.flightlog.tracer if self.flightlog else None) if t]
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
-                              tracer=_fan_out(tracers), home=config.home, realtime=True)
+                              tracer=_fan_out(tracers), home=config.home, realtime=True,
+                              signing=signing)
         if self.flightlog is not None:
             self.flightlog.attach(self.sim)
         if self.publisher is not None:
@@ -185,6 +201,9 @@ class Daemon:
             if self.flightlog is not None:
                 self.flightlog.record_datagram("up", index, kind, data, self.sim.now)
             self.sim.inject(index, kind, data, addr)
+            # What the network delivers at once (an ideal link) is handled now, as PX4 answers
+            # at once: a reply does not wait for the pacer's next wake-up.
+            self.sim.kernel.run(until=self.sim.now)
 
         return on_datagram
 
@@ -233,10 +252,17 @@ class Daemon:
                         for link in self.sim.links.values())
         limited = sum(e.stats.rx_rate_limited for e in self.endpoints.values())
         kernel_dropped = sum(e.stats.rx_kernel_dropped for e in self.endpoints.values())
+        signing = ""
+        if self.config.signing_key is not None:
+            unsigned = bad = 0
+            for link in self.sim.links.values():
+                unsigned += link.session.stats.rx_unsigned
+                bad += link.session.stats.rx_bad_signature + link.session.stats.rx_replayed
+            signing = f"unsigned={unsigned} bad_signature={bad} "
         return (f"sim_t={self.sim.now:.1f}s rtf={self.pacer.real_time_factor():.2f} "
                 f"vehicles={self.config.vehicles} datagrams_up={up} datagrams_down={down} "
                 f"net_dropped={dropped} malformed={malformed} rate_limited={limited} "
-                f"kernel_dropped={kernel_dropped} "
+                f"kernel_dropped={kernel_dropped} {signing}"
                 f"internal_errors={self.sim.internal_errors} slips={self.pacer.slips}")
 
     def short_status(self) -> str:
@@ -308,6 +334,22 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
     notifier = notifier if notifier is not None else Notifier.from_env()
     daemon = Daemon(config, notifier)
     await daemon.open()
+    if not ipaddress.ip_address(config.bind).is_loopback:
+        log.warning("the vehicles' ports are open to the network on %s%s", config.bind,
+                    "" if config.signing_key is not None else
+                    " without MAVLink signing: anyone who can reach them can fly the vehicles "
+                    "(--signing-key)")
+    metrics = None
+    if config.metrics_port is not None:
+        metrics = MetricsServer(Exporter(daemon, clock=daemon.pacer.wall), config.bind,
+                                config.metrics_port)
+        try:
+            await metrics.start()
+        except OSError as exc:
+            daemon.close()
+            raise MetricsPortError(f"--metrics-port {config.metrics_port}: {exc.strerror}") \
+                from exc
+        log.info("metrics: http://%s:%d/metrics", config.bind, metrics.port)
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
     handled = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGHUP)
@@ -361,6 +403,8 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
             loop.remove_signal_handler(sig)
         daemon.log_link_stats()
         log.info("stopping after %.1f s: %s", time.monotonic() - t0, daemon.status_line())
+        if metrics is not None:
+            metrics.close()
         daemon.close()
         notifier.close()
     return 0

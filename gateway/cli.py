@@ -121,6 +121,14 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--packet-trace", type=Path, default=None, metavar="FILE",
                      help="write the packet trace (one line per datagram event: time, send/drop/"
                      "recv, link, size, delay or drop reason) to FILE")
+    run.add_argument("--signing-key", type=Path, default=None, metavar="FILE",
+                     help="MAVLink 2 signing: every frame sent is signed and unsigned or badly "
+                     "signed frames are refused (counted). FILE: 32 raw bytes, 64 hex digits, or a "
+                     "passphrase (its SHA-256, as MAVProxy and QGC derive it)")
+    run.add_argument("--metrics-port", type=_non_negative(int, "--metrics-port"), default=None,
+                     metavar="PORT",
+                     help="serve the daemon's counters in the Prometheus text format on "
+                     "http://BIND:PORT/metrics")
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
@@ -312,7 +320,21 @@ def _run_settings(args: argparse.Namespace,
         "zmq_pub": _first(args.zmq_pub, d.zmq_pub),
         "packet_trace": _first(args.packet_trace, d.packet_trace),
         "params": {**scenario.params, **flag_params},
+        "metrics_port": _first(args.metrics_port, d.metrics_port),
     }
+    key_path = _first(args.signing_key, d.signing_key)
+    if key_path is not None:
+        from gateway.mavlink.signing import SigningKey
+
+        what = "--signing-key" if args.signing_key is not None else \
+            f"{source}: daemon.signing_key"
+        try:
+            settings["signing_key"] = SigningKey.load(key_path)
+        except (OSError, ValueError) as exc:
+            raise ScenarioError(f"{what} {key_path}: {exc}") from None
+    port = settings["metrics_port"]
+    if port is not None and not 1 <= port <= 65535:
+        raise ScenarioError(f"--metrics-port must be between 1 and 65535, got {port}")
     return settings, _first(args.log_level, scenario.log_level, "info")
 
 
@@ -346,7 +368,7 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         stream=sys.stderr,
     )
     # Imported here so that `cornet --help` and flag errors stay fast.
-    from gateway.app import PortInUse, RunConfig, serve
+    from gateway.app import MetricsPortError, PortInUse, RunConfig, serve
 
     config = RunConfig(**settings)
     reload = None
@@ -360,6 +382,9 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         return asyncio.run(serve(config, reload=reload))
     except zmq.ZMQError as exc:
         print(f"cornet: {where('zmq_pub')} {config.zmq_pub}: {exc}", file=sys.stderr)
+        return 2
+    except MetricsPortError as exc:
+        print(f"cornet: {exc}; choose a free port", file=sys.stderr)
         return 2
     except PortInUse as exc:
         print(f"cornet: {exc}; is another cornet or PX4 SITL running? "

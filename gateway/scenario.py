@@ -64,7 +64,7 @@ MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli.py)
 MAX_PORT = 65535
 HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it binds (gateway/sim.py)
 DAEMON_KEYS = ("bind", "port_offset", "speed", "state_dir", "log_dir", "zmq_pub", "packet_trace",
-               "log_level")
+               "log_level", "signing_key", "metrics_port")
 NETWORK_OWN_KEYS = ("backend", "seed", "sync_period_s", "late_policy", "ns3")
 
 
@@ -116,6 +116,8 @@ class DaemonSettings:
     log_dir: Path | None = None
     zmq_pub: str | None = None
     packet_trace: Path | None = None
+    signing_key: Path | None = None  # MAVLink 2 signing key file (gateway/mavlink/signing.py)
+    metrics_port: int | None = None  # Prometheus /metrics on bind:port; None: off
 
 
 @dataclass(frozen=True)
@@ -210,7 +212,13 @@ def _daemon(table: dict, base_dir: Path | None) -> tuple[DaemonSettings, str | N
                                          integer=True, minimum=0))
     if "speed" in table:
         out["speed"] = _speed(table["speed"], "daemon.speed")
-    for key in ("state_dir", "log_dir", "packet_trace"):
+    if "metrics_port" in table:
+        port = int(_number(table["metrics_port"], "daemon.metrics_port", integer=True,
+                           minimum=1))
+        if port > MAX_PORT:
+            raise ScenarioError(f"daemon.metrics_port: at most {MAX_PORT}, got {port}")
+        out["metrics_port"] = port
+    for key in ("state_dir", "log_dir", "packet_trace", "signing_key"):
         if key in table:
             out[key] = _path(table[key], f"daemon.{key}", base_dir)
     if "zmq_pub" in table:

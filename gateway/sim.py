@@ -25,6 +25,7 @@ from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 from gateway.mavlink.session import LinkKind, Session
+from gateway.mavlink.signing import SigningConfig
 from gateway.scenario import NetworkConfig
 from netsim.backend import EmbeddedBackend, NetworkBackend
 from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
@@ -99,13 +100,19 @@ class VehicleLink:
     def _on_uplink_delivered(self, packet: bytes, peer: object) -> None:
         stats = self.session.stats
         ours_before = stats.rx_frames - stats.rx_other_target
+        signed_before = stats.rx_signed
         try:
             self.session.receive_datagram(packet, self.sim.kernel.now)
         except Exception:
             # A bug in handling one message must not take down every vehicle of the daemon.
             self.sim.internal_errors += 1
             log.exception("%s: error while handling a datagram", self.name)
-        if stats.rx_frames - stats.rx_other_target != ours_before and peer is not None:
+        moved = stats.rx_frames - stats.rx_other_target != ours_before
+        if self.session.signing is not None:
+            # Signing on: only a correctly signed frame moves the peer; an unsigned HEARTBEAT
+            # (accepted, as PX4 accepts it) must not redirect the vehicle's replies.
+            moved = moved and stats.rx_signed != signed_before
+        if moved and peer is not None:
             # PX4 replies to the client it hears (PX4_COMPAT.md §1.2). Only a datagram that
             # held a valid frame for this vehicle moves the peer, so garbage or traffic for
             # other systems cannot hijack the link, and a restarted client is followed.
@@ -178,7 +185,8 @@ class Simulation:
                  params_for: Callable[[int], ParamStore] | None = None,
                  tracer: Tracer | None = None, home: GeoPoint = PX4_SITL_HOME,
                  realtime: bool = False,
-                 link_kinds: Sequence[LinkKind] = (LinkKind.GCS, LinkKind.API)) -> None:
+                 link_kinds: Sequence[LinkKind] = (LinkKind.GCS, LinkKind.API),
+                 signing: SigningConfig | None = None) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence.
         ``link_kinds``: the MAVLink links each vehicle has (the daemon: both, as PX4 SITL; an
@@ -207,7 +215,7 @@ class Simulation:
             vehicle = self.world.add_vehicle(index=i, params=params)
             self.vehicles.append(vehicle)
             for kind in self.link_kinds:
-                session = Session(vehicle, kind, now_s=0.0)
+                session = Session(vehicle, kind, now_s=0.0, signing=signing)
                 self.links[(i, kind)] = VehicleLink(self, i, kind, session)
         self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,
                                priority=PRIORITY_PHYSICS)
