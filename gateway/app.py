@@ -31,6 +31,7 @@ from gateway.mavlink.session import LinkKind
 from gateway.mavlink.signing import SigningConfig, SigningKey
 from gateway.metrics import Exporter, MetricsServer
 from gateway.pacer import Pacer
+from gateway.progress import ProgressLine
 from gateway.scenario import ScenarioError
 from gateway.sdnotify import Notifier
 from gateway.sim import NetworkConfig, Simulation, px4_ports
@@ -43,6 +44,7 @@ from vehicles.types import PX4_SITL_HOME, GeoPoint
 log = logging.getLogger(__name__)
 
 STATUS_PERIOD_S = 10.0
+LIVE_LINE_PERIOD_S = 0.5
 # PX4 rcS multiplies these by PX4_SIM_SPEED_FACTOR (PX4_COMPAT.md §9).
 SPEED_SCALED_PARAMS = ("COM_DL_LOSS_T", "COM_RC_LOSS_T", "COM_OF_LOSS_T", "COM_OBC_LOSS_T")
 
@@ -307,10 +309,41 @@ class Daemon:
                  "kept", new.network.summary, running, self.sim.now)
         return True
 
+    async def _live_line(self, line: ProgressLine) -> None:
+        """Faster-than-real-time runs on a terminal: one line redrawn in place (simulated time,
+        real-time factor, vehicle 1's mode), cleared before each log record."""
+        def clear_first(record: logging.LogRecord) -> bool:
+            line.clear()
+            return True
+
+        handlers = logging.getLogger().handlers
+        for h in handlers:
+            h.addFilter(clear_first)
+        try:
+            prev = (self.pacer.wall(), self.sim.now)
+            while True:
+                await asyncio.sleep(LIVE_LINE_PERIOD_S)
+                wall, now = self.pacer.wall(), self.sim.now
+                rtf = (now - prev[1]) / (wall - prev[0]) if wall > prev[0] else 0.0
+                prev = (wall, now)
+                st = self.sim.vehicles[0].status
+                line.update(now, f"sim_t={now:.0f}s rtf={rtf:.0f}x "
+                                 f"vehicles={self.config.vehicles} v1: {st.nav_state.name}"
+                                 f"{' armed' if st.armed else ''}", force=True)
+        finally:
+            for h in handlers:
+                h.removeFilter(clear_first)
+            line.close()
+
     async def _report(self) -> None:
         while True:
             await asyncio.sleep(STATUS_PERIOD_S)
             log.info("%s", self.status_line())
+            if self.flightlog is not None:
+                try:
+                    self.flightlog.sync()
+                except OSError as exc:  # a full disk must not stop the flight
+                    log.error("flight log: %s", exc)
             self.notifier.status(self.short_status())
 
 
@@ -388,6 +421,9 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
                                      name="pacer"),
                  asyncio.create_task(daemon._report(), name="status"),
                  asyncio.create_task(stop.wait(), name="stop")]
+        if cfg.speed > 1.0 and sys.stderr.isatty():
+            tasks.append(asyncio.create_task(daemon._live_line(ProgressLine(sys.stderr)),
+                                             name="live"))
         done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
         for task in done:
             if task.get_name() != "stop" and task.exception() is not None:

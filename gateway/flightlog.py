@@ -34,12 +34,14 @@ import io
 import json
 import logging
 import math
+import os
 import struct
 from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
 from gateway.mavlink.session import LinkKind
+from gateway.persist import write_atomic
 from netsim.link import TraceWriter
 
 if TYPE_CHECKING:
@@ -191,7 +193,7 @@ class FlightLog:
                 "home": None if home is None else [home.lat_deg, home.lon_deg, home.alt_amsl_m],
                 "network": sim.network.summary, "seed": sim.network.seed,
                 "vehicles": vehicles, **extra}
-        (self.dir / META_FILE).write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n")
+        write_atomic(self.dir / META_FILE, json.dumps(meta, indent=1, sort_keys=True) + "\n")
 
     def _tlog(self, index: int, kind: LinkKind) -> BinaryIO:
         f = self._tlogs.get((index, kind))
@@ -258,6 +260,17 @@ class FlightLog:
             f.flush()
         if self._state_file is not None:
             self._state_file.flush()
+
+    def sync(self) -> None:
+        """Flush and fsync every log file: what is written survives a power loss, not only a
+        crash of the process (the daemon calls it every few wall seconds)."""
+        if self.closed:
+            return
+        self.flush()
+        files = [self._trace_file, *self._tlogs.values(), self._state_file]
+        for f in files:
+            if f is not None:
+                os.fsync(f.fileno())
 
     def close(self) -> None:
         if self.closed:
