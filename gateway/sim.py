@@ -238,7 +238,7 @@ class Simulation:
         """Every vehicle's position in the world frame (NED from the world's home), by node."""
         out = {}
         for i, vehicle in enumerate(self.vehicles):
-            n, e, d = (float(x) for x in vehicle.state.position_ned_m)
+            n, e, d = vehicle.kinematics.position_ned_m
             n0, e0 = self._spawn_ned[i]
             out[f"v{i + 1}"] = (n0 + n, e0 + e, d)
         return out

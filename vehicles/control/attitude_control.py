@@ -114,8 +114,10 @@ class AttitudeControl:
         else:
             qd_red = q_mul(qd_red, q)
         q_mix = q_canonical(q_mul(q_conj(qd_red), qd))
-        mw = min(max(q_mix[0], -1.0), 1.0)
-        mz = min(max(q_mix[3], -1.0), 1.0)
+        mw = q_mix[0]
+        mw = -1.0 if mw < -1.0 else (1.0 if mw > 1.0 else mw)
+        mz = q_mix[3]
+        mz = -1.0 if mz < -1.0 else (1.0 if mz > 1.0 else mz)
         yw = self._yaw_w
         qd = q_mul(qd_red, (math.cos(yw * math.acos(mw)), 0.0, 0.0, math.sin(yw * math.asin(mz))))
         ew, ex, ey, ez = q_mul((w, -x, -y, -z), qd)
@@ -124,4 +126,6 @@ class AttitudeControl:
         p0, p1, p2 = self._p
         l0, l1, l2 = self.gains.rate_max_frd_radps
         r0, r1, r2 = 2.0 * ex * p0, 2.0 * ey * p1, 2.0 * ez * p2
-        return (min(max(r0, -l0), l0), min(max(r1, -l1), l1), min(max(r2, -l2), l2))
+        return (-l0 if r0 < -l0 else (l0 if r0 > l0 else r0),
+                -l1 if r1 < -l1 else (l1 if r1 > l1 else r1),
+                -l2 if r2 < -l2 else (l2 if r2 > l2 else r2))
