@@ -199,7 +199,7 @@ class Daemon:
 
     def _receiver(self, index: int, kind: LinkKind):
         def on_datagram(data: bytes, addr: tuple[str, int]) -> None:
-            self.pacer.sync()  # stamp the datagram with the simulated time of its arrival
+            self.pacer.sync_arrival()  # stamp the datagram with the simulated time it arrived
             if self.flightlog is not None:
                 self.flightlog.record_datagram("up", index, kind, data, self.sim.now)
             self.sim.inject(index, kind, data, addr)

@@ -22,6 +22,10 @@ from collections.abc import Callable
 from netsim.kernel import Kernel
 
 MAX_LAG_S = 0.2  # wall-clock lag beyond which simulated time slips instead of catching up
+# A datagram's arrival brings simulated time up to "now" only if that is at most this much wall
+# time behind; otherwise it is stamped with the current simulated time and the pacer's loop
+# catches up. Under overload a busy socket then cannot make every datagram run a long burst.
+ARRIVAL_SYNC_MAX_LAG_S = 0.01
 MAX_SLEEP_S = 0.05
 FLAT_OUT_CHUNK_S = 0.05  # speed "max": simulated time run between two looks at the sockets
 
@@ -71,6 +75,13 @@ class Pacer:
             self.slipped_s += slip
             target -= slip
         self.kernel.run(until=target)
+
+    def sync_arrival(self) -> None:
+        """Before a datagram goes in: ``sync`` when the simulation is (nearly) on time."""
+        if self.flat_out:
+            return
+        if (self._target(self._clock()) - self.kernel.now) / self.speed <= ARRIVAL_SYNC_MAX_LAG_S:
+            self.sync()
 
     def real_time_factor(self) -> float:
         """Simulated seconds per wall second since the previous call."""

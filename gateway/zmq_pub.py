@@ -8,6 +8,9 @@ Messages are two frames: the topic (ASCII) and a JSON object.
   cornet.state   10 Hz simulated: every vehicle's mode, arming, position, velocity, battery
   cornet.links   1 Hz simulated: every link direction's counters and latency percentiles
   cornet.packet  each datagram event on a link: send / drop (with reason) / recv
+
+The socket is an XPUB, so the publisher knows what subscribers asked for: packet events (one
+per datagram per event, the costly topic) are only built while someone subscribes to them.
 """
 
 from __future__ import annotations
@@ -50,13 +53,28 @@ def _r(x: float, digits: int = 3) -> float:
 class Publisher:
     def __init__(self, endpoint: str, context: zmq.Context | None = None) -> None:
         self._ctx = context or zmq.Context.instance()
-        self.socket = self._ctx.socket(zmq.PUB)
+        self.socket = self._ctx.socket(zmq.XPUB)
         self.socket.setsockopt(zmq.SNDHWM, SEND_HWM)
         self.socket.setsockopt(zmq.LINGER, 0)
         self.socket.bind(endpoint)
         self.endpoint = endpoint
         self.sent = 0
         self.dropped = 0
+        self._subscriptions: set[bytes] = set()
+        self.wants_packets = False  # someone subscribes to a prefix of cornet.packet
+
+    def poll_subscriptions(self) -> None:
+        """Read subscribe / unsubscribe notices (XPUB: first subscribe, last unsubscribe)."""
+        while True:
+            try:
+                msg = self.socket.recv(zmq.NOBLOCK)
+            except zmq.Again:
+                break
+            if msg[:1] == b"\x01":
+                self._subscriptions.add(msg[1:])
+            elif msg[:1] == b"\x00":
+                self._subscriptions.discard(msg[1:])
+        self.wants_packets = any(TOPIC_PACKET.startswith(p) for p in self._subscriptions)
 
     def publish(self, topic: bytes, body: dict) -> None:
         body["v"] = SCHEMA_VERSION
@@ -69,6 +87,7 @@ class Publisher:
 
     # --- what the simulation hands over -----------------------------------------------------
     def vehicle_states(self, now_s: float, sim) -> None:
+        self.poll_subscriptions()
         world = sim.vehicle_positions_ned_m()
         out = []
         for i, v in enumerate(sim.vehicles):
@@ -76,7 +95,7 @@ class Publisher:
             geo = v.global_position
             home = status.home
             n, e, d = world[f"v{i + 1}"]
-            vel = v.state.velocity_ned_mps
+            vel = v.kinematics.velocity_ned_mps
             out.append({
                 "sysid": i + 1,
                 "mode": MODE_NAMES.get(status.nav_state, status.nav_state.name),
@@ -97,6 +116,8 @@ class Publisher:
         self.publish(TOPIC_LINKS, {"t": _r(now_s, 4), "links": sim.link_stats()})
 
     def packet_event(self, event: str, link: str, time_s: float, size: int, detail: str) -> None:
+        if not self.wants_packets:
+            return
         self.publish(TOPIC_PACKET, {"t": _r(time_s, 6), "event": event, "link": link,
                                     "size": size, "detail": detail})
 
