@@ -65,6 +65,8 @@ class RunConfig:
     params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
     signing_key: SigningKey | None = None  # MAVLink 2 signing on every link (--signing-key)
     metrics_port: int | None = None  # Prometheus /metrics on bind:port (--metrics-port)
+    shards: int = 1  # worker processes (gateway/shard.py); 1: this process simulates all
+    first_vehicle: int = 0  # a shard's first vehicle (instance number)
 
 
 def _fan_out(tracers: list[Tracer]) -> Tracer | None:
@@ -167,7 +169,7 @@ class Daemon:
                                self.flightlog.tracer if self.flightlog else None) if t]
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
                               tracer=_fan_out(tracers), home=config.home, realtime=True,
-                              signing=signing)
+                              signing=signing, first_index=config.first_vehicle)
         if self.flightlog is not None:
             self.flightlog.attach(self.sim)
         if self.publisher is not None:
@@ -213,7 +215,7 @@ class Daemon:
         loop = asyncio.get_running_loop()
         cfg = self.config
         try:
-            for i in range(cfg.vehicles):
+            for i in self.sim.indices:
                 for kind in (LinkKind.GCS, LinkKind.API):
                     ports = px4_ports(i, kind, cfg.port_offset)
                     endpoint = UdpEndpoint(f"vehicle {i + 1} {kind.name} :{ports.local}",
@@ -245,27 +247,29 @@ class Daemon:
         if self.flightlog is not None:
             self.flightlog.close()
 
-    def status_line(self) -> str:
+    def counters(self) -> dict[str, int]:
+        """What the status line counts (summed over shards by the coordinator)."""
         stats = self.sim.link_stats()
-        up = sum(s["delivered"] for n, s in stats.items() if n.endswith("/up"))
-        down = sum(s["delivered"] for n, s in stats.items() if n.endswith("/down"))
-        dropped = sum(sum(s["dropped"].values()) for s in stats.values())
-        malformed = sum(link.session.stats.get("rx_malformed", 0)
-                        for link in self.sim.links.values())
-        limited = sum(e.stats.rx_rate_limited for e in self.endpoints.values())
-        kernel_dropped = sum(e.stats.rx_kernel_dropped for e in self.endpoints.values())
-        signing = ""
+        sessions = [link.session.stats for link in self.sim.links.values()]
+        out = {
+            "datagrams_up": sum(s["delivered"] for n, s in stats.items() if n.endswith("/up")),
+            "datagrams_down": sum(s["delivered"] for n, s in stats.items()
+                                  if n.endswith("/down")),
+            "net_dropped": sum(sum(s["dropped"].values()) for s in stats.values()),
+            "malformed": sum(st.rx_malformed for st in sessions),
+            "rate_limited": sum(e.stats.rx_rate_limited for e in self.endpoints.values()),
+            "kernel_dropped": sum(e.stats.rx_kernel_dropped for e in self.endpoints.values()),
+        }
         if self.config.signing_key is not None:
-            unsigned = bad = 0
-            for link in self.sim.links.values():
-                unsigned += link.session.stats.rx_unsigned
-                bad += link.session.stats.rx_bad_signature + link.session.stats.rx_replayed
-            signing = f"unsigned={unsigned} bad_signature={bad} "
-        return (f"sim_t={self.sim.now:.1f}s rtf={self.pacer.real_time_factor():.2f} "
-                f"vehicles={self.config.vehicles} datagrams_up={up} datagrams_down={down} "
-                f"net_dropped={dropped} malformed={malformed} rate_limited={limited} "
-                f"kernel_dropped={kernel_dropped} {signing}"
-                f"internal_errors={self.sim.internal_errors} slips={self.pacer.slips}")
+            out["unsigned"] = sum(st.rx_unsigned for st in sessions)
+            out["bad_signature"] = sum(st.rx_bad_signature + st.rx_replayed for st in sessions)
+        out["internal_errors"] = self.sim.internal_errors
+        out["slips"] = self.pacer.slips
+        return out
+
+    def status_line(self) -> str:
+        return format_status(self.sim.now, self.pacer.real_time_factor(), self.config.vehicles,
+                             self.counters())
 
     def short_status(self) -> str:
         """systemd's STATUS= (what `systemctl status cornet` shows)."""
@@ -345,6 +349,12 @@ class Daemon:
                 except OSError as exc:  # a full disk must not stop the flight
                     log.error("flight log: %s", exc)
             self.notifier.status(self.short_status())
+
+
+def format_status(sim_t: float, rtf: float, vehicles: int, counters: dict[str, int],
+                  extra: str = "") -> str:
+    return (f"sim_t={sim_t:.1f}s rtf={rtf:.2f} vehicles={vehicles} {extra}"
+            + " ".join(f"{k}={v}" for k, v in counters.items()))
 
 
 def _ports_text(cfg: RunConfig) -> str:

@@ -129,6 +129,9 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar="PORT",
                      help="serve the daemon's counters in the Prometheus text format on "
                      "http://BIND:PORT/metrics")
+    run.add_argument("--shards", type=_non_negative(int, "--shards"), default=1, metavar="K",
+                     help="split the vehicles across K worker processes kept in lockstep (use "
+                     "the cores; embedded network only; see gateway/shard.py)")
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
@@ -321,6 +324,7 @@ def _run_settings(args: argparse.Namespace,
         "packet_trace": _first(args.packet_trace, d.packet_trace),
         "params": {**scenario.params, **flag_params},
         "metrics_port": _first(args.metrics_port, d.metrics_port),
+        "shards": args.shards,
     }
     key_path = _first(args.signing_key, d.signing_key)
     if key_path is not None:
@@ -371,6 +375,21 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     from gateway.app import MetricsPortError, PortInUse, RunConfig, serve
 
     config = RunConfig(**settings)
+    from gateway.shard import check as check_shards
+
+    problem = check_shards(config)
+    if problem is not None:
+        parser.error(problem)
+    if config.shards > 1:
+        from gateway.shard import ShardError, serve_sharded
+
+        try:
+            return asyncio.run(serve_sharded(config, log_level))
+        except ShardError as exc:
+            print(f"cornet: {exc}", file=sys.stderr)
+            return exc.code
+        except KeyboardInterrupt:
+            return 0
     reload = None
     if source is not None:
         def reload() -> RunConfig:  # SIGHUP: the file again, under the same flags

@@ -15,6 +15,7 @@ real-time factor are counted.
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 import time
 from collections.abc import Callable
@@ -44,6 +45,28 @@ class Pacer:
         self.slipped_s = 0.0
         self._rtf_wall0 = self._wall0
         self._rtf_sim0 = self._sim0
+        # Sharded runs: simulated time never passes the horizon the coordinator granted
+        # (gateway/shard.py); one process alone has none.
+        self.horizon = math.inf
+        self._horizon_moved: asyncio.Event | None = None
+
+    def reanchor(self) -> None:
+        """Map the wall clock's present to the present simulated time (no slip counted): a
+        shard does this when the coordinator first lets time run."""
+        self._wall0 = self._rtf_wall0 = self._clock()
+        self._sim0 = self._rtf_sim0 = self.kernel.now
+
+    def set_horizon(self, horizon_s: float) -> None:
+        self.horizon = horizon_s
+        if self._horizon_moved is not None:
+            self._horizon_moved.set()
+
+    async def _wait_horizon(self, timeout_s: float) -> None:
+        if self._horizon_moved is None:
+            self._horizon_moved = asyncio.Event()
+        self._horizon_moved.clear()
+        with contextlib.suppress(asyncio.TimeoutError):
+            await asyncio.wait_for(self._horizon_moved.wait(), timeout_s)
 
     def wall(self) -> float:
         """The wall clock the pacer runs on (for the shell's wall-clock needs, e.g. rate
@@ -74,6 +97,10 @@ class Pacer:
             self.slips += 1
             self.slipped_s += slip
             target -= slip
+        if target > self.horizon:
+            target = self.horizon
+            if target < now:
+                return
         self.kernel.run(until=target)
 
     def sync_arrival(self) -> None:
@@ -97,15 +124,23 @@ class Pacer:
         the shell feeds systemd's watchdog from there, so the pings stop when this loop does."""
         if self.flat_out:
             while True:
-                self.kernel.run(until=self.kernel.now + FLAT_OUT_CHUNK_S)
+                until = min(self.kernel.now + FLAT_OUT_CHUNK_S, self.horizon)
+                if until > self.kernel.now:
+                    self.kernel.run(until=until)
                 if on_loop is not None:
                     on_loop()
-                await asyncio.sleep(0)
+                if self.kernel.now >= self.horizon:
+                    await self._wait_horizon(MAX_SLEEP_S)
+                else:
+                    await asyncio.sleep(0)
         while True:
             self.sync()
             if on_loop is not None:
                 on_loop()
             nxt = self.kernel.peek()
+            if nxt > self.horizon:  # held by the coordinator: wake when it moves the horizon
+                await self._wait_horizon(MAX_SLEEP_S)
+                continue
             if math.isinf(nxt):
                 delay = MAX_SLEEP_S
             else:

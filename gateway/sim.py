@@ -186,11 +186,13 @@ class Simulation:
                  tracer: Tracer | None = None, home: GeoPoint = PX4_SITL_HOME,
                  realtime: bool = False,
                  link_kinds: Sequence[LinkKind] = (LinkKind.GCS, LinkKind.API),
-                 signing: SigningConfig | None = None) -> None:
+                 signing: SigningConfig | None = None, first_index: int = 0) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence.
         ``link_kinds``: the MAVLink links each vehicle has (the daemon: both, as PX4 SITL; an
-        in-process lockstep run may leave out a link no client listens to)."""
+        in-process lockstep run may leave out a link no client listens to). ``first_index``: the
+        instance number of the first vehicle (a shard of a larger daemon simulates vehicles
+        first_index … first_index + vehicles − 1; ports, sysids and spawn points follow it)."""
         if vehicles < 1:
             raise ValueError("need at least one vehicle")
         if not link_kinds:
@@ -207,7 +209,12 @@ class Simulation:
         self.internal_errors = 0
         self.vehicles = []
         self.links: dict[tuple[int, LinkKind], VehicleLink] = {}
-        for i in range(vehicles):
+        self.indices = list(range(first_index, first_index + vehicles))
+        # Positions of vehicles simulated elsewhere (other shards), by node, pushed with ours.
+        self.remote_positions: dict[str, tuple[float, float, float]] = {}
+        # Called at every sync point with our vehicles' positions (the shard reports them).
+        self.on_sync: Callable[[float, dict[str, tuple[float, float, float]]], None] | None = None
+        for i in self.indices:
             if params_for is not None:
                 params = params_for(i)
             else:
@@ -221,7 +228,7 @@ class Simulation:
                                priority=PRIORITY_PHYSICS)
         # CORNET: the physics clock is the reference; mobility reaches the network once per
         # sync period (scheduled after the physics step of the same instant).
-        self._spawn_ned = [self.world.spawn_offset_ned_m(i) for i in range(vehicles)]
+        self._spawn_ned = [self.world.spawn_offset_ned_m(i) for i in self.indices]
         self._mobility = Ticker(self.kernel, self.backend.sync_period_s, self._push_mobility,
                                 priority=PRIORITY_PHYSICS)
         start = getattr(self.backend, "start", None)
@@ -237,10 +244,10 @@ class Simulation:
     def vehicle_positions_ned_m(self) -> dict[str, tuple[float, float, float]]:
         """Every vehicle's position in the world frame (NED from the world's home), by node."""
         out = {}
-        for i, vehicle in enumerate(self.vehicles):
+        for k, vehicle in enumerate(self.vehicles):
             n, e, d = vehicle.kinematics.position_ned_m
-            n0, e0 = self._spawn_ned[i]
-            out[f"v{i + 1}"] = (n0 + n, e0 + e, d)
+            n0, e0 = self._spawn_ned[k]
+            out[f"v{self.indices[k] + 1}"] = (n0 + n, e0 + e, d)
         return out
 
     def every(self, period_s: float, callback: Callable[[float], None]) -> Ticker:
@@ -250,7 +257,13 @@ class Simulation:
         return ticker
 
     def _push_mobility(self, now_s: float) -> None:
-        self.backend.update_mobility(now_s, self.vehicle_positions_ned_m())
+        ours = self.vehicle_positions_ned_m()
+        if self.remote_positions:
+            self.backend.update_mobility(now_s, {**self.remote_positions, **ours})
+        else:
+            self.backend.update_mobility(now_s, ours)
+        if self.on_sync is not None:
+            self.on_sync(now_s, ours)
 
     def inject(self, index: int, kind: LinkKind, datagram: bytes, peer: object = None) -> None:
         """A datagram from client ``peer`` arrives at the vehicle's port now: into the uplink."""
