@@ -28,6 +28,7 @@ MAX_LAG_S = 0.2  # wall-clock lag beyond which simulated time slips instead of c
 # catches up. Under overload a busy socket then cannot make every datagram run a long burst.
 ARRIVAL_SYNC_MAX_LAG_S = 0.01
 MAX_SLEEP_S = 0.05
+YIELD_EVERY_S = 0.0002  # wall time of simulation between two looks at the sockets
 FLAT_OUT_CHUNK_S = 0.05  # speed "max": simulated time run between two looks at the sockets
 
 
@@ -82,12 +83,19 @@ class Pacer:
 
     def sync(self) -> None:
         """Bring the kernel to the simulated time of the present wall-clock moment."""
+        target = self._sync_target()
+        if target is not None:
+            self.kernel.run(until=target)
+
+    def _sync_target(self) -> float | None:
+        """The simulated time of the present wall-clock moment (after slip and horizon rules),
+        or None when there is nothing to run."""
         if self.flat_out:
-            return  # no wall-clock target: time advances in run()
+            return None  # no wall-clock target: time advances in run()
         target = self._target(self._clock())
         now = self.kernel.now
         if target <= now:
-            return
+            return None
         lag = (target - now) / self.speed
         if lag > MAX_LAG_S:
             # Fell behind (CPU overload, a stalled event loop): re-anchor so we stay MAX_LAG_S
@@ -100,8 +108,24 @@ class Pacer:
         if target > self.horizon:
             target = self.horizon
             if target < now:
+                return None
+        return target
+
+    async def _run_sliced(self, target: float) -> None:
+        """``kernel.run(until=target)``, giving the event loop a turn every YIELD_EVERY_S of
+        wall time so that datagrams are answered while a long burst (many vehicles at one
+        instant) is being simulated."""
+        kernel, clock = self.kernel, self._clock
+        slice_end = clock() + YIELD_EVERY_S
+        while True:
+            if kernel.peek() > target:
+                if target > kernel.now:
+                    kernel.run(until=target)
                 return
-        self.kernel.run(until=target)
+            kernel.step()
+            if clock() >= slice_end:
+                await asyncio.sleep(0)  # arrivals may run the kernel further meanwhile
+                slice_end = clock() + YIELD_EVERY_S
 
     def sync_arrival(self) -> None:
         """Before a datagram goes in: ``sync`` when the simulation is (nearly) on time."""
@@ -134,7 +158,9 @@ class Pacer:
                 else:
                     await asyncio.sleep(0)
         while True:
-            self.sync()
+            target = self._sync_target()
+            if target is not None:
+                await self._run_sliced(target)
             if on_loop is not None:
                 on_loop()
             nxt = self.kernel.peek()
