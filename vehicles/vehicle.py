@@ -22,6 +22,7 @@ from vehicles.plan_types import MissionStatus, OffboardSetpoint, PlanItem, PlanR
 from vehicles.types import (
     CommandResult,
     GeoPoint,
+    HomePosition,
     Kinematics,
     NavState,
     StatusText,
@@ -117,6 +118,11 @@ class Vehicle:
             extra={"thrust_norm": ap.thrust_norm,
                    "rotor_speed_radps": tuple(self._rotor_speed_radps)},
         )
+
+    @property
+    def home(self) -> HomePosition | None:
+        """The home position (as in ``status.home``), without building the whole status."""
+        return self._autopilot.home
 
     @property
     def global_position(self) -> GeoPoint:

@@ -95,7 +95,7 @@ class Snapshot:
 
     @_once
     def home_alt_m(self) -> float:
-        home = self.status.home
+        home = self.vehicle.home
         return home.geo.alt_amsl_m if home is not None else self.vehicle.origin.alt_amsl_m
 
     @_once
