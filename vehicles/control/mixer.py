@@ -42,7 +42,7 @@ class Mixer:
 
     def mix(self, thrust: float, torque: tuple[float, float, float]) -> MixerOutput:
         roll, pitch, yaw = torque
-        thrust = min(max(thrust, 0.0), 1.0)
+        thrust = 0.0 if thrust < 0.0 else (1.0 if thrust > 1.0 else thrust)
         rows = self._rows
         rp = [roll * r + pitch * p for r, p, _ in rows]
         sat_pos = sat_neg = _NO_SATURATION
@@ -70,9 +70,14 @@ class Mixer:
                 y = yaw * yr
                 base = thrust + r
                 if y > 1e-9:
-                    s = min(s, max(1.0 - base, 0.0) / y)
+                    room = 1.0 - base
+                    r = (room if room > 0.0 else 0.0) / y
+                    if r < s:
+                        s = r
                 elif y < -1e-9:
-                    s = min(s, max(base, 0.0) / -y)
+                    r = (base if base > 0.0 else 0.0) / -y
+                    if r < s:
+                        s = r
             if s < 1.0:
                 if yaw > 0.0:
                     sat_pos = (sat_pos[0], sat_pos[1], True)
