@@ -308,13 +308,18 @@ class Scheduler:
         if now_us < self.next_us:
             return []
         out = []
-        for msg_id, nxt in self._next_us.items():
+        nexts = self._next_us
+        intervals = self._interval_us
+        earliest = NEVER
+        for msg_id, nxt in nexts.items():
             if nxt <= now_us:
-                iv = self._interval_us[msg_id]
+                iv = intervals[msg_id]
                 nxt += iv
                 if nxt <= now_us:  # late wake-up: re-phase, never burst
                     nxt = now_us + iv
-                self._next_us[msg_id] = nxt
+                nexts[msg_id] = nxt
                 out.append(STREAMS_BY_ID[msg_id])
-        self.next_us = self._min()
+            if nxt < earliest:
+                earliest = nxt
+        self.next_us = earliest
         return out
