@@ -14,6 +14,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import errno
+import gc
 import ipaddress
 import logging
 import math
@@ -377,6 +378,11 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
     notifier = notifier if notifier is not None else Notifier.from_env()
     daemon = Daemon(config, notifier)
     await daemon.open()
+    # Everything built so far (modules, PyBullet, parameter tables) lives as long as the
+    # process: keep it out of the cyclic collector's full passes, which would otherwise stall
+    # the loop for milliseconds at a time as the simulation allocates.
+    gc.collect()
+    gc.freeze()
     if not ipaddress.ip_address(config.bind).is_loopback:
         log.warning("the vehicles' ports are open to the network on %s%s", config.bind,
                     "" if config.signing_key is not None else

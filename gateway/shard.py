@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import gc
 import json
 import logging
 import math
@@ -129,6 +130,8 @@ async def _worker(config: RunConfig, shard: int, endpoint: str) -> int:
         sock.close()
         ctx.term()
         return 2
+    gc.collect()
+    gc.freeze()  # as gateway.app.serve does
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
