@@ -62,3 +62,19 @@ def upload_mission(conn, sysid: int, items: list[tuple[int, int, float, float, f
                                        0, 0, 0, float("nan"), int(lat * 1e7), int(lon * 1e7), alt,
                                        mission_type)
     raise AssertionError("mission upload timed out")
+
+
+def command_long(conn, command: int, *params: float, timeout_s: float = 6.0) -> int | None:
+    """COMMAND_LONG to vehicle 1 (component 1), resent with a higher confirmation every 0.5 s as
+    MAVSDK does, until its COMMAND_ACK or ``timeout_s``. Returns MAV_RESULT, None on time-out."""
+    p = list(params) + [0.0] * (7 - len(params))
+    deadline = time.monotonic() + timeout_s
+    confirmation = 0
+    while time.monotonic() < deadline:
+        conn.mav.command_long_send(1, 1, command, min(confirmation, 255), *p)
+        confirmation += 1
+        ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=0.5,
+                              condition=f"COMMAND_ACK.command=={command}")
+        if ack is not None:
+            return ack.result
+    return None

@@ -13,22 +13,11 @@ import pytest
 from pymavlink import mavutil
 
 from tests.e2e.daemon import start_daemon
-from tests.e2e.gcs import gcs, heartbeats_by_sysid
+from tests.e2e.gcs import command_long, gcs, heartbeats_by_sysid
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
 M = mavutil.mavlink
-
-
-def _command(conn, command: int, *params: float, timeout_s: float = 5.0) -> int | None:
-    p = list(params) + [0.0] * (7 - len(params))
-    for confirmation in range(3):
-        conn.mav.command_long_send(1, 1, command, confirmation, *p)
-        ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=timeout_s / 3,
-                              condition=f"COMMAND_ACK.command=={command}")
-        if ack is not None:
-            return ack.result
-    return None
 
 
 def _param(conn, name: str) -> float | None:
@@ -64,10 +53,10 @@ def test_sigkill_mid_flight_keeps_params_and_logs_up_to_the_last_second(daemon_f
         assert conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=5,
                                condition="PARAM_VALUE.param_id=='MIS_TAKEOFF_ALT'")
         deadline = time.monotonic() + 20
-        while _command(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1) != 0:
+        while command_long(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1) != 0:
             assert time.monotonic() < deadline, "could not arm"
             time.sleep(0.5)
-        assert _command(conn, M.MAV_CMD_NAV_TAKEOFF, *([float("nan")] * 7)) == 0
+        assert command_long(conn, M.MAV_CMD_NAV_TAKEOFF, *([float("nan")] * 7)) == 0
         deadline = time.monotonic() + 20
         while True:
             pos = conn.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=1)
@@ -139,10 +128,10 @@ def test_client_killed_and_restarted_mid_mission_picks_up_and_the_mission_finish
         assert heartbeats_by_sysid(first, {1})
         assert upload_mission(first, 1, items) == M.MAV_MISSION_ACCEPTED
         deadline = time.monotonic() + 20
-        while _command(first, M.MAV_CMD_COMPONENT_ARM_DISARM, 1) != 0:
+        while command_long(first, M.MAV_CMD_COMPONENT_ARM_DISARM, 1) != 0:
             assert time.monotonic() < deadline, "could not arm"
             time.sleep(0.5)
-        assert _command(first, M.MAV_CMD_MISSION_START, 0, 0) == 0
+        assert command_long(first, M.MAV_CMD_MISSION_START, 0, 0) == 0
         cur = first.recv_match(type="MISSION_CURRENT", blocking=True, timeout=10,
                                condition="MISSION_CURRENT.seq>=2")
         assert cur is not None, "mission did not progress"

@@ -12,6 +12,7 @@ from mavsdk.action import ActionError
 from pymavlink import mavutil
 
 from tests.e2e.daemon import free_tcp_port
+from tests.e2e.gcs import command_long
 from tests.e2e.persona import first
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
@@ -26,32 +27,20 @@ def key_of(passphrase: str) -> bytes:
     return hashlib.sha256(passphrase.encode()).digest()
 
 
-def signed_client(port: int):
+def signed_client(vehicle_port: int):
+    """A pymavlink GCS talking to the vehicle's own port from an ephemeral one: its first signed
+    frame makes the vehicle reply to it (an unsigned one would not)."""
     # pymavlink speaks MAVLink 1 (which cannot be signed) unless MAVLINK20 is set when the
     # connection picks its dialect.
     os.environ["MAVLINK20"] = "1"
     try:
-        conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=255,
+        conn = mavutil.mavlink_connection(f"udpout:127.0.0.1:{vehicle_port}", source_system=255,
                                           source_component=190, dialect="common")
     finally:
         del os.environ["MAVLINK20"]
     conn.setup_signing(key_of(PASSPHRASE), sign_outgoing=True, link_id=7,
                        initial_timestamp=int((time.time() - 1420070400) * 1e5))
     return conn
-
-
-def command(conn, cmd: int, *params: float, timeout_s: float = 6.0) -> int | None:
-    p = list(params) + [0.0] * (7 - len(params))
-    deadline = time.monotonic() + timeout_s
-    confirmation = 0
-    while time.monotonic() < deadline:
-        conn.mav.command_long_send(1, 1, cmd, confirmation, *p)
-        confirmation += 1
-        ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=0.5,
-                              condition=f"COMMAND_ACK.command=={cmd}")
-        if ack is not None:
-            return ack.result
-    return None
 
 
 @pytest.mark.asyncio
@@ -69,24 +58,25 @@ async def test_unsigned_mavsdk_is_refused_and_a_signed_pymavlink_client_flies(da
         await drone.action.arm()  # its COMMAND_LONGs are unsigned: dropped, never ACKed
     drone._stop_mavsdk_server()
 
-    conn = signed_client(d.api_port(0))
+    conn = signed_client(d.vehicle_port(0, "api"))
     try:
+        conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         hb = conn.recv_match(type="HEARTBEAT", blocking=True, timeout=10)
         assert hb is not None and hb.get_srcSystem() == 1
         assert hb.get_header().incompat_flags & 0x01  # the vehicle signs what it sends
         deadline = time.monotonic() + 20
-        while command(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1) != 0:
+        while command_long(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1) != 0:
             assert time.monotonic() < deadline, "signed client could not arm"
             time.sleep(0.5)
         nan = float("nan")
-        assert command(conn, M.MAV_CMD_NAV_TAKEOFF, nan, nan, nan, nan, nan, nan, nan) == 0
+        assert command_long(conn, M.MAV_CMD_NAV_TAKEOFF, nan, nan, nan, nan, nan, nan, nan) == 0
         deadline = time.monotonic() + 20
         while True:
             pos = conn.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=1)
             if pos is not None and pos.relative_alt > 2300:
                 break
             assert time.monotonic() < deadline, "did not climb"
-        assert command(conn, M.MAV_CMD_NAV_LAND, nan, nan, nan, nan, nan, nan, nan) == 0
+        assert command_long(conn, M.MAV_CMD_NAV_LAND, nan, nan, nan, nan, nan, nan, nan) == 0
         deadline = time.monotonic() + 30
         while True:
             hb = conn.recv_match(type="HEARTBEAT", blocking=True, timeout=1)

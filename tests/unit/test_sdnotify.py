@@ -5,6 +5,7 @@ watchdog policy (ping only while simulated time advances and the network is not 
 import logging
 import os
 import socket
+import tempfile
 import time
 import uuid
 
@@ -22,7 +23,7 @@ def listener(tmp_path):
     """A filesystem socket where systemd would be: (NOTIFY_SOCKET value, receiving socket)."""
     path = str(tmp_path / "notify")
     if len(path) >= 100:  # sockaddr_un holds 108 bytes
-        path = f"/tmp/cornet-notify-{uuid.uuid4().hex}"
+        path = os.path.join(tempfile.gettempdir(), f"cornet-notify-{uuid.uuid4().hex}")
     sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
     sock.bind(path)
     sock.settimeout(2.0)
