@@ -186,7 +186,10 @@ class Failsafe:
                 opts = check.options(flags, p)
                 if opts.action is Action.NONE:
                     continue
-                if current is None or opts.action > current.action:
+                if current is None or opts.action > current.action or not current.failing:
+                    # New, worse, or back after its condition had cleared (a second data-link
+                    # loss after the link came back): a fresh failsafe event, which a user
+                    # takeover of the earlier one does not cover.
                     self._add(now_s, check.name, opts)
                 else:
                     self.actions[check.name] = replace(current, failing=True)

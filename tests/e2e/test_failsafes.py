@@ -78,10 +78,12 @@ def test_data_link_loss_with_nav_dll_act_return(daemon_factory):
         for command, params in [(400, [1, 0, 0, 0, 0, 0, 0]),
                                 (22, [-1, 0, 0, float("nan"), float("nan"), float("nan"),
                                       float("nan")])]:
-            for _ in range(3):  # a GCS retries an unanswered command (QGC: 3 s, 3 times)
+            ack = None
+            for _ in range(6):  # a GCS retries an unanswered command, heartbeating meanwhile
                 ground.mav.command_long_send(1, 1, command, 0, *params)
-                ack = ground.recv_match(type="COMMAND_ACK", blocking=True, timeout=3,
+                ack = ground.recv_match(type="COMMAND_ACK", blocking=True, timeout=0.5,
                                         condition=f"COMMAND_ACK.command=={command}")
+                hb(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
                 if ack is not None:
                     break
             assert ack is not None and ack.result == 0, (command, ack, d.log_tail())
@@ -92,7 +94,10 @@ def test_data_link_loss_with_nav_dll_act_return(daemon_factory):
             watcher.poll(0.5)
         assert watcher.modes[-1][1] == HOLD and watcher.modes[-1][2], watcher.modes[-3:]
         t_lost = time.monotonic()  # the GCS goes silent
-        mode = watcher.wait(lambda mode, armed, state: mode == RTL, 30, "Return after DLL")
+        try:
+            mode = watcher.wait(lambda mode, armed, state: mode == RTL, 30, "Return after DLL")
+        except AssertionError as exc:
+            raise AssertionError(f"{exc}\n{d.log_tail()}") from None
         assert mode[0] - t_lost > 3.0  # COM_DL_LOSS_T
         watcher.wait(lambda mode, armed, state: not armed, 90, "landed and disarmed")
     finally:

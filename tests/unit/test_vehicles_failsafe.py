@@ -168,3 +168,18 @@ def test_battery_emergency_lands():
 def _above(v, alt):
     g = v.global_position
     return g.lat_deg, g.lon_deg, v.origin.alt_amsl_m + alt
+
+
+def test_a_second_link_loss_after_a_takeover_triggers_again():
+    from vehicles.failsafe import Action, Failsafe, FailsafeFlags
+    from vehicles.params import ParamStore
+    from vehicles.status_log import StatusLog
+    from vehicles.types import NavState
+
+    fs = Failsafe(ParamStore({"NAV_DLL_ACT": 2, "COM_FAIL_ACT_T": 0.0}), StatusLog())
+    hold = NavState.AUTO_LOITER
+    assert fs.update(1.0, FailsafeFlags(True, hold, gcs_lost=True)) is Action.RTL
+    fs.user_mode_changed()  # the user takes over while the link is still down
+    assert fs.update(1.1, FailsafeFlags(True, hold, gcs_lost=True)) is Action.NONE
+    assert fs.update(2.0, FailsafeFlags(True, hold)) is Action.NONE  # link back
+    assert fs.update(9.0, FailsafeFlags(True, hold, gcs_lost=True)) is Action.RTL  # lost again
