@@ -78,3 +78,20 @@ def command_long(conn, command: int, *params: float, timeout_s: float = 6.0) -> 
         if ack is not None:
             return ack.result
     return None
+
+
+def arm_and_take_off(conn, above_m: float, timeout_s: float = 20.0) -> None:
+    """Arm (retrying while pre-arm checks settle), NAV_TAKEOFF to the default altitude, and wait
+    until GLOBAL_POSITION_INT shows the vehicle ``above_m`` over home."""
+    arm, takeoff = 400, 22  # MAV_CMD_COMPONENT_ARM_DISARM, MAV_CMD_NAV_TAKEOFF
+    deadline = time.monotonic() + timeout_s
+    while command_long(conn, arm, 1) != 0:
+        assert time.monotonic() < deadline, "could not arm"
+        time.sleep(0.5)
+    assert command_long(conn, takeoff, *([float("nan")] * 7)) == 0
+    deadline = time.monotonic() + timeout_s
+    while True:
+        pos = conn.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=1)
+        if pos is not None and pos.relative_alt > above_m * 1000:
+            return
+        assert time.monotonic() < deadline, "did not climb"

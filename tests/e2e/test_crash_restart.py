@@ -13,7 +13,7 @@ import pytest
 from pymavlink import mavutil
 
 from tests.e2e.daemon import start_daemon
-from tests.e2e.gcs import command_long, gcs, heartbeats_by_sysid
+from tests.e2e.gcs import arm_and_take_off, command_long, gcs, heartbeats_by_sysid
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
@@ -52,17 +52,7 @@ def test_sigkill_mid_flight_keeps_params_and_logs_up_to_the_last_second(daemon_f
         conn.mav.param_set_send(1, 1, b"MIS_TAKEOFF_ALT", 4.0, M.MAV_PARAM_TYPE_REAL32)
         assert conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=5,
                                condition="PARAM_VALUE.param_id=='MIS_TAKEOFF_ALT'")
-        deadline = time.monotonic() + 20
-        while command_long(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1) != 0:
-            assert time.monotonic() < deadline, "could not arm"
-            time.sleep(0.5)
-        assert command_long(conn, M.MAV_CMD_NAV_TAKEOFF, *([float("nan")] * 7)) == 0
-        deadline = time.monotonic() + 20
-        while True:
-            pos = conn.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=1)
-            if pos is not None and pos.relative_alt > 3000:
-                break
-            assert time.monotonic() < deadline, "did not climb"
+        arm_and_take_off(conn, above_m=3.0)
         time.sleep(2.5)
         killed_at = time.time()
         os.kill(d.proc.pid, signal.SIGKILL)

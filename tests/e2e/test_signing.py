@@ -12,7 +12,7 @@ from mavsdk.action import ActionError
 from pymavlink import mavutil
 
 from tests.e2e.daemon import free_tcp_port
-from tests.e2e.gcs import command_long
+from tests.e2e.gcs import arm_and_take_off, command_long
 from tests.e2e.persona import first
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
@@ -64,18 +64,8 @@ async def test_unsigned_mavsdk_is_refused_and_a_signed_pymavlink_client_flies(da
         hb = conn.recv_match(type="HEARTBEAT", blocking=True, timeout=10)
         assert hb is not None and hb.get_srcSystem() == 1
         assert hb.get_header().incompat_flags & 0x01  # the vehicle signs what it sends
-        deadline = time.monotonic() + 20
-        while command_long(conn, M.MAV_CMD_COMPONENT_ARM_DISARM, 1) != 0:
-            assert time.monotonic() < deadline, "signed client could not arm"
-            time.sleep(0.5)
+        arm_and_take_off(conn, above_m=2.3)
         nan = float("nan")
-        assert command_long(conn, M.MAV_CMD_NAV_TAKEOFF, nan, nan, nan, nan, nan, nan, nan) == 0
-        deadline = time.monotonic() + 20
-        while True:
-            pos = conn.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=1)
-            if pos is not None and pos.relative_alt > 2300:
-                break
-            assert time.monotonic() < deadline, "did not climb"
         assert command_long(conn, M.MAV_CMD_NAV_LAND, nan, nan, nan, nan, nan, nan, nan) == 0
         deadline = time.monotonic() + 30
         while True:
