@@ -4,10 +4,13 @@ After PX4's split between libraries (PositionControl, AttitudeControl, RateContr
 wrappers (MulticopterPositionControl, mc_att_control, mc_rate_control, control_allocator).
 
 Rules and invariants:
-- ``update(now_s, measurement)`` is called once per physics step (250 Hz). Commander, land
-  detector, navigator, trajectory and position control run every POSITION_CONTROL_DIVIDER-th step
-  (50 Hz, like PX4's EKF-driven position loop); attitude, rate control and the mixer every step.
-- Disarmed -> no motor output (None) and every controller is reset.
+- ``step(now_s)`` is called once per physics step (250 Hz). Commander, land detector,
+  navigator, trajectory and position control run every POSITION_CONTROL_DIVIDER-th step (50 Hz,
+  like PX4's EKF-driven position loop); attitude, rate control and the mixer run every step in
+  the World's compiled inner loop (vehicles/inner_loop.py), from the setpoints, gains and resets
+  this class publishes (``attitude_setpoint``, ``rates_setpoint``, ``attitude_gains``,
+  ``rate_gains``, ``gains_changed``, ``rates_reset``).
+- Disarmed -> no motor output (the inner loop's OFF mode).
 - On the ground (landed) the motors idle unless the navigator's target is clearly above the
   vehicle (PX4 takeoff handling); while the land detector reports ground contact the thrust is cut
   (PX4 ``limit_thrust_during_landing``).
@@ -23,27 +26,28 @@ Rules and invariants:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from vehicles.airframe import Airframe
 from vehicles.battery import BatterySim
 from vehicles.commander import Commander
 from vehicles.control.attitude_control import (
-    AttitudeControl,
     AttitudeControlGains,
     AttitudeSetpoint,
     thrust_to_attitude,
 )
-from vehicles.control.mixer import Mixer
 from vehicles.control.position_control import (
     PositionControl,
     PositionControlGains,
     PositionSetpoint,
 )
 from vehicles.control.quat import q_yaw
-from vehicles.control.rate_control import RateControl, RateControlGains
+from vehicles.control.rate_control import RateControlGains
 from vehicles.control.trajectory import TrajectoryLimiter
 from vehicles.failsafe import FailsafeFlags
 from vehicles.geofence import Geofence
+from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF
 from vehicles.land_detector import LandDetector
 from vehicles.navigator import NavContext, Navigator, NavSetpoint, auto_limits
 from vehicles.offboard import Offboard, acceleration_to_thrust
@@ -51,6 +55,11 @@ from vehicles.plan_types import PlanType
 from vehicles.plans import PlanStore
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, GeoPoint, HomePosition, LandedState, NavState, Severity
+
+if TYPE_CHECKING:
+    from vehicles.vehicle import Measurement
+
+Vec3 = tuple[float, float, float]
 
 POSITION_CONTROL_DIVIDER = 5  # 250 Hz / 5 = 50 Hz
 # Motors spin at this normalized thrust when armed and idle (PX4 idle PWM / CA idle).
@@ -66,7 +75,11 @@ BATTERY_TEXTS = {
 
 class Autopilot:
     def __init__(self, params, airframe: Airframe, origin: GeoPoint, dt_s: float,
-                 boot_time_s: float = 0.0, name: str = "") -> None:
+                 boot_time_s: float = 0.0, name: str = "", *,
+                 measure: Callable[[], tuple[Measurement, Vec3]]) -> None:
+        """``measure()``: the vehicle's latest measurement and acceleration (the World's)."""
+        self._measure = measure
+        self.rates_reset = False  # _set_idle asks the inner loop to restart its rate controller
         self.params = params
         self.airframe = airframe
         self.origin = origin
@@ -86,7 +99,6 @@ class Autopilot:
         self.land_detector = LandDetector(params)
         self.battery = BatterySim(params, airframe.hover_thrust_norm)
         self.trajectory = TrajectoryLimiter()
-        self.mixer = Mixer(airframe.mixer_rows(), IDLE_THRUST_NORM)
         self.home: HomePosition | None = None
         self._hover = airframe.hover_thrust_norm
         self._load_gains()
@@ -98,9 +110,6 @@ class Autopilot:
         self._nav_sp: NavSetpoint | None = None
         self._vel_sp_z = 0.0
         self._thrust = 0.0
-        self._meas = None
-        self._sat_pos = (False, False, False)
-        self._sat_neg = (False, False, False)
         self.time_s = boot_time_s
 
     def _plan_changed(self, plan_type: PlanType) -> None:
@@ -112,8 +121,10 @@ class Autopilot:
     def _load_gains(self) -> None:
         self.position_control = PositionControl(
             PositionControlGains.from_params(self.params, hover_thrust=self._hover))
-        self.attitude_control = AttitudeControl(AttitudeControlGains.from_params(self.params))
-        self.rate_control = RateControl(RateControlGains.from_params(self.params))
+        self.attitude_gains = AttitudeControlGains.from_params(self.params)
+        self.rate_gains = RateControlGains.from_params(self.params)
+        self.gains_changed = True  # the inner loop re-reads them (and restarts its integrator)
+        self.inner_dirty = True
 
     # --- commands (the Vehicle API delegates here) -----------------------------------------------
     def arm(self, now_s: float, forced: bool = False,
@@ -188,9 +199,9 @@ class Autopilot:
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
              yaw_rad: float = math.nan, speed_mps: float = math.nan) -> CommandResult:
         """DO_REPOSITION: Hold at a global target (navigator.cpp handle reposition)."""
-        if self._meas is None or not self.commander.position_valid:
+        if not self.commander.position_valid:
             return CommandResult.TEMPORARILY_REJECTED
-        n, e, d = self._meas.position_ned_m
+        n, e, d = self._measure()[0].position_ned_m
         if not (math.isnan(lat_deg) or math.isnan(lon_deg)):
             n, e, _ = self.origin.ned_of(GeoPoint(lat_deg, lon_deg, self.origin.alt_amsl_m))
         if not math.isnan(alt_amsl_m):
@@ -245,34 +256,36 @@ class Autopilot:
         return self._thrust
 
     def _set_home(self) -> None:
-        m = self._meas
-        if m is None:
-            return
+        m = self._measure()[0]
         n, e, d = m.position_ned_m
         self.home = HomePosition(self.origin.offset_ned(n, e, d), (n, e, d), q_yaw(m.attitude_q))
 
     # --- the loop ----------------------------------------------------------------------------
-    def update(self, now_s: float, meas, accel_ned_mps2) -> tuple[float, ...] | None:
-        self._meas = meas
+    def step(self, now_s: float) -> int:
+        """Once per physics step, before the inner loop runs: the 50 Hz part when due. Returns
+        the inner loop's mode for this step (vehicles/inner_loop.py): OFF when disarmed or
+        terminated, IDLE on the ground, FLY otherwise; ``inner_dirty`` says the setpoints
+        changed (the World then copies them with ``InnerLoop.load``)."""
         self.time_s = now_s
-        cmd = self.commander
         if self._tick % POSITION_CONTROL_DIVIDER == 0:
-            self._update_slow(now_s, meas, accel_ned_mps2)
+            meas, accel = self._measure()
+            self._update_slow(now_s, meas, accel)
+            self.inner_dirty = True
         self._tick += 1
+        cmd = self.commander
         if not cmd.armed or cmd.terminated:
-            return None
-        if self._idle:
-            self.rate_control.reset()
-            return self.mixer.mix(0.0, (0.0, 0.0, 0.0)).motor_u
-        rates_sp = (self._rates_sp if self._rates_sp is not None
-                    else self.attitude_control.update(meas.attitude_q, self._att_sp.attitude_q))
-        torque = self.rate_control.update(self.dt_s, meas.rates_frd_radps, rates_sp,
-                                          landed=self.land_detector.landed,
-                                          saturation_positive=self._sat_pos,
-                                          saturation_negative=self._sat_neg)
-        out = self.mixer.mix(self._att_sp.thrust_body_norm, torque)
-        self._sat_pos, self._sat_neg = out.saturation_positive, out.saturation_negative
-        return out.motor_u
+            return MODE_OFF
+        return MODE_IDLE if self._idle else MODE_FLY
+
+    # --- what the inner loop reads (InnerLoop.load) -------------------------------------------
+    @property
+    def attitude_setpoint(self) -> AttitudeSetpoint:
+        return self._att_sp
+
+    @property
+    def rates_setpoint(self) -> tuple[float, float, float] | None:
+        """A body-rate setpoint that replaces the attitude controller (offboard rates)."""
+        return self._rates_sp
 
     def _failsafe_flags(self, now_s: float, pos) -> FailsafeFlags:
         p = self.params
@@ -358,7 +371,7 @@ class Autopilot:
         self._vel_sp_z = 0.0
         self._yaw_sp = math.nan
         self.position_control.reset_integral()
-        self.rate_control.reset()
+        self.rates_reset = True
         self._att_sp = AttitudeSetpoint(meas.attitude_q, 0.0)
 
     def _apply_position_control(self, dt: float, meas, accel, sp: PositionSetpoint,

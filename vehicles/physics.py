@@ -4,11 +4,16 @@ Rules and invariants:
 - One ``World`` = one PyBullet client in DIRECT mode; every call passes ``physicsClientId``
   (never the global client), so several worlds can coexist (tests do this).
 - PyBullet's world frame is ENU (x East, y North, z Up) and bodies are FLU. Everything outside
-  this module is NED / FRD: ``_Body.read`` and ``_Body.apply`` are the only conversions.
-- Forces are computed here in the body frame (per-rotor thrust k·ω² and reaction torque, first-
-  order motor lag, linear drag), rotated to the world frame and applied at the centre of mass with
-  ``WORLD_FRAME`` (PyBullet's LINK_FRAME torque on a base is unreliable). PyBullet clears external
-  forces after each ``stepSimulation``, so they are applied every step.
+  this module and vehicles/inner_loop.py is NED / FRD; the inner loop's ``measure`` and
+  ``control_and_forces`` kernels are the only conversions.
+- Forces are computed in the body frame (per-rotor thrust k·ω² and reaction torque, first-order
+  motor lag, linear drag; inner_loop.py), rotated to the world frame and applied at the centre of
+  mass with ``WORLD_FRAME`` (PyBullet's LINK_FRAME torque on a base is unreliable). PyBullet
+  clears external forces after each ``stepSimulation``, so they are applied every step.
+- A step is: every autopilot's 50 Hz part when due (Python), one compiled call for every
+  vehicle's attitude/rate/mixer/motor loop, the PyBullet calls per body, one compiled call that
+  turns the bodies' states into measurements. PyBullet has no call that reads or pushes many
+  bodies at once, so the per-body calls stay.
 - Fixed step ``dt_s`` (default 0.004 s = 250 Hz, PX4 lockstep), one sub-step.
 - ``World.step(now_s)`` runs each vehicle's autopilot at ``now_s`` on the state measured at
   ``now_s``, then integrates to ``now_s + dt_s``; the new state is stamped ``now_s + dt_s``.
@@ -24,6 +29,8 @@ import math
 import pybullet as pb
 
 from vehicles.airframe import X500, Airframe
+from vehicles.autopilot import IDLE_THRUST_NORM
+from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_VEL, InnerLoop
 from vehicles.params import ParamStore
 from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint
 from vehicles.vehicle import Measurement, Vehicle
@@ -38,109 +45,22 @@ _SQRT_HALF = math.sqrt(0.5)
 _FACING_NORTH_XYZW = (0.0, 0.0, _SQRT_HALF, _SQRT_HALF)
 
 
-class _Body:
-    """One rigid body and its four motors, in one PyBullet client."""
-
-    def __init__(self, client: int, airframe: Airframe, spawn_enu_m: tuple[float, float, float],
-                 dt_s: float) -> None:
-        self._c = client
-        self._af = airframe
-        self._dt = dt_s
-        self.spawn_enu_m = spawn_enu_m
-        half = [s / 2.0 for s in airframe.collision_box_m]
-        shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=client)
-        self.body_id = pb.createMultiBody(
-            baseMass=airframe.mass_kg, baseCollisionShapeIndex=shape,
-            basePosition=spawn_enu_m, baseOrientation=_FACING_NORTH_XYZW, physicsClientId=client,
-        )
-        pb.changeDynamics(
-            self.body_id, -1,
-            localInertiaDiagonal=[airframe.ixx_kgm2, airframe.iyy_kgm2, airframe.izz_kgm2],
-            lateralFriction=GROUND_FRICTION, restitution=0.0, linearDamping=0.0,
-            angularDamping=0.0, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING,
-            physicsClientId=client,
-        )
-        n = airframe.rotor_count
-        self.rotor_speed_radps = [0.0] * n
-        self._alpha_up = 1.0 - math.exp(-dt_s / airframe.motor_time_constant_up_s)
-        self._alpha_down = 1.0 - math.exp(-dt_s / airframe.motor_time_constant_down_s)
-        self._rotor_xy = [(r.position_frd_m[0], r.position_frd_m[1]) for r in airframe.rotors]
-        self._yaw_k = [r.yaw_sign * airframe.moment_constant_m for r in airframe.rotors]
-        self._com_enu = list(spawn_enu_m)
-        self._q_ned = (1.0, 0.0, 0.0, 0.0)
-        self._vel_ned = (0.0, 0.0, 0.0)
-
-    def read(self) -> Measurement:
-        c = self._c
-        pos, orn = pb.getBasePositionAndOrientation(self.body_id, physicsClientId=c)
-        lin, ang = pb.getBaseVelocity(self.body_id, physicsClientId=c)
-        self._com_enu = pos
-        # ENU/FLU quaternion (x, y, z, w) -> NED/FRD (w, x, y, z): q_ned_enu ⊗ q ⊗ q_flu_frd.
-        x, y, z, w = orn
-        s = _SQRT_HALF
-        q = (s * (w + z), s * (x + y), s * (x - y), s * (w - z))
-        if q[0] < 0.0:
-            q = (-q[0], -q[1], -q[2], -q[3])
-        self._q_ned = q
-        sx, sy, sz = self.spawn_enu_m
-        position = (pos[1] - sy, pos[0] - sx, sz - pos[2])
-        velocity = (lin[1], lin[0], -lin[2])
-        self._vel_ned = velocity
-        # Body rates: R^T · ω_ned.
-        wn, we, wd = ang[1], ang[0], -ang[2]
-        qw, qx, qy, qz = q
-        r00 = 1 - 2 * (qy * qy + qz * qz)
-        r01 = 2 * (qx * qy - qw * qz)
-        r02 = 2 * (qx * qz + qw * qy)
-        r10 = 2 * (qx * qy + qw * qz)
-        r11 = 1 - 2 * (qx * qx + qz * qz)
-        r12 = 2 * (qy * qz - qw * qx)
-        r20 = 2 * (qx * qz - qw * qy)
-        r21 = 2 * (qy * qz + qw * qx)
-        r22 = 1 - 2 * (qx * qx + qy * qy)
-        rates = (
-            r00 * wn + r10 * we + r20 * wd,
-            r01 * wn + r11 * we + r21 * wd,
-            r02 * wn + r12 * we + r22 * wd,
-        )
-        return Measurement(position, velocity, q, rates)
-
-    def apply(self, motor_u: tuple[float, ...] | None) -> None:
-        """Advance the motor lag by one step and apply this step's force and torque."""
-        af = self._af
-        w_max = af.max_rotor_speed_radps
-        k = af.motor_constant_n_per_radps2
-        speeds = self.rotor_speed_radps
-        total = tx = ty = tz = 0.0
-        for i in range(len(speeds)):
-            cmd = 0.0 if motor_u is None else motor_u[i] * w_max
-            w = speeds[i]
-            w += (cmd - w) * (self._alpha_up if cmd > w else self._alpha_down)
-            speeds[i] = w
-            t = k * w * w
-            x, y = self._rotor_xy[i]
-            total += t
-            tx -= y * t
-            ty += x * t
-            tz += self._yaw_k[i] * t
-        if total == 0.0 and self._vel_ned == (0.0, 0.0, 0.0):
-            return
-        qw, qx, qy, qz = self._q_ned
-        # Body force (0, 0, -total) in NED = -total · third column of R; plus linear drag.
-        c = af.linear_drag_n_per_mps
-        vn, ve, vd = self._vel_ned
-        fn = -total * 2 * (qx * qz + qw * qy) - c * vn
-        fe = -total * 2 * (qy * qz - qw * qx) - c * ve
-        fd = -total * (1 - 2 * (qx * qx + qy * qy)) - c * vd
-        # Body torque into NED: R · τ.
-        mn = (1 - 2 * (qy * qy + qz * qz)) * tx + 2 * (qx * qy - qw * qz) * ty + 2 * (qx * qz + qw * qy) * tz
-        me = 2 * (qx * qy + qw * qz) * tx + (1 - 2 * (qx * qx + qz * qz)) * ty + 2 * (qy * qz - qw * qx) * tz
-        md = 2 * (qx * qz - qw * qy) * tx + 2 * (qy * qz + qw * qx) * ty + (1 - 2 * (qx * qx + qy * qy)) * tz
-        c_id = self._c
-        pb.applyExternalForce(self.body_id, -1, (fe, fn, -fd), self._com_enu, pb.WORLD_FRAME,
-                              physicsClientId=c_id)
-        pb.applyExternalTorque(self.body_id, -1, (me, mn, -md), pb.WORLD_FRAME,
-                               physicsClientId=c_id)
+def _create_body(client: int, airframe: Airframe, spawn_enu_m: tuple[float, float, float]) -> int:
+    """One rigid box with the airframe's mass and inertia, nose north, in ``client``."""
+    half = [s / 2.0 for s in airframe.collision_box_m]
+    shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=client)
+    body_id = pb.createMultiBody(
+        baseMass=airframe.mass_kg, baseCollisionShapeIndex=shape,
+        basePosition=spawn_enu_m, baseOrientation=_FACING_NORTH_XYZW, physicsClientId=client,
+    )
+    pb.changeDynamics(
+        body_id, -1,
+        localInertiaDiagonal=[airframe.ixx_kgm2, airframe.iyy_kgm2, airframe.izz_kgm2],
+        lateralFriction=GROUND_FRICTION, restitution=0.0, linearDamping=0.0,
+        angularDamping=0.0, activationState=pb.ACTIVATION_STATE_DISABLE_SLEEPING,
+        physicsClientId=client,
+    )
+    return body_id
 
 
 class World:
@@ -152,6 +72,7 @@ class World:
         self.home = home
         self.airframe = airframe
         self.time_s = 0.0
+        self.steps = 0  # physics steps taken: a vehicle's cached views are valid for one step
         self.client_id = pb.connect(pb.DIRECT)
         c = self.client_id
         pb.setGravity(0, 0, -GRAVITY_MPS2, physicsClientId=c)
@@ -160,8 +81,11 @@ class World:
         self.ground_id = pb.createMultiBody(0, plane, physicsClientId=c)
         pb.changeDynamics(self.ground_id, -1, lateralFriction=GROUND_FRICTION, restitution=0.0,
                           physicsClientId=c)
+        self.inner = InnerLoop(airframe, dt_s, IDLE_THRUST_NORM)
         self._vehicles: list[Vehicle] = []
-        self._bodies: list[_Body] = []
+        self._body_ids: list[int] = []
+        self._com_enu: list[tuple[float, float, float]] = []  # where forces are applied
+        self._rows: list[list[float]] | None = None  # ``inner.measured`` as lists, per step
         self._closed = False
 
     @property
@@ -176,26 +100,68 @@ class World:
         if any(v.index == index for v in self._vehicles):
             raise ValueError(f"vehicle index {index} already exists")
         north, east = self.spawn_offset_ned_m(index)
-        body = _Body(self.client_id, self.airframe, (east, north, self.airframe.rest_height_m),
-                     self.dt_s)
+        spawn = (east, north, self.airframe.rest_height_m)
+        body_id = _create_body(self.client_id, self.airframe, spawn)
+        row = self.inner.add(spawn, self._read(body_id))
+        self._rows = None
         origin = self.home.offset_ned(north, east, 0.0)
         vehicle = Vehicle(index, params if params is not None else ParamStore(), self.airframe,
-                          origin, self.dt_s, boot_time_s=self.time_s)
-        vehicle._measure(self.time_s, body.read())
+                          origin, self.dt_s, boot_time_s=self.time_s, world=self, row=row)
         self._vehicles.append(vehicle)
-        self._bodies.append(body)
+        self._body_ids.append(body_id)
+        self._com_enu.append(spawn)
         log.debug("vehicle %d spawned at N%.1f E%.1f (client %d)", index, north, east, self.client_id)
         return vehicle
 
+    def _read(self, body_id: int) -> tuple[float, ...]:
+        pos, orn = pb.getBasePositionAndOrientation(body_id, physicsClientId=self.client_id)
+        lin, ang = pb.getBaseVelocity(body_id, physicsClientId=self.client_id)
+        return pos + orn + lin + ang
+
+    def measurement(self, row: int) -> tuple[Measurement, tuple[float, float, float]]:
+        """Row ``row``'s state after the last step (NED/FRD) and its acceleration."""
+        rows = self._rows
+        if rows is None:
+            rows = self._rows = self.inner.measured.tolist()
+        m = rows[row]
+        return (Measurement((m[M_POS], m[M_POS + 1], m[M_POS + 2]),
+                            (m[M_VEL], m[M_VEL + 1], m[M_VEL + 2]),
+                            (m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3]),
+                            (m[M_RATES], m[M_RATES + 1], m[M_RATES + 2])),
+                (m[M_ACCEL], m[M_ACCEL + 1], m[M_ACCEL + 2]))
+
+    def rotor_speeds(self, row: int) -> tuple[float, ...]:
+        return tuple(self.inner.rotor_speed[row].tolist())
+
     def step(self, now_s: float) -> None:
-        for vehicle, body in zip(self._vehicles, self._bodies):
-            body.apply(vehicle._control(now_s))
-        pb.stepSimulation(physicsClientId=self.client_id)
+        inner = self.inner
+        mode = inner.mode
+        for k, vehicle in enumerate(self._vehicles):
+            ap = vehicle._autopilot
+            mode[k] = ap.step(now_s)
+            if ap.inner_dirty:
+                inner.load(k, ap)
+        inner.control()
+        c = self.client_id
+        apply_force, apply_torque, frame = pb.applyExternalForce, pb.applyExternalTorque, pb.WORLD_FRAME
+        com = self._com_enu
+        for k, (body_id, f) in enumerate(zip(self._body_ids, inner.forces.tolist())):
+            if f[6]:
+                apply_force(body_id, -1, (f[0], f[1], f[2]), com[k], frame, physicsClientId=c)
+                apply_torque(body_id, -1, (f[3], f[4], f[5]), frame, physicsClientId=c)
+        pb.stepSimulation(physicsClientId=c)
+        get_pose, get_velocity = pb.getBasePositionAndOrientation, pb.getBaseVelocity
+        raw = []
+        for k, body_id in enumerate(self._body_ids):
+            pos, orn = get_pose(body_id, physicsClientId=c)
+            lin, ang = get_velocity(body_id, physicsClientId=c)
+            com[k] = pos
+            raw.append(pos + orn + lin + ang)
         t = now_s + self.dt_s
-        for vehicle, body in zip(self._vehicles, self._bodies):
-            vehicle._measure(t, body.read())
-            vehicle._rotor_speed_radps = body.rotor_speed_radps
+        inner.measure(raw, t - self.time_s)
+        self._rows = None
         self.time_s = t
+        self.steps += 1
 
     def close(self) -> None:
         if not self._closed:

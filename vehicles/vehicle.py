@@ -5,7 +5,8 @@ This is the object the gateway talks to (vehicles/README.md contract). Rules:
 - ``state`` and ``status`` are frozen snapshots built lazily (at most once per physics step) so
   the 250 Hz loop does not allocate them for vehicles nobody is looking at.
 - Local NED is relative to ``origin`` (the spawn point on the ground, = EKF origin).
-- ``_measure`` / ``_control`` are called by the World only.
+- The World owns the body and the inner loop (vehicles/inner_loop.py); the vehicle reads its
+  measurement from the World lazily, once per physics step at most.
 """
 
 from __future__ import annotations
@@ -44,36 +45,31 @@ class Measurement(NamedTuple):
 
 class Vehicle:
     def __init__(self, index: int, params: ParamStore, airframe: Airframe, origin: GeoPoint,
-                 dt_s: float, boot_time_s: float = 0.0) -> None:
+                 dt_s: float, boot_time_s: float = 0.0, *, world, row: int) -> None:
+        """``world`` owns the body and row ``row`` of its inner loop (physics.World)."""
         self.index = index
         self.params = params
         self.airframe = airframe
         self.origin = origin
         self._dt_s = dt_s
+        self._world = world
+        self._row = row
         self._autopilot = Autopilot(params, airframe, origin, dt_s, boot_time_s,
-                                    name=f"vehicle {index + 1}")
-        self._time_s = boot_time_s
-        self._meas: Measurement | None = None
-        self._accel: Vec3 = (0.0, 0.0, 0.0)
+                                    name=f"vehicle {index + 1}", measure=self._measurement)
+        self._cache_step = -1  # the world step the cached views below belong to
+        self._meas: tuple[Measurement, Vec3] | None = None
         self._state: VehicleState | None = None
         self._kin: Kinematics | None = None
-        self._rotor_speed_radps: list[float] = [0.0] * airframe.rotor_count
 
     # --- World hooks ---------------------------------------------------------------------------
-    def _measure(self, time_s: float, meas: Measurement) -> None:
-        prev = self._meas
-        if prev is not None and time_s > self._time_s:
-            dt = time_s - self._time_s
-            v0, v1 = prev.velocity_ned_mps, meas.velocity_ned_mps
-            self._accel = ((v1[0] - v0[0]) / dt, (v1[1] - v0[1]) / dt, (v1[2] - v0[2]) / dt)
-        self._meas = meas
-        self._time_s = time_s
-        self._state = None
-        self._kin = None
-
-    def _control(self, now_s: float) -> tuple[float, ...] | None:
-        assert self._meas is not None
-        return self._autopilot.update(now_s, self._meas, self._accel)
+    def _measurement(self) -> tuple[Measurement, Vec3]:
+        """The state measured after the world's last step, and the acceleration."""
+        if self._cache_step != self._world.steps:
+            self._cache_step = self._world.steps
+            self._meas = self._state = self._kin = None
+        if self._meas is None:
+            self._meas = self._world.measurement(self._row)
+        return self._meas
 
     # --- README contract ---------------------------------------------------------------------
     @property
@@ -82,21 +78,19 @@ class Vehicle:
 
     @property
     def state(self) -> VehicleState:
+        m, accel = self._measurement()
         if self._state is None:
-            m = self._meas
-            assert m is not None
             self._state = VehicleState(
-                self._time_s, np.array(m.position_ned_m), np.array(m.velocity_ned_mps),
-                np.array(self._accel), np.array(m.attitude_q), np.array(m.rates_frd_radps),
+                self._world.time_s, np.array(m.position_ned_m), np.array(m.velocity_ned_mps),
+                np.array(accel), np.array(m.attitude_q), np.array(m.rates_frd_radps),
             )
         return self._state
 
     @property
     def kinematics(self) -> Kinematics:
+        m, _ = self._measurement()
         if self._kin is None:
-            m = self._meas
-            assert m is not None
-            self._kin = Kinematics(self._time_s, m.position_ned_m, m.velocity_ned_mps,
+            self._kin = Kinematics(self._world.time_s, m.position_ned_m, m.velocity_ned_mps,
                                    m.attitude_q, m.rates_frd_radps)
         return self._kin
 
@@ -105,7 +99,7 @@ class Vehicle:
         ap = self._autopilot
         c = ap.commander
         return VehicleStatus(
-            time_s=self._time_s,
+            time_s=self._world.time_s,
             armed=c.armed,
             nav_state=c.nav_state,
             landed_state=ap.landed_state,
@@ -116,7 +110,7 @@ class Vehicle:
             battery=ap.battery.state(),
             home=ap.home,
             extra={"thrust_norm": ap.thrust_norm,
-                   "rotor_speed_radps": tuple(self._rotor_speed_radps)},
+                   "rotor_speed_radps": self._world.rotor_speeds(self._row)},
         )
 
     @property
@@ -126,8 +120,7 @@ class Vehicle:
 
     @property
     def global_position(self) -> GeoPoint:
-        assert self._meas is not None
-        n, e, d = self._meas.position_ned_m
+        n, e, d = self._measurement()[0].position_ned_m
         return self.origin.offset_ned(n, e, d)
 
     def status_texts(self, after_seq: int = 0) -> list[StatusText]:

@@ -8,13 +8,17 @@ Follows PX4:
   MC_YAW_WEIGHT, rate setpoint = MC_*_P times the sin(half-angle) error, limited to MC_*RATE_MAX.
 
 Rules: quaternions (w, x, y, z), FRD -> NED; gains are PX4's (1/s), used unscaled; pure functions
-and one stateless class, no physics engine and no clock.
+and one stateless class, no physics engine and no clock. ``attitude_rates`` is the one source of
+the controller: the class calls it in Python, the compiled inner loop (vehicles/inner_loop.py)
+inlines it.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+from numba.extending import register_jitable
 
 from vehicles.control.quat import (
     Quat,
@@ -59,6 +63,12 @@ class AttitudeControlGains:
             ),
         )
 
+    def coefficients(self) -> tuple[float, ...]:
+        """``attitude_rates``' gain arguments: (p_roll, p_pitch, p_yaw / weight, limits…, weight)."""
+        yaw_w = min(max(self.yaw_weight, 0.0), 1.0)
+        p_yaw = self.p_yaw / yaw_w if yaw_w > 1e-4 else self.p_yaw
+        return (self.p_roll, self.p_pitch, p_yaw, *self.rate_max_frd_radps, yaw_w)
+
 
 def thrust_to_attitude(thrust_ned: Vec3, yaw_rad: float) -> AttitudeSetpoint:
     """ControlMath::thrustToAttitude: body z opposite to the thrust vector, nose towards yaw."""
@@ -79,53 +89,49 @@ def thrust_to_attitude(thrust_ned: Vec3, yaw_rad: float) -> AttitudeSetpoint:
     return AttitudeSetpoint(q_from_dcm_columns(bx, by, bz), norm(thrust_ned))
 
 
+@register_jitable
+def attitude_rates(q: Quat, qd: Quat, p0: float, p1: float, p2: float, l0: float, l1: float,
+                   l2: float, yaw_w: float) -> Vec3:
+    """AttitudeControl::update: body rate setpoint for attitude ``q`` and setpoint ``qd``.
+
+    ``p2`` is the yaw gain already divided by the yaw weight ``yaw_w`` (clamped to 0..1), ``l*``
+    the rate limits. Plain Python from Python, compiled into vehicles/inner_loop.py's kernel."""
+    w, x, y, z = q
+    ax, ay, az = 2.0 * (x * z + w * y), 2.0 * (y * z - w * x), w * w - x * x - y * y + z * z
+    bx, by, bz = q_dcm_z(qd)
+    cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    d = ax * bx + ay * by + az * bz
+    if math.sqrt(cx * cx + cy * cy + cz * cz) < 1e-5 and d < 0.0:
+        qd_red = q_from_two_vectors((ax, ay, az), (bx, by, bz))  # antiparallel: rare
+    else:
+        rw = d + math.sqrt((ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz))
+        n = math.sqrt(rw * rw + cx * cx + cy * cy + cz * cz)
+        qd_red = (rw / n, cx / n, cy / n, cz / n)
+    if abs(qd_red[1]) > 1.0 - 1e-5 or abs(qd_red[2]) > 1.0 - 1e-5:
+        qd_red = qd  # roll or pitch near 180 deg: use the full attitude
+    else:
+        qd_red = q_mul(qd_red, q)
+    q_mix = q_canonical(q_mul(q_conj(qd_red), qd))
+    mw = q_mix[0]
+    mw = -1.0 if mw < -1.0 else (1.0 if mw > 1.0 else mw)
+    mz = q_mix[3]
+    mz = -1.0 if mz < -1.0 else (1.0 if mz > 1.0 else mz)
+    qd = q_mul(qd_red, (math.cos(yaw_w * math.acos(mw)), 0.0, 0.0, math.sin(yaw_w * math.asin(mz))))
+    ew, ex, ey, ez = q_mul((w, -x, -y, -z), qd)
+    if ew < 0.0:
+        ex, ey, ez = -ex, -ey, -ez
+    r0, r1, r2 = 2.0 * ex * p0, 2.0 * ey * p1, 2.0 * ez * p2
+    return (-l0 if r0 < -l0 else (l0 if r0 > l0 else r0),
+            -l1 if r1 < -l1 else (l1 if r1 > l1 else r1),
+            -l2 if r2 < -l2 else (l2 if r2 > l2 else r2))
+
+
 class AttitudeControl:
     """Stateless apart from its gains (PX4's AttitudeControl has no integrator either)."""
 
     def __init__(self, gains: AttitudeControlGains) -> None:
         self.gains = gains
-        self._yaw_w = min(max(gains.yaw_weight, 0.0), 1.0)
-        # PX4 setProportionalGain: compensate the yaw weight's rescaling of the output.
-        p_yaw = gains.p_yaw / self._yaw_w if self._yaw_w > 1e-4 else gains.p_yaw
-        self._p = (gains.p_roll, gains.p_pitch, p_yaw)
-        self._sp_q: Quat | None = None  # the last setpoint and its body z axis in NED
-        self._sp_z: Vec3 = (0.0, 0.0, 1.0)
+        self.coefficients = gains.coefficients()
 
     def update(self, attitude_q: Quat, attitude_sp_q: Quat) -> Vec3:
-        q = attitude_q
-        qd = attitude_sp_q
-        # Reduced attitude: the shortest rotation taking body z (q) to the desired body z (qd)
-        # (q_from_two_vectors(q_dcm_z(q), q_dcm_z(qd)), written out: this runs at 250 Hz).
-        w, x, y, z = q
-        ax, ay, az = 2.0 * (x * z + w * y), 2.0 * (y * z - w * x), w * w - x * x - y * y + z * z
-        if qd is not self._sp_q:
-            self._sp_q, self._sp_z = qd, q_dcm_z(qd)
-        bx, by, bz = self._sp_z
-        cx, cy, cz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-        d = ax * bx + ay * by + az * bz
-        if math.sqrt(cx * cx + cy * cy + cz * cz) < 1e-5 and d < 0.0:
-            qd_red = q_from_two_vectors((ax, ay, az), (bx, by, bz))  # antiparallel: rare
-        else:
-            rw = d + math.sqrt((ax * ax + ay * ay + az * az) * (bx * bx + by * by + bz * bz))
-            n = math.sqrt(rw * rw + cx * cx + cy * cy + cz * cz)
-            qd_red = (rw / n, cx / n, cy / n, cz / n)
-        if abs(qd_red[1]) > 1.0 - 1e-5 or abs(qd_red[2]) > 1.0 - 1e-5:
-            qd_red = qd  # roll or pitch near 180 deg: use the full attitude
-        else:
-            qd_red = q_mul(qd_red, q)
-        q_mix = q_canonical(q_mul(q_conj(qd_red), qd))
-        mw = q_mix[0]
-        mw = -1.0 if mw < -1.0 else (1.0 if mw > 1.0 else mw)
-        mz = q_mix[3]
-        mz = -1.0 if mz < -1.0 else (1.0 if mz > 1.0 else mz)
-        yw = self._yaw_w
-        qd = q_mul(qd_red, (math.cos(yw * math.acos(mw)), 0.0, 0.0, math.sin(yw * math.asin(mz))))
-        ew, ex, ey, ez = q_mul((w, -x, -y, -z), qd)
-        if ew < 0.0:
-            ex, ey, ez = -ex, -ey, -ez
-        p0, p1, p2 = self._p
-        l0, l1, l2 = self.gains.rate_max_frd_radps
-        r0, r1, r2 = 2.0 * ex * p0, 2.0 * ey * p1, 2.0 * ez * p2
-        return (-l0 if r0 < -l0 else (l0 if r0 > l0 else r0),
-                -l1 if r1 < -l1 else (l1 if r1 > l1 else r1),
-                -l2 if r2 < -l2 else (l2 if r2 > l2 else r2))
+        return attitude_rates(attitude_q, attitude_sp_q, *self.coefficients)

@@ -13,12 +13,17 @@ Rules:
   ``u * max_rotor_speed``. Since rotor thrust is k·ω², ``u = sqrt(normalized rotor thrust)`` makes
   the plant linear in thrust.
 - Also reports per-axis saturation so the rate integrator can stop winding up.
+- ``mix_into`` is the one source: ``Mixer`` calls it in Python, the compiled inner loop
+  (vehicles/inner_loop.py) inlines it.
 """
 
 from __future__ import annotations
 
 import math
 from typing import NamedTuple
+
+import numpy as np
+from numba.extending import register_jitable
 
 
 class MixerOutput(NamedTuple):
@@ -28,66 +33,74 @@ class MixerOutput(NamedTuple):
     saturation_negative: tuple[bool, bool, bool]
 
 
-_NO_SATURATION = (False, False, False)
+@register_jitable
+def mix_into(thrust: float, roll: float, pitch: float, yaw: float, rows, idle: float, out
+             ) -> tuple[bool, bool, bool, bool, bool, bool]:
+    """Sequential desaturation (module docstring): normalized rotor thrusts into ``out``;
+    returns the saturation flags (roll+, pitch+, yaw+, roll−, pitch−, yaw−). ``rows``: one
+    (roll, pitch, yaw) row per rotor. Plain Python from Python, compiled into
+    vehicles/inner_loop.py."""
+    n = len(rows)
+    thrust = 0.0 if thrust < 0.0 else (1.0 if thrust > 1.0 else thrust)
+    high = -math.inf
+    low = math.inf
+    for i in range(n):
+        r = roll * rows[i][0] + pitch * rows[i][1]
+        out[i] = r
+        if r > high:
+            high = r
+        if r < low:
+            low = r
+    sp0 = sp1 = sp2 = sn0 = sn1 = sn2 = False
+    over = thrust + high - 1.0
+    if over > 0.0:
+        thrust = max(thrust - over, 0.0)
+    if thrust + low < 0.0 or thrust + high > 1.0:
+        span_low = -low if low < 0.0 else 0.0
+        k = 1.0
+        if span_low > 0.0:
+            k = min(k, thrust / span_low)
+        if high > 0.0 and thrust + high > 1.0:
+            k = min(k, (1.0 - thrust) / high)
+        for i in range(n):
+            out[i] = out[i] * k
+        sp0, sp1 = roll > 0.0, pitch > 0.0
+        sn0, sn1 = roll < 0.0, pitch < 0.0
+    s = 1.0
+    if yaw != 0.0:
+        for i in range(n):
+            y = yaw * rows[i][2]
+            base = thrust + out[i]
+            if y > 1e-9:
+                room = 1.0 - base
+                r = (room if room > 0.0 else 0.0) / y
+                if r < s:
+                    s = r
+            elif y < -1e-9:
+                r = (base if base > 0.0 else 0.0) / -y
+                if r < s:
+                    s = r
+        if s < 1.0:
+            if yaw > 0.0:
+                sp2 = True
+            else:
+                sn2 = True
+    sy = s * yaw
+    for i in range(n):
+        t = thrust + out[i] + sy * rows[i][2]
+        out[i] = idle if t < idle else (1.0 if t > 1.0 else t)
+    return (sp0, sp1, sp2, sn0, sn1, sn2)
 
 
 class Mixer:
     def __init__(self, rows: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]],
                  idle_thrust_norm: float = 0.0) -> None:
-        self._roll, self._pitch, self._yaw = rows
-        self._n = len(self._roll)
-        # Per rotor (roll row, pitch row, yaw row): one tuple to unpack in the 250 Hz loop.
-        self._rows = tuple(zip(self._roll, self._pitch, self._yaw))
+        self.rows = np.array(rows, dtype=float).T.copy()  # one (roll, pitch, yaw) row per rotor
         self.idle_thrust_norm = idle_thrust_norm
 
     def mix(self, thrust: float, torque: tuple[float, float, float]) -> MixerOutput:
-        roll, pitch, yaw = torque
-        thrust = 0.0 if thrust < 0.0 else (1.0 if thrust > 1.0 else thrust)
-        rows = self._rows
-        rp = [roll * r + pitch * p for r, p, _ in rows]
-        sat_pos = sat_neg = _NO_SATURATION
-        # Airmode disabled: only reduce thrust to unsaturate the top.
-        high = max(rp)
-        over = thrust + high - 1.0
-        if over > 0.0:
-            thrust = max(thrust - over, 0.0)
-        low = min(rp)
-        if thrust + low < 0.0 or thrust + high > 1.0:
-            # Scale roll/pitch down so every motor stays within [0, 1].
-            span_low = -low if low < 0.0 else 0.0
-            k = 1.0
-            if span_low > 0.0:
-                k = min(k, thrust / span_low)
-            if high > 0.0 and thrust + high > 1.0:
-                k = min(k, (1.0 - thrust) / high)
-            rp = [r * k for r in rp]
-            sat_pos = (roll > 0.0, pitch > 0.0, False)
-            sat_neg = (roll < 0.0, pitch < 0.0, False)
-        # Yaw with the remaining headroom.
-        s = 1.0
-        if yaw != 0.0:
-            for (_, _, yr), r in zip(rows, rp):
-                y = yaw * yr
-                base = thrust + r
-                if y > 1e-9:
-                    room = 1.0 - base
-                    r = (room if room > 0.0 else 0.0) / y
-                    if r < s:
-                        s = r
-                elif y < -1e-9:
-                    r = (base if base > 0.0 else 0.0) / -y
-                    if r < s:
-                        s = r
-            if s < 1.0:
-                if yaw > 0.0:
-                    sat_pos = (sat_pos[0], sat_pos[1], True)
-                else:
-                    sat_neg = (sat_neg[0], sat_neg[1], True)
-        lo = self.idle_thrust_norm
-        sy = s * yaw
-        out = []
-        for (_, _, yr), r in zip(rows, rp):
-            t = thrust + r + sy * yr
-            out.append(lo if t < lo else (1.0 if t > 1.0 else t))
-        sqrt = math.sqrt
-        return MixerOutput(tuple([sqrt(t) for t in out]), tuple(out), sat_pos, sat_neg)
+        out = np.zeros(len(self.rows))
+        sat = mix_into(thrust, torque[0], torque[1], torque[2], self.rows, self.idle_thrust_norm,
+                       out)
+        rotor = tuple(float(t) for t in out)
+        return MixerOutput(tuple(math.sqrt(t) for t in rotor), rotor, sat[:3], sat[3:])

@@ -2,17 +2,22 @@
 several times faster than tiny numpy arrays, and the attitude/rate loops run at 250 Hz per vehicle).
 
 Rules: quaternions are (w, x, y, z) and rotate body FRD into NED (Hamilton product, PX4 matrix::Quatf
-conventions). Vectors are 3-tuples. Every function is pure.
+conventions). Vectors are 3-tuples. Every function is pure. The ones the compiled inner loop uses
+(vehicles/inner_loop.py) are ``register_jitable``: plain Python when called from Python, compiled
+into the caller when called from numba code — one source for both.
 """
 
 from __future__ import annotations
 
 import math
 
+from numba.extending import register_jitable
+
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
 
 
+@register_jitable
 def q_mul(a: Quat, b: Quat) -> Quat:
     aw, ax, ay, az = a
     bw, bx, by, bz = b
@@ -24,20 +29,24 @@ def q_mul(a: Quat, b: Quat) -> Quat:
     )
 
 
+@register_jitable
 def q_conj(q: Quat) -> Quat:
     return (q[0], -q[1], -q[2], -q[3])
 
 
+@register_jitable
 def q_normalized(q: Quat) -> Quat:
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     return (q[0] / n, q[1] / n, q[2] / n, q[3] / n)
 
 
+@register_jitable
 def q_canonical(q: Quat) -> Quat:
     """The equivalent quaternion with w >= 0 (PX4 Quaternion::canonical)."""
     return q if q[0] >= 0.0 else (-q[0], -q[1], -q[2], -q[3])
 
 
+@register_jitable
 def q_dcm_z(q: Quat) -> Vec3:
     """Third column of the rotation matrix: body z (down) axis expressed in NED."""
     w, x, y, z = q
@@ -55,6 +64,7 @@ def q_rotate(q: Quat, v: Vec3) -> Vec3:
     )
 
 
+@register_jitable
 def q_from_two_vectors(src: Vec3, dst: Vec3) -> Quat:
     """Shortest rotation taking ``src`` to ``dst`` (PX4 matrix::Quaternion(src, dst))."""
     cr = cross(src, dst)
@@ -98,14 +108,17 @@ def q_yaw(q: Quat) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
+@register_jitable
 def cross(a: Vec3, b: Vec3) -> Vec3:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
+@register_jitable
 def dot(a: Vec3, b: Vec3) -> float:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
+@register_jitable
 def norm(a: Vec3) -> float:
     return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 

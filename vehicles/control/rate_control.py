@@ -7,13 +7,17 @@ limited to MC_*R_INT_LIM.
 
 Rules: rates in FRD rad/s; output normalized torque per axis in [-1, 1] (what the mixer takes);
 gains are PX4's MC_*RATE_* times MC_*RATE_K, unscaled (the mixer's normalization is chosen so
-that they fit, see airframe.py); pure, ``update`` takes ``dt_s``.
+that they fit, see airframe.py); pure, ``update`` takes ``dt_s``. ``rate_pid`` is the one source:
+``RateControl`` calls it in Python, the compiled inner loop (vehicles/inner_loop.py) inlines it.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+import numpy as np
+from numba.extending import register_jitable
 
 Vec3 = tuple[float, float, float]
 
@@ -45,55 +49,86 @@ class RateControlGains:
             int_lim=(float(p["MC_RR_INT_LIM"]), float(p["MC_PR_INT_LIM"]), float(p["MC_YR_INT_LIM"])),
         )
 
+    def vector(self) -> tuple[float, ...]:
+        """The 15 numbers ``rate_pid`` takes: P, I, D, FF and integrator limit per axis."""
+        return (*self.p, *self.i, *self.d, *self.ff, *self.int_lim)
+
+
+# Layout of the controller's state vector (one row per vehicle in the compiled inner loop).
+STATE_INTEGRAL = 0  # 3: integrator per axis
+STATE_ACCEL = 3  # 3: filtered angular acceleration (D term)
+STATE_PREV_RATE = 6  # 3: last measured rates
+STATE_HAS_PREV = 9  # 1.0 once a rate has been seen
+STATE_SIZE = 10
+
+
+def d_filter_alpha(dt_s: float) -> float:
+    """First-order low-pass coefficient of the D term at D_TERM_CUTOFF_HZ for step ``dt_s``."""
+    return dt_s / (dt_s + 1.0 / (2.0 * math.pi * D_TERM_CUTOFF_HZ))
+
+
+@register_jitable
+def rate_pid(dt_s: float, alpha: float, rates: Vec3, rates_sp: Vec3, landed: bool,
+             sat_pos: tuple[bool, bool, bool], sat_neg: tuple[bool, bool, bool], gains,
+             state) -> Vec3:
+    """One step of the rate PID (module docstring). ``gains``: the 15 numbers of
+    ``RateControlGains.vector()``; ``state``: STATE_SIZE numbers, updated in place; ``alpha``:
+    ``d_filter_alpha(dt_s)``. Plain Python from Python, compiled into vehicles/inner_loop.py."""
+    if state[STATE_HAS_PREV] != 0.0:
+        for i in range(3):
+            raw = (rates[i] - state[STATE_PREV_RATE + i]) / dt_s
+            state[STATE_ACCEL + i] += alpha * (raw - state[STATE_ACCEL + i])
+    for i in range(3):
+        state[STATE_PREV_RATE + i] = rates[i]
+    state[STATE_HAS_PREV] = 1.0
+    out0 = out1 = out2 = 0.0
+    for i in range(3):
+        sp = rates_sp[i]
+        e = sp - rates[i]
+        integ = state[STATE_INTEGRAL + i]
+        u = gains[i] * e + integ - gains[6 + i] * state[STATE_ACCEL + i] + gains[9 + i] * sp
+        u = -1.0 if u < -1.0 else (1.0 if u > 1.0 else u)
+        if i == 0:
+            out0 = u
+        elif i == 1:
+            out1 = u
+        else:
+            out2 = u
+        if not landed:
+            if sat_pos[i] and e > 0.0:
+                e = 0.0
+            if sat_neg[i] and e < 0.0:
+                e = 0.0
+            f = e / _I_FACTOR_RATE_RADPS
+            i_factor = 1.0 - f * f
+            if i_factor < 0.0:
+                i_factor = 0.0
+            v = integ + i_factor * gains[3 + i] * e * dt_s
+            if math.isfinite(v):
+                lim = gains[12 + i]
+                state[STATE_INTEGRAL + i] = -lim if v < -lim else (lim if v > lim else v)
+    return (out0, out1, out2)
+
 
 class RateControl:
+    """The rate PID with its own state (the World keeps one state row per vehicle instead)."""
+
     def __init__(self, gains: RateControlGains) -> None:
         self.gains = gains
-        self._int = [0.0, 0.0, 0.0]
-        self._prev_rate: Vec3 | None = None
-        self._accel = [0.0, 0.0, 0.0]
-        # Per axis (P, I, D, FF, integrator limit), unpacked once per axis in the 250 Hz loop.
-        self._axes = tuple(zip(gains.p, gains.i, gains.d, gains.ff, gains.int_lim))
-        self._alpha_dt = math.nan  # the derivative filter's alpha for _alpha_dt
-        self._alpha = 0.0
+        self._gains = np.array(gains.vector())
+        self._state = np.zeros(STATE_SIZE)
 
     def reset(self) -> None:
-        self._int = [0.0, 0.0, 0.0]
-        self._prev_rate = None
-        self._accel = [0.0, 0.0, 0.0]
+        self._state[:] = 0.0
+
+    @property
+    def integral(self) -> Vec3:
+        i = self._state
+        return (float(i[STATE_INTEGRAL]), float(i[STATE_INTEGRAL + 1]), float(i[STATE_INTEGRAL + 2]))
 
     def update(self, dt_s: float, rates_frd_radps: Vec3, rates_sp_frd_radps: Vec3, landed: bool,
                saturation_positive: tuple[bool, bool, bool] = (False, False, False),
                saturation_negative: tuple[bool, bool, bool] = (False, False, False)) -> Vec3:
-        accel = self._accel
-        integ = self._int
-        # Low-passed derivative of the measured rate (D on measurement, PX4 style).
-        prev = self._prev_rate
-        if prev is not None:
-            if dt_s != self._alpha_dt:
-                self._alpha = dt_s / (dt_s + 1.0 / (2.0 * math.pi * D_TERM_CUTOFF_HZ))
-                self._alpha_dt = dt_s
-            alpha = self._alpha
-            for i in range(3):
-                raw = (rates_frd_radps[i] - prev[i]) / dt_s
-                accel[i] += alpha * (raw - accel[i])
-        self._prev_rate = rates_frd_radps
-        out = [0.0, 0.0, 0.0]
-        for i, (kp, ki, kd, kff, lim) in enumerate(self._axes):
-            sp = rates_sp_frd_radps[i]
-            e = sp - rates_frd_radps[i]
-            u = kp * e + integ[i] - kd * accel[i] + kff * sp
-            out[i] = -1.0 if u < -1.0 else (1.0 if u > 1.0 else u)
-            if not landed:
-                if saturation_positive[i] and e > 0.0:
-                    e = 0.0
-                if saturation_negative[i] and e < 0.0:
-                    e = 0.0
-                f = e / _I_FACTOR_RATE_RADPS
-                i_factor = 1.0 - f * f
-                if i_factor < 0.0:
-                    i_factor = 0.0
-                v = integ[i] + i_factor * ki * e * dt_s
-                if math.isfinite(v):
-                    integ[i] = -lim if v < -lim else (lim if v > lim else v)
-        return (out[0], out[1], out[2])
+        u = rate_pid(dt_s, d_filter_alpha(dt_s), rates_frd_radps, rates_sp_frd_radps, landed,
+                     saturation_positive, saturation_negative, self._gains, self._state)
+        return (float(u[0]), float(u[1]), float(u[2]))

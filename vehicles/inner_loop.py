@@ -1,0 +1,249 @@
+"""The 250 Hz inner loop of every vehicle of a World, compiled: one call per physics step runs,
+for each vehicle, attitude P → rate PID → mixer → motor lag → body force and torque; a second call
+turns the raw PyBullet states read after the step into NED/FRD measurements.
+
+Why compiled: these few hundred floating-point operations per vehicle and step were most of a
+vehicle's cost in CPython (~25 µs, 250 times a simulated second); compiled they cost well under a
+microsecond, and the per-body PyBullet calls become the floor. The controllers are not repeated
+here: ``attitude_rates``, ``rate_pid`` and ``mix_into`` are ``register_jitable`` functions of
+vehicles/control — the same source the Python classes run — inlined into these kernels.
+
+Rules and invariants:
+- One row per vehicle in every array (``InnerLoop.add`` grows them); row k is the World's k-th
+  vehicle. The autopilot (Python, 50 Hz) writes a row's setpoints, gains and resets through
+  ``InnerLoop.load``; nothing else writes them.
+- Modes per vehicle and step: OFF (disarmed or terminated: the motors spin down, the controller
+  state is left alone), IDLE (rate controller reset, zero torque → motors at idle thrust, the
+  saturation flags kept), FLY (attitude, or a body-rate setpoint when one is given).
+- Frames: PyBullet is ENU/FLU; forces come out in ENU (what ``applyExternalForce`` takes in
+  WORLD_FRAME), measurements in NED/FRD relative to the vehicle's spawn point (physics.py rules).
+- numba caches the compiled kernels next to this file (``cache=True``): the first run on a
+  machine compiles them (seconds), later runs load them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from vehicles.airframe import Airframe
+from vehicles.control.attitude_control import attitude_rates
+from vehicles.control.mixer import mix_into
+from vehicles.control.rate_control import STATE_SIZE, d_filter_alpha, rate_pid
+
+MODE_OFF = 0
+MODE_IDLE = 1
+MODE_FLY = 2
+
+# Columns of ``InnerLoop.measured``: position NED (m), velocity NED (m/s), attitude q (w, x, y, z)
+# FRD → NED, body rates FRD (rad/s), acceleration NED (m/s², finite difference of velocity).
+M_POS, M_VEL, M_Q, M_RATES, M_ACCEL, M_SIZE = 0, 3, 6, 10, 13, 16
+# Columns of ``InnerLoop.forces``: force ENU (N), torque ENU (N m), 1.0 when there is anything
+# to apply (PyBullet clears external forces after every step).
+F_SIZE = 7
+_SQRT_HALF = math.sqrt(0.5)
+
+
+@njit(cache=True)
+def control_and_forces(mode, att_sp, thrust_sp, rates_sp, use_rates_sp, landed, att_gains,
+                       rate_gains, rate_state, saturation, rows, idle, alpha, dt_s, measured,
+                       rotor_speed, motor, rotor_xy, yaw_k, forces):  # pragma: no cover - compiled
+    """One physics step of every vehicle's inner loop (module rules). ``motor``: max rotor speed,
+    motor constant, lag coefficient up, lag coefficient down, linear drag."""
+    w_max, k_motor, alpha_up, alpha_down, drag = motor[0], motor[1], motor[2], motor[3], motor[4]
+    n_rotors = len(yaw_k)
+    u = np.zeros(n_rotors)
+    for v in range(len(mode)):
+        m = measured[v]
+        q = (m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3])
+        if mode[v] == MODE_OFF:
+            for i in range(n_rotors):
+                u[i] = 0.0
+        else:
+            if mode[v] == MODE_IDLE:
+                rate_state[v, :] = 0.0
+                mix_into(0.0, 0.0, 0.0, 0.0, rows, idle, u)
+            else:
+                if use_rates_sp[v]:
+                    sp = (rates_sp[v, 0], rates_sp[v, 1], rates_sp[v, 2])
+                else:
+                    g = att_gains[v]
+                    sp = attitude_rates(q, (att_sp[v, 0], att_sp[v, 1], att_sp[v, 2], att_sp[v, 3]),
+                                        g[0], g[1], g[2], g[3], g[4], g[5], g[6])
+                s = saturation[v]
+                torque = rate_pid(dt_s, alpha, (m[M_RATES], m[M_RATES + 1], m[M_RATES + 2]), sp,
+                                  landed[v], (s[0], s[1], s[2]), (s[3], s[4], s[5]), rate_gains[v],
+                                  rate_state[v])
+                flags = mix_into(thrust_sp[v], torque[0], torque[1], torque[2], rows, idle, u)
+                for i in range(6):
+                    s[i] = flags[i]
+            for i in range(n_rotors):
+                u[i] = math.sqrt(u[i])
+        # Motor lag (first order, faster up than down) and the rotors' thrust and torque.
+        speeds = rotor_speed[v]
+        total = tx = ty = tz = 0.0
+        for i in range(n_rotors):
+            cmd = u[i] * w_max
+            w = speeds[i]
+            w += (cmd - w) * (alpha_up if cmd > w else alpha_down)
+            speeds[i] = w
+            t = k_motor * w * w
+            total += t
+            tx -= rotor_xy[i, 1] * t
+            ty += rotor_xy[i, 0] * t
+            tz += yaw_k[i] * t
+        out = forces[v]
+        vn, ve, vd = m[M_VEL], m[M_VEL + 1], m[M_VEL + 2]
+        if total == 0.0 and vn == 0.0 and ve == 0.0 and vd == 0.0:
+            out[6] = 0.0
+            continue
+        qw, qx, qy, qz = q
+        # Body force (0, 0, -total) in NED = -total · third column of R; plus linear drag.
+        fn = -total * 2 * (qx * qz + qw * qy) - drag * vn
+        fe = -total * 2 * (qy * qz - qw * qx) - drag * ve
+        fd = -total * (1 - 2 * (qx * qx + qy * qy)) - drag * vd
+        # Body torque into NED: R · τ.
+        mn = ((1 - 2 * (qy * qy + qz * qz)) * tx + 2 * (qx * qy - qw * qz) * ty
+              + 2 * (qx * qz + qw * qy) * tz)
+        me = (2 * (qx * qy + qw * qz) * tx + (1 - 2 * (qx * qx + qz * qz)) * ty
+              + 2 * (qy * qz - qw * qx) * tz)
+        md = (2 * (qx * qz - qw * qy) * tx + 2 * (qy * qz + qw * qx) * ty
+              + (1 - 2 * (qx * qx + qy * qy)) * tz)
+        out[0], out[1], out[2] = fe, fn, -fd
+        out[3], out[4], out[5] = me, mn, -md
+        out[6] = 1.0
+
+
+@njit(cache=True)
+def measure(raw, spawn_enu, dt_s, measured):  # pragma: no cover - compiled
+    """PyBullet states (rows: position, orientation xyzw, linear and angular velocity, all ENU)
+    into ``measured`` rows (NED/FRD, see M_*); acceleration from the previous velocity over
+    ``dt_s`` (0 when ``dt_s`` is not positive)."""
+    s = _SQRT_HALF
+    for v in range(len(raw)):
+        r = raw[v]
+        m = measured[v]
+        # ENU/FLU quaternion (x, y, z, w) -> NED/FRD (w, x, y, z): q_ned_enu ⊗ q ⊗ q_flu_frd.
+        x, y, z, w = r[3], r[4], r[5], r[6]
+        qw, qx, qy, qz = s * (w + z), s * (x + y), s * (x - y), s * (w - z)
+        if qw < 0.0:
+            qw, qx, qy, qz = -qw, -qx, -qy, -qz
+        vn, ve, vd = r[8], r[7], -r[9]
+        if dt_s > 0.0:
+            m[M_ACCEL] = (vn - m[M_VEL]) / dt_s
+            m[M_ACCEL + 1] = (ve - m[M_VEL + 1]) / dt_s
+            m[M_ACCEL + 2] = (vd - m[M_VEL + 2]) / dt_s
+        m[M_POS], m[M_POS + 1], m[M_POS + 2] = r[1] - spawn_enu[v, 1], r[0] - spawn_enu[v, 0], \
+            spawn_enu[v, 2] - r[2]
+        m[M_VEL], m[M_VEL + 1], m[M_VEL + 2] = vn, ve, vd
+        m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3] = qw, qx, qy, qz
+        # Body rates: R^T · ω_ned.
+        wn, we, wd = r[11], r[10], -r[12]
+        r00 = 1 - 2 * (qy * qy + qz * qz)
+        r01 = 2 * (qx * qy - qw * qz)
+        r02 = 2 * (qx * qz + qw * qy)
+        r10 = 2 * (qx * qy + qw * qz)
+        r11 = 1 - 2 * (qx * qx + qz * qz)
+        r12 = 2 * (qy * qz - qw * qx)
+        r20 = 2 * (qx * qz - qw * qy)
+        r21 = 2 * (qy * qz + qw * qx)
+        r22 = 1 - 2 * (qx * qx + qy * qy)
+        m[M_RATES] = r00 * wn + r10 * we + r20 * wd
+        m[M_RATES + 1] = r01 * wn + r11 * we + r21 * wd
+        m[M_RATES + 2] = r02 * wn + r12 * we + r22 * wd
+
+
+class InnerLoop:
+    """The arrays of every vehicle's inner loop and the two kernels over them (module rules)."""
+
+    def __init__(self, airframe: Airframe, dt_s: float, idle_thrust_norm: float) -> None:
+        self.dt_s = dt_s
+        self.idle_thrust_norm = idle_thrust_norm
+        self.alpha = d_filter_alpha(dt_s)
+        roll, pitch, yaw = airframe.mixer_rows()
+        self.rows = np.array([roll, pitch, yaw], dtype=float).T.copy()
+        self.rotor_xy = np.array([r.position_frd_m[:2] for r in airframe.rotors], dtype=float)
+        self.yaw_k = np.array([r.yaw_sign * airframe.moment_constant_m for r in airframe.rotors])
+        self.motor = np.array([
+            airframe.max_rotor_speed_radps, airframe.motor_constant_n_per_radps2,
+            1.0 - math.exp(-dt_s / airframe.motor_time_constant_up_s),
+            1.0 - math.exp(-dt_s / airframe.motor_time_constant_down_s),
+            airframe.linear_drag_n_per_mps,
+        ])
+        self._rotors = airframe.rotor_count
+        self.count = 0
+        self._resize(0)
+        # Compile (or load from numba's cache) both kernels now, with no rows: a World is ready
+        # to step when it is built, so the daemon never stalls on its first physics step.
+        self.control()
+        self.measure(np.zeros((0, 13)), 0.0)
+
+    def _resize(self, n: int) -> None:
+        def grow(old, shape, dtype=float):
+            new = np.zeros(shape, dtype=dtype)
+            if old is not None and len(old):
+                new[:len(old)] = old
+            return new
+
+        get = self.__dict__.get
+        self.mode = grow(get("mode"), n, np.int8)
+        self.att_sp = grow(get("att_sp"), (n, 4))
+        self.thrust_sp = grow(get("thrust_sp"), n)
+        self.rates_sp = grow(get("rates_sp"), (n, 3))
+        self.use_rates_sp = grow(get("use_rates_sp"), n, np.bool_)
+        self.landed = grow(get("landed"), n, np.bool_)
+        self.att_gains = grow(get("att_gains"), (n, 7))
+        self.rate_gains = grow(get("rate_gains"), (n, 15))
+        self.rate_state = grow(get("rate_state"), (n, STATE_SIZE))
+        self.saturation = grow(get("saturation"), (n, 6), np.bool_)
+        self.measured = grow(get("measured"), (n, M_SIZE))
+        self.rotor_speed = grow(get("rotor_speed"), (n, self._rotors))
+        self.spawn_enu = grow(get("spawn_enu"), (n, 3))
+        self.forces = grow(get("forces"), (n, F_SIZE))
+
+    def add(self, spawn_enu_m: tuple[float, float, float], raw_state: tuple[float, ...]) -> int:
+        """A new row for a vehicle spawned at ``spawn_enu_m`` whose PyBullet state is
+        ``raw_state`` (see ``measure``); its acceleration starts at zero. Returns the row."""
+        k = self.count
+        self._resize(k + 1)
+        self.count = k + 1
+        self.att_sp[k, 0] = 1.0
+        self.spawn_enu[k] = spawn_enu_m
+        measure(np.array([raw_state]), self.spawn_enu[k:k + 1], 0.0, self.measured[k:k + 1])
+        return k
+
+    def load(self, k: int, autopilot) -> None:
+        """Copy what the autopilot decided for row ``k`` (setpoints, gains, resets)."""
+        ap = autopilot
+        if ap.gains_changed:
+            self.att_gains[k] = ap.attitude_gains.coefficients()
+            self.rate_gains[k] = ap.rate_gains.vector()
+            self.rate_state[k] = 0.0  # PX4 builds a new controller: its integrator starts at 0
+            ap.gains_changed = False
+        if ap.rates_reset:
+            self.rate_state[k] = 0.0
+            ap.rates_reset = False
+        sp = ap.attitude_setpoint
+        self.att_sp[k] = sp.attitude_q
+        self.thrust_sp[k] = sp.thrust_body_norm
+        rates = ap.rates_setpoint
+        self.use_rates_sp[k] = rates is not None
+        if rates is not None:
+            self.rates_sp[k] = rates
+        self.landed[k] = ap.land_detector.landed
+        ap.inner_dirty = False
+
+    def control(self) -> None:
+        """Motor commands, rotor speeds and the force/torque to apply for every row."""
+        control_and_forces(self.mode, self.att_sp, self.thrust_sp, self.rates_sp, self.use_rates_sp,
+                           self.landed, self.att_gains, self.rate_gains, self.rate_state,
+                           self.saturation, self.rows, self.idle_thrust_norm, self.alpha, self.dt_s,
+                           self.measured, self.rotor_speed, self.motor, self.rotor_xy, self.yaw_k,
+                           self.forces)
+
+    def measure(self, raw, dt_s: float) -> None:
+        """``raw``: one row per vehicle (position, orientation xyzw, linear and angular velocity,
+        PyBullet's ENU), as a list of tuples or an array."""
+        measure(np.asarray(raw, dtype=float), self.spawn_enu, dt_s, self.measured)
