@@ -6,10 +6,11 @@ wrappers (MulticopterPositionControl, mc_att_control, mc_rate_control, control_a
 Rules and invariants:
 - ``step(now_s)`` is called once per physics step (250 Hz). Commander, land detector,
   navigator, trajectory and position control run every POSITION_CONTROL_DIVIDER-th step (50 Hz,
-  like PX4's EKF-driven position loop); attitude, rate control and the mixer run every step in
-  the World's compiled inner loop (vehicles/inner_loop.py), from the setpoints, gains and resets
-  this class publishes (``attitude_setpoint``, ``rates_setpoint``, ``attitude_gains``,
-  ``rate_gains``, ``gains_changed``, ``rates_reset``).
+  like PX4's EKF-driven position loop; ``phase`` picks which of the five steps); attitude, rate
+  control and the mixer run every step in the World's compiled inner loop
+  (vehicles/inner_loop.py), from the setpoints, gains and resets this class publishes
+  (``attitude_setpoint``, ``rates_setpoint``, ``attitude_gains``, ``rate_gains``,
+  ``gains_changed``, ``rates_reset``).
 - Disarmed -> no motor output (the inner loop's OFF mode).
 - On the ground (landed) the motors idle unless the navigator's target is clearly above the
   vehicle (PX4 takeoff handling); while the land detector reports ground contact the thrust is cut
@@ -76,8 +77,11 @@ BATTERY_TEXTS = {
 class Autopilot:
     def __init__(self, params, airframe: Airframe, origin: GeoPoint, dt_s: float,
                  boot_time_s: float = 0.0, name: str = "", *,
-                 measure: Callable[[], tuple[Measurement, Vec3]]) -> None:
-        """``measure()``: the vehicle's latest measurement and acceleration (the World's)."""
+                 measure: Callable[[], tuple[Measurement, Vec3]], phase: int = 0) -> None:
+        """``measure()``: the vehicle's latest measurement and acceleration (the World's).
+        ``phase``: the 50 Hz part runs on physics steps phase, phase + 5, … (mod 5 it is the
+        same loop; the World staggers its vehicles so that their 50 Hz work does not all land
+        on one step)."""
         self._measure = measure
         self.rates_reset = False  # _set_idle asks the inner loop to restart its rate controller
         self.params = params
@@ -103,7 +107,7 @@ class Autopilot:
         self._hover = airframe.hover_thrust_norm
         self._load_gains()
         params.on_change(lambda name, value: self._load_gains())
-        self._tick = 0
+        self._tick = -phase % POSITION_CONTROL_DIVIDER
         self._att_sp = AttitudeSetpoint((1.0, 0.0, 0.0, 0.0), 0.0)
         self._idle = True
         self._flying = False  # trajectory/controllers are live (not idling on the ground)

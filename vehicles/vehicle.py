@@ -55,7 +55,8 @@ class Vehicle:
         self._world = world
         self._row = row
         self._autopilot = Autopilot(params, airframe, origin, dt_s, boot_time_s,
-                                    name=f"vehicle {index + 1}", measure=self._measurement)
+                                    name=f"vehicle {index + 1}", measure=self._measurement,
+                                    phase=index)
         self._cache_step = -1  # the world step the cached views below belong to
         self._meas: tuple[Measurement, Vec3] | None = None
         self._state: VehicleState | None = None
