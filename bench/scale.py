@@ -37,6 +37,12 @@ a warm-up:
   Interleaved with those (same process, same code), the same frames go to a plain UDP echo
   process on loopback: p50/p99 of both round trips and their difference.
 
+With ``--mavsdk``, at the largest vehicle count vehicle 1 stays on the ground and the unmodified
+MAVSDK example gcs_examples/takeoff_and_land.py (MAVSDK-Python 3.x with its mavsdk_server)
+flies it from vehicle 1's API client port, started with the measurement window, while every
+other vehicle flies; the table's notes say PASS or FAIL and how long it took (the ping client
+then pings vehicle 2, so that the two clients do not share a link).
+
 Shards: ``--shards auto`` (the default) runs 1 shard below 50 vehicles and min(2, cores) from
 50 on; a comma-separated list gives K per entry of ``--vehicles``. K > 1 adds ``--shards K`` to
 the command line. The helper processes are bound to the daemon's client ports before the daemon
@@ -53,7 +59,7 @@ leaves the vehicles on the ground (PX4 SITL streams the same telemetry there). E
 stopped with SIGTERM and must exit 0; every wait is bounded.
 
     .venv/bin/python bench/scale.py [--vehicles 1,10,30,100,200] [--shards auto|K,K,...]
-                                    [--seconds 20] [--idle] [--out bench/results]
+                                    [--seconds 20] [--idle | --mavsdk] [--out bench/results]
 
 Prints a markdown table and writes scale-<date>-<time>.csv and .png (real-time factor and
 CPU per vehicle-second against N) to ``--out``.
@@ -77,6 +83,7 @@ import sys
 import threading
 import time
 from dataclasses import asdict, dataclass, field
+from multiprocessing.pool import ThreadPool
 from pathlib import Path
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -99,6 +106,7 @@ KEEPS_UP_RTF = 0.99  # the pacer holds 1.000 when it keeps up; below this it is 
 WARMUP_S = 3.0  # wall seconds after the vehicles fly (or after ready, idle) before measuring
 WARMUP_SIM_S = 2.0  # ... and at least this simulated time since boot (position estimate valid)
 ARM_AFTER_SIM_S = 1.5  # PX4's position estimate is valid after ~1 s: arming before is denied
+MAVSDK_TIMEOUT_S = 240.0  # wall seconds for the MAVSDK takeoff-and-land example (--mavsdk)
 FLY_TIMEOUT_S = 300.0  # wall seconds to get every vehicle armed and off the ground
 FLYING_REL_ALT_M = 1.0  # takeoff goes to MIS_TAKEOFF_ALT (2.5 m); past this it is flying
 # Arm + takeoff go once to each vehicle, again only if no vehicle armed for this long: an
@@ -285,7 +293,7 @@ def read_telemetry(buf: bytearray, n: int, sim_t: list[float], armed: list[int],
 
 
 def listener(offset: int, vehicles: int, counts, telemetry, clock, commands, bound,
-             stop) -> None:
+             stop, leave_first_api_port: bool = False) -> None:
     """Drain the GCS and API client ports; count datagrams (counts[0]) and bytes (counts[1]);
     read every datagram's telemetry (read_telemetry). Every PUBLISH_PERIOD_S it hands the
     parent each vehicle's armed flag (telemetry[0:N]) and relative altitude (telemetry[N:2N])
@@ -293,8 +301,10 @@ def listener(offset: int, vehicles: int, counts, telemetry, clock, commands, bou
     vehicles 1..N (-1 until each has sent an ATTITUDE)]; clock[2] is the monotonic time of the
     first HEARTBEAT (stamped when read, so up to LISTENER_NAP_S late). Sysid lists on
     ``commands`` get arm + takeoff, sent from the vehicle's API client port so the vehicle keeps
-    talking to this process."""
-    ports = [GCS_CLIENT_PORT + offset] + [API_CLIENT_PORT + k + offset for k in range(10)]
+    talking to this process. ``leave_first_api_port``: vehicle 1's API client port is left to
+    a MAVSDK client (--mavsdk)."""
+    first = 1 if leave_first_api_port else 0
+    ports = [GCS_CLIENT_PORT + offset] + [API_CLIENT_PORT + k + offset for k in range(first, 10)]
     socks = {p: _client_socket(p) for p in ports}
     by_fd = {s.fileno(): s for s in socks.values()}
     poller = select.epoll()
@@ -577,23 +587,25 @@ def launch_daemon(n: int, shards: int, offset: int) -> tuple[Daemon, float, floa
     return d, started, ready_at[0]
 
 
-def _fly(clock: SimClock, commands, n: int, deadline: float, alive) -> None:
-    """Arm and take off every vehicle (see RESEND_AFTER_S); returns when all fly or at
-    ``deadline``."""
-    sent: set[int] = set()
+def _fly(clock: SimClock, commands, n: int, deadline: float, alive, skip: int = 0) -> None:
+    """Arm and take off every vehicle but sysid ``skip`` (see RESEND_AFTER_S); returns when
+    they all fly or at ``deadline``."""
+    sent: set[int] = {skip}
     best, progress_at = -1, time.monotonic()
     while time.monotonic() < deadline and alive():
         if clock.now() < ARM_AFTER_SIM_S:
             time.sleep(0.2)
             continue
         up, unarmed = clock.flying()
-        if len(up) == n:
+        up = [sysid for sysid in up if sysid != skip]
+        unarmed = [sysid for sysid in unarmed if sysid != skip]
+        if len(up) == n - (1 if skip else 0):
             return
         now = time.monotonic()
         if n - len(unarmed) > best:
             best, progress_at = n - len(unarmed), now
         if now - progress_at > RESEND_AFTER_S:
-            sent.clear()
+            sent = {skip}
             progress_at = now
         todo = [sysid for sysid in unarmed if sysid not in sent]
         if todo:
@@ -602,8 +614,35 @@ def _fly(clock: SimClock, commands, n: int, deadline: float, alive) -> None:
         time.sleep(0.5)
 
 
+def run_mavsdk_example(offset: int, timeout_s: float) -> tuple[bool, float, str]:
+    """gcs_examples/takeoff_and_land.py, unmodified (MAVSDK 3.x, its own mavsdk_server), on
+    vehicle 1's API client port: (passed, wall seconds, last lines of its output)."""
+    script = Path(__file__).resolve().parents[1] / "gcs_examples" / "takeoff_and_land.py"
+    grpc_port = free_tcp_port()
+    t0 = time.monotonic()
+    try:
+        done = subprocess.run([sys.executable, str(script), "--port", str(API_CLIENT_PORT + offset),
+                               "--grpc-port", str(grpc_port)], capture_output=True, text=True,
+                              timeout=timeout_s)
+    except subprocess.TimeoutExpired as exc:
+        out = (exc.stdout or b"").decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
+        return False, time.monotonic() - t0, f"timed out; {out.strip().splitlines()[-3:]}"
+    out = (done.stdout + done.stderr).strip().splitlines()
+    passed = done.returncode == 0 and any("Disarmed" in line for line in out)
+    return passed, time.monotonic() - t0, " | ".join(out[-3:])
+
+
+def free_tcp_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, echo_port: int,
-            ctx) -> Point:
+            ctx, mavsdk: bool = False) -> Point:
+    """One point. ``mavsdk``: vehicle 1 is left on the ground for an unmodified MAVSDK
+    takeoff-and-land run (gcs_examples/takeoff_and_land.py) started with the measurement window
+    while the others fly; the ping client then pings vehicle 2."""
     point = Point(n, shards, "flying" if flying else "idle", bare_ms_per_body_s=bare_s * 1e3)
     try:
         offset = free_port_offset(n)
@@ -618,8 +657,9 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
     go, stop_pings, stop = ctx.Event(), ctx.Event(), ctx.Event()
     helpers = [
         ctx.Process(target=listener, args=(offset, n, counts, telemetry, clock_shared, commands,
-                                           listen_bound, stop), daemon=True),
-        ctx.Process(target=pinger, args=(VEHICLE_API_PORT + offset, echo_port, counts,
+                                           listen_bound, stop, mavsdk), daemon=True),
+        ctx.Process(target=pinger, args=(VEHICLE_API_PORT + (1 if mavsdk else 0) + offset,
+                                          echo_port, counts,
                                           ping_bound, go, stop_pings, stop, rtt_out),
                     daemon=True),
     ]
@@ -643,7 +683,7 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
         alive = lambda: d.proc.poll() is None
         t_fly = time.monotonic()
         if flying:
-            _fly(clock, commands, n, t_fly + FLY_TIMEOUT_S, alive)
+            _fly(clock, commands, n, t_fly + FLY_TIMEOUT_S, alive, skip=1 if mavsdk else 0)
             point.fly_wait_s = time.monotonic() - t_fly
         warm_until = time.monotonic() + WARMUP_S
         while alive() and (time.monotonic() < warm_until or clock.now() < WARMUP_SIM_S):
@@ -661,6 +701,9 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
         out0 = counts[0] + counts[2], counts[1] + counts[3]
         cpu0, lcpu0, w0 = tree_cpu_s(pid), tree_cpu_s(helpers[0].pid), time.monotonic()
         go.set()
+        example = None
+        if mavsdk:
+            example = ThreadPool(1).apply_async(run_mavsdk_example, (offset, MAVSDK_TIMEOUT_S))
         time.sleep(seconds)
         cpu1, lcpu1, w1 = tree_cpu_s(pid), tree_cpu_s(helpers[0].pid), time.monotonic()
         out1 = counts[0] + counts[2], counts[1] + counts[3]
@@ -677,6 +720,14 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
         point.mbytes_per_s = (out1[1] - out0[1]) / point.window_s / 1e6
         point.listener_drops = drops1 - drops0
         point.listener_cpu_pct = (lcpu1 - lcpu0) / point.window_s * 100
+        if example is not None:
+            passed, took, tail = example.get(MAVSDK_TIMEOUT_S + 10)
+            others = len([sysid for sysid in clock.flying()[0] if sysid != 1])
+            point.notes.append(f"MAVSDK takeoff_and_land.py on vehicle 1 while "
+                               f"{others} others fly: {'PASS' if passed else 'FAIL'} in "
+                               f"{took:.0f} s")
+            print(f"    mavsdk: {'PASS' if passed else 'FAIL'} in {took:.1f} s: {tail}",
+                  file=sys.stderr, flush=True)
         try:
             (gw_rtts, lo_rtts), (gw_lost, lo_lost) = rtt_out.get(
                 timeout=2 * PING_REPLY_TIMEOUT_S + 10)
@@ -866,6 +917,10 @@ def main() -> int:
                       help="arm and take off every vehicle first (default)")
     mode.add_argument("--idle", dest="flying", action="store_false",
                       help="leave the vehicles on the ground")
+    parser.add_argument("--mavsdk", action="store_true",
+                        help="at the largest vehicle count, fly vehicle 1 with the unmodified "
+                        "MAVSDK example gcs_examples/takeoff_and_land.py while the others fly "
+                        "(needs --flying)")
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results",
                         help="directory for the CSV and PNG (default bench/results/)")
     args = parser.parse_args()
@@ -877,6 +932,8 @@ def main() -> int:
     if counts[0] < 1 or not args.seconds > 0:
         parser.error("vehicle counts must be >= 1 and --seconds > 0")
     shards_of = parse_shards(parser, args.shards, asked, counts)
+    if args.mavsdk and not args.flying:
+        parser.error("--mavsdk needs the other vehicles flying (drop --idle)")
 
     header = machine_text()
     print(header, flush=True)
@@ -890,7 +947,8 @@ def main() -> int:
         echo_port = port_out.get(timeout=HELPER_START_TIMEOUT_S)
         for n in counts:
             bare = bare_pybullet_cpu_per_body_sim_s(n)
-            p = measure(n, shards_of[n], args.seconds, args.flying, bare, echo_port, ctx)
+            p = measure(n, shards_of[n], args.seconds, args.flying, bare, echo_port, ctx,
+                        mavsdk=args.mavsdk and n == max(counts))
             points.append(p)
             print(f"  {n} vehicles, {shards_of[n]} shard(s): rtf {_f(p.rtf, '.3f')}, "
                   f"CPU {_f(p.cpu_ms_per_vehicle_s, '.1f')} ms per vehicle-s, "
