@@ -102,6 +102,8 @@ class ParamStore:
         self._infos = list(table) if table is not None else param_table()
         self._index = {info.name: i for i, info in enumerate(self._infos)}
         self._values: list[int | float] = [info.default for info in self._infos]
+        # The same values by name: the controllers read parameters on every 50 Hz tick.
+        self._by_name: dict[str, int | float] = {i.name: v for i, v in zip(self._infos, self._values)}
         self._observers: list[Callable[[str, int | float], None]] = []
         for name, value in (overrides or {}).items():
             if not self.set(name, value):
@@ -127,7 +129,7 @@ class ParamStore:
         return self._infos[name_or_index]
 
     def __getitem__(self, name: str) -> int | float:
-        return self._values[self._index[name]]
+        return self._by_name[name]
 
     def get(self, name: str, default: float | None = None) -> int | float | None:
         i = self._index.get(name)
@@ -148,6 +150,7 @@ class ParamStore:
         new = _coerce(self._infos[i].type, value)
         if new != self._values[i]:
             self._values[i] = new
+            self._by_name[name] = new
             for observer in list(self._observers):
                 observer(name, new)
         return True
