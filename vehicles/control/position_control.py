@@ -15,12 +15,18 @@ Rules:
   scaling is needed here. The hover thrust is the airframe's true value, standing in for PX4's
   converged hover-thrust estimator (MPC_USE_HTE=1); MPC_THR_HOVER is used only if none is given.
 - Pure: no physics engine, no clock; ``update`` takes ``dt_s``.
+- The arithmetic is ``position_control_step``, compiled with numba (cached next to this file):
+  it runs at 50 Hz for every vehicle and was a large part of the 50 Hz loop in CPython.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+from numba.extending import register_jitable
 
 from vehicles.types import GRAVITY_MPS2
 
@@ -70,6 +76,13 @@ class PositionControlGains:
             hover_thrust=float(p["MPC_THR_HOVER"]) if hover_thrust is None else hover_thrust,
         )
 
+    def vector(self) -> tuple[float, ...]:
+        """The gains in field order, as ``position_control_step`` takes them."""
+        return (self.pos_p_xy, self.pos_p_z, self.vel_p_xy, self.vel_i_xy, self.vel_d_xy,
+                self.vel_p_z, self.vel_i_z, self.vel_d_z, self.vel_max_xy_mps, self.vel_max_up_mps,
+                self.vel_max_down_mps, self.tilt_max_rad, self.thrust_min, self.thrust_max,
+                self.hover_thrust)
+
 
 @dataclass(frozen=True)
 class PositionSetpoint:
@@ -88,6 +101,7 @@ class PositionControlOutput:
     yaw_rad: float
 
 
+@register_jitable
 def limit_tilt(body_z: Vec3, tilt_max_rad: float) -> Vec3:
     """ControlMath::limitTilt with world_unit = (0, 0, 1)."""
     d = max(-1.0, min(1.0, body_z[2]))
@@ -100,76 +114,106 @@ def limit_tilt(body_z: Vec3, tilt_max_rad: float) -> Vec3:
     return (s * rx, s * ry, math.cos(angle))
 
 
+@njit(cache=True)
+def position_control_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ
+                          ):  # pragma: no cover - compiled
+    """One PositionControl update (module docstring), compiled. ``gains``: the 15 numbers of
+    ``PositionControlGains.vector()``; ``integ``: the velocity integrator, updated in place.
+    Returns (normalized thrust NED, velocity setpoint NED)."""
+    (pos_p_xy, pos_p_z, vel_p_xy, vel_i_xy, vel_d_xy, vel_p_z, vel_i_z, vel_d_z, vel_max_xy,
+     vel_max_up, vel_max_down, tilt_max, thrust_min, thrust_max, hover) = (
+        gains[0], gains[1], gains[2], gains[3], gains[4], gains[5], gains[6], gains[7], gains[8],
+        gains[9], gains[10], gains[11], gains[12], gains[13], gains[14])
+    # --- _positionControl: P on position + feed-forward, NaN axes stay velocity-only.
+    v0 = 0.0 if math.isnan(sp_vel[0]) else sp_vel[0]
+    v1 = 0.0 if math.isnan(sp_vel[1]) else sp_vel[1]
+    v2 = 0.0 if math.isnan(sp_vel[2]) else sp_vel[2]
+    if not math.isnan(sp_pos[0]):
+        v0 += pos_p_xy * (sp_pos[0] - pos[0])
+    if not math.isnan(sp_pos[1]):
+        v1 += pos_p_xy * (sp_pos[1] - pos[1])
+    if not math.isnan(sp_pos[2]):
+        v2 += pos_p_z * (sp_pos[2] - pos[2])
+    vxy = math.hypot(v0, v1)
+    if vxy > vel_max_xy:
+        v0 *= vel_max_xy / vxy
+        v1 *= vel_max_xy / vxy
+    v2 = min(max(v2, -vel_max_up), vel_max_down)
+
+    # --- _velocityControl: PID -> acceleration setpoint.
+    e0, e1, e2 = v0 - vel[0], v1 - vel[1], v2 - vel[2]
+    f0 = 0.0 if math.isnan(sp_acc[0]) else sp_acc[0]
+    f1 = 0.0 if math.isnan(sp_acc[1]) else sp_acc[1]
+    f2 = 0.0 if math.isnan(sp_acc[2]) else sp_acc[2]
+    a0 = e0 * vel_p_xy + integ[0] - acc_meas[0] * vel_d_xy + f0
+    a1 = e1 * vel_p_xy + integ[1] - acc_meas[1] * vel_d_xy + f1
+    a2 = e2 * vel_p_z + integ[2] - acc_meas[2] * vel_d_z + f2
+
+    # --- _accelerationControl: acceleration -> body z (tilt-limited) and collective thrust.
+    bx, by, bz = -a0, -a1, GRAVITY_MPS2
+    n = math.sqrt(bx * bx + by * by + bz * bz)
+    bx, by, bz = limit_tilt((bx / n, by / n, bz / n), tilt_max)
+    collective = a2 * (hover / GRAVITY_MPS2) - hover
+    collective /= bz
+    collective = min(collective, -thrust_min)
+    t0, t1, t2 = bx * collective, by * collective, bz * collective
+
+    # Vertical anti-windup: stop integrating into the saturated direction.
+    if (t2 >= -thrust_min and e2 >= 0.0) or (t2 <= -thrust_max and e2 <= 0.0):
+        e2 = 0.0
+    # Prioritize vertical control while keeping a horizontal margin.
+    thr_xy = math.hypot(t0, t1)
+    thr_max_sq = thrust_max * thrust_max
+    allocated_xy = min(thr_xy, THRUST_XY_MARGIN)
+    t2 = max(t2, -math.sqrt(max(thr_max_sq - allocated_xy * allocated_xy, 0.0)))
+    thr_max_xy_sq = thr_max_sq - t2 * t2
+    thr_max_xy = math.sqrt(thr_max_xy_sq) if thr_max_xy_sq > 0.0 else 0.0
+    if thr_xy > thr_max_xy:
+        t0 *= thr_max_xy / thr_xy
+        t1 *= thr_max_xy / thr_xy
+    # Tracking anti-windup for the horizontal integrator.
+    p0, p1 = t0 * GRAVITY_MPS2 / hover, t1 * GRAVITY_MPS2 / hover
+    if a0 ** 2 + a1 ** 2 > p0 ** 2 + p1 ** 2:
+        l0, l1 = p0, p1
+    else:
+        l0, l1 = a0, a1
+    arw_gain = 2.0 / vel_p_xy
+    e0 -= arw_gain * (a0 - l0)
+    e1 -= arw_gain * (a1 - l1)
+    if math.isfinite(e0):
+        integ[0] += e0 * vel_i_xy * dt_s
+    if math.isfinite(e1):
+        integ[1] += e1 * vel_i_xy * dt_s
+    if math.isfinite(e2):
+        integ[2] += e2 * vel_i_z * dt_s
+    # PX4 limits the vertical integral to one g worth of acceleration.
+    integ[2] = min(max(integ[2], -GRAVITY_MPS2), GRAVITY_MPS2)
+    return (t0, t1, t2), (v0, v1, v2)
+
+
 class PositionControl:
     def __init__(self, gains: PositionControlGains) -> None:
         self.gains = gains
-        self._vel_int = [0.0, 0.0, 0.0]
+        self._gains = np.array(gains.vector())
+        self._vel_int = np.zeros(3)
 
     def reset_integral(self) -> None:
-        self._vel_int = [0.0, 0.0, 0.0]
+        self._vel_int[:] = 0.0
 
     @property
     def velocity_integral(self) -> Vec3:
-        return (self._vel_int[0], self._vel_int[1], self._vel_int[2])
+        i = self._vel_int
+        return (float(i[0]), float(i[1]), float(i[2]))
 
     def update(self, dt_s: float, position_ned_m: Vec3, velocity_ned_mps: Vec3,
                acceleration_ned_mps2: Vec3, sp: PositionSetpoint) -> PositionControlOutput:
-        g = self.gains
-        # --- _positionControl: P on position + feed-forward, NaN axes stay velocity-only.
-        vff = sp.velocity_ned_mps
-        vsp = [0.0 if math.isnan(vff[i]) else vff[i] for i in range(3)]
-        for i, kp in ((0, g.pos_p_xy), (1, g.pos_p_xy), (2, g.pos_p_z)):
-            if not math.isnan(sp.position_ned_m[i]):
-                vsp[i] += kp * (sp.position_ned_m[i] - position_ned_m[i])
-        vxy = math.hypot(vsp[0], vsp[1])
-        if vxy > g.vel_max_xy_mps:
-            vsp[0] *= g.vel_max_xy_mps / vxy
-            vsp[1] *= g.vel_max_xy_mps / vxy
-        vsp[2] = min(max(vsp[2], -g.vel_max_up_mps), g.vel_max_down_mps)
+        thrust, vel_sp = position_control_step(
+            dt_s, _vec3(position_ned_m), _vec3(velocity_ned_mps), _vec3(acceleration_ned_mps2),
+            _vec3(sp.position_ned_m), _vec3(sp.velocity_ned_mps), _vec3(sp.acceleration_ned_mps2),
+            self._gains, self._vel_int)
+        return PositionControlOutput(thrust, vel_sp, sp.yaw_rad)
 
-        # --- _velocityControl: PID -> acceleration setpoint.
-        err = [vsp[i] - velocity_ned_mps[i] for i in range(3)]
-        kp = (g.vel_p_xy, g.vel_p_xy, g.vel_p_z)
-        kd = (g.vel_d_xy, g.vel_d_xy, g.vel_d_z)
-        aff = sp.acceleration_ned_mps2
-        acc = [err[i] * kp[i] + self._vel_int[i] - acceleration_ned_mps2[i] * kd[i]
-               + (0.0 if math.isnan(aff[i]) else aff[i]) for i in range(3)]
 
-        # --- _accelerationControl: acceleration -> body z (tilt-limited) and collective thrust.
-        bz = (-acc[0], -acc[1], GRAVITY_MPS2)
-        n = math.sqrt(bz[0] * bz[0] + bz[1] * bz[1] + bz[2] * bz[2])
-        bz = limit_tilt((bz[0] / n, bz[1] / n, bz[2] / n), g.tilt_max_rad)
-        collective = acc[2] * (g.hover_thrust / GRAVITY_MPS2) - g.hover_thrust
-        collective /= bz[2]
-        collective = min(collective, -g.thrust_min)
-        thr = [bz[0] * collective, bz[1] * collective, bz[2] * collective]
-
-        # Vertical anti-windup: stop integrating into the saturated direction.
-        if (thr[2] >= -g.thrust_min and err[2] >= 0.0) or (thr[2] <= -g.thrust_max and err[2] <= 0.0):
-            err[2] = 0.0
-        # Prioritize vertical control while keeping a horizontal margin.
-        thr_xy = math.hypot(thr[0], thr[1])
-        thr_max_sq = g.thrust_max * g.thrust_max
-        allocated_xy = min(thr_xy, THRUST_XY_MARGIN)
-        thr[2] = max(thr[2], -math.sqrt(max(thr_max_sq - allocated_xy * allocated_xy, 0.0)))
-        thr_max_xy_sq = thr_max_sq - thr[2] * thr[2]
-        thr_max_xy = math.sqrt(thr_max_xy_sq) if thr_max_xy_sq > 0.0 else 0.0
-        if thr_xy > thr_max_xy:
-            thr[0] *= thr_max_xy / thr_xy
-            thr[1] *= thr_max_xy / thr_xy
-        # Tracking anti-windup for the horizontal integrator.
-        produced = (thr[0] * GRAVITY_MPS2 / g.hover_thrust, thr[1] * GRAVITY_MPS2 / g.hover_thrust)
-        if acc[0] ** 2 + acc[1] ** 2 > produced[0] ** 2 + produced[1] ** 2:
-            limited = produced
-        else:
-            limited = (acc[0], acc[1])
-        arw_gain = 2.0 / g.vel_p_xy
-        err[0] -= arw_gain * (acc[0] - limited[0])
-        err[1] -= arw_gain * (acc[1] - limited[1])
-        ki = (g.vel_i_xy, g.vel_i_xy, g.vel_i_z)
-        for i in range(3):
-            if math.isfinite(err[i]):
-                self._vel_int[i] += err[i] * ki[i] * dt_s
-        # PX4 limits the vertical integral to one g worth of acceleration.
-        self._vel_int[2] = min(max(self._vel_int[2], -GRAVITY_MPS2), GRAVITY_MPS2)
-        return PositionControlOutput((thr[0], thr[1], thr[2]), (vsp[0], vsp[1], vsp[2]), sp.yaw_rad)
+def _vec3(v) -> Vec3:
+    """A 3-tuple of floats (the compiled step is typed for exactly that)."""
+    return (float(v[0]), float(v[1]), float(v[2]))
