@@ -83,6 +83,13 @@ class VehicleLink:
         self.downlink = sim.backend.make_link(f"{self.name}/down", vehicle_node, client_node,
                                               self._on_downlink_delivered)
         self.peer: object = None
+        # Both links of a vehicle sample it at the same instants: let them share what telemetry
+        # derives from one kinematics sample (telemetry.Sample).
+        for other_kind in LinkKind:
+            sibling = sim.links.get((index, other_kind))
+            if sibling is not None and sibling.session.vehicle is session.vehicle:
+                session.samples = sibling.session.samples
+                break
         self._timer: Event | None = None
         self._timer_at = math.inf
 

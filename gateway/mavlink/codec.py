@@ -31,11 +31,6 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.signing import IFLAG_SIGNED, Signer, Verifier
 
-
-def _crc16(data: bytes) -> int:
-    return _fastcrc16.mcrf4xx(data, 0xFFFF)
-
-
 log = logging.getLogger(__name__)
 
 MAGIC_V2 = 0xFD
@@ -47,7 +42,12 @@ MSG_ID_PROTOCOL_VERSION = 300
 CRC_EXTRA_PROTOCOL_VERSION = 217  # computed from the XML definition, see tests
 PROTOCOL_VERSION_PAYLOAD = struct.pack("<HHH8s8s", 200, 100, 200, bytes(8), bytes(8))
 
-_HEADER = struct.Struct("<BBBBBBHB")  # len, incompat, compat, seq, sys, comp, msgid lo16, hi8
+# after the magic: len, incompat flags, compat flags, seq, sysid, compid, msgid lo16, msgid hi8
+_HEADER = struct.Struct("<BBBBBBHB")
+_MAGIC = bytes((MAGIC_V2,))
+# X.25 (MCRF4XX) has no final XOR, so it chains: crc(a + b) == _crc_x25(b, _crc_x25(a, 0xFFFF)).
+_crc_x25 = _fastcrc16.mcrf4xx
+_CRC_EXTRA_BYTES = tuple(bytes((i,)) for i in range(256))
 
 
 def _build_packer(cls: type[mavlink2.MAVLink_message]) -> tuple[Callable[..., bytes], tuple]:
@@ -87,6 +87,28 @@ def _as_bytes(v: bytes | str) -> bytes:
     return v.encode("utf-8", "replace") if isinstance(v, str) else v
 
 
+class Packer:
+    """The payload encoder of one message class; ``pack(args)`` takes the constructor's
+    arguments as one tuple, all of them (``Encoder.pack`` fills omitted extensions)."""
+
+    __slots__ = ("msg_id", "crc_extra", "pack", "defaults")
+
+    def __init__(self, cls: type[mavlink2.MAVLink_message]) -> None:
+        self.msg_id: int = cls.id
+        self.crc_extra: int = cls.crc_extra
+        self.pack, self.defaults = _build_packer(cls)
+
+
+_PACKERS: dict[type, Packer] = {}  # generated code only depends on the class: share it
+
+
+def packer_of(cls: type[mavlink2.MAVLink_message]) -> Packer:
+    packer = _PACKERS.get(cls)
+    if packer is None:
+        packer = _PACKERS[cls] = Packer(cls)
+    return packer
+
+
 class Encoder:
     """Frames messages as this link's MAVLink 2 endpoint (sysid, compid, seq).
 
@@ -100,46 +122,36 @@ class Encoder:
         self.seq = 0
         self.now_s = 0.0
         self.signer = signer
-        self._packers: dict[type, tuple[Callable[..., bytes], tuple, int, int]] = {}
+        self._incompat = 0
         if signer is not None:
             self._sign = signer.sign
+            self._incompat = IFLAG_SIGNED  # the signed flag is in the header, covered by the CRC
             # An instance attribute shadows the method: the unsigned path keeps no branch.
             self.frame = self._frame_signed  # type: ignore[method-assign]
 
     def frame(self, msg_id: int, crc_extra: int, payload: bytes) -> bytes:
         """One MAVLink 2 frame around an already-packed payload (trailing zeros trimmed)."""
-        n = len(payload)
-        while n > 1 and payload[n - 1] == 0:
-            n -= 1
-        body = _HEADER.pack(n, 0, 0, self.seq, self.sysid, self.compid, msg_id & 0xFFFF,
-                            msg_id >> 16) + payload[:n]
-        self.seq = (self.seq + 1) & 0xFF
-        crc = _crc16(body + bytes((crc_extra,)))
-        return b"\xfd" + body + crc.to_bytes(2, "little")
+        body = payload.rstrip(b"\0") or payload[:1]  # MAVLink 2 truncation keeps >= 1 byte
+        seq = self.seq
+        self.seq = (seq + 1) & 0xFF
+        head = _HEADER.pack(len(body), self._incompat, 0, seq, self.sysid, self.compid,
+                            msg_id & 0xFFFF, msg_id >> 16)
+        # The CRC covers header (without the magic), payload and then the CRC_EXTRA byte;
+        # chaining the C calls saves building that concatenation.
+        crc = _crc_x25(_CRC_EXTRA_BYTES[crc_extra], _crc_x25(body, _crc_x25(head, 0xFFFF)))
+        return b"".join((_MAGIC, head, body, crc.to_bytes(2, "little")))
 
     def _frame_signed(self, msg_id: int, crc_extra: int, payload: bytes) -> bytes:
-        """``frame`` with the signed flag in the header (it is covered by the CRC) and the
-        signature block appended."""
-        n = len(payload)
-        while n > 1 and payload[n - 1] == 0:
-            n -= 1
-        body = _HEADER.pack(n, IFLAG_SIGNED, 0, self.seq, self.sysid, self.compid,
-                            msg_id & 0xFFFF, msg_id >> 16) + payload[:n]
-        self.seq = (self.seq + 1) & 0xFF
-        crc = _crc16(body + bytes((crc_extra,)))
-        return self._sign(b"\xfd" + body + crc.to_bytes(2, "little"), self.now_s)
+        """``frame`` with the signature block appended."""
+        return self._sign(Encoder.frame(self, msg_id, crc_extra, payload), self.now_s)
 
     def pack(self, cls: type[mavlink2.MAVLink_message], *args: Any) -> bytes:
         """Encode ``cls(*args)``; trailing (extension) arguments may be omitted → zero."""
-        entry = self._packers.get(cls)
-        if entry is None:
-            fn, defaults = _build_packer(cls)
-            entry = (fn, defaults, cls.id, cls.crc_extra)
-            self._packers[cls] = entry
-        fn, defaults, msg_id, crc_extra = entry
+        p = _PACKERS.get(cls) or packer_of(cls)
+        defaults = p.defaults
         if len(args) < len(defaults):
             args = args + defaults[len(args):]
-        return self.frame(msg_id, crc_extra, fn(args))
+        return self.frame(p.msg_id, p.crc_extra, p.pack(args))
 
 
 @dataclass

@@ -8,11 +8,15 @@ Rules:
 - A late wake-up sends each due stream once and re-phases it; it never bursts to catch up.
 - A builder returns None when it has nothing to say (HOME_POSITION before home is set).
 - SET_MESSAGE_INTERVAL may enable any message that has a builder, on either link.
+- Both links of a vehicle sample it at the same instants (every 50 Hz stream of one fires with
+  the other's), so what depends only on the kinematics and the time (ATTITUDE, GLOBAL_POSITION_INT
+  …) is computed and packed once per vehicle and instant (``Sample``) and framed per link.
 """
 
 from __future__ import annotations
 
 import enum
+import heapq
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -20,7 +24,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
 
-from gateway.mavlink.codec import Encoder
+from gateway.mavlink.codec import Encoder, packer_of
 from gateway.mavlink.heartbeat import build_extended_sys_state, build_heartbeat, build_sys_status
 from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
 
@@ -66,13 +70,57 @@ class _once:
         return value
 
 
-class Snapshot:
-    """What one wake-up reads from the vehicle; each property is read at most once."""
+class Sample:
+    """What one vehicle's kinematics at one instant give every link: derived values, and the
+    payloads that depend on nothing else (see ``_shared``). Builders read it through
+    ``Snapshot``; only what cannot change within an instant belongs here (status and home can:
+    a command may arrive between the two links' wake-ups)."""
 
-    def __init__(self, vehicle: Any, now_s: float, boot_unix_s: float | None) -> None:
+    def __init__(self, vehicle: Any, now_s: float, kin: Any) -> None:
+        self.vehicle = vehicle
+        self.now_s = now_s
+        self.kin = kin
+        self.payloads: dict[Any, bytes] = {}
+
+    @_once
+    def euler(self) -> tuple[float, float, float]:
+        return self.kin.euler_rad()
+
+    @_once
+    def geo(self) -> Any:
+        # The vehicle derives it from the same measured position as ``kinematics``.
+        return self.vehicle.global_position
+
+
+class SampleCache:
+    """The latest ``Sample`` of one vehicle; the sessions of one vehicle share one cache."""
+
+    def __init__(self) -> None:
+        self._last: Sample | None = None
+
+    def at(self, vehicle: Any, now_s: float) -> Sample:
+        kin = vehicle.kinematics
+        last = self._last
+        # Keyed by identity: the vehicle makes a new Kinematics at each physics step, and as
+        # the cache holds the old one, a new one can never take its id. A vehicle that builds
+        # a new object on every read only loses the sharing.
+        if last is None or last.kin is not kin or last.now_s != now_s or last.vehicle is not vehicle:
+            last = self._last = Sample(vehicle, now_s, kin)
+        return last
+
+
+class Snapshot:
+    """What one wake-up reads from the vehicle; each property is read at most once.
+
+    ``samples``: the vehicle's ``SampleCache``, shared with its other links (None: a private
+    one)."""
+
+    def __init__(self, vehicle: Any, now_s: float, boot_unix_s: float | None,
+                 samples: SampleCache | None = None) -> None:
         self.vehicle = vehicle
         self.now_s = now_s
         self.boot_unix_s = boot_unix_s
+        self.samples = samples
         self.time_boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
         self.time_usec = int(now_s * 1e6)
 
@@ -81,17 +129,22 @@ class Snapshot:
         return self.vehicle.status
 
     @_once
-    def geo(self) -> Any:
-        return self.vehicle.global_position
+    def sample(self) -> Sample:
+        samples = self.samples if self.samples is not None else SampleCache()
+        return samples.at(self.vehicle, self.now_s)
 
     @_once
     def kin(self) -> Any:
         """``vehicle.kinematics``: position, velocity, attitude, rates as plain floats."""
-        return self.vehicle.kinematics
+        return self.sample.kin
+
+    @_once
+    def geo(self) -> Any:
+        return self.sample.geo
 
     @_once
     def euler(self) -> tuple[float, float, float]:
-        return self.kin.euler_rad()
+        return self.sample.euler
 
     @_once
     def home_alt_m(self) -> float:
@@ -101,6 +154,9 @@ class Snapshot:
     @_once
     def mav_type(self) -> int:
         return int(self.vehicle.params.get("MAV_TYPE", 2))
+
+
+Builder = Callable[[Encoder, Snapshot], "bytes | None"]
 
 
 def _deg_e7(deg: float) -> int:
@@ -123,44 +179,76 @@ def extended_sys_state(enc: Encoder, s: Snapshot) -> bytes:
     return build_extended_sys_state(enc, s.status)
 
 
-def attitude(enc: Encoder, s: Snapshot) -> bytes:
+def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None = None,
+            ) -> Callable[[Callable[[Snapshot], tuple]], Builder]:
+    """A builder from ``args(snapshot)`` (``cls``'s constructor arguments) for a message that
+    depends only on the vehicle's kinematics, the time and ``key(snapshot)``: its payload is
+    packed once per ``Sample`` and key, whichever link asks first, and framed per link."""
+    p = packer_of(cls)
+    msg_id, crc_extra, pack, defaults = p.msg_id, p.crc_extra, p.pack, p.defaults
+
+    def wrap(args: Callable[[Snapshot], tuple]) -> Builder:
+        def build(enc: Encoder, s: Snapshot) -> bytes:
+            payloads = s.sample.payloads
+            k = msg_id if key is None else (msg_id, key(s))
+            payload = payloads.get(k)
+            if payload is None:
+                a = args(s)
+                payload = payloads[k] = pack(a + defaults[len(a):])
+            return enc.frame(msg_id, crc_extra, payload)
+
+        build.__name__ = build.__qualname__ = args.__name__
+        build.__doc__ = args.__doc__
+        return build
+
+    return wrap
+
+
+def _home_alt_m(s: Snapshot) -> float:
+    return s.home_alt_m
+
+
+@_shared(M.MAVLink_attitude_message)
+def attitude(s: Snapshot) -> tuple:
     roll, pitch, yaw = s.euler
     p, q, r = s.kin.rates_frd_radps
-    return enc.pack(M.MAVLink_attitude_message, s.time_boot_ms, roll, pitch, yaw, p, q, r)
+    return (s.time_boot_ms, roll, pitch, yaw, p, q, r)
 
 
-def attitude_quaternion(enc: Encoder, s: Snapshot) -> bytes:
+@_shared(M.MAVLink_attitude_quaternion_message)
+def attitude_quaternion(s: Snapshot) -> tuple:
     w, x, y, z = s.kin.attitude_q
     p, q, r = s.kin.rates_frd_radps
-    return enc.pack(M.MAVLink_attitude_quaternion_message, s.time_boot_ms, w, x, y, z, p, q, r)
+    return (s.time_boot_ms, w, x, y, z, p, q, r)
 
 
-def local_position_ned(enc: Encoder, s: Snapshot) -> bytes:
+@_shared(M.MAVLink_local_position_ned_message)
+def local_position_ned(s: Snapshot) -> tuple:
     x, y, z = s.kin.position_ned_m
     vx, vy, vz = s.kin.velocity_ned_mps
-    return enc.pack(M.MAVLink_local_position_ned_message, s.time_boot_ms, x, y, z, vx, vy, vz)
+    return (s.time_boot_ms, x, y, z, vx, vy, vz)
 
 
-def global_position_int(enc: Encoder, s: Snapshot) -> bytes:
+@_shared(M.MAVLink_global_position_int_message, key=_home_alt_m)  # relative_alt: from home
+def global_position_int(s: Snapshot) -> tuple:
     g = s.geo
     vx, vy, vz = s.kin.velocity_ned_mps
-    return enc.pack(M.MAVLink_global_position_int_message, s.time_boot_ms, _deg_e7(g.lat_deg),
-                    _deg_e7(g.lon_deg), int(round(g.alt_amsl_m * 1000.0)),
-                    int(round((g.alt_amsl_m - s.home_alt_m) * 1000.0)),
-                    int(round(vx * 100.0)), int(round(vy * 100.0)), int(round(vz * 100.0)),
-                    _cdeg(s.euler[2]))
+    return (s.time_boot_ms, _deg_e7(g.lat_deg), _deg_e7(g.lon_deg),
+            int(round(g.alt_amsl_m * 1000.0)), int(round((g.alt_amsl_m - s.home_alt_m) * 1000.0)),
+            int(round(vx * 100.0)), int(round(vy * 100.0)), int(round(vz * 100.0)),
+            _cdeg(s.euler[2]))
 
 
-def gps_raw_int(enc: Encoder, s: Snapshot) -> bytes:
+@_shared(M.MAVLink_gps_raw_int_message)
+def gps_raw_int(s: Snapshot) -> tuple:
     g = s.geo
     vn, ve, _ = s.kin.velocity_ned_mps
     speed = math.hypot(vn, ve)
     cog = _cdeg(math.atan2(ve, vn)) if speed > 0.1 else UINT16_UNKNOWN
     alt_mm = int(round(g.alt_amsl_m * 1000.0))
-    return enc.pack(M.MAVLink_gps_raw_int_message, s.time_usec, GPS_FIX_TYPE_3D,
-                    _deg_e7(g.lat_deg), _deg_e7(g.lon_deg), alt_mm, GPS_EPH_CM, GPS_EPV_CM,
-                    int(round(speed * 100.0)), cog, GPS_SATELLITES, alt_mm, GPS_H_ACC_MM,
-                    GPS_V_ACC_MM, 0, 0, 0)
+    return (s.time_usec, GPS_FIX_TYPE_3D, _deg_e7(g.lat_deg), _deg_e7(g.lon_deg), alt_mm,
+            GPS_EPH_CM, GPS_EPV_CM, int(round(speed * 100.0)), cog, GPS_SATELLITES, alt_mm,
+            GPS_H_ACC_MM, GPS_V_ACC_MM, 0, 0, 0)
 
 
 def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:
@@ -171,11 +259,11 @@ def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:
                     int(round(max(0.0, min(1.0, throttle)) * 100.0)), s.geo.alt_amsl_m, -vd)
 
 
-def altitude(enc: Encoder, s: Snapshot) -> bytes:
+@_shared(M.MAVLink_altitude_message, key=_home_alt_m)  # altitude_relative: from home
+def altitude(s: Snapshot) -> tuple:
     amsl = s.geo.alt_amsl_m
     local = -s.kin.position_ned_m[2]
-    return enc.pack(M.MAVLink_altitude_message, s.time_usec, amsl, amsl, local,
-                    amsl - s.home_alt_m, math.nan, math.nan)
+    return (s.time_usec, amsl, amsl, local, amsl - s.home_alt_m, math.nan, math.nan)
 
 
 def _charge_state(remaining: float, params: Any) -> int:
@@ -221,9 +309,6 @@ def mission_current(enc: Encoder, s: Snapshot) -> bytes:
     return pack_mission_current(enc, mission_status_of(s.vehicle))
 
 
-Builder = Callable[[Encoder, Snapshot], "bytes | None"]
-
-
 @dataclass(frozen=True)
 class StreamSpec:
     msg_id: int
@@ -263,22 +348,51 @@ def _interval_us(hz: float) -> int:
     return int(round(1e6 / hz)) if hz > 0 else 0
 
 
+_ORDER = {spec.msg_id: i for i, spec in enumerate(STREAMS)}  # frames go out in table order
+
+
 class Scheduler:
-    """Per-stream integer-µs deadlines; ``next_us`` is the earliest of them."""
+    """Per-stream integer-µs deadlines; ``next_us`` is the earliest of them.
+
+    Streams with the same deadline and interval fire together until one of them is re-set, so
+    they are kept as one group in a heap of (deadline, table position of the group's first
+    stream, interval, streams): a wake-up touches the groups that are due, not every stream.
+    """
 
     def __init__(self, kind: LinkKind, now_s: float) -> None:
         self.kind = kind
         start = int(round(now_s * 1e6))
         self._interval_us: dict[int, int] = {}
-        self._next_us: dict[int, int] = {}
+        nexts: dict[int, int] = {}
         for spec in STREAMS:
             iv = _interval_us(spec.default_hz(kind))
             self._interval_us[spec.msg_id] = iv
-            self._next_us[spec.msg_id] = start if iv else NEVER
-        self.next_us = self._min()
+            nexts[spec.msg_id] = start if iv else NEVER
+        self._group(nexts)
 
-    def _min(self) -> int:
-        return min(self._next_us.values())
+    def _group(self, next_us: dict[int, int]) -> None:
+        groups: dict[tuple[int, int], list[StreamSpec]] = {}
+        for spec in STREAMS:
+            nxt = next_us[spec.msg_id]
+            if nxt < NEVER:
+                groups.setdefault((nxt, self._interval_us[spec.msg_id]), []).append(spec)
+        # The sentinel never fires (now < NEVER), so the heap is never empty.
+        heap = [(NEVER, len(STREAMS), 0, ())]
+        heap += [(nxt, _ORDER[specs[0].msg_id], iv, tuple(specs))
+                 for (nxt, iv), specs in groups.items()]
+        heapq.heapify(heap)
+        self._heap = heap
+        # Streams of the groups due together (keyed by their first positions), in table order.
+        self._merged: dict[int, tuple[StreamSpec, ...]] = {}
+        self.next_us = heap[0][0]
+
+    def _deadlines(self) -> dict[int, int]:
+        """Each stream's next deadline (NEVER: stopped), read back from the groups."""
+        out = dict.fromkeys(self._interval_us, NEVER)
+        for nxt, _, _, specs in self._heap:
+            for spec in specs:
+                out[spec.msg_id] = nxt
+        return out
 
     def interval_us(self, msg_id: int) -> int:
         """MESSAGE_INTERVAL semantics: µs, −1 disabled, 0 unknown/not available."""
@@ -297,29 +411,34 @@ class Scheduler:
             iv = _interval_us(spec.default_hz(self.kind))
         else:
             iv = max(1, int(round(interval_us)))
+        nexts = self._deadlines()
         self._interval_us[msg_id] = iv
-        self._next_us[msg_id] = int(round(now_s * 1e6)) if iv else NEVER
-        self.next_us = self._min()
+        nexts[msg_id] = int(round(now_s * 1e6)) if iv else NEVER
+        self._group(nexts)
         return True
 
-    def due(self, now_s: float) -> list[StreamSpec]:
-        """Streams due at ``now_s``, with their deadlines advanced."""
+    def due(self, now_s: float) -> tuple[StreamSpec, ...]:
+        """Streams due at ``now_s`` in table order, with their deadlines advanced."""
         now_us = int(round(now_s * 1e6))
         if now_us < self.next_us:
-            return []
-        out = []
-        nexts = self._next_us
-        intervals = self._interval_us
-        earliest = NEVER
-        for msg_id, nxt in nexts.items():
-            if nxt <= now_us:
-                iv = intervals[msg_id]
-                nxt += iv
-                if nxt <= now_us:  # late wake-up: re-phase, never burst
-                    nxt = now_us + iv
-                nexts[msg_id] = nxt
-                out.append(STREAMS_BY_ID[msg_id])
-            if nxt < earliest:
-                earliest = nxt
-        self.next_us = earliest
+            return ()
+        heap = self._heap
+        fired = []
+        mask = 0
+        while heap[0][0] <= now_us:
+            nxt, first, iv, specs = heap[0]
+            nxt += iv
+            if nxt <= now_us:  # late wake-up: re-phase, never burst
+                nxt = now_us + iv
+            heapq.heapreplace(heap, (nxt, first, iv, specs))
+            fired.append(specs)
+            mask |= 1 << first
+        self.next_us = heap[0][0]
+        if len(fired) == 1:
+            return fired[0]
+        out = self._merged.get(mask)
+        if out is None:
+            out = tuple(sorted((spec for specs in fired for spec in specs),
+                               key=lambda spec: _ORDER[spec.msg_id]))
+            self._merged[mask] = out
         return out

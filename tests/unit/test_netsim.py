@@ -5,7 +5,7 @@ import math
 import pytest
 
 from netsim.kernel import PRIORITY_NETWORK, PRIORITY_PHYSICS, Kernel, SchedulingError, Ticker
-from netsim.link import Link
+from netsim.link import Link, LinkStats
 from netsim.models import Drop, make_model, model_names
 from netsim.rng import UniformStream
 
@@ -87,6 +87,22 @@ def test_ideal_link_delivers_immediately_with_meta():
     k.run(until=1.0)
     assert got == [(1.0, b"abc", ("127.0.0.1", 14550))]
     assert link.stats.delivered == 1 and link.stats.sent == 1
+
+
+def test_an_instant_delivery_is_counted_as_a_zero_latency_one():
+    k = Kernel()
+    link, _ = _link(k, model="ideal")
+    trace = []
+    link.tracer = lambda *event: trace.append(event)
+    k.run(until=0.5)
+    link.send(b"abcd")
+    link.send(b"ef")
+    expected = LinkStats(sent=2, bytes_sent=6)
+    expected.record_delivery(0.0, 4)
+    expected.record_delivery(0.0, 2)
+    assert link.stats == expected
+    assert [e[0] for e in trace] == ["send", "recv", "send", "recv"]
+    assert trace[1] == ("recv", "l", 0.5, 4, "")
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])

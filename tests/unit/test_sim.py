@@ -140,3 +140,13 @@ def test_garbage_does_not_move_the_peer():
     assert link.peer == ("client", 1)
     assert link.session.stats.rx_malformed >= 1
     sim.close()
+
+
+def test_the_links_of_a_vehicle_share_its_telemetry_samples():
+    sim = Simulation(2)
+    try:
+        a, b = (sim.links[(0, kind)].session.samples for kind in LinkKind)
+        assert a is b
+        assert sim.links[(1, LinkKind.GCS)].session.samples is not a
+    finally:
+        sim.close()

@@ -1,0 +1,152 @@
+"""Telemetry internals: the grouped scheduler against a per-stream reference, and payloads shared
+between the links of one vehicle."""
+
+import math
+import random
+
+import pytest
+from pymavlink.dialects.v20 import common as M
+from test_mavlink_support import FakeVehicle
+
+from gateway.mavlink import telemetry
+from gateway.mavlink.session import LinkKind, Session
+from gateway.mavlink.telemetry import NEVER, STREAMS, STREAMS_BY_ID, Scheduler
+from vehicles.types import GeoPoint, HomePosition, Kinematics
+
+
+class ReferenceScheduler:
+    """The plain per-stream algorithm the grouped Scheduler must reproduce exactly."""
+
+    def __init__(self, kind: LinkKind, now_s: float) -> None:
+        self.kind = kind
+        start = int(round(now_s * 1e6))
+        self.interval = {s.msg_id: telemetry._interval_us(s.default_hz(kind)) for s in STREAMS}
+        self.next = {i: start if iv else NEVER for i, iv in self.interval.items()}
+
+    def set_interval(self, msg_id: int, interval_us: float, now_s: float) -> bool:
+        spec = STREAMS_BY_ID.get(msg_id)
+        if spec is None or msg_id in telemetry.FIXED_RATE_IDS or math.isnan(interval_us):
+            return False
+        if interval_us < 0:
+            iv = 0
+        elif interval_us == 0:
+            iv = telemetry._interval_us(spec.default_hz(self.kind))
+        else:
+            iv = max(1, int(round(interval_us)))
+        self.interval[msg_id] = iv
+        self.next[msg_id] = int(round(now_s * 1e6)) if iv else NEVER
+        return True
+
+    def due(self, now_s: float) -> list[int]:
+        now_us = int(round(now_s * 1e6))
+        out = []
+        for msg_id, nxt in self.next.items():
+            if nxt <= now_us:
+                iv = self.interval[msg_id]
+                nxt += iv
+                if nxt <= now_us:
+                    nxt = now_us + iv
+                self.next[msg_id] = nxt
+                out.append(msg_id)
+        return out
+
+    @property
+    def next_us(self) -> int:
+        return min(self.next.values())
+
+
+@pytest.mark.parametrize("seed", range(6))
+@pytest.mark.parametrize("kind", list(LinkKind))
+def test_grouped_scheduler_matches_the_per_stream_reference(kind, seed):
+    rng = random.Random(seed)
+    ids = [s.msg_id for s in STREAMS] + [M.MAVLINK_MSG_ID_PING]  # one without a builder
+    ours, ref = Scheduler(kind, 0.25), ReferenceScheduler(kind, 0.25)
+    now_s = 0.25
+    for _ in range(3000):
+        roll = rng.random()
+        if roll < 0.03:
+            msg_id = rng.choice(ids)
+            interval = rng.choice([-1.0, 0.0, math.nan, 7_000.0, 20_000.0, 33_333.4, 1e6, 0.3])
+            assert ours.set_interval(msg_id, interval, now_s) == ref.set_interval(
+                msg_id, interval, now_s)
+        elif roll < 0.1:
+            now_s += rng.uniform(0.0, 0.3)  # a late wake-up (re-phase, never burst)
+        else:  # wake at the deadline, as the session does, or a little early
+            nxt = ours.next_us
+            if nxt < NEVER:
+                now_s = max(now_s, nxt * 1e-6 - rng.choice([0.0, 0.0, 0.0, 1e-4]))
+        assert [s.msg_id for s in ours.due(now_s)] == ref.due(now_s)
+        assert ours.next_us == ref.next_us
+        for msg_id in ids:
+            assert ours.interval_us(msg_id) == (
+                0 if msg_id not in ref.interval else ref.interval[msg_id] or -1)
+
+
+def test_streams_due_together_go_out_in_table_order():
+    sched = Scheduler(LinkKind.GCS, 0.0)
+    assert [s.msg_id for s in sched.due(0.0)] == [s.msg_id for s in STREAMS if s.gcs_hz > 0]
+    for spec in STREAMS:
+        sched.set_interval(spec.msg_id, -1, 0.0)  # refused for HEARTBEAT (fixed rate)
+    assert sched.next_us == 1_000_000
+    assert sched.due(0.5) == ()
+    sched.set_interval(M.MAVLINK_MSG_ID_MISSION_CURRENT, 500_000, 0.5)
+    assert [s.msg_id for s in sched.due(1.0)] == [M.MAVLINK_MSG_ID_HEARTBEAT,
+                                                  M.MAVLINK_MSG_ID_MISSION_CURRENT]
+
+
+class SteadyVehicle(FakeVehicle):
+    """A FakeVehicle whose ``kinematics`` is one object per state, like the real Vehicle's."""
+
+    def __init__(self, sysid: int = 1) -> None:
+        super().__init__(sysid)
+        self._kin_of = None
+
+    @property
+    def kinematics(self) -> Kinematics:
+        if self._kin_of is not self.state:
+            self._kin_of, self._kin = self.state, Kinematics.of(self.state)
+        return self._kin
+
+
+def frames_at(session: Session, now_s: float) -> dict[str, M.MAVLink_message]:
+    session.handle_timer(now_s)
+    parser = M.MAVLink(None, 0, 0)
+    out = {}
+    for datagram in session.datagrams_to_send(now_s):
+        for msg in parser.parse_buffer(datagram) or ():
+            out[msg.get_type()] = msg
+    return out
+
+
+def test_links_of_one_vehicle_share_payloads_and_keep_their_own_framing():
+    vehicle = SteadyVehicle()
+    vehicle.become_ready()
+    vehicle.move_to(3.0, -4.0, -10.0, yaw_rad=0.3)
+    gcs, api = Session(vehicle, LinkKind.GCS), Session(vehicle, LinkKind.API)
+    api.samples = gcs.samples
+    alone = Session(SteadyVehicle(), LinkKind.API)  # the same vehicle state, nothing shared
+    alone.vehicle.state, alone.vehicle.home = vehicle.state, vehicle.home
+    api.encoder.seq = 200  # the links count on their own
+    first = frames_at(gcs, 0.0)
+    # Home moves between the two links' wake-ups of one instant (a command): what depends on it
+    # must follow, what does not is taken from the first link's packing.
+    vehicle.home = alone.vehicle.home = HomePosition(GeoPoint(47.397742, 8.545594, 480.0),
+                                                     (0.0, 0.0, 8.0), 0.0)
+    second, reference = frames_at(api, 0.0), frames_at(alone, 0.0)
+    assert gcs.samples._last is not None and gcs.samples._last.payloads  # shared for real
+    for name in ("ATTITUDE", "ATTITUDE_QUATERNION", "GLOBAL_POSITION_INT", "GPS_RAW_INT"):
+        assert second[name].get_payload() == reference[name].get_payload(), name
+        assert second[name].get_seq() != first[name].get_seq()
+    assert first["ATTITUDE"].get_payload() == second["ATTITUDE"].get_payload()
+    assert first["GLOBAL_POSITION_INT"].relative_alt == 10000
+    assert second["GLOBAL_POSITION_INT"].relative_alt == 18000
+    assert second["ALTITUDE"].altitude_relative == pytest.approx(18.0)
+
+
+def test_a_new_physics_sample_is_never_served_from_the_cache():
+    vehicle = SteadyVehicle()
+    gcs, api = Session(vehicle, LinkKind.GCS), Session(vehicle, LinkKind.API)
+    api.samples = gcs.samples
+    frames_at(gcs, 0.0)
+    vehicle.move_to(1.0, 2.0, -3.0)  # a new state at the same instant
+    assert frames_at(api, 0.0)["LOCAL_POSITION_NED"].x == 1.0
