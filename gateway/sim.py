@@ -26,6 +26,7 @@ from typing import NamedTuple
 
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import SigningConfig
+from gateway.mavlink.telemetry import SampleCache
 from gateway.scenario import NetworkConfig
 from netsim.backend import EmbeddedBackend, NetworkBackend
 from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
@@ -83,13 +84,6 @@ class VehicleLink:
         self.downlink = sim.backend.make_link(f"{self.name}/down", vehicle_node, client_node,
                                               self._on_downlink_delivered)
         self.peer: object = None
-        # Both links of a vehicle sample it at the same instants: let them share what telemetry
-        # derives from one kinematics sample (telemetry.Sample).
-        for other_kind in LinkKind:
-            sibling = sim.links.get((index, other_kind))
-            if sibling is not None and sibling.session.vehicle is session.vehicle:
-                session.samples = sibling.session.samples
-                break
         self._timer: Event | None = None
         self._timer_at = math.inf
 
@@ -228,8 +222,12 @@ class Simulation:
                 params = default_params(i, param_overrides)
             vehicle = self.world.add_vehicle(index=i, params=params)
             self.vehicles.append(vehicle)
+            # Both links of a vehicle sample it at the same instants: they share what telemetry
+            # derives from one kinematics sample (telemetry.SampleCache).
+            samples = SampleCache()
             for kind in self.link_kinds:
                 session = Session(vehicle, kind, now_s=0.0, signing=signing)
+                session.samples = samples
                 self.links[(i, kind)] = VehicleLink(self, i, kind, session)
         self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,
                                priority=PRIORITY_PHYSICS)
