@@ -18,6 +18,7 @@ import gc
 import ipaddress
 import logging
 import math
+import select
 import signal
 import sys
 import time
@@ -179,6 +180,7 @@ class Daemon:
             sim.every(zmq_pub.LINKS_PERIOD_S, lambda now: pub.link_stats(now, sim))
         self.pacer = Pacer(self.sim.kernel, speed=config.speed)
         self.endpoints: dict[tuple[int, LinkKind], UdpEndpoint] = {}
+        self._waiting: select.epoll | None = None  # every endpoint's socket, once open
         self.sim.on_downlink = self._send
 
     def _params_for(self, index: int) -> ParamStore:
@@ -202,7 +204,7 @@ class Daemon:
 
     def _receiver(self, index: int, kind: LinkKind):
         def on_datagram(data: bytes, addr: tuple[str, int]) -> None:
-            self.pacer.sync_arrival()  # stamp the datagram with the simulated time it arrived
+            self.pacer.sync_arrival()  # stamp it with its arrival time, never behind a burst
             if self.flightlog is not None:
                 self.flightlog.record_datagram("up", index, kind, data, self.sim.now)
             self.sim.inject(index, kind, data, addr)
@@ -233,11 +235,22 @@ class Daemon:
         except BaseException:
             self.close()
             raise
+        # The pacer asks this between events, so that a datagram waiting on any vehicle port
+        # is read at once, not after the rest of a burst of simulation.
+        self._waiting = select.epoll()
+        for endpoint in self.endpoints.values():
+            self._waiting.register(endpoint.sock.fileno(), select.EPOLLIN)
         # Simulated time starts now that the ports are bound; the vehicle talks first (as PX4
         # SITL does): the first telemetry goes out as soon as the pacer runs.
-        self.pacer = Pacer(self.sim.kernel, speed=cfg.speed)
+        self.pacer = Pacer(self.sim.kernel, speed=cfg.speed, input_pending=self._input_pending)
+
+    def _input_pending(self) -> bool:
+        return bool(self._waiting.poll(0, 1))
 
     def close(self) -> None:
+        if self._waiting is not None:
+            self._waiting.close()
+            self._waiting = None
         for endpoint in self.endpoints.values():
             endpoint.close()
         self.sim.close()

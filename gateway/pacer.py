@@ -23,23 +23,27 @@ from collections.abc import Callable
 from netsim.kernel import Kernel
 
 MAX_LAG_S = 0.2  # wall-clock lag beyond which simulated time slips instead of catching up
-# A datagram's arrival brings simulated time up to "now" only if that is at most this much wall
-# time behind; otherwise it is stamped with the current simulated time and the pacer's loop
-# catches up. Under overload a busy socket then cannot make every datagram run a long burst.
-ARRIVAL_SYNC_MAX_LAG_S = 0.01
 MAX_SLEEP_S = 0.05
-YIELD_EVERY_S = 0.0002  # wall time of simulation between two looks at the sockets
+# While simulating, the pacer looks for waiting datagrams every POLL_EVERY_S of wall time (one
+# non-blocking poll, ~1 µs) and gives the event loop a turn at once when there are some; it
+# gives other tasks (status line, watchdog, shard messages) a turn every YIELD_EVERY_S anyway.
+POLL_EVERY_S = 0.00005
+YIELD_EVERY_S = 0.002
 FLAT_OUT_CHUNK_S = 0.05  # speed "max": simulated time run between two looks at the sockets
 
 
 class Pacer:
     def __init__(self, kernel: Kernel, speed: float = 1.0,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic,
+                 input_pending: Callable[[], bool] | None = None) -> None:
+        """``input_pending()``: whether datagrams are waiting on the shell's sockets (None:
+        the pacer cannot tell, and yields every POLL_EVERY_S)."""
         if not speed > 0:
             raise ValueError("speed must be positive")
         self.kernel = kernel
         self.speed = speed
         self._clock = clock
+        self._input_pending = input_pending or (lambda: True)
         self._wall0 = clock()
         self._sim0 = kernel.now
         self.slips = 0
@@ -112,27 +116,41 @@ class Pacer:
         return target
 
     async def _run_sliced(self, target: float) -> None:
-        """``kernel.run(until=target)``, giving the event loop a turn every YIELD_EVERY_S of
-        wall time so that datagrams are answered while a long burst (many vehicles at one
-        instant) is being simulated."""
-        kernel, clock = self.kernel, self._clock
-        slice_end = clock() + YIELD_EVERY_S
+        """``kernel.run(until=target)``, giving the event loop a turn as soon as a datagram
+        waits (looked for every POLL_EVERY_S of wall time) and every YIELD_EVERY_S anyway, so
+        that clients are answered while a long burst (many vehicles at one instant) is being
+        simulated."""
+        kernel, clock, pending = self.kernel, self._clock, self._input_pending
+        t = clock()
+        check_at, slice_end = t + POLL_EVERY_S, t + YIELD_EVERY_S
         while True:
             if kernel.peek() > target:
                 if target > kernel.now:
                     kernel.run(until=target)
                 return
             kernel.step()
-            if clock() >= slice_end:
-                await asyncio.sleep(0)  # arrivals may run the kernel further meanwhile
-                slice_end = clock() + YIELD_EVERY_S
+            t = clock()
+            if t >= check_at:
+                if t >= slice_end or pending():
+                    await asyncio.sleep(0)  # arrivals may run the kernel further meanwhile
+                    t = clock()
+                    slice_end = t + YIELD_EVERY_S
+                check_at = t + POLL_EVERY_S
 
     def sync_arrival(self) -> None:
-        """Before a datagram goes in: ``sync`` when the simulation is (nearly) on time."""
+        """Before a datagram goes in: move the clock to the simulated time of its arrival when
+        no event is due before that (the usual case: the pacer was asleep). When events are due
+        (the datagram came in mid-burst, or ahead of the pacer's own wake-up), they are not run
+        first: the datagram is stamped with the present simulated time — earlier than its
+        arrival by at most the work still due — and handled at once, as PX4's MAVLink receive
+        thread answers while its control loops run. A burst of many vehicles' physics and
+        telemetry then never sits between a client's request and the reply."""
         if self.flat_out:
             return
-        if (self._target(self._clock()) - self.kernel.now) / self.speed <= ARRIVAL_SYNC_MAX_LAG_S:
-            self.sync()
+        kernel = self.kernel
+        target = min(self._target(self._clock()), self.horizon)
+        if target > kernel.now and kernel.peek() > target:
+            kernel.run(until=target)  # nothing is due before the arrival: only the clock moves
 
     def real_time_factor(self) -> float:
         """Simulated seconds per wall second since the previous call."""

@@ -1,17 +1,19 @@
 
 
-def test_arrival_sync_catches_up_a_little_never_a_burst():
-    from gateway.pacer import ARRIVAL_SYNC_MAX_LAG_S, Pacer
+def test_arrival_moves_the_clock_but_never_runs_due_work():
+    from gateway.pacer import Pacer
     from netsim.kernel import Kernel
 
     k = Kernel()
+    ran = []
     wall = [0.0]
     p = Pacer(k, clock=lambda: wall[0])
-    wall[0] = ARRIVAL_SYNC_MAX_LAG_S / 2
+    k.schedule(0.010, ran.append, "due")
+    wall[0] = 0.004
     p.sync_arrival()
-    assert k.now == wall[0]  # on time: the arrival is stamped exactly
-    wall[0] += 0.15
+    assert k.now == 0.004 and not ran  # nothing due before the arrival: stamped exactly
+    wall[0] = 0.015
     p.sync_arrival()
-    assert k.now == ARRIVAL_SYNC_MAX_LAG_S / 2  # behind: left to the pacer's loop
+    assert k.now == 0.004 and not ran  # work is due: stamped at the present time, run later
     p.sync()
-    assert k.now == wall[0]
+    assert k.now == wall[0] and ran == ["due"]
