@@ -254,7 +254,8 @@ def gps_raw_int(s: Snapshot) -> tuple:
 def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:
     vn, ve, vd = s.kin.velocity_ned_mps
     speed = math.hypot(vn, ve)
-    throttle = s.status.extra.get("throttle", 0.0) if s.status.armed else 0.0
+    # PX4: the collective thrust setpoint in percent while armed (vehicle_thrust_setpoint).
+    throttle = s.status.extra.get("thrust_norm", 0.0) if s.status.armed else 0.0
     return enc.pack(M.MAVLink_vfr_hud_message, speed, speed, _cdeg(s.euler[2]) // 100,
                     int(round(max(0.0, min(1.0, throttle)) * 100.0)), s.geo.alt_amsl_m, -vd)
 

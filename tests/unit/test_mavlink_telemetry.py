@@ -150,3 +150,25 @@ def test_a_new_physics_sample_is_never_served_from_the_cache():
     frames_at(gcs, 0.0)
     vehicle.move_to(1.0, 2.0, -3.0)  # a new state at the same instant
     assert frames_at(api, 0.0)["LOCAL_POSITION_NED"].x == 1.0
+
+
+def test_vfr_hud_throttle_is_the_thrust_setpoint_while_armed():
+    from gateway.sim import Simulation
+
+    sim = Simulation(1, link_kinds=(LinkKind.API,))
+    mav = M.MAVLink(None)
+    huds = []
+    sim.on_downlink = lambda i, k, data, peer: huds.extend(
+        m for m in mav.parse_buffer(data) or [] if m.get_type() == "VFR_HUD")
+    try:
+        sim.run(until=1.5)
+        assert huds and all(m.throttle == 0 for m in huds)  # disarmed
+        vehicle = sim.vehicles[0]
+        vehicle.arm(sim.now)
+        vehicle.takeoff(sim.now)
+        sim.run(until=8.0)  # hovering
+        thrust = vehicle.status.extra["thrust_norm"]
+        assert 0.3 < thrust < 0.9
+        assert abs(huds[-1].throttle - thrust * 100) <= 2
+    finally:
+        sim.close()
