@@ -768,7 +768,7 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
     for name in ("kernel_dropped", "internal_errors", "net_dropped", "rate_limited"):
         if counters.get(name, "0") != "0":
             point.notes.append(f"{name}={counters[name]}")
-    if flying and point.flying < n:
+    if flying and point.flying < n - (1 if mavsdk else 0):  # --mavsdk: vehicle 1 has landed
         point.notes.append(f"only {point.flying}/{n} flying")
     if not point.rtf >= KEEPS_UP_RTF:
         point.notes.append("cannot keep up with real time")
