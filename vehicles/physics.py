@@ -30,6 +30,7 @@ import pybullet as pb
 
 from vehicles.airframe import X500, Airframe
 from vehicles.autopilot import IDLE_THRUST_NORM
+from vehicles.control import position_control
 from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_VEL, InnerLoop
 from vehicles.params import ParamStore
 from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint
@@ -81,7 +82,8 @@ class World:
         self.ground_id = pb.createMultiBody(0, plane, physicsClientId=c)
         pb.changeDynamics(self.ground_id, -1, lateralFriction=GROUND_FRICTION, restitution=0.0,
                           physicsClientId=c)
-        self.inner = InnerLoop(airframe, dt_s, IDLE_THRUST_NORM)
+        self.inner = InnerLoop(airframe, dt_s, IDLE_THRUST_NORM)  # compiles its kernels
+        position_control.compile_now()
         self._vehicles: list[Vehicle] = []
         self._body_ids: list[int] = []
         self._com_enu: list[tuple[float, float, float]] = []  # where forces are applied

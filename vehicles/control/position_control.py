@@ -214,6 +214,13 @@ class PositionControl:
         return PositionControlOutput(thrust, vel_sp, sp.yaw_rad)
 
 
+def compile_now() -> None:
+    """Compile ``position_control_step`` (or load it from numba's cache) now, not in the middle
+    of the first flight."""
+    z = (0.0, 0.0, 0.0)
+    position_control_step(0.02, z, z, z, z, z, z, np.ones(15), np.zeros(3))
+
+
 def _vec3(v) -> Vec3:
     """A 3-tuple of floats (the compiled step is typed for exactly that)."""
     return (float(v[0]), float(v[1]), float(v[2]))
