@@ -29,33 +29,10 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import pybullet  # noqa: E402
 
+from bench.floor import bare_pybullet_cpu_per_body_sim_s  # noqa: E402
 from gateway.app import Daemon, RunConfig  # noqa: E402
 from gateway.ports import free_port_offset  # noqa: E402
-from gateway.sim import PHYSICS_DT_S, Simulation  # noqa: E402
-
-
-def bare_pybullet_cpu_per_sim_s(sim_s: float) -> float:
-    cid = pybullet.connect(pybullet.DIRECT)
-    try:
-        pybullet.setGravity(0, 0, -9.81, physicsClientId=cid)
-        pybullet.setTimeStep(PHYSICS_DT_S, physicsClientId=cid)
-        plane = pybullet.createCollisionShape(pybullet.GEOM_PLANE, physicsClientId=cid)
-        pybullet.createMultiBody(0, plane, physicsClientId=cid)
-        box = pybullet.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[0.2, 0.2, 0.05],
-                                            physicsClientId=cid)
-        body = pybullet.createMultiBody(2.0, box, basePosition=[0, 0, 1.0], physicsClientId=cid)
-        steps = int(sim_s / PHYSICS_DT_S)
-        t0 = time.process_time()
-        for _ in range(steps):
-            pybullet.applyExternalForce(body, -1, (0, 0, 19.6), (0, 0, 1.0), pybullet.WORLD_FRAME,
-                                        physicsClientId=cid)
-            pybullet.applyExternalTorque(body, -1, (0, 0, 0), pybullet.WORLD_FRAME,
-                                         physicsClientId=cid)
-            pybullet.stepSimulation(physicsClientId=cid)
-        return (time.process_time() - t0) / sim_s
-    finally:
-        pybullet.disconnect(cid)
-
+from gateway.sim import Simulation  # noqa: E402
 
 TAKEOFF_AT_S = 1.5  # position estimate valid after ~1 s
 HOVERING_AT_S = 6.0
@@ -116,7 +93,7 @@ def main() -> None:
     parser.add_argument("--wall-seconds", type=float, default=10.0)
     args = parser.parse_args()
 
-    bare = bare_pybullet_cpu_per_sim_s(args.sim_seconds)
+    bare = bare_pybullet_cpu_per_body_sim_s(1, args.sim_seconds)
     afap_rtf, afap_cpu = as_fast_as_possible(args.sim_seconds)
     rt_rtf, rt_cpu = asyncio.run(_real_time(args.wall_seconds))
 

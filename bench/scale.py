@@ -138,42 +138,13 @@ _I32 = struct.Struct("<i").unpack_from
 
 # --- the physics floor ----------------------------------------------------------------------------
 def bare_pybullet_cpu_per_body_sim_s(n: int) -> float:
-    """CPU seconds per simulated second per body: N boxes on the daemon's spawn grid, each getting
-    the two external-force calls a quadrotor needs per 4 ms step (bench/realtime.py, N bodies)."""
-    import pybullet
+    """CPU seconds per simulated second per body for N bodies (bench/floor.py), stepped long
+    enough to measure: BARE_BODY_SECONDS of body-time, 5 to 60 simulated seconds."""
+    from bench.floor import bare_pybullet_cpu_per_body_sim_s as floor
 
-    from gateway.sim import PHYSICS_DT_S
-    from vehicles.physics import World
-
-    sim_s = min(max(BARE_BODY_SECONDS / n, 5.0), 60.0)
-    cid = pybullet.connect(pybullet.DIRECT)
-    try:
-        pybullet.setGravity(0, 0, -9.81, physicsClientId=cid)
-        pybullet.setTimeStep(PHYSICS_DT_S, physicsClientId=cid)
-        plane = pybullet.createCollisionShape(pybullet.GEOM_PLANE, physicsClientId=cid)
-        pybullet.createMultiBody(0, plane, physicsClientId=cid)
-        box = pybullet.createCollisionShape(pybullet.GEOM_BOX, halfExtents=[0.2, 0.2, 0.05],
-                                            physicsClientId=cid)
-        bodies = []
-        for i in range(n):
-            north, east = World.spawn_offset_ned_m(i)
-            bodies.append(pybullet.createMultiBody(2.0, box, basePosition=[east, north, 1.0],
-                                                   physicsClientId=cid))
-        steps = int(sim_s / PHYSICS_DT_S)
-        t0 = time.process_time()
-        for _ in range(steps):
-            for body in bodies:
-                pybullet.applyExternalForce(body, -1, (0, 0, 19.62), (0, 0, 1.0),
-                                            pybullet.WORLD_FRAME, physicsClientId=cid)
-                pybullet.applyExternalTorque(body, -1, (0, 0, 0), pybullet.WORLD_FRAME,
-                                             physicsClientId=cid)
-            pybullet.stepSimulation(physicsClientId=cid)
-        return (time.process_time() - t0) / (steps * PHYSICS_DT_S) / n
-    finally:
-        pybullet.disconnect(cid)
+    return floor(n, min(max(BARE_BODY_SECONDS / n, 5.0), 60.0))
 
 
-# --- /proc ------------------------------------------------------------------------------------------
 def _stat_fields(pid: int) -> list[str]:
     with open(f"/proc/{pid}/stat") as f:
         return f.read().rpartition(")")[2].split()  # fields from 3 (state) on
