@@ -143,7 +143,10 @@ class PlanStore:
         self._observers.append(callback)
 
     def get(self, plan_type: PlanType) -> tuple[PlanItem, ...]:
-        return self._plans[PlanType(plan_type)]
+        plans = self._plans
+        # PlanType is an IntEnum: members and their values find the same key; the enum call
+        # (slow, and polled by every session wake-up through mission progress) only validates.
+        return plans[plan_type] if plan_type in plans else plans[PlanType(plan_type)]
 
     def plan_id(self, plan_type: PlanType) -> int:
         return self._ids[PlanType(plan_type)]
