@@ -17,8 +17,8 @@ Rules and invariants:
   saturation flags kept), FLY (attitude, or a body-rate setpoint when one is given).
 - Frames: PyBullet is ENU/FLU; forces come out in ENU (what ``applyExternalForce`` takes in
   WORLD_FRAME), measurements in NED/FRD relative to the vehicle's spawn point (physics.py rules).
-- numba caches the compiled kernels next to this file (``cache=True``): the first run on a
-  machine compiles them (seconds), later runs load them.
+- numba caches the compiled kernels (vehicles/control/compiled.py): the first run on a machine
+  compiles them (seconds), later runs load them.
 """
 
 from __future__ import annotations
@@ -26,10 +26,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from vehicles.airframe import Airframe
 from vehicles.control.attitude_control import attitude_rates
+from vehicles.control.compiled import njit_cached
 from vehicles.control.mixer import mix_into
 from vehicles.control.rate_control import STATE_SIZE, d_filter_alpha, rate_pid
 
@@ -46,7 +46,7 @@ F_SIZE = 7
 _SQRT_HALF = math.sqrt(0.5)
 
 
-@njit(cache=True)
+@njit_cached
 def control_and_forces(mode, att_sp, thrust_sp, rates_sp, use_rates_sp, landed, att_gains,
                        rate_gains, rate_state, saturation, rows, idle, alpha, dt_s, measured,
                        rotor_speed, motor, rotor_xy, yaw_k, forces):  # pragma: no cover - compiled
@@ -116,7 +116,7 @@ def control_and_forces(mode, att_sp, thrust_sp, rates_sp, use_rates_sp, landed, 
         out[6] = 1.0
 
 
-@njit(cache=True)
+@njit_cached
 def measure(raw, spawn_enu, dt_s, measured):  # pragma: no cover - compiled
     """PyBullet states (rows: position, orientation xyzw, linear and angular velocity, all ENU)
     into ``measured`` rows (NED/FRD, see M_*); acceleration from the previous velocity over

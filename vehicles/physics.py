@@ -30,13 +30,14 @@ import pybullet as pb
 
 from vehicles.airframe import X500, Airframe
 from vehicles.autopilot import IDLE_THRUST_NORM
-from vehicles.control import position_control
+from vehicles.control import compiled, position_control
 from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_VEL, InnerLoop
 from vehicles.params import ParamStore
 from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint
 from vehicles.vehicle import Measurement, Vehicle
 
 log = logging.getLogger(__name__)
+_uncached_warned = False  # the warning about numba's cache is given once per process
 
 SPAWN_SPACING_M = 5.0
 SPAWN_COLUMNS = 10
@@ -84,6 +85,12 @@ class World:
                           physicsClientId=c)
         self.inner = InnerLoop(airframe, dt_s, IDLE_THRUST_NORM)  # compiles its kernels
         position_control.compile_now()
+        global _uncached_warned
+        if compiled.UNCACHED and not _uncached_warned:
+            _uncached_warned = True
+            log.warning("numba found no writable cache directory, so %s are compiled at every "
+                        "start (a few seconds): set NUMBA_CACHE_DIR to a writable directory",
+                        ", ".join(compiled.UNCACHED))
         self._vehicles: list[Vehicle] = []
         self._body_ids: list[int] = []
         self._com_enu: list[tuple[float, float, float]] = []  # where forces are applied

@@ -102,3 +102,19 @@ def test_mixer_keeps_roll_pitch_over_yaw_when_saturated():
     # Roll difference between left and right survives in full (0.3 · 2 · 0.5 per side pair).
     assert (t[1] + t[2]) - (t[0] + t[3]) == pytest.approx(0.6, abs=1e-9)
     assert out.saturation_positive[2]
+
+
+def test_njit_cached_compiles_without_a_cache_when_numba_has_nowhere_to_keep_it():
+    from vehicles.control import compiled
+
+    namespace = {}
+    # A source file that does not exist: no cache directory can be found for it.
+    exec(compile("def plus_one(x):\n    return x + 1\n", "/nonexistent/plus_one.py", "exec"),
+         namespace)
+    before = list(compiled.UNCACHED)
+    fn = compiled.njit_cached(namespace["plus_one"])
+    try:
+        assert fn(1) == 2
+        assert compiled.UNCACHED == before + ["plus_one"]
+    finally:
+        compiled.UNCACHED[:] = before

@@ -25,9 +25,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 from numba.extending import register_jitable
 
+from vehicles.control.compiled import njit_cached
 from vehicles.types import GRAVITY_MPS2
 
 Vec3 = tuple[float, float, float]
@@ -114,7 +114,7 @@ def limit_tilt(body_z: Vec3, tilt_max_rad: float) -> Vec3:
     return (s * rx, s * ry, math.cos(angle))
 
 
-@njit(cache=True)
+@njit_cached
 def position_control_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ
                           ):  # pragma: no cover - compiled
     """One PositionControl update (module docstring), compiled. ``gains``: the 15 numbers of
