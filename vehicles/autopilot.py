@@ -50,6 +50,17 @@ from vehicles.failsafe import FailsafeFlags
 from vehicles.geofence import Geofence
 from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF
 from vehicles.land_detector import LandDetector
+from vehicles.manual_control import (
+    CENTRED,
+    ManualAltitude,
+    ManualControl,
+    ManualPosition,
+    Stabilized,
+    Sticks,
+    acro_rates,
+    acro_thrust,
+    throttle_to_thrust,
+)
 from vehicles.navigator import NavContext, Navigator, NavSetpoint, auto_limits
 from vehicles.offboard import Offboard, acceleration_to_thrust
 from vehicles.plan_types import PlanType
@@ -67,6 +78,14 @@ POSITION_CONTROL_DIVIDER = 5  # 250 Hz / 5 = 50 Hz
 IDLE_THRUST_NORM = 0.02
 # The navigator must ask for this much climb before a landed vehicle spools up.
 TAKEOFF_TRIGGER_M = 0.2
+# The stick-driven modes (manual_control.py); Manual is Stabilized on a multicopter.
+MANUAL_NAV_STATES = frozenset({NavState.MANUAL, NavState.STAB, NavState.ACRO, NavState.ALTCTL,
+                               NavState.POSCTL})
+# COM_RC_OVERRIDE bit 0: sticks take over these modes (Commander: isAutoMode).
+STICK_OVERRIDE_AUTO = frozenset({NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_RTL,
+                                 NavState.AUTO_TAKEOFF, NavState.AUTO_LAND,
+                                 NavState.AUTO_PRECLAND, NavState.AUTO_FOLLOW_TARGET,
+                                 NavState.DESCEND, NavState.ORBIT})
 BATTERY_TEXTS = {
     1: (Severity.WARNING, "Low battery level, return advised"),
     2: (Severity.CRITICAL, "Critical battery level, land now"),
@@ -95,6 +114,11 @@ class Autopilot:
         self.geofence = Geofence(params)
         self.plans.on_change(self._plan_changed)
         self.offboard = Offboard()
+        self.manual = ManualControl(params)
+        self._manual_altitude = ManualAltitude(params)
+        self._manual_position = ManualPosition(params)
+        self._stabilized = Stabilized(params)
+        self._vel_sp_feedback: Vec3 = (math.nan, math.nan, math.nan)
         self._rates_sp: tuple[float, float, float] | None = None
         self._yaw_sp = math.nan
         self._prev_nav_state: NavState | None = None
@@ -182,7 +206,22 @@ class Autopilot:
         c = self.commander
         c.mission_valid = self.navigator.mission.valid()
         c.offboard_available = self.offboard.fresh(now_s, float(self.params["COM_OF_LOSS_T"]))
+        c.manual_control_available = self.manual.fresh(now_s, float(self.params["COM_RC_LOSS_T"]))
         c.home_valid = self.home is not None
+
+    def manual_control(self, now_s: float, sticks: Sticks) -> None:
+        """Stick input (MANUAL_CONTROL). Moving the sticks in an auto mode (COM_RC_OVERRIDE bit
+        0) or in Offboard (bit 1) switches to Position, as Commander's stick override does."""
+        self.manual.set(now_s, sticks)
+        c = self.commander
+        if not (self.manual.moving and c.armed) or c.terminated:
+            return
+        bits = int(self.params["COM_RC_OVERRIDE"])
+        state = c.nav_state
+        if (bits & 1 and state in STICK_OVERRIDE_AUTO) or (bits & 2 and state is NavState.OFFBOARD):
+            self._refresh_requirements(now_s)
+            if c.request_nav_state(now_s, NavState.POSCTL) is CommandResult.ACCEPTED:
+                self.log.info(now_s, "Pilot took over using sticks")
 
     def start_mission(self, now_s: float, first_seq: int = -1) -> CommandResult:
         """MISSION_START (Commander.cpp): Mission mode and arm."""
@@ -310,7 +349,8 @@ class Autopilot:
         c = self.commander
         return FailsafeFlags(armed=c.armed, user_nav_state=c.user_nav_state,
                              offboard_lost=not c.offboard_available, battery_warning=level,
-                             geofence_breached=breach is not None)
+                             geofence_breached=breach is not None,
+                             manual_control_lost=not c.manual_control_available)
 
     def _update_slow(self, now_s: float, meas, accel) -> None:
         cmd = self.commander
@@ -348,6 +388,11 @@ class Autopilot:
             else:
                 self._set_idle(meas)
             return
+        if cmd.nav_state in MANUAL_NAV_STATES:
+            self.navigator.deactivate(ctx)
+            self._nav_sp = None
+            self._update_manual(now_s, dt, meas, accel, yaw, entered)
+            return
         nav_sp = self.navigator.update(cmd.nav_state, ctx)
         self._nav_sp = nav_sp
         wants_climb = (nav_sp.target_ned_m[2] < pos[2] - TAKEOFF_TRIGGER_M
@@ -368,6 +413,49 @@ class Autopilot:
         self._apply_position_control(dt, meas, accel, PositionSetpoint(p_sp, v_sp, self._yaw_sp,
                                                                        a_sp), yaw)
 
+    def _update_manual(self, now_s: float, dt: float, meas, accel, yaw: float, entered: bool
+                       ) -> None:
+        """The stick-driven modes (manual_control.py): lost input reads as centred sticks."""
+        state = self.commander.nav_state
+        pos, vel = meas.position_ned_m, meas.velocity_ned_mps
+        sticks = self.manual.current(now_s) if self.commander.armed else CENTRED
+        ld = self.land_detector
+        self.trajectory.reset(pos, vel)  # a switch to an auto mode brakes from the real state
+        if state in (NavState.ALTCTL, NavState.POSCTL):
+            task = self._manual_position if state is NavState.POSCTL else self._manual_altitude
+            if entered:
+                task.activate(pos, vel, yaw)
+            if not self.commander.armed or (ld.landed and not task.want_takeoff(sticks)):
+                task.activate(pos, vel, yaw)
+                self._set_idle(meas)
+                return
+            self._idle = False
+            self._flying = True
+            sp = task.update(dt, sticks, pos, vel, yaw, self._vel_sp_feedback)
+            self._apply_position_control(dt, meas, accel, sp, yaw)
+            return
+        # Stabilized (Manual) and Acro: attitude or rates and thrust straight from the sticks.
+        if entered:
+            self._stabilized.activate(yaw)
+        if state is NavState.ACRO:
+            thrust = acro_thrust(sticks)
+        else:
+            thrust = throttle_to_thrust(sticks.throttle, self.params, self._hover)
+        if not self.commander.armed or (ld.landed and thrust <= self._hover):
+            self._stabilized.activate(yaw)
+            self._set_idle(meas)
+            return
+        self._idle = False
+        self._flying = False
+        self._vel_sp_z = math.nan
+        if state is NavState.ACRO:
+            self._att_sp = AttitudeSetpoint(meas.attitude_q, thrust)
+            self._rates_sp = acro_rates(sticks, self.params)
+        else:
+            q = self._stabilized.update(dt, sticks, yaw, ld.landed)
+            self._att_sp = AttitudeSetpoint(q, thrust)
+        self._thrust = thrust
+
     def _set_idle(self, meas) -> None:
         self._idle = True
         self._flying = False
@@ -386,6 +474,7 @@ class Autopilot:
         thrust = out.thrust_ned
         yaw_sp = out.yaw_rad if not math.isnan(out.yaw_rad) else yaw
         self._vel_sp_z = out.velocity_sp_ned_mps[2]
+        self._vel_sp_feedback = out.velocity_sp_ned_mps
         if ld.ground_contact or ld.maybe_landed:
             thrust = (0.0, 0.0, 0.0)
             yaw_sp = yaw

@@ -16,6 +16,9 @@ Rules and invariants:
   ``offboard_available`` current.
 - ``user_nav_state`` is the mode the user (or the vehicle itself) asked for; ``nav_state`` is what
   runs: the failsafe state machine (failsafe.py) may override it while a failsafe is active.
+- Stick input (MANUAL_CONTROL, manual_control.py): the stick modes (``NEEDS_MANUAL_CONTROL``)
+  are entered and armed in only while it is fresh (``manual_control_available``); once seen, its
+  loss and return are announced ("Manual control lost" / "... regained after N.Ns").
 - Data-link loss (Commander::dataLinkCheck): the timer starts at the first GCS heartbeat; no
   heartbeat for COM_DL_LOSS_T -> "Connection to ground station lost"; a new one -> "GCS connection
   regained". The mode is not restored automatically.
@@ -41,7 +44,7 @@ ARMING_DENIED_TEXT = "Arming denied: Resolve system health failures first"
 
 class SwitchRule(enum.Enum):
     ALLOWED = "allowed"  # ACCEPTED (TEMPORARILY_REJECTED without position if it needs one)
-    NEEDS_MANUAL_CONTROL = "needs_manual_control"  # no RC/joystick in SITL -> rejected
+    NEEDS_MANUAL_CONTROL = "needs_manual_control"  # rejected without fresh stick input
     NOT_YET = "not_yet"  # not implemented (Follow Me, Orbit, Precision Land) -> rejected
     FAILSAFE_ONLY = "failsafe_only"  # entered by the vehicle itself, never by request
 
@@ -75,6 +78,9 @@ ACTION_NAV_STATE: dict[Action, NavState] = {
     Action.LAND: NavState.AUTO_LAND,
     Action.DESCEND: NavState.DESCEND,
     Action.TERMINATE: NavState.TERMINATION,
+    Action.FALLBACK_POSCTRL: NavState.POSCTL,
+    Action.FALLBACK_ALTCTRL: NavState.ALTCTL,
+    Action.FALLBACK_STABILIZED: NavState.STAB,
 }
 MODE_TABLE: dict[NavState, ModeSpec] = {
     NavState.MANUAL: ModeSpec("Manual", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
@@ -84,8 +90,7 @@ MODE_TABLE: dict[NavState, ModeSpec] = {
                                     needs_mission=True),
     NavState.AUTO_LOITER: ModeSpec("Hold", SwitchRule.ALLOWED, True, True, None),
     NavState.AUTO_RTL: ModeSpec("Return", SwitchRule.ALLOWED, True, False, _L),
-    NavState.POSITION_SLOW: ModeSpec("Position Slow", SwitchRule.NEEDS_MANUAL_CONTROL, True, True,
-                                     None),
+    NavState.POSITION_SLOW: ModeSpec("Position Slow", SwitchRule.NOT_YET, True, True, None),
     NavState.ACRO: ModeSpec("Acro", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
     NavState.DESCEND: ModeSpec("Descend", SwitchRule.FAILSAFE_ONLY, False, False, _L),
     NavState.TERMINATION: ModeSpec("Termination", SwitchRule.FAILSAFE_ONLY, False, False, None),
@@ -110,6 +115,9 @@ class Commander:
         self.user_nav_state = NavState.AUTO_LOITER
         self.mission_valid = False
         self.offboard_available = False
+        self.manual_control_available = False
+        self._sticks_seen = False
+        self._sticks_lost_s: float | None = None
         self.home_valid = False
         self.failsafe = Failsafe(params, status_log)
         self.gcs_lost = False
@@ -124,7 +132,13 @@ class Commander:
     # --- queries ------------------------------------------------------------------------------
     def prearm_ok(self) -> bool:
         return (self.position_valid and int(self._params["COM_ARMABLE"]) == 1
-                and not self.terminated and MODE_TABLE[self.nav_state].arming_allowed)
+                and not self.terminated and MODE_TABLE[self.nav_state].arming_allowed
+                and not self._needs_sticks_now())
+
+    def _needs_sticks_now(self) -> bool:
+        """The mode flies from the sticks and there are none (rcAndDataLinkCheck)."""
+        return (MODE_TABLE[self.nav_state].switch is SwitchRule.NEEDS_MANUAL_CONTROL
+                and not self.manual_control_available)
 
     @property
     def failsafe_active(self) -> bool:
@@ -136,7 +150,10 @@ class Commander:
         spec = MODE_TABLE[target]
         if self.terminated:
             return CommandResult.TEMPORARILY_REJECTED
-        if spec.switch is not SwitchRule.ALLOWED:
+        if spec.switch is SwitchRule.NEEDS_MANUAL_CONTROL:
+            if not self.manual_control_available:
+                return CommandResult.TEMPORARILY_REJECTED
+        elif spec.switch is not SwitchRule.ALLOWED:
             return CommandResult.TEMPORARILY_REJECTED
         if spec.needs_position and not self.position_valid:
             return CommandResult.TEMPORARILY_REJECTED
@@ -175,6 +192,8 @@ class Commander:
             return CommandResult.ACCEPTED
         if not self.prearm_ok():
             # PX4 runs the checks for external commands even when forced.
+            if self._needs_sticks_now():
+                self._log.critical(now_s, "Preflight Fail: No manual control input")
             self._log.critical(now_s, ARMING_DENIED_TEXT)
             return CommandResult.TEMPORARILY_REJECTED
         self.armed = True
@@ -209,6 +228,7 @@ class Commander:
         ``flags`` (battery, geofence, offboard inputs from the autopilot) run the failsafes."""
         self._update_data_link(now_s)
         if flags is not None:
+            self._update_manual_control(now_s, not flags.manual_control_lost)
             self._update_failsafe(now_s, replace(flags, armed=self.armed, gcs_lost=self.gcs_lost,
                                                  user_nav_state=self.user_nav_state))
         became_valid = False
@@ -238,6 +258,16 @@ class Commander:
             if delay > 0.0 and now_s - self._armed_at_s >= delay - 1e-9:
                 self._disarm(now_s, "Disarmed by auto preflight disarming")
         return became_valid
+
+    def _update_manual_control(self, now_s: float, available: bool) -> None:
+        """Commander::manualControlCheck's texts, once stick input has been seen."""
+        if available and self._sticks_lost_s is not None:
+            self._log.info(now_s, f"Manual control regained after {now_s - self._sticks_lost_s:.1f}s")
+            self._sticks_lost_s = None
+        elif not available and self._sticks_seen and self._sticks_lost_s is None:
+            self._log.critical(now_s, "Manual control lost")
+            self._sticks_lost_s = now_s
+        self._sticks_seen = self._sticks_seen or available
 
     def _update_data_link(self, now_s: float) -> None:
         if self._gcs_seen_s is None or self.gcs_lost:

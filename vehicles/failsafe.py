@@ -66,6 +66,11 @@ class FailsafeFlags:
     offboard_lost: bool = False
     battery_warning: int = 0  # 0 none, 1 low, 2 critical, 3 emergency
     geofence_breached: bool = False
+    # No stick input within COM_RC_LOSS_T (true until a joystick or MANUAL_CONTROL sender shows up).
+    manual_control_lost: bool = True
+    # Filled in by Failsafe.update: the input was already missing when the vehicle armed (and has
+    # not come back since), so its loss is not a failsafe (PX4 _manual_control_lost_at_arming).
+    manual_control_lost_at_arming: bool = False
 
 
 # NAV_DLL_ACT / NAV_RCL_ACT values: 0 disabled, 1 Hold, 2 Return, 3 Land, 5 Terminate, 6 Disarm.
@@ -78,9 +83,9 @@ def from_nav_dll_or_rcl_act(value: int) -> ActionOptions:
     return table.get(value, ActionOptions(Action.NONE))
 
 
-def from_offboard_loss_act(params) -> ActionOptions:
-    """COM_OBL_RC_ACT; the manual fallbacks need sticks SITL does not have -> NAV_RCL_ACT
-    (failsafe.cpp checkModeFallback)."""
+def from_offboard_loss_act(params, manual_control_lost: bool = True) -> ActionOptions:
+    """COM_OBL_RC_ACT; the manual fallbacks (0 Position, 1 Altitude, 2 Stabilized) need stick
+    input, without it NAV_RCL_ACT applies (failsafe.cpp checkModeFallback)."""
     value = int(params["COM_OBL_RC_ACT"])
     table = {3: ActionOptions(Action.RTL, Clear.ON_MODE_CHANGE_OR_DISARM),
              4: ActionOptions(Action.LAND, Clear.ON_MODE_CHANGE_OR_DISARM),
@@ -89,7 +94,10 @@ def from_offboard_loss_act(params) -> ActionOptions:
              7: ActionOptions(Action.DISARM)}
     if value in table:
         return table[value]
-    return from_nav_dll_or_rcl_act(int(params["NAV_RCL_ACT"]))  # 0/1/2 Position/Alt/Stabilized
+    if not manual_control_lost:
+        fallback = {1: Action.FALLBACK_ALTCTRL, 2: Action.FALLBACK_STABILIZED}
+        return ActionOptions(fallback.get(value, Action.FALLBACK_POSCTRL))
+    return from_nav_dll_or_rcl_act(int(params["NAV_RCL_ACT"]))
 
 
 def from_battery_act(params, level: int) -> ActionOptions:
@@ -112,20 +120,32 @@ def from_gf_act(params) -> ActionOptions:
     return table.get(int(params["GF_ACTION"]), ActionOptions(Action.NONE))
 
 
-# COM_DLL_EXCEPT bits (failsafe.cpp): which user modes ignore a data-link loss.
-_DLL_EXCEPT_MODES = {
+# COM_DLL_EXCEPT / COM_RCL_EXCEPT bits (failsafe.cpp isFailsafeIgnored): which user modes
+# ignore a data-link or manual-control loss.
+_LINK_LOSS_EXCEPT_MODES = {
     1: {NavState.AUTO_MISSION},
     2: {NavState.AUTO_LOITER, NavState.AUTO_RTL, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND,
-        NavState.AUTO_PRECLAND},
+        NavState.AUTO_PRECLAND, NavState.DESCEND, NavState.AUTO_FOLLOW_TARGET, NavState.ORBIT},
     4: {NavState.OFFBOARD},
 }
+
+
+def _ignored(mode: NavState, bits: int) -> bool:
+    return any(bits & bit and mode in modes for bit, modes in _LINK_LOSS_EXCEPT_MODES.items())
 
 
 def _dll_condition(f: FailsafeFlags, params) -> bool:
     if not f.gcs_lost or f.user_nav_state in (NavState.AUTO_LAND, NavState.AUTO_PRECLAND):
         return False
-    bits = int(params["COM_DLL_EXCEPT"])
-    return not any(bits & bit and f.user_nav_state in modes for bit, modes in _DLL_EXCEPT_MODES.items())
+    return not _ignored(f.user_nav_state, int(params["COM_DLL_EXCEPT"]))
+
+
+def _rcl_condition(f: FailsafeFlags, params) -> bool:
+    """Manual control lost, unless it was already missing at arming (SITL without a joystick)
+    or the mode is excepted by COM_RCL_EXCEPT."""
+    if not f.manual_control_lost or f.manual_control_lost_at_arming:
+        return False
+    return not _ignored(f.user_nav_state, int(params["COM_RCL_EXCEPT"]))
 
 
 @dataclass(frozen=True)
@@ -138,9 +158,11 @@ class Check:
 CHECKS: tuple[Check, ...] = (
     Check("gcs_connection_lost", _dll_condition,
           lambda f, p: from_nav_dll_or_rcl_act(int(p["NAV_DLL_ACT"]))),
+    Check("manual_control_signal_lost", _rcl_condition,
+          lambda f, p: from_nav_dll_or_rcl_act(int(p["NAV_RCL_ACT"]))),
     Check("offboard_signal_lost",
           lambda f, p: f.offboard_lost and f.user_nav_state is NavState.OFFBOARD,
-          lambda f, p: from_offboard_loss_act(p)),
+          lambda f, p: from_offboard_loss_act(p, f.manual_control_lost)),
     Check("battery_warning", lambda f, p: f.battery_warning > 0,
           lambda f, p: from_battery_act(p, f.battery_warning)),
     Check("geofence_breached", lambda f, p: f.geofence_breached, lambda f, p: from_gf_act(p)),
@@ -156,6 +178,7 @@ class Failsafe:
         self._delay_until = -math.inf
         self._user_takeover = False
         self._last_armed = False
+        self._manual_control_lost_at_arming = False
 
     @property
     def in_failsafe(self) -> bool:
@@ -173,6 +196,12 @@ class Failsafe:
             del self.actions[name]
 
     def update(self, now_s: float, flags: FailsafeFlags) -> Action:
+        # updateArmingState, then: input that comes back makes its later loss count again.
+        if flags.armed and not self._last_armed or not flags.armed:
+            self._manual_control_lost_at_arming = flags.manual_control_lost
+        if not flags.manual_control_lost:
+            self._manual_control_lost_at_arming = False
+        flags = replace(flags, manual_control_lost_at_arming=self._manual_control_lost_at_arming)
         if flags.armed != self._last_armed:
             self._remove(Clear.ON_DISARM)
             self._remove(Clear.ON_MODE_CHANGE_OR_DISARM)

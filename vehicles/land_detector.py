@@ -74,7 +74,10 @@ class LandDetector:
         vertical = abs(velocity_ned_mps[2]) > max_climb
         horizontal = math.hypot(velocity_ned_mps[0], velocity_ned_mps[1]) > float(
             p["LNDMC_XY_VEL_MAX"])
-        in_descend = math.isfinite(velocity_sp_z_mps) and velocity_sp_z_mps >= land_speed_thr
+        # Without a climb-rate setpoint (Stabilized, Acro, offboard attitude/rates) PX4 judges
+        # ground contact by the missing movement alone; low thrust still has to follow.
+        in_descend = (velocity_sp_z_mps >= land_speed_thr if math.isfinite(velocity_sp_z_mps)
+                      else True)
         self.ground_contact = self._contact.update(now_s, not vertical and not horizontal and in_descend)
         thr_min = float(p["MPC_THR_MIN"])
         low_thrust = thrust_norm <= thr_min + (hover_thrust - thr_min) * LOW_THRUST_THRESHOLD

@@ -18,6 +18,7 @@ import numpy as np
 
 from vehicles.airframe import Airframe
 from vehicles.autopilot import Autopilot
+from vehicles.manual_control import Sticks
 from vehicles.params import ParamStore
 from vehicles.plan_types import MissionStatus, OffboardSetpoint, PlanItem, PlanResult, PlanType
 from vehicles.types import (
@@ -183,6 +184,11 @@ class Vehicle:
     # --- offboard -----------------------------------------------------------------------------
     def set_offboard_setpoint(self, now_s: float, setpoint: OffboardSetpoint) -> None:
         self._autopilot.offboard.set(now_s, setpoint)
+
+    # --- manual control -----------------------------------------------------------------------
+    def manual_control(self, now_s: float, sticks: Sticks) -> None:
+        """Stick input (MANUAL_CONTROL; PX4 manual_control_setpoint ranges, manual_control.py)."""
+        self._autopilot.manual_control(now_s, sticks)
 
     # --- actions ------------------------------------------------------------------------------
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,

@@ -42,6 +42,7 @@ from gateway.mavlink.codec import (
     pack_datagrams,
 )
 from gateway.mavlink.commands import CommandService
+from gateway.mavlink.manual import ManualControlService
 from gateway.mavlink.mission import MissionService
 from gateway.mavlink.offboard import OffboardService
 from gateway.mavlink.params import ParamService
@@ -112,6 +113,7 @@ class Session:
         self.ping = PingService(self)
         self.mission = MissionService(self)
         self.offboard = OffboardService(self)
+        self.manual = ManualControlService(self)
         self._routes: dict[int, Callable[[Any, float], None]] = {
             M.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
             M.MAVLINK_MSG_ID_COMMAND_LONG: self.commands.on_command_long,
@@ -134,6 +136,7 @@ class Session:
             M.MAVLINK_MSG_ID_SET_POSITION_TARGET_LOCAL_NED: self.offboard.on_local_ned,
             M.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT: self.offboard.on_global_int,
             M.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self.offboard.on_attitude_target,
+            M.MAVLINK_MSG_ID_MANUAL_CONTROL: self.manual.on_manual_control,
         }
         if signing is not None:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing

@@ -154,3 +154,48 @@ async def test_mission_upload_over_a_lossy_link(daemon_factory):
             got = [v for i in downloaded.mission_items for v in (i.latitude_deg, i.longitude_deg)]
             want = [v for i in items for v in (i.latitude_deg, i.longitude_deg)]
             assert got == pytest.approx(want, abs=1e-7)
+
+
+@pytest.mark.asyncio
+async def test_manual_control_position_mode_fly_and_land(daemon_factory):
+    """MAVSDK's manual_control plugin as a joystick app uses it (inputs at 20 Hz): Position mode
+    is refused without stick input, flies the sticks, and lands and disarms with the stick
+    down (the upstream manual_control.py example's flow, bounded)."""
+    from mavsdk.manual_control import ManualControlError
+    from mavsdk.telemetry import FlightMode
+
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        with pytest.raises(ManualControlError):  # no input yet: MAVSDK refuses by itself
+            await drone.manual_control.start_position_control()
+        sticks = [0.0, 0.0, 0.5, 0.0]  # x pitch, y roll, z throttle 0..1, r yaw
+
+        async def joystick():
+            while True:
+                await drone.manual_control.set_manual_control_input(*sticks)
+                await asyncio.sleep(0.05)
+
+        feeder = asyncio.create_task(joystick())
+        try:
+            await asyncio.sleep(0.3)
+            await drone.action.arm()
+            await drone.manual_control.start_position_control()
+            await first(drone.telemetry.flight_mode(), lambda m: m is FlightMode.POSCTL, 10,
+                        "Position mode")
+            sticks[2] = 0.9  # climb
+            await first(drone.telemetry.position_velocity_ned(),
+                        lambda pv: pv.position.down_m < -4.0, 20, "climb above 4 m")
+            sticks[2] = 0.5
+            start = (await latest(drone.telemetry.position_velocity_ned())).position
+            sticks[0] = 0.6  # forward (north: the vehicle faces north)
+            await asyncio.sleep(3)
+            sticks[0] = 0.0
+            await asyncio.sleep(3)
+            pv = await latest(drone.telemetry.position_velocity_ned())
+            assert pv.position.north_m - start.north_m > 5.0, (start, pv.position)
+            assert math.hypot(pv.velocity.north_m_s, pv.velocity.east_m_s) < 0.5, pv.velocity
+            assert abs(pv.position.down_m - start.down_m) < 0.7, (start, pv.position)
+            sticks[2] = 0.0  # stick down: descend, touch down, auto-disarm
+            await land_and_disarm(drone, 40)
+        finally:
+            feeder.cancel()

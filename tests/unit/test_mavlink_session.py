@@ -348,5 +348,5 @@ def test_unsupported_auto_mode_text_when_gcs_present():
 
 def test_unhandled_messages_are_counted():
     _, session, client = make()
-    client.send(M.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0))
+    client.send(M.MAVLink_named_value_float_message(0, b"x", 1.0))
     assert session.stats.rx_unhandled == 1 and session.stats.get("rx_frames") == 1

@@ -16,12 +16,15 @@ from vehicles.types import CommandResult, NavState
 
 REQUESTABLE = {NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_RTL,
                NavState.AUTO_MISSION, NavState.OFFBOARD}
+# ... and with stick input (MANUAL_CONTROL) within COM_RC_LOSS_T:
+STICK_MODES = {NavState.MANUAL, NavState.ALTCTL, NavState.POSCTL, NavState.STAB, NavState.ACRO}
 
 
 def make(nav_state=NavState.AUTO_LOITER, position_valid=True, armed=False, landed=True,
-         mission_valid=True, offboard_available=True):
+         mission_valid=True, offboard_available=True, manual_control_available=False):
     log = StatusLog()
     c = Commander(ParamStore(), log)
+    c.manual_control_available = manual_control_available
     c.position_valid = position_valid
     c.mission_valid = mission_valid
     c.offboard_available = offboard_available
@@ -43,12 +46,13 @@ def test_boot_state_is_hold_disarmed_without_position():
     assert c.position_valid
 
 
+@pytest.mark.parametrize("sticks", [False, True])
 @pytest.mark.parametrize("current", list(NavState))
 @pytest.mark.parametrize("target", list(NavState))
-def test_every_mode_request_from_every_mode_has_a_defined_answer(current, target):
-    c, _ = make(current)
+def test_every_mode_request_from_every_mode_has_a_defined_answer(current, target, sticks):
+    c, _ = make(current, manual_control_available=sticks)
     result = c.request_nav_state(0.0, target)
-    if target in REQUESTABLE:
+    if target in REQUESTABLE or (sticks and target in STICK_MODES):
         assert result is CommandResult.ACCEPTED
         assert c.nav_state is target
     else:
@@ -90,17 +94,30 @@ def test_termination_from_every_mode(current, armed):
     assert c.request_nav_state(0.0, NavState.AUTO_LOITER) is CommandResult.TEMPORARILY_REJECTED
 
 
-@pytest.mark.parametrize("target", sorted(REQUESTABLE))
+@pytest.mark.parametrize("target", sorted(REQUESTABLE | STICK_MODES))
 def test_mode_requests_need_a_position_estimate(target):
-    c, _ = make(position_valid=False)
-    assert c.request_nav_state(0.0, target) is CommandResult.TEMPORARILY_REJECTED
+    c, _ = make(position_valid=False, manual_control_available=True)
+    expected = (CommandResult.TEMPORARILY_REJECTED if MODE_TABLE[target].needs_position
+                else CommandResult.ACCEPTED)
+    assert c.request_nav_state(0.0, target) is expected
+    assert MODE_TABLE[target].needs_position is (target not in STICK_MODES - {NavState.POSCTL})
+
+
+@pytest.mark.parametrize("mode", sorted(STICK_MODES))
+def test_arming_in_a_stick_mode_needs_stick_input(mode):
+    c, log = make(mode)
+    assert c.arm(0.0) is CommandResult.TEMPORARILY_REJECTED
+    assert [t.text for t in log.after(0)] == ["Preflight Fail: No manual control input",
+                                              ARMING_DENIED_TEXT]
+    c.manual_control_available = True
+    assert c.arm(0.0) is CommandResult.ACCEPTED
 
 
 @pytest.mark.parametrize("current", list(NavState))
 @pytest.mark.parametrize("event", list(ArmEvent))
 def test_every_mode_times_every_arming_event(current, event):
     armed = event is not ArmEvent.ARM
-    c, log = make(current, armed=armed, landed=True)
+    c, log = make(current, armed=armed, landed=True, manual_control_available=True)
     if event is ArmEvent.ARM:
         result = c.arm(0.0)
         expected = MODE_TABLE[current].arming_allowed

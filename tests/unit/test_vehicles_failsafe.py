@@ -32,6 +32,7 @@ FLAG_FOR_CHECK = {
     "offboard_signal_lost": dict(offboard_lost=True, user_nav_state=NavState.OFFBOARD),
     "battery_warning": dict(battery_warning=3),
     "geofence_breached": dict(geofence_breached=True),
+    "manual_control_signal_lost": dict(manual_control_lost=True),
 }
 
 
@@ -45,6 +46,8 @@ def test_each_check_holds_then_acts_and_clears_on_disarm(check):
     log = StatusLog()
     fs = Failsafe(params, log)
     base = dict(armed=True, user_nav_state=NavState.AUTO_LOITER)
+    if check == "manual_control_signal_lost":
+        base["manual_control_lost"] = False  # sticks present when it armed
     assert fs.update(0.0, FailsafeFlags(**base)) is Action.NONE
     flags = FailsafeFlags(**{**base, **FLAG_FOR_CHECK[check]})
     assert fs.update(1.0, flags) is Action.HOLD  # COM_FAIL_ACT_T = 5 s hold first
@@ -70,6 +73,39 @@ def test_user_mode_change_takes_over():
     assert fs.update(0.0, flags) is Action.HOLD
     fs.user_mode_changed()
     assert fs.update(0.1, flags) is Action.NONE
+
+
+def test_manual_control_missing_at_arming_is_no_failsafe_until_it_came_and_went():
+    fs = Failsafe(ParamStore(), StatusLog())
+    none = dict(user_nav_state=NavState.AUTO_LOITER, manual_control_lost=True)
+    assert fs.update(0.0, FailsafeFlags(armed=False, **none)) is Action.NONE
+    assert fs.update(0.1, FailsafeFlags(armed=True, **none)) is Action.NONE  # SITL, no joystick
+    assert fs.update(5.0, FailsafeFlags(armed=True, **none)) is Action.NONE
+    back = dict(none, manual_control_lost=False)
+    assert fs.update(6.0, FailsafeFlags(armed=True, **back)) is Action.NONE
+    assert fs.update(7.0, FailsafeFlags(armed=True, **none)) is Action.HOLD  # then NAV_RCL_ACT
+    assert fs.update(12.1, FailsafeFlags(armed=True, **none)) is Action.RTL
+
+
+@pytest.mark.parametrize("bits, mode, ignored", [
+    (1, NavState.AUTO_MISSION, True), (1, NavState.AUTO_LOITER, False),
+    (2, NavState.AUTO_LOITER, True), (2, NavState.AUTO_TAKEOFF, True), (2, NavState.POSCTL, False),
+    (4, NavState.OFFBOARD, True), (0, NavState.AUTO_MISSION, False)])
+def test_com_rcl_except(bits, mode, ignored):
+    fs = Failsafe(ParamStore({"COM_RCL_EXCEPT": bits}), StatusLog())
+    assert fs.update(0.0, FailsafeFlags(armed=True, user_nav_state=mode,
+                                        manual_control_lost=False)) is Action.NONE
+    lost = FailsafeFlags(armed=True, user_nav_state=mode, manual_control_lost=True)
+    assert (fs.update(1.0, lost) is Action.NONE) is ignored
+
+
+@pytest.mark.parametrize("act, expected", [(0, Action.FALLBACK_POSCTRL), (1, Action.FALLBACK_ALTCTRL),
+                                           (2, Action.FALLBACK_STABILIZED)])
+def test_offboard_loss_falls_back_to_the_sticks_when_there_are_some(act, expected):
+    fs = Failsafe(ParamStore({"COM_OBL_RC_ACT": act}), StatusLog())
+    flags = FailsafeFlags(armed=True, user_nav_state=NavState.OFFBOARD, offboard_lost=True,
+                          manual_control_lost=False)
+    assert fs.update(0.0, flags) is expected
 
 
 # --- in flight -------------------------------------------------------------------------------

@@ -1,0 +1,154 @@
+"""Stick-driven flight (MANUAL_CONTROL → vehicles/manual_control.py): physics + autopilot on
+simulated time, sticks fed as a joystick would at 20 Hz."""
+
+import math
+
+import numpy as np
+import pytest
+
+from tests.unit.test_vehicles_flight import Sim, take_off
+from vehicles.manual_control import Sticks, deadzone, expo, superexpo, throttle_to_thrust
+from vehicles.params import ParamStore
+from vehicles.types import CommandResult, NavState
+
+CENTRED = Sticks()
+
+
+def fly(sim, seconds, sticks, until=None):
+    """Run ``seconds`` sending ``sticks`` every 50 ms (a joystick through QGC)."""
+    end = sim.t + seconds
+    while sim.t < end - 1e-9:
+        sim.v.manual_control(sim.t, sticks)
+        if sim.run(0.05, until=until):
+            return True
+    return False
+
+
+@pytest.fixture
+def sim():
+    s = Sim()
+    yield s
+    s.close()
+
+
+def test_stick_math_is_px4s():
+    assert deadzone(0.05, 0.1) == 0.0 and deadzone(1.0, 0.1) == 1.0
+    assert deadzone(0.55, 0.1) == pytest.approx(0.5)
+    assert expo(0.5, 0.6) == pytest.approx(0.4 * 0.5 + 0.6 * 0.125)
+    assert superexpo(1.0, 0.69, 0.7) == pytest.approx(1.0)
+    p = ParamStore()
+    assert throttle_to_thrust(0.0, p, 0.4) == pytest.approx(0.4)  # centred = hover
+    assert throttle_to_thrust(-1.0, p, 0.4) == pytest.approx(float(p["MPC_MANTHR_MIN"]))
+    assert throttle_to_thrust(1.0, p, 0.4) == pytest.approx(float(p["MPC_THR_MAX"]))
+
+
+def test_position_mode_needs_sticks_and_then_flies_them(sim):
+    take_off(sim)
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.TEMPORARILY_REJECTED
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    start = sim.v.state.position_ned_m.copy()
+    fly(sim, 3.0, CENTRED)  # centred sticks: position and altitude hold
+    assert np.linalg.norm(sim.v.state.position_ned_m - start) < 0.3
+    fly(sim, 4.0, Sticks(pitch=1.0))  # full forward: accelerate north towards MPC_VEL_MANUAL
+    vn = sim.v.state.velocity_ned_mps[0]
+    assert vn > 5.0
+    fly(sim, 6.0, CENTRED)  # release: brake and lock the position
+    s = sim.v.state
+    assert np.linalg.norm(s.velocity_ned_mps) < 0.2
+    held = s.position_ned_m.copy()
+    fly(sim, 2.0, CENTRED)
+    assert np.linalg.norm(sim.v.state.position_ned_m - held) < 0.2
+    z0 = held[2]
+    # Full up: below MPC_LAND_ALT2 (5 m) at MPC_TKO_SPEED, above MPC_LAND_ALT1 (10 m) at
+    # MPC_Z_VEL_MAX_UP (3 m/s).
+    fly(sim, 1.0, Sticks(throttle=1.0))
+    assert sim.v.state.velocity_ned_mps[2] == pytest.approx(-1.5, abs=0.2)
+    assert fly(sim, 10.0, Sticks(throttle=1.0), until=lambda: sim.v.state.position_ned_m[2] < -12.0)
+    fly(sim, 0.5, Sticks(throttle=1.0))
+    assert sim.v.state.velocity_ned_mps[2] == pytest.approx(-3.0, abs=0.3)
+    fly(sim, 3.0, CENTRED)
+    assert sim.v.state.position_ned_m[2] < z0 - 9.0
+    assert abs(sim.v.state.velocity_ned_mps[2]) < 0.2
+    yaw0 = sim.v.state.euler_rad()[2]
+    fly(sim, 2.0, Sticks(yaw=0.5))  # yaw right: ~35 deg/s once the heading follows
+    assert math.remainder(sim.v.state.euler_rad()[2] - yaw0, math.tau) > 0.6
+    assert sim.v.status.nav_state is NavState.POSCTL
+
+
+def test_position_mode_lands_and_disarms_with_the_stick_down(sim):
+    take_off(sim)
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    assert fly(sim, 30.0, Sticks(throttle=-1.0), until=lambda: not sim.v.status.armed)
+    assert "Disarmed by landing" in sim.texts()
+    assert abs(sim.v.state.position_ned_m[2]) < 0.1
+
+
+def test_position_mode_takes_off_from_the_ground_with_the_stick_up(sim):
+    sim.run(1.2)
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    assert sim.v.arm(sim.t) is CommandResult.ACCEPTED
+    fly(sim, 1.0, CENTRED)
+    assert abs(sim.v.state.position_ned_m[2]) < 0.05  # centred on the ground: stays there
+    fly(sim, 3.0, Sticks(throttle=0.8))
+    assert sim.v.state.position_ned_m[2] < -2.0
+    fly(sim, 2.0, CENTRED)
+    assert not sim.v.status.landed_state.name == "ON_GROUND"
+
+
+@pytest.mark.parametrize("mode", [NavState.STAB, NavState.ALTCTL, NavState.ACRO])
+def test_attitude_modes_tilt_with_the_roll_stick(sim, mode):
+    take_off(sim)
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, mode) is CommandResult.ACCEPTED
+    fly(sim, 1.0, CENTRED)
+    roll = Sticks(roll=0.5 if mode is not NavState.ACRO else 0.3)
+    fly(sim, 0.6, roll)
+    assert sim.v.state.euler_rad()[0] > math.radians(8.0)  # rolled right
+    assert sim.v.state.velocity_ned_mps[1] > 0.3  # and drifting east
+    if mode is NavState.STAB:  # the roll stick's angle: MPC_MAN_TILT_MAX / 2
+        assert math.degrees(sim.v.state.euler_rad()[0]) == pytest.approx(17.5, abs=2.0)
+
+
+def test_stick_loss_in_position_mode_returns(sim):
+    take_off(sim)
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    fly(sim, 1.0, CENTRED)
+    sim.run(7.0)  # no input: COM_RC_LOSS_T, then Hold for COM_FAIL_ACT_T, then NAV_RCL_ACT
+    assert sim.v.status.nav_state is NavState.AUTO_RTL
+    texts = sim.texts()
+    assert texts.index("Manual control lost") < texts.index("Failsafe activated")
+    fly(sim, 0.2, CENTRED)
+    assert sim.texts()[-1] == "Manual control regained after 6.5s"  # 7 s minus COM_RC_LOSS_T
+
+
+def test_moving_the_sticks_takes_over_a_mission_hold(sim):
+    take_off(sim)
+    fly(sim, 1.0, CENTRED)  # a joystick appears, centred: no takeover
+    assert sim.v.status.nav_state is NavState.AUTO_LOITER
+    fly(sim, 0.5, Sticks(pitch=0.8))
+    assert sim.v.status.nav_state is NavState.POSCTL
+    assert "Pilot took over using sticks" in sim.texts()
+
+
+def test_no_takeover_with_com_rc_override_zero():
+    s = Sim(COM_RC_OVERRIDE=0)
+    try:
+        take_off(s)
+        fly(s, 1.0, CENTRED)
+        fly(s, 0.5, Sticks(pitch=0.8))
+        assert s.v.status.nav_state is NavState.AUTO_LOITER
+    finally:
+        s.close()
+
+
+def test_arming_in_position_mode_without_sticks_is_denied(sim):
+    sim.run(1.2)
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    sim.run(1.0)  # the input is gone
+    assert sim.v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
+    assert "Preflight Fail: No manual control input" in sim.texts()

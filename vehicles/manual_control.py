@@ -1,0 +1,368 @@
+"""Manual control: stick input (QGC's virtual joystick or a joystick through QGC, MAVSDK's
+manual_control plugin, pymavlink's MANUAL_CONTROL) and the stick-driven flight modes.
+
+After PX4:
+- ``modules/manual_control`` (ManualControl.cpp, lib MovingDiff): the input is valid for
+  COM_RC_LOSS_T after the last message; "sticks moving" is any stick's rate of change (low-passed
+  over 0.1 s) above COM_RC_STICK_OV percent of full travel per second; that is what lets a pilot
+  take over an auto mode or Offboard (COM_RC_OVERRIDE, autopilot.py).
+- ``flight_mode_manager/tasks/Utility/Sticks.cpp``: expo + deadzone (MPC_*_EXPO, MPC_HOLD_DZ);
+  lost input reads as centred sticks.
+- ``tasks/ManualAltitude``: vertical velocity from the throttle stick (MPC_Z_VEL_MAX_UP/DN), the
+  altitude locked when the stick is centred and the vehicle has stopped (MPC_HOLD_MAX_Z), slower
+  near the ground (MPC_LAND_ALT1/2, MPC_LAND_SPEED, MPC_TKO_SPEED), tilt from roll/pitch
+  (MPC_MAN_TILT_MAX, Altitude mode), yaw rate from the yaw stick (MPC_MAN_Y_MAX, MPC_MAN_Y_TAU);
+  take-off wanted above 65 % throttle.
+- ``tasks/Utility/StickAccelerationXY.cpp`` (Position mode, MPC_POS_MODE 4, PX4's default since
+  v1.13; older values run the same): sticks command horizontal acceleration (2 × MPC_ACC_HOR),
+  jerk-limited (MPC_JERK_MAX), with a drag that caps the speed at MPC_VEL_MANUAL and brakes
+  harder with centred sticks; the position is locked once the velocity setpoint is zero.
+- ``mc_att_control`` (Stabilized, and Manual on a multicopter): roll/pitch sticks → tilt up to
+  MPC_MAN_TILT_MAX, yaw stick → heading rate, throttle → thrust through MPC_THR_CURVE (0: the
+  centred stick is hover thrust).
+- ``mc_rate_control`` (Acro): sticks → body rates (MC_ACRO_*_MAX, superexpo MC_ACRO_EXPO*,
+  MC_ACRO_SUPEXPO*), throttle → thrust.
+
+Sticks are PX4's ``manual_control_setpoint``: pitch forward +, roll right +, yaw right +, all in
+[-1, 1]; throttle in [-1, 1] (−1 = stick down). Pure: time and dt are arguments.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from vehicles.control.position_control import PositionSetpoint
+from vehicles.types import GRAVITY_MPS2
+
+Vec3 = tuple[float, float, float]
+EPS = 1.1920929e-07  # FLT_EPSILON
+TAKEOFF_THROTTLE = 0.3  # FlightTaskManualAltitude::_checkTakeoff: above 65 % of the stick
+STICK_RATE_TAU_S = 0.1  # MovingDiff's filter
+BRAKE_BOOST_TAU_S = 0.8
+
+
+@dataclass(frozen=True)
+class Sticks:
+    pitch: float = 0.0
+    roll: float = 0.0
+    throttle: float = 0.0
+    yaw: float = 0.0
+    buttons: int = 0
+
+
+CENTRED = Sticks()
+
+
+# --- PX4 mathlib -----------------------------------------------------------------------------
+def _clamp(v: float, lo: float, hi: float) -> float:
+    return lo if v < lo else hi if v > hi else v
+
+
+def deadzone(value: float, dz: float) -> float:
+    value = _clamp(value, -1.0, 1.0)
+    dz = _clamp(dz, 0.0, 0.99)
+    if abs(value) <= dz:
+        return 0.0
+    return (value - math.copysign(dz, value)) / (1.0 - dz)
+
+
+def expo(value: float, e: float) -> float:
+    value = _clamp(value, -1.0, 1.0)
+    e = _clamp(e, 0.0, 1.0)
+    return (1.0 - e) * value + e * value * value * value
+
+
+def expo_deadzone(value: float, e: float, dz: float) -> float:
+    return expo(deadzone(value, dz), e)
+
+
+def superexpo(value: float, e: float, g: float) -> float:
+    value = _clamp(value, -1.0, 1.0)
+    g = _clamp(g, 0.0, 0.99)
+    return expo(value, e) * (1.0 - g) / (1.0 - abs(value) * g)
+
+
+def gradual(value: float, x_low: float, x_high: float, y_low: float, y_high: float) -> float:
+    if value <= x_low:
+        return y_low
+    if value >= x_high:
+        return y_high
+    return y_low + (y_high - y_low) * (value - x_low) / (x_high - x_low)
+
+
+def _sqrt_linear(value: float) -> float:
+    if value < 0.0:
+        return 0.0
+    return math.sqrt(value) if value < 1.0 else value
+
+
+def _lowpass(state: float, target: float, dt: float, tau: float) -> float:
+    """AlphaFilter with time constant ``tau`` (0: no filtering)."""
+    alpha = dt / max(tau + dt, 1e-3)
+    return (1.0 - alpha) * state + alpha * target
+
+
+def _rotate(x: float, y: float, yaw: float) -> tuple[float, float]:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return c * x - s * y, s * x + c * y
+
+
+# --- the input -------------------------------------------------------------------------------
+class _MovingDiff:
+    """PX4 MovingDiff: the stick's rate of change (per second), low-passed (0.1 s)."""
+
+    def __init__(self) -> None:
+        self.rate = 0.0
+        self._last = math.nan
+
+    def update(self, value: float, dt: float) -> float:
+        if dt < EPS:
+            return self.rate
+        if not math.isnan(self._last):
+            self.rate = _lowpass(self.rate, (value - self._last) / dt, dt, STICK_RATE_TAU_S)
+        self._last = value
+        return self.rate
+
+    def reset(self) -> None:
+        self.rate = 0.0
+        self._last = math.nan
+
+
+class ManualControl:
+    """The latest stick input and when it came."""
+
+    def __init__(self, params) -> None:
+        self._params = params
+        self.sticks: Sticks | None = None
+        self.received_s = -math.inf
+        self._diffs = (_MovingDiff(), _MovingDiff(), _MovingDiff(), _MovingDiff())
+        self.moving = False  # a stick moved faster than COM_RC_STICK_OV with the last input
+
+    def set(self, now_s: float, sticks: Sticks) -> None:
+        if not self.fresh(now_s, float(self._params["COM_RC_LOSS_T"])):
+            for d in self._diffs:
+                d.reset()
+        dt = 0.0 if self.sticks is None else now_s - self.received_s
+        threshold = 0.01 * float(self._params["COM_RC_STICK_OV"])
+        self.moving = False
+        for d, v in zip(self._diffs, (sticks.roll, sticks.pitch, sticks.yaw, sticks.throttle)):
+            if abs(d.update(v, dt)) > threshold:
+                self.moving = True
+        self.sticks = sticks
+        self.received_s = now_s
+
+    def fresh(self, now_s: float, timeout_s: float) -> bool:
+        return self.sticks is not None and now_s - self.received_s <= timeout_s
+
+    def current(self, now_s: float) -> Sticks:
+        """The sticks now: centred once the input is lost (Sticks::checkAndUpdateStickInputs)."""
+        if self.fresh(now_s, float(self._params["COM_RC_LOSS_T"])):
+            return self.sticks
+        return CENTRED
+
+
+# --- Altitude and Position -------------------------------------------------------------------
+class ManualAltitude:
+    """FlightTaskManualAltitude (+ StickYaw): one instance per vehicle, ``activate`` on entry."""
+
+    def __init__(self, params) -> None:
+        self.params = params
+        self.z_sp = math.nan
+        self.yaw_sp = math.nan
+        self._yawspeed = 0.0
+        self._tilt = (0.0, 0.0)
+
+    def activate(self, pos: Vec3, vel: Vec3, yaw: float) -> None:
+        self.z_sp = pos[2]
+        self.yaw_sp = yaw
+        self._yawspeed = 0.0
+        self._tilt = (0.0, 0.0)
+
+    def want_takeoff(self, sticks: Sticks) -> bool:
+        return sticks.throttle > TAKEOFF_THROTTLE
+
+    def _yaw(self, sticks: Sticks, yaw: float, dt: float) -> None:
+        p = self.params
+        target = (expo_deadzone(sticks.yaw, float(p["MPC_YAW_EXPO"]), float(p["MPC_HOLD_DZ"]))
+                  * math.radians(float(p["MPC_MAN_Y_MAX"])))
+        self._yawspeed = _lowpass(self._yawspeed, target, dt, float(p["MPC_MAN_Y_TAU"]))
+        if abs(self._yawspeed) > 1e-3:
+            base = self.yaw_sp if not math.isnan(self.yaw_sp) else yaw
+            self.yaw_sp = math.remainder(base + self._yawspeed * dt, math.tau)
+        elif math.isnan(self.yaw_sp):
+            self.yaw_sp = yaw  # hold the heading once the stick is released
+
+    def _vertical(self, sticks: Sticks, pos: Vec3, vel: Vec3) -> float:
+        """Vertical velocity setpoint and the altitude lock (``z_sp``, NaN while climbing)."""
+        p = self.params
+        stick_z = -sticks.throttle  # down +, as PX4's positions(2)
+        z_expo = expo_deadzone(stick_z, float(p["MPC_Z_MAN_EXPO"]), float(p["MPC_HOLD_DZ"]))
+        vel_max = float(p["MPC_Z_VEL_MAX_DN"]) if stick_z > 0.0 else float(p["MPC_Z_VEL_MAX_UP"])
+        vz = vel_max * z_expo
+        brake = abs(z_expo) <= EPS
+        hold_max = float(p["MPC_HOLD_MAX_Z"])
+        stopped = hold_max < EPS or abs(vel[2]) < hold_max
+        if brake and stopped and math.isnan(self.z_sp):
+            self.z_sp = pos[2]
+        elif not brake:
+            self.z_sp = math.nan
+        # _respectGroundSlowdown: the ground is the origin's altitude (the spawn point).
+        dist = max(-pos[2], 0.0)
+        alt2, alt1 = float(p["MPC_LAND_ALT2"]), float(p["MPC_LAND_ALT1"])
+        down = gradual(dist, alt2, alt1, float(p["MPC_LAND_SPEED"]), float(p["MPC_Z_VEL_MAX_DN"]))
+        up = gradual(dist, alt2, alt1, float(p["MPC_TKO_SPEED"]), float(p["MPC_Z_VEL_MAX_UP"]))
+        return _clamp(vz, -up, down)
+
+    def update(self, dt: float, sticks: Sticks, pos: Vec3, vel: Vec3, yaw: float,
+               vel_sp_feedback: Vec3) -> PositionSetpoint:
+        p = self.params
+        self._yaw(sticks, yaw, dt)
+        vz = self._vertical(sticks, pos, vel)
+        tau = float(p["MC_MAN_TILT_TAU"])
+        self._tilt = (_lowpass(self._tilt[0], sticks.pitch, dt, tau),
+                      _lowpass(self._tilt[1], sticks.roll, dt, tau))
+        x, y = _rotate(self._tilt[0], self._tilt[1], self.yaw_sp)
+        n = math.hypot(x, y)
+        if n > 1.0:
+            x, y = x / n, y / n
+        a = math.tan(math.radians(float(p["MPC_MAN_TILT_MAX"]))) * GRAVITY_MPS2
+        # Horizontal: tilt only. The velocity setpoint is the measured velocity, so the
+        # velocity loop adds nothing (PX4 leaves it NaN and skips that loop).
+        return PositionSetpoint((math.nan, math.nan, self.z_sp), (vel[0], vel[1], vz), self.yaw_sp,
+                                (x * a, y * a, math.nan))
+
+
+class ManualPosition(ManualAltitude):
+    """FlightTaskManualAcceleration: StickAccelerationXY horizontally, Altitude vertically."""
+
+    def __init__(self, params) -> None:
+        super().__init__(params)
+        self._pos_xy = (math.nan, math.nan)
+        self._vel_xy = (0.0, 0.0)
+        self._acc_xy = (0.0, 0.0)
+        self._brake_boost = 1.0
+
+    def activate(self, pos: Vec3, vel: Vec3, yaw: float) -> None:
+        super().activate(pos, vel, yaw)
+        self._pos_xy = (math.nan, math.nan)
+        self._vel_xy = (vel[0], vel[1])
+        self._acc_xy = (0.0, 0.0)
+        self._brake_boost = 1.0
+
+    def update(self, dt: float, sticks: Sticks, pos: Vec3, vel: Vec3, yaw: float,
+               vel_sp_feedback: Vec3) -> PositionSetpoint:
+        p = self.params
+        self._yaw(sticks, yaw, dt)
+        vz = self._vertical(sticks, pos, vel)
+        dz = float(p["MPC_HOLD_DZ"])
+        e = float(p["MPC_XY_MAN_EXPO"])
+        sx, sy = expo_deadzone(sticks.pitch, e, dz), expo_deadzone(sticks.roll, e, dz)
+        n = math.hypot(sx, sy)
+        if n > 1.0:
+            sx, sy = sx / n, sy / n
+        sx, sy = _rotate(sx, sy, self.yaw_sp if not math.isnan(self.yaw_sp) else yaw)
+        acc_scale = 2.0 * float(p["MPC_ACC_HOR"])  # drag halves the average acceleration
+        vel_scale = float(p["MPC_VEL_MANUAL"])
+        ax, ay = sx * acc_scale, sy * acc_scale
+        # Jerk limit: a slew rate per axis, scaled so that both axes arrive together.
+        px_, py_ = self._acc_xy
+        dx, dy = ax - px_, ay - py_
+        dn = math.hypot(dx, dy)
+        jerk = float(p["MPC_JERK_MAX"])
+        if dn > 0.0:
+            lim_x, lim_y = abs(dx) / dn * jerk * dt, abs(dy) / dn * jerk * dt
+            ax = px_ + _clamp(dx, -lim_x, lim_x)
+            ay = py_ + _clamp(dy, -lim_y, lim_y)
+        # Drag: caps the speed at MPC_VEL_MANUAL; stronger with centred sticks (brake boost).
+        centred = sx * sx + sy * sy < EPS
+        boost_target = max(2.0, math.sqrt(vel_scale)) if centred else 1.0
+        self._brake_boost = _lowpass(self._brake_boost, boost_target, dt, BRAKE_BOOST_TAU_S)
+        coeff = acc_scale / vel_scale * self._brake_boost
+        vx, vy = self._vel_xy
+        vn = math.hypot(vx, vy)
+        k = coeff * _sqrt_linear(vn) / vn if vn > 0.0 else 0.0
+        drag_x, drag_y = k * vx, k * vy
+        if ax * ax + ay * ay < EPS and vn * vn < (drag_x ** 2 + drag_y ** 2) * dt * dt:
+            drag_x = drag_y = 0.0
+            vx = vy = 0.0
+        self._acc_xy = (ax, ay)  # the jerk limit's memory is the commanded acceleration
+        ax, ay = ax - drag_x, ay - drag_y
+        tilt = math.tan(math.radians(float(p["MPC_TILTMAX_AIR"]))) * GRAVITY_MPS2
+        an = math.hypot(ax, ay)
+        if an > tilt:
+            ax, ay = ax * tilt / an, ay * tilt / an
+        vx, vy = vx + ax * dt, vy + ay * dt
+        # Lock the position once stopped; release it (from the controller's own velocity
+        # setpoint, so nothing jumps) when the sticks move again.
+        moving = vx * vx + vy * vy > EPS
+        locked = not math.isnan(self._pos_xy[0])
+        if not moving and not locked:
+            self._pos_xy = (pos[0], pos[1])
+        elif moving and locked:
+            self._pos_xy = (math.nan, math.nan)
+            if math.isfinite(vel_sp_feedback[0]) and math.isfinite(vel_sp_feedback[1]):
+                vx, vy = vel_sp_feedback[0], vel_sp_feedback[1]
+        self._vel_xy = (vx, vy)
+        return PositionSetpoint((self._pos_xy[0], self._pos_xy[1], self.z_sp), (vx, vy, vz),
+                                self.yaw_sp, (ax, ay, math.nan))
+
+
+# --- Stabilized and Acro ---------------------------------------------------------------------
+def throttle_to_thrust(throttle: float, params, hover_thrust: float) -> float:
+    """mc_att_control throttle_curve: MPC_THR_CURVE 1 linear, otherwise centred = hover."""
+    lo, hi = float(params["MPC_MANTHR_MIN"]), float(params["MPC_THR_MAX"])
+    t = _clamp(throttle, -1.0, 1.0)
+    if int(params["MPC_THR_CURVE"]) == 1:
+        return lo + (hi - lo) * (t + 1.0) * 0.5
+    if t < 0.0:
+        return hover_thrust + (hover_thrust - lo) * t
+    return hover_thrust + (hi - hover_thrust) * t
+
+
+class Stabilized:
+    """mc_att_control's manual attitude: tilt from roll/pitch, heading from the yaw stick."""
+
+    def __init__(self, params) -> None:
+        self.params = params
+        self.yaw_sp = math.nan
+
+    def activate(self, yaw: float) -> None:
+        self.yaw_sp = yaw
+
+    def update(self, dt: float, sticks: Sticks, yaw: float, landed: bool
+               ) -> tuple[float, float, float, float]:
+        """The attitude setpoint quaternion (w, x, y, z), FRD → NED."""
+        p = self.params
+        if landed or math.isnan(self.yaw_sp):
+            self.yaw_sp = yaw
+        else:
+            rate = sticks.yaw * math.radians(float(p["MPC_MAN_Y_MAX"]))
+            self.yaw_sp = math.remainder(self.yaw_sp + rate * dt, math.tau)
+        tilt_max = math.radians(float(p["MPC_MAN_TILT_MAX"]))
+        vx, vy = sticks.roll * tilt_max, -sticks.pitch * tilt_max
+        n = math.hypot(vx, vy)
+        if n > tilt_max:
+            vx, vy, n = vx * tilt_max / n, vy * tilt_max / n, tilt_max
+        # AxisAngle(vx, vy, 0) then the heading: q = q_yaw * q_rp.
+        if n > 0.0:
+            s = math.sin(n / 2.0) / n
+            rw, rx, ry = math.cos(n / 2.0), vx * s, vy * s
+        else:
+            rw, rx, ry = 1.0, 0.0, 0.0
+        cw, cz = math.cos(self.yaw_sp / 2.0), math.sin(self.yaw_sp / 2.0)
+        return (cw * rw, cw * rx - cz * ry, cw * ry + cz * rx, cz * rw)
+
+
+def acro_rates(sticks: Sticks, params) -> Vec3:
+    """mc_rate_control's Acro body-rate setpoint (FRD, rad/s)."""
+    p = params
+    e, g = float(p["MC_ACRO_EXPO"]), float(p["MC_ACRO_SUPEXPO"])
+    ey, gy = float(p["MC_ACRO_EXPO_Y"]), float(p["MC_ACRO_SUPEXPOY"])
+    return (superexpo(sticks.roll, e, g) * math.radians(float(p["MC_ACRO_R_MAX"])),
+            superexpo(-sticks.pitch, e, g) * math.radians(float(p["MC_ACRO_P_MAX"])),
+            superexpo(sticks.yaw, ey, gy) * math.radians(float(p["MC_ACRO_Y_MAX"])))
+
+
+def acro_thrust(sticks: Sticks) -> float:
+    return _clamp((sticks.throttle + 1.0) * 0.5, 0.0, 1.0)
