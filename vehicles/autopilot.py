@@ -432,7 +432,7 @@ class Autopilot:
             self._idle = False
             self._flying = True
             sp = task.update(dt, sticks, pos, vel, yaw, self._vel_sp_feedback)
-            self._apply_position_control(dt, meas, accel, sp, yaw)
+            self._apply_position_control(dt, meas, accel, sp, yaw, task.yawspeed)
             return
         # Stabilized (Manual) and Acro: attitude or rates and thrust straight from the sticks.
         if entered:
@@ -453,7 +453,7 @@ class Autopilot:
             self._rates_sp = acro_rates(sticks, self.params)
         else:
             q = self._stabilized.update(dt, sticks, yaw, ld.landed)
-            self._att_sp = AttitudeSetpoint(q, thrust)
+            self._att_sp = AttitudeSetpoint(q, thrust, self._stabilized.yawspeed)
         self._thrust = thrust
 
     def _set_idle(self, meas) -> None:
@@ -467,7 +467,7 @@ class Autopilot:
         self._att_sp = AttitudeSetpoint(meas.attitude_q, 0.0)
 
     def _apply_position_control(self, dt: float, meas, accel, sp: PositionSetpoint,
-                                yaw: float) -> None:
+                                yaw: float, yawspeed: float = 0.0) -> None:
         ld = self.land_detector
         out = self.position_control.update(dt, meas.position_ned_m, meas.velocity_ned_mps,
                                            accel, sp)
@@ -479,7 +479,10 @@ class Autopilot:
             thrust = (0.0, 0.0, 0.0)
             yaw_sp = yaw
             self.position_control.reset_integral()
-        self._att_sp = thrust_to_attitude(thrust, yaw_sp)
+        att_sp = thrust_to_attitude(thrust, yaw_sp)
+        if yawspeed != 0.0 and not (ld.ground_contact or ld.maybe_landed):
+            att_sp = AttitudeSetpoint(att_sp.attitude_q, att_sp.thrust_body_norm, yawspeed)
+        self._att_sp = att_sp
         self._thrust = self._att_sp.thrust_body_norm
 
     def _update_offboard(self, now_s: float, dt: float, meas, accel, yaw: float) -> None:
@@ -503,8 +506,10 @@ class Autopilot:
             self._idle = False
             self._flying = True
             if oc.kind == "position":
+                yawspeed = (sp.yaw_rate_radps if math.isnan(sp.yaw_rad)
+                            and not math.isnan(sp.yaw_rate_radps) else 0.0)
                 self._apply_position_control(dt, meas, accel, PositionSetpoint(p, v, oc.yaw_rad, a),
-                                             yaw)
+                                             yaw, yawspeed)
                 return
             g = self.position_control.gains
             acc = tuple(0.0 if math.isnan(x) else x for x in a)

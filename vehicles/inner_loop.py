@@ -47,8 +47,8 @@ _SQRT_HALF = math.sqrt(0.5)
 
 
 @njit_cached
-def control_and_forces(mode, att_sp, thrust_sp, rates_sp, use_rates_sp, landed, att_gains,
-                       rate_gains, rate_state, saturation, rows, idle, alpha, dt_s, measured,
+def control_and_forces(mode, att_sp, yawspeed_sp, thrust_sp, rates_sp, use_rates_sp, landed,
+                       att_gains, rate_gains, rate_state, saturation, rows, idle, alpha, dt_s, measured,
                        rotor_speed, motor, rotor_xy, yaw_k, forces):  # pragma: no cover - compiled
     """One physics step of every vehicle's inner loop (module rules). ``motor``: max rotor speed,
     motor constant, lag coefficient up, lag coefficient down, linear drag."""
@@ -71,7 +71,7 @@ def control_and_forces(mode, att_sp, thrust_sp, rates_sp, use_rates_sp, landed, 
                 else:
                     g = att_gains[v]
                     sp = attitude_rates(q, (att_sp[v, 0], att_sp[v, 1], att_sp[v, 2], att_sp[v, 3]),
-                                        g[0], g[1], g[2], g[3], g[4], g[5], g[6])
+                                        g[0], g[1], g[2], g[3], g[4], g[5], g[6], yawspeed_sp[v])
                 s = saturation[v]
                 torque = rate_pid(dt_s, alpha, (m[M_RATES], m[M_RATES + 1], m[M_RATES + 2]), sp,
                                   landed[v], (s[0], s[1], s[2]), (s[3], s[4], s[5]), rate_gains[v],
@@ -190,6 +190,7 @@ class InnerLoop:
         get = self.__dict__.get
         self.mode = grow(get("mode"), n, np.int8)
         self.att_sp = grow(get("att_sp"), (n, 4))
+        self.yawspeed_sp = grow(get("yawspeed_sp"), n)
         self.thrust_sp = grow(get("thrust_sp"), n)
         self.rates_sp = grow(get("rates_sp"), (n, 3))
         self.use_rates_sp = grow(get("use_rates_sp"), n, np.bool_)
@@ -227,6 +228,7 @@ class InnerLoop:
             ap.rates_reset = False
         sp = ap.attitude_setpoint
         self.att_sp[k] = sp.attitude_q
+        self.yawspeed_sp[k] = sp.yawspeed_radps
         self.thrust_sp[k] = sp.thrust_body_norm
         rates = ap.rates_setpoint
         self.use_rates_sp[k] = rates is not None
@@ -237,8 +239,8 @@ class InnerLoop:
 
     def control(self) -> None:
         """Motor commands, rotor speeds and the force/torque to apply for every row."""
-        control_and_forces(self.mode, self.att_sp, self.thrust_sp, self.rates_sp, self.use_rates_sp,
-                           self.landed, self.att_gains, self.rate_gains, self.rate_state,
+        control_and_forces(self.mode, self.att_sp, self.yawspeed_sp, self.thrust_sp, self.rates_sp,
+                           self.use_rates_sp, self.landed, self.att_gains, self.rate_gains, self.rate_state,
                            self.saturation, self.rows, self.idle_thrust_norm, self.alpha, self.dt_s,
                            self.measured, self.rotor_speed, self.motor, self.rotor_xy, self.yaw_k,
                            self.forces)

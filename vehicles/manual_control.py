@@ -179,6 +179,11 @@ class ManualAltitude:
         self._yawspeed = 0.0
         self._tilt = (0.0, 0.0)
 
+    @property
+    def yawspeed(self) -> float:
+        """The heading rate the yaw stick asks for (rad/s), fed forward to attitude control."""
+        return self._yawspeed if abs(self._yawspeed) > 1e-3 else 0.0
+
     def want_takeoff(self, sticks: Sticks) -> bool:
         return sticks.throttle > TAKEOFF_THROTTLE
 
@@ -326,19 +331,22 @@ class Stabilized:
     def __init__(self, params) -> None:
         self.params = params
         self.yaw_sp = math.nan
+        self.yawspeed = 0.0
 
     def activate(self, yaw: float) -> None:
         self.yaw_sp = yaw
+        self.yawspeed = 0.0
 
     def update(self, dt: float, sticks: Sticks, yaw: float, landed: bool
                ) -> tuple[float, float, float, float]:
         """The attitude setpoint quaternion (w, x, y, z), FRD → NED."""
         p = self.params
+        self.yawspeed = 0.0
         if landed or math.isnan(self.yaw_sp):
             self.yaw_sp = yaw
         else:
-            rate = sticks.yaw * math.radians(float(p["MPC_MAN_Y_MAX"]))
-            self.yaw_sp = math.remainder(self.yaw_sp + rate * dt, math.tau)
+            self.yawspeed = sticks.yaw * math.radians(float(p["MPC_MAN_Y_MAX"]))
+            self.yaw_sp = math.remainder(self.yaw_sp + self.yawspeed * dt, math.tau)
         tilt_max = math.radians(float(p["MPC_MAN_TILT_MAX"]))
         vx, vy = sticks.roll * tilt_max, -sticks.pitch * tilt_max
         n = math.hypot(vx, vy)

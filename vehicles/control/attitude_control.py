@@ -38,6 +38,7 @@ from vehicles.control.quat import (
 class AttitudeSetpoint:
     attitude_q: Quat
     thrust_body_norm: float  # collective thrust, 0..1 (body -z)
+    yawspeed_radps: float = 0.0  # heading rate feed-forward (sticks, offboard yaw rate)
 
 
 @dataclass(frozen=True)
@@ -91,8 +92,9 @@ def thrust_to_attitude(thrust_ned: Vec3, yaw_rad: float) -> AttitudeSetpoint:
 
 @register_jitable
 def attitude_rates(q: Quat, qd: Quat, p0: float, p1: float, p2: float, l0: float, l1: float,
-                   l2: float, yaw_w: float) -> Vec3:
-    """AttitudeControl::update: body rate setpoint for attitude ``q`` and setpoint ``qd``.
+                   l2: float, yaw_w: float, yawspeed: float) -> Vec3:
+    """AttitudeControl::update: body rate setpoint for attitude ``q`` and setpoint ``qd``, plus
+    the heading rate ``yawspeed`` (rad/s about NED down) fed forward in the body frame.
 
     ``p2`` is the yaw gain already divided by the yaw weight ``yaw_w`` (clamped to 0..1), ``l*``
     the rate limits. Plain Python from Python, compiled into vehicles/inner_loop.py's kernel."""
@@ -121,6 +123,10 @@ def attitude_rates(q: Quat, qd: Quat, p0: float, p1: float, p2: float, l0: float
     if ew < 0.0:
         ex, ey, ez = -ex, -ey, -ez
     r0, r1, r2 = 2.0 * ex * p0, 2.0 * ey * p1, 2.0 * ez * p2
+    if yawspeed != 0.0:  # + q⁻¹ · e_z · yawspeed: NED down in the body frame
+        r0 += 2.0 * (x * z - w * y) * yawspeed
+        r1 += 2.0 * (y * z + w * x) * yawspeed
+        r2 += (w * w - x * x - y * y + z * z) * yawspeed
     return (-l0 if r0 < -l0 else (l0 if r0 > l0 else r0),
             -l1 if r1 < -l1 else (l1 if r1 > l1 else r1),
             -l2 if r2 < -l2 else (l2 if r2 > l2 else r2))
@@ -133,5 +139,5 @@ class AttitudeControl:
         self.gains = gains
         self.coefficients = gains.coefficients()
 
-    def update(self, attitude_q: Quat, attitude_sp_q: Quat) -> Vec3:
-        return attitude_rates(attitude_q, attitude_sp_q, *self.coefficients)
+    def update(self, attitude_q: Quat, attitude_sp_q: Quat, yawspeed: float = 0.0) -> Vec3:
+        return attitude_rates(attitude_q, attitude_sp_q, *self.coefficients, yawspeed)
