@@ -63,6 +63,7 @@ from vehicles.manual_control import (
 )
 from vehicles.navigator import NavContext, Navigator, NavSetpoint, auto_limits
 from vehicles.offboard import Offboard, acceleration_to_thrust
+from vehicles.orbit import Orbit, OrbitStatus
 from vehicles.plan_types import PlanType
 from vehicles.plans import PlanStore
 from vehicles.status_log import StatusLog
@@ -118,6 +119,8 @@ class Autopilot:
         self._manual_altitude = ManualAltitude(params)
         self._manual_position = ManualPosition(params)
         self._stabilized = Stabilized(params)
+        self.orbit_task = Orbit(params)
+        self._orbit_command: tuple | None = None  # DO_ORBIT parameters, applied at the next tick
         self._vel_sp_feedback: Vec3 = (math.nan, math.nan, math.nan)
         self._rates_sp: tuple[float, float, float] | None = None
         self._yaw_sp = math.nan
@@ -263,6 +266,25 @@ class Autopilot:
                 self.navigator.reactivate()
         return result
 
+    def orbit(self, now_s: float, radius_m: float, speed_mps: float, yaw_behaviour: float,
+              lat_deg: float, lon_deg: float, alt_amsl_m: float) -> CommandResult:
+        """DO_ORBIT: switch to Orbit; its task takes the parameters at the next 50 Hz tick."""
+        result = self.set_nav_state(now_s, NavState.ORBIT)
+        if result is CommandResult.ACCEPTED:
+            center = None
+            if not (math.isnan(lat_deg) or math.isnan(lon_deg)):
+                n, e, _ = self.origin.ned_of(GeoPoint(lat_deg, lon_deg, self.origin.alt_amsl_m))
+                center = (n, e)
+            down = self.origin.alt_amsl_m - alt_amsl_m if math.isfinite(alt_amsl_m) else math.nan
+            self._orbit_command = (radius_m, speed_mps, yaw_behaviour, center, down)
+        return result
+
+    @property
+    def orbit_status(self) -> OrbitStatus | None:
+        if self.commander.nav_state is not NavState.ORBIT or not self._flying:
+            return None
+        return self.orbit_task.status()
+
     def change_speed(self, now_s: float, speed_mps: float) -> CommandResult:
         self.navigator.set_cruise_mps(speed_mps)
         return CommandResult.ACCEPTED
@@ -388,6 +410,11 @@ class Autopilot:
             else:
                 self._set_idle(meas)
             return
+        if cmd.nav_state is NavState.ORBIT:
+            self.navigator.deactivate(ctx)
+            self._nav_sp = None
+            self._update_orbit(now_s, dt, meas, accel, yaw, entered)
+            return
         if cmd.nav_state in MANUAL_NAV_STATES:
             self.navigator.deactivate(ctx)
             self._nav_sp = None
@@ -412,6 +439,34 @@ class Autopilot:
             self._yaw_sp = math.remainder(self._yaw_sp + min(max(err, -step), step), math.tau)
         self._apply_position_control(dt, meas, accel, PositionSetpoint(p_sp, v_sp, self._yaw_sp,
                                                                        a_sp), yaw)
+
+    def _update_orbit(self, now_s: float, dt: float, meas, accel, yaw: float, entered: bool
+                      ) -> None:
+        """Orbit (vehicles/orbit.py): on the circle its setpoints go straight to position
+        control; the approach to the circle goes through the trajectory limiter."""
+        pos, vel = meas.position_ned_m, meas.velocity_ned_mps
+        orbit = self.orbit_task
+        if entered:
+            orbit.activate(pos, vel, yaw)
+        if self._orbit_command is not None:
+            orbit.command(pos, yaw, *self._orbit_command)
+            self._orbit_command = None
+        if not self.commander.armed or self.land_detector.landed:
+            self.trajectory.reset(pos, vel)
+            self._set_idle(meas)
+            return
+        if not self._flying:
+            self.trajectory.reset(pos, vel)
+        self._idle = False
+        self._flying = True
+        sp = orbit.update(dt, self.manual.current(now_s), pos, vel, yaw, self._vel_sp_feedback)
+        if sp is None:
+            p_sp, v_sp, a_sp = self.trajectory.update(dt, orbit.approach_target(pos),
+                                                      auto_limits(self.params), 0.0, pos[2])
+            sp = PositionSetpoint(p_sp, v_sp, orbit.yaw_setpoint, a_sp)
+        else:
+            self.trajectory.reset(pos, vel)
+        self._apply_position_control(dt, meas, accel, sp, yaw, orbit.yawspeed)
 
     def _update_manual(self, now_s: float, dt: float, meas, accel, yaw: float, entered: bool
                        ) -> None:

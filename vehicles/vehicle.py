@@ -19,6 +19,7 @@ import numpy as np
 from vehicles.airframe import Airframe
 from vehicles.autopilot import Autopilot
 from vehicles.manual_control import Sticks
+from vehicles.orbit import OrbitStatus
 from vehicles.params import ParamStore
 from vehicles.plan_types import MissionStatus, OffboardSetpoint, PlanItem, PlanResult, PlanType
 from vehicles.types import (
@@ -194,6 +195,18 @@ class Vehicle:
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
              yaw_rad: float = math.nan, speed_mps: float = math.nan) -> CommandResult:
         return self._autopilot.goto(now_s, lat_deg, lon_deg, alt_amsl_m, yaw_rad, speed_mps)
+
+    def orbit(self, now_s: float, radius_m: float = math.nan, speed_mps: float = math.nan,
+              yaw_behaviour: float = math.nan, lat_deg: float = math.nan,
+              lon_deg: float = math.nan, alt_amsl_m: float = math.nan) -> CommandResult:
+        """DO_ORBIT (vehicles/orbit.py): NaN keeps the present value."""
+        return self._autopilot.orbit(now_s, radius_m, speed_mps, yaw_behaviour, lat_deg, lon_deg,
+                                     alt_amsl_m)
+
+    @property
+    def orbit_status(self) -> OrbitStatus | None:
+        """ORBIT_EXECUTION_STATUS while orbiting (local NED; None otherwise)."""
+        return self._autopilot.orbit_status
 
     def change_speed(self, now_s: float, speed_mps: float) -> CommandResult:
         return self._autopilot.change_speed(now_s, speed_mps)

@@ -12,6 +12,8 @@ Rules:
   PX4 ≤ 1.16 does: QGC sends 0, MAVSDK4 3, MAVSDK 5 — all work (PX4 main would reject ≠ 5).
 - Every command is answered at once (never IN_PROGRESS): unknown → UNSUPPORTED, and so is a
   contract command the vehicle object does not implement (yet).
+- DO_ORBIT (multicopter): switch to Orbit and hand it the parameters; TEMPORARILY_REJECTED
+  when the mode cannot run (no position estimate).
 - DO_REPOSITION: p2 must be exactly MAV_DO_REPOSITION_FLAGS_CHANGE_MODE (PX4 Commander:
   uint32(p2) != 1 → UNSUPPORTED); p1 ≤ 0/NaN = default speed; p4 yaw rad; NaN lat/lon/alt = keep
   (QGC's pause sends all of them NaN → brake and hold). z is AMSL whatever the frame (≤ 1.16).
@@ -108,6 +110,7 @@ class CommandService:
                 lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
             M.MAV_CMD_RUN_PREARM_CHECKS: lambda c, t: ACCEPTED,
             M.MAV_CMD_DO_REPOSITION: self._reposition,
+            M.MAV_CMD_DO_ORBIT: self._orbit,
             M.MAV_CMD_DO_CHANGE_SPEED: self._change_speed,
             M.MAV_CMD_DO_SET_HOME: self._set_home,
             M.MAV_CMD_MISSION_START: self._mission_start,
@@ -204,6 +207,16 @@ class CommandService:
         speed = cmd.p(1) if math.isfinite(cmd.p(1)) and cmd.p(1) > 0 else math.nan
         lat, lon, alt, yaw = (_finite_or_nan(cmd.p(n)) for n in (5, 6, 7, 4))
         return goto(now_s, lat, lon, alt, yaw_rad=yaw, speed_mps=speed)
+
+    def _orbit(self, cmd: Command, now_s: float) -> int:
+        """DO_ORBIT: p1 radius (sign: direction), p2 speed, p3 yaw behaviour, lat/lon centre,
+        z AMSL; NaN keeps the present value (vehicles/orbit.py)."""
+        orbit = self._vehicle("orbit")
+        if orbit is None:
+            return UNSUPPORTED
+        radius, speed, yaw_behaviour, lat, lon, alt = (_finite_or_nan(cmd.p(n))
+                                                        for n in (1, 2, 3, 5, 6, 7))
+        return orbit(now_s, radius, speed, yaw_behaviour, lat, lon, alt)
 
     def _change_speed(self, cmd: Command, now_s: float) -> int:
         change_speed = self._vehicle("change_speed")

@@ -40,6 +40,8 @@ GPS_V_ACC_MM = 1780
 UINT16_UNKNOWN = 65535
 INT16_MAX = 32767
 
+MAV_FRAME_GLOBAL = 0
+
 # BATTERY_STATUS enums
 MAV_BATTERY_FUNCTION_ALL = 1
 MAV_BATTERY_TYPE_LIPO = 1
@@ -310,6 +312,17 @@ def mission_current(enc: Encoder, s: Snapshot) -> bytes:
     return pack_mission_current(enc, mission_status_of(s.vehicle))
 
 
+def orbit_execution_status(enc: Encoder, s: Snapshot) -> bytes | None:
+    """While orbiting (PX4 publishes orbit_status only then): signed radius, centre, altitude
+    AMSL (frame GLOBAL)."""
+    st = getattr(s.vehicle, "orbit_status", None)
+    if st is None:
+        return None
+    g = s.vehicle.origin.offset_ned(st.center_ne_m[0], st.center_ne_m[1], st.down_m)
+    return enc.pack(M.MAVLink_orbit_execution_status_message, s.time_usec, st.radius_m,
+                    MAV_FRAME_GLOBAL, _deg_e7(g.lat_deg), _deg_e7(g.lon_deg), g.alt_amsl_m)
+
+
 @dataclass(frozen=True)
 class StreamSpec:
     msg_id: int
@@ -337,6 +350,7 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_BATTERY_STATUS, battery_status, 0.5, 0.5),
     StreamSpec(M.MAVLINK_MSG_ID_SYSTEM_TIME, system_time, 0.0, 1.0),
     StreamSpec(M.MAVLINK_MSG_ID_MISSION_CURRENT, mission_current, 1.0, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ORBIT_EXECUTION_STATUS, orbit_execution_status, 2.0, 0.0),
 )
 STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
 # HEARTBEAT rate is fixed (PX4: SET_MESSAGE_INTERVAL on it → FAILED).

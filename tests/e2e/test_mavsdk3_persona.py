@@ -199,3 +199,40 @@ async def test_manual_control_position_mode_fly_and_land(daemon_factory):
             await land_and_disarm(drone, 40)
         finally:
             feeder.cancel()
+
+
+@pytest.mark.asyncio
+async def test_do_orbit_circles_the_point_nose_to_the_centre(daemon_factory):
+    """MAVSDK's do_orbit (the upstream do_orbit.py flow): DO_ORBIT as COMMAND_INT, the vehicle
+    flies to the circle and around it facing the centre; Land ends it."""
+    from mavsdk.action import OrbitYawBehavior
+
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        home = await latest(drone.telemetry.position())
+        await drone.action.arm()
+        await drone.action.takeoff()
+        await first(drone.telemetry.in_air(), lambda x: x, 20, "in air")
+        lat, lon = offset_deg(HOME_LAT, HOME_LON, 20.0, 0.0)
+        await drone.action.do_orbit(radius_m=8.0, velocity_ms=3.0,
+                                    yaw_behavior=OrbitYawBehavior.HOLD_FRONT_TO_CIRCLE_CENTER,
+                                    latitude_deg=lat, longitude_deg=lon,
+                                    absolute_altitude_m=home.absolute_altitude_m + 8.0)
+
+        def on_circle(p):
+            return abs(distance_m(p.latitude_deg, p.longitude_deg, lat, lon) - 8.0) < 1.0
+
+        await first(drone.telemetry.position(), on_circle, 30, "on the 8 m circle")
+        for _ in range(8):  # stays on it, at the commanded altitude, facing the centre
+            await asyncio.sleep(1.0)
+            p = await latest(drone.telemetry.position())
+            assert on_circle(p), p
+            assert abs(p.relative_altitude_m - 8.0) < 1.0, p
+            heading = (await latest(drone.telemetry.heading())).heading_deg
+            north_m = (lat - p.latitude_deg) * math.pi / 180 * 6371000.0
+            east_m = (lon - p.longitude_deg) * math.pi / 180 * 6371000.0 * math.cos(
+                math.radians(lat))
+            to_center = math.degrees(math.atan2(east_m, north_m)) % 360
+            assert abs((heading - to_center + 180) % 360 - 180) < 15, (heading, to_center)
+        await drone.action.land()
+        await land_and_disarm(drone, 60)

@@ -128,15 +128,19 @@ def test_mission_and_offboard_modes_reach_the_vehicle():
     assert vehicle.calls[-1][2] is NavState.OFFBOARD
 
 
-def test_orbit_is_unsupported():
-    _, _, client = make()
-    assert results(command_int(client, 34, 5, p1=10, p2=2, x=473980000, y=85460000,
-                               z=500)) == [(34, 3)]
+def test_orbit_hands_its_parameters_to_the_vehicle():
+    vehicle, _, client = make()
+    assert results(command_int(client, 34, 5, p1=-10, p2=2, x=473980000, y=85460000,
+                               z=500)) == [(34, 0)]
+    _, _, radius, speed, yaw_behaviour, lat, lon, alt = vehicle.calls[-1]
+    assert (radius, speed, lat, lon, alt) == (-10, 2, pytest.approx(47.398),
+                                              pytest.approx(8.546), 500)
+    assert math.isnan(yaw_behaviour)  # p3 not given (NaN): keep the present behaviour
 
 
 def test_vehicle_without_actions_answers_unsupported():
     vehicle, _, client = make()
-    for name in ("goto", "change_speed", "set_home", "start_mission", "terminate"):
+    for name in ("goto", "change_speed", "set_home", "start_mission", "terminate", "orbit"):
         setattr(vehicle, name, None)
     for cmd, params in [(192, (-1, 1)), (178, (1, 5)), (179, (1,)), (300, (0,)), (185, (1,))]:
         assert results(client.command_long(cmd, *params)) == [(cmd, 3)]

@@ -16,6 +16,7 @@ from gateway.mavlink.codec import (
     pack_datagrams,
 )
 from gateway.mavlink.session import LinkKind
+from vehicles.orbit import OrbitStatus
 
 
 def test_protocol_version_crc_extra_matches_xml_definition():
@@ -35,6 +36,7 @@ def test_fast_encoder_matches_pymavlink_pack(spec):
     vehicle = FakeVehicle(3)
     vehicle.become_ready()
     vehicle.move_to(3.0, -4.0, -10.0)
+    vehicle.orbit_status = OrbitStatus(-20.0, (5.0, 6.0), -12.0)
     snap = telemetry.Snapshot(vehicle, 12.345, 1.7e9)
     enc = Encoder(3, 1)
     enc.seq = 77

@@ -21,6 +21,7 @@ from gateway.mavlink.signing import (
     Verdict,
     Verifier,
 )
+from vehicles.orbit import OrbitStatus
 
 KEY = SigningKey(bytes(range(32)))
 OTHER_KEY = SigningKey(bytes(range(1, 33)))
@@ -106,6 +107,7 @@ def test_signed_frames_are_byte_identical_to_pymavlink(spec):
     vehicle = FakeVehicle(3)
     vehicle.become_ready()
     vehicle.move_to(3.0, -4.0, -10.0)
+    vehicle.orbit_status = OrbitStatus(-20.0, (5.0, 6.0), -12.0)
     snap = telemetry.Snapshot(vehicle, 12.345, 1.7e9)
     enc = Encoder(3, 1, Signer(KEY, 1, SigningClock(EPOCH_UNIX_S)))
     enc.seq, enc.now_s = 77, 12.345

@@ -15,6 +15,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import SigningConfig
+from vehicles.orbit import OrbitStatus
 from vehicles.params import ParamStore
 from vehicles.plan_types import (
     MissionState,
@@ -66,6 +67,7 @@ class FakeVehicle:
         self.reached_count = 0
         self.mission_finished = False
         self.setpoints: list[tuple[float, OffboardSetpoint]] = []
+        self.orbit_status: OrbitStatus | None = None
 
     # --- contract -------------------------------------------------------------------------
     @property
@@ -208,6 +210,13 @@ class FakeVehicle:
              yaw_rad: float = math.nan, speed_mps: float = math.nan) -> CommandResult:
         self.calls.append(("goto", now_s, lat_deg, lon_deg, alt_amsl_m, yaw_rad, speed_mps))
         self.nav_state = NavState.AUTO_LOITER
+        return CommandResult.ACCEPTED
+
+    def orbit(self, now_s: float, radius_m: float, speed_mps: float, yaw_behaviour: float,
+              lat_deg: float, lon_deg: float, alt_amsl_m: float) -> CommandResult:
+        self.calls.append(("orbit", now_s, radius_m, speed_mps, yaw_behaviour, lat_deg, lon_deg,
+                           alt_amsl_m))
+        self.nav_state = NavState.ORBIT
         return CommandResult.ACCEPTED
 
     def change_speed(self, now_s: float, speed_mps: float) -> CommandResult:
