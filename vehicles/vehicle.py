@@ -117,6 +117,11 @@ class Vehicle:
         )
 
     @property
+    def acceleration_ned_mps2(self) -> Vec3:
+        """The acceleration measured over the last physics step (what ``state`` carries)."""
+        return self._measurement()[1]
+
+    @property
     def home(self) -> HomePosition | None:
         """The home position (as in ``status.home``), without building the whole status."""
         return self._autopilot.home

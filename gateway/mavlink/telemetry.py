@@ -312,6 +312,67 @@ def mission_current(enc: Encoder, s: Snapshot) -> bytes:
     return pack_mission_current(enc, mission_status_of(s.vehicle))
 
 
+# Sensors as PX4 SITL reports them from its simulated IMU, magnetometer and barometer.
+G = 9.80665
+# The Earth's field at PX4's SITL home (Zurich), gauss NED: 48 µT, inclination 63.5°,
+# declination 3° east (WMM; PX4's sensor_mag_sim uses the same model at the home position).
+MAG_NED_GAUSS = (0.2145, 0.0112, 0.4296)
+HIGHRES_IMU_FIELDS = 0x1BFF  # acc, gyro, mag, abs pressure, pressure alt, temperature
+MAV_FRAME_LOCAL_NED = 1
+MAV_FRAME_BODY_FRD = 12
+MAV_ESTIMATOR_TYPE_NAIVE = 1
+
+
+def isa_pressure_hpa(alt_amsl_m: float) -> float:
+    """International Standard Atmosphere static pressure (PX4's baro simulation)."""
+    return 1013.25 * (1.0 - 2.25577e-5 * alt_amsl_m) ** 5.25588
+
+
+def isa_temperature_c(alt_amsl_m: float) -> float:
+    return 15.0 - 0.0065 * alt_amsl_m
+
+
+def _to_body(q: tuple[float, float, float, float], v: tuple[float, float, float]
+             ) -> tuple[float, float, float]:
+    """NED vector ``v`` in the body frame of attitude ``q`` (FRD → NED): Rᵀ v."""
+    w, x, y, z = q
+    a, b, c = v
+    return ((1 - 2 * (y * y + z * z)) * a + 2 * (x * y + w * z) * b + 2 * (x * z - w * y) * c,
+            2 * (x * y - w * z) * a + (1 - 2 * (x * x + z * z)) * b + 2 * (y * z + w * x) * c,
+            2 * (x * z + w * y) * a + 2 * (y * z - w * x) * b + (1 - 2 * (x * x + y * y)) * c)
+
+
+@_shared(M.MAVLink_highres_imu_message)
+def highres_imu(s: Snapshot) -> tuple:
+    """Specific force and rates in the body frame (FRD), the field, the barometer."""
+    kin = s.kin
+    an, ae, ad = s.vehicle.acceleration_ned_mps2
+    fx, fy, fz = _to_body(kin.attitude_q, (an, ae, ad - G))
+    mx, my, mz = _to_body(kin.attitude_q, MAG_NED_GAUSS)
+    p, q, r = kin.rates_frd_radps
+    alt = s.geo.alt_amsl_m
+    return (s.time_usec, fx, fy, fz, p, q, r, mx, my, mz, isa_pressure_hpa(alt), 0.0, alt,
+            isa_temperature_c(alt), HIGHRES_IMU_FIELDS, 0)
+
+
+@_shared(M.MAVLink_odometry_message)
+def odometry(s: Snapshot) -> tuple:
+    """PX4's ODOMETRY stream: local NED pose, velocity and rates in the body frame (FRD)."""
+    kin = s.kin
+    x, y, z = kin.position_ned_m
+    vx, vy, vz = _to_body(kin.attitude_q, kin.velocity_ned_mps)
+    p, q, r = kin.rates_frd_radps
+    unknown = (math.nan,) + (0.0,) * 20  # covariances: first element NaN = unknown
+    return (s.time_usec, MAV_FRAME_LOCAL_NED, MAV_FRAME_BODY_FRD, x, y, z, list(kin.attitude_q),
+            vx, vy, vz, p, q, r, unknown, unknown, 0, MAV_ESTIMATOR_TYPE_NAIVE, 100)
+
+
+def scaled_pressure(enc: Encoder, s: Snapshot) -> bytes:
+    alt = s.geo.alt_amsl_m
+    return enc.pack(M.MAVLink_scaled_pressure_message, s.time_boot_ms, isa_pressure_hpa(alt), 0.0,
+                    int(round(isa_temperature_c(alt) * 100.0)), 0)
+
+
 def orbit_execution_status(enc: Encoder, s: Snapshot) -> bytes | None:
     """While orbiting (PX4 publishes orbit_status only then): signed radius, centre, altitude
     AMSL (frame GLOBAL)."""
@@ -351,6 +412,9 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_SYSTEM_TIME, system_time, 0.0, 1.0),
     StreamSpec(M.MAVLINK_MSG_ID_MISSION_CURRENT, mission_current, 1.0, 1.0),
     StreamSpec(M.MAVLINK_MSG_ID_ORBIT_EXECUTION_STATUS, orbit_execution_status, 2.0, 0.0),
+    StreamSpec(M.MAVLINK_MSG_ID_HIGHRES_IMU, highres_imu, 0.0, 50.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ODOMETRY, odometry, 0.0, 30.0),
+    StreamSpec(M.MAVLINK_MSG_ID_SCALED_PRESSURE, scaled_pressure, 1.0, 1.0),
 )
 STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
 # HEARTBEAT rate is fixed (PX4: SET_MESSAGE_INTERVAL on it → FAILED).

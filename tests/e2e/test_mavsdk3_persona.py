@@ -236,3 +236,26 @@ async def test_do_orbit_circles_the_point_nose_to_the_centre(daemon_factory):
             assert abs((heading - to_center + 180) % 360 - 180) < 15, (heading, to_center)
         await drone.action.land()
         await land_and_disarm(drone, 60)
+
+
+@pytest.mark.asyncio
+async def test_imu_odometry_and_pressure_telemetry(daemon_factory):
+    """MAVSDK's imu(), odometry() and scaled_pressure() get PX4's default streams, and
+    set_rate_imu() is honoured."""
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        imu = await latest(drone.telemetry.imu())
+        assert abs(imu.acceleration_frd.down_m_s2 + 9.81) < 0.1, imu
+        assert imu.magnetic_field_frd.down_gauss > 0.3, imu
+        odo = await latest(drone.telemetry.odometry())
+        assert abs(odo.position_body.z_m) < 0.1 and abs(odo.q.w) > 0.99, odo
+        sp = await latest(drone.telemetry.scaled_pressure())
+        assert 900 < sp.absolute_pressure_hpa < 1013, sp
+        await drone.telemetry.set_rate_imu(10.0)
+        t0 = asyncio.get_running_loop().time()
+        n = 0
+        async for _ in drone.telemetry.imu():
+            n += 1
+            if n == 21:
+                break
+        assert 1.6 < asyncio.get_running_loop().time() - t0 < 2.6  # 20 intervals at 10 Hz

@@ -83,6 +83,11 @@ class FakeVehicle:
         return Kinematics.of(self.state)
 
     @property
+    def acceleration_ned_mps2(self) -> tuple[float, float, float]:
+        a = self.state.acceleration_ned_mps2
+        return (float(a[0]), float(a[1]), float(a[2]))
+
+    @property
     def global_position(self):
         n, e, d = (float(v) for v in self.state.position_ned_m)
         return self.origin.offset_ned(n, e, d)

@@ -1,12 +1,14 @@
 """Telemetry internals: the grouped scheduler against a per-stream reference, and payloads shared
 between the links of one vehicle."""
 
+import dataclasses
 import math
 import random
 
+import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common as M
-from test_mavlink_support import FakeVehicle
+from test_mavlink_support import FakeVehicle, make
 
 from gateway.mavlink import telemetry
 from gateway.mavlink.session import LinkKind, Session
@@ -172,3 +174,26 @@ def test_vfr_hud_throttle_is_the_thrust_setpoint_while_armed():
         assert abs(huds[-1].throttle - thrust * 100) <= 2
     finally:
         sim.close()
+
+
+def test_highres_imu_odometry_and_pressure_at_rest_and_yawed():
+    """PX4's sensor streams: specific force and field in the body frame, body-frame odometry
+    velocity, ISA pressure at the altitude."""
+    vehicle, session, client = make(LinkKind.API)
+    vehicle.become_ready()
+    vehicle.move_to(3.0, -4.0, -10.0, yaw_rad=math.pi / 2)  # facing east
+    vehicle.state = dataclasses.replace(vehicle.state, velocity_ned_mps=np.array([0.0, 2.0, 0.0]))
+    msgs = client.run_until(0.2)
+    imu = [m for m in msgs if m.get_type() == "HIGHRES_IMU"][-1]
+    assert (imu.xacc, imu.yacc, imu.zacc) == pytest.approx((0.0, 0.0, -9.80665), abs=1e-4)
+    # North-pointing field seen from a nose pointing east: to the left (−y).
+    assert imu.ymag == pytest.approx(-0.2145, abs=1e-3) and imu.zmag == pytest.approx(0.4296)
+    alt = vehicle.origin.alt_amsl_m + 10.0
+    assert imu.pressure_alt == pytest.approx(alt, abs=1e-3)
+    assert imu.abs_pressure == pytest.approx(1013.25 * (1 - 2.25577e-5 * alt) ** 5.25588, rel=1e-6)
+    odo = [m for m in msgs if m.get_type() == "ODOMETRY"][-1]
+    assert (odo.x, odo.y, odo.z) == pytest.approx((3.0, -4.0, -10.0))
+    assert (odo.vx, odo.vy, odo.vz) == pytest.approx((2.0, 0.0, 0.0), abs=1e-6)  # forward
+    assert (odo.frame_id, odo.child_frame_id) == (1, 12) and math.isnan(odo.pose_covariance[0])
+    sp = [m for m in msgs if m.get_type() == "SCALED_PRESSURE"][-1]
+    assert sp.press_abs == pytest.approx(imu.abs_pressure, rel=1e-6)
