@@ -70,7 +70,7 @@ class FailsafeFlags:
     manual_control_lost: bool = True
     # Filled in by Failsafe.update: the input was already missing when the vehicle armed (and has
     # not come back since), so its loss is not a failsafe (PX4 _manual_control_lost_at_arming).
-    manual_control_lost_at_arming: bool = False
+    manual_control_lost_at_arming: bool = True
 
 
 # NAV_DLL_ACT / NAV_RCL_ACT values: 0 disabled, 1 Hold, 2 Return, 3 Land, 5 Terminate, 6 Disarm.
@@ -201,7 +201,8 @@ class Failsafe:
             self._manual_control_lost_at_arming = flags.manual_control_lost
         if not flags.manual_control_lost:
             self._manual_control_lost_at_arming = False
-        flags = replace(flags, manual_control_lost_at_arming=self._manual_control_lost_at_arming)
+        if flags.manual_control_lost_at_arming != self._manual_control_lost_at_arming:
+            flags = replace(flags, manual_control_lost_at_arming=self._manual_control_lost_at_arming)
         if flags.armed != self._last_armed:
             self._remove(Clear.ON_DISARM)
             self._remove(Clear.ON_MODE_CHANGE_OR_DISARM)

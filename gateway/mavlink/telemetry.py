@@ -321,6 +321,7 @@ HIGHRES_IMU_FIELDS = 0x1BFF  # acc, gyro, mag, abs pressure, pressure alt, tempe
 MAV_FRAME_LOCAL_NED = 1
 MAV_FRAME_BODY_FRD = 12
 MAV_ESTIMATOR_TYPE_NAIVE = 1
+COVARIANCE_UNKNOWN = (math.nan,) + (0.0,) * 20  # first element NaN: unknown
 
 
 def isa_pressure_hpa(alt_amsl_m: float) -> float:
@@ -362,9 +363,9 @@ def odometry(s: Snapshot) -> tuple:
     x, y, z = kin.position_ned_m
     vx, vy, vz = _to_body(kin.attitude_q, kin.velocity_ned_mps)
     p, q, r = kin.rates_frd_radps
-    unknown = (math.nan,) + (0.0,) * 20  # covariances: first element NaN = unknown
-    return (s.time_usec, MAV_FRAME_LOCAL_NED, MAV_FRAME_BODY_FRD, x, y, z, list(kin.attitude_q),
-            vx, vy, vz, p, q, r, unknown, unknown, 0, MAV_ESTIMATOR_TYPE_NAIVE, 100)
+    return (s.time_usec, MAV_FRAME_LOCAL_NED, MAV_FRAME_BODY_FRD, x, y, z, kin.attitude_q,
+            vx, vy, vz, p, q, r, COVARIANCE_UNKNOWN, COVARIANCE_UNKNOWN, 0,
+            MAV_ESTIMATOR_TYPE_NAIVE, 100)
 
 
 def scaled_pressure(enc: Encoder, s: Snapshot) -> bytes:
