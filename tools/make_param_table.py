@@ -3,7 +3,8 @@
 The source table (px4_parameters.csv, from the PX4 metadata QGroundControl ships, ~v1.12) gives
 names, types, ranges and units. We keep the groups a multicopter SITL instance really runs and
 apply the defaults of current PX4 + the SITL/multicopter start-up scripts (PX4_COMPAT.md §7/§13).
-Parameters that current PX4 has but the old table lacks are added from PX4_COMPAT.md §7 only.
+Parameters that current PX4 has but the old table lacks are added from PX4_COMPAT.md §7, or
+from the PX4 parameter definition file named next to them.
 
 Run:  python tools/make_param_table.py ../shared/px4_parameters.csv vehicles/data/px4_params.csv
 """
@@ -110,6 +111,16 @@ ADDED = {
     "EKF2_EN": ("INT32", "1", "", "EKF2", "EKF2 enable"),
     "LNDMC_ALT_GND": ("FLOAT", "2.0", "m", "Land Detector", "Ground effect altitude"),
     "SYS_VEHICLE_RESP": ("FLOAT", "-0.4", "", "Multicopter Position Control", "Vehicle responsiveness"),
+    # Follow Me since PX4 v1.13 (flight_mode_manager/tasks/AutoFollowTarget/
+    # follow_target_params.yaml); MAVSDK's follow_me.set_config writes these.
+    "FLW_TGT_HT": ("FLOAT", "8.0", "m", "Follow target", "Follow target height"),
+    "FLW_TGT_DST": ("FLOAT", "8.0", "m", "Follow target", "Distance to follow target from"),
+    "FLW_TGT_FA": ("FLOAT", "180.0", "", "Follow target", "Follow Angle setting in degrees"),
+    "FLW_TGT_RS": ("FLOAT", "0.1", "", "Follow target",
+                   "Responsiveness to target movement in Target Estimator"),
+    "FLW_TGT_ALT_M": ("INT32", "0", "", "Follow target", "Altitude control mode"),
+    "FLW_TGT_MAX_VEL": ("FLOAT", "5.0", "m/s", "Follow target",
+                        "Max tangential velocity for follow orbit trajectory"),
 }
 
 FIELDS = ["name", "type", "default", "min", "max", "unit", "group", "short_desc"]

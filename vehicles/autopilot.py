@@ -47,6 +47,7 @@ from vehicles.control.quat import q_yaw
 from vehicles.control.rate_control import RateControlGains
 from vehicles.control.trajectory import TrajectoryLimiter
 from vehicles.failsafe import FailsafeFlags
+from vehicles.follow_target import FollowTarget
 from vehicles.geofence import Geofence
 from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF
 from vehicles.land_detector import LandDetector
@@ -120,6 +121,8 @@ class Autopilot:
         self._manual_position = ManualPosition(params)
         self._stabilized = Stabilized(params)
         self.orbit_task = Orbit(params)
+        self.follow_target = FollowTarget(params)
+        self._follow_hold: Vec3 | None = None  # Follow Me without a target holds here
         self._orbit_command: tuple | None = None  # DO_ORBIT parameters, applied at the next tick
         self._vel_sp_feedback: Vec3 = (math.nan, math.nan, math.nan)
         self._rates_sp: tuple[float, float, float] | None = None
@@ -279,6 +282,12 @@ class Autopilot:
             self._orbit_command = (radius_m, speed_mps, yaw_behaviour, center, down)
         return result
 
+    def set_follow_target(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
+                          velocity_ned_mps: tuple[float, float, float]) -> None:
+        """FOLLOW_TARGET: where the target is (used in Follow Me)."""
+        n, e, d = self.origin.ned_of(GeoPoint(lat_deg, lon_deg, alt_amsl_m))
+        self.follow_target.set_target(now_s, (n, e, d), velocity_ned_mps)
+
     @property
     def orbit_status(self) -> OrbitStatus | None:
         if self.commander.nav_state is not NavState.ORBIT or not self._flying:
@@ -410,6 +419,11 @@ class Autopilot:
             else:
                 self._set_idle(meas)
             return
+        if cmd.nav_state is NavState.AUTO_FOLLOW_TARGET:
+            self.navigator.deactivate(ctx)
+            self._nav_sp = None
+            self._update_follow(now_s, dt, meas, accel, yaw, entered)
+            return
         if cmd.nav_state is NavState.ORBIT:
             self.navigator.deactivate(ctx)
             self._nav_sp = None
@@ -438,6 +452,35 @@ class Autopilot:
             err = math.remainder(nav_sp.yaw_rad - self._yaw_sp, math.tau)
             self._yaw_sp = math.remainder(self._yaw_sp + min(max(err, -step), step), math.tau)
         self._apply_position_control(dt, meas, accel, PositionSetpoint(p_sp, v_sp, self._yaw_sp,
+                                                                       a_sp), yaw)
+
+    def _update_follow(self, now_s: float, dt: float, meas, accel, yaw: float, entered: bool
+                       ) -> None:
+        """Follow Me (vehicles/follow_target.py) through the trajectory limiter."""
+        pos, vel = meas.position_ned_m, meas.velocity_ned_mps
+        task = self.follow_target
+        if entered:
+            task.activate(pos, yaw)
+            self._follow_hold = None
+        if not self.commander.armed or self.land_detector.landed:
+            self.trajectory.reset(pos, vel)
+            self._set_idle(meas)
+            return
+        if not self._flying:
+            self.trajectory.reset(pos, vel)
+        self._idle = False
+        self._flying = True
+        sp = task.update(now_s, dt, pos, yaw)
+        limits = auto_limits(self.params, speed_xy_mps=float(self.params["MPC_XY_VEL_MAX"]))
+        if sp is None:  # no target: brake and hold
+            if self._follow_hold is None:
+                self._follow_hold = self.trajectory.stopping_point(limits)
+            target = self._follow_hold
+        else:
+            self._follow_hold = None
+            target = sp.position_ned_m
+        p_sp, v_sp, a_sp = self.trajectory.update(dt, target, limits, 0.0, pos[2])
+        self._apply_position_control(dt, meas, accel, PositionSetpoint(p_sp, v_sp, task.yaw_sp,
                                                                        a_sp), yaw)
 
     def _update_orbit(self, now_s: float, dt: float, meas, accel, yaw: float, entered: bool

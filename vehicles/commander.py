@@ -45,7 +45,7 @@ ARMING_DENIED_TEXT = "Arming denied: Resolve system health failures first"
 class SwitchRule(enum.Enum):
     ALLOWED = "allowed"  # ACCEPTED (TEMPORARILY_REJECTED without position if it needs one)
     NEEDS_MANUAL_CONTROL = "needs_manual_control"  # rejected without fresh stick input
-    NOT_YET = "not_yet"  # not implemented (Follow Me, Position Slow, Precision Land) -> rejected
+    NOT_YET = "not_yet"  # not implemented (Position Slow, Precision Land) -> rejected
     FAILSAFE_ONLY = "failsafe_only"  # entered by the vehicle itself, never by request
 
 
@@ -99,7 +99,7 @@ MODE_TABLE: dict[NavState, ModeSpec] = {
     NavState.STAB: ModeSpec("Stabilized", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
     NavState.AUTO_TAKEOFF: ModeSpec("Takeoff", SwitchRule.ALLOWED, True, True, None),
     NavState.AUTO_LAND: ModeSpec("Land", SwitchRule.ALLOWED, True, False, _L),
-    NavState.AUTO_FOLLOW_TARGET: ModeSpec("Follow Me", SwitchRule.NOT_YET, True, False, _L),
+    NavState.AUTO_FOLLOW_TARGET: ModeSpec("Follow Me", SwitchRule.ALLOWED, True, False, _L),
     NavState.AUTO_PRECLAND: ModeSpec("Precision Land", SwitchRule.NOT_YET, True, False, _L),
     NavState.ORBIT: ModeSpec("Orbit", SwitchRule.ALLOWED, True, False, _L),
 }

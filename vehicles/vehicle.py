@@ -208,6 +208,11 @@ class Vehicle:
         return self._autopilot.orbit(now_s, radius_m, speed_mps, yaw_behaviour, lat_deg, lon_deg,
                                      alt_amsl_m)
 
+    def set_follow_target(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
+                          velocity_ned_mps: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+        """FOLLOW_TARGET: the target Follow Me follows (vehicles/follow_target.py)."""
+        self._autopilot.set_follow_target(now_s, lat_deg, lon_deg, alt_amsl_m, velocity_ned_mps)
+
     @property
     def orbit_status(self) -> OrbitStatus | None:
         """ORBIT_EXECUTION_STATUS while orbiting (local NED; None otherwise)."""

@@ -1,7 +1,10 @@
-"""MANUAL_CONTROL → the vehicle's stick input (QGC virtual joystick / joystick, MAVSDK
-manual_control, pymavlink).
+"""What a pilot or a GCS feeds continuously: MANUAL_CONTROL → the vehicle's stick input (QGC
+virtual joystick / joystick, MAVSDK manual_control, pymavlink); FOLLOW_TARGET → the target of
+Follow Me (MAVSDK follow_me, QGC's Follow Me with the GCS's position).
 
-Source: PX4 ``mavlink_receiver.cpp`` handle_message_manual_control.
+Source: PX4 ``mavlink_receiver.cpp`` handle_message_manual_control, handle_message_follow_target
+(no target field: every FOLLOW_TARGET on the link counts; lat/lon 1e7 deg, alt AMSL m, vel NED;
+a report with a non-finite position or velocity is ignored).
 Rules:
 - Taken for ``target`` 0 or this system; other targets are counted and ignored.
 - x → pitch, y → roll, r → yaw, each /1000 when within [-1000, 1000]; z (throttle) is
@@ -13,6 +16,7 @@ Rules:
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING, Any
 
 from vehicles.manual_control import Sticks
@@ -33,6 +37,8 @@ def sticks_of(msg: Any) -> Sticks:
 
 
 class ManualControlService:
+    """MANUAL_CONTROL and FOLLOW_TARGET (module docstring)."""
+
     def __init__(self, session: Session) -> None:
         self.s = session
 
@@ -43,3 +49,13 @@ class ManualControlService:
         hook = getattr(self.s.vehicle, "manual_control", None)
         if hook is not None:
             hook(now_s, sticks_of(msg))
+
+    def on_follow_target(self, msg: Any, now_s: float) -> None:
+        hook = getattr(self.s.vehicle, "set_follow_target", None)
+        if hook is None:
+            return
+        vel = tuple(float(v) for v in msg.vel[:3])
+        alt = float(msg.alt)
+        if not (math.isfinite(alt) and all(math.isfinite(v) for v in vel)):
+            return
+        hook(now_s, msg.lat * 1e-7, msg.lon * 1e-7, alt, vel)

@@ -137,6 +137,7 @@ class Session:
             M.MAVLINK_MSG_ID_SET_POSITION_TARGET_GLOBAL_INT: self.offboard.on_global_int,
             M.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self.offboard.on_attitude_target,
             M.MAVLINK_MSG_ID_MANUAL_CONTROL: self.manual.on_manual_control,
+            M.MAVLINK_MSG_ID_FOLLOW_TARGET: self.manual.on_follow_target,
         }
         if signing is not None:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing

@@ -259,3 +259,39 @@ async def test_imu_odometry_and_pressure_telemetry(daemon_factory):
             if n == 21:
                 break
         assert 1.6 < asyncio.get_running_loop().time() - t0 < 2.6  # 20 intervals at 10 Hz
+
+
+@pytest.mark.asyncio
+async def test_follow_me_follows_a_moving_target(daemon_factory):
+    """MAVSDK's follow_me (the upstream follow_me_example.py flow): set_config writes the
+    FLW_TGT_* parameters, start() enters Follow Me, target locations stream as FOLLOW_TARGET."""
+    from mavsdk.follow_me import Config, TargetLocation
+    from mavsdk.telemetry import FlightMode
+
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        home = await latest(drone.telemetry.position())
+        await drone.action.arm()
+        await drone.follow_me.set_config(Config(10.0, 6.0, 0.1, Config.FollowAltitudeMode.CONSTANT,
+                                                5.0, 180.0))
+        await drone.action.takeoff()
+        await first(drone.telemetry.in_air(), lambda x: x, 20, "in air")
+        await drone.follow_me.start()
+        # MAVSDK takes targets once a HEARTBEAT shows Follow Me (as with PX4).
+        await first(drone.telemetry.flight_mode(), lambda m: m is FlightMode.FOLLOW_ME, 5,
+                    "Follow Me mode")
+        target_n = 10.0
+        for _ in range(20):  # a target walking north at 1.5 m/s
+            lat, lon = offset_deg(HOME_LAT, HOME_LON, target_n, 0.0)
+            await drone.follow_me.set_target_location(
+                TargetLocation(lat, lon, home.absolute_altitude_m, 1.5, 0.0, 0.0))
+            await asyncio.sleep(1.0)
+            target_n += 1.5
+        p = await latest(drone.telemetry.position())
+        lat, lon = offset_deg(HOME_LAT, HOME_LON, target_n - 1.5, 0.0)
+        assert abs(distance_m(p.latitude_deg, p.longitude_deg, lat, lon) - 6.0) < 2.0, p
+        assert p.latitude_deg < lat  # behind the target (south of it)
+        assert abs(p.relative_altitude_m - 10.0) < 1.0, p
+        await drone.follow_me.stop()
+        await drone.action.land()
+        await land_and_disarm(drone, 60)
