@@ -141,6 +141,13 @@ class Commander:
                 and not self.manual_control_available)
 
     @property
+    def manual_control_state(self) -> str | None:
+        """Stick input: None (never seen), "present", or "lost" (seen, then gone)."""
+        if self.manual_control_available:
+            return "present"
+        return "lost" if self._sticks_seen else None
+
+    @property
     def failsafe_active(self) -> bool:
         """vehicle_status.failsafe (PX4 selects no action while disarmed)."""
         return self.armed and self.failsafe.in_failsafe

@@ -113,7 +113,8 @@ class Vehicle:
             battery=ap.battery.state(),
             home=ap.home,
             extra={"thrust_norm": ap.thrust_norm,
-                   "rotor_speed_radps": self._world.rotor_speeds(self._row)},
+                   "rotor_speed_radps": self._world.rotor_speeds(self._row),
+                   "manual_control": c.manual_control_state},
         )
 
     @property

@@ -32,6 +32,7 @@ MAV_STATE_FLIGHT_TERMINATION = 8
 # MAV_SYS_STATUS_SENSOR bits used below
 SENSOR_GPS = 0x20
 SENSOR_XY_POSITION_CONTROL = 0x4000  # PX4 maps its local position estimate here
+SENSOR_RC_RECEIVER = 0x10000  # PX4's remote_control health component (joystick or RC)
 SENSOR_PREARM_CHECK = 0x10000000
 
 # Healthy PX4 SITL (§3): gyro|accel|mag|baro|gps|att_stab|xy_pos|ahrs|logging|battery.
@@ -61,6 +62,14 @@ def sensor_bits(status: VehicleStatus) -> tuple[int, int, int]:
     if status.prearm_ok:
         health |= SENSOR_PREARM_CHECK
         enabled |= SENSOR_PREARM_CHECK
+    sticks = status.extra.get("manual_control")
+    if sticks == "present":  # a joystick (MANUAL_CONTROL) is there: MAVSDK rc_status available
+        present |= SENSOR_RC_RECEIVER
+        enabled |= SENSOR_RC_RECEIVER
+    elif sticks == "lost":  # it was there and is gone: PX4 reports the component unhealthy
+        present |= SENSOR_RC_RECEIVER
+        enabled |= SENSOR_RC_RECEIVER
+        health &= ~SENSOR_RC_RECEIVER
     return present, enabled, health
 
 

@@ -182,6 +182,8 @@ async def test_manual_control_position_mode_fly_and_land(daemon_factory):
             await drone.manual_control.start_position_control()
             await first(drone.telemetry.flight_mode(), lambda m: m is FlightMode.POSCTL, 10,
                         "Position mode")
+            await first(drone.telemetry.rc_status(), lambda rc: rc.is_available, 5,
+                        "rc_status available (SYS_STATUS RC receiver)")
             sticks[2] = 0.9  # climb
             await first(drone.telemetry.position_velocity_ned(),
                         lambda pv: pv.position.down_m < -4.0, 20, "climb above 4 m")

@@ -152,3 +152,19 @@ def test_arming_in_position_mode_without_sticks_is_denied(sim):
     sim.run(1.0)  # the input is gone
     assert sim.v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
     assert "Preflight Fail: No manual control input" in sim.texts()
+
+
+def test_sys_status_reports_the_joystick(sim):
+    """SYS_STATUS RC_RECEIVER: absent without sticks, present and healthy with them, unhealthy
+    once they are lost (MAVSDK's rc_status, QGC's RC indicator)."""
+    from gateway.mavlink.heartbeat import SENSOR_RC_RECEIVER, sensor_bits
+
+    sim.run(1.2)
+    present, _, health = sensor_bits(sim.v.status)
+    assert not present & SENSOR_RC_RECEIVER
+    fly(sim, 0.5, CENTRED)
+    present, enabled, health = sensor_bits(sim.v.status)
+    assert present & enabled & health & SENSOR_RC_RECEIVER
+    sim.run(1.0)
+    present, enabled, health = sensor_bits(sim.v.status)
+    assert present & enabled & SENSOR_RC_RECEIVER and not health & SENSOR_RC_RECEIVER
