@@ -83,11 +83,12 @@ TAKEOFF_TRIGGER_M = 0.2
 # The stick-driven modes (manual_control.py); Manual is Stabilized on a multicopter.
 MANUAL_NAV_STATES = frozenset({NavState.MANUAL, NavState.STAB, NavState.ACRO, NavState.ALTCTL,
                                NavState.POSCTL})
-# COM_RC_OVERRIDE bit 0: sticks take over these modes (Commander: isAutoMode).
+# COM_RC_OVERRIDE bit 0: sticks take over these modes (Commander: isAutoMode). Not Orbit: there
+# the sticks are part of the mode (altitude; PX4 also trims radius and speed with them).
 STICK_OVERRIDE_AUTO = frozenset({NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_RTL,
                                  NavState.AUTO_TAKEOFF, NavState.AUTO_LAND,
                                  NavState.AUTO_PRECLAND, NavState.AUTO_FOLLOW_TARGET,
-                                 NavState.DESCEND, NavState.ORBIT})
+                                 NavState.DESCEND})
 BATTERY_TEXTS = {
     1: (Severity.WARNING, "Low battery level, return advised"),
     2: (Severity.CRITICAL, "Critical battery level, land now"),
@@ -215,10 +216,11 @@ class Autopilot:
         c.manual_control_available = self.manual.fresh(now_s, float(self.params["COM_RC_LOSS_T"]))
         c.home_valid = self.home is not None
 
-    def manual_control(self, now_s: float, sticks: Sticks) -> None:
-        """Stick input (MANUAL_CONTROL). Moving the sticks in an auto mode (COM_RC_OVERRIDE bit
-        0) or in Offboard (bit 1) switches to Position, as Commander's stick override does."""
-        self.manual.set(now_s, sticks)
+    def manual_control(self, now_s: float, sticks: Sticks, source: object = None) -> None:
+        """Stick input (MANUAL_CONTROL) from ``source``. Moving the sticks in an auto mode
+        (COM_RC_OVERRIDE bit 0) or in Offboard (bit 1) switches to Position, as Commander's
+        stick override does."""
+        self.manual.set(now_s, sticks, source)
         c = self.commander
         if not (self.manual.moving and c.armed) or c.terminated:
             return

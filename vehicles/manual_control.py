@@ -136,11 +136,19 @@ class ManualControl:
         self._params = params
         self.sticks: Sticks | None = None
         self.received_s = -math.inf
+        self.source: object = None
         self._diffs = (_MovingDiff(), _MovingDiff(), _MovingDiff(), _MovingDiff())
         self.moving = False  # a stick moved faster than COM_RC_STICK_OV with the last input
 
-    def set(self, now_s: float, sticks: Sticks) -> None:
-        if not self.fresh(now_s, float(self._params["COM_RC_LOSS_T"])):
+    def set(self, now_s: float, sticks: Sticks, source: object = None) -> None:
+        """``source``: who sent it (the gateway: link and sender). As PX4's
+        ManualControlSelector, the first source keeps control while its input is fresh; another
+        one is ignored until then."""
+        fresh = self.fresh(now_s, float(self._params["COM_RC_LOSS_T"]))
+        if fresh and source != self.source:
+            return
+        self.source = source
+        if not fresh:
             for d in self._diffs:
                 d.reset()
         dt = 0.0 if self.sticks is None else now_s - self.received_s

@@ -14,8 +14,9 @@ Rules:
   forward.
 - Yaw (ORBIT_YAW_BEHAVIOUR): 0 nose to the centre (default), 1 the heading at the command,
   2 uncontrolled, 3 nose along the tangent, 4 from the yaw stick; slewed at MPC_YAWRAUTO_MAX.
-- The altitude follows the throttle stick when there is one (FlightTaskManualAltitude); sticks
-  are optional in this mode.
+- The altitude follows the throttle stick when there is one (FlightTaskManualAltitude); the
+  pitch stick trims the radius (RADIUS_MAX / 8 per second at full deflection) and the roll
+  stick the speed (VELOCITY_MAX / 4 per second); sticks are optional in this mode.
 - Pure: time and dt are arguments.
 """
 
@@ -25,7 +26,7 @@ import math
 from dataclasses import dataclass
 
 from vehicles.control.position_control import PositionSetpoint
-from vehicles.manual_control import ManualAltitude, Sticks
+from vehicles.manual_control import ManualAltitude, Sticks, expo_deadzone
 
 Vec3 = tuple[float, float, float]
 
@@ -123,6 +124,15 @@ class Orbit:
         with nose to the centre: ``yaw_setpoint``)."""
         p = self.params
         alt = self._altitude.update(dt, sticks, pos, vel, yaw, vel_sp_feedback)
+        # Sticks trim the circle: pitch the radius, roll the speed (FlightTaskOrbit::update).
+        dz = float(p["MPC_HOLD_DZ"])
+        e = float(p["MPC_XY_MAN_EXPO"])
+        trim_r = expo_deadzone(sticks.pitch, e, dz)
+        trim_v = expo_deadzone(sticks.roll, e, dz)
+        if trim_r or trim_v:
+            self.radius, self.velocity = sanitize(
+                self.radius - trim_r * dt * (RADIUS_MAX / 8.0),
+                self.velocity - trim_v * dt * (VELOCITY_MAX / 4.0))
         dn, de = pos[0] - self.center[0], pos[1] - self.center[1]
         if self.on_circle(pos):
             self.approaching = False

@@ -193,9 +193,10 @@ class Vehicle:
         self._autopilot.offboard.set(now_s, setpoint)
 
     # --- manual control -----------------------------------------------------------------------
-    def manual_control(self, now_s: float, sticks: Sticks) -> None:
-        """Stick input (MANUAL_CONTROL; PX4 manual_control_setpoint ranges, manual_control.py)."""
-        self._autopilot.manual_control(now_s, sticks)
+    def manual_control(self, now_s: float, sticks: Sticks, source: object = None) -> None:
+        """Stick input (MANUAL_CONTROL; PX4 manual_control_setpoint ranges, manual_control.py);
+        the first ``source`` keeps control while its input is fresh."""
+        self._autopilot.manual_control(now_s, sticks, source)
 
     # --- actions ------------------------------------------------------------------------------
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,

@@ -11,7 +11,9 @@ Rules:
   [0, 1000] → [-1, 1] (500 = centred, what MAVSDK's 0.5 gives). A field out of its range
   reads as 0 (centred), as PX4's zero-initialised setpoint does.
 - Every valid message refreshes the input (its loss after COM_RC_LOSS_T is the vehicle's
-  business: vehicles/manual_control.py). Never raises.
+  business: vehicles/manual_control.py); its source is the link and the sender, so a second
+  joystick (QGC on the GCS link and a MAVSDK app on the API link) cannot fight the first.
+  Never raises.
 """
 
 from __future__ import annotations
@@ -47,8 +49,9 @@ class ManualControlService:
             self.s.stats.rx_other_target += 1
             return
         hook = getattr(self.s.vehicle, "manual_control", None)
-        if hook is not None:
-            hook(now_s, sticks_of(msg))
+        if hook is not None:  # the source: this link and the sender (PX4: one per link)
+            hook(now_s, sticks_of(msg), (self.s.kind.value, msg.get_srcSystem(),
+                                        msg.get_srcComponent()))
 
     def on_follow_target(self, msg: Any, now_s: float) -> None:
         hook = getattr(self.s.vehicle, "set_follow_target", None)

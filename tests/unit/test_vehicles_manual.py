@@ -168,3 +168,16 @@ def test_sys_status_reports_the_joystick(sim):
     sim.run(1.0)
     present, enabled, health = sensor_bits(sim.v.status)
     assert present & enabled & SENSOR_RC_RECEIVER and not health & SENSOR_RC_RECEIVER
+
+
+def test_a_second_stick_source_is_ignored_while_the_first_is_fresh(sim):
+    take_off(sim)
+    sim.v.manual_control(sim.t, CENTRED, source="qgc")
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    end = sim.t + 3.0
+    while sim.t < end:  # QGC centred, another app pushing full forward: QGC keeps control
+        sim.v.manual_control(sim.t, CENTRED, source="qgc")
+        sim.v.manual_control(sim.t, Sticks(pitch=1.0), source="app")
+        sim.run(0.05)
+    assert abs(sim.v.state.velocity_ned_mps[0]) < 0.3
+    assert sim.v._autopilot.manual.source == "qgc"

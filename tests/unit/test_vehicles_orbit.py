@@ -61,3 +61,18 @@ def test_orbit_is_refused_for_arming_and_left_by_a_mode_change(sim):
     assert sim.run(30.0, until=lambda: not sim.v.status.armed)
     assert sim.v.orbit(sim.t, 5.0) is CommandResult.ACCEPTED  # the mode, on the ground
     assert sim.v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED  # PX4: no arming in Orbit
+
+
+def test_sticks_trim_the_orbit_radius_and_speed(sim):
+    from vehicles.manual_control import Sticks
+
+    take_off(sim)
+    assert sim.v.orbit(sim.t, 10.0, 2.0) is CommandResult.ACCEPTED
+    sim.run(0.1)
+    task = sim.v._autopilot.orbit_task
+    end = sim.t + 1.0
+    while sim.t < end:  # pitch back (−) widens the circle: + RADIUS_MAX / 8 per second
+        sim.v.manual_control(sim.t, Sticks(pitch=-1.0))
+        sim.run(0.05)
+    assert task.radius == pytest.approx(10.0 + 100.0 / 8.0, abs=1.0)
+    assert task.velocity == pytest.approx(2.0)
