@@ -456,22 +456,30 @@ class Autopilot:
         self._apply_position_control(dt, meas, accel, PositionSetpoint(p_sp, v_sp, self._yaw_sp,
                                                                        a_sp), yaw)
 
-    def _update_follow(self, now_s: float, dt: float, meas, accel, yaw: float, entered: bool
-                       ) -> None:
-        """Follow Me (vehicles/follow_target.py) through the trajectory limiter."""
+    def _fly_task(self, meas) -> bool:
+        """For Orbit and Follow Me: False (motors idle) when disarmed or on the ground — these
+        modes do not take off; else flying, the trajectory limiter starting from the state."""
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
-        task = self.follow_target
-        if entered:
-            task.activate(pos, yaw)
-            self._follow_hold = None
         if not self.commander.armed or self.land_detector.landed:
             self.trajectory.reset(pos, vel)
             self._set_idle(meas)
-            return
+            return False
         if not self._flying:
             self.trajectory.reset(pos, vel)
         self._idle = False
         self._flying = True
+        return True
+
+    def _update_follow(self, now_s: float, dt: float, meas, accel, yaw: float, entered: bool
+                       ) -> None:
+        """Follow Me (vehicles/follow_target.py) through the trajectory limiter."""
+        pos = meas.position_ned_m
+        task = self.follow_target
+        if entered:
+            task.activate(pos, yaw)
+            self._follow_hold = None
+        if not self._fly_task(meas):
+            return
         sp = task.update(now_s, dt, pos, yaw)
         limits = auto_limits(self.params, speed_xy_mps=float(self.params["MPC_XY_VEL_MAX"]))
         if sp is None:  # no target: brake and hold
@@ -496,14 +504,8 @@ class Autopilot:
         if self._orbit_command is not None:
             orbit.command(pos, yaw, *self._orbit_command)
             self._orbit_command = None
-        if not self.commander.armed or self.land_detector.landed:
-            self.trajectory.reset(pos, vel)
-            self._set_idle(meas)
+        if not self._fly_task(meas):
             return
-        if not self._flying:
-            self.trajectory.reset(pos, vel)
-        self._idle = False
-        self._flying = True
         sp = orbit.update(dt, self.manual.current(now_s), pos, vel, yaw, self._vel_sp_feedback)
         if sp is None:
             p_sp, v_sp, a_sp = self.trajectory.update(dt, orbit.approach_target(pos),
