@@ -149,7 +149,13 @@ class Autopilot:
 
     def _plan_changed(self, plan_type: PlanType) -> None:
         if plan_type is PlanType.FENCE:
-            self.geofence.load(self.plans.get(PlanType.FENCE), self.origin)
+            home = self.home.position_ned_m[:2] if self.home is not None else None
+            here = None
+            if not self.land_detector.landed:
+                n, e, _ = self._measure()[0].position_ned_m
+                here = (n, e)
+            for text in self.geofence.load(self.plans.get(PlanType.FENCE), self.origin, home, here):
+                self.log.critical(self.time_s, text)
         if plan_type is PlanType.MISSION:
             self.navigator.cruise_mps = math.nan  # a new mission starts at cruise speed
 

@@ -5,7 +5,9 @@ inside at least one inclusion area if there are any, outside every exclusion are
 GF_MAX_HOR_DIST / GF_MAX_VER_DIST checks against home.
 
 Rules: pure geometry on the vehicle's local NED frame (the fence is converted once, when the plan
-or the origin changes). ``check`` returns None when inside, else the reason text PX4 prints.
+or the origin changes). ``check`` returns None when inside, else the reason text PX4 prints. When
+the plan loads, an area that would be breached at home (or where the vehicle flies, with
+GF_ACTION set) is dropped with PX4's text, as PX4 does.
 """
 
 from __future__ import annotations
@@ -32,6 +34,10 @@ class FenceArea:
         if not self.polygon:
             return math.hypot(n - self.center[0], e - self.center[1]) <= self.radius_m
         return point_in_polygon(n, e, self.polygon)
+
+    def allows(self, n: float, e: float) -> bool:
+        """Inside an inclusion area, outside an exclusion area."""
+        return self.contains(n, e) == self.inclusion
 
 
 def point_in_polygon(n: float, e: float, poly: Sequence[Vec2]) -> bool:
@@ -71,8 +77,24 @@ class Geofence:
         self._params = params
         self.areas: tuple[FenceArea, ...] = ()
 
-    def load(self, items: Sequence[PlanItem], origin: GeoPoint) -> None:
-        self.areas = build_areas(items, origin)
+    def load(self, items: Sequence[PlanItem], origin: GeoPoint,
+             home_ne: Vec2 | None = None, flying_at_ne: Vec2 | None = None) -> list[str]:
+        """Take the FENCE plan; returns PX4's texts for the areas it drops (geofence.cpp
+        _updateFence): one that does not contain home (when home is set), or, while flying with
+        GF_ACTION set, the vehicle's position."""
+        texts = []
+        kept = []
+        for area in build_areas(items, origin):
+            if home_ne is not None and not area.allows(*home_ne):
+                texts.append("Geofence invalid, doesn't contain Home position")
+                continue
+            if (flying_at_ne is not None and int(self._params["GF_ACTION"]) != 0
+                    and not area.allows(*flying_at_ne)):
+                texts.append("Geofence invalid, doesn't contain current vehicle position")
+                continue
+            kept.append(area)
+        self.areas = tuple(kept)
+        return texts
 
     @property
     def enabled(self) -> bool:

@@ -91,7 +91,9 @@ def _validate_item(plan_type: PlanType, item: PlanItem) -> PlanResult:
 
 
 def _validate_fence_shape(items: Sequence[PlanItem]) -> PlanResult:
-    """geofence.cpp: a polygon is p1 consecutive vertices of one kind, p1 >= 3; circles r > 0."""
+    """A polygon is p1 consecutive vertices of one kind, p1 >= 3; a circle needs a finite
+    radius. PX4 takes any circle at upload; one that does not contain home is dropped when the
+    fence loads (geofence.py)."""
     i = 0
     while i < len(items):
         item = items[i]
@@ -105,7 +107,7 @@ def _validate_fence_shape(items: Sequence[PlanItem]) -> PlanResult:
             i += n
             continue
         if item.command in (MavCmd.NAV_FENCE_CIRCLE_INCLUSION, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION):
-            if not (math.isfinite(item.param1) and item.param1 > 0.0):
+            if not math.isfinite(item.param1):
                 return PlanResult.INVALID_PARAM1
         i += 1
     return PlanResult.ACCEPTED

@@ -8,7 +8,7 @@ from tests.unit.test_vehicles_flight import Sim, take_off
 from tests.unit.test_vehicles_mission import item
 from vehicles.failsafe import CHECKS, Action, Failsafe, FailsafeFlags
 from vehicles.params import ParamStore
-from vehicles.plan_types import MavCmd, PlanResult, PlanType
+from vehicles.plan_types import MavCmd, PlanItem, PlanResult, PlanType
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, NavState
 
@@ -219,3 +219,18 @@ def test_a_second_link_loss_after_a_takeover_triggers_again():
     assert fs.update(1.1, FailsafeFlags(True, hold, gcs_lost=True)) is Action.NONE
     assert fs.update(2.0, FailsafeFlags(True, hold)) is Action.NONE  # link back
     assert fs.update(9.0, FailsafeFlags(True, hold, gcs_lost=True)) is Action.RTL  # lost again
+
+
+def test_fence_areas_that_exclude_home_are_dropped_at_load(sim):
+    """MAVSDK's geofence example: a polygon round home plus a zero circle at (0, 0). PX4 takes the
+    upload and drops the circle, which does not contain home, with a critical text."""
+    v = sim.v
+    sim.run(0.5)  # home is set with the position estimate
+    poly = [item(i, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, n, e, 0.0, v.origin, p1=4,
+                 mission_type=PlanType.FENCE)
+            for i, (n, e) in enumerate([(-11, -8), (11, -8), (11, 8), (-11, 8)])]
+    zero = PlanItem(4, 6, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, 0, 1, 0.0, 0.0, 0.0, math.nan, 0, 0,
+                    0.0, PlanType.FENCE)
+    assert v.set_plan(sim.t, PlanType.FENCE, poly + [zero]) is PlanResult.ACCEPTED
+    assert sim.texts()[-1] == "Geofence invalid, doesn't contain Home position"
+    assert len(v.autopilot.geofence.areas) == 1 and v.autopilot.geofence.areas[0].polygon

@@ -87,7 +87,10 @@ def test_item_with_current_flag_sets_start_index(sim):
                       item(1, MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION, p1=3),
                       item(2, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3)],
      PlanResult.INVALID_PARAM1),
-    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, p1=0.0)], PlanResult.INVALID_PARAM1),
+    # PX4 takes a zero circle at upload (MAVSDK's geofence example sends one) and drops it
+    # when the fence loads if it does not contain home.
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, p1=0.0)], PlanResult.ACCEPTED),
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, p1=NAN)], PlanResult.INVALID_PARAM1),
     (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION, p1=30.0)], PlanResult.ACCEPTED),
     (PlanType.FENCE, [item(0, MavCmd.NAV_WAYPOINT)], PlanResult.UNSUPPORTED),
     (PlanType.RALLY, [item(0, MavCmd.NAV_RALLY_POINT)], PlanResult.ACCEPTED),
