@@ -18,9 +18,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-# Earth constants used by the flat-earth projection (PX4 lib/geo uses the same radius).
-EARTH_RADIUS_M = 6371000.0
+from vehicles.geodesy import EARTH_RADIUS_M, GeoPoint  # noqa: F401 (re-exported)
+
 GRAVITY_MPS2 = 9.80665
+
+# A 3-vector of plain floats (the fast form the controllers pass around; frames in the names).
+Vec3 = tuple[float, float, float]
 
 
 class NavState(enum.IntEnum):
@@ -79,32 +82,7 @@ class Severity(enum.IntEnum):
     DEBUG = 7
 
 
-@dataclass(frozen=True)
-class GeoPoint:
-    lat_deg: float
-    lon_deg: float
-    alt_amsl_m: float
-
-    def offset_ned(self, north_m: float, east_m: float, down_m: float) -> GeoPoint:
-        """Flat-earth (equirectangular) projection, good to centimetres over a few km."""
-        lat = self.lat_deg + math.degrees(north_m / EARTH_RADIUS_M)
-        lon = self.lon_deg + math.degrees(
-            east_m / (EARTH_RADIUS_M * math.cos(math.radians(self.lat_deg)))
-        )
-        return GeoPoint(lat, lon, self.alt_amsl_m - down_m)
-
-    def ned_of(self, other: GeoPoint) -> tuple[float, float, float]:
-        """NED offset (m) of ``other`` relative to this point (inverse of ``offset_ned``)."""
-        north = math.radians(other.lat_deg - self.lat_deg) * EARTH_RADIUS_M
-        east = (
-            math.radians(other.lon_deg - self.lon_deg)
-            * EARTH_RADIUS_M
-            * math.cos(math.radians(self.lat_deg))
-        )
-        return (north, east, self.alt_amsl_m - other.alt_amsl_m)
-
-
-# PX4 SITL default home (gazebo-classic iris / jMAVSim), PX4_COMPAT.md §9.
+# PX4 SITL default home (gazebo-classic iris / jMAVSim: PX4_HOME_LAT/LON/ALT unset).
 PX4_SITL_HOME = GeoPoint(47.397742, 8.545594, 488.0)
 
 

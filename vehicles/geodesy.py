@@ -1,0 +1,77 @@
+"""Geodesy: the one place that turns latitude/longitude into local metres and back.
+
+PX4's ``lib/geo`` (MapProjection) maps the globe onto the local NED plane of the EKF origin with
+an azimuthal equidistant projection on a sphere of CONSTANTS_RADIUS_OF_EARTH; distances between
+two global points use the haversine (``get_distance_to_next_waypoint``). The simulator, the
+MAVLink services, the CI kit and the examples all use these functions, so a waypoint uploaded in
+degrees lands where PX4 would put it.
+
+Rules: pure functions of their arguments; degrees and metres in, degrees and metres out; north
+is x, east is y (NED).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+EARTH_RADIUS_M = 6371000.0  # PX4 CONSTANTS_RADIUS_OF_EARTH
+
+
+def project(ref_lat_deg: float, ref_lon_deg: float, lat_deg: float, lon_deg: float
+            ) -> tuple[float, float]:
+    """(north, east) in metres of a point from the reference (PX4 MapProjection::project)."""
+    ref_lat = math.radians(ref_lat_deg)
+    lat = math.radians(lat_deg)
+    d_lon = math.radians(lon_deg - ref_lon_deg)
+    sin_ref, cos_ref = math.sin(ref_lat), math.cos(ref_lat)
+    sin_lat, cos_lat = math.sin(lat), math.cos(lat)
+    cos_d_lon = math.cos(d_lon)
+    c = math.acos(min(max(sin_ref * sin_lat + cos_ref * cos_lat * cos_d_lon, -1.0), 1.0))
+    k = c / math.sin(c) if c != 0.0 else 1.0
+    return (k * (cos_ref * sin_lat - sin_ref * cos_lat * cos_d_lon) * EARTH_RADIUS_M,
+            k * cos_lat * math.sin(d_lon) * EARTH_RADIUS_M)
+
+
+def reproject(ref_lat_deg: float, ref_lon_deg: float, north_m: float, east_m: float
+              ) -> tuple[float, float]:
+    """(lat, lon) in degrees of a local point (PX4 MapProjection::reproject)."""
+    x = north_m / EARTH_RADIUS_M
+    y = east_m / EARTH_RADIUS_M
+    c = math.hypot(x, y)
+    if c == 0.0:
+        return (ref_lat_deg, ref_lon_deg)
+    ref_lat = math.radians(ref_lat_deg)
+    sin_ref, cos_ref = math.sin(ref_lat), math.cos(ref_lat)
+    sin_c, cos_c = math.sin(c), math.cos(c)
+    lat = math.asin(min(max(cos_c * sin_ref + x * sin_c * cos_ref / c, -1.0), 1.0))
+    lon = math.radians(ref_lon_deg) + math.atan2(y * sin_c, c * cos_ref * cos_c - x * sin_ref * sin_c)
+    return (math.degrees(lat), math.degrees(lon))
+
+
+def distance_m(lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: float) -> float:
+    """Great-circle distance (PX4 get_distance_to_next_waypoint, haversine)."""
+    lat1, lat2 = math.radians(lat1_deg), math.radians(lat2_deg)
+    d_lat = lat2 - lat1
+    d_lon = math.radians(lon2_deg) - math.radians(lon1_deg)
+    a = math.sin(d_lat / 2) ** 2 + math.sin(d_lon / 2) ** 2 * math.cos(lat1) * math.cos(lat2)
+    return EARTH_RADIUS_M * 2.0 * math.atan2(math.sqrt(a), math.sqrt(1.0 - a))
+
+
+@dataclass(frozen=True)
+class GeoPoint:
+    """A point on the globe: WGS-84 latitude/longitude in degrees, altitude above mean sea level."""
+
+    lat_deg: float
+    lon_deg: float
+    alt_amsl_m: float
+
+    def offset_ned(self, north_m: float, east_m: float, down_m: float) -> GeoPoint:
+        """The point ``(north, east, down)`` metres from this one (the local frame's origin)."""
+        lat, lon = reproject(self.lat_deg, self.lon_deg, north_m, east_m)
+        return GeoPoint(lat, lon, self.alt_amsl_m - down_m)
+
+    def ned_of(self, other: GeoPoint) -> tuple[float, float, float]:
+        """NED offset (m) of ``other`` relative to this point (inverse of ``offset_ned``)."""
+        north, east = project(self.lat_deg, self.lon_deg, other.lat_deg, other.lon_deg)
+        return (north, east, self.alt_amsl_m - other.alt_amsl_m)
