@@ -7,7 +7,7 @@ STAMP4 := $(VENV4)/.installed
 VEHICLES ?= 1
 PYTEST_ARGS ?=
 
-.PHONY: run test unit bench clean venv ns3 ns3-deps ns3-if-possible install-service
+.PHONY: run test unit typecheck bench clean venv ns3 ns3-deps ns3-if-possible install-service
 
 venv: $(STAMP)
 
@@ -29,7 +29,11 @@ run: $(STAMP)
 	$(VENV)/bin/cornet run --vehicles $(VEHICLES)
 
 test: $(STAMP) $(STAMP4) ns3-if-possible
+	$(VENV)/bin/mypy
 	CORNET_MAVSDK4_PYTHON=$(CURDIR)/$(VENV4)/bin/python $(VENV)/bin/python -m pytest $(PYTEST_ARGS)
+
+typecheck: $(STAMP)
+	$(VENV)/bin/mypy
 
 unit: $(STAMP)
 	$(VENV)/bin/python -m pytest tests/unit $(PYTEST_ARGS)

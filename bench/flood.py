@@ -37,8 +37,8 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import zmq  # noqa: E402
 
-from gateway.ports import free_tcp_port  # noqa: E402
-from tests.e2e.daemon import start_daemon  # noqa: E402
+from gateway.ci.launcher import start_daemon  # noqa: E402
+from gateway.ci.ports import free_tcp_port  # noqa: E402
 from tests.e2e.flows import takeoff_hover_land  # noqa: E402
 from tests.e2e.test_garbage_flood import hostile_datagrams  # noqa: E402
 
@@ -132,7 +132,7 @@ async def main_async(args) -> int:
     finally:
         if flooder.is_alive():
             flooder.terminate()
-        code, _ = d.stop()
+        code = d.stop()
         clock.stop.set()
         clock.join(timeout=2)
     stop_line = next((ln for ln in reversed(d.stderr_lines) if "stopping after" in ln), "")

@@ -11,7 +11,7 @@ import time
 
 import pybullet
 
-from gateway.sim import PHYSICS_DT_S
+from gateway.sim.simulation import PHYSICS_DT_S
 from vehicles.physics import World
 
 

@@ -1,5 +1,5 @@
 """Lockstep speed (issue 5, acceptance 1): the 4-waypoint square (~60 s simulated) flown in-process
-through gateway.testing.Sim, best of 3; prints simulated seconds per wall second, with and
+through gateway.ci.lockstep.Sim, best of 3; prints simulated seconds per wall second, with and
 without flight logs, and where the time goes (one profiled run)."""
 
 import cProfile
@@ -11,7 +11,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from gateway.testing import Sim  # noqa: E402
+from gateway.ci.lockstep import Sim  # noqa: E402
 from tests.unit.test_testing_sim import fly_square  # noqa: E402
 
 

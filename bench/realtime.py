@@ -30,9 +30,9 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import pybullet  # noqa: E402
 
 from bench.floor import bare_pybullet_cpu_per_body_sim_s  # noqa: E402
-from gateway.app import Daemon, RunConfig  # noqa: E402
-from gateway.ports import free_port_offset  # noqa: E402
-from gateway.sim import Simulation  # noqa: E402
+from gateway.ci.ports import free_port_offset  # noqa: E402
+from gateway.daemon.app import Daemon, RunConfig  # noqa: E402
+from gateway.sim.simulation import Simulation  # noqa: E402
 
 TAKEOFF_AT_S = 1.5  # position estimate valid after ~1 s
 HOVERING_AT_S = 6.0

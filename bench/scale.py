@@ -91,13 +91,13 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import numpy as np  # noqa: E402
 from pymavlink.dialects.v20 import common as mavlink2  # noqa: E402
 
-from gateway.ports import (  # noqa: E402
+from gateway.ci.launcher import CornetDaemon, start_daemon  # noqa: E402
+from gateway.ci.ports import (  # noqa: E402
     API_CLIENT_PORT,
     GCS_CLIENT_PORT,
     VEHICLE_API_PORT,
     free_port_offset,
 )
-from tests.e2e.daemon import Daemon, cornet_command  # noqa: E402
 
 # PyBullet (and gateway.sim, vehicles.physics) are imported where used: the helper processes are
 # started with "spawn", which re-imports this module, and they need neither.
@@ -523,39 +523,13 @@ class Point:
     notes: list[str] = field(default_factory=list)
 
 
-def launch_daemon(n: int, shards: int, offset: int) -> tuple[Daemon, float, float]:
+def launch_daemon(n: int, shards: int, offset: int) -> tuple[CornetDaemon, float, float]:
     """``cornet run --vehicles N [--shards K]`` at ``offset`` as a user starts it (the listener
     already bound to the client ports); (daemon, monotonic start, monotonic time of the ready
     line). Not ready within LAUNCH_TIMEOUT_S: stopped, RuntimeError."""
-    cmd = cornet_command() + ["run", "--vehicles", str(n), "--port-offset", str(offset)]
-    if shards > 1:
-        cmd += ["--shards", str(shards)]
-    started = time.monotonic()
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    d = Daemon(proc, offset, n, "")
-    ready_at: list[float] = []
-
-    def pump_stderr() -> None:
-        for line in proc.stderr:
-            d.stderr_lines.append(line.rstrip())
-
-    def pump_stdout() -> None:
-        for line in proc.stdout:
-            if not ready_at and "ready" in line:
-                d.ready_line = line.strip()
-                ready_at.append(time.monotonic())
-
-    d.threads = [threading.Thread(target=pump_stderr, daemon=True),
-                 threading.Thread(target=pump_stdout, daemon=True)]
-    for t in d.threads:
-        t.start()
-    deadline = started + LAUNCH_TIMEOUT_S
-    while not ready_at and time.monotonic() < deadline and proc.poll() is None:
-        time.sleep(0.02)
-    if not ready_at:
-        code, _ = d.stop()
-        raise RuntimeError(f"not ready (exit {code}): {' '.join(cmd)}\n{d.log_tail()}")
-    return d, started, ready_at[0]
+    args = ["--shards", str(shards)] if shards > 1 else []
+    d = start_daemon(*args, vehicles=n, port_offset=offset, ready_timeout_s=LAUNCH_TIMEOUT_S)
+    return d, d.started_at, d.ready_at
 
 
 def _fly(clock: SimClock, commands, n: int, deadline: float, alive, skip: int = 0) -> None:
@@ -635,7 +609,7 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
                     daemon=True),
     ]
     clock = SimClock(clock_shared, telemetry, n)
-    d: Daemon | None = None
+    d: CornetDaemon | None = None
     try:
         for h in helpers:
             h.start()
@@ -719,7 +693,8 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
         stop_pings.set()
         go.set()
         if d is not None:
-            code, took = d.stop()  # the helpers keep draining until the daemon is gone
+            code = d.stop()
+            took = d.stop_took_s  # the helpers keep draining until the daemon is gone
             point.exit_code = code
             if code != 0:
                 point.notes.append(f"exit {code} after SIGTERM ({took:.1f} s)")

@@ -131,7 +131,7 @@ def build_parser() -> argparse.ArgumentParser:
                      "http://BIND:PORT/metrics")
     run.add_argument("--shards", type=_non_negative(int, "--shards"), default=1, metavar="K",
                      help="split the vehicles across K worker processes kept in lockstep (use "
-                     "the cores; embedded network only; see gateway/shard.py)")
+                     "the cores; embedded network only; see gateway/daemon/shard.py)")
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
@@ -211,11 +211,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "fly":
         return _fly(_subparser(parser, "fly"), args)
     if args.command == "plot":
-        from gateway import plot
+        from gateway.ci import plot
 
         return plot.main(args.log_dir, args.plan)
     if args.command == "check":
-        from gateway.scenario import ScenarioError, describe, load
+        from gateway.sim.scenario import ScenarioError, describe, load
 
         try:
             print(describe(load(args.scenario)))
@@ -224,7 +224,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         return 0
     if args.command in ("watch", "stats"):
-        from gateway import watch
+        from gateway.bus import watch
 
         endpoint = args.zmq or watch.DEFAULT_ENDPOINT
         if args.command == "watch":
@@ -235,9 +235,9 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
-    from gateway import fly
-    from gateway.progress import ProgressLine
-    from gateway.scenario import NetworkConfig, ScenarioError, load
+    from gateway.ci import fly
+    from gateway.daemon.progress import ProgressLine
+    from gateway.sim.scenario import NetworkConfig, ScenarioError, load
 
     network = None
     if args.scenario is not None:
@@ -284,9 +284,9 @@ def _first(*values: Any) -> Any:
 def _run_settings(args: argparse.Namespace,
                   flag_params: dict[str, float]) -> tuple[dict[str, Any], str]:
     """``cornet run``'s settings from its flags over its configuration file: keyword arguments
-    of ``gateway.app.RunConfig`` and the log level. Raises ScenarioError naming the key or flag.
+    of ``gateway.daemon.app.RunConfig`` and the log level. Raises ScenarioError naming the key or flag.
     Called at start and again on SIGHUP (the file may have changed; the flags have not)."""
-    from gateway.scenario import NetworkConfig, Scenario, ScenarioError, check_ports, load
+    from gateway.sim.scenario import NetworkConfig, Scenario, ScenarioError, check_ports, load
 
     source = _first(args.config, args.scenario)
     which = "--config" if args.config is not None else "--scenario"
@@ -344,7 +344,7 @@ def _run_settings(args: argparse.Namespace,
 
 def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     parser = _subparser(parser, "run")  # errors then show `cornet run` usage
-    from gateway.scenario import ScenarioError
+    from gateway.sim.scenario import ScenarioError
 
     if args.config is not None and args.scenario is not None:
         parser.error("--config and --scenario both name a configuration file; give one of them")
@@ -372,16 +372,16 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         stream=sys.stderr,
     )
     # Imported here so that `cornet --help` and flag errors stay fast.
-    from gateway.app import MetricsPortError, PortInUse, RunConfig, serve
+    from gateway.daemon.app import MetricsPortError, PortInUse, RunConfig, serve
 
     config = RunConfig(**settings)
-    from gateway.shard import check as check_shards
+    from gateway.daemon.shard import check as check_shards
 
     problem = check_shards(config)
     if problem is not None:
         parser.error(problem)
     if config.shards > 1:
-        from gateway.shard import ShardError, serve_sharded
+        from gateway.daemon.shard import ShardError, serve_sharded
 
         try:
             return asyncio.run(serve_sharded(config, log_level))

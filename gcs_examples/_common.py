@@ -1,11 +1,10 @@
 """Shared by the MAVSDK examples: connect as the MSDK-Py examples do, wait for a healthy vehicle."""
 
 import argparse
-import math
 
 from mavsdk import System
 
-EARTH_RADIUS_M = 6371000.0
+from vehicles.geodesy import reproject
 
 
 def arguments(description: str) -> argparse.Namespace:
@@ -33,9 +32,8 @@ async def connect(port: int, grpc_port: int) -> System:
 
 
 def offset(lat_deg: float, lon_deg: float, north_m: float, east_m: float) -> tuple[float, float]:
-    """The point north_m / east_m away (flat earth, fine over a few km)."""
-    return (lat_deg + math.degrees(north_m / EARTH_RADIUS_M),
-            lon_deg + math.degrees(east_m / (EARTH_RADIUS_M * math.cos(math.radians(lat_deg)))))
+    """The point north_m / east_m away (PX4's map projection, as the vehicle computes it)."""
+    return reproject(lat_deg, lon_deg, north_m, east_m)
 
 
 async def first_value(stream):

@@ -33,12 +33,13 @@ from pathlib import Path
 import numpy as np
 import tomllib
 import zmq
-from _daemon import CornetDaemon, free_tcp_port
 from pymavlink import mavutil
+
+from gateway.ci.launcher import free_tcp_port, start_daemon
+from vehicles.geodesy import reproject
 
 ROOT = Path(__file__).resolve().parent.parent
 NS3_BINARY = ROOT / "netsim" / "ns3" / "build" / "cornet-ns3"
-EARTH_RADIUS_M = 6371000.0
 TAKEOFF_ALT_M = 10.0
 
 BACKENDS = {
@@ -61,11 +62,6 @@ class Run:
     net: list[tuple[float, float, float]] = field(default_factory=list)
     counters: dict[str, tuple[int, int, dict]] = field(default_factory=dict)  # whole run, per link
     log_path: Path | None = None
-
-
-def geo_offset(lat: float, lon: float, north_m: float, east_m: float) -> tuple[float, float]:
-    return (lat + math.degrees(north_m / EARTH_RADIUS_M),
-            lon + math.degrees(east_m / (EARTH_RADIUS_M * math.cos(math.radians(lat)))))
 
 
 class Gcs:
@@ -155,11 +151,12 @@ def fly_and_measure(run: Run, scenario: Path, args: argparse.Namespace, log_dir:
     for p in params:
         flags += ["--param", p]
     print(f"[{run.backend}] starting cornet run --scenario {scenario.relative_to(ROOT)} ...")
-    daemon = CornetDaemon(flags, log_dir / f"cornet-{run.backend}.log")
-    run.log_path = daemon.log_path
+    daemon = start_daemon(*flags, cwd=ROOT, output_file=log_dir / f"cornet-{run.backend}.log",
+                          ready_timeout_s=60)
+    run.log_path = daemon.output_file
     gcs = None
     try:
-        gcs = Gcs(daemon.gcs_port, zmq_endpoint)
+        gcs = Gcs(daemon.gcs_port(), zmq_endpoint)
         print(f"[{run.backend}] daemon ready (port offset {daemon.offset}); "
               "waiting for the vehicle")
         if gcs.mav.wait_heartbeat(timeout=20) is None:
@@ -174,7 +171,7 @@ def fly_and_measure(run: Run, scenario: Path, args: argparse.Namespace, log_dir:
                     math.nan)
         gcs.wait_state("the takeoff altitude", lambda s: s["rel_alt_m"] > TAKEOFF_ALT_M - 0.5, 40)
         # Straight north, past the last bin, so the vehicle is still at cruise speed there.
-        lat, lon = geo_offset(home_lat, home_lon, args.max_distance + 30.0, 0.0)
+        lat, lon = reproject(home_lat, home_lon, args.max_distance + 30.0, 0.0)
         print(f"[{run.backend}] flying north to {args.max_distance:.0f} m from the AP at "
               f"{speed:g} m/s, {args.rate:g} TIMESYNC requests/s on the GCS link")
         gcs.command(mavutil.mavlink.MAV_CMD_DO_REPOSITION, speed, 1, 0, math.nan, lat, lon,
@@ -184,7 +181,7 @@ def fly_and_measure(run: Run, scenario: Path, args: argparse.Namespace, log_dir:
         if gcs is not None:
             gcs.close()
         code = daemon.stop()
-        print(f"[{run.backend}] daemon stopped (exit {code}); log: {daemon.log_path}")
+        print(f"[{run.backend}] daemon stopped (exit {code}); log: {daemon.output_file}")
     if code != 0:
         raise RuntimeError(f"daemon exited {code}:\n{daemon.log_tail()}")
 

@@ -32,8 +32,9 @@ from pathlib import Path
 
 import numpy as np
 import zmq
-from _daemon import CornetDaemon, free_tcp_port
 from pymavlink import mavutil
+
+from gateway.ci.launcher import free_tcp_port, start_daemon
 
 ROOT = Path(__file__).resolve().parent.parent
 CONTROL_HZ = 20.0
@@ -137,10 +138,11 @@ def fly(flight: Flight, args: argparse.Namespace, log_dir: Path) -> None:
     flags = ["--latency-ms", str(flight.latency_ms), "--zmq-pub", zmq_endpoint,
              "--log-level", "warning", "--param", f"MIS_TAKEOFF_ALT={args.altitude}"]
     print(f"{tag} starting cornet run --latency-ms {flight.latency_ms:g} ...")
-    daemon = CornetDaemon(flags, log_dir / f"cornet-{flight.latency_ms:g}ms.log")
+    daemon = start_daemon(*flags, cwd=ROOT, output_file=log_dir / f"cornet-{flight.latency_ms:g}ms.log",
+                          ready_timeout_s=60)
     client = None
     try:
-        client = Client(daemon.api_port, zmq_endpoint)
+        client = Client(daemon.api_port(), zmq_endpoint)
         if client.mav.wait_heartbeat(timeout=20) is None:
             raise RuntimeError("no HEARTBEAT from the vehicle")
         deadline = time.monotonic() + 20

@@ -135,7 +135,7 @@ class EmbeddedBackend:
             model = self._shared.get(hop.shared_key)
             if model is None:
                 model = make_model(hop.model, params, seed=self.seed,
-                                   stream_name=f"shared/{hop.shared_key}",
+                                   stream_name=f"medium:{hop.shared_key}",
                                    mobility=self.mobility, src=hop.src, dst=hop.dst)
                 self._shared[hop.shared_key] = model
             return model

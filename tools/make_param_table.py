@@ -1,12 +1,13 @@
-"""Build vehicles/data/px4_params.csv from the PX4 parameter metadata in shared/.
+"""Build vehicles/data/px4_params.csv from a PX4 parameter metadata table (CSV).
 
 The source table (px4_parameters.csv, from the PX4 metadata QGroundControl ships, ~v1.12) gives
 names, types, ranges and units. We keep the groups a multicopter SITL instance really runs and
-apply the defaults of current PX4 + the SITL/multicopter start-up scripts (PX4_COMPAT.md §7/§13).
-Parameters that current PX4 has but the old table lacks are added from PX4_COMPAT.md §7, or
-from the PX4 parameter definition file named next to them.
+apply the defaults of current PX4 + the SITL/multicopter start-up scripts
+(ROMFS init.d-posix/rcS, px4-rc.params, the airframe file). Parameters that current PX4 has but
+the old table lacks are added from the PX4 parameter definition file (module_params.yaml or
+*_params.c) named next to them.
 
-Run:  python tools/make_param_table.py ../shared/px4_parameters.csv vehicles/data/px4_params.csv
+Run:  python tools/make_param_table.py PX4_PARAMETERS.csv vehicles/data/px4_params.csv
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ KEEP_GROUPS = {
     "Mixer Output",
 }
 
-# Current PX4 defaults and SITL / multicopter overrides (PX4_COMPAT.md §7, §9, §13).
+# Current PX4 defaults and SITL / multicopter overrides (PX4's parameter files and rcS scripts).
 OVERRIDES = {
     "SYS_AUTOSTART": "10016",  # none_iris: a quad with no external simulator
     "MAV_PROTO_VER": "2",

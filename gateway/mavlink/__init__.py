@@ -1,0 +1,1 @@
+"""The sans-IO MAVLink protocol: one Session per (vehicle, link), one module per microservice."""

@@ -1,9 +1,9 @@
-"""A user's flight regression tests with CORNET's pytest plugin (gateway/pytest_plugin.py).
+"""A user's flight regression tests with CORNET's pytest plugin (gateway/ci/pytest_plugin.py).
 
 - ``test_square_mission_lockstep``: the QGroundControl plan ``square.plan`` flown in lockstep on the
   simulated clock (``cornet_sim``: no sockets, ~1 minute of flight in a few seconds of wall time,
   deterministic), then judged on its flight logs.
-- ``test_square_mission_cornet_fly``: the same plan through ``gateway.fly.fly`` (what
+- ``test_square_mission_cornet_fly``: the same plan through ``gateway.ci.fly.fly`` (what
   ``cornet fly PLAN`` runs), its verdict and the same assertions on its logs.
 - ``test_mavsdk_takeoff_and_land``: an unmodified MAVSDK-Python 3.x script against a real
   ``cornet run --speed 10`` subprocess (``cornet_daemon``), then assertions on its logs.
@@ -16,7 +16,7 @@ from __future__ import annotations
 import asyncio
 from pathlib import Path
 
-from gateway.pytest_plugin import FlightLogView, free_tcp_port, landed_within, max_deviation_m, reached
+from gateway.ci.pytest_plugin import FlightLogView, free_tcp_port, landed_within, max_deviation_m, reached
 
 PLAN = Path(__file__).resolve().parent.parent / "plans" / "square.plan"
 CRUISE_ALT_M = 15.0  # the plan's waypoints: 15 m above home
@@ -27,7 +27,7 @@ FLIGHT_TIMEOUT_S = 300.0  # simulated
 
 def square_corners() -> list[tuple[float, float]]:
     """The plan's waypoints (lat, lon), read from the .plan file."""
-    from gateway.fly import POSITION_COMMANDS, load_plan
+    from gateway.ci.fly import POSITION_COMMANDS, load_plan
 
     return [(it.x * 1e-7, it.y * 1e-7) for it in load_plan(PLAN).mission
             if it.command in POSITION_COMMANDS]
@@ -41,8 +41,8 @@ def assert_flew_the_square(log: FlightLogView) -> None:
 
 
 def test_square_mission_lockstep(cornet_sim):
-    from gateway.fly import load_plan
-    from gateway.testing import PlanType
+    from gateway.ci.fly import load_plan
+    from gateway.ci.lockstep import PlanType
 
     plan = load_plan(PLAN)
     sim = cornet_sim(home=plan.planned_home)
@@ -63,7 +63,7 @@ def test_square_mission_lockstep(cornet_sim):
 
 
 def test_square_mission_cornet_fly(tmp_path):
-    from gateway.fly import fly
+    from gateway.ci.fly import fly
 
     result = fly(PLAN, log_dir=tmp_path, max_deviation_m=MAX_DEVIATION_M)
     assert result.passed, result.summary()

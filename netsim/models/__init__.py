@@ -1,78 +1,18 @@
 """Link models: each decides, per packet, a delay or a drop. They never see packet contents.
 
-A model is any object with ``transit(size_bytes, now_s) -> float | Drop``: a delay in seconds
-(>= 0) or a ``Drop`` naming why the packet was lost. Models are made by name from config through
-``make_model`` so that scenarios can choose them; each gets its own named random stream.
-See README.md beside this file for how to add one.
+The interface and the registry live in base.py; importing this package registers the built-in
+models (each module registers itself with ``register_model``). See README.md beside this file
+for how to add one.
 """
 
-from __future__ import annotations
+from netsim.models import burst, fixed, outage, queue, wireless  # noqa: F401 (registers them)
+from netsim.models.base import (
+    Drop,
+    LinkModel,
+    ModelFactory,
+    make_model,
+    model_names,
+    register_model,
+)
 
-import enum
-from collections.abc import Callable
-from typing import Any, Protocol
-
-from netsim.rng import UniformStream
-
-
-class Drop(str, enum.Enum):
-    """Why a packet did not arrive. The value is the counter name in link statistics."""
-
-    LOSS = "loss"  # random loss drawn by the model
-    QUEUE = "queue"  # queue overflow
-    RANGE = "range"  # out of radio range
-    OUTAGE = "outage"  # scheduled blackout
-    LATE = "late"  # delivered after its sync cycle (co-simulation late policy)
-
-
-class LinkModel(Protocol):
-    def transit(self, size_bytes: int, now_s: float) -> float | Drop: ...
-
-
-ModelFactory = Callable[..., LinkModel]
-_REGISTRY: dict[str, ModelFactory] = {}
-_POSITIONAL: set[str] = set()
-
-
-def register_model(name: str, *, positional: bool = False
-                   ) -> Callable[[ModelFactory], ModelFactory]:
-    """Register a model factory. A ``positional`` model is also given ``mobility`` (a
-    netsim.backend.Mobility), ``src`` and ``dst`` (node names), to look up where its hop's ends
-    are; the others never see positions."""
-
-    def deco(factory: ModelFactory) -> ModelFactory:
-        _REGISTRY[name] = factory
-        if positional:
-            _POSITIONAL.add(name)
-        return factory
-
-    return deco
-
-
-def model_names() -> list[str]:
-    return sorted(_REGISTRY)
-
-
-def make_model(name: str, params: dict[str, Any], *, seed: int, stream_name: str,
-               mobility: Any = None, src: str = "", dst: str = "") -> LinkModel:
-    """Build model ``name`` with ``params``; ``stream_name`` names its random stream."""
-    try:
-        factory = _REGISTRY[name]
-    except KeyError:
-        known = ", ".join(model_names())
-        raise ValueError(f"unknown link model {name!r} (known: {known})") from None
-    rng = UniformStream(seed, stream_name)
-    try:
-        if name in _POSITIONAL:
-            return factory(rng=rng, mobility=mobility, src=src, dst=dst, **params)
-        return factory(rng=rng, **params)
-    except TypeError as exc:  # an unknown or missing parameter name
-        raise ValueError(f"link model {name!r}: {exc}") from None
-
-
-# Register the built-in models.
-from netsim.models import burst as _burst  # noqa: E402,F401
-from netsim.models import fixed as _fixed  # noqa: E402,F401
-from netsim.models import outage as _outage  # noqa: E402,F401
-from netsim.models import queue as _queue  # noqa: E402,F401
-from netsim.models import wireless as _wireless  # noqa: E402,F401
+__all__ = ["Drop", "LinkModel", "ModelFactory", "make_model", "model_names", "register_model"]

@@ -14,7 +14,7 @@ loss = πG·loss_good + πB·loss_bad; the mean Bad burst lasts 1 / p_bad_to_goo
 
 from __future__ import annotations
 
-from netsim.models import Drop, register_model
+from netsim.models.base import Drop, register_model
 from netsim.rng import UniformStream
 
 

@@ -6,7 +6,7 @@ fixed: delay = latency + U(-jitter, +jitter), clipped at 0; Bernoulli loss with 
 
 from __future__ import annotations
 
-from netsim.models import Drop, register_model
+from netsim.models.base import Drop, register_model
 from netsim.rng import UniformStream
 
 

@@ -13,7 +13,7 @@ import bisect
 import math
 from collections.abc import Sequence
 
-from netsim.models import Drop, register_model
+from netsim.models.base import Drop, register_model
 from netsim.rng import UniformStream
 
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections import deque
 
-from netsim.models import Drop, register_model
+from netsim.models.base import Drop, register_model
 from netsim.rng import UniformStream
 
 DEFAULT_QUEUE_PACKETS = 100

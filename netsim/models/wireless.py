@@ -49,7 +49,7 @@ import math
 from statistics import NormalDist
 from typing import Any
 
-from netsim.models import Drop, register_model
+from netsim.models.base import Drop, register_model
 from netsim.rng import UniformStream
 
 # 802.11n HT, 20 MHz, one spatial stream, 800 ns guard interval (IEEE 802.11-2012 Table 20-30).

@@ -1,6 +1,6 @@
 import pytest
 
-from tests.e2e.daemon import start_daemon
+from gateway.ci.launcher import start_daemon
 
 
 @pytest.fixture
@@ -14,6 +14,7 @@ def daemon_factory():
 
     yield make
     for d in started:
-        code, took = d.stop()
+        code = d.stop()
+        took = d.stop_took_s
         assert code == 0, f"daemon exit code {code}\n{d.log_tail()}"
         assert took < 2.0, f"daemon took {took:.2f} s to stop"

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from mavsdk import System
 
-from tests.e2e.daemon import free_tcp_port
+from gateway.ci.launcher import free_tcp_port
 from tests.e2e.persona import first
 
 

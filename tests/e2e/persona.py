@@ -4,26 +4,18 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import math
 
 from mavsdk import System
 
-from tests.e2e.daemon import free_tcp_port
+from gateway.ci.launcher import free_tcp_port
+from vehicles.geodesy import distance_m, project, reproject  # noqa: F401 (re-exported)
 
 HOME_LAT = 47.397742
 HOME_LON = 8.545594
-EARTH_RADIUS_M = 6371000.0
 
 
 def offset_deg(lat: float, lon: float, north_m: float, east_m: float) -> tuple[float, float]:
-    return (lat + math.degrees(north_m / EARTH_RADIUS_M),
-            lon + math.degrees(east_m / (EARTH_RADIUS_M * math.cos(math.radians(lat)))))
-
-
-def distance_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
-    north = math.radians(lat2 - lat1) * EARTH_RADIUS_M
-    east = math.radians(lon2 - lon1) * EARTH_RADIUS_M * math.cos(math.radians(lat1))
-    return math.hypot(north, east)
+    return reproject(lat, lon, north_m, east_m)
 
 
 async def first(gen, predicate, timeout_s: float, what: str):

@@ -9,7 +9,7 @@ import urllib.request
 import pytest
 from prometheus_client.parser import text_string_to_metric_families
 
-from tests.e2e.daemon import cornet_command, free_tcp_port
+from gateway.ci.launcher import cornet_command, free_tcp_port
 
 pytestmark = [pytest.mark.e2e]
 
@@ -43,7 +43,7 @@ def test_metrics_port_in_use_exits_2(tmp_path):
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        from gateway.ports import free_port_offset
+        from gateway.ci.ports import free_port_offset
 
         r = subprocess.run(cornet_command() + ["run", "--port-offset", str(free_port_offset()),
                                                "--metrics-port", str(port)],

@@ -12,7 +12,7 @@ import time
 import pytest
 from pymavlink import mavutil
 
-from tests.e2e.daemon import start_daemon
+from gateway.ci.launcher import start_daemon
 from tests.e2e.gcs import arm_and_take_off, command_long, gcs, heartbeats_by_sysid
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
@@ -90,7 +90,7 @@ def test_sigkill_mid_flight_keeps_params_and_logs_up_to_the_last_second(daemon_f
         assert _param(conn, "MIS_TAKEOFF_ALT") == pytest.approx(4.0)
     finally:
         conn.close()
-    assert d2.stop()[0] == 0
+    assert d2.stop() == 0
     assert len(list(logs.iterdir())) == 2  # a new run directory; the crashed one untouched
     assert struct.unpack(">Q", (run / "v1-api.tlog").read_bytes()[:8])[0] > 0
 
@@ -184,7 +184,7 @@ def test_ns3_engine_killed_mid_run_the_daemon_keeps_its_clock_and_stops_cleanly(
         assert conn.recv_match(type="HEARTBEAT", blocking=True, timeout=2.0) is None
     finally:
         conn.close()
-    code, _ = d.stop()
+    code = d.stop()
     d_lines = "\n".join(d.stderr_lines)
     assert "lost" in d_lines and "ns-3" in d_lines
     stop_line = next(ln for ln in reversed(d.stderr_lines) if "stopping after" in ln)

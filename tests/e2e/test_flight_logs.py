@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from tests.e2e.daemon import cornet_command
+from gateway.ci.launcher import cornet_command
 from tests.e2e.flows import takeoff_hover_land
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
@@ -19,7 +19,7 @@ async def test_log_dir_tlog_readable_by_mavlogdump_and_plotted(daemon_factory, t
     d = daemon_factory("--log-dir", str(tmp_path), "--speed", "4")
     await takeoff_hover_land(d.api_port(0), hover_s=1.0)
     await asyncio.sleep(1.0)
-    assert d.stop()[0] == 0  # SIGTERM flushes and closes the logs
+    assert d.stop() == 0  # SIGTERM flushes and closes the logs
     (run,) = list(tmp_path.iterdir())
     assert {p.name for p in run.iterdir()} >= {"v1-api.tlog", "v1-gcs.tlog", "state.csv",
                                                "packets.trace", "meta.json"}

@@ -78,7 +78,7 @@ async def test_flight_survives_garbage_flood(daemon_factory):
         stop.set()
     assert sent[0] == TOTAL, "the flood did not finish during the flight"
     assert 2.2 <= r.hover_alt_min_m and r.hover_alt_max_m <= 2.8, r
-    code, _ = d.stop()
+    code = d.stop()
     assert code == 0
     stop_line = next(line for line in reversed(d.stderr_lines) if "stopping after" in line)
     # One source sends ~5,000 datagrams/s to each port: beyond its token bucket (2,000/s) they

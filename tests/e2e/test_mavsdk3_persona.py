@@ -16,6 +16,7 @@ from tests.e2e.persona import (
     land_and_disarm,
     latest,
     offset_deg,
+    project,
 )
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
@@ -231,9 +232,7 @@ async def test_do_orbit_circles_the_point_nose_to_the_centre(daemon_factory):
             assert on_circle(p), p
             assert abs(p.relative_altitude_m - 8.0) < 1.0, p
             heading = (await latest(drone.telemetry.heading())).heading_deg
-            north_m = (lat - p.latitude_deg) * math.pi / 180 * 6371000.0
-            east_m = (lon - p.longitude_deg) * math.pi / 180 * 6371000.0 * math.cos(
-                math.radians(lat))
+            north_m, east_m = project(p.latitude_deg, p.longitude_deg, lat, lon)
             to_center = math.degrees(math.atan2(east_m, north_m)) % 360
             assert abs((heading - to_center + 180) % 360 - 180) < 15, (heading, to_center)
         await drone.action.land()

@@ -65,7 +65,7 @@ def test_parameters_survive_a_restart_with_state_dir(daemon_factory, tmp_path):
                                condition="PARAM_VALUE.param_id=='MIS_TAKEOFF_ALT'")
     finally:
         conn.close()
-    assert d.stop()[0] == 0
+    assert d.stop() == 0
 
     d2 = daemon_factory("--state-dir", str(tmp_path))
     conn = gcs(d2.gcs_port())

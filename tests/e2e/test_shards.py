@@ -7,7 +7,7 @@ import subprocess
 
 import pytest
 
-from tests.e2e.daemon import cornet_command
+from gateway.ci.launcher import cornet_command
 from tests.e2e.flows import takeoff_hover_land
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
@@ -22,7 +22,7 @@ async def test_two_shards_fly_a_vehicle_each_and_stop_cleanly(daemon_factory):
     for r in (r1, r4):
         assert 2.2 <= r.hover_alt_min_m and r.hover_alt_max_m <= 2.8, r
         assert r.disarmed_after_landing
-    code, _ = d.stop()
+    code = d.stop()
     assert code == 0, d.log_tail()
     stop_line = next(ln for ln in reversed(d.stderr_lines) if "stopping after" in ln)
     m = re.search(r"sim_t=([\d.]+)s .*shards=2 .*internal_errors=0", stop_line)

@@ -11,7 +11,7 @@ from mavsdk import System
 from mavsdk.action import ActionError
 from pymavlink import mavutil
 
-from tests.e2e.daemon import free_tcp_port
+from gateway.ci.launcher import free_tcp_port
 from tests.e2e.gcs import arm_and_take_off, command_long
 from tests.e2e.persona import first
 
@@ -75,7 +75,7 @@ async def test_unsigned_mavsdk_is_refused_and_a_signed_pymavlink_client_flies(da
             assert time.monotonic() < deadline, "did not land and disarm"
     finally:
         conn.close()
-    code, _ = d.stop()
+    code = d.stop()
     assert code == 0
     stop_line = next(ln for ln in reversed(d.stderr_lines) if "stopping after" in ln)
     refused = re.search(r"unsigned=(\d+)", stop_line)

@@ -20,8 +20,8 @@ import uuid
 import pytest
 from pymavlink.dialects.v20 import common as M
 
-from gateway.ports import udp_free
-from tests.e2e.daemon import cornet_command, free_port_offset, start_daemon
+from gateway.ci.launcher import cornet_command, free_port_offset, start_daemon
+from gateway.ci.ports import udp_free
 
 pytestmark = [pytest.mark.e2e]
 
@@ -262,7 +262,7 @@ def test_flags_override_the_config_file(tmp_path):
         assert f"api {14580 + d.offset}->" in d.ready_line, d.ready_line
         assert "speed 2x" in d.ready_line  # from the file: no --speed flag
     finally:
-        assert d.stop()[0] == 0, d.log_tail()
+        assert d.stop() == 0, d.log_tail()
 
 
 @pytest.mark.parametrize("text, flags, words", [

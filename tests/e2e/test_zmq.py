@@ -7,7 +7,7 @@ import time
 import pytest
 import zmq
 
-from tests.e2e.daemon import cornet_command, free_tcp_port
+from gateway.ci.launcher import cornet_command, free_tcp_port
 
 pytestmark = [pytest.mark.e2e]
 

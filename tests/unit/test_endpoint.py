@@ -3,7 +3,7 @@ import socket
 
 import pytest
 
-from gateway.endpoint import MAX_BATCH, SourceLimiter, UdpEndpoint
+from gateway.daemon.endpoint import MAX_BATCH, SourceLimiter, UdpEndpoint
 
 
 def test_token_bucket_allows_the_burst_then_the_rate():

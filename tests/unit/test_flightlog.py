@@ -1,4 +1,4 @@
-"""Flight logs (gateway/flightlog.py): tlog format, frame splitting, flushing, mavlogdump."""
+"""Flight logs (gateway/sim/flightlog.py): tlog format, frame splitting, flushing, mavlogdump."""
 
 import struct
 import subprocess
@@ -7,7 +7,9 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import common as mavlink2
 
-from gateway.flightlog import (
+from gateway.ci.lockstep import LOCKSTEP_EPOCH_UNIX_S, Sim, mission_item
+from gateway.mavlink.session import LinkKind
+from gateway.sim.flightlog import (
     STATE_COLUMNS,
     FlightLog,
     frame_msgid,
@@ -15,8 +17,6 @@ from gateway.flightlog import (
     read_tlog,
     split_frames,
 )
-from gateway.mavlink.session import LinkKind
-from gateway.testing import LOCKSTEP_EPOCH_UNIX_S, Sim, mission_item
 from vehicles.plan_types import MavCmd
 from vehicles.types import PX4_SITL_HOME
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from gateway.fly import PlanFileError, distance_to_path, fly, load_plan, main, parse_plan, planned_path
+from gateway.ci.fly import PlanFileError, distance_to_path, fly, load_plan, main, parse_plan, planned_path
 from vehicles.plan_types import MavCmd, PlanType
 from vehicles.types import PX4_SITL_HOME
 

@@ -18,8 +18,8 @@ from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Decoder, DecodeStats
 from gateway.mavlink.session import LinkKind
-from gateway.scenario import ScenarioError, parse
-from gateway.sim import Simulation
+from gateway.sim.scenario import ScenarioError, parse
+from gateway.sim.simulation import Simulation
 from vehicles.params import ParamStore
 
 FUZZ = settings(max_examples=300, deadline=None, derandomize=True,
@@ -208,7 +208,7 @@ def test_scenario_parse_accepts_or_names_the_problem(doc):
 @FUZZ
 @given(st.binary(max_size=512))
 def test_scenario_load_of_any_file_is_a_scenario_error_or_a_scenario(tmp_path_factory, data):
-    from gateway.scenario import load
+    from gateway.sim.scenario import load
 
     path = tmp_path_factory.mktemp("fz") / "s.toml"
     path.write_bytes(data)

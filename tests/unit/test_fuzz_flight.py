@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from pymavlink.dialects.v20 import common as M
 
+from gateway.ci.lockstep import Sim
 from gateway.mavlink.session import LinkKind
-from gateway.testing import Sim
 from tests.unit.test_testing_sim import fly_square
 
 pytestmark = pytest.mark.slow

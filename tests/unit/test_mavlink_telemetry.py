@@ -155,7 +155,7 @@ def test_a_new_physics_sample_is_never_served_from_the_cache():
 
 
 def test_vfr_hud_throttle_is_the_thrust_setpoint_while_armed():
-    from gateway.sim import Simulation
+    from gateway.sim.simulation import Simulation
 
     sim = Simulation(1, link_kinds=(LinkKind.API,))
     mav = M.MAVLink(None)

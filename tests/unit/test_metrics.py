@@ -4,10 +4,10 @@ from types import SimpleNamespace
 import pytest
 from prometheus_client.parser import text_string_to_metric_families
 
-from gateway.metrics import Exporter, MetricsServer
-from gateway.pacer import Pacer
-from gateway.scenario import NetworkConfig
-from gateway.sim import Simulation
+from gateway.daemon.metrics import Exporter, MetricsServer
+from gateway.daemon.pacer import Pacer
+from gateway.sim.scenario import NetworkConfig
+from gateway.sim.simulation import Simulation
 
 
 @pytest.fixture

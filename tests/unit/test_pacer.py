@@ -1,7 +1,7 @@
 
 
 def test_arrival_moves_the_clock_but_never_runs_due_work():
-    from gateway.pacer import Pacer
+    from gateway.daemon.pacer import Pacer
     from netsim.kernel import Kernel
 
     k = Kernel()

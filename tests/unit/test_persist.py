@@ -2,7 +2,7 @@
 
 import json
 
-from gateway import persist
+from gateway.sim import persist
 from vehicles.params import ParamStore
 
 

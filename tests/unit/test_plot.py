@@ -2,9 +2,9 @@
 
 import struct
 
-from gateway.plot import OUTPUTS, main, plot
-from gateway.scenario import NetworkConfig
-from gateway.testing import Sim, mission_item
+from gateway.ci.lockstep import Sim, mission_item
+from gateway.ci.plot import OUTPUTS, main, plot
+from gateway.sim.scenario import NetworkConfig
 from vehicles.plan_types import MavCmd
 from vehicles.types import PX4_SITL_HOME
 

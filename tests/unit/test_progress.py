@@ -1,6 +1,6 @@
 import io
 
-from gateway.progress import ERASE_LINE, ProgressLine, bar
+from gateway.daemon.progress import ERASE_LINE, ProgressLine, bar
 
 
 def test_bar_is_clamped_and_fixed_width():

@@ -5,8 +5,8 @@ import pathlib
 
 import pytest
 
-from gateway.scenario import DaemonSettings, ScenarioError, describe, load, parse
-from gateway.sim import Simulation
+from gateway.sim.scenario import DaemonSettings, ScenarioError, describe, load, parse
+from gateway.sim.simulation import Simulation
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SHIPPED = sorted((ROOT / "scenarios").glob("*.toml"))
@@ -118,6 +118,7 @@ def test_shipped_service_config_loads():
 
 
 def test_speed_limit_matches_the_cli():
-    from gateway import cli, scenario
+    from gateway import cli
+    from gateway.sim import scenario
 
     assert scenario.MAX_SPEED == cli.MAX_SPEED

@@ -11,7 +11,7 @@ import uuid
 
 import pytest
 
-from gateway.sdnotify import Notifier, socket_address, watchdog_usec
+from gateway.daemon.sdnotify import Notifier, socket_address, watchdog_usec
 
 
 def parse(datagram: bytes) -> dict[str, str]:
@@ -124,7 +124,7 @@ def test_abstract_socket_name():
 
 def test_send_errors_never_raise_and_are_logged_once(tmp_path, caplog):
     n = Notifier.from_env({"NOTIFY_SOCKET": str(tmp_path / "nobody-listens")}, pid=1)
-    with caplog.at_level(logging.WARNING, logger="gateway.sdnotify"):
+    with caplog.at_level(logging.WARNING, logger="gateway.daemon.sdnotify"):
         results = [n.ready(), n.watchdog(), n.watchdog(), n.stopping()]
     assert results == [False] * 4
     assert n.send_errors == 4 and n.sent == 0
@@ -145,13 +145,13 @@ def test_a_full_queue_does_not_block(listener):
 
 
 def test_unsupported_socket_name_disables_notifications(caplog):
-    with caplog.at_level(logging.WARNING, logger="gateway.sdnotify"):
+    with caplog.at_level(logging.WARNING, logger="gateway.daemon.sdnotify"):
         n = Notifier.from_env({"NOTIFY_SOCKET": "vsock:2:1", "WATCHDOG_USEC": "1000000"}, pid=1)
     assert not n.enabled and n.watchdog_interval_s is None
     assert "vsock:2:1" in caplog.text
 
 
-# --- the daemon's watchdog policy (gateway/app.py Watchdog) -----------------------------------
+# --- the daemon's watchdog policy (gateway/daemon/app.py Watchdog) -----------------------------------
 
 class FakeNotifier:
     def __init__(self) -> None:
@@ -173,7 +173,7 @@ class FakeSim:
 
 
 def make_watchdog():
-    from gateway.app import Watchdog
+    from gateway.daemon.app import Watchdog
 
     clock = [100.0]
     notifier, sim = FakeNotifier(), FakeSim()
@@ -197,7 +197,7 @@ def test_watchdog_stops_when_sim_time_is_stuck_and_resumes(caplog):
     sim.now = 0.5
     dog.poll()
     assert notifier.pings == 1
-    with caplog.at_level(logging.ERROR, logger="gateway.app"):
+    with caplog.at_level(logging.ERROR, logger="gateway.daemon.app"):
         for _ in range(20):
             clock[0] += 0.5
             dog.poll()

@@ -2,10 +2,10 @@ from dataclasses import replace
 
 import pytest
 
-from gateway.app import RunConfig
-from gateway.scenario import NetworkConfig
-from gateway.shard import check, split
-from gateway.sim import Simulation
+from gateway.daemon.app import RunConfig
+from gateway.daemon.shard import check, split
+from gateway.sim.scenario import NetworkConfig
+from gateway.sim.simulation import Simulation
 
 
 def test_split_is_contiguous_and_balanced():

@@ -6,7 +6,8 @@ import pytest
 from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.session import LinkKind
-from gateway.sim import NetworkConfig, Simulation, px4_ports
+from gateway.sim.scenario import NetworkConfig
+from gateway.sim.simulation import Simulation, px4_ports
 
 M = mavlink2
 

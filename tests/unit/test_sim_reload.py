@@ -5,8 +5,8 @@ import pytest
 from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.session import LinkKind
-from gateway.scenario import NetworkConfig
-from gateway.sim import Simulation
+from gateway.sim.scenario import NetworkConfig
+from gateway.sim.simulation import Simulation
 
 API = (0, LinkKind.API)
 

@@ -1,4 +1,4 @@
-"""The in-process lockstep API (gateway/testing.py): a 4-waypoint mission, deterministic logs."""
+"""The in-process lockstep API (gateway/ci/lockstep.py): a 4-waypoint mission, deterministic logs."""
 
 import hashlib
 import time
@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from gateway.ci.lockstep import Sim, mission_item
 from gateway.mavlink.session import LinkKind
-from gateway.scenario import NetworkConfig
-from gateway.testing import Sim, mission_item
+from gateway.sim.scenario import NetworkConfig
 from vehicles.plan_types import MavCmd, PlanResult, PlanType
 from vehicles.types import PX4_SITL_HOME, NavState
 

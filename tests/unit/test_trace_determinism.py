@@ -4,8 +4,8 @@ import hashlib
 import io
 import pathlib
 
-from gateway.scenario import load
-from gateway.sim import Simulation
+from gateway.sim.scenario import load
+from gateway.sim.simulation import Simulation
 from netsim.link import TraceWriter
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]

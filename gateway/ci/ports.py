@@ -1,7 +1,7 @@
 """Free local ports for side-by-side daemons (tests, examples, the pytest plugin).
 
 Standard library only, so that importing it (from the pytest plugin, at pytest start-up) loads
-nothing heavy. The port numbers are PX4 SITL's (gateway/sim.py ``px4_ports``).
+nothing heavy. The port numbers are PX4 SITL's (gateway/sim/simulation.py ``px4_ports``).
 """
 
 from __future__ import annotations

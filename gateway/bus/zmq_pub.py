@@ -34,7 +34,7 @@ TOPIC_STATE = b"cornet.state"
 TOPIC_LINKS = b"cornet.links"
 TOPIC_PACKET = b"cornet.packet"
 
-# QGC's names for PX4 modes (PX4_COMPAT.md §2), for humans reading the stream.
+# QGC's names for PX4 modes (px4_custom_mode.h; QGC's PX4FirmwarePlugin), for humans reading the stream.
 MODE_NAMES = {
     NavState.MANUAL: "Manual", NavState.ALTCTL: "Altitude", NavState.POSCTL: "Position",
     NavState.AUTO_MISSION: "Mission", NavState.AUTO_LOITER: "Hold", NavState.AUTO_RTL: "Return",

@@ -1,6 +1,6 @@
 """UDP endpoints: bytes in and out of one vehicle link. They never parse.
 
-PX4 behaviour (PX4_COMPAT.md §1.2): the vehicle talks first to its preset remote
+PX4 behaviour (mavlink_main.cpp, UDP mode): the vehicle talks first to its preset remote
 (127.0.0.1:14550 or :14540+i) and, once it hears a client, replies to that client. Which client
 counts as heard is decided by the simulation (a datagram that held a valid MAVLink frame); the
 endpoint only hands the sender's address along and sends to the address it is given.

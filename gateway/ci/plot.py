@@ -1,4 +1,4 @@
-"""``cornet plot LOGDIR``: three PNGs from a run's flight logs (gateway/flightlog.py), headless.
+"""``cornet plot LOGDIR``: three PNGs from a run's flight logs (gateway/sim/flightlog.py), headless.
 
 - ``track.png``: top view (world frame, metres north/east of the world's home) of every vehicle's
   flown track, with the planned mission (from the MISSION_ITEM_INT/MISSION_ITEM uploads in the
@@ -22,7 +22,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from pymavlink.dialects.v20 import common as mavlink2
 
-from gateway.flightlog import (
+from gateway.sim.flightlog import (
     META_FILE,
     STATE_FILE,
     TRACE_FILE,
@@ -245,7 +245,7 @@ def plot(log_dir: str | Path, plan_file: str | Path | None = None,
     rows = read_state(run)
     plans = uploaded_plans(run, meta)
     if plan_file is not None:
-        from gateway.fly import load_plan
+        from gateway.ci.fly import load_plan
 
         qp = load_plan(plan_file)
         sysid = meta["vehicles"][0]["sysid"]

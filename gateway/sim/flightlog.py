@@ -41,11 +41,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
 from gateway.mavlink.session import LinkKind
-from gateway.persist import write_atomic
+from gateway.sim.persist import write_atomic
 from netsim.link import TraceWriter
 
 if TYPE_CHECKING:
-    from gateway.sim import Simulation
+    from gateway.sim.simulation import Simulation
 
 log = logging.getLogger(__name__)
 

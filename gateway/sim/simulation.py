@@ -27,7 +27,7 @@ from typing import NamedTuple
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import SigningConfig
 from gateway.mavlink.telemetry import SampleCache
-from gateway.scenario import NetworkConfig
+from gateway.sim.scenario import NetworkConfig
 from netsim.backend import EmbeddedBackend, NetworkBackend
 from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
 from netsim.link import Tracer
@@ -40,7 +40,7 @@ log = logging.getLogger(__name__)
 
 PHYSICS_DT_S = 0.004  # 250 Hz, PX4 SITL lockstep rate
 
-# PX4 SITL port scheme (PX4_COMPAT.md §1.1) for instance i.
+# PX4 SITL port scheme (ROMFS px4fmu_common/init.d-posix/px4-rc.mavlink) for instance i.
 GCS_LOCAL_BASE = 18570
 GCS_REMOTE_PORT = 14550
 API_LOCAL_BASE = 14580
@@ -156,7 +156,7 @@ class VehicleLink:
 
 def make_backend(kernel: Kernel, network: NetworkConfig, tracer: Tracer | None = None, *,
                  realtime: bool = False) -> NetworkBackend:
-    """The network backend a scenario names (see gateway/scenario.py). ``realtime``: the
+    """The network backend a scenario names (see gateway/sim/scenario.py). ``realtime``: the
     daemon's pacer runs the kernel against the wall clock, so an external backend must never
     make it wait (late packets then follow the late policy); otherwise it runs in lockstep."""
     if network.backend == "embedded":

@@ -1,7 +1,7 @@
 """The asyncio shell: binds the PX4 ports, runs the pacer, stops cleanly on SIGINT/SIGTERM.
 
 Everything that touches sockets, signals, systemd or the wall clock lives here, in pacer.py,
-endpoint.py and sdnotify.py; the simulation itself (gateway/sim.py) runs on simulated time only.
+endpoint.py and sdnotify.py; the simulation itself (gateway/sim/simulation.py) runs on simulated time only.
 
 Under systemd (Type=notify, systemd/cornet.service): READY=1 once every port is bound and the
 vehicles have started talking; WATCHDOG=1 from the pacer's loop while the simulation is healthy
@@ -26,19 +26,20 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
-from gateway import persist, zmq_pub
-from gateway.endpoint import SourceLimiter, UdpEndpoint
-from gateway.flightlog import FlightLog, new_run_dir
+from gateway.bus import zmq_pub
+from gateway.bus.watch import format_link_table
+from gateway.bus.zmq_pub import Publisher
+from gateway.daemon.endpoint import SourceLimiter, UdpEndpoint
+from gateway.daemon.metrics import Exporter, MetricsServer
+from gateway.daemon.pacer import Pacer
+from gateway.daemon.progress import ProgressLine
+from gateway.daemon.sdnotify import Notifier
 from gateway.mavlink.session import LinkKind
 from gateway.mavlink.signing import SigningConfig, SigningKey
-from gateway.metrics import Exporter, MetricsServer
-from gateway.pacer import Pacer
-from gateway.progress import ProgressLine
-from gateway.scenario import ScenarioError
-from gateway.sdnotify import Notifier
-from gateway.sim import NetworkConfig, Simulation, px4_ports
-from gateway.watch import format_link_table
-from gateway.zmq_pub import Publisher
+from gateway.sim import persist
+from gateway.sim.flightlog import FlightLog, new_run_dir
+from gateway.sim.scenario import NetworkConfig, ScenarioError
+from gateway.sim.simulation import Simulation, px4_ports
 from netsim.link import Tracer, TraceWriter
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
@@ -47,7 +48,7 @@ log = logging.getLogger(__name__)
 
 STATUS_PERIOD_S = 10.0
 LIVE_LINE_PERIOD_S = 0.5
-# PX4 rcS multiplies these by PX4_SIM_SPEED_FACTOR (PX4_COMPAT.md §9).
+# PX4 rcS multiplies these by PX4_SIM_SPEED_FACTOR (ROMFS init.d-posix/rcS).
 SPEED_SCALED_PARAMS = ("COM_DL_LOSS_T", "COM_RC_LOSS_T", "COM_OF_LOSS_T", "COM_OBC_LOSS_T")
 
 
@@ -67,7 +68,7 @@ class RunConfig:
     params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
     signing_key: SigningKey | None = None  # MAVLink 2 signing on every link (--signing-key)
     metrics_port: int | None = None  # Prometheus /metrics on bind:port (--metrics-port)
-    shards: int = 1  # worker processes (gateway/shard.py); 1: this process simulates all
+    shards: int = 1  # worker processes (gateway/daemon/shard.py); 1: this process simulates all
     first_vehicle: int = 0  # a shard's first vehicle (instance number)
 
 

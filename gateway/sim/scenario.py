@@ -62,7 +62,7 @@ DEFAULT_SYNC_PERIOD_S = 0.02
 MAX_VEHICLES = 1000
 MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli.py)
 MAX_PORT = 65535
-HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it binds (gateway/sim.py)
+HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it binds (gateway/sim/simulation.py)
 DAEMON_KEYS = ("bind", "port_offset", "speed", "state_dir", "log_dir", "zmq_pub", "packet_trace",
                "log_level", "signing_key", "metrics_port")
 NETWORK_OWN_KEYS = ("backend", "seed", "sync_period_s", "late_policy", "ns3")

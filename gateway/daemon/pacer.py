@@ -51,7 +51,7 @@ class Pacer:
         self._rtf_wall0 = self._wall0
         self._rtf_sim0 = self._sim0
         # Sharded runs: simulated time never passes the horizon the coordinator granted
-        # (gateway/shard.py); one process alone has none.
+        # (gateway/daemon/shard.py); one process alone has none.
         self.horizon = math.inf
         self._horizon_moved: asyncio.Event | None = None
 

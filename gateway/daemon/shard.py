@@ -53,7 +53,7 @@ from typing import Any
 import zmq
 import zmq.asyncio
 
-from gateway.app import (
+from gateway.daemon.app import (
     STATUS_PERIOD_S,
     Daemon,
     PortInUse,
@@ -61,7 +61,7 @@ from gateway.app import (
     _ports_text,
     format_status,
 )
-from gateway.sdnotify import Notifier
+from gateway.daemon.sdnotify import Notifier
 
 log = logging.getLogger(__name__)
 
@@ -131,7 +131,7 @@ async def _worker(config: RunConfig, shard: int, endpoint: str) -> int:
         ctx.term()
         return 2
     gc.collect()
-    gc.freeze()  # as gateway.app.serve does
+    gc.freeze()  # as gateway.daemon.app.serve does
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):

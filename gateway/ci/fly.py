@@ -1,7 +1,7 @@
 """``cornet fly PLAN``: fly a QGroundControl ``.plan`` headless, in lockstep, and judge the flight.
 
 The plan goes up through the MAVLink mission protocol (mission, then geofence, then rally, as QGC
-uploads them) from an in-process client (gateway/testing.py); the client arms and switches to
+uploads them) from an in-process client (gateway/ci/lockstep.py); the client arms and switches to
 Mission mode as MAVSDK does; the run ends when the vehicle has landed and disarmed, when a pass
 criterion is already lost (a geofence breach), or at the time limit. As fast as the CPU allows.
 
@@ -32,9 +32,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from gateway.progress import ProgressLine
-from gateway.scenario import NetworkConfig, Scenario
-from gateway.testing import Sim, mission_item
+from gateway.ci.lockstep import Sim, mission_item
+from gateway.daemon.progress import ProgressLine
+from gateway.sim.scenario import NetworkConfig, Scenario
 from vehicles.geofence import build_areas
 from vehicles.plan_types import MavCmd, MavFrame, PlanItem, PlanResult, PlanType
 from vehicles.plans import GLOBAL_FRAMES, item_ned

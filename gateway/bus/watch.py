@@ -14,7 +14,7 @@ from typing import TextIO
 
 import zmq
 
-from gateway.zmq_pub import SCHEMA_VERSION, TOPIC_LINKS, TOPIC_STATE
+from gateway.bus.zmq_pub import SCHEMA_VERSION, TOPIC_LINKS, TOPIC_STATE
 
 DEFAULT_ENDPOINT = "tcp://127.0.0.1:5556"
 CLEAR = "\x1b[H\x1b[2J"

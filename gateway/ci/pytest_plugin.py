@@ -1,0 +1,111 @@
+"""CORNET's pytest plugin: simulated PX4 vehicles as fixtures, assertions on their flight logs.
+
+Installed with cornet (the ``pytest11`` entry point ``cornet``), or loaded by hand with
+``pytest -p gateway.pytest_plugin``. Importing it does nothing else: no autouse fixture, no hook,
+and the simulator itself is imported only when a fixture or helper needs it.
+
+Fixtures (both are factories; everything they start is stopped at the end of the test):
+
+``cornet_daemon(*args, vehicles=1)``
+    ``cornet run`` as a subprocess on a free ``--port-offset``, with ``--log-dir`` in a temporary
+    directory and ``args`` passed through (``"--speed", "10"``, ``"--scenario", FILE`` ...).
+    Returns once the daemon printed its ``ready`` line: a :class:`CornetDaemon` with
+    ``mavsdk_url(i)`` (``udpin://0.0.0.0:<port>`` for MAVSDK's ``connect``), ``gcs_url()``,
+    ``log_dir`` and ``stop()``. At teardown it is sent SIGTERM and must exit with code 0.
+
+``cornet_sim(vehicles=1, **kwargs)``
+    a lockstep :class:`gateway.ci.lockstep.Sim` (no sockets, simulated clock) logging to a directory
+    under ``tmp_path`` (its ``log_dir`` attribute); closed at teardown.
+
+Assertion helpers, on a run's logs (a run directory, a base directory holding runs, a
+:class:`CornetDaemon`, a ``Sim`` or a :class:`FlightLogView`). ``reached`` and ``landed_within``
+return a :class:`Check`, true or false, whose repr says what was measured, so a failing
+``assert`` explains itself::
+
+    assert reached(log, 47.398012, 8.545594, rel_alt_m=15, within_m=2)
+    assert landed_within(log, "home", 2)          # or landed_within(log, lat, lon, 2)
+    assert max_deviation_m(log, "mission.plan") < 3
+
+Positions come from ``state.csv`` (10 Hz): the vehicle's local NED position from its EKF origin
+(meta.json), projected to latitude/longitude as the simulator does (PX4's map projection); the
+relative altitude is the height above that origin (where the vehicle spawned: its home).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from gateway.ci.checks import (
+    Check,
+    FlightLogView,
+    StateSample,
+    distance_m,
+    landed_within,
+    max_deviation_m,
+    reached,
+)
+from gateway.ci.launcher import CornetDaemon, option, start_daemon
+from gateway.ci.ports import free_port_offset, free_tcp_port
+
+__all__ = ["Check", "CornetDaemon", "FlightLogView", "StateSample", "distance_m",
+           "free_port_offset", "free_tcp_port", "landed_within", "max_deviation_m", "reached",
+           "start_daemon"]
+
+
+# --- fixtures ------------------------------------------------------------------------------------
+@pytest.fixture
+def cornet_daemon(tmp_path_factory: pytest.TempPathFactory):
+    """Factory: ``cornet_daemon(*args, vehicles=None, log_dir=<tmp>, ...)`` → CornetDaemon
+    (see :func:`start_daemon`); each one is stopped with SIGTERM at teardown and must exit 0."""
+    started: list[CornetDaemon] = []
+
+    def start(*args: str, vehicles: int | None = None, log_dir: str | Path | None = None,
+              **kwargs: Any) -> CornetDaemon:
+        if log_dir is None and option(args, "--log-dir") is None:
+            log_dir = tmp_path_factory.mktemp("cornet-logs")
+        d = start_daemon(*args, vehicles=vehicles, log_dir=log_dir, **kwargs)
+        started.append(d)
+        return d
+
+    yield start
+    failed = []
+    for d in started:
+        code = d.stop()
+        if code != 0:
+            failed.append(f"{' '.join(d.command)}: exit code {code}\n{d.log_tail()}")
+    assert not failed, "cornet run did not stop cleanly:\n" + "\n".join(failed)
+
+
+@pytest.fixture
+def cornet_sim(tmp_path: Path):
+    """Factory: ``cornet_sim(vehicles=1, **kwargs)`` → a lockstep ``gateway.ci.lockstep.Sim``
+    recording flight logs in ``tmp_path/sim-<n>`` (its ``log_dir`` attribute) unless
+    ``log_dir`` is given (None: no logs). Closed at teardown."""
+    sims: list[Any] = []
+
+    def make(vehicles: int | None = 1, **kwargs: Any) -> Any:
+        from gateway.ci.lockstep import Sim
+
+        if "log_dir" not in kwargs:
+            kwargs["log_dir"] = tmp_path / f"sim-{len(sims) + 1}"
+        if kwargs.get("scenario") is not None and vehicles == 1:
+            vehicles = None  # the scenario says how many
+        sim = Sim(vehicles, **kwargs)
+        sim.log_dir = None if kwargs["log_dir"] is None else Path(kwargs["log_dir"])
+        close, closed = sim.close, []
+
+        def close_once() -> None:  # the test may close it (``with sim:``), then the teardown
+            if not closed:
+                closed.append(True)
+                close()
+
+        sim.close = close_once
+        sims.append(sim)
+        return sim
+
+    yield make
+    for sim in sims:
+        sim.close()
