@@ -21,7 +21,7 @@ CLEAR = "\x1b[H\x1b[2J"
 
 
 def subscribe(endpoint: str, topics: list[bytes]) -> zmq.Socket:
-    sock = zmq.Context.instance().socket(zmq.SUB)
+    sock: zmq.Socket = zmq.Context.instance().socket(zmq.SUB)
     sock.setsockopt(zmq.LINGER, 0)
     for topic in topics:
         sock.setsockopt(zmq.SUBSCRIBE, topic)

@@ -104,7 +104,7 @@ class FlightLogView:
             flightlog.flush()
             return cls(flightlog.dir)
         if isinstance(source, (str, os.PathLike)):
-            return cls(source)
+            return cls(os.fspath(source))
         raise TypeError(f"not a flight log: {source!r}")
 
     @property
@@ -236,7 +236,7 @@ def max_deviation_m(log: Any, plan: Any, *, vehicle: int = 0,
     from vehicles.types import GeoPoint
 
     if isinstance(plan, (str, os.PathLike)):
-        plan = load_plan(plan)
+        plan = load_plan(os.fspath(plan))
     items = plan.mission if isinstance(plan, QgcPlan) else list(plan)
     view, rows = _samples(log, vehicle)
     judged = [s for s in rows if s.mode in modes]

@@ -321,7 +321,8 @@ def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
             res.reasons.append(f"{name} upload {why}")
             return
     origin = vehicle.origin
-    start = tuple(float(x) for x in sim.state(0).position_ned_m)
+    n0, e0, d0 = (float(x) for x in sim.state(0).position_ned_m)
+    start = (n0, e0, d0)
     path = planned_path(plan.mission, origin, start)
     areas = build_areas(plan.fence, origin)
     res.fence_areas = len(areas)

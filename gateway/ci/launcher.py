@@ -198,26 +198,26 @@ def start_daemon(*args: str, vehicles: int | None = None, log_dir: str | Path | 
     the ``--scenario`` says). ``port_offset``: use this one (the caller bound client ports
     there); otherwise a free one, and another if a port is taken in the meantime.
     ``output_file``: the daemon's output is also written there, line by line."""
-    args = [str(a) for a in args]
-    if option(args, "--port-offset") is not None:
+    argv = [str(a) for a in args]
+    if option(argv, "--port-offset") is not None:
         raise ValueError("start_daemon picks --port-offset itself (or pass port_offset=)")
-    given = option(args, "--vehicles")
+    given = option(argv, "--vehicles")
     if given is not None and vehicles is not None and int(given) != vehicles:
         raise ValueError(f"vehicles={vehicles} but --vehicles {given}")
     n = int(given) if given is not None else vehicles
     extra = [] if n is None or given is not None else ["--vehicles", str(n)]
     if log_dir is not None:
-        if option(args, "--log-dir") is not None:
+        if option(argv, "--log-dir") is not None:
             raise ValueError("--log-dir given twice")
         Path(log_dir).mkdir(parents=True, exist_ok=True)
         extra += ["--log-dir", str(log_dir)]
     else:
-        log_dir = option(args, "--log-dir")
+        log_dir = option(argv, "--log-dir")
     tried: list[int] = []
     for _ in range(1 if port_offset is not None else attempts):
         offset = port_offset if port_offset is not None else free_port_offset(n or 1, skip=tried)
         tried.append(offset)
-        cmd = cornet_command() + ["run", *extra, "--port-offset", str(offset), *args]
+        cmd = cornet_command() + ["run", *extra, "--port-offset", str(offset), *argv]
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                 env=env, stdin=subprocess.DEVNULL, cwd=cwd)
         daemon = CornetDaemon(proc, cmd, offset, n or 1,

@@ -32,6 +32,7 @@ from gateway.sim import scenario as scenario_mod
 from gateway.sim.flightlog import FlightLog, frame_msgid, split_frames
 from gateway.sim.scenario import NetworkConfig
 from gateway.sim.simulation import PHYSICS_DT_S, Simulation, default_params
+from netsim.kernel import Ticker
 from vehicles.plan_types import PlanItem, PlanType
 from vehicles.types import PX4_SITL_HOME, GeoPoint, NavState, VehicleState, VehicleStatus
 
@@ -83,7 +84,7 @@ class Client:
         # Raw frames as they arrive: (time, msgid, frame). Decoded on demand, cached.
         self.frames: list[tuple[float, int, bytes]] = []
         self._decoded: dict[int, Any] = {}
-        self._heartbeat = None
+        self._heartbeat: Ticker | None = None
 
     # --- receiving ----------------------------------------------------------------------------
     def _on_datagram(self, data: bytes, now: float) -> None:
@@ -286,7 +287,9 @@ class Sim:
         n = vehicles if vehicles is not None else sc.vehicles
         self.home = home or (sc.home if scenario is not None else PX4_SITL_HOME)
         overrides = {**sc.params, **(params or {})}
-        self.flightlog = None
+        self.flightlog: FlightLog | None = None
+        self.log_dir = None if log_dir is None else Path(log_dir)
+        self._closed = False
         tracer = None
         if log_dir is not None:
             self.flightlog = FlightLog(log_dir, boot_unix_s=boot_unix_s,
@@ -383,6 +386,10 @@ class Sim:
         return self.simulation.link_stats()
 
     def close(self) -> None:
+        """Stop the clients, flush the logs, free the physics; a second call does nothing."""
+        if self._closed:
+            return
+        self._closed = True
         for c in self.clients.values():
             c.stop_heartbeat()
         if self.flightlog is not None:

@@ -93,16 +93,7 @@ def cornet_sim(tmp_path: Path):
             kwargs["log_dir"] = tmp_path / f"sim-{len(sims) + 1}"
         if kwargs.get("scenario") is not None and vehicles == 1:
             vehicles = None  # the scenario says how many
-        sim = Sim(vehicles, **kwargs)
-        sim.log_dir = None if kwargs["log_dir"] is None else Path(kwargs["log_dir"])
-        close, closed = sim.close, []
-
-        def close_once() -> None:  # the test may close it (``with sim:``), then the teardown
-            if not closed:
-                closed.append(True)
-                close()
-
-        sim.close = close_once
+        sim = Sim(vehicles, **kwargs)  # the test may close it (``with sim:``) before the teardown
         sims.append(sim)
         return sim
 

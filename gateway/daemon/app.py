@@ -22,7 +22,7 @@ import select
 import signal
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
@@ -72,7 +72,7 @@ class RunConfig:
     first_vehicle: int = 0  # a shard's first vehicle (instance number)
 
 
-def _fan_out(tracers: list[Tracer]) -> Tracer | None:
+def _fan_out(tracers: Sequence[Tracer]) -> Tracer | None:
     if not tracers:
         return None
     if len(tracers) == 1:
@@ -238,15 +238,17 @@ class Daemon:
             raise
         # The pacer asks this between events, so that a datagram waiting on any vehicle port
         # is read at once, not after the rest of a burst of simulation.
-        self._waiting = select.epoll()
+        waiting = self._waiting = select.epoll()
         for endpoint in self.endpoints.values():
-            self._waiting.register(endpoint.sock.fileno(), select.EPOLLIN)
+            if endpoint.sock is not None:
+                waiting.register(endpoint.sock.fileno(), select.EPOLLIN)
         # Simulated time starts now that the ports are bound; the vehicle talks first (as PX4
         # SITL does): the first telemetry goes out as soon as the pacer runs.
         self.pacer = Pacer(self.sim.kernel, speed=cfg.speed, input_pending=self._input_pending)
 
     def _input_pending(self) -> bool:
-        return bool(self._waiting.poll(0, 1))
+        waiting = self._waiting
+        return waiting is not None and bool(waiting.poll(0, 1))
 
     def close(self) -> None:
         if self._waiting is not None:
@@ -456,8 +458,9 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
                                              name="live"))
         done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
         for task in done:
-            if task.get_name() != "stop" and task.exception() is not None:
-                raise task.exception()  # a crashed pacer must not look like a clean stop
+            failure = task.exception() if task.get_name() != "stop" else None
+            if failure is not None:
+                raise failure  # a crashed pacer must not look like a clean stop
     finally:
         notifier.stopping(status="stopping")
         for task in tasks:

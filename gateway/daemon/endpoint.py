@@ -144,7 +144,8 @@ class UdpEndpoint:
             return
         st = self.stats
         limiter = self.limiter
-        now = self._clock() if limiter is not None else 0.0
+        clock = self._clock
+        now = clock() if clock is not None else 0.0  # a limiter always comes with a clock
         for _ in range(MAX_BATCH):
             try:
                 data, anc, _flags, addr = sock.recvmsg(MAX_DATAGRAM, _OVFL_SPACE)

@@ -169,7 +169,7 @@ class Exporter:
             for q, key in (("0.5", "latency_p50_ms"), ("0.99", "latency_p99_ms"),
                            ("1", "latency_max_ms")):
                 lat.add(st[key] / 1e3, **labels, quantile=q)
-        out = []
+        out: list[str] = []
         for f in fams.values():
             out.extend(f.lines())
         return "\n".join(out) + "\n"

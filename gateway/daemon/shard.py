@@ -168,8 +168,9 @@ async def _worker(config: RunConfig, shard: int, endpoint: str) -> int:
     try:
         done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
         for task in done:
-            if task is not tasks[3] and task.exception() is not None:
-                raise task.exception()
+            failure = task.exception() if task is not tasks[3] else None
+            if failure is not None:
+                raise failure
     finally:
         for task in tasks:
             task.cancel()
@@ -194,7 +195,7 @@ async def serve_sharded(config: RunConfig, log_level: str, ready_out=sys.stdout,
     router = ctx.socket(zmq.ROUTER)
     router.setsockopt(zmq.LINGER, 0)
     router.bind("tcp://127.0.0.1:*")
-    endpoint = router.getsockopt(zmq.LAST_ENDPOINT).decode()
+    endpoint = router.getsockopt_string(zmq.LAST_ENDPOINT)
     mp = multiprocessing.get_context("spawn")
     procs = []
     for shard, (first, n) in enumerate(split(config.vehicles, k)):

@@ -38,7 +38,7 @@ import os
 import struct
 from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, BinaryIO
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 from gateway.mavlink.session import LinkKind
 from gateway.sim.persist import write_atomic
@@ -160,7 +160,7 @@ class FlightLog:
         self.tracer = TraceWriter(self._trace_file)
         self._tlogs: dict[tuple[int, LinkKind], BinaryIO] = {}
         self._state_file: io.TextIOWrapper | None = None
-        self._state_csv = None
+        self._state_csv: Any = None  # a csv.writer (the type csv does not export)
         self._sim: Simulation | None = None
         self._tickers: list = []
         self.frames = {UP: 0, DOWN: 0}

@@ -121,7 +121,8 @@ class Ns3Link:
         self.name = name
         self.src = src
         self.dst = dst
-        self.stats = Ns3LinkStats()
+        # Typed as the interface's LinkStats: a reloaded network may hand these counters on.
+        self.stats: LinkStats = Ns3LinkStats()
         self._backend = backend
         self.deliver = deliver
 
@@ -174,7 +175,8 @@ class Ns3Backend:
         for name, spec in (config.get("nodes") or {}).items():
             self.nodes[name] = spec.get("kind", node_kind(name))
             if "position" in spec:
-                self.positions[name] = tuple(float(x) for x in spec["position"])
+                x, y, z = (float(v) for v in spec["position"])
+                self.positions[name] = (x, y, z)
         if config.get("topology", "adhoc") == "ap" and not any(
                 k == "ap" for k in self.nodes.values()):
             self.nodes["ap"] = "ap"
@@ -275,7 +277,8 @@ class Ns3Backend:
         return link
 
     def update_mobility(self, now_s: float, positions_ned_m: Mapping[str, Vec3]) -> None:
-        self.positions.update({k: tuple(map(float, v)) for k, v in positions_ned_m.items()})
+        self.positions.update({k: (float(v[0]), float(v[1]), float(v[2]))
+                               for k, v in positions_ned_m.items()})
         if self.lost is not None:
             self._drop_all(DROP_BACKEND)
             return
@@ -391,7 +394,8 @@ class Ns3Backend:
         stats = p.link.stats
         stats.in_flight -= 1
         stats.record_delivery(self.kernel.now - p.sent_at_s, len(p.packet))
-        stats.net_latency_sum_s += p.net_latency_s
+        if isinstance(stats, Ns3LinkStats):
+            stats.net_latency_sum_s += p.net_latency_s
         if self.tracer is not None:
             self.tracer("recv", p.link.name, self.kernel.now, len(p.packet), "")
         p.link.deliver(p.packet, p.meta)
