@@ -15,7 +15,6 @@ from typing import Any
 
 LOG_LEVELS = ("debug", "info", "warning", "error")
 ENV_PARAM_PREFIX = "PX4_PARAM_"
-MAX_VEHICLES = 1000
 MAX_SPEED = 1000.0
 
 
@@ -109,8 +108,11 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--log-level", choices=LOG_LEVELS, default=None, metavar="L",
                      help=f"one of {', '.join(LOG_LEVELS)} (default info, or the scenario's)")
     run.add_argument("--state-dir", type=Path, default=None, metavar="DIR",
-                     help="keep each vehicle's changed parameters in DIR/vehicle-<sysid>/ across "
-                     "restarts (default: not kept)")
+                     help="keep what clients change in each vehicle's parameters, mission, geofence "
+                     "and rally points in DIR/vehicle-<sysid>/ across restarts (default: not kept)")
+    run.add_argument("--ignore-bad-state", action="store_true",
+                     help="start a vehicle whose state file cannot be read with defaults (the "
+                     "file is kept as NAME.unreadable); without it such a file stops the start")
     run.add_argument("--zmq-pub", default=None, metavar="ENDPOINT",
                      help="publish vehicle states, link statistics and packet events on a "
                      "ZeroMQ PUB socket, e.g. tcp://127.0.0.1:5556 (schema: docs/zmq.md)")
@@ -286,7 +288,14 @@ def _run_settings(args: argparse.Namespace,
     """``cornet run``'s settings from its flags over its configuration file: keyword arguments
     of ``gateway.daemon.app.RunConfig`` and the log level. Raises ScenarioError naming the key or flag.
     Called at start and again on SIGHUP (the file may have changed; the flags have not)."""
-    from gateway.sim.scenario import NetworkConfig, Scenario, ScenarioError, check_ports, load
+    from gateway.sim.scenario import (
+        MAX_VEHICLES,
+        NetworkConfig,
+        Scenario,
+        ScenarioError,
+        check_ports,
+        load,
+    )
 
     source = _first(args.config, args.scenario)
     which = "--config" if args.config is not None else "--scenario"
@@ -307,7 +316,9 @@ def _run_settings(args: argparse.Namespace,
     d = scenario.daemon
     vehicles = _first(args.vehicles, scenario.vehicles)
     if not 1 <= vehicles <= MAX_VEHICLES:
-        raise ScenarioError(f"--vehicles must be between 1 and {MAX_VEHICLES}, got {vehicles}")
+        raise ScenarioError(f"--vehicles must be between 1 and {MAX_VEHICLES} (one MAVLink network: "
+                            f"system ids 1..{MAX_VEHICLES}), got {vehicles}; run more as another "
+                            "daemon on other ports (--port-offset)")
     port_offset = _first(args.port_offset, d.port_offset, 0)
     check_ports(vehicles, port_offset, "--port-offset" if args.port_offset is not None
                 else f"{source}: daemon.port_offset")
@@ -325,6 +336,7 @@ def _run_settings(args: argparse.Namespace,
         "params": {**scenario.params, **flag_params},
         "metrics_port": _first(args.metrics_port, d.metrics_port),
         "shards": args.shards,
+        "ignore_bad_state": args.ignore_bad_state,
     }
     key_path = _first(args.signing_key, d.signing_key)
     if key_path is not None:
@@ -373,6 +385,7 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     )
     # Imported here so that `cornet --help` and flag errors stay fast.
     from gateway.daemon.app import MetricsPortError, PortInUse, RunConfig, serve
+    from gateway.daemon.state import StateError
 
     config = RunConfig(**settings)
     from gateway.daemon.shard import check as check_shards
@@ -404,6 +417,9 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         return 2
     except MetricsPortError as exc:
         print(f"cornet: {exc}; choose a free port", file=sys.stderr)
+        return 2
+    except StateError as exc:
+        print(f"cornet: {where('state_dir')}: {exc}", file=sys.stderr)
         return 2
     except PortInUse as exc:
         print(f"cornet: {exc}; is another cornet or PX4 SITL running? "

@@ -29,6 +29,7 @@ from pathlib import Path
 from gateway.bus import zmq_pub
 from gateway.bus.watch import format_link_table
 from gateway.bus.zmq_pub import Publisher
+from gateway.daemon import state
 from gateway.daemon.endpoint import SourceLimiter, UdpEndpoint
 from gateway.daemon.metrics import Exporter, MetricsServer
 from gateway.daemon.pacer import Pacer
@@ -36,13 +37,14 @@ from gateway.daemon.progress import ProgressLine
 from gateway.daemon.sdnotify import Notifier
 from gateway.mavlink.session import LinkKind
 from gateway.mavlink.signing import SigningConfig, SigningKey
-from gateway.sim import persist
 from gateway.sim.flightlog import FlightLog, new_run_dir
 from gateway.sim.scenario import NetworkConfig, ScenarioError
 from gateway.sim.simulation import Simulation, px4_ports
 from netsim.link import Tracer, TraceWriter
 from vehicles.params import ParamStore
+from vehicles.plan_types import PlanResult, PlanType
 from vehicles.types import PX4_SITL_HOME, GeoPoint
+from vehicles.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
@@ -60,7 +62,8 @@ class RunConfig:
     bind: str = "127.0.0.1"
     remote_host: str = "127.0.0.1"
     speed: float = 1.0
-    state_dir: Path | None = None  # parameters persist here, per vehicle
+    state_dir: Path | None = None  # parameters and plans persist here, per vehicle
+    ignore_bad_state: bool = False  # an unreadable state file: start that vehicle with defaults
     zmq_pub: str | None = None  # e.g. tcp://127.0.0.1:5556: states, link stats, packet events
     home: GeoPoint = PX4_SITL_HOME  # the world's home: vehicles spawn around it
     packet_trace: Path | None = None  # the network's log: one line per datagram event
@@ -70,6 +73,13 @@ class RunConfig:
     metrics_port: int | None = None  # Prometheus /metrics on bind:port (--metrics-port)
     shards: int = 1  # worker processes (gateway/daemon/shard.py); 1: this process simulates all
     first_vehicle: int = 0  # a shard's first vehicle (instance number)
+
+
+def _keep_plans(vehicle: Vehicle, kept: state.VehicleState) -> Callable[[PlanType], None]:
+    def on_change(plan_type: PlanType) -> None:
+        kept.on_plan(plan_type, vehicle.plan(plan_type))
+
+    return on_change
 
 
 def _fan_out(tracers: Sequence[Tracer]) -> Tracer | None:
@@ -167,12 +177,15 @@ class Daemon:
             signing = SigningConfig(config.signing_key, epoch_unix_s=boot_unix_s)
             log.info("MAVLink 2 signing on (key %s): unsigned and badly signed frames are "
                      "refused", config.signing_key.fingerprint)
+        self._state_writer = state.StateWriter() if config.state_dir is not None else None
+        self._vehicle_states: dict[int, state.VehicleState] = {}
         tracers = [t for t in (self.publisher.packet_event if self.publisher else None,
                                TraceWriter(self._trace_file) if self._trace_file else None,
                                self.flightlog.tracer if self.flightlog else None) if t]
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
                               tracer=_fan_out(tracers), home=config.home, realtime=True,
                               signing=signing, first_index=config.first_vehicle)
+        self._restore_plans()
         if self.flightlog is not None:
             self.flightlog.attach(self.sim)
         if self.publisher is not None:
@@ -185,18 +198,42 @@ class Daemon:
         self.sim.on_downlink = self._send
 
     def _params_for(self, index: int) -> ParamStore:
-        store = ParamStore({"MAV_SYS_ID": index + 1})
-        if self.config.state_dir is not None:
-            persist.attach(store, self.config.state_dir, index + 1)
-        speed = self.config.speed
+        """Boot one vehicle's parameters: PX4's defaults, the saved values, the speed-scaled
+        time-outs not saved, ``--param`` (gateway/daemon/state.py says why in that order)."""
+        sysid = index + 1
+        store = ParamStore({"MAV_SYS_ID": sysid})
+        cfg = self.config
+        saved = state.Saved()
+        if cfg.state_dir is not None:
+            saved = state.load(cfg.state_dir, sysid, cfg.ignore_bad_state)
+            state.apply_params(store, saved.params, state.params_path(cfg.state_dir, sysid))
+        speed = cfg.speed
         if speed != 1.0 and math.isfinite(speed):
             # PX4's rcS with PX4_SIM_SPEED_FACTOR: time-outs that wait for clients, who live on
             # the wall clock, are counted in simulated time, so they are scaled by the factor.
             for name in SPEED_SCALED_PARAMS:
-                store.set(name, store[name] * speed)
-        for name, value in self.config.params.items():
+                if name not in saved.params:
+                    store.set(name, state.scaled_value(store, name, speed))
+        for name, value in cfg.params.items():
             store.set(name, value)
+        if cfg.state_dir is not None and self._state_writer is not None:
+            kept = state.VehicleState(self._state_writer, cfg.state_dir, sysid, saved)
+            self._vehicle_states[sysid] = kept
+            store.on_change(kept.on_param)  # from now on: what clients set
         return store
+
+    def _restore_plans(self) -> None:
+        """The saved mission, geofence and rally points (PX4's dataman), then keep them."""
+        for vehicle in self.sim.vehicles:
+            kept = self._vehicle_states.get(int(vehicle.params["MAV_SYS_ID"]))
+            if kept is None:
+                continue
+            for plan_type, items in kept.plans.items():
+                result = vehicle.set_plan(0.0, plan_type, items)
+                if result is not PlanResult.ACCEPTED:
+                    log.warning("vehicle %d: saved %s refused (%s); not restored",
+                                vehicle.index + 1, plan_type.name.lower(), result.name)
+            vehicle.autopilot.plans.on_change(_keep_plans(vehicle, kept))
 
     def _send(self, index: int, kind: LinkKind, datagram: bytes, peer: object) -> None:
         self.endpoints[(index, kind)].send(datagram, peer)  # type: ignore[arg-type]
@@ -263,6 +300,8 @@ class Daemon:
             self._trace_file.close()
         if self.flightlog is not None:
             self.flightlog.close()
+        if self._state_writer is not None:
+            self._state_writer.close()  # what clients changed last is on disk before we exit
 
     def counters(self) -> dict[str, int]:
         """What the status line counts (summed over shards by the coordinator)."""

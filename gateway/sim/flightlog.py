@@ -41,7 +41,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
 from gateway.mavlink.session import LinkKind
-from gateway.sim.persist import write_atomic
+from gateway.sim.files import write_atomic
 from netsim.link import TraceWriter
 
 if TYPE_CHECKING:

@@ -59,7 +59,8 @@ LATE_POLICIES = ("drop", "deliver")
 AIRFRAMES = ("x500",)
 LOG_LEVELS = ("debug", "info", "warning", "error")
 DEFAULT_SYNC_PERIOD_S = 0.02
-MAX_VEHICLES = 1000
+# One MAVLink network: system ids 1..254 (0 is broadcast, 255 the GCS by convention).
+MAX_VEHICLES = 254
 MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli.py)
 MAX_PORT = 65535
 HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it binds (gateway/sim/simulation.py)
@@ -241,7 +242,9 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     _unknown(veh, ("count", "home", "airframe", "params"), "vehicles")
     count = int(_number(veh.get("count", 1), "vehicles.count", integer=True, minimum=1))
     if count > MAX_VEHICLES:
-        raise ScenarioError(f"vehicles.count: at most {MAX_VEHICLES}, got {count}")
+        raise ScenarioError(f"vehicles.count: at most {MAX_VEHICLES} vehicles per MAVLink network "
+                            f"(system ids 1..{MAX_VEHICLES}), got {count}; run more as another "
+                            "daemon on other ports (--port-offset)")
     home = PX4_SITL_HOME
     if "home" in veh:
         h = _table(veh, "home", "vehicles.home")

@@ -21,6 +21,7 @@ pytestmark = [pytest.mark.e2e]
     (["--param", "MAV_TYPE=1.5"], "INT32"),
     (["--param", "MIS_TAKEOFF_ALT"], "NAME=VALUE"),
     (["--state-dir", "/proc/cornet-cannot-be-here"], "--state-dir"),
+    (["--vehicles", "300"], "between 1 and 254"),
 ])
 def test_bad_flags_exit_2_with_a_message(flags, words):
     out = subprocess.run(cornet_command() + ["run", *flags], capture_output=True, text=True,
@@ -74,3 +75,24 @@ def test_bad_speed_exits_2(speed):
     out = subprocess.run(cornet_command() + ["run", "--speed", speed], capture_output=True,
                          text=True, timeout=30)
     assert out.returncode == 2 and "--speed" in out.stderr
+
+
+def test_any_positive_speed_starts():
+    d = start_daemon("--speed", "1.25")
+    assert "speed 1.25" in d.ready_line or "1.25" in d.ready_line, d.ready_line
+    assert d.stop() == 0, d.log_tail()
+
+
+def test_unreadable_state_file_stops_the_start_with_one_line_and_is_kept(tmp_path):
+    path = tmp_path / "vehicle-1" / "params.json"
+    path.parent.mkdir()
+    path.write_text('{"version": 1, "params": {"MIS_TAK')  # cut short by a crash
+    out = subprocess.run(cornet_command() + ["run", "--port-offset", str(free_port_offset(1)),
+                                             "--state-dir", str(tmp_path)],
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2
+    lines = [ln for ln in out.stderr.splitlines() if ln.startswith("cornet:")]
+    assert len(lines) == 1 and str(path) in lines[0] and "--ignore-bad-state" in lines[0], \
+        out.stderr
+    assert "Traceback" not in out.stderr
+    assert path.read_text() == '{"version": 1, "params": {"MIS_TAK'

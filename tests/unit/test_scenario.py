@@ -75,7 +75,8 @@ def test_file_errors_name_the_file(tmp_path):
     ({"daemon": {"port_offset": -1}}, "daemon.port_offset"),
     ({"daemon": {"port_offset": 1.5}}, "daemon.port_offset"),
     ({"daemon": {"port_offset": 60000}}, "daemon.port_offset"),  # 18570 + 60000 > 65535
-    ({"vehicles": {"count": 1000}, "daemon": {"port_offset": 46500}}, "daemon.port_offset"),
+    ({"vehicles": {"count": 254}, "daemon": {"port_offset": 46800}}, "daemon.port_offset"),
+    ({"vehicles": {"count": 255}}, "vehicles.count: at most 254"),
     ({"daemon": {"speed": "fast"}}, "daemon.speed"),
     ({"daemon": {"speed": 0}}, "daemon.speed"),
     ({"daemon": {"speed": 5000}}, "daemon.speed"),

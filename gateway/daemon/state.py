@@ -1,0 +1,248 @@
+"""What a vehicle keeps across restarts: its parameters (PX4's parameter file) and its mission,
+geofence and rally points (PX4's dataman).
+
+Layout: ``<state_dir>/vehicle-<sysid>/params.json`` and ``plans.json``, each with the last good
+copy beside it (``*.prev``).
+
+Rules and invariants:
+- Only what a client (or the vehicle itself) changed after boot is kept: never ``--param``
+  values, never the speed-scaled link-loss time-outs, never MAV_SYS_ID (the instance decides, as
+  PX4's rcS does). A value set back to its default is still kept: the client chose it.
+- Boot order: PX4's defaults → the saved values → speed scaling of the time-outs not saved →
+  ``--param``. So the same state directory and flags give the same parameters at any speed.
+- Writes never run on the event loop: the loop hands a snapshot to one writer thread, which
+  waits WRITE_DELAY_S for more changes (a flood of PARAM_SET becomes one write), then writes
+  atomically (gateway/sim/files.py). ``close()`` writes what is pending before the daemon exits.
+- A file that cannot be read stops the start with StateError naming it; it is never
+  overwritten. With ``ignore_unreadable`` the vehicle starts with defaults and the file is
+  moved aside to ``NAME.unreadable`` first.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import os
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import astuple, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from gateway.sim.files import write_atomic
+from vehicles.params import ParamStore, ParamType
+from vehicles.plan_types import PlanItem, PlanType
+
+log = logging.getLogger(__name__)
+
+FILE_VERSION = 1
+INSTANCE_PARAMS = ("MAV_SYS_ID",)
+WRITE_DELAY_S = 0.2  # wall seconds a change waits for others before the file is written
+CLOSE_TIMEOUT_S = 4.0  # SIGTERM must still stop the daemon within 5 s
+PLAN_KEYS = {PlanType.MISSION: "mission", PlanType.FENCE: "fence", PlanType.RALLY: "rally"}
+UNREADABLE_SUFFIX = ".unreadable"
+
+
+class StateError(Exception):
+    """A state file that cannot be used; the message names it and says what to do."""
+
+
+def vehicle_dir(state_dir: Path, sysid: int) -> Path:
+    return Path(state_dir) / f"vehicle-{sysid}"
+
+
+def params_path(state_dir: Path, sysid: int) -> Path:
+    return vehicle_dir(state_dir, sysid) / "params.json"
+
+
+def plans_path(state_dir: Path, sysid: int) -> Path:
+    return vehicle_dir(state_dir, sysid) / "plans.json"
+
+
+@dataclass
+class Saved:
+    """One vehicle's saved state, as read at boot."""
+
+    params: dict[str, float] = field(default_factory=dict)
+    plans: dict[PlanType, list[PlanItem]] = field(default_factory=dict)
+
+
+def _read(path: Path, ignore_unreadable: bool) -> dict[str, Any] | None:
+    """The file's document; None if there is none (or it was unreadable and is ignored)."""
+    try:
+        doc = json.loads(path.read_text())
+        if not isinstance(doc, dict) or doc.get("version") != FILE_VERSION:
+            raise ValueError(f"not a version-{FILE_VERSION} state file")
+        return doc
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError, UnicodeDecodeError) as exc:
+        why = exc.strerror if isinstance(exc, OSError) else str(exc)
+        if not ignore_unreadable:
+            raise StateError(f"cannot read {path}: {why}; repair or remove it (its last good copy "
+                             f"may be {path.name}.prev), or start with --ignore-bad-state to "
+                             "start this vehicle with defaults") from None
+        aside = path.with_name(path.name + UNREADABLE_SUFFIX)
+        os.replace(path, aside)
+        log.warning("cannot read %s (%s): starting with defaults; the file is kept as %s",
+                    path, why, aside)
+        return None
+
+
+def _plan_items(value: Any, plan_type: PlanType, path: Path) -> list[PlanItem]:
+    if not isinstance(value, list):
+        raise StateError(f"{path}: {PLAN_KEYS[plan_type]} is not a list of items")
+    items = []
+    for raw in value:
+        try:
+            item = PlanItem(*raw)
+        except TypeError:
+            raise StateError(f"{path}: a {PLAN_KEYS[plan_type]} item is not an item: {raw!r}") \
+                from None
+        if item.mission_type != plan_type:
+            raise StateError(f"{path}: a {PLAN_KEYS[plan_type]} item has mission type "
+                             f"{item.mission_type}")
+        items.append(item)
+    return items
+
+
+def load(state_dir: Path, sysid: int, ignore_unreadable: bool = False) -> Saved:
+    """Vehicle ``sysid``'s saved state. Raises StateError for a file that cannot be read."""
+    saved = Saved()
+    path = params_path(state_dir, sysid)
+    doc = _read(path, ignore_unreadable)
+    if doc is not None:
+        values = doc.get("params", {})
+        if not isinstance(values, dict):
+            raise StateError(f"{path}: 'params' is not a table of names and values")
+        for name, value in values.items():
+            if name in INSTANCE_PARAMS:
+                continue
+            if not isinstance(value, (int, float)) or isinstance(value, bool) \
+                    or not math.isfinite(value):
+                log.warning("%s: %s = %r is not a finite number; keeping the default", path,
+                            name, value)
+                continue
+            saved.params[str(name)] = value
+    path = plans_path(state_dir, sysid)
+    doc = _read(path, ignore_unreadable)
+    if doc is not None:
+        for plan_type, key in PLAN_KEYS.items():
+            if key in doc:
+                saved.plans[plan_type] = _plan_items(doc[key], plan_type, path)
+    return saved
+
+
+def apply_params(store: ParamStore, values: Mapping[str, float], path: Path) -> None:
+    for name, value in values.items():
+        try:
+            known = store.set(name, value)
+        except ValueError as exc:
+            log.warning("%s: %s: %s; keeping the default", path, name, exc)
+            continue
+        if not known:
+            log.warning("%s: no parameter %s any more; ignoring it", path, name)
+
+
+def scaled_value(store: ParamStore, name: str, factor: float) -> float:
+    """PX4's rcS multiplies the link-loss time-outs by PX4_SIM_SPEED_FACTOR; an INT32 stays an
+    integer (rounded, and at least 1 s)."""
+    info = store.info(name)
+    value = info.default * factor
+    if info.type is ParamType.INT32:
+        return max(1, round(value))
+    return value
+
+
+class StateWriter:
+    """One thread that writes state files, coalescing changes that come in bursts."""
+
+    def __init__(self, delay_s: float = WRITE_DELAY_S) -> None:
+        self.delay_s = delay_s
+        self.writes = 0
+        self.coalesced = 0  # changes that joined a write already pending
+        self.errors = 0
+        self._cond = threading.Condition()
+        self._pending: dict[Path, Callable[[], str]] = {}
+        self._busy = False
+        self._closed = False
+        self._thread = threading.Thread(target=self._run, name="cornet-state", daemon=True)
+        self._thread.start()
+
+    def submit(self, path: Path, render: Callable[[], str]) -> None:
+        """Write ``render()`` to ``path`` soon. ``render`` runs on the writer thread: it must
+        read only a snapshot taken by the caller."""
+        with self._cond:
+            if path in self._pending:
+                self.coalesced += 1
+            self._pending[path] = render
+            self._cond.notify()
+
+    def _run(self) -> None:
+        while True:
+            with self._cond:
+                while not self._pending and not self._closed:
+                    self._cond.wait()
+                if not self._pending:
+                    return
+                if not self._closed:
+                    self._cond.wait(self.delay_s)  # more changes may come: one write for all
+                batch, self._pending = self._pending, {}
+                self._busy = True
+            for path, render in batch.items():
+                try:
+                    write_atomic(path, render(), keep_previous=True)
+                    self.writes += 1
+                except OSError as exc:  # a full disk must not stop the flight
+                    self.errors += 1
+                    log.error("cannot save %s: %s", path, exc)
+            with self._cond:
+                self._busy = False
+                self._cond.notify_all()
+
+    def flush(self, timeout_s: float = CLOSE_TIMEOUT_S) -> bool:
+        """Wait until everything submitted so far is on disk; False on time-out."""
+        with self._cond:
+            self._cond.notify_all()
+            return self._cond.wait_for(lambda: not self._pending and not self._busy, timeout_s)
+
+    def close(self, timeout_s: float = CLOSE_TIMEOUT_S) -> None:
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        self._thread.join(timeout_s)
+        if self._thread.is_alive():
+            log.error("state files not all written within %.0f s", timeout_s)
+
+
+class VehicleState:
+    """Keeps one vehicle's files in step with its parameters and plans."""
+
+    def __init__(self, writer: StateWriter, state_dir: Path, sysid: int, saved: Saved) -> None:
+        self._writer = writer
+        self._params_path = params_path(state_dir, sysid)
+        self._plans_path = plans_path(state_dir, sysid)
+        self.params = dict(saved.params)  # what clients set, over all boots
+        self.plans = {t: tuple(items) for t, items in saved.plans.items()}
+
+    def on_param(self, name: str, value: float) -> None:
+        if name in INSTANCE_PARAMS:
+            return
+        self.params[name] = value
+        snapshot = dict(self.params)
+        self._writer.submit(self._params_path, lambda: _dump({"params": dict(sorted(
+            snapshot.items()))}))
+
+    def on_plan(self, plan_type: PlanType, items: tuple[PlanItem, ...]) -> None:
+        if plan_type not in PLAN_KEYS:
+            return
+        self.plans[plan_type] = items
+        snapshot = dict(self.plans)
+        self._writer.submit(self._plans_path, lambda: _dump({
+            PLAN_KEYS[t]: [list(astuple(item)) for item in snapshot[t]]
+            for t in PLAN_KEYS if t in snapshot}))
+
+
+def _dump(doc: dict[str, Any]) -> str:
+    return json.dumps({"version": FILE_VERSION, **doc}, indent=1) + "\n"
