@@ -78,6 +78,7 @@ TOPOLOGIES = ("direct", "star", "adhoc")
 API_CLIENTS = ("ground", "onboard")
 DEFAULT_IGNORED = ("seed", "backend", "sync_period_s", "late_policy")
 
+MAX_POSITION_M = 100_000.0  # a radio 100 km from home is a typo, not a scenario
 DEFAULT_AP_POSITION_NED_M: Vec3 = (0.0, 0.0, -10.0)  # a 10 m mast at home
 DEFAULT_GCS_POSITION_NED_M: Vec3 = (0.0, 0.0, -2.0)  # a ground radio on a tripod
 # (default model, default params) per hop table.
@@ -150,8 +151,9 @@ def _check_model(model: str, params: dict[str, Any], where: str) -> None:
 def _position(value: Any, where: str) -> Vec3:
     if (not isinstance(value, (list, tuple)) or len(value) != 3
             or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                       and math.isfinite(x) for x in value)):
-        raise _fail(where, f"expected 3 numbers [north, east, down] in metres, got {value!r}")
+                       and math.isfinite(x) and abs(x) <= MAX_POSITION_M for x in value)):
+        raise _fail(where, f"expected 3 numbers [north, east, down] in metres, each within "
+                    f"±{MAX_POSITION_M:g}, got {value!r}")
     return (float(value[0]), float(value[1]), float(value[2]))
 
 

@@ -61,6 +61,12 @@ LOG_LEVELS = ("debug", "info", "warning", "error")
 DEFAULT_SYNC_PERIOD_S = 0.02
 # One MAVLink network: system ids 1..254 (0 is broadcast, 255 the GCS by convention).
 MAX_VEHICLES = 254
+# The ns-3 bridge's sync period: under a physics step's fraction it only burns CPU; over a
+# second, mobility updates are too coarse for a radio model.
+MIN_SYNC_PERIOD_S = 0.001
+MAX_SYNC_PERIOD_S = 1.0
+MIN_HOME_ALT_M = -500.0  # the Dead Sea shore is -430 m
+MAX_HOME_ALT_M = 9000.0
 MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli.py)
 MAX_PORT = 65535
 HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it binds (gateway/sim/simulation.py)
@@ -253,16 +259,21 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
         lon = _number(h.get("lon_deg", home.lon_deg), "vehicles.home.lon_deg")
         if not -90 <= lat <= 90 or not -180 <= lon <= 180:
             raise ScenarioError("vehicles.home: latitude must be within ±90 and longitude ±180")
-        home = GeoPoint(lat, lon, _number(h.get("alt_amsl_m", home.alt_amsl_m),
-                                          "vehicles.home.alt_amsl_m"))
+        alt = _number(h.get("alt_amsl_m", home.alt_amsl_m), "vehicles.home.alt_amsl_m")
+        if not MIN_HOME_ALT_M <= alt <= MAX_HOME_ALT_M:
+            raise ScenarioError(f"vehicles.home.alt_amsl_m: must be between {MIN_HOME_ALT_M:g} "
+                                f"and {MAX_HOME_ALT_M:g} m, got {alt!r}")
+        home = GeoPoint(lat, lon, alt)
     airframe = _choice(veh.get("airframe", "x500"), AIRFRAMES, "vehicles.airframe")
     params = _params(_table(veh, "params", "vehicles.params"))
 
     net = _table(doc, "network", "network")
     backend = _choice(net.get("backend", "embedded"), BACKENDS, "network.backend")
     seed = int(_number(net.get("seed", 0), "network.seed", integer=True, minimum=0))
-    sync = _number(net.get("sync_period_s", DEFAULT_SYNC_PERIOD_S), "network.sync_period_s",
-                   positive=True)
+    sync = _number(net.get("sync_period_s", DEFAULT_SYNC_PERIOD_S), "network.sync_period_s")
+    if not MIN_SYNC_PERIOD_S <= sync <= MAX_SYNC_PERIOD_S:
+        raise ScenarioError(f"network.sync_period_s: must be between {MIN_SYNC_PERIOD_S:g} and "
+                            f"{MAX_SYNC_PERIOD_S:g} s, got {sync!r}")
     late = _choice(net.get("late_policy", "drop"), LATE_POLICIES, "network.late_policy")
     ns3 = _table(net, "ns3", "network.ns3")
     if backend != "embedded":

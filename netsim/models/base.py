@@ -26,6 +26,20 @@ class Drop(str, enum.Enum):
     LATE = "late"  # delivered after its sync cycle (co-simulation late policy)
 
 
+# Bounds of a model's parameters: beyond them a scenario is a mistake, and a delay of 1e300 s
+# would leave packets in the event heap for ever.
+MAX_DELAY_S = 60.0
+MAX_RATE_BPS = 1e12
+MAX_QUEUE = 10**9
+
+
+def check_delay(model: str, name: str, value: float) -> float:
+    """``value`` if it is a delay in [0, MAX_DELAY_S] seconds, else ValueError naming it."""
+    if not 0.0 <= value <= MAX_DELAY_S:
+        raise ValueError(f"{model}: {name} must be between 0 and {MAX_DELAY_S:g} s, got {value!r}")
+    return value
+
+
 class LinkModel(Protocol):
     def transit(self, size_bytes: int, now_s: float) -> float | Drop: ...
 

@@ -14,7 +14,7 @@ loss = πG·loss_good + πB·loss_bad; the mean Bad burst lasts 1 / p_bad_to_goo
 
 from __future__ import annotations
 
-from netsim.models.base import Drop, register_model
+from netsim.models.base import Drop, check_delay, register_model
 from netsim.rng import UniformStream
 
 
@@ -27,10 +27,8 @@ class BurstModel:
                         ("loss_good", loss_good), ("loss_bad", loss_bad)):
             if not 0.0 <= p <= 1.0:
                 raise ValueError(f"burst: {name} must be a probability in [0, 1], got {p!r}")
-        if not latency_s >= 0:
-            raise ValueError(f"burst: latency_s must be >= 0, got {latency_s!r}")
-        if not jitter_s >= 0:
-            raise ValueError(f"burst: jitter_s must be >= 0, got {jitter_s!r}")
+        check_delay("burst", "latency_s", latency_s)
+        check_delay("burst", "jitter_s", jitter_s)
         self.p_good_to_bad = p_good_to_bad
         self.p_bad_to_good = p_bad_to_good
         self.loss_good = loss_good

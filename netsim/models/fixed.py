@@ -6,7 +6,7 @@ fixed: delay = latency + U(-jitter, +jitter), clipped at 0; Bernoulli loss with 
 
 from __future__ import annotations
 
-from netsim.models.base import Drop, register_model
+from netsim.models.base import Drop, check_delay, register_model
 from netsim.rng import UniformStream
 
 
@@ -25,10 +25,8 @@ class IdealModel:
 class FixedModel:
     def __init__(self, rng: UniformStream, latency_s: float = 0.0, jitter_s: float = 0.0,
                  loss: float = 0.0) -> None:
-        if not latency_s >= 0:
-            raise ValueError(f"fixed: latency_s must be >= 0, got {latency_s!r}")
-        if not jitter_s >= 0:
-            raise ValueError(f"fixed: jitter_s must be >= 0, got {jitter_s!r}")
+        check_delay("fixed", "latency_s", latency_s)
+        check_delay("fixed", "jitter_s", jitter_s)
         if not 0.0 <= loss <= 1.0:
             raise ValueError(f"fixed: loss must be a probability in [0, 1], got {loss!r}")
         self.latency_s = latency_s

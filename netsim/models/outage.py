@@ -31,7 +31,7 @@ class OutageModel:
                                  f"got {window!r}") from None
             if not (math.isfinite(start) and start >= 0):
                 raise ValueError(f"outage: windows_s[{i}] start_s must be >= 0, got {start!r}")
-            if not duration > 0:
+            if not 0 < duration and math.isfinite(start + duration):
                 raise ValueError(f"outage: windows_s[{i}] duration_s must be > 0, "
                                  f"got {duration!r}")
             spans.append((start, start + duration))

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections import deque
 
-from netsim.models.base import Drop, register_model
+from netsim.models.base import MAX_QUEUE, MAX_RATE_BPS, Drop, check_delay, register_model
 from netsim.rng import UniformStream
 
 DEFAULT_QUEUE_PACKETS = 100
@@ -39,16 +39,16 @@ class QueueModel:
         del rng
         if rate_bps is None:
             raise ValueError("queue: rate_bps is required (link rate in bit/s)")
-        if not rate_bps > 0:
-            raise ValueError(f"queue: rate_bps must be > 0, got {rate_bps!r}")
+        if not 0 < rate_bps <= MAX_RATE_BPS:
+            raise ValueError(f"queue: rate_bps must be > 0 and <= {MAX_RATE_BPS:g}, got {rate_bps!r}")
         if queue_packets is not None and not (isinstance(queue_packets, int)
-                                              and queue_packets >= 1):
+                                              and 1 <= queue_packets <= MAX_QUEUE):
             raise ValueError(f"queue: queue_packets must be an integer >= 1, "
                              f"got {queue_packets!r}")
-        if queue_bytes is not None and not (isinstance(queue_bytes, int) and queue_bytes >= 1):
+        if queue_bytes is not None and not (isinstance(queue_bytes, int)
+                                            and 1 <= queue_bytes <= MAX_QUEUE):
             raise ValueError(f"queue: queue_bytes must be an integer >= 1, got {queue_bytes!r}")
-        if not latency_s >= 0:
-            raise ValueError(f"queue: latency_s must be >= 0, got {latency_s!r}")
+        check_delay("queue", "latency_s", latency_s)
         if queue_packets is None and queue_bytes is None:
             queue_packets = DEFAULT_QUEUE_PACKETS
         self.rate_bps = float(rate_bps)

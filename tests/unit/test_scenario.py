@@ -123,3 +123,20 @@ def test_speed_limit_matches_the_cli():
     from gateway.sim import scenario
 
     assert scenario.MAX_SPEED == cli.MAX_SPEED
+
+
+@pytest.mark.parametrize("doc, key", [
+    ({"network": {"sync_period_s": 1e-300}}, "network.sync_period_s"),
+    ({"network": {"sync_period_s": 1e9}}, "network.sync_period_s"),
+    ({"vehicles": {"home": {"alt_amsl_m": 3e38}}}, "vehicles.home.alt_amsl_m"),
+    ({"network": {"topology": "star", "ap": {"position_ned_m": [1e308, 0, -10]}}},
+     "network.ap.position_ned_m"),
+    ({"network": {"link": {"model": "fixed", "latency_s": 1e300}}}, "latency_s"),
+    ({"network": {"link": {"model": "fixed", "jitter_s": float("inf")}}}, "jitter_s"),
+    ({"network": {"link": {"model": "queue", "rate_bps": 3e38}}}, "rate_bps"),
+    ({"network": {"link": {"model": "burst", "latency_s": 1e9}}}, "latency_s"),
+])
+def test_values_out_of_range_are_refused_naming_the_key(doc, key):
+    """What `cornet check` and SIGHUP refuse is what `cornet run` refuses: the same parser."""
+    with pytest.raises(ScenarioError, match=key.replace(".", r"\.")):
+        parse(doc)
