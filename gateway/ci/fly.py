@@ -234,9 +234,13 @@ class FlyResult:
     sim_s: float = 0.0
     wall_s: float = 0.0
     vehicle_texts: list[str] = field(default_factory=list)
+    refused_plan: bool = False  # the vehicle refused the plan: bad input, not a failed flight
 
     @property
     def exit_code(self) -> int:
+        """0 pass, 1 the flight failed its checks, 2 the plan was bad input."""
+        if self.refused_plan:
+            return 2
         return 0 if self.passed else 1
 
     @property
@@ -319,6 +323,7 @@ def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
         if result != PlanResult.ACCEPTED:
             why = "timed out" if result is None else f"rejected ({_result_name(result)})"
             res.reasons.append(f"{name} upload {why}")
+            res.refused_plan = result is not None
             return
     origin = vehicle.origin
     n0, e0, d0 = (float(x) for x in sim.state(0).position_ned_m)

@@ -76,3 +76,14 @@ def test_bad_plan_file_exits_2(tmp_path, capsys):
     assert main(bad) == 2
     assert "no items" in capsys.readouterr().err
     assert main(tmp_path / "missing.plan") == 2
+
+
+def test_a_plan_the_vehicle_refuses_is_bad_input_not_a_failed_flight(tmp_path):
+    """exit 2 when the vehicle refuses the upload (here: a waypoint with an unknown frame)."""
+    doc = json.loads((PLANS / "square.plan").read_text())
+    doc["mission"]["items"][1]["frame"] = 99
+    bad = tmp_path / "refused.plan"
+    bad.write_text(json.dumps(doc))
+    res = fly(bad)
+    assert res.refused_plan and res.exit_code == 2, res.reasons
+    assert "mission upload rejected" in res.reasons[0]
