@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
 import ipaddress
 import logging
 import math
@@ -16,6 +17,7 @@ from typing import Any
 LOG_LEVELS = ("debug", "info", "warning", "error")
 ENV_PARAM_PREFIX = "PX4_PARAM_"
 MAX_SPEED = 1000.0
+SIGNING_CREDENTIAL = "signing.key"  # $CREDENTIALS_DIRECTORY/signing.key: the unit's key
 
 
 def _non_negative(kind: type, what: str):
@@ -339,11 +341,18 @@ def _run_settings(args: argparse.Namespace,
         "ignore_bad_state": args.ignore_bad_state,
     }
     key_path = _first(args.signing_key, d.signing_key)
+    what = "--signing-key" if args.signing_key is not None else f"{source}: daemon.signing_key"
+    credentials = os.environ.get("CREDENTIALS_DIRECTORY")
+    if key_path is None and credentials:
+        # systemd's LoadCredential=signing.key:… (the unit's SetCredential= default "off"
+        # when the operator has no key file: signing stays off).
+        credential = Path(credentials) / SIGNING_CREDENTIAL
+        with contextlib.suppress(OSError):
+            if credential.read_bytes().strip().lower() not in (b"", b"off"):
+                key_path, what = credential, f"systemd credential {SIGNING_CREDENTIAL}"
     if key_path is not None:
         from gateway.mavlink.signing import SigningKey
 
-        what = "--signing-key" if args.signing_key is not None else \
-            f"{source}: daemon.signing_key"
         try:
             settings["signing_key"] = SigningKey.load(key_path)
         except (OSError, ValueError) as exc:

@@ -299,8 +299,43 @@ def test_unit_file_has_the_appliance_settings():
                     "StateDirectory=cornet", "LogsDirectory=cornet", "ConfigurationDirectory=cornet",
                     "NoNewPrivileges=yes", "ProtectSystem=strict", "ProtectHome=yes",
                     "PrivateTmp=yes", "RestrictAddressFamilies=AF_INET AF_INET6 AF_UNIX",
-                    "MemoryMax=2G"):
+                    "MemoryMax=2G", "UMask=0077", "PrivateUsers=yes", "IPAddressDeny=any",
+                    "SystemCallFilter=~@privileged @resources", "TasksMax=64",
+                    "LoadCredential=signing.key:/etc/cornet/signing.key"):
         assert setting in lines, setting
+
+
+def test_systemd_analyze_security_exposure_at_most_2():
+    """systemd's own score of the unit's sandbox (0 safest, 10 exposed): at most 2.0."""
+    analyze = shutil.which("systemd-analyze")
+    if analyze is None:
+        pytest.skip("systemd-analyze is not installed (Debian: apt-get install systemd)")
+    out = subprocess.run([analyze, "security", "--offline=yes", str(UNIT)], capture_output=True,
+                         text=True, timeout=60)
+    found = re.search(r"Overall exposure level for cornet\.service: ([0-9.]+)", out.stdout)
+    assert found, out.stdout + out.stderr
+    assert float(found.group(1)) <= 2.0, out.stdout
+
+
+def test_signing_key_from_the_systemd_credential(tmp_path):
+    """LoadCredential=signing.key:…: the daemon signs with $CREDENTIALS_DIRECTORY/signing.key;
+    the unit's default "off" (no key file) leaves signing off."""
+    creds = tmp_path / "creds"
+    creds.mkdir()
+    (creds / "signing.key").write_text("a passphrase only the operator knows\n")
+    env = {**os.environ, "CREDENTIALS_DIRECTORY": str(creds)}
+    d = start_daemon(env=env)
+    try:
+        assert "signing" in d.ready_line or any("signing on" in ln for ln in d.stderr_lines), \
+            d.log_tail()
+    finally:
+        assert d.stop() == 0, d.log_tail()
+    (creds / "signing.key").write_text("off")
+    d = start_daemon(env=env)
+    try:
+        assert not any("signing on" in ln for ln in d.stderr_lines), d.log_tail()
+    finally:
+        assert d.stop() == 0, d.log_tail()
 
 
 def test_systemd_analyze_verify(tmp_path):
