@@ -1,30 +1,38 @@
-"""Counters of a running daemon in the Prometheus text format (exposition format 0.0.4).
+"""Counters of a running daemon for Prometheus, served by prometheus_client.
 
-``render(daemon)`` reads what the daemon already counts — per vehicle link: datagrams and bytes
-in and out, malformed / unknown / foreign frames, frames refused by signing, datagrams dropped by
-the rate limit or the kernel; per network link: sent, delivered, dropped by reason, late,
-latency; the pacer: simulated seconds, slips (overruns); internal errors — and formats them.
-``MetricsServer`` serves it on ``GET /metrics`` (an optional HTTP port, 127.0.0.1 by default).
+``Exporter.snapshot()`` reads, on the event loop, what the daemon already counts — per vehicle
+link: datagrams and bytes in and out, malformed / unknown / foreign frames, frames refused by
+signing, datagrams dropped by the rate limit or the kernel; per network link: sent, delivered,
+dropped by reason, late, latency; the pacer: simulated seconds, slips (overruns); internal
+errors — as prometheus_client metric families. ``MetricsServer`` refreshes that snapshot every
+SNAPSHOT_PERIOD_S and serves the latest one with prometheus_client's WSGI application on the
+standard library's threaded WSGI server: a scrape never touches the simulation, and a slow or
+stuck client only holds its own thread until REQUEST_TIMEOUT_S.
 
 Names follow Prometheus conventions: ``cornet_`` prefix, ``_total`` for counters, base units
 (seconds, bytes). The real-time factor is ``rate(cornet_sim_seconds_total[1m])``; a gauge of it
-over the last scrape interval is exported too, for dashboards without PromQL.
+over the last snapshot interval is exported too, for dashboards without PromQL.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
+import threading
 import time
 from collections.abc import Callable, Iterable
+from socketserver import ThreadingMixIn
 from typing import Any
+from wsgiref.simple_server import WSGIRequestHandler, WSGIServer, make_server
+
+from prometheus_client import CollectorRegistry, make_wsgi_app
+from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metric
+from prometheus_client.registry import Collector
 
 log = logging.getLogger(__name__)
 
-CONTENT_TYPE = "text/plain; version=0.0.4; charset=utf-8"
-MAX_REQUEST_BYTES = 8192
-REQUEST_TIMEOUT_S = 5.0
-MAX_CONNECTIONS = 16
+SNAPSHOT_PERIOD_S = 1.0  # wall seconds between two snapshots of the counters
+REQUEST_TIMEOUT_S = 5.0  # a client that sends nothing for this long is dropped
 
 # (SessionStats field, metric name, help) — per vehicle link, labels vehicle and link.
 SESSION_COUNTERS = (
@@ -65,160 +73,169 @@ ENDPOINT_COUNTERS = (
 )
 
 
-def _esc(value: str) -> str:
-    return value.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
 
+class _Families:
+    """Metric families by name, built in the order they are first touched."""
 
-def _labels(labels: dict[str, Any]) -> str:
-    if not labels:
-        return ""
-    return "{" + ",".join(f'{k}="{_esc(str(v))}"' for k, v in labels.items()) + "}"
+    def __init__(self) -> None:
+        self.by_name: dict[str, Metric] = {}
+        self._counters: dict[str, CounterMetricFamily] = {}
+        self._gauges: dict[str, GaugeMetricFamily] = {}
 
+    def counter(self, name: str, help_text: str, labels: Iterable[str] = ()) -> CounterMetricFamily:
+        fam = self._counters.get(name)
+        if fam is None:
+            fam = self._counters[name] = CounterMetricFamily(name, help_text, labels=list(labels))
+            self.by_name[name] = fam
+        return fam
 
-def _num(value: float) -> str:
-    if value != value:
-        return "NaN"
-    if value in (float("inf"), float("-inf")):
-        return "+Inf" if value > 0 else "-Inf"
-    return repr(float(value)) if isinstance(value, float) else str(int(value))
-
-
-class _Family:
-    def __init__(self, name: str, kind: str, help_text: str) -> None:
-        self.name, self.kind, self.help = name, kind, help_text
-        self.samples: list[tuple[dict[str, Any], float]] = []
-
-    def add(self, value: float, **labels: Any) -> None:
-        self.samples.append((labels, value))
-
-    def lines(self) -> Iterable[str]:
-        yield f"# HELP {self.name} {self.help}"
-        yield f"# TYPE {self.name} {self.kind}"
-        for labels, value in self.samples:
-            yield f"{self.name}{_labels(labels)} {_num(value)}"
+    def gauge(self, name: str, help_text: str, labels: Iterable[str] = ()) -> GaugeMetricFamily:
+        fam = self._gauges.get(name)
+        if fam is None:
+            fam = self._gauges[name] = GaugeMetricFamily(name, help_text, labels=list(labels))
+            self.by_name[name] = fam
+        return fam
 
 
 class Exporter:
-    """Formats one daemon's counters; remembers the previous scrape for the RTF gauge."""
+    """Builds snapshots of one daemon's counters; remembers the previous one for the RTF gauge."""
 
     def __init__(self, daemon: Any, clock: Callable[[], float] = time.monotonic) -> None:
         self.daemon = daemon
         self._clock = clock
         self._prev: tuple[float, float] | None = None
 
-    def render(self) -> str:
+    def snapshot(self) -> list[Metric]:
         d = self.daemon
         sim = d.sim
-        fams: dict[str, _Family] = {}
-
-        def fam(name: str, kind: str, help_text: str) -> _Family:
-            f = fams.get(name)
-            if f is None:
-                f = fams[name] = _Family(name, kind, help_text)
-            return f
-
-        fam("cornet_vehicles", "gauge", "Simulated vehicles.").add(len(sim.vehicles))
-        fam("cornet_sim_seconds_total", "counter",
-            "Simulated seconds since start (rate() of it is the real-time factor).").add(sim.now)
+        f = _Families()
+        f.gauge("cornet_vehicles", "Simulated vehicles.").add_metric([], len(sim.vehicles))
+        f.counter("cornet_sim_seconds_total",
+                  "Simulated seconds since start (rate() of it is the real-time factor)."
+                  ).add_metric([], sim.now)
         wall = self._clock()
         rtf = float("nan")
         if self._prev is not None and wall > self._prev[0]:
             rtf = (sim.now - self._prev[1]) / (wall - self._prev[0])
         self._prev = (wall, sim.now)
-        fam("cornet_real_time_factor", "gauge",
-            "Simulated seconds per wall second since the previous scrape.").add(rtf)
+        f.gauge("cornet_real_time_factor",
+                "Simulated seconds per wall second over the last snapshot interval."
+                ).add_metric([], rtf)
         pacer = d.pacer
-        fam("cornet_pacer_slips_total", "counter",
-            "Times simulated time slipped behind the wall clock (overruns).").add(pacer.slips)
-        fam("cornet_pacer_slipped_seconds_total", "counter",
-            "Simulated seconds given up to overruns.").add(pacer.slipped_s)
-        fam("cornet_internal_errors_total", "counter",
-            "Exceptions caught inside the simulation (bugs).").add(sim.internal_errors)
-
+        f.counter("cornet_pacer_slips_total",
+                  "Times simulated time slipped behind the wall clock (overruns)."
+                  ).add_metric([], pacer.slips)
+        f.counter("cornet_pacer_slipped_seconds_total",
+                  "Simulated seconds given up to overruns.").add_metric([], pacer.slipped_s)
+        f.counter("cornet_internal_errors_total",
+                  "Exceptions caught inside the simulation (bugs).").add_metric([],
+                                                                             sim.internal_errors)
+        link_labels = ("vehicle", "link")
         for (index, kind), link in sim.links.items():
-            labels = {"vehicle": index + 1, "link": kind.name.lower()}
+            values = [str(index + 1), kind.name.lower()]
             stats = link.session.stats
             for field, name, help_text in SESSION_COUNTERS:
                 if hasattr(stats, field):
-                    fam(name, "counter", help_text).add(getattr(stats, field), **labels)
+                    f.counter(name, help_text, link_labels).add_metric(values, getattr(stats, field))
             endpoint = getattr(d, "endpoints", {}).get((index, kind))
             if endpoint is not None:
                 for field, name, help_text in ENDPOINT_COUNTERS:
-                    fam(name, "counter", help_text).add(getattr(endpoint.stats, field), **labels)
-
+                    f.counter(name, help_text, link_labels).add_metric(
+                        values, getattr(endpoint.stats, field))
+        net = ("net_link",)
         for name, st in sim.link_stats().items():
-            labels = {"net_link": name}
-            fam("cornet_net_sent_total", "counter", "Datagrams handed to the network.").add(
-                st["sent"], **labels)
-            fam("cornet_net_delivered_total", "counter", "Datagrams the network delivered.").add(
-                st["delivered"], **labels)
-            fam("cornet_net_sent_bytes_total", "counter", "Bytes handed to the network.").add(
-                st["bytes_sent"], **labels)
-            fam("cornet_net_in_flight", "gauge", "Datagrams in the network now.").add(
-                st["in_flight"], **labels)
-            dropped = fam("cornet_net_dropped_total", "counter",
-                          "Datagrams the network dropped, by reason (loss, queue, range, "
-                          "outage, late, backend).")
+            f.counter("cornet_net_sent_total", "Datagrams handed to the network.", net
+                      ).add_metric([name], st["sent"])
+            f.counter("cornet_net_delivered_total", "Datagrams the network delivered.", net
+                      ).add_metric([name], st["delivered"])
+            f.counter("cornet_net_sent_bytes_total", "Bytes handed to the network.", net
+                      ).add_metric([name], st["bytes_sent"])
+            f.gauge("cornet_net_in_flight", "Datagrams in the network now.", net
+                    ).add_metric([name], st["in_flight"])
+            dropped = f.counter("cornet_net_dropped_total",
+                                "Datagrams the network dropped, by reason (loss, queue, range, "
+                                "outage, late, backend).", ("net_link", "reason"))
             for reason, n in sorted(st["dropped"].items()):
-                dropped.add(n, **labels, reason=reason)
-            fam("cornet_net_late_delivered_total", "counter",
-                "Datagrams an external backend delivered late (policy deliver).").add(
-                st["late_delivered"], **labels)
-            lat = fam("cornet_net_latency_seconds", "gauge",
-                      "One-way network latency of delivered datagrams.")
+                dropped.add_metric([name, reason], n)
+            f.counter("cornet_net_late_delivered_total",
+                      "Datagrams an external backend delivered late (policy deliver).", net
+                      ).add_metric([name], st["late_delivered"])
+            lat = f.gauge("cornet_net_latency_seconds",
+                          "One-way network latency of delivered datagrams.",
+                          ("net_link", "quantile"))
             for q, key in (("0.5", "latency_p50_ms"), ("0.99", "latency_p99_ms"),
                            ("1", "latency_max_ms")):
-                lat.add(st[key] / 1e3, **labels, quantile=q)
-        out: list[str] = []
-        for f in fams.values():
-            out.extend(f.lines())
-        return "\n".join(out) + "\n"
+                lat.add_metric([name, q], st[key] / 1e3)
+        return list(f.by_name.values())
+
+
+class _Snapshot(Collector):
+    """What a scrape returns: the latest snapshot, swapped in whole (no lock needed)."""
+
+    def __init__(self) -> None:
+        self.metrics: list[Metric] = []
+
+    def collect(self) -> Iterable[Metric]:
+        return self.metrics
+
+
+class _Server(ThreadingMixIn, WSGIServer):
+    daemon_threads = True  # a stuck scrape never keeps the process alive
+
+
+class _QuietHandler(WSGIRequestHandler):
+    timeout = REQUEST_TIMEOUT_S  # socket time-out of each connection
+
+    def log_message(self, format: str, *args: Any) -> None:  # noqa: A002 (the base's name)
+        pass
 
 
 class MetricsServer:
-    """A minimal HTTP/1.0 server: ``GET /metrics`` → the exporter's text; anything else 404."""
+    """``GET /metrics`` on ``bind:port`` (0: any free port) from a snapshot refreshed on the
+    event loop; prometheus_client's exposition, served by a thread per request."""
 
     def __init__(self, exporter: Exporter, bind: str = "127.0.0.1", port: int = 9464) -> None:
         self.exporter = exporter
         self.bind = bind
         self.port = port
-        self._server: asyncio.base_events.Server | None = None
-        self._active = 0
+        self._snapshot = _Snapshot()
+        registry = CollectorRegistry(auto_describe=False)
+        registry.register(self._snapshot)
+        self._app = make_wsgi_app(registry)
+        self._server: _Server | None = None
+        self._thread: threading.Thread | None = None
+        self._refresh_task: asyncio.Task | None = None
+
+    def refresh(self) -> None:
+        self._snapshot.metrics = self.exporter.snapshot()
 
     async def start(self) -> None:
-        self._server = await asyncio.start_server(self._handle, self.bind, self.port)
-        self.port = self._server.sockets[0].getsockname()[1]
+        """Bind (OSError if the port is taken), take a first snapshot, serve."""
+        self._server = make_server(self.bind, self.port, self._app, server_class=_Server,
+                                   handler_class=_QuietHandler)
+        self.port = self._server.server_address[1]
+        self.refresh()
+        self._thread = threading.Thread(target=self._server.serve_forever, name="cornet-metrics",
+                                        daemon=True)
+        self._thread.start()
+        self._refresh_task = asyncio.create_task(self._refresh_forever(), name="metrics")
+
+    async def _refresh_forever(self) -> None:
+        while True:
+            await asyncio.sleep(SNAPSHOT_PERIOD_S)
+            try:
+                self.refresh()
+            except Exception:  # noqa: BLE001 - metrics must never take the daemon down
+                log.exception("metrics snapshot failed")
 
     def close(self) -> None:
+        if self._refresh_task is not None:
+            self._refresh_task.cancel()
+            self._refresh_task = None
         if self._server is not None:
-            self._server.close()
+            self._server.shutdown()
+            self._server.server_close()
             self._server = None
-
-    async def _handle(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
-        if self._active >= MAX_CONNECTIONS:
-            writer.close()
-            return
-        self._active += 1
-        try:
-            head = await asyncio.wait_for(reader.readuntil(b"\r\n\r\n"), REQUEST_TIMEOUT_S)
-            if len(head) > MAX_REQUEST_BYTES:
-                raise ValueError("request too large")
-            parts = head.split(b"\r\n", 1)[0].split()
-            if len(parts) >= 2 and parts[0] in (b"GET", b"HEAD") and \
-                    parts[1].split(b"?", 1)[0] == b"/metrics":
-                body = self.exporter.render().encode()
-                status, ctype = "200 OK", CONTENT_TYPE
-            else:
-                body, status, ctype = b"not found: try /metrics\n", "404 Not Found", "text/plain"
-            head_out = (f"HTTP/1.0 {status}\r\nContent-Type: {ctype}\r\n"
-                        f"Content-Length: {len(body)}\r\nConnection: close\r\n\r\n").encode()
-            writer.write(head_out if parts and parts[0] == b"HEAD" else head_out + body)
-            await writer.drain()
-        except (asyncio.TimeoutError, asyncio.IncompleteReadError, asyncio.LimitOverrunError,
-                ConnectionError, ValueError):
-            pass
-        except Exception:  # noqa: BLE001 - a scrape must never take the daemon down
-            log.exception("metrics request failed")
-        finally:
-            self._active -= 1
-            writer.close()
+        if self._thread is not None:
+            self._thread.join(timeout=2)
+            self._thread = None

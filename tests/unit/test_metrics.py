@@ -1,7 +1,11 @@
 import asyncio
+import socket
+import urllib.error
+import urllib.request
 from types import SimpleNamespace
 
 import pytest
+from prometheus_client import CollectorRegistry, generate_latest
 from prometheus_client.parser import text_string_to_metric_families
 
 from gateway.daemon.metrics import Exporter, MetricsServer
@@ -24,13 +28,26 @@ def families(text: str) -> dict:
     return {f.name: f for f in text_string_to_metric_families(text)}
 
 
+def render(exporter: Exporter) -> str:
+    """The exposition text of one snapshot, as prometheus_client writes it."""
+    snapshot = exporter.snapshot()
+
+    class Once:
+        def collect(self):
+            return snapshot
+
+    registry = CollectorRegistry(auto_describe=False)
+    registry.register(Once())
+    return generate_latest(registry).decode()
+
+
 def test_exposition_parses_and_counts_what_the_daemon_counts(daemon):
     sim = daemon.sim
     sim.inject(0, next(iter(sim.links))[1], b"\xfd\x09garbage", ("x", 1))
     sim.run(until=3.0)
     clock = [10.0]
     exp = Exporter(daemon, clock=lambda: clock[0])
-    fams = families(exp.render())
+    fams = families(render(exp))
     assert fams["cornet_vehicles"].samples[0].value == 2
     assert fams["cornet_sim_seconds"].samples[0].value == pytest.approx(3.0)
     malformed = {(s.labels["vehicle"], s.labels["link"]): s.value
@@ -47,31 +64,38 @@ def test_exposition_parses_and_counts_what_the_daemon_counts(daemon):
     # the RTF gauge is over the interval since the previous scrape
     sim.run(until=5.0)
     clock[0] = 12.0
-    rtf = families(exp.render())["cornet_real_time_factor"].samples[0].value
+    rtf = families(render(exp))["cornet_real_time_factor"].samples[0].value
     assert rtf == pytest.approx(1.0)
 
 
-def test_http_server_serves_metrics_and_404s_the_rest(daemon):
+def test_http_server_serves_the_snapshot_and_a_silent_client_starves_nobody(daemon):
+    def get(port: int, path: str) -> tuple[int, str, str]:
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}{path}", timeout=5) as r:
+                return r.status, r.headers["Content-Type"], r.read().decode()
+        except urllib.error.HTTPError as exc:
+            return exc.code, "", ""
+
     async def main():
         server = MetricsServer(Exporter(daemon), port=0)
         await server.start()
+        silent = []
         try:
-            async def get(path: str) -> bytes:
-                r, w = await asyncio.open_connection("127.0.0.1", server.port)
-                w.write(f"GET {path} HTTP/1.1\r\nHost: x\r\n\r\n".encode())
-                data = await r.read()
-                w.close()
-                return data
-
-            ok = await get("/metrics")
-            assert ok.startswith(b"HTTP/1.0 200 OK") and b"text/plain; version=0.0.4" in ok
-            assert b"cornet_sim_seconds_total" in ok
-            assert (await get("/")).startswith(b"HTTP/1.0 404")
-            r, w = await asyncio.open_connection("127.0.0.1", server.port)
-            w.write(b"\x00" * 100 + b"\r\n\r\n")  # junk request: answered, not fatal
-            assert (await r.read()).startswith(b"HTTP/1.0 404")
-            w.close()
+            for _ in range(20):  # connections that never send a request
+                c = socket.create_connection(("127.0.0.1", server.port))
+                silent.append(c)
+            status, ctype, text = await asyncio.to_thread(get, server.port, "/metrics")
+            assert status == 200 and ctype.startswith("text/plain; version=0.0.4")
+            assert families(text)["cornet_vehicles"].samples[0].value == 2
+            junk = socket.create_connection(("127.0.0.1", server.port))
+            junk.sendall(b"\x00" * 100 + b"\r\n\r\n")  # junk request: answered, not fatal
+            junk.settimeout(5)
+            assert b"Error" in junk.recv(200)  # an error page, as http.server answers junk
+            junk.close()
+            assert (await asyncio.to_thread(get, server.port, "/metrics"))[0] == 200
         finally:
+            for c in silent:
+                c.close()
             server.close()
 
     asyncio.run(main())
