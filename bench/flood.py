@@ -1,14 +1,15 @@
 #!/usr/bin/env python3
 """A flood on one vehicle's port while the others fly (issue 6, acceptance 3).
 
-`cornet run --vehicles 3` as a user starts it; a separate process sends hostile datagrams
-(random bytes, truncated and corrupted frames, frames for other systems, unknown ids) at
-``--rate`` datagrams/s from one source to vehicle 1's API port (14580+offset), while two
+`cornet run --vehicles 3` as a user starts it; a separate process sends ``--kind`` datagrams
+(garbage: random bytes, truncated and corrupted frames, frames for other systems, unknown ids;
+or well-formed HEARTBEAT, PARAM_SET, COMMAND_LONG or MISSION_* frames for vehicle 1) at
+``--rate`` datagrams/s from ``--sources`` source ports to vehicle 1's API port, while two
 unmodified MAVSDK takeoff / hover / land flights run on vehicles 2 and 3. The daemon's
 simulated clock is read from its ZeroMQ state topic, so the real-time factor is measured over
 the flood window and, for comparison, over a quiet window before it, in the same run.
 
-    .venv/bin/python bench/flood.py [--rate 50000] [--seconds 30]
+    .venv/bin/python bench/flood.py [--rate 50000] [--seconds 30] [--kind param_set] [--sources 50]
 
 Prints: the flood rate achieved, the real-time factor quiet and flooded (and their ratio),
 what the daemon did with the flood (rate limited, dropped by the kernel, malformed), and
@@ -45,11 +46,40 @@ from tests.e2e.test_garbage_flood import hostile_datagrams  # noqa: E402
 QUIET_S = 8.0  # wall seconds measured before the flood starts
 
 
-def flood(port: int, rate: float, seconds: float, out) -> None:
-    """Send ``rate`` datagrams/s for ``seconds`` in 1 ms slices; report how many went out."""
-    pool = list(hostile_datagrams(99, 5000))
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 1 << 20)
+KINDS = ("garbage", "heartbeat", "param_set", "command_long", "mission")
+
+
+def well_formed(kind: str, n: int = 2000) -> list[bytes]:
+    """Valid frames for vehicle 1 that each make its services work (or, HEARTBEAT, the
+    cheapest message there is), from a GCS-like sender."""
+    from pymavlink.dialects.v20 import common as M
+
+    mav = M.MAVLink(None, srcSystem=245, srcComponent=190)
+    out = []
+    for k in range(n):
+        if kind == "heartbeat":
+            msg = M.MAVLink_heartbeat_message(6, 8, 0, 0, 0, 3)
+        elif kind == "param_set":
+            msg = M.MAVLink_param_set_message(1, 1, b"MPC_XY_CRUISE", 5.0 + (k % 3), 9)
+        elif kind == "command_long":
+            msg = M.MAVLink_command_long_message(1, 1, 512, 0, 33, 0, 0, 0, 0, 0, 0)
+        else:  # mission: requests of the list, counts that start uploads, clears
+            msg = (M.MAVLink_mission_request_list_message(1, 1, 0),
+                   M.MAVLink_mission_count_message(1, 1, 5, 0, 0),
+                   M.MAVLink_mission_clear_all_message(1, 1, 0))[k % 3]
+        out.append(msg.pack(mav))
+    return out
+
+
+def flood(port: int, rate: float, seconds: float, kind: str, sources: int, out) -> None:
+    """Send ``rate`` datagrams/s for ``seconds`` in 1 ms slices, rotating over ``sources``
+    source ports; report how many went out."""
+    pool = list(hostile_datagrams(99, 5000)) if kind == "garbage" else well_formed(kind)
+    socks = []
+    for _ in range(sources):
+        s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 1 << 20)
+        socks.append(s)
     addr = ("127.0.0.1", port)
     sent = errors = 0
     t0 = time.perf_counter()
@@ -63,14 +93,15 @@ def flood(port: int, rate: float, seconds: float, out) -> None:
         due = int((now - t0) * rate)
         while sent + errors < due:
             try:
-                s.sendto(pool[i % n], addr)
+                socks[i % sources].sendto(pool[i % n], addr)
                 sent += 1
             except OSError:
                 errors += 1
             i += 1
         time.sleep(0.0005)
     out.put((sent, errors, time.perf_counter() - t0))
-    s.close()
+    for s in socks:
+        s.close()
 
 
 class SimClock(threading.Thread):
@@ -119,7 +150,7 @@ async def main_async(args) -> int:
     clock.start()
     out: mp.Queue = mp.Queue()
     flooder = mp.Process(target=flood, args=(d.vehicle_port(0, "api"), args.rate, args.seconds,
-                                             out))
+                                             args.kind, args.sources, out))
     try:
         await asyncio.sleep(QUIET_S)
         q0, q1 = time.monotonic() - QUIET_S + 1.0, time.monotonic()
@@ -140,8 +171,8 @@ async def main_async(args) -> int:
     quiet, flooded = clock.rtf(q0, q1), clock.rtf(f0 + 1.0, f1)
     print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
           f"Python {platform.python_version()}")
-    print(f"flood: {sent} datagrams in {took:.1f} s from one source = {sent / took:,.0f}/s "
-          f"to vehicle 1's API port ({errors} send errors)")
+    print(f"flood: {sent} {args.kind} datagrams in {took:.1f} s from {args.sources} source "
+          f"port(s) = {sent / took:,.0f}/s to vehicle 1's API port ({errors} send errors)")
     print(f"real-time factor: quiet {quiet:.3f}, flooded {flooded:.3f} "
           f"(ratio flooded/quiet {flooded / quiet:.3f}; goal >= 0.95)")
     print(f"daemon: rate_limited={counters.get('rate_limited')} "
@@ -160,6 +191,10 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--rate", type=float, default=50_000.0)
     p.add_argument("--seconds", type=float, default=40.0)
+    p.add_argument("--kind", choices=KINDS, default="garbage",
+                   help="what the flood sends (well-formed kinds are frames for vehicle 1)")
+    p.add_argument("--sources", type=int, default=1,
+                   help="source ports the flood rotates over (admission's per-host budget)")
     return asyncio.run(main_async(p.parse_args()))
 
 

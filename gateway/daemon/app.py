@@ -30,7 +30,8 @@ from gateway.bus import zmq_pub
 from gateway.bus.watch import format_link_table
 from gateway.bus.zmq_pub import Publisher
 from gateway.daemon import state
-from gateway.daemon.endpoint import SourceLimiter, UdpEndpoint
+from gateway.daemon.admission import Admission
+from gateway.daemon.endpoint import UdpEndpoint
 from gateway.daemon.metrics import Exporter, MetricsServer
 from gateway.daemon.pacer import Pacer
 from gateway.daemon.progress import ProgressLine
@@ -262,7 +263,7 @@ class Daemon:
                     endpoint = UdpEndpoint(f"vehicle {i + 1} {kind.name} :{ports.local}",
                                            (cfg.remote_host, ports.remote),
                                            self._receiver(i, kind),
-                                           limiter=SourceLimiter(), clock=self.pacer.wall)
+                                           admission=Admission(), clock=self.pacer.wall)
                     try:
                         endpoint.open(loop, (cfg.bind, ports.local))
                     except OSError as exc:

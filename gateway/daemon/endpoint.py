@@ -9,8 +9,9 @@ Load rules (one client must not starve the others):
 - The socket is read with ``loop.add_reader``, at most ``MAX_BATCH`` datagrams per wake-up, so a
   flooded port gets no more turns of the event loop than a quiet one; what the kernel cannot
   buffer meanwhile (``RCVBUF_BYTES``) is dropped by the kernel and counted (SO_RXQ_OVFL).
-- Each source address has a token bucket (``SourceLimiter``): datagrams beyond its rate are
-  dropped before anything looks at them, and counted.
+- Admission (gateway/daemon/admission.py): token buckets in units of what handling a datagram
+  costs, per source address, per source host and for the whole port; what does not fit is
+  dropped before anything parses it, and counted by the bucket that refused it.
 - Nothing queues in user space: a send that would block is dropped and counted.
 """
 
@@ -22,9 +23,10 @@ import logging
 import socket
 import struct
 import sys
-from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
+
+from gateway.daemon.admission import Admission
 
 log = logging.getLogger(__name__)
 
@@ -36,49 +38,10 @@ RCVBUF_BYTES = 1 << 20
 SO_RXQ_OVFL = getattr(socket, "SO_RXQ_OVFL", 40)
 _OVFL_SPACE = socket.CMSG_SPACE(4)
 
-# Per source: what a busy legitimate client sends is far below this (MAVSDK or QGC on one link:
-# tens to a few hundred datagrams per second, parameter and mission bursts included).
-DEFAULT_RATE_PER_S = 2000.0
-DEFAULT_BURST = 1000.0
-MAX_SOURCES = 256  # remembered per endpoint; the least recently heard is forgotten first
-
-
-class SourceLimiter:
-    """Token bucket per source address; ``now`` (seconds, any monotonic clock) is an argument."""
-
-    def __init__(self, rate_per_s: float = DEFAULT_RATE_PER_S, burst: float = DEFAULT_BURST,
-                 max_sources: int = MAX_SOURCES) -> None:
-        if not rate_per_s > 0 or not burst >= 1:
-            raise ValueError("rate must be > 0 and burst >= 1")
-        self.rate = rate_per_s
-        self.burst = burst
-        self.max_sources = max_sources
-        self._buckets: OrderedDict[object, list[float]] = OrderedDict()
-
-    def allow(self, source: object, now: float) -> bool:
-        b = self._buckets.get(source)
-        if b is None:
-            if len(self._buckets) >= self.max_sources:
-                self._buckets.popitem(last=False)
-            b = self._buckets[source] = [self.burst, now]
-        else:
-            self._buckets.move_to_end(source)
-            tokens = b[0] + (now - b[1]) * self.rate
-            b[0] = tokens if tokens < self.burst else self.burst
-            b[1] = now
-        if b[0] >= 1.0:
-            b[0] -= 1.0
-            return True
-        return False
-
-    def __len__(self) -> int:
-        return len(self._buckets)
-
-
 @dataclass
 class EndpointStats:
     rx_datagrams: int = 0  # accepted and handed on
-    rx_rate_limited: int = 0  # dropped by the source's token bucket
+    rx_rate_limited: int = 0  # shed by admission (source, host or port budget)
     rx_kernel_dropped: int = 0  # dropped by the kernel: receive buffer full (SO_RXQ_OVFL)
     tx_datagrams: int = 0
     tx_dropped: int = 0  # the send would have blocked: dropped, never queued
@@ -91,17 +54,17 @@ class EndpointStats:
 class UdpEndpoint:
     def __init__(self, name: str, default_peer: tuple[str, int],
                  on_datagram: Callable[[bytes, tuple[str, int]], None], *,
-                 limiter: SourceLimiter | None = None,
+                 admission: Admission | None = None,
                  clock: Callable[[], float] | None = None) -> None:
-        """``limiter``: per-source rate limit (None: none); ``clock``: the monotonic clock the
-        limiter runs on (the daemon passes the pacer's)."""
+        """``admission``: the port's budgets (None: everything is let in); ``clock``: the
+        monotonic clock they run on (the daemon passes the pacer's)."""
         self.name = name
         self.default_peer = default_peer
         self._on_datagram = on_datagram
-        self.limiter = limiter
+        self.admission = admission
         self._clock = clock
-        if limiter is not None and clock is None:
-            raise ValueError("a rate limiter needs a clock")
+        if admission is not None and clock is None:
+            raise ValueError("admission needs a clock")
         self.stats = EndpointStats()
         self.sock: socket.socket | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -143,9 +106,9 @@ class UdpEndpoint:
         if sock is None:
             return
         st = self.stats
-        limiter = self.limiter
+        admission = self.admission
         clock = self._clock
-        now = clock() if clock is not None else 0.0  # a limiter always comes with a clock
+        now = clock() if clock is not None else 0.0  # admission always comes with a clock
         for _ in range(MAX_BATCH):
             try:
                 data, anc, _flags, addr = sock.recvmsg(MAX_DATAGRAM, _OVFL_SPACE)
@@ -158,7 +121,7 @@ class UdpEndpoint:
                 continue
             if anc:
                 self._overflow(anc)
-            if limiter is not None and not limiter.allow(addr, now):
+            if admission is not None and not admission.admit(addr, data, now):
                 st.rx_rate_limited += 1
                 continue
             st.rx_datagrams += 1

@@ -64,7 +64,7 @@ SESSION_COUNTERS = (
 ENDPOINT_COUNTERS = (
     ("rx_datagrams", "cornet_udp_rx_datagrams_total", "Datagrams let in by the UDP port."),
     ("rx_rate_limited", "cornet_udp_rx_rate_limited_total",
-     "Datagrams dropped by the per-source rate limit."),
+     "Datagrams shed by admission (source, host or port budget)."),
     ("rx_kernel_dropped", "cornet_udp_rx_kernel_dropped_total",
      "Datagrams the kernel dropped (receive buffer full)."),
     ("tx_datagrams", "cornet_udp_tx_datagrams_total", "Datagrams sent by the UDP port."),
@@ -142,6 +142,14 @@ class Exporter:
                 for field, name, help_text in ENDPOINT_COUNTERS:
                     f.counter(name, help_text, link_labels).add_metric(
                         values, getattr(endpoint.stats, field))
+                admission = getattr(endpoint, "admission", None)
+                if admission is not None:
+                    shed = f.counter("cornet_udp_rx_shed_total",
+                                     "Datagrams shed by admission, by the budget that refused "
+                                     "them (source, host, port).", link_labels + ("budget",))
+                    for budget in ("source", "host", "port"):
+                        shed.add_metric(values + [budget],
+                                        getattr(admission.stats, f"shed_{budget}"))
         net = ("net_link",)
         for name, st in sim.link_stats().items():
             f.counter("cornet_net_sent_total", "Datagrams handed to the network.", net
