@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from bisect import bisect_left
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -154,3 +154,17 @@ class TraceWriter:
     def __call__(self, event: str, link: str, time_s: float, size: int, detail: str) -> None:
         self._out.write(f"{time_s:.9f} {event} {link} {size} {detail}\n")
         self.lines += 1
+
+
+def fan_out(tracers: Sequence[Tracer]) -> Tracer | None:
+    """One tracer that calls each of ``tracers`` (None for none)."""
+    if not tracers:
+        return None
+    if len(tracers) == 1:
+        return tracers[0]
+
+    def trace(*event) -> None:
+        for tracer in tracers:
+            tracer(*event)
+
+    return trace

@@ -6,7 +6,7 @@ COM_DISARM_LAND / COM_DISARM_PRFLT) and ``ModeUtil/mode_requirements.cpp``.
 Rules and invariants:
 - ``MODE_TABLE`` has one row per NavState (a test proves it): how a request to switch to it is
   answered, whether it needs a position estimate, whether arming is allowed in it, and which mode
-  the vehicle falls back to after a disarm (Land/RTL -> Hold, PX4_COMPAT.md §11).
+  the vehicle falls back to after a disarm (Land/RTL -> Hold).
 - Boot in AUTO_LOITER (Hold). ``position_valid`` becomes true POSITION_VALID_DELAY_S after boot
   (stands in for EKF2 + GPS convergence); the autopilot sets home then and on every arming.
 - Arming always runs the pre-arm checks (also when forced, like PX4 for external commands).

@@ -123,7 +123,7 @@ class PlanItem:
 
 @dataclass(frozen=True)
 class MissionStatus:
-    """What MISSION_CURRENT / MISSION_ITEM_REACHED report (PX4_COMPAT.md §6)."""
+    """What MISSION_CURRENT / MISSION_ITEM_REACHED report (PX4 mavlink_mission.cpp)."""
 
     current_seq: int
     count: int

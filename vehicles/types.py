@@ -123,11 +123,13 @@ class Kinematics(NamedTuple):
 
     @staticmethod
     def of(state: VehicleState) -> Kinematics:
-        def f(a) -> tuple[float, ...]:
-            return tuple(float(x) for x in a)
+        def v3(a) -> tuple[float, float, float]:
+            return (float(a[0]), float(a[1]), float(a[2]))
 
-        return Kinematics(state.time_s, f(state.position_ned_m), f(state.velocity_ned_mps),
-                          f(state.attitude_q), f(state.rates_frd_radps))
+        q = state.attitude_q
+        return Kinematics(state.time_s, v3(state.position_ned_m), v3(state.velocity_ned_mps),
+                          (float(q[0]), float(q[1]), float(q[2]), float(q[3])),
+                          v3(state.rates_frd_radps))
 
     def euler_rad(self) -> tuple[float, float, float]:
         """(roll, pitch, yaw) in radians, ZYX convention as PX4's Eulerf."""

@@ -14,6 +14,7 @@ import subprocess
 import sys
 import threading
 import time
+import weakref
 from collections import deque
 from collections.abc import Sequence
 from pathlib import Path
@@ -37,6 +38,9 @@ READY_PREFIX = "cornet ready"
 # PX4 SITL's vehicle-side ports (px4_ports in gateway/sim/simulation.py) before the offset.
 VEHICLE_GCS_PORT = 18570
 VEHICLE_API_PORT = 14580
+# Every daemon this process started, while it exists: a test suite can look at all of them
+# (e.g. that none of them logged a traceback).
+STARTED: weakref.WeakSet[CornetDaemon] = weakref.WeakSet()
 
 
 def cornet_command() -> list[str]:
@@ -79,6 +83,7 @@ class CornetDaemon:
                          for s in (proc.stdout, proc.stderr)]
         for t in self._threads:
             t.start()
+        STARTED.add(self)
 
     def _pump(self, stream: IO[str], is_stdout: bool) -> None:
         lines = self.stdout_lines if is_stdout else self.stderr_lines
@@ -138,6 +143,19 @@ class CornetDaemon:
 
     def log_tail(self, n: int = 40) -> str:
         return "\n".join(list(self.output)[-n:])
+
+    def tracebacks(self) -> list[str]:
+        """Python tracebacks in the daemon's log so far, each as its text (a daemon under test
+        should have none: every failure it expects is a logged line, not a traceback)."""
+        found: list[str] = []
+        lines = list(self.stderr_lines)
+        for k, line in enumerate(lines):
+            if line.startswith("Traceback (most recent call last)"):
+                end = k + 1
+                while end < len(lines) and (lines[end].startswith((" ", "\t")) or not lines[end]):
+                    end += 1
+                found.append("\n".join(lines[max(0, k - 1):end + 1]))
+        return found
 
     # --- lifetime -------------------------------------------------------------------------------
     def wait_ready(self, timeout_s: float) -> bool:

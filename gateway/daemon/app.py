@@ -22,7 +22,7 @@ import select
 import signal
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
@@ -41,11 +41,9 @@ from gateway.mavlink.signing import SigningConfig, SigningKey
 from gateway.sim.flightlog import FlightLog, new_run_dir
 from gateway.sim.scenario import NetworkConfig, ScenarioError
 from gateway.sim.simulation import Simulation, px4_ports
-from netsim.link import Tracer, TraceWriter
+from netsim.link import TraceWriter, fan_out
 from vehicles.params import ParamStore
-from vehicles.plan_types import PlanResult, PlanType
 from vehicles.types import PX4_SITL_HOME, GeoPoint
-from vehicles.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
@@ -74,26 +72,6 @@ class RunConfig:
     metrics_port: int | None = None  # Prometheus /metrics on bind:port (--metrics-port)
     shards: int = 1  # worker processes (gateway/daemon/shard.py); 1: this process simulates all
     first_vehicle: int = 0  # a shard's first vehicle (instance number)
-
-
-def _keep_plans(vehicle: Vehicle, kept: state.VehicleState) -> Callable[[PlanType], None]:
-    def on_change(plan_type: PlanType) -> None:
-        kept.on_plan(plan_type, vehicle.plan(plan_type))
-
-    return on_change
-
-
-def _fan_out(tracers: Sequence[Tracer]) -> Tracer | None:
-    if not tracers:
-        return None
-    if len(tracers) == 1:
-        return tracers[0]
-
-    def trace(*event) -> None:
-        for tracer in tracers:
-            tracer(*event)
-
-    return trace
 
 
 class Watchdog:
@@ -184,7 +162,7 @@ class Daemon:
                                TraceWriter(self._trace_file) if self._trace_file else None,
                                self.flightlog.tracer if self.flightlog else None) if t]
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
-                              tracer=_fan_out(tracers), home=config.home, realtime=True,
+                              tracer=fan_out(tracers), home=config.home, realtime=True,
                               signing=signing, first_index=config.first_vehicle)
         self._restore_plans()
         if self.flightlog is not None:
@@ -227,14 +205,8 @@ class Daemon:
         """The saved mission, geofence and rally points (PX4's dataman), then keep them."""
         for vehicle in self.sim.vehicles:
             kept = self._vehicle_states.get(int(vehicle.params["MAV_SYS_ID"]))
-            if kept is None:
-                continue
-            for plan_type, items in kept.plans.items():
-                result = vehicle.set_plan(0.0, plan_type, items)
-                if result is not PlanResult.ACCEPTED:
-                    log.warning("vehicle %d: saved %s refused (%s); not restored",
-                                vehicle.index + 1, plan_type.name.lower(), result.name)
-            vehicle.autopilot.plans.on_change(_keep_plans(vehicle, kept))
+            if kept is not None:
+                state.restore_plans(vehicle, kept)
 
     def _send(self, index: int, kind: LinkKind, datagram: bytes, peer: object) -> None:
         self.endpoints[(index, kind)].send(datagram, peer)  # type: ignore[arg-type]

@@ -32,7 +32,8 @@ from typing import Any
 
 from gateway.sim.files import write_atomic
 from vehicles.params import ParamStore, ParamType
-from vehicles.plan_types import PlanItem, PlanType
+from vehicles.plan_types import PlanItem, PlanResult, PlanType
+from vehicles.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 
@@ -246,3 +247,17 @@ class VehicleState:
 
 def _dump(doc: dict[str, Any]) -> str:
     return json.dumps({"version": FILE_VERSION, **doc}, indent=1) + "\n"
+
+
+def restore_plans(vehicle: Vehicle, kept: VehicleState) -> None:
+    """Give ``vehicle`` its saved plans, then keep every later change of them."""
+    for plan_type, items in kept.plans.items():
+        result = vehicle.set_plan(0.0, plan_type, items)
+        if result is not PlanResult.ACCEPTED:
+            log.warning("vehicle %d: saved %s refused (%s); not restored", vehicle.index + 1,
+                        plan_type.name.lower(), result.name)
+
+    def on_change(plan_type: PlanType) -> None:
+        kept.on_plan(plan_type, vehicle.plan(plan_type))
+
+    vehicle.autopilot.plans.on_change(on_change)

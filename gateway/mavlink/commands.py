@@ -1,7 +1,7 @@
 """Command protocol server: COMMAND_LONG / COMMAND_INT / legacy SET_MODE → vehicle → COMMAND_ACK.
 
-Source: PX4_COMPAT.md §3 (AUTOPILOT_VERSION), §4 (mavlink_receiver.cpp handle_message_command_*,
-Commander::handle_command), §12 item 7–8.
+Source: PX4 mavlink_receiver.cpp handle_message_command_*, Commander::handle_command,
+AUTOPILOT_VERSION.hpp.
 Rules:
 - Only target_system ∈ {0, own} and target_component ∈ {0, 1} are handled; anything else is
   silently ignored (no ACK). REQUEST_AUTOPILOT_CAPABILITIES / REQUEST_PROTOCOL_VERSION ignore the
@@ -54,13 +54,13 @@ INT32_MAX_AS_FLOAT32 = 2147483648.0  # what INT32_MAX becomes in a float param
 REPOSITION_FLAGS_CHANGE_MODE = 1  # MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, the only flag PX4 takes
 SPEED_RESET = -1.0  # DO_CHANGE_SPEED: ≤ 0 → back to the cruise speed
 
-# AUTOPILOT_VERSION as PX4 SITL fills it (§3), minus MAVLink FTP (32): we do not serve FTP.
+# AUTOPILOT_VERSION as PX4 SITL fills it, minus MAVLink FTP (32): we do not serve FTP.
 CAPABILITIES = 59647 & ~32
 FLIGHT_SW_VERSION = 0x010F00FF  # v1.15.0 release
 FLIGHT_CUSTOM_VERSION = list(b"c0rnet01")  # "git hash" bytes
 UID_BASE = 0x434F524E45540000  # "CORNET\0\0"; + sysid so every vehicle differs
 
-# Message ids QGC asks for that we do not serve: answering at once keeps its connect fast (§10).
+# Message ids QGC asks for that we do not serve: answering at once keeps its connect fast.
 REFUSED_MESSAGES = frozenset({397, 395, 435})  # COMPONENT_METADATA/_INFORMATION, AVAILABLE_MODES
 
 ROI_COMMANDS = frozenset({

@@ -1,6 +1,6 @@
 """HEARTBEAT, SYS_STATUS and EXTENDED_SYS_STATE from the commander's VehicleStatus.
 
-Source: PX4_COMPAT.md §2 (HEARTBEAT.hpp), §3 (SYS_STATUS.hpp + MAVSDK health rules), §8.
+Source: PX4 streams HEARTBEAT.hpp and SYS_STATUS.hpp; MAVSDK's health rules.
 - HEARTBEAT: type = MAV_TYPE param, autopilot PX4 (12), mavlink_version 3, modes from modes.py.
 - system_status: UNINIT until the position estimate is valid, STANDBY disarmed, ACTIVE armed,
   CRITICAL armed in failsafe, FLIGHT_TERMINATION once terminated. PX4 never sends BOOT.
@@ -35,7 +35,7 @@ SENSOR_XY_POSITION_CONTROL = 0x4000  # PX4 maps its local position estimate here
 SENSOR_RC_RECEIVER = 0x10000  # PX4's remote_control health component (joystick or RC)
 SENSOR_PREARM_CHECK = 0x10000000
 
-# Healthy PX4 SITL (§3): gyro|accel|mag|baro|gps|att_stab|xy_pos|ahrs|logging|battery.
+# Healthy PX4 SITL: gyro|accel|mag|baro|gps|att_stab|xy_pos|ahrs|logging|battery.
 SENSORS_PRESENT = 0x0320482F
 # All mapped bits healthy (absent components still report healthy in PX4), without PREARM.
 SENSORS_HEALTH = 0x0321C83F

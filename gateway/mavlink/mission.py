@@ -1,6 +1,6 @@
 """Mission protocol server (mission / fence / rally) for one link, as PX4's MavlinkMissionManager.
 
-Source: PX4_COMPAT.md §6 and PX4 src/modules/mavlink/mavlink_mission.cpp; shape after MAVSDK's
+Source: PX4 src/modules/mavlink/mavlink_mission.cpp; shape after MAVSDK's
 mavlink_mission_transfer_server (one state machine, named timeouts, result codes).
 Rules and invariants:
 - Accepted only with target_system == own (0 is not enough) and target_component ∈ {0, 1, 190}.

@@ -1,6 +1,6 @@
 """Mission items on the wire ↔ ``PlanItem``, and the MISSION_CURRENT / MISSION_ITEM_REACHED frames.
 
-Source: PX4_COMPAT.md §6 (mavlink_mission.cpp parse/format_mavlink_mission_item).
+Source: PX4 mavlink_mission.cpp parse/format_mavlink_mission_item.
 Rules:
 - ``PlanItem`` stores what MISSION_ITEM_INT carries: x/y integers (degE7 in global frames), z in
   metres. A legacy float MISSION_ITEM in a global frame has x/y in degrees → rounded to degE7;

@@ -1,6 +1,6 @@
 """PX4 flight modes on the wire: NavState ↔ (main_mode, sub_mode) ↔ HEARTBEAT custom/base mode.
 
-Source: PX4_COMPAT.md §2 (px4_custom_mode.h, HEARTBEAT.hpp) and §4 DO_SET_MODE.
+Source: PX4 px4_custom_mode.h, HEARTBEAT.hpp; Commander's DO_SET_MODE.
 - ``custom_mode = (main << 16) | (sub << 24)``; bits 0–15 are zero.
 - ``base_mode`` = CUSTOM_MODE_ENABLED (1) plus the per-mode flags of the table, +SAFETY_ARMED (128)
   when armed. pymavlink's ``interpret_px4_mode`` relies on exactly these flags.

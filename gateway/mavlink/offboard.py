@@ -1,7 +1,7 @@
 """Offboard setpoints: SET_POSITION_TARGET_LOCAL_NED / _GLOBAL_INT, SET_ATTITUDE_TARGET → vehicle.
 
-Source: PX4_COMPAT.md §5 (mavlink_receiver.cpp handle_message_set_position_target_local_ned,
-_global_int, _set_attitude_target; MAVSDK offboard_impl.cpp masks).
+Source: PX4 mavlink_receiver.cpp handle_message_set_position_target_local_ned,
+_global_int, _set_attitude_target; MAVSDK offboard_impl.cpp masks.
 Rules:
 - Handled only for target (own|0, 1|0); anything else is counted as another target.
 - A type_mask bit set means "ignore". Position / velocity / acceleration are taken as groups: one

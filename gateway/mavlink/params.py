@@ -1,7 +1,7 @@
 """Parameter protocol server over the vehicle's ParamStore.
 
-Source: PX4_COMPAT.md §7 (mavlink_parameters.cpp; MAVSDK mavlink_parameter_client.cpp; QGC
-ParameterManager.cc).
+Source: PX4 mavlink_parameters.cpp; MAVSDK mavlink_parameter_client.cpp; QGC
+ParameterManager.cc.
 Rules and invariants:
 - Every PARAM_VALUE carries param_count = store.count and its dense param_index.
 - INT32 values travel BYTEWISE: the int's four bytes sit in the float field. We pack the int

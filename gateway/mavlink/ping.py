@@ -1,4 +1,4 @@
-"""PING and TIMESYNC responders (PX4_COMPAT.md §3 items 5–6).
+"""PING and TIMESYNC responders (PX4 mavlink_receiver.cpp handle_message_ping, MavlinkTimesync).
 
 - PING with target 0/0 is a request: answer with the same time_usec/seq, target = sender.
   Pings addressed to someone are replies to others' requests: ignored (we never ping).

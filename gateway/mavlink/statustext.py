@@ -1,6 +1,7 @@
 """STATUSTEXT: the vehicle's append-only text log → this link, with PX4's gating.
 
-Source: PX4_COMPAT.md §8 (always-on streams), §10 (tab suffix), §11 (texts).
+Source: PX4 mavlink_main.cpp (STATUSTEXT always streamed), mavlink_log texts (a trailing tab
+marks an events-backed text).
 Rules:
 - A cursor per link drains ``vehicle.status_texts(after_seq)``; texts are consumed whether or
   not they are sent (PX4 drops them too), so nothing piles up while no GCS listens.

@@ -1,7 +1,7 @@
 """Telemetry streams: one table of (message, builder, default rate per link kind), one scheduler.
 
-Source: PX4_COMPAT.md §8 (configure_streams_to_default NORMAL + SITL overrides for the GCS link,
-ONBOARD for the API link) and the field conventions listed there.
+Source: PX4 mavlink_main.cpp configure_streams_to_default (NORMAL plus the SITL overrides for
+the GCS link, ONBOARD for the API link) and each stream's .hpp for the field conventions.
 Rules:
 - Deadlines are integer microseconds of simulated time, so streams of commensurate rates fire
   in the same wake-up (all 50 Hz streams go out together) and counts are exact.
@@ -30,7 +30,7 @@ from gateway.mavlink.mission_items import mission_status_of, pack_mission_curren
 
 M = mavlink2
 
-# GPS_RAW_INT constants of PX4's SITL GPS (sensor_gps_sim / gz bridge), §8.
+# GPS_RAW_INT constants of PX4's SITL GPS (sensor_gps_sim / gz bridge).
 GPS_FIX_TYPE_3D = 3
 GPS_SATELLITES = 10
 GPS_EPH_CM = 70
@@ -308,7 +308,7 @@ def system_time(enc: Encoder, s: Snapshot) -> bytes:
 
 
 def mission_current(enc: Encoder, s: Snapshot) -> bytes:
-    # The 1 Hz copy; mission.py sends it on every change of the current item (§6).
+    # The 1 Hz copy; mission.py sends it on every change of the current item.
     return pack_mission_current(enc, mission_status_of(s.vehicle))
 
 

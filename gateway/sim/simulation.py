@@ -91,8 +91,9 @@ class VehicleLink:
         """Take both directions from ``backend`` (a reloaded network), keeping their counters:
         packets already in flight on the old links arrive as the old links decided, and are
         counted in the same statistics."""
-        uplink = backend.make_link(self.uplink.name, *self._nodes, self._on_uplink_delivered)
-        downlink = backend.make_link(self.downlink.name, *reversed(self._nodes),
+        client, vehicle = self._nodes
+        uplink = backend.make_link(self.uplink.name, client, vehicle, self._on_uplink_delivered)
+        downlink = backend.make_link(self.downlink.name, vehicle, client,
                                      self._on_downlink_delivered)
         uplink.stats, downlink.stats = self.uplink.stats, self.downlink.stats
         self.uplink, self.downlink = uplink, downlink
@@ -114,7 +115,7 @@ class VehicleLink:
             # (accepted, as PX4 accepts it) must not redirect the vehicle's replies.
             moved = moved and stats.rx_signed != signed_before
         if moved and peer is not None:
-            # PX4 replies to the client it hears (PX4_COMPAT.md §1.2). Only a datagram that
+            # PX4 replies to the client it hears (mavlink_main.cpp, UDP mode). Only a datagram that
             # held a valid frame for this vehicle moves the peer, so garbage or traffic for
             # other systems cannot hijack the link, and a restarted client is followed.
             self.peer = peer

@@ -1,6 +1,17 @@
 import pytest
 
+from gateway.ci import launcher
 from gateway.ci.launcher import start_daemon
+
+
+@pytest.fixture(autouse=True)
+def no_traceback_in_any_daemon_log():
+    """Whatever a test does to it, a daemon logs failures as lines, never as tracebacks."""
+    before = set(launcher.STARTED)
+    yield
+    for d in set(launcher.STARTED) - before:
+        found = d.tracebacks()
+        assert not found, f"{' '.join(d.command)} logged a traceback:\n" + "\n\n".join(found)
 
 
 @pytest.fixture

@@ -80,6 +80,6 @@ def test_parameters_survive_a_restart_with_state_dir(daemon_factory, tmp_path):
                                   condition=f"PARAM_VALUE.param_id=='{name}'")
             values[name] = msg.param_value
         assert values["MIS_TAKEOFF_ALT"] == pytest.approx(6.5)
-        assert values["MPC_XY_CRUISE"] == pytest.approx(7.0)  # --param was saved too
+        assert values["MPC_XY_CRUISE"] == pytest.approx(5.0)  # --param is set at boot, never saved
     finally:
         conn.close()
