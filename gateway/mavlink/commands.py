@@ -24,23 +24,18 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
-from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import (
     CRC_EXTRA_PROTOCOL_VERSION,
     MSG_ID_PROTOCOL_VERSION,
     PROTOCOL_VERSION_PAYLOAD,
 )
+from gateway.mavlink.link import LinkContext, Say
 from gateway.mavlink.modes import decode_set_mode
-from gateway.mavlink.telemetry import STREAMS_BY_ID, home_position
+from gateway.mavlink.telemetry import STREAMS_BY_ID, Scheduler, Snapshot, home_position
 from vehicles.types import CommandResult, GeoPoint, Severity
-
-if TYPE_CHECKING:
-    from gateway.mavlink.session import Session
-
-M = mavlink2
 
 ACCEPTED = CommandResult.ACCEPTED
 TEMPORARILY_REJECTED = CommandResult.TEMPORARILY_REJECTED
@@ -91,13 +86,25 @@ def _eq(value: float, target: float) -> bool:
 
 
 class CommandService:
-    def __init__(self, session: Session) -> None:
-        self.s = session
+    """Uses the vehicle, the encoder, send, sysid, other_target; ``say`` (STATUSTEXT on this
+    link), ``snapshot(now_s)`` (what telemetry builders read, for REQUEST_MESSAGE) and the
+    link's stream ``scheduler`` (SET/GET_MESSAGE_INTERVAL)."""
+
+    def __init__(self, ctx: LinkContext, say: Say, snapshot: Callable[[float], Snapshot],
+                 scheduler: Scheduler) -> None:
+        self.vehicle = ctx.vehicle
+        self.encoder = ctx.encoder
+        self.send = ctx.send
+        self.sysid = ctx.sysid
+        self.other_target = ctx.other_target
+        self.say = say
+        self.snapshot = snapshot
+        self.scheduler = scheduler
         self._handlers: dict[int, Callable[[Command, float], int | None]] = {
             M.MAV_CMD_COMPONENT_ARM_DISARM: self._arm_disarm,
             M.MAV_CMD_NAV_TAKEOFF: self._takeoff,
-            M.MAV_CMD_NAV_LAND: lambda c, t: self.s.vehicle.land(t),
-            M.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda c, t: self.s.vehicle.return_to_launch(t),
+            M.MAV_CMD_NAV_LAND: lambda c, t: self.vehicle.land(t),
+            M.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda c, t: self.vehicle.return_to_launch(t),
             M.MAV_CMD_DO_SET_MODE: self._set_mode,
             M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
             M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._autopilot_capabilities,
@@ -146,8 +153,8 @@ class CommandService:
 
     def on_set_mode(self, msg: M.MAVLink_set_mode_message, now_s: float) -> None:
         """Legacy SET_MODE (11): PX4 converts it to DO_SET_MODE and ACKs it as 176."""
-        if msg.target_system not in (0, self.s.sysid):
-            self.s.stats.rx_other_target += 1
+        if msg.target_system not in (0, self.sysid):
+            self.other_target()
             return
         main, sub = (msg.custom_mode >> 16) & 0xFF, (msg.custom_mode >> 24) & 0xFF
         cmd = Command(M.MAV_CMD_DO_SET_MODE, (float(msg.base_mode), float(main), float(sub), 0.0,
@@ -157,9 +164,9 @@ class CommandService:
 
     def _for_us(self, msg: M.MAVLink_message, command: int) -> bool:
         comp_ok = msg.target_component in (0, 1) or command in ANY_COMPONENT_COMMANDS
-        if msg.target_system in (0, self.s.sysid) and comp_ok:
+        if msg.target_system in (0, self.sysid) and comp_ok:
             return True
-        self.s.stats.rx_other_target += 1
+        self.other_target()
         return False
 
     def dispatch(self, cmd: Command, now_s: float) -> None:
@@ -169,21 +176,21 @@ class CommandService:
             self.ack(cmd, int(result))
 
     def ack(self, cmd: Command, result: int) -> None:
-        self.s.send(self.s.encoder.pack(M.MAVLink_command_ack_message, cmd.command, result, 0, 0,
-                                        cmd.src_system, cmd.src_component))
+        self.send(self.encoder.pack(M.MAVLink_command_ack_message, cmd.command, result, 0, 0,
+                                    cmd.src_system, cmd.src_component))
 
     # --- handlers: return a MAV_RESULT, or None for "no ACK" -------------------------------
     def _arm_disarm(self, cmd: Command, now_s: float) -> int | None:
         forced = _eq(cmd.p(2), FORCE_MAGIC)
         if _eq(cmd.p(1), 1.0):
-            return self.s.vehicle.arm(now_s, forced=forced)
+            return self.vehicle.arm(now_s, forced=forced)
         if _eq(cmd.p(1), 0.0):
-            return self.s.vehicle.disarm(now_s, forced=forced)
-        self.s.statustext.local(now_s, Severity.CRITICAL, "Unsupported ARM_DISARM param")
+            return self.vehicle.disarm(now_s, forced=forced)
+        self.say(now_s, Severity.CRITICAL, "Unsupported ARM_DISARM param")
         return None
 
     def _takeoff(self, cmd: Command, now_s: float) -> int:
-        return self.s.vehicle.takeoff(now_s, alt_amsl_m=cmd.p(7))
+        return self.vehicle.takeoff(now_s, alt_amsl_m=cmd.p(7))
 
     def _set_mode(self, cmd: Command, now_s: float) -> int:
         base, main, sub = cmd.p(1), cmd.p(2), cmd.p(3)
@@ -191,12 +198,12 @@ class CommandService:
             return DENIED
         nav = decode_set_mode(int(base), _int_or(main, -1), _int_or(sub, 0))
         if nav is None:
-            self.s.statustext.local(now_s, Severity.CRITICAL, "Unsupported auto mode")
+            self.say(now_s, Severity.CRITICAL, "Unsupported auto mode")
             return TEMPORARILY_REJECTED
-        return self.s.vehicle.set_nav_state(now_s, nav)
+        return self.vehicle.set_nav_state(now_s, nav)
 
     def _vehicle(self, name: str) -> Callable[..., int] | None:
-        return getattr(self.s.vehicle, name, None)
+        return getattr(self.vehicle, name, None)
 
     def _reposition(self, cmd: Command, now_s: float) -> int:
         goto = self._vehicle("goto")
@@ -251,7 +258,7 @@ class CommandService:
     def _request_message(self, cmd: Command, now_s: float) -> int:
         msg_id = _int_or(cmd.p(1), -1)
         if msg_id == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
-            self.s.send(self.autopilot_version())
+            self.send(self.autopilot_version())
             return ACCEPTED
         if msg_id == MSG_ID_PROTOCOL_VERSION:
             return self._protocol_version(cmd, now_s)
@@ -262,41 +269,41 @@ class CommandService:
         spec = STREAMS_BY_ID.get(msg_id)
         if spec is None:
             return UNSUPPORTED
-        frame = spec.builder(self.s.encoder, self.s.snapshot(now_s))
+        frame = spec.builder(self.encoder, self.snapshot(now_s))
         if frame is None:
             return DENIED  # e.g. HOME_POSITION before home is set
-        self.s.send(frame)
+        self.send(frame)
         return ACCEPTED
 
     def _autopilot_capabilities(self, cmd: Command, now_s: float) -> int:
-        self.s.send(self.autopilot_version())
+        self.send(self.autopilot_version())
         return ACCEPTED
 
     def _protocol_version(self, cmd: Command, now_s: float) -> int:
-        self.s.send(self.s.encoder.frame(MSG_ID_PROTOCOL_VERSION, CRC_EXTRA_PROTOCOL_VERSION,
-                                         PROTOCOL_VERSION_PAYLOAD))
+        self.send(self.encoder.frame(MSG_ID_PROTOCOL_VERSION, CRC_EXTRA_PROTOCOL_VERSION,
+                                     PROTOCOL_VERSION_PAYLOAD))
         return ACCEPTED
 
     def _home_position(self, cmd: Command, now_s: float) -> int:
-        frame = home_position(self.s.encoder, self.s.snapshot(now_s))
+        frame = home_position(self.encoder, self.snapshot(now_s))
         if frame is None:
             return DENIED
-        self.s.send(frame)
+        self.send(frame)
         return ACCEPTED
 
     def _set_message_interval(self, cmd: Command, now_s: float) -> int:
-        ok = self.s.scheduler.set_interval(_int_or(cmd.p(1), -1), cmd.p(2), now_s)
+        ok = self.scheduler.set_interval(_int_or(cmd.p(1), -1), cmd.p(2), now_s)
         return ACCEPTED if ok else FAILED
 
     def _send_interval(self, msg_id: int) -> int:
-        interval = self.s.scheduler.interval_us(msg_id)
-        self.s.send(self.s.encoder.pack(M.MAVLink_message_interval_message, msg_id & 0xFFFF,
-                                        interval))
+        interval = self.scheduler.interval_us(msg_id)
+        self.send(self.encoder.pack(M.MAVLink_message_interval_message, msg_id & 0xFFFF,
+                                    interval))
         return ACCEPTED
 
     def autopilot_version(self) -> bytes:
-        uid = (UID_BASE + self.s.sysid) & 0xFFFFFFFFFFFFFFFF
-        return self.s.encoder.pack(
+        uid = (UID_BASE + self.sysid) & 0xFFFFFFFFFFFFFFFF
+        return self.encoder.pack(
             M.MAVLink_autopilot_version_message, CAPABILITIES, FLIGHT_SW_VERSION,
             FLIGHT_SW_VERSION, 0, 0, FLIGHT_CUSTOM_VERSION, FLIGHT_CUSTOM_VERSION, [0] * 8, 0, 0,
             uid, [0] * 18)

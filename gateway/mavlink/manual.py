@@ -19,12 +19,10 @@ Rules:
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
+from gateway.mavlink.link import LinkContext
 from vehicles.manual_control import Sticks
-
-if TYPE_CHECKING:
-    from gateway.mavlink.session import Session
 
 
 def _axis(value: int) -> float:
@@ -39,22 +37,26 @@ def sticks_of(msg: Any) -> Sticks:
 
 
 class ManualControlService:
-    """MANUAL_CONTROL and FOLLOW_TARGET (module docstring)."""
+    """MANUAL_CONTROL and FOLLOW_TARGET (module docstring). Uses the vehicle, the link kind
+    (the stick source), sysid and other_target."""
 
-    def __init__(self, session: Session) -> None:
-        self.s = session
+    def __init__(self, ctx: LinkContext) -> None:
+        self.vehicle = ctx.vehicle
+        self.kind = ctx.kind
+        self.sysid = ctx.sysid
+        self.other_target = ctx.other_target
 
     def on_manual_control(self, msg: Any, now_s: float) -> None:
-        if msg.target not in (0, self.s.sysid):
-            self.s.stats.rx_other_target += 1
+        if msg.target not in (0, self.sysid):
+            self.other_target()
             return
-        hook = getattr(self.s.vehicle, "manual_control", None)
+        hook = getattr(self.vehicle, "manual_control", None)
         if hook is not None:  # the source: this link and the sender (PX4: one per link)
-            hook(now_s, sticks_of(msg), (self.s.kind.value, msg.get_srcSystem(),
+            hook(now_s, sticks_of(msg), (self.kind.value, msg.get_srcSystem(),
                                         msg.get_srcComponent()))
 
     def on_follow_target(self, msg: Any, now_s: float) -> None:
-        hook = getattr(self.s.vehicle, "set_follow_target", None)
+        hook = getattr(self.vehicle, "set_follow_target", None)
         if hook is None:
             return
         vel = tuple(float(v) for v in msg.vel[:3])

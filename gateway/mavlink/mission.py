@@ -30,10 +30,11 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import common as M
 
+from gateway.mavlink.link import LinkContext, Say
 from gateway.mavlink.mission_items import (
     item_from_float,
     item_from_int,
@@ -46,11 +47,6 @@ from gateway.mavlink.mission_items import (
 from vehicles.plan_types import PlanItem, PlanResult, PlanType
 from vehicles.plans import CAPACITY  # one source: what the vehicle can store
 from vehicles.types import Severity
-
-if TYPE_CHECKING:
-    from gateway.mavlink.session import Session
-
-M = mavlink2
 
 RETRY_S = 0.25  # MAVLINK_MISSION_RETRY_TIMEOUT_DEFAULT: re-request the expected item
 TIMEOUT_S = 5.0  # MAVLINK_MISSION_PROTOCOL_TIMEOUT_DEFAULT: give the transfer up
@@ -77,8 +73,16 @@ class Phase(enum.Enum):
 
 
 class MissionService:
-    def __init__(self, session: Session) -> None:
-        self.s = session
+    """Uses the vehicle, the encoder, send, sysid, other_target and ``say`` (STATUSTEXT on this
+    link) for PX4's mission texts."""
+
+    def __init__(self, ctx: LinkContext, say: Say) -> None:
+        self.vehicle = ctx.vehicle
+        self.encoder = ctx.encoder
+        self.send = ctx.send
+        self.sysid = ctx.sysid
+        self.other_target = ctx.other_target
+        self.say = say
         self.phase = Phase.IDLE
         self.partner = (0, 0)
         self.mission_type = int(PlanType.MISSION)
@@ -91,7 +95,7 @@ class MissionService:
         self._timeout_at = math.inf
         # (partner, mission_type, last seq, result) of the last completed upload, for re-ACKs
         self._completed: tuple[tuple[int, int], int, int, int] | None = None
-        st = mission_status_of(session.vehicle)
+        st = mission_status_of(self.vehicle)
         self._last_current = st.current_seq
         self._last_reached_count = st.reached_count
         self._last_progress: object = None  # vehicle.mission_progress at the last full poll
@@ -100,22 +104,18 @@ class MissionService:
         self._repeat_at = math.inf
 
     # --- helpers ------------------------------------------------------------------------------
-    @property
-    def vehicle(self) -> Any:
-        return self.s.vehicle
-
     def _for_us(self, msg: Any) -> bool:
-        if msg.target_system == self.s.sysid and msg.target_component in MISSION_COMPONENTS:
+        if msg.target_system == self.sysid and msg.target_component in MISSION_COMPONENTS:
             return True
-        self.s.stats.rx_other_target += 1
+        self.other_target()
         return False
 
     def _text(self, now_s: float, text: str, severity: Severity = Severity.CRITICAL) -> None:
-        self.s.statustext.local(now_s, severity, text)
+        self.say(now_s, severity, text)
 
     def ack(self, to: tuple[int, int], result: int, mission_type: int) -> None:
-        self.s.send(self.s.encoder.pack(M.MAVLink_mission_ack_message, to[0], to[1], int(result),
-                                        mission_type & 0xFF))
+        self.send(self.encoder.pack(M.MAVLink_mission_ack_message, to[0], to[1], int(result),
+                                    mission_type & 0xFF))
 
     def _heard(self, now_s: float) -> None:
         self._timeout_at = now_s + TIMEOUT_S
@@ -130,14 +130,14 @@ class MissionService:
 
     def _other_upload_active(self, now_s: float) -> bool:
         owner = _UPLOADS.get(id(self.vehicle))
-        return (owner is not None and owner is not self and owner.s.vehicle is self.vehicle
+        return (owner is not None and owner is not self and owner.vehicle is self.vehicle
                 and owner.phase is Phase.UPLOAD and now_s < owner._timeout_at)
 
     def _request(self, now_s: float) -> None:
         cls = M.MAVLink_mission_request_int_message if self.int_mode else \
             M.MAVLink_mission_request_message
-        self.s.send(self.s.encoder.pack(cls, self.partner[0], self.partner[1], self.seq,
-                                        self.mission_type))
+        self.send(self.encoder.pack(cls, self.partner[0], self.partner[1], self.seq,
+                                    self.mission_type))
         self._retry_at = now_s + RETRY_S
 
     # --- upload -------------------------------------------------------------------------------
@@ -246,8 +246,8 @@ class MissionService:
             self.phase = Phase.DOWNLOAD
             self._download = items
             self._heard(now_s)
-        self.s.send(self.s.encoder.pack(M.MAVLink_mission_count_message, src[0], src[1],
-                                        len(items), int(ptype)))
+        self.send(self.encoder.pack(M.MAVLink_mission_count_message, src[0], src[1],
+                                    len(items), int(ptype)))
 
     def on_request_int(self, msg: M.MAVLink_mission_request_int_message, now_s: float) -> None:
         self._on_request(msg, True, now_s)
@@ -283,8 +283,7 @@ class MissionService:
         if self.mission_type == PlanType.MISSION:  # PX4 marks the current item on download
             current = int(msg.seq == mission_status_of(self.vehicle).current_seq)
             item = dataclasses.replace(item, current=current)
-        self.s.send(pack_item(self.s.encoder, item, msg.seq, self.mission_type, src,
-                              self.int_mode))
+        self.send(pack_item(self.encoder, item, msg.seq, self.mission_type, src, self.int_mode))
 
     def on_ack(self, msg: M.MAVLink_mission_ack_message, now_s: float) -> None:
         if not self._for_us(msg) or self.phase is Phase.IDLE:
@@ -336,7 +335,7 @@ class MissionService:
             return
         st = mission_status_of(self.vehicle)
         self._last_current = st.current_seq
-        self.s.send(pack_mission_current(self.s.encoder, st))  # MAVSDK waits for exactly this
+        self.send(pack_mission_current(self.encoder, st))  # MAVSDK waits for exactly this
 
     # --- timers -------------------------------------------------------------------------------
     def get_timer(self) -> float:
@@ -357,19 +356,19 @@ class MissionService:
                 return  # nothing to report: no progress and no repeat due
             self._last_progress = progress
         st = mission_status_of(self.vehicle)
-        enc = self.s.encoder
+        enc = self.encoder
         if st.current_seq != self._last_current:
             self._last_current = st.current_seq
             if 0 <= st.current_seq < st.count:
-                self.s.send(pack_mission_current(enc, st))
+                self.send(pack_mission_current(enc, st))
         if st.reached_count != self._last_reached_count:
             self._last_reached_count = st.reached_count
             if st.reached_seq >= 0 and st.count > 0:
                 self._reached_seq = st.reached_seq
-                self.s.send(pack_item_reached(enc, st.reached_seq))
+                self.send(pack_item_reached(enc, st.reached_seq))
                 self._repeats_left = REACHED_REPEATS
                 self._repeat_at = now_s + REPEAT_INTERVAL_S
         if self._repeats_left > 0 and now_s >= self._repeat_at:
-            self.s.send(pack_item_reached(enc, self._reached_seq))
+            self.send(pack_item_reached(enc, self._reached_seq))
             self._repeats_left -= 1
             self._repeat_at = now_s + REPEAT_INTERVAL_S if self._repeats_left else math.inf

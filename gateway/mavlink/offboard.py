@@ -25,17 +25,15 @@ Rules:
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import Any
 
-from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import common as M
 
+from gateway.mavlink.link import LinkContext, Say
 from vehicles.plan_types import NAN3, OffboardSetpoint, Vec3
 from vehicles.types import GeoPoint, Severity
 
-if TYPE_CHECKING:
-    from gateway.mavlink.session import Session
-
-M = mavlink2
 NAN = math.nan
 
 FRAME_LOCAL_NED = 1
@@ -157,34 +155,41 @@ def attitude_setpoint(mask: int, q: Any, rates: Vec3, thrust: float) -> Offboard
 
 
 class OffboardService:
-    def __init__(self, session: Session) -> None:
-        self.s = session
+    """Uses the vehicle, sysid, the stats (setpoints handed over or dropped), other_target,
+    and ``say`` (STATUSTEXT on this link) for the unsupported-frame text."""
+
+    def __init__(self, ctx: LinkContext, say: Say) -> None:
+        self.vehicle = ctx.vehicle
+        self.sysid = ctx.sysid
+        self.stats = ctx.stats
+        self.other_target = ctx.other_target
+        self.say = say
         self._next_text_s = -math.inf
 
     def _for_us(self, msg: Any) -> bool:
-        if msg.target_system in (0, self.s.sysid) and msg.target_component in (0, 1):
+        if msg.target_system in (0, self.sysid) and msg.target_component in (0, 1):
             return True
-        self.s.stats.rx_other_target += 1
+        self.other_target()
         return False
 
-    def _deliver(self, now_s: float, build: Any, *args: Any) -> None:
-        setter = getattr(self.s.vehicle, "set_offboard_setpoint", None)
+    def _deliver(self, now_s: float, build: Callable[..., OffboardSetpoint], *args: Any) -> None:
+        setter = getattr(self.vehicle, "set_offboard_setpoint", None)
+        sp: OffboardSetpoint | None
         try:
             sp = build(*args)
         except ValueError:
             sp = None
         if sp is None or setter is None:
-            self.s.stats.offboard_dropped += 1
+            self.stats.offboard_dropped += 1
             return
-        self.s.stats.offboard_setpoints += 1
+        self.stats.offboard_setpoints += 1
         setter(now_s, sp)
 
     def _bad_frame(self, now_s: float, what: str, frame: int) -> None:
-        self.s.stats.offboard_dropped += 1
+        self.stats.offboard_dropped += 1
         if now_s >= self._next_text_s:
             self._next_text_s = now_s + TEXT_INTERVAL_S
-            self.s.statustext.local(now_s, Severity.CRITICAL,
-                                    f"{what} coordinate frame {frame} unsupported")
+            self.say(now_s, Severity.CRITICAL, f"{what} coordinate frame {frame} unsupported")
 
     def on_local_ned(self, msg: M.MAVLink_set_position_target_local_ned_message,
                      now_s: float) -> None:
@@ -195,7 +200,7 @@ class OffboardService:
             return
         self._deliver(now_s, local_setpoint, msg.coordinate_frame, msg.type_mask,
                       (msg.x, msg.y, msg.z), (msg.vx, msg.vy, msg.vz), (msg.afx, msg.afy, msg.afz),
-                      msg.yaw, msg.yaw_rate, self.s.vehicle.state.attitude_q)
+                      msg.yaw, msg.yaw_rate, self.vehicle.state.attitude_q)
 
     def on_global_int(self, msg: M.MAVLink_set_position_target_global_int_message,
                       now_s: float) -> None:
@@ -205,7 +210,7 @@ class OffboardService:
         if frame not in GLOBAL_AMSL_FRAMES | GLOBAL_RELATIVE_FRAMES | GLOBAL_TERRAIN_FRAMES:
             self._bad_frame(now_s, "SET_POSITION_TARGET_GLOBAL_INT", frame)
             return
-        v = self.s.vehicle
+        v = self.vehicle
         home = v.status.home
         home_alt = home.geo.alt_amsl_m if home is not None else v.origin.alt_amsl_m
         self._deliver(now_s, global_setpoint, frame, msg.type_mask, msg.lat_int, msg.lon_int,

@@ -19,16 +19,11 @@ from __future__ import annotations
 import math
 import struct
 import weakref
-from typing import TYPE_CHECKING
 
-from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import common as M
 
+from gateway.mavlink.link import LinkContext
 from vehicles.params import ParamType
-
-if TYPE_CHECKING:
-    from gateway.mavlink.session import Session
-
-M = mavlink2
 
 HASH_CHECK_NAME = "_HASH_CHECK"
 HASH_CHECK_INDEX = 65535  # index −1 as uint16
@@ -56,9 +51,14 @@ def float_bits_to_int32(value: float) -> int:
 
 
 class ParamService:
-    def __init__(self, session: Session) -> None:
-        self.s = session
-        self.store = session.vehicle.params
+    """Uses the vehicle's params, the encoder, send, sysid and other_target."""
+
+    def __init__(self, ctx: LinkContext) -> None:
+        self.encoder = ctx.encoder
+        self.send = ctx.send
+        self.sysid = ctx.sysid
+        self.other_target = ctx.other_target
+        self.store = ctx.vehicle.params
         self._list_next: int | None = None  # next index of a running list transfer
         self._list_due_s = math.inf
         self._own_set: str | None = None  # name being set by this link (echo sent explicitly)
@@ -81,7 +81,7 @@ class ParamService:
         count = self.store.count
         end = min(self._list_next + PARAM_BURST, count)
         for i in range(self._list_next, end):
-            self.s.send(self.param_value(i))
+            self.send(self.param_value(i))
         if end >= count:
             self._list_next, self._list_due_s = None, math.inf
         else:
@@ -92,7 +92,7 @@ class ParamService:
         if not self._for_us(msg):
             return
         if self._list_next is None:
-            self.s.send(self.hash_check())
+            self.send(self.hash_check())
         self._list_next, self._list_due_s = 0, now_s
 
     def on_request_read(self, msg: M.MAVLink_param_request_read_message, now_s: float) -> None:
@@ -101,13 +101,13 @@ class ParamService:
         if msg.param_index < 0:
             name = msg.param_id
             if name == HASH_CHECK_NAME:
-                self.s.send(self.hash_check())
+                self.send(self.hash_check())
             elif name in self.store:
-                self.s.send(self.param_value(self.store.index_of(name)))
+                self.send(self.param_value(self.store.index_of(name)))
             else:
                 self._error(msg, name, -1, PARAM_ERROR_DOES_NOT_EXIST)
         elif msg.param_index < self.store.count:
-            self.s.send(self.param_value(msg.param_index))
+            self.send(self.param_value(msg.param_index))
         else:
             self._error(msg, "", msg.param_index, PARAM_ERROR_DOES_NOT_EXIST)
 
@@ -141,17 +141,17 @@ class ParamService:
             pass  # non-finite float etc.: PX4 would store it; we echo the unchanged value
         finally:
             self._own_set = None
-        self.s.send(self.param_value(index))
+        self.send(self.param_value(index))
 
     def _for_us(self, msg: M.MAVLink_message) -> bool:
-        if msg.target_system in (0, self.s.sysid) and msg.target_component in (0, 1):
+        if msg.target_system in (0, self.sysid) and msg.target_component in (0, 1):
             return True
-        self.s.stats.rx_other_target += 1
+        self.other_target()
         return False
 
     def _on_change(self, name: str) -> None:
         if name != self._own_set:
-            self.s.send(self.param_value(self.store.index_of(name)))
+            self.send(self.param_value(self.store.index_of(name)))
 
     # --- outbound -----------------------------------------------------------------------------
     def param_value(self, index: int) -> bytes:
@@ -162,18 +162,18 @@ class ParamService:
             payload = _PV_INT.pack(int(value), self.store.count, index, pid, ParamType.INT32)
         else:
             payload = _PV_FLOAT.pack(value, self.store.count, index, pid, ParamType.REAL32)
-        return self.s.encoder.frame(_PV.id, _PV.crc_extra, payload)
+        return self.encoder.frame(_PV.id, _PV.crc_extra, payload)
 
     def hash_check(self) -> bytes:
         payload = _PV_UINT.pack(self.store.hash32(), self.store.count, HASH_CHECK_INDEX,
                                 HASH_CHECK_NAME.encode(), MAV_PARAM_TYPE_UINT32)
-        return self.s.encoder.frame(_PV.id, _PV.crc_extra, payload)
+        return self.encoder.frame(_PV.id, _PV.crc_extra, payload)
 
     def _error(self, msg: M.MAVLink_message, name: str, index: int, error: int) -> None:
         payload = _PE_STRUCT.pack(index, msg.get_srcSystem(), msg.get_srcComponent(),
                                   name.encode("ascii", "replace")[:PARAM_ID_LEN], error)
         cls = M.MAVLink_param_error_message
-        self.s.send(self.s.encoder.frame(cls.id, cls.crc_extra, payload))
+        self.send(self.encoder.frame(cls.id, cls.crc_extra, payload))
 
 
 def float_bits_to_int32_raw(msg: M.MAVLink_param_set_message) -> int:

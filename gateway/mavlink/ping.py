@@ -8,28 +8,26 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from pymavlink.dialects.v20 import common as M
 
-from pymavlink.dialects.v20 import common as mavlink2
-
-if TYPE_CHECKING:
-    from gateway.mavlink.session import Session
-
-M = mavlink2
+from gateway.mavlink.link import LinkContext
 
 
 class PingService:
-    def __init__(self, session: Session) -> None:
-        self.s = session
+    """Uses the context's encoder and send only."""
+
+    def __init__(self, ctx: LinkContext) -> None:
+        self.encoder = ctx.encoder
+        self.send = ctx.send
 
     def on_ping(self, msg: M.MAVLink_ping_message, now_s: float) -> None:
         if msg.target_system != 0 or msg.target_component != 0:
             return
-        self.s.send(self.s.encoder.pack(M.MAVLink_ping_message, msg.time_usec, msg.seq,
-                                        msg.get_srcSystem(), msg.get_srcComponent()))
+        self.send(self.encoder.pack(M.MAVLink_ping_message, msg.time_usec, msg.seq,
+                                    msg.get_srcSystem(), msg.get_srcComponent()))
 
     def on_timesync(self, msg: M.MAVLink_timesync_message, now_s: float) -> None:
         if msg.tc1 != 0:
             return
         # pymavlink 2.4.50's TIMESYNC has no target fields (added to common.xml later).
-        self.s.send(self.s.encoder.pack(M.MAVLink_timesync_message, int(now_s * 1e9), msg.ts1))
+        self.send(self.encoder.pack(M.MAVLink_timesync_message, int(now_s * 1e9), msg.ts1))

@@ -15,7 +15,9 @@ Rules and invariants:
   messages nobody handles are counted (``rx_unhandled``).
 - A GCS heartbeat (type 6) marks the link "GCS present" (STATUSTEXT gating) and is forwarded
   to ``vehicle.on_gcs_heartbeat(now_s)`` when the vehicle has it (data-link-loss failsafe).
-- Services live one per module; this file only routes.
+- Services live one per module; this file only routes. Each service gets a ``LinkContext``
+  (link.py) and the few callables it needs from its neighbours, never the Session: nothing in
+  gateway/mavlink imports this module.
 - Signing (``signing=SigningConfig(...)``, rules in signing.py): every outgoing frame is signed
   with link_id 0 on the GCS link and 1 on the API link (PX4 SITL starts its GCS instance first,
   then the onboard one, and signs with the instance number); inbound frames the Verifier rejects
@@ -29,19 +31,13 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
 from typing import Any
 
-from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import (
-    MAX_DATAGRAM_BYTES,
-    Decoder,
-    DecodeStats,
-    Encoder,
-    pack_datagrams,
-)
+from gateway.mavlink.codec import MAX_DATAGRAM_BYTES, Decoder, Encoder, pack_datagrams
 from gateway.mavlink.commands import CommandService
+from gateway.mavlink.link import LinkContext, LinkKind, SessionStats
 from gateway.mavlink.manual import ManualControlService
 from gateway.mavlink.mission import MissionService
 from gateway.mavlink.offboard import OffboardService
@@ -49,42 +45,20 @@ from gateway.mavlink.params import ParamService
 from gateway.mavlink.ping import PingService
 from gateway.mavlink.signing import Signer, SigningClock, SigningConfig, Verifier
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
-from gateway.mavlink.telemetry import NEVER, LinkKind, SampleCache, Scheduler, Snapshot
+from gateway.mavlink.telemetry import NEVER, SampleCache, Scheduler, Snapshot
+from gateway.mavlink.vehicle_port import VehiclePort
 
 __all__ = ["LinkKind", "Session", "SessionStats", "SigningConfig"]
 
 log = logging.getLogger(__name__)
 
-M = mavlink2
 COMPONENT_ID = 1
 MAV_TYPE_GCS = 6
 SIGNING_LINK_ID = {LinkKind.GCS: 0, LinkKind.API: 1}
 
 
-@dataclass
-class SessionStats(DecodeStats):
-    rx_other_target: int = 0  # addressed to another sysid/compid
-    rx_unhandled: int = 0  # valid, for us (or broadcast), but no service handles it
-    rx_setup_signing_refused: int = 0  # SETUP_SIGNING that passed verification (signing on)
-    offboard_setpoints: int = 0  # setpoints handed to the vehicle
-    offboard_dropped: int = 0  # setpoint messages that were unusable (frame, inf, nothing set)
-    tx_frames: int = 0
-    tx_datagrams: int = 0
-    tx_bytes: int = 0
-
-    def as_dict(self) -> dict[str, int]:
-        return asdict(self)
-
-    def get(self, name: str, default: int = 0) -> int:
-        """Mapping-style access for the shell's status line."""
-        return getattr(self, name, default)
-
-    def __getitem__(self, name: str) -> int:
-        return getattr(self, name)
-
-
 class Session:
-    def __init__(self, vehicle: Any, kind: LinkKind, now_s: float = 0.0, *,
+    def __init__(self, vehicle: VehiclePort, kind: LinkKind, now_s: float = 0.0, *,
                  boot_unix_s: float | None = None, signing: SigningConfig | None = None) -> None:
         self.vehicle = vehicle
         self.kind = kind
@@ -107,13 +81,16 @@ class Session:
         # What telemetry derives from one kinematics sample; the shell may give the sessions of
         # one vehicle the same cache (they sample it at the same instants).
         self.samples = SampleCache()
-        self.commands = CommandService(self)
-        self.params = ParamService(self)
-        self.statustext = StatusTextService(self)
-        self.ping = PingService(self)
-        self.mission = MissionService(self)
-        self.offboard = OffboardService(self)
-        self.manual = ManualControlService(self)
+        ctx = LinkContext(vehicle, kind, self.sysid, self.encoder, self.stats, self.send,
+                          self._other_target)
+        self.statustext = StatusTextService(ctx, self.gcs_present)
+        say = self.statustext.local
+        self.commands = CommandService(ctx, say, self.snapshot, self.scheduler)
+        self.params = ParamService(ctx)
+        self.ping = PingService(ctx)
+        self.mission = MissionService(ctx, say)
+        self.offboard = OffboardService(ctx, say)
+        self.manual = ManualControlService(ctx)
         self._routes: dict[int, Callable[[Any, float], None]] = {
             M.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
             M.MAVLINK_MSG_ID_COMMAND_LONG: self.commands.on_command_long,
@@ -201,6 +178,9 @@ class Session:
 
     def snapshot(self, now_s: float) -> Snapshot:
         return Snapshot(self.vehicle, now_s, self.boot_unix_s, self.samples)
+
+    def _other_target(self) -> None:
+        self.stats.rx_other_target += 1
 
     def gcs_present(self, now_s: float) -> bool:
         return now_s - self.last_gcs_heartbeat_s <= GCS_PRESENT_S

@@ -15,14 +15,12 @@ Rules:
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
 
 from pymavlink.dialects.v20 import common as mavlink2
 
+from gateway.mavlink.link import LinkContext
 from vehicles.types import Severity
-
-if TYPE_CHECKING:
-    from gateway.mavlink.session import Session
 
 GCS_PRESENT_S = 2.5
 MAX_AGE_S = 5.0
@@ -31,8 +29,13 @@ MAX_PER_TICK = 20  # PX4 STATUSTEXT is limited to ~20 Hz; a burst beyond this wa
 
 
 class StatusTextService:
-    def __init__(self, session: Session) -> None:
-        self.s = session
+    """``gcs_present(now_s)``: whether a GCS heartbeat arrived on this link lately."""
+
+    def __init__(self, ctx: LinkContext, gcs_present: Callable[[float], bool]) -> None:
+        self.vehicle = ctx.vehicle
+        self.encoder = ctx.encoder
+        self.send = ctx.send
+        self.gcs_present = gcs_present
         self._cursor = -1
         self._next_id = 1
         self._pending: list[tuple[float, int, str]] = []  # (time_s, severity, text)
@@ -41,25 +44,25 @@ class StatusTextService:
         self._pending.append((now_s, int(severity), text))
 
     def poll(self, now_s: float) -> None:
-        texts = getattr(self.s.vehicle, "status_texts", None)
+        texts = getattr(self.vehicle, "status_texts", None)
         if texts is not None:
             for t in texts(self._cursor):
                 self._cursor = max(self._cursor, t.seq)
                 self._pending.append((t.time_s, int(t.severity), t.text))
         if not self._pending:
             return
-        if not self.s.gcs_present(now_s):
+        if not self.gcs_present(now_s):
             self._pending.clear()
             return
         batch, self._pending = self._pending[:MAX_PER_TICK], self._pending[MAX_PER_TICK:]
         for time_s, severity, text in batch:
             if now_s - time_s < MAX_AGE_S:
                 for frame in self.frames(severity, text):
-                    self.s.send(frame)
+                    self.send(frame)
 
     def frames(self, severity: int, text: str) -> list[bytes]:
         data = text.rstrip("\t").encode("utf-8", "replace")
-        enc = self.s.encoder
+        enc = self.encoder
         cls = mavlink2.MAVLink_statustext_message
         if len(data) <= CHUNK_LEN:
             return [enc.pack(cls, severity, data, 0, 0)]

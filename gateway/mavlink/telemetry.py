@@ -15,7 +15,6 @@ Rules:
 
 from __future__ import annotations
 
-import enum
 import heapq
 import math
 from collections.abc import Callable
@@ -26,6 +25,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.codec import Encoder, packer_of
 from gateway.mavlink.heartbeat import build_extended_sys_state, build_heartbeat, build_sys_status
+from gateway.mavlink.link import LinkKind
 from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
 
 M = mavlink2
@@ -49,11 +49,6 @@ MAV_BATTERY_CHARGE_STATE_OK = 1
 MAV_BATTERY_CHARGE_STATE_LOW = 2
 MAV_BATTERY_CHARGE_STATE_CRITICAL = 3
 MAV_BATTERY_CHARGE_STATE_EMERGENCY = 4
-
-
-class LinkKind(enum.Enum):
-    GCS = "gcs"  # PX4 "normal" mode link → 14550
-    API = "api"  # PX4 "onboard" mode link → 14540+i
 
 
 class _once:
