@@ -34,7 +34,9 @@ from gateway.mavlink.codec import (
 )
 from gateway.mavlink.link import LinkContext, Say
 from gateway.mavlink.modes import decode_set_mode
-from gateway.mavlink.telemetry import STREAMS_BY_ID, Scheduler, Snapshot, home_position
+from gateway.mavlink.snapshot import Snapshot
+from gateway.mavlink.streams import STREAMS_BY_ID, Scheduler
+from gateway.mavlink.telemetry import home_position
 from vehicles.types import CommandResult, GeoPoint, Severity
 
 ACCEPTED = CommandResult.ACCEPTED

@@ -44,8 +44,9 @@ from gateway.mavlink.offboard import OffboardService
 from gateway.mavlink.params import ParamService
 from gateway.mavlink.ping import PingService
 from gateway.mavlink.signing import Signer, SigningClock, SigningConfig, Verifier
+from gateway.mavlink.snapshot import SampleCache, Snapshot
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
-from gateway.mavlink.telemetry import NEVER, SampleCache, Scheduler, Snapshot
+from gateway.mavlink.streams import NEVER, Scheduler
 from gateway.mavlink.vehicle_port import VehiclePort
 
 __all__ = ["LinkKind", "Session", "SessionStats", "SigningConfig"]

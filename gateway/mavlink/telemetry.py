@@ -1,34 +1,28 @@
-"""Telemetry streams: one table of (message, builder, default rate per link kind), one scheduler.
+"""Telemetry messages: one builder per streamed message, from a ``Snapshot`` of the vehicle.
 
-Source: PX4 mavlink_main.cpp configure_streams_to_default (NORMAL plus the SITL overrides for
-the GCS link, ONBOARD for the API link) and each stream's .hpp for the field conventions.
+Source: PX4's stream classes (src/modules/mavlink/streams/*.hpp) for the field conventions, and
+its SITL sensor simulation (sensor_gps_sim, sensor_mag_sim, the barometer) for the constants.
 Rules:
-- Deadlines are integer microseconds of simulated time, so streams of commensurate rates fire
-  in the same wake-up (all 50 Hz streams go out together) and counts are exact.
-- A late wake-up sends each due stream once and re-phases it; it never bursts to catch up.
-- A builder returns None when it has nothing to say (HOME_POSITION before home is set).
-- SET_MESSAGE_INTERVAL may enable any message that has a builder, on either link.
-- Both links of a vehicle sample it at the same instants (every 50 Hz stream of one fires with
-  the other's), so what depends only on the kinematics and the time (ATTITUDE, GLOBAL_POSITION_INT
-  …) is computed and packed once per vehicle and instant (``Sample``) and framed per link.
+- A builder is ``(encoder, snapshot) -> frame | None``; it returns None when it has nothing to
+  say (HOME_POSITION before home is set, ORBIT_EXECUTION_STATUS while not orbiting).
+- Messages that depend only on the kinematics and the time are ``_shared``: their payload is
+  packed once per vehicle and instant (snapshot.py) and framed per link.
+- Which builder runs when, and at what rate on which link: streams.py.
 """
 
 from __future__ import annotations
 
-import heapq
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any
 
-from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Encoder, packer_of
 from gateway.mavlink.heartbeat import build_extended_sys_state, build_heartbeat, build_sys_status
-from gateway.mavlink.link import LinkKind
 from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
-
-M = mavlink2
+from gateway.mavlink.snapshot import SampleCache as SampleCache  # re-exported for gateway/sim
+from gateway.mavlink.snapshot import Snapshot
 
 # GPS_RAW_INT constants of PX4's SITL GPS (sensor_gps_sim / gz bridge).
 GPS_FIX_TYPE_3D = 3
@@ -49,109 +43,6 @@ MAV_BATTERY_CHARGE_STATE_OK = 1
 MAV_BATTERY_CHARGE_STATE_LOW = 2
 MAV_BATTERY_CHARGE_STATE_CRITICAL = 3
 MAV_BATTERY_CHARGE_STATE_EMERGENCY = 4
-
-
-class _once:
-    """A lazily computed attribute, stored on the instance at first read (like
-    functools.cached_property without its per-access lock, which 3.11 still takes)."""
-
-    def __init__(self, fn: Callable[[Any], Any]) -> None:
-        self.fn = fn
-        self.name = fn.__name__
-
-    def __get__(self, obj: Any, owner: type | None = None) -> Any:
-        if obj is None:
-            return self
-        value = self.fn(obj)
-        obj.__dict__[self.name] = value  # later reads never reach the descriptor
-        return value
-
-
-class Sample:
-    """What one vehicle's kinematics at one instant give every link: derived values, and the
-    payloads that depend on nothing else (see ``_shared``). Builders read it through
-    ``Snapshot``; only what cannot change within an instant belongs here (status and home can:
-    a command may arrive between the two links' wake-ups)."""
-
-    def __init__(self, vehicle: Any, now_s: float, kin: Any) -> None:
-        self.vehicle = vehicle
-        self.now_s = now_s
-        self.kin = kin
-        self.payloads: dict[Any, bytes] = {}
-
-    @_once
-    def euler(self) -> tuple[float, float, float]:
-        return self.kin.euler_rad()
-
-    @_once
-    def geo(self) -> Any:
-        # The vehicle derives it from the same measured position as ``kinematics``.
-        return self.vehicle.global_position
-
-
-class SampleCache:
-    """The latest ``Sample`` of one vehicle; the sessions of one vehicle share one cache."""
-
-    def __init__(self) -> None:
-        self._last: Sample | None = None
-
-    def at(self, vehicle: Any, now_s: float) -> Sample:
-        kin = vehicle.kinematics
-        last = self._last
-        # Keyed by identity: the vehicle makes a new Kinematics at each physics step, and as
-        # the cache holds the old one, a new one can never take its id. A vehicle that builds
-        # a new object on every read only loses the sharing.
-        if last is None or last.kin is not kin or last.now_s != now_s or last.vehicle is not vehicle:
-            last = self._last = Sample(vehicle, now_s, kin)
-        return last
-
-
-class Snapshot:
-    """What one wake-up reads from the vehicle; each property is read at most once.
-
-    ``samples``: the vehicle's ``SampleCache``, shared with its other links (None: a private
-    one)."""
-
-    def __init__(self, vehicle: Any, now_s: float, boot_unix_s: float | None,
-                 samples: SampleCache | None = None) -> None:
-        self.vehicle = vehicle
-        self.now_s = now_s
-        self.boot_unix_s = boot_unix_s
-        self.samples = samples
-        self.time_boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
-        self.time_usec = int(now_s * 1e6)
-
-    @_once
-    def status(self) -> Any:
-        return self.vehicle.status
-
-    @_once
-    def sample(self) -> Sample:
-        samples = self.samples if self.samples is not None else SampleCache()
-        return samples.at(self.vehicle, self.now_s)
-
-    @_once
-    def kin(self) -> Any:
-        """``vehicle.kinematics``: position, velocity, attitude, rates as plain floats."""
-        return self.sample.kin
-
-    @_once
-    def geo(self) -> Any:
-        return self.sample.geo
-
-    @_once
-    def euler(self) -> tuple[float, float, float]:
-        return self.sample.euler
-
-    @_once
-    def home_alt_m(self) -> float:
-        home = self.vehicle.home
-        return home.geo.alt_amsl_m if home is not None else self.vehicle.origin.alt_amsl_m
-
-    @_once
-    def mav_type(self) -> int:
-        return int(self.vehicle.params.get("MAV_TYPE", 2))
-
 
 Builder = Callable[[Encoder, Snapshot], "bytes | None"]
 
@@ -379,141 +270,3 @@ def orbit_execution_status(enc: Encoder, s: Snapshot) -> bytes | None:
     return enc.pack(M.MAVLink_orbit_execution_status_message, s.time_usec, st.radius_m,
                     MAV_FRAME_GLOBAL, _deg_e7(g.lat_deg), _deg_e7(g.lon_deg), g.alt_amsl_m)
 
-
-@dataclass(frozen=True)
-class StreamSpec:
-    msg_id: int
-    builder: Builder
-    gcs_hz: float  # PX4 "normal" mode with the SITL px4-rc.mavlink overrides
-    api_hz: float  # PX4 "onboard" mode
-
-    def default_hz(self, kind: LinkKind) -> float:
-        return self.gcs_hz if kind is LinkKind.GCS else self.api_hz
-
-
-STREAMS: tuple[StreamSpec, ...] = (
-    StreamSpec(M.MAVLINK_MSG_ID_HEARTBEAT, heartbeat, 1.0, 1.0),
-    StreamSpec(M.MAVLINK_MSG_ID_SYS_STATUS, sys_status, 1.0, 5.0),
-    StreamSpec(M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, extended_sys_state, 1.0, 5.0),
-    StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE, attitude, 50.0, 100.0),
-    StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION, attitude_quaternion, 50.0, 50.0),
-    StreamSpec(M.MAVLINK_MSG_ID_LOCAL_POSITION_NED, local_position_ned, 50.0, 30.0),
-    StreamSpec(M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, global_position_int, 50.0, 50.0),
-    # Onboard sends GPS_RAW_INT on every GPS update; PX4's simulated GPS runs at 10 Hz.
-    StreamSpec(M.MAVLINK_MSG_ID_GPS_RAW_INT, gps_raw_int, 5.0, 10.0),
-    StreamSpec(M.MAVLINK_MSG_ID_HOME_POSITION, home_position, 0.5, 0.5),
-    StreamSpec(M.MAVLINK_MSG_ID_VFR_HUD, vfr_hud, 4.0, 10.0),
-    StreamSpec(M.MAVLINK_MSG_ID_ALTITUDE, altitude, 1.0, 10.0),
-    StreamSpec(M.MAVLINK_MSG_ID_BATTERY_STATUS, battery_status, 0.5, 0.5),
-    StreamSpec(M.MAVLINK_MSG_ID_SYSTEM_TIME, system_time, 0.0, 1.0),
-    StreamSpec(M.MAVLINK_MSG_ID_MISSION_CURRENT, mission_current, 1.0, 1.0),
-    StreamSpec(M.MAVLINK_MSG_ID_ORBIT_EXECUTION_STATUS, orbit_execution_status, 2.0, 0.0),
-    StreamSpec(M.MAVLINK_MSG_ID_HIGHRES_IMU, highres_imu, 0.0, 50.0),
-    StreamSpec(M.MAVLINK_MSG_ID_ODOMETRY, odometry, 0.0, 30.0),
-    StreamSpec(M.MAVLINK_MSG_ID_SCALED_PRESSURE, scaled_pressure, 1.0, 1.0),
-)
-STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
-# HEARTBEAT rate is fixed (PX4: SET_MESSAGE_INTERVAL on it → FAILED).
-FIXED_RATE_IDS = frozenset({M.MAVLINK_MSG_ID_HEARTBEAT})
-
-NEVER = 1 << 62
-
-
-def _interval_us(hz: float) -> int:
-    return int(round(1e6 / hz)) if hz > 0 else 0
-
-
-_ORDER = {spec.msg_id: i for i, spec in enumerate(STREAMS)}  # frames go out in table order
-
-
-class Scheduler:
-    """Per-stream integer-µs deadlines; ``next_us`` is the earliest of them.
-
-    Streams with the same deadline and interval fire together until one of them is re-set, so
-    they are kept as one group in a heap of (deadline, table position of the group's first
-    stream, interval, streams): a wake-up touches the groups that are due, not every stream.
-    """
-
-    def __init__(self, kind: LinkKind, now_s: float) -> None:
-        self.kind = kind
-        start = int(round(now_s * 1e6))
-        self._interval_us: dict[int, int] = {}
-        nexts: dict[int, int] = {}
-        for spec in STREAMS:
-            iv = _interval_us(spec.default_hz(kind))
-            self._interval_us[spec.msg_id] = iv
-            nexts[spec.msg_id] = start if iv else NEVER
-        self._group(nexts)
-
-    def _group(self, next_us: dict[int, int]) -> None:
-        groups: dict[tuple[int, int], list[StreamSpec]] = {}
-        for spec in STREAMS:
-            nxt = next_us[spec.msg_id]
-            if nxt < NEVER:
-                groups.setdefault((nxt, self._interval_us[spec.msg_id]), []).append(spec)
-        # The sentinel never fires (now < NEVER), so the heap is never empty.
-        heap = [(NEVER, len(STREAMS), 0, ())]
-        heap += [(nxt, _ORDER[specs[0].msg_id], iv, tuple(specs))
-                 for (nxt, iv), specs in groups.items()]
-        heapq.heapify(heap)
-        self._heap = heap
-        # Streams of the groups due together (keyed by their first positions), in table order.
-        self._merged: dict[int, tuple[StreamSpec, ...]] = {}
-        self.next_us = heap[0][0]
-
-    def _deadlines(self) -> dict[int, int]:
-        """Each stream's next deadline (NEVER: stopped), read back from the groups."""
-        out = dict.fromkeys(self._interval_us, NEVER)
-        for nxt, _, _, specs in self._heap:
-            for spec in specs:
-                out[spec.msg_id] = nxt
-        return out
-
-    def interval_us(self, msg_id: int) -> int:
-        """MESSAGE_INTERVAL semantics: µs, −1 disabled, 0 unknown/not available."""
-        if msg_id not in self._interval_us:
-            return 0
-        return self._interval_us[msg_id] or -1
-
-    def set_interval(self, msg_id: int, interval_us: float, now_s: float) -> bool:
-        """SET_MESSAGE_INTERVAL p2: −1 stop, 0 default, > 0 interval µs. False if refused."""
-        spec = STREAMS_BY_ID.get(msg_id)
-        if spec is None or msg_id in FIXED_RATE_IDS or math.isnan(interval_us):
-            return False
-        if interval_us < 0:
-            iv = 0
-        elif interval_us == 0:
-            iv = _interval_us(spec.default_hz(self.kind))
-        else:
-            iv = max(1, int(round(interval_us)))
-        nexts = self._deadlines()
-        self._interval_us[msg_id] = iv
-        nexts[msg_id] = int(round(now_s * 1e6)) if iv else NEVER
-        self._group(nexts)
-        return True
-
-    def due(self, now_s: float) -> tuple[StreamSpec, ...]:
-        """Streams due at ``now_s`` in table order, with their deadlines advanced."""
-        now_us = int(round(now_s * 1e6))
-        if now_us < self.next_us:
-            return ()
-        heap = self._heap
-        fired = []
-        mask = 0
-        while heap[0][0] <= now_us:
-            nxt, first, iv, specs = heap[0]
-            nxt += iv
-            if nxt <= now_us:  # late wake-up: re-phase, never burst
-                nxt = now_us + iv
-            heapq.heapreplace(heap, (nxt, first, iv, specs))
-            fired.append(specs)
-            mask |= 1 << first
-        self.next_us = heap[0][0]
-        if len(fired) == 1:
-            return fired[0]
-        out = self._merged.get(mask)
-        if out is None:
-            out = tuple(sorted((spec for specs in fired for spec in specs),
-                               key=lambda spec: _ORDER[spec.msg_id]))
-            self._merged[mask] = out
-        return out

@@ -7,7 +7,6 @@ from pymavlink.dialects.v20 import common as M
 from pymavlink.generator.mavcrc import x25crc
 from test_mavlink_support import FakeVehicle, acks, make
 
-from gateway.mavlink import telemetry
 from gateway.mavlink.codec import (
     CRC_EXTRA_PROTOCOL_VERSION,
     Decoder,
@@ -16,6 +15,8 @@ from gateway.mavlink.codec import (
     pack_datagrams,
 )
 from gateway.mavlink.session import LinkKind
+from gateway.mavlink.snapshot import Snapshot
+from gateway.mavlink.streams import STREAMS
 from vehicles.orbit import OrbitStatus
 
 
@@ -31,13 +32,13 @@ def test_protocol_version_crc_extra_matches_xml_definition():
     assert (crc.crc & 0xFF) ^ (crc.crc >> 8) == CRC_EXTRA_PROTOCOL_VERSION
 
 
-@pytest.mark.parametrize("spec", telemetry.STREAMS, ids=lambda s: str(s.msg_id))
+@pytest.mark.parametrize("spec", STREAMS, ids=lambda s: str(s.msg_id))
 def test_fast_encoder_matches_pymavlink_pack(spec):
     vehicle = FakeVehicle(3)
     vehicle.become_ready()
     vehicle.move_to(3.0, -4.0, -10.0)
     vehicle.orbit_status = OrbitStatus(-20.0, (5.0, 6.0), -12.0)
-    snap = telemetry.Snapshot(vehicle, 12.345, 1.7e9)
+    snap = Snapshot(vehicle, 12.345, 1.7e9)
     enc = Encoder(3, 1)
     enc.seq = 77
     frame = spec.builder(enc, snap)

@@ -7,7 +7,6 @@ import pytest
 from pymavlink.dialects.v20 import common as M
 from test_mavlink_support import FakeVehicle, acks, make
 
-from gateway.mavlink import telemetry
 from gateway.mavlink.codec import Decoder, DecodeStats, Encoder
 from gateway.mavlink.session import LinkKind
 from gateway.mavlink.signing import (
@@ -21,6 +20,8 @@ from gateway.mavlink.signing import (
     Verdict,
     Verifier,
 )
+from gateway.mavlink.snapshot import Snapshot
+from gateway.mavlink.streams import STREAMS
 from vehicles.orbit import OrbitStatus
 
 KEY = SigningKey(bytes(range(32)))
@@ -102,13 +103,13 @@ def test_clock_rejects_an_epoch_before_2015():
 
 
 # --- our frames vs pymavlink ------------------------------------------------------------------
-@pytest.mark.parametrize("spec", telemetry.STREAMS, ids=lambda s: str(s.msg_id))
+@pytest.mark.parametrize("spec", STREAMS, ids=lambda s: str(s.msg_id))
 def test_signed_frames_are_byte_identical_to_pymavlink(spec):
     vehicle = FakeVehicle(3)
     vehicle.become_ready()
     vehicle.move_to(3.0, -4.0, -10.0)
     vehicle.orbit_status = OrbitStatus(-20.0, (5.0, 6.0), -12.0)
-    snap = telemetry.Snapshot(vehicle, 12.345, 1.7e9)
+    snap = Snapshot(vehicle, 12.345, 1.7e9)
     enc = Encoder(3, 1, Signer(KEY, 1, SigningClock(EPOCH_UNIX_S)))
     enc.seq, enc.now_s = 77, 12.345
     frame = spec.builder(enc, snap)

@@ -10,9 +10,9 @@ import pytest
 from pymavlink.dialects.v20 import common as M
 from test_mavlink_support import FakeVehicle, make
 
-from gateway.mavlink import telemetry
+from gateway.mavlink import streams
 from gateway.mavlink.session import LinkKind, Session
-from gateway.mavlink.telemetry import NEVER, STREAMS, STREAMS_BY_ID, Scheduler
+from gateway.mavlink.streams import NEVER, STREAMS, STREAMS_BY_ID, Scheduler
 from vehicles.types import GeoPoint, HomePosition, Kinematics
 
 
@@ -22,17 +22,17 @@ class ReferenceScheduler:
     def __init__(self, kind: LinkKind, now_s: float) -> None:
         self.kind = kind
         start = int(round(now_s * 1e6))
-        self.interval = {s.msg_id: telemetry._interval_us(s.default_hz(kind)) for s in STREAMS}
+        self.interval = {s.msg_id: streams._interval_us(s.default_hz(kind)) for s in STREAMS}
         self.next = {i: start if iv else NEVER for i, iv in self.interval.items()}
 
     def set_interval(self, msg_id: int, interval_us: float, now_s: float) -> bool:
         spec = STREAMS_BY_ID.get(msg_id)
-        if spec is None or msg_id in telemetry.FIXED_RATE_IDS or math.isnan(interval_us):
+        if spec is None or msg_id in streams.FIXED_RATE_IDS or math.isnan(interval_us):
             return False
         if interval_us < 0:
             iv = 0
         elif interval_us == 0:
-            iv = telemetry._interval_us(spec.default_hz(self.kind))
+            iv = streams._interval_us(spec.default_hz(self.kind))
         else:
             iv = max(1, int(round(interval_us)))
         self.interval[msg_id] = iv

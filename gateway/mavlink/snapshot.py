@@ -1,0 +1,134 @@
+"""What one wake-up of a link reads from its vehicle: ``Snapshot``, and ``Sample``, the part
+both links of a vehicle share.
+
+Rules and invariants:
+- A ``Snapshot`` reads each vehicle property at most once per wake-up (``_once``), however many
+  builders ask for it.
+- Both links of a vehicle sample it at the same instants (every 50 Hz stream of one fires with
+  the other's), so what depends only on the kinematics and the time (ATTITUDE,
+  GLOBAL_POSITION_INT …) is computed and packed once per vehicle and instant (``Sample``, kept
+  in the vehicle's ``SampleCache``) and framed per link.
+- Only what cannot change within an instant belongs in a ``Sample``: status and home can (a
+  command may arrive between the two links' wake-ups), so they are read per Snapshot.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, Generic, TypeVar, overload
+
+from gateway.mavlink.vehicle_port import VehiclePort
+from vehicles.geodesy import GeoPoint
+from vehicles.types import Kinematics, VehicleStatus
+
+T = TypeVar("T")
+
+
+class _once(Generic[T]):
+    """A lazily computed attribute, stored on the instance at first read (like
+    functools.cached_property without its per-access lock, which 3.11 still takes)."""
+
+    def __init__(self, fn: Callable[[Any], T]) -> None:
+        self.fn = fn
+        self.name = fn.__name__
+
+    @overload
+    def __get__(self, obj: None, owner: type | None = None) -> _once[T]: ...
+
+    @overload
+    def __get__(self, obj: object, owner: type | None = None) -> T: ...
+
+    def __get__(self, obj: object, owner: type | None = None) -> T | _once[T]:
+        if obj is None:
+            return self
+        value = self.fn(obj)
+        obj.__dict__[self.name] = value  # later reads never reach the descriptor
+        return value
+
+
+class Sample:
+    """What one vehicle's kinematics at one instant give every link: derived values, and the
+    payloads that depend on nothing else (see ``_shared``). Builders read it through
+    ``Snapshot``; only what cannot change within an instant belongs here (status and home can:
+    a command may arrive between the two links' wake-ups)."""
+
+    def __init__(self, vehicle: VehiclePort, now_s: float, kin: Kinematics) -> None:
+        self.vehicle = vehicle
+        self.now_s = now_s
+        self.kin = kin
+        self.payloads: dict[object, bytes] = {}  # by message id, or (message id, key)
+
+    @_once
+    def euler(self) -> tuple[float, float, float]:
+        return self.kin.euler_rad()
+
+    @_once
+    def geo(self) -> GeoPoint:
+        # The vehicle derives it from the same measured position as ``kinematics``.
+        return self.vehicle.global_position
+
+
+class SampleCache:
+    """The latest ``Sample`` of one vehicle; the sessions of one vehicle share one cache."""
+
+    def __init__(self) -> None:
+        self._last: Sample | None = None
+
+    def at(self, vehicle: VehiclePort, now_s: float) -> Sample:
+        kin = vehicle.kinematics
+        last = self._last
+        # Keyed by identity: the vehicle makes a new Kinematics at each physics step, and as
+        # the cache holds the old one, a new one can never take its id. A vehicle that builds
+        # a new object on every read only loses the sharing.
+        if last is None or last.kin is not kin or last.now_s != now_s or last.vehicle is not vehicle:
+            last = self._last = Sample(vehicle, now_s, kin)
+        return last
+
+
+class Snapshot:
+    """What one wake-up reads from the vehicle; each property is read at most once.
+
+    ``samples``: the vehicle's ``SampleCache``, shared with its other links (None: a private
+    one)."""
+
+    def __init__(self, vehicle: VehiclePort, now_s: float, boot_unix_s: float | None,
+                 samples: SampleCache | None = None) -> None:
+        self.vehicle = vehicle
+        self.now_s = now_s
+        self.boot_unix_s = boot_unix_s
+        self.samples = samples
+        self.time_boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
+        self.time_usec = int(now_s * 1e6)
+
+    @_once
+    def status(self) -> VehicleStatus:
+        return self.vehicle.status
+
+    @_once
+    def sample(self) -> Sample:
+        samples = self.samples if self.samples is not None else SampleCache()
+        return samples.at(self.vehicle, self.now_s)
+
+    @_once
+    def kin(self) -> Kinematics:
+        """``vehicle.kinematics``: position, velocity, attitude, rates as plain floats."""
+        return self.sample.kin
+
+    @_once
+    def geo(self) -> GeoPoint:
+        return self.sample.geo
+
+    @_once
+    def euler(self) -> tuple[float, float, float]:
+        return self.sample.euler
+
+    @_once
+    def home_alt_m(self) -> float:
+        home = self.vehicle.home
+        return home.geo.alt_amsl_m if home is not None else self.vehicle.origin.alt_amsl_m
+
+    @_once
+    def mav_type(self) -> int:
+        mav_type = self.vehicle.params.get("MAV_TYPE", 2)
+        return 2 if mav_type is None else int(mav_type)
+

@@ -1,0 +1,182 @@
+"""Telemetry streams: one table of (message, builder, default rate per link kind), one scheduler.
+
+Source: PX4 mavlink_main.cpp configure_streams_to_default (NORMAL plus the SITL overrides for
+the GCS link, ONBOARD for the API link).
+Rules:
+- Deadlines are integer microseconds of simulated time, so streams of commensurate rates fire
+  in the same wake-up (all 50 Hz streams go out together) and counts are exact.
+- A late wake-up sends each due stream once and re-phases it; it never bursts to catch up.
+- SET_MESSAGE_INTERVAL may enable any message that has a builder, on either link; HEARTBEAT's
+  rate is fixed.
+- Due streams come out in table order, so a wake-up's frames are always in the same order.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+
+from pymavlink.dialects.v20 import common as M
+
+from gateway.mavlink.link import LinkKind
+from gateway.mavlink.telemetry import (
+    Builder,
+    altitude,
+    attitude,
+    attitude_quaternion,
+    battery_status,
+    extended_sys_state,
+    global_position_int,
+    gps_raw_int,
+    heartbeat,
+    highres_imu,
+    home_position,
+    local_position_ned,
+    mission_current,
+    odometry,
+    orbit_execution_status,
+    scaled_pressure,
+    sys_status,
+    system_time,
+    vfr_hud,
+)
+
+
+@dataclass(frozen=True)
+class StreamSpec:
+    msg_id: int
+    builder: Builder
+    gcs_hz: float  # PX4 "normal" mode with the SITL px4-rc.mavlink overrides
+    api_hz: float  # PX4 "onboard" mode
+
+    def default_hz(self, kind: LinkKind) -> float:
+        return self.gcs_hz if kind is LinkKind.GCS else self.api_hz
+
+
+STREAMS: tuple[StreamSpec, ...] = (
+    StreamSpec(M.MAVLINK_MSG_ID_HEARTBEAT, heartbeat, 1.0, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_SYS_STATUS, sys_status, 1.0, 5.0),
+    StreamSpec(M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, extended_sys_state, 1.0, 5.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE, attitude, 50.0, 100.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION, attitude_quaternion, 50.0, 50.0),
+    StreamSpec(M.MAVLINK_MSG_ID_LOCAL_POSITION_NED, local_position_ned, 50.0, 30.0),
+    StreamSpec(M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, global_position_int, 50.0, 50.0),
+    # Onboard sends GPS_RAW_INT on every GPS update; PX4's simulated GPS runs at 10 Hz.
+    StreamSpec(M.MAVLINK_MSG_ID_GPS_RAW_INT, gps_raw_int, 5.0, 10.0),
+    StreamSpec(M.MAVLINK_MSG_ID_HOME_POSITION, home_position, 0.5, 0.5),
+    StreamSpec(M.MAVLINK_MSG_ID_VFR_HUD, vfr_hud, 4.0, 10.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ALTITUDE, altitude, 1.0, 10.0),
+    StreamSpec(M.MAVLINK_MSG_ID_BATTERY_STATUS, battery_status, 0.5, 0.5),
+    StreamSpec(M.MAVLINK_MSG_ID_SYSTEM_TIME, system_time, 0.0, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_MISSION_CURRENT, mission_current, 1.0, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ORBIT_EXECUTION_STATUS, orbit_execution_status, 2.0, 0.0),
+    StreamSpec(M.MAVLINK_MSG_ID_HIGHRES_IMU, highres_imu, 0.0, 50.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ODOMETRY, odometry, 0.0, 30.0),
+    StreamSpec(M.MAVLINK_MSG_ID_SCALED_PRESSURE, scaled_pressure, 1.0, 1.0),
+)
+STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
+# HEARTBEAT rate is fixed (PX4: SET_MESSAGE_INTERVAL on it → FAILED).
+FIXED_RATE_IDS = frozenset({M.MAVLINK_MSG_ID_HEARTBEAT})
+
+NEVER = 1 << 62
+
+
+def _interval_us(hz: float) -> int:
+    return int(round(1e6 / hz)) if hz > 0 else 0
+
+
+_ORDER = {spec.msg_id: i for i, spec in enumerate(STREAMS)}  # frames go out in table order
+
+
+class Scheduler:
+    """Per-stream integer-µs deadlines; ``next_us`` is the earliest of them.
+
+    Streams with the same deadline and interval fire together until one of them is re-set, so
+    they are kept as one group in a heap of (deadline, table position of the group's first
+    stream, interval, streams): a wake-up touches the groups that are due, not every stream.
+    """
+
+    def __init__(self, kind: LinkKind, now_s: float) -> None:
+        self.kind = kind
+        start = int(round(now_s * 1e6))
+        self._interval_us: dict[int, int] = {}
+        nexts: dict[int, int] = {}
+        for spec in STREAMS:
+            iv = _interval_us(spec.default_hz(kind))
+            self._interval_us[spec.msg_id] = iv
+            nexts[spec.msg_id] = start if iv else NEVER
+        self._group(nexts)
+
+    def _group(self, next_us: dict[int, int]) -> None:
+        groups: dict[tuple[int, int], list[StreamSpec]] = {}
+        for spec in STREAMS:
+            nxt = next_us[spec.msg_id]
+            if nxt < NEVER:
+                groups.setdefault((nxt, self._interval_us[spec.msg_id]), []).append(spec)
+        # The sentinel never fires (now < NEVER), so the heap is never empty.
+        heap = [(NEVER, len(STREAMS), 0, ())]
+        heap += [(nxt, _ORDER[specs[0].msg_id], iv, tuple(specs))
+                 for (nxt, iv), specs in groups.items()]
+        heapq.heapify(heap)
+        self._heap = heap
+        # Streams of the groups due together (keyed by their first positions), in table order.
+        self._merged: dict[int, tuple[StreamSpec, ...]] = {}
+        self.next_us = heap[0][0]
+
+    def _deadlines(self) -> dict[int, int]:
+        """Each stream's next deadline (NEVER: stopped), read back from the groups."""
+        out = dict.fromkeys(self._interval_us, NEVER)
+        for nxt, _, _, specs in self._heap:
+            for spec in specs:
+                out[spec.msg_id] = nxt
+        return out
+
+    def interval_us(self, msg_id: int) -> int:
+        """MESSAGE_INTERVAL semantics: µs, −1 disabled, 0 unknown/not available."""
+        if msg_id not in self._interval_us:
+            return 0
+        return self._interval_us[msg_id] or -1
+
+    def set_interval(self, msg_id: int, interval_us: float, now_s: float) -> bool:
+        """SET_MESSAGE_INTERVAL p2: −1 stop, 0 default, > 0 interval µs. False if refused."""
+        spec = STREAMS_BY_ID.get(msg_id)
+        if spec is None or msg_id in FIXED_RATE_IDS or math.isnan(interval_us):
+            return False
+        if interval_us < 0:
+            iv = 0
+        elif interval_us == 0:
+            iv = _interval_us(spec.default_hz(self.kind))
+        else:
+            iv = max(1, int(round(interval_us)))
+        nexts = self._deadlines()
+        self._interval_us[msg_id] = iv
+        nexts[msg_id] = int(round(now_s * 1e6)) if iv else NEVER
+        self._group(nexts)
+        return True
+
+    def due(self, now_s: float) -> tuple[StreamSpec, ...]:
+        """Streams due at ``now_s`` in table order, with their deadlines advanced."""
+        now_us = int(round(now_s * 1e6))
+        if now_us < self.next_us:
+            return ()
+        heap = self._heap
+        fired = []
+        mask = 0
+        while heap[0][0] <= now_us:
+            nxt, first, iv, specs = heap[0]
+            nxt += iv
+            if nxt <= now_us:  # late wake-up: re-phase, never burst
+                nxt = now_us + iv
+            heapq.heapreplace(heap, (nxt, first, iv, specs))
+            fired.append(specs)
+            mask |= 1 << first
+        self.next_us = heap[0][0]
+        if len(fired) == 1:
+            return fired[0]
+        out = self._merged.get(mask)
+        if out is None:
+            out = tuple(sorted((spec for specs in fired for spec in specs),
+                               key=lambda spec: _ORDER[spec.msg_id]))
+            self._merged[mask] = out
+        return out
