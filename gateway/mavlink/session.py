@@ -3,16 +3,22 @@
 The asyncio shell drives it exactly like aioquic's QuicConnection:
 
     s = Session(vehicle, LinkKind.API, now_s=0.0)
-    s.receive_datagram(data, now_s)      # a datagram arrived (never raises)
-    s.handle_timer(now_s)                # at s.get_timer(): emit due telemetry, paced params …
-    for d in s.datagrams_to_send(now_s): # then drain; frames packed into ≤ 1400-byte datagrams
-        link.send(d)
+    s.receive_datagram(data, now_s, peer)  # a datagram arrived from ``peer`` (never raises)
+    s.handle_timer(now_s)                  # at s.get_timer(): emit due telemetry, paced params …
+    for d in s.datagrams_to_send(now_s):   # then drain; frames packed into ≤ 1400-byte datagrams
+        link.send(d, s.peer)
 
 Rules and invariants:
 - Time is simulated seconds since boot (time_boot_ms = now_s·1000); no wall clock, no I/O here.
 - Identity: sysid = vehicle.params['MAV_SYS_ID'], compid 1; MAVLink 2 out, one seq per link.
 - Inbound frames addressed to another system are dropped and counted (``rx_other_target``);
   messages nobody handles are counted (``rx_unhandled``).
+- ``peer`` is the client this link answers (PX4 replies to the address it last heard from,
+  mavlink_main.cpp in UDP mode): the opaque address passed with the last datagram that held a
+  valid frame for this vehicle, so garbage and traffic for other systems or components (dropped
+  here or by a service, ``other_target()``) never move it, and a restarted client is followed.
+  With signing on only a frame with a valid signature moves it: an unsigned HEARTBEAT, which is
+  accepted (signing.py), must not redirect the vehicle's replies. None until then.
 - A GCS heartbeat (type 6) marks the link "GCS present" (STATUSTEXT gating) and is forwarded
   to ``vehicle.on_gcs_heartbeat(now_s)`` when the vehicle has it (data-link-loss failsafe).
 - Services live one per module; this file only routes. Each service gets a ``LinkContext``
@@ -76,6 +82,9 @@ class Session:
         self.encoder = Encoder(self.sysid, self.compid, signer)
         self.encoder.now_s = now_s
         self._decoder = Decoder(self.stats, verifier)
+        self._verifier = verifier
+        self.peer: object = None  # module docstring
+        self._addressed = False  # the frame being routed is for us (cleared by other_target)
         self._out: list[bytes] = []
         self.last_gcs_heartbeat_s = -math.inf
         self.scheduler = Scheduler(kind, now_s)
@@ -121,18 +130,31 @@ class Session:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing
 
     # --- the sans-IO contract -----------------------------------------------------------------
-    def receive_datagram(self, data: bytes, now_s: float) -> None:
+    def receive_datagram(self, data: bytes, now_s: float, peer: object = None) -> None:
+        """``peer``: the sender's address, opaque here; it becomes ``self.peer`` if the datagram
+        held a frame for this vehicle (module docstring)."""
         self.encoder.now_s = now_s  # the time replies are signed with
-        for msg in self._decoder.feed(data, now_s):
-            target = getattr(msg, "target_system", 0)
-            if target not in (0, self.sysid):
-                self.stats.rx_other_target += 1
-                continue
-            route = self._routes.get(msg.get_msgId())
-            if route is None:
-                self.stats.rx_unhandled += 1
-                continue
-            route(msg, now_s)
+        authenticate = self._verifier is not None
+        heard = False
+        try:
+            for msg in self._decoder.feed(data, now_s):
+                target = getattr(msg, "target_system", 0)
+                if target not in (0, self.sysid):
+                    self.stats.rx_other_target += 1
+                    continue
+                self._addressed = True
+                try:
+                    route = self._routes.get(msg.get_msgId())
+                    if route is None:
+                        self.stats.rx_unhandled += 1
+                    else:
+                        route(msg, now_s)
+                finally:  # a service that fails on a frame for us has still heard its sender
+                    if self._addressed and (not authenticate or msg.get_signed()):
+                        heard = True
+        finally:
+            if heard and peer is not None:
+                self.peer = peer
 
     def datagrams_to_send(self, now_s: float) -> list[bytes]:
         out = self._out
@@ -182,6 +204,7 @@ class Session:
 
     def _other_target(self) -> None:
         self.stats.rx_other_target += 1
+        self._addressed = False
 
     def gcs_present(self, now_s: float) -> bool:
         return now_s - self.last_gcs_heartbeat_s <= GCS_PRESENT_S

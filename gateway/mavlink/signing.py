@@ -288,12 +288,18 @@ class Verifier:
         return Verdict.ACCEPTED
 
     def filter(self, msgs: list[Any], now_s: float) -> list[Any]:
-        """The decoded pymavlink messages of one datagram that pass; rejections are counted."""
+        """The decoded pymavlink messages of one datagram that pass; rejections are counted.
+        Those accepted with a valid signature answer ``get_signed()`` True."""
         out = []
         for m in msgs:
-            verdict = self.check(m.get_msgbuf(), m.get_msgId(), now_s)
+            frame = m.get_msgbuf()
+            verdict = self.check(frame, m.get_msgId(), now_s)
             if verdict is Verdict.ACCEPTED:
                 self.stats.rx_signed += 1
+                # Marked as pymavlink's own parser marks a frame it verified: get_signed() is
+                # True only for a valid signature (not for an unsigned frame let through).
+                m._signed = True
+                m._link_id = frame[-13]
                 out.append(m)
                 continue
             if verdict is Verdict.ALLOWED_UNSIGNED:

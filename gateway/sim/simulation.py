@@ -83,7 +83,6 @@ class VehicleLink:
                                             self._on_uplink_delivered)
         self.downlink = sim.backend.make_link(f"{self.name}/down", vehicle_node, client_node,
                                               self._on_downlink_delivered)
-        self.peer: object = None
         self._timer: Event | None = None
         self._timer_at = math.inf
 
@@ -98,27 +97,20 @@ class VehicleLink:
         uplink.stats, downlink.stats = self.uplink.stats, self.downlink.stats
         self.uplink, self.downlink = uplink, downlink
 
+    @property
+    def peer(self) -> object:
+        """The client the session answers: where it last heard a valid frame for this vehicle
+        from (Session.peer), None before that."""
+        return self.session.peer
+
     # --- uplink: client → vehicle ---------------------------------------------------------------
     def _on_uplink_delivered(self, packet: bytes, peer: object) -> None:
-        stats = self.session.stats
-        ours_before = stats.rx_frames - stats.rx_other_target
-        signed_before = stats.rx_signed
         try:
-            self.session.receive_datagram(packet, self.sim.kernel.now)
+            self.session.receive_datagram(packet, self.sim.kernel.now, peer)
         except Exception:
             # A bug in handling one message must not take down every vehicle of the daemon.
             self.sim.internal_errors += 1
             log.exception("%s: error while handling a datagram", self.name)
-        moved = stats.rx_frames - stats.rx_other_target != ours_before
-        if self.session.signing is not None:
-            # Signing on: only a correctly signed frame moves the peer; an unsigned HEARTBEAT
-            # (accepted, as PX4 accepts it) must not redirect the vehicle's replies.
-            moved = moved and stats.rx_signed != signed_before
-        if moved and peer is not None:
-            # PX4 replies to the client it hears (mavlink_main.cpp, UDP mode). Only a datagram that
-            # held a valid frame for this vehicle moves the peer, so garbage or traffic for
-            # other systems cannot hijack the link, and a restarted client is followed.
-            self.peer = peer
         self.service()
 
     # --- downlink: vehicle → client -------------------------------------------------------------
@@ -141,7 +133,7 @@ class VehicleLink:
         """Push what the session wants to send into the downlink; re-arm its one timer."""
         now = self.sim.kernel.now
         for datagram in self.session.datagrams_to_send(now):
-            self.downlink.send(datagram, self.peer)
+            self.downlink.send(datagram, self.session.peer)
         deadline = self.session.get_timer()
         if deadline is None:
             deadline = math.inf

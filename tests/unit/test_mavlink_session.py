@@ -352,3 +352,46 @@ def test_unhandled_messages_are_counted():
     _, session, client = make()
     client.send(M.MAVLink_named_value_float_message(0, b"x", 1.0))
     assert session.stats.rx_unhandled == 1 and session.stats.get("rx_frames") == 1
+
+
+# --- the client address (peer) ------------------------------------------------------------------
+def test_the_peer_is_who_last_sent_a_valid_frame_for_this_vehicle():
+    vehicle, session, client = make()
+    heartbeat = M.MAVLink_heartbeat_message(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3)
+    assert session.peer is None
+    session.receive_datagram(client.encode(heartbeat), 1.0)  # no address: nothing to follow
+    assert session.peer is None
+    session.receive_datagram(client.encode(heartbeat), 1.0, "client")
+    assert session.peer == "client"
+    session.receive_datagram(b"\xfd\x09garbage", 1.1, "attacker")
+    for msg in (
+        M.MAVLink_command_long_message(42, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0),  # another system
+        M.MAVLink_param_request_list_message(1, 5),  # another component: the service says so
+        M.MAVLink_mission_request_list_message(0, 1, 0),  # the mission service wants our sysid
+        M.MAVLink_manual_control_message(42, 0, 0, 500, 0, 0),
+    ):
+        session.receive_datagram(client.encode(msg), 1.2, "attacker")
+    assert session.peer == "client"
+    assert session.stats.rx_malformed == 1 and session.stats.rx_other_target == 4
+    # A message nobody handles, for us, still comes from our client (a restarted one, here).
+    session.receive_datagram(client.encode(M.MAVLink_named_value_float_message(0, b"x", 1.0)),
+                             2.0, "restarted")
+    assert session.peer == "restarted"
+    # One frame for us among others in a datagram is enough.
+    other = client.encode(M.MAVLink_command_long_message(42, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0))
+    session.receive_datagram(other + client.encode(heartbeat), 2.1, "client")
+    assert session.peer == "client"
+
+
+def test_a_frame_a_service_fails_on_still_moves_the_peer():
+    vehicle, session, client = make()
+
+    def broken(now_s, forced=False):
+        raise RuntimeError("bug")
+
+    vehicle.arm = broken
+    frame = client.encode(M.MAVLink_command_long_message(1, 1, M.MAV_CMD_COMPONENT_ARM_DISARM, 0,
+                                                         1, 0, 0, 0, 0, 0, 0))
+    with pytest.raises(RuntimeError):
+        session.receive_datagram(frame, 1.0, "client")
+    assert session.peer == "client"

@@ -353,3 +353,23 @@ def test_signing_off_behaves_as_before():
     assert (st.rx_unsigned, st.rx_bad_signature, st.rx_replayed, st.rx_signed,
             st.rx_setup_signing_refused, st.rx_unhandled) == (0, 0, 0, 0, 0, 1)
     assert session.encoder.signer is None and "frame" not in vars(session.encoder)
+
+
+def test_only_a_validly_signed_frame_moves_the_peer():
+    """An unsigned HEARTBEAT is accepted (as on PX4) but must not redirect the replies; nor may
+    a HEARTBEAT with a bad signature (accepted the same way), nor a signed frame for another
+    system."""
+    vehicle, session, _ = make(signing=SIGNING)
+    signed = pym(KEY, stamp(10.0))
+    session.receive_datagram(command(signed, M.MAV_CMD_REQUEST_PROTOCOL_VERSION), 10.0, "client")
+    assert session.peer == "client"
+    heartbeat = M.MAVLink_heartbeat_message(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0, 3)
+    session.receive_datagram(heartbeat.pack(pym(None, 0)), 10.1, "unsigned")
+    session.receive_datagram(heartbeat.pack(pym(OTHER_KEY, stamp(10.0))), 10.2, "forged")
+    other = M.MAVLink_command_long_message(42, 1, 400, 0, 1, 0, 0, 0, 0, 0, 0).pack(signed)
+    session.receive_datagram(other, 10.3, "elsewhere")
+    assert session.peer == "client"
+    assert vehicle.gcs_heartbeats == [10.1, 10.2]  # both heartbeats were taken
+    assert session.stats.rx_signed == 2
+    session.receive_datagram(heartbeat.pack(signed), 10.4, "moved")
+    assert session.peer == "moved"
