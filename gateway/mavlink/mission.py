@@ -30,7 +30,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import math
-from typing import Any
+from typing import Any, cast
 
 from pymavlink.dialects.v20 import common as M
 
@@ -44,6 +44,7 @@ from gateway.mavlink.mission_items import (
     pack_mission_current,
     plan_type_of,
 )
+from gateway.mavlink.vehicle_port import VehicleFeatures
 from vehicles.plan_types import PlanItem, PlanResult, PlanType
 from vehicles.plans import CAPACITY  # one source: what the vehicle can store
 from vehicles.types import Severity
@@ -170,8 +171,9 @@ class MissionService:
             self.ack(src, NO_SPACE, msg.mission_type)
             return
         self._completed = None
+        plans = cast(VehicleFeatures, self.vehicle)  # it stores plans (set_plan checked above)
         if msg.count == 0:
-            self.ack(src, self.vehicle.clear_plan(now_s, ptype), msg.mission_type)
+            self.ack(src, plans.clear_plan(now_s, ptype), msg.mission_type)
             return
         self.phase = Phase.UPLOAD
         _UPLOADS[id(self.vehicle)] = self
@@ -218,7 +220,8 @@ class MissionService:
             return
         items, ptype = tuple(self._items), PlanType(self.mission_type)
         self._idle()
-        result = int(self.vehicle.set_plan(now_s, ptype, items))
+        plans = cast(VehicleFeatures, self.vehicle)  # an upload starts only if it has set_plan
+        result = int(plans.set_plan(now_s, ptype, items))
         self._completed = (self.partner, self.mission_type, self.count - 1, result)
         self.ack(self.partner, result, self.mission_type)
 

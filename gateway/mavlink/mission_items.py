@@ -16,14 +16,12 @@ Rules:
 from __future__ import annotations
 
 import math
-from typing import Any
 
-from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Encoder
+from gateway.mavlink.vehicle_port import VehiclePort
 from vehicles.plan_types import MissionState, MissionStatus, PlanItem, PlanType
-
-M = mavlink2
 
 # Frames whose x/y are latitude/longitude (MAV_FRAME numbers).
 GLOBAL_FRAMES = frozenset({0, 3, 5, 6, 10, 11})
@@ -71,7 +69,7 @@ def pack_item(enc: Encoder, item: PlanItem, seq: int, mission_type: int, target:
                     item.z, mission_type)
 
 
-def mission_status_of(vehicle: Any) -> MissionStatus:
+def mission_status_of(vehicle: VehiclePort) -> MissionStatus:
     """``vehicle.mission_status``, or "no mission" for a vehicle without mission support."""
     status = getattr(vehicle, "mission_status", None)
     return NO_MISSION if status is None else status

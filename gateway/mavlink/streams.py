@@ -80,6 +80,9 @@ STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
 FIXED_RATE_IDS = frozenset({M.MAVLINK_MSG_ID_HEARTBEAT})
 
 NEVER = 1 << 62
+# A group of streams that fire together: (deadline µs, table position of its first stream,
+# interval µs, the streams in table order).
+Group = tuple[int, int, int, tuple[StreamSpec, ...]]
 
 
 def _interval_us(hz: float) -> int:
@@ -115,7 +118,7 @@ class Scheduler:
             if nxt < NEVER:
                 groups.setdefault((nxt, self._interval_us[spec.msg_id]), []).append(spec)
         # The sentinel never fires (now < NEVER), so the heap is never empty.
-        heap = [(NEVER, len(STREAMS), 0, ())]
+        heap: list[Group] = [(NEVER, len(STREAMS), 0, ())]
         heap += [(nxt, _ORDER[specs[0].msg_id], iv, tuple(specs))
                  for (nxt, iv), specs in groups.items()]
         heapq.heapify(heap)

@@ -23,6 +23,7 @@ from gateway.mavlink.heartbeat import build_extended_sys_state, build_heartbeat,
 from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
 from gateway.mavlink.snapshot import SampleCache as SampleCache  # re-exported for gateway/sim
 from gateway.mavlink.snapshot import Snapshot
+from vehicles.params import ParamStore
 
 # GPS_RAW_INT constants of PX4's SITL GPS (sensor_gps_sim / gz bridge).
 GPS_FIX_TYPE_3D = 3
@@ -155,12 +156,17 @@ def altitude(s: Snapshot) -> tuple:
     return (s.time_usec, amsl, amsl, local, amsl - s.home_alt_m, math.nan, math.nan)
 
 
-def _charge_state(remaining: float, params: Any) -> int:
-    if remaining <= params.get("BAT_EMERGEN_THR", 0.05):
+def _param(params: ParamStore, name: str, default: float) -> float:
+    value = params.get(name, default)
+    return default if value is None else value
+
+
+def _charge_state(remaining: float, params: ParamStore) -> int:
+    if remaining <= _param(params, "BAT_EMERGEN_THR", 0.05):
         return MAV_BATTERY_CHARGE_STATE_EMERGENCY
-    if remaining <= params.get("BAT_CRIT_THR", 0.07):
+    if remaining <= _param(params, "BAT_CRIT_THR", 0.07):
         return MAV_BATTERY_CHARGE_STATE_CRITICAL
-    if remaining <= params.get("BAT_LOW_THR", 0.15):
+    if remaining <= _param(params, "BAT_LOW_THR", 0.15):
         return MAV_BATTERY_CHARGE_STATE_LOW
     return MAV_BATTERY_CHARGE_STATE_OK
 
