@@ -22,6 +22,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+from vehicles.params import ParamStore
 from vehicles.status_log import StatusLog
 from vehicles.types import NavState
 
@@ -151,8 +152,8 @@ def _rcl_condition(f: FailsafeFlags, params) -> bool:
 @dataclass(frozen=True)
 class Check:
     name: str
-    condition: Callable[[FailsafeFlags, object], bool]
-    options: Callable[[FailsafeFlags, object], ActionOptions]
+    condition: Callable[[FailsafeFlags, ParamStore], bool]
+    options: Callable[[FailsafeFlags, ParamStore], ActionOptions]
 
 
 CHECKS: tuple[Check, ...] = (

@@ -21,8 +21,7 @@ from __future__ import annotations
 import math
 
 from vehicles.control.position_control import PositionSetpoint
-
-Vec3 = tuple[float, float, float]
+from vehicles.types import Vec3
 
 TARGET_TIMEOUT_S = 3.0
 FILTER_OMEGA = 1.0  # rad/s
@@ -74,14 +73,15 @@ class FollowTarget:
             self._slew(self.yaw_sp, step, yaw)
             return None
         tp, tv = measured
-        if self._pos is None:
-            self._pos, self._vel = tp, tv
+        fp, fv = self._pos, self._vel
+        if fp is None:
+            fp, fv = tp, tv
         else:  # second-order reference model towards the measurement
             w2, k = FILTER_OMEGA ** 2, 2.0 * FILTER_ZETA * FILTER_OMEGA
-            acc = tuple(w2 * (tp[i] - self._pos[i]) + k * (tv[i] - self._vel[i]) for i in range(3))
-            self._vel = tuple(self._vel[i] + acc[i] * dt for i in range(3))
-            self._pos = tuple(self._pos[i] + self._vel[i] * dt for i in range(3))
-        fp, fv = self._pos, self._vel
+            an, ae, ad = (w2 * (tp[i] - fp[i]) + k * (tv[i] - fv[i]) for i in range(3))
+            fv = (fv[0] + an * dt, fv[1] + ae * dt, fv[2] + ad * dt)
+            fp = (fp[0] + fv[0] * dt, fp[1] + fv[1] * dt, fp[2] + fv[2] * dt)
+        self._pos, self._vel = fp, fv
         if math.hypot(fv[0], fv[1]) >= COURSE_MIN_SPEED_MPS:
             self._course = math.atan2(fv[1], fv[0])
         dist = max(float(p["FLW_TGT_DST"]), 1.0)

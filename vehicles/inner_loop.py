@@ -10,8 +10,8 @@ vehicles/control — the same source the Python classes run — inlined into the
 
 Rules and invariants:
 - One row per vehicle in every array (``InnerLoop.add`` grows them); row k is the World's k-th
-  vehicle. The autopilot (Python, 50 Hz) writes a row's setpoints, gains and resets through
-  ``InnerLoop.load``; nothing else writes them.
+  vehicle. The autopilot (Python, 50 Hz) decides a row's mode, setpoints, gains and resets as an
+  ``InnerCommand``; ``InnerLoop.load`` copies it into the row; nothing else writes them.
 - Modes per vehicle and step: OFF (disarmed or terminated: the motors spin down, the controller
   state is left alone), IDLE (rate controller reset, zero torque → motors at idle thrust, the
   saturation flags kept), FLY (attitude, or a body-rate setpoint when one is given).
@@ -24,6 +24,7 @@ Rules and invariants:
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,6 +37,8 @@ from vehicles.control.rate_control import STATE_SIZE, d_filter_alpha, rate_pid
 MODE_OFF = 0
 MODE_IDLE = 1
 MODE_FLY = 2
+# Motors spin at this normalized thrust when armed and idle (PX4 idle PWM / CA idle).
+IDLE_THRUST_NORM = 0.02
 
 # Columns of ``InnerLoop.measured``: position NED (m), velocity NED (m/s), attitude q (w, x, y, z)
 # FRD → NED, body rates FRD (rad/s), acceleration NED (m/s², finite difference of velocity).
@@ -44,6 +47,23 @@ M_POS, M_VEL, M_Q, M_RATES, M_ACCEL, M_SIZE = 0, 3, 6, 10, 13, 16
 # to apply (PyBullet clears external forces after every step).
 F_SIZE = 7
 _SQRT_HALF = math.sqrt(0.5)
+
+
+@dataclass(frozen=True, slots=True)
+class InnerCommand:
+    """What the autopilot hands its row of the inner loop (``Autopilot.step``): the mode, the
+    attitude (or body-rate) setpoint and thrust, the land detector's verdict, new gains when the
+    parameters changed (the rate integrator then restarts, as PX4 builds a new controller) and
+    whether the rate controller restarts (the motors went idle)."""
+
+    mode: int  # MODE_OFF, MODE_IDLE or MODE_FLY
+    attitude_q: tuple[float, float, float, float]
+    yawspeed_radps: float
+    thrust_norm: float
+    rates_frd_radps: tuple[float, float, float] | None  # replaces the attitude controller
+    landed: bool
+    gains: tuple[tuple[float, ...], tuple[float, ...]] | None  # (attitude, rate) coefficients
+    reset_rates: bool
 
 
 @njit_cached
@@ -215,27 +235,22 @@ class InnerLoop:
         measure(np.array([raw_state]), self.spawn_enu[k:k + 1], 0.0, self.measured[k:k + 1])
         return k
 
-    def load(self, k: int, autopilot) -> None:
-        """Copy what the autopilot decided for row ``k`` (setpoints, gains, resets)."""
-        ap = autopilot
-        if ap.gains_changed:
-            self.att_gains[k] = ap.attitude_gains.coefficients()
-            self.rate_gains[k] = ap.rate_gains.vector()
-            self.rate_state[k] = 0.0  # PX4 builds a new controller: its integrator starts at 0
-            ap.gains_changed = False
-        if ap.rates_reset:
+    def load(self, k: int, command: InnerCommand) -> None:
+        """Row ``k`` takes the autopilot's ``command``."""
+        self.mode[k] = command.mode
+        if command.gains is not None:
+            self.att_gains[k], self.rate_gains[k] = command.gains
             self.rate_state[k] = 0.0
-            ap.rates_reset = False
-        sp = ap.attitude_setpoint
-        self.att_sp[k] = sp.attitude_q
-        self.yawspeed_sp[k] = sp.yawspeed_radps
-        self.thrust_sp[k] = sp.thrust_body_norm
-        rates = ap.rates_setpoint
+        if command.reset_rates:
+            self.rate_state[k] = 0.0
+        self.att_sp[k] = command.attitude_q
+        self.yawspeed_sp[k] = command.yawspeed_radps
+        self.thrust_sp[k] = command.thrust_norm
+        rates = command.rates_frd_radps
         self.use_rates_sp[k] = rates is not None
         if rates is not None:
             self.rates_sp[k] = rates
-        self.landed[k] = ap.land_detector.landed
-        ap.inner_dirty = False
+        self.landed[k] = command.landed
 
     def control(self) -> None:
         """Motor commands, rotor speeds and the force/torque to apply for every row."""

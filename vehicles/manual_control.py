@@ -33,9 +33,8 @@ import math
 from dataclasses import dataclass
 
 from vehicles.control.position_control import PositionSetpoint
-from vehicles.types import GRAVITY_MPS2
+from vehicles.types import GRAVITY_MPS2, Vec3
 
-Vec3 = tuple[float, float, float]
 EPS = 1.1920929e-07  # FLT_EPSILON
 TAKEOFF_THROTTLE = 0.3  # FlightTaskManualAltitude::_checkTakeoff: above 65 % of the stick
 STICK_RATE_TAU_S = 0.1  # MovingDiff's filter
@@ -165,8 +164,9 @@ class ManualControl:
 
     def current(self, now_s: float) -> Sticks:
         """The sticks now: centred once the input is lost (Sticks::checkAndUpdateStickInputs)."""
-        if self.fresh(now_s, float(self._params["COM_RC_LOSS_T"])):
-            return self.sticks
+        sticks = self.sticks
+        if sticks is not None and self.fresh(now_s, float(self._params["COM_RC_LOSS_T"])):
+            return sticks
         return CENTRED
 
 

@@ -19,10 +19,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from vehicles.control.trajectory import TrajectoryLimits
+from vehicles.params import ParamStore
 from vehicles.status_log import StatusLog
-from vehicles.types import GeoPoint, HomePosition, NavState
-
-Vec3 = tuple[float, float, float]
+from vehicles.types import GeoPoint, HomePosition, NavState, Vec3
 
 
 @dataclass(frozen=True)
@@ -41,7 +40,7 @@ class NavContext:
     """What a mode may look at and do during one tick (built by the autopilot)."""
 
     now_s: float
-    params: object
+    params: ParamStore
     log: StatusLog
     armed: bool
     landed: bool
@@ -51,8 +50,8 @@ class NavContext:
     home: HomePosition | None
     setpoint_ned_m: Vec3  # where the trajectory carrot is now
     stopping_point_ned_m: Vec3
+    origin: GeoPoint  # EKF origin: lat/lon of plan items -> local NED
     switch_to: Callable[[NavState, Vec3 | None], None] = field(default=lambda s, p: None)
-    origin: GeoPoint | None = None  # EKF origin: lat/lon of plan items -> local NED
     cruise_mps: float = math.nan  # NaN = MPC_XY_CRUISE
     set_cruise_mps: Callable[[float], None] = field(default=lambda v: None)
 
@@ -71,7 +70,7 @@ class NavContext:
     def home_alt_amsl_m(self) -> float:
         if self.home is not None:
             return self.home.geo.alt_amsl_m
-        return self.origin.alt_amsl_m if self.origin is not None else 0.0
+        return self.origin.alt_amsl_m
 
 
 def auto_limits(params, speed_xy_mps: float | None = None, speed_up_mps: float | None = None,

@@ -29,9 +29,7 @@ from vehicles.plan_types import (
     PlanType,
 )
 from vehicles.plans import PlanStore, item_ned
-from vehicles.types import NavState
-
-Vec3 = tuple[float, float, float]
+from vehicles.types import NavState, Vec3
 
 # Items that move the vehicle (the rest is executed instantly).
 GOTO_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.NAV_LOITER_UNLIM,
@@ -207,8 +205,7 @@ class Mission(NavMode):
         home_z = ctx.home.position_ned_m[2] if ctx.home else 0.0
         for item in self.items[self.current:]:
             if item.command in GOTO_COMMANDS or item.command in TAKEOFF_COMMANDS:
-                if ctx.origin is not None:
-                    alt = max(alt, home_z - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2])
+                alt = max(alt, home_z - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2])
                 break
         return alt
 

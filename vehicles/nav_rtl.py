@@ -19,8 +19,7 @@ import math
 from vehicles.nav_core import Land, NavContext, NavMode, NavSetpoint
 from vehicles.plan_types import MavCmd, PlanType
 from vehicles.plans import PlanStore, item_ned
-
-Vec3 = tuple[float, float, float]
+from vehicles.types import Vec3
 
 
 class RtlPhase(enum.Enum):

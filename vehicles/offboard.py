@@ -22,9 +22,7 @@ from dataclasses import dataclass
 
 from vehicles.control.position_control import limit_tilt
 from vehicles.plan_types import OffboardSetpoint
-from vehicles.types import GRAVITY_MPS2
-
-Vec3 = tuple[float, float, float]
+from vehicles.types import GRAVITY_MPS2, Vec3
 
 
 @dataclass(frozen=True)

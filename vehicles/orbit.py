@@ -27,8 +27,7 @@ from dataclasses import dataclass
 
 from vehicles.control.position_control import PositionSetpoint
 from vehicles.manual_control import ManualAltitude, Sticks, expo_deadzone
-
-Vec3 = tuple[float, float, float]
+from vehicles.types import Vec3
 
 RADIUS_MIN = 1.0
 RADIUS_MAX = 100.0

@@ -10,12 +10,13 @@ Rules and invariants:
   motor lag, linear drag; inner_loop.py), rotated to the world frame and applied at the centre of
   mass with ``WORLD_FRAME`` (PyBullet's LINK_FRAME torque on a base is unreliable). PyBullet
   clears external forces after each ``stepSimulation``, so they are applied every step.
-- A step is: every autopilot's 50 Hz part when due (Python), one compiled call for every
+- A step is: every vehicle's autopilot (its 50 Hz part when due, Python) handing its row of the
+  inner loop a new command when it has one, one compiled call for every
   vehicle's attitude/rate/mixer/motor loop, the PyBullet calls per body, one compiled call that
   turns the bodies' states into measurements. PyBullet has no call that reads or pushes many
   bodies at once, so the per-body calls stay.
 - Fixed step ``dt_s`` (default 0.004 s = 250 Hz, PX4 lockstep), one sub-step.
-- ``World.step(now_s)`` runs each vehicle's autopilot at ``now_s`` on the state measured at
+- ``World.step(now_s)`` steps each vehicle (``Vehicle.step``) at ``now_s`` on the state measured at
   ``now_s``, then integrates to ``now_s + dt_s``; the new state is stamped ``now_s + dt_s``.
 - Vehicle ``index`` spawns on a grid (``SPAWN_SPACING_M``, ``SPAWN_COLUMNS`` per row, rows to the
   north); its local NED origin is its spawn point on the ground (centre of mass at rest).
@@ -29,12 +30,11 @@ import math
 import pybullet as pb
 
 from vehicles.airframe import X500, Airframe
-from vehicles.autopilot import IDLE_THRUST_NORM
 from vehicles.control import compiled, position_control
-from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_VEL, InnerLoop
+from vehicles.inner_loop import IDLE_THRUST_NORM, M_ACCEL, M_POS, M_Q, M_RATES, M_VEL, InnerLoop
 from vehicles.params import ParamStore
-from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint
-from vehicles.vehicle import Measurement, Vehicle
+from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint, Measurement
+from vehicles.vehicle import Vehicle
 
 log = logging.getLogger(__name__)
 _uncached_warned = False  # the warning about numba's cache is given once per process
@@ -127,29 +127,27 @@ class World:
         lin, ang = pb.getBaseVelocity(body_id, physicsClientId=self.client_id)
         return pos + orn + lin + ang
 
-    def measurement(self, row: int) -> tuple[Measurement, tuple[float, float, float]]:
-        """Row ``row``'s state after the last step (NED/FRD) and its acceleration."""
+    def measurement(self, row: int) -> Measurement:
+        """Row ``row``'s state after the last step (NED/FRD)."""
         rows = self._rows
         if rows is None:
             rows = self._rows = self.inner.measured.tolist()
         m = rows[row]
-        return (Measurement((m[M_POS], m[M_POS + 1], m[M_POS + 2]),
-                            (m[M_VEL], m[M_VEL + 1], m[M_VEL + 2]),
-                            (m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3]),
-                            (m[M_RATES], m[M_RATES + 1], m[M_RATES + 2])),
-                (m[M_ACCEL], m[M_ACCEL + 1], m[M_ACCEL + 2]))
+        return Measurement((m[M_POS], m[M_POS + 1], m[M_POS + 2]),
+                           (m[M_VEL], m[M_VEL + 1], m[M_VEL + 2]),
+                           (m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3]),
+                           (m[M_RATES], m[M_RATES + 1], m[M_RATES + 2]),
+                           (m[M_ACCEL], m[M_ACCEL + 1], m[M_ACCEL + 2]))
 
     def rotor_speeds(self, row: int) -> tuple[float, ...]:
         return tuple(self.inner.rotor_speed[row].tolist())
 
     def step(self, now_s: float) -> None:
         inner = self.inner
-        mode = inner.mode
         for k, vehicle in enumerate(self._vehicles):
-            ap = vehicle._autopilot
-            mode[k] = ap.step(now_s)
-            if ap.inner_dirty:
-                inner.load(k, ap)
+            command = vehicle.step(now_s)
+            if command is not None:
+                inner.load(k, command)
         inner.control()
         c = self.client_id
         apply_force, apply_torque, frame = pb.applyExternalForce, pb.applyExternalTorque, pb.WORLD_FRAME

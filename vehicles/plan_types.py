@@ -20,8 +20,9 @@ import enum
 import math
 from dataclasses import dataclass
 
+from vehicles.types import Vec3
+
 NAN = math.nan
-Vec3 = tuple[float, float, float]
 NAN3: Vec3 = (NAN, NAN, NAN)
 
 

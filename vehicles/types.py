@@ -24,6 +24,19 @@ GRAVITY_MPS2 = 9.80665
 
 # A 3-vector of plain floats (the fast form the controllers pass around; frames in the names).
 Vec3 = tuple[float, float, float]
+# A unit quaternion (w, x, y, z).
+Quat = tuple[float, float, float, float]
+
+
+class Measurement(NamedTuple):
+    """Kinematic truth of one physics step as plain floats (a NamedTuple: cheap at 250 Hz); what
+    the World measures and the autopilot's 50 Hz part reads."""
+
+    position_ned_m: Vec3
+    velocity_ned_mps: Vec3
+    attitude_q: Quat  # FRD -> NED
+    rates_frd_radps: Vec3
+    accel_ned_mps2: Vec3  # over the last physics step
 
 
 class NavState(enum.IntEnum):

@@ -6,18 +6,21 @@ This is the object the gateway talks to (vehicles/README.md contract). Rules:
   the 250 Hz loop does not allocate them for vehicles nobody is looking at.
 - Local NED is relative to ``origin`` (the spawn point on the ground, = EKF origin).
 - The World owns the body and the inner loop (vehicles/inner_loop.py); the vehicle reads its
-  measurement from the World lazily, once per physics step at most.
+  measurement from the World lazily, once per physics step at most, and hands it down to the
+  autopilot (``step`` and the commands that need the position); the autopilot never reads it.
 """
 
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from collections.abc import Iterable
+from typing import Protocol
 
 import numpy as np
 
 from vehicles.airframe import Airframe
-from vehicles.autopilot import Autopilot
+from vehicles.autopilot import POSITION_CONTROL_DIVIDER, Autopilot
+from vehicles.inner_loop import InnerCommand
 from vehicles.manual_control import Sticks
 from vehicles.orbit import OrbitStatus
 from vehicles.params import ParamStore
@@ -27,27 +30,29 @@ from vehicles.types import (
     GeoPoint,
     HomePosition,
     Kinematics,
+    Measurement,
     NavState,
     StatusText,
+    Vec3,
     VehicleState,
     VehicleStatus,
 )
 
-Vec3 = tuple[float, float, float]
 
+class WorldRow(Protocol):
+    """What a vehicle reads of the World that owns its body (physics.World)."""
 
-class Measurement(NamedTuple):
-    """Kinematic truth of one step, as plain floats (a NamedTuple: cheap to build at 250 Hz)."""
+    time_s: float
+    steps: int
 
-    position_ned_m: Vec3
-    velocity_ned_mps: Vec3
-    attitude_q: tuple[float, float, float, float]  # (w, x, y, z), FRD -> NED
-    rates_frd_radps: Vec3
+    def measurement(self, row: int) -> Measurement: ...
+
+    def rotor_speeds(self, row: int) -> tuple[float, ...]: ...
 
 
 class Vehicle:
     def __init__(self, index: int, params: ParamStore, airframe: Airframe, origin: GeoPoint,
-                 dt_s: float, boot_time_s: float = 0.0, *, world, row: int) -> None:
+                 dt_s: float, boot_time_s: float = 0.0, *, world: WorldRow, row: int) -> None:
         """``world`` owns the body and row ``row`` of its inner loop (physics.World)."""
         self.index = index
         self.params = params
@@ -57,16 +62,28 @@ class Vehicle:
         self._world = world
         self._row = row
         self._autopilot = Autopilot(params, airframe, origin, dt_s, boot_time_s,
-                                    name=f"vehicle {index + 1}", measure=self._measurement,
-                                    phase=index)
+                                    name=f"vehicle {index + 1}")
+        # The 50 Hz part runs on physics steps index, index + 5, …: the World's vehicles do not
+        # all do their 50 Hz work on one step.
+        self._tick = -index % POSITION_CONTROL_DIVIDER
         self._cache_step = -1  # the world step the cached views below belong to
-        self._meas: tuple[Measurement, Vec3] | None = None
+        self._meas: Measurement | None = None
         self._state: VehicleState | None = None
         self._kin: Kinematics | None = None
 
-    # --- World hooks ---------------------------------------------------------------------------
-    def _measurement(self) -> tuple[Measurement, Vec3]:
-        """The state measured after the world's last step, and the acceleration."""
+    # --- the World's --------------------------------------------------------------------------
+    def step(self, now_s: float) -> InnerCommand | None:
+        """Once per physics step, before the inner loop runs: the autopilot's 50 Hz part on the
+        state measured at ``now_s`` when due, else only a command that is due between ticks.
+        None: the inner loop keeps the last command."""
+        tick = self._tick
+        self._tick = tick + 1 if tick + 1 < POSITION_CONTROL_DIVIDER else 0
+        if tick == 0:
+            return self._autopilot.step(self._measurement(), now_s)
+        return self._autopilot.poll(now_s)
+
+    def _measurement(self) -> Measurement:
+        """The state measured after the world's last step."""
         if self._cache_step != self._world.steps:
             self._cache_step = self._world.steps
             self._meas = self._state = self._kin = None
@@ -81,17 +98,17 @@ class Vehicle:
 
     @property
     def state(self) -> VehicleState:
-        m, accel = self._measurement()
+        m = self._measurement()
         if self._state is None:
             self._state = VehicleState(
                 self._world.time_s, np.array(m.position_ned_m), np.array(m.velocity_ned_mps),
-                np.array(accel), np.array(m.attitude_q), np.array(m.rates_frd_radps),
+                np.array(m.accel_ned_mps2), np.array(m.attitude_q), np.array(m.rates_frd_radps),
             )
         return self._state
 
     @property
     def kinematics(self) -> Kinematics:
-        m, _ = self._measurement()
+        m = self._measurement()
         if self._kin is None:
             self._kin = Kinematics(self._world.time_s, m.position_ned_m, m.velocity_ned_mps,
                                    m.attitude_q, m.rates_frd_radps)
@@ -118,9 +135,14 @@ class Vehicle:
         )
 
     @property
+    def position_setpoint_ned_m(self) -> Vec3 | None:
+        """The trajectory's position setpoint while armed and flying under it (else None)."""
+        return self._autopilot.position_setpoint_ned_m()
+
+    @property
     def acceleration_ned_mps2(self) -> Vec3:
         """The acceleration measured over the last physics step (what ``state`` carries)."""
-        return self._measurement()[1]
+        return self._measurement().accel_ned_mps2
 
     @property
     def home(self) -> HomePosition | None:
@@ -129,14 +151,14 @@ class Vehicle:
 
     @property
     def global_position(self) -> GeoPoint:
-        n, e, d = self._measurement()[0].position_ned_m
+        n, e, d = self._measurement().position_ned_m
         return self.origin.offset_ned(n, e, d)
 
     def status_texts(self, after_seq: int = 0) -> list[StatusText]:
         return self._autopilot.log.after(after_seq)
 
     def arm(self, now_s: float, forced: bool = False) -> CommandResult:
-        return self._autopilot.arm(now_s, forced)
+        return self._autopilot.arm(now_s, self._measurement(), forced)
 
     def disarm(self, now_s: float, forced: bool = False) -> CommandResult:
         return self._autopilot.disarm(now_s, forced)
@@ -161,8 +183,9 @@ class Vehicle:
     def plan(self, plan_type: PlanType) -> tuple[PlanItem, ...]:
         return self._autopilot.plans.get(plan_type)
 
-    def set_plan(self, now_s: float, plan_type: PlanType, items) -> PlanResult:
-        return self._autopilot.plans.set(plan_type, items)
+    def set_plan(self, now_s: float, plan_type: PlanType, items: Iterable[PlanItem]
+                 ) -> PlanResult:
+        return self._autopilot.plans.set(plan_type, tuple(items))
 
     def clear_plan(self, now_s: float, plan_type: PlanType) -> PlanResult:
         return self._autopilot.plans.clear(plan_type)
@@ -186,7 +209,7 @@ class Vehicle:
         return (m.current, len(m.items), m.reached_count)
 
     def start_mission(self, now_s: float, first_seq: int = -1) -> CommandResult:
-        return self._autopilot.start_mission(now_s, first_seq)
+        return self._autopilot.start_mission(now_s, self._measurement(), first_seq)
 
     # --- offboard -----------------------------------------------------------------------------
     def set_offboard_setpoint(self, now_s: float, setpoint: OffboardSetpoint) -> None:
@@ -201,7 +224,8 @@ class Vehicle:
     # --- actions ------------------------------------------------------------------------------
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
              yaw_rad: float = math.nan, speed_mps: float = math.nan) -> CommandResult:
-        return self._autopilot.goto(now_s, lat_deg, lon_deg, alt_amsl_m, yaw_rad, speed_mps)
+        return self._autopilot.goto(now_s, self._measurement(), lat_deg, lon_deg, alt_amsl_m,
+                                    yaw_rad, speed_mps)
 
     def orbit(self, now_s: float, radius_m: float = math.nan, speed_mps: float = math.nan,
               yaw_behaviour: float = math.nan, lat_deg: float = math.nan,
@@ -224,7 +248,7 @@ class Vehicle:
         return self._autopilot.change_speed(now_s, speed_mps)
 
     def set_home(self, now_s: float, geo: GeoPoint | None = None) -> CommandResult:
-        return self._autopilot.set_home(now_s, geo)
+        return self._autopilot.set_home(now_s, self._measurement(), geo)
 
     def terminate(self, now_s: float) -> CommandResult:
         return self._autopilot.terminate(now_s)

@@ -38,7 +38,7 @@ from gateway.sim.scenario import NetworkConfig, Scenario
 from vehicles.geofence import build_areas
 from vehicles.plan_types import MavCmd, MavFrame, PlanItem, PlanResult, PlanType
 from vehicles.plans import GLOBAL_FRAMES, item_ned
-from vehicles.types import GeoPoint, NavState
+from vehicles.types import GeoPoint, NavState, Vec3
 
 DEFAULT_TIME_LIMIT_S = 900.0
 GEOFENCE_SAMPLE_S = 0.02  # the position-control rate
@@ -53,7 +53,6 @@ TAKEOFF_COMMANDS = frozenset({MavCmd.NAV_TAKEOFF, 84})
 # Modes in which the flown path is compared with the plan.
 JUDGED_MODES = frozenset({NavState.AUTO_MISSION})
 
-Vec3 = tuple[float, float, float]
 
 
 class PlanFileError(ValueError):

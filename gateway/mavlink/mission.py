@@ -63,8 +63,14 @@ UNSUPPORTED = PlanResult.UNSUPPORTED
 NO_SPACE = PlanResult.NO_SPACE
 OPERATION_CANCELLED = 15
 
-# Per-vehicle upload owner, shared by every link's service (PX4: static _transfer_in_progress).
-_UPLOADS: dict[int, MissionService] = {}
+
+class UploadLock:
+    """Which link is uploading a plan to one vehicle (PX4: MavlinkMissionManager's static
+    ``_transfer_in_progress``). One per vehicle, shared by the MissionService of each of its
+    links: an upload on one link refuses another until it ends or times out."""
+
+    def __init__(self) -> None:
+        self.owner: MissionService | None = None
 
 
 class Phase(enum.Enum):
@@ -77,7 +83,9 @@ class MissionService:
     """Uses the vehicle, the encoder, send, sysid, other_target and ``say`` (STATUSTEXT on this
     link) for PX4's mission texts."""
 
-    def __init__(self, ctx: LinkContext, say: Say) -> None:
+    def __init__(self, ctx: LinkContext, say: Say, uploads: UploadLock) -> None:
+        """``uploads``: the vehicle's lock, shared with its other links' services."""
+        self.uploads = uploads
         self.vehicle = ctx.vehicle
         self.encoder = ctx.encoder
         self.send = ctx.send
@@ -122,17 +130,17 @@ class MissionService:
         self._timeout_at = now_s + TIMEOUT_S
 
     def _idle(self) -> None:
-        if self.phase is Phase.UPLOAD and _UPLOADS.get(id(self.vehicle)) is self:
-            del _UPLOADS[id(self.vehicle)]
+        if self.phase is Phase.UPLOAD and self.uploads.owner is self:
+            self.uploads.owner = None
         self.phase = Phase.IDLE
         self._items = []
         self._download = ()
         self._retry_at = self._timeout_at = math.inf
 
     def _other_upload_active(self, now_s: float) -> bool:
-        owner = _UPLOADS.get(id(self.vehicle))
-        return (owner is not None and owner is not self and owner.vehicle is self.vehicle
-                and owner.phase is Phase.UPLOAD and now_s < owner._timeout_at)
+        owner = self.uploads.owner
+        return (owner is not None and owner is not self and owner.phase is Phase.UPLOAD
+                and now_s < owner._timeout_at)
 
     def _request(self, now_s: float) -> None:
         cls = M.MAVLink_mission_request_int_message if self.int_mode else \
@@ -176,7 +184,7 @@ class MissionService:
             self.ack(src, plans.clear_plan(now_s, ptype), msg.mission_type)
             return
         self.phase = Phase.UPLOAD
-        _UPLOADS[id(self.vehicle)] = self
+        self.uploads.owner = self
         self.partner, self.mission_type, self.count, self.seq = src, int(ptype), msg.count, 0
         self._items = []
         self._heard(now_s)

@@ -45,7 +45,7 @@ from gateway.mavlink.codec import MAX_DATAGRAM_BYTES, Decoder, Encoder, pack_dat
 from gateway.mavlink.commands import CommandService
 from gateway.mavlink.link import LinkContext, LinkKind, SessionStats
 from gateway.mavlink.manual import ManualControlService
-from gateway.mavlink.mission import MissionService
+from gateway.mavlink.mission import MissionService, UploadLock
 from gateway.mavlink.offboard import OffboardService
 from gateway.mavlink.params import ParamService
 from gateway.mavlink.ping import PingService
@@ -66,7 +66,10 @@ SIGNING_LINK_ID = {LinkKind.GCS: 0, LinkKind.API: 1}
 
 class Session:
     def __init__(self, vehicle: VehiclePort, kind: LinkKind, now_s: float = 0.0, *,
-                 boot_unix_s: float | None = None, signing: SigningConfig | None = None) -> None:
+                 boot_unix_s: float | None = None, signing: SigningConfig | None = None,
+                 uploads: UploadLock | None = None) -> None:
+        """``uploads``: the vehicle's plan-upload lock, shared by the sessions of its links (a
+        session of its own when None)."""
         self.vehicle = vehicle
         self.kind = kind
         self.sysid = int(vehicle.params["MAV_SYS_ID"])
@@ -98,7 +101,7 @@ class Session:
         self.commands = CommandService(ctx, say, self.snapshot, self.scheduler)
         self.params = ParamService(ctx)
         self.ping = PingService(ctx)
-        self.mission = MissionService(ctx, say)
+        self.mission = MissionService(ctx, say, uploads if uploads is not None else UploadLock())
         self.offboard = OffboardService(ctx, say)
         self.manual = ManualControlService(ctx)
         self._routes: dict[int, Callable[[Any, float], None]] = {

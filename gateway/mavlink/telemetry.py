@@ -21,7 +21,6 @@ from pymavlink.dialects.v20 import common as M
 from gateway.mavlink.codec import Encoder, packer_of
 from gateway.mavlink.heartbeat import build_extended_sys_state, build_heartbeat, build_sys_status
 from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
-from gateway.mavlink.snapshot import SampleCache as SampleCache  # re-exported for gateway/sim
 from gateway.mavlink.snapshot import Snapshot
 from vehicles.params import ParamStore
 

@@ -236,11 +236,7 @@ class FlightLog:
             p, vel = st.position_ned_m, st.velocity_ned_mps
             roll, pitch, yaw = st.euler_rad()
             wn, we, wd = world[f"v{i + 1}"]
-            sp = (math.nan,) * 3
-            ap = getattr(v, "autopilot", None)
-            traj = getattr(ap, "trajectory", None)
-            if status.armed and traj is not None and getattr(ap, "_flying", True):
-                sp = traj.position_ned_m
+            sp = v.position_setpoint_ned_m or (math.nan,) * 3
             ms = getattr(v, "mission_status", None)
             bat = status.battery
             w.writerow((f"{now:.3f}", int(v.params["MAV_SYS_ID"]), _f(wn), _f(we), _f(wd),

@@ -24,9 +24,10 @@ import math
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
+from gateway.mavlink.mission import UploadLock
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import SigningConfig
-from gateway.mavlink.telemetry import SampleCache
+from gateway.mavlink.snapshot import SampleCache
 from gateway.sim.scenario import NetworkConfig
 from netsim.backend import EmbeddedBackend, NetworkBackend
 from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
@@ -216,10 +217,11 @@ class Simulation:
             vehicle = self.world.add_vehicle(index=i, params=params)
             self.vehicles.append(vehicle)
             # Both links of a vehicle sample it at the same instants: they share what telemetry
-            # derives from one kinematics sample (telemetry.SampleCache).
+            # derives from one kinematics sample (snapshot.SampleCache).
             samples = SampleCache()
+            uploads = UploadLock()  # one plan upload at a time, whichever link it comes on
             for kind in self.link_kinds:
-                session = Session(vehicle, kind, now_s=0.0, signing=signing)
+                session = Session(vehicle, kind, now_s=0.0, signing=signing, uploads=uploads)
                 session.samples = samples
                 self.links[(i, kind)] = VehicleLink(self, i, kind, session)
         self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,

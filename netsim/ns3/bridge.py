@@ -49,6 +49,7 @@ from typing import Any
 
 import zmq
 
+from netsim.backend import Vec3
 from netsim.kernel import PRIORITY_NETWORK, Kernel
 from netsim.link import Deliver, LinkStats, Tracer
 from netsim.models import Drop
@@ -65,7 +66,6 @@ POLL_SLICE_MS = 50  # lockstep waits in slices, to notice a dead engine before t
 CONFIG_KEYS = {"engine", "binary", "topology", "nodes", "wifi", "propagation", "wired",
                "warmup_s", "drop_after_s", "timeout_s", "init_timeout_s", "reference"}
 
-Vec3 = tuple[float, float, float]
 
 
 class Ns3Error(RuntimeError):

@@ -16,6 +16,7 @@ from pymavlink.dialects.v20 import common as M
 from test_mavlink_support import Client, FakeVehicle, make, of_type
 
 from gateway.mavlink import mission
+from gateway.mavlink.mission import UploadLock
 from gateway.mavlink.session import LinkKind, Session
 from vehicles.plan_types import PlanItem, PlanResult, PlanType
 from vehicles.types import NavState
@@ -324,7 +325,9 @@ def test_download_errors_and_timeout():
 
 def test_concurrent_upload_on_another_link_is_refused():
     vehicle = FakeVehicle()
-    s1, s2 = Session(vehicle, LinkKind.API), Session(vehicle, LinkKind.GCS)
+    uploads = UploadLock()  # the vehicle's, shared by its links (as the Simulation wires it)
+    s1 = Session(vehicle, LinkKind.API, uploads=uploads)
+    s2 = Session(vehicle, LinkKind.GCS, uploads=uploads)
     c1, c2 = Client(s1), Client(s2, sysid=255, compid=190)
     items = mavsdk_mission()
     c1.send(M.MAVLink_mission_count_message(1, 1, len(items), 0))
@@ -341,7 +344,9 @@ def test_concurrent_upload_on_another_link_is_refused():
 
 def test_stale_upload_owner_does_not_block_forever():
     vehicle = FakeVehicle()
-    s1, s2 = Session(vehicle, LinkKind.API), Session(vehicle, LinkKind.GCS)
+    uploads = UploadLock()  # the vehicle's, shared by its links (as the Simulation wires it)
+    s1 = Session(vehicle, LinkKind.API, uploads=uploads)
+    s2 = Session(vehicle, LinkKind.GCS, uploads=uploads)
     c1, c2 = Client(s1), Client(s2, sysid=255, compid=190)
     c1.send(M.MAVLink_mission_count_message(1, 1, 3, 0))
     del s1, c1  # that link is gone without ever timing out its transfer
@@ -369,7 +374,9 @@ def test_set_current_answers_with_mission_current():
 
 def test_mission_current_stream_and_change_on_every_link():
     vehicle = FakeVehicle()
-    s1, s2 = Session(vehicle, LinkKind.API), Session(vehicle, LinkKind.GCS)
+    uploads = UploadLock()  # the vehicle's, shared by its links (as the Simulation wires it)
+    s1 = Session(vehicle, LinkKind.API, uploads=uploads)
+    s2 = Session(vehicle, LinkKind.GCS, uploads=uploads)
     c1, c2 = Client(s1), Client(s2)
     mc = of_type(c1.run_until(0.5), "MISSION_CURRENT")
     assert [(m.seq, m.total, m.mission_state) for m in mc] == [(0, 65535, 1)]

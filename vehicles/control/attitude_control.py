@@ -64,11 +64,12 @@ class AttitudeControlGains:
             ),
         )
 
-    def coefficients(self) -> tuple[float, ...]:
+    def coefficients(self) -> tuple[float, float, float, float, float, float, float]:
         """``attitude_rates``' gain arguments: (p_roll, p_pitch, p_yaw / weight, limits…, weight)."""
         yaw_w = min(max(self.yaw_weight, 0.0), 1.0)
         p_yaw = self.p_yaw / yaw_w if yaw_w > 1e-4 else self.p_yaw
-        return (self.p_roll, self.p_pitch, p_yaw, *self.rate_max_frd_radps, yaw_w)
+        r = self.rate_max_frd_radps
+        return (self.p_roll, self.p_pitch, p_yaw, r[0], r[1], r[2], yaw_w)
 
 
 def thrust_to_attitude(thrust_ned: Vec3, yaw_rad: float) -> AttitudeSetpoint:

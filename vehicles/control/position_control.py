@@ -28,9 +28,8 @@ import numpy as np
 from numba.extending import register_jitable
 
 from vehicles.control.compiled import njit_cached
-from vehicles.types import GRAVITY_MPS2
+from vehicles.types import GRAVITY_MPS2, Vec3
 
-Vec3 = tuple[float, float, float]
 NAN3: Vec3 = (math.nan, math.nan, math.nan)
 
 # PX4 MPC_THR_XY_MARG (v1.13+) is not in our parameter table: its default value.

@@ -13,8 +13,7 @@ import math
 
 from numba.extending import register_jitable
 
-Vec3 = tuple[float, float, float]
-Quat = tuple[float, float, float, float]
+from vehicles.types import Quat, Vec3
 
 
 @register_jitable

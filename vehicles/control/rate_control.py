@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba.extending import register_jitable
 
-Vec3 = tuple[float, float, float]
+from vehicles.types import Vec3
 
 # PX4 filters the gyro derivative (IMU_DGYRO_CUTOFF, 30 Hz default; not in our param table).
 D_TERM_CUTOFF_HZ = 30.0

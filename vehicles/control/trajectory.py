@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-Vec3 = tuple[float, float, float]
+from vehicles.types import Vec3
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,319 @@
+"""Flight tasks: what the vehicle flies in each navigation state, one small class per kind.
+
+After PX4's FlightModeManager (src/modules/flight_mode_manager), which maps ``nav_state`` to a
+FlightTask (Auto, ManualAltitude, ManualPosition, Orbit, AutoFollowTarget, Descend …) and runs the
+active one every position-loop tick; Offboard and Termination have no flight task in PX4 (the
+position controller takes the offboard setpoint directly), here they are tasks too so that the
+table covers every state.
+
+Rules and invariants:
+- ``make_tasks`` returns the table: one entry per ``NavState``, nothing else decides what flies
+  (the completeness test checks every state has one).
+- A task is activated when its state is entered (``activate``), then updated every 50 Hz tick
+  (``update``); both get the tick's ``TaskInput``. Tasks write only through the PositionStage.
+- Tasks that are not the navigator's tell the autopilot so (``uses_navigator``): it then
+  deactivates the navigator, as PX4's navigator goes inactive outside the auto modes.
+- Lost stick input reads as centred sticks; disarmed tasks idle the motors.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
+from vehicles.control.position_control import PositionSetpoint
+from vehicles.follow_target import FollowTarget
+from vehicles.manual_control import (
+    CENTRED,
+    ManualAltitude,
+    ManualControl,
+    ManualPosition,
+    Stabilized,
+    acro_rates,
+    acro_thrust,
+    throttle_to_thrust,
+)
+from vehicles.navigator import NavContext, Navigator, NavSetpoint, auto_limits
+from vehicles.offboard import Offboard, acceleration_to_thrust
+from vehicles.orbit import Orbit
+from vehicles.params import ParamStore
+from vehicles.position_stage import PositionStage
+from vehicles.types import Measurement, NavState, Vec3
+
+# The navigator must ask for this much climb before a landed vehicle spools up.
+TAKEOFF_TRIGGER_M = 0.2
+
+
+@dataclass(frozen=True, slots=True)
+class TaskInput:
+    """One 50 Hz tick, as every task sees it."""
+
+    now_s: float
+    dt_s: float
+    meas: Measurement
+    yaw_rad: float
+    armed: bool
+    terminated: bool
+    nav_state: NavState
+    nav: NavContext  # the navigator's view (the auto task)
+
+
+class FlightTask:
+    uses_navigator = False
+
+    def __init__(self, stage: PositionStage, params: ParamStore) -> None:
+        self.stage = stage
+        self.params = params
+
+    def activate(self, t: TaskInput) -> None:
+        """The state was just entered."""
+
+    def update(self, t: TaskInput) -> None:
+        raise NotImplementedError
+
+
+class AutoTask(FlightTask):
+    """The navigator's modes (Mission, Hold, Takeoff, Land, Return …) through the trajectory
+    limiter, the heading slewed at MPC_YAWRAUTO_MAX (FlightTaskAuto)."""
+
+    uses_navigator = True
+
+    def __init__(self, stage: PositionStage, params: ParamStore, navigator: Navigator) -> None:
+        super().__init__(stage, params)
+        self.navigator = navigator
+        self.setpoint: NavSetpoint | None = None  # the navigator's last (None outside auto)
+
+    def update(self, t: TaskInput) -> None:
+        st, pos = self.stage, t.meas.position_ned_m
+        nav_sp = self.setpoint = self.navigator.update(t.nav_state, t.nav)
+        wants_climb = (nav_sp.target_ned_m[2] < pos[2] - TAKEOFF_TRIGGER_M
+                       if not math.isnan(nav_sp.target_ned_m[2]) else nav_sp.vz_cmd_mps < -0.1)
+        if not t.armed or nav_sp.idle or (st.land_detector.landed and not wants_climb):
+            st.set_idle(t.meas)
+            return
+        if not st.flying or math.isnan(st.yaw_sp):
+            st.yaw_sp = t.yaw_rad
+        st.start_flying(t.meas)
+        p_sp, v_sp, a_sp = st.trajectory.update(t.dt_s, nav_sp.target_ned_m, nav_sp.limits,
+                                                nav_sp.vz_cmd_mps, pos[2])
+        if not math.isnan(nav_sp.yaw_rad):
+            step = math.radians(float(self.params["MPC_YAWRAUTO_MAX"])) * t.dt_s
+            err = math.remainder(nav_sp.yaw_rad - st.yaw_sp, math.tau)
+            st.yaw_sp = math.remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
+        st.apply(t.dt_s, t.meas, PositionSetpoint(p_sp, v_sp, st.yaw_sp, a_sp), t.yaw_rad)
+
+
+class OffboardTask(FlightTask):
+    """Offboard setpoints straight to the controllers (mc_pos_control, no smoothing)."""
+
+    def __init__(self, stage: PositionStage, params: ParamStore, offboard: Offboard) -> None:
+        super().__init__(stage, params)
+        self.offboard = offboard
+
+    def activate(self, t: TaskInput) -> None:
+        self.offboard.on_entry(t.yaw_rad)
+
+    def update(self, t: TaskInput) -> None:
+        st, meas = self.stage, t.meas
+        pos = meas.position_ned_m
+        st.trajectory.reset(pos, meas.velocity_ned_mps)  # leaving offboard brakes from the state
+        oc = self.offboard.command(t.now_s, t.yaw_rad) if not t.terminated else None
+        if oc is None or not t.armed:
+            st.set_idle(meas)
+            return
+        sp = oc.setpoint
+        if oc.kind in ("position", "acceleration"):
+            p, v, a = sp.position_ned_m, sp.velocity_ned_mps, sp.acceleration_ned_mps2
+            wants_climb = ((not math.isnan(p[2]) and p[2] < pos[2] - TAKEOFF_TRIGGER_M)
+                           or (not math.isnan(v[2]) and v[2] < -0.1)
+                           or (not math.isnan(a[2]) and a[2] < -0.1))
+            if st.land_detector.landed and not wants_climb:
+                st.set_idle(meas)
+                return
+            if oc.kind == "position":
+                st.start_flying(meas)
+                yawspeed = (sp.yaw_rate_radps if math.isnan(sp.yaw_rad)
+                            and not math.isnan(sp.yaw_rate_radps) else 0.0)
+                st.apply(t.dt_s, meas, PositionSetpoint(p, v, oc.yaw_rad, a), t.yaw_rad, yawspeed)
+                return
+            g = st.position_control.gains
+            acc: Vec3 = (0.0 if math.isnan(a[0]) else a[0], 0.0 if math.isnan(a[1]) else a[1],
+                         0.0 if math.isnan(a[2]) else a[2])
+            thrust = acceleration_to_thrust(acc, g.hover_thrust, g.tilt_max_rad)
+            st.direct(thrust_to_attitude(thrust, oc.yaw_rad), flying=True)
+            return
+        thrust_norm = 0.0 if math.isnan(sp.thrust) else min(max(sp.thrust, 0.0), 1.0)
+        if oc.kind == "attitude":
+            q = sp.attitude_q if sp.attitude_q is not None else meas.attitude_q
+            st.direct(AttitudeSetpoint(q, thrust_norm))
+        else:
+            r = sp.body_rates_frd_radps
+            st.direct(AttitudeSetpoint(meas.attitude_q, thrust_norm),
+                      (0.0 if math.isnan(r[0]) else r[0], 0.0 if math.isnan(r[1]) else r[1],
+                       0.0 if math.isnan(r[2]) else r[2]))
+
+
+class TerminationTask(FlightTask):
+    """Flight termination: the motors are cut (the inner loop's OFF mode) and stay so."""
+
+    def update(self, t: TaskInput) -> None:
+        self.stage.set_idle(t.meas)
+
+
+class FollowTask(FlightTask):
+    """Follow Me (follow_target.py) through the trajectory limiter; without a target it brakes
+    and holds."""
+
+    def __init__(self, stage: PositionStage, params: ParamStore, follow: FollowTarget) -> None:
+        super().__init__(stage, params)
+        self.follow = follow
+        self._hold: Vec3 | None = None
+
+    def activate(self, t: TaskInput) -> None:
+        self.follow.activate(t.meas.position_ned_m, t.yaw_rad)
+        self._hold = None
+
+    def update(self, t: TaskInput) -> None:
+        st, pos = self.stage, t.meas.position_ned_m
+        if not st.take_off_or_idle(t.meas, t.armed):
+            return
+        sp = self.follow.update(t.now_s, t.dt_s, pos, t.yaw_rad)
+        limits = auto_limits(self.params, speed_xy_mps=float(self.params["MPC_XY_VEL_MAX"]))
+        if sp is None:
+            if self._hold is None:
+                self._hold = st.trajectory.stopping_point(limits)
+            target = self._hold
+        else:
+            self._hold = None
+            target = sp.position_ned_m
+        p_sp, v_sp, a_sp = st.trajectory.update(t.dt_s, target, limits, 0.0, pos[2])
+        st.apply(t.dt_s, t.meas, PositionSetpoint(p_sp, v_sp, self.follow.yaw_sp, a_sp),
+                 t.yaw_rad)
+
+
+class OrbitTask(FlightTask):
+    """Orbit (orbit.py): on the circle its setpoints go straight to position control; the
+    approach to the circle goes through the trajectory limiter. DO_ORBIT's parameters are taken
+    at the next tick."""
+
+    def __init__(self, stage: PositionStage, params: ParamStore, orbit: Orbit,
+                 manual: ManualControl) -> None:
+        super().__init__(stage, params)
+        self.orbit = orbit
+        self.manual = manual
+        self.pending: tuple[float, float, float, tuple[float, float] | None, float] | None = None
+
+    def activate(self, t: TaskInput) -> None:
+        self.orbit.activate(t.meas.position_ned_m, t.meas.velocity_ned_mps, t.yaw_rad)
+
+    def update(self, t: TaskInput) -> None:
+        st, orbit = self.stage, self.orbit
+        pos, vel = t.meas.position_ned_m, t.meas.velocity_ned_mps
+        if self.pending is not None:
+            orbit.command(pos, t.yaw_rad, *self.pending)
+            self.pending = None
+        if not st.take_off_or_idle(t.meas, t.armed):
+            return
+        sp = orbit.update(t.dt_s, self.manual.current(t.now_s), pos, vel, t.yaw_rad, st.vel_sp)
+        if sp is None:
+            p_sp, v_sp, a_sp = st.trajectory.update(t.dt_s, orbit.approach_target(pos),
+                                                    auto_limits(self.params), 0.0, pos[2])
+            sp = PositionSetpoint(p_sp, v_sp, orbit.yaw_setpoint, a_sp)
+        else:
+            st.trajectory.reset(pos, vel)
+        st.apply(t.dt_s, t.meas, sp, t.yaw_rad, orbit.yawspeed)
+
+
+class StickPositionTask(FlightTask):
+    """Altitude and Position modes (FlightTaskManualAltitude / ManualPosition): the sticks drive
+    velocity setpoints; on the ground the motors idle until the sticks ask for a takeoff."""
+
+    def __init__(self, stage: PositionStage, params: ParamStore, manual: ManualControl,
+                 task: ManualAltitude | ManualPosition) -> None:
+        super().__init__(stage, params)
+        self.manual = manual
+        self.task = task
+
+    def activate(self, t: TaskInput) -> None:
+        self.task.activate(t.meas.position_ned_m, t.meas.velocity_ned_mps, t.yaw_rad)
+
+    def update(self, t: TaskInput) -> None:
+        st, meas, task = self.stage, t.meas, self.task
+        pos, vel = meas.position_ned_m, meas.velocity_ned_mps
+        st.trajectory.reset(pos, vel)  # a switch to an auto mode brakes from the real state
+        sticks = self.manual.current(t.now_s) if t.armed else CENTRED
+        if not t.armed or (st.land_detector.landed and not task.want_takeoff(sticks)):
+            task.activate(pos, vel, t.yaw_rad)
+            st.set_idle(meas)
+            return
+        st.idle, st.flying = False, True
+        sp = task.update(t.dt_s, sticks, pos, vel, t.yaw_rad, st.vel_sp)
+        st.apply(t.dt_s, meas, sp, t.yaw_rad, task.yawspeed)
+
+
+class StickAttitudeTask(FlightTask):
+    """Stabilized (and Manual, which is Stabilized on a multicopter) or Acro: attitude or body
+    rates and thrust straight from the sticks."""
+
+    def __init__(self, stage: PositionStage, params: ParamStore, manual: ManualControl,
+                 stabilized: Stabilized, hover_thrust: float, acro: bool = False) -> None:
+        super().__init__(stage, params)
+        self.manual = manual
+        self.stabilized = stabilized
+        self.hover = hover_thrust
+        self.acro = acro
+
+    def activate(self, t: TaskInput) -> None:
+        self.stabilized.activate(t.yaw_rad)
+
+    def update(self, t: TaskInput) -> None:
+        st, meas = self.stage, t.meas
+        st.trajectory.reset(meas.position_ned_m, meas.velocity_ned_mps)
+        sticks = self.manual.current(t.now_s) if t.armed else CENTRED
+        if self.acro:
+            thrust = acro_thrust(sticks)
+        else:
+            thrust = throttle_to_thrust(sticks.throttle, self.params, self.hover)
+        landed = st.land_detector.landed
+        if not t.armed or (landed and thrust <= self.hover):
+            self.stabilized.activate(t.yaw_rad)
+            st.set_idle(meas)
+            return
+        if self.acro:
+            st.direct(AttitudeSetpoint(meas.attitude_q, thrust), acro_rates(sticks, self.params))
+        else:
+            q = self.stabilized.update(t.dt_s, sticks, t.yaw_rad, landed)
+            st.direct(AttitudeSetpoint(q, thrust, self.stabilized.yawspeed))
+
+
+@dataclass
+class Tasks:
+    """The table (``by_state``) and the tasks the autopilot's commands reach."""
+
+    by_state: dict[NavState, FlightTask]
+    auto: AutoTask
+    orbit: OrbitTask
+
+
+def make_tasks(stage: PositionStage, params: ParamStore, navigator: Navigator,
+               offboard: Offboard, manual: ManualControl, orbit: Orbit, follow: FollowTarget,
+               hover_thrust: float) -> Tasks:
+    auto = AutoTask(stage, params, navigator)
+    orbit_task = OrbitTask(stage, params, orbit, manual)
+    stabilized = Stabilized(params)
+    stab = StickAttitudeTask(stage, params, manual, stabilized, hover_thrust)
+    by_state: dict[NavState, FlightTask] = {
+        NavState.MANUAL: stab,
+        NavState.STAB: stab,
+        NavState.ACRO: StickAttitudeTask(stage, params, manual, stabilized, hover_thrust, acro=True),
+        NavState.ALTCTL: StickPositionTask(stage, params, manual, ManualAltitude(params)),
+        NavState.POSCTL: StickPositionTask(stage, params, manual, ManualPosition(params)),
+        NavState.OFFBOARD: OffboardTask(stage, params, offboard),
+        NavState.TERMINATION: TerminationTask(stage, params),
+        NavState.AUTO_FOLLOW_TARGET: FollowTask(stage, params, follow),
+        NavState.ORBIT: orbit_task,
+    }
+    for state in NavState:  # the rest are the navigator's (Navigator.update: Hold if it has none)
+        by_state.setdefault(state, auto)
+    return Tasks(by_state, auto, orbit_task)
