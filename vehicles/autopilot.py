@@ -36,6 +36,7 @@ from vehicles.control.trajectory import TrajectoryLimiter
 from vehicles.failsafe import FailsafeFlags
 from vehicles.flight_tasks import TaskInput, make_tasks
 from vehicles.follow_target import FollowTarget
+from vehicles.geodesy import position_fault
 from vehicles.geofence import Geofence
 from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF, InnerCommand
 from vehicles.land_detector import LandDetector
@@ -208,17 +209,19 @@ class Autopilot:
             if c.request_nav_state(now_s, NavState.POSCTL) is CommandResult.ACCEPTED:
                 self.log.info(now_s, "Pilot took over using sticks")
 
-    def start_mission(self, now_s: float, here: Measurement, first_seq: int = -1
+    def start_mission(self, now_s: float, here: Measurement, first_seq: float = -1
                       ) -> CommandResult:
-        """MISSION_START (Commander.cpp): Mission mode and arm."""
+        """MISSION_START (Commander.cpp): Mission mode and arm. ``first_seq`` is the command's
+        param1: finite, >= -1 and below the item count, else DENIED; from 0 up it picks the
+        first item (navigator_main.cpp), below 0 the mission goes on where it is."""
         mission = self.navigator.mission
         if not mission.valid():
             self.log.critical(now_s, "Mission start denied! No valid mission")
             return CommandResult.DENIED
-        if first_seq >= len(mission.items):
+        if not (math.isfinite(first_seq) and -1 <= first_seq < len(mission.items)):
             return CommandResult.DENIED
         if first_seq >= 0:
-            mission.set_current(first_seq)
+            mission.set_current(int(first_seq))
         if (self.set_nav_state(now_s, NavState.AUTO_MISSION) is not CommandResult.ACCEPTED
                 or self.arm(now_s, here, text="Armed by mission start") is not CommandResult.ACCEPTED):
             self.log.critical(now_s, "Mission start denied")
@@ -288,7 +291,9 @@ class Autopilot:
         if geo is None:
             self._set_home(here)
             return CommandResult.ACCEPTED
-        if not all(math.isfinite(v) for v in (geo.lat_deg, geo.lon_deg, geo.alt_amsl_m)):
+        # PX4 denies non-finite coordinates; a point no position message can carry is denied too
+        # (HOME_POSITION would overflow).
+        if position_fault(geo.lat_deg, geo.lon_deg, geo.alt_amsl_m) is not None:
             return CommandResult.DENIED
         yaw = self.home.yaw_rad if self.home else 0.0
         self.home = HomePosition(geo, self.origin.ned_of(geo), yaw)

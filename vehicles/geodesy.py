@@ -58,6 +58,24 @@ def distance_m(lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: floa
     return EARTH_RADIUS_M * 2.0 * math.atan2(math.sqrt(a), math.sqrt(1.0 - a))
 
 
+# The largest altitude (m) the MAVLink position messages carry: int32 millimetres
+# (GLOBAL_POSITION_INT.alt, HOME_POSITION.altitude).
+MAX_ALT_M = (2**31 - 1) / 1000.0
+
+
+def position_fault(lat_deg: float, lon_deg: float, alt_m: float) -> str | None:
+    """Which coordinate makes this no place a vehicle can be: "lat" (not finite or beyond ±90°),
+    "lon" (beyond ±180°), "alt" (not finite or more than MAX_ALT_M from sea level, which no
+    position message could report); None when it is one."""
+    if not (math.isfinite(lat_deg) and -90.0 <= lat_deg <= 90.0):
+        return "lat"
+    if not (math.isfinite(lon_deg) and -180.0 <= lon_deg <= 180.0):
+        return "lon"
+    if not (math.isfinite(alt_m) and abs(alt_m) <= MAX_ALT_M):
+        return "alt"
+    return None
+
+
 @dataclass(frozen=True)
 class GeoPoint:
     """A point on the globe: WGS-84 latitude/longitude in degrees, altitude above mean sea level."""

@@ -93,6 +93,9 @@ class PlanResult(enum.IntEnum):
     NO_SPACE = 4
     INVALID = 5
     INVALID_PARAM1 = 6
+    INVALID_PARAM5_X = 10
+    INVALID_PARAM6_Y = 11
+    INVALID_PARAM7 = 12
     INVALID_SEQUENCE = 13
     DENIED = 14
 

@@ -23,6 +23,7 @@ import struct
 import zlib
 from collections.abc import Callable, Sequence
 
+from vehicles.geodesy import position_fault
 from vehicles.plan_types import MavCmd, MavFrame, PlanItem, PlanResult, PlanType
 from vehicles.types import GeoPoint
 
@@ -72,11 +73,24 @@ def validate_plan(plan_type: PlanType, items: Sequence[PlanItem]) -> PlanResult:
     return PlanResult.ACCEPTED
 
 
+_FAULT_RESULT = {"lat": PlanResult.INVALID_PARAM5_X, "lon": PlanResult.INVALID_PARAM6_Y,
+                 "alt": PlanResult.INVALID_PARAM7}
+
+
+def _validate_position(item: PlanItem, check_alt: bool = True) -> PlanResult:
+    """A place the vehicle can fly to and report (geodesy.position_fault); the altitude of a
+    relative frame is checked as it is, home being near sea level next to MAX_ALT_M."""
+    fault = position_fault(item.lat_deg, item.lon_deg, item.z if check_alt else 0.0)
+    return PlanResult.ACCEPTED if fault is None else _FAULT_RESULT[fault]
+
+
 def _validate_item(plan_type: PlanType, item: PlanItem) -> PlanResult:
     cmd, frame = item.command, item.frame
     if plan_type is PlanType.MISSION:
         if cmd in POSITIONAL_COMMANDS:
-            return PlanResult.ACCEPTED if frame in GLOBAL_FRAMES else PlanResult.UNSUPPORTED_FRAME
+            if frame not in GLOBAL_FRAMES:
+                return PlanResult.UNSUPPORTED_FRAME
+            return _validate_position(item)
         if cmd in NON_POSITIONAL_COMMANDS:
             # PX4 uses MAV_FRAME_MISSION; GCSes sometimes tag these with a global frame (harmless).
             ok = frame == MavFrame.MISSION or frame in GLOBAL_FRAMES
@@ -87,7 +101,7 @@ def _validate_item(plan_type: PlanType, item: PlanItem) -> PlanResult:
         return PlanResult.UNSUPPORTED
     if frame not in GLOBAL_FRAMES:
         return PlanResult.UNSUPPORTED_FRAME
-    return PlanResult.ACCEPTED
+    return _validate_position(item, check_alt=plan_type is PlanType.RALLY)
 
 
 def _validate_fence_shape(items: Sequence[PlanItem]) -> PlanResult:

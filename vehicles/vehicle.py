@@ -208,7 +208,7 @@ class Vehicle:
         m = self._autopilot.navigator.mission
         return (m.current, len(m.items), m.reached_count)
 
-    def start_mission(self, now_s: float, first_seq: int = -1) -> CommandResult:
+    def start_mission(self, now_s: float, first_seq: float = -1) -> CommandResult:
         return self._autopilot.start_mission(now_s, self._measurement(), first_seq)
 
     # --- offboard -----------------------------------------------------------------------------

@@ -249,7 +249,7 @@ class CommandService:
         start = self._vehicle("start_mission")
         if start is None:
             return UNSUPPORTED
-        return start(now_s, _int_or(cmd.p(1), -1))
+        return start(now_s, cmd.p(1))  # the vehicle checks it as Commander.cpp does
 
     def _terminate(self, cmd: Command, now_s: float) -> int:
         terminate = self._vehicle("terminate")

@@ -12,11 +12,6 @@ from pymavlink.dialects.v20 import common as M
 from gateway.testing import Sim, mission_item
 from vehicles.plan_types import PlanResult
 
-# Not yet: the protocol services accept these values today. The tests say what must happen;
-# remove this mark when they pass.
-pytestmark = pytest.mark.xfail(strict=False, reason="hostile values are not refused yet: "
-                               "DO_SET_HOME, mission items and MISSION_START accept them")
-
 HOME = (47.397742, 8.545594)
 HOSTILE = [1e9, 3e38, math.inf, -math.inf, math.nan]
 
