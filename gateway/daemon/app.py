@@ -5,7 +5,7 @@ endpoint.py and sdnotify.py; the simulation itself (gateway/sim/simulation.py) r
 
 Under systemd (Type=notify, systemd/cornet.service): READY=1 once every port is bound and the
 vehicles have started talking; WATCHDOG=1 from the pacer's loop while the simulation is healthy
-(``Watchdog``); SIGHUP re-reads the configuration file and rebuilds the network (RELOADING=1 …
+(``sdnotify.Watchdog``); SIGHUP re-reads the configuration file and rebuilds the network (RELOADING=1 …
 READY=1); SIGTERM/SIGINT send STOPPING=1, close the logs and exit 0.
 """
 
@@ -35,9 +35,9 @@ from gateway.daemon.endpoint import UdpEndpoint
 from gateway.daemon.metrics import Exporter, MetricsServer
 from gateway.daemon.pacer import Pacer
 from gateway.daemon.progress import ProgressLine
-from gateway.daemon.sdnotify import Notifier
+from gateway.daemon.sdnotify import Notifier, Watchdog
 from gateway.mavlink.session import LinkKind
-from gateway.mavlink.signing import SigningConfig, SigningKey
+from gateway.mavlink.signing import SigningConfig, SigningKey, SigningState
 from gateway.sim.flightlog import FlightLog, new_run_dir
 from gateway.sim.scenario import NetworkConfig, ScenarioError
 from gateway.sim.simulation import Simulation, px4_ports
@@ -74,59 +74,6 @@ class RunConfig:
     first_vehicle: int = 0  # a shard's first vehicle (instance number)
 
 
-class Watchdog:
-    """Feeds systemd's watchdog (WATCHDOG=1 every ``interval_s`` of wall time) while the
-    simulation is healthy. Healthy means all of:
-
-    - the pacer's loop runs: ``poll`` is called from it, so a blocked event loop, a hung
-      callback or a crashed pacer stops the pings;
-    - simulated time advanced since the previous ping: the kernel is moving, not stuck;
-    - no unrecovered fatal error: the network backend is not lost (an ns-3 engine that died is
-      not restarted in the process; systemd restarts the whole daemon instead).
-
-    Errors the daemon recovers from — a datagram that raised inside a session
-    (``internal_errors``), the pacer slipping behind the wall clock under load — do not stop the
-    pings: the vehicles still fly. When the pings stop, systemd kills and restarts the unit after
-    WatchdogSec (Restart=on-failure).
-    """
-
-    def __init__(self, notifier: Notifier, sim: Simulation, interval_s: float,
-                 clock: Callable[[], float]) -> None:
-        self.notifier = notifier
-        self.sim = sim
-        self.interval_s = interval_s
-        self._clock = clock
-        self._due = clock()
-        self._last_sim_s = sim.now
-        self._complained = False
-        self.pings = 0
-
-    def problem(self) -> str | None:
-        """Why the simulation is not healthy, or None if it is."""
-        lost = getattr(self.sim.backend, "lost", None)
-        if lost:
-            return f"the network backend was lost ({lost})"
-        if not self.sim.now > self._last_sim_s:
-            return f"simulated time has not advanced since t={self._last_sim_s:.3f} s"
-        return None
-
-    def poll(self) -> None:
-        now = self._clock()
-        if now < self._due:
-            return
-        problem = self.problem()
-        if problem is not None:
-            if not self._complained:
-                log.error("not feeding the systemd watchdog: %s", problem)
-                self._complained = True
-            return
-        self.notifier.watchdog()
-        self.pings += 1
-        self._last_sim_s = self.sim.now
-        self._due = now + self.interval_s
-        self._complained = False
-
-
 class MetricsPortError(OSError):
     """The metrics HTTP port could not be opened."""
 
@@ -152,11 +99,17 @@ class Daemon:
             run = new_run_dir(config.log_dir, time.strftime("run-%Y%m%d-%H%M%S"))
             self.flightlog = FlightLog(run, boot_unix_s=boot_unix_s)
         signing = None
-        if config.signing_key is not None:
-            signing = SigningConfig(config.signing_key, epoch_unix_s=boot_unix_s)
-            log.info("MAVLink 2 signing on (key %s): unsigned and badly signed frames are "
-                     "refused", config.signing_key.fingerprint)
         self._state_writer = state.StateWriter() if config.state_dir is not None else None
+        self._signing_keeper: state.SigningKeeper | None = None
+        if (key := config.signing_key) is not None:
+            if config.state_dir is not None and self._state_writer is not None:
+                self._signing_keeper = state.SigningKeeper(self._state_writer, config.state_dir,
+                                                           config.first_vehicle + 1, key,
+                                                           config.ignore_bad_state)
+            signing = SigningConfig(key, epoch_unix_s=boot_unix_s, state=(
+                self._signing_keeper.state if self._signing_keeper else SigningState()))
+            log.info("MAVLink 2 signing on (key %s): unsigned and badly signed frames are "
+                     "refused", key.fingerprint)
         self._vehicle_states: dict[int, state.VehicleState] = {}
         tracers = [t for t in (self.publisher.packet_event if self.publisher else None,
                                TraceWriter(self._trace_file) if self._trace_file else None,
@@ -165,6 +118,8 @@ class Daemon:
                               tracer=fan_out(tracers), home=config.home, realtime=True,
                               signing=signing, first_index=config.first_vehicle)
         self._restore_plans()
+        if self._signing_keeper is not None:
+            self.sim.every(1.0, self._signing_keeper.save)
         if self.flightlog is not None:
             self.flightlog.attach(self.sim)
         if self.publisher is not None:
@@ -273,6 +228,8 @@ class Daemon:
             self._trace_file.close()
         if self.flightlog is not None:
             self.flightlog.close()
+        if self._signing_keeper is not None:
+            self._signing_keeper.save()
         if self._state_writer is not None:
             self._state_writer.close()  # what clients changed last is on disk before we exit
 

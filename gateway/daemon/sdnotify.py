@@ -15,6 +15,7 @@ Rules:
 - Reloading follows systemd ≥ 253's ``Type=notify-reload`` protocol, which older versions accept:
   ``RELOADING=1`` with ``MONOTONIC_USEC`` (CLOCK_MONOTONIC, as systemd reads it), then ``READY=1``
   once the new configuration is in effect (or the old one is kept).
+- ``Watchdog`` is the daemon's policy on top: it pings only while the simulation is healthy.
 """
 
 from __future__ import annotations
@@ -23,7 +24,11 @@ import logging
 import os
 import socket
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from gateway.sim.simulation import Simulation
 
 log = logging.getLogger(__name__)
 
@@ -148,3 +153,56 @@ class Notifier:
         if self._sock is not None:
             self._sock.close()
             self._sock = None
+
+
+class Watchdog:
+    """Feeds systemd's watchdog (WATCHDOG=1 every ``interval_s`` of wall time) while the
+    simulation is healthy. Healthy means all of:
+
+    - the pacer's loop runs: ``poll`` is called from it, so a blocked event loop, a hung
+      callback or a crashed pacer stops the pings;
+    - simulated time advanced since the previous ping: the kernel is moving, not stuck;
+    - no unrecovered fatal error: the network backend is not lost (an ns-3 engine that died is
+      not restarted in the process; systemd restarts the whole daemon instead).
+
+    Errors the daemon recovers from — a datagram that raised inside a session
+    (``internal_errors``), the pacer slipping behind the wall clock under load — do not stop the
+    pings: the vehicles still fly. When the pings stop, systemd kills and restarts the unit after
+    WatchdogSec (Restart=on-failure).
+    """
+
+    def __init__(self, notifier: Notifier, sim: Simulation, interval_s: float,
+                 clock: Callable[[], float]) -> None:
+        self.notifier = notifier
+        self.sim = sim
+        self.interval_s = interval_s
+        self._clock = clock
+        self._due = clock()
+        self._last_sim_s = sim.now
+        self._complained = False
+        self.pings = 0
+
+    def problem(self) -> str | None:
+        """Why the simulation is not healthy, or None if it is."""
+        lost = getattr(self.sim.backend, "lost", None)
+        if lost:
+            return f"the network backend was lost ({lost})"
+        if not self.sim.now > self._last_sim_s:
+            return f"simulated time has not advanced since t={self._last_sim_s:.3f} s"
+        return None
+
+    def poll(self) -> None:
+        now = self._clock()
+        if now < self._due:
+            return
+        problem = self.problem()
+        if problem is not None:
+            if not self._complained:
+                log.error("not feeding the systemd watchdog: %s", problem)
+                self._complained = True
+            return
+        self.notifier.watchdog()
+        self.pings += 1
+        self._last_sim_s = self.sim.now
+        self._due = now + self.interval_s
+        self._complained = False

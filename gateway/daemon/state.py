@@ -2,7 +2,10 @@
 geofence and rally points (PX4's dataman).
 
 Layout: ``<state_dir>/vehicle-<sysid>/params.json`` and ``plans.json``, each with the last good
-copy beside it (``*.prev``).
+copy beside it (``*.prev``); with signing on, ``<state_dir>/signing-<first sysid>.json`` keeps the
+key's replay state (gateway/mavlink/signing.py: the newest timestamp of every client stream and of
+the daemon's own frames), saved once per simulated second while it changes and at stop. One such
+file per process: a daemon with ``--shards`` keeps one per shard.
 
 Rules and invariants:
 - Only what a client (or the vehicle itself) changed after boot is kept: never ``--param``
@@ -30,6 +33,7 @@ from dataclasses import astuple, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gateway.mavlink.signing import SigningKey, SigningState
 from gateway.sim.files import write_atomic
 from vehicles.params import ParamStore, ParamType
 from vehicles.plan_types import PlanItem, PlanResult, PlanType
@@ -243,6 +247,43 @@ class VehicleState:
         self._writer.submit(self._plans_path, lambda: _dump({
             PLAN_KEYS[t]: [list(astuple(item)) for item in snapshot[t]]
             for t in PLAN_KEYS if t in snapshot}))
+
+
+def signing_path(state_dir: Path, first_sysid: int) -> Path:
+    return state_dir / f"signing-{first_sysid}.json"
+
+
+def load_signing(state_dir: Path, first_sysid: int, key: SigningKey,
+                 ignore_unreadable: bool = False) -> SigningState:
+    """The replay state saved for ``key`` (a fresh one for a new or another key)."""
+    path = signing_path(state_dir, first_sysid)
+    doc = _read(path, ignore_unreadable)
+    if doc is None:
+        return SigningState()
+    if doc.get("key") != key.fingerprint:
+        log.info("%s belongs to another signing key: starting its replay state afresh", path)
+        return SigningState()
+    try:
+        return SigningState.from_doc(doc)
+    except ValueError as exc:
+        raise StateError(f"{path}: {exc}; repair or remove it") from None
+
+
+class SigningKeeper:
+    """Loads the key's replay state, then saves it while it changes (call ``save`` periodically
+    and at stop)."""
+
+    def __init__(self, writer: StateWriter, state_dir: Path, first_sysid: int, key: SigningKey,
+                 ignore_unreadable: bool = False) -> None:
+        self._writer = writer
+        self._path = signing_path(state_dir, first_sysid)
+        self._key = key.fingerprint
+        self.state = load_signing(state_dir, first_sysid, key, ignore_unreadable)
+
+    def save(self, now_s: float = 0.0) -> None:
+        if self.state.changed:
+            doc = {"key": self._key, **self.state.to_doc()}
+            self._writer.submit(self._path, lambda: _dump(doc))
 
 
 def _dump(doc: dict[str, Any]) -> str:

@@ -79,7 +79,8 @@ class Session:
         self.signing = signing
         signer = verifier = None
         if signing is not None:
-            clock = SigningClock(signing.epoch_unix_s)  # one per link, shared by both directions
+            # One per link, shared by both directions; the replay state is the key's.
+            clock = SigningClock(signing.epoch_unix_s, signing.state)
             signer = Signer(signing.key, SIGNING_LINK_ID[kind], clock)
             verifier = Verifier(signing.key, clock, signing.accept_unsigned, stats=self.stats)
         self.encoder = Encoder(self.sysid, self.compid, signer)

@@ -19,8 +19,14 @@ Rules and invariants:
 - Verification follows the C library's order: signature first, then timestamps, so a forged frame
   cannot move a stream's timestamp. Accepted: a valid signature whose timestamp is newer than the
   last one of its stream (sysid, compid, link_id), or, for a stream not seen yet, not more than
-  60 s behind the link's local timestamp. At most ``MAX_STREAMS`` streams per link (the C library
-  keeps 16); a new stream beyond that is rejected.
+  60 s behind the link's local timestamp. At most ``MAX_STREAMS`` streams (the C library keeps
+  16 per link); a new stream beyond that is rejected.
+- Replay state is the key's, not one link's: every link signed with one ``SigningConfig`` shares
+  its ``SigningState`` (the newest timestamp of each stream, and the newest timestamp sent or
+  accepted anywhere). A frame accepted on one vehicle's link is a replay on every other link, and
+  a client that talks to several vehicles over one MAVLink link (QGC) is one stream throughout.
+  The shell saves the state (``SigningState.to_doc``) and gives it back at the next start
+  (``from_doc``): timestamps never go back across restarts, ours or the clients'.
 - Counters (on the stats object given to the ``Verifier``): ``rx_unsigned`` (unsigned or
   MAVLink 1 frames rejected), ``rx_bad_signature`` (signature mismatch, or no room for a new
   stream), ``rx_replayed`` (timestamp not newer than the stream's last one, or a new stream more
@@ -153,24 +159,73 @@ class SigningKey:
             return cls.parse(f.read())
 
 
+class SigningState:
+    """The replay-protection state of one key (module rules): the newest timestamp of every
+    stream (sysid, compid, link_id) and the newest timestamp sent or accepted on any link."""
+
+    def __init__(self, max_streams: int = MAX_STREAMS) -> None:
+        self.max_streams = max_streams
+        self.streams: dict[tuple[int, int, int], int] = {}
+        self.newest = 0
+        self.changed = False  # since the last to_doc()
+
+    def to_doc(self) -> dict[str, object]:
+        """A JSON-able snapshot (clears ``changed``)."""
+        self.changed = False
+        return {"newest": self.newest,
+                "streams": [[s, c, link, ts] for (s, c, link), ts in sorted(self.streams.items())]}
+
+    @classmethod
+    def from_doc(cls, doc: object, max_streams: int = MAX_STREAMS) -> SigningState:
+        """Raises ValueError when ``doc`` is not what ``to_doc`` wrote."""
+        state = cls(max_streams)
+        if not isinstance(doc, dict):
+            raise ValueError("not a table")
+        newest, streams = doc.get("newest", 0), doc.get("streams", [])
+        if not isinstance(newest, int) or not 0 <= newest <= TIMESTAMP_MAX:
+            raise ValueError("'newest' is not a signing timestamp")
+        if not isinstance(streams, list):
+            raise ValueError("'streams' is not a list")
+        for row in streams[-max_streams:]:
+            if (not isinstance(row, list) or len(row) != 4
+                    or not all(isinstance(v, int) and not isinstance(v, bool) for v in row)
+                    or not all(0 <= v <= 255 for v in row[:3]) or not 0 <= row[3] <= TIMESTAMP_MAX):
+                raise ValueError(f"a stream is not [sysid, compid, link_id, timestamp]: {row!r}")
+            state.streams[(row[0], row[1], row[2])] = row[3]
+        state.newest = max([newest, *state.streams.values()])
+        return state
+
+
 @dataclass(frozen=True)
 class SigningConfig:
     """What a Session needs to sign and verify: the key, the wall-clock time (Unix seconds) at
-    simulated t = 0, and the message ids accepted unsigned."""
+    simulated t = 0, the message ids accepted unsigned, and the key's replay state shared by
+    every session given this config."""
 
     key: SigningKey
     epoch_unix_s: float
     accept_unsigned: frozenset[int] = ACCEPT_UNSIGNED
+    state: SigningState = field(default_factory=SigningState, compare=False)
 
 
 class SigningClock:
     """The local signing timestamp of one link (the C library's ``signing->timestamp``)."""
 
-    def __init__(self, epoch_unix_s: float) -> None:
+    def __init__(self, epoch_unix_s: float, shared: SigningState | None = None) -> None:
+        """``shared``: the key's state; the link starts at its newest timestamp and moves it."""
         if not math.isfinite(epoch_unix_s) or epoch_unix_s < MAVLINK_EPOCH_UNIX_S:
             raise ValueError("the signing epoch must be a Unix time after 2015-01-01")
         self._base = round((epoch_unix_s - MAVLINK_EPOCH_UNIX_S) * TICKS_PER_S)
-        self.timestamp = 0  # newest timestamp sent or accepted on this link
+        self.shared = shared if shared is not None else SigningState()
+        self.timestamp = self.shared.newest  # newest timestamp sent or accepted on this link
+
+    def advance(self, ts: int) -> None:
+        """``ts`` was sent or accepted on this link (newer than ``timestamp``)."""
+        self.timestamp = ts
+        shared = self.shared
+        if ts > shared.newest:
+            shared.newest = ts
+            shared.changed = True
 
     def of(self, now_s: float) -> int:
         """Simulated time ``now_s`` in signing ticks (no state)."""
@@ -203,7 +258,7 @@ class Signer:
         ts = clock.of(now_s)
         if ts <= clock.timestamp:
             ts = clock.timestamp + 1
-        clock.timestamp = ts
+        clock.advance(ts)
         tail = self._link + (ts & TIMESTAMP_MAX).to_bytes(6, "little")
         return frame + tail + hashlib.sha256(self._secret + frame + tail).digest()[:6]
 
@@ -247,13 +302,14 @@ class Verifier:
 
     def __init__(self, key: SigningKey, clock: SigningClock,
                  accept_unsigned: Iterable[int] = ACCEPT_UNSIGNED,
-                 stats: SigningCounters | None = None, max_streams: int = MAX_STREAMS) -> None:
+                 stats: SigningCounters | None = None) -> None:
+        """The streams are the clock's shared state (the key's, module rules)."""
         self._secret = key.secret
         self.clock = clock
         self.accept_unsigned = frozenset(accept_unsigned)
         self.stats: SigningCounters = stats if stats is not None else SigningStats()
-        self.max_streams = max_streams
-        self.streams: dict[tuple[int, int, int], int] = {}  # (sysid, compid, link_id) → newest
+        self.shared = clock.shared
+        self.streams = clock.shared.streams  # (sysid, compid, link_id) → newest timestamp
         self._next_log_s = -math.inf
 
     def check(self, frame: bytes | bytearray, msg_id: int, now_s: float) -> Verdict:
@@ -276,15 +332,16 @@ class Verifier:
         stream = (frame[5], frame[6], frame[-13])
         last = self.streams.get(stream)
         if last is None:
-            if len(self.streams) >= self.max_streams:
+            if len(self.streams) >= self.shared.max_streams:
                 return Verdict.TOO_MANY_STREAMS
             if ts + NEW_STREAM_MAX_AGE_TICKS < self.clock.local(now_s):
                 return Verdict.STALE
         elif ts <= last:
             return Verdict.REPLAYED
         self.streams[stream] = ts
+        self.shared.changed = True
         if ts > self.clock.timestamp:
-            self.clock.timestamp = ts
+            self.clock.advance(ts)
         return Verdict.ACCEPTED
 
     def filter(self, msgs: list[Any], now_s: float) -> list[Any]:

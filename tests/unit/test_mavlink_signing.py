@@ -8,7 +8,7 @@ from pymavlink.dialects.v20 import common as M
 from test_mavlink_support import FakeVehicle, acks, make
 
 from gateway.mavlink.codec import Decoder, DecodeStats, Encoder
-from gateway.mavlink.session import LinkKind
+from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import (
     ACCEPT_UNSIGNED,
     MAVLINK_EPOCH_UNIX_S,
@@ -16,6 +16,7 @@ from gateway.mavlink.signing import (
     SigningClock,
     SigningConfig,
     SigningKey,
+    SigningState,
     SigningStats,
     Verdict,
     Verifier,
@@ -66,7 +67,9 @@ def timestamp_of(frame: bytes) -> int:
     return int.from_bytes(frame[-12:-6], "little")
 
 
-SIGNING = SigningConfig(KEY, EPOCH_UNIX_S)
+def signing() -> SigningConfig:
+    """A fresh key domain (its replay state is shared by every session given it)."""
+    return SigningConfig(KEY, EPOCH_UNIX_S)
 
 
 # --- keys -------------------------------------------------------------------------------------
@@ -216,7 +219,7 @@ def test_unsigned_frames_and_the_accept_list():
 
 
 def test_stream_table_is_bounded():
-    v = Verifier(KEY, SigningClock(EPOCH_UNIX_S), max_streams=4)
+    v = Verifier(KEY, SigningClock(EPOCH_UNIX_S, SigningState(max_streams=4)))
     verdicts = [check(v, command(pym(KEY, stamp(10.0), sysid=s))) for s in range(1, 7)]
     assert verdicts == [Verdict.ACCEPTED] * 4 + [Verdict.TOO_MANY_STREAMS] * 2
 
@@ -263,7 +266,7 @@ def test_garbage_with_signing_on_never_raises():
 
 # --- session ----------------------------------------------------------------------------------
 def test_signed_client_arms_the_vehicle_and_every_reply_is_signed():
-    vehicle, session, client = make(signing=SIGNING)
+    vehicle, session, client = make(signing=signing())
     vehicle.become_ready()
     client.now_s = 10.0
     client.sign_with(KEY.secret, stamp(10.0))
@@ -280,13 +283,13 @@ def test_signed_client_arms_the_vehicle_and_every_reply_is_signed():
 
 
 def test_gcs_link_signs_with_link_id_0():
-    _, _, client = make(LinkKind.GCS, signing=SIGNING)
+    _, _, client = make(LinkKind.GCS, signing=signing())
     client.sign_with(KEY.secret, stamp(0.0))
     assert {m.get_link_id() for m in client.run_until(1.5)} == {0}
 
 
 def test_unsigned_client_cannot_arm():
-    vehicle, session, client = make(signing=SIGNING)
+    vehicle, session, client = make(signing=signing())
     vehicle.become_ready()
     client.now_s = 10.0
     client.rx.signing.secret_key = KEY.secret  # it can still read (and check) our telemetry
@@ -297,7 +300,7 @@ def test_unsigned_client_cannot_arm():
 
 
 def test_wrong_key_client_cannot_arm():
-    vehicle, session, client = make(signing=SIGNING)
+    vehicle, session, client = make(signing=signing())
     vehicle.become_ready()
     client.now_s = 10.0
     client.sign_with(OTHER_KEY.secret, stamp(10.0))
@@ -306,7 +309,7 @@ def test_wrong_key_client_cannot_arm():
 
 
 def test_replayed_command_reaches_the_vehicle_once():
-    vehicle, session, client = make(signing=SIGNING)
+    vehicle, session, client = make(signing=signing())
     vehicle.become_ready()
     client.now_s = 10.0
     client.sign_with(KEY.secret, stamp(10.0))
@@ -318,14 +321,14 @@ def test_replayed_command_reaches_the_vehicle_once():
 
 
 def test_unsigned_gcs_heartbeat_is_accepted_as_on_px4():
-    vehicle, session, client = make(signing=SIGNING)
+    vehicle, session, client = make(signing=signing())
     client.now_s = 3.0
     client.heartbeat()
     assert vehicle.gcs_heartbeats == [3.0] and session.stats.rx_unsigned == 0
 
 
 def test_setup_signing_is_refused():
-    vehicle, session, client = make(signing=SIGNING)
+    vehicle, session, client = make(signing=signing())
     client.now_s = 10.0
     setup = M.MAVLink_setup_signing_message(1, 1, OTHER_KEY.secret, stamp(10.0))
     client.send(setup)  # unsigned: just an unsigned frame
@@ -359,7 +362,7 @@ def test_only_a_validly_signed_frame_moves_the_peer():
     """An unsigned HEARTBEAT is accepted (as on PX4) but must not redirect the replies; nor may
     a HEARTBEAT with a bad signature (accepted the same way), nor a signed frame for another
     system."""
-    vehicle, session, _ = make(signing=SIGNING)
+    vehicle, session, _ = make(signing=signing())
     signed = pym(KEY, stamp(10.0))
     session.receive_datagram(command(signed, M.MAV_CMD_REQUEST_PROTOCOL_VERSION), 10.0, "client")
     assert session.peer == "client"
@@ -373,3 +376,64 @@ def test_only_a_validly_signed_frame_moves_the_peer():
     assert session.stats.rx_signed == 2
     session.receive_datagram(heartbeat.pack(signed), 10.4, "moved")
     assert session.peer == "moved"
+
+
+# --- the key's replay state: shared by every link, kept across restarts ---------------------------
+def test_a_frame_accepted_on_one_vehicle_is_a_replay_on_every_other():
+    config = signing()
+    v1 = FakeVehicle(1)
+    v2 = FakeVehicle(2)
+    s1 = Session(v1, LinkKind.API, signing=config)
+    s2 = Session(v2, LinkKind.API, signing=config)
+    for v in (v1, v2):
+        v.become_ready()
+    mav = pym(KEY, stamp(10.0))
+    # Broadcast target: both vehicles would act on it.
+    frame = M.MAVLink_command_long_message(0, 0, M.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0,
+                                           0, 0).pack(mav)
+    s1.receive_datagram(frame, 10.0)
+    s2.receive_datagram(frame, 10.0)
+    assert [c[0] for c in v1.calls] == ["arm"] and v2.calls == []
+    assert s2.stats.rx_replayed == 1
+
+
+def test_one_client_link_to_several_vehicles_is_one_stream():
+    """QGC signs every vehicle's traffic on one link: its timestamps rise across vehicles."""
+    config = signing()
+    sessions = {i: Session(FakeVehicle(i), LinkKind.GCS, signing=config) for i in (1, 2, 3)}
+    mav = pym(KEY, stamp(10.0))
+    for k in range(6):
+        for sysid, s in sessions.items():
+            frame = M.MAVLink_param_request_read_message(sysid, 1, b"MAV_SYS_ID", -1).pack(mav)
+            s.receive_datagram(frame, 10.0 + k * 0.01)
+    assert all(s.stats.rx_signed == 6 and s.stats.rx_replayed == 0 for s in sessions.values())
+    assert len(config.state.streams) == 1
+
+
+def test_replay_state_survives_a_restart_and_our_timestamps_never_go_back():
+    before = signing()
+    _, session, _ = make(signing=before)
+    mav = pym(KEY, stamp(50.0))
+    frame = command(mav)
+    session.receive_datagram(frame, 50.0)
+    ours = [timestamp_of(f) for f in session.datagrams_to_send(50.0)]
+    doc = before.state.to_doc()
+    assert not before.state.changed
+    # The next start: an earlier epoch (a run at 10x stamped far ahead of the wall clock).
+    after = SigningConfig(KEY, EPOCH_UNIX_S - 3600.0, state=SigningState.from_doc(doc))
+    vehicle, session, _ = make(signing=after)
+    vehicle.become_ready()
+    session.receive_datagram(frame, 0.0)
+    assert vehicle.calls == [] and session.stats.rx_replayed == 1
+    session.receive_datagram(command(mav), 0.0)  # the client's next frame is fine
+    assert [c[0] for c in vehicle.calls] == ["arm"]
+    newer = [timestamp_of(f) for f in session.datagrams_to_send(0.1)]
+    assert newer and min(newer) > max(ours + [timestamp_of(frame)])
+
+
+@pytest.mark.parametrize("doc", [[], {"newest": -1}, {"newest": 1.5}, {"streams": {}},
+                                 {"streams": [[1, 2, 3]]}, {"streams": [[1, 2, 300, 5]]},
+                                 {"streams": [[1, 2, 3, True]]}])
+def test_a_bad_replay_state_is_refused(doc):
+    with pytest.raises(ValueError):
+        SigningState.from_doc(doc)

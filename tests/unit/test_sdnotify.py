@@ -151,7 +151,7 @@ def test_unsupported_socket_name_disables_notifications(caplog):
     assert "vsock:2:1" in caplog.text
 
 
-# --- the daemon's watchdog policy (gateway/daemon/app.py Watchdog) -----------------------------------
+# --- the daemon's watchdog policy (gateway/daemon/sdnotify.py Watchdog) -----------------------------------
 
 class FakeNotifier:
     def __init__(self) -> None:
@@ -173,7 +173,7 @@ class FakeSim:
 
 
 def make_watchdog():
-    from gateway.daemon.app import Watchdog
+    from gateway.daemon.sdnotify import Watchdog
 
     clock = [100.0]
     notifier, sim = FakeNotifier(), FakeSim()

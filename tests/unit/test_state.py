@@ -160,3 +160,48 @@ def test_files_are_replaced_atomically_with_the_last_good_copy(tmp_path):
     assert sorted(p.name for p in folder.iterdir()) == ["params.json", "params.json.prev"]
     prev = json.loads((folder / "params.json.prev").read_text())
     assert prev["params"] == {"MIS_TAKEOFF_ALT": 3.0}
+
+
+# --- signing: the key's replay state is kept like parameters ------------------------------------
+def signed_boot(tmp_path, key, ignore: bool = False) -> Daemon:
+    return Daemon(RunConfig(vehicles=2, state_dir=tmp_path, signing_key=key,
+                            ignore_bad_state=ignore))
+
+
+def test_signing_replay_state_is_kept_across_a_restart(tmp_path):
+    from gateway.mavlink.signing import SigningKey
+
+    key = SigningKey(bytes(range(32)))
+    d = signed_boot(tmp_path, key)
+    shared = d.sim.links[(0, next(iter(d.sim.link_kinds)))].session.signing.state
+    assert all(link.session.signing.state is shared for link in d.sim.links.values())
+    shared.streams[(245, 190, 0)] = 123_456_789
+    shared.newest = 987_654_321
+    shared.changed = True
+    written(d)
+    doc = json.loads((tmp_path / "signing-1.json").read_text())
+    assert doc["key"] == key.fingerprint and doc["streams"] == [[245, 190, 0, 123_456_789]]
+    again = signed_boot(tmp_path, key)
+    kept = again.sim.links[(1, next(iter(again.sim.link_kinds)))].session.signing.state
+    assert kept.streams == {(245, 190, 0): 123_456_789} and kept.newest == 987_654_321
+    again.close()
+    other = signed_boot(tmp_path, SigningKey(bytes(range(1, 33))))  # another key starts afresh
+    fresh = other.sim.links[(0, next(iter(other.sim.link_kinds)))].session.signing.state
+    assert fresh.streams == {}
+    other.close()
+
+
+def test_an_unreadable_signing_state_stops_the_start(tmp_path):
+    from gateway.mavlink.signing import SigningKey
+
+    key = SigningKey(bytes(range(32)))
+    (tmp_path / "signing-1.json").write_text('{"version": 1, "key": "%s", "streams": 5}'
+                                             % key.fingerprint)
+    with pytest.raises(state.StateError, match="signing-1.json"):
+        signed_boot(tmp_path, key)
+    (tmp_path / "signing-1.json").write_text("{trunc")
+    with pytest.raises(state.StateError, match="signing-1.json"):
+        signed_boot(tmp_path, key)
+    d = signed_boot(tmp_path, key, ignore=True)
+    assert (tmp_path / "signing-1.json.unreadable").exists()
+    d.close()
