@@ -35,6 +35,7 @@ class LinkKind(enum.Enum):
 class SessionStats(DecodeStats):
     rx_other_target: int = 0  # addressed to another sysid/compid
     rx_unhandled: int = 0  # valid, for us (or broadcast), but no service handles it
+    handler_errors: int = 0  # a service or a telemetry builder raised (a bug: logged, skipped)
     rx_setup_signing_refused: int = 0  # SETUP_SIGNING that passed verification (signing on)
     offboard_setpoints: int = 0  # setpoints handed to the vehicle
     offboard_dropped: int = 0  # setpoint messages that were unusable (frame, inf, nothing set)

@@ -60,6 +60,7 @@ __all__ = ["LinkKind", "Session", "SessionStats", "SigningConfig"]
 log = logging.getLogger(__name__)
 
 COMPONENT_ID = 1
+ERROR_LOG_INTERVAL_S = 10.0  # a failing service logs at most once per this (simulated) time
 MAV_TYPE_GCS = 6
 SIGNING_LINK_ID = {LinkKind.GCS: 0, LinkKind.API: 1}
 
@@ -91,6 +92,7 @@ class Session:
         self._addressed = False  # the frame being routed is for us (cleared by other_target)
         self._out: list[bytes] = []
         self.last_gcs_heartbeat_s = -math.inf
+        self._next_error_log_s = -math.inf
         self.scheduler = Scheduler(kind, now_s)
         # What telemetry derives from one kinematics sample; the shell may give the sessions of
         # one vehicle the same cache (they sample it at the same instants).
@@ -153,6 +155,8 @@ class Session:
                         self.stats.rx_unhandled += 1
                     else:
                         route(msg, now_s)
+                except Exception:  # a bug must not cost the datagram's other frames
+                    self._failed(now_s, f"handling {msg.get_type()}")
                 finally:  # a service that fails on a frame for us has still heard its sender
                     if self._addressed and (not authenticate or msg.get_signed()):
                         heard = True
@@ -187,16 +191,32 @@ class Session:
             snap = Snapshot(self.vehicle, now_s, self.boot_unix_s, self.samples)
             out = self._out
             sent = len(out)
-            try:
-                for spec in due:
+            for spec in due:
+                try:
                     frame = spec.builder(enc, snap)
-                    if frame is not None:
-                        out.append(frame)  # ``send`` inlined: counted once below
-            finally:
-                self.stats.tx_frames += len(out) - sent
-        self.mission.handle_timer(now_s)
-        self.statustext.poll(now_s)
-        self.params.handle_timer(now_s)
+                except Exception:  # one broken stream must not silence the others
+                    self._failed(now_s, f"building message {spec.msg_id}")
+                    continue
+                if frame is not None:
+                    out.append(frame)  # ``send`` inlined: counted once below
+            self.stats.tx_frames += len(out) - sent
+        for name, timer in (("the mission timer", self.mission.handle_timer),
+                            ("STATUSTEXT", self.statustext.poll),
+                            ("the parameter timer", self.params.handle_timer)):
+            try:
+                timer(now_s)
+            except Exception:
+                self._failed(now_s, name)
+
+    def _failed(self, now_s: float, what: str) -> None:
+        """A service raised: counted (``handler_errors``), logged with its traceback the first
+        time and then at most once per ERROR_LOG_INTERVAL_S of simulated time."""
+        self.stats.handler_errors += 1
+        if now_s >= self._next_error_log_s:
+            self._next_error_log_s = now_s + ERROR_LOG_INTERVAL_S
+            log.error("vehicle %d %s link: error while %s (%d so far)", self.sysid,
+                      self.kind.value, what, self.stats.handler_errors,
+                      exc_info=self.stats.handler_errors == 1)
 
     # --- for the services ---------------------------------------------------------------------
     def send(self, frame: bytes) -> None:

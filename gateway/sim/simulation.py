@@ -110,8 +110,7 @@ class VehicleLink:
             self.session.receive_datagram(packet, self.sim.kernel.now, peer)
         except Exception:
             # A bug in handling one message must not take down every vehicle of the daemon.
-            self.sim.internal_errors += 1
-            log.exception("%s: error while handling a datagram", self.name)
+            self.sim.session_failed(self.name, "handling a datagram")
         self.service()
 
     # --- downlink: vehicle → client -------------------------------------------------------------
@@ -126,8 +125,7 @@ class VehicleLink:
         try:
             self.session.handle_timer(self.sim.kernel.now)
         except Exception:
-            self.sim.internal_errors += 1
-            log.exception("%s: error in a session timer", self.name)
+            self.sim.session_failed(self.name, "in a session timer")
         self.service()
 
     def service(self) -> None:
@@ -201,7 +199,8 @@ class Simulation:
         self._observers: list[Ticker] = []
         self.world = World(dt_s=physics_dt_s, home=home)
         self.on_downlink: DownlinkHandler | None = None
-        self.internal_errors = 0
+        self._outer_errors = 0  # failures that escaped a session (its own are in its stats)
+        self._next_error_log_s = -math.inf
         self.vehicles = []
         self.links: dict[tuple[int, LinkKind], VehicleLink] = {}
         self.indices = list(range(first_index, first_index + vehicles))
@@ -249,6 +248,21 @@ class Simulation:
             n0, e0 = self._spawn_ned[k]
             out[f"v{self.indices[k] + 1}"] = (n0 + n, e0 + e, d)
         return out
+
+    @property
+    def internal_errors(self) -> int:
+        """Bugs met while handling clients' input or building telemetry: every one is counted
+        and skipped (the vehicles fly on); the log holds the first traceback."""
+        return self._outer_errors + sum(link.session.stats.handler_errors
+                                        for link in self.links.values())
+
+    def session_failed(self, link: str, what: str) -> None:
+        """Called from an ``except`` block: counted; logged at most once per 10 s."""
+        self._outer_errors += 1
+        if self.kernel.now >= self._next_error_log_s:
+            self._next_error_log_s = self.kernel.now + 10.0
+            log.error("%s: error %s (%d so far)", link, what, self._outer_errors,
+                      exc_info=self._outer_errors == 1)
 
     def every(self, period_s: float, callback: Callable[[float], None]) -> Ticker:
         """Call ``callback(now)`` every ``period_s`` of simulated time (observers: logs, ZMQ)."""

@@ -15,9 +15,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common as M
+from test_mavlink_support import FakeVehicle
 
 from gateway.mavlink.codec import Decoder, DecodeStats
-from gateway.mavlink.session import LinkKind
+from gateway.mavlink.session import LinkKind, Session
+from gateway.mavlink.signing import SigningConfig, SigningKey
 from gateway.sim.scenario import ScenarioError, parse
 from gateway.sim.simulation import Simulation
 from vehicles.params import ParamStore
@@ -59,21 +61,19 @@ def _args(cls: type) -> st.SearchStrategy:
     return st.tuples(*parts)
 
 
-# What a vehicle's session routes (gateway/mavlink/session.py) plus a few it does not; the
-# commands PX4 clients send most, where a bad parameter would hurt.
-ROUTED = [M.MAVLink_heartbeat_message, M.MAVLink_command_long_message,
-          M.MAVLink_command_int_message, M.MAVLink_set_mode_message,
-          M.MAVLink_param_request_list_message, M.MAVLink_param_request_read_message,
-          M.MAVLink_param_set_message, M.MAVLink_ping_message, M.MAVLink_timesync_message,
-          M.MAVLink_mission_count_message, M.MAVLink_mission_item_int_message,
-          M.MAVLink_mission_item_message, M.MAVLink_mission_request_list_message,
-          M.MAVLink_mission_request_int_message, M.MAVLink_mission_request_message,
-          M.MAVLink_mission_ack_message, M.MAVLink_mission_clear_all_message,
-          M.MAVLink_mission_set_current_message,
-          M.MAVLink_set_position_target_local_ned_message,
-          M.MAVLink_set_position_target_global_int_message,
-          M.MAVLink_set_attitude_target_message, M.MAVLink_manual_control_message,
-          M.MAVLink_file_transfer_protocol_message, M.MAVLink_setup_signing_message]
+
+def _routed() -> list[type]:
+    """Every message type a vehicle's session routes to a service (read from a Session with
+    signing on, so SETUP_SIGNING is among them), in id order."""
+    session = Session(FakeVehicle(), LinkKind.API,
+                      signing=SigningConfig(SigningKey(bytes(32)), 1_750_000_000.0))
+    return [M.mavlink_map[i] for i in sorted(session._routes)]
+
+
+# What a vehicle's session routes, and a few it does not (counted as unhandled).
+ROUTED = _routed()
+NOT_ROUTED = [M.MAVLink_file_transfer_protocol_message, M.MAVLink_log_request_list_message,
+              M.MAVLink_serial_control_message, M.MAVLink_param_ext_request_list_message]
 COMMANDS = [M.MAV_CMD_COMPONENT_ARM_DISARM, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_LAND,
             M.MAV_CMD_NAV_RETURN_TO_LAUNCH, M.MAV_CMD_DO_SET_MODE, M.MAV_CMD_DO_REPOSITION,
             M.MAV_CMD_MISSION_START, M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAV_CMD_REQUEST_MESSAGE,
@@ -88,7 +88,7 @@ PARAM_NAMES = ["MIS_TAKEOFF_ALT", "MAV_SYS_ID", "COM_DL_LOSS_T", "NAV_DLL_ACT", 
 @st.composite
 def hostile_frame(draw) -> bytes:
     """One well-formed MAVLink 2 frame (valid CRC) with hostile field values, for vehicle 1."""
-    cls = draw(st.sampled_from(ROUTED))
+    cls = draw(st.sampled_from(ROUTED + NOT_ROUTED))
     args = list(draw(_args(cls)))
     names = cls.fieldnames
     if "target_system" in names:  # mostly for us, so the frame reaches the services
@@ -132,11 +132,38 @@ def mangled_datagram(draw) -> bytes:
 _SIM: list[Simulation] = []
 
 
+_DOWN: list[bytes] = []  # what the vehicle sent since the last check
+# Fields PX4 itself fills with NaN (no terrain estimate, unknown covariance): NaN is their value.
+NAN_BY_DESIGN = {("ALTITUDE", "bottom_clearance"), ("ALTITUDE", "altitude_terrain"),
+                 ("ODOMETRY", "pose_covariance"), ("ODOMETRY", "velocity_covariance")}
+
+
 def _sim() -> Simulation:
     if not _SIM:
         _SIM.append(Simulation(1))
+        _SIM[0].on_downlink = lambda index, kind, datagram, peer: _DOWN.append(datagram)
         _SIM[0].run(until=1.0)
     return _SIM[0]
+
+
+def non_finite_telemetry() -> list[str]:
+    """Fields of what the vehicle sent since the last call that are not finite (and should
+    be), as TYPE.field."""
+    rx = M.MAVLink(None, 0, 0)
+    rx.robust_parsing = True
+    bad = []
+    for datagram in _DOWN:
+        for msg in rx.parse_buffer(datagram) or []:
+            if msg.get_type() == "PARAM_VALUE" and msg.param_type != M.MAV_PARAM_TYPE_REAL32:
+                continue  # an integer's bytes in a float (PARAM_ENCODE_BYTEWISE): any pattern
+            for name in msg.get_fieldnames():
+                value = getattr(msg, name)
+                values = value if isinstance(value, list) else [value]
+                if any(isinstance(v, float) and not math.isfinite(v) for v in values) \
+                        and (msg.get_type(), name) not in NAN_BY_DESIGN:
+                    bad.append(f"{msg.get_type()}.{name}")
+    _DOWN.clear()
+    return bad
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -166,6 +193,25 @@ def test_well_formed_hostile_frames_reach_the_services_and_nothing_fails(frames,
     assert sim.internal_errors == before
     state = sim.vehicles[0].kinematics
     assert all(math.isfinite(x) for x in state.position_ned_m + state.attitude_q)
+    assert non_finite_telemetry() == []
+
+
+def test_after_the_fuzzing_the_vehicle_still_answers_and_lands():
+    """Run after the hostile frames (same simulation): a HEARTBEAT-level health check (it
+    streams and answers a command) and a land command."""
+    sim = _sim()
+    _DOWN.clear()
+    mav = M.MAVLink(None, 255, 190)
+    land = M.MAVLink_command_long_message(1, 1, M.MAV_CMD_NAV_LAND, 0, 0, 0, 0, 0, math.nan,
+                                          math.nan, math.nan).pack(mav)
+    sim.inject(0, LinkKind.API, land, ("fuzz", 3))
+    sim.run(until=sim.now + 1.0)
+    rx = M.MAVLink(None, 0, 0)
+    rx.robust_parsing = True
+    got = [m for d in _DOWN for m in rx.parse_buffer(d) or []]
+    assert any(m.get_type() == "HEARTBEAT" for m in got)
+    assert any(m.get_type() == "COMMAND_ACK" and m.command == M.MAV_CMD_NAV_LAND for m in got)
+    assert sim.internal_errors == 0
 
 
 @FUZZ

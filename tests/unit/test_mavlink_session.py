@@ -392,6 +392,44 @@ def test_a_frame_a_service_fails_on_still_moves_the_peer():
     vehicle.arm = broken
     frame = client.encode(M.MAVLink_command_long_message(1, 1, M.MAV_CMD_COMPONENT_ARM_DISARM, 0,
                                                          1, 0, 0, 0, 0, 0, 0))
-    with pytest.raises(RuntimeError):
-        session.receive_datagram(frame, 1.0, "client")
-    assert session.peer == "client"
+    session.receive_datagram(frame, 1.0, "client")  # counted, not raised (tests below)
+    assert session.peer == "client" and session.stats.handler_errors == 1
+
+
+# --- a bug in one service is counted and contained ------------------------------------------------
+def test_a_failing_service_costs_only_its_frame_and_logs_once(caplog):
+    vehicle, session, client = make()
+
+    def boom(msg, now_s):
+        raise RuntimeError("a bug in a service")
+
+    session._routes[M.MAVLINK_MSG_ID_PING] = boom
+    ping = client.encode(M.MAVLink_ping_message(1, 0, 0, 0))
+    arm = client.encode(M.MAVLink_command_long_message(1, 1, M.MAV_CMD_COMPONENT_ARM_DISARM, 0,
+                                                       1, 0, 0, 0, 0, 0, 0))
+    vehicle.become_ready()
+    with caplog.at_level("ERROR"):
+        for k in range(50):
+            session.receive_datagram(ping + ping + arm, 0.01 * k)
+    assert session.stats.handler_errors == 100
+    assert [c[0] for c in vehicle.calls].count("arm") == 50  # the frames after it still count
+    logged = [r for r in caplog.records if "error while handling PING" in r.getMessage()]
+    assert len(logged) == 1 and logged[0].exc_info is not None
+
+
+def test_a_failing_telemetry_builder_does_not_silence_the_other_streams(monkeypatch):
+    from dataclasses import replace
+
+    from gateway.mavlink import streams
+
+    def broken(enc, snap):
+        raise OverflowError("a bug in a builder")
+
+    patched = tuple(replace(s, builder=broken) if s.msg_id == M.MAVLINK_MSG_ID_ATTITUDE else s
+                    for s in streams.STREAMS)
+    monkeypatch.setattr(streams, "STREAMS", patched)
+    _, session, client = make()
+    got = client.run_until(2.0)
+    assert of_type(got, "ATTITUDE") == []
+    assert len(of_type(got, "HEARTBEAT")) >= 2 and of_type(got, "GLOBAL_POSITION_INT")
+    assert session.stats.handler_errors > 10
