@@ -100,7 +100,7 @@ class Autopilot:
         self._fence_breach: str | None = None
         self._battery_level = 0
         self._last: Measurement | None = None  # the measurement of the last 50 Hz tick
-        self.stage = PositionStage(self.land_detector, self._position_gains())
+        self.stage = PositionStage(self.land_detector, self._position_gains(), params)
         self.tasks = make_tasks(self.stage, params, self.navigator, self.offboard, self.manual,
                                 self.orbit_task, self.follow_target, self._hover)
         self._new_gains = True
@@ -411,7 +411,7 @@ class Autopilot:
         state = cmd.nav_state
         entered = state is not self._prev_nav_state
         self._prev_nav_state = state
-        st.rates = None
+        st.begin_tick(now_s, cmd.armed)
         task = self.tasks.by_state[state]
         if not task.uses_navigator:
             self.navigator.deactivate(ctx)

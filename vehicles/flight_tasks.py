@@ -101,7 +101,8 @@ class AutoTask(FlightTask):
             step = math.radians(float(self.params["MPC_YAWRAUTO_MAX"])) * t.dt_s
             err = math.remainder(nav_sp.yaw_rad - st.yaw_sp, math.tau)
             st.yaw_sp = math.remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
-        st.apply(t.dt_s, t.meas, PositionSetpoint(p_sp, v_sp, st.yaw_sp, a_sp), t.yaw_rad)
+        st.apply(t.dt_s, t.meas, PositionSetpoint(p_sp, v_sp, st.yaw_sp, a_sp), t.yaw_rad,
+                 speed_up_mps=nav_sp.limits.speed_up_mps)
 
 
 class OffboardTask(FlightTask):

@@ -5,8 +5,11 @@ Stages (each with PX4's hysteresis from LandDetector.h): ground contact (command
 above LNDMC_XY_VEL_MAX, 0.35 s) -> maybe landed (ground contact and thrust below
 MPC_THR_MIN + 30 % of (hover - MPC_THR_MIN), 0.25 s) -> landed (0.3 s). While the position
 controller sees ground contact it cuts thrust (PX4 ``limit_thrust_during_landing``), which is what
-makes the thrust low. Takeoff: a landed, armed vehicle climbing faster than LNDMC_Z_VEL_MAX for
-TAKEOFF_TRIGGER_S is in the air. Disarmed means landed. Pure logic; time is an argument.
+makes the thrust low. Takeoff: a landed, armed vehicle is in the air once, for TAKEOFF_TRIGGER_S,
+its thrust is no longer minimal (PX4: landed needs maybe-landed, which needs thrust below
+MPC_THR_MIN + 30 % of (hover - MPC_THR_MIN)) or it climbs faster than LNDMC_Z_VEL_MAX; the takeoff
+ramp (control/takeoff.py) reaches its flight state on that. Disarmed means landed. Pure logic;
+time is an argument.
 """
 
 from __future__ import annotations
@@ -63,8 +66,10 @@ class LandDetector:
                 h.reset()
             return
         z_vel_max = float(p["LNDMC_Z_VEL_MAX"])
+        thr_min = float(p["MPC_THR_MIN"])
+        low_thrust = thrust_norm <= thr_min + (hover_thrust - thr_min) * LOW_THRUST_THRESHOLD
         if self.landed:
-            if self._takeoff.update(now_s, -velocity_ned_mps[2] > z_vel_max):
+            if self._takeoff.update(now_s, -velocity_ned_mps[2] > z_vel_max or not low_thrust):
                 self.landed = False
                 for h in (self._contact, self._maybe, self._landed):
                     h.reset()
@@ -79,8 +84,6 @@ class LandDetector:
         in_descend = (velocity_sp_z_mps >= land_speed_thr if math.isfinite(velocity_sp_z_mps)
                       else True)
         self.ground_contact = self._contact.update(now_s, not vertical and not horizontal and in_descend)
-        thr_min = float(p["MPC_THR_MIN"])
-        low_thrust = thrust_norm <= thr_min + (hover_thrust - thr_min) * LOW_THRUST_THRESHOLD
         self.maybe_landed = self._maybe.update(now_s, self.ground_contact and low_thrust)
         if self._landed.update(now_s, self.maybe_landed):
             self.landed = True

@@ -9,8 +9,12 @@ Rules and invariants:
 - ``trajectory`` (the jerk-limited setpoint generator the auto tasks share) restarts from the
   measured state whenever the vehicle is not flying under it, so a switch brakes from the real
   state.
-- While the land detector reports ground contact (or maybe landed) the thrust is cut and the
-  position integrator held at zero (PX4 ``limit_thrust_during_landing``).
+- Takeoff as PX4's mc_pos_control does it (control/takeoff.py): after arming the motors idle for
+  MPC_SPOOLUP_TIME; until a task wants to take off and the ramp starts the controller gets no
+  setpoint (zero thrust, integrators held); then the upward speed limit ramps over MPC_TKO_RAMP_T;
+  until the flight state the tilt limit is MPC_TILTMAX_LND (slewed at 0.2 rad/s) and the minimum
+  thrust 0. Flying with ground contact (landing) the setpoint is dropped for a downward one, so
+  the thrust sits at MPC_THR_MIN and the land detector can see the landing.
 - Idle: thrust 0, integrators reset, the attitude setpoint is the measured attitude, and the
   inner loop is asked to restart its rate controller (``reset_rates``).
 """
@@ -25,16 +29,28 @@ from vehicles.control.position_control import (
     PositionControlGains,
     PositionSetpoint,
 )
+from vehicles.control.takeoff import TakeoffHandling, TakeoffState
 from vehicles.control.trajectory import TrajectoryLimiter
 from vehicles.land_detector import LandDetector
+from vehicles.params import ParamStore
 from vehicles.types import Measurement, Vec3
 
 _NAN3: Vec3 = (math.nan, math.nan, math.nan)
+# No setpoint: a strong downward acceleration, so no thrust (mc_pos_control, not taken off).
+_NO_THRUST_ACC: Vec3 = (0.0, 0.0, 100.0)
+TILT_LIMIT_SLEW_RADPS = 0.2  # mc_pos_control _tilt_limit_slew_rate
+_REACTIVATE_VEL: Vec3 = (0.0, 0.0, 0.7)
 
 
 class PositionStage:
-    def __init__(self, land_detector: LandDetector, gains: PositionControlGains) -> None:
+    def __init__(self, land_detector: LandDetector, gains: PositionControlGains,
+                 params: ParamStore) -> None:
         self.land_detector = land_detector
+        self.params = params
+        self.takeoff = TakeoffHandling()
+        self._tilt_limit = math.radians(float(params["MPC_TILTMAX_LND"]))
+        self._now_s = 0.0
+        self._armed = False
         self.trajectory = TrajectoryLimiter()
         self.position_control = PositionControl(gains)
         self.attitude = AttitudeSetpoint((1.0, 0.0, 0.0, 0.0), 0.0)
@@ -43,15 +59,30 @@ class PositionStage:
         self.idle = True  # motors at idle (on the ground, or nothing to fly)
         self.flying = False  # the trajectory and the position controller are live
         self.thrust = 0.0  # the collective thrust asked for (battery model, land detector)
-        self.vel_sp_z = 0.0  # the vertical velocity setpoint (land detector)
+        self.vel_sp_z = 0.0  # the task's vertical velocity setpoint (the land detector's input)
         self.vel_sp: Vec3 = _NAN3  # the last velocity setpoint (Orbit's and the sticks' feedback)
         self.yaw_sp = math.nan  # the auto tasks' slewed heading setpoint
 
     def set_gains(self, gains: PositionControlGains) -> None:
         """New parameters: PX4 rebuilds the controller (its integrator starts at zero)."""
         self.position_control = PositionControl(gains)
+        p, tk = self.params, self.takeoff
+        tk.spoolup_time_s = float(p["MPC_SPOOLUP_TIME"])
+        tk.ramp_time_s = float(p["MPC_TKO_RAMP_T"])
+        tk.set_velocity_p_gain(float(p["MPC_Z_VEL_P_ACC"]))
+
+    def begin_tick(self, now_s: float, armed: bool) -> None:
+        """Called by the autopilot before the flight task of this 50 Hz tick."""
+        self._now_s = now_s
+        self._armed = armed
+        self.rates = None
+
+    def _takeoff_state(self, want_takeoff: bool, skip: bool = False) -> TakeoffState:
+        return self.takeoff.update_state(self._armed, self.land_detector.landed, want_takeoff,
+                                         self._now_s, skip)
 
     def set_idle(self, meas: Measurement) -> None:
+        self._takeoff_state(False)
         self.idle = True
         self.flying = False
         self.thrust = 0.0
@@ -80,22 +111,42 @@ class PositionStage:
         return True
 
     def apply(self, dt: float, meas: Measurement, sp: PositionSetpoint, yaw: float,
-              yawspeed: float = 0.0) -> None:
-        """Position control on ``sp``, then thrust vector → attitude (PX4 thrustToAttitude)."""
-        ld = self.land_detector
-        out = self.position_control.update(dt, meas.position_ned_m, meas.velocity_ned_mps,
-                                           meas.accel_ned_mps2, sp)
+              yawspeed: float = 0.0, speed_up_mps: float = math.nan) -> None:
+        """Position control on ``sp`` (the task wants to fly: a takeoff when landed), then
+        thrust vector → attitude (PX4 thrustToAttitude). ``speed_up_mps``: the task's climb
+        speed (the takeoff ramp's end; MPC_Z_VEL_MAX_UP when NaN or above it)."""
+        ld, pc = self.land_detector, self.position_control
+        task_vz = sp.velocity_ned_mps[2]  # the land detector judges the task's setpoint (PX4)
+        state = self._takeoff_state(True)
+        flying = state >= TakeoffState.FLIGHT
+        no_setpoint = state < TakeoffState.RAMPUP or (flying and ld.ground_contact)
+        if no_setpoint:
+            sp = PositionSetpoint(_NAN3, _NAN3, sp.yaw_rad, _NO_THRUST_ACC)
+            pc.reset_integral()
+            if state < TakeoffState.RAMPUP:
+                # PX4 re-activates the flight task (FlightTaskAuto::reActivate): the smoothing
+                # restarts here at rest but for a 0.7 m/s descent, so that once the ramp starts
+                # the climb setpoint first has to turn round instead of running far ahead.
+                self.trajectory.reset(meas.position_ned_m, _REACTIVATE_VEL)
+        g, p = pc.gains, self.params
+        tilt = math.radians(float(p["MPC_TILTMAX_AIR" if flying else "MPC_TILTMAX_LND"]))
+        step = TILT_LIMIT_SLEW_RADPS * dt
+        self._tilt_limit += min(max(tilt - self._tilt_limit, -step), step)
+        up_max = g.vel_max_up_mps
+        wanted_up = speed_up_mps if math.isfinite(speed_up_mps) and speed_up_mps <= up_max \
+            else up_max
+        up = min(self.takeoff.update_ramp(dt, wanted_up), up_max)
+        pc.set_limits(up, g.thrust_min if flying else 0.0, self._tilt_limit)
+        out = pc.update(dt, meas.position_ned_m, meas.velocity_ned_mps, meas.accel_ned_mps2, sp)
         thrust = out.thrust_ned
         yaw_sp = out.yaw_rad if not math.isnan(out.yaw_rad) else yaw
-        self.vel_sp_z = out.velocity_sp_ned_mps[2]
+        self.vel_sp_z = task_vz if math.isfinite(task_vz) else out.velocity_sp_ned_mps[2]
         self.vel_sp = out.velocity_sp_ned_mps
-        on_ground = ld.ground_contact or ld.maybe_landed
-        if on_ground:
-            thrust = (0.0, 0.0, 0.0)
+        if no_setpoint:
             yaw_sp = yaw
-            self.position_control.reset_integral()
+            pc.reset_integral()
         att_sp = thrust_to_attitude(thrust, yaw_sp)
-        if yawspeed != 0.0 and not on_ground:
+        if yawspeed != 0.0 and not no_setpoint:
             att_sp = AttitudeSetpoint(att_sp.attitude_q, att_sp.thrust_body_norm, yawspeed)
         self.attitude = att_sp
         self.thrust = att_sp.thrust_body_norm
@@ -104,7 +155,9 @@ class PositionStage:
                flying: bool = False) -> None:
         """An attitude (or body-rate) and thrust setpoint straight to the inner loop, no position
         control (Stabilized, Acro, Offboard attitude/rates/acceleration); ``flying``: the
-        position controller's state stays live (Offboard acceleration)."""
+        position controller's state stays live (Offboard acceleration). Without climb-rate
+        control there is no takeoff ramp (PX4 skip_takeoff)."""
+        self._takeoff_state(False, skip=True)
         self.idle = False
         self.flying = flying
         self.vel_sp_z = math.nan

@@ -23,7 +23,7 @@ CONTROL_DIR = pathlib.Path(__file__).resolve().parents[2] / "vehicles" / "contro
 
 def test_controllers_import_only_numpy_math_and_own_modules():
     # numba: register_jitable (the same source runs as Python or compiled) and njit.
-    allowed = {"math", "numpy", "numba", "dataclasses", "typing", "__future__",
+    allowed = {"math", "numpy", "numba", "dataclasses", "typing", "__future__", "enum",
                "vehicles.types", "vehicles.control"}
     for path in CONTROL_DIR.glob("*.py"):
         if path.name == "compiled.py":

@@ -137,7 +137,9 @@ def position_control_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gain
     if vxy > vel_max_xy:
         v0 *= vel_max_xy / vxy
         v1 *= vel_max_xy / vxy
-    v2 = min(max(v2, -vel_max_up), vel_max_down)
+    # math::constrain(v, -up, down): during the takeoff ramp ``up`` is negative (a limit that
+    # asks for descent) and the lower bound wins, as in PX4.
+    v2 = -vel_max_up if v2 < -vel_max_up else (vel_max_down if v2 > vel_max_down else v2)
 
     # --- _velocityControl: PID -> acceleration setpoint.
     e0, e1, e2 = v0 - vel[0], v1 - vel[1], v2 - vel[2]
@@ -198,6 +200,13 @@ class PositionControl:
 
     def reset_integral(self) -> None:
         self._vel_int[:] = 0.0
+
+    def set_limits(self, speed_up_mps: float, thrust_min: float, tilt_max_rad: float) -> None:
+        """This tick's upward speed limit, minimum thrust and tilt limit (PX4's
+        setVelocityLimits / setThrustLimits / setTiltLimit, which mc_pos_control calls every
+        update; the takeoff ramp moves them)."""
+        g = self._gains
+        g[9], g[12], g[11] = speed_up_mps, thrust_min, tilt_max_rad
 
     @property
     def velocity_integral(self) -> Vec3:
