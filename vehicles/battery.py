@@ -4,7 +4,8 @@ Rules: while armed the charge falls linearly from 100 % to 0 % over SIM_BAT_DRAI
 below SIM_BAT_MIN_PCT; voltage = cells × interpolate(remaining, BAT1_V_EMPTY, BAT1_V_CHARGED).
 PX4 reports no current in simulation (-1 A); we model one from the collective thrust so that
 BATTERY_STATUS looks alive: HOVER_CURRENT_A at hover thrust, ∝ thrust^1.5 (momentum theory), plus
-an avionics draw. consumed_mah integrates that current. Time is an argument.
+an avionics draw, while armed; disarmed the current is 0 (and the charge stays, as PX4's simulated
+battery only drains armed). consumed_mah integrates that current. Time is an argument.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ class BatterySim:
         self._remaining = 1.0
         self._consumed_mah = 0.0
         self._last_s: float | None = None
-        self._current_a = AVIONICS_CURRENT_A
+        self._current_a = 0.0
 
     def update(self, now_s: float, armed: bool, thrust_norm: float) -> None:
         dt = 0.0 if self._last_s is None else max(now_s - self._last_s, 0.0)
@@ -32,7 +33,7 @@ class BatterySim:
         if not int(p["SIM_BAT_ENABLE"]):
             return
         ratio = max(thrust_norm, 0.0) / self._hover
-        self._current_a = AVIONICS_CURRENT_A + (HOVER_CURRENT_A * ratio**1.5 if armed else 0.0)
+        self._current_a = AVIONICS_CURRENT_A + HOVER_CURRENT_A * ratio**1.5 if armed else 0.0
         self._consumed_mah += self._current_a * dt / 3.6
         if armed:
             self._remaining -= dt / float(p["SIM_BAT_DRAIN"])

@@ -228,3 +228,18 @@ def test_a_repeated_takeoff_command_does_not_climb_higher(sim):
     assert sim.run(15.0, until=lambda: v.status.nav_state is NavState.AUTO_LOITER)
     sim.run(3.0)
     assert abs(-v.state.position_ned_m[2] - 2.5) < 0.3
+
+
+def test_battery_current_is_zero_disarmed_and_follows_thrust_armed(sim):
+    sim.run(1.0)
+    assert sim.v.status.battery.current_a == 0.0
+    take_off(sim)
+    assert sim.v.status.battery.current_a > 5.0
+    consumed = sim.v.status.battery.consumed_mah
+    assert sim.v.land(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(40.0, until=lambda: not sim.v.status.armed)
+    sim.run(1.0)
+    assert sim.v.status.battery.current_a == 0.0
+    after = sim.v.status.battery.consumed_mah
+    sim.run(2.0)
+    assert sim.v.status.battery.consumed_mah == after > consumed
