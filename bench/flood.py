@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """A flood on one vehicle's port while the others fly (issue 6, acceptance 3).
 
-`cornet run --vehicles 3` as a user starts it; a separate process sends ``--kind`` datagrams
+`cornet run --vehicles 3 --state-dir <temporary>` as a user starts it; a separate process sends
+``--kind`` datagrams
 (garbage: random bytes, truncated and corrupted frames, frames for other systems, unknown ids;
 or well-formed HEARTBEAT, PARAM_SET, COMMAND_LONG or MISSION_* frames for vehicle 1) at
 ``--rate`` datagrams/s from ``--sources`` source ports to vehicle 1's API port, while two
@@ -25,8 +26,10 @@ import multiprocessing as mp
 import os
 import platform
 import re
+import shutil
 import socket
 import sys
+import tempfile
 import threading
 import time
 import warnings
@@ -145,7 +148,9 @@ async def fly(d, index: int) -> str:
 
 async def main_async(args) -> int:
     zmq_ep = f"tcp://127.0.0.1:{free_tcp_port()}"
-    d = start_daemon("--zmq-pub", zmq_ep, vehicles=3)
+    # With a state directory: a PARAM_SET or mission flood also exercises persistence.
+    state_dir = tempfile.mkdtemp(prefix="cornet-flood-state-")
+    d = start_daemon("--zmq-pub", zmq_ep, "--state-dir", state_dir, vehicles=3)
     clock = SimClock(zmq_ep)
     clock.start()
     out: mp.Queue = mp.Queue()
@@ -166,6 +171,7 @@ async def main_async(args) -> int:
         code = d.stop()
         clock.stop.set()
         clock.join(timeout=2)
+        shutil.rmtree(state_dir, ignore_errors=True)
     stop_line = next((ln for ln in reversed(d.stderr_lines) if "stopping after" in ln), "")
     counters = dict(re.findall(r"(\w+)=([\d.]+)", stop_line))
     quiet, flooded = clock.rtf(q0, q1), clock.rtf(f0 + 1.0, f1)

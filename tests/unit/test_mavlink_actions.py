@@ -1,4 +1,4 @@
-"""Action commands of the PX4 persona (PX4_COMPAT.md §4) and QGC's connect requests (§10)."""
+"""Action commands of the PX4 persona (Commander.cpp, navigator) and QGC's connect requests."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Offboard setpoint messages → OffboardSetpoint (PX4_COMPAT.md §5), in memory."""
+"""Offboard setpoint messages → OffboardSetpoint (PX4 mavlink_receiver.cpp), in memory."""
 
 from __future__ import annotations
 

@@ -10,7 +10,7 @@ from gateway.mavlink import modes
 from gateway.mavlink.session import LinkKind
 from vehicles.types import NavState, Severity
 
-# PX4_COMPAT.md §2: every NavState → (custom_mode, base disarmed, base armed)
+# PX4 commander px4_custom_mode.h: every NavState → (custom_mode, base disarmed, base armed)
 EXPECTED_MODES = {
     NavState.MANUAL: (65536, 81, 209),
     NavState.ALTCTL: (131072, 81, 209),
@@ -95,7 +95,7 @@ def test_system_status_progression():
 
 
 def _mavsdk_health(ss):
-    """MAVSDK3/4 telemetry_impl.cpp rules (PX4_COMPAT.md §3)."""
+    """MAVSDK3/4 telemetry_impl.cpp rules."""
     gps = 32
     return {
         "global": bool(ss.onboard_control_sensors_present & gps
