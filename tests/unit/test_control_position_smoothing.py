@@ -1,0 +1,126 @@
+"""PX4's position smoothing (vehicles/control/position_smoothing.py): PX4's own unit test,
+PositionSmoothingTest.cpp, reproduced case by case (matrix's == is within 1e-4)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from vehicles.control.position_smoothing import (
+    PositionSmoothing,
+    max_speed_from_distance,
+    max_speed_in_waypoint,
+)
+
+MAX_JERK, MAX_ACCELERATION = 4.0, 3.0
+MAX_ALLOWED_HOR_ERR, VERTICAL_ACCEPTANCE_RADIUS = 2.0, 0.8
+CRUISE_SPEED = MAX_VELOCITY = 5.0
+HORIZONTAL_TRAJECTORY_GAIN, TARGET_ACCEPTANCE_RADIUS = 0.5, 0.5
+TARGET = (12.0, 17.0, 8.0)
+
+
+def equal(a, b, eps=1e-4) -> bool:
+    return all(abs(x - y) <= eps for x, y in zip(a, b))
+
+
+def smoothing() -> PositionSmoothing:
+    s = PositionSmoothing()
+    s.set_max_jerk(MAX_JERK)
+    s.set_max_acceleration((MAX_ACCELERATION,) * 3)
+    s.set_max_velocity((MAX_VELOCITY,) * 3)
+    s.max_allowed_horizontal_error = MAX_ALLOWED_HOR_ERR
+    s.vertical_acceptance_radius = VERTICAL_ACCEPTANCE_RADIUS
+    s.cruise_speed = CRUISE_SPEED
+    s.horizontal_trajectory_gain = HORIZONTAL_TRAJECTORY_GAIN
+    s.target_acceptance_radius = TARGET_ACCEPTANCE_RADIUS
+    s.reset((0.0,) * 3, (0.0,) * 3, (0.0,) * 3)
+    return s
+
+
+def within_limits(out) -> bool:
+    return all(abs(v) <= MAX_VELOCITY + 1e-6 for v in out.velocity) and \
+        all(abs(a) <= MAX_ACCELERATION + 1e-6 for a in out.acceleration) and \
+        all(abs(j) <= MAX_JERK + 1e-9 for j in out.jerk)
+
+
+def test_all_zero_case():
+    out = PositionSmoothing().generate((0.0,) * 3, ((0.0,) * 3,) * 3, (0.0,) * 3, 0.0)
+    assert out.jerk == out.acceleration == out.velocity == out.position == \
+        out.unsmoothed_velocity == (0.0, 0.0, 0.0)
+
+
+def test_reaches_target_position_setpoint():
+    s, position = smoothing(), (0.0, 0.0, 0.0)
+    waypoints = ((0.0, 0.0, 0.0), TARGET, TARGET)
+    for _ in range(2000):
+        out = s.generate(position, waypoints, (0.0,) * 3, 0.02)
+        position = out.position
+        assert within_limits(out)
+        if equal(position, TARGET):
+            break
+    else:
+        pytest.fail("took too long to converge")
+    assert equal(position, TARGET)
+
+
+def test_reaches_target_velocity_integration():
+    s, position = smoothing(), (0.0, 0.0, 0.0)
+    waypoints = ((0.0, 0.0, 0.0), TARGET, TARGET)
+    for _ in range(2000):
+        out = s.generate(position, waypoints, (0.0,) * 3, 0.02)
+        position = tuple(p + v * 0.02 for p, v in zip(position, out.velocity))
+        assert within_limits(out)
+        if equal(position, TARGET):
+            break
+    else:
+        pytest.fail("took too long to converge")
+    assert equal(position, TARGET)
+
+
+def test_reaches_target_initial_velocity():
+    s, position = smoothing(), (0.0, 0.0, 0.0)
+    waypoints = ((0.0, 0.0, 0.0), TARGET, TARGET)
+    ff = (1.0, 0.1, 0.3)
+    for _ in range(20000):
+        out = s.generate(position, waypoints, ff, 0.02)
+        position, ff = out.position, (0.0, 0.0, 0.0)
+        assert within_limits(out)
+        if math.hypot(position[0] - TARGET[0], position[1] - TARGET[1]) < 10.0 \
+                and abs(position[2] - TARGET[2]) < 0.8:
+            break
+    else:
+        pytest.fail("took too long to converge")
+
+
+def test_traj_math():
+    """TrajMath: braking from the speed it gives takes the whole distance; a straight line
+    (alpha = pi) allows any speed, a reversal (alpha = 0) none."""
+    v = max_speed_from_distance(4.0, 3.0, 10.0, 0.0)
+    delay = 2.0 * 3.0 / 4.0
+    assert v * delay + v * v / (2 * 3.0) == pytest.approx(10.0)
+    assert max_speed_in_waypoint(0.0, 3.0, 2.0) == 0.0
+    assert max_speed_in_waypoint(math.pi - 1e-6, 3.0, 2.0) > 100.0
+
+
+def test_a_corner_is_planned_inside_and_slower():
+    """A 90 degree fly-through corner: the smoothed path cuts inside it and slows below cruise
+    (the speed planned from MPC_XY_TRAJ_P x MPC_ACC_HOR and the acceptance radius)."""
+    s, position = smoothing(), (0.0, 0.0, 0.0)
+    s.target_acceptance_radius = 2.0
+    corner, nxt = (30.0, 0.0, 0.0), (30.0, 30.0, 0.0)
+    prev = (0.0, 0.0, 0.0)
+    speeds, outside = [], 0.0
+    target = corner
+    for _ in range(3000):
+        out = s.generate(position, (prev, target, nxt), (0.0,) * 3, 0.02)
+        position = out.position
+        if target == corner and math.dist(position[:2], corner[:2]) < 2.0:
+            prev, target = corner, nxt  # the navigator switches at the acceptance radius
+        speeds.append((position, math.hypot(out.velocity[0], out.velocity[1])))
+        outside = max(outside, position[0] - corner[0])
+        if equal(position, nxt, 1e-2):
+            break
+    near = [v for p, v in speeds if math.dist(p[:2], corner[:2]) < 3.0]
+    assert outside <= 0.2 and max(v for _, v in speeds) <= CRUISE_SPEED + 1e-6
+    assert min(near) < 0.8 * CRUISE_SPEED
