@@ -26,13 +26,13 @@ from __future__ import annotations
 import math
 
 from vehicles.airframe import Airframe
+from vehicles.auto_trajectory import AutoTrajectory
 from vehicles.battery import BatterySim
 from vehicles.commander import Commander
 from vehicles.control.attitude_control import AttitudeControlGains
 from vehicles.control.position_control import PositionControl, PositionControlGains
 from vehicles.control.quat import q_yaw
 from vehicles.control.rate_control import RateControlGains
-from vehicles.control.trajectory import TrajectoryLimiter
 from vehicles.failsafe import FailsafeFlags
 from vehicles.flight_tasks import TaskInput, make_tasks
 from vehicles.follow_target import FollowTarget
@@ -110,7 +110,7 @@ class Autopilot:
         self.time_s = boot_time_s
 
     @property
-    def trajectory(self) -> TrajectoryLimiter:
+    def trajectory(self) -> AutoTrajectory:
         return self.stage.trajectory
 
     @property

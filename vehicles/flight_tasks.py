@@ -74,8 +74,9 @@ class FlightTask:
 
 
 class AutoTask(FlightTask):
-    """The navigator's modes (Mission, Hold, Takeoff, Land, Return …) through the trajectory
-    limiter, the heading slewed at MPC_YAWRAUTO_MAX (FlightTaskAuto)."""
+    """The navigator's modes (Mission, Hold, Takeoff, Land, Return …) through PX4's position
+    smoothing with the navigator's triplet (auto_trajectory.py), the heading slewed at
+    MPC_YAWRAUTO_MAX (FlightTaskAuto)."""
 
     uses_navigator = True
 
@@ -95,8 +96,9 @@ class AutoTask(FlightTask):
         if not st.flying or math.isnan(st.yaw_sp):
             st.yaw_sp = t.yaw_rad
         st.start_flying(t.meas)
-        p_sp, v_sp, a_sp = st.trajectory.update(t.dt_s, nav_sp.target_ned_m, nav_sp.limits,
-                                                nav_sp.vz_cmd_mps, pos[2])
+        p_sp, v_sp, a_sp = st.trajectory.update(
+            t.dt_s, nav_sp.target_ned_m, nav_sp.limits, nav_sp.vz_cmd_mps, pos[2], pos,
+            nav_sp.previous_ned_m, nav_sp.next_ned_m, nav_sp.acceptance_radius_m)
         if not math.isnan(nav_sp.yaw_rad):
             step = math.radians(float(self.params["MPC_YAWRAUTO_MAX"])) * t.dt_s
             err = math.remainder(nav_sp.yaw_rad - st.yaw_sp, math.tau)
@@ -163,8 +165,8 @@ class TerminationTask(FlightTask):
 
 
 class FollowTask(FlightTask):
-    """Follow Me (follow_target.py) through the trajectory limiter; without a target it brakes
-    and holds."""
+    """Follow Me (follow_target.py) through the smoothed trajectory (auto_trajectory.py), the
+    target's velocity fed forward; without a target it brakes and holds."""
 
     def __init__(self, stage: PositionStage, params: ParamStore, follow: FollowTarget) -> None:
         super().__init__(stage, params)
@@ -188,15 +190,17 @@ class FollowTask(FlightTask):
         else:
             self._hold = None
             target = sp.position_ned_m
-        p_sp, v_sp, a_sp = st.trajectory.update(t.dt_s, target, limits, 0.0, pos[2])
+        ff = sp.velocity_ned_mps if sp is not None else None
+        p_sp, v_sp, a_sp = st.trajectory.update(t.dt_s, target, limits, 0.0, pos[2], pos,
+                                                feedforward_ned_mps=ff)
         st.apply(t.dt_s, t.meas, PositionSetpoint(p_sp, v_sp, self.follow.yaw_sp, a_sp),
                  t.yaw_rad)
 
 
 class OrbitTask(FlightTask):
     """Orbit (orbit.py): on the circle its setpoints go straight to position control; the
-    approach to the circle goes through the trajectory limiter. DO_ORBIT's parameters are taken
-    at the next tick."""
+    approach to the circle goes through the smoothed trajectory (auto_trajectory.py). DO_ORBIT's
+    parameters are taken at the next tick."""
 
     def __init__(self, stage: PositionStage, params: ParamStore, orbit: Orbit,
                  manual: ManualControl) -> None:

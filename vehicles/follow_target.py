@@ -11,8 +11,8 @@ Rules:
   flat) or above the target (2), never below 1 m above home. Horizontal following waits until
   the altitude is within 3 m.
 - The nose points at the target once it is more than 1 m away.
-- The setpoints are targets for the autopilot's trajectory limiter (speed MPC_XY_VEL_MAX,
-  acceleration MPC_ACC_HOR), which stands in for PX4's smoothing.
+- The setpoints are targets for the autopilot's smoothed trajectory (auto_trajectory.py: speed
+  MPC_XY_VEL_MAX, acceleration MPC_ACC_HOR), the target's velocity fed forward.
 - Pure: time and dt are arguments.
 """
 

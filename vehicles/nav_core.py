@@ -33,6 +33,11 @@ class NavSetpoint:
     idle: bool = False  # stay on the ground with motors at idle
     landing: bool = False  # LandedState.LANDING while in the air
     taking_off: bool = False  # LandedState.TAKEOFF (mission takeoff)
+    # PX4's position setpoint triplet: the waypoint before the target and the one after it (a
+    # fly-through corner is planned towards it), and the target's acceptance radius.
+    previous_ned_m: Vec3 | None = None
+    next_ned_m: Vec3 | None = None
+    acceptance_radius_m: float = math.nan
 
 
 @dataclass
@@ -172,8 +177,9 @@ class Takeoff(NavMode):
         limits = auto_limits(p, speed_up_mps=float(p["MPC_TKO_SPEED"]))
         if not ctx.armed:
             return NavSetpoint(self.target, self.yaw, limits, idle=True)
-        reached = (abs(ctx.position_ned_m[2] - self.target[2]) < float(p["NAV_MC_ALT_RAD"])
-                   and abs(ctx.setpoint_ned_m[2] - self.target[2]) < 1e-3)
+        # navigator takeoff.cpp: done once the altitude is within NAV_MC_ALT_RAD; Hold then keeps
+        # the takeoff point as its target (the setpoint closes the rest).
+        reached = abs(ctx.position_ned_m[2] - self.target[2]) < float(p["NAV_MC_ALT_RAD"])
         if not ctx.landed and reached:
             # COM_TAKEOFF_ACT = 0: hold at the takeoff point.
             ctx.switch_to(NavState.AUTO_LOITER, self.target)

@@ -57,6 +57,9 @@ class Mission(NavMode):
         self._fixed_yaw = math.nan
         self._wait_until = 0.0
         self._acc_rad = 2.0
+        self._previous: Vec3 | None = None  # the triplet around a goto (PX4 position_setpoint)
+        self._next: Vec3 | None = None
+        self._came_from: Vec3 | None = None  # the waypoint just reached (the next previous)
         self._auto_takeoff = False
         plans.on_change(self._plan_changed)
         self._plan_changed(PlanType.MISSION)
@@ -225,12 +228,34 @@ class Mission(NavMode):
         return True
 
     def _begin_goto(self, ctx: NavContext, item: PlanItem) -> None:
+        self._previous = self._came_from if self._came_from is not None else ctx.setpoint_ned_m
+        self._came_from = None
         self._target = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
         acc = item.param2 if item.command == MavCmd.NAV_WAYPOINT else 0.0
         self._acc_rad = acc if acc > 0 else float(ctx.params["NAV_ACC_RAD"])
+        self._next = self._fly_through_next(ctx, item)
         yaw = item.param4 if item.command in (MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME) else math.nan
         self._fixed_yaw = math.radians(yaw) if math.isfinite(yaw) else math.nan
         self._phase = "goto"
+
+    def _fly_through_next(self, ctx: NavContext, item: PlanItem) -> Vec3 | None:
+        """The next waypoint when ``item`` is flown through (a NAV_WAYPOINT without hold time
+        whose next position item is another waypoint): PX4's navigator then publishes it as the
+        triplet's next and the corner is planned (mission_block.cpp, FlightTaskAuto)."""
+        if item.command != MavCmd.NAV_WAYPOINT or item.param1 > 0:
+            return None
+        for later in self.items[self.current + 1:]:
+            if later.command in GOTO_COMMANDS:
+                return item_ned(later, ctx.origin, ctx.home_alt_amsl_m)
+            if later.command in TAKEOFF_COMMANDS or later.command in LAND_COMMANDS or \
+                    later.command in DELAY_COMMANDS or later.command in (
+                        MavCmd.NAV_RETURN_TO_LAUNCH, MavCmd.DO_JUMP):
+                return None
+        return None
+
+    def _goto_setpoint(self, ctx: NavContext) -> NavSetpoint:
+        return NavSetpoint(self._target, self._yaw, ctx.limits(), previous_ned_m=self._previous,
+                           next_ned_m=self._next, acceptance_radius_m=self._acc_rad)
 
     def _run_phase(self, ctx: NavContext) -> NavSetpoint:
         p = ctx.params
@@ -268,7 +293,7 @@ class Mission(NavMode):
                 else:
                     return self._advance(ctx)
             else:
-                return NavSetpoint(self._target, self._yaw, ctx.limits())
+                return self._goto_setpoint(ctx)
         if self._phase == "wait":
             if ctx.now_s >= self._wait_until:
                 return self._advance(ctx)
@@ -291,6 +316,7 @@ class Mission(NavMode):
                            vz_cmd_mps=speed, landing=True)
 
     def _advance(self, ctx: NavContext) -> NavSetpoint:
+        self._came_from = self._target
         self._reached(self.current)
         self.current += 1
         self._phase = "start"

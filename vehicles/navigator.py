@@ -1,4 +1,4 @@
-"""Navigator: the auto modes, each producing a target for the trajectory limiter.
+"""Navigator: the auto modes, each producing a target for the smoothed trajectory (auto_trajectory.py).
 
 After PX4 ``src/modules/navigator`` (navigator_main.cpp: one NavigatorMode per nav_state, hooks
 ``on_activation`` / ``on_active`` / ``on_inactive``; the cruising speed set by DO_CHANGE_SPEED /

@@ -9,7 +9,7 @@ Rules:
   acceleration v²/r below ACCELERATION_MAX: the speed gives way first (PX4's constants).
 - Off the circle (more than 1 m from it, or more than NAV_MC_ALT_RAD from its altitude) the
   vehicle first flies to the nearest point of the circle at cruise speed, nose to the centre
-  (``approach_target``; the autopilot's trajectory limiter smooths it); on the circle it flies
+  (``approach_target``, smoothed by auto_trajectory.py); on the circle it flies
   the tangential velocity plus a radial correction, with the centripetal acceleration fed
   forward.
 - Yaw (ORBIT_YAW_BEHAVIOUR): 0 nose to the centre (default), 1 the heading at the command,

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 
+from vehicles.auto_trajectory import AutoTrajectory
 from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
 from vehicles.control.position_control import (
     PositionControl,
@@ -30,7 +31,6 @@ from vehicles.control.position_control import (
     PositionSetpoint,
 )
 from vehicles.control.takeoff import TakeoffHandling, TakeoffState
-from vehicles.control.trajectory import TrajectoryLimiter
 from vehicles.land_detector import LandDetector
 from vehicles.params import ParamStore
 from vehicles.types import Measurement, Vec3
@@ -51,7 +51,7 @@ class PositionStage:
         self._tilt_limit = math.radians(float(params["MPC_TILTMAX_LND"]))
         self._now_s = 0.0
         self._armed = False
-        self.trajectory = TrajectoryLimiter()
+        self.trajectory = AutoTrajectory(params)
         self.position_control = PositionControl(gains)
         self.attitude = AttitudeSetpoint((1.0, 0.0, 0.0, 0.0), 0.0)
         self.rates: Vec3 | None = None  # a body-rate setpoint that replaces attitude control

@@ -53,6 +53,10 @@ class DynamicLimits:
     max_acc_xy_radius_scale: float
 
 
+def _sgn(x: float) -> float:
+    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+
+
 def _unit2(x: float, y: float) -> tuple[float, float]:
     n = math.hypot(x, y)
     return (x / n, y / n) if n > _EPS else (0.0, 0.0)
@@ -210,10 +214,10 @@ class PositionSmoothing:
             add(1, uy * xy_speed)
             if z_valid:
                 dz = crossing[2] - pos[2]
-                add(2, ((dz > 0) - (dz < 0)) * self._max_z_speed(waypoints))
+                add(2, _sgn(dz) * self._max_z_speed(waypoints))
         elif z_valid:
             dz = target[2] - pos[2]
-            add(2, ((dz > 0) - (dz < 0)) * self._max_z_speed(waypoints))
+            add(2, _sgn(dz) * self._max_z_speed(waypoints))
         return (out[0], out[1], out[2])
 
     # --- the step -------------------------------------------------------------------------------

@@ -1,0 +1,101 @@
+"""The auto modes' setpoint generator: PX4's PositionSmoothing (position_smoothing.py) set up as
+FlightTaskAuto sets it up (_updateTrajConstraints), behind the interface the flight tasks use.
+
+- Horizontal: jerk MPC_JERK_AUTO, acceleration ``acc_xy`` (MPC_ACC_HOR), speed planned up to the
+  cruise speed ``speed_xy`` (MPC_XY_CRUISE, or DO_CHANGE_SPEED's), corners from the acceptance
+  radius and MPC_XY_TRAJ_P; the integration slows while the vehicle lags more than
+  MPC_XY_ERR_MAX behind (PX4's default 2 m; the parameter is newer than this parameter table).
+- Vertical: going up MPC_ACC_UP_MAX and ``speed_up`` (MPC_Z_V_AUTO_UP, MPC_TKO_SPEED during a
+  takeoff), going down MPC_ACC_DOWN_MAX and ``speed_down``; NAV_MC_ALT_RAD is the vertical
+  acceptance radius. A NaN target altitude is a vertical speed (``vz_cmd``, landing): the position
+  setpoint's z is then NaN and the position controller flies the velocity.
+- ``previous`` and ``next`` make the triplet PX4's navigator publishes: a fly-through waypoint
+  with a next one is passed at the corner speed, inside the corner; without them the target is
+  a single waypoint, approached without overshoot.
+"""
+
+from __future__ import annotations
+
+import math
+
+from vehicles.control.position_smoothing import PositionSmoothing
+from vehicles.control.trajectory import TrajectoryLimits
+from vehicles.params import ParamStore
+from vehicles.types import Vec3
+
+XY_ERR_MAX_M = 2.0  # PX4 MPC_XY_ERR_MAX default
+
+
+class AutoTrajectory:
+    def __init__(self, params: ParamStore) -> None:
+        self._params = params
+        self._smoothing = PositionSmoothing()
+        self._smoothing.max_allowed_horizontal_error = XY_ERR_MAX_M
+        self._acc: Vec3 = (0.0, 0.0, 0.0)
+
+    def reset(self, position_ned_m: Vec3, velocity_ned_mps: Vec3) -> None:
+        self._smoothing.reset((0.0, 0.0, 0.0), velocity_ned_mps, position_ned_m)
+        self._acc = (0.0, 0.0, 0.0)
+
+    @property
+    def position_ned_m(self) -> Vec3:
+        t = self._smoothing.trajectory
+        return (t[0].state.x, t[1].state.x, t[2].state.x)
+
+    @property
+    def velocity_ned_mps(self) -> Vec3:
+        t = self._smoothing.trajectory
+        return (t[0].state.v, t[1].state.v, t[2].state.v)
+
+    def stopping_point(self, lim: TrajectoryLimits) -> Vec3:
+        """Where the setpoint comes to rest if it brakes now (navigator calculate_breaking_stop:
+        computeBrakingDistanceFromVelocity with MPC_JERK_AUTO, MPC_ACC_HOR and an acceleration
+        delay of 0.6 x MPC_JERK_AUTO)."""
+        (px, py, pz), (vx, vy, vz) = self.position_ned_m, self.velocity_ned_mps
+        speed = math.hypot(vx, vy)
+        k = speed / (2.0 * lim.acc_xy_mps2) + 0.6  # braking distance / speed
+        acc_z = lim.acc_down_mps2 if vz > 0.0 else lim.acc_up_mps2
+        return (px + vx * k, py + vy * k, pz + vz * abs(vz) / (2.0 * acc_z))
+
+    def update(self, dt_s: float, target_ned_m: Vec3, lim: TrajectoryLimits,
+               vz_cmd_mps: float = 0.0, current_z_m: float = 0.0,
+               position_ned_m: Vec3 | None = None, previous_ned_m: Vec3 | None = None,
+               next_ned_m: Vec3 | None = None, acceptance_radius_m: float = math.nan,
+               feedforward_ned_mps: Vec3 | None = None) -> tuple[Vec3, Vec3, Vec3]:
+        """Advance by ``dt_s``; returns (position, velocity, acceleration) setpoints.
+        ``position_ned_m``: the vehicle's (for the lag stretch; the setpoint's own when None).
+        ``feedforward_ned_mps``: the target's own velocity (a moving target: Follow Me)."""
+        p, s = self._params, self._smoothing
+        here = self.position_ned_m
+        going_up = self.velocity_ned_mps[2] < 0.0
+        acc_xy = lim.acc_xy_mps2
+        s.set_max_jerk(float(p["MPC_JERK_AUTO"]))
+        s.set_max_acceleration((acc_xy, acc_xy, lim.acc_up_mps2 if going_up
+                                else lim.acc_down_mps2))
+        s.set_max_velocity((lim.speed_xy_mps, lim.speed_xy_mps, lim.speed_up_mps if going_up
+                            else lim.speed_down_mps))
+        s.cruise_speed = lim.speed_xy_mps
+        s.horizontal_trajectory_gain = float(p["MPC_XY_TRAJ_P"])
+        s.vertical_acceptance_radius = float(p["NAV_MC_ALT_RAD"])
+        s.target_acceptance_radius = (acceptance_radius_m if math.isfinite(acceptance_radius_m)
+                                      else float(p["NAV_ACC_RAD"]))
+        vertical_speed = math.isnan(target_ned_m[2])
+        target = target_ned_m
+        ff = feedforward_ned_mps if feedforward_ned_mps is not None else (math.nan,) * 3
+        feedforward = (ff[0], ff[1], vz_cmd_mps if vertical_speed else ff[2])
+        prev = previous_ned_m if previous_ned_m is not None else here
+        nxt = next_ned_m if next_ned_m is not None else target
+        if vertical_speed:  # the triplet's altitude is the setpoint's (only xy is planned)
+            prev = (prev[0], prev[1], math.nan)
+            nxt = (nxt[0], nxt[1], math.nan)
+        vehicle = position_ned_m if position_ned_m is not None else here
+        out = s.generate(vehicle, (prev, target, nxt), feedforward, dt_s,
+                         single_waypoint=next_ned_m is None)
+        if not all(math.isfinite(v) for v in out.position):  # nothing to plan: hold still
+            s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), here)
+            return here, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        pos = out.position
+        if vertical_speed:  # the altitude follows the vehicle (velocity control)
+            s.trajectory[2].set_current_position(current_z_m)
+            pos = (pos[0], pos[1], math.nan)
+        return pos, out.velocity, out.acceleration
