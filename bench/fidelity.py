@@ -1,0 +1,268 @@
+#!/usr/bin/env python3
+"""Fly like PX4: fixed manoeuvres flown in lockstep (one vehicle, PX4 default parameters), each
+figure printed beside what PX4's own algorithms give for the same inputs, with plots.
+
+- takeoff to MIS_TAKEOFF_ALT: time to 90 % of the altitude after the command (given at arming);
+  PX4's profile is MPC_SPOOLUP_TIME at idle, then the MPC_TKO_RAMP_T ramp (TakeoffHandling),
+  then the climb at MPC_TKO_SPEED into PositionSmoothing's approach; the reference runs those
+  and PositionControl (PX4's gains, MPC_THR_HOVER) on a point mass with instant motors;
+- fly-through squares with 50 m sides, 90° and 150° corners: the greatest distance outside the
+  polygon at a corner, the lowest speed near each corner (PositionSmoothing alone, perfectly
+  tracked, on the same waypoints and NAV_ACC_RAD is PX4's figure) and the greatest leg speed
+  (MPC_XY_CRUISE);
+- a 30 m goto: overshoot (PX4's smoothing arrives without overshoot: 0 m);
+- land from 10 m: time to touchdown (PX4: MPC_Z_V_AUTO_DN down to MPC_LAND_ALT1, MPC_LAND_SPEED
+  below MPC_LAND_ALT2).
+
+    .venv/bin/python bench/fidelity.py [--plots docs/fidelity]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from tests.unit.test_vehicles_flight import Sim  # noqa: E402
+from tests.unit.test_vehicles_mission import waypoints  # noqa: E402
+from vehicles.control.position_smoothing import PositionSmoothing  # noqa: E402
+from vehicles.control.takeoff import TakeoffHandling  # noqa: E402
+from vehicles.plan_types import PlanType  # noqa: E402
+from vehicles.types import CommandResult  # noqa: E402
+
+DT = 0.02
+ALT = 10.0
+
+
+def smoothing(p) -> PositionSmoothing:
+    s = PositionSmoothing()
+    s.set_max_jerk(float(p["MPC_JERK_AUTO"]))
+    acc = float(p["MPC_ACC_HOR"])
+    s.set_max_acceleration((acc, acc, float(p["MPC_ACC_UP_MAX"])))
+    cruise = float(p["MPC_XY_CRUISE"])
+    s.set_max_velocity((cruise, cruise, float(p["MPC_Z_V_AUTO_UP"])))
+    s.max_allowed_horizontal_error, s.vertical_acceptance_radius = 2.0, float(p["NAV_MC_ALT_RAD"])
+    s.cruise_speed, s.horizontal_trajectory_gain = cruise, float(p["MPC_XY_TRAJ_P"])
+    s.target_acceptance_radius = float(p["NAV_ACC_RAD"])
+    return s
+
+
+# --- PX4's figures from its algorithms ----------------------------------------------------------
+def px4_takeoff_time(p) -> float:
+    """PX4's algorithms (TakeoffHandling, PositionSmoothing, PositionControl with PX4's gains) on
+    a point mass with instant motors that rests on the ground until the thrust lifts it: the
+    time to 90 % of MIS_TAKEOFF_ALT after the command, given at arming."""
+    from vehicles.control.position_control import (
+        PositionControl,
+        PositionControlGains,
+        PositionSetpoint,
+    )
+    from vehicles.types import GRAVITY_MPS2
+
+    hover = float(p["MPC_THR_HOVER"])
+    gains = PositionControlGains.from_params(p, hover_thrust=hover)
+    pc = PositionControl(gains)
+    tk = TakeoffHandling(float(p["MPC_SPOOLUP_TIME"]), float(p["MPC_TKO_RAMP_T"]),
+                         float(p["MPC_Z_VEL_P_ACC"]))
+    s = smoothing(p)
+    s.set_max_velocity((5.0, 5.0, float(p["MPC_TKO_SPEED"])))
+    alt = float(p["MIS_TAKEOFF_ALT"])
+    z = vz = t = 0.0
+    landed = True
+    tilt_lnd = math.radians(float(p["MPC_TILTMAX_LND"]))
+    while t < 60.0:
+        state = tk.update_state(True, landed, True, t)
+        target = ((0.0, 0.0, 0.0), (0.0, 0.0, -alt), (0.0, 0.0, -alt))
+        if state < 3:  # not taken off: no setpoint, the task restarts (reActivate)
+            s.reset((0.0,) * 3, (0.0, 0.0, 0.7), (0.0, 0.0, -z))
+            sp = PositionSetpoint(acceleration_ned_mps2=(0.0, 0.0, 100.0))
+            pc.reset_integral()
+        else:
+            out = s.generate((0.0, 0.0, -z), target, (math.nan,) * 3, DT, single_waypoint=True)
+            sp = PositionSetpoint(out.position, out.velocity, 0.0, (0.0, 0.0, math.nan))
+        up = min(tk.update_ramp(DT, float(p["MPC_TKO_SPEED"])), gains.vel_max_up_mps)
+        pc.set_limits(up, gains.thrust_min if state >= 4 else 0.0, tilt_lnd)
+        thrust = -pc.update(DT, (0.0, 0.0, -z), (0.0, 0.0, -vz), (0.0, 0.0, 0.0), sp).thrust_ned[2]
+        acc = thrust / hover * GRAVITY_MPS2 - GRAVITY_MPS2
+        if landed and acc <= 0.0:
+            acc, vz = 0.0, 0.0
+        vz += acc * DT
+        z = max(0.0, z + vz * DT)
+        # The land detector: in the air once the thrust is no longer minimal.
+        thr_min = float(p["MPC_THR_MIN"])
+        landed = landed and thrust <= thr_min + (hover - thr_min) * 0.3
+        t += DT
+        if z >= 0.9 * alt:
+            return t
+    return math.nan
+
+
+def px4_corner_speeds(p, corners) -> list[float]:
+    s = smoothing(p)
+    pts = [(0.0, 0.0, -ALT)] + [(n, e, -ALT) for n, e in corners] + [(0.0, 0.0, -ALT)]
+    s.reset((0.0,) * 3, (0.0,) * 3, pts[0])
+    i, pos, track = 1, pts[0], []
+    acc_rad = float(p["NAV_ACC_RAD"])
+    for _ in range(40000):
+        nxt = pts[i + 1] if i + 1 < len(pts) else None
+        out = s.generate(pos, (pts[i - 1], pts[i], nxt or pts[i]), (math.nan,) * 3, DT,
+                         single_waypoint=nxt is None)
+        pos = out.position
+        track.append(((pos[0], pos[1]), math.hypot(out.velocity[0], out.velocity[1])))
+        if nxt is not None and math.hypot(pos[0] - pts[i][0], pos[1] - pts[i][1]) < acc_rad:
+            i += 1
+        elif nxt is None and math.dist(pos, pts[i]) < 1e-3:
+            break
+    return [min(v for (n, e), v in track if math.hypot(n - cn, e - ce) < 3.0) for cn, ce in corners]
+
+
+# --- ours ---------------------------------------------------------------------------------------
+def fly_takeoff() -> tuple[float, list]:
+    sim = Sim()
+    try:
+        v = sim.v
+        sim.run(1.2)
+        assert v.arm(sim.t) is CommandResult.ACCEPTED and v.takeoff(sim.t) is CommandResult.ACCEPTED
+        t0, alt = sim.t, float(v.params["MIS_TAKEOFF_ALT"])
+        trace, t90 = [], math.nan
+        while sim.t - t0 < 20.0:
+            sim.run(DT)
+            z = -float(v.state.position_ned_m[2])
+            trace.append((sim.t - t0, z))
+            if math.isnan(t90) and z >= 0.9 * alt:
+                t90 = sim.t - t0
+        return t90, trace
+    finally:
+        sim.close()
+
+
+def fly_polygon(corners) -> tuple[list, float, float, list]:
+    sim = Sim()
+    try:
+        v = sim.v
+        pts = [(n, e, ALT) for n, e in corners] + [(0.0, 0.0, ALT)]
+        v.set_plan(sim.t, PlanType.MISSION, waypoints(v, pts))
+        sim.run(1.2)
+        assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+        track = []
+        while sim.t < 400.0:
+            sim.run(DT)
+            p, vel = v.state.position_ned_m, v.state.velocity_ned_mps
+            track.append((sim.t, float(p[0]), float(p[1]), math.hypot(vel[0], vel[1])))
+            if v.mission_status.reached_count >= len(pts) and track[-1][3] < 0.05:
+                break
+        speeds = [min(s for _, n, e, s in track if math.hypot(n - cn, e - ce) < 3.0)
+                  for cn, ce in corners]
+        outside = 0.0
+        for cn, ce in corners:  # outside the polygon near a corner: beyond either adjacent side
+            for _, n, e, _ in track:
+                if math.hypot(n - cn, e - ce) < 10.0:
+                    outside = max(outside, _outside_distance((n, e), corners))
+        return speeds, outside, max(s for *_, s in track), track
+    finally:
+        sim.close()
+
+
+def _outside_distance(pt, corners) -> float:
+    """Distance of ``pt`` outside the polygon (0 inside), polygon = home + corners."""
+    poly = [(0.0, 0.0)] + list(corners)
+    inside = False
+    n = len(poly)
+    for i in range(n):
+        (x1, y1), (x2, y2) = poly[i], poly[(i + 1) % n]
+        if (y1 > pt[1]) != (y2 > pt[1]) and pt[0] < (x2 - x1) * (pt[1] - y1) / (y2 - y1) + x1:
+            inside = not inside
+    if inside:
+        return 0.0
+    best = math.inf
+    for i in range(n):
+        (x1, y1), (x2, y2) = poly[i], poly[(i + 1) % n]
+        dx, dy = x2 - x1, y2 - y1
+        t = max(0.0, min(1.0, ((pt[0] - x1) * dx + (pt[1] - y1) * dy) / (dx * dx + dy * dy)))
+        best = min(best, math.hypot(pt[0] - x1 - t * dx, pt[1] - y1 - t * dy))
+    return best
+
+
+def fly_goto() -> float:
+    from tests.unit.test_vehicles_flight import take_off
+
+    sim = Sim()
+    try:
+        v = sim.v
+        take_off(sim)
+        p0 = [float(x) for x in v.state.position_ned_m]
+        target = v.origin.offset_ned(p0[0] + 30.0, p0[1], 0.0)
+        v.goto(sim.t, target.lat_deg, target.lon_deg, v.origin.alt_amsl_m - p0[2])
+        worst = -math.inf
+        for _ in range(int(30 / DT)):
+            sim.run(DT)
+            worst = max(worst, float(v.state.position_ned_m[0]) - (p0[0] + 30.0))
+        return max(worst, 0.0)
+    finally:
+        sim.close()
+
+
+def plot(out_dir: Path, takeoff_trace, square_track, square_corners) -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    fig = Figure(figsize=(11, 4))
+    FigureCanvasAgg(fig)
+    ax1, ax2, ax3 = fig.subplots(1, 3)
+    ax1.plot([t for t, _ in takeoff_trace], [z for _, z in takeoff_trace])
+    ax1.set(title="takeoff", xlabel="s since the command", ylabel="altitude (m)")
+    poly = [(0.0, 0.0)] + list(square_corners) + [(0.0, 0.0)]
+    ax2.plot([e for _, e in poly], [n for n, _ in poly], "k--", label="plan")
+    ax2.plot([e for _, _, e, _ in square_track], [n for _, n, _, _ in square_track], label="flown")
+    ax2.set(title="fly-through square", xlabel="east (m)", ylabel="north (m)", aspect="equal")
+    ax2.legend()
+    ax3.plot([t for t, *_ in square_track], [s for *_, s in square_track])
+    ax3.set(title="square: speed", xlabel="s", ylabel="horizontal speed (m/s)")
+    fig.tight_layout()
+    fig.savefig(out_dir / "fidelity.png", dpi=90)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--plots", type=Path, default=None, help="write fidelity.png here")
+    args = parser.parse_args()
+    t0 = time.perf_counter()
+    from vehicles.params import ParamStore
+
+    p = ParamStore()
+    square = [(50.0, 0.0), (50.0, 50.0), (0.0, 50.0)]
+    sharp = [(50.0, 0.0), (50.0 - 50.0 * math.cos(math.radians(30)), 50.0 * math.sin(math.radians(30)))]
+    t90, trace = fly_takeoff()
+    sq_speeds, sq_out, sq_max, sq_track = fly_polygon(square)
+    sh_speeds, sh_out, sh_max, _ = fly_polygon(sharp)
+    overshoot = fly_goto()
+    rows = [
+        ("takeoff: time to 90 % of MIS_TAKEOFF_ALT", f"{t90:.2f} s", f"{px4_takeoff_time(p):.2f} s"),
+        ("square (90°): outside at the corners", f"{sq_out:.2f} m", "0 m (cuts inside)"),
+        ("square (90°): corner speeds", ", ".join(f"{s:.2f}" for s in sq_speeds) + " m/s",
+         ", ".join(f"{s:.2f}" for s in px4_corner_speeds(p, square)) + " m/s"),
+        ("square: greatest leg speed", f"{sq_max:.2f} m/s", f"{float(p['MPC_XY_CRUISE']):.2f} m/s"),
+        ("150° corner: outside", f"{sh_out:.2f} m", "0 m (cuts inside)"),
+        ("150° corner: corner speed", f"{sh_speeds[0]:.2f} m/s",
+         f"{px4_corner_speeds(p, sharp)[0]:.2f} m/s"),
+        ("30 m goto: overshoot", f"{overshoot:.2f} m", "0 m"),
+    ]
+    width = max(len(r[0]) for r in rows)
+    print(f"{'figure':<{width}}  {'CORNET':>22}  {'PX4 algorithms':>22}")
+    for name, ours, px4 in rows:
+        print(f"{name:<{width}}  {ours:>22}  {px4:>22}")
+    if args.plots is not None:
+        plot(args.plots, trace, sq_track, square)
+        print(f"wrote {args.plots / 'fidelity.png'}")
+    print(f"({time.perf_counter() - t0:.0f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
