@@ -68,7 +68,7 @@ def well_formed(kind: str, n: int = 2000) -> list[bytes]:
             msg = M.MAVLink_command_long_message(1, 1, 512, 0, 33, 0, 0, 0, 0, 0, 0)
         else:  # mission: requests of the list, counts that start uploads, clears
             msg = (M.MAVLink_mission_request_list_message(1, 1, 0),
-                   M.MAVLink_mission_count_message(1, 1, 5, 0, 0),
+                   M.MAVLink_mission_count_message(1, 1, 5, 0),
                    M.MAVLink_mission_clear_all_message(1, 1, 0))[k % 3]
         out.append(msg.pack(mav))
     return out
