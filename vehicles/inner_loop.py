@@ -69,9 +69,10 @@ class InnerCommand:
 @njit_cached
 def control_and_forces(mode, att_sp, yawspeed_sp, thrust_sp, rates_sp, use_rates_sp, landed,
                        att_gains, rate_gains, rate_state, saturation, rows, idle, alpha, dt_s, measured,
-                       rotor_speed, motor, rotor_xy, yaw_k, forces):  # pragma: no cover - compiled
+                       rotor_speed, motor, rotor_xy, yaw_k, wind, forces):  # pragma: no cover
     """One physics step of every vehicle's inner loop (module rules). ``motor``: max rotor speed,
-    motor constant, lag coefficient up, lag coefficient down, linear drag."""
+    motor constant, lag coefficient up, lag coefficient down, linear drag; ``wind``: the air's
+    velocity (NED), which the drag acts against."""
     w_max, k_motor, alpha_up, alpha_down, drag = motor[0], motor[1], motor[2], motor[3], motor[4]
     n_rotors = len(yaw_k)
     u = np.zeros(n_rotors)
@@ -115,7 +116,7 @@ def control_and_forces(mode, att_sp, yawspeed_sp, thrust_sp, rates_sp, use_rates
             ty += rotor_xy[i, 0] * t
             tz += yaw_k[i] * t
         out = forces[v]
-        vn, ve, vd = m[M_VEL], m[M_VEL + 1], m[M_VEL + 2]
+        vn, ve, vd = m[M_VEL] - wind[0], m[M_VEL + 1] - wind[1], m[M_VEL + 2] - wind[2]
         if total == 0.0 and vn == 0.0 and ve == 0.0 and vd == 0.0:
             out[6] = 0.0
             continue
@@ -193,6 +194,7 @@ class InnerLoop:
             airframe.linear_drag_n_per_mps,
         ])
         self._rotors = airframe.rotor_count
+        self.wind = np.zeros(3)  # the air's velocity, NED (wind.py); World.step sets it
         self.count = 0
         self._resize(0)
         # Compile (or load from numba's cache) both kernels now, with no rows: a World is ready
@@ -258,7 +260,7 @@ class InnerLoop:
                            self.use_rates_sp, self.landed, self.att_gains, self.rate_gains, self.rate_state,
                            self.saturation, self.rows, self.idle_thrust_norm, self.alpha, self.dt_s,
                            self.measured, self.rotor_speed, self.motor, self.rotor_xy, self.yaw_k,
-                           self.forces)
+                           self.wind, self.forces)
 
     def measure(self, raw, dt_s: float) -> None:
         """``raw``: one row per vehicle (position, orientation xyzw, linear and angular velocity,

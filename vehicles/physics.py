@@ -35,6 +35,7 @@ from vehicles.inner_loop import IDLE_THRUST_NORM, M_ACCEL, M_POS, M_Q, M_RATES, 
 from vehicles.params import ParamStore
 from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint, Measurement
 from vehicles.vehicle import Vehicle
+from vehicles.wind import Wind
 
 log = logging.getLogger(__name__)
 _uncached_warned = False  # the warning about numba's cache is given once per process
@@ -69,8 +70,10 @@ class World:
     """Every vehicle of the simulation in one PyBullet client (see module rules)."""
 
     def __init__(self, dt_s: float = 0.004, home: GeoPoint = PX4_SITL_HOME,
-                 airframe: Airframe = X500) -> None:
+                 airframe: Airframe = X500, wind: Wind | None = None) -> None:
+        """``wind``: the air every body moves through (wind.py); None: calm."""
         self.dt_s = dt_s
+        self.wind = wind
         self.home = home
         self.airframe = airframe
         self.time_s = 0.0
@@ -144,6 +147,8 @@ class World:
 
     def step(self, now_s: float) -> None:
         inner = self.inner
+        if self.wind is not None:
+            inner.wind[:] = self.wind.step(self.dt_s)
         for k, vehicle in enumerate(self._vehicles):
             command = vehicle.step(now_s)
             if command is not None:

@@ -44,6 +44,7 @@ from gateway.sim.simulation import Simulation, px4_ports
 from netsim.link import TraceWriter, fan_out
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
+from vehicles.wind import WindConfig
 
 log = logging.getLogger(__name__)
 
@@ -72,6 +73,7 @@ class RunConfig:
     metrics_port: int | None = None  # Prometheus /metrics on bind:port (--metrics-port)
     shards: int = 1  # worker processes (gateway/daemon/shard.py); 1: this process simulates all
     first_vehicle: int = 0  # a shard's first vehicle (instance number)
+    wind: WindConfig = field(default_factory=WindConfig)  # the scenario's [environment]
 
 
 class MetricsPortError(OSError):
@@ -116,7 +118,8 @@ class Daemon:
                                self.flightlog.tracer if self.flightlog else None) if t]
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
                               tracer=fan_out(tracers), home=config.home, realtime=True,
-                              signing=signing, first_index=config.first_vehicle)
+                              signing=signing, first_index=config.first_vehicle,
+                              wind=config.wind)
         self._restore_plans()
         if self._signing_keeper is not None:
             self.sim.every(1.0, self._signing_keeper.save)

@@ -48,6 +48,7 @@ from typing import Any
 from netsim.topology import make_router
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
+from vehicles.wind import WindConfig
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -137,6 +138,7 @@ class Scenario:
     network: NetworkConfig = field(default_factory=NetworkConfig)
     log_level: str | None = None
     daemon: DaemonSettings = field(default_factory=DaemonSettings)
+    wind: WindConfig = field(default_factory=WindConfig)  # [environment]
 
 
 def _table(doc: dict, key: str, path: str) -> dict:
@@ -243,7 +245,7 @@ def _daemon(table: dict, base_dir: Path | None) -> tuple[DaemonSettings, str | N
 def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -> Scenario:
     """``base_dir``: where relative paths of ``[daemon]`` point from (``load``: the file's
     directory); None keeps them relative to the working directory."""
-    _unknown(doc, ("vehicles", "network", "logging", "daemon"), "")
+    _unknown(doc, ("vehicles", "network", "logging", "daemon", "environment"), "")
     veh = _table(doc, "vehicles", "vehicles")
     _unknown(veh, ("count", "home", "airframe", "params"), "vehicles")
     count = int(_number(veh.get("count", 1), "vehicles.count", integer=True, minimum=1))
@@ -304,7 +306,29 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
         level = daemon_level
     if daemon.port_offset is not None:
         check_ports(count, daemon.port_offset, "daemon.port_offset")
-    return Scenario(source, count, home, airframe, params, network, level, daemon)
+    wind = _environment(_table(doc, "environment", "environment"))
+    return Scenario(source, count, home, airframe, params, network, level, daemon, wind)
+
+
+# [environment]: key -> (lowest, highest) accepted.
+ENVIRONMENT_RANGES = {"wind_speed_mps": (0.0, 50.0), "wind_from_deg": (0.0, 360.0),
+                      "gust_mps": (0.0, 20.0), "gust_time_s": (0.1, 60.0)}
+
+
+def _environment(env: dict) -> WindConfig:
+    """``[environment]``: a mean wind (speed, the direction it blows from, degrees clockwise from
+    north) and gusts (standard deviation, correlation time), vehicles/wind.py."""
+    _unknown(env, tuple(ENVIRONMENT_RANGES), "environment")
+    values = {}
+    for key, (low, high) in ENVIRONMENT_RANGES.items():
+        if key in env:
+            value = _number(env[key], f"environment.{key}")
+            if not low <= value <= high:
+                raise ScenarioError(f"environment.{key}: must be between {low:g} and {high:g}, "
+                                    f"got {value!r}")
+            values[key] = value
+    return WindConfig(values.get("wind_speed_mps", 0.0), values.get("wind_from_deg", 0.0),
+                      values.get("gust_mps", 0.0), values.get("gust_time_s", 2.0))
 
 
 def _params(table: dict) -> dict[str, float]:
@@ -360,6 +384,10 @@ def describe(s: Scenario) -> str:
             lines.append(f"  {key}: {net.topology[key]}")
     for key, value in net.ns3.items():
         lines.append(f"  ns3.{key}: {value}")
+    if not s.wind.calm:
+        w = s.wind
+        lines.append(f"  environment: wind {w.speed_mps:g} m/s from {w.from_deg:g}°, gusts "
+                     f"{w.gust_mps:g} m/s over {w.gust_time_s:g} s")
     d = s.daemon
     settings = [f"{key} {'max' if key == 'speed' and math.isinf(value) else value}"
                 for key in DAEMON_KEYS if (value := getattr(d, key, None)) is not None]

@@ -32,9 +32,11 @@ from gateway.sim.scenario import NetworkConfig
 from netsim.backend import EmbeddedBackend, NetworkBackend
 from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
 from netsim.link import Tracer
+from netsim.rng import named_generator
 from netsim.topology import make_router
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
+from vehicles.wind import Wind, WindConfig
 from vehicles.world import World
 
 log = logging.getLogger(__name__)
@@ -179,7 +181,8 @@ class Simulation:
                  tracer: Tracer | None = None, home: GeoPoint = PX4_SITL_HOME,
                  realtime: bool = False,
                  link_kinds: Sequence[LinkKind] = (LinkKind.GCS, LinkKind.API),
-                 signing: SigningConfig | None = None, first_index: int = 0) -> None:
+                 signing: SigningConfig | None = None, first_index: int = 0,
+                 wind: WindConfig | None = None) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence.
         ``link_kinds``: the MAVLink links each vehicle has (the daemon: both, as PX4 SITL; an
@@ -197,7 +200,11 @@ class Simulation:
         self.backend: NetworkBackend = make_backend(self.kernel, self.network, tracer,
                                                     realtime=realtime)
         self._observers: list[Ticker] = []
-        self.world = World(dt_s=physics_dt_s, home=home)
+        # The air: gusts drawn from the stream "wind" of the scenario's seed.
+        air = None
+        if wind is not None and not wind.calm:
+            air = Wind(wind, named_generator(self.network.seed, "wind"))
+        self.world = World(dt_s=physics_dt_s, home=home, wind=air)
         self.on_downlink: DownlinkHandler | None = None
         self._outer_errors = 0  # failures that escaped a session (its own are in its stats)
         self._next_error_log_s = -math.inf
