@@ -29,10 +29,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from tests.unit.test_vehicles_flight import Sim  # noqa: E402
-from tests.unit.test_vehicles_mission import waypoints  # noqa: E402
-from vehicles.control.position_smoothing import PositionSmoothing  # noqa: E402
+from tests.unit.test_vehicles_trajectory import fly_goto, fly_mission  # noqa: E402
+from vehicles.control.position_smoothing import PositionSmoothing, ideal_track  # noqa: E402
 from vehicles.control.takeoff import TakeoffHandling  # noqa: E402
-from vehicles.plan_types import PlanType  # noqa: E402
 from vehicles.types import CommandResult  # noqa: E402
 
 DT = 0.02
@@ -103,22 +102,10 @@ def px4_takeoff_time(p) -> float:
 
 
 def px4_corner_speeds(p, corners) -> list[float]:
-    s = smoothing(p)
     pts = [(0.0, 0.0, -ALT)] + [(n, e, -ALT) for n, e in corners] + [(0.0, 0.0, -ALT)]
-    s.reset((0.0,) * 3, (0.0,) * 3, pts[0])
-    i, pos, track = 1, pts[0], []
-    acc_rad = float(p["NAV_ACC_RAD"])
-    for _ in range(40000):
-        nxt = pts[i + 1] if i + 1 < len(pts) else None
-        out = s.generate(pos, (pts[i - 1], pts[i], nxt or pts[i]), (math.nan,) * 3, DT,
-                         single_waypoint=nxt is None)
-        pos = out.position
-        track.append(((pos[0], pos[1]), math.hypot(out.velocity[0], out.velocity[1])))
-        if nxt is not None and math.hypot(pos[0] - pts[i][0], pos[1] - pts[i][1]) < acc_rad:
-            i += 1
-        elif nxt is None and math.dist(pos, pts[i]) < 1e-3:
-            break
-    return [min(v for (n, e), v in track if math.hypot(n - cn, e - ce) < 3.0) for cn, ce in corners]
+    track = ideal_track(smoothing(p), pts, float(p["NAV_ACC_RAD"]), DT)
+    return [min(v for (n, e, _), v in track if math.hypot(n - cn, e - ce) < 3.0)
+            for cn, ce in corners]
 
 
 # --- ours ---------------------------------------------------------------------------------------
@@ -142,30 +129,12 @@ def fly_takeoff() -> tuple[float, list]:
 
 
 def fly_polygon(corners) -> tuple[list, float, float, list]:
-    sim = Sim()
-    try:
-        v = sim.v
-        pts = [(n, e, ALT) for n, e in corners] + [(0.0, 0.0, ALT)]
-        v.set_plan(sim.t, PlanType.MISSION, waypoints(v, pts))
-        sim.run(1.2)
-        assert v.start_mission(sim.t) is CommandResult.ACCEPTED
-        track = []
-        while sim.t < 400.0:
-            sim.run(DT)
-            p, vel = v.state.position_ned_m, v.state.velocity_ned_mps
-            track.append((sim.t, float(p[0]), float(p[1]), math.hypot(vel[0], vel[1])))
-            if v.mission_status.reached_count >= len(pts) and track[-1][3] < 0.05:
-                break
-        speeds = [min(s for _, n, e, s in track if math.hypot(n - cn, e - ce) < 3.0)
-                  for cn, ce in corners]
-        outside = 0.0
-        for cn, ce in corners:  # outside the polygon near a corner: beyond either adjacent side
-            for _, n, e, _ in track:
-                if math.hypot(n - cn, e - ce) < 10.0:
-                    outside = max(outside, _outside_distance((n, e), corners))
-        return speeds, outside, max(s for *_, s in track), track
-    finally:
-        sim.close()
+    track = [(t, n, e, s) for t, (n, e), s in fly_mission(corners, ALT)]
+    speeds = [min(s for _, n, e, s in track if math.hypot(n - cn, e - ce) < 3.0)
+              for cn, ce in corners]
+    outside = max((_outside_distance((n, e), corners) for _, n, e, _ in track
+                   if min(math.hypot(n - cn, e - ce) for cn, ce in corners) < 10.0), default=0.0)
+    return speeds, outside, max(s for *_, s in track), track
 
 
 def _outside_distance(pt, corners) -> float:
@@ -186,25 +155,6 @@ def _outside_distance(pt, corners) -> float:
         t = max(0.0, min(1.0, ((pt[0] - x1) * dx + (pt[1] - y1) * dy) / (dx * dx + dy * dy)))
         best = min(best, math.hypot(pt[0] - x1 - t * dx, pt[1] - y1 - t * dy))
     return best
-
-
-def fly_goto() -> float:
-    from tests.unit.test_vehicles_flight import take_off
-
-    sim = Sim()
-    try:
-        v = sim.v
-        take_off(sim)
-        p0 = [float(x) for x in v.state.position_ned_m]
-        target = v.origin.offset_ned(p0[0] + 30.0, p0[1], 0.0)
-        v.goto(sim.t, target.lat_deg, target.lon_deg, v.origin.alt_amsl_m - p0[2])
-        worst = -math.inf
-        for _ in range(int(30 / DT)):
-            sim.run(DT)
-            worst = max(worst, float(v.state.position_ned_m[0]) - (p0[0] + 30.0))
-        return max(worst, 0.0)
-    finally:
-        sim.close()
 
 
 def plot(out_dir: Path, takeoff_trace, square_track, square_corners) -> None:
@@ -241,7 +191,7 @@ def main() -> int:
     t90, trace = fly_takeoff()
     sq_speeds, sq_out, sq_max, sq_track = fly_polygon(square)
     sh_speeds, sh_out, sh_max, _ = fly_polygon(sharp)
-    overshoot = fly_goto()
+    overshoot = max(fly_goto()[0], 0.0)
     rows = [
         ("takeoff: time to 90 % of MIS_TAKEOFF_ALT", f"{t90:.2f} s", f"{px4_takeoff_time(p):.2f} s"),
         ("square (90°): outside at the corners", f"{sq_out:.2f} m", "0 m (cuts inside)"),

@@ -10,7 +10,7 @@ import pytest
 
 from tests.unit.test_vehicles_flight import Sim, take_off
 from tests.unit.test_vehicles_mission import waypoints
-from vehicles.control.position_smoothing import PositionSmoothing
+from vehicles.control.position_smoothing import PositionSmoothing, ideal_track
 from vehicles.plan_types import PlanType
 from vehicles.types import CommandResult
 
@@ -23,8 +23,8 @@ def corner_speeds(track) -> list[float]:
 
 
 def reference_track() -> list:
-    """PositionSmoothing alone on the same square, tracked perfectly, switching waypoints at
-    NAV_ACC_RAD as the navigator does (MPC_JERK_AUTO 4, MPC_ACC_HOR 3, MPC_XY_TRAJ_P 0.5)."""
+    """PositionSmoothing alone on the same square (ideal_track: perfectly tracked, switching at
+    NAV_ACC_RAD; MPC_JERK_AUTO 4, MPC_ACC_HOR 3, MPC_XY_TRAJ_P 0.5)."""
     s = PositionSmoothing()
     s.set_max_jerk(4.0)
     s.set_max_acceleration((3.0, 3.0, 3.0))
@@ -32,61 +32,62 @@ def reference_track() -> list:
     s.max_allowed_horizontal_error, s.vertical_acceptance_radius = 2.0, 0.8
     s.cruise_speed, s.horizontal_trajectory_gain, s.target_acceptance_radius = CRUISE, 0.5, 2.0
     pts = [(0.0, 0.0, -ALT_M)] + [(n, e, -ALT_M) for n, e in CORNERS] + [(0.0, 0.0, -ALT_M)]
-    s.reset((0.0,) * 3, (0.0,) * 3, pts[0])
-    i, pos, track = 1, pts[0], []
-    for _ in range(20000):
-        nxt = pts[i + 1] if i + 1 < len(pts) else None
-        out = s.generate(pos, (pts[i - 1], pts[i], nxt or pts[i]), (math.nan,) * 3, 0.02,
-                         single_waypoint=nxt is None)
-        pos = out.position
-        track.append(((pos[0], pos[1]), math.hypot(out.velocity[0], out.velocity[1])))
-        if nxt is not None and math.hypot(pos[0] - pts[i][0], pos[1] - pts[i][1]) < 2.0:
-            i += 1
-        elif nxt is None and math.dist(pos, pts[i]) < 1e-3:
-            break
-    return track
+    return [((p[0], p[1]), v) for p, v in ideal_track(s, pts, 2.0, 0.02)]
 
 
-def test_fly_through_square_cuts_inside_at_the_planned_corner_speed():
+def fly_mission(corners, alt_m: float = ALT_M, timeout_s: float = 400.0) -> list:
+    """One vehicle flies waypoints at the corners, then home, from the ground (lockstep, 50 Hz
+    samples): [(t, (north, east), horizontal speed)] until it rests at home."""
     sim = Sim()
     try:
         v = sim.v
-        pts = [(n, e, ALT_M) for n, e in CORNERS] + [(0.0, 0.0, ALT_M)]
+        pts = [(n, e, alt_m) for n, e in corners] + [(0.0, 0.0, alt_m)]
         v.set_plan(sim.t, PlanType.MISSION, waypoints(v, pts))
         sim.run(1.2)
         assert v.start_mission(sim.t) is CommandResult.ACCEPTED
         track = []
-        for _ in range(int(150 / 0.02)):
+        while sim.t < timeout_s:
             sim.run(0.02)
             p, vel = v.state.position_ned_m, v.state.velocity_ned_mps
-            track.append(((float(p[0]), float(p[1])), math.hypot(vel[0], vel[1])))
-            if v.mission_status.reached_count >= 4 and track[-1][1] < 0.05:
+            track.append((sim.t, (float(p[0]), float(p[1])), math.hypot(vel[0], vel[1])))
+            if v.mission_status.reached_count >= len(pts) and track[-1][2] < 0.05:
                 break
-        outside = max(max(n - SIDE_M, e - SIDE_M, 0.0) for (n, e), _ in track)
-        assert outside <= 0.2  # inside (or within 0.2 m of) the square at every corner
-        assert max(s for _, s in track) <= CRUISE * 1.02
-        ours, planned = corner_speeds(track), corner_speeds(reference_track())
-        for got, want in zip(ours, planned):
-            assert got == pytest.approx(want, rel=0.2)
-        assert all(s < 0.5 * CRUISE for s in ours)  # it slows for the turn
+        return track
     finally:
         sim.close()
 
 
-def test_goto_creeps_in_without_overshoot():
+def test_fly_through_square_cuts_inside_at_the_planned_corner_speed():
+    track = [(ne, s) for _, ne, s in fly_mission(CORNERS)]
+    outside = max(max(n - SIDE_M, e - SIDE_M, 0.0) for (n, e), _ in track)
+    assert outside <= 0.2  # inside (or within 0.2 m of) the square at every corner
+    assert max(s for _, s in track) <= CRUISE * 1.02
+    ours, planned = corner_speeds(track), corner_speeds(reference_track())
+    for got, want in zip(ours, planned):
+        assert got == pytest.approx(want, rel=0.2)
+    assert all(s < 0.5 * CRUISE for s in ours)  # it slows for the turn
+
+
+def fly_goto(distance_m: float = 30.0, seconds: float = 30.0) -> tuple[float, float]:
+    """Take off, then DO_REPOSITION ``distance_m`` north: (greatest overshoot past the target,
+    final distance from it), lockstep."""
     sim = Sim()
     try:
         v = sim.v
         take_off(sim)
         p0 = [float(x) for x in v.state.position_ned_m]
-        target = v.origin.offset_ned(p0[0] + 30.0, p0[1], 0.0)
+        target = v.origin.offset_ned(p0[0] + distance_m, p0[1], 0.0)
         assert v.goto(sim.t, target.lat_deg, target.lon_deg,
                       v.origin.alt_amsl_m - p0[2]) is CommandResult.ACCEPTED
         worst = -math.inf
-        for _ in range(1500):
+        for _ in range(int(seconds / 0.02)):
             sim.run(0.02)
-            worst = max(worst, float(v.state.position_ned_m[0]) - (p0[0] + 30.0))
-        assert worst <= 0.2
-        assert abs(float(v.state.position_ned_m[0]) - (p0[0] + 30.0)) < 0.1
+            worst = max(worst, float(v.state.position_ned_m[0]) - (p0[0] + distance_m))
+        return worst, abs(float(v.state.position_ned_m[0]) - (p0[0] + distance_m))
     finally:
         sim.close()
+
+
+def test_goto_creeps_in_without_overshoot():
+    overshoot, error = fly_goto()
+    assert overshoot <= 0.2 and error < 0.1

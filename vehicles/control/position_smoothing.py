@@ -253,3 +253,25 @@ class PositionSmoothing:
             traj.update_durations(v)
         VelocitySmoothing.time_synchronization(t)
         return out
+
+
+def ideal_track(s: PositionSmoothing, waypoints: list[Vec3], acceptance_radius_m: float,
+                dt_s: float, max_steps: int = 40000) -> list[tuple[Vec3, float]]:
+    """``s`` tracked perfectly along ``waypoints`` (the first is where it starts, at rest), the
+    target moving on once within ``acceptance_radius_m`` horizontally, as PX4's navigator
+    moves on; the last is a single waypoint, arrived at. Returns (position, horizontal speed) per
+    step: PX4's own trajectory for that flight plan, the reference a flown track is held to."""
+    s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), waypoints[0])
+    i, pos, track = 1, waypoints[0], []
+    for _ in range(max_steps):
+        last = i + 1 >= len(waypoints)
+        target = waypoints[i]
+        out = s.generate(pos, (waypoints[i - 1], target, target if last else waypoints[i + 1]),
+                         _NAN3, dt_s, single_waypoint=last)
+        pos = out.position
+        track.append((pos, math.hypot(out.velocity[0], out.velocity[1])))
+        if not last and math.hypot(pos[0] - target[0], pos[1] - target[1]) < acceptance_radius_m:
+            i += 1
+        elif last and math.dist(pos, target) < 1e-3:
+            break
+    return track
