@@ -128,11 +128,13 @@ async def test_takeoff_altitude_params_goto_hold_and_return(daemon_factory):
                           pos.latitude_deg, pos.longitude_deg) < 2.0
 
 
-async def again_on_timeout(transfer, attempts: int = 4):
-    """MAVSDK gives a transfer step 6 tries (0.5 s apart); at 20 % loss each way a step's round
-    trip fails with p = 0.36, six in a row with p = 0.2 %, so a whole upload or download of a few
-    items times out now and then — against PX4 too. A script for lossy links asks again (after
-    a time-out MAVSDK may still be winding the old transfer down: BUSY, so wait a moment)."""
+async def again_on_timeout(transfer, attempts: int = 10):
+    """At 20 % loss each way a whole upload or download times out now and then — against PX4 too.
+    The big one: the vehicle sends the final MISSION_ACK once (PX4 does), and MAVSDK, having sent
+    the last item, only waits for it (5 × 0.5 s) and never repeats the item, so a lost final ACK
+    fails the upload (p ≈ 0.2 per attempt); a transfer step also fails after 5 retries in a row.
+    A script for lossy links asks again (after a time-out MAVSDK may still be winding the old
+    transfer down: BUSY, so wait a moment); ten attempts all failing has p ≈ 1e-7."""
     from mavsdk.mission import MissionError
 
     for attempt in range(attempts):
