@@ -69,16 +69,19 @@ class InnerCommand:
 @njit_cached
 def control_and_forces(mode, att_sp, yawspeed_sp, thrust_sp, rates_sp, use_rates_sp, landed,
                        att_gains, rate_gains, rate_state, saturation, rows, idle, alpha, dt_s, measured,
-                       rotor_speed, motor, rotor_xy, yaw_k, wind, forces):  # pragma: no cover
-    """One physics step of every vehicle's inner loop (module rules). ``motor``: max rotor speed,
-    motor constant, lag coefficient up, lag coefficient down, linear drag; ``wind``: the air's
-    velocity (NED), which the drag acts against."""
+                       estimated, rotor_speed, motor, rotor_xy, yaw_k, wind, forces):  # pragma: no cover
+    """One physics step of every vehicle's inner loop (module rules). The controllers fly on
+    ``estimated`` (attitude, gyro rates less their bias); the physics acts on ``measured``, the
+    truth. ``motor``: max rotor speed, motor constant, lag coefficient up, lag coefficient down,
+    linear drag; ``wind``: the air's velocity (NED), which the drag acts against."""
     w_max, k_motor, alpha_up, alpha_down, drag = motor[0], motor[1], motor[2], motor[3], motor[4]
     n_rotors = len(yaw_k)
     u = np.zeros(n_rotors)
     for v in range(len(mode)):
         m = measured[v]
         q = (m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3])
+        est = estimated[v]
+        q_est = (est[M_Q], est[M_Q + 1], est[M_Q + 2], est[M_Q + 3])
         if mode[v] == MODE_OFF:
             for i in range(n_rotors):
                 u[i] = 0.0
@@ -91,10 +94,10 @@ def control_and_forces(mode, att_sp, yawspeed_sp, thrust_sp, rates_sp, use_rates
                     sp = (rates_sp[v, 0], rates_sp[v, 1], rates_sp[v, 2])
                 else:
                     g = att_gains[v]
-                    sp = attitude_rates(q, (att_sp[v, 0], att_sp[v, 1], att_sp[v, 2], att_sp[v, 3]),
+                    sp = attitude_rates(q_est, (att_sp[v, 0], att_sp[v, 1], att_sp[v, 2], att_sp[v, 3]),
                                         g[0], g[1], g[2], g[3], g[4], g[5], g[6], yawspeed_sp[v])
                 s = saturation[v]
-                torque = rate_pid(dt_s, alpha, (m[M_RATES], m[M_RATES + 1], m[M_RATES + 2]), sp,
+                torque = rate_pid(dt_s, alpha, (est[M_RATES], est[M_RATES + 1], est[M_RATES + 2]), sp,
                                   landed[v], (s[0], s[1], s[2]), (s[3], s[4], s[5]), rate_gains[v],
                                   rate_state[v])
                 flags = mix_into(thrust_sp[v], torque[0], torque[1], torque[2], rows, idle, u)
@@ -222,6 +225,7 @@ class InnerLoop:
         self.rate_state = grow(get("rate_state"), (n, STATE_SIZE))
         self.saturation = grow(get("saturation"), (n, 6), np.bool_)
         self.measured = grow(get("measured"), (n, M_SIZE))
+        self.estimated = grow(get("estimated"), (n, M_SIZE))
         self.rotor_speed = grow(get("rotor_speed"), (n, self._rotors))
         self.spawn_enu = grow(get("spawn_enu"), (n, 3))
         self.forces = grow(get("forces"), (n, F_SIZE))
@@ -235,6 +239,7 @@ class InnerLoop:
         self.att_sp[k, 0] = 1.0
         self.spawn_enu[k] = spawn_enu_m
         measure(np.array([raw_state]), self.spawn_enu[k:k + 1], 0.0, self.measured[k:k + 1])
+        self.estimated[k] = self.measured[k]
         return k
 
     def load(self, k: int, command: InnerCommand) -> None:
@@ -259,8 +264,8 @@ class InnerLoop:
         control_and_forces(self.mode, self.att_sp, self.yawspeed_sp, self.thrust_sp, self.rates_sp,
                            self.use_rates_sp, self.landed, self.att_gains, self.rate_gains, self.rate_state,
                            self.saturation, self.rows, self.idle_thrust_norm, self.alpha, self.dt_s,
-                           self.measured, self.rotor_speed, self.motor, self.rotor_xy, self.yaw_k,
-                           self.wind, self.forces)
+                           self.measured, self.estimated, self.rotor_speed, self.motor,
+                           self.rotor_xy, self.yaw_k, self.wind, self.forces)
 
     def measure(self, raw, dt_s: float) -> None:
         """``raw``: one row per vehicle (position, orientation xyzw, linear and angular velocity,

@@ -15,6 +15,9 @@ Rules and invariants:
   vehicle's attitude/rate/mixer/motor loop, the PyBullet calls per body, one compiled call that
   turns the bodies' states into measurements. PyBullet has no call that reads or pushes many
   bodies at once, so the per-body calls stay.
+- After the step, one compiled call samples every vehicle's sensors and updates its estimate
+  (estimation.py); the controllers, the autopilot and the telemetry read the estimate
+  (``measurement``), the physics and the radio's position the truth (``truth``).
 - Fixed step ``dt_s`` (default 0.004 s = 250 Hz, PX4 lockstep), one sub-step.
 - ``World.step(now_s)`` steps each vehicle (``Vehicle.step``) at ``now_s`` on the state measured at
   ``now_s``, then integrates to ``now_s + dt_s``; the new state is stamped ``now_s + dt_s``.
@@ -26,12 +29,24 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 
+import numpy as np
 import pybullet as pb
 
 from vehicles.airframe import X500, Airframe
 from vehicles.control import compiled, position_control
-from vehicles.inner_loop import IDLE_THRUST_NORM, M_ACCEL, M_POS, M_Q, M_RATES, M_VEL, InnerLoop
+from vehicles.estimation import EXACT_SENSORS, Estimation, SensorConfig
+from vehicles.inner_loop import (
+    IDLE_THRUST_NORM,
+    M_ACCEL,
+    M_POS,
+    M_Q,
+    M_RATES,
+    M_VEL,
+    MODE_FLY,
+    InnerLoop,
+)
 from vehicles.params import ParamStore
 from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint, Measurement
 from vehicles.vehicle import Vehicle
@@ -70,8 +85,12 @@ class World:
     """Every vehicle of the simulation in one PyBullet client (see module rules)."""
 
     def __init__(self, dt_s: float = 0.004, home: GeoPoint = PX4_SITL_HOME,
-                 airframe: Airframe = X500, wind: Wind | None = None) -> None:
-        """``wind``: the air every body moves through (wind.py); None: calm."""
+                 airframe: Airframe = X500, wind: Wind | None = None,
+                 sensors: SensorConfig = EXACT_SENSORS,
+                 rng_for: Callable[[int], np.random.Generator] | None = None) -> None:
+        """``wind``: the air every body moves through (wind.py); None: calm. ``sensors``: how
+        noisy the sensors are (estimation.py); ``rng_for(index)``: vehicle ``index``'s seeded
+        noise stream (needed when ``sensors.noise`` > 0)."""
         self.dt_s = dt_s
         self.wind = wind
         self.home = home
@@ -87,6 +106,8 @@ class World:
         pb.changeDynamics(self.ground_id, -1, lateralFriction=GROUND_FRICTION, restitution=0.0,
                           physicsClientId=c)
         self.inner = InnerLoop(airframe, dt_s, IDLE_THRUST_NORM)  # compiles its kernels
+        self.estimation = Estimation(dt_s, sensors, airframe.mass_kg,
+                                     airframe.linear_drag_n_per_mps, rng_for)
         position_control.compile_now()
         global _uncached_warned
         if compiled.UNCACHED and not _uncached_warned:
@@ -97,7 +118,8 @@ class World:
         self._vehicles: list[Vehicle] = []
         self._body_ids: list[int] = []
         self._com_enu: list[tuple[float, float, float]] = []  # where forces are applied
-        self._rows: list[list[float]] | None = None  # ``inner.measured`` as lists, per step
+        self._rows: list[list[float]] | None = None  # ``inner.estimated`` as lists, per step
+        self._truth_rows: list[list[float]] | None = None  # ``inner.measured`` as lists
         self._closed = False
 
     @property
@@ -115,7 +137,8 @@ class World:
         spawn = (east, north, self.airframe.rest_height_m)
         body_id = _create_body(self.client_id, self.airframe, spawn)
         row = self.inner.add(spawn, self._read(body_id))
-        self._rows = None
+        self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row])
+        self._rows = self._truth_rows = None
         origin = self.home.offset_ned(north, east, 0.0)
         vehicle = Vehicle(index, params if params is not None else ParamStore(), self.airframe,
                           origin, self.dt_s, boot_time_s=self.time_s, world=self, row=row)
@@ -131,16 +154,26 @@ class World:
         return pos + orn + lin + ang
 
     def measurement(self, row: int) -> Measurement:
-        """Row ``row``'s state after the last step (NED/FRD)."""
+        """Row ``row``'s estimated state after the last step (NED/FRD): what it flies on."""
         rows = self._rows
         if rows is None:
-            rows = self._rows = self.inner.measured.tolist()
-        m = rows[row]
-        return Measurement((m[M_POS], m[M_POS + 1], m[M_POS + 2]),
-                           (m[M_VEL], m[M_VEL + 1], m[M_VEL + 2]),
-                           (m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3]),
-                           (m[M_RATES], m[M_RATES + 1], m[M_RATES + 2]),
-                           (m[M_ACCEL], m[M_ACCEL + 1], m[M_ACCEL + 2]))
+            rows = self._rows = self.inner.estimated.tolist()
+        return _measurement(rows[row])
+
+    def truth(self, row: int) -> Measurement:
+        """Row ``row``'s true state after the last step (NED/FRD)."""
+        rows = self._truth_rows
+        if rows is None:
+            rows = self._truth_rows = self.inner.measured.tolist()
+        return _measurement(rows[row])
+
+    def sensors(self, row: int) -> list[float]:
+        """Row ``row``'s latest sensor samples (estimation.S_* columns)."""
+        return self.estimation.sensed[row].tolist()
+
+    def estimator(self, row: int) -> list[float]:
+        """Row ``row``'s estimator state (estimation.E_* columns)."""
+        return self.estimation.est[row].tolist()
 
     def rotor_speeds(self, row: int) -> tuple[float, ...]:
         return tuple(self.inner.rotor_speed[row].tolist())
@@ -171,7 +204,9 @@ class World:
             raw.append(pos + orn + lin + ang)
         t = now_s + self.dt_s
         inner.measure(raw, t - self.time_s)
-        self._rows = None
+        self.estimation.step(inner.measured, inner.estimated,
+                             (inner.mode == MODE_FLY) & ~inner.landed, t)
+        self._rows = self._truth_rows = None
         self.time_s = t
         self.steps += 1
 
@@ -179,3 +214,11 @@ class World:
         if not self._closed:
             pb.disconnect(physicsClientId=self.client_id)
             self._closed = True
+
+
+def _measurement(m: list[float]) -> Measurement:
+    return Measurement((m[M_POS], m[M_POS + 1], m[M_POS + 2]),
+                       (m[M_VEL], m[M_VEL + 1], m[M_VEL + 2]),
+                       (m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3]),
+                       (m[M_RATES], m[M_RATES + 1], m[M_RATES + 2]),
+                       (m[M_ACCEL], m[M_ACCEL + 1], m[M_ACCEL + 2]))

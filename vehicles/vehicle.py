@@ -4,6 +4,8 @@ This is the object the gateway talks to (vehicles/README.md contract). Rules:
 - Every method takes simulated time; nothing here touches the wall clock or PyBullet.
 - ``state`` and ``status`` are frozen snapshots built lazily (at most once per physics step) so
   the 250 Hz loop does not allocate them for vehicles nobody is looking at.
+- What the vehicle measures is its estimate (vehicles/estimation.py): the autopilot flies on it
+  and ``kinematics``/``state`` report it; ``truth`` is the body's true state.
 - Local NED is relative to ``origin`` (the spawn point on the ground, = EKF origin).
 - The World owns the body and the inner loop (vehicles/inner_loop.py); the vehicle reads its
   measurement from the World lazily, once per physics step at most, and hands it down to the
@@ -20,6 +22,7 @@ import numpy as np
 
 from vehicles.airframe import Airframe
 from vehicles.autopilot import POSITION_CONTROL_DIVIDER, Autopilot
+from vehicles.estimation import E_RATIOS
 from vehicles.inner_loop import InnerCommand
 from vehicles.manual_control import Sticks
 from vehicles.orbit import OrbitStatus
@@ -46,6 +49,12 @@ class WorldRow(Protocol):
     steps: int
 
     def measurement(self, row: int) -> Measurement: ...
+
+    def truth(self, row: int) -> Measurement: ...
+
+    def sensors(self, row: int) -> list[float]: ...
+
+    def estimator(self, row: int) -> list[float]: ...
 
     def rotor_speeds(self, row: int) -> tuple[float, ...]: ...
 
@@ -130,6 +139,7 @@ class Vehicle:
             battery=ap.battery.state(),
             home=ap.home,
             extra={"thrust_norm": ap.thrust_norm,
+                   "estimator_ok": max(self.estimator[E_RATIOS:E_RATIOS + 4]) <= 1.0,
                    "rotor_speed_radps": self._world.rotor_speeds(self._row),
                    "manual_control": c.manual_control_state},
         )
@@ -138,6 +148,21 @@ class Vehicle:
     def position_setpoint_ned_m(self) -> Vec3 | None:
         """The trajectory's position setpoint while armed and flying under it (else None)."""
         return self._autopilot.position_setpoint_ned_m()
+
+    @property
+    def truth(self) -> Measurement:
+        """The true state after the last physics step (the estimate is ``kinematics``)."""
+        return self._world.truth(self._row)
+
+    @property
+    def sensors(self) -> list[float]:
+        """The latest sensor samples (vehicles/estimation.py S_* columns; NED from ``origin``)."""
+        return self._world.sensors(self._row)
+
+    @property
+    def estimator(self) -> list[float]:
+        """The estimator's state (vehicles/estimation.py E_* columns)."""
+        return self._world.estimator(self._row)
 
     @property
     def acceleration_ned_mps2(self) -> Vec3:

@@ -298,7 +298,8 @@ class Sim:
         self.simulation = Simulation(
             n, network if network is not None else sc.network,
             params_for=lambda i: default_params(i, overrides), tracer=tracer, home=self.home,
-            physics_dt_s=physics_dt_s, link_kinds=tuple(links), wind=sc.wind)
+            physics_dt_s=physics_dt_s, link_kinds=tuple(links), wind=sc.wind,
+            sensors=sc.sensors)
         if self.flightlog is not None:
             self.flightlog.attach(self.simulation, extra_meta)
         self.clients: dict[tuple[int, LinkKind], Client] = {

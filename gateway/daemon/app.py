@@ -42,6 +42,7 @@ from gateway.sim.flightlog import FlightLog, new_run_dir
 from gateway.sim.scenario import NetworkConfig, ScenarioError
 from gateway.sim.simulation import Simulation, px4_ports
 from netsim.link import TraceWriter, fan_out
+from vehicles.estimation import SensorConfig
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.wind import WindConfig
@@ -74,6 +75,7 @@ class RunConfig:
     shards: int = 1  # worker processes (gateway/daemon/shard.py); 1: this process simulates all
     first_vehicle: int = 0  # a shard's first vehicle (instance number)
     wind: WindConfig = field(default_factory=WindConfig)  # the scenario's [environment]
+    sensors: SensorConfig = field(default_factory=SensorConfig)  # the scenario's [sensors]
 
 
 class MetricsPortError(OSError):
@@ -119,7 +121,7 @@ class Daemon:
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
                               tracer=fan_out(tracers), home=config.home, realtime=True,
                               signing=signing, first_index=config.first_vehicle,
-                              wind=config.wind)
+                              wind=config.wind, sensors=config.sensors)
         self._restore_plans()
         if self._signing_keeper is not None:
             self.sim.every(1.0, self._signing_keeper.save)

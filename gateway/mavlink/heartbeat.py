@@ -33,6 +33,7 @@ MAV_STATE_FLIGHT_TERMINATION = 8
 SENSOR_GPS = 0x20
 SENSOR_XY_POSITION_CONTROL = 0x4000  # PX4 maps its local position estimate here
 SENSOR_RC_RECEIVER = 0x10000  # PX4's remote_control health component (joystick or RC)
+SENSOR_AHRS = 0x200000  # PX4 reports the estimator's health here
 SENSOR_PREARM_CHECK = 0x10000000
 
 # Healthy PX4 SITL: gyro|accel|mag|baro|gps|att_stab|xy_pos|ahrs|logging|battery.
@@ -59,6 +60,8 @@ def sensor_bits(status: VehicleStatus) -> tuple[int, int, int]:
     health = SENSORS_HEALTH
     if not status.position_valid:
         health &= ~POSITION_SENSORS
+    if not status.extra.get("estimator_ok", True):  # an innovation test failing
+        health &= ~SENSOR_AHRS
     if status.prearm_ok:
         health |= SENSOR_PREARM_CHECK
         enabled |= SENSOR_PREARM_CHECK

@@ -67,6 +67,16 @@ class Sample:
         # The vehicle derives it from the same measured position as ``kinematics``.
         return self.vehicle.global_position
 
+    @_once
+    def sensors(self) -> list[float] | None:
+        """The latest sensor samples (vehicles/estimation.py S_*); None: the vehicle has none."""
+        return getattr(self.vehicle, "sensors", None)
+
+    @_once
+    def estimator(self) -> list[float] | None:
+        """The estimator's state (vehicles/estimation.py E_*); None: the vehicle has none."""
+        return getattr(self.vehicle, "estimator", None)
+
 
 class SampleCache:
     """The latest ``Sample`` of one vehicle; the sessions of one vehicle share one cache."""

@@ -26,6 +26,7 @@ from gateway.mavlink.telemetry import (
     attitude,
     attitude_quaternion,
     battery_status,
+    estimator_status,
     extended_sys_state,
     global_position_int,
     gps_raw_int,
@@ -40,6 +41,8 @@ from gateway.mavlink.telemetry import (
     sys_status,
     system_time,
     vfr_hud,
+    vibration,
+    wind_cov,
 )
 
 
@@ -74,6 +77,9 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_HIGHRES_IMU, highres_imu, 0.0, 50.0),
     StreamSpec(M.MAVLINK_MSG_ID_ODOMETRY, odometry, 0.0, 30.0),
     StreamSpec(M.MAVLINK_MSG_ID_SCALED_PRESSURE, scaled_pressure, 1.0, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ESTIMATOR_STATUS, estimator_status, 0.5, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_VIBRATION, vibration, 0.1, 0.5),
+    StreamSpec(M.MAVLINK_MSG_ID_WIND_COV, wind_cov, 0.5, 10.0),
 )
 STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
 # HEARTBEAT rate is fixed (PX4: SET_MESSAGE_INTERVAL on it → FAILED).

@@ -22,6 +22,19 @@ from gateway.mavlink.codec import Encoder, packer_of
 from gateway.mavlink.heartbeat import build_extended_sys_state, build_heartbeat, build_sys_status
 from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
 from gateway.mavlink.snapshot import Snapshot
+from vehicles.estimation import (
+    E_ACCURACY,
+    E_RATIOS,
+    E_WIND,
+    E_WIND_VAR,
+    S_ACC,
+    S_BARO_DOWN,
+    S_GPS_POS,
+    S_GPS_VEL,
+    S_GYRO,
+    S_MAG,
+    S_VIB,
+)
 from vehicles.params import ParamStore
 
 # GPS_RAW_INT constants of PX4's SITL GPS (sensor_gps_sim / gz bridge).
@@ -129,8 +142,15 @@ def global_position_int(s: Snapshot) -> tuple:
 
 @_shared(M.MAVLink_gps_raw_int_message)
 def gps_raw_int(s: Snapshot) -> tuple:
-    g = s.geo
-    vn, ve, _ = s.kin.velocity_ned_mps
+    """The latest GPS fix (vehicles/estimation.py: noisy, EKF2_GPS_DELAY old)."""
+    sensed = s.sample.sensors
+    if sensed is None:
+        g = s.geo
+        vn, ve, _ = s.kin.velocity_ned_mps
+    else:
+        g = s.vehicle.origin.offset_ned(sensed[S_GPS_POS], sensed[S_GPS_POS + 1],
+                                        sensed[S_GPS_POS + 2])
+        vn, ve = sensed[S_GPS_VEL], sensed[S_GPS_VEL + 1]
     speed = math.hypot(vn, ve)
     cog = _cdeg(math.atan2(ve, vn)) if speed > 0.1 else UINT16_UNKNOWN
     alt_mm = int(round(g.alt_amsl_m * 1000.0))
@@ -234,15 +254,28 @@ def _to_body(q: tuple[float, float, float, float], v: tuple[float, float, float]
             2 * (x * z + w * y) * a + 2 * (y * z - w * x) * b + (1 - 2 * (x * x + y * y)) * c)
 
 
+def _baro_alt_m(s: Snapshot) -> float:
+    sensed = s.sample.sensors
+    if sensed is None:
+        return s.geo.alt_amsl_m
+    return s.vehicle.origin.alt_amsl_m - sensed[S_BARO_DOWN]
+
+
 @_shared(M.MAVLink_highres_imu_message)
 def highres_imu(s: Snapshot) -> tuple:
-    """Specific force and rates in the body frame (FRD), the field, the barometer."""
-    kin = s.kin
-    an, ae, ad = s.vehicle.acceleration_ned_mps2
-    fx, fy, fz = _to_body(kin.attitude_q, (an, ae, ad - G))
-    mx, my, mz = _to_body(kin.attitude_q, MAG_NED_GAUSS)
-    p, q, r = kin.rates_frd_radps
-    alt = s.geo.alt_amsl_m
+    """The IMU's specific force and rates (body FRD), the magnetometer, the barometer."""
+    sensed = s.sample.sensors
+    if sensed is None:  # a vehicle without simulated sensors: what its kinematics give
+        kin = s.kin
+        an, ae, ad = s.vehicle.acceleration_ned_mps2
+        fx, fy, fz = _to_body(kin.attitude_q, (an, ae, ad - G))
+        mx, my, mz = _to_body(kin.attitude_q, MAG_NED_GAUSS)
+        p, q, r = kin.rates_frd_radps
+    else:
+        fx, fy, fz = sensed[S_ACC:S_ACC + 3]
+        mx, my, mz = sensed[S_MAG:S_MAG + 3]
+        p, q, r = sensed[S_GYRO:S_GYRO + 3]
+    alt = _baro_alt_m(s)
     return (s.time_usec, fx, fy, fz, p, q, r, mx, my, mz, isa_pressure_hpa(alt), 0.0, alt,
             isa_temperature_c(alt), HIGHRES_IMU_FIELDS, 0)
 
@@ -260,9 +293,48 @@ def odometry(s: Snapshot) -> tuple:
 
 
 def scaled_pressure(enc: Encoder, s: Snapshot) -> bytes:
-    alt = s.geo.alt_amsl_m
+    alt = _baro_alt_m(s)
     return enc.pack(M.MAVLink_scaled_pressure_message, s.time_boot_ms, isa_pressure_hpa(alt), 0.0,
                     int(round(isa_temperature_c(alt) * 100.0)), 0)
+
+
+# ESTIMATOR_STATUS flags of a healthy EKF2 with GPS: attitude, horizontal and vertical velocity,
+# relative and absolute horizontal position, absolute vertical position, and the predicted ones.
+ESTIMATOR_FLAGS_OK = (M.ESTIMATOR_ATTITUDE | M.ESTIMATOR_VELOCITY_HORIZ | M.ESTIMATOR_VELOCITY_VERT
+                      | M.ESTIMATOR_POS_HORIZ_REL | M.ESTIMATOR_POS_HORIZ_ABS
+                      | M.ESTIMATOR_POS_VERT_ABS | M.ESTIMATOR_PRED_POS_HORIZ_REL
+                      | M.ESTIMATOR_PRED_POS_HORIZ_ABS)
+
+
+def estimator_status(enc: Encoder, s: Snapshot) -> bytes | None:
+    """PX4's ESTIMATOR_STATUS: innovation test ratios (velocity, horizontal position, height,
+    magnetometer; no range finder or airspeed: 0) and the position accuracies."""
+    e = s.sample.estimator
+    if e is None:
+        return None
+    vel, pos, hgt, mag = e[E_RATIOS:E_RATIOS + 4]
+    return enc.pack(M.MAVLink_estimator_status_message, s.time_usec, ESTIMATOR_FLAGS_OK,
+                    vel, pos, hgt, mag, 0.0, 0.0, e[E_ACCURACY], e[E_ACCURACY + 1])
+
+
+def vibration(enc: Encoder, s: Snapshot) -> bytes | None:
+    """PX4's VIBRATION (its own use of the fields): delta-angle coning, gyro and accelerometer
+    high-frequency vibration metrics of the primary IMU; no clipping."""
+    sensed = s.sample.sensors
+    if sensed is None:
+        return None
+    coning, gyro, accel = sensed[S_VIB:S_VIB + 3]
+    return enc.pack(M.MAVLink_vibration_message, s.time_usec, coning, gyro, accel, 0, 0, 0)
+
+
+def wind_cov(enc: Encoder, s: Snapshot) -> bytes | None:
+    """The estimated wind (NED, horizontal; from the drag while flying) and the variability of
+    the raw wind samples behind it."""
+    e = s.sample.estimator
+    if e is None:
+        return None
+    return enc.pack(M.MAVLink_wind_cov_message, s.time_usec, e[E_WIND], e[E_WIND + 1], 0.0,
+                    e[E_WIND_VAR], 0.0, s.geo.alt_amsl_m, 0.0, 0.0)
 
 
 def orbit_execution_status(enc: Encoder, s: Snapshot) -> bytes | None:

@@ -46,6 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from netsim.topology import make_router
+from vehicles.estimation import SensorConfig
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.wind import WindConfig
@@ -139,6 +140,7 @@ class Scenario:
     log_level: str | None = None
     daemon: DaemonSettings = field(default_factory=DaemonSettings)
     wind: WindConfig = field(default_factory=WindConfig)  # [environment]
+    sensors: SensorConfig = field(default_factory=SensorConfig)  # [sensors]
 
 
 def _table(doc: dict, key: str, path: str) -> dict:
@@ -245,7 +247,7 @@ def _daemon(table: dict, base_dir: Path | None) -> tuple[DaemonSettings, str | N
 def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -> Scenario:
     """``base_dir``: where relative paths of ``[daemon]`` point from (``load``: the file's
     directory); None keeps them relative to the working directory."""
-    _unknown(doc, ("vehicles", "network", "logging", "daemon", "environment"), "")
+    _unknown(doc, ("vehicles", "network", "logging", "daemon", "environment", "sensors"), "")
     veh = _table(doc, "vehicles", "vehicles")
     _unknown(veh, ("count", "home", "airframe", "params"), "vehicles")
     count = int(_number(veh.get("count", 1), "vehicles.count", integer=True, minimum=1))
@@ -307,7 +309,21 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     if daemon.port_offset is not None:
         check_ports(count, daemon.port_offset, "daemon.port_offset")
     wind = _environment(_table(doc, "environment", "environment"))
-    return Scenario(source, count, home, airframe, params, network, level, daemon, wind)
+    sensors = _sensors(_table(doc, "sensors", "sensors"))
+    return Scenario(source, count, home, airframe, params, network, level, daemon, wind, sensors)
+
+
+def _sensors(table: dict) -> SensorConfig:
+    """``[sensors]``: ``noise`` scales the noise and bias of every simulated sensor (1: PX4's
+    Gazebo x500 models, 0: exact sensors for exact regression tests), vehicles/estimation.py."""
+    _unknown(table, ("noise",), "sensors")
+    if "noise" not in table:
+        return SensorConfig()
+    value = _number(table["noise"], "sensors.noise")
+    if not 0.0 <= value <= 100.0:
+        raise ScenarioError(f"sensors.noise: must be between 0 and 100 (1 = PX4's simulated "
+                            f"sensors, 0 = exact), got {value!r}")
+    return SensorConfig(noise=value)
 
 
 # [environment]: key -> (lowest, highest) accepted.
@@ -388,6 +404,8 @@ def describe(s: Scenario) -> str:
         w = s.wind
         lines.append(f"  environment: wind {w.speed_mps:g} m/s from {w.from_deg:g}°, gusts "
                      f"{w.gust_mps:g} m/s over {w.gust_time_s:g} s")
+    if s.sensors != SensorConfig():
+        lines.append(f"  sensors: noise × {s.sensors.noise:g}")
     d = s.daemon
     settings = [f"{key} {'max' if key == 'speed' and math.isinf(value) else value}"
                 for key in DAEMON_KEYS if (value := getattr(d, key, None)) is not None]

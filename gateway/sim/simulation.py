@@ -34,6 +34,7 @@ from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
 from netsim.link import Tracer
 from netsim.rng import named_generator
 from netsim.topology import make_router
+from vehicles.estimation import PX4_SENSORS, SensorConfig
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.wind import Wind, WindConfig
@@ -182,7 +183,8 @@ class Simulation:
                  realtime: bool = False,
                  link_kinds: Sequence[LinkKind] = (LinkKind.GCS, LinkKind.API),
                  signing: SigningConfig | None = None, first_index: int = 0,
-                 wind: WindConfig | None = None) -> None:
+                 wind: WindConfig | None = None,
+                 sensors: SensorConfig = PX4_SENSORS) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence.
         ``link_kinds``: the MAVLink links each vehicle has (the daemon: both, as PX4 SITL; an
@@ -204,7 +206,10 @@ class Simulation:
         air = None
         if wind is not None and not wind.calm:
             air = Wind(wind, named_generator(self.network.seed, "wind"))
-        self.world = World(dt_s=physics_dt_s, home=home, wind=air)
+        # Sensor noise: vehicle N's from the stream "sensors/vN" of the scenario's seed.
+        seed = self.network.seed
+        self.world = World(dt_s=physics_dt_s, home=home, wind=air, sensors=sensors,
+                           rng_for=lambda i: named_generator(seed, f"sensors/v{i + 1}"))
         self.on_downlink: DownlinkHandler | None = None
         self._outer_errors = 0  # failures that escaped a session (its own are in its stats)
         self._next_error_log_s = -math.inf
@@ -251,7 +256,7 @@ class Simulation:
         """Every vehicle's position in the world frame (NED from the world's home), by node."""
         out = {}
         for k, vehicle in enumerate(self.vehicles):
-            n, e, d = vehicle.kinematics.position_ned_m
+            n, e, d = vehicle.truth.position_ned_m  # where its radio really is
             n0, e0 = self._spawn_ned[k]
             out[f"v{self.indices[k] + 1}"] = (n0 + n, e0 + e, d)
         return out

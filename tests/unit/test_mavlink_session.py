@@ -137,13 +137,15 @@ def _counts(kind, seconds=10.0):
                     "ATTITUDE_QUATERNION": 50, "LOCAL_POSITION_NED": 50,
                     "GLOBAL_POSITION_INT": 50, "GPS_RAW_INT": 5, "HOME_POSITION": 0.5,
                     "VFR_HUD": 4, "ALTITUDE": 1, "BATTERY_STATUS": 0.5, "MISSION_CURRENT": 1,
-                    "SCALED_PRESSURE": 1}),
+                    "SCALED_PRESSURE": 1, "ESTIMATOR_STATUS": 0.5, "VIBRATION": 0.1,
+                    "WIND_COV": 0.5}),
     (LinkKind.API, {"HEARTBEAT": 1, "SYS_STATUS": 5, "EXTENDED_SYS_STATE": 5, "ATTITUDE": 100,
                     "ATTITUDE_QUATERNION": 50, "LOCAL_POSITION_NED": 30,
                     "GLOBAL_POSITION_INT": 50, "GPS_RAW_INT": 10, "HOME_POSITION": 0.5,
                     "VFR_HUD": 10, "ALTITUDE": 10, "BATTERY_STATUS": 0.5, "SYSTEM_TIME": 1,
                     "MISSION_CURRENT": 1, "HIGHRES_IMU": 50, "ODOMETRY": 30,
-                    "SCALED_PRESSURE": 1}),
+                    "SCALED_PRESSURE": 1, "ESTIMATOR_STATUS": 1, "VIBRATION": 0.5,
+                    "WIND_COV": 10}),
 ], ids=["gcs", "api"])
 def test_stream_rates(kind, expected):
     counts = _counts(kind)

@@ -83,6 +83,31 @@ class FakeVehicle:
         return Kinematics.of(self.state)
 
     @property
+    def sensors(self) -> list[float]:
+        """Exact sensors at the present state, GPS and barometer included (estimation.S_*)."""
+        from vehicles import estimation as est
+        s = [0.0] * est.S_SIZE
+        from gateway.mavlink.telemetry import _to_body
+        q = self.kinematics.attitude_q
+        s[est.S_ACC:est.S_ACC + 3] = _to_body(q, (0.0, 0.0, -9.80665))
+        s[est.S_MAG:est.S_MAG + 3] = _to_body(q, est.MAG_NED_GAUSS)
+        pos = [float(v) for v in self.state.position_ned_m]
+        s[est.S_GPS_POS:est.S_GPS_POS + 3] = pos
+        s[est.S_GPS_VEL:est.S_GPS_VEL + 3] = [float(v) for v in self.state.velocity_ned_mps]
+        s[est.S_BARO_DOWN] = pos[2]
+        return s
+
+    @property
+    def estimator(self) -> list[float]:
+        """A converged estimator (estimation.E_*): small test ratios and accuracies."""
+        from vehicles import estimation as est
+        e = [0.0] * est.E_SIZE
+        e[est.E_Q] = 1.0
+        e[est.E_RATIOS:est.E_RATIOS + 4] = [0.05, 0.04, 0.01, 0.2]
+        e[est.E_ACCURACY:est.E_ACCURACY + 2] = [0.02, 0.01]
+        return e
+
+    @property
     def acceleration_ned_mps2(self) -> tuple[float, float, float]:
         a = self.state.acceleration_ned_mps2
         return (float(a[0]), float(a[1]), float(a[2]))

@@ -1,0 +1,449 @@
+"""Simulated sensors and the estimator every vehicle flies on, compiled over all rows of a World.
+
+Sensors (what PX4 SITL with Gazebo's x500 sees):
+- IMU at the physics rate (250 Hz = the ``update_rate`` of ``imu_sensor`` in PX4-gazebo-models
+  models/x500_base/model.sdf): gyro white noise σ 0.00018665 rad/s with a dynamic bias of
+  σ 3.8785e-5 rad/s and correlation time 1000 s; accelerometer white noise σ 0.00186 m/s² with a
+  dynamic bias of σ 0.006 m/s² and correlation time 300 s. The accelerometer measures the
+  specific force (acceleration minus gravity) in the body frame.
+- Barometer at 50 Hz (``air_pressure_sensor``: pressure noise σ 0.01 Pa, as height
+  σ 0.01 Pa / (ρ₀ g) with ISA sea-level density).
+- Magnetometer at 50 Hz: the Earth's field rotated into the body frame plus white noise
+  σ (0.02, 0.02, 0.03) gauss (PX4 src/modules/simulation/sensor_mag_sim).
+- GPS at 30 Hz (``navsat_sensor``) with the Gauss-Markov position and velocity noise that PX4's
+  gz bridge adds (src/modules/simulation/gz_bridge/GZBridge.hpp: position amplitude 0.8 m,
+  random walk 0.01, Markov coefficient 0.95; velocity amplitude 0.05 m/s, density 0.2,
+  coefficient 0.85; vertical ×1.5 and ×1.2), each fix describing the vehicle EKF2_GPS_DELAY
+  (110 ms) before it arrives.
+- ``noise`` scales every noise and bias (1 = the models above, 0 = exact sensors); the GPS delay
+  stays. Every draw comes from the vehicle's own seeded stream (``NoiseBlocks``), so the same
+  seed gives the same noise whatever else runs, and lockstep runs repeat exactly.
+
+Estimator (a compact stand-in for EKF2 with PX4's sensor fusion choices: IMU prediction, GPS
+position and velocity delayed by EKF2_GPS_DELAY, barometric height, magnetometer heading):
+- Attitude: the gyro (less its estimated bias) integrated every step; tilt corrected towards
+  the specific force the GPS velocity implies (so accelerating flight does not tilt it), heading
+  towards the magnetometer, bias learned from both (a complementary filter).
+- Position and velocity: the IMU's specific force rotated by the estimated attitude, integrated
+  every step; GPS innovations are formed against the estimate of EKF2_GPS_DELAY ago (a ring of
+  past estimates) and the correction is applied to the present and the ring; height and a
+  vertical accelerometer bias follow the barometer.
+- Wind: with the vehicle flying, the horizontal specific force in the body frame is the drag of
+  the air, so the air's velocity follows (EKF2's drag fusion principle), low-passed.
+- Health: the innovation test ratios (innovation² / (gate σ)², with EKF2's noise parameters and
+  gates, as estimator_status reports them) and
+  accuracies that ESTIMATOR_STATUS reports; PX4's vibration metrics (vehicle_imu) for VIBRATION.
+
+The estimate (``estimated``) has the columns of the inner loop's ``measured`` (inner_loop.M_*):
+the controllers and the telemetry read it; ``measured`` stays the ground truth the physics uses.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from vehicles.control.compiled import njit_cached
+from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_SIZE, M_VEL
+from vehicles.types import GRAVITY_MPS2
+
+# --- the sensor models (module docstring for the sources) ---------------------------------------
+IMU_RATE_HZ = 250.0
+GYRO_NOISE_RADPS = 0.00018665
+GYRO_BIAS_RADPS = 3.8785e-05
+GYRO_BIAS_TIME_S = 1000.0
+ACCEL_NOISE_MPS2 = 0.00186
+ACCEL_BIAS_MPS2 = 0.006
+ACCEL_BIAS_TIME_S = 300.0
+BARO_RATE_HZ = 50.0
+BARO_NOISE_PA = 0.01
+AIR_DENSITY_KGM3 = 1.225
+BARO_NOISE_M = BARO_NOISE_PA / (AIR_DENSITY_KGM3 * GRAVITY_MPS2)
+MAG_NOISE_GAUSS = (0.02, 0.02, 0.03)
+GPS_RATE_HZ = 30.0
+GPS_POS_AMPLITUDE_M, GPS_POS_WALK, GPS_POS_MARKOV = 0.8, 0.01, 0.95
+GPS_VEL_AMPLITUDE_MPS, GPS_VEL_DENSITY, GPS_VEL_MARKOV = 0.05, 0.2, 0.85
+GPS_DELAY_S = 0.11  # EKF2_GPS_DELAY default (ms in the parameter)
+# The Earth's field at PX4's SITL home (Zurich), gauss NED: 48 µT, inclination 63.5°,
+# declination 3° east (WMM; sensor_mag_sim uses the same model at the home position).
+MAG_NED_GAUSS = (0.2145, 0.0112, 0.4296)
+
+# EKF2's measurement noise parameters and innovation gates (defaults), for the test ratios.
+EKF2_GPS_P_NOISE, EKF2_GPS_V_NOISE, EKF2_BARO_NOISE, EKF2_MAG_NOISE = 0.5, 0.3, 3.5, 0.05
+EKF2_GPS_P_GATE, EKF2_GPS_V_GATE, EKF2_BARO_GATE, EKF2_MAG_GATE = 5.0, 5.0, 5.0, 3.0
+
+HISTORY = 64  # steps of past states kept: delays up to 63 physics steps (252 ms at 250 Hz)
+
+# Noise draws per vehicle and step (columns of a noise block).
+N_GYRO, N_GYRO_BIAS, N_ACC, N_ACC_BIAS, N_BARO, N_MAG, N_GPS_POS, N_GPS_VEL, N_SIZE = (
+    0, 3, 6, 9, 12, 13, 16, 19, 22)
+BLOCK = 250  # steps of noise drawn at once per vehicle
+
+# Columns of ``sensed`` (the latest sample of each sensor; NED positions from the spawn point).
+S_GYRO, S_ACC, S_MAG, S_BARO_DOWN, S_GPS_POS, S_GPS_VEL, S_VIB, S_PREV, S_SIZE = (
+    0, 3, 6, 9, 10, 13, 16, 19, 25)
+# Columns of the sensors' own state: gyro bias, accel bias, GPS position and velocity noise.
+B_GYRO, B_ACC, B_GPS_POS, B_GPS_VEL, B_SIZE = 0, 3, 6, 9, 12
+# Columns of the estimator's state.
+(E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
+ E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_SIZE) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36)
+# E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the variance of
+# the raw wind samples (m²/s²);
+# E_ACCURACY: horizontal, vertical (running RMS of the innovations).
+
+E_WIND_VAR = E_RATIOS + 4
+
+# Gains of the complementary filters (per second; see the module docstring).
+K_TILT, K_HEADING, K_GYRO_BIAS = 0.2, 0.2, 0.002
+L_POS, L_VEL_FROM_POS, L_VEL = 1.0, 0.5, 0.5
+L_HGT, L_VZ_FROM_HGT, L_ACC_BIAS = 2.8, 4.0, 0.4
+TAU_ACCEL_REF_S = 0.3
+TAU_WIND_S = 5.0
+TAU_ACCURACY_S = 5.0
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """A scenario's ``[sensors]``: ``noise`` scales every sensor's noise and bias (0 = exact)."""
+
+    noise: float = 1.0
+
+
+PX4_SENSORS = SensorConfig()  # the noise of PX4's simulated sensors
+EXACT_SENSORS = SensorConfig(noise=0.0)
+
+
+def _gm(dt_s: float, tau_s: float, sigma: float) -> tuple[float, float]:
+    """Decay and drive of a first-order Gauss-Markov process with stationary σ ``sigma``."""
+    decay = math.exp(-dt_s / tau_s)
+    return decay, sigma * math.sqrt(1.0 - decay * decay)
+
+
+@njit_cached
+def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_i, bias, sensed,
+          consts):  # pragma: no cover - compiled
+    """Every vehicle's sensors after a physics step (module rules). ``hist``: the ring of true
+    positions and velocities (slot ``hist_i`` is written now); ``consts``: gyro and accel bias
+    decay and drive, gyro and accel noise, baro and mag noise, the Earth's field (NED)."""
+    g_decay, g_drive, a_decay, a_drive = consts[0], consts[1], consts[2], consts[3]
+    g_noise, a_noise, baro_noise = consts[4], consts[5], consts[6]
+    for v in range(len(measured)):
+        m = measured[v]
+        n = noise[v, j]
+        b = bias[v]
+        out = sensed[v]
+        h = hist[v, hist_i]
+        for i in range(3):
+            h[i] = m[M_POS + i]
+            h[3 + i] = m[M_VEL + i]
+        qw, qx, qy, qz = m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3]
+        r00 = 1 - 2 * (qy * qy + qz * qz)
+        r01 = 2 * (qx * qy - qw * qz)
+        r02 = 2 * (qx * qz + qw * qy)
+        r10 = 2 * (qx * qy + qw * qz)
+        r11 = 1 - 2 * (qx * qx + qz * qz)
+        r12 = 2 * (qy * qz - qw * qx)
+        r20 = 2 * (qx * qz - qw * qy)
+        r21 = 2 * (qy * qz + qw * qx)
+        r22 = 1 - 2 * (qx * qx + qy * qy)
+        fn, fe, fd = m[M_ACCEL], m[M_ACCEL + 1], m[M_ACCEL + 2] - 9.80665
+        f0 = r00 * fn + r10 * fe + r20 * fd
+        f1 = r01 * fn + r11 * fe + r21 * fd
+        f2 = r02 * fn + r12 * fe + r22 * fd
+        # PX4's vehicle_imu vibration metrics from consecutive delta angles and velocities.
+        da0 = da1 = da2 = dv0 = dv1 = dv2 = 0.0
+        for i in range(3):
+            b[B_GYRO + i] = b[B_GYRO + i] * g_decay + g_drive * scale * n[3 + i]
+            b[B_ACC + i] = b[B_ACC + i] * a_decay + a_drive * scale * n[9 + i]
+        out[S_GYRO] = m[M_RATES] + b[B_GYRO] + g_noise * scale * n[0]
+        out[S_GYRO + 1] = m[M_RATES + 1] + b[B_GYRO + 1] + g_noise * scale * n[1]
+        out[S_GYRO + 2] = m[M_RATES + 2] + b[B_GYRO + 2] + g_noise * scale * n[2]
+        out[S_ACC] = f0 + b[B_ACC] + a_noise * scale * n[6]
+        out[S_ACC + 1] = f1 + b[B_ACC + 1] + a_noise * scale * n[7]
+        out[S_ACC + 2] = f2 + b[B_ACC + 2] + a_noise * scale * n[8]
+        da0, da1, da2 = out[S_GYRO] * dt_s, out[S_GYRO + 1] * dt_s, out[S_GYRO + 2] * dt_s
+        dv0, dv1, dv2 = out[S_ACC] * dt_s, out[S_ACC + 1] * dt_s, out[S_ACC + 2] * dt_s
+        p0, p1, p2 = out[S_PREV], out[S_PREV + 1], out[S_PREV + 2]
+        cx, cy, cz = da1 * p2 - da2 * p1, da2 * p0 - da0 * p2, da0 * p1 - da1 * p0
+        out[S_VIB] = 0.99 * out[S_VIB] + 0.01 * math.sqrt(cx * cx + cy * cy + cz * cz)
+        ex, ey, ez = da0 - p0, da1 - p1, da2 - p2
+        out[S_VIB + 1] = 0.99 * out[S_VIB + 1] + 0.01 * math.sqrt(ex * ex + ey * ey + ez * ez)
+        ex, ey, ez = dv0 - out[S_PREV + 3], dv1 - out[S_PREV + 4], dv2 - out[S_PREV + 5]
+        out[S_VIB + 2] = 0.99 * out[S_VIB + 2] + 0.01 * math.sqrt(ex * ex + ey * ey + ez * ez)
+        out[S_PREV], out[S_PREV + 1], out[S_PREV + 2] = da0, da1, da2
+        out[S_PREV + 3], out[S_PREV + 4], out[S_PREV + 5] = dv0, dv1, dv2
+        if baro_due:
+            out[S_BARO_DOWN] = m[M_POS + 2] + baro_noise * scale * n[12]
+            mn, me, md = consts[10], consts[11], consts[12]
+            out[S_MAG] = r00 * mn + r10 * me + r20 * md + consts[7] * scale * n[13]
+            out[S_MAG + 1] = r01 * mn + r11 * me + r21 * md + consts[8] * scale * n[14]
+            out[S_MAG + 2] = r02 * mn + r12 * me + r22 * md + consts[9] * scale * n[15]
+        if gps_due:
+            old = hist[v, (hist_i - delay[v]) % len(hist[v])]
+            for i in range(3):
+                up = 1.5 if i == 2 else 1.0
+                uv = 1.2 if i == 2 else 1.0
+                b[B_GPS_POS + i] = (0.95 * b[B_GPS_POS + i]
+                                    + 0.01 * 0.8 * up * scale * n[16 + i])
+                b[B_GPS_VEL + i] = (0.85 * b[B_GPS_VEL + i]
+                                    + 0.2 * 0.05 * uv * scale * n[19 + i])
+                out[S_GPS_POS + i] = old[i] + b[B_GPS_POS + i]
+                out[S_GPS_VEL + i] = old[3 + i] + b[B_GPS_VEL + i]
+
+
+@njit_cached
+def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, consts,
+             estimated):  # pragma: no cover - compiled
+    """Every vehicle's estimate after its sensors (module rules). ``ehist``: the ring of past
+    estimated positions and velocities; ``flying``: rows whose drag tells the wind; ``consts``:
+    the Earth's field (NED), the airframe's mass over its linear drag."""
+    g = 9.80665
+    mn, me = consts[0], consts[1]  # the heading needs the horizontal field only
+    mass_over_drag = consts[3]
+    dt_gps = 1.0 / 30.0
+    dt_baro = 1.0 / 50.0
+    a_ref = dt_gps / (0.3 + dt_gps)
+    a_f = dt_s / (0.3 + dt_s)
+    a_wind = dt_baro / (5.0 + dt_baro)
+    a_acc_gps = dt_gps / (5.0 + dt_gps)
+    a_acc_baro = dt_baro / (5.0 + dt_baro)
+    for v in range(len(sensed)):
+        s = sensed[v]
+        e = est[v]
+        out = estimated[v]
+        # --- attitude: integrate the corrected rates --------------------------------------------
+        wx = s[S_GYRO] - e[E_GYRO_BIAS] + e[E_CORR]
+        wy = s[S_GYRO + 1] - e[E_GYRO_BIAS + 1] + e[E_CORR + 1]
+        wz = s[S_GYRO + 2] - e[E_GYRO_BIAS + 2] + e[E_CORR + 2]
+        qw, qx, qy, qz = e[E_Q], e[E_Q + 1], e[E_Q + 2], e[E_Q + 3]
+        hx, hy, hz = 0.5 * wx * dt_s, 0.5 * wy * dt_s, 0.5 * wz * dt_s
+        nw = qw - qx * hx - qy * hy - qz * hz
+        nx = qx + qw * hx + qy * hz - qz * hy
+        ny = qy + qw * hy + qz * hx - qx * hz
+        nz = qz + qw * hz + qx * hy - qy * hx
+        norm = math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
+        if nw < 0.0:
+            norm = -norm
+        qw, qx, qy, qz = nw / norm, nx / norm, ny / norm, nz / norm
+        e[E_Q], e[E_Q + 1], e[E_Q + 2], e[E_Q + 3] = qw, qx, qy, qz
+        r00 = 1 - 2 * (qy * qy + qz * qz)
+        r01 = 2 * (qx * qy - qw * qz)
+        r02 = 2 * (qx * qz + qw * qy)
+        r10 = 2 * (qx * qy + qw * qz)
+        r11 = 1 - 2 * (qx * qx + qz * qz)
+        r12 = 2 * (qy * qz - qw * qx)
+        r20 = 2 * (qx * qz - qw * qy)
+        r21 = 2 * (qy * qz + qw * qx)
+        r22 = 1 - 2 * (qx * qx + qy * qy)
+        # --- velocity and position: the specific force in NED, plus gravity -------------------
+        f0, f1, f2 = s[S_ACC], s[S_ACC + 1], s[S_ACC + 2] - e[E_ACC_BIAS_Z]
+        an = r00 * f0 + r01 * f1 + r02 * f2
+        ae = r10 * f0 + r11 * f1 + r12 * f2
+        ad = r20 * f0 + r21 * f1 + r22 * f2 + g
+        for i in range(3):
+            e[E_F_LP + i] += a_f * ((an, ae, ad - g)[i] - e[E_F_LP + i])
+        e[E_VEL] += an * dt_s
+        e[E_VEL + 1] += ae * dt_s
+        e[E_VEL + 2] += ad * dt_s
+        for i in range(3):
+            e[E_POS + i] += e[E_VEL + i] * dt_s
+        ring = ehist[v]
+        slot = ring[hist_i]
+        for i in range(3):
+            slot[i] = e[E_POS + i]
+            slot[3 + i] = e[E_VEL + i]
+        # --- GPS: delayed innovations, corrections to the present and the ring -----------------
+        if gps_due:
+            old = ring[(hist_i - delay[v]) % len(ring)]
+            ep0, ep1 = s[S_GPS_POS] - old[0], s[S_GPS_POS + 1] - old[1]
+            ev0, ev1, ev2 = (s[S_GPS_VEL] - old[3], s[S_GPS_VEL + 1] - old[4],
+                             s[S_GPS_VEL + 2] - old[5])
+            dp0, dp1 = L_POS * dt_gps * ep0, L_POS * dt_gps * ep1
+            dv0 = L_VEL_FROM_POS * dt_gps * ep0 + L_VEL * dt_gps * ev0
+            dv1 = L_VEL_FROM_POS * dt_gps * ep1 + L_VEL * dt_gps * ev1
+            dv2 = L_VEL * dt_gps * ev2
+            e[E_POS] += dp0
+            e[E_POS + 1] += dp1
+            e[E_VEL] += dv0
+            e[E_VEL + 1] += dv1
+            e[E_VEL + 2] += dv2
+            for k in range(len(ring)):
+                ring[k, 0] += dp0
+                ring[k, 1] += dp1
+                ring[k, 3] += dv0
+                ring[k, 4] += dv1
+                ring[k, 5] += dv2
+            # The acceleration the GPS velocity implies: the tilt reference.
+            if e[E_HAVE_GPS] > 0.0:
+                for i in range(3):
+                    acc = (s[S_GPS_VEL + i] - e[E_GPS_VEL_PREV + i]) / dt_gps
+                    e[E_A_LP + i] += a_ref * (acc - e[E_A_LP + i])
+            e[E_HAVE_GPS] = 1.0
+            for i in range(3):
+                e[E_GPS_VEL_PREV + i] = s[S_GPS_VEL + i]
+            e[E_RATIOS] = (ev0 * ev0 + ev1 * ev1 + ev2 * ev2) / (
+                EKF2_GPS_V_GATE * EKF2_GPS_V_NOISE) ** 2
+            e[E_RATIOS + 1] = (ep0 * ep0 + ep1 * ep1) / (EKF2_GPS_P_GATE * EKF2_GPS_P_NOISE) ** 2
+            e[E_ACCURACY] = math.sqrt(e[E_ACCURACY] ** 2
+                                      + a_acc_gps * (ep0 * ep0 + ep1 * ep1 - e[E_ACCURACY] ** 2))
+        # --- barometer and magnetometer (50 Hz): height, attitude corrections, wind -----------
+        if baro_due:
+            eh = s[S_BARO_DOWN] - e[E_POS + 2]
+            e[E_POS + 2] += L_HGT * dt_baro * eh
+            e[E_VEL + 2] += L_VZ_FROM_HGT * dt_baro * eh
+            e[E_ACC_BIAS_Z] -= L_ACC_BIAS * dt_baro * eh
+            for k in range(len(ring)):
+                ring[k, 2] += L_HGT * dt_baro * eh
+                ring[k, 5] += L_VZ_FROM_HGT * dt_baro * eh
+            e[E_RATIOS + 2] = eh * eh / (EKF2_BARO_GATE * EKF2_BARO_NOISE) ** 2
+            e[E_ACCURACY + 1] = math.sqrt(e[E_ACCURACY + 1] ** 2
+                                          + a_acc_baro * (eh * eh - e[E_ACCURACY + 1] ** 2))
+            # Tilt: the measured specific force (NED, low-passed) against the one the GPS
+            # velocity implies; heading: the field against the Earth's.
+            c0 = c1 = 0.0
+            if e[E_HAVE_GPS] > 0.0:
+                r0, r1, r2 = e[E_A_LP], e[E_A_LP + 1], e[E_A_LP + 2] - g
+                m0, m1, m2 = e[E_F_LP], e[E_F_LP + 1], e[E_F_LP + 2]
+                rr = r0 * r0 + r1 * r1 + r2 * r2
+                c0 = (r1 * m2 - r2 * m1) / rr
+                c1 = (r2 * m0 - r0 * m2) / rr
+            b0, b1, b2 = s[S_MAG], s[S_MAG + 1], s[S_MAG + 2]
+            fn_ = r00 * b0 + r01 * b1 + r02 * b2
+            fe_ = r10 * b0 + r11 * b1 + r12 * b2
+            yaw_err = math.atan2(mn * fe_ - me * fn_, mn * fn_ + me * fe_)
+            # As a field innovation (gauss): the heading error across the horizontal field.
+            field_err = yaw_err * math.sqrt(mn * mn + me * me)
+            e[E_RATIOS + 3] = field_err * field_err / (EKF2_MAG_GATE * EKF2_MAG_NOISE) ** 2
+            w0, w1, w2 = -K_TILT * c0, -K_TILT * c1, -K_HEADING * yaw_err
+            # Into the body frame: Rᵀ ω.
+            bx = r00 * w0 + r10 * w1 + r20 * w2
+            by = r01 * w0 + r11 * w1 + r21 * w2
+            bz = r02 * w0 + r12 * w1 + r22 * w2
+            e[E_CORR], e[E_CORR + 1], e[E_CORR + 2] = bx, by, bz
+            e[E_GYRO_BIAS] -= K_GYRO_BIAS * bx * dt_baro
+            e[E_GYRO_BIAS + 1] -= K_GYRO_BIAS * by * dt_baro
+            e[E_GYRO_BIAS + 2] -= K_GYRO_BIAS * bz * dt_baro
+            if flying[v]:
+                # The drag's specific force (body x, y) → the air relative to the body.
+                ux, uy = -mass_over_drag * s[S_ACC], -mass_over_drag * s[S_ACC + 1]
+                vn, ve, vd = e[E_VEL], e[E_VEL + 1], e[E_VEL + 2]
+                uz = r02 * vn + r12 * ve + r22 * vd
+                wn = vn - (r00 * ux + r01 * uy + r02 * uz)
+                we = ve - (r10 * ux + r11 * uy + r12 * uz)
+                dn, de = wn - e[E_WIND], we - e[E_WIND + 1]
+                e[E_WIND] += a_wind * dn
+                e[E_WIND + 1] += a_wind * de
+                e[E_WIND_VAR] += a_wind * (dn * dn + de * de - e[E_WIND_VAR])
+        # --- the estimate, in the columns of ``measured`` -------------------------------------
+        for i in range(3):
+            out[M_POS + i] = e[E_POS + i]
+            out[M_VEL + i] = e[E_VEL + i]
+        out[M_Q], out[M_Q + 1], out[M_Q + 2], out[M_Q + 3] = qw, qx, qy, qz
+        out[M_RATES] = s[S_GYRO] - e[E_GYRO_BIAS]
+        out[M_RATES + 1] = s[S_GYRO + 1] - e[E_GYRO_BIAS + 1]
+        out[M_RATES + 2] = s[S_GYRO + 2] - e[E_GYRO_BIAS + 2]
+        out[M_ACCEL], out[M_ACCEL + 1], out[M_ACCEL + 2] = an, ae, ad
+
+
+class NoiseBlocks:
+    """Standard normal draws for every row, ``BLOCK`` steps at a time, each row from its own
+    generator (``rng_for(index)``: a seeded stream named after the vehicle)."""
+
+    def __init__(self, rng_for: Callable[[int], np.random.Generator] | None) -> None:
+        self._rng_for = rng_for
+        self._gens: list[np.random.Generator | None] = []
+        self.block = np.zeros((0, BLOCK, N_SIZE))
+        self.j = 0
+
+    def add(self, index: int) -> None:
+        gen = self._rng_for(index) if self._rng_for is not None else None
+        self._gens.append(gen)
+        grown = np.zeros((len(self._gens), BLOCK, N_SIZE))
+        grown[:-1] = self.block
+        if gen is not None:
+            grown[-1] = gen.standard_normal((BLOCK, N_SIZE))
+        self.block = grown
+
+    def advance(self) -> None:
+        """Move to the next step's draws (a new block every ``BLOCK`` steps)."""
+        self.j += 1
+        if self.j == BLOCK:
+            self.j = 0
+            for k, gen in enumerate(self._gens):
+                if gen is not None:
+                    self.block[k] = gen.standard_normal((BLOCK, N_SIZE))
+
+
+class Estimation:
+    """The sensors and estimators of every row of a World (module rules)."""
+
+    def __init__(self, dt_s: float, config: SensorConfig, mass_kg: float, drag_n_per_mps: float,
+                 rng_for: Callable[[int], np.random.Generator] | None) -> None:
+        if config.noise > 0.0 and rng_for is None:
+            raise ValueError("sensor noise needs seeded generators")
+        self.dt_s = dt_s
+        self.config = config
+        self.noise = NoiseBlocks(rng_for)
+        g_decay, g_drive = _gm(dt_s, GYRO_BIAS_TIME_S, GYRO_BIAS_RADPS)
+        a_decay, a_drive = _gm(dt_s, ACCEL_BIAS_TIME_S, ACCEL_BIAS_MPS2)
+        self.sense_consts = np.array([g_decay, g_drive, a_decay, a_drive, GYRO_NOISE_RADPS,
+                                      ACCEL_NOISE_MPS2, BARO_NOISE_M, *MAG_NOISE_GAUSS,
+                                      *MAG_NED_GAUSS])
+        self.est_consts = np.array([*MAG_NED_GAUSS, mass_kg / drag_n_per_mps])
+        self.steps = 0
+        self.hist_i = 0
+        self.sensed = np.zeros((0, S_SIZE))  # the latest sample of each sensor (S_*)
+        self.bias = np.zeros((0, B_SIZE))  # the sensors' own state (B_*)
+        self.est = np.zeros((0, E_SIZE))  # the estimator's state (E_*)
+        self.hist = np.zeros((0, HISTORY, 6))  # true positions and velocities, a ring
+        self.ehist = np.zeros((0, HISTORY, 6))  # estimated positions and velocities, a ring
+        self.delay = np.zeros(0, np.int64)  # EKF2_GPS_DELAY in physics steps
+        # Compile (or load) both kernels now, with no rows.
+        self.step(np.zeros((0, M_SIZE)), np.zeros((0, M_SIZE)), np.zeros(0, np.bool_), 0.0)
+
+    def _resize(self, n: int) -> None:
+        def grow(old: np.ndarray) -> np.ndarray:
+            new = np.zeros((n,) + old.shape[1:], dtype=old.dtype)
+            new[:len(old)] = old
+            return new
+
+        self.sensed, self.bias, self.est = grow(self.sensed), grow(self.bias), grow(self.est)
+        self.hist, self.ehist, self.delay = grow(self.hist), grow(self.ehist), grow(self.delay)
+
+    def add(self, index: int, truth: np.ndarray, estimated: np.ndarray,
+            gps_delay_s: float = GPS_DELAY_S) -> None:
+        """A row for vehicle ``index`` whose true state is ``truth`` (a row of ``measured``):
+        its estimate starts converged there (``estimated`` is that row of the estimate)."""
+        k = len(self.est)
+        self._resize(k + 1)
+        self.noise.add(index)
+        self.delay[k] = max(0, min(HISTORY - 1, int(round(gps_delay_s / self.dt_s))))
+        e = self.est[k]
+        e[E_Q:E_Q + 4] = truth[M_Q:M_Q + 4]
+        e[E_POS:E_POS + 3] = truth[M_POS:M_POS + 3]
+        e[E_VEL:E_VEL + 3] = truth[M_VEL:M_VEL + 3]
+        self.hist[k, :, :3] = self.ehist[k, :, :3] = truth[M_POS:M_POS + 3]
+        self.hist[k, :, 3:] = self.ehist[k, :, 3:] = truth[M_VEL:M_VEL + 3]
+        s = self.sensed[k]
+        s[S_BARO_DOWN] = truth[M_POS + 2]
+        s[S_GPS_POS:S_GPS_POS + 3] = truth[M_POS:M_POS + 3]
+        estimated[:] = truth
+        estimated[M_ACCEL:M_ACCEL + 3] = 0.0
+
+    def step(self, measured: np.ndarray, estimated: np.ndarray, flying: np.ndarray,
+             t_s: float) -> None:
+        """After the physics step that ended at ``t_s``: sample the sensors, update the
+        estimates into ``estimated``."""
+        dt = self.dt_s
+        baro_due = int(t_s * BARO_RATE_HZ + 1e-9) != int((t_s - dt) * BARO_RATE_HZ + 1e-9)
+        gps_due = int(t_s * GPS_RATE_HZ + 1e-9) != int((t_s - dt) * GPS_RATE_HZ + 1e-9)
+        self.hist_i = (self.hist_i + 1) % HISTORY
+        sense(measured, self.noise.block, self.noise.j, dt, self.config.noise, baro_due, gps_due,
+              self.delay, self.hist, self.hist_i, self.bias, self.sensed, self.sense_consts)
+        estimate(self.sensed, self.est, self.ehist, self.hist_i, self.delay, dt, baro_due,
+                 gps_due, flying, self.est_consts, estimated)
+        self.noise.advance()
+        self.steps += 1
