@@ -11,8 +11,13 @@ figure printed beside what PX4's own algorithms give for the same inputs, with p
   tracked, on the same waypoints and NAV_ACC_RAD is PX4's figure) and the greatest leg speed
   (MPC_XY_CRUISE);
 - a 30 m goto: overshoot (PX4's smoothing arrives without overshoot: 0 m);
-- land from 10 m: time to touchdown (PX4: MPC_Z_V_AUTO_DN down to MPC_LAND_ALT1, MPC_LAND_SPEED
-  below MPC_LAND_ALT2).
+- hover with the sensors of PX4's Gazebo x500 (vehicles/estimation.py; seeded): the IMU's noise
+  (measured less true) and whole signal beside the models' σ, the position estimate's σ beside
+  the σ of the gz bridge's GPS noise process, the estimate's error; then hover in a 5 m/s wind:
+  the greatest drift and the wind the estimator reports (WIND_COV).
+
+The takeoff, square and goto figures fly exact sensors (a scenario's ``[sensors] noise = 0``),
+so that they show the trajectory generation alone.
 
     .venv/bin/python bench/fidelity.py [--plots docs/fidelity]
 """
@@ -28,6 +33,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from tests.unit.test_vehicles_estimation import hovering, specific_force_frd  # noqa: E402
 from tests.unit.test_vehicles_flight import Sim  # noqa: E402
 from tests.unit.test_vehicles_trajectory import fly_goto, fly_mission  # noqa: E402
 from vehicles.control.position_smoothing import PositionSmoothing, ideal_track  # noqa: E402
@@ -157,6 +163,54 @@ def _outside_distance(pt, corners) -> float:
     return best
 
 
+def fly_hover(seconds: float = 20.0) -> dict[str, tuple]:
+    """Hover with PX4's simulated sensors: noise and estimate figures (module docstring)."""
+    import statistics
+
+    from gateway.sim import scenario
+    from gateway.testing import Sim as FullSim
+    from vehicles import estimation as est
+
+    out: dict[str, tuple] = {}
+    with FullSim() as sim:
+        hovering(sim)
+        dt = sim.simulation.world.dt_s
+        rows = []
+        for _ in range(int(seconds / dt)):
+            sim.advance(dt)
+            v = sim.vehicles[0]
+            rows.append((v.sensors, v.truth, v.kinematics))
+    noise = [statistics.pstdev(s[est.S_ACC + i] - specific_force_frd(t)[i] for s, t, _ in rows)
+             for i in range(3)]
+    signal = [statistics.pstdev(s[est.S_ACC + i] for s, _, _ in rows) for i in range(3)]
+    gyro = [statistics.pstdev(s[est.S_GYRO + i] - t.rates_frd_radps[i] for s, t, _ in rows)
+            for i in range(3)]
+    pos = [statistics.pstdev(k.position_ned_m[i] for _, _, k in rows) for i in range(2)]
+    err = math.sqrt(statistics.fmean(math.dist(k.position_ned_m, t.position_ned_m) ** 2
+                                     for _, t, k in rows))
+    out.update(noise=tuple(noise), signal=tuple(signal), gyro=tuple(gyro), pos=tuple(pos), err=(err,))
+    windy = scenario.parse({"environment": {"wind_speed_mps": 5.0, "wind_from_deg": 270.0}})
+    with FullSim(scenario=windy) as sim:
+        hovering(sim)
+        sim.advance(10.0)
+        start = sim.vehicles[0].truth.position_ned_m
+        drift = 0.0
+        for _ in range(200):
+            sim.advance(0.1)
+            drift = max(drift, math.dist(start, sim.vehicles[0].truth.position_ned_m))
+        e = sim.vehicles[0].estimator
+        out.update(drift=(drift,), wind=(e[est.E_WIND], e[est.E_WIND + 1]))
+    return out
+
+
+def gps_noise_sigma_m() -> float:
+    """Stationary σ of the gz bridge's horizontal GPS position noise (a Gauss-Markov process)."""
+    from vehicles import estimation as est
+
+    drive = est.GPS_POS_WALK * est.GPS_POS_AMPLITUDE_M
+    return drive / math.sqrt(1.0 - est.GPS_POS_MARKOV ** 2)
+
+
 def plot(out_dir: Path, takeoff_trace, square_track, square_corners) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -192,6 +246,13 @@ def main() -> int:
     sq_speeds, sq_out, sq_max, sq_track = fly_polygon(square)
     sh_speeds, sh_out, sh_max, _ = fly_polygon(sharp)
     overshoot = max(fly_goto()[0], 0.0)
+    from vehicles import estimation as est
+
+    hover = fly_hover()
+
+    def three(values, fmt="{:.5f}") -> str:
+        return ", ".join(fmt.format(x) for x in values)
+
     rows = [
         ("takeoff: time to 90 % of MIS_TAKEOFF_ALT", f"{t90:.2f} s", f"{px4_takeoff_time(p):.2f} s"),
         ("square (90°): outside at the corners", f"{sq_out:.2f} m", "0 m (cuts inside)"),
@@ -202,6 +263,18 @@ def main() -> int:
         ("150° corner: corner speed", f"{sh_speeds[0]:.2f} m/s",
          f"{px4_corner_speeds(p, sharp)[0]:.2f} m/s"),
         ("30 m goto: overshoot", f"{overshoot:.2f} m", "0 m"),
+        ("hover: accelerometer noise σ x, y, z (m/s²)", three(hover["noise"]),
+         three([est.ACCEL_NOISE_MPS2] * 3)),
+        ("hover: accelerometer signal σ x, y, z (m/s²)", three(hover["signal"]),
+         three([est.ACCEL_NOISE_MPS2] * 3)),
+        ("hover: gyro noise σ x, y, z (rad/s)", three(hover["gyro"]),
+         three([est.GYRO_NOISE_RADPS] * 3)),
+        ("hover: position estimate σ north, east (m)", three(hover["pos"], "{:.4f}"),
+         three([gps_noise_sigma_m()] * 2, "{:.4f}") + " (GPS)"),
+        ("hover: estimate − truth, RMS (m)", f"{hover['err'][0]:.4f}", "—"),
+        ("hover in 5 m/s wind: greatest drift", f"{hover['drift'][0]:.2f} m", "≤ 0.5 m"),
+        ("hover in 5 m/s wind: WIND_COV north, east", three(hover["wind"], "{:.2f}") + " m/s",
+         "0.00, 5.00 m/s"),
     ]
     width = max(len(r[0]) for r in rows)
     print(f"{'figure':<{width}}  {'CORNET':>22}  {'PX4 algorithms':>22}")

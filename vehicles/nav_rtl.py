@@ -5,8 +5,11 @@ point from the RALLY plan) and ``rtl_direct.cpp`` (climb to the return altitude,
 destination, descend to RTL_DESCEND_ALT, wait RTL_LAND_DELAY, land).
 
 Rules:
-- Return altitude = max(destination + RTL_RETURN_ALT, current altitude); when closer than
-  RTL_MIN_DIST to the destination the vehicle does not climb (returns at its current altitude).
+- Return altitude (rtl.cpp ``calculate_return_alt_from_cone_half_angle``, multicopter): with
+  RTL_CONE_ANG 0, destination + RTL_RETURN_ALT; with a cone (PX4's default 45°), closer than
+  RTL_MIN_DIST the vehicle climbs only into the cone over the destination (distance /
+  tan(angle) above it, at least 2 × NAV_ACC_RAD), and within NAV_ACC_RAD to twice its distance.
+  It never descends to return: at least the current altitude.
 - RTL_LAND_DELAY < 0 loiters over the destination for ever ("RTL: completed, loitering").
 - Phases advance on the vehicle's measured position (NAV_MC_ALT_RAD vertically).
 """
@@ -48,6 +51,21 @@ def rtl_destination(ctx: NavContext, plans: PlanStore | None) -> Vec3:
     return best
 
 
+def return_height_m(distance_m: float, return_alt_m: float, cone_deg: float, min_dist_m: float,
+                    acc_rad_m: float) -> float:
+    """Height above the destination to return at, ``distance_m`` away from it (rtl.cpp; the
+    current altitude is the caller's floor)."""
+    if cone_deg <= 0.0:
+        return return_alt_m
+    if distance_m <= acc_rad_m:
+        return 2.0 * distance_m
+    height = return_alt_m
+    if distance_m <= min_dist_m:
+        cone = math.radians(min(max(cone_deg, 1.0), 89.0))
+        height = min(distance_m / math.tan(cone), height)
+    return max(height, 2.0 * acc_rad_m)
+
+
 class Return(NavMode):
     def __init__(self, plans: PlanStore | None = None) -> None:
         self.plans = plans
@@ -66,10 +84,10 @@ class Return(NavMode):
         self.dest = rtl_destination(ctx, self.plans)
         x, y, z = ctx.position_ned_m
         dz = self.dest[2]
-        if math.hypot(x - self.dest[0], y - self.dest[1]) < float(p["RTL_MIN_DIST"]):
-            self.return_z = z  # close to the destination: no climb
-        else:
-            self.return_z = min(dz - float(p["RTL_RETURN_ALT"]), z)
+        above = return_height_m(math.hypot(x - self.dest[0], y - self.dest[1]),
+                                float(p["RTL_RETURN_ALT"]), float(p["RTL_CONE_ANG"]),
+                                float(p["RTL_MIN_DIST"]), float(p["NAV_ACC_RAD"]))
+        self.return_z = min(dz - above, z)  # never descend to return
         self.phase = RtlPhase.LAND if ctx.landed else RtlPhase.CLIMB
         if not ctx.landed:
             above_home = ctx.home.position_ned_m[2] - self.return_z if ctx.home else -self.return_z

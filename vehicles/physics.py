@@ -175,6 +175,12 @@ class World:
         """Row ``row``'s estimator state (estimation.E_* columns)."""
         return self.estimation.est[row].tolist()
 
+    def set_wind(self, wind: Wind | None) -> None:
+        """From the next step the bodies move through ``wind`` (None: calm air)."""
+        self.wind = wind
+        if wind is None:
+            self.inner.wind[:] = 0.0
+
     def rotor_speeds(self, row: int) -> tuple[float, ...]:
         return tuple(self.inner.rotor_speed[row].tolist())
 

@@ -273,8 +273,8 @@ class Daemon:
 
     def reload(self, load: Callable[[], RunConfig] | None) -> bool:
         """SIGHUP: re-read the configuration file and rebuild the running simulation's network
-        from it; vehicles, sessions and parameters stay. Other changes in the file take effect at
-        the next start (each is logged). An invalid file, or a network that cannot be swapped
+        and wind from it; vehicles, sessions and parameters stay. Other changes in the file take
+        effect at the next start (each is logged). An invalid file, or a network that cannot be swapped
         (ns-3), keeps the running network. True if the file's network is now in effect."""
         if load is None:
             log.warning("SIGHUP: started without --config or --scenario; nothing to re-read")
@@ -285,6 +285,10 @@ class Daemon:
         except ScenarioError as exc:
             log.error("reload failed, keeping the running network (%s): %s", running, exc)
             return False
+        if new.wind != self.config.wind:
+            self.sim.set_wind(new.wind)
+            log.info("reload: the wind is now %s (was %s)", new.wind, self.config.wind)
+            self.config = replace(self.config, wind=new.wind)
         for f in fields(RunConfig):
             before, after = getattr(self.config, f.name), getattr(new, f.name)
             if f.name != "network" and after != before:

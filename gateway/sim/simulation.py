@@ -202,10 +202,7 @@ class Simulation:
         self.backend: NetworkBackend = make_backend(self.kernel, self.network, tracer,
                                                     realtime=realtime)
         self._observers: list[Ticker] = []
-        # The air: gusts drawn from the stream "wind" of the scenario's seed.
-        air = None
-        if wind is not None and not wind.calm:
-            air = Wind(wind, named_generator(self.network.seed, "wind"))
+        air = self._air(wind)
         # Sensor noise: vehicle N's from the stream "sensors/vN" of the scenario's seed.
         seed = self.network.seed
         self.world = World(dt_s=physics_dt_s, home=home, wind=air, sensors=sensors,
@@ -247,6 +244,16 @@ class Simulation:
             start()
         for link in self.links.values():
             link.service()
+
+    def _air(self, wind: WindConfig | None) -> Wind | None:
+        """The air: gusts drawn from the stream "wind" of the scenario's seed."""
+        if wind is None or wind.calm:
+            return None
+        return Wind(wind, named_generator(self.network.seed, "wind"))
+
+    def set_wind(self, wind: WindConfig) -> None:
+        """A new mean wind and gusts from now on (SIGHUP); the gusts restart from the seed."""
+        self.world.set_wind(self._air(wind))
 
     @property
     def now(self) -> float:

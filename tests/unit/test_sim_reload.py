@@ -101,3 +101,18 @@ def test_refused_reload_changes_nothing(network, words):
     assert sim.links[API].uplink is uplink and sim.backend is backend
     assert sim.network == fixed(0.05)
     sim.close()
+
+
+def test_set_wind_changes_the_air_and_calm_stops_it():
+    from vehicles.wind import WindConfig
+
+    sim = Simulation(1, NetworkConfig())
+    try:
+        sim.set_wind(WindConfig(5.0, 270.0))
+        sim.run(until=0.1)
+        assert tuple(sim.world.inner.wind) == pytest.approx((0.0, 5.0, 0.0))
+        sim.set_wind(WindConfig())
+        sim.run(until=0.2)
+        assert tuple(sim.world.inner.wind) == (0.0, 0.0, 0.0) and sim.world.wind is None
+    finally:
+        sim.close()

@@ -234,3 +234,17 @@ def test_fence_areas_that_exclude_home_are_dropped_at_load(sim):
     assert v.set_plan(sim.t, PlanType.FENCE, poly + [zero]) is PlanResult.ACCEPTED
     assert sim.texts()[-1] == "Geofence invalid, doesn't contain Home position"
     assert len(v.autopilot.geofence.areas) == 1 and v.autopilot.geofence.areas[0].polygon
+
+
+@pytest.mark.parametrize("distance, cone, expected", [
+    (50.0, 45.0, 30.0),  # beyond RTL_MIN_DIST: RTL_RETURN_ALT
+    (8.0, 45.0, 8.0),  # inside RTL_MIN_DIST: into the 45° cone
+    (8.0, 80.0, 4.0),  # a wide cone: at least 2 × NAV_ACC_RAD
+    (1.5, 45.0, 3.0),  # within NAV_ACC_RAD: twice the distance
+    (8.0, 0.0, 30.0),  # no cone: RTL_RETURN_ALT everywhere
+])
+def test_rtl_return_altitude_follows_px4s_cone(distance, cone, expected):
+    """rtl.cpp calculate_return_alt_from_cone_half_angle with PX4's defaults (RTL_RETURN_ALT
+    30, RTL_MIN_DIST 10, NAV_ACC_RAD 2)."""
+    from vehicles.nav_rtl import return_height_m
+    assert return_height_m(distance, 30.0, cone, 10.0, 2.0) == pytest.approx(expected, abs=1e-3)
