@@ -28,6 +28,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.modes import custom_mode_of
 from gateway.mavlink.session import LinkKind
+from gateway.onboard.logs import Logs
 from gateway.sim import scenario as scenario_mod
 from gateway.sim.flightlog import FlightLog, frame_msgid, split_frames
 from gateway.sim.scenario import NetworkConfig
@@ -300,8 +301,12 @@ class Sim:
             params_for=lambda i: default_params(i, overrides), tracer=tracer, home=self.home,
             physics_dt_s=physics_dt_s, link_kinds=tuple(links), wind=sc.wind,
             sensors=sc.sensors)
+        self.logs: Logs | None = None
         if self.flightlog is not None:
             self.flightlog.attach(self.simulation, extra_meta)
+            run = self.flightlog.dir  # PX4's logger: <log_dir>/vehicle-<sysid>/log/…
+            self.logs = Logs(self.simulation, lambda sysid: [run / f"vehicle-{sysid}"],
+                             boot_unix_s)
         self.clients: dict[tuple[int, LinkKind], Client] = {
             (i, kind): Client(self, i, kind) for i in range(n)
             for kind in self.simulation.link_kinds}
@@ -393,6 +398,8 @@ class Sim:
         self._closed = True
         for c in self.clients.values():
             c.stop_heartbeat()
+        if self.logs is not None:
+            self.logs.close()
         if self.flightlog is not None:
             self.flightlog.close()
         self.simulation.close()

@@ -38,6 +38,7 @@ from gateway.daemon.progress import ProgressLine
 from gateway.daemon.sdnotify import Notifier, Watchdog
 from gateway.mavlink.session import LinkKind
 from gateway.mavlink.signing import SigningConfig, SigningKey, SigningState
+from gateway.onboard.logs import Logs
 from gateway.sim.flightlog import FlightLog, new_run_dir
 from gateway.sim.scenario import NetworkConfig, ScenarioError
 from gateway.sim.simulation import Simulation, px4_ports
@@ -127,6 +128,12 @@ class Daemon:
             self.sim.every(1.0, self._signing_keeper.save)
         if self.flightlog is not None:
             self.flightlog.attach(self.sim)
+        # PX4's logger, when there is somewhere to keep its logs (PX4 needs its SD card too):
+        # <state dir>/vehicle-<sysid>/log/… and <run dir>/vehicle-<sysid>/log/….
+        roots = [d for d in (config.state_dir, self.flightlog.dir if self.flightlog else None)
+                 if d is not None]
+        self.logs = Logs(self.sim, lambda sysid: [state.vehicle_dir(r, sysid) for r in roots],
+                         boot_unix_s) if roots else None
         if self.publisher is not None:
             pub, sim = self.publisher, self.sim
             sim.every(zmq_pub.STATE_PERIOD_S, lambda now: pub.vehicle_states(now, sim))
@@ -226,6 +233,8 @@ class Daemon:
             self._waiting = None
         for endpoint in self.endpoints.values():
             endpoint.close()
+        if self.logs is not None:
+            self.logs.close()
         self.sim.close()
         if self.publisher is not None:
             self.publisher.close()

@@ -1,0 +1,96 @@
+"""ULog, PX4's log format, written sans-IO: every function returns the bytes of one part.
+
+Source: the ULog file format (PX4 docs, "ULog File Format"; PX4 src/modules/logger/messages.h).
+Rules:
+- A file is the 16-byte header, the definitions section (flag bits first, then formats, info,
+  parameters) and the data section (subscriptions 'A', data 'D', logged strings 'L', parameter
+  changes 'P', sync 'S'). Every message is ``uint16 size, uint8 type, payload`` (little endian).
+- Formats are packed as declared: no implicit padding; the first field of every logged topic is
+  ``uint64_t timestamp`` (µs).
+- Types: int8_t … uint64_t, float, double, bool, char, and arrays ``type[n]``.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Sequence
+
+MAGIC = b"ULog\x01\x12\x35"
+VERSION = 1
+SYNC_MAGIC = bytes((0x2F, 0x73, 0x13, 0x20, 0x25, 0x0C, 0xBB, 0x12))
+CODES = {"int8_t": "b", "uint8_t": "B", "int16_t": "h", "uint16_t": "H", "int32_t": "i",
+         "uint32_t": "I", "int64_t": "q", "uint64_t": "Q", "float": "f", "double": "d",
+         "bool": "?", "char": "c"}
+# Logged string levels (syslog, as ASCII digits).
+LOG_EMERG, LOG_ALERT, LOG_CRIT, LOG_ERR, LOG_WARNING, LOG_NOTICE, LOG_INFO, LOG_DEBUG = (
+    ord(str(i)) for i in range(8))
+
+
+def _message(kind: bytes, payload: bytes) -> bytes:
+    if len(payload) > 0xFFFF:
+        raise ValueError(f"ULog message {kind!r} too long ({len(payload)} bytes)")
+    return struct.pack("<HB", len(payload), kind[0]) + payload
+
+
+def header(timestamp_us: int) -> bytes:
+    return MAGIC + bytes((VERSION,)) + struct.pack("<Q", timestamp_us)
+
+
+def flag_bits() -> bytes:
+    """'B': no compatible or incompatible flags, no appended data."""
+    return _message(b"B", bytes(16) + struct.pack("<3Q", 0, 0, 0))
+
+
+def field_code(type_name: str) -> str:
+    """``float[3]`` → ``3f``."""
+    base, _, rest = type_name.partition("[")
+    code = CODES[base]
+    return f"{int(rest[:-1])}{code}" if rest else code
+
+
+def struct_of(fields: Sequence[tuple[str, str]]) -> struct.Struct:
+    return struct.Struct("<" + "".join(field_code(t) for t, _ in fields))
+
+
+def format_message(name: str, fields: Sequence[tuple[str, str]]) -> bytes:
+    """'F': ``name:type field;type field;…``."""
+    text = name + ":" + "".join(f"{t} {n};" for t, n in fields)
+    return _message(b"F", text.encode())
+
+
+def _key_value(key: str, value: bytes) -> bytes:
+    k = key.encode()
+    return bytes((len(k),)) + k + value
+
+
+def info(name: str, value: str | int) -> bytes:
+    """'I': a string as ``char[len] name``, an integer as ``int32_t name``."""
+    if isinstance(value, str):
+        raw = value.encode()
+        return _message(b"I", _key_value(f"char[{len(raw)}] {name}", raw))
+    return _message(b"I", _key_value(f"int32_t {name}", struct.pack("<i", value)))
+
+
+def parameter(name: str, value: float, is_int: bool) -> bytes:
+    """'P': ``int32_t NAME`` or ``float NAME`` (in either section)."""
+    if is_int:
+        return _message(b"P", _key_value(f"int32_t {name}", struct.pack("<i", int(value))))
+    return _message(b"P", _key_value(f"float {name}", struct.pack("<f", float(value))))
+
+
+def add_logged(msg_id: int, name: str, multi_id: int = 0) -> bytes:
+    """'A': subscribe ``msg_id`` to the format ``name`` (instance ``multi_id``)."""
+    return _message(b"A", struct.pack("<BH", multi_id, msg_id) + name.encode())
+
+
+def data(msg_id: int, payload: bytes) -> bytes:
+    return _message(b"D", struct.pack("<H", msg_id) + payload)
+
+
+def logged_string(level: int, timestamp_us: int, text: str) -> bytes:
+    """'L': a message as the console printed it (STATUSTEXT's text)."""
+    return _message(b"L", struct.pack("<BQ", level, timestamp_us) + text.encode()[:2000])
+
+
+def sync() -> bytes:
+    return _message(b"S", SYNC_MAGIC)

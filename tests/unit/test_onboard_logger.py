@@ -1,0 +1,74 @@
+"""PX4's logger (gateway/onboard): ULog files that pyulog reads, at PX4's paths, from arming to
+disarming (SDLOG_MODE), with the topics, parameters, parameter changes and messages; the same
+lockstep flight writes the same bytes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import pyulog
+
+from gateway.onboard import ulog
+from gateway.testing import Sim
+
+TOPICS = {"vehicle_attitude", "vehicle_local_position", "vehicle_global_position",
+          "vehicle_status", "sensor_combined", "vehicle_gps_position", "battery_status",
+          "actuator_outputs", "vehicle_local_position_setpoint", "trajectory_setpoint",
+          "vehicle_land_detected", "estimator_status", "wind"}
+
+
+def fly(log_dir: Path, **params) -> list[Path]:
+    with Sim(log_dir=log_dir, params=params) as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        api = sim.api(0)
+        assert api.arm() == 0 and api.takeoff() == 0
+        assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=30)
+        sim.advance(2.0)
+        from pymavlink.dialects.v20 import common as M
+        api.send(M.MAVLink_param_set_message(1, 1, b"MPC_XY_CRUISE", 7.0, 9))
+        assert api.land() == 0
+        assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
+        sim.advance(1.0)
+    return sorted((log_dir / "vehicle-1" / "log").rglob("*.ulg"))
+
+
+def test_a_flight_is_one_ulog_that_pyulog_reads(tmp_path):
+    files = fly(tmp_path / "a")
+    assert len(files) == 1  # SDLOG_MODE 1 (PX4 SITL): from boot to disarming
+    path = files[0]
+    # PX4's layout: log/<date>/<time>.ulg (UTC, from the run's epoch)
+    assert path.parent.name.count("-") == 2 and path.stem.count("_") == 2
+    log = pyulog.ULog(str(path))
+    names = {d.name for d in log.data_list}
+    assert TOPICS <= names
+    pos = log.get_dataset("vehicle_local_position").data
+    assert min(pos["z"]) < -2.0  # the takeoff is in it
+    status = log.get_dataset("vehicle_status").data
+    assert 2 in set(status["arming_state"]) and status["arming_state"][-1] == 1
+    assert log.initial_parameters["MPC_XY_CRUISE"] == pytest.approx(5.0)
+    assert any(name == "MPC_XY_CRUISE" and v == pytest.approx(7.0)
+               for _, name, v in log.changed_parameters)
+    texts = [m.message for m in log.logged_messages]
+    assert any("Takeoff" in t or "takeoff" in t for t in texts), texts
+    assert log.msg_info_dict["sys_name"] == "PX4" and "ver_sw" in log.msg_info_dict
+    gps = log.get_dataset("vehicle_gps_position").data
+    assert set(gps["fix_type"]) == {3}
+
+
+def test_same_lockstep_flight_same_bytes_and_sdlog_mode_0_starts_at_arming(tmp_path):
+    a = fly(tmp_path / "a")
+    b = fly(tmp_path / "b")
+    assert [p.read_bytes() for p in a] == [p.read_bytes() for p in b]
+    armed_only = fly(tmp_path / "c", SDLOG_MODE=0)
+    log = pyulog.ULog(str(armed_only[0]))
+    assert set(log.get_dataset("vehicle_status").data["arming_state"]) == {2, 1}
+    assert log.start_timestamp > pyulog.ULog(str(a[0])).start_timestamp
+
+
+def test_writer_parts_follow_the_spec():
+    assert ulog.header(5)[:7] == b"ULog\x01\x12\x35" and len(ulog.header(5)) == 16
+    assert len(ulog.flag_bits()) == 3 + 40
+    assert ulog.format_message("t", (("uint64_t", "timestamp"), ("float[3]", "v")))[3:] == \
+        b"t:uint64_t timestamp;float[3] v;"
+    assert ulog.struct_of((("uint64_t", "timestamp"), ("float[3]", "v"), ("bool", "b"))).size == 21
