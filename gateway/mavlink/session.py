@@ -44,6 +44,7 @@ from pymavlink.dialects.v20 import common as M
 from gateway.mavlink.codec import MAX_DATAGRAM_BYTES, Decoder, Encoder, pack_datagrams
 from gateway.mavlink.commands import CommandService
 from gateway.mavlink.link import LinkContext, LinkKind, SessionStats
+from gateway.mavlink.log_handler import LogHandlerService
 from gateway.mavlink.manual import ManualControlService
 from gateway.mavlink.mission import MissionService, UploadLock
 from gateway.mavlink.offboard import OffboardService
@@ -107,6 +108,7 @@ class Session:
         self.mission = MissionService(ctx, say, uploads if uploads is not None else UploadLock())
         self.offboard = OffboardService(ctx, say)
         self.manual = ManualControlService(ctx)
+        self.logs = LogHandlerService(ctx)  # its ``store`` is attached by the shell
         self._routes: dict[int, Callable[[Any, float], None]] = {
             M.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
             M.MAVLINK_MSG_ID_COMMAND_LONG: self.commands.on_command_long,
@@ -131,6 +133,10 @@ class Session:
             M.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self.offboard.on_attitude_target,
             M.MAVLINK_MSG_ID_MANUAL_CONTROL: self.manual.on_manual_control,
             M.MAVLINK_MSG_ID_FOLLOW_TARGET: self.manual.on_follow_target,
+            M.MAVLINK_MSG_ID_LOG_REQUEST_LIST: self.logs.on_request_list,
+            M.MAVLINK_MSG_ID_LOG_REQUEST_DATA: self.logs.on_request_data,
+            M.MAVLINK_MSG_ID_LOG_REQUEST_END: self.logs.on_request_end,
+            M.MAVLINK_MSG_ID_LOG_ERASE: self.logs.on_erase,
         }
         if signing is not None:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing
@@ -177,7 +183,7 @@ class Session:
         return datagrams
 
     def get_timer(self) -> float | None:
-        t = min(self.params.get_timer(), self.mission.get_timer())
+        t = min(self.params.get_timer(), self.mission.get_timer(), self.logs.get_timer())
         next_us = self.scheduler.next_us
         if next_us < NEVER:
             t = min(t, next_us * 1e-6)
@@ -202,7 +208,8 @@ class Session:
             self.stats.tx_frames += len(out) - sent
         for name, timer in (("the mission timer", self.mission.handle_timer),
                             ("STATUSTEXT", self.statustext.poll),
-                            ("the parameter timer", self.params.handle_timer)):
+                            ("the parameter timer", self.params.handle_timer),
+                            ("the log download", self.logs.handle_timer)):
             try:
                 timer(now_s)
             except Exception:

@@ -219,6 +219,11 @@ class VehicleLogger:
     def logging(self) -> bool:
         return self._path is not None
 
+    @property
+    def current(self) -> str | None:
+        """The path of the log being written (relative to the vehicle's root), or None."""
+        return self._path
+
     def _on_param(self, name: str, value: float) -> None:
         if self._path is not None:
             self._param_changes.append((name, value))

@@ -7,13 +7,18 @@ Rules:
   instance's rootfs.
 - The loggers tick at 50 Hz of simulated time; their bytes are appended to the files every
   simulated second and at ``close`` (a crash loses at most the last second, as flightlog.py).
-- ``entries(sysid)``: the vehicle's finished and running logs, oldest first (the log handler's
-  list).
+- ``LogFiles`` is what a vehicle's log handler (gateway/mavlink/log_handler.py) reads: every
+  ``.ulg`` under its first root's ``log/`` (earlier runs' too, as PX4 lists its SD card), oldest
+  first, dated by their path (``<date>/<time>.ulg``; ``sess<N>/log<M>.ulg``: N days and M
+  minutes after 1970, PX4's rule); erasing spares the log being written.
 """
 
 from __future__ import annotations
 
+import calendar
 import logging
+import re
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -35,6 +40,10 @@ class Logs:
             sysid = int(vehicle.params.get("MAV_SYS_ID", 1) or 1)
             self.loggers[sysid] = VehicleLogger(vehicle, boot_unix_s)
         self._failed = False
+        for link in sim.links.values():
+            sysid = link.session.sysid
+            if sysid in self.loggers:
+                link.session.logs.store = LogFiles(self, sysid)
         sim.every(TICK_S, self._tick)
         sim.every(FLUSH_S, lambda now: self.flush())
 
@@ -64,10 +73,67 @@ class Logs:
         for sysid, logger in self.loggers.items():
             self._write(sysid, logger.close())
 
-    def entries(self, sysid: int) -> list[Path]:
-        """The vehicle's logs under its first root, oldest first."""
-        roots = self.roots_for(sysid)
-        if not roots:
-            return []
-        return [roots[0] / rel for rel in self.loggers[sysid].files
-                if (roots[0] / rel).exists()]
+
+_DATED = re.compile(r"(\d{4}-\d{2}-\d{2})/(\d{2}_\d{2}_\d{2})\.ulg$")
+_SESSION = re.compile(r"sess(\d+)/log(\d+)\.ulg$")
+
+
+def log_time_utc(path: Path) -> int:
+    """A log's start, UTC seconds, from its path (module rules); 0 if it tells none."""
+    text = path.as_posix()
+    if m := _DATED.search(text):
+        return calendar.timegm(time.strptime(f"{m[1]} {m[2]}", "%Y-%m-%d %H_%M_%S"))
+    if m := _SESSION.search(text):
+        return int(m[1]) * 86400 + int(m[2]) * 60
+    return 0
+
+
+class LogFiles:
+    """One vehicle's logs as its log handler sees them (module rules)."""
+
+    def __init__(self, logs: Logs, sysid: int) -> None:
+        self.logs = logs
+        self.sysid = sysid
+        self._files: list[Path] = []
+
+    def _root(self) -> Path | None:
+        roots = self.logs.roots_for(self.sysid)
+        return roots[0] / "log" if roots else None
+
+    def entries(self) -> list[tuple[int, int]]:
+        self.logs.flush()  # what was logged so far is in the files
+        root = self._root()
+        files = sorted(root.rglob("*.ulg"), key=lambda p: (log_time_utc(p), p.as_posix())) \
+            if root is not None and root.is_dir() else []
+        self._files = files
+        out = []
+        for path in files:
+            try:
+                out.append((path.stat().st_size, log_time_utc(path)))
+            except OSError:
+                out.append((0, log_time_utc(path)))
+        return out
+
+    def read(self, index: int, offset: int, count: int) -> bytes:
+        if not 0 <= index < len(self._files):
+            return b""
+        try:
+            with open(self._files[index], "rb") as f:
+                f.seek(offset)
+                return f.read(count)
+        except OSError:
+            return b""
+
+    def erase(self) -> None:
+        root = self._root()
+        if root is None or not root.is_dir():
+            return
+        logger = self.logs.loggers[self.sysid]
+        active = root.parent / logger.current if logger.current is not None else None
+        for path in root.rglob("*.ulg"):
+            if path != active:
+                try:
+                    path.unlink()
+                except OSError as exc:
+                    log.warning("cannot erase the log %s: %s", path, exc)
+        self._files = []

@@ -72,3 +72,37 @@ def test_writer_parts_follow_the_spec():
     assert ulog.format_message("t", (("uint64_t", "timestamp"), ("float[3]", "v")))[3:] == \
         b"t:uint64_t timestamp;float[3] v;"
     assert ulog.struct_of((("uint64_t", "timestamp"), ("float[3]", "v"), ("bool", "b"))).size == 21
+
+
+def test_log_download_over_mavlink_as_px4s_log_handler(tmp_path):
+    """LOG_REQUEST_LIST → LOG_ENTRY (0-based ids, size, UTC start); LOG_REQUEST_DATA → LOG_DATA
+    chunks that rebuild the file; unknown ids ignored; LOG_ERASE spares the log being written."""
+    from pymavlink.dialects.v20 import common as M
+
+    with Sim(log_dir=tmp_path, params={"SDLOG_MODE": 0}) as sim:
+        api = sim.api(0)
+        for _ in range(2):  # two flights: two logs
+            assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+            assert api.arm() == 0
+            sim.advance(2.0)
+            assert api.disarm() == 0
+            sim.advance(1.0)
+        api.send(M.MAVLink_log_request_list_message(1, 1, 0, 0xFFFF))
+        sim.advance(0.2)
+        entries = api.messages("LOG_ENTRY")
+        assert [(e.id, e.num_logs, e.last_log_num) for e in entries] == [(0, 2, 1), (1, 2, 1)]
+        files = sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))
+        assert [e.size for e in entries] == [p.stat().st_size for p in files]
+        assert entries[0].time_utc <= entries[1].time_utc and entries[0].time_utc > 1.6e9
+        api.send(M.MAVLink_log_request_data_message(1, 1, 7, 0, 0xFFFFFFFF))  # no such log
+        api.send(M.MAVLink_log_request_data_message(1, 1, 1, 0, 0xFFFFFFFF))
+        sim.advance(2.0)
+        chunks = {m.ofs: bytes(m.data[:m.count]) for m in api.messages("LOG_DATA")}
+        assert {m.id for m in api.messages("LOG_DATA")} == {1}
+        assert b"".join(chunks[k] for k in sorted(chunks)) == files[1].read_bytes()
+        assert pyulog.ULog(str(files[1])).msg_info_dict["sys_name"] == "PX4"
+        assert api.arm() == 0  # a third log, being written
+        sim.advance(1.0)
+        api.send(M.MAVLink_log_erase_message(1, 1))
+        sim.advance(0.2)
+        assert len(list((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))) == 1

@@ -1,0 +1,39 @@
+"""PX4's logger and log download against `cornet run --state-dir` with the real MAVSDK
+log_files plugin (the flow of MAVSDK-Python's logfile_download.py): the flight's ULog is listed,
+downloads with progress, parses with pyulog, and erase_all_log_files empties the list."""
+
+from __future__ import annotations
+
+import pytest
+import pyulog
+
+from tests.e2e.persona import connected, first
+
+
+@pytest.mark.asyncio
+async def test_mavsdk_lists_downloads_and_erases_the_flight_log(daemon_factory, tmp_path):
+    d = daemon_factory("--state-dir", str(tmp_path / "state"))
+    async with connected(d.api_port()) as drone:
+        await drone.action.arm()
+        await drone.action.takeoff()
+        await first(drone.telemetry.position(), lambda p: p.relative_altitude_m > 2.0, 30,
+                    "at 2 m")
+        await drone.action.land()
+        await first(drone.telemetry.armed(), lambda a: not a, 60, "disarmed after landing")
+        entries = await drone.log_files.get_entries()
+        assert len(entries) == 1 and entries[0].size_bytes > 10_000, entries
+        assert entries[0].date.startswith("20"), entries[0].date  # ISO 8601, UTC
+        path = tmp_path / "flight.ulg"
+        progress = []
+        async for p in drone.log_files.download_log_file(entries[0], str(path)):
+            progress.append(p.progress)
+        assert len(progress) > 1 and progress == sorted(progress)  # chunk by chunk
+        on_disk = sorted((tmp_path / "state" / "vehicle-1" / "log").rglob("*.ulg"))
+        assert path.read_bytes() == on_disk[0].read_bytes()[:entries[0].size_bytes]
+        log = pyulog.ULog(str(path))
+        assert min(log.get_dataset("vehicle_local_position").data["z"]) < -1.5  # the takeoff
+        assert any("Takeoff" in m.message for m in log.logged_messages)
+        await drone.log_files.erase_all_log_files()
+        from mavsdk.log_files import LogFilesError
+        with pytest.raises(LogFilesError, match="NO_LOGFILES"):  # num_logs 0, as on PX4
+            await drone.log_files.get_entries()
