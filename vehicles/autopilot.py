@@ -359,6 +359,11 @@ class Autopilot:
         st.reset_rates = False
         return self._out
 
+    def set_position_aided(self, aided: bool) -> None:
+        """The estimator's word on its position (vehicles/estimation.py: a fix within
+        EKF2_NOAID_TOUT); the commander's ``position_valid`` follows it."""
+        self.commander.position_aided = aided
+
     def position_setpoint_ned_m(self) -> Vec3 | None:
         """The trajectory's position setpoint while armed and flying under it."""
         return self.stage.setpoint_ned_m() if self.commander.armed else None
@@ -383,7 +388,8 @@ class Autopilot:
         return FailsafeFlags(armed=c.armed, user_nav_state=c.user_nav_state,
                              offboard_lost=not c.offboard_available, battery_warning=level,
                              geofence_breached=breach is not None,
-                             manual_control_lost=not c.manual_control_available)
+                             manual_control_lost=not c.manual_control_available,
+                             position_invalid=c.position_lost)
 
     def _update_slow(self, now_s: float, meas: Measurement) -> None:
         cmd, st = self.commander, self.stage

@@ -8,7 +8,9 @@ Rules and invariants:
   answered, whether it needs a position estimate, whether arming is allowed in it, and which mode
   the vehicle falls back to after a disarm (Land/RTL -> Hold).
 - Boot in AUTO_LOITER (Hold). ``position_valid`` becomes true POSITION_VALID_DELAY_S after boot
-  (stands in for EKF2 + GPS convergence); the autopilot sets home then and on every arming.
+  (stands in for EKF2 + GPS convergence) while the estimator is aided (``position_aided``: a GPS
+  fix within EKF2_NOAID_TOUT); the autopilot sets home the first time and on every arming.
+  Losing it later (GPS off) is ``position_lost``, the failsafes' input.
 - Arming always runs the pre-arm checks (also when forced, like PX4 for external commands).
   Already armed -> ACCEPTED. Disarm in the air only when forced (kill).
 - Mission and Offboard have extra requirements (``needs_mission`` / ``needs_offboard``, PX4
@@ -123,6 +125,8 @@ class Commander:
         self.gcs_lost = False
         self._gcs_seen_s: float | None = None
         self.position_valid = False
+        self.position_aided = True  # the estimator's say (Autopilot.set_position_aided)
+        self._ever_valid = False
         self.terminated = False
         self.landed = True
         self.have_taken_off_since_arming = False
@@ -239,8 +243,10 @@ class Commander:
             self._update_failsafe(now_s, replace(flags, armed=self.armed, gcs_lost=self.gcs_lost,
                                                  user_nav_state=self.user_nav_state))
         became_valid = False
-        if not self.position_valid and now_s - self._boot_time_s >= POSITION_VALID_DELAY_S - 1e-9:
-            self.position_valid = became_valid = True
+        valid = self.position_aided and now_s - self._boot_time_s >= POSITION_VALID_DELAY_S - 1e-9
+        if valid and not self.position_valid and not self._ever_valid:
+            became_valid = self._ever_valid = True
+        self.position_valid = valid
         if self.armed and landed != self.landed:
             if landed:
                 self._log.info(now_s, "Landing detected")
@@ -265,6 +271,11 @@ class Commander:
             if delay > 0.0 and now_s - self._armed_at_s >= delay - 1e-9:
                 self._disarm(now_s, "Disarmed by auto preflight disarming")
         return became_valid
+
+    @property
+    def position_lost(self) -> bool:
+        """The position estimate was valid and is not now."""
+        return self._ever_valid and not self.position_valid
 
     def _update_manual_control(self, now_s: float, available: bool) -> None:
         """Commander::manualControlCheck's texts, once stick input has been seen."""

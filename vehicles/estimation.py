@@ -15,6 +15,9 @@ Sensors (what PX4 SITL with Gazebo's x500 sees):
   random walk 0.01, Markov coefficient 0.95; velocity amplitude 0.05 m/s, density 0.2,
   coefficient 0.85; vertical ×1.5 and ×1.2), each fix describing the vehicle EKF2_GPS_DELAY
   (110 ms) before it arrives.
+- Failure injection (``set_gps_off``): a GPS that is off gives no fixes; the estimator then
+  dead-reckons on the IMU and counts the age of its last fix (E_GPS_AGE), which the vehicle
+  compares with EKF2_NOAID_TOUT.
 - ``noise`` scales every noise and bias (1 = the models above, 0 = exact sensors); the GPS delay
   stays. Every draw comes from the vehicle's own seeded stream (``NoiseBlocks``), so the same
   seed gives the same noise whatever else runs, and lockstep runs repeat exactly.
@@ -89,10 +92,12 @@ S_GYRO, S_ACC, S_MAG, S_BARO_DOWN, S_GPS_POS, S_GPS_VEL, S_VIB, S_PREV, S_SIZE =
 B_GYRO, B_ACC, B_GPS_POS, B_GPS_VEL, B_SIZE = 0, 3, 6, 9, 12
 # Columns of the estimator's state.
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
- E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_SIZE) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36)
+ E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_SIZE) = (
+    0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37)
 # E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the variance of
 # the raw wind samples (m²/s²);
-# E_ACCURACY: horizontal, vertical (running RMS of the innovations).
+# E_ACCURACY: horizontal, vertical (running RMS of the innovations); E_GPS_AGE: seconds since
+# the last GPS fix was fused.
 
 E_WIND_VAR = E_RATIOS + 4
 
@@ -124,7 +129,7 @@ def _gm(dt_s: float, tau_s: float, sigma: float) -> tuple[float, float]:
 
 @njit_cached
 def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_i, bias, sensed,
-          consts):  # pragma: no cover - compiled
+          consts, gps_off):  # pragma: no cover - compiled
     """Every vehicle's sensors after a physics step (module rules). ``hist``: the ring of true
     positions and velocities (slot ``hist_i`` is written now); ``consts``: gyro and accel bias
     decay and drive, gyro and accel noise, baro and mag noise, the Earth's field (NED)."""
@@ -181,7 +186,7 @@ def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_
             out[S_MAG] = r00 * mn + r10 * me + r20 * md + consts[7] * scale * n[13]
             out[S_MAG + 1] = r01 * mn + r11 * me + r21 * md + consts[8] * scale * n[14]
             out[S_MAG + 2] = r02 * mn + r12 * me + r22 * md + consts[9] * scale * n[15]
-        if gps_due:
+        if gps_due and not gps_off[v]:
             old = hist[v, (hist_i - delay[v]) % len(hist[v])]
             for i in range(3):
                 up = 1.5 if i == 2 else 1.0
@@ -196,7 +201,7 @@ def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_
 
 @njit_cached
 def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, consts,
-             estimated):  # pragma: no cover - compiled
+             estimated, gps_off):  # pragma: no cover - compiled
     """Every vehicle's estimate after its sensors (module rules). ``ehist``: the ring of past
     estimated positions and velocities; ``flying``: rows whose drag tells the wind; ``consts``:
     the Earth's field (NED), the airframe's mass over its linear drag."""
@@ -256,7 +261,11 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
             slot[i] = e[E_POS + i]
             slot[3 + i] = e[E_VEL + i]
         # --- GPS: delayed innovations, corrections to the present and the ring -----------------
-        if gps_due:
+        e[E_GPS_AGE] += dt_s
+        if gps_off[v]:
+            e[E_HAVE_GPS] = 0.0  # no tilt reference until fixes come again
+        elif gps_due:
+            e[E_GPS_AGE] = 0.0
             old = ring[(hist_i - delay[v]) % len(ring)]
             ep0, ep1 = s[S_GPS_POS] - old[0], s[S_GPS_POS + 1] - old[1]
             ev0, ev1, ev2 = (s[S_GPS_VEL] - old[3], s[S_GPS_VEL + 1] - old[4],
@@ -401,8 +410,13 @@ class Estimation:
         self.hist = np.zeros((0, HISTORY, 6))  # true positions and velocities, a ring
         self.ehist = np.zeros((0, HISTORY, 6))  # estimated positions and velocities, a ring
         self.delay = np.zeros(0, np.int64)  # EKF2_GPS_DELAY in physics steps
+        self.gps_off = np.zeros(0, np.bool_)  # failure injection: no fixes
         # Compile (or load) both kernels now, with no rows.
         self.step(np.zeros((0, M_SIZE)), np.zeros((0, M_SIZE)), np.zeros(0, np.bool_), 0.0)
+
+    def set_gps_off(self, row: int, off: bool) -> None:
+        """Failure injection: the row's GPS gives no fixes (``off``) or works again."""
+        self.gps_off[row] = off
 
     def _resize(self, n: int) -> None:
         def grow(old: np.ndarray) -> np.ndarray:
@@ -412,6 +426,7 @@ class Estimation:
 
         self.sensed, self.bias, self.est = grow(self.sensed), grow(self.bias), grow(self.est)
         self.hist, self.ehist, self.delay = grow(self.hist), grow(self.ehist), grow(self.delay)
+        self.gps_off = grow(self.gps_off)
 
     def add(self, index: int, truth: np.ndarray, estimated: np.ndarray,
             gps_delay_s: float = GPS_DELAY_S) -> None:
@@ -442,8 +457,9 @@ class Estimation:
         gps_due = int(t_s * GPS_RATE_HZ + 1e-9) != int((t_s - dt) * GPS_RATE_HZ + 1e-9)
         self.hist_i = (self.hist_i + 1) % HISTORY
         sense(measured, self.noise.block, self.noise.j, dt, self.config.noise, baro_due, gps_due,
-              self.delay, self.hist, self.hist_i, self.bias, self.sensed, self.sense_consts)
+              self.delay, self.hist, self.hist_i, self.bias, self.sensed, self.sense_consts,
+              self.gps_off)
         estimate(self.sensed, self.est, self.ehist, self.hist_i, self.delay, dt, baro_due,
-                 gps_due, flying, self.est_consts, estimated)
+                 gps_due, flying, self.est_consts, estimated, self.gps_off)
         self.noise.advance()
         self.steps += 1

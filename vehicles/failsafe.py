@@ -10,6 +10,7 @@ Rules and invariants (PX4 semantics, simplified to what SITL exercises):
 - The selected action is the most severe one. Adding an action worse than Warn starts the
   COM_FAIL_ACT_T hold delay: the vehicle holds first ("Failsafe activated, entering Hold for N
   seconds") and then takes the action ("Failsafe activated"). Terminate/Disarm skip the delay.
+- Without a position estimate the delay's Hold cannot run: the action is taken at once.
 - A user mode change while a failsafe is active is a user takeover: the action is dropped until a
   new one is added. Terminate is never cleared. Disarmed -> no action.
 - Pure: time is an argument; the caller turns the action into a nav_state.
@@ -72,6 +73,8 @@ class FailsafeFlags:
     # Filled in by Failsafe.update: the input was already missing when the vehicle armed (and has
     # not come back since), so its loss is not a failsafe (PX4 _manual_control_lost_at_arming).
     manual_control_lost_at_arming: bool = True
+    # The position estimate was valid and is lost (no aiding for EKF2_NOAID_TOUT: GPS off).
+    position_invalid: bool = False
 
 
 # NAV_DLL_ACT / NAV_RCL_ACT values: 0 disabled, 1 Hold, 2 Return, 3 Land, 5 Terminate, 6 Disarm.
@@ -149,6 +152,22 @@ def _rcl_condition(f: FailsafeFlags, params) -> bool:
     return not _ignored(f.user_nav_state, int(params["COM_RCL_EXCEPT"]))
 
 
+# The user modes that need a position estimate (PX4 mode_requirements: global or local position).
+NEEDS_POSITION = frozenset({NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_RTL,
+                            NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_PRECLAND,
+                            NavState.AUTO_FOLLOW_TARGET, NavState.ORBIT, NavState.POSCTL,
+                            NavState.OFFBOARD})
+
+
+def from_position_loss(f: FailsafeFlags) -> ActionOptions:
+    """failsafe.cpp checkModeFallback: Position falls back to Altitude with stick input; any other
+    mode that cannot run tries Return, Land, then Descend — without a position estimate only
+    Descend can run."""
+    if f.user_nav_state is NavState.POSCTL and not f.manual_control_lost:
+        return ActionOptions(Action.FALLBACK_ALTCTRL)
+    return ActionOptions(Action.DESCEND)
+
+
 @dataclass(frozen=True)
 class Check:
     name: str
@@ -167,6 +186,8 @@ CHECKS: tuple[Check, ...] = (
     Check("battery_warning", lambda f, p: f.battery_warning > 0,
           lambda f, p: from_battery_act(p, f.battery_warning)),
     Check("geofence_breached", lambda f, p: f.geofence_breached, lambda f, p: from_gf_act(p)),
+    Check("position_lost", lambda f, p: f.position_invalid and f.user_nav_state in NEEDS_POSITION,
+          lambda f, p: from_position_loss(f)),
 )
 
 
@@ -258,7 +279,7 @@ class Failsafe:
         worst = max((a.action for a in self.actions.values()), default=Action.NONE)
         if self._user_takeover and worst is not Action.TERMINATE:
             return Action.NONE, Action.NONE
-        if (now_s < self._delay_until and worst > Action.WARN
-                and worst not in (Action.DISARM, Action.TERMINATE)):
+        if (now_s < self._delay_until and worst > Action.WARN and not flags.position_invalid
+                and worst not in (Action.DISARM, Action.TERMINATE)):  # Hold needs a position
             return Action.HOLD, worst
         return worst, Action.NONE

@@ -164,6 +164,29 @@ class TerminationTask(FlightTask):
         self.stage.set_idle(t.meas)
 
 
+class DescendTask(FlightTask):
+    """Descend (PX4 FlightTaskDescend, the failsafe without a position estimate): no position
+    control, level (no horizontal acceleration), down at MPC_LAND_SPEED, the heading held; the
+    land detector then disarms as after a landing."""
+
+    def __init__(self, stage: PositionStage, params: ParamStore) -> None:
+        super().__init__(stage, params)
+        self._yaw = 0.0
+
+    def activate(self, t: TaskInput) -> None:
+        self._yaw = t.yaw_rad
+
+    def update(self, t: TaskInput) -> None:
+        st = self.stage
+        if not st.take_off_or_idle(t.meas, t.armed):
+            return
+        down = float(self.params["MPC_LAND_SPEED"])
+        sp = PositionSetpoint((math.nan,) * 3, (math.nan, math.nan, down), self._yaw,
+                              (0.0, 0.0, math.nan))
+        st.trajectory.reset(t.meas.position_ned_m, t.meas.velocity_ned_mps)
+        st.apply(t.dt_s, t.meas, sp, self._yaw)
+
+
 class FollowTask(FlightTask):
     """Follow Me (follow_target.py) through the smoothed trajectory (auto_trajectory.py), the
     target's velocity fed forward; without a target it brakes and holds."""
@@ -316,6 +339,7 @@ def make_tasks(stage: PositionStage, params: ParamStore, navigator: Navigator,
         NavState.POSCTL: StickPositionTask(stage, params, manual, ManualPosition(params)),
         NavState.OFFBOARD: OffboardTask(stage, params, offboard),
         NavState.TERMINATION: TerminationTask(stage, params),
+        NavState.DESCEND: DescendTask(stage, params),
         NavState.AUTO_FOLLOW_TARGET: FollowTask(stage, params, follow),
         NavState.ORBIT: orbit_task,
     }

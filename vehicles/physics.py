@@ -137,10 +137,12 @@ class World:
         spawn = (east, north, self.airframe.rest_height_m)
         body_id = _create_body(self.client_id, self.airframe, spawn)
         row = self.inner.add(spawn, self._read(body_id))
-        self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row])
+        store = params if params is not None else ParamStore()
+        self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row],
+                            float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3)
         self._rows = self._truth_rows = None
         origin = self.home.offset_ned(north, east, 0.0)
-        vehicle = Vehicle(index, params if params is not None else ParamStore(), self.airframe,
+        vehicle = Vehicle(index, store, self.airframe,
                           origin, self.dt_s, boot_time_s=self.time_s, world=self, row=row)
         self._vehicles.append(vehicle)
         self._body_ids.append(body_id)
@@ -174,6 +176,10 @@ class World:
     def estimator(self, row: int) -> list[float]:
         """Row ``row``'s estimator state (estimation.E_* columns)."""
         return self.estimation.est[row].tolist()
+
+    def set_gps_off(self, row: int, off: bool) -> None:
+        """Failure injection: row ``row``'s GPS gives no fixes (``off``) or works again."""
+        self.estimation.set_gps_off(row, off)
 
     def set_wind(self, wind: Wind | None) -> None:
         """From the next step the bodies move through ``wind`` (None: calm air)."""

@@ -22,7 +22,7 @@ import numpy as np
 
 from vehicles.airframe import Airframe
 from vehicles.autopilot import POSITION_CONTROL_DIVIDER, Autopilot
-from vehicles.estimation import E_RATIOS
+from vehicles.estimation import E_GPS_AGE, E_RATIOS
 from vehicles.inner_loop import InnerCommand
 from vehicles.manual_control import Sticks
 from vehicles.orbit import OrbitStatus
@@ -41,6 +41,10 @@ from vehicles.types import (
     VehicleStatus,
 )
 
+# MAV_CMD_INJECT_FAILURE: FAILURE_UNIT and FAILURE_TYPE values this vehicle knows.
+FAILURE_UNIT_SENSOR_GPS = 4
+FAILURE_TYPE_OK, FAILURE_TYPE_OFF = 0, 1
+
 
 class WorldRow(Protocol):
     """What a vehicle reads of the World that owns its body (physics.World)."""
@@ -55,6 +59,8 @@ class WorldRow(Protocol):
     def sensors(self, row: int) -> list[float]: ...
 
     def estimator(self, row: int) -> list[float]: ...
+
+    def set_gps_off(self, row: int, off: bool) -> None: ...
 
     def rotor_speeds(self, row: int) -> tuple[float, ...]: ...
 
@@ -88,6 +94,9 @@ class Vehicle:
         tick = self._tick
         self._tick = tick + 1 if tick + 1 < POSITION_CONTROL_DIVIDER else 0
         if tick == 0:
+            timeout = self.params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000
+            aided = self._world.estimator(self._row)[E_GPS_AGE] < timeout * 1e-6
+            self._autopilot.set_position_aided(aided)
             return self._autopilot.step(self._measurement(), now_s)
         return self._autopilot.poll(now_s)
 
@@ -274,6 +283,20 @@ class Vehicle:
 
     def set_home(self, now_s: float, geo: GeoPoint | None = None) -> CommandResult:
         return self._autopilot.set_home(now_s, self._measurement(), geo)
+
+    def inject_failure(self, now_s: float, unit: int, failure_type: int, instance: int
+                       ) -> CommandResult:
+        """MAV_CMD_INJECT_FAILURE as PX4 SITL: DENIED unless SYS_FAILURE_EN; the GPS (unit 4)
+        off (type 1) or ok again (type 0); other units and types UNSUPPORTED."""
+        if int(self.params.get("SYS_FAILURE_EN", 0) or 0) != 1:
+            return CommandResult.DENIED
+        if unit != FAILURE_UNIT_SENSOR_GPS or failure_type not in (FAILURE_TYPE_OK,
+                                                                    FAILURE_TYPE_OFF):
+            return CommandResult.UNSUPPORTED
+        if instance not in (0, 1):  # 0: every instance; one GPS here
+            return CommandResult.DENIED
+        self._world.set_gps_off(self._row, failure_type == FAILURE_TYPE_OFF)
+        return CommandResult.ACCEPTED
 
     def terminate(self, now_s: float) -> CommandResult:
         return self._autopilot.terminate(now_s)

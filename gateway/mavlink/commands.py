@@ -124,6 +124,7 @@ class CommandService:
             M.MAV_CMD_DO_SET_HOME: self._set_home,
             M.MAV_CMD_MISSION_START: self._mission_start,
             M.MAV_CMD_DO_FLIGHTTERMINATION: self._terminate,
+            M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
         }
         for cmd in ROI_COMMANDS:
             self._handlers[cmd] = lambda c, t: ACCEPTED
@@ -256,6 +257,13 @@ class CommandService:
         if terminate is None:
             return UNSUPPORTED
         return terminate(now_s) if cmd.p(1) > 0.5 else DENIED
+
+    def _inject_failure(self, cmd: Command, now_s: float) -> int:
+        inject = self._vehicle("inject_failure")
+        if inject is None:
+            return UNSUPPORTED
+        unit, kind, instance = (_int_or(cmd.p(i), -1) for i in (1, 2, 3))
+        return inject(now_s, unit, kind, instance)
 
     def _request_message(self, cmd: Command, now_s: float) -> int:
         msg_id = _int_or(cmd.p(1), -1)

@@ -33,6 +33,7 @@ FLAG_FOR_CHECK = {
     "battery_warning": dict(battery_warning=3),
     "geofence_breached": dict(geofence_breached=True),
     "manual_control_signal_lost": dict(manual_control_lost=True),
+    "position_lost": dict(position_invalid=True),
 }
 
 
@@ -40,7 +41,7 @@ def test_every_check_has_a_trigger_in_this_test():
     assert {c.name for c in CHECKS} == set(FLAG_FOR_CHECK)
 
 
-@pytest.mark.parametrize("check", [c.name for c in CHECKS])
+@pytest.mark.parametrize("check", [c.name for c in CHECKS if c.name != "position_lost"])
 def test_each_check_holds_then_acts_and_clears_on_disarm(check):
     params = ParamStore({"NAV_DLL_ACT": 2, "GF_ACTION": 3, "COM_LOW_BAT_ACT": 3})
     log = StatusLog()
@@ -57,6 +58,22 @@ def test_each_check_holds_then_acts_and_clears_on_disarm(check):
     assert log.after(0)[-1].text == "Failsafe activated"
     assert fs.in_failsafe
     assert fs.update(7.0, FailsafeFlags(**{**flags.__dict__, "armed": False})) is Action.NONE
+
+
+def test_position_loss_descends_at_once_and_clears_with_the_position():
+    """checkModeFallback: Hold/Return/Land need a position, so Descend, with no Hold delay (Hold
+    cannot run); Position mode with sticks falls back to Altitude; modes that need no position
+    (Altitude, Stabilized) fly on."""
+    fs = Failsafe(ParamStore(), StatusLog())
+    lost = FailsafeFlags(armed=True, user_nav_state=NavState.AUTO_MISSION, position_invalid=True)
+    assert fs.update(0.0, lost) is Action.DESCEND
+    assert fs.update(1.0, FailsafeFlags(armed=True, user_nav_state=NavState.AUTO_MISSION)) \
+        is Action.NONE
+    sticks = dict(armed=True, position_invalid=True, manual_control_lost=False)
+    assert Failsafe(ParamStore(), StatusLog()).update(
+        0.0, FailsafeFlags(user_nav_state=NavState.POSCTL, **sticks)) is Action.FALLBACK_ALTCTRL
+    assert Failsafe(ParamStore(), StatusLog()).update(
+        0.0, FailsafeFlags(user_nav_state=NavState.ALTCTL, **sticks)) is Action.NONE
 
 
 def test_terminate_has_no_delay_and_never_clears():
