@@ -1,6 +1,6 @@
-"""PX4's logger and log download against `cornet run --state-dir` with the real MAVSDK
-log_files plugin (the flow of MAVSDK-Python's logfile_download.py): the flight's ULog is listed,
-downloads with progress, parses with pyulog, and erase_all_log_files empties the list."""
+"""PX4's onboard services against `cornet run` with the real MAVSDK plugins: the logger and log
+download (log_files, the flow of MAVSDK-Python's logfile_download.py) and failure injection
+(failure, the flow of its failure_injection.py)."""
 
 from __future__ import annotations
 
@@ -37,3 +37,24 @@ async def test_mavsdk_lists_downloads_and_erases_the_flight_log(daemon_factory, 
         from mavsdk.log_files import LogFilesError
         with pytest.raises(LogFilesError, match="NO_LOGFILES"):  # num_logs 0, as on PX4
             await drone.log_files.get_entries()
+
+
+@pytest.mark.asyncio
+async def test_mavsdk_gps_failure_makes_the_vehicle_descend_land_and_disarm(daemon_factory):
+    from mavsdk.failure import FailureType, FailureUnit
+
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        await drone.param.set_param_int("SYS_FAILURE_EN", 1)
+        await drone.action.arm()
+        await drone.action.takeoff()
+        await first(drone.telemetry.position(), lambda p: p.relative_altitude_m > 2.0, 30,
+                    "at 2 m")
+        await drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OFF, 0)
+        await first(drone.telemetry.health(), lambda h: not h.is_global_position_ok, 10,
+                    "global position lost (EKF2_NOAID_TOUT)")
+        await first(drone.telemetry.armed(), lambda a: not a, 60, "descended, landed, disarmed")
+        await drone.param.set_param_int("SYS_FAILURE_EN", 0)
+        from mavsdk.failure import FailureError
+        with pytest.raises(FailureError, match="DENIED"):  # SYS_FAILURE_EN 0, as PX4
+            await drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OK, 0)
