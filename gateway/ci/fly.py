@@ -233,6 +233,8 @@ class FlyResult:
     sim_s: float = 0.0
     wall_s: float = 0.0
     vehicle_texts: list[str] = field(default_factory=list)
+    faults: list[str] = field(default_factory=list)  # the scenario's faults, as they fired
+    failsafes: list[str] = field(default_factory=list)  # what the vehicle said of failsafes
     refused_plan: bool = False  # the vehicle refused the plan: bad input, not a failed flight
 
     @property
@@ -261,6 +263,10 @@ class FlyResult:
                                    else f"never breached ({self.fence_areas} area(s))"),
                  f"  duration: {self.sim_s:.1f} s simulated in {self.wall_s:.2f} s wall "
                  f"(RTF {self.rtf:.0f}x)"]
+        if self.faults:
+            lines.append("  faults: " + "; ".join(self.faults))
+        if self.failsafes:
+            lines.append("  failsafes: " + "; ".join(self.failsafes))
         if not self.passed and self.vehicle_texts:
             lines.append("  vehicle said: " + " | ".join(self.vehicle_texts[-5:]))
         return "\n".join(lines)
@@ -292,6 +298,7 @@ def fly(plan: QgcPlan | str | Path, *, network: NetworkConfig | None = None,
             progress.close()
         res.sim_s = sim.now
         res.wall_s = clock() - wall0
+        res.faults = [f"t={t:.1f} s {f.describe()}" for t, f in sim.simulation.faults_fired]
         sim.close()
     if max_deviation_m is not None and res.max_deviation_m >= max_deviation_m:
         res.reasons.append(f"max deviation {res.max_deviation_m:.1f} m >= {max_deviation_m:g} m")
@@ -403,6 +410,8 @@ def _collect(api, res: FlyResult, plan: QgcPlan) -> None:
     res.mission_finished = res.items_reached == len(plan.mission) or any(
         m.mission_state == MISSION_STATE_COMPLETE for m in api.messages("MISSION_CURRENT"))
     res.vehicle_texts = [m.text for m in api.messages("STATUSTEXT") if m.severity <= 4]
+    res.failsafes = [f"t={t:.1f} s {m.text}" for t, m in api.timed_messages("STATUSTEXT")
+                     if "ailsafe" in m.text]
 
 
 def _result_name(result: int) -> str:

@@ -44,6 +44,7 @@ from gateway.sim.scenario import NetworkConfig, ScenarioError
 from gateway.sim.simulation import Simulation, px4_ports
 from netsim.link import TraceWriter, fan_out
 from vehicles.estimation import SensorConfig
+from vehicles.faults import Fault
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.wind import WindConfig
@@ -77,6 +78,7 @@ class RunConfig:
     first_vehicle: int = 0  # a shard's first vehicle (instance number)
     wind: WindConfig = field(default_factory=WindConfig)  # the scenario's [environment]
     sensors: SensorConfig = field(default_factory=SensorConfig)  # the scenario's [sensors]
+    faults: tuple[Fault, ...] = ()  # the scenario's [[faults]] timeline
 
 
 class MetricsPortError(OSError):
@@ -122,7 +124,7 @@ class Daemon:
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
                               tracer=fan_out(tracers), home=config.home, realtime=True,
                               signing=signing, first_index=config.first_vehicle,
-                              wind=config.wind, sensors=config.sensors)
+                              wind=config.wind, sensors=config.sensors, faults=config.faults)
         self._restore_plans()
         if self._signing_keeper is not None:
             self.sim.every(1.0, self._signing_keeper.save)

@@ -47,6 +47,7 @@ from typing import Any
 
 from netsim.topology import make_router
 from vehicles.estimation import SensorConfig
+from vehicles.faults import TYPES, UNITS, Fault
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.wind import WindConfig
@@ -141,6 +142,7 @@ class Scenario:
     daemon: DaemonSettings = field(default_factory=DaemonSettings)
     wind: WindConfig = field(default_factory=WindConfig)  # [environment]
     sensors: SensorConfig = field(default_factory=SensorConfig)  # [sensors]
+    faults: tuple[Fault, ...] = ()  # [[faults]], in time order
 
 
 def _table(doc: dict, key: str, path: str) -> dict:
@@ -247,7 +249,8 @@ def _daemon(table: dict, base_dir: Path | None) -> tuple[DaemonSettings, str | N
 def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -> Scenario:
     """``base_dir``: where relative paths of ``[daemon]`` point from (``load``: the file's
     directory); None keeps them relative to the working directory."""
-    _unknown(doc, ("vehicles", "network", "logging", "daemon", "environment", "sensors"), "")
+    _unknown(doc, ("vehicles", "network", "logging", "daemon", "environment", "sensors",
+                   "faults"), "")
     veh = _table(doc, "vehicles", "vehicles")
     _unknown(veh, ("count", "home", "airframe", "params"), "vehicles")
     count = int(_number(veh.get("count", 1), "vehicles.count", integer=True, minimum=1))
@@ -310,7 +313,35 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
         check_ports(count, daemon.port_offset, "daemon.port_offset")
     wind = _environment(_table(doc, "environment", "environment"))
     sensors = _sensors(_table(doc, "sensors", "sensors"))
-    return Scenario(source, count, home, airframe, params, network, level, daemon, wind, sensors)
+    faults = _faults(doc.get("faults", []), count)
+    return Scenario(source, count, home, airframe, params, network, level, daemon, wind, sensors,
+                    faults)
+
+
+def _faults(entries: Any, vehicles: int) -> tuple[Fault, ...]:
+    """``[[faults]]``: at ``at_s`` seconds of simulated time, vehicle ``vehicle`` (1-based,
+    default 1) gets a failure of ``unit`` (gps) and ``type`` (off, ok): vehicles/faults.py."""
+    if not isinstance(entries, list):
+        raise ScenarioError("faults: expected an array of tables ([[faults]])")
+    out = []
+    for i, entry in enumerate(entries):
+        where = f"faults[{i}]"
+        if not isinstance(entry, dict):
+            raise ScenarioError(f"{where}: expected a table with at_s, vehicle, unit, type")
+        _unknown(entry, ("at_s", "vehicle", "unit", "type"), where)
+        for key in ("at_s", "unit", "type"):
+            if key not in entry:
+                raise ScenarioError(f"{where}.{key}: missing")
+        at = _number(entry["at_s"], f"{where}.at_s", minimum=0.0)
+        vehicle = int(_number(entry.get("vehicle", 1), f"{where}.vehicle", integer=True,
+                              minimum=1))
+        if vehicle > vehicles:
+            raise ScenarioError(f"{where}.vehicle: the scenario has {vehicles} vehicle(s), "
+                                f"got {vehicle}")
+        unit = _choice(entry["unit"], tuple(UNITS), f"{where}.unit")
+        kind = _choice(entry["type"], tuple(TYPES), f"{where}.type")
+        out.append(Fault(float(at), vehicle, unit, kind))
+    return tuple(sorted(out, key=lambda f: f.at_s))
 
 
 def _sensors(table: dict) -> SensorConfig:
@@ -404,6 +435,8 @@ def describe(s: Scenario) -> str:
         w = s.wind
         lines.append(f"  environment: wind {w.speed_mps:g} m/s from {w.from_deg:g}°, gusts "
                      f"{w.gust_mps:g} m/s over {w.gust_time_s:g} s")
+    for f in s.faults:
+        lines.append(f"  fault at {f.at_s:g} s: {f.describe()}")
     if s.sensors != SensorConfig():
         lines.append(f"  sensors: noise × {s.sensors.noise:g}")
     d = s.daemon

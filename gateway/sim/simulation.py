@@ -35,6 +35,7 @@ from netsim.link import Tracer
 from netsim.rng import named_generator
 from netsim.topology import make_router
 from vehicles.estimation import PX4_SENSORS, SensorConfig
+from vehicles.faults import Fault
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.wind import Wind, WindConfig
@@ -184,7 +185,7 @@ class Simulation:
                  link_kinds: Sequence[LinkKind] = (LinkKind.GCS, LinkKind.API),
                  signing: SigningConfig | None = None, first_index: int = 0,
                  wind: WindConfig | None = None,
-                 sensors: SensorConfig = PX4_SENSORS) -> None:
+                 sensors: SensorConfig = PX4_SENSORS, faults: Sequence[Fault] = ()) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence.
         ``link_kinds``: the MAVLink links each vehicle has (the daemon: both, as PX4 SITL; an
@@ -234,6 +235,13 @@ class Simulation:
                 self.links[(i, kind)] = VehicleLink(self, i, kind, session)
         self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,
                                priority=PRIORITY_PHYSICS)
+        # The scenario's fault timeline (vehicles/faults.py): each at its time, before the
+        # physics step of that instant; ``faults_fired`` records what happened when.
+        self.faults_fired: list[tuple[float, Fault]] = []
+        for fault in faults:
+            k = fault.vehicle - 1 - first_index
+            if 0 <= k < len(self.vehicles):
+                self.kernel.schedule(fault.at_s, self._fault, k, fault, priority=PRIORITY_PHYSICS)
         # CORNET: the physics clock is the reference; mobility reaches the network once per
         # sync period (scheduled after the physics step of the same instant).
         self._spawn_ned = [self.world.spawn_offset_ned_m(i) for i in self.indices]
@@ -244,6 +252,11 @@ class Simulation:
             start()
         for link in self.links.values():
             link.service()
+
+    def _fault(self, k: int, fault: Fault) -> None:
+        self.world.set_gps_off(k, fault.type == "off")  # the one unit modelled (faults.UNITS)
+        self.faults_fired.append((self.kernel.now, fault))
+        log.info("fault at t=%.3f s: %s", self.kernel.now, fault.describe())
 
     def _air(self, wind: WindConfig | None) -> Wind | None:
         """The air: gusts drawn from the stream "wind" of the scenario's seed."""

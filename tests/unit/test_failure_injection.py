@@ -6,6 +6,7 @@ with DENIED when SYS_FAILURE_EN is 0; units and types it does not simulate are U
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 from pymavlink.dialects.v20 import common as M
@@ -58,3 +59,30 @@ def test_refusals(params, unit, kind, result):
         assert sim.api(0).command_long(M.MAV_CMD_INJECT_FAILURE, unit, kind, 0) == result
         sim.advance(7.0)
         assert sim.status(0).position_valid
+
+
+def test_fault_timeline_in_a_scenario_is_deterministic_and_fly_reports_the_failsafe(tmp_path):
+    """scenarios/gps-loss.toml: the GPS goes off at t=20 s, the square mission is cut short by
+    the Descend failsafe; two lockstep runs write identical logs; `cornet fly` says so."""
+    from gateway.ci.fly import fly
+    from gateway.sim import scenario as scenario_mod
+
+    root = Path(__file__).resolve().parents[2]
+    plan, sc = root / "gcs_examples/plans/square.plan", root / "scenarios/gps-loss.toml"
+    runs = [fly(plan, scenario=sc, log_dir=tmp_path / name, time_limit_s=200)
+            for name in ("a", "b")]
+    res = runs[0]
+    assert not res.passed and res.exit_code == 1
+    assert res.faults == ["t=20.0 s vehicle 1 gps off"]
+    assert any("Failsafe activated" in f for f in res.failsafes)
+    assert res.landed and res.disarmed and not res.mission_finished
+    summary = res.summary()
+    assert "faults: t=20.0 s vehicle 1 gps off" in summary and "failsafes:" in summary
+    for name in ("state.csv", "v1-api.tlog"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+    ulogs = [sorted((tmp_path / r).rglob("*.ulg")) for r in ("a", "b")]
+    assert [p.read_bytes() for p in ulogs[0]] == [p.read_bytes() for p in ulogs[1]]
+    with pytest.raises(scenario_mod.ScenarioError, match=r"faults\[0\].unit"):
+        scenario_mod.parse({"faults": [{"at_s": 1.0, "unit": "warp drive", "type": "off"}]})
+    with pytest.raises(scenario_mod.ScenarioError, match=r"faults\[0\].vehicle"):
+        scenario_mod.parse({"faults": [{"at_s": 1.0, "vehicle": 3, "unit": "gps", "type": "off"}]})
