@@ -28,6 +28,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.modes import custom_mode_of
 from gateway.mavlink.session import LinkKind
+from gateway.onboard import attach_shells
 from gateway.onboard.logs import Logs
 from gateway.sim import scenario as scenario_mod
 from gateway.sim.flightlog import FlightLog, frame_msgid, split_frames
@@ -301,6 +302,7 @@ class Sim:
             params_for=lambda i: default_params(i, overrides), tracer=tracer, home=self.home,
             physics_dt_s=physics_dt_s, link_kinds=tuple(links), wind=sc.wind,
             sensors=sc.sensors, faults=sc.faults)
+        attach_shells(self.simulation)
         self.logs: Logs | None = None
         if self.flightlog is not None:
             self.flightlog.attach(self.simulation, extra_meta)

@@ -38,6 +38,7 @@ from gateway.daemon.progress import ProgressLine
 from gateway.daemon.sdnotify import Notifier, Watchdog
 from gateway.mavlink.session import LinkKind
 from gateway.mavlink.signing import SigningConfig, SigningKey, SigningState
+from gateway.onboard import attach_shells
 from gateway.onboard.logs import Logs
 from gateway.sim.flightlog import FlightLog, new_run_dir
 from gateway.sim.scenario import NetworkConfig, ScenarioError
@@ -134,6 +135,7 @@ class Daemon:
         # <state dir>/vehicle-<sysid>/log/… and <run dir>/vehicle-<sysid>/log/….
         roots = [d for d in (config.state_dir, self.flightlog.dir if self.flightlog else None)
                  if d is not None]
+        attach_shells(self.sim)
         self.logs = Logs(self.sim, lambda sysid: [state.vehicle_dir(r, sysid) for r in roots],
                          boot_unix_s) if roots else None
         if self.publisher is not None:

@@ -50,6 +50,7 @@ from gateway.mavlink.mission import MissionService, UploadLock
 from gateway.mavlink.offboard import OffboardService
 from gateway.mavlink.params import ParamService
 from gateway.mavlink.ping import PingService
+from gateway.mavlink.serial_control import SerialControlService
 from gateway.mavlink.signing import Signer, SigningClock, SigningConfig, Verifier
 from gateway.mavlink.snapshot import SampleCache, Snapshot
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
@@ -109,6 +110,7 @@ class Session:
         self.offboard = OffboardService(ctx, say)
         self.manual = ManualControlService(ctx)
         self.logs = LogHandlerService(ctx)  # its ``store`` is attached by the shell
+        self.serial = SerialControlService(ctx)  # its ``terminal_factory`` too
         self._routes: dict[int, Callable[[Any, float], None]] = {
             M.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
             M.MAVLINK_MSG_ID_COMMAND_LONG: self.commands.on_command_long,
@@ -137,6 +139,7 @@ class Session:
             M.MAVLINK_MSG_ID_LOG_REQUEST_DATA: self.logs.on_request_data,
             M.MAVLINK_MSG_ID_LOG_REQUEST_END: self.logs.on_request_end,
             M.MAVLINK_MSG_ID_LOG_ERASE: self.logs.on_erase,
+            M.MAVLINK_MSG_ID_SERIAL_CONTROL: self.serial.on_serial_control,
         }
         if signing is not None:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing

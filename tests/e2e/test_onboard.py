@@ -58,3 +58,30 @@ async def test_mavsdk_gps_failure_makes_the_vehicle_descend_land_and_disarm(daem
         from mavsdk.failure import FailureError
         with pytest.raises(FailureError, match="DENIED"):  # SYS_FAILURE_EN 0, as PX4
             await drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OK, 0)
+
+
+@pytest.mark.asyncio
+async def test_mavsdk_shell_talks_to_pxh(daemon_factory):
+    """MAVSDK's shell plugin (SERIAL_CONTROL): PX4 SITL's pxh answers, commands act."""
+    import asyncio
+
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        received: list[str] = []
+
+        async def collect():
+            async for text in drone.shell.receive():
+                received.append(text)
+
+        task = asyncio.ensure_future(collect())
+        try:
+            await drone.shell.send("ver all")
+            await drone.shell.send("param show MPC_XY_CRUISE")
+            for _ in range(50):
+                if "MPC_XY_CRUISE [" in "".join(received):
+                    break
+                await asyncio.sleep(0.1)
+        finally:
+            task.cancel()
+        out = "".join(received)
+        assert "HW arch: PX4_SITL" in out and "x   MPC_XY_CRUISE [" in out and "pxh> " in out

@@ -1,0 +1,242 @@
+"""The MAVLink shell's interpreter, as PX4 SITL's pxh (the POSIX shell behind MavlinkShell).
+
+Source: PX4 platforms/posix/src/px4/common/px4_daemon/pxh.cpp (run_remote_pxh, process_line,
+the "pxh> " prompt) and the output of the modules' own commands (param, commander, listener,
+failure, ver).
+Rules:
+- Bytes in, bytes out (``write``): every byte above 3 is echoed and added to the line; a newline
+  echoes "\\n", runs the line and prints the prompt. Nothing is printed before the first newline
+  (clients send one to get the prompt). Lines longer than ``MAX_LINE`` are cut.
+- Unknown commands: "Invalid command: X\\ntype 'help' for a list of commands"; a command that
+  fails: "Command 'X' failed, returned N.".
+- The commands act on the vehicle through the same calls as MAVLink (arm, takeoff, modes,
+  parameters, failure injection); ``listener`` prints the logger's topics (logger.py) with
+  PX4's topic and field names.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+import resource
+from collections.abc import Callable
+from typing import Any
+
+from gateway.onboard.logger import TOPICS, Topic
+from vehicles.faults import TYPES, UNITS
+from vehicles.params import ParamType
+from vehicles.types import CommandResult, NavState
+
+PROMPT = "pxh> "
+MAX_LINE = 4096
+MODES = {"manual": NavState.MANUAL, "altctl": NavState.ALTCTL, "posctl": NavState.POSCTL,
+         "auto:mission": NavState.AUTO_MISSION, "auto:loiter": NavState.AUTO_LOITER,
+         "auto:rtl": NavState.AUTO_RTL, "auto:takeoff": NavState.AUTO_TAKEOFF,
+         "auto:land": NavState.AUTO_LAND, "auto:precland": NavState.AUTO_PRECLAND,
+         "acro": NavState.ACRO, "offboard": NavState.OFFBOARD, "stabilized": NavState.STAB}
+LEVELS = {0: "PANIC", 1: "ERROR", 2: "ERROR", 3: "ERROR", 4: "WARN ", 5: "INFO ", 6: "INFO ",
+          7: "DEBUG"}
+
+
+def _value(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.5f}" if math.isfinite(v) else str(v).lower()
+    if isinstance(v, (tuple, list)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    return str(v)
+
+
+class Pxh:
+    def __init__(self, vehicle: Any, version: str) -> None:
+        self.vehicle = vehicle
+        self.version = version
+        self._line = bytearray()
+        self._commands: dict[str, Callable[[list[str], float], int]] = {
+            "commander": self._commander, "dmesg": self._dmesg, "failure": self._failure,
+            "free": self._free, "listener": self._listener, "param": self._param,
+            "top": self._top, "ver": self._ver,
+        }
+        self._out: list[str] = []
+
+    def print(self, text: str) -> None:
+        self._out.append(text)
+
+    def write(self, data: bytes, now_s: float) -> bytes:
+        for b in data:
+            if b == 0x0A:
+                self.print("\n")
+                self.run(self._line.decode("utf-8", "replace"), now_s)
+                self._line.clear()
+                self.print(PROMPT)
+            elif b > 3:
+                self.print(chr(b) if b < 0x80 else "?")
+                if len(self._line) < MAX_LINE:
+                    self._line.append(b)
+        out = "".join(self._out).encode("utf-8", "replace")
+        self._out.clear()
+        return out
+
+    def run(self, line: str, now_s: float) -> int:
+        words = line.split()
+        if not words or words[0].startswith("#"):
+            return 0
+        name = words[0]
+        if name == "help":
+            self.print("Builtin Commands:\n" + "".join(f"  {c}\n" for c in sorted(self._commands)))
+            return 0
+        command = self._commands.get(name)
+        if command is None:
+            self.print(f"Invalid command: {name}\ntype 'help' for a list of commands\n")
+            return -1
+        ret = command(words[1:], now_s)
+        if ret:
+            self.print(f"Command '{name}' failed, returned {ret}.\n")
+        return ret
+
+    # --- commands -------------------------------------------------------------------------------
+    def _ver(self, args: list[str], now_s: float) -> int:
+        if not args:
+            self.print("Usage: ver <command>\n  hw, hwcmp, git, bdate, gcc, all, uid, mfguid, "
+                       "uri, px4guid\n")
+            return 1
+        if args[0] in ("all", "hw"):
+            self.print("HW arch: PX4_SITL\n")
+        if args[0] in ("all", "git", "px4ver"):
+            self.print(f"PX4 version: {self.version}\n")
+        if args[0] == "all":
+            self.print("OS: Linux\nBuild variant: CORNET\n")
+        return 0
+
+    def _param(self, args: list[str], now_s: float) -> int:
+        params = self.vehicle.params
+        if not args:
+            self.print("Usage: param <command> [arguments...]\n")
+            return 1
+        cmd, rest = args[0], args[1:]
+        if cmd == "show":
+            pattern = rest[-1] if rest and not rest[-1].startswith("-") else "*"
+            self.print("Symbols: x = used, + = saved, * = unsaved\n")
+            shown = 0
+            for i, (info, value) in enumerate(params.items()):
+                if fnmatch.fnmatchcase(info.name, pattern):
+                    text = f"{int(value)}" if info.type is ParamType.INT32 else f"{value:.4f}"
+                    self.print(f"x   {info.name} [{i},{i}] : {text}\n")
+                    shown += 1
+            self.print(f"\n {len(params)}/{len(params)} parameters used.\n")
+            return 0
+        if cmd == "set" and len(rest) >= 2:
+            name = rest[0]
+            if name not in params:
+                self.print(f"ERROR [param] Parameter {name} not found.\n")
+                return 1
+            info = params.info(name)
+            try:
+                new = float(rest[1])
+            except ValueError:
+                self.print(f"ERROR [param] Parameter {name}: bad value {rest[1]}\n")
+                return 1
+            old = params[name]
+            fmt = (lambda v: f"{int(v)}") if info.type is ParamType.INT32 else \
+                (lambda v: f"{v:.4f}")
+            if not params.set(name, new):
+                self.print(f"ERROR [param] Parameter {name}: value {rest[1]} refused\n")
+                return 1
+            self.print(f"  {name}: curr: {fmt(old)} -> new: {fmt(params[name])}\n")
+            return 0
+        if cmd == "reset" and rest:
+            for name in rest:
+                if name in params:
+                    params.set(name, params.info(name).default)
+            return 0
+        if cmd in ("save", "load", "status"):
+            if cmd == "status":
+                self.print(f"summary: {len(params.changed_from_default())} changed from "
+                           f"default, {len(params)} parameters\n")
+            return 0
+        self.print(f"ERROR [param] unknown command: {cmd}\n")
+        return 1
+
+    def _commander(self, args: list[str], now_s: float) -> int:
+        v = self.vehicle
+        if not args:
+            self.print("Usage: commander <command> [arguments...]\n")
+            return 1
+        cmd = args[0]
+        if cmd == "arm":
+            result = v.arm(now_s, forced="-f" in args)
+        elif cmd == "disarm":
+            result = v.disarm(now_s, forced="-f" in args)
+        elif cmd == "takeoff":
+            result = v.takeoff(now_s)
+        elif cmd == "land":
+            result = v.land(now_s)
+        elif cmd == "mode" and len(args) > 1:
+            mode = MODES.get(args[1])
+            if mode is None:
+                self.print(f"ERROR [commander] argument {args[1]} unsupported.\n")
+                return 1
+            result = v.set_nav_state(now_s, mode)
+        elif cmd == "status":
+            st = v.status
+            self.print(f"arming state: {'ARMED' if st.armed else 'DISARMED'}\n"
+                       f"navigation state: {st.nav_state.name}\n")
+            return 0
+        else:
+            self.print(f"ERROR [commander] unknown command: {cmd}\n")
+            return 1
+        if result is not CommandResult.ACCEPTED:
+            self.print(f"WARN  [commander] {cmd} {CommandResult(result).name.lower()}\n")
+            return 1
+        return 0
+
+    def _failure(self, args: list[str], now_s: float) -> int:
+        if len(args) < 2:
+            self.print("Usage: failure <component> <failure_type> [-i <instance>]\n")
+            return 1
+        if int(self.vehicle.params.get("SYS_FAILURE_EN", 0) or 0) != 1:
+            self.print("WARN  [failure] this requires param SYS_FAILURE_EN=1\n")
+            return 1
+        unit, kind = UNITS.get(args[0]), TYPES.get(args[1])
+        inject = getattr(self.vehicle, "inject_failure", None)
+        if unit is None or kind is None or inject is None:
+            self.print(f"ERROR [failure] {args[0]} {args[1]}: not supported\n")
+            return 1
+        return 0 if inject(now_s, unit, kind, 0) is CommandResult.ACCEPTED else 1
+
+    def _listener(self, args: list[str], now_s: float) -> int:
+        topics: dict[str, Topic] = {t.name: t for t in TOPICS}
+        if not args or args[0] not in topics:
+            name = args[0] if args else ""
+            self.print(f"ERROR [listener] Topic {name} did not match any known topics\n"
+                       if args else "Usage: listener <topic_name> [-n <num>]\n")
+            return 1
+        topic = topics[args[0]]
+        values = topic.read(self.vehicle)
+        us = int(now_s * 1e6)
+        self.print(f"\nTOPIC: {topic.name}\n {topic.name}\n"
+                   f"    timestamp: {us} (0.000000 seconds ago)\n")
+        for (_type, field), value in zip(topic.fields, values):
+            self.print(f"    {field}: {_value(value)}\n")
+        return 0
+
+    def _dmesg(self, args: list[str], now_s: float) -> int:
+        texts = getattr(self.vehicle, "status_texts", None)
+        for t in (texts(0) if texts is not None else [])[-50:]:
+            self.print(f"{LEVELS.get(int(t.severity), 'INFO ')} [commander] {t.text}\n")
+        return 0
+
+    def _free(self, args: list[str], now_s: float) -> int:
+        used_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        self.print("             total       used       free\n"
+                   f"Mem:  {'-':>12} {used_kib:>10} {'-':>10}\n")
+        return 0
+
+    def _top(self, args: list[str], now_s: float) -> int:
+        st = self.vehicle.status
+        self.print(f"Processes: simulated vehicle, t={now_s:.3f} s\n"
+                   " PID COMMAND                   CPU(ms) CPU(%)  USED/STACK PRIO(BASE) STATE\n"
+                   f"   0 commander                        -      -           -    -      "
+                   f"{'armed' if st.armed else 'standby'}\n"
+                   "   1 navigator                        -      -           -    -      "
+                   f"{st.nav_state.name.lower()}\n")
+        return 0

@@ -1,0 +1,63 @@
+"""The MAVLink shell (SERIAL_CONTROL, device SHELL) as PX4 SITL's pxh: prompt after the first
+newline, echo, PX4's command outputs, unknown commands as pxh answers them, long lines cut."""
+
+from __future__ import annotations
+
+from pymavlink.dialects.v20 import common as M
+
+from gateway.testing import Sim
+from vehicles.types import NavState
+
+RESPOND = M.SERIAL_CONTROL_FLAG_RESPOND | M.SERIAL_CONTROL_FLAG_EXCLUSIVE
+
+
+def shell(sim: Sim, text: str, flags: int = RESPOND) -> str:
+    api = sim.api(0)
+    since = len(api.frames)
+    data = text.encode()
+    for i in range(0, max(len(data), 1), 70):
+        chunk = data[i:i + 70]
+        api.send(M.MAVLink_serial_control_message(M.SERIAL_CONTROL_DEV_SHELL, flags, 0, 0,
+                                                  len(chunk), list(chunk.ljust(70, b"\0"))))
+    sim.advance(0.1)
+    replies = [m for m in api.messages("SERIAL_CONTROL", since)
+               if m.flags & M.SERIAL_CONTROL_FLAG_REPLY]
+    return b"".join(bytes(m.data[:m.count]) for m in replies).decode()
+
+
+def test_prompt_echo_and_commands():
+    with Sim() as sim:
+        sim.advance(1.0)
+        assert shell(sim, "\n") == "\npxh> "
+        out = shell(sim, "ver all\n")
+        assert out.startswith("ver all\n") and "HW arch: PX4_SITL" in out and out.endswith("pxh> ")
+        assert "x   MPC_XY_CRUISE [" in shell(sim, "param show MPC_XY_CRU*\n")
+        assert "  MPC_XY_CRUISE: curr: 5.0000 -> new: 7.0000" in \
+            shell(sim, "param set MPC_XY_CRUISE 7\n")
+        assert sim.vehicles[0].params["MPC_XY_CRUISE"] == 7.0
+        assert "Parameter NOPE not found." in shell(sim, "param set NOPE 1\n")
+        assert "Invalid command: frobnicate\ntype 'help' for a list of commands" in \
+            shell(sim, "frobnicate\n")
+        assert "  listener\n" in shell(sim, "help\n")
+        listened = shell(sim, "listener vehicle_attitude\n")
+        assert "TOPIC: vehicle_attitude" in listened and "    q: [" in listened
+        sim.advance(6.0)
+        shell(sim, "commander arm\n")
+        assert sim.status(0).armed
+        shell(sim, "commander mode auto:rtl\n")
+        assert sim.status(0).nav_state is NavState.AUTO_RTL or sim.status(0).armed
+        assert "Command 'commander' failed" in shell(sim, "commander mode warp\n")
+        long = shell(sim, "x" * 10_000 + "\n")
+        assert long.endswith("pxh> ") and "Invalid command" in long
+
+
+def test_failure_command_needs_sys_failure_en_and_closing_the_shell():
+    with Sim(params={"SYS_FAILURE_EN": 0}) as sim:
+        sim.advance(1.0)
+        assert "this requires param SYS_FAILURE_EN=1" in shell(sim, "failure gps off\n")
+        shell(sim, "param set SYS_FAILURE_EN 1\n")
+        shell(sim, "failure gps off\n")
+        sim.advance(7.0)
+        assert not sim.status(0).position_valid
+        shell(sim, "", flags=0)  # no RESPOND: the shell closes; the next one starts afresh
+        assert shell(sim, "\n") == "\npxh> "
