@@ -28,8 +28,8 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.modes import custom_mode_of
 from gateway.mavlink.session import LinkKind
-from gateway.onboard import attach_shells
 from gateway.onboard.logs import Logs
+from gateway.onboard.shell import attach_shells
 from gateway.sim import scenario as scenario_mod
 from gateway.sim.flightlog import FlightLog, frame_msgid, split_frames
 from gateway.sim.scenario import NetworkConfig

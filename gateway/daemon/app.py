@@ -38,8 +38,8 @@ from gateway.daemon.progress import ProgressLine
 from gateway.daemon.sdnotify import Notifier, Watchdog
 from gateway.mavlink.session import LinkKind
 from gateway.mavlink.signing import SigningConfig, SigningKey, SigningState
-from gateway.onboard import attach_shells
 from gateway.onboard.logs import Logs
+from gateway.onboard.shell import attach_shells
 from gateway.sim.flightlog import FlightLog, new_run_dir
 from gateway.sim.scenario import NetworkConfig, ScenarioError
 from gateway.sim.simulation import Simulation, px4_ports

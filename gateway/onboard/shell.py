@@ -27,6 +27,7 @@ from vehicles.faults import TYPES, UNITS
 from vehicles.params import ParamType
 from vehicles.types import CommandResult, NavState
 
+VERSION = "1.15.0 0 (17760511)"  # what AUTOPILOT_VERSION says (v1.15.0 release)
 PROMPT = "pxh> "
 MAX_LINE = 4096
 MODES = {"manual": NavState.MANUAL, "altctl": NavState.ALTCTL, "posctl": NavState.POSCTL,
@@ -240,3 +241,10 @@ class Pxh:
                    "   1 navigator                        -      -           -    -      "
                    f"{st.nav_state.name.lower()}\n")
         return 0
+
+
+def attach_shells(sim: Any) -> None:
+    """Every link of every vehicle gets PX4's MAVLink shell (a pxh per shell session)."""
+    for link in sim.links.values():
+        vehicle = link.session.vehicle
+        link.session.serial.terminal_factory = lambda v=vehicle: Pxh(v, VERSION)
