@@ -28,6 +28,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.modes import custom_mode_of
 from gateway.mavlink.session import LinkKind
+from gateway.onboard.files import attach_ftp
 from gateway.onboard.logs import Logs
 from gateway.onboard.shell import attach_shells
 from gateway.sim import scenario as scenario_mod
@@ -309,6 +310,7 @@ class Sim:
             run = self.flightlog.dir  # PX4's logger: <log_dir>/vehicle-<sysid>/log/…
             self.logs = Logs(self.simulation, lambda sysid: [run / f"vehicle-{sysid}"],
                              boot_unix_s)
+            attach_ftp(self.simulation, lambda sysid: [run / f"vehicle-{sysid}"])
         self.clients: dict[tuple[int, LinkKind], Client] = {
             (i, kind): Client(self, i, kind) for i in range(n)
             for kind in self.simulation.link_kinds}

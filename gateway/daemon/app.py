@@ -38,6 +38,7 @@ from gateway.daemon.progress import ProgressLine
 from gateway.daemon.sdnotify import Notifier, Watchdog
 from gateway.mavlink.session import LinkKind
 from gateway.mavlink.signing import SigningConfig, SigningKey, SigningState
+from gateway.onboard.files import attach_ftp
 from gateway.onboard.logs import Logs
 from gateway.onboard.shell import attach_shells
 from gateway.sim.flightlog import FlightLog, new_run_dir
@@ -136,6 +137,7 @@ class Daemon:
         roots = [d for d in (config.state_dir, self.flightlog.dir if self.flightlog else None)
                  if d is not None]
         attach_shells(self.sim)
+        attach_ftp(self.sim, lambda sysid: [state.vehicle_dir(r, sysid) for r in roots])
         self.logs = Logs(self.sim, lambda sysid: [state.vehicle_dir(r, sysid) for r in roots],
                          boot_unix_s) if roots else None
         if self.publisher is not None:

@@ -51,8 +51,8 @@ INT32_MAX_AS_FLOAT32 = 2147483648.0  # what INT32_MAX becomes in a float param
 REPOSITION_FLAGS_CHANGE_MODE = 1  # MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, the only flag PX4 takes
 SPEED_RESET = -1.0  # DO_CHANGE_SPEED: ≤ 0 → back to the cruise speed
 
-# AUTOPILOT_VERSION as PX4 SITL fills it, minus MAVLink FTP (32): we do not serve FTP.
-CAPABILITIES = 59647 & ~32
+# AUTOPILOT_VERSION as PX4 SITL fills it (MAVLink FTP included: gateway/mavlink/ftp.py).
+CAPABILITIES = 59647
 FLIGHT_SW_VERSION = 0x010F00FF  # v1.15.0 release
 FLIGHT_CUSTOM_VERSION = list(b"c0rnet01")  # "git hash" bytes
 UID_BASE = 0x434F524E45540000  # "CORNET\0\0"; + sysid so every vehicle differs

@@ -43,6 +43,7 @@ from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import MAX_DATAGRAM_BYTES, Decoder, Encoder, pack_datagrams
 from gateway.mavlink.commands import CommandService
+from gateway.mavlink.ftp import FtpService
 from gateway.mavlink.link import LinkContext, LinkKind, SessionStats
 from gateway.mavlink.log_handler import LogHandlerService
 from gateway.mavlink.manual import ManualControlService
@@ -111,6 +112,7 @@ class Session:
         self.manual = ManualControlService(ctx)
         self.logs = LogHandlerService(ctx)  # its ``store`` is attached by the shell
         self.serial = SerialControlService(ctx)  # its ``terminal_factory`` too
+        self.ftp = FtpService(ctx)  # and its ``root``
         self._routes: dict[int, Callable[[Any, float], None]] = {
             M.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
             M.MAVLINK_MSG_ID_COMMAND_LONG: self.commands.on_command_long,
@@ -140,6 +142,7 @@ class Session:
             M.MAVLINK_MSG_ID_LOG_REQUEST_END: self.logs.on_request_end,
             M.MAVLINK_MSG_ID_LOG_ERASE: self.logs.on_erase,
             M.MAVLINK_MSG_ID_SERIAL_CONTROL: self.serial.on_serial_control,
+            M.MAVLINK_MSG_ID_FILE_TRANSFER_PROTOCOL: self.ftp.on_file_transfer_protocol,
         }
         if signing is not None:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing
@@ -186,7 +189,8 @@ class Session:
         return datagrams
 
     def get_timer(self) -> float | None:
-        t = min(self.params.get_timer(), self.mission.get_timer(), self.logs.get_timer())
+        t = min(self.params.get_timer(), self.mission.get_timer(), self.logs.get_timer(),
+                self.ftp.get_timer())
         next_us = self.scheduler.next_us
         if next_us < NEVER:
             t = min(t, next_us * 1e-6)
@@ -212,7 +216,8 @@ class Session:
         for name, timer in (("the mission timer", self.mission.handle_timer),
                             ("STATUSTEXT", self.statustext.poll),
                             ("the parameter timer", self.params.handle_timer),
-                            ("the log download", self.logs.handle_timer)):
+                            ("the log download", self.logs.handle_timer),
+                            ("the FTP burst", self.ftp.handle_timer)):
             try:
                 timer(now_s)
             except Exception:

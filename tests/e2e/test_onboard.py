@@ -85,3 +85,26 @@ async def test_mavsdk_shell_talks_to_pxh(daemon_factory):
             task.cancel()
         out = "".join(received)
         assert "HW arch: PX4_SITL" in out and "x   MPC_XY_CRUISE [" in out and "pxh> " in out
+
+
+@pytest.mark.asyncio
+async def test_mavsdk_ftp_lists_downloads_uploads_and_compares(daemon_factory, tmp_path):
+    """MAVSDK's ftp plugin on the vehicle's root (--state-dir): the log directory is there,
+    a file goes up and comes back identical, and a path out of the root is refused."""
+    from mavsdk.ftp import FtpError
+
+    d = daemon_factory("--state-dir", str(tmp_path / "state"))
+    async with connected(d.api_port()) as drone:
+        listing = await drone.ftp.list_directory("/")
+        assert "log" in listing.dirs, listing
+        local = tmp_path / "up.txt"
+        local.write_bytes(b"cornet " * 500)
+        async for _ in drone.ftp.upload(str(local), "/"):
+            pass
+        assert await drone.ftp.are_files_identical(str(local), "/up.txt")
+        (tmp_path / "down").mkdir()
+        async for _ in drone.ftp.download("/up.txt", str(tmp_path / "down"), False):
+            pass
+        assert (tmp_path / "down" / "up.txt").read_bytes() == local.read_bytes()
+        with pytest.raises(FtpError):
+            await drone.ftp.list_directory("/../..")

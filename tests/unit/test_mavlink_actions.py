@@ -159,7 +159,7 @@ def test_qgc_initial_connect_is_answered_at_once():
     assert caps & M.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
     assert caps & M.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
     assert caps & M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
-    assert not caps & M.MAV_PROTOCOL_CAPABILITY_FTP
+    assert caps & M.MAV_PROTOCOL_CAPABILITY_FTP  # served (gateway/mavlink/ftp.py), as PX4
     assert results(client.command_long(512, 300)) == [(512, 0)]
     for msg_id in (435, 397, 395):  # AVAILABLE_MODES, COMPONENT_METADATA / _INFORMATION
         assert results(client.command_long(512, msg_id)) == [(512, 3)]

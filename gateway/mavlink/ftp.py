@@ -1,0 +1,232 @@
+"""MAVLink FTP (FILE_TRANSFER_PROTOCOL) server, as PX4's MavlinkFTP.
+
+Source: PX4 src/modules/mavlink/mavlink_ftp.cpp, mavlink_ftp.h; the MAVLink FTP spec.
+Rules:
+- Payload: seq (uint16), session, opcode, size, req_opcode, burst_complete, padding (uint8),
+  offset (uint32), data[239]. Every answer is ACK (128) or NAK (129) with ``seq + 1`` and the
+  request's opcode in req_opcode; a NAK's data[0] is the error (data[1] errno for FailErrno).
+- One session at a time (PX4's single ``_session_info``): Open* while one is open →
+  NoSessionsAvailable; Read/Write/Burst with another session id → InvalidSession.
+- ListDirectory at ``offset`` entries: "F<name>\\t<size>", "D<name>" entries, each NUL-ended, as
+  many as fit; none left → NAK EOF. Read at or past the end → NAK EOF. BurstReadFile streams
+  reads (``BURST`` per wake-up, every ``PERIOD_S``) up to the end, the last with
+  burst_complete.
+- The files are the vehicle's root (``root``, a ``FileRoot`` the shell attaches: its logs,
+  parameters and plans); a path that leaves the root is refused (FileProtected); without a
+  root every path is FileNotFound. Unknown opcodes → NAK UnknownCommand; a size larger than the
+  data → InvalidDataSize.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from typing import Any, Protocol
+
+from pymavlink.dialects.v20 import common as M
+
+from gateway.mavlink.link import LinkContext
+
+DATA_LEN = 239
+HEADER = struct.Struct("<HBBBBBBI")
+BURST = 32
+PERIOD_S = 0.01
+
+(OP_NONE, OP_TERMINATE, OP_RESET, OP_LIST, OP_OPEN_RO, OP_READ, OP_CREATE, OP_WRITE, OP_REMOVE,
+ OP_MKDIR, OP_RMDIR, OP_OPEN_WO, OP_TRUNCATE, OP_RENAME, OP_CRC32, OP_BURST) = range(16)
+OP_ACK, OP_NAK = 128, 129
+(ERR_NONE, ERR_FAIL, ERR_FAIL_ERRNO, ERR_INVALID_DATA_SIZE, ERR_INVALID_SESSION,
+ ERR_NO_SESSIONS, ERR_EOF, ERR_UNKNOWN_COMMAND, ERR_FILE_EXISTS, ERR_FILE_PROTECTED,
+ ERR_FILE_NOT_FOUND) = range(11)
+
+
+class FtpError(Exception):
+    def __init__(self, code: int, errno: int = 0) -> None:
+        super().__init__(code, errno)
+        self.code, self.errno = code, errno
+
+
+class FileRoot(Protocol):
+    """The vehicle's files; every method raises FtpError (code, errno) on failure."""
+
+    def list(self, path: str) -> list[tuple[bool, str, int]]: ...  # (is dir, name, size)
+
+    def size(self, path: str) -> int: ...
+
+    def read(self, path: str, offset: int, count: int) -> bytes: ...
+
+    def write(self, path: str, offset: int, data: bytes) -> None: ...
+
+    def create(self, path: str, exclusive: bool) -> None: ...
+
+    def remove(self, path: str) -> None: ...
+
+    def mkdir(self, path: str) -> None: ...
+
+    def rmdir(self, path: str) -> None: ...
+
+    def rename(self, old: str, new: str) -> None: ...
+
+    def truncate(self, path: str, size: int) -> None: ...
+
+    def crc32(self, path: str) -> int: ...
+
+
+class FtpService:
+    def __init__(self, ctx: LinkContext) -> None:
+        self.sysid = ctx.sysid
+        self.encoder = ctx.encoder
+        self.send = ctx.send
+        self.root: FileRoot | None = None  # attached by the shell
+        self._session: tuple[str, bool] | None = None  # (path, writable)
+        self._burst: tuple[int, int, int, int, tuple[int, int]] | None = None
+        self._next_at = math.inf
+
+    # --- wire ---------------------------------------------------------------------------------
+    def _reply(self, to: tuple[int, int], seq: int, session: int, req: int, offset: int,
+               data: bytes = b"", nak: int | None = None, errno: int = 0,
+               burst_complete: bool = False) -> None:
+        if nak is not None:
+            data = bytes((nak, errno)) if nak == ERR_FAIL_ERRNO else bytes((nak,))
+        payload = HEADER.pack((seq + 1) & 0xFFFF, session, OP_NAK if nak is not None else OP_ACK,
+                              len(data), req, int(burst_complete), 0, offset) + data
+        self.send(self.encoder.pack(M.MAVLink_file_transfer_protocol_message, 0, to[0], to[1],
+                                    list(payload.ljust(251, b"\0"))))
+
+    def on_file_transfer_protocol(self, msg: Any, now_s: float) -> None:
+        if msg.target_system not in (0, self.sysid):
+            return
+        raw = bytes(msg.payload)
+        seq, session, opcode, size, _req, _burst, _pad, offset = HEADER.unpack_from(raw)
+        data = raw[HEADER.size:HEADER.size + DATA_LEN]
+        to = (msg.get_srcSystem(), msg.get_srcComponent())
+
+        def nak(code: int, errno: int = 0) -> None:
+            self._reply(to, seq, session, opcode, offset, nak=code, errno=errno)
+
+        if size > DATA_LEN:
+            nak(ERR_INVALID_DATA_SIZE)
+            return
+        arg = data[:size].split(b"\0", 1)[0].decode("utf-8", "replace")
+        try:
+            self._dispatch(to, seq, session, opcode, size, offset, data, arg, now_s)
+        except FtpError as exc:
+            nak(exc.code, exc.errno)
+
+    def _need_root(self) -> FileRoot:
+        if self.root is None:
+            raise FtpError(ERR_FILE_NOT_FOUND)
+        return self.root
+
+    def _need_session(self, session: int) -> tuple[str, bool]:
+        if self._session is None or session != 0:
+            raise FtpError(ERR_INVALID_SESSION)
+        return self._session
+
+    def _dispatch(self, to: tuple[int, int], seq: int, session: int, op: int, size: int,
+                  offset: int, data: bytes, arg: str, now_s: float) -> None:
+        ack = self._reply
+        if op == OP_NONE:
+            ack(to, seq, session, op, offset)
+        elif op in (OP_TERMINATE, OP_RESET):
+            if op == OP_TERMINATE and (self._session is None or session != 0):
+                raise FtpError(ERR_INVALID_SESSION)
+            self._session, self._burst, self._next_at = None, None, math.inf
+            ack(to, seq, session, op, offset)
+        elif op == OP_LIST:
+            entries = self._need_root().list(arg)
+            if offset >= len(entries):
+                raise FtpError(ERR_EOF)
+            out = b""
+            for is_dir, name, fsize in entries[offset:]:
+                item = (f"D{name}" if is_dir else f"F{name}\t{fsize}").encode() + b"\0"
+                if len(out) + len(item) > DATA_LEN:
+                    break
+                out += item
+            ack(to, seq, session, op, offset, out)
+        elif op in (OP_OPEN_RO, OP_OPEN_WO, OP_CREATE):
+            if self._session is not None:
+                raise FtpError(ERR_NO_SESSIONS)
+            root = self._need_root()
+            if op == OP_OPEN_RO:
+                fsize = root.size(arg)
+                self._session = (arg, False)
+                ack(to, seq, 0, op, offset, struct.pack("<I", fsize))
+            else:
+                root.create(arg, exclusive=False) if op == OP_CREATE else root.size(arg)
+                self._session = (arg, True)
+                ack(to, seq, 0, op, offset)
+        elif op == OP_READ:
+            path, _ = self._need_session(session)
+            chunk = self._need_root().read(path, offset, min(size or DATA_LEN, DATA_LEN))
+            if not chunk:
+                raise FtpError(ERR_EOF)
+            ack(to, seq, session, op, offset, chunk)
+        elif op == OP_BURST:
+            path, _ = self._need_session(session)
+            if offset >= self._need_root().size(path):
+                raise FtpError(ERR_EOF)
+            self._burst = (seq, session, offset, min(size or DATA_LEN, DATA_LEN), to)
+            self._next_at = now_s
+        elif op == OP_WRITE:
+            path, writable = self._need_session(session)
+            if not writable:
+                raise FtpError(ERR_FAIL)
+            self._need_root().write(path, offset, data[:size])
+            ack(to, seq, session, op, offset)
+        elif op == OP_REMOVE:
+            self._need_root().remove(arg)
+            ack(to, seq, session, op, offset)
+        elif op == OP_MKDIR:
+            self._need_root().mkdir(arg)
+            ack(to, seq, session, op, offset)
+        elif op == OP_RMDIR:
+            self._need_root().rmdir(arg)
+            ack(to, seq, session, op, offset)
+        elif op == OP_RENAME:
+            parts = data[:size].split(b"\0")
+            if len(parts) < 2 or not parts[0] or not parts[1]:
+                raise FtpError(ERR_INVALID_DATA_SIZE)
+            self._need_root().rename(parts[0].decode("utf-8", "replace"),
+                                     parts[1].decode("utf-8", "replace"))
+            ack(to, seq, session, op, offset)
+        elif op == OP_TRUNCATE:
+            self._need_root().truncate(arg, offset)
+            ack(to, seq, session, op, offset)
+        elif op == OP_CRC32:
+            ack(to, seq, session, op, offset, struct.pack("<I", self._need_root().crc32(arg)))
+        else:
+            raise FtpError(ERR_UNKNOWN_COMMAND)
+
+    # --- burst reads ----------------------------------------------------------------------------
+    def get_timer(self) -> float:
+        return self._next_at
+
+    def handle_timer(self, now_s: float) -> None:
+        if self._burst is None or now_s < self._next_at:
+            return
+        seq, session, offset, size, to = self._burst
+        if self._session is None or self.root is None:
+            self._burst, self._next_at = None, math.inf
+            return
+        path = self._session[0]
+        try:
+            total = self.root.size(path)
+            for _ in range(BURST):
+                chunk = self.root.read(path, offset, size)
+                last = offset + len(chunk) >= total or not chunk
+                if not chunk:
+                    self._reply(to, seq, session, OP_BURST, offset, nak=ERR_EOF)
+                else:
+                    self._reply(to, seq, session, OP_BURST, offset, chunk, burst_complete=last)
+                seq += 1
+                offset += len(chunk)
+                if last:
+                    self._burst, self._next_at = None, math.inf
+                    return
+        except FtpError as exc:
+            self._reply(to, seq, session, OP_BURST, offset, nak=exc.code, errno=exc.errno)
+            self._burst, self._next_at = None, math.inf
+            return
+        self._burst = (seq, session, offset, size, to)
+        self._next_at = now_s + PERIOD_S
