@@ -46,7 +46,7 @@ def test_qgc_connect_sequence_rates_and_guided_flight(daemon_factory):
                                       "AUTOPILOT_VERSION")
             assert version is not None
             assert version.capabilities & M.MAV_PROTOCOL_CAPABILITY_MISSION_INT
-            assert not version.capabilities & M.MAV_PROTOCOL_CAPABILITY_FTP
+            assert version.capabilities & M.MAV_PROTOCOL_CAPABILITY_FTP  # as PX4 SITL
             # What QGC asks next and must not wait for: refused at once.
             for msg_id in (435, 397, 395):
                 ack = command(conn, sysid, M.MAV_CMD_REQUEST_MESSAGE, msg_id)
