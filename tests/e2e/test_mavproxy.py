@@ -109,3 +109,20 @@ def test_mavproxy_params_modes_and_mission(daemon_factory, tmp_path):
         mp.wait_for("DISARMED", 60, mark)
     finally:
         mp.close()
+
+
+def test_mavproxy_log_list_and_ftp_list(daemon_factory, tmp_path):
+    """MAVProxy's log and ftp modules (loaded by default): `log list` gets PX4's LOG_ENTRY list,
+    `ftp list /` the vehicle's root with its log directory (--state-dir)."""
+    exe = mavproxy_exe()
+    d = daemon_factory("--state-dir", str(tmp_path / "state"))
+    mp = Prompt([sys.executable, exe, f"--master=udpin:127.0.0.1:{d.gcs_port()}", "--no-state"],
+                cwd=tmp_path)
+    try:
+        mp.wait_for("online system 1")
+        mark = mp.type("log list")
+        mp.wait_for("numLogs 1", 20, mark)  # SDLOG_MODE 1: the log since boot
+        mark = mp.type("ftp list /")
+        mp.wait_for(" D log", 20, mark)
+    finally:
+        mp.close()
