@@ -28,6 +28,7 @@ import math
 from vehicles.airframe import Airframe
 from vehicles.auto_trajectory import AutoTrajectory
 from vehicles.battery import BatterySim
+from vehicles.calibration import Calibration
 from vehicles.commander import Commander
 from vehicles.control.attitude_control import AttitudeControlGains
 from vehicles.control.position_control import PositionControl, PositionControlGains
@@ -94,6 +95,7 @@ class Autopilot:
         self.follow_target = FollowTarget(params)
         self.land_detector = LandDetector(params)
         self.battery = BatterySim(params, airframe.hover_thrust_norm)
+        self.calibration = Calibration(self.log)
         self.home: HomePosition | None = None
         self._hover = airframe.hover_thrust_norm
         self._prev_nav_state: NavState | None = None
@@ -330,6 +332,7 @@ class Autopilot:
         self.time_s = now_s
         self._last = meas
         self._update_slow(now_s, meas)
+        self.calibration.update(now_s)
         return self._command()
 
     def poll(self, now_s: float) -> InnerCommand | None:

@@ -298,6 +298,11 @@ class Vehicle:
         self._world.set_gps_off(self._row, failure_type == FAILURE_TYPE_OFF)
         return CommandResult.ACCEPTED
 
+    def calibrate(self, now_s: float, kind: str) -> CommandResult:
+        """MAV_CMD_PREFLIGHT_CALIBRATION for ``kind`` (vehicles/calibration.py KINDS)."""
+        ap = self._autopilot
+        return ap.calibration.start(now_s, kind, ap.commander.armed)
+
     def terminate(self, now_s: float) -> CommandResult:
         return self._autopilot.terminate(now_s)
 

@@ -114,7 +114,7 @@ class CommandService:
             M.MAV_CMD_GET_HOME_POSITION: self._home_position,
             M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_message_interval,
             M.MAV_CMD_GET_MESSAGE_INTERVAL: lambda c, t: self._send_interval(int(c.p(1))),
-            M.MAV_CMD_PREFLIGHT_CALIBRATION: lambda c, t: TEMPORARILY_REJECTED,
+            M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibration,
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
                 lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
             M.MAV_CMD_RUN_PREARM_CHECKS: lambda c, t: ACCEPTED,
@@ -257,6 +257,22 @@ class CommandService:
         if terminate is None:
             return UNSUPPORTED
         return terminate(now_s) if cmd.p(1) > 0.5 else DENIED
+
+    def _calibration(self, cmd: Command, now_s: float) -> int:
+        """PX4 SITL's gyro (param1), barometer (param3) and level-horizon (param5 = 2)
+        calibrations; the ones that need the vehicle turned by hand, radio and ESCs: refused."""
+        calibrate = self._vehicle("calibrate")
+        if calibrate is None:
+            return UNSUPPORTED
+        if _eq(cmd.p(1), 1.0):
+            return calibrate(now_s, "gyro")
+        if _eq(cmd.p(3), 1.0):
+            return calibrate(now_s, "baro")
+        if _eq(cmd.p(5), 2.0):
+            return calibrate(now_s, "level")
+        if all(_eq(cmd.p(i), 0.0) for i in range(1, 8)):
+            return ACCEPTED  # nothing asked (QGC's cancel)
+        return TEMPORARILY_REJECTED
 
     def _inject_failure(self, cmd: Command, now_s: float) -> int:
         inject = self._vehicle("inject_failure")

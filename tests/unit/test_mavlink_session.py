@@ -265,7 +265,7 @@ def test_command_int_takeoff_and_frames():
 
 
 @pytest.mark.parametrize("command, params, result", [
-    (M.MAV_CMD_PREFLIGHT_CALIBRATION, (1,), 1),
+    (M.MAV_CMD_PREFLIGHT_CALIBRATION, (1,), 3),  # a vehicle that cannot calibrate
     (M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, (0,), 0),
     (M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, (1,), 2),
     (M.MAV_CMD_RUN_PREARM_CHECKS, (), 0),
