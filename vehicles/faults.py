@@ -1,5 +1,7 @@
-"""Vehicle faults a scenario schedules (its ``[[faults]]`` timeline): what a failure is, by PX4's
-failure unit and type names (MAV_CMD_INJECT_FAILURE's FAILURE_UNIT / FAILURE_TYPE).
+"""Faults a scenario schedules (its ``[[faults]]`` timeline): a vehicle failure, by PX4's failure
+unit and type names (MAV_CMD_INJECT_FAILURE's FAILURE_UNIT / FAILURE_TYPE), or a network event
+on a link (``event = "outage"`` for ``duration_s``: the link carries nothing; the network's
+outage windows, netsim/topology.py).
 
 A scheduled fault is the simulator's doing, like a Gazebo world plugin: it needs no
 SYS_FAILURE_EN (that guards the MAVLink command). Units and types the simulation models: the
@@ -14,12 +16,24 @@ UNITS = {"gps": 4}  # FAILURE_UNIT_SENSOR_GPS
 TYPES = {"ok": 0, "off": 1}  # FAILURE_TYPE_OK, FAILURE_TYPE_OFF
 
 
+EVENTS = ("outage",)
+
+
 @dataclass(frozen=True)
 class Fault:
     at_s: float  # simulated time
-    vehicle: int  # instance number, 1-based (vehicle 1 is MAV_SYS_ID 1)
-    unit: str  # a key of UNITS
-    type: str  # a key of TYPES
+    vehicle: int = 1  # instance number, 1-based (vehicle 1 is MAV_SYS_ID 1)
+    unit: str = ""  # a key of UNITS (a vehicle failure)
+    type: str = ""  # a key of TYPES
+    link: str = ""  # a link name or pattern (a network event): "v2", "v1/gcs/down", "v*"
+    event: str = ""  # one of EVENTS
+    duration_s: float = 0.0
+
+    @property
+    def on_network(self) -> bool:
+        return bool(self.link)
 
     def describe(self) -> str:
+        if self.on_network:
+            return f"link {self.link} {self.event} for {self.duration_s:g} s"
         return f"vehicle {self.vehicle} {self.unit} {self.type}"

@@ -47,7 +47,7 @@ from typing import Any
 
 from netsim.topology import make_router
 from vehicles.estimation import SensorConfig
-from vehicles.faults import TYPES, UNITS, Fault
+from vehicles.faults import EVENTS, TYPES, UNITS, Fault
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.wind import WindConfig
@@ -314,13 +314,26 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     wind = _environment(_table(doc, "environment", "environment"))
     sensors = _sensors(_table(doc, "sensors", "sensors"))
     faults = _faults(doc.get("faults", []), count)
+    if any(f.on_network for f in faults):
+        if backend != "embedded":
+            raise ScenarioError("faults: network events need the embedded backend (ns-3 has "
+                                "its own link model)")
+        outages = [{"link": f.link, "start_s": f.at_s, "duration_s": f.duration_s}
+                   for f in faults if f.on_network]
+        topology = {**topology, "outages": [*topology.get("outages", []), *outages]}
+        try:
+            make_router(topology, path="network")
+        except ValueError as exc:
+            raise ScenarioError(str(exc)) from None
+        network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3))
     return Scenario(source, count, home, airframe, params, network, level, daemon, wind, sensors,
                     faults)
 
 
 def _faults(entries: Any, vehicles: int) -> tuple[Fault, ...]:
     """``[[faults]]``: at ``at_s`` seconds of simulated time, vehicle ``vehicle`` (1-based,
-    default 1) gets a failure of ``unit`` (gps) and ``type`` (off, ok): vehicles/faults.py."""
+    default 1) gets a failure of ``unit`` (gps) and ``type`` (off, ok), or link ``link`` has an
+    ``event`` (outage) for ``duration_s``: vehicles/faults.py."""
     if not isinstance(entries, list):
         raise ScenarioError("faults: expected an array of tables ([[faults]])")
     out = []
@@ -328,7 +341,20 @@ def _faults(entries: Any, vehicles: int) -> tuple[Fault, ...]:
         where = f"faults[{i}]"
         if not isinstance(entry, dict):
             raise ScenarioError(f"{where}: expected a table with at_s, vehicle, unit, type")
-        _unknown(entry, ("at_s", "vehicle", "unit", "type"), where)
+        _unknown(entry, ("at_s", "vehicle", "unit", "type", "link", "event", "duration_s"), where)
+        if "link" in entry:
+            for key in ("at_s", "event", "duration_s"):
+                if key not in entry:
+                    raise ScenarioError(f"{where}.{key}: missing")
+            link = entry["link"]
+            if not isinstance(link, str) or not link:
+                raise ScenarioError(f"{where}.link: expected a link name or pattern (v1, "
+                                    f"v1/gcs/down, v*), got {link!r}")
+            at = _number(entry["at_s"], f"{where}.at_s", minimum=0.0)
+            event = _choice(entry["event"], EVENTS, f"{where}.event")
+            duration = _number(entry["duration_s"], f"{where}.duration_s", positive=True)
+            out.append(Fault(float(at), link=link, event=event, duration_s=float(duration)))
+            continue
         for key in ("at_s", "unit", "type"):
             if key not in entry:
                 raise ScenarioError(f"{where}.{key}: missing")

@@ -240,7 +240,7 @@ class Simulation:
         self.faults_fired: list[tuple[float, Fault]] = []
         for fault in faults:
             k = fault.vehicle - 1 - first_index
-            if 0 <= k < len(self.vehicles):
+            if fault.on_network or 0 <= k < len(self.vehicles):
                 self.kernel.schedule(fault.at_s, self._fault, k, fault, priority=PRIORITY_PHYSICS)
         # CORNET: the physics clock is the reference; mobility reaches the network once per
         # sync period (scheduled after the physics step of the same instant).
@@ -254,7 +254,8 @@ class Simulation:
             link.service()
 
     def _fault(self, k: int, fault: Fault) -> None:
-        self.world.set_gps_off(k, fault.type == "off")  # the one unit modelled (faults.UNITS)
+        if not fault.on_network:  # network events are the topology's outage windows
+            self.world.set_gps_off(k, fault.type == "off")  # the one unit modelled (UNITS)
         self.faults_fired.append((self.kernel.now, fault))
         log.info("fault at t=%.3f s: %s", self.kernel.now, fault.describe())
 

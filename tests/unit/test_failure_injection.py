@@ -86,3 +86,28 @@ def test_fault_timeline_in_a_scenario_is_deterministic_and_fly_reports_the_fails
         scenario_mod.parse({"faults": [{"at_s": 1.0, "unit": "warp drive", "type": "off"}]})
     with pytest.raises(scenario_mod.ScenarioError, match=r"faults\[0\].vehicle"):
         scenario_mod.parse({"faults": [{"at_s": 1.0, "vehicle": 3, "unit": "gps", "type": "off"}]})
+
+
+def test_network_outage_in_the_fault_timeline():
+    """A [[faults]] link outage: nothing crosses the link for its duration, then it carries on;
+    the outage is recorded with the vehicle faults."""
+    from gateway.sim import scenario as scenario_mod
+
+    sc = scenario_mod.parse({"faults": [{"at_s": 3.0, "link": "v1", "event": "outage",
+                                         "duration_s": 2.0}]})
+    with Sim(scenario=sc) as sim:
+        api = sim.api(0)
+        sim.advance(3.0)
+        before = len(api.frames)
+        sim.advance(1.9)
+        assert len(api.frames) == before  # the outage
+        sim.advance(1.0)
+        assert len(api.frames) > before
+        assert [(t, f.describe()) for t, f in sim.simulation.faults_fired] == [
+            (3.0, "link v1 outage for 2 s")]
+    with pytest.raises(scenario_mod.ScenarioError, match=r"faults\[0\].duration_s"):
+        scenario_mod.parse({"faults": [{"at_s": 1.0, "link": "v1", "event": "outage"}]})
+    with pytest.raises(scenario_mod.ScenarioError, match="embedded backend"):
+        scenario_mod.parse({"network": {"backend": "ns3"},
+                            "faults": [{"at_s": 1.0, "link": "v1", "event": "outage",
+                                        "duration_s": 1.0}]})
