@@ -5,14 +5,14 @@ outage windows, netsim/topology.py).
 
 A scheduled fault is the simulator's doing, like a Gazebo world plugin: it needs no
 SYS_FAILURE_EN (that guards the MAVLink command). Units and types the simulation models: the
-GPS off and back on.
+GPS and the motors (``instance``: motor number from 1, 0 = all) off and back on.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-UNITS = {"gps": 4}  # FAILURE_UNIT_SENSOR_GPS
+UNITS = {"gps": 4, "motor": 101}  # FAILURE_UNIT_SENSOR_GPS, FAILURE_UNIT_SYSTEM_MOTOR
 TYPES = {"ok": 0, "off": 1}  # FAILURE_TYPE_OK, FAILURE_TYPE_OFF
 
 
@@ -23,6 +23,7 @@ EVENTS = ("outage",)
 class Fault:
     at_s: float  # simulated time
     vehicle: int = 1  # instance number, 1-based (vehicle 1 is MAV_SYS_ID 1)
+    instance: int = 0  # which one of the unit (a motor's number from 1); 0 = all
     unit: str = ""  # a key of UNITS (a vehicle failure)
     type: str = ""  # a key of TYPES
     link: str = ""  # a link name or pattern (a network event): "v2", "v1/gcs/down", "v*"
@@ -36,4 +37,5 @@ class Fault:
     def describe(self) -> str:
         if self.on_network:
             return f"link {self.link} {self.event} for {self.duration_s:g} s"
-        return f"vehicle {self.vehicle} {self.unit} {self.type}"
+        which = f" {self.instance}" if self.instance else ""
+        return f"vehicle {self.vehicle} {self.unit}{which} {self.type}"

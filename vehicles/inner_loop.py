@@ -69,11 +69,13 @@ class InnerCommand:
 @njit_cached
 def control_and_forces(mode, att_sp, yawspeed_sp, thrust_sp, rates_sp, use_rates_sp, landed,
                        att_gains, rate_gains, rate_state, saturation, rows, idle, alpha, dt_s, measured,
-                       estimated, rotor_speed, motor, rotor_xy, yaw_k, wind, forces):  # pragma: no cover
+                       estimated, rotor_speed, motor, rotor_xy, yaw_k, wind, forces,
+                       motor_ok):  # pragma: no cover
     """One physics step of every vehicle's inner loop (module rules). The controllers fly on
     ``estimated`` (attitude, gyro rates less their bias); the physics acts on ``measured``, the
     truth. ``motor``: max rotor speed, motor constant, lag coefficient up, lag coefficient down,
-    linear drag; ``wind``: the air's velocity (NED), which the drag acts against."""
+    linear drag; ``wind``: the air's velocity (NED), which the drag acts against; ``motor_ok``:
+    0 for a rotor whose motor has failed (failure injection: it spins down)."""
     w_max, k_motor, alpha_up, alpha_down, drag = motor[0], motor[1], motor[2], motor[3], motor[4]
     n_rotors = len(yaw_k)
     u = np.zeros(n_rotors)
@@ -109,7 +111,7 @@ def control_and_forces(mode, att_sp, yawspeed_sp, thrust_sp, rates_sp, use_rates
         speeds = rotor_speed[v]
         total = tx = ty = tz = 0.0
         for i in range(n_rotors):
-            cmd = u[i] * w_max
+            cmd = u[i] * w_max * motor_ok[v, i]
             w = speeds[i]
             w += (cmd - w) * (alpha_up if cmd > w else alpha_down)
             speeds[i] = w
@@ -227,6 +229,10 @@ class InnerLoop:
         self.measured = grow(get("measured"), (n, M_SIZE))
         self.estimated = grow(get("estimated"), (n, M_SIZE))
         self.rotor_speed = grow(get("rotor_speed"), (n, self._rotors))
+        old_ok = get("motor_ok")
+        self.motor_ok = np.ones((n, self._rotors))
+        if old_ok is not None and len(old_ok):
+            self.motor_ok[:len(old_ok)] = old_ok
         self.spawn_enu = grow(get("spawn_enu"), (n, 3))
         self.forces = grow(get("forces"), (n, F_SIZE))
 
@@ -265,7 +271,7 @@ class InnerLoop:
                            self.use_rates_sp, self.landed, self.att_gains, self.rate_gains, self.rate_state,
                            self.saturation, self.rows, self.idle_thrust_norm, self.alpha, self.dt_s,
                            self.measured, self.estimated, self.rotor_speed, self.motor,
-                           self.rotor_xy, self.yaw_k, self.wind, self.forces)
+                           self.rotor_xy, self.yaw_k, self.wind, self.forces, self.motor_ok)
 
     def measure(self, raw, dt_s: float) -> None:
         """``raw``: one row per vehicle (position, orientation xyzw, linear and angular velocity,

@@ -177,6 +177,10 @@ class World:
         """Row ``row``'s estimator state (estimation.E_* columns)."""
         return self.estimation.est[row].tolist()
 
+    def set_motor_off(self, row: int, motor: int, off: bool) -> None:
+        """Failure injection: motor ``motor`` (0-based) of row ``row`` stops (``off``) or runs."""
+        self.inner.motor_ok[row, motor] = 0.0 if off else 1.0
+
     def set_gps_off(self, row: int, off: bool) -> None:
         """Failure injection: row ``row``'s GPS gives no fixes (``off``) or works again."""
         self.estimation.set_gps_off(row, off)

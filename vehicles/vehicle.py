@@ -43,6 +43,7 @@ from vehicles.types import (
 
 # MAV_CMD_INJECT_FAILURE: FAILURE_UNIT and FAILURE_TYPE values this vehicle knows.
 FAILURE_UNIT_SENSOR_GPS = 4
+FAILURE_UNIT_SYSTEM_MOTOR = 101
 FAILURE_TYPE_OK, FAILURE_TYPE_OFF = 0, 1
 
 
@@ -61,6 +62,8 @@ class WorldRow(Protocol):
     def estimator(self, row: int) -> list[float]: ...
 
     def set_gps_off(self, row: int, off: bool) -> None: ...
+
+    def set_motor_off(self, row: int, motor: int, off: bool) -> None: ...
 
     def rotor_speeds(self, row: int) -> tuple[float, ...]: ...
 
@@ -287,16 +290,26 @@ class Vehicle:
     def inject_failure(self, now_s: float, unit: int, failure_type: int, instance: int
                        ) -> CommandResult:
         """MAV_CMD_INJECT_FAILURE as PX4 SITL: DENIED unless SYS_FAILURE_EN; the GPS (unit 4)
-        off (type 1) or ok again (type 0); other units and types UNSUPPORTED."""
+        or a motor (unit 101, instance = motor number from 1, 0 = all) off (type 1) or ok again
+        (type 0); other units and types UNSUPPORTED."""
         if int(self.params.get("SYS_FAILURE_EN", 0) or 0) != 1:
             return CommandResult.DENIED
-        if unit != FAILURE_UNIT_SENSOR_GPS or failure_type not in (FAILURE_TYPE_OK,
-                                                                    FAILURE_TYPE_OFF):
+        if failure_type not in (FAILURE_TYPE_OK, FAILURE_TYPE_OFF):
             return CommandResult.UNSUPPORTED
-        if instance not in (0, 1):  # 0: every instance; one GPS here
-            return CommandResult.DENIED
-        self._world.set_gps_off(self._row, failure_type == FAILURE_TYPE_OFF)
-        return CommandResult.ACCEPTED
+        off = failure_type == FAILURE_TYPE_OFF
+        if unit == FAILURE_UNIT_SENSOR_GPS:
+            if instance not in (0, 1):  # 0: every instance; one GPS here
+                return CommandResult.DENIED
+            self._world.set_gps_off(self._row, off)
+            return CommandResult.ACCEPTED
+        if unit == FAILURE_UNIT_SYSTEM_MOTOR:
+            rotors = self.airframe.rotor_count
+            if not 0 <= instance <= rotors:
+                return CommandResult.DENIED
+            for motor in range(rotors) if instance == 0 else (instance - 1,):
+                self._world.set_motor_off(self._row, motor, off)
+            return CommandResult.ACCEPTED
+        return CommandResult.UNSUPPORTED
 
     def calibrate(self, now_s: float, kind: str) -> CommandResult:
         """MAV_CMD_PREFLIGHT_CALIBRATION for ``kind`` (vehicles/calibration.py KINDS)."""

@@ -341,7 +341,8 @@ def _faults(entries: Any, vehicles: int) -> tuple[Fault, ...]:
         where = f"faults[{i}]"
         if not isinstance(entry, dict):
             raise ScenarioError(f"{where}: expected a table with at_s, vehicle, unit, type")
-        _unknown(entry, ("at_s", "vehicle", "unit", "type", "link", "event", "duration_s"), where)
+        _unknown(entry, ("at_s", "vehicle", "unit", "type", "instance", "link", "event",
+                         "duration_s"), where)
         if "link" in entry:
             for key in ("at_s", "event", "duration_s"):
                 if key not in entry:
@@ -366,7 +367,11 @@ def _faults(entries: Any, vehicles: int) -> tuple[Fault, ...]:
                                 f"got {vehicle}")
         unit = _choice(entry["unit"], tuple(UNITS), f"{where}.unit")
         kind = _choice(entry["type"], tuple(TYPES), f"{where}.type")
-        out.append(Fault(float(at), vehicle, unit, kind))
+        instance = int(_number(entry.get("instance", 0), f"{where}.instance", integer=True,
+                               minimum=0))
+        if unit == "motor" and instance > 4:  # the x500's four
+            raise ScenarioError(f"{where}.instance: motors are 1..4 (0: all), got {instance}")
+        out.append(Fault(float(at), vehicle, instance=instance, unit=unit, type=kind))
     return tuple(sorted(out, key=lambda f: f.at_s))
 
 

@@ -254,8 +254,14 @@ class Simulation:
             link.service()
 
     def _fault(self, k: int, fault: Fault) -> None:
-        if not fault.on_network:  # network events are the topology's outage windows
-            self.world.set_gps_off(k, fault.type == "off")  # the one unit modelled (UNITS)
+        off = fault.type == "off"
+        if fault.unit == "gps":
+            self.world.set_gps_off(k, off)
+        elif fault.unit == "motor":
+            rotors = self.world.airframe.rotor_count
+            for motor in range(rotors) if fault.instance == 0 else (fault.instance - 1,):
+                self.world.set_motor_off(k, motor, off)
+        # network events are the topology's outage windows: nothing to do here
         self.faults_fired.append((self.kernel.now, fault))
         log.info("fault at t=%.3f s: %s", self.kernel.now, fault.describe())
 

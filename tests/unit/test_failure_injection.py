@@ -50,7 +50,7 @@ def test_gps_off_in_hold_descends_lands_and_disarms():
 
 @pytest.mark.parametrize("params, unit, kind, result", [
     ({"SYS_FAILURE_EN": 0}, GPS, OFF, 2),  # DENIED: failure injection disabled
-    ({}, 101, OFF, 3),  # a motor: not simulated here, UNSUPPORTED
+    ({}, 100, OFF, 3),  # the battery: not simulated here, UNSUPPORTED
     ({}, GPS, 2, 3),  # GPS stuck: UNSUPPORTED
 ])
 def test_refusals(params, unit, kind, result):
@@ -111,3 +111,18 @@ def test_network_outage_in_the_fault_timeline():
         scenario_mod.parse({"network": {"backend": "ns3"},
                             "faults": [{"at_s": 1.0, "link": "v1", "event": "outage",
                                         "duration_s": 1.0}]})
+
+
+def test_a_motor_off_is_lost_thrust_and_the_vehicle_comes_down():
+    """FAILURE_UNIT_SYSTEM_MOTOR off: the rotor spins down (physics, no failure detector is
+    simulated): a quadrotor with one motor out loses height and control; ok restores it."""
+    with Sim(params={"MIS_TAKEOFF_ALT": 10.0}) as sim:
+        hover(sim)
+        api = sim.api(0)
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 101, OFF, 1) == 0
+        sim.advance(0.5)
+        speeds = sim.status(0).extra["rotor_speed_radps"]
+        assert speeds[0] < 0.2 * max(speeds)
+        sim.advance(1.5)
+        assert sim.vehicles[0].truth.position_ned_m[2] > -9.0  # falling
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 101, OFF, 9) == 2  # no motor 9
