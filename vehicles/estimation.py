@@ -50,6 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vehicles.control.compiled import njit_cached
+from vehicles.control.rotation import dcm
 from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_SIZE, M_VEL
 from vehicles.types import GRAVITY_MPS2
 
@@ -145,15 +146,7 @@ def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_
             h[i] = m[M_POS + i]
             h[3 + i] = m[M_VEL + i]
         qw, qx, qy, qz = m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3]
-        r00 = 1 - 2 * (qy * qy + qz * qz)
-        r01 = 2 * (qx * qy - qw * qz)
-        r02 = 2 * (qx * qz + qw * qy)
-        r10 = 2 * (qx * qy + qw * qz)
-        r11 = 1 - 2 * (qx * qx + qz * qz)
-        r12 = 2 * (qy * qz - qw * qx)
-        r20 = 2 * (qx * qz - qw * qy)
-        r21 = 2 * (qy * qz + qw * qx)
-        r22 = 1 - 2 * (qx * qx + qy * qy)
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = dcm(qw, qx, qy, qz)
         fn, fe, fd = m[M_ACCEL], m[M_ACCEL + 1], m[M_ACCEL + 2] - 9.80665
         f0 = r00 * fn + r10 * fe + r20 * fd
         f1 = r01 * fn + r11 * fe + r21 * fd
@@ -234,15 +227,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
             norm = -norm
         qw, qx, qy, qz = nw / norm, nx / norm, ny / norm, nz / norm
         e[E_Q], e[E_Q + 1], e[E_Q + 2], e[E_Q + 3] = qw, qx, qy, qz
-        r00 = 1 - 2 * (qy * qy + qz * qz)
-        r01 = 2 * (qx * qy - qw * qz)
-        r02 = 2 * (qx * qz + qw * qy)
-        r10 = 2 * (qx * qy + qw * qz)
-        r11 = 1 - 2 * (qx * qx + qz * qz)
-        r12 = 2 * (qy * qz - qw * qx)
-        r20 = 2 * (qx * qz - qw * qy)
-        r21 = 2 * (qy * qz + qw * qx)
-        r22 = 1 - 2 * (qx * qx + qy * qy)
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = dcm(qw, qx, qy, qz)
         # --- velocity and position: the specific force in NED, plus gravity -------------------
         f0, f1, f2 = s[S_ACC], s[S_ACC + 1], s[S_ACC + 2] - e[E_ACC_BIAS_Z]
         an = r00 * f0 + r01 * f1 + r02 * f2

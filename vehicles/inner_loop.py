@@ -33,6 +33,7 @@ from vehicles.control.attitude_control import attitude_rates
 from vehicles.control.compiled import njit_cached
 from vehicles.control.mixer import mix_into
 from vehicles.control.rate_control import STATE_SIZE, d_filter_alpha, rate_pid
+from vehicles.control.rotation import dcm
 
 MODE_OFF = 0
 MODE_IDLE = 1
@@ -167,15 +168,7 @@ def measure(raw, spawn_enu, dt_s, measured):  # pragma: no cover - compiled
         m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3] = qw, qx, qy, qz
         # Body rates: R^T · ω_ned.
         wn, we, wd = r[11], r[10], -r[12]
-        r00 = 1 - 2 * (qy * qy + qz * qz)
-        r01 = 2 * (qx * qy - qw * qz)
-        r02 = 2 * (qx * qz + qw * qy)
-        r10 = 2 * (qx * qy + qw * qz)
-        r11 = 1 - 2 * (qx * qx + qz * qz)
-        r12 = 2 * (qy * qz - qw * qx)
-        r20 = 2 * (qx * qz - qw * qy)
-        r21 = 2 * (qy * qz + qw * qx)
-        r22 = 1 - 2 * (qx * qx + qy * qy)
+        r00, r01, r02, r10, r11, r12, r20, r21, r22 = dcm(qw, qx, qy, qz)
         m[M_RATES] = r00 * wn + r10 * we + r20 * wd
         m[M_RATES + 1] = r01 * wn + r11 * we + r21 * wd
         m[M_RATES + 2] = r02 * wn + r12 * we + r22 * wd
