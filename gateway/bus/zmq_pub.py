@@ -8,6 +8,7 @@ Messages are two frames: the topic (ASCII) and a JSON object.
   cornet.state   10 Hz simulated: every vehicle's mode, arming, position, velocity, battery
   cornet.links   1 Hz simulated: every link direction's counters and latency percentiles
   cornet.packet  each datagram event on a link: send / drop (with reason) / recv
+  cornet.fault   each fault of the scenario's timeline as it fires
 
 The socket is an XPUB, so the publisher knows what subscribers asked for: packet events (one
 per datagram per event, the costly topic) are only built while someone subscribes to them.
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import json
 import logging
+from typing import Any
 
 import zmq
 
@@ -33,6 +35,7 @@ SEND_HWM = 10_000
 TOPIC_STATE = b"cornet.state"
 TOPIC_LINKS = b"cornet.links"
 TOPIC_PACKET = b"cornet.packet"
+TOPIC_FAULT = b"cornet.fault"
 
 # QGC's names for PX4 modes (px4_custom_mode.h; QGC's PX4FirmwarePlugin), for humans reading the stream.
 MODE_NAMES = {
@@ -120,6 +123,16 @@ class Publisher:
             return
         self.publish(TOPIC_PACKET, {"t": _r(time_s, 6), "event": event, "link": link,
                                     "size": size, "detail": detail})
+
+    def fault(self, now_s: float, fault: Any) -> None:
+        """A fault of the scenario's timeline fired (vehicles/faults.py)."""
+        body: dict[str, Any] = {"t": _r(now_s, 4), "fault": fault.describe()}
+        if fault.on_network:
+            body.update(link=fault.link, event=fault.event, duration_s=fault.duration_s)
+        else:
+            body.update(sysid=fault.vehicle, unit=fault.unit, type=fault.type,
+                        instance=fault.instance)
+        self.publish(TOPIC_FAULT, body)
 
     def close(self) -> None:
         self.socket.close(0)

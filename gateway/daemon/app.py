@@ -144,6 +144,7 @@ class Daemon:
             pub, sim = self.publisher, self.sim
             sim.every(zmq_pub.STATE_PERIOD_S, lambda now: pub.vehicle_states(now, sim))
             sim.every(zmq_pub.LINKS_PERIOD_S, lambda now: pub.link_stats(now, sim))
+            sim.fault_observers.append(pub.fault)
         self.pacer = Pacer(self.sim.kernel, speed=config.speed)
         self.endpoints: dict[tuple[int, LinkKind], UdpEndpoint] = {}
         self._waiting: select.epoll | None = None  # every endpoint's socket, once open

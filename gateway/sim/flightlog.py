@@ -192,7 +192,9 @@ class FlightLog:
                 "state_period_s": self.state_period_s,
                 "home": None if home is None else [home.lat_deg, home.lon_deg, home.alt_amsl_m],
                 "network": sim.network.summary, "seed": sim.network.seed,
-                "vehicles": vehicles, **extra}
+                "vehicles": vehicles,
+                "faults": [{"at_s": f.at_s, "fault": f.describe()}
+                           for f in getattr(sim, "faults", ())], **extra}
         write_atomic(self.dir / META_FILE, json.dumps(meta, indent=1, sort_keys=True) + "\n")
 
     def _tlog(self, index: int, kind: LinkKind) -> BinaryIO:

@@ -237,7 +237,9 @@ class Simulation:
                                priority=PRIORITY_PHYSICS)
         # The scenario's fault timeline (vehicles/faults.py): each at its time, before the
         # physics step of that instant; ``faults_fired`` records what happened when.
+        self.faults = tuple(faults)
         self.faults_fired: list[tuple[float, Fault]] = []
+        self.fault_observers: list[Callable[[float, Fault], None]] = []  # the ZeroMQ bus
         for fault in faults:
             k = fault.vehicle - 1 - first_index
             if fault.on_network or 0 <= k < len(self.vehicles):
@@ -264,6 +266,8 @@ class Simulation:
         # network events are the topology's outage windows: nothing to do here
         self.faults_fired.append((self.kernel.now, fault))
         log.info("fault at t=%.3f s: %s", self.kernel.now, fault.describe())
+        for observer in self.fault_observers:
+            observer(self.kernel.now, fault)
 
     def _air(self, wind: WindConfig | None) -> Wind | None:
         """The air: gusts drawn from the stream "wind" of the scenario's seed."""

@@ -66,3 +66,28 @@ def test_cornet_watch_shows_live_vehicles(daemon_factory):
     rows = [line.split() for line in out.stdout.splitlines()]
     vehicle_rows = {r[0] for r in rows if r and r[0] in {"1", "2", "3"} and "Hold" in r}
     assert vehicle_rows == {"1", "2", "3"}, out.stdout
+
+
+def test_faults_of_the_timeline_are_published(daemon_factory, tmp_path):
+    """A scenario's [[faults]] fire on the daemon's clock and each one is a cornet.fault
+    message on the bus."""
+    scenario = tmp_path / "faults.toml"
+    scenario.write_text('[[faults]]\nat_s = 2.0\nunit = "gps"\ntype = "off"\n\n'
+                        '[[faults]]\nat_s = 2.5\nlink = "v1/gcs/*"\nevent = "outage"\n'
+                        'duration_s = 1.0\n')
+    endpoint = f"tcp://127.0.0.1:{free_tcp_port()}"
+    daemon_factory("--zmq-pub", endpoint, "--scenario", str(scenario))
+    sub = zmq.Context.instance().socket(zmq.SUB)
+    sub.setsockopt(zmq.LINGER, 0)
+    sub.setsockopt(zmq.SUBSCRIBE, b"cornet.fault")
+    sub.connect(endpoint)
+    got = []
+    deadline = time.monotonic() + 10
+    try:
+        while time.monotonic() < deadline and len(got) < 2:
+            if sub.poll(500):
+                got.append(json.loads(sub.recv_multipart()[1]))
+    finally:
+        sub.close(0)
+    assert [m["fault"] for m in got] == ["vehicle 1 gps off", "link v1/gcs/* outage for 1 s"]
+    assert got[0]["unit"] == "gps" and got[1]["duration_s"] == 1.0

@@ -78,6 +78,9 @@ def test_fault_timeline_in_a_scenario_is_deterministic_and_fly_reports_the_fails
     assert res.landed and res.disarmed and not res.mission_finished
     summary = res.summary()
     assert "faults: t=20.0 s vehicle 1 gps off" in summary and "failsafes:" in summary
+    import json
+    meta = json.loads((tmp_path / "a" / "meta.json").read_text())
+    assert meta["faults"] == [{"at_s": 20.0, "fault": "vehicle 1 gps off"}]
     for name in ("state.csv", "v1-api.tlog"):
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
     ulogs = [sorted((tmp_path / r).rglob("*.ulg")) for r in ("a", "b")]

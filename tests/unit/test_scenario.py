@@ -7,6 +7,7 @@ import pytest
 
 from gateway.sim.scenario import DaemonSettings, ScenarioError, describe, load, parse
 from gateway.sim.simulation import Simulation
+from netsim.ns3.bridge import BINARY, build_missing_message
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SHIPPED = sorted((ROOT / "scenarios").glob("*.toml"))
@@ -20,6 +21,8 @@ def test_the_five_scenarios_are_shipped():
 def test_shipped_scenarios_load_and_run(path):
     s = load(path)
     assert "ok" in describe(s)
+    if s.network.backend == "ns3" and not BINARY.is_file():
+        pytest.skip(build_missing_message())
     sim = Simulation(s.vehicles, s.network, home=s.home)
     try:
         sim.run(until=2.0)
