@@ -310,7 +310,10 @@ class Sim:
             run = self.flightlog.dir  # PX4's logger: <log_dir>/vehicle-<sysid>/log/…
             self.logs = Logs(self.simulation, lambda sysid: [run / f"vehicle-{sysid}"],
                              boot_unix_s)
-            attach_ftp(self.simulation, lambda sysid: [run / f"vehicle-{sysid}"])
+        # MAVLink FTP: the vehicle's root when there is a log dir, PX4's etc/extras always.
+        run_dir = self.flightlog.dir if self.flightlog is not None else None
+        attach_ftp(self.simulation,
+                   lambda sysid: [run_dir / f"vehicle-{sysid}"] if run_dir is not None else [])
         self.clients: dict[tuple[int, LinkKind], Client] = {
             (i, kind): Client(self, i, kind) for i in range(n)
             for kind in self.simulation.link_kinds}

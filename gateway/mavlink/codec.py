@@ -41,6 +41,14 @@ LOG_INTERVAL_S = 1.0  # at most one debug line per second of simulated time per 
 MSG_ID_PROTOCOL_VERSION = 300
 CRC_EXTRA_PROTOCOL_VERSION = 217  # computed from the XML definition, see tests
 PROTOCOL_VERSION_PAYLOAD = struct.pack("<HHH8s8s", 200, 100, 200, bytes(8), bytes(8))
+# COMPONENT_METADATA (397) and COMPONENT_INFORMATION (395) are not in it either: time_boot_ms,
+# file CRC(s), URI(s) of char[100]; CRC_EXTRA from their XML definitions (see tests).
+MSG_ID_COMPONENT_METADATA = 397
+CRC_EXTRA_COMPONENT_METADATA = 182
+COMPONENT_METADATA = struct.Struct("<II100s")
+MSG_ID_COMPONENT_INFORMATION = 395
+CRC_EXTRA_COMPONENT_INFORMATION = 0
+COMPONENT_INFORMATION = struct.Struct("<III100s100s")
 
 # after the magic: len, incompat flags, compat flags, seq, sysid, compid, msgid lo16, msgid hi8
 _HEADER = struct.Struct("<BBBBBBHB")

@@ -24,11 +24,18 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import (
+    COMPONENT_INFORMATION,
+    COMPONENT_METADATA,
+    CRC_EXTRA_COMPONENT_INFORMATION,
+    CRC_EXTRA_COMPONENT_METADATA,
     CRC_EXTRA_PROTOCOL_VERSION,
+    MSG_ID_COMPONENT_INFORMATION,
+    MSG_ID_COMPONENT_METADATA,
     MSG_ID_PROTOCOL_VERSION,
     PROTOCOL_VERSION_PAYLOAD,
 )
@@ -58,7 +65,14 @@ FLIGHT_CUSTOM_VERSION = list(b"c0rnet01")  # "git hash" bytes
 UID_BASE = 0x434F524E45540000  # "CORNET\0\0"; + sysid so every vehicle differs
 
 # Message ids QGC asks for that we do not serve: answering at once keeps its connect fast.
-REFUSED_MESSAGES = frozenset({397, 395, 435})  # COMPONENT_METADATA/_INFORMATION, AVAILABLE_MODES
+REFUSED_MESSAGES = frozenset({435})  # AVAILABLE_MODES
+
+
+class MetadataFiles(Protocol):
+    """What COMPONENT_METADATA points at (gateway/onboard/metadata.py serves it over FTP)."""
+
+    uri: str
+    general_crc: int
 
 ROI_COMMANDS = frozenset({
     M.MAV_CMD_DO_SET_ROI, M.MAV_CMD_DO_SET_ROI_LOCATION, M.MAV_CMD_DO_SET_ROI_NONE,
@@ -102,6 +116,8 @@ class CommandService:
         self.say = say
         self.snapshot = snapshot
         self.scheduler = scheduler
+        # Attached with the vehicle's FTP files; without them the request is UNSUPPORTED.
+        self.component_metadata: MetadataFiles | None = None
         self._handlers: dict[int, Callable[[Command, float], int | None]] = {
             M.MAV_CMD_COMPONENT_ARM_DISARM: self._arm_disarm,
             M.MAV_CMD_NAV_TAKEOFF: self._takeoff,
@@ -290,6 +306,8 @@ class CommandService:
             return self._protocol_version(cmd, now_s)
         if msg_id == M.MAVLINK_MSG_ID_MESSAGE_INTERVAL:
             return self._send_interval(_int_or(cmd.p(2), -1))
+        if msg_id in (MSG_ID_COMPONENT_METADATA, MSG_ID_COMPONENT_INFORMATION):
+            return self._component_metadata(msg_id, now_s)
         if msg_id in REFUSED_MESSAGES:
             return UNSUPPORTED
         spec = STREAMS_BY_ID.get(msg_id)
@@ -299,6 +317,22 @@ class CommandService:
         if frame is None:
             return DENIED  # e.g. HOME_POSITION before home is set
         self.send(frame)
+        return ACCEPTED
+
+    def _component_metadata(self, msg_id: int, now_s: float) -> int:
+        """PX4's COMPONENT_METADATA stream answers with the general metadata file's URI and
+        CRC; its COMPONENT_INFORMATION (what older QGC asks) carries the same two."""
+        meta = self.component_metadata
+        if meta is None:
+            return UNSUPPORTED
+        boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
+        uri = meta.uri.encode()[:99]
+        if msg_id == MSG_ID_COMPONENT_METADATA:
+            payload = COMPONENT_METADATA.pack(boot_ms, meta.general_crc, uri)
+            self.send(self.encoder.frame(msg_id, CRC_EXTRA_COMPONENT_METADATA, payload))
+        else:
+            payload = COMPONENT_INFORMATION.pack(boot_ms, meta.general_crc, 0, uri, b"")
+            self.send(self.encoder.frame(msg_id, CRC_EXTRA_COMPONENT_INFORMATION, payload))
         return ACCEPTED
 
     def _autopilot_capabilities(self, cmd: Command, now_s: float) -> int:

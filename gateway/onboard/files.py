@@ -1,6 +1,7 @@
 """A vehicle's files as MAVLink FTP serves them (gateway/mavlink/ftp.py's FileRoot): its root
 directory (``<state dir or run dir>/vehicle-<sysid>``: the logs under ``log/``, the saved
-parameters and plans), like a PX4 SITL instance's rootfs.
+parameters and plans), like a PX4 SITL instance's rootfs, and PX4's read-only ROMFS
+``etc/extras/`` (the component metadata of gateway/onboard/metadata.py) over it.
 
 Rules:
 - Paths are relative to the root; a leading "/" and PX4's "/fs/microsd" prefix both mean the
@@ -8,8 +9,11 @@ Rules:
 - Errors follow PX4's MavlinkFTP: a missing file to open, read or list → FailErrno ENOENT;
   removing one → FileNotFound; creating a directory that exists → FileExists; other OS errors
   → FailErrno with their errno.
-- ``attach_ftp(sim, roots_for)`` gives every link of every vehicle its root (the first of
-  ``roots_for(sysid)``); with none, FTP answers FileNotFound.
+- ``etc``, ``etc/extras`` and its files exist whether or not there is a root directory; they
+  are read-only as PX4's ROMFS (changing them → FailErrno EROFS). Without a root directory
+  every other path is FileNotFound.
+- ``attach_ftp(sim, roots_for)`` gives every link of every vehicle its files (the root is the
+  first of ``roots_for(sysid)``) and lets the vehicle answer COMPONENT_METADATA.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from gateway.mavlink.ftp import (
     ERR_FILE_PROTECTED,
     FtpError,
 )
+from gateway.onboard import metadata
 
 PX4_SD_PREFIX = "/fs/microsd"
 
@@ -38,13 +43,45 @@ def _errno(exc: OSError) -> FtpError:
 
 
 class VehicleFiles:
-    def __init__(self, root: Path) -> None:
-        self.root = Path(root)
+    def __init__(self, root: Path | None, extras: dict[str, bytes] | None = None) -> None:
+        self.root = Path(root) if root is not None else None
+        self.extras = dict(extras or {})
 
-    def _path(self, path: str) -> Path:
+    @staticmethod
+    def _rel(path: str) -> str:
         if path.startswith(PX4_SD_PREFIX):
             path = path[len(PX4_SD_PREFIX):]
-        rel = path.lstrip("/")
+        return "/".join(p for p in path.split("/") if p not in ("", "."))
+
+    def _rom(self, path: str) -> str | None:
+        """``""`` for the directories of the ROMFS part, a file name under etc/extras, or None
+        for a path outside it."""
+        rel = self._rel(path)
+        if rel in ("etc", metadata.EXTRAS_DIR):
+            return ""
+        if rel.startswith(metadata.EXTRAS_DIR + "/"):
+            return rel[len(metadata.EXTRAS_DIR) + 1:]
+        return None
+
+    def _rom_file(self, path: str) -> bytes | None:
+        name = self._rom(path)
+        if name is None:
+            return None
+        if name == "":
+            raise FtpError(ERR_FAIL_ERRNO, errno.EISDIR)
+        data = self.extras.get(name)
+        if data is None:
+            raise FtpError(ERR_FAIL_ERRNO, errno.ENOENT)
+        return data
+
+    def _read_only(self, path: str) -> None:
+        if self._rom(path) is not None:
+            raise FtpError(ERR_FAIL_ERRNO, errno.EROFS)
+
+    def _path(self, path: str) -> Path:
+        if self.root is None:
+            raise FtpError(ERR_FILE_NOT_FOUND)
+        rel = self._rel(path)
         root = self.root.resolve()
         full = (root / rel).resolve()
         if full != root and root not in full.parents:
@@ -52,12 +89,21 @@ class VehicleFiles:
         return full
 
     def list(self, path: str) -> list[tuple[bool, str, int]]:
+        rel = self._rel(path)
+        if rel == "etc":
+            return [(True, "extras", 0)]
+        if rel == metadata.EXTRAS_DIR:
+            return [(False, name, len(data)) for name, data in sorted(self.extras.items())]
+        if self._rom(path) is not None:
+            raise FtpError(ERR_FAIL_ERRNO, errno.ENOENT)
+        out: list[tuple[bool, str, int]] = [(True, "etc", 0)] if rel == "" else []
+        if self.root is None and rel == "":
+            return out
         p = self._path(path)
         try:
-            names = sorted(os.listdir(p))
+            names = sorted(n for n in os.listdir(p) if not (rel == "" and n == "etc"))
         except OSError as exc:
             raise _errno(exc) from None
-        out = []
         for name in names:
             try:
                 st = (p / name).stat()
@@ -68,6 +114,9 @@ class VehicleFiles:
         return out
 
     def size(self, path: str) -> int:
+        data = self._rom_file(path)
+        if data is not None:
+            return len(data)
         p = self._path(path)
         try:
             if p.is_dir():
@@ -77,6 +126,9 @@ class VehicleFiles:
             raise _errno(exc) from None
 
     def read(self, path: str, offset: int, count: int) -> bytes:
+        data = self._rom_file(path)
+        if data is not None:
+            return data[offset:offset + count]
         try:
             with open(self._path(path), "rb") as f:
                 f.seek(offset)
@@ -85,6 +137,7 @@ class VehicleFiles:
             raise _errno(exc) from None
 
     def write(self, path: str, offset: int, data: bytes) -> None:
+        self._read_only(path)
         try:
             with open(self._path(path), "r+b") as f:
                 f.seek(offset)
@@ -93,6 +146,7 @@ class VehicleFiles:
             raise _errno(exc) from None
 
     def create(self, path: str, exclusive: bool) -> None:
+        self._read_only(path)
         p = self._path(path)
         try:
             p.parent.mkdir(parents=True, exist_ok=True)
@@ -104,6 +158,7 @@ class VehicleFiles:
             raise _errno(exc) from None
 
     def remove(self, path: str) -> None:
+        self._read_only(path)
         try:
             self._path(path).unlink()
         except FileNotFoundError:
@@ -112,6 +167,7 @@ class VehicleFiles:
             raise _errno(exc) from None
 
     def mkdir(self, path: str) -> None:
+        self._read_only(path)
         try:
             self._path(path).mkdir()
         except FileExistsError:
@@ -120,8 +176,9 @@ class VehicleFiles:
             raise _errno(exc) from None
 
     def rmdir(self, path: str) -> None:
+        self._read_only(path)
         p = self._path(path)
-        if p == self.root.resolve():
+        if self.root is not None and p == self.root.resolve():
             raise FtpError(ERR_FILE_PROTECTED)
         try:
             p.rmdir()
@@ -131,6 +188,8 @@ class VehicleFiles:
             raise _errno(exc) from None
 
     def rename(self, old: str, new: str) -> None:
+        self._read_only(old)
+        self._read_only(new)
         try:
             shutil.move(self._path(old), self._path(new))
         except FileNotFoundError:
@@ -139,6 +198,7 @@ class VehicleFiles:
             raise _errno(exc) from None
 
     def truncate(self, path: str, size: int) -> None:
+        self._read_only(path)
         try:
             os.truncate(self._path(path), size)
         except OSError as exc:
@@ -147,6 +207,9 @@ class VehicleFiles:
     def crc32(self, path: str) -> int:
         """PX4's crc32part (and MAVSDK's): the CRC-32 polynomial starting at 0, no final XOR.
         zlib's crc32 inverts before and after, so start it at ~0 and invert its result."""
+        data = self._rom_file(path)
+        if data is not None:
+            return metadata.mavlink_crc32(data)
         value = 0xFFFFFFFF
         try:
             with open(self._path(path), "rb") as f:
@@ -158,9 +221,11 @@ class VehicleFiles:
 
 
 def attach_ftp(sim: Any, roots_for: Callable[[int], list[Path]]) -> None:
+    component = metadata.shared()
     for link in sim.links.values():
         session = link.session
         roots = roots_for(session.sysid)
         if roots:
             roots[0].mkdir(parents=True, exist_ok=True)
-            session.ftp.root = VehicleFiles(roots[0])
+        session.ftp.root = VehicleFiles(roots[0] if roots else None, component.files)
+        session.commands.component_metadata = component

@@ -4,6 +4,8 @@ download (log_files, the flow of MAVSDK-Python's logfile_download.py) and failur
 
 from __future__ import annotations
 
+import asyncio
+
 import pytest
 import pyulog
 
@@ -108,3 +110,31 @@ async def test_mavsdk_ftp_lists_downloads_uploads_and_compares(daemon_factory, t
         assert (tmp_path / "down" / "up.txt").read_bytes() == local.read_bytes()
         with pytest.raises(FtpError):
             await drone.ftp.list_directory("/../..")
+
+
+@pytest.mark.asyncio
+async def test_mavsdk_component_metadata_gets_px4s_parameter_metadata(daemon_factory):
+    """MAVSDK's component_metadata plugin (QGC's flow): COMPONENT_METADATA, then
+    etc/extras/component_general.json.xz and parameters.json.xz over MAVLink FTP, decompressed,
+    with every parameter's description, units and range — also without a state dir."""
+    import json
+
+    from mavsdk.component_metadata import MetadataType
+
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        updates = drone.component_metadata.metadata_available()
+        await drone.component_metadata.request_autopilot_component()
+        got = {}
+        async with asyncio.timeout(60):
+            async for update in updates:
+                got[update.type] = update
+                if update.type == MetadataType.ALL_COMPLETED:
+                    break
+        assert MetadataType.PARAMETER in got, got
+        params = json.loads(got[MetadataType.PARAMETER].json_metadata)
+        by_name = {p["name"]: p for p in params["parameters"]}
+        assert by_name["MPC_XY_CRUISE"]["units"] == "m/s" and by_name["MPC_XY_CRUISE"]["shortDesc"]
+        assert by_name["SYS_FAILURE_EN"]["type"] == "Int32"
+        data = await drone.component_metadata.get_metadata(1, MetadataType.PARAMETER)
+        assert json.loads(data.json_metadata) == params

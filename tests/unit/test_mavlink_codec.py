@@ -7,6 +7,7 @@ from pymavlink.dialects.v20 import common as M
 from pymavlink.generator.mavcrc import x25crc
 from test_mavlink_support import FakeVehicle, acks, make
 
+from gateway.mavlink import codec
 from gateway.mavlink.codec import (
     CRC_EXTRA_PROTOCOL_VERSION,
     Decoder,
@@ -20,16 +21,29 @@ from gateway.mavlink.streams import STREAMS
 from vehicles.orbit import OrbitStatus
 
 
-def test_protocol_version_crc_extra_matches_xml_definition():
-    crc = x25crc(b"PROTOCOL_VERSION ")
-    for ftype, name, n in [("uint16_t", "version", 0), ("uint16_t", "min_version", 0),
-                           ("uint16_t", "max_version", 0), ("uint8_t", "spec_version_hash", 8),
-                           ("uint8_t", "library_version_hash", 8)]:
+def crc_extra(name: str, fields: list[tuple[str, str, int]]) -> int:
+    """MAVLink's CRC_EXTRA of a message from its XML fields (in wire order, arrays with n)."""
+    crc = x25crc(name.encode() + b" ")
+    for ftype, fname, n in fields:
         crc.accumulate_str(ftype + " ")
-        crc.accumulate_str(name + " ")
+        crc.accumulate_str(fname + " ")
         if n:
             crc.accumulate([n])
-    assert (crc.crc & 0xFF) ^ (crc.crc >> 8) == CRC_EXTRA_PROTOCOL_VERSION
+    return (crc.crc & 0xFF) ^ (crc.crc >> 8)
+
+
+def test_hand_framed_crc_extras_match_the_xml_definitions():
+    assert crc_extra("PROTOCOL_VERSION", [
+        ("uint16_t", "version", 0), ("uint16_t", "min_version", 0),
+        ("uint16_t", "max_version", 0), ("uint8_t", "spec_version_hash", 8),
+        ("uint8_t", "library_version_hash", 8)]) == CRC_EXTRA_PROTOCOL_VERSION
+    assert crc_extra("COMPONENT_METADATA", [
+        ("uint32_t", "time_boot_ms", 0), ("uint32_t", "file_crc", 0),
+        ("char", "uri", 100)]) == codec.CRC_EXTRA_COMPONENT_METADATA
+    assert crc_extra("COMPONENT_INFORMATION", [
+        ("uint32_t", "time_boot_ms", 0), ("uint32_t", "general_metadata_file_crc", 0),
+        ("uint32_t", "peripherals_metadata_file_crc", 0), ("char", "general_metadata_uri", 100),
+        ("char", "peripherals_metadata_uri", 100)]) == codec.CRC_EXTRA_COMPONENT_INFORMATION
 
 
 @pytest.mark.parametrize("spec", STREAMS, ids=lambda s: str(s.msg_id))

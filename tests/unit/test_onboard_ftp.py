@@ -85,7 +85,11 @@ def test_ftp_over_the_vehicle_root(tmp_path):
         assert sim.simulation.internal_errors == 0
 
 
-def test_without_storage_every_path_is_not_found():
+def test_without_storage_only_px4s_etc_extras_is_there():
     with Sim() as sim:
         sim.advance(0.5)
-        assert Ftp(sim).one(ftp.OP_LIST, b"/")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))
+        f = Ftp(sim)
+        assert f.one(ftp.OP_LIST, b"/") == (ftp.OP_ACK, b"Detc\0")
+        assert f.one(ftp.OP_LIST, b"/log")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))
+        assert f.one(ftp.OP_OPEN_RO, b"/notes.txt")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))
+        assert f.one(ftp.OP_CREATE, b"/new.bin")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))

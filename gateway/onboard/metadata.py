@@ -1,0 +1,107 @@
+"""Component metadata as PX4 serves it: the files behind COMPONENT_METADATA (and the older
+COMPONENT_INFORMATION), read over MAVLink FTP from ``etc/extras/`` — how QGC and MAVSDK's
+component_metadata plugin learn every parameter's description, units, range and group.
+
+PX4 builds them into its ROMFS (src/lib/component_information, src/lib/parameters/px4params
+jsonout.py) and answers MAV_CMD_REQUEST_MESSAGE(COMPONENT_METADATA) with
+``mftp://etc/extras/component_general.json.xz`` and that file's CRC
+(mavlink/streams/COMPONENT_METADATA.hpp). Here:
+
+- ``parameters.json``: version 1, one entry per parameter of the vehicle's table with PX4's
+  schema keys (name, type "Int32"/"Float", default, group, category, shortDesc, units, min, max),
+  sorted keys, indent 2, as jsonout.py writes it;
+- ``component_general.json``: version 1, ``metadataTypes`` = the parameter type
+  (COMP_METADATA_TYPE_PARAMETER) with its mftp URI and ``fileCrc``, the MAVLink CRC-32 of the
+  uncompressed file (generate_component_general.py);
+- both served xz-compressed (``*.json.xz``) like PX4's ROMFS; read-only (PX4's ROMFS is).
+
+``ComponentMetadata`` is built once per process (the table is the same for every vehicle) and
+holds the files as bytes: nothing is written to disk.
+"""
+
+from __future__ import annotations
+
+import json
+import lzma
+import zlib
+from dataclasses import dataclass
+
+from vehicles.params import ParamInfo, ParamType, param_table
+
+EXTRAS_DIR = "etc/extras"
+GENERAL_URI = f"mftp://{EXTRAS_DIR}/component_general.json.xz"
+PARAMETERS_URI = f"mftp://{EXTRAS_DIR}/parameters.json.xz"
+COMP_METADATA_TYPE_PARAMETER = 1
+
+
+def mavlink_crc32(data: bytes) -> int:
+    """MAVLink's CRC-32 as PX4's generators compute it: the CRC-32 polynomial starting at 0 with
+    no final XOR (zlib inverts before and after, so start it at ~0 and invert its result)."""
+    return ~zlib.crc32(data, 0xFFFFFFFF) & 0xFFFFFFFF
+
+
+def _typed(info: ParamInfo, value: float) -> int | float:
+    return int(value) if info.type is ParamType.INT32 else float(value)
+
+
+def parameter_entry(info: ParamInfo) -> dict[str, object]:
+    entry: dict[str, object] = {
+        "name": info.name,
+        "type": "Int32" if info.type is ParamType.INT32 else "Float",
+        "default": _typed(info, info.default),
+        "group": info.group or "Miscellaneous",
+        "category": "Standard",
+    }
+    if info.description:
+        entry["shortDesc"] = info.description
+    if info.unit:
+        entry["units"] = info.unit
+    if info.min is not None:
+        entry["min"] = _typed(info, info.min)
+    if info.max is not None:
+        entry["max"] = _typed(info, info.max)
+    return entry
+
+
+def parameters_json(table: list[ParamInfo]) -> bytes:
+    doc = {"version": 1, "parameters": [parameter_entry(i) for i in table]}
+    return json.dumps(doc, indent=2, sort_keys=True).encode()
+
+
+def general_json(parameters: bytes) -> bytes:
+    doc = {"version": 1, "metadataTypes": [{
+        "type": COMP_METADATA_TYPE_PARAMETER,
+        "uri": PARAMETERS_URI,
+        "fileCrc": mavlink_crc32(parameters),
+    }]}
+    return json.dumps(doc).encode()
+
+
+@dataclass(frozen=True)
+class ComponentMetadata:
+    """The served files (name under etc/extras → xz bytes) and what COMPONENT_METADATA says."""
+
+    files: dict[str, bytes]
+    general_crc: int
+    uri: str = GENERAL_URI
+
+
+def build(table: list[ParamInfo] | None = None) -> ComponentMetadata:
+    parameters = parameters_json(param_table() if table is None else table)
+    general = general_json(parameters)
+    xz = lzma.FORMAT_XZ
+    return ComponentMetadata(
+        files={"component_general.json.xz": lzma.compress(general, format=xz),
+               "parameters.json.xz": lzma.compress(parameters, format=xz)},
+        general_crc=mavlink_crc32(general))
+
+
+_SHARED: ComponentMetadata | None = None
+
+
+def shared() -> ComponentMetadata:
+    """The metadata of the shipped parameter table, built at first use."""
+    global _SHARED
+    if _SHARED is None:
+        _SHARED = build()
+    return _SHARED

@@ -1,0 +1,96 @@
+"""Component metadata as PX4 serves it: COMPONENT_METADATA (and COMPONENT_INFORMATION) point at
+mftp://etc/extras/component_general.json.xz; that file names parameters.json.xz with its CRC;
+both are read over MAVLink FTP (burst read, as QGC and MAVSDK do) and decompress to PX4's
+schema; the ROMFS part is read-only."""
+
+from __future__ import annotations
+
+import errno
+import json
+import lzma
+import struct
+
+from pymavlink.dialects.v20 import common as M
+from test_onboard_ftp import Ftp
+
+from gateway.mavlink import ftp
+from gateway.onboard import metadata
+from gateway.testing import Sim
+from vehicles.params import param_table
+
+
+def fetch(f: Ftp, path: bytes) -> bytes:
+    op, data = f.one(ftp.OP_OPEN_RO, path)
+    assert op == ftp.OP_ACK
+    size = struct.unpack("<I", data)[0]
+    burst = f.call(ftp.OP_BURST, offset=0, size=239)
+    assert f.one(ftp.OP_TERMINATE)[0] == ftp.OP_ACK
+    got = b"".join(r[4] for r in burst)
+    assert len(got) == size and burst[-1][5] == 1
+    return got
+
+
+def raw_payloads(api, msg_id: int, since: int) -> list[bytes]:
+    """Payloads of a message pymavlink's dialect does not know (it cannot decode them)."""
+    return [bytes(raw[10:10 + raw[1]]) for _, mid, raw in api.frames[since:] if mid == msg_id]
+
+
+def test_the_metadata_flow_qgc_and_mavsdk_follow(tmp_path):
+    with Sim(log_dir=tmp_path) as sim:
+        sim.advance(1.0)
+        api = sim.api(0)
+        since = len(api.frames)
+        api.send(M.MAVLink_command_long_message(1, 1, M.MAV_CMD_REQUEST_MESSAGE, 0, 397,
+                                                0, 0, 0, 0, 0, 0))
+        sim.advance(0.2)
+        answer = raw_payloads(api, 397, since)
+        ack = api.messages("COMMAND_ACK", since)
+        assert len(answer) == 1 and [a.result for a in ack] == [M.MAV_RESULT_ACCEPTED]
+        boot_ms, crc, uri = struct.unpack("<II100s", answer[0].ljust(108, b"\0"))
+        assert uri.rstrip(b"\0") == b"mftp://etc/extras/component_general.json.xz"
+        assert abs(boot_ms - 1000 * sim.now) < 300
+
+        f = Ftp(sim)
+        assert b"Detc\0" in f.one(ftp.OP_LIST, b"/")[1] and \
+            b"Dlog\0" in f.one(ftp.OP_LIST, b"/")[1]
+        listing = f.one(ftp.OP_LIST, b"/etc/extras")[1]
+        assert b"Fcomponent_general.json.xz\t" in listing and b"Fparameters.json.xz\t" in listing
+        general_raw = lzma.decompress(fetch(f, b"etc/extras/component_general.json.xz"))
+        assert metadata.mavlink_crc32(general_raw) == crc
+        general = json.loads(general_raw)
+        assert general["version"] == 1
+        [ptype] = general["metadataTypes"]
+        assert ptype["type"] == 1 and ptype["uri"] == "mftp://etc/extras/parameters.json.xz"
+        params_raw = lzma.decompress(fetch(f, b"/etc/extras/parameters.json.xz"))
+        assert metadata.mavlink_crc32(params_raw) == ptype["fileCrc"]
+        params = json.loads(params_raw)
+        assert params["version"] == 1
+        by_name = {p["name"]: p for p in params["parameters"]}
+        assert set(by_name) == {i.name for i in param_table()}
+        cruise = by_name["MPC_XY_CRUISE"]
+        assert cruise["type"] == "Float" and cruise["units"] == "m/s" and cruise["default"] == 5.0
+        assert cruise["shortDesc"] and cruise["group"]
+        assert by_name["COM_RC_IN_MODE"]["type"] == "Int32"
+        assert isinstance(by_name["COM_RC_IN_MODE"]["default"], int)
+
+        # PX4's ROMFS is read-only; a missing file there is ENOENT
+        erofs = bytes((ftp.ERR_FAIL_ERRNO, errno.EROFS))
+        assert f.one(ftp.OP_CREATE, b"/etc/extras/x.json")[1] == erofs
+        assert f.one(ftp.OP_REMOVE, b"/etc/extras/parameters.json.xz")[1] == erofs
+        assert f.one(ftp.OP_RENAME, b"/etc/extras/parameters.json.xz\0/p.xz")[1] == erofs
+        assert f.one(ftp.OP_OPEN_RO, b"/etc/extras/nope")[1] == \
+            bytes((ftp.ERR_FAIL_ERRNO, errno.ENOENT))
+        op, data = f.one(ftp.OP_CRC32, b"/etc/extras/component_general.json.xz")
+        assert op == ftp.OP_ACK and struct.unpack("<I", data)[0] == \
+            metadata.mavlink_crc32(metadata.shared().files["component_general.json.xz"])
+
+        # the older COMPONENT_INFORMATION (what QGC before COMPONENT_METADATA asks for)
+        since = len(api.frames)
+        api.send(M.MAVLink_command_long_message(1, 1, M.MAV_CMD_REQUEST_MESSAGE, 0, 395,
+                                                0, 0, 0, 0, 0, 0))
+        sim.advance(0.2)
+        [info] = raw_payloads(api, 395, since)
+        _, general_crc, _, general_uri, _ = struct.unpack("<III100s100s",
+                                                          info.ljust(212, b"\0"))
+        assert general_crc == crc and general_uri.rstrip(b"\0") == uri.rstrip(b"\0")
+        assert sim.simulation.internal_errors == 0
