@@ -37,9 +37,9 @@ def main() -> None:
     prof.disable()
     # (file, function) of the profile entries, whatever line they start on.
     groups = {"physics+autopilot (World.step)": ("physics.py", "step"),
-              "sessions: telemetry/timers (VehicleLink._on_timer)": ("sim.py", "_on_timer"),
-              "uplink delivery → session": ("sim.py", "_on_uplink_delivered"),
-              "downlink delivery → client": ("sim.py", "_on_downlink_delivered")}
+              "sessions: telemetry/timers (VehicleLink._on_timer)": ("simulation.py", "_on_timer"),
+              "uplink delivery → session": ("simulation.py", "_on_uplink_delivered"),
+              "downlink delivery → client": ("simulation.py", "_on_downlink_delivered")}
     stats = pstats.Stats(prof)
     total = stats.total_tt
     for name, key in groups.items():

@@ -126,3 +126,26 @@ def test_mavproxy_log_list_and_ftp_list(daemon_factory, tmp_path):
         mp.wait_for(" D log", 20, mark)
     finally:
         mp.close()
+
+
+def test_mavproxy_nsh_is_the_mavlink_shell(daemon_factory, tmp_path):
+    """MAVProxy's nsh module (SERIAL_CONTROL, device SHELL, as PX4's Tools/mavlink_shell.py
+    speaks it): `ver all` and `param show` answer as PX4's pxh, `.` leaves the shell."""
+    exe = mavproxy_exe()
+    d = daemon_factory()
+    mp = Prompt([sys.executable, exe, f"--master=udpin:127.0.0.1:{d.gcs_port()}", "--no-state"],
+                cwd=tmp_path)
+    try:
+        mp.wait_for("online system 1")
+        mp.type("module load nsh")
+        mp.wait_for("Loaded module nsh", 20)
+        mark = mp.type("nsh start")
+        mark = mp.type("ver all")
+        mp.wait_for("HW arch: PX4_SITL", 20, mark)
+        mark = mp.type("param show MPC_XY_CRUISE")
+        mp.wait_for("MPC_XY_CRUISE [", 20, mark)
+        mark = mp.type("nosuchcommand")
+        mp.wait_for("Invalid command: nosuchcommand", 20, mark)
+        mp.type(".")
+    finally:
+        mp.close()
