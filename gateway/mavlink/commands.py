@@ -129,7 +129,7 @@ class CommandService:
             M.MAV_CMD_REQUEST_PROTOCOL_VERSION: self._protocol_version,
             M.MAV_CMD_GET_HOME_POSITION: self._home_position,
             M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_message_interval,
-            M.MAV_CMD_GET_MESSAGE_INTERVAL: lambda c, t: self._send_interval(int(c.p(1))),
+            M.MAV_CMD_GET_MESSAGE_INTERVAL: self._get_message_interval,
             M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibration,
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
                 lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
@@ -213,7 +213,7 @@ class CommandService:
 
     def _set_mode(self, cmd: Command, now_s: float) -> int:
         base, main, sub = cmd.p(1), cmd.p(2), cmd.p(3)
-        if math.isnan(base):
+        if not math.isfinite(base):
             return DENIED
         nav = decode_set_mode(int(base), _int_or(main, -1), _int_or(sub, 0))
         if nav is None:
@@ -354,6 +354,11 @@ class CommandService:
     def _set_message_interval(self, cmd: Command, now_s: float) -> int:
         ok = self.scheduler.set_interval(_int_or(cmd.p(1), -1), cmd.p(2), now_s)
         return ACCEPTED if ok else FAILED
+
+    def _get_message_interval(self, cmd: Command, now_s: float) -> int:
+        if not math.isfinite(cmd.p(1)):
+            return DENIED  # PX4 casts it to an int: no message id
+        return self._send_interval(int(cmd.p(1)))
 
     def _send_interval(self, msg_id: int) -> int:
         interval = self.scheduler.interval_us(msg_id)

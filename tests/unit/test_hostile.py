@@ -92,3 +92,17 @@ def test_the_vehicle_still_flies_after_all_of_it(sim):
     assert api.land() == M.MAV_RESULT_ACCEPTED
     assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=40)
     assert sim.simulation.internal_errors == 0
+
+
+@pytest.mark.parametrize("value", [math.inf, -math.inf, math.nan])
+@pytest.mark.parametrize("command, position", [(M.MAV_CMD_DO_SET_MODE, 1),
+                                               (M.MAV_CMD_GET_MESSAGE_INTERVAL, 1)])
+def test_a_non_finite_mode_or_message_id_is_denied(sim, command, position, value):
+    """Found by bench/fuzz_campaign.py: PX4 casts these params to integers; here they are
+    refused instead of raising."""
+    errors = sim.simulation.internal_errors
+    params = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    params[position - 1] = value
+    assert sim.api(0).command_long(command, *params) == M.MAV_RESULT_DENIED
+    assert telemetry_flows(sim)
+    assert sim.simulation.internal_errors == errors
