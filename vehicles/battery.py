@@ -5,7 +5,10 @@ below SIM_BAT_MIN_PCT; voltage = cells × interpolate(remaining, BAT1_V_EMPTY, B
 PX4 reports no current in simulation (-1 A); we model one from the collective thrust so that
 BATTERY_STATUS looks alive: HOVER_CURRENT_A at hover thrust, ∝ thrust^1.5 (momentum theory), plus
 an avionics draw, while armed; disarmed the current is 0 (and the charge stays, as PX4's simulated
-battery only drains armed). consumed_mah integrates that current. Time is an argument.
+battery only drains armed). consumed_mah integrates that current. Failure injection (battery
+off, ``force_empty``): the voltage is BAT1_V_EMPTY per cell whatever the charge, as the battery
+simulator's forced empty battery, so PX4's voltage-based remaining reads 0 and the low-battery
+failsafes follow. Time is an argument.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ class BatterySim:
         self._consumed_mah = 0.0
         self._last_s: float | None = None
         self._current_a = 0.0
+        self.force_empty = False
 
     def update(self, now_s: float, armed: bool, thrust_norm: float) -> None:
         dt = 0.0 if self._last_s is None else max(now_s - self._last_s, 0.0)
@@ -43,7 +47,7 @@ class BatterySim:
         p = self._params
         cells = int(p["BAT1_N_CELLS"])
         v_empty, v_full = float(p["BAT1_V_EMPTY"]), float(p["BAT1_V_CHARGED"])
-        r = min(max(self._remaining, 0.0), 1.0)
+        r = 0.0 if self.force_empty else min(max(self._remaining, 0.0), 1.0)
         return BatteryState(
             voltage_v=cells * (v_empty + (v_full - v_empty) * r),
             current_a=self._current_a,

@@ -15,9 +15,12 @@ Sensors (what PX4 SITL with Gazebo's x500 sees):
   random walk 0.01, Markov coefficient 0.95; velocity amplitude 0.05 m/s, density 0.2,
   coefficient 0.85; vertical ×1.5 and ×1.2), each fix describing the vehicle EKF2_GPS_DELAY
   (110 ms) before it arrives.
-- Failure injection (``set_gps_off``): a GPS that is off gives no fixes; the estimator then
-  dead-reckons on the IMU and counts the age of its last fix (E_GPS_AGE), which the vehicle
-  compares with EKF2_NOAID_TOUT.
+- Failure injection (``set_failed``, PX4 SITL's simulator: a sensor that is off publishes
+  nothing, one that is stuck repeats its last sample): a GPS that is off gives no fixes, and the
+  estimator dead-reckons on the IMU and counts the age of its last fix (E_GPS_AGE), which the
+  vehicle compares with EKF2_NOAID_TOUT; gyro, accelerometer, barometer and magnetometer off or
+  stuck keep their last sample (the estimator and the controllers fly on it, as PX4's would on
+  a frozen IMU), and the estimator fuses only what arrives and passes its gate.
 - ``noise`` scales every noise and bias (1 = the models above, 0 = exact sensors); the GPS delay
   stays. Every draw comes from the vehicle's own seeded stream (``NoiseBlocks``), so the same
   seed gives the same noise whatever else runs, and lockstep runs repeat exactly.
@@ -30,7 +33,10 @@ position and velocity delayed by EKF2_GPS_DELAY, barometric height, magnetometer
 - Position and velocity: the IMU's specific force rotated by the estimated attitude, integrated
   every step; GPS innovations are formed against the estimate of EKF2_GPS_DELAY ago (a ring of
   past estimates) and the correction is applied to the present and the ring; height and a
-  vertical accelerometer bias follow the barometer.
+  vertical accelerometer bias follow the barometer. A barometer sample whose test ratio is over
+  1 (EKF2_BARO_GATE) is rejected, as a magnetometer heading over EKF2_MAG_GATE is; with no
+  barometer fused for BARO_TIMEOUT_S the height follows the GPS instead (EKF2's fallback to
+  GNSS height).
 - Wind: with the vehicle flying, the horizontal specific force in the body frame is the drag of
   the air, so the air's velocity follows (EKF2's drag fusion principle), low-passed.
 - Health: the innovation test ratios (innovation² / (gate σ)², with EKF2's noise parameters and
@@ -79,6 +85,16 @@ MAG_NED_GAUSS = (0.2145, 0.0112, 0.4296)
 EKF2_GPS_P_NOISE, EKF2_GPS_V_NOISE, EKF2_BARO_NOISE, EKF2_MAG_NOISE = 0.5, 0.3, 3.5, 0.05
 EKF2_GPS_P_GATE, EKF2_GPS_V_GATE, EKF2_BARO_GATE, EKF2_MAG_GATE = 5.0, 5.0, 5.0, 3.0
 
+BARO_TIMEOUT_S = 0.2  # EKF2's BARO_MAX_INTERVAL: no barometer for this long → GNSS height
+
+# Failure injection (``failed``, a bit set per row; MAV_CMD_INJECT_FAILURE's units and types).
+F_GPS_OFF, F_BARO_OFF, F_BARO_STUCK, F_MAG_OFF, F_MAG_STUCK = 1, 2, 4, 8, 16
+F_GYRO_OFF, F_GYRO_STUCK, F_ACC_OFF, F_ACC_STUCK = 32, 64, 128, 256
+F_GYRO = F_GYRO_OFF | F_GYRO_STUCK
+F_ACC = F_ACC_OFF | F_ACC_STUCK
+F_BARO = F_BARO_OFF | F_BARO_STUCK
+F_MAG = F_MAG_OFF | F_MAG_STUCK
+
 HISTORY = 64  # steps of past states kept: delays up to 63 physics steps (252 ms at 250 Hz)
 
 # Noise draws per vehicle and step (columns of a noise block).
@@ -93,12 +109,12 @@ S_GYRO, S_ACC, S_MAG, S_BARO_DOWN, S_GPS_POS, S_GPS_VEL, S_VIB, S_PREV, S_SIZE =
 B_GYRO, B_ACC, B_GPS_POS, B_GPS_VEL, B_SIZE = 0, 3, 6, 9, 12
 # Columns of the estimator's state.
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
- E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_SIZE) = (
-    0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37)
+ E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_BARO_AGE, E_SIZE) = (
+    0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38)
 # E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the variance of
 # the raw wind samples (m²/s²);
 # E_ACCURACY: horizontal, vertical (running RMS of the innovations); E_GPS_AGE: seconds since
-# the last GPS fix was fused.
+# the last GPS fix was fused; E_BARO_AGE: since the last barometer sample was fused.
 
 E_WIND_VAR = E_RATIOS + 4
 
@@ -130,7 +146,7 @@ def _gm(dt_s: float, tau_s: float, sigma: float) -> tuple[float, float]:
 
 @njit_cached
 def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_i, bias, sensed,
-          consts, gps_off):  # pragma: no cover - compiled
+          consts, failed):  # pragma: no cover - compiled
     """Every vehicle's sensors after a physics step (module rules). ``hist``: the ring of true
     positions and velocities (slot ``hist_i`` is written now); ``consts``: gyro and accel bias
     decay and drive, gyro and accel noise, baro and mag noise, the Earth's field (NED)."""
@@ -156,12 +172,15 @@ def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_
         for i in range(3):
             b[B_GYRO + i] = b[B_GYRO + i] * g_decay + g_drive * scale * n[3 + i]
             b[B_ACC + i] = b[B_ACC + i] * a_decay + a_drive * scale * n[9 + i]
-        out[S_GYRO] = m[M_RATES] + b[B_GYRO] + g_noise * scale * n[0]
-        out[S_GYRO + 1] = m[M_RATES + 1] + b[B_GYRO + 1] + g_noise * scale * n[1]
-        out[S_GYRO + 2] = m[M_RATES + 2] + b[B_GYRO + 2] + g_noise * scale * n[2]
-        out[S_ACC] = f0 + b[B_ACC] + a_noise * scale * n[6]
-        out[S_ACC + 1] = f1 + b[B_ACC + 1] + a_noise * scale * n[7]
-        out[S_ACC + 2] = f2 + b[B_ACC + 2] + a_noise * scale * n[8]
+        f = failed[v]
+        if not f & F_GYRO:
+            out[S_GYRO] = m[M_RATES] + b[B_GYRO] + g_noise * scale * n[0]
+            out[S_GYRO + 1] = m[M_RATES + 1] + b[B_GYRO + 1] + g_noise * scale * n[1]
+            out[S_GYRO + 2] = m[M_RATES + 2] + b[B_GYRO + 2] + g_noise * scale * n[2]
+        if not f & F_ACC:
+            out[S_ACC] = f0 + b[B_ACC] + a_noise * scale * n[6]
+            out[S_ACC + 1] = f1 + b[B_ACC + 1] + a_noise * scale * n[7]
+            out[S_ACC + 2] = f2 + b[B_ACC + 2] + a_noise * scale * n[8]
         da0, da1, da2 = out[S_GYRO] * dt_s, out[S_GYRO + 1] * dt_s, out[S_GYRO + 2] * dt_s
         dv0, dv1, dv2 = out[S_ACC] * dt_s, out[S_ACC + 1] * dt_s, out[S_ACC + 2] * dt_s
         p0, p1, p2 = out[S_PREV], out[S_PREV + 1], out[S_PREV + 2]
@@ -173,13 +192,14 @@ def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_
         out[S_VIB + 2] = 0.99 * out[S_VIB + 2] + 0.01 * math.sqrt(ex * ex + ey * ey + ez * ez)
         out[S_PREV], out[S_PREV + 1], out[S_PREV + 2] = da0, da1, da2
         out[S_PREV + 3], out[S_PREV + 4], out[S_PREV + 5] = dv0, dv1, dv2
-        if baro_due:
+        if baro_due and not f & F_BARO:
             out[S_BARO_DOWN] = m[M_POS + 2] + baro_noise * scale * n[12]
+        if baro_due and not f & F_MAG:
             mn, me, md = consts[10], consts[11], consts[12]
             out[S_MAG] = r00 * mn + r10 * me + r20 * md + consts[7] * scale * n[13]
             out[S_MAG + 1] = r01 * mn + r11 * me + r21 * md + consts[8] * scale * n[14]
             out[S_MAG + 2] = r02 * mn + r12 * me + r22 * md + consts[9] * scale * n[15]
-        if gps_due and not gps_off[v]:
+        if gps_due and not f & F_GPS_OFF:
             old = hist[v, (hist_i - delay[v]) % len(hist[v])]
             for i in range(3):
                 up = 1.5 if i == 2 else 1.0
@@ -194,7 +214,7 @@ def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_
 
 @njit_cached
 def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, consts,
-             estimated, gps_off):  # pragma: no cover - compiled
+             estimated, failed):  # pragma: no cover - compiled
     """Every vehicle's estimate after its sensors (module rules). ``ehist``: the ring of past
     estimated positions and velocities; ``flying``: rows whose drag tells the wind; ``consts``:
     the Earth's field (NED), the airframe's mass over its linear drag."""
@@ -212,6 +232,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
         s = sensed[v]
         e = est[v]
         out = estimated[v]
+        f = failed[v]
         # --- attitude: integrate the corrected rates --------------------------------------------
         wx = s[S_GYRO] - e[E_GYRO_BIAS] + e[E_CORR]
         wy = s[S_GYRO + 1] - e[E_GYRO_BIAS + 1] + e[E_CORR + 1]
@@ -247,7 +268,8 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
             slot[3 + i] = e[E_VEL + i]
         # --- GPS: delayed innovations, corrections to the present and the ring -----------------
         e[E_GPS_AGE] += dt_s
-        if gps_off[v]:
+        e[E_BARO_AGE] += dt_s
+        if f & F_GPS_OFF:
             e[E_HAVE_GPS] = 0.0  # no tilt reference until fixes come again
         elif gps_due:
             e[E_GPS_AGE] = 0.0
@@ -283,18 +305,30 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
             e[E_RATIOS + 1] = (ep0 * ep0 + ep1 * ep1) / (EKF2_GPS_P_GATE * EKF2_GPS_P_NOISE) ** 2
             e[E_ACCURACY] = math.sqrt(e[E_ACCURACY] ** 2
                                       + a_acc_gps * (ep0 * ep0 + ep1 * ep1 - e[E_ACCURACY] ** 2))
+            if e[E_BARO_AGE] > BARO_TIMEOUT_S:
+                # No barometer: the height follows the GPS (EKF2's GNSS height fallback).
+                eh = s[S_GPS_POS + 2] - old[2]
+                dh, dvz = L_HGT * dt_gps * eh, L_VZ_FROM_HGT * dt_gps * eh
+                e[E_POS + 2] += dh
+                e[E_VEL + 2] += dvz
+                for k in range(len(ring)):
+                    ring[k, 2] += dh
+                    ring[k, 5] += dvz
         # --- barometer and magnetometer (50 Hz): height, attitude corrections, wind -----------
-        if baro_due:
+        if baro_due and not f & F_BARO_OFF:
             eh = s[S_BARO_DOWN] - e[E_POS + 2]
-            e[E_POS + 2] += L_HGT * dt_baro * eh
-            e[E_VEL + 2] += L_VZ_FROM_HGT * dt_baro * eh
-            e[E_ACC_BIAS_Z] -= L_ACC_BIAS * dt_baro * eh
-            for k in range(len(ring)):
-                ring[k, 2] += L_HGT * dt_baro * eh
-                ring[k, 5] += L_VZ_FROM_HGT * dt_baro * eh
             e[E_RATIOS + 2] = eh * eh / (EKF2_BARO_GATE * EKF2_BARO_NOISE) ** 2
-            e[E_ACCURACY + 1] = math.sqrt(e[E_ACCURACY + 1] ** 2
-                                          + a_acc_baro * (eh * eh - e[E_ACCURACY + 1] ** 2))
+            if e[E_RATIOS + 2] <= 1.0:  # else rejected by the innovation gate
+                e[E_BARO_AGE] = 0.0
+                e[E_POS + 2] += L_HGT * dt_baro * eh
+                e[E_VEL + 2] += L_VZ_FROM_HGT * dt_baro * eh
+                e[E_ACC_BIAS_Z] -= L_ACC_BIAS * dt_baro * eh
+                for k in range(len(ring)):
+                    ring[k, 2] += L_HGT * dt_baro * eh
+                    ring[k, 5] += L_VZ_FROM_HGT * dt_baro * eh
+                e[E_ACCURACY + 1] = math.sqrt(
+                    e[E_ACCURACY + 1] ** 2 + a_acc_baro * (eh * eh - e[E_ACCURACY + 1] ** 2))
+        if baro_due:
             # Tilt: the measured specific force (NED, low-passed) against the one the GPS
             # velocity implies; heading: the field against the Earth's.
             c0 = c1 = 0.0
@@ -304,13 +338,17 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
                 rr = r0 * r0 + r1 * r1 + r2 * r2
                 c0 = (r1 * m2 - r2 * m1) / rr
                 c1 = (r2 * m0 - r0 * m2) / rr
-            b0, b1, b2 = s[S_MAG], s[S_MAG + 1], s[S_MAG + 2]
-            fn_ = r00 * b0 + r01 * b1 + r02 * b2
-            fe_ = r10 * b0 + r11 * b1 + r12 * b2
-            yaw_err = math.atan2(mn * fe_ - me * fn_, mn * fn_ + me * fe_)
-            # As a field innovation (gauss): the heading error across the horizontal field.
-            field_err = yaw_err * math.sqrt(mn * mn + me * me)
-            e[E_RATIOS + 3] = field_err * field_err / (EKF2_MAG_GATE * EKF2_MAG_NOISE) ** 2
+            yaw_err = 0.0
+            if not f & F_MAG_OFF:
+                b0, b1, b2 = s[S_MAG], s[S_MAG + 1], s[S_MAG + 2]
+                fn_ = r00 * b0 + r01 * b1 + r02 * b2
+                fe_ = r10 * b0 + r11 * b1 + r12 * b2
+                yaw_err = math.atan2(mn * fe_ - me * fn_, mn * fn_ + me * fe_)
+                # As a field innovation (gauss): the heading error across the horizontal field.
+                field_err = yaw_err * math.sqrt(mn * mn + me * me)
+                e[E_RATIOS + 3] = field_err * field_err / (EKF2_MAG_GATE * EKF2_MAG_NOISE) ** 2
+                if e[E_RATIOS + 3] > 1.0:
+                    yaw_err = 0.0  # rejected by the innovation gate
             w0, w1, w2 = -K_TILT * c0, -K_TILT * c1, -K_HEADING * yaw_err
             # Into the body frame: Rᵀ ω.
             bx = r00 * w0 + r10 * w1 + r20 * w2
@@ -395,13 +433,13 @@ class Estimation:
         self.hist = np.zeros((0, HISTORY, 6))  # true positions and velocities, a ring
         self.ehist = np.zeros((0, HISTORY, 6))  # estimated positions and velocities, a ring
         self.delay = np.zeros(0, np.int64)  # EKF2_GPS_DELAY in physics steps
-        self.gps_off = np.zeros(0, np.bool_)  # failure injection: no fixes
+        self.failed = np.zeros(0, np.int64)  # failure injection: F_* bits per row
         # Compile (or load) both kernels now, with no rows.
         self.step(np.zeros((0, M_SIZE)), np.zeros((0, M_SIZE)), np.zeros(0, np.bool_), 0.0)
 
-    def set_gps_off(self, row: int, off: bool) -> None:
-        """Failure injection: the row's GPS gives no fixes (``off``) or works again."""
-        self.gps_off[row] = off
+    def set_failed(self, row: int, bits: int, on: bool) -> None:
+        """Failure injection: the row's sensors of ``bits`` (F_*) fail (``on``) or work again."""
+        self.failed[row] = (self.failed[row] | bits) if on else (self.failed[row] & ~bits)
 
     def _resize(self, n: int) -> None:
         def grow(old: np.ndarray) -> np.ndarray:
@@ -411,7 +449,7 @@ class Estimation:
 
         self.sensed, self.bias, self.est = grow(self.sensed), grow(self.bias), grow(self.est)
         self.hist, self.ehist, self.delay = grow(self.hist), grow(self.ehist), grow(self.delay)
-        self.gps_off = grow(self.gps_off)
+        self.failed = grow(self.failed)
 
     def add(self, index: int, truth: np.ndarray, estimated: np.ndarray,
             gps_delay_s: float = GPS_DELAY_S) -> None:
@@ -443,8 +481,8 @@ class Estimation:
         self.hist_i = (self.hist_i + 1) % HISTORY
         sense(measured, self.noise.block, self.noise.j, dt, self.config.noise, baro_due, gps_due,
               self.delay, self.hist, self.hist_i, self.bias, self.sensed, self.sense_consts,
-              self.gps_off)
+              self.failed)
         estimate(self.sensed, self.est, self.ehist, self.hist_i, self.delay, dt, baro_due,
-                 gps_due, flying, self.est_consts, estimated, self.gps_off)
+                 gps_due, flying, self.est_consts, estimated, self.failed)
         self.noise.advance()
         self.steps += 1

@@ -4,16 +4,22 @@ on a link (``event = "outage"`` for ``duration_s``: the link carries nothing; th
 outage windows, netsim/topology.py).
 
 A scheduled fault is the simulator's doing, like a Gazebo world plugin: it needs no
-SYS_FAILURE_EN (that guards the MAVLink command). Units and types the simulation models: the
-GPS and the motors (``instance``: motor number from 1, 0 = all) off and back on.
+SYS_FAILURE_EN (that guards the MAVLink command). Units and types the simulation models, as
+PX4 SITL's simulator and battery simulator do (``SUPPORTED``): gyro, accel, mag and baro off,
+stuck or ok; the GPS off or ok; the battery off (its voltage at BAT1_V_EMPTY) or ok; the motors
+(``instance``: motor number from 1, 0 = all) off or ok.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-UNITS = {"gps": 4, "motor": 101}  # FAILURE_UNIT_SENSOR_GPS, FAILURE_UNIT_SYSTEM_MOTOR
-TYPES = {"ok": 0, "off": 1}  # FAILURE_TYPE_OK, FAILURE_TYPE_OFF
+# FAILURE_UNIT and FAILURE_TYPE (MAVLink) of what the simulation models.
+UNITS = {"gyro": 0, "accel": 1, "mag": 2, "baro": 3, "gps": 4, "battery": 100, "motor": 101}
+TYPES = {"ok": 0, "off": 1, "stuck": 2}
+SUPPORTED = {"gyro": ("ok", "off", "stuck"), "accel": ("ok", "off", "stuck"),
+             "mag": ("ok", "off", "stuck"), "baro": ("ok", "off", "stuck"), "gps": ("ok", "off"),
+             "battery": ("ok", "off"), "motor": ("ok", "off")}
 
 
 EVENTS = ("outage",)

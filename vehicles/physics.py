@@ -181,9 +181,12 @@ class World:
         """Failure injection: motor ``motor`` (0-based) of row ``row`` stops (``off``) or runs."""
         self.inner.motor_ok[row, motor] = 0.0 if off else 1.0
 
-    def set_gps_off(self, row: int, off: bool) -> None:
-        """Failure injection: row ``row``'s GPS gives no fixes (``off``) or works again."""
-        self.estimation.set_gps_off(row, off)
+    def set_sensor_failed(self, row: int, bits: int, on: bool) -> None:
+        """Failure injection: row ``row``'s sensors of ``bits`` (estimation.F_*) fail or work."""
+        self.estimation.set_failed(row, bits, on)
+
+    def sensor_failures(self, row: int) -> int:
+        return int(self.estimation.failed[row])
 
     def set_wind(self, wind: Wind | None) -> None:
         """From the next step the bodies move through ``wind`` (None: calm air)."""

@@ -22,7 +22,19 @@ import numpy as np
 
 from vehicles.airframe import Airframe
 from vehicles.autopilot import POSITION_CONTROL_DIVIDER, Autopilot
-from vehicles.estimation import E_GPS_AGE, E_RATIOS
+from vehicles.estimation import (
+    E_GPS_AGE,
+    E_RATIOS,
+    F_ACC_OFF,
+    F_ACC_STUCK,
+    F_BARO_OFF,
+    F_BARO_STUCK,
+    F_GPS_OFF,
+    F_GYRO_OFF,
+    F_GYRO_STUCK,
+    F_MAG_OFF,
+    F_MAG_STUCK,
+)
 from vehicles.inner_loop import InnerCommand
 from vehicles.manual_control import Sticks
 from vehicles.orbit import OrbitStatus
@@ -42,9 +54,20 @@ from vehicles.types import (
 )
 
 # MAV_CMD_INJECT_FAILURE: FAILURE_UNIT and FAILURE_TYPE values this vehicle knows.
-FAILURE_UNIT_SENSOR_GPS = 4
-FAILURE_UNIT_SYSTEM_MOTOR = 101
-FAILURE_TYPE_OK, FAILURE_TYPE_OFF = 0, 1
+(FAILURE_UNIT_SENSOR_GYRO, FAILURE_UNIT_SENSOR_ACCEL, FAILURE_UNIT_SENSOR_MAG,
+ FAILURE_UNIT_SENSOR_BARO, FAILURE_UNIT_SENSOR_GPS) = range(5)
+FAILURE_UNIT_SENSOR_AIRSPEED = 8
+FAILURE_UNIT_SYSTEM_BATTERY, FAILURE_UNIT_SYSTEM_MOTOR = 100, 101
+FAILURE_TYPE_OK, FAILURE_TYPE_OFF, FAILURE_TYPE_STUCK = 0, 1, 2
+# Sensor units → (the bits that fail when off, when stuck); every bit clears with ok.
+SENSOR_FAILURES = {
+    FAILURE_UNIT_SENSOR_GYRO: (F_GYRO_OFF, F_GYRO_STUCK),
+    FAILURE_UNIT_SENSOR_ACCEL: (F_ACC_OFF, F_ACC_STUCK),
+    FAILURE_UNIT_SENSOR_MAG: (F_MAG_OFF, F_MAG_STUCK),
+    FAILURE_UNIT_SENSOR_BARO: (F_BARO_OFF, F_BARO_STUCK),
+    FAILURE_UNIT_SENSOR_GPS: (F_GPS_OFF, 0),  # PX4 SITL's GPS has no stuck
+}
+IMU_INSTANCES = 3  # PX4's simulator takes instances 1..3 for the IMU (one is simulated here)
 
 
 class WorldRow(Protocol):
@@ -61,7 +84,9 @@ class WorldRow(Protocol):
 
     def estimator(self, row: int) -> list[float]: ...
 
-    def set_gps_off(self, row: int, off: bool) -> None: ...
+    def set_sensor_failed(self, row: int, bits: int, on: bool) -> None: ...
+
+    def sensor_failures(self, row: int) -> int: ...
 
     def set_motor_off(self, row: int, motor: int, off: bool) -> None: ...
 
@@ -153,7 +178,8 @@ class Vehicle:
             extra={"thrust_norm": ap.thrust_norm,
                    "estimator_ok": max(self.estimator[E_RATIOS:E_RATIOS + 4]) <= 1.0,
                    "rotor_speed_radps": self._world.rotor_speeds(self._row),
-                   "manual_control": c.manual_control_state},
+                   "manual_control": c.manual_control_state,
+                   "sensor_failures": self._world.sensor_failures(self._row)},
         )
 
     @property
@@ -289,18 +315,41 @@ class Vehicle:
 
     def inject_failure(self, now_s: float, unit: int, failure_type: int, instance: int
                        ) -> CommandResult:
-        """MAV_CMD_INJECT_FAILURE as PX4 SITL: DENIED unless SYS_FAILURE_EN; the GPS (unit 4)
-        or a motor (unit 101, instance = motor number from 1, 0 = all) off (type 1) or ok again
-        (type 0); other units and types UNSUPPORTED."""
+        """MAV_CMD_INJECT_FAILURE as PX4 SITL: DENIED unless SYS_FAILURE_EN, then
+        ``apply_failure``."""
         if int(self.params.get("SYS_FAILURE_EN", 0) or 0) != 1:
             return CommandResult.DENIED
-        if failure_type not in (FAILURE_TYPE_OK, FAILURE_TYPE_OFF):
+        return self.apply_failure(unit, failure_type, instance)
+
+    def apply_failure(self, unit: int, failure_type: int, instance: int) -> CommandResult:
+        """A failure as PX4 SITL's simulator, battery simulator and motor failure handling take
+        it: gyro and accel (instance 0 = all, 1..3) and mag and baro off (no more samples) or
+        stuck (the last sample repeated) or ok; the GPS off or ok; the battery (instance 0) off
+        (empty-cell voltage) or ok; a motor (instance = its number from 1, 0 = all) off or ok;
+        the airspeed sensor off or ok (accepted: a multicopter has none). Other units and types
+        UNSUPPORTED."""
+        ok, off = failure_type == FAILURE_TYPE_OK, failure_type == FAILURE_TYPE_OFF
+        if unit in SENSOR_FAILURES:
+            off_bits, stuck_bits = SENSOR_FAILURES[unit]
+            bits = off_bits if off else stuck_bits if failure_type == FAILURE_TYPE_STUCK else 0
+            if not (ok or bits):
+                return CommandResult.UNSUPPORTED
+            if unit in (FAILURE_UNIT_SENSOR_GYRO, FAILURE_UNIT_SENSOR_ACCEL) and instance > 1:
+                return CommandResult.ACCEPTED  # PX4 takes 2..3 (no such IMU here: no effect)
+            if unit == FAILURE_UNIT_SENSOR_GPS and instance not in (0, 1):
+                return CommandResult.DENIED  # one GPS here
+            self._world.set_sensor_failed(self._row, off_bits | stuck_bits, False)
+            if bits:
+                self._world.set_sensor_failed(self._row, bits, True)
+            return CommandResult.ACCEPTED
+        if not (ok or off):
             return CommandResult.UNSUPPORTED
-        off = failure_type == FAILURE_TYPE_OFF
-        if unit == FAILURE_UNIT_SENSOR_GPS:
-            if instance not in (0, 1):  # 0: every instance; one GPS here
-                return CommandResult.DENIED
-            self._world.set_gps_off(self._row, off)
+        if unit == FAILURE_UNIT_SENSOR_AIRSPEED:
+            return CommandResult.ACCEPTED  # PX4's simulator takes it; a multicopter has none
+        if unit == FAILURE_UNIT_SYSTEM_BATTERY:
+            if instance != 0:  # the battery simulator supports instance 0 only
+                return CommandResult.UNSUPPORTED
+            self._autopilot.battery.force_empty = off
             return CommandResult.ACCEPTED
         if unit == FAILURE_UNIT_SYSTEM_MOTOR:
             rotors = self.airframe.rotor_count

@@ -30,6 +30,7 @@ MAV_STATE_CRITICAL = 5
 MAV_STATE_FLIGHT_TERMINATION = 8
 
 # MAV_SYS_STATUS_SENSOR bits used below
+SENSOR_3D_GYRO, SENSOR_3D_ACCEL, SENSOR_3D_MAG, SENSOR_ABSOLUTE_PRESSURE = 0x1, 0x2, 0x4, 0x8
 SENSOR_GPS = 0x20
 SENSOR_XY_POSITION_CONTROL = 0x4000  # PX4 maps its local position estimate here
 SENSOR_RC_RECEIVER = 0x10000  # PX4's remote_control health component (joystick or RC)
@@ -43,6 +44,11 @@ SENSORS_HEALTH = 0x0321C83F
 POSITION_SENSORS = SENSOR_GPS | SENSOR_XY_POSITION_CONTROL
 
 MAV_VTOL_STATE_UNDEFINED = 0
+
+# A failed sensor (vehicles/estimation.py F_* bits, off or stuck) → its SYS_STATUS health bit,
+# as PX4's sensor checks report a sensor that times out or stops changing.
+FAILED_SENSOR_BITS = ((0x001, SENSOR_GPS), (0x006, SENSOR_ABSOLUTE_PRESSURE),
+                      (0x018, SENSOR_3D_MAG), (0x060, SENSOR_3D_GYRO), (0x180, SENSOR_3D_ACCEL))
 
 
 def system_status(status: VehicleStatus) -> int:
@@ -62,6 +68,11 @@ def sensor_bits(status: VehicleStatus) -> tuple[int, int, int]:
         health &= ~POSITION_SENSORS
     if not status.extra.get("estimator_ok", True):  # an innovation test failing
         health &= ~SENSOR_AHRS
+    failed = status.extra.get("sensor_failures", 0)
+    if failed:
+        for bits, sensor in FAILED_SENSOR_BITS:
+            if failed & bits:
+                health &= ~sensor
     if status.prearm_ok:
         health |= SENSOR_PREARM_CHECK
         enabled |= SENSOR_PREARM_CHECK

@@ -47,7 +47,7 @@ from typing import Any
 
 from netsim.topology import make_router
 from vehicles.estimation import SensorConfig
-from vehicles.faults import EVENTS, TYPES, UNITS, Fault
+from vehicles.faults import EVENTS, SUPPORTED, TYPES, UNITS, Fault
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.wind import WindConfig
@@ -367,6 +367,9 @@ def _faults(entries: Any, vehicles: int) -> tuple[Fault, ...]:
                                 f"got {vehicle}")
         unit = _choice(entry["unit"], tuple(UNITS), f"{where}.unit")
         kind = _choice(entry["type"], tuple(TYPES), f"{where}.type")
+        if kind not in SUPPORTED[unit]:
+            raise ScenarioError(f"{where}.type: {unit} can be {', '.join(SUPPORTED[unit])} "
+                                f"(as PX4 SITL), got {kind!r}")
         instance = int(_number(entry.get("instance", 0), f"{where}.instance", integer=True,
                                minimum=0))
         if unit == "motor" and instance > 4:  # the x500's four

@@ -35,7 +35,7 @@ from netsim.link import Tracer
 from netsim.rng import named_generator
 from netsim.topology import make_router
 from vehicles.estimation import PX4_SENSORS, SensorConfig
-from vehicles.faults import Fault
+from vehicles.faults import TYPES, UNITS, Fault
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.wind import Wind, WindConfig
@@ -256,14 +256,8 @@ class Simulation:
             link.service()
 
     def _fault(self, k: int, fault: Fault) -> None:
-        off = fault.type == "off"
-        if fault.unit == "gps":
-            self.world.set_gps_off(k, off)
-        elif fault.unit == "motor":
-            rotors = self.world.airframe.rotor_count
-            for motor in range(rotors) if fault.instance == 0 else (fault.instance - 1,):
-                self.world.set_motor_off(k, motor, off)
-        # network events are the topology's outage windows: nothing to do here
+        if not fault.on_network:  # network events are the topology's outage windows
+            self.vehicles[k].apply_failure(UNITS[fault.unit], TYPES[fault.type], fault.instance)
         self.faults_fired.append((self.kernel.now, fault))
         log.info("fault at t=%.3f s: %s", self.kernel.now, fault.describe())
         for observer in self.fault_observers:

@@ -50,10 +50,13 @@ def test_gps_off_in_hold_descends_lands_and_disarms():
 
 @pytest.mark.parametrize("params, unit, kind, result", [
     ({"SYS_FAILURE_EN": 0}, GPS, OFF, 2),  # DENIED: failure injection disabled
-    ({}, 100, OFF, 3),  # the battery: not simulated here, UNSUPPORTED
+    ({}, 100, 2, 3),  # the battery stuck: UNSUPPORTED (off and ok only, as PX4's simulator)
     ({}, GPS, 2, 3),  # GPS stuck: UNSUPPORTED
+    ({}, 3, 3, 3),  # baro garbage: UNSUPPORTED
+    ({}, 6, OFF, 3),  # VIO: not simulated, UNSUPPORTED
+    ({}, 8, OFF, 0),  # airspeed: ACCEPTED as PX4 SITL does, no sensor on a multicopter
 ])
-def test_refusals(params, unit, kind, result):
+def test_refusals_and_the_units_without_effect(params, unit, kind, result):
     with Sim(params=params) as sim:
         sim.advance(1.0)
         assert sim.api(0).command_long(M.MAV_CMD_INJECT_FAILURE, unit, kind, 0) == result
@@ -89,6 +92,10 @@ def test_fault_timeline_in_a_scenario_is_deterministic_and_fly_reports_the_fails
         scenario_mod.parse({"faults": [{"at_s": 1.0, "unit": "warp drive", "type": "off"}]})
     with pytest.raises(scenario_mod.ScenarioError, match=r"faults\[0\].vehicle"):
         scenario_mod.parse({"faults": [{"at_s": 1.0, "vehicle": 3, "unit": "gps", "type": "off"}]})
+    with pytest.raises(scenario_mod.ScenarioError, match=r"faults\[0\].type: gps can be ok, off"):
+        scenario_mod.parse({"faults": [{"at_s": 1.0, "unit": "gps", "type": "stuck"}]})
+    stuck = scenario_mod.parse({"faults": [{"at_s": 1.0, "unit": "baro", "type": "stuck"}]})
+    assert stuck.faults[0].describe() == "vehicle 1 baro stuck"
 
 
 def test_network_outage_in_the_fault_timeline():
@@ -129,3 +136,87 @@ def test_a_motor_off_is_lost_thrust_and_the_vehicle_comes_down():
         sim.advance(1.5)
         assert sim.vehicles[0].truth.position_ned_m[2] > -9.0  # falling
         assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 101, OFF, 9) == 2  # no motor 9
+
+
+def health(sim: Sim) -> int:
+    return sim.api(0).last("SYS_STATUS").onboard_control_sensors_health
+
+
+BARO_HEALTH, MAG_HEALTH, GYRO_HEALTH = 0x8, 0x4, 0x1
+
+
+def test_baro_off_the_height_follows_the_gps_and_the_health_bit_clears():
+    """PX4 SITL's baro off: no more samples; EKF2 falls back to GNSS height, so the vehicle
+    holds its altitude (to the GPS's vertical noise); SYS_STATUS shows the barometer unhealthy."""
+    with Sim(params={"MIS_TAKEOFF_ALT": 10.0}) as sim:
+        hover(sim)
+        api = sim.api(0)
+        assert health(sim) & BARO_HEALTH
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 3, OFF, 0) == 0
+        sensed = sim.vehicles[0].sensors[9]  # S_BARO_DOWN
+        alts = []
+        for _ in range(20):
+            sim.advance(1.0)
+            alts.append(-sim.vehicles[0].truth.position_ned_m[2])
+        assert sim.vehicles[0].sensors[9] == sensed  # nothing new from the barometer
+        assert all(8.0 < a < 12.0 for a in alts), alts
+        assert not health(sim) & BARO_HEALTH
+        assert sim.status(0).armed and sim.status(0).position_valid
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 3, OK, 0) == 0
+        sim.advance(1.0)
+        assert health(sim) & BARO_HEALTH and sim.vehicles[0].sensors[9] != sensed
+
+
+def test_mag_off_and_stuck_keep_flying_on_the_gyro():
+    """Mag off: no heading corrections (the gyro holds it: its bias drifts the heading slowly);
+    stuck: the frozen field is fused while it agrees (the vehicle does not turn)."""
+    with Sim(params={"MIS_TAKEOFF_ALT": 10.0}) as sim:
+        hover(sim)
+        api = sim.api(0)
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 2, OFF, 0) == 0
+        sim.advance(20.0)
+        assert not health(sim) & MAG_HEALTH
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 2, 2, 0) == 0  # stuck
+        sim.advance(10.0)
+        assert not health(sim) & MAG_HEALTH
+        truth = sim.vehicles[0].truth
+        assert abs(truth.position_ned_m[2] + 10.0) < 1.0
+        assert math.hypot(*truth.position_ned_m[:2]) < 1.0
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 2, OK, 0) == 0
+        sim.advance(1.0)
+        assert health(sim) & MAG_HEALTH
+
+
+def test_gyro_stuck_loses_attitude_control():
+    """The gyro stuck (its last sample repeated, as PX4 SITL's simulator does): the rate
+    controller flies on a frozen rate and the estimator integrates it: the vehicle departs from
+    level and leaves its position; SYS_STATUS shows the gyro unhealthy."""
+    with Sim(params={"MIS_TAKEOFF_ALT": 10.0}) as sim:
+        hover(sim)
+        api = sim.api(0)
+        start = sim.vehicles[0].truth.position_ned_m
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 0, 2, 0) == 0
+        sim.advance(10.0)
+        assert not health(sim) & GYRO_HEALTH
+        end = sim.vehicles[0].truth.position_ned_m
+        assert math.dist(start, end) > 3.0, (start, end)
+
+
+def test_battery_off_is_an_empty_battery_and_the_vehicle_lands():
+    """PX4's battery simulator forced empty: BAT1_V_EMPTY per cell, remaining 0 → the
+    emergency level → COM_LOW_BAT_ACT 3 lands; ok gives the charge back."""
+    with Sim(params={"MIS_TAKEOFF_ALT": 10.0}) as sim:
+        hover(sim)
+        api = sim.api(0)
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 100, OFF, 1) == 3  # instance 0 only
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 100, OFF, 0) == 0
+        sim.advance(1.0)
+        status = api.last("SYS_STATUS")
+        assert status.battery_remaining == 0
+        assert abs(status.voltage_battery - 4 * 3.6 * 1000) < 200  # 4 cells at BAT1_V_EMPTY
+        assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
+        texts = [m.text for m in api.messages("STATUSTEXT")]
+        assert any("battery" in t.lower() for t in texts), texts
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 100, OK, 0) == 0
+        sim.advance(1.0)
+        assert api.last("SYS_STATUS").battery_remaining > 0  # the charge it had
