@@ -1,14 +1,15 @@
 """Battery simulation after PX4 ``src/modules/simulation/battery_simulator``.
 
 Rules: while armed the charge falls linearly from 100 % to 0 % over SIM_BAT_DRAIN seconds but never
-below SIM_BAT_MIN_PCT; voltage = cells × interpolate(remaining, BAT1_V_EMPTY, BAT1_V_CHARGED).
+below SIM_BAT_MIN_PCT, and disarmed it is 100 % again (BatterySimulator::Run: a fresh battery
+for every flight); voltage = cells × interpolate(remaining, BAT1_V_EMPTY, BAT1_V_CHARGED).
 PX4 reports no current in simulation (-1 A); we model one from the collective thrust so that
 BATTERY_STATUS looks alive: HOVER_CURRENT_A at hover thrust, ∝ thrust^1.5 (momentum theory), plus
-an avionics draw, while armed; disarmed the current is 0 (and the charge stays, as PX4's simulated
-battery only drains armed). consumed_mah integrates that current. Failure injection (battery
-off, ``force_empty``): the voltage is BAT1_V_EMPTY per cell whatever the charge, as the battery
-simulator's forced empty battery, so PX4's voltage-based remaining reads 0 and the low-battery
-failsafes follow. Time is an argument.
+an avionics draw, while armed; disarmed the current is 0. consumed_mah integrates that current.
+Failure injection (battery off, ``force_empty``): the voltage is BAT1_V_EMPTY less
+BAT1_V_LOAD_DROP per cell whatever the charge, as the battery simulator's forced empty battery,
+so PX4's voltage-based remaining reads 0 and the low-battery failsafes follow. Time is an
+argument.
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ class BatterySim:
         self._consumed_mah += self._current_a * dt / 3.6
         if armed:
             self._remaining -= dt / float(p["SIM_BAT_DRAIN"])
+        else:
+            self._remaining = 1.0
         self._remaining = max(self._remaining, float(p["SIM_BAT_MIN_PCT"]) / 100.0)
 
     def state(self) -> BatteryState:
@@ -48,8 +51,11 @@ class BatterySim:
         cells = int(p["BAT1_N_CELLS"])
         v_empty, v_full = float(p["BAT1_V_EMPTY"]), float(p["BAT1_V_CHARGED"])
         r = 0.0 if self.force_empty else min(max(self._remaining, 0.0), 1.0)
+        cell_v = v_empty + (v_full - v_empty) * r
+        if self.force_empty:
+            cell_v = v_empty - float(p["BAT1_V_LOAD_DROP"])
         return BatteryState(
-            voltage_v=cells * (v_empty + (v_full - v_empty) * r),
+            voltage_v=cells * cell_v,
             current_a=self._current_a,
             remaining=r,
             consumed_mah=self._consumed_mah,

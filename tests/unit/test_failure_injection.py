@@ -204,7 +204,7 @@ def test_gyro_stuck_loses_attitude_control():
 
 def test_battery_off_is_an_empty_battery_and_the_vehicle_lands():
     """PX4's battery simulator forced empty: BAT1_V_EMPTY per cell, remaining 0 → the
-    emergency level → COM_LOW_BAT_ACT 3 lands; ok gives the charge back."""
+    emergency level → COM_LOW_BAT_ACT 3 lands; ok, disarmed: a full battery again."""
     with Sim(params={"MIS_TAKEOFF_ALT": 10.0}) as sim:
         hover(sim)
         api = sim.api(0)
@@ -213,10 +213,10 @@ def test_battery_off_is_an_empty_battery_and_the_vehicle_lands():
         sim.advance(1.0)
         status = api.last("SYS_STATUS")
         assert status.battery_remaining == 0
-        assert abs(status.voltage_battery - 4 * 3.6 * 1000) < 200  # 4 cells at BAT1_V_EMPTY
+        assert status.voltage_battery == 4 * (3600 - 300)  # 4 × (BAT1_V_EMPTY - BAT1_V_LOAD_DROP)
         assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
         texts = [m.text for m in api.messages("STATUSTEXT")]
         assert any("battery" in t.lower() for t in texts), texts
         assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 100, OK, 0) == 0
         sim.advance(1.0)
-        assert api.last("SYS_STATUS").battery_remaining > 0  # the charge it had
+        assert api.last("SYS_STATUS").battery_remaining == 100  # disarmed: a fresh battery
