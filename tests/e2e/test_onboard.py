@@ -138,3 +138,25 @@ async def test_mavsdk_component_metadata_gets_px4s_parameter_metadata(daemon_fac
         assert by_name["SYS_FAILURE_EN"]["type"] == "Int32"
         data = await drone.component_metadata.get_metadata(1, MetadataType.PARAMETER)
         assert json.loads(data.json_metadata) == params
+
+
+@pytest.mark.asyncio
+async def test_mavsdk_battery_failure_empties_the_battery_and_the_vehicle_lands(daemon_factory):
+    """MAVSDK's failure plugin, battery off (PX4's battery simulator forced empty): the
+    battery reads empty, the emergency level lands the vehicle (COM_LOW_BAT_ACT 3); a barometer
+    stuck is accepted and shows in MAVSDK's health."""
+    from mavsdk.failure import FailureError, FailureType, FailureUnit
+
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        await drone.action.arm()
+        await drone.action.takeoff()
+        await first(drone.telemetry.position(), lambda p: p.relative_altitude_m > 2.0, 30,
+                    "at 2 m")
+        await drone.failure.inject(FailureUnit.SENSOR_BARO, FailureType.STUCK, 0)
+        with pytest.raises(FailureError, match="UNSUPPORTED"):
+            await drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.GARBAGE, 0)
+        await drone.failure.inject(FailureUnit.SYSTEM_BATTERY, FailureType.OFF, 0)
+        await first(drone.telemetry.battery(), lambda b: b.remaining_percent < 1.0, 10,
+                    "the battery empty")
+        await first(drone.telemetry.armed(), lambda a: not a, 60, "landed and disarmed")
