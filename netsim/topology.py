@@ -13,6 +13,8 @@ Config (every key optional; positions are metres NED in the world frame, origin 
 
     topology    = "direct" | "star" | "adhoc"          default "direct"
     outages     = [{link = PATTERN, start_s = s, duration_s = s}, ...]     all topologies
+                  # optional per window: loss = p (0..1, default 1: a blackout; with
+                  # latency_s alone 0), latency_s = s (added delay): loss bursts, latency steps
     # direct — every link direction is one hop:
     link        = {model = NAME, ...params}     absent: ideal; present without model: fixed
     # star — the paper's case study I: vehicles on Wi-Fi to an access point, GCS wired to it:
@@ -56,8 +58,9 @@ Outages: ``link`` is an fnmatch pattern matched against the link's name as the g
 (``v1/gcs/up`` = gcs->v1, ``v1/gcs/down`` = v1->gcs, ``v1/api/up``, ``v1/api/down``), against
 ``src->dst``, and against each end node (``v1`` blacks out every link of v1, ``v*/gcs/*`` every
 GCS link). Each matching link gets one ``outage`` hop, first in its path (the window applies to
-the send time). Note the backend names a path's first hop's random stream after the link, the
-others ``link/hopN``: adding an outage to a link shifts its other hops' streams.
+the send time); netsim/models/outage.py says what a window with a loss or a latency does.
+Note the backend names a path's first hop's random stream after the link, the others
+``link/hopN``: adding an outage to a link shifts its other hops' streams.
 
 Keys this module does not own (``seed``, ``backend``, ``sync_period_s``, ``late_policy`` by
 default: see ``make_router(ignore=...)``) are skipped.
@@ -73,6 +76,7 @@ from typing import Any
 
 from netsim.backend import HopSpec, Mobility, Router, Vec3
 from netsim.models import make_model
+from netsim.models.base import MAX_DELAY_S
 
 TOPOLOGIES = ("direct", "star", "adhoc")
 API_CLIENTS = ("ground", "onboard")
@@ -168,9 +172,11 @@ def _table(config: Mapping[str, Any], key: str, path: str, known: set[str]) -> M
 
 
 class _Outage:
-    def __init__(self, pattern: str, start_s: float, duration_s: float) -> None:
+    def __init__(self, pattern: str, start_s: float, duration_s: float, loss: float = 1.0,
+                 latency_s: float = 0.0) -> None:
         self.pattern = pattern
-        self.window = [start_s, duration_s]
+        self.window = ([start_s, duration_s] if loss >= 1.0 and latency_s == 0.0
+                       else [start_s, duration_s, loss, latency_s])
 
     def matches(self, names: tuple[str, ...]) -> bool:
         return any(fnmatch.fnmatchcase(name, self.pattern) for name in names)
@@ -186,8 +192,9 @@ def _outages(config: Mapping[str, Any], path: str) -> list[_Outage]:
         if not isinstance(entry, Mapping):
             raise _fail(where, f"expected {{link, start_s, duration_s}}, got {entry!r}")
         for k in entry:
-            if k not in ("link", "start_s", "duration_s"):
-                raise _fail(f"{where}.{k}", "unknown key (known: duration_s, link, start_s)")
+            if k not in ("link", "start_s", "duration_s", "loss", "latency_s"):
+                raise _fail(f"{where}.{k}", "unknown key (known: duration_s, latency_s, link, "
+                                            "loss, start_s)")
         for k in ("link", "start_s", "duration_s"):
             if k not in entry:
                 raise _fail(f"{where}.{k}", "missing")
@@ -200,7 +207,16 @@ def _outages(config: Mapping[str, Any], path: str) -> list[_Outage]:
         if (not isinstance(duration, (int, float)) or isinstance(duration, bool)
                 or not duration > 0):
             raise _fail(f"{where}.duration_s", f"expected seconds > 0, got {duration!r}")
-        out.append(_Outage(link, float(start), float(duration)))
+        loss = entry.get("loss", 0.0 if "latency_s" in entry else 1.0)
+        latency = entry.get("latency_s", 0.0)
+        if (not isinstance(loss, (int, float)) or isinstance(loss, bool)
+                or not 0.0 <= loss <= 1.0):
+            raise _fail(f"{where}.loss", f"expected a probability 0..1, got {loss!r}")
+        if (not isinstance(latency, (int, float)) or isinstance(latency, bool)
+                or not 0.0 <= latency <= MAX_DELAY_S):
+            raise _fail(f"{where}.latency_s", f"expected seconds 0..{MAX_DELAY_S:g}, "
+                                              f"got {latency!r}")
+        out.append(_Outage(link, float(start), float(duration), float(loss), float(latency)))
     return out
 
 

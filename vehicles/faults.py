@@ -1,7 +1,8 @@
 """Faults a scenario schedules (its ``[[faults]]`` timeline): a vehicle failure, by PX4's failure
 unit and type names (MAV_CMD_INJECT_FAILURE's FAILURE_UNIT / FAILURE_TYPE), or a network event
-on a link (``event = "outage"`` for ``duration_s``: the link carries nothing; the network's
-outage windows, netsim/topology.py).
+on a link for ``duration_s`` (the network's outage windows, netsim/topology.py): ``outage`` (the
+link carries nothing), ``loss`` (a loss burst: each packet lost with probability ``loss``) or
+``latency`` (a latency step: ``latency_ms`` more on every packet).
 
 A scheduled fault is the simulator's doing, like a Gazebo world plugin: it needs no
 SYS_FAILURE_EN (that guards the MAVLink command). Units and types the simulation models, as
@@ -22,7 +23,7 @@ SUPPORTED = {"gyro": ("ok", "off", "stuck"), "accel": ("ok", "off", "stuck"),
              "battery": ("ok", "off"), "motor": ("ok", "off")}
 
 
-EVENTS = ("outage",)
+EVENTS = ("outage", "loss", "latency")
 
 
 @dataclass(frozen=True)
@@ -35,6 +36,8 @@ class Fault:
     link: str = ""  # a link name or pattern (a network event): "v2", "v1/gcs/down", "v*"
     event: str = ""  # one of EVENTS
     duration_s: float = 0.0
+    loss: float = 1.0  # a loss event's probability
+    latency_ms: float = 0.0  # a latency event's added delay
 
     @property
     def on_network(self) -> bool:
@@ -42,6 +45,8 @@ class Fault:
 
     def describe(self) -> str:
         if self.on_network:
-            return f"link {self.link} {self.event} for {self.duration_s:g} s"
+            what = {"loss": f"loss {self.loss:g}",
+                    "latency": f"latency +{self.latency_ms:g} ms"}.get(self.event, self.event)
+            return f"link {self.link} {what} for {self.duration_s:g} s"
         which = f" {self.instance}" if self.instance else ""
         return f"vehicle {self.vehicle} {self.unit}{which} {self.type}"

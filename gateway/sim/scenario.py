@@ -318,7 +318,9 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
         if backend != "embedded":
             raise ScenarioError("faults: network events need the embedded backend (ns-3 has "
                                 "its own link model)")
-        outages = [{"link": f.link, "start_s": f.at_s, "duration_s": f.duration_s}
+        outages = [{"link": f.link, "start_s": f.at_s, "duration_s": f.duration_s,
+                    "loss": f.loss if f.event != "latency" else 0.0,
+                    "latency_s": f.latency_ms / 1000.0}
                    for f in faults if f.on_network]
         topology = {**topology, "outages": [*topology.get("outages", []), *outages]}
         try:
@@ -342,7 +344,7 @@ def _faults(entries: Any, vehicles: int) -> tuple[Fault, ...]:
         if not isinstance(entry, dict):
             raise ScenarioError(f"{where}: expected a table with at_s, vehicle, unit, type")
         _unknown(entry, ("at_s", "vehicle", "unit", "type", "instance", "link", "event",
-                         "duration_s"), where)
+                         "duration_s", "loss", "latency_ms"), where)
         if "link" in entry:
             for key in ("at_s", "event", "duration_s"):
                 if key not in entry:
@@ -354,7 +356,26 @@ def _faults(entries: Any, vehicles: int) -> tuple[Fault, ...]:
             at = _number(entry["at_s"], f"{where}.at_s", minimum=0.0)
             event = _choice(entry["event"], EVENTS, f"{where}.event")
             duration = _number(entry["duration_s"], f"{where}.duration_s", positive=True)
-            out.append(Fault(float(at), link=link, event=event, duration_s=float(duration)))
+            loss, latency = 1.0, 0.0
+            needs = {"loss": "loss", "latency": "latency_ms"}.get(event)
+            for key in ("loss", "latency_ms"):
+                if key in entry and key != needs:
+                    raise ScenarioError(f"{where}.{key}: only for event = "
+                                        f"{'loss' if key == 'loss' else 'latency'}")
+            if needs is not None and needs not in entry:
+                raise ScenarioError(f"{where}.{needs}: missing (event = {event!r})")
+            if event == "loss":
+                loss = _number(entry["loss"], f"{where}.loss")
+                if not 0.0 < loss <= 1.0:
+                    raise ScenarioError(f"{where}.loss: must be a probability in (0, 1], "
+                                        f"got {loss!r}")
+            if event == "latency":
+                latency = _number(entry["latency_ms"], f"{where}.latency_ms")
+                if not 0.0 < latency <= 60_000.0:
+                    raise ScenarioError(f"{where}.latency_ms: must be in (0, 60000] ms, "
+                                        f"got {latency!r}")
+            out.append(Fault(float(at), link=link, event=event, duration_s=float(duration),
+                             loss=float(loss), latency_ms=float(latency)))
             continue
         for key in ("at_s", "unit", "type"):
             if key not in entry:

@@ -220,3 +220,45 @@ def test_battery_off_is_an_empty_battery_and_the_vehicle_lands():
         assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 100, OK, 0) == 0
         sim.advance(1.0)
         assert api.last("SYS_STATUS").battery_remaining == 100  # disarmed: a fresh battery
+
+
+def test_loss_burst_and_latency_step_in_the_fault_timeline():
+    """[[faults]] network events beyond the outage: a loss burst (each packet lost with the
+    given probability, counted as loss) and a latency step (every packet later by latency_ms)
+    on one link, for their durations only; same seed, same drops."""
+    from gateway.sim import scenario as scenario_mod
+
+    doc = {"faults": [
+        {"at_s": 2.0, "link": "v1/api/down", "event": "loss", "loss": 0.5, "duration_s": 2.0},
+        {"at_s": 5.0, "link": "v1/api/down", "event": "latency", "latency_ms": 300.0,
+         "duration_s": 2.0}]}
+
+    def run():
+        with Sim(scenario=scenario_mod.parse(doc)) as sim:
+            api = sim.api(0)
+            sim.advance(2.0)
+            quiet = sum(1 for t, _, _ in api.frames if 1.0 <= t < 2.0)
+            sim.advance(2.0)
+            burst = sum(1 for t, _, _ in api.frames if 2.5 <= t < 3.5)
+            stats = sim.simulation.link_stats()["v1/api/down"]
+            sim.advance(1.0)
+            # a frame sent at 5.0 s arrives 0.3 s later: nothing between 5.0 and 5.3 s
+            sim.advance(1.0)
+            gap = sum(1 for t, _, _ in api.frames if 5.0 < t < 5.29)
+            late = sum(1 for t, _, _ in api.frames if 5.3 <= t < 6.0)
+            described = [f.describe() for _, f in sim.simulation.faults_fired]
+            return quiet, burst, stats, gap, late, described, [t for t, _, _ in api.frames]
+
+    quiet, burst, stats, gap, late, described, times = run()
+    assert 0.3 * quiet < burst < 0.7 * quiet, (quiet, burst)
+    assert stats["dropped"]["loss"] == stats["sent"] - stats["delivered"] > 0
+    assert gap == 0 and late > 0
+    assert described == ["link v1/api/down loss 0.5 for 2 s",
+                         "link v1/api/down latency +300 ms for 2 s"]
+    assert run()[-1] == times  # deterministic
+    with pytest.raises(scenario_mod.ScenarioError, match=r"faults\[0\].loss: missing"):
+        scenario_mod.parse({"faults": [{"at_s": 1.0, "link": "v1", "event": "loss",
+                                        "duration_s": 1.0}]})
+    with pytest.raises(scenario_mod.ScenarioError, match=r"faults\[0\].latency_ms: only for"):
+        scenario_mod.parse({"faults": [{"at_s": 1.0, "link": "v1", "event": "loss", "loss": 0.1,
+                                        "latency_ms": 5.0, "duration_s": 1.0}]})

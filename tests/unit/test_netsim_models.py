@@ -233,7 +233,24 @@ def test_outage_on_a_link_counts_outage_drops():
     assert link.stats.delivered == 250
 
 
-@pytest.mark.parametrize("windows", [[[1.0]], [[-1.0, 2.0]], [[1.0, 0.0]], [["a", 1]]])
+def test_outage_loss_and_latency_windows():
+    """A window with a loss below 1 drops that share of its packets (Drop.LOSS, the model's own
+    stream, drawn only in the window); one with a delay adds it; blackouts still win."""
+    model = _model("outage", windows_s=[[1.0, 10.0, 0.25, 0.0], [20.0, 5.0, 0.0, 0.3],
+                                        [22.0, 1.0]])
+    times = [1.0 + i * 0.001 for i in range(10_000)]
+    drops = sum(model.transit(10, t) is Drop.LOSS for t in times)
+    assert 2300 < drops < 2700
+    assert model.transit(10, 0.5) == 0.0 and model.transit(10, 11.0) == 0.0
+    assert model.transit(10, 20.0) == pytest.approx(0.3)
+    assert model.transit(10, 22.5) is Drop.OUTAGE
+    a, b = (_model("outage", windows_s=[[1.0, 10.0, 0.25, 0.0]]) for _ in range(2))
+    assert [a.transit(10, t) for t in times[:500]] == [b.transit(10, t) for t in times[:500]]
+
+
+@pytest.mark.parametrize("windows", [[[1.0]], [[-1.0, 2.0]], [[1.0, 0.0]], [["a", 1]],
+                                     [[1.0, 1.0, 1.5, 0.0]], [[1.0, 1.0, 0.5, -1.0]],
+                                     [[1.0, 1.0, 0.5]]])
 def test_outage_validation(windows):
     with pytest.raises(ValueError, match=r"windows_s\[0\]"):
         _model("outage", windows_s=windows)
