@@ -190,6 +190,19 @@ def _flatten(values: tuple) -> list:
     return out
 
 
+class _Sample:
+    """The vehicle as one sampling instant sees it: each property read once (``status``,
+    ``estimator``, ``sensors`` build new objects on every read), shared by the topics."""
+
+    def __init__(self, vehicle: Any) -> None:
+        self._vehicle = vehicle
+
+    def __getattr__(self, name: str) -> Any:
+        value = getattr(self._vehicle, name)
+        setattr(self, name, value)
+        return value
+
+
 class VehicleLogger:
     """One vehicle's logs (module rules)."""
 
@@ -200,6 +213,7 @@ class VehicleLogger:
         self.topics = tuple(topics)
         self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields))
                          for t in self.topics]
+        self._nested = [any("[" in ftype for ftype, _ in t.fields) for t in self.topics]
         self._path: str | None = None
         self._buf = bytearray()
         self._out: list[tuple[str, bytes, bool]] = []
@@ -273,7 +287,8 @@ class VehicleLogger:
         """Start or stop a log as SDLOG_MODE says; sample what is due (module rules)."""
         mode = self.vehicle.params.get("SDLOG_MODE", SDLOG_ARMED)
         mode = SDLOG_ARMED if mode is None else int(mode)
-        armed = self.vehicle.status.armed
+        view = _Sample(self.vehicle)
+        armed = view.status.armed
         boot = not self._booted
         self._booted = True
         if self._path is None:
@@ -283,14 +298,14 @@ class VehicleLogger:
                 self._start(now_s)
         elif self._was_armed and not armed and mode in (SDLOG_ARMED, SDLOG_BOOT_TO_DISARM,
                                                         SDLOG_AUX1):
-            self._sample(now_s, force=True)
+            self._sample(now_s, True, view)
             self._stop()
         self._armed_once = self._armed_once or armed
         self._was_armed = armed
         if self._path is not None:
-            self._sample(now_s, force=False)
+            self._sample(now_s, False, view)
 
-    def _sample(self, now_s: float, force: bool) -> None:
+    def _sample(self, now_s: float, force: bool, view: _Sample) -> None:
         us = int(now_s * 1e6)
         buf = self._buf
         for name, value in self._param_changes:
@@ -304,12 +319,13 @@ class VehicleLogger:
         for i, topic in enumerate(self.topics):
             if not force and now_s + 1e-9 < self._due[i]:
                 continue
-            values = topic.read(self.vehicle)
+            values = topic.read(view)
             if topic.on_change and values == self._last[i] and not force:
                 continue
             self._last[i] = values
             self._due[i] = now_s + topic.interval_s
-            buf += ulog.data(i, self._structs[i].pack(us, *_flatten(values)))
+            flat = _flatten(values) if self._nested[i] else values
+            buf += ulog.data(i, self._structs[i].pack(us, *flat))
 
     def drain(self) -> list[tuple[str, bytes, bool]]:
         """What to append to which file since the last drain: (path, bytes, closed)."""
