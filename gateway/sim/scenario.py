@@ -45,9 +45,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gateway.sim.fault_timeline import parse_faults
+from gateway.sim.values import ScenarioError
+from gateway.sim.values import choice as _choice
+from gateway.sim.values import number as _number
+from gateway.sim.values import table as _table
+from gateway.sim.values import unknown as _unknown
 from netsim.topology import make_router
 from vehicles.estimation import SensorConfig
-from vehicles.faults import EVENTS, SUPPORTED, TYPES, UNITS, Fault
+from vehicles.faults import Fault
 from vehicles.params import ParamStore
 from vehicles.types import PX4_SITL_HOME, GeoPoint
 from vehicles.wind import WindConfig
@@ -76,10 +82,6 @@ HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it bind
 DAEMON_KEYS = ("bind", "port_offset", "speed", "state_dir", "log_dir", "zmq_pub", "packet_trace",
                "log_level", "signing_key", "metrics_port")
 NETWORK_OWN_KEYS = ("backend", "seed", "sync_period_s", "late_policy", "ns3")
-
-
-class ScenarioError(ValueError):
-    """A scenario problem; the message names the key path."""
 
 
 @dataclass(frozen=True)
@@ -143,39 +145,6 @@ class Scenario:
     wind: WindConfig = field(default_factory=WindConfig)  # [environment]
     sensors: SensorConfig = field(default_factory=SensorConfig)  # [sensors]
     faults: tuple[Fault, ...] = ()  # [[faults]], in time order
-
-
-def _table(doc: dict, key: str, path: str) -> dict:
-    value = doc.get(key, {})
-    if not isinstance(value, dict):
-        raise ScenarioError(f"{path}: expected a table, got {type(value).__name__}")
-    return value
-
-
-def _unknown(table: dict, known: tuple[str, ...], path: str) -> None:
-    for key in table:
-        if key not in known:
-            raise ScenarioError(f"{path}.{key}: unknown key (known: {', '.join(known)})"
-                                if path else f"{key}: unknown table (known: {', '.join(known)})")
-
-
-def _number(value: Any, path: str, *, minimum: float | None = None, integer: bool = False,
-            positive: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or \
-            (integer and not isinstance(value, int)) or not math.isfinite(value):
-        raise ScenarioError(f"{path}: expected {'an integer' if integer else 'a number'}, "
-                            f"got {value!r}")
-    if minimum is not None and value < minimum:
-        raise ScenarioError(f"{path}: must be >= {minimum}, got {value!r}")
-    if positive and value <= 0:
-        raise ScenarioError(f"{path}: must be > 0, got {value!r}")
-    return value
-
-
-def _choice(value: Any, choices: tuple[str, ...], path: str) -> str:
-    if value not in choices:
-        raise ScenarioError(f"{path}: expected one of {', '.join(choices)}, got {value!r}")
-    return value
 
 
 def bind_address(value: Any, path: str) -> str:
@@ -313,7 +282,7 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
         check_ports(count, daemon.port_offset, "daemon.port_offset")
     wind = _environment(_table(doc, "environment", "environment"))
     sensors = _sensors(_table(doc, "sensors", "sensors"))
-    faults = _faults(doc.get("faults", []), count)
+    faults = parse_faults(doc.get("faults", []), count)
     if any(f.on_network for f in faults):
         if backend != "embedded":
             raise ScenarioError("faults: network events need the embedded backend (ns-3 has "
@@ -330,73 +299,6 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
         network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3))
     return Scenario(source, count, home, airframe, params, network, level, daemon, wind, sensors,
                     faults)
-
-
-def _faults(entries: Any, vehicles: int) -> tuple[Fault, ...]:
-    """``[[faults]]``: at ``at_s`` seconds of simulated time, vehicle ``vehicle`` (1-based,
-    default 1) gets a failure of ``unit`` (gps) and ``type`` (off, ok), or link ``link`` has an
-    ``event`` (outage) for ``duration_s``: vehicles/faults.py."""
-    if not isinstance(entries, list):
-        raise ScenarioError("faults: expected an array of tables ([[faults]])")
-    out = []
-    for i, entry in enumerate(entries):
-        where = f"faults[{i}]"
-        if not isinstance(entry, dict):
-            raise ScenarioError(f"{where}: expected a table with at_s, vehicle, unit, type")
-        _unknown(entry, ("at_s", "vehicle", "unit", "type", "instance", "link", "event",
-                         "duration_s", "loss", "latency_ms"), where)
-        if "link" in entry:
-            for key in ("at_s", "event", "duration_s"):
-                if key not in entry:
-                    raise ScenarioError(f"{where}.{key}: missing")
-            link = entry["link"]
-            if not isinstance(link, str) or not link:
-                raise ScenarioError(f"{where}.link: expected a link name or pattern (v1, "
-                                    f"v1/gcs/down, v*), got {link!r}")
-            at = _number(entry["at_s"], f"{where}.at_s", minimum=0.0)
-            event = _choice(entry["event"], EVENTS, f"{where}.event")
-            duration = _number(entry["duration_s"], f"{where}.duration_s", positive=True)
-            loss, latency = 1.0, 0.0
-            needs = {"loss": "loss", "latency": "latency_ms"}.get(event)
-            for key in ("loss", "latency_ms"):
-                if key in entry and key != needs:
-                    raise ScenarioError(f"{where}.{key}: only for event = "
-                                        f"{'loss' if key == 'loss' else 'latency'}")
-            if needs is not None and needs not in entry:
-                raise ScenarioError(f"{where}.{needs}: missing (event = {event!r})")
-            if event == "loss":
-                loss = _number(entry["loss"], f"{where}.loss")
-                if not 0.0 < loss <= 1.0:
-                    raise ScenarioError(f"{where}.loss: must be a probability in (0, 1], "
-                                        f"got {loss!r}")
-            if event == "latency":
-                latency = _number(entry["latency_ms"], f"{where}.latency_ms")
-                if not 0.0 < latency <= 60_000.0:
-                    raise ScenarioError(f"{where}.latency_ms: must be in (0, 60000] ms, "
-                                        f"got {latency!r}")
-            out.append(Fault(float(at), link=link, event=event, duration_s=float(duration),
-                             loss=float(loss), latency_ms=float(latency)))
-            continue
-        for key in ("at_s", "unit", "type"):
-            if key not in entry:
-                raise ScenarioError(f"{where}.{key}: missing")
-        at = _number(entry["at_s"], f"{where}.at_s", minimum=0.0)
-        vehicle = int(_number(entry.get("vehicle", 1), f"{where}.vehicle", integer=True,
-                              minimum=1))
-        if vehicle > vehicles:
-            raise ScenarioError(f"{where}.vehicle: the scenario has {vehicles} vehicle(s), "
-                                f"got {vehicle}")
-        unit = _choice(entry["unit"], tuple(UNITS), f"{where}.unit")
-        kind = _choice(entry["type"], tuple(TYPES), f"{where}.type")
-        if kind not in SUPPORTED[unit]:
-            raise ScenarioError(f"{where}.type: {unit} can be {', '.join(SUPPORTED[unit])} "
-                                f"(as PX4 SITL), got {kind!r}")
-        instance = int(_number(entry.get("instance", 0), f"{where}.instance", integer=True,
-                               minimum=0))
-        if unit == "motor" and instance > 4:  # the x500's four
-            raise ScenarioError(f"{where}.instance: motors are 1..4 (0: all), got {instance}")
-        out.append(Fault(float(at), vehicle, instance=instance, unit=unit, type=kind))
-    return tuple(sorted(out, key=lambda f: f.at_s))
 
 
 def _sensors(table: dict) -> SensorConfig:
