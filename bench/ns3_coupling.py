@@ -5,9 +5,11 @@ in lockstep and in real time, beside ns-3's own latency up and down that link.
 
 Each run builds the simulation in-process from the scenario (its sync period replaced), arms
 nothing, and sends a MAVLink PING on the API link every 0.2 simulated seconds after a 1 s
-settle; the vehicle's PING answer closes the round trip, in simulated time. Real time: the
+settle; the vehicle's PING answer closes the round trip, in simulated time. Lockstep: the
+bridge's exact-time exchange (the sync period only paces position updates). Real time: the
 kernel is paced to the wall clock in 1 ms slices, so the ns-3 bridge runs as in the daemon
-(its real-time pipeline; replies it reads too late are dropped and counted "late").
+(its real-time pipeline of two sync periods; replies it reads too late are dropped and counted
+"late").
 ns-3's latency is the links' own share (``net_latency_mean_ms``: injection into ns-3 to ns-3's
 delivery, the mean over every datagram of the link, telemetry included) on the API link's two
 directions, added; the coupling adds the rest of the round trip.

@@ -11,6 +11,11 @@ Rules and invariants (SimPy's core in miniature):
 - Heap entries are (time, priority, seq, event) tuples, so ordering is a C-level tuple
   comparison (``seq`` is unique, the event itself is never compared).
 - Callbacks may schedule more events, including at ``now``; scheduling in the past is an error.
+- A horizon (for a co-simulated network, netsim/ns3/bridge.py): before any event later than
+  ``horizon`` runs — and before ``run`` moves ``now`` past it — ``on_horizon(t)`` is called with
+  that time; it must either move ``horizon`` to ``t`` or later, or schedule an event earlier than
+  ``t`` (a delivery the other simulator found on its way to ``t``). ``horizon`` is +inf when
+  nobody needs the hook.
 """
 
 from __future__ import annotations
@@ -62,6 +67,8 @@ class Kernel:
         self._heap: list[tuple[float, int, int, Event]] = []
         self._seq = 0
         self.events_processed = 0
+        self.horizon = math.inf
+        self.on_horizon: Callable[[float], Any] | None = None
 
     @property
     def now(self) -> float:
@@ -89,13 +96,24 @@ class Kernel:
             heapq.heappop(heap)
         return heap[0][0] if heap else math.inf
 
+    def _cross(self, t: float) -> None:
+        if self.on_horizon is None:
+            raise SchedulingError(f"horizon {self.horizon!r} is set but on_horizon is not")
+        self.on_horizon(t)
+
     def step(self) -> bool:
         """Process the next live event. False if there was none."""
         heap = self._heap
         while heap:
-            event = heapq.heappop(heap)[3]
+            entry = heap[0]
+            event = entry[3]
             if event.cancelled:
+                heapq.heappop(heap)
                 continue
+            if entry[0] > self.horizon:
+                self._cross(entry[0])
+                continue
+            heapq.heappop(heap)
             self._now = event.time
             self.events_processed += 1
             event.callback(*event.args)
@@ -112,16 +130,26 @@ class Kernel:
             raise SchedulingError(f"cannot run until {until!r}, now is {self._now!r}")
         heap = self._heap
         pop = heapq.heappop
-        while heap:
-            entry = heap[0]
-            event = entry[3]
-            if event.cancelled:
-                pop(heap)
-                continue
-            if entry[0] > until:
+        while True:
+            if heap:
+                entry = heap[0]
+                event = entry[3]
+                if event.cancelled:
+                    pop(heap)
+                    continue
+                t = entry[0]
+            else:
+                t = math.inf
+            if t > until:
+                if until > self.horizon:  # deliveries may be due before until
+                    self._cross(until)
+                    continue
                 break
+            if t > self.horizon:
+                self._cross(t)
+                continue
             pop(heap)
-            self._now = entry[0]
+            self._now = t
             self.events_processed += 1
             event.callback(*event.args)
         self._now = until

@@ -2,22 +2,30 @@
 
 ``Ns3Backend`` implements ``netsim.backend.NetworkBackend``. It starts an engine process
 (``cornet-ns3``, the C++ ns-3 program, or the pure-Python reference engine) and drives it over ZMQ
-REQ/REP with the protocol of README.md, once per sync period.
+REQ/REP with the protocol of README.md.
 
 Rules and invariants:
-- The physics clock is the reference (CORNET). A cycle runs at each ``update_mobility`` call, which
-  the simulation makes every ``sync_period_s``: the packets sent since the previous cycle go to the
-  engine with their send times and the current positions, and the engine answers with delivery
-  times or drops.
-- Pipeline delay. A packet is only known to the engine at the end of the cycle it was sent in,
-  so the engine simulates it shifted by ``pipeline_s``: one sync period in lockstep mode, two in
-  real-time mode (the engine then has one whole period of wall time to answer). Each packet is
-  injected at ``send_time + pipeline_s`` and delivered on the kernel at its engine delivery time,
-  so end-to-end latency = ns-3 latency + ``pipeline_s``; ``net_latency_*`` in the link stats is
-  ns-3's own part. This is the smallest shift for which an engine that answers in time never
-  produces a delivery time in the kernel's past.
-- Lockstep (``realtime=False``): each cycle waits for the engine's reply (up to ``timeout_s`` of
-  wall time), so nothing is ever late and runs are deterministic.
+- The physics clock is the reference (CORNET): the engine answers every packet with a delivery
+  time or a drop.
+- Lockstep (``realtime=False``): exact time, by a conservative next-event exchange on the
+  kernel's horizon (netsim/kernel.py). A packet enters ns-3 at its send time and arrives on the
+  kernel at ns-3's delivery time: no pipeline. Invariants: ns-3's clock N never passes the
+  kernel's; every packet sent before N is in ns-3; every delivery up to N is on the kernel.
+  With nothing in flight the kernel runs freely; a send sets the horizon to its time plus
+  ``LOOKAHEAD_S`` (no datagram crosses ns-3 faster); while packets are in flight the horizon is
+  N. Crossing it, the bridge sends the waiting packets and positions and asks the engine to run
+  to the kernel's next event time but stop at its first delivery (``stop_at_delivery``), so
+  every delivery is scheduled at its own time before the kernel gets there. Each exchange waits
+  for the reply (up to ``timeout_s`` of wall time); runs are deterministic. The mobility ticker
+  only refreshes positions (sent with the next exchange).
+- Pipeline delay (real time). A cycle runs at each ``update_mobility`` call (every
+  ``sync_period_s``): the packets sent since the previous cycle go to the engine with their send
+  times and the current positions. A packet is only known to the engine at the end of the
+  cycle it was sent in, so the engine simulates it shifted by ``pipeline_s`` = two sync periods
+  (the engine then has one whole period of wall time to answer). Each packet is injected at
+  ``send_time + pipeline_s`` and delivered on the kernel at its engine delivery time, so
+  end-to-end latency = ns-3 latency + ``pipeline_s``; ``net_latency_*`` in the link stats is
+  ns-3's own part.
 - Real time (``realtime=True``): the physics never waits. A cycle sends its request and returns;
   later cycles poll for the reply without blocking, while packets queue for the next request. A
   delivery whose time has passed when its reply is read is *late*: policy ``drop`` counts it in
@@ -36,9 +44,9 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import pathlib
-import re
 import shutil
 import subprocess
 import sys
@@ -53,51 +61,31 @@ from netsim.backend import Vec3
 from netsim.kernel import PRIORITY_NETWORK, Kernel
 from netsim.link import Deliver, LinkStats, Tracer
 from netsim.models import Drop
+from netsim.ns3.engine import (
+    BINARY,
+    HERE,
+    Ns3BuildMissing,
+    Ns3Error,
+    build_missing_message,
+    die_with_parent,
+    node_kind,
+)
 
 log = logging.getLogger("netsim.ns3")
 
+# No datagram crosses ns-3 faster than this (an 802.11 preamble alone is 16-192 µs; a wired hop
+# adds its delay): the lockstep exchange's lookahead after a send.
+LOOKAHEAD_S = 1e-6
+# ns-3 reports times in whole nanoseconds (9 decimals); the kernel's floats are not rounded.
+TIME_RESOLUTION_S = 1e-9
+
 PROTOCOL_VERSION = 1
-HERE = pathlib.Path(__file__).resolve().parent
-BINARY = HERE / "build" / "cornet-ns3"
 ENGINES = ("ns3", "reference")
 LATE_POLICIES = ("drop", "deliver")
 DROP_BACKEND = "backend"  # the engine was lost: its cycle's packets never came back
 POLL_SLICE_MS = 50  # lockstep waits in slices, to notice a dead engine before the timeout
 CONFIG_KEYS = {"engine", "binary", "topology", "nodes", "wifi", "propagation", "wired",
                "warmup_s", "drop_after_s", "timeout_s", "init_timeout_s", "reference"}
-
-
-
-class Ns3Error(RuntimeError):
-    """The engine is missing, refused a request, or was lost with ``strict=True``."""
-
-
-class Ns3BuildMissing(Ns3Error):
-    pass
-
-
-def build_missing_message(binary: pathlib.Path = BINARY) -> str:
-    return (f"ns-3 build missing: {binary} not found; run `make ns3` "
-            "(needs libns3-dev, libzmq3-dev, cppzmq-dev, libgsl-dev: `make ns3-deps`)")
-
-
-def _die_with_parent() -> None:
-    """In the engine's child process (Linux): SIGTERM it when the daemon dies, so a crash of
-    the daemon or a backend that was never closed leaves no engine behind."""
-    if sys.platform.startswith("linux"):
-        import ctypes
-        import signal
-
-        pr_set_pdeathsig = 1
-        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGTERM))
-
-
-def node_kind(name: str) -> str:
-    if re.fullmatch(r"v\d+", name):
-        return "vehicle"
-    if re.fullmatch(r"ap\d*", name):  # "ap", "ap2" — not "api1", an API client
-        return "ap"
-    return "ground"
 
 
 @dataclass
@@ -166,7 +154,9 @@ class Ns3Backend:
         self.realtime = realtime
         self.strict = strict
         self.tracer = tracer
-        self.pipeline_s = (2 if realtime else 1) * sync_period_s
+        self.exact = not realtime
+        self.pipeline_s = 2 * sync_period_s if realtime else 0.0
+        self.exchanges = 0  # lockstep: engine round trips
         self.timeout_s = float(config.get("timeout_s", 5.0))
         self.init_timeout_s = float(config.get("init_timeout_s", 30.0))
         self.links: dict[str, Ns3Link] = {}
@@ -227,7 +217,7 @@ class Ns3Backend:
         root = str(HERE.parent.parent)
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [root, env.get("PYTHONPATH")]))
         self._proc = subprocess.Popen(self._command(), env=env, stdin=subprocess.DEVNULL,
-                                      stdout=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+                                      stdout=subprocess.DEVNULL, preexec_fn=die_with_parent)
 
     def _engine_gone(self) -> str | None:
         if self._proc is not None and self._proc.poll() is not None:
@@ -288,8 +278,7 @@ class Ns3Backend:
                 return
         if self.realtime:
             self._cycle_realtime()
-        else:
-            self._cycle_lockstep()
+        # Lockstep: the positions go with the next exchange (``_exchange``).
 
     def close(self) -> None:
         if self._proc is not None and self._proc.poll() is None and self.lost is None \
@@ -323,13 +312,19 @@ class Ns3Backend:
             return
         self.ready_reply = reply
         self._engine_until_s = self.kernel.now
+        if self.exact:
+            self.kernel.on_horizon = self._exchange
+            if self._outbox:
+                self.kernel.horizon = min(self.kernel.horizon,
+                                          self._outbox[0].sent_at_s + LOOKAHEAD_S)
         if reply.get("unassociated"):
             log.warning("ns-3: stations not associated after the warm-up (out of the AP's "
                         "range?): %s", ", ".join(reply["unassociated"]))
 
-    def _step_request(self) -> dict[str, Any]:
+    def _step_request(self, until: float | None = None) -> dict[str, Any]:
         now = self.kernel.now
-        until = now + self.pipeline_s
+        if until is None:
+            until = now + self.pipeline_s
         packets = []
         for p in self._outbox:
             p.inject_at_s = max(p.sent_at_s + self.pipeline_s, self._engine_until_s)
@@ -343,12 +338,35 @@ class Ns3Backend:
                 "positions": {k: list(v) for k, v in self.positions.items()},
                 "packets": packets}
 
-    def _cycle_lockstep(self) -> None:
-        reply = self._request(self._step_request(), self.timeout_s)
+    def _exchange(self, t: float) -> None:
+        """Lockstep: the kernel is about to pass its horizon towards ``t`` (module rules)."""
+        kernel = self.kernel
+        if self.lost is not None:
+            kernel.horizon = math.inf
+            self._drop_all(DROP_BACKEND)
+            return
+        if not self.started:
+            self.start()
+            if self.lost is not None:
+                kernel.horizon = math.inf
+                return
+        request = self._step_request(until=t)
+        request["stop_at_delivery"] = True
+        self.exchanges += 1
+        reply = self._request(request, self.timeout_s)
         if reply is None:
+            kernel.horizon = math.inf
             self._lose(self._engine_gone() or f"no reply within {self.timeout_s} s")
             return
+        reached = float(reply["now_s"])
+        self._engine_until_s = reached
         self._apply(reply)
+        if reply.get("in_flight", 0) == 0 and not self._outbox:
+            kernel.horizon = math.inf
+        elif reached >= round(t, 9) - TIME_RESOLUTION_S / 2:
+            kernel.horizon = t  # ns-3 got there (to its nanosecond)
+        else:
+            kernel.horizon = reached  # stopped at a delivery, now on the kernel
 
     def _cycle_realtime(self) -> None:
         now = self.kernel.now
@@ -380,6 +398,9 @@ class Ns3Backend:
             p.net_latency_s = time_s - p.inject_at_s
             if time_s >= now:
                 self.kernel.schedule(time_s, self._arrive, p, priority=PRIORITY_NETWORK)
+            elif self.exact and now - time_s <= TIME_RESOLUTION_S:
+                # ns-3's nanosecond against the kernel's unrounded float: the same instant.
+                self.kernel.schedule(now, self._arrive, p, priority=PRIORITY_NETWORK)
             elif self.late_policy == "deliver":
                 p.link.stats.late_delivered += 1
                 self.kernel.schedule(now, self._arrive, p, priority=PRIORITY_NETWORK)
@@ -415,6 +436,8 @@ class Ns3Backend:
             self.tracer("send", link.name, now, len(packet), "")
         self._outbox.append(_Packet(self._next_id, link, packet, meta, now))
         self._next_id += 1
+        if self.exact and self.started:
+            self.kernel.horizon = min(self.kernel.horizon, now + LOOKAHEAD_S)
 
     def _count_drop(self, p: _Packet, reason: str) -> None:
         p.link.stats.in_flight -= 1
@@ -467,4 +490,5 @@ class Ns3Backend:
         """Cycle counters of the co-simulation itself (per-link counters are in each link)."""
         return {"engine": self.engine, "cycles": self.cycles, "cycles_lost": self.cycles_lost,
                 "replies_late": self.replies_late, "lost": self.lost,
+                "exchanges": self.exchanges,
                 "pipeline_ms": round(self.pipeline_s * 1e3, 3)}

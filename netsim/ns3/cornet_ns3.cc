@@ -7,7 +7,8 @@
 //   gets {"op": "error"} and the program keeps serving. `close` replies and exits 0.
 // - Protocol time ("now_s", "until_s", "send_time_s", "time_s") is the physics clock. ns-3's
 //   own clock runs ahead of it by the warm-up: ns3_time = protocol_time + warmup.
-// - ns-3 only moves inside `step`, up to exactly `until_s`; packets are injected at their
+// - ns-3 only moves inside `step`, up to exactly `until_s` (or, with `stop_at_delivery`, to the
+//   first delivery before it: the reply's `now_s`); packets are injected at their
 //   `send_time_s` (clamped to now if in the past) as UDP datagrams of `size` bytes between the
 //   nodes' IP addresses. Their first 8 bytes carry the packet id; the real bytes stay in Python.
 // - Every injected packet is eventually reported exactly once: delivered (with its time) or
@@ -77,6 +78,7 @@ class Engine
     std::ostringstream m_delivered; // JSON items of this step
     std::ostringstream m_dropped;
     bool m_firstDelivered = true;
+    bool m_stopAtDelivery = false; // this step ends at its first delivery
     bool m_firstDropped = true;
 
     std::string Init(const Json& request);
@@ -142,6 +144,8 @@ void Engine::Receive(Ptr<Socket> socket)
         m_delivered << (m_firstDelivered ? "" : ",") << "{\"id\":" << id
                     << ",\"time_s\":" << JsonTime(Now()) << "}";
         m_firstDelivered = false;
+        if (m_stopAtDelivery)
+            Simulator::Stop(); // after this event: the caller learns the delivery at its time
     }
 }
 
@@ -395,6 +399,9 @@ std::string Engine::Step(const Json& r)
     if (positions.type == Json::Object)
         for (const auto& [name, ned] : positions.o)
             SetPosition(m_nodes[m_byName.at(NodeNamed(name).name)], ned);
+    const Json& stopFlag = r["stop_at_delivery"];
+    if (stopFlag.type != Json::Null && stopFlag.type != Json::Bool)
+        throw std::runtime_error("'stop_at_delivery' must be true or false");
     const Json& packets = r["packets"];
     if (packets.type != Json::Null && packets.type != Json::Array)
         throw std::runtime_error("'packets' must be a list");
@@ -424,19 +431,25 @@ std::string Engine::Step(const Json& r)
     m_delivered.str("");
     m_dropped.str("");
     m_firstDelivered = m_firstDropped = true;
+    m_stopAtDelivery = stopFlag.type == Json::Bool && stopFlag.b;
     for (const Injection& in : batch)
     {
         m_pending[in.id] = Pending{in.at};
         Simulator::Schedule(ToTime(in.at) + m_offset - Simulator::Now(), &Engine::Send, this,
                             in.id, in.src, in.dst, in.size);
     }
-    Simulator::Stop(ToTime(until) + m_offset - Simulator::Now());
+    // The end of the step as an event of its own, cancelled when a delivery stopped it first
+    // (Simulator::Stop(delay) could not be taken back: it would end the next step early).
+    EventId end = Simulator::Schedule(ToTime(until) + m_offset - Simulator::Now(),
+                                      static_cast<void (*)()>(&Simulator::Stop));
     Simulator::Run();
+    Simulator::Cancel(end);
+    const double reached = Now();
 
     // Packets that never arrived: lost (no route, out of range with no MAC drop reported...).
     std::vector<uint64_t> expired;
     for (const auto& [id, p] : m_pending)
-        if (p.send_time_s + m_dropAfterS <= until)
+        if (p.send_time_s + m_dropAfterS <= reached)
             expired.push_back(id);
     std::sort(expired.begin(), expired.end()); // unordered_map order is not a contract
     for (uint64_t id : expired)

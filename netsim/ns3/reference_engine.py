@@ -84,13 +84,23 @@ class ReferenceEngine:
             src, dst = self.positions[p["src"]], self.positions[p["dst"]]
             at = max(float(p["send_time_s"]), self.now_s)
             heapq.heappush(self._heap, (at + latency + per_m * math.dist(src, dst), p["id"]))
+        stop = request.get("stop_at_delivery", False)
+        if not isinstance(stop, bool):
+            raise ValueError("'stop_at_delivery' must be true or false")
         delivered = []
+        reached = until
         while self._heap and self._heap[0][0] <= until:
             arrival, pid = heapq.heappop(self._heap)
             delivered.append({"id": pid, "time_s": round(arrival, 9)})
-        self.now_s = until
-        return {"v": PROTOCOL_VERSION, "op": "stepped", "now_s": until, "delivered": delivered,
-                "dropped": [], "in_flight": len(self._heap)}
+            if stop:  # the step ends at its first delivery (those at the same time with it)
+                reached = arrival
+                while self._heap and self._heap[0][0] == arrival:
+                    _, pid = heapq.heappop(self._heap)
+                    delivered.append({"id": pid, "time_s": round(arrival, 9)})
+                break
+        self.now_s = reached
+        return {"v": PROTOCOL_VERSION, "op": "stepped", "now_s": round(reached, 9),
+                "delivered": delivered, "dropped": [], "in_flight": len(self._heap)}
 
 
 def _wait_wall(ctx: zmq.Context, seconds: float) -> None:

@@ -184,3 +184,33 @@ def test_latency_percentiles_from_the_histogram():
     assert 0.09 <= s.latency_percentile_s(0.99) <= 0.1
     d = s.as_dict()
     assert d["latency_p50_ms"] <= d["latency_p99_ms"] <= d["latency_max_ms"]
+
+
+def test_the_horizon_hook_runs_before_the_kernel_passes_it():
+    """A co-simulated network's horizon: before an event later than it, and before ``run``
+    ends past it, ``on_horizon(t)`` is asked; it may put an earlier event in first."""
+    k = Kernel()
+    seen: list = []
+    asked: list = []
+
+    def hook(t: float) -> None:
+        asked.append(t)
+        if t > 0.5 and not any(name == "found" for name, _ in seen):
+            k.schedule(0.25, lambda: seen.append(("found", k.now)))  # found on the way to t
+            k.horizon = 0.25
+        else:
+            k.horizon = t
+
+    k.on_horizon = hook
+    k.schedule(0.1, lambda: seen.append(("a", k.now)))
+    k.schedule(1.0, lambda: seen.append(("b", k.now)))
+    k.horizon = 0.2
+    k.run(until=2.0)
+    assert seen == [("a", 0.1), ("found", 0.25), ("b", 1.0)]
+    assert asked == [1.0, 1.0, 2.0]
+    assert k.now == 2.0
+    k.horizon = 2.5
+    k.on_horizon = None
+    k.schedule(3.0, lambda: None)
+    with pytest.raises(SchedulingError, match="on_horizon"):
+        k.run(until=4.0)

@@ -72,7 +72,9 @@ def run_lockstep(seed_trace: list) -> Rig:
         backend.close()
 
 
-def test_lockstep_delivers_everything_one_sync_period_late_and_is_deterministic():
+def test_lockstep_delivers_everything_at_the_engines_time_and_is_deterministic():
+    """Exact time: each datagram enters the engine at its send time and arrives at the
+    engine's delivery time (no pipeline); an exchange happens only while packets travel."""
     trace_a: list = []
     trace_b: list = []
     rig = run_lockstep(trace_a)
@@ -81,11 +83,20 @@ def test_lockstep_delivers_everything_one_sync_period_late_and_is_deterministic(
     for link in (rig.up, rig.down):
         s = link.stats
         assert s.dropped_total == 0 and s.late_delivered == 0
-        assert s.delivered >= s.sent - 2 * 2  # at most the last two cycles still in flight
-        # end-to-end = engine latency + one sync period of pipeline delay, exactly
-        assert s.latency_sum_s / s.delivered == pytest.approx(SYNC_S + LATENCY_S, abs=1e-9)
+        assert s.delivered == s.sent  # the last ones (sent at 0.991 s) arrived at 0.994 s
+        # end-to-end = the engine's latency, exactly
+        assert s.latency_sum_s / s.delivered == pytest.approx(LATENCY_S, abs=1e-9)
+        assert s.latency_max_s == pytest.approx(LATENCY_S, abs=1e-9)
         assert s.as_dict()["net_latency_mean_ms"] == pytest.approx(LATENCY_S * 1e3)
-    assert rig.backend.backend_stats()["cycles"] == 51  # t = 0, 0.02 … 1.0
+    stats = rig.backend.backend_stats()
+    assert stats["pipeline_ms"] == 0.0
+    # 100 sends of two datagrams: one exchange to inject them and stop at their delivery (both
+    # arrive at the same instant), one more when a physics tick falls between send and
+    # delivery (the engine runs to the tick first); between deliveries and sends none.
+    assert 100 <= stats["exchanges"] <= 200
+    sends = [e[2] for e in trace_a if e[0] == "send"]
+    recvs = [e[2] for e in trace_a if e[0] == "recv"]
+    assert [round(r - s, 9) for s, r in zip(sends[::2], recvs[::2])] == [LATENCY_S] * 100
 
 
 def test_lockstep_waits_for_a_slow_engine_so_nothing_is_late(kernel):
