@@ -7,30 +7,32 @@ REQ/REP with the protocol of README.md.
 Rules and invariants:
 - The physics clock is the reference (CORNET): the engine answers every packet with a delivery
   time or a drop.
-- Lockstep (``realtime=False``): exact time, by a conservative next-event exchange on the
-  kernel's horizon (netsim/kernel.py). A packet enters ns-3 at its send time and arrives on the
-  kernel at ns-3's delivery time: no pipeline. Invariants: ns-3's clock N never passes the
-  kernel's; every packet sent before N is in ns-3; every delivery up to N is on the kernel.
-  With nothing in flight the kernel runs freely; a send sets the horizon to its time plus
-  ``LOOKAHEAD_S`` (no datagram crosses ns-3 faster); while packets are in flight the horizon is
-  N. Crossing it, the bridge sends the waiting packets and positions and asks the engine to run
-  to the kernel's next event time but stop at its first delivery (``stop_at_delivery``), so
-  every delivery is scheduled at its own time before the kernel gets there. Each exchange waits
-  for the reply (up to ``timeout_s`` of wall time); runs are deterministic. The mobility ticker
-  only refreshes positions (sent with the next exchange).
-- Pipeline delay (real time). A cycle runs at each ``update_mobility`` call (every
-  ``sync_period_s``): the packets sent since the previous cycle go to the engine with their send
-  times and the current positions. A packet is only known to the engine at the end of the
-  cycle it was sent in, so the engine simulates it shifted by ``pipeline_s`` = two sync periods
-  (the engine then has one whole period of wall time to answer). Each packet is injected at
-  ``send_time + pipeline_s`` and delivered on the kernel at its engine delivery time, so
-  end-to-end latency = ns-3 latency + ``pipeline_s``; ``net_latency_*`` in the link stats is
-  ns-3's own part.
-- Real time (``realtime=True``): the physics never waits. A cycle sends its request and returns;
-  later cycles poll for the reply without blocking, while packets queue for the next request. A
-  delivery whose time has passed when its reply is read is *late*: policy ``drop`` counts it in
+- Exact time: a conservative next-event exchange on the kernel's horizon (netsim/kernel.py). A
+  packet enters ns-3 at its send time and arrives on the kernel at ns-3's delivery time: no
+  pipeline. Invariants: ns-3's clock N never passes the kernel's; every packet sent before N is
+  in ns-3; every delivery up to N is on the kernel. With nothing in flight the kernel runs
+  freely; a send sets the horizon to its time plus ``LOOKAHEAD_S`` (no datagram crosses ns-3
+  faster); while packets are in flight the horizon is N. Crossing it, the bridge sends the
+  waiting packets and positions and asks the engine to run to the kernel's next event time but
+  stop at its first delivery (``stop_at_delivery``), so every delivery is scheduled at its own
+  time before the kernel gets there. The mobility ticker only refreshes positions (sent with
+  the next exchange).
+- Lockstep (``realtime=False``): each exchange waits for the reply (up to ``timeout_s`` of wall
+  time): nothing is ever late; runs are deterministic.
+- Real time (``realtime=True``): the physics waits at most one sync period of wall time for an
+  exchange (the time the pipeline would give the engine). A reply that takes longer is read
+  later, without waiting (at the next crossing or mobility tick), while the physics goes on; a
+  delivery whose time has passed by then is *late*: policy ``drop`` counts it in
   ``dropped["late"]`` (the paper's rule), ``deliver`` delivers it now and counts it in
-  ``late_delivered``. The hang timeout is measured in simulated seconds (≈ wall seconds there).
+  ``late_delivered``. When exchanges keep missing the wait (``PIPELINE_AFTER_LATE``,
+  ``PIPELINE_LATE_SHARE``), ns-3 cannot keep up at exact time: the backend says so once and
+  switches to the pipeline.
+- The pipeline (real time, after that switch): a cycle runs at each ``update_mobility`` call
+  (every ``sync_period_s``): the packets sent since the previous cycle go to the engine with
+  their send times and the current positions, shifted by ``pipeline_s`` = two sync periods
+  (the engine then has one whole period of wall time to answer; the physics never waits). End-
+  to-end latency = ns-3 latency + ``pipeline_s``; ``net_latency_*`` in the link stats is ns-3's
+  own part. The hang timeout is measured in simulated seconds (≈ wall seconds there).
 - An engine that dies, hangs past ``timeout_s`` or cannot start is *lost*: logged once, every
   packet in flight or sent afterwards is dropped with reason ``backend``, the physics keeps
   running. ``strict=True`` raises ``Ns3Error`` instead. The engine is not restarted.
@@ -42,15 +44,9 @@ Rules and invariants:
 
 from __future__ import annotations
 
-import json
 import logging
 import math
-import os
 import pathlib
-import shutil
-import subprocess
-import sys
-import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -61,15 +57,11 @@ from netsim.backend import Vec3
 from netsim.kernel import PRIORITY_NETWORK, Kernel
 from netsim.link import Deliver, LinkStats, Tracer
 from netsim.models import Drop
-from netsim.ns3.engine import (
-    BINARY,
-    HERE,
-    Ns3BuildMissing,
-    Ns3Error,
-    build_missing_message,
-    die_with_parent,
-    node_kind,
-)
+from netsim.ns3.engine import BINARY, PROTOCOL_VERSION, EngineProcess, Ns3Error, node_kind
+
+# Where they were first imported from (gateway/cli.py, tests, benches):
+from netsim.ns3.engine import Ns3BuildMissing as Ns3BuildMissing
+from netsim.ns3.engine import build_missing_message as build_missing_message
 
 log = logging.getLogger("netsim.ns3")
 
@@ -78,12 +70,16 @@ log = logging.getLogger("netsim.ns3")
 LOOKAHEAD_S = 1e-6
 # ns-3 reports times in whole nanoseconds (9 decimals); the kernel's floats are not rounded.
 TIME_RESOLUTION_S = 1e-9
+# Real time at exact time: the physics waits at most one sync period of wall time for an
+# exchange (what the pipeline gives the engine per cycle); a reply that takes longer is read
+# later (its deliveries may be late). Once PIPELINE_AFTER_LATE exchanges have missed it and
+# they are more than PIPELINE_LATE_SHARE of all, ns-3 cannot keep up at exact time and the
+# backend switches to the pipeline (two sync periods, logged once).
+PIPELINE_AFTER_LATE, PIPELINE_LATE_SHARE = 10, 0.2
 
-PROTOCOL_VERSION = 1
 ENGINES = ("ns3", "reference")
 LATE_POLICIES = ("drop", "deliver")
 DROP_BACKEND = "backend"  # the engine was lost: its cycle's packets never came back
-POLL_SLICE_MS = 50  # lockstep waits in slices, to notice a dead engine before the timeout
 CONFIG_KEYS = {"engine", "binary", "topology", "nodes", "wifi", "propagation", "wired",
                "warmup_s", "drop_after_s", "timeout_s", "init_timeout_s", "reference"}
 
@@ -154,9 +150,10 @@ class Ns3Backend:
         self.realtime = realtime
         self.strict = strict
         self.tracer = tracer
-        self.exact = not realtime
-        self.pipeline_s = 2 * sync_period_s if realtime else 0.0
-        self.exchanges = 0  # lockstep: engine round trips
+        self.exact = True  # real time falls back to the pipeline when ns-3 cannot keep up
+        self.pipeline_s = 0.0
+        self.exchanges = 0  # exact time: engine round trips
+        self.exchanges_late = 0  # real time: replies that missed their wait
         self.timeout_s = float(config.get("timeout_s", 5.0))
         self.init_timeout_s = float(config.get("init_timeout_s", 30.0))
         self.links: dict[str, Ns3Link] = {}
@@ -182,74 +179,8 @@ class Ns3Backend:
         self._in_flight: dict[int, _Packet] = {}
         self._engine_until_s = 0.0
         self._awaiting_since_s: float | None = None  # real time: a request is out
-        self._proc: subprocess.Popen | None = None
-        self._released = False
-        self._tmpdir = tempfile.mkdtemp(prefix="cornet-ns3-")
-        self._ctx = zmq.Context()
-        self._sock = self._ctx.socket(zmq.REQ)
-        self._sock.setsockopt(zmq.LINGER, 0)
-        # After a timeout we never send on this socket again, but these keep REQ usable.
-        self._sock.setsockopt(zmq.REQ_RELAXED, 1)
-        self._sock.setsockopt(zmq.REQ_CORRELATE, 1)
-        self.endpoint = f"ipc://{self._tmpdir}/engine.sock"
-        try:
-            self._sock.bind(self.endpoint)
-            self._spawn()
-        except BaseException:
-            self._release()
-            raise
-
-    # -- engine process ---------------------------------------------------------------------
-
-    def _command(self) -> list[str]:
-        if self.engine == "reference":
-            return [sys.executable, "-m", "netsim.ns3.reference_engine", self.endpoint]
-        binary = pathlib.Path(self.config.get("binary", BINARY))
-        if not binary.is_file():
-            raise Ns3BuildMissing(build_missing_message(binary))
-        return [str(binary), self.endpoint]
-
-    def _spawn(self) -> None:
-        env = dict(os.environ)
-        # ns-3 reads NS_LOG in static constructors, before main: a user's NS_LOG=* would flood
-        # stderr with every component's log and slow each cycle by orders of magnitude.
-        env.pop("NS_LOG", None)
-        root = str(HERE.parent.parent)
-        env["PYTHONPATH"] = os.pathsep.join(filter(None, [root, env.get("PYTHONPATH")]))
-        self._proc = subprocess.Popen(self._command(), env=env, stdin=subprocess.DEVNULL,
-                                      stdout=subprocess.DEVNULL, preexec_fn=die_with_parent)
-
-    def _engine_gone(self) -> str | None:
-        if self._proc is not None and self._proc.poll() is not None:
-            return f"engine process exited with code {self._proc.returncode}"
-        return None
-
-    def _request(self, message: dict[str, Any], timeout_s: float) -> dict[str, Any] | None:
-        """Send and wait up to ``timeout_s`` wall seconds; None if the engine died or hung."""
-        # Blocking send: the engine process may not have connected yet (a REQ socket with no
-        # peer holds the message); a timeout here means it never did.
-        self._sock.setsockopt(zmq.SNDTIMEO, max(1, int(timeout_s * 1e3)))
-        try:
-            self._sock.send(json.dumps(message).encode())
-        except zmq.Again:
-            return None
-        waited_ms = 0
-        while waited_ms < timeout_s * 1e3:
-            if self._sock.poll(POLL_SLICE_MS):
-                return self._read_reply()
-            waited_ms += POLL_SLICE_MS
-            if self._engine_gone():
-                return None
-        return None
-
-    def _read_reply(self) -> dict[str, Any]:
-        reply = json.loads(self._sock.recv())
-        if reply.get("op") == "error":
-            raise Ns3Error(f"{self.engine} engine refused a request: {reply.get('error')}")
-        if reply.get("v") != PROTOCOL_VERSION:
-            raise Ns3Error(f"{self.engine} engine speaks protocol {reply.get('v')}, "
-                           f"not {PROTOCOL_VERSION}")
-        return reply
+        self._process = EngineProcess(self.engine, pathlib.Path(config.get("binary", BINARY)))
+        self.endpoint = self._process.endpoint
 
     # -- NetworkBackend ---------------------------------------------------------------------
 
@@ -276,18 +207,19 @@ class Ns3Backend:
             self.start()
             if self.lost is not None:
                 return
-        if self.realtime:
+        if not self.exact:
             self._cycle_realtime()
-        # Lockstep: the positions go with the next exchange (``_exchange``).
+        elif self.realtime and self._poll_reply() and (self._in_flight or self._outbox):
+            self.kernel.horizon = min(self.kernel.horizon, self.kernel.now)
+        # Exact time: the positions go with the next exchange (``_exchange``).
 
     def close(self) -> None:
-        if self._proc is not None and self._proc.poll() is None and self.lost is None \
-                and self._awaiting_since_s is None:
+        if self._process.running() and self.lost is None and self._awaiting_since_s is None:
             try:
-                self._request({"v": PROTOCOL_VERSION, "op": "close"}, 2.0)
+                self._process.request({"v": PROTOCOL_VERSION, "op": "close"}, 2.0)
             except (zmq.ZMQError, Ns3Error):
                 pass
-        self._release()
+        self._process.release()
 
     # -- cycles -----------------------------------------------------------------------------
 
@@ -305,9 +237,9 @@ class Ns3Backend:
         for key in ("wifi", "propagation", "wired", "warmup_s", "drop_after_s", "reference"):
             if key in self.config:
                 message[key] = self.config[key]
-        reply = self._request(message, self.init_timeout_s)
+        reply = self._process.request(message, self.init_timeout_s)
         if reply is None:
-            self._lose(self._engine_gone() or
+            self._lose(self._process.gone() or
                        f"no reply to init within {self.init_timeout_s} s")
             return
         self.ready_reply = reply
@@ -339,7 +271,7 @@ class Ns3Backend:
                 "packets": packets}
 
     def _exchange(self, t: float) -> None:
-        """Lockstep: the kernel is about to pass its horizon towards ``t`` (module rules)."""
+        """Exact time: the kernel is about to pass its horizon towards ``t`` (module rules)."""
         kernel = self.kernel
         if self.lost is not None:
             kernel.horizon = math.inf
@@ -350,41 +282,98 @@ class Ns3Backend:
             if self.lost is not None:
                 kernel.horizon = math.inf
                 return
+        if self.realtime and not self._poll_reply():
+            kernel.horizon = math.inf  # ns-3 is behind: the physics goes on
+            return
+        if not self.exact:  # switched to the pipeline while a reply was out
+            return
         request = self._step_request(until=t)
         request["stop_at_delivery"] = True
         self.exchanges += 1
-        reply = self._request(request, self.timeout_s)
-        if reply is None:
-            kernel.horizon = math.inf
-            self._lose(self._engine_gone() or f"no reply within {self.timeout_s} s")
-            return
+        if not self.realtime:
+            reply = self._process.request(request, self.timeout_s)
+            if reply is None:
+                kernel.horizon = math.inf
+                self._lose(self._process.gone() or f"no reply within {self.timeout_s} s")
+                return
+        else:
+            if not self._process.send_nowait(request):  # no engine connected any more
+                self._lose(self._process.gone() or "engine disconnected")
+                return
+            if not self._process.poll(max(1, round(self.sync_period_s * 1e3))):
+                self._awaiting_since_s = kernel.now
+                self.exchanges_late += 1
+                self.replies_late += 1
+                kernel.horizon = math.inf
+                self._maybe_pipeline()
+                return
+            reply = self._process.read_reply()
+        self._after_reply(reply, t)
+
+    def _after_reply(self, reply: dict[str, Any], t: float | None) -> None:
+        """Deliveries scheduled; the horizon where the engine stopped (``t``: the time it was
+        asked to reach; None for a late reply in real time)."""
+        kernel = self.kernel
         reached = float(reply["now_s"])
         self._engine_until_s = reached
         self._apply(reply)
         if reply.get("in_flight", 0) == 0 and not self._outbox:
             kernel.horizon = math.inf
+        elif t is None:
+            kernel.horizon = kernel.now  # exchange again before the next event
         elif reached >= round(t, 9) - TIME_RESOLUTION_S / 2:
             kernel.horizon = t  # ns-3 got there (to its nanosecond)
         else:
             kernel.horizon = reached  # stopped at a delivery, now on the kernel
 
+    def _poll_reply(self) -> bool:
+        """Real time: read a reply still out if it has come (True: none is out now)."""
+        if self._awaiting_since_s is None:
+            return True
+        if self._process.poll(0):
+            self._awaiting_since_s = None
+            reply = self._process.read_reply()
+            if self.exact:
+                self._after_reply(reply, None)
+            else:
+                self._apply(reply)
+            return True
+        gone = self._process.gone()
+        if gone or self.kernel.now - self._awaiting_since_s > self.timeout_s:
+            self._lose(gone or f"no reply within {self.timeout_s} s")
+        return False
+
+    def _maybe_pipeline(self) -> None:
+        """Real time: too many exchanges missed their wait — ns-3 cannot keep up at exact
+        time; from now on the pipeline of two sync periods (module rules)."""
+        if self.exchanges_late < PIPELINE_AFTER_LATE or \
+                self.exchanges_late <= PIPELINE_LATE_SHARE * self.exchanges:
+            return
+        self.exact = False
+        self.pipeline_s = 2 * self.sync_period_s
+        self.kernel.horizon = math.inf
+        self.kernel.on_horizon = None
+        log.warning("ns-3 backend: %d of %d exchanges took longer than a sync period (%.0f ms) "
+                    "of wall time: ns-3 cannot keep up at exact time in real time; switching to "
+                    "a pipeline of two sync periods (%.0f ms more latency per datagram)",
+                    self.exchanges_late, self.exchanges, self.sync_period_s * 1e3,
+                    self.pipeline_s * 1e3)
+
     def _cycle_realtime(self) -> None:
         now = self.kernel.now
         if self._awaiting_since_s is not None:
-            if self._sock.poll(0):
+            if self._process.poll(0):
                 if now - self._awaiting_since_s > self.sync_period_s + 1e-9:
                     self.replies_late += 1
                 self._awaiting_since_s = None
-                self._apply(self._read_reply())
+                self._apply(self._process.read_reply())
             else:
-                gone = self._engine_gone()
+                gone = self._process.gone()
                 if gone or now - self._awaiting_since_s > self.timeout_s:
                     self._lose(gone or f"no reply within {self.timeout_s} s")
                 return  # still computing: this cycle's packets wait for the next request
-        try:
-            self._sock.send(json.dumps(self._step_request()).encode(), zmq.NOBLOCK)
-        except zmq.Again:  # no engine connected any more
-            self._lose(self._engine_gone() or "engine disconnected")
+        if not self._process.send_nowait(self._step_request()):  # no engine connected any more
+            self._lose(self._process.gone() or "engine disconnected")
             return
         self._awaiting_since_s = now
 
@@ -460,35 +449,13 @@ class Ns3Backend:
                   "(reason %r) and the physics keeps running", self.engine, self.kernel.now,
                   why, DROP_BACKEND)
         self._drop_all(DROP_BACKEND)
-        self._stop_process()
+        self._process.stop()
         if self.strict:
             raise Ns3Error(f"ns-3 backend lost: {why}")
-
-    def _stop_process(self) -> None:
-        proc = self._proc
-        if proc is None or proc.poll() is not None:
-            return
-        proc.terminate()
-        try:
-            proc.wait(timeout=2.0)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-
-    def _release(self) -> None:
-        if self._released:
-            return
-        self._released = True
-        self._stop_process()
-        if self._proc is not None and self._proc.poll() is None:
-            self._proc.wait()
-        self._sock.close(linger=0)
-        self._ctx.term()
-        shutil.rmtree(self._tmpdir, ignore_errors=True)
 
     def backend_stats(self) -> dict[str, Any]:
         """Cycle counters of the co-simulation itself (per-link counters are in each link)."""
         return {"engine": self.engine, "cycles": self.cycles, "cycles_lost": self.cycles_lost,
                 "replies_late": self.replies_late, "lost": self.lost,
-                "exchanges": self.exchanges,
+                "exchanges": self.exchanges, "exchanges_late": self.exchanges_late,
                 "pipeline_ms": round(self.pipeline_s * 1e3, 3)}
