@@ -55,7 +55,6 @@ class Run:
     backend: str
     label: str
     ap_ned_m: tuple[float, float, float]
-    pipeline_rtt_ms: float = 0.0  # the ns-3 bridge's real-time pipeline, both ways
     backend_lost_at_m: float = math.nan  # where the daemon reported its network engine lost
     samples: list[tuple[float, float]] = field(default_factory=list)  # (distance m, rtt ms or NaN)
     # per 1 s of link statistics: (distance m, up one-way ms, down one-way ms), network's own share
@@ -308,9 +307,6 @@ def binned(run: Run, bin_m: float, max_m: float) -> list[dict]:
 def print_table(run: Run, rows: list[dict], bin_m: float) -> None:
     print(f"\n{run.label}  (AP at {list(run.ap_ned_m)} m NED; RTT = client round trip, "
           f"net = the network's own up+down latency from the daemon's link stats)")
-    if run.pipeline_rtt_ms:
-        print(f"  RTT includes the ns-3 real-time pipeline: {run.pipeline_rtt_ms:.0f} ms "
-              f"(2 sync periods each way); net excludes it")
     if not math.isnan(run.backend_lost_at_m):
         print(f"  the network engine was lost near {run.backend_lost_at_m:.0f} m: no data beyond")
     for name, (sent, delivered, dropped) in run.counters.items():
@@ -343,10 +339,6 @@ def plot(runs: list[Run], tables: list[list[dict]], out: Path, bin_m: float, not
                             color=c, alpha=0.15, lw=0)
         ax_rtt.plot(x, [r["net_rtt"] for r in rows], "s--", color=c, ms=3, lw=1,
                     label=f"{run.label}: network share (up + down)")
-        if run.pipeline_rtt_ms:
-            ax_rtt.axhline(run.pipeline_rtt_ms, color=c, ls=":", lw=1,
-                           label=f"ns-3 real-time pipeline, {run.pipeline_rtt_ms:.0f} ms "
-                                 "(in the client RTT)")
         ax_loss.plot(x, [100 * r["loss"] for r in rows], "o-", color=c, ms=4, label=run.label)
         if not math.isnan(run.backend_lost_at_m):
             for ax in (ax_rtt, ax_loss):
@@ -431,11 +423,9 @@ def main() -> int:
                 continue
             if net.get("backend", "embedded") == "ns3":
                 ap = net.get("ns3", {}).get("nodes", {}).get("ap", {}).get("position", [0, 0, 0])
-                pipeline = 2 * 2 * 1e3 * net.get("sync_period_s", 0.02)
             else:
                 ap = net.get("ap", {}).get("position_ned_m", [0.0, 0.0, -10.0])
-                pipeline = 0.0
-            run = Run(backend, BACKENDS[backend][0], tuple(float(v) for v in ap), pipeline)
+            run = Run(backend, BACKENDS[backend][0], tuple(float(v) for v in ap))
             t0 = time.monotonic()
             fly_and_measure(run, scenario, args, log_dir)
             print(f"[{backend}] {len(run.samples)} requests in {time.monotonic() - t0:.0f} s")
