@@ -16,6 +16,7 @@ from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.codec import Encoder
 from gateway.mavlink.modes import heartbeat_modes
+from vehicles.estimation import F_ACC, F_BARO, F_GPS_OFF, F_GYRO, F_MAG
 from vehicles.types import VehicleStatus
 
 MAV_AUTOPILOT_PX4 = 12
@@ -45,10 +46,10 @@ POSITION_SENSORS = SENSOR_GPS | SENSOR_XY_POSITION_CONTROL
 
 MAV_VTOL_STATE_UNDEFINED = 0
 
-# A failed sensor (vehicles/estimation.py F_* bits, off or stuck) → its SYS_STATUS health bit,
-# as PX4's sensor checks report a sensor that times out or stops changing.
-FAILED_SENSOR_BITS = ((0x001, SENSOR_GPS), (0x006, SENSOR_ABSOLUTE_PRESSURE),
-                      (0x018, SENSOR_3D_MAG), (0x060, SENSOR_3D_GYRO), (0x180, SENSOR_3D_ACCEL))
+# A failed sensor (off or stuck) → its SYS_STATUS health bit, as PX4's sensor checks report a
+# sensor that times out or stops changing.
+FAILED_SENSOR_BITS = ((F_GPS_OFF, SENSOR_GPS), (F_BARO, SENSOR_ABSOLUTE_PRESSURE),
+                      (F_MAG, SENSOR_3D_MAG), (F_GYRO, SENSOR_3D_GYRO), (F_ACC, SENSOR_3D_ACCEL))
 
 
 def system_status(status: VehicleStatus) -> int:

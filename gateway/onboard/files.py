@@ -21,7 +21,6 @@ from __future__ import annotations
 import errno
 import os
 import shutil
-import zlib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -205,19 +204,18 @@ class VehicleFiles:
             raise _errno(exc) from None
 
     def crc32(self, path: str) -> int:
-        """PX4's crc32part (and MAVSDK's): the CRC-32 polynomial starting at 0, no final XOR.
-        zlib's crc32 inverts before and after, so start it at ~0 and invert its result."""
+        """PX4's crc32part over the file (metadata.mavlink_crc32), chunk by chunk."""
         data = self._rom_file(path)
         if data is not None:
             return metadata.mavlink_crc32(data)
-        value = 0xFFFFFFFF
+        value = 0
         try:
             with open(self._path(path), "rb") as f:
                 while chunk := f.read(65536):
-                    value = zlib.crc32(chunk, value)
+                    value = metadata.mavlink_crc32(chunk, value)
         except OSError as exc:
             raise _errno(exc) from None
-        return ~value & 0xFFFFFFFF
+        return value
 
 
 def attach_ftp(sim: Any, roots_for: Callable[[int], list[Path]]) -> None:

@@ -34,10 +34,11 @@ PARAMETERS_URI = f"mftp://{EXTRAS_DIR}/parameters.json.xz"
 COMP_METADATA_TYPE_PARAMETER = 1
 
 
-def mavlink_crc32(data: bytes) -> int:
-    """MAVLink's CRC-32 as PX4's generators compute it: the CRC-32 polynomial starting at 0 with
-    no final XOR (zlib inverts before and after, so start it at ~0 and invert its result)."""
-    return ~zlib.crc32(data, 0xFFFFFFFF) & 0xFFFFFFFF
+def mavlink_crc32(data: bytes, crc: int = 0) -> int:
+    """MAVLink's CRC-32 as PX4 computes it (crc32part, its generators, MAVSDK): the CRC-32
+    polynomial starting at 0 with no final XOR; ``crc`` continues an earlier part. zlib inverts
+    before and after, so its start is the inverted value and its result is inverted back."""
+    return ~zlib.crc32(data, ~crc & 0xFFFFFFFF) & 0xFFFFFFFF
 
 
 def _typed(info: ParamInfo, value: float) -> int | float:
