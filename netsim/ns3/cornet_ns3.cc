@@ -17,6 +17,7 @@
 // - Seeded: same init + same steps -> same replies, byte for byte.
 #include <limits>
 #include "json.h"
+#include "lte.h"
 
 #include "ns3/core-module.h"
 #include "ns3/csma-module.h"
@@ -49,7 +50,7 @@ Time ToTime(double seconds)
 struct SimNode
 {
     std::string name;
-    std::string kind; // "vehicle", "ground" or "ap"
+    std::string kind; // "vehicle", "ground", "ap" or "enb"
     Ptr<Node> node;
     Ptr<ConstantPositionMobilityModel> mobility;
     Ipv4Address address;
@@ -80,6 +81,8 @@ class Engine
     bool m_firstDelivered = true;
     bool m_stopAtDelivery = false; // this step ends at its first delivery
     bool m_firstDropped = true;
+    bool m_lte = false; // the "lte" topology (lte.h) instead of Wi-Fi
+    LteNetwork m_lteNetwork;
 
     std::string Init(const Json& request);
     std::string Step(const Json& request);
@@ -193,8 +196,10 @@ std::string Engine::Init(const Json& r)
     RngSeedManager::SetRun(static_cast<uint64_t>(r.Num("run", 1)));
     m_dropAfterS = r.Num("drop_after_s", 1.0);
     const std::string topology = r.Str("topology", "adhoc");
-    if (topology != "adhoc" && topology != "ap")
-        throw std::runtime_error("topology must be 'adhoc' or 'ap', not '" + topology + "'");
+    if (topology != "adhoc" && topology != "ap" && topology != "lte")
+        throw std::runtime_error("topology must be 'adhoc', 'ap' or 'lte', not '" + topology +
+                                 "'");
+    m_lte = topology == "lte";
     const Json wifiCfg = Section(r, "wifi");
     const Json prop = Section(r, "propagation");
     const Json wired = Section(r, "wired");
@@ -209,8 +214,12 @@ std::string Engine::Init(const Json& r)
         s.kind = n.Str("kind", "");
         if (s.name.empty() || m_byName.count(s.name))
             throw std::runtime_error("node names must be unique and non-empty");
-        if (s.kind != "vehicle" && s.kind != "ground" && s.kind != "ap")
-            throw std::runtime_error("node '" + s.name + "': kind must be vehicle, ground or ap");
+        if (s.kind != "vehicle" && s.kind != "ground" && s.kind != "ap" && s.kind != "enb")
+            throw std::runtime_error("node '" + s.name +
+                                     "': kind must be vehicle, ground, ap or enb");
+        if ((s.kind == "enb" && !m_lte) || (s.kind == "ap" && m_lte))
+            throw std::runtime_error("node '" + s.name + "': kind '" + s.kind +
+                                     "' in topology '" + topology + "'");
         s.node = CreateObject<Node>();
         s.mobility = CreateObject<ConstantPositionMobilityModel>();
         s.node->AggregateObject(s.mobility);
@@ -277,7 +286,8 @@ std::string Engine::Init(const Json& r)
     }
     InternetStackHelper internet;
     for (SimNode& s : m_nodes)
-        internet.Install(s.node);
+        if (s.kind != "enb") // the LTE EPC helper gives each eNB its stack
+            internet.Install(s.node);
     Ipv4AddressHelper wifiNet("10.1.0.0", "255.255.0.0");
     Ipv4AddressHelper wiredNet("10.2.0.0", "255.255.0.0");
     WifiMacHelper mac;
@@ -298,6 +308,15 @@ std::string Engine::Init(const Json& r)
         mac.SetType("ns3::AdhocWifiMac");
         NetDeviceContainer devs = wifi.Install(phy, mac, radios);
         assign(devs, wifiNet.Assign(devs));
+    }
+    else if (m_lte)
+    {
+        std::vector<LteMember> members;
+        for (const SimNode& s : m_nodes)
+            members.push_back(LteMember{s.name, s.kind, s.node, Ipv4Address()});
+        m_lteNetwork.Build(members, Section(r, "lte"), prop, wired);
+        for (size_t i = 0; i < members.size(); ++i)
+            m_nodes[i].address = members[i].address;
     }
     else
     {
@@ -359,6 +378,8 @@ std::string Engine::Init(const Json& r)
     Simulator::Run();
     m_offset = Simulator::Now();
     m_ready = true;
+    if (m_lte)
+        m_lteNetwork.Start(m_offset);
 
     std::ostringstream out;
     out << "{\"v\":" << kProtocolVersion << ",\"op\":\"ready\",\"now_s\":" << JsonTime(Now())
@@ -384,7 +405,17 @@ std::string Engine::Init(const Json& r)
             first = false;
         }
     }
-    out << "]}";
+    if (m_lte)
+        for (const std::string& name : m_lteNetwork.Unattached())
+        {
+            out << (first ? "" : ",") << JsonQuote(name);
+            first = false;
+        }
+    out << "]";
+    if (m_lte)
+        out << ",\"cells\":" << m_lteNetwork.CellsJson() << ",\"serving\":"
+            << m_lteNetwork.ServingJson();
+    out << "}";
     return out.str();
 }
 
@@ -464,7 +495,10 @@ std::string Engine::Step(const Json& r)
     std::ostringstream out;
     out << "{\"v\":" << kProtocolVersion << ",\"op\":\"stepped\",\"now_s\":" << JsonTime(Now())
         << ",\"delivered\":[" << m_delivered.str() << "],\"dropped\":[" << m_dropped.str()
-        << "],\"in_flight\":" << m_pending.size() << "}";
+        << "],\"in_flight\":" << m_pending.size();
+    if (m_lte)
+        out << ",\"events\":[" << m_lteNetwork.TakeEventsJson() << "]";
+    out << "}";
     return out.str();
 }
 
