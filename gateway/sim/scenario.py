@@ -258,6 +258,12 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
         _unknown(ns3, tuple(sorted(CONFIG_KEYS | {"strict"})), "network.ns3")
         if not isinstance(ns3.get("strict", False), bool):
             raise ScenarioError("network.ns3.strict: expected true or false")
+        from netsim.ns3.cells import check_config
+
+        try:
+            check_config(ns3)  # the lte section and node kinds
+        except ValueError as exc:
+            raise ScenarioError(f"network.ns3.{exc}") from None
     elif ns3:
         raise ScenarioError("network.ns3: only used with backend = \"ns3\"")
     topology = {k: v for k, v in net.items() if k not in NETWORK_OWN_KEYS}

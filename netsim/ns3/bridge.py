@@ -57,6 +57,7 @@ from netsim.backend import Vec3
 from netsim.kernel import PRIORITY_NETWORK, Kernel
 from netsim.link import Deliver, LinkStats, Tracer
 from netsim.models import Drop
+from netsim.ns3.cells import Cells, check_config
 from netsim.ns3.engine import BINARY, PROTOCOL_VERSION, EngineProcess, Ns3Error, node_kind
 
 # Where they were first imported from (gateway/cli.py, tests, benches):
@@ -80,7 +81,7 @@ PIPELINE_AFTER_LATE, PIPELINE_LATE_SHARE = 10, 0.2
 ENGINES = ("ns3", "reference")
 LATE_POLICIES = ("drop", "deliver")
 DROP_BACKEND = "backend"  # the engine was lost: its cycle's packets never came back
-CONFIG_KEYS = {"engine", "binary", "topology", "nodes", "wifi", "propagation", "wired",
+CONFIG_KEYS = {"engine", "binary", "topology", "nodes", "wifi", "propagation", "wired", "lte",
                "warmup_s", "drop_after_s", "timeout_s", "init_timeout_s", "reference"}
 
 
@@ -135,6 +136,7 @@ class Ns3Backend:
         if unknown:
             raise ValueError(f"ns-3 backend: unknown config keys {sorted(unknown)} "
                              f"(known: {sorted(CONFIG_KEYS)})")
+        check_config(config)
         if late_policy not in LATE_POLICIES:
             raise ValueError(f"late_policy must be one of {LATE_POLICIES}, not {late_policy!r}")
         if not sync_period_s > 0:
@@ -167,6 +169,9 @@ class Ns3Backend:
         if config.get("topology", "adhoc") == "ap" and not any(
                 k == "ap" for k in self.nodes.values()):
             self.nodes["ap"] = "ap"
+        if config.get("topology") == "lte" and "enb" not in self.nodes.values():
+            self.nodes["enb1"] = "enb"
+        self.cells = Cells()  # the lte topology: serving cells and handovers
         # Engine-side state.
         self.started = False
         self.lost: str | None = None  # why the engine was lost, once it is
@@ -234,7 +239,8 @@ class Ns3Backend:
                  for name, kind in self.nodes.items()]
         message = {"v": PROTOCOL_VERSION, "op": "init", "seed": self.seed, "nodes": nodes,
                    "topology": self.config.get("topology", "adhoc")}
-        for key in ("wifi", "propagation", "wired", "warmup_s", "drop_after_s", "reference"):
+        for key in ("wifi", "propagation", "wired", "lte", "warmup_s", "drop_after_s",
+                    "reference"):
             if key in self.config:
                 message[key] = self.config[key]
         reply = self._process.request(message, self.init_timeout_s)
@@ -243,6 +249,7 @@ class Ns3Backend:
                        f"no reply to init within {self.init_timeout_s} s")
             return
         self.ready_reply = reply
+        self.cells.ready(reply)
         self._engine_until_s = self.kernel.now
         if self.exact:
             self.kernel.on_horizon = self._exchange
@@ -250,7 +257,7 @@ class Ns3Backend:
                 self.kernel.horizon = min(self.kernel.horizon,
                                           self._outbox[0].sent_at_s + LOOKAHEAD_S)
         if reply.get("unassociated"):
-            log.warning("ns-3: stations not associated after the warm-up (out of the AP's "
+            log.warning("ns-3: stations not associated (attached) after the warm-up (out of "
                         "range?): %s", ", ".join(reply["unassociated"]))
 
     def _step_request(self, until: float | None = None) -> dict[str, Any]:
@@ -379,6 +386,7 @@ class Ns3Backend:
 
     def _apply(self, reply: dict[str, Any]) -> None:
         now = self.kernel.now
+        self.cells.step(reply)
         for item in reply["delivered"]:
             p = self._in_flight.pop(item["id"], None)
             if p is None:
@@ -455,7 +463,10 @@ class Ns3Backend:
 
     def backend_stats(self) -> dict[str, Any]:
         """Cycle counters of the co-simulation itself (per-link counters are in each link)."""
-        return {"engine": self.engine, "cycles": self.cycles, "cycles_lost": self.cycles_lost,
-                "replies_late": self.replies_late, "lost": self.lost,
-                "exchanges": self.exchanges, "exchanges_late": self.exchanges_late,
-                "pipeline_ms": round(self.pipeline_s * 1e3, 3)}
+        stats = {"engine": self.engine, "cycles": self.cycles, "cycles_lost": self.cycles_lost,
+                 "replies_late": self.replies_late, "lost": self.lost,
+                 "exchanges": self.exchanges, "exchanges_late": self.exchanges_late,
+                 "pipeline_ms": round(self.pipeline_s * 1e3, 3)}
+        if self.config.get("topology") == "lte":
+            stats.update(self.cells.stats())
+        return stats

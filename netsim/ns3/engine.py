@@ -61,6 +61,8 @@ def node_kind(name: str) -> str:
         return "vehicle"
     if re.fullmatch(r"ap\d*", name):  # "ap", "ap2" — not "api1", an API client
         return "ap"
+    if re.fullmatch(r"enb\d*", name):  # an LTE base station
+        return "enb"
     return "ground"
 
 
