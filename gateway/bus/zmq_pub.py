@@ -116,7 +116,12 @@ class Publisher:
         self.publish(TOPIC_STATE, {"t": _r(now_s, 4), "vehicles": out})
 
     def link_stats(self, now_s: float, sim) -> None:
-        self.publish(TOPIC_LINKS, {"t": _r(now_s, 4), "links": sim.link_stats()})
+        body = {"t": _r(now_s, 4), "links": sim.link_stats()}
+        # An external backend's own counters (ns-3: cycles, exchanges; LTE: cells, handovers).
+        backend_stats = getattr(sim.backend, "backend_stats", None)
+        if backend_stats is not None:
+            body["network"] = backend_stats()
+        self.publish(TOPIC_LINKS, body)
 
     def packet_event(self, event: str, link: str, time_s: float, size: int, detail: str) -> None:
         if not self.wants_packets:
