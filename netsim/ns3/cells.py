@@ -7,7 +7,9 @@ Rules:
 - ``Cells`` follows the engine's replies: the ready reply's ``cells`` (eNB name -> cell id) and
   ``serving`` (UE -> eNB name or None), then each step reply's ``events`` (handover start/end,
   radio link failure, connection), in protocol time. A finished handover (``handover_end``) or a
-  new connection changes the serving cell; a radio link failure clears it.
+  new connection changes the serving cell; a radio link failure clears it. ``handovers`` counts
+  the ends that follow a start: once, in a real-time daemon run, ns-3 traced HandoverEndOk twice
+  (same instant) for one handover; every event is still kept as ns-3 reported it.
 """
 
 from __future__ import annotations
@@ -53,6 +55,7 @@ class Cells:
         self.serving: dict[str, str | None] = {}
         self.events: list[dict[str, Any]] = []
         self.handovers = 0
+        self._starting: set[str] = set()  # UEs between handover_start and its end
 
     def ready(self, reply: Mapping[str, Any]) -> None:
         self.cell_ids = dict(reply.get("cells") or {})
@@ -61,11 +64,17 @@ class Cells:
     def step(self, reply: Mapping[str, Any]) -> None:
         for event in reply.get("events") or ():
             kind, node = event["event"], event["node"]
-            if kind in ("handover_end", "connected"):
+            if kind == "handover_start":
+                self._starting.add(node)
+            elif kind in ("handover_end", "connected"):
                 self.serving[node] = event["cell"]
-                self.handovers += kind == "handover_end"
-            elif kind == "radio_link_failure":
-                self.serving[node] = None
+                if kind == "handover_end" and node in self._starting:
+                    self.handovers += 1
+                    self._starting.discard(node)
+            elif kind in ("radio_link_failure", "handover_error"):
+                self._starting.discard(node)
+                if kind == "radio_link_failure":
+                    self.serving[node] = None
             self.events.append(dict(event))
         del self.events[:-EVENTS_KEPT]
 

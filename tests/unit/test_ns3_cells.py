@@ -61,4 +61,12 @@ def test_cells_keep_the_last_events_only():
     cells.step({"events": [{"time_s": float(i), "node": "v1", "event": "handover_end",
                             "cell": "enb1"} for i in range(EVENTS_KEPT + 5)]})
     assert len(cells.events) == EVENTS_KEPT and cells.events[0]["time_s"] == 5.0
-    assert cells.handovers == EVENTS_KEPT + 5
+    assert cells.handovers == 0  # ends without a start: no handover counted
+
+
+def test_a_handover_counts_once_even_if_its_end_is_reported_twice():
+    cells = Cells()
+    start = {"time_s": 1.0, "node": "v1", "event": "handover_start", "from": "enb1", "to": "enb2"}
+    end = {"time_s": 1.003, "node": "v1", "event": "handover_end", "cell": "enb2"}
+    cells.step({"events": [start, end, end]})
+    assert cells.handovers == 1 and len(cells.events) == 3
