@@ -1,5 +1,5 @@
-"""The ns-3 network backend: a real ns-3 802.11 network (or a reference engine speaking the same
-protocol) driven in lockstep over ZMQ. See README.md beside this file."""
+"""The ns-3 network backend: a real ns-3 802.11 or LTE network (or a reference engine speaking the
+same protocol) driven in lockstep over ZMQ. See README.md beside this file."""
 
 from netsim.ns3.bridge import (
     BINARY,

@@ -37,9 +37,11 @@ Rules and invariants:
   packet in flight or sent afterwards is dropped with reason ``backend``, the physics keeps
   running. ``strict=True`` raises ``Ns3Error`` instead. The engine is not restarted.
 - Every link direction keeps ``sent == delivered + sum(dropped) + in_flight``.
-- Node kinds come from names: ``v<N>`` vehicle, ``ap…`` access point, anything else a ground node
-  (wired to the AP in the ``ap`` topology, a radio in ``adhoc``). All links must be made before the
-  first cycle, which starts the engine's network (init + warm-up, blocking once).
+- Node kinds come from names: ``v<N>`` vehicle, ``ap…`` access point, ``enb…`` LTE eNB, anything
+  else a ground node (wired to the AP in the ``ap`` topology, a radio in ``adhoc``, a remote host
+  behind the PGW in ``lte``). All links must be made before the first cycle, which starts the
+  engine's network (init + warm-up, blocking once). With ``lte`` the replies also say which eNB
+  serves each vehicle and when it hands over (``Cells``, cells.py; in ``backend_stats()``).
 """
 
 from __future__ import annotations

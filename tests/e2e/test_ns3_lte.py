@@ -122,6 +122,7 @@ def test_lte_nodes_and_keys_are_checked_before_the_engine_starts():
 @pytest.mark.asyncio
 async def test_mavsdk_mission_through_lte(daemon_factory):
     d = daemon_factory("--scenario", "scenarios/ns3-lte.toml", "--speed", "2")
+    assert "network=ns3/lte" in d.ready_line and "speed 2x" in d.ready_line, d.ready_line
     async with connected(d.api_port()) as drone:
         items = square_mission()
         await drone.mission.set_return_to_launch_after_mission(True)
