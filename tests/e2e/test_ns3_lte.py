@@ -133,3 +133,23 @@ async def test_mavsdk_mission_through_lte(daemon_factory):
                     lambda p: p.total > 0 and p.current == p.total, 120, "mission done")
         await land_and_disarm(drone, 90)
         assert await drone.mission.is_mission_finished()
+
+
+@pytest.mark.parametrize(("lte", "nodes", "error"), [
+    ({"ttt_s": 1}, ["enb1", "v1"], r"lte\.ttt_s: unknown key"),
+    ({}, ["v1"], "at least one node of kind 'enb'"),
+    ({}, ["ap", "v1"], "kind 'ap' in topology 'lte'"),
+])
+def test_the_engine_itself_refuses_a_bad_lte_init(lte, nodes, error):
+    """The bridge checks keys and kinds first; the engine does too, for any other client. (A
+    refused init leaves ns-3 half built: each case gets its own engine.)"""
+    from netsim.ns3.engine import PROTOCOL_VERSION, EngineProcess, node_kind
+
+    process = EngineProcess("ns3", BINARY)
+    try:
+        init = {"v": PROTOCOL_VERSION, "op": "init", "topology": "lte", "lte": lte,
+                "nodes": [{"name": n, "kind": node_kind(n)} for n in nodes]}
+        with pytest.raises(Ns3Error, match=error):
+            process.request(init, 10.0)
+    finally:
+        process.release()

@@ -70,3 +70,26 @@ def test_a_handover_counts_once_even_if_its_end_is_reported_twice():
     end = {"time_s": 1.003, "node": "v1", "event": "handover_end", "cell": "enb2"}
     cells.step({"events": [start, end, end]})
     assert cells.handovers == 1 and len(cells.events) == 3
+
+
+def test_the_reference_engine_runs_an_lte_config():
+    """The pure-Python engine ignores LTE's specifics (it has no cells) but must not break."""
+    from netsim.kernel import Kernel
+    from netsim.ns3 import Ns3Backend
+
+    kernel = Kernel()
+    got: list[bytes] = []
+    config = {"engine": "reference", "topology": "lte", "lte": {"ideal_rrc": False},
+              "nodes": {"enb2": {"position": [1000.0, 0.0, -30.0]}}}
+    backend = Ns3Backend(kernel, config, sync_period_s=0.02)
+    try:
+        link = backend.make_link("v1/down", "v1", "gcs", lambda p, m: got.append(p))
+        assert backend.nodes == {"enb2": "enb", "v1": "vehicle", "gcs": "ground"}
+        backend.update_mobility(0.0, {"v1": (0.0, 0.0, -10.0)})
+        kernel.schedule(0.01, lambda: link.send(b"x"))
+        kernel.run(until=0.1)
+        assert got == [b"x"]
+        stats = backend.backend_stats()
+        assert stats["serving"] == {} and stats["handovers"] == 0
+    finally:
+        backend.close()
