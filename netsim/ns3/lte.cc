@@ -55,7 +55,7 @@ double Num(const Json& section, const std::string& name, const std::string& key,
     {
         return section.Num(key, fallback);
     }
-    catch (const std::runtime_error& e)
+    catch (const std::runtime_error&)
     {
         throw std::runtime_error(name + "." + key + ": must be a number");
     }
@@ -68,7 +68,7 @@ std::string Str(const Json& section, const std::string& name, const std::string&
     {
         return section.Str(key, fallback);
     }
-    catch (const std::runtime_error& e)
+    catch (const std::runtime_error&)
     {
         throw std::runtime_error(name + "." + key + ": must be a string");
     }
