@@ -80,8 +80,22 @@ PIPELINE_AFTER_LATE, PIPELINE_LATE_SHARE = 10, 0.2
 ENGINES = ("ns3", "reference")
 LATE_POLICIES = ("drop", "deliver")
 DROP_BACKEND = "backend"  # the engine was lost: its cycle's packets never came back
-CONFIG_KEYS = {"engine", "binary", "topology", "nodes", "wifi", "propagation", "wired",
-               "warmup_s", "drop_after_s", "timeout_s", "init_timeout_s", "reference"}
+CONFIG_KEYS = {"engine", "binary", "topology", "routing", "nodes", "wifi", "propagation",
+               "wired", "warmup_s", "drop_after_s", "timeout_s", "init_timeout_s", "reference"}
+ROUTINGS = ("none", "olsr", "aodv")  # the adhoc topology's: one hop, or ns-3's OLSR / AODV
+
+
+def check_config(config: Mapping[str, Any]) -> None:
+    """What can be checked without the engine; ValueError names the key."""
+    unknown = set(config) - CONFIG_KEYS
+    if unknown:
+        raise ValueError(f"ns-3 backend: unknown config keys {sorted(unknown)} "
+                         f"(known: {sorted(CONFIG_KEYS)})")
+    routing = config.get("routing", "none")
+    if routing not in ROUTINGS:
+        raise ValueError(f"routing: must be one of {', '.join(ROUTINGS)}, not {routing!r}")
+    if routing != "none" and config.get("topology", "adhoc") != "adhoc":
+        raise ValueError(f"routing: {routing!r} needs topology = \"adhoc\"")
 
 
 @dataclass
@@ -131,10 +145,7 @@ class Ns3Backend:
                  realtime: bool = False, strict: bool = False,
                  tracer: Tracer | None = None) -> None:
         config = dict(config or {})
-        unknown = set(config) - CONFIG_KEYS
-        if unknown:
-            raise ValueError(f"ns-3 backend: unknown config keys {sorted(unknown)} "
-                             f"(known: {sorted(CONFIG_KEYS)})")
+        check_config(config)
         if late_policy not in LATE_POLICIES:
             raise ValueError(f"late_policy must be one of {LATE_POLICIES}, not {late_policy!r}")
         if not sync_period_s > 0:
@@ -223,18 +234,23 @@ class Ns3Backend:
 
     # -- cycles -----------------------------------------------------------------------------
 
-    def start(self) -> None:
+    def start(self, positions_ned_m: Mapping[str, Vec3] | None = None) -> None:
         """Init the engine's network and run its warm-up (once, blocking, before the first
-        cycle: the simulation's first ``update_mobility`` calls it if nobody did)."""
+        cycle: the simulation's first ``update_mobility`` calls it if nobody did), with nodes
+        at ``positions_ned_m`` (e.g. the vehicles' spawn points): the warm-up's beacons,
+        association and routing see where they are."""
         if self.started:
             return
         self.started = True
+        for name, (x, y, z) in (positions_ned_m or {}).items():
+            self.positions[name] = (float(x), float(y), float(z))
         nodes = [{"name": name, "kind": kind,
                   "position": list(self.positions.get(name, (0.0, 0.0, 0.0)))}
                  for name, kind in self.nodes.items()]
         message = {"v": PROTOCOL_VERSION, "op": "init", "seed": self.seed, "nodes": nodes,
                    "topology": self.config.get("topology", "adhoc")}
-        for key in ("wifi", "propagation", "wired", "warmup_s", "drop_after_s", "reference"):
+        for key in ("routing", "wifi", "propagation", "wired", "warmup_s", "drop_after_s",
+                    "reference"):
             if key in self.config:
                 message[key] = self.config[key]
         reply = self._process.request(message, self.init_timeout_s)

@@ -1,4 +1,5 @@
 // cornet-ns3: one 802.11 network simulated by ns-3 3.37 in lockstep with CORNET's physics.
+// In the adhoc topology, ns-3's OLSR or AODV may route over several hops (init "routing").
 //
 //     cornet-ns3 ENDPOINT        (e.g. ipc:///tmp/cornet-xyz/ns3.sock; the bridge binds it)
 //
@@ -21,8 +22,10 @@
 #include "ns3/core-module.h"
 #include "ns3/csma-module.h"
 #include "ns3/internet-module.h"
+#include "ns3/aodv-module.h"
 #include "ns3/mobility-module.h"
 #include "ns3/network-module.h"
+#include "ns3/olsr-module.h"
 #include "ns3/wifi-module.h"
 
 #include <cstdint>
@@ -195,6 +198,12 @@ std::string Engine::Init(const Json& r)
     const std::string topology = r.Str("topology", "adhoc");
     if (topology != "adhoc" && topology != "ap")
         throw std::runtime_error("topology must be 'adhoc' or 'ap', not '" + topology + "'");
+    // Multi-hop in the adhoc topology: ns-3's OLSR or AODV on every radio node ("none": one hop).
+    const std::string routing = r.Str("routing", "none");
+    if (routing != "none" && routing != "olsr" && routing != "aodv")
+        throw std::runtime_error("routing must be 'none', 'olsr' or 'aodv', not '" + routing + "'");
+    if (routing != "none" && topology != "adhoc")
+        throw std::runtime_error("routing '" + routing + "' needs the adhoc topology");
     const Json wifiCfg = Section(r, "wifi");
     const Json prop = Section(r, "propagation");
     const Json wired = Section(r, "wired");
@@ -276,6 +285,20 @@ std::string Engine::Init(const Json& r)
             wiredNodes.Add(s.node);
     }
     InternetStackHelper internet;
+    OlsrHelper olsr;
+    AodvHelper aodv;
+    if (routing != "none")
+    {
+        // Static routing first (local delivery), then the ad-hoc protocol.
+        Ipv4StaticRoutingHelper staticRouting;
+        Ipv4ListRoutingHelper list;
+        list.Add(staticRouting, 0);
+        if (routing == "olsr")
+            list.Add(olsr, 10);
+        else
+            list.Add(aodv, 10);
+        internet.SetRoutingHelper(list);
+    }
     for (SimNode& s : m_nodes)
         internet.Install(s.node);
     Ipv4AddressHelper wifiNet("10.1.0.0", "255.255.0.0");
