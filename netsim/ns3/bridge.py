@@ -189,6 +189,7 @@ class Ns3Backend:
         self._outbox: list[_Packet] = []
         self._in_flight: dict[int, _Packet] = {}
         self._engine_until_s = 0.0
+        self._positions_sent: dict[str, Vec3] = {}  # what the engine has
         self._awaiting_since_s: float | None = None  # real time: a request is out
         self._process = EngineProcess(self.engine, pathlib.Path(config.get("binary", BINARY)))
         self.endpoint = self._process.endpoint
@@ -244,9 +245,14 @@ class Ns3Backend:
         self.started = True
         for name, (x, y, z) in (positions_ned_m or {}).items():
             self.positions[name] = (float(x), float(y), float(z))
+        # In real time the ground nodes' clients are outside the simulation (UDP sockets): a
+        # delivery to them cannot make anything send at its own simulated time, so the engine
+        # need not stop for it (their datagrams enter at the kernel's time, never behind it).
         nodes = [{"name": name, "kind": kind,
-                  "position": list(self.positions.get(name, (0.0, 0.0, 0.0)))}
+                  "position": list(self.positions.get(name, (0.0, 0.0, 0.0))),
+                  "passive": self.realtime and kind == "ground"}
                  for name, kind in self.nodes.items()]
+        self._positions_sent = dict(self.positions)
         message = {"v": PROTOCOL_VERSION, "op": "init", "seed": self.seed, "nodes": nodes,
                    "topology": self.config.get("topology", "adhoc")}
         for key in ("routing", "wifi", "propagation", "wired", "warmup_s", "drop_after_s",
@@ -273,6 +279,8 @@ class Ns3Backend:
         now = self.kernel.now
         if until is None:
             until = now + self.pipeline_s
+        # A late reply (real time) may have left the engine past the kernel's next event.
+        until = max(until, self._engine_until_s)
         packets = []
         for p in self._outbox:
             p.inject_at_s = max(p.sent_at_s + self.pipeline_s, self._engine_until_s)
@@ -282,9 +290,11 @@ class Ns3Backend:
         self._outbox = []
         self._engine_until_s = until
         self.cycles += 1
+        moved = {k: list(v) for k, v in self.positions.items()
+                 if self._positions_sent.get(k) != v}  # only what changed since the last step
+        self._positions_sent.update(self.positions)
         return {"v": PROTOCOL_VERSION, "op": "step", "until_s": round(until, 9),
-                "positions": {k: list(v) for k, v in self.positions.items()},
-                "packets": packets}
+                "positions": moved, "packets": packets}
 
     def _exchange(self, t: float) -> None:
         """Exact time: the kernel is about to pass its horizon towards ``t`` (module rules)."""

@@ -16,6 +16,8 @@
 //   dropped (with a reason: "loss" for a MAC retry-limit drop or no delivery within
 //   `drop_after_s`, "queue" for a MAC queue drop).
 // - Seeded: same init + same steps -> same replies, byte for byte.
+// - A step with stop_at_delivery ends at the first delivery to a node that is not "passive"
+//   (a passive node's deliveries cannot make anything send before the step's end).
 #include <limits>
 #include "json.h"
 
@@ -31,6 +33,7 @@
 #include <cstdint>
 #include <cstring>
 #include <iostream>
+#include <set>
 #include <sstream>
 #include <unordered_map>
 #include <zmq.hpp>
@@ -58,6 +61,7 @@ struct SimNode
     Ipv4Address address;
     Ptr<Socket> socket;
     Ptr<WifiNetDevice> wifi; // null for wired-only nodes
+    bool passive = false;    // a delivery to it never ends a stop_at_delivery step
 };
 
 struct Pending
@@ -78,6 +82,7 @@ class Engine
     std::map<std::string, size_t> m_byName;
     std::unordered_map<uint64_t, Pending> m_pending;   // packet id -> what we know
     std::unordered_map<uint64_t, uint64_t> m_uidToId;  // ns-3 packet uid -> packet id
+    std::set<uint32_t> m_passive;                      // ns-3 node ids of passive nodes
     std::ostringstream m_delivered; // JSON items of this step
     std::ostringstream m_dropped;
     bool m_firstDelivered = true;
@@ -147,7 +152,7 @@ void Engine::Receive(Ptr<Socket> socket)
         m_delivered << (m_firstDelivered ? "" : ",") << "{\"id\":" << id
                     << ",\"time_s\":" << JsonTime(Now()) << "}";
         m_firstDelivered = false;
-        if (m_stopAtDelivery)
+        if (m_stopAtDelivery && !m_passive.count(socket->GetNode()->GetId()))
             Simulator::Stop(); // after this event: the caller learns the delivery at its time
     }
 }
@@ -220,7 +225,13 @@ std::string Engine::Init(const Json& r)
             throw std::runtime_error("node names must be unique and non-empty");
         if (s.kind != "vehicle" && s.kind != "ground" && s.kind != "ap")
             throw std::runtime_error("node '" + s.name + "': kind must be vehicle, ground or ap");
+        const Json& passive = n["passive"];
+        if (passive.type != Json::Null && passive.type != Json::Bool)
+            throw std::runtime_error("node '" + s.name + "': passive must be true or false");
+        s.passive = passive.type == Json::Bool && passive.b;
         s.node = CreateObject<Node>();
+        if (s.passive)
+            m_passive.insert(s.node->GetId());
         s.mobility = CreateObject<ConstantPositionMobilityModel>();
         s.node->AggregateObject(s.mobility);
         m_byName[s.name] = m_nodes.size();
