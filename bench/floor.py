@@ -12,7 +12,7 @@ import time
 import pybullet
 
 from gateway.sim.simulation import PHYSICS_DT_S
-from vehicles.physics import World
+from vehicles.types import grid_spawn_ned_m
 
 
 def bare_pybullet_cpu_per_body_sim_s(n: int, sim_s: float) -> float:
@@ -27,7 +27,7 @@ def bare_pybullet_cpu_per_body_sim_s(n: int, sim_s: float) -> float:
                                             physicsClientId=cid)
         bodies = []
         for i in range(n):
-            north, east = World.spawn_offset_ned_m(i)
+            north, east = grid_spawn_ned_m(i)
             bodies.append(pybullet.createMultiBody(2.0, box, basePosition=[east, north, 1.0],
                                                    physicsClientId=cid))
         steps = int(sim_s / PHYSICS_DT_S)

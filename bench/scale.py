@@ -43,6 +43,12 @@ flies it from vehicle 1's API client port, started with the measurement window, 
 other vehicle flies; the table's notes say PASS or FAIL and how long it took (the ping client
 then pings vehicle 2, so that the two clients do not share a link).
 
+With ``--scenario FILE`` every point runs ``cornet run --scenario FILE --vehicles N``: the paper's
+case of many vehicles through the real ns-3 is ``--vehicles 30 --scenario scenarios/ns3-wifi.toml``
+(every datagram of every vehicle through ns-3's 802.11 at exact time); the notes give the ns-3
+engine's CPU beside the daemon's, and say when ns-3 could not keep exact time (the backend's
+fallback to its pipeline).
+
 Shards: ``--shards auto`` (the default) runs 1 shard below 50 vehicles and min(2, cores) from
 50 on; a comma-separated list gives K per entry of ``--vehicles``. K > 1 adds ``--shards K`` to
 the command line. The helper processes are bound to the daemon's client ports before the daemon
@@ -59,7 +65,8 @@ leaves the vehicles on the ground (PX4 SITL streams the same telemetry there). E
 stopped with SIGTERM and must exit 0; every wait is bounded.
 
     .venv/bin/python bench/scale.py [--vehicles 1,10,30,100,200] [--shards auto|K,K,...]
-                                    [--seconds 20] [--idle | --mavsdk] [--out bench/results]
+                                    [--seconds 20] [--idle | --mavsdk] [--scenario FILE]
+                                    [--out bench/results]
 
 Prints a markdown table and writes scale-<date>-<time>.csv and .png (real-time factor and
 CPU per vehicle-second against N) to ``--out``.
@@ -523,11 +530,14 @@ class Point:
     notes: list[str] = field(default_factory=list)
 
 
-def launch_daemon(n: int, shards: int, offset: int) -> tuple[CornetDaemon, float, float]:
-    """``cornet run --vehicles N [--shards K]`` at ``offset`` as a user starts it (the listener
-    already bound to the client ports); (daemon, monotonic start, monotonic time of the ready
-    line). Not ready within LAUNCH_TIMEOUT_S: stopped, RuntimeError."""
+def launch_daemon(n: int, shards: int, offset: int, scenario: Path | None = None
+                  ) -> tuple[CornetDaemon, float, float]:
+    """``cornet run --vehicles N [--shards K] [--scenario FILE]`` at ``offset`` as a user starts
+    it (the listener already bound to the client ports); (daemon, monotonic start, monotonic
+    time of the ready line). Not ready within LAUNCH_TIMEOUT_S: stopped, RuntimeError."""
     args = ["--shards", str(shards)] if shards > 1 else []
+    if scenario is not None:
+        args += ["--scenario", str(scenario)]
     d = start_daemon(*args, vehicles=n, port_offset=offset, ready_timeout_s=LAUNCH_TIMEOUT_S)
     return d, d.started_at, d.ready_at
 
@@ -583,8 +593,22 @@ def free_tcp_port() -> int:
         return s.getsockname()[1]
 
 
+def engine_cpu_s(pid: int) -> float:
+    """CPU seconds of the daemon's ns-3 engine process (cornet-ns3), 0 without one."""
+    total = 0.0
+    for p in process_tree(pid):
+        try:
+            name = Path(f"/proc/{p}/comm").read_text().strip()
+        except OSError:
+            continue
+        if name.startswith("cornet-ns3"):
+            f = _stat_fields(p)
+            total += (int(f[11]) + int(f[12])) / os.sysconf("SC_CLK_TCK")
+    return total
+
+
 def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, echo_port: int,
-            ctx, mavsdk: bool = False) -> Point:
+            ctx, mavsdk: bool = False, scenario: Path | None = None) -> Point:
     """One point. ``mavsdk``: vehicle 1 is left on the ground for an unmodified MAVSDK
     takeoff-and-land run (gcs_examples/takeoff_and_land.py) started with the measurement window
     while the others fly; the ping client then pings vehicle 2."""
@@ -619,7 +643,7 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
             return point
         clock.start()
         try:
-            d, t_start, t_ready = launch_daemon(n, shards, offset)
+            d, t_start, t_ready = launch_daemon(n, shards, offset, scenario)
         except RuntimeError as exc:
             point.notes.append(f"did not start: {str(exc).splitlines()[0]}")
             return point
@@ -645,12 +669,17 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
         drops0 = udp_drops(listener_ports)
         out0 = counts[0] + counts[2], counts[1] + counts[3]
         cpu0, lcpu0, w0 = tree_cpu_s(pid), tree_cpu_s(helpers[0].pid), time.monotonic()
+        ecpu0 = engine_cpu_s(pid)
         go.set()
         example = None
         if mavsdk:
             example = ThreadPool(1).apply_async(run_mavsdk_example, (offset, MAVSDK_TIMEOUT_S))
         time.sleep(seconds)
         cpu1, lcpu1, w1 = tree_cpu_s(pid), tree_cpu_s(helpers[0].pid), time.monotonic()
+        ecpu1 = engine_cpu_s(pid)
+        if scenario is not None:
+            point.notes.append(f"ns-3 engine CPU {(ecpu1 - ecpu0) / (w1 - w0) * 100:.0f} %, "
+                               f"daemon {(cpu1 - cpu0 - ecpu1 + ecpu0) / (w1 - w0) * 100:.0f} %")
         out1 = counts[0] + counts[2], counts[1] + counts[3]
         drops1 = udp_drops(listener_ports)
         stop_pings.set()
@@ -716,6 +745,8 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
             point.notes.append(f"{name}={counters[name]}")
     if flying and point.flying < n - (1 if mavsdk else 0):  # --mavsdk: vehicle 1 has landed
         point.notes.append(f"only {point.flying}/{n} flying")
+    if any("exchanges took longer than a sync period" in ln for ln in d.stderr_lines):
+        point.notes.append("ns-3 could not keep exact time: pipeline")
     if not point.rtf >= KEEPS_UP_RTF:
         point.notes.append("cannot keep up with real time")
     if point.listener_drops:
@@ -867,6 +898,9 @@ def main() -> int:
                         help="at the largest vehicle count, fly vehicle 1 with the unmodified "
                         "MAVSDK example gcs_examples/takeoff_and_land.py while the others fly "
                         "(needs --flying)")
+    parser.add_argument("--scenario", type=Path,
+                        help="run every point with `--scenario FILE` (e.g. scenarios/ns3-wifi.toml:"
+                        " the vehicles through the real ns-3; its network, the given counts)")
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results",
                         help="directory for the CSV and PNG (default bench/results/)")
     args = parser.parse_args()
@@ -894,7 +928,7 @@ def main() -> int:
         for n in counts:
             bare = bare_pybullet_cpu_per_body_sim_s(n)
             p = measure(n, shards_of[n], args.seconds, args.flying, bare, echo_port, ctx,
-                        mavsdk=args.mavsdk and n == max(counts))
+                        mavsdk=args.mavsdk and n == max(counts), scenario=args.scenario)
             points.append(p)
             print(f"  {n} vehicles, {shards_of[n]} shard(s): rtf {_f(p.rtf, '.3f')}, "
                   f"CPU {_f(p.cpu_ms_per_vehicle_s, '.1f')} ms per vehicle-s, "

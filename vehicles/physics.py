@@ -21,15 +21,16 @@ Rules and invariants:
 - Fixed step ``dt_s`` (default 0.004 s = 250 Hz, PX4 lockstep), one sub-step.
 - ``World.step(now_s)`` steps each vehicle (``Vehicle.step``) at ``now_s`` on the state measured at
   ``now_s``, then integrates to ``now_s + dt_s``; the new state is stamped ``now_s + dt_s``.
-- Vehicle ``index`` spawns on a grid (``SPAWN_SPACING_M``, ``SPAWN_COLUMNS`` per row, rows to the
-  north); its local NED origin is its spawn point on the ground (centre of mass at rest).
+- Vehicle ``index`` spawns where ``spawn_ned_m[index]`` says (metres north, east of home), else on
+  a grid (``SPAWN_SPACING_M``, ``SPAWN_COLUMNS`` per row, rows to the north); its local NED origin
+  is its spawn point on the ground (centre of mass at rest).
 """
 
 from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pybullet as pb
@@ -48,15 +49,13 @@ from vehicles.inner_loop import (
     InnerLoop,
 )
 from vehicles.params import ParamStore
-from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint, Measurement
+from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint, Measurement, grid_spawn_ned_m
 from vehicles.vehicle import Vehicle
 from vehicles.wind import Wind
 
 log = logging.getLogger(__name__)
 _uncached_warned = False  # the warning about numba's cache is given once per process
 
-SPAWN_SPACING_M = 5.0
-SPAWN_COLUMNS = 10
 GROUND_FRICTION = 1.0
 _SQRT_HALF = math.sqrt(0.5)
 # Spawn with the nose north (NED yaw 0): FLU x along ENU y is a +90 deg turn about ENU z.
@@ -87,10 +86,13 @@ class World:
     def __init__(self, dt_s: float = 0.004, home: GeoPoint = PX4_SITL_HOME,
                  airframe: Airframe = X500, wind: Wind | None = None,
                  sensors: SensorConfig = EXACT_SENSORS,
-                 rng_for: Callable[[int], np.random.Generator] | None = None) -> None:
+                 rng_for: Callable[[int], np.random.Generator] | None = None,
+                 spawn_ned_m: Sequence[tuple[float, float]] = ()) -> None:
         """``wind``: the air every body moves through (wind.py); None: calm. ``sensors``: how
         noisy the sensors are (estimation.py); ``rng_for(index)``: vehicle ``index``'s seeded
-        noise stream (needed when ``sensors.noise`` > 0)."""
+        noise stream (needed when ``sensors.noise`` > 0). ``spawn_ned_m[index]``: where vehicle
+        ``index`` spawns, (north, east) metres from home; vehicles past its end: the grid."""
+        self._spawn = tuple((float(n), float(e)) for n, e in spawn_ned_m)
         self.dt_s = dt_s
         self.wind = wind
         self.home = home
@@ -126,9 +128,9 @@ class World:
     def vehicles(self) -> tuple[Vehicle, ...]:
         return tuple(self._vehicles)
 
-    @staticmethod
-    def spawn_offset_ned_m(index: int) -> tuple[float, float]:
-        return (SPAWN_SPACING_M * (index // SPAWN_COLUMNS), SPAWN_SPACING_M * (index % SPAWN_COLUMNS))
+    def spawn_offset_ned_m(self, index: int) -> tuple[float, float]:
+        """Where vehicle ``index`` spawns (north, east metres from home)."""
+        return self._spawn[index] if index < len(self._spawn) else grid_spawn_ned_m(index)
 
     def add_vehicle(self, index: int, params: ParamStore | None = None) -> Vehicle:
         if any(v.index == index for v in self._vehicles):

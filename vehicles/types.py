@@ -192,3 +192,12 @@ class VehicleStatus:
     battery: BatteryState
     home: HomePosition | None = None
     extra: dict = field(default_factory=dict)
+
+
+SPAWN_SPACING_M = 5.0  # the default spawn grid: vehicles 5 m apart, ten per row eastwards,
+SPAWN_COLUMNS = 10  # rows to the north
+
+
+def grid_spawn_ned_m(index: int) -> tuple[float, float]:
+    """Vehicle ``index``'s place on the default spawn grid (north, east metres from home)."""
+    return (SPAWN_SPACING_M * (index // SPAWN_COLUMNS), SPAWN_SPACING_M * (index % SPAWN_COLUMNS))

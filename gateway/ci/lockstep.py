@@ -302,7 +302,7 @@ class Sim:
             n, network if network is not None else sc.network,
             params_for=lambda i: default_params(i, overrides), tracer=tracer, home=self.home,
             physics_dt_s=physics_dt_s, link_kinds=tuple(links), wind=sc.wind,
-            sensors=sc.sensors, faults=sc.faults)
+            sensors=sc.sensors, faults=sc.faults, spawn_ned_m=sc.spawn_ned_m)
         attach_shells(self.simulation)
         self.logs: Logs | None = None
         if self.flightlog is not None:

@@ -81,6 +81,7 @@ class RunConfig:
     wind: WindConfig = field(default_factory=WindConfig)  # the scenario's [environment]
     sensors: SensorConfig = field(default_factory=SensorConfig)  # the scenario's [sensors]
     faults: tuple[Fault, ...] = ()  # the scenario's [[faults]] timeline
+    spawn_ned_m: tuple[tuple[float, float], ...] = ()  # the scenario's vehicles.spawn_ned_m
 
 
 class MetricsPortError(OSError):
@@ -126,7 +127,8 @@ class Daemon:
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
                               tracer=fan_out(tracers), home=config.home, realtime=True,
                               signing=signing, first_index=config.first_vehicle,
-                              wind=config.wind, sensors=config.sensors, faults=config.faults)
+                              wind=config.wind, sensors=config.sensors, faults=config.faults,
+                              spawn_ned_m=config.spawn_ned_m)
         self._restore_plans()
         if self._signing_keeper is not None:
             self.sim.every(1.0, self._signing_keeper.save)

@@ -183,7 +183,7 @@ class FlightLog:
         home = getattr(sim.world, "home", None)
         vehicles = []
         for i, v in enumerate(sim.vehicles):
-            n0, e0 = sim.world.spawn_offset_ned_m(i)
+            n0, e0 = sim.world.spawn_offset_ned_m(v.index)
             vehicles.append({"index": i, "sysid": int(v.params["MAV_SYS_ID"]),
                              "origin": [v.origin.lat_deg, v.origin.lon_deg, v.origin.alt_amsl_m],
                              "spawn_ned_m": [n0, e0],

@@ -46,7 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from gateway.sim.fault_timeline import parse_faults
-from gateway.sim.values import ScenarioError
+from gateway.sim.values import ScenarioError, spawn_points
 from gateway.sim.values import choice as _choice
 from gateway.sim.values import number as _number
 from gateway.sim.values import table as _table
@@ -55,7 +55,7 @@ from netsim.topology import make_router
 from vehicles.estimation import SensorConfig
 from vehicles.faults import Fault
 from vehicles.params import ParamStore
-from vehicles.types import PX4_SITL_HOME, GeoPoint
+from vehicles.types import PX4_SITL_HOME, GeoPoint, grid_spawn_ned_m
 from vehicles.wind import WindConfig
 
 if sys.version_info >= (3, 11):
@@ -145,6 +145,7 @@ class Scenario:
     wind: WindConfig = field(default_factory=WindConfig)  # [environment]
     sensors: SensorConfig = field(default_factory=SensorConfig)  # [sensors]
     faults: tuple[Fault, ...] = ()  # [[faults]], in time order
+    spawn_ned_m: tuple[tuple[float, float], ...] = ()  # vehicles.spawn_ned_m, by instance
 
 
 def bind_address(value: Any, path: str) -> str:
@@ -221,7 +222,7 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     _unknown(doc, ("vehicles", "network", "logging", "daemon", "environment", "sensors",
                    "faults"), "")
     veh = _table(doc, "vehicles", "vehicles")
-    _unknown(veh, ("count", "home", "airframe", "params"), "vehicles")
+    _unknown(veh, ("count", "home", "airframe", "params", "spawn_ned_m"), "vehicles")
     count = int(_number(veh.get("count", 1), "vehicles.count", integer=True, minimum=1))
     if count > MAX_VEHICLES:
         raise ScenarioError(f"vehicles.count: at most {MAX_VEHICLES} vehicles per MAVLink network "
@@ -242,6 +243,7 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
         home = GeoPoint(lat, lon, alt)
     airframe = _choice(veh.get("airframe", "x500"), AIRFRAMES, "vehicles.airframe")
     params = _params(_table(veh, "params", "vehicles.params"))
+    spawn = spawn_points(veh.get("spawn_ned_m", []), count, grid_spawn_ned_m)
 
     net = _table(doc, "network", "network")
     backend = _choice(net.get("backend", "embedded"), BACKENDS, "network.backend")
@@ -253,17 +255,15 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     late = _choice(net.get("late_policy", "drop"), LATE_POLICIES, "network.late_policy")
     ns3 = _table(net, "ns3", "network.ns3")
     if backend != "embedded":
-        from netsim.ns3.bridge import CONFIG_KEYS
+        from netsim.ns3.bridge import CONFIG_KEYS, check_config
 
         _unknown(ns3, tuple(sorted(CONFIG_KEYS | {"strict"})), "network.ns3")
-        if not isinstance(ns3.get("strict", False), bool):
-            raise ScenarioError("network.ns3.strict: expected true or false")
-        from netsim.ns3.cells import check_config
-
         try:
-            check_config(ns3)  # the lte section and node kinds
+            check_config({k: v for k, v in ns3.items() if k != "strict"})
         except ValueError as exc:
             raise ScenarioError(f"network.ns3.{exc}") from None
+        if not isinstance(ns3.get("strict", False), bool):
+            raise ScenarioError("network.ns3.strict: expected true or false")
     elif ns3:
         raise ScenarioError("network.ns3: only used with backend = \"ns3\"")
     topology = {k: v for k, v in net.items() if k not in NETWORK_OWN_KEYS}
@@ -304,7 +304,7 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
             raise ScenarioError(str(exc)) from None
         network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3))
     return Scenario(source, count, home, airframe, params, network, level, daemon, wind, sensors,
-                    faults)
+                    faults, spawn)
 
 
 def _sensors(table: dict) -> SensorConfig:
@@ -386,7 +386,8 @@ def describe(s: Scenario) -> str:
     lines = [f"{s.source}: ok",
              f"  vehicles: {s.vehicles} × {s.airframe} around {s.home.lat_deg:.6f}, "
              f"{s.home.lon_deg:.6f}, {s.home.alt_amsl_m:.1f} m AMSL"
-             + (f"; params {s.params}" if s.params else ""),
+             + (f"; params {s.params}" if s.params else "")
+             + (f"; spawn points {[list(p) for p in s.spawn_ned_m]}" if s.spawn_ned_m else ""),
              f"  network: backend {net.backend}, topology {topo}, seed {net.seed}, sync period "
              f"{net.sync_period_s * 1e3:.0f} ms, late policy {net.late_policy}"]
     for key in ("link", "ap", "gcs", "radio", "wired", "channel", "api_clients", "outages"):

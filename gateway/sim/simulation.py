@@ -185,13 +185,15 @@ class Simulation:
                  link_kinds: Sequence[LinkKind] = (LinkKind.GCS, LinkKind.API),
                  signing: SigningConfig | None = None, first_index: int = 0,
                  wind: WindConfig | None = None,
-                 sensors: SensorConfig = PX4_SENSORS, faults: Sequence[Fault] = ()) -> None:
+                 sensors: SensorConfig = PX4_SENSORS, faults: Sequence[Fault] = (),
+                 spawn_ned_m: Sequence[tuple[float, float]] = ()) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence.
         ``link_kinds``: the MAVLink links each vehicle has (the daemon: both, as PX4 SITL; an
         in-process lockstep run may leave out a link no client listens to). ``first_index``: the
         instance number of the first vehicle (a shard of a larger daemon simulates vehicles
-        first_index … first_index + vehicles − 1; ports, sysids and spawn points follow it)."""
+        first_index … first_index + vehicles − 1; ports, sysids and spawn points follow it).
+        ``spawn_ned_m``: the scenario's spawn points, by instance number (World)."""
         if vehicles < 1:
             raise ValueError("need at least one vehicle")
         if not link_kinds:
@@ -207,7 +209,8 @@ class Simulation:
         # Sensor noise: vehicle N's from the stream "sensors/vN" of the scenario's seed.
         seed = self.network.seed
         self.world = World(dt_s=physics_dt_s, home=home, wind=air, sensors=sensors,
-                           rng_for=lambda i: named_generator(seed, f"sensors/v{i + 1}"))
+                           rng_for=lambda i: named_generator(seed, f"sensors/v{i + 1}"),
+                           spawn_ned_m=spawn_ned_m)
         self.on_downlink: DownlinkHandler | None = None
         self._outer_errors = 0  # failures that escaped a session (its own are in its stats)
         self._next_error_log_s = -math.inf
@@ -250,8 +253,8 @@ class Simulation:
         self._mobility = Ticker(self.kernel, self.backend.sync_period_s, self._push_mobility,
                                 priority=PRIORITY_PHYSICS)
         start = getattr(self.backend, "start", None)
-        if start is not None:  # an external backend: set its network up before time runs
-            start()
+        if start is not None:  # an external backend: set its network up before time runs,
+            start(self.vehicle_positions_ned_m())  # with the vehicles where they spawned
         for link in self.links.values():
             link.service()
 

@@ -5,6 +5,7 @@ print it."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any
 
 
@@ -43,3 +44,34 @@ def choice(value: Any, choices: tuple[str, ...], path: str) -> str:
     if value not in choices:
         raise ScenarioError(f"{path}: expected one of {', '.join(choices)}, got {value!r}")
     return value
+
+
+MAX_SPAWN_M = 100_000.0  # spawn points within 100 km of home (the local frame is flat)
+MIN_SPAWN_SEPARATION_M = 1.0  # closer bodies would start inside each other
+
+
+def spawn_points(value: Any, count: int,
+                 grid: Callable[[int], tuple[float, float]]) -> tuple[tuple[float, float], ...]:
+    """``vehicles.spawn_ned_m``: a list of ``[north, east]`` metres from home, one per vehicle
+    from vehicle 1 (at most ``count``); vehicles past its end spawn on ``grid``."""
+    path = "vehicles.spawn_ned_m"
+    if not isinstance(value, list):
+        raise ScenarioError(f"{path}: expected a list of [north, east] points, got {value!r}")
+    if len(value) > count:
+        raise ScenarioError(f"{path}: {len(value)} points for {count} vehicle(s)")
+    points = []
+    for k, p in enumerate(value):
+        where = f"{path}[{k}]"
+        if not isinstance(p, list) or len(p) != 2:
+            raise ScenarioError(f"{where}: expected [north, east] in metres, got {p!r}")
+        n, e = (number(x, where) for x in p)
+        if abs(n) > MAX_SPAWN_M or abs(e) > MAX_SPAWN_M:
+            raise ScenarioError(f"{where}: must be within {MAX_SPAWN_M:g} m of home, got {p!r}")
+        points.append((float(n), float(e)))
+    every = points + [grid(i) for i in range(len(points), count)]
+    for i in range(len(points)):
+        for j in range(count):
+            if j != i and math.dist(every[i], every[j]) < MIN_SPAWN_SEPARATION_M:
+                raise ScenarioError(f"{path}[{i}]: vehicle {i + 1} would spawn within "
+                                    f"{MIN_SPAWN_SEPARATION_M:g} m of vehicle {j + 1}")
+    return tuple(points)

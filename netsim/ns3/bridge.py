@@ -40,8 +40,7 @@ Rules and invariants:
 - Node kinds come from names: ``v<N>`` vehicle, ``ap…`` access point, ``enb…`` LTE eNB, anything
   else a ground node (wired to the AP in the ``ap`` topology, a radio in ``adhoc``, a remote host
   behind the PGW in ``lte``). All links must be made before the first cycle, which starts the
-  engine's network (init + warm-up, blocking once). With ``lte`` the replies also say which eNB
-  serves each vehicle and when it hands over (``Cells``, cells.py; in ``backend_stats()``).
+  engine's network (init + warm-up, blocking once). ``lte``: cells.py follows the serving cells.
 """
 
 from __future__ import annotations
@@ -59,7 +58,7 @@ from netsim.backend import Vec3
 from netsim.kernel import PRIORITY_NETWORK, Kernel
 from netsim.link import Deliver, LinkStats, Tracer
 from netsim.models import Drop
-from netsim.ns3.cells import Cells, check_config
+from netsim.ns3.cells import Cells, check_lte_config
 from netsim.ns3.engine import BINARY, PROTOCOL_VERSION, EngineProcess, Ns3Error, node_kind
 
 # Where they were first imported from (gateway/cli.py, tests, benches):
@@ -83,8 +82,24 @@ PIPELINE_AFTER_LATE, PIPELINE_LATE_SHARE = 10, 0.2
 ENGINES = ("ns3", "reference")
 LATE_POLICIES = ("drop", "deliver")
 DROP_BACKEND = "backend"  # the engine was lost: its cycle's packets never came back
-CONFIG_KEYS = {"engine", "binary", "topology", "nodes", "wifi", "propagation", "wired", "lte",
-               "warmup_s", "drop_after_s", "timeout_s", "init_timeout_s", "reference"}
+CONFIG_KEYS = {"engine", "binary", "topology", "routing", "nodes", "wifi", "propagation",
+               "wired", "lte", "warmup_s", "drop_after_s", "timeout_s", "init_timeout_s",
+               "reference"}
+ROUTINGS = ("none", "olsr", "aodv")  # the adhoc topology's: one hop, or ns-3's OLSR / AODV
+
+
+def check_config(config: Mapping[str, Any]) -> None:
+    """What can be checked without the engine; ValueError names the key."""
+    unknown = set(config) - CONFIG_KEYS
+    if unknown:
+        raise ValueError(f"ns-3 backend: unknown config keys {sorted(unknown)} "
+                         f"(known: {sorted(CONFIG_KEYS)})")
+    routing = config.get("routing", "none")
+    if routing not in ROUTINGS:
+        raise ValueError(f"routing: must be one of {', '.join(ROUTINGS)}, not {routing!r}")
+    if routing != "none" and config.get("topology", "adhoc") != "adhoc":
+        raise ValueError(f"routing: {routing!r} needs topology = \"adhoc\"")
+    check_lte_config(config)
 
 
 @dataclass
@@ -134,10 +149,6 @@ class Ns3Backend:
                  realtime: bool = False, strict: bool = False,
                  tracer: Tracer | None = None) -> None:
         config = dict(config or {})
-        unknown = set(config) - CONFIG_KEYS
-        if unknown:
-            raise ValueError(f"ns-3 backend: unknown config keys {sorted(unknown)} "
-                             f"(known: {sorted(CONFIG_KEYS)})")
         check_config(config)
         if late_policy not in LATE_POLICIES:
             raise ValueError(f"late_policy must be one of {LATE_POLICIES}, not {late_policy!r}")
@@ -185,6 +196,7 @@ class Ns3Backend:
         self._outbox: list[_Packet] = []
         self._in_flight: dict[int, _Packet] = {}
         self._engine_until_s = 0.0
+        self._positions_sent: dict[str, Vec3] = {}  # what the engine has
         self._awaiting_since_s: float | None = None  # real time: a request is out
         self._process = EngineProcess(self.engine, pathlib.Path(config.get("binary", BINARY)))
         self.endpoint = self._process.endpoint
@@ -230,18 +242,27 @@ class Ns3Backend:
 
     # -- cycles -----------------------------------------------------------------------------
 
-    def start(self) -> None:
+    def start(self, positions_ned_m: Mapping[str, Vec3] | None = None) -> None:
         """Init the engine's network and run its warm-up (once, blocking, before the first
-        cycle: the simulation's first ``update_mobility`` calls it if nobody did)."""
+        cycle: the simulation's first ``update_mobility`` calls it if nobody did), with nodes
+        at ``positions_ned_m`` (e.g. the vehicles' spawn points): the warm-up's beacons,
+        association and routing see where they are."""
         if self.started:
             return
         self.started = True
+        for name, (x, y, z) in (positions_ned_m or {}).items():
+            self.positions[name] = (float(x), float(y), float(z))
+        # In real time the ground nodes' clients are outside the simulation (UDP sockets): a
+        # delivery to them cannot make anything send at its own simulated time, so the engine
+        # need not stop for it (their datagrams enter at the kernel's time, never behind it).
         nodes = [{"name": name, "kind": kind,
-                  "position": list(self.positions.get(name, (0.0, 0.0, 0.0)))}
+                  "position": list(self.positions.get(name, (0.0, 0.0, 0.0))),
+                  "passive": self.realtime and kind == "ground"}
                  for name, kind in self.nodes.items()]
+        self._positions_sent = dict(self.positions)
         message = {"v": PROTOCOL_VERSION, "op": "init", "seed": self.seed, "nodes": nodes,
                    "topology": self.config.get("topology", "adhoc")}
-        for key in ("wifi", "propagation", "wired", "lte", "warmup_s", "drop_after_s",
+        for key in ("routing", "wifi", "propagation", "wired", "lte", "warmup_s", "drop_after_s",
                     "reference"):
             if key in self.config:
                 message[key] = self.config[key]
@@ -266,6 +287,8 @@ class Ns3Backend:
         now = self.kernel.now
         if until is None:
             until = now + self.pipeline_s
+        # A late reply (real time) may have left the engine past the kernel's next event.
+        until = max(until, self._engine_until_s)
         packets = []
         for p in self._outbox:
             p.inject_at_s = max(p.sent_at_s + self.pipeline_s, self._engine_until_s)
@@ -275,9 +298,11 @@ class Ns3Backend:
         self._outbox = []
         self._engine_until_s = until
         self.cycles += 1
+        moved = {k: list(v) for k, v in self.positions.items()
+                 if self._positions_sent.get(k) != v}  # only what changed since the last step
+        self._positions_sent.update(self.positions)
         return {"v": PROTOCOL_VERSION, "op": "step", "until_s": round(until, 9),
-                "positions": {k: list(v) for k, v in self.positions.items()},
-                "packets": packets}
+                "positions": moved, "packets": packets}
 
     def _exchange(self, t: float) -> None:
         """Exact time: the kernel is about to pass its horizon towards ``t`` (module rules)."""

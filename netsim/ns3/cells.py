@@ -1,9 +1,9 @@
 """The ``lte`` topology's Python side: its config keys and the cells the engine reports.
 
 Rules:
-- ``check_config`` validates the ``lte`` section's keys and the node kinds of an ns-3 config
-  before any engine starts (``cornet check`` and ``Ns3Backend`` both call it), naming the bad
-  key; values are checked again by the engine, which knows ns-3's ranges.
+- ``check_lte_config`` validates the ``lte`` section's keys and the node kinds of an ns-3 config
+  before any engine starts (the bridge's ``check_config`` calls it, for ``cornet check`` and
+  ``Ns3Backend``), naming the bad key; values are checked again by the engine, which knows ns-3's ranges.
 - ``Cells`` follows the engine's replies: the ready reply's ``cells`` (eNB name -> cell id) and
   ``serving`` (UE -> eNB name or None), then each step reply's ``events`` (handover start/end,
   radio link failure, connection), in protocol time. A finished handover (``handover_end``) or a
@@ -27,7 +27,7 @@ LTE_DEFAULTS: dict[str, Any] = {
 EVENTS_KEPT = 1000  # the most recent cell events backend_stats() carries
 
 
-def check_config(config: Mapping[str, Any]) -> None:
+def check_lte_config(config: Mapping[str, Any]) -> None:
     """ValueError naming the key when the topology, a node kind or an ``lte`` key is wrong."""
     topology = config.get("topology", "adhoc")  # the engine checks the name
     lte = config.get("lte")

@@ -1,4 +1,5 @@
 // cornet-ns3: one 802.11 network simulated by ns-3 3.37 in lockstep with CORNET's physics.
+// In the adhoc topology, ns-3's OLSR or AODV may route over several hops (init "routing").
 //
 //     cornet-ns3 ENDPOINT        (e.g. ipc:///tmp/cornet-xyz/ns3.sock; the bridge binds it)
 //
@@ -15,6 +16,8 @@
 //   dropped (with a reason: "loss" for a MAC retry-limit drop or no delivery within
 //   `drop_after_s`, "queue" for a MAC queue drop).
 // - Seeded: same init + same steps -> same replies, byte for byte.
+// - A step with stop_at_delivery ends at the first delivery to a node that is not "passive"
+//   (a passive node's deliveries cannot make anything send before the step's end).
 #include <limits>
 #include "json.h"
 #include "lte.h"
@@ -22,13 +25,16 @@
 #include "ns3/core-module.h"
 #include "ns3/csma-module.h"
 #include "ns3/internet-module.h"
+#include "ns3/aodv-module.h"
 #include "ns3/mobility-module.h"
 #include "ns3/network-module.h"
+#include "ns3/olsr-module.h"
 #include "ns3/wifi-module.h"
 
 #include <cstdint>
 #include <cstring>
 #include <iostream>
+#include <set>
 #include <sstream>
 #include <unordered_map>
 #include <zmq.hpp>
@@ -56,6 +62,7 @@ struct SimNode
     Ipv4Address address;
     Ptr<Socket> socket;
     Ptr<WifiNetDevice> wifi; // null for wired-only nodes
+    bool passive = false;    // a delivery to it never ends a stop_at_delivery step
 };
 
 struct Pending
@@ -76,6 +83,7 @@ class Engine
     std::map<std::string, size_t> m_byName;
     std::unordered_map<uint64_t, Pending> m_pending;   // packet id -> what we know
     std::unordered_map<uint64_t, uint64_t> m_uidToId;  // ns-3 packet uid -> packet id
+    std::set<uint32_t> m_passive;                      // ns-3 node ids of passive nodes
     std::ostringstream m_delivered; // JSON items of this step
     std::ostringstream m_dropped;
     bool m_firstDelivered = true;
@@ -147,7 +155,7 @@ void Engine::Receive(Ptr<Socket> socket)
         m_delivered << (m_firstDelivered ? "" : ",") << "{\"id\":" << id
                     << ",\"time_s\":" << JsonTime(Now()) << "}";
         m_firstDelivered = false;
-        if (m_stopAtDelivery)
+        if (m_stopAtDelivery && !m_passive.count(socket->GetNode()->GetId()))
             Simulator::Stop(); // after this event: the caller learns the delivery at its time
     }
 }
@@ -200,6 +208,12 @@ std::string Engine::Init(const Json& r)
         throw std::runtime_error("topology must be 'adhoc', 'ap' or 'lte', not '" + topology +
                                  "'");
     m_lte = topology == "lte";
+    // Multi-hop in the adhoc topology: ns-3's OLSR or AODV on every radio node ("none": one hop).
+    const std::string routing = r.Str("routing", "none");
+    if (routing != "none" && routing != "olsr" && routing != "aodv")
+        throw std::runtime_error("routing must be 'none', 'olsr' or 'aodv', not '" + routing + "'");
+    if (routing != "none" && topology != "adhoc")
+        throw std::runtime_error("routing '" + routing + "' needs the adhoc topology");
     const Json wifiCfg = Section(r, "wifi");
     const Json prop = Section(r, "propagation");
     const Json wired = Section(r, "wired");
@@ -220,7 +234,13 @@ std::string Engine::Init(const Json& r)
         if ((s.kind == "enb" && !m_lte) || (s.kind == "ap" && m_lte))
             throw std::runtime_error("node '" + s.name + "': kind '" + s.kind +
                                      "' in topology '" + topology + "'");
+        const Json& passive = n["passive"];
+        if (passive.type != Json::Null && passive.type != Json::Bool)
+            throw std::runtime_error("node '" + s.name + "': passive must be true or false");
+        s.passive = passive.type == Json::Bool && passive.b;
         s.node = CreateObject<Node>();
+        if (s.passive)
+            m_passive.insert(s.node->GetId());
         s.mobility = CreateObject<ConstantPositionMobilityModel>();
         s.node->AggregateObject(s.mobility);
         m_byName[s.name] = m_nodes.size();
@@ -285,6 +305,20 @@ std::string Engine::Init(const Json& r)
             wiredNodes.Add(s.node);
     }
     InternetStackHelper internet;
+    OlsrHelper olsr;
+    AodvHelper aodv;
+    if (routing != "none")
+    {
+        // Static routing first (local delivery), then the ad-hoc protocol.
+        Ipv4StaticRoutingHelper staticRouting;
+        Ipv4ListRoutingHelper list;
+        list.Add(staticRouting, 0);
+        if (routing == "olsr")
+            list.Add(olsr, 10);
+        else
+            list.Add(aodv, 10);
+        internet.SetRoutingHelper(list);
+    }
     for (SimNode& s : m_nodes)
         if (s.kind != "enb") // the LTE EPC helper gives each eNB its stack
             internet.Install(s.node);

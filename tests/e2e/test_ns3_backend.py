@@ -126,3 +126,47 @@ def test_same_seed_same_trace():
             backend.close()
         traces.append(trace)
     assert traces[0] == traces[1] and any(e[0] == "drop" for e in traces[0])
+
+
+@pytest.mark.parametrize("routing", ["olsr", "aodv", "none"])
+def test_multihop_through_a_relay_that_then_flies_off(routing):
+    """gcs — 70 m — v2 — 70 m — v1, with a radio range of ~85 m: v1 reaches the GCS only
+    through v2 (OLSR or AODV), never without routing; when v2 flies east at 10 m/s from t = 10 s,
+    v1's packets stop arriving."""
+    kernel = Kernel()
+    config = {"topology": "adhoc", "routing": routing, "warmup_s": 10.0,
+              "nodes": {"gcs": {"position": [0.0, 0.0, -2.0]}}}
+    backend = Ns3Backend(kernel, config, seed=1, sync_period_s=SYNC_S)
+    arrived: dict[int, int] = {}  # whole second sent -> packets delivered
+
+    def received(packet: bytes, meta) -> None:
+        sent_at, _ = PACKET.unpack_from(packet)
+        arrived[int(sent_at)] = arrived.get(int(sent_at), 0) + 1
+
+    links = [backend.make_link("v1/up", "gcs", "v1", received),
+             backend.make_link("v1/down", "v1", "gcs", received)]
+    backend.make_link("v2/up", "gcs", "v2", lambda packet, meta: None)  # the relay's node
+
+    def relay(t: float) -> tuple[float, float, float]:
+        return (70.0, max(0.0, t - 10.0) * 10.0, -10.0)
+
+    def mobility(now: float) -> None:
+        backend.update_mobility(now, {"v1": (140.0, 0.0, -10.0), "v2": relay(now)})
+
+    def send(now: float) -> None:
+        for link in links:
+            link.send(PACKET.pack(now, 0) + bytes(40))
+
+    try:
+        backend.start({"v1": (140.0, 0.0, -10.0), "v2": relay(0.0)})
+        Ticker(kernel, SYNC_S, mobility, priority=PRIORITY_PHYSICS)
+        Ticker(kernel, 0.1, send, start_s=0.001)  # 10 per second each way
+        kernel.run(until=25.0)
+        per_s = [arrived.get(s, 0) for s in range(25)]
+        if routing == "none":
+            assert sum(per_s) == 0, per_s
+        else:
+            assert per_s[:10] == [20] * 10, per_s  # two hops, nothing lost
+            assert sum(per_s[15:]) == 0, per_s  # the relay is > 50 m away: no route
+    finally:
+        backend.close()

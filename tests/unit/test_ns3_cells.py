@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from gateway.sim.scenario import ScenarioError, parse
-from netsim.ns3.cells import EVENTS_KEPT, LTE_DEFAULTS, Cells, check_config
+from netsim.ns3.cells import EVENTS_KEPT, LTE_DEFAULTS, Cells, check_lte_config
 from netsim.ns3.engine import node_kind
 
 
@@ -24,11 +24,11 @@ def test_enb_names_are_enb_nodes_and_api_clients_stay_ground():
 ])
 def test_bad_lte_config_names_the_key(config, error):
     with pytest.raises(ValueError, match=error):
-        check_config(config)
+        check_lte_config(config)
 
 
 def test_good_lte_config_passes():
-    check_config({"topology": "lte", "lte": dict(LTE_DEFAULTS),
+    check_lte_config({"topology": "lte", "lte": dict(LTE_DEFAULTS),
                   "nodes": {"enb1": {"position": [0, 0, -30]}, "gcs": {}}})
 
 

@@ -2,6 +2,7 @@
 
 import math
 import pathlib
+import re
 
 import pytest
 
@@ -23,7 +24,7 @@ def test_shipped_scenarios_load_and_run(path):
     assert "ok" in describe(s)
     if s.network.backend == "ns3" and not BINARY.is_file():
         pytest.skip(build_missing_message())
-    sim = Simulation(s.vehicles, s.network, home=s.home)
+    sim = Simulation(s.vehicles, s.network, home=s.home, spawn_ned_m=s.spawn_ned_m)
     try:
         sim.run(until=2.0)
         assert all(stats["sent"] > 0 for name, stats in sim.link_stats().items()
@@ -50,9 +51,17 @@ def test_shipped_scenarios_load_and_run(path):
     ({"network": {"link": {"model": "fixed", "latency_ms": 80}}}, "network.link"),
     ({"network": {"topology": "star", "ap": {"position_ned_m": [1, 2]}}}, "network.ap"),
     ({"logging": {"level": "loud"}}, "logging.level"),
+    ({"vehicles": {"spawn_ned_m": [[0, 0], [0, 9]]}}, "vehicles.spawn_ned_m: 2 points for 1"),
+    ({"vehicles": {"spawn_ned_m": [[0, 0, 0]]}}, "vehicles.spawn_ned_m[0]: expected [north"),
+    ({"vehicles": {"spawn_ned_m": [[0, math.nan]]}}, "vehicles.spawn_ned_m[0]: expected a num"),
+    ({"vehicles": {"spawn_ned_m": [[2e5, 0]]}}, "vehicles.spawn_ned_m[0]: must be within"),
+    ({"vehicles": {"count": 2, "spawn_ned_m": [[0, 4.5]]}}, "spawn_ned_m[0]: vehicle 1 would"),
+    ({"network": {"backend": "ns3", "ns3": {"routing": "babel"}}}, "network.ns3.routing"),
+    ({"network": {"backend": "ns3", "ns3": {"routing": "olsr", "topology": "ap"}}},
+     "network.ns3.routing: 'olsr' needs"),
 ])
 def test_errors_name_the_key(doc, key):
-    with pytest.raises(ScenarioError, match=key.replace(".", r"\.")):
+    with pytest.raises(ScenarioError, match=re.escape(key)):
         parse(doc)
 
 
@@ -143,3 +152,19 @@ def test_values_out_of_range_are_refused_naming_the_key(doc, key):
     """What `cornet check` and SIGHUP refuse is what `cornet run` refuses: the same parser."""
     with pytest.raises(ScenarioError, match=key.replace(".", r"\.")):
         parse(doc)
+
+
+def test_spawn_points_place_vehicles_and_the_rest_stay_on_the_grid():
+    s = parse({"vehicles": {"count": 3, "spawn_ned_m": [[140.0, 0.0], [70.0, -3.0]]}})
+    assert s.spawn_ned_m == ((140.0, 0.0), (70.0, -3.0))
+    assert "spawn points [[140.0, 0.0], [70.0, -3.0]]" in describe(s)
+    sim = Simulation(s.vehicles, s.network, home=s.home, spawn_ned_m=s.spawn_ned_m)
+    try:
+        got = sim.vehicle_positions_ned_m()
+        for node, (n, e) in (("v1", (140.0, 0.0)), ("v2", (70.0, -3.0)), ("v3", (0.0, 10.0))):
+            assert got[node][:2] == pytest.approx((n, e), abs=1e-6)
+        # Each vehicle's EKF origin (its home) is its spawn point.
+        v1 = sim.vehicles[0].origin
+        assert (v1.lat_deg - s.home.lat_deg) * 111_195.0 == pytest.approx(140.0, abs=0.5)
+    finally:
+        sim.close()

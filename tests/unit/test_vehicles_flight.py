@@ -184,7 +184,8 @@ def test_two_vehicles_in_one_world_do_not_interact():
     sim = Sim(n=2)
     try:
         a, b = sim.vehicles
-        assert np.linalg.norm(np.subtract(World.spawn_offset_ned_m(1), World.spawn_offset_ned_m(0))) >= 5
+        spawn = sim.world.spawn_offset_ned_m
+        assert np.linalg.norm(np.subtract(spawn(1), spawn(0))) >= 5
         take_off(sim, a)
         sim.run(2.0)
         assert -a.state.position_ned_m[2] == pytest.approx(2.5, abs=0.3)
