@@ -55,7 +55,8 @@ F ← F + a·(M − F), a = 1/2^(l3_filter_k/4). A neighbour whose F exceeds the
 more than handover_hysteresis_db at every sample for handover_ttt_s takes over; the interruption
 (handover_gap_s, typically 30–60 ms for an X2 handover) starts then. The noise is drawn from the
 stream ``lte/measurements/<vehicle>`` from step 0, so every link of one vehicle (one instance per
-link direction) walks the same measurements and changes cell at the same instant. The first
+link direction) walks the same measurements and, as long as they read the same positions, changes
+cell at the same instant. The first
 sample picks the best cell (attach, no gap). No radio link failure recovery: the serving cell
 changes only by A3.
 
@@ -89,6 +90,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections import deque
 from collections.abc import Sequence
 from statistics import NormalDist
 from typing import Any
@@ -286,7 +288,9 @@ class LteModel:
         self._candidate_since_s = 0.0
         self._gap_start_s = -math.inf
         self._gap_end_s = -math.inf
-        self.handovers: list[tuple[float, int, int]] = []  # (start_s, from cell, to cell)
+        # The last handovers (start_s, from cell, to cell), bounded for long ping-pong runs.
+        self.handovers: deque[tuple[float, int, int]] = deque(maxlen=1000)
+        self.handover_count = 0
 
     # --- radio
     def _update_position(self) -> None:
@@ -345,6 +349,7 @@ class LteModel:
                 self._candidate, self._candidate_since_s = best, t_k
             if self._candidate >= 0 and t_k - self._candidate_since_s >= self.handover_ttt_s:
                 self.handovers.append((t_k, serving, best))
+                self.handover_count += 1
                 self.serving, self._candidate = best, -1
                 self._gap_start_s, self._gap_end_s = t_k, t_k + self.handover_gap_s
 
