@@ -37,8 +37,10 @@ of later packets:
    BLER(δ) = 1 / (1 + 9·e^(1.5·δ)) (10 % at δ = 0, 1 % at +1.5 dB).
 4. RLC AM, simplified: a packet whose harq_max_tx attempts all fail (probability q) is sent
    again, after harq_max_tx HARQ round trips + rlc_retx_delay_s (the status report), up to
-   rlc_max_retx times; the rounds are geometric in q (one draw), more → Drop.LOSS. No in-order
-   delivery: packets may overtake each other, as on every embedded link.
+   rlc_max_retx times; the rounds are geometric in q (one draw), more → Drop.LOSS. With
+   ``in_order`` (default) the link delivers in sequence, as RLC AM does: a packet never arrives
+   before the one sent before it on this link (head-of-line blocking behind retransmissions and
+   the gap; per link direction, not per bearer). ``in_order = false``: packets may overtake.
 5. delay = wait in a gap + access + TTIs·1 ms + (attempt − 1)·8 ms (HARQ RTT) + RLC rounds
            + rx_processing_s + core_latency_s, with
    access UL: U(0, sr_period_s) to the next scheduling request + grant_delay_s (SR → grant →
@@ -63,27 +65,30 @@ changes only by A3.
 Defaults: 10 MHz (50 PRBs) at 2 GHz, 46 dBm macro cells, a 23 dBm UE on 5 uplink PRBs, the
 vehicle's downlink on 25; SR every 10 ms, 8 ms SR → PUSCH, 5 ms core; A3 with 3 dB for 320 ms,
 40 ms gap. Measured (tests/unit/test_lte_model.py checks the shape) for 100-byte datagrams, one
-cell, the vehicle 20 m under the antenna's height, no shadowing, 4 000 packets per point:
+every 100 ms, one cell, the vehicle 20 m under the antenna's height, no shadowing, 4 000 packets
+per point:
 
     distance          100 m   500 m   1 km   1.5 km  2 km   2.1 km  2.2 km  2.3 km  2.4 km
     UL SINR dB         38.6    12.7    1.4   −5.3   −10.0  −10.8   −11.5   −12.2   −12.9
     UL loss %           0       0      0      0      0.4    1.0     2.6    range   range
-    UL p50 / p95 ms   20.5/25 21/30  23/31  32/39   40/55  43/59   44/125    —       —
+    UL p50 / p95 ms   20.5/25 21/30  23/31  32/39   40/56  43/95   45/132    —       —
     DL SINR dB         50.6    24.7   13.4    6.7    2.0    1.2     0.5    −0.2   (RSRP)
     DL p50 / p95 ms    9.0/10  9.1/16 9.1/17 9.3/18 9.1/16 9.2/17  9.4/18  9.1/16  range
 
-so in good coverage an uplink datagram takes 15.5–25.5 ms (median 20.5: 5 ms mean SR wait + 8 + 1
-+ 1.5 + 5), a downlink one 7.5–10.5 ms (median 9), a HARQ retransmission (first-attempt BLER ≈
-10 %) adds 8 ms; the uplink runs out first (power-limited), losses appear only past ~1.9 km,
-where HARQ and RLC run out, with RLC rounds of 72 ms in the tail; beyond ~2.25 km the uplink
-SINR is under −12 dB and beyond ~2.37 km the RSRP under −124 dBm: Drop.RANGE. Shadowing shifts
-these by its value at the place (σ 6 dB ≈ ±45 % of the distance). A handover holds the packets
-that reach the radio during its 40 ms (none lost with handover_loss = 0): up to 40 ms more.
-Two cells 1 km apart (scenarios/lte.toml): without shadowing a vehicle flying from one to the
-other changes cell once, where the new cell is 3 dB better (546 m from the first) plus the TTT;
-hovering at the midpoint with 2 dB measurement noise it never changes (with handover_ttt_s = 0
-it ping-pongs hundreds of times in ten minutes). With the 6 dB shadowing map a crossing can hand over
-back and forth where the map favours the far cell, as flying LTE UEs do.
+so in good coverage an uplink datagram takes 15.5–25.5 ms (median 20.5: 5 ms mean SR wait + 8
++ 1 + 1.5 + 5), a downlink one 7.5–10.5 ms (median 9), and a HARQ retransmission (first-attempt
+BLER ≈ 10 %) adds 8 ms. The uplink runs out first (power-limited): losses appear past ~1.9 km,
+where HARQ and RLC run out, RLC rounds of 72 ms fill the tail; beyond ~2.25 km the uplink SINR
+is under −12 dB, beyond ~2.37 km the RSRP under −124 dBm: Drop.RANGE. Denser traffic queues
+behind the retransmissions there (in order): at 2 km and 100 packets/s the uplink p95 is 175 ms.
+Shadowing moves all this by its value at the place (6 dB ≈ a factor 1.44 in distance). A
+handover holds the packets that reach the radio during its 40 ms (none lost with handover_loss
+= 0): up to 40 ms more. Two cells 1 km apart (scenarios/lte.toml): without shadowing a vehicle
+flying from one to the other changes cell once, where the new cell is 3 dB better (546 m from
+the first) plus the TTT; hovering at the midpoint with 2 dB measurement noise it never changes
+(with handover_ttt_s = 0 it ping-pongs hundreds of times in ten minutes). With the 6 dB
+shadowing map a crossing can hand over back and forth where the map favours the far cell, as
+flying LTE UEs do.
 """
 
 from __future__ import annotations
@@ -186,7 +191,7 @@ class LteModel:
                  handover_hysteresis_db: float = 3.0, handover_ttt_s: float = 0.32,
                  handover_gap_s: float = 0.04, handover_loss: float = 0.0,
                  measurement_period_s: float = 0.04, measurement_sigma_db: float = 2.0,
-                 l3_filter_k: int = 4) -> None:
+                 l3_filter_k: int = 4, in_order: bool = True) -> None:
         self.cells = _cells(cells_ned_m)
         for name, value in (("enb_tx_power_dbm", enb_tx_power_dbm),
                             ("ue_tx_power_dbm", ue_tx_power_dbm),
@@ -235,6 +240,7 @@ class LteModel:
                             ("handover_gap_s", handover_gap_s)):
             _check(name, _number(value), f"must be a number of seconds, got {value!r}")
             check_delay("lte", name, value)
+        _check("in_order", isinstance(in_order, bool), f"must be true or false, got {in_order!r}")
         if mobility is None:
             raise ValueError("lte: needs positions (a mobility), it is a positional model")
 
@@ -271,6 +277,8 @@ class LteModel:
         self.measurement_period_s = float(measurement_period_s)
         self._measurement_sigma_db = float(measurement_sigma_db)
         self._l3_a = 1.0 / 2.0 ** (l3_filter_k / 4.0)
+        self.in_order = in_order
+        self._last_arrival_s = -math.inf
 
         shadow_stream = rng.sibling("lte/shadowing") if shadowing_sigma_db > 0 else None
         self._shadow = ([_ShadowMap(shadow_stream, shadowing_sigma_db, shadowing_decorrelation_m)
@@ -400,5 +408,10 @@ class LteModel:
             attempt += 1
         attempt = min(attempt, self.harq_max_tx - 1)
         ttis = max(1, math.ceil(8 * (size_bytes + HEADER_BYTES) / self._bits_per_tti[cqi]))
-        return (wait + u_access * self._access_span_s + ttis * TTI_S + attempt * HARQ_RTT_S
-                + rounds * self._rlc_round_s + self._fixed_s)
+        delay = (wait + u_access * self._access_span_s + ttis * TTI_S + attempt * HARQ_RTT_S
+                 + rounds * self._rlc_round_s + self._fixed_s)
+        if self.in_order:
+            if now_s + delay < self._last_arrival_s:
+                delay = self._last_arrival_s - now_s
+            self._last_arrival_s = now_s + delay
+        return delay

@@ -87,6 +87,19 @@ def test_larger_packets_at_low_cqi_take_more_ttis():
     assert mean_delay(300.0, 280) - mean_delay(300.0, 20) < 0.002  # one or two TTIs near
 
 
+def test_in_order_delivery_holds_packets_behind_retransmissions():
+    def arrivals(**params):
+        model, _ = _lte(2100.0, shadowing_sigma_db=0.0, **params)  # HARQ and RLC at work
+        return [i * 0.01 + v for i, v in enumerate(_delays(model, 3000))
+                if not isinstance(v, Drop)]
+
+    ordered = arrivals()
+    assert ordered == sorted(ordered)
+    free = arrivals(in_order=False)
+    assert free != sorted(free)  # late retransmissions are overtaken
+    assert sum(ordered) > sum(free)  # head-of-line blocking only ever adds delay
+
+
 # --- distance ------------------------------------------------------------------------------------
 
 DISTANCES_M = [500, 1500, 1900, 2000, 2100, 2200, 2300, 3000]
@@ -334,6 +347,7 @@ def test_five_draws_per_packet_and_sane_verdicts(north, east, down, gap, loss, h
     ("dl_scheduling_ttis", 0), ("core_latency_s", -1.0), ("handover_hysteresis_db", -3.0),
     ("handover_ttt_s", math.inf), ("handover_gap_s", -0.01), ("handover_loss", 2.0),
     ("measurement_period_s", 0.0), ("measurement_sigma_db", math.nan), ("l3_filter_k", 20),
+    ("in_order", "yes"),
 ])
 def test_validation_names_the_parameter(param, value):
     with pytest.raises(ValueError, match=rf"lte: {param}"):
