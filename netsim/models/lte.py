@@ -93,6 +93,7 @@ flying LTE UEs do.
 
 from __future__ import annotations
 
+import logging
 import math
 import re
 from collections import deque
@@ -120,6 +121,7 @@ CQI_EFFICIENCY = (0.1523, 0.2344, 0.3770, 0.6016, 0.8770, 1.1758, 1.4766, 1.9141
 BLER_SLOPE_PER_DB = 1.5
 
 _VEHICLE = re.compile(r"v[1-9][0-9]*\Z")
+log = logging.getLogger(__name__)
 _inv_normal = NormalDist().inv_cdf
 Vec3 = tuple[float, float, float]
 
@@ -358,6 +360,9 @@ class LteModel:
             if self._candidate >= 0 and t_k - self._candidate_since_s >= self.handover_ttt_s:
                 self.handovers.append((t_k, serving, best))
                 self.handover_count += 1
+                log.debug("lte %s %s: handover from cell %d to cell %d at %.2f s",
+                          self.vehicle, "uplink" if self.uplink else "downlink", serving, best,
+                          t_k)
                 self.serving, self._candidate = best, -1
                 self._gap_start_s, self._gap_end_s = t_k, t_k + self.handover_gap_s
 
