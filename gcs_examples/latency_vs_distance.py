@@ -14,6 +14,13 @@ Writes a PNG (mean RTT and loss per distance bin, one line per backend) and prin
 
     .venv/bin/python gcs_examples/latency_vs_distance.py            # both backends, ~1.5 min each
     .venv/bin/python gcs_examples/latency_vs_distance.py --backends embedded --max-distance 200
+
+On the embedded LTE model (scenarios/lte.toml; distances to its first cell, the x axis still
+says "access point"), e.g. out to the second cell and past the handover:
+
+    .venv/bin/python gcs_examples/latency_vs_distance.py --backends embedded \
+        --embedded-scenario scenarios/lte.toml --max-distance 1200 --speed-mps 12 --bin 50 \
+        --out /tmp/lte.png
 """
 
 from __future__ import annotations
@@ -41,6 +48,7 @@ from vehicles.geodesy import reproject
 ROOT = Path(__file__).resolve().parent.parent
 NS3_BINARY = ROOT / "netsim" / "ns3" / "build" / "cornet-ns3"
 TAKEOFF_ALT_M = 10.0
+LTE_DEFAULT_CELL_NED_M = [0.0, 0.0, -30.0]  # netsim/models/lte.py's cells_ned_m default
 
 BACKENDS = {
     "embedded": ("embedded wireless model (802.11n MCS0)",
@@ -421,11 +429,17 @@ def main() -> int:
                 note = "ns-3 build missing: run `make ns3`"
                 print(f"[{backend}] {note} (skipping the ns-3 run)")
                 continue
+            label = BACKENDS[backend][0]
+            radio = net.get("radio", {})
             if net.get("backend", "embedded") == "ns3":
                 ap = net.get("ns3", {}).get("nodes", {}).get("ap", {}).get("position", [0, 0, 0])
+            elif radio.get("model") == "lte":
+                # The embedded LTE model's cells are its own: distances are to the first one.
+                ap = radio.get("cells_ned_m", [LTE_DEFAULT_CELL_NED_M])[0]
+                label = "embedded LTE model (first cell)"
             else:
                 ap = net.get("ap", {}).get("position_ned_m", [0.0, 0.0, -10.0])
-            run = Run(backend, BACKENDS[backend][0], tuple(float(v) for v in ap))
+            run = Run(backend, label, tuple(float(v) for v in ap))
             t0 = time.monotonic()
             fly_and_measure(run, scenario, args, log_dir)
             print(f"[{backend}] {len(run.samples)} requests in {time.monotonic() - t0:.0f} s")

@@ -23,9 +23,10 @@ def named_generator(seed: int, name: str) -> np.random.Generator:
 class UniformStream:
     """Uniform floats in [0, 1) from a named generator, drawn in batches."""
 
-    __slots__ = ("_gen", "_buf", "_i")
+    __slots__ = ("_gen", "_buf", "_i", "seed")
 
     def __init__(self, seed: int, name: str) -> None:
+        self.seed = seed
         self._gen = named_generator(seed, name)
         self._buf = self._gen.random(_BATCH).tolist()
         self._i = 0
@@ -37,3 +38,8 @@ class UniformStream:
             i = 0
         self._i = i + 1
         return self._buf[i]
+
+    def sibling(self, name: str) -> UniformStream:
+        """The stream ``name`` of the same seed: for randomness several models must share (a
+        terrain every link crosses); it never touches this stream's draws."""
+        return UniformStream(self.seed, name)

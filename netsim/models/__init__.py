@@ -5,7 +5,7 @@ models (each module registers itself with ``register_model``). See README.md bes
 for how to add one.
 """
 
-from netsim.models import burst, fixed, outage, queue, wireless  # noqa: F401 (registers them)
+from netsim.models import burst, fixed, lte, outage, queue, wireless  # noqa: F401 (registers them)
 from netsim.models.base import (
     Drop,
     LinkModel,

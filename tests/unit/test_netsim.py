@@ -158,6 +158,16 @@ def test_named_streams_are_independent():
     assert xs != [b.next() for _ in range(3000)]
 
 
+def test_a_sibling_stream_is_the_named_stream_of_the_same_seed():
+    parent = UniformStream(5, "v1/gcs/down")
+    first = parent.next()
+    sibling = parent.sibling("lte/shadowing")
+    reference = UniformStream(5, "lte/shadowing")
+    assert [sibling.next() for _ in range(50)] == [reference.next() for _ in range(50)]
+    again = UniformStream(5, "v1/gcs/down")
+    assert again.next() == first and again.next() == parent.next()  # the parent is untouched
+
+
 def test_bad_model_config():
     with pytest.raises(ValueError, match="unknown link model"):
         make_model("nope", {}, seed=0, stream_name="x")
