@@ -323,7 +323,7 @@ def _run_settings(args: argparse.Namespace,
                             "daemon on other ports (--port-offset)")
     port_offset = _first(args.port_offset, d.port_offset, 0)
     check_ports(vehicles, port_offset, "--port-offset" if args.port_offset is not None
-                else f"{source}: daemon.port_offset")
+                else f"{source}: daemon.port_offset", network.radios)
     settings = {
         "vehicles": vehicles,
         "network": network,
