@@ -412,10 +412,12 @@ def describe(s: Scenario) -> str:
             lines.append(f"  {key}: {net.topology[key]}")
     for key, value in net.ns3.items():
         lines.append(f"  ns3.{key}: {value}")
+    offset = s.daemon.port_offset or 0
     for radio, entry in zip(net.radios, net.topology.get("extra_radios", [])):
         hops = {k: v for k, v in entry.items() if k != "name"}
         lines.append(f"  extra radio {radio.name}: {hops}; vehicle i binds "
-                     f"{radio_ports(0, radio).local}+i, talks to {radio.remote_port}")
+                     f"{radio_ports(0, radio, offset).local}+i, talks to "
+                     f"{radio_ports(0, radio, offset).remote}")
     if not s.wind.calm:
         w = s.wind
         lines.append(f"  environment: wind {w.speed_mps:g} m/s from {w.from_deg:g}°, gusts "
