@@ -5,6 +5,7 @@ One directory per run (``new_run_dir`` names one under a base directory):
     meta.json         what ran: vehicles (sysid, EKF origin, spawn offset), home, boot epoch, network
     v<i>-gcs.tlog     every MAVLink frame on vehicle i's GCS link, both directions (QGC/MAVProxy
     v<i>-api.tlog     format: 8-byte big-endian µs Unix timestamp + the raw frame, one per frame)
+    v<i>-<radio>.tlog the same for each extra radio's link (gateway/sim/radios.py)
     state.csv         every vehicle at a fixed simulated rate (STATE_COLUMNS)
     packets.trace     the network's log (netsim.link.TraceWriter: time event link size detail)
 

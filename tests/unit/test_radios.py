@@ -215,3 +215,43 @@ def test_a_mission_uploaded_on_one_radio_is_the_vehicles():
         assert len(gcs.of_type("HEARTBEAT")) == 2
     finally:
         sim.close()
+
+
+def test_each_radio_signs_as_an_instance_of_its_own():
+    from gateway.mavlink.signing import SigningConfig, SigningKey
+    from gateway.sim.flightlog import split_frames
+
+    sc = scenario(LTE, {"name": "sat"})
+    sim = Simulation(1, sc.network, signing=SigningConfig(SigningKey.from_passphrase("x"),
+                                                                 1.8e9))
+    link_ids: dict = {}
+
+    def route(index, tag, data, peer):
+        for frame in split_frames(data):
+            assert frame[2] & 1, "unsigned frame"
+            link_ids.setdefault(tag, set()).add(frame[-13])  # link_id opens the signature
+
+    sim.on_downlink = route
+    try:
+        sim.run(until=1.0)
+        # PX4 numbers its MAVLink instances in start order: GCS 0, onboard 1, then the radios.
+        assert link_ids == {LinkKind.GCS: {0}, LinkKind.API: {1}, "lte": {2}, "sat": {3}}
+    finally:
+        sim.close()
+
+
+def test_a_reload_may_change_the_radios_hops_but_not_the_radios():
+    sim = Simulation(1, scenario(LTE).network)
+    try:
+        sim.run(until=0.5)
+        slower = scenario({"name": "lte", "radio": {"model": "fixed", "latency_s": 0.3}})
+        sim.reload_network(slower.network)
+        sim.run(until=2.0)
+        assert sim.link_stats()["v1/lte/down"]["latency_max_ms"] == pytest.approx(300.0)
+        for other in (scenario({"name": "sat"}), scenario(LTE, {"name": "sat"}),
+                      scenario({**LTE, "remote_port": 14551}), scenario()):
+            with pytest.raises(ValueError, match="extra radios"):
+                sim.reload_network(other.network)
+        assert sim.network == slower.network
+    finally:
+        sim.close()
