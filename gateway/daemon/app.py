@@ -221,6 +221,11 @@ class Daemon:
         except BaseException:
             self.close()
             raise
+        first, last = self.sim.indices[0], self.sim.indices[-1]
+        for radio in self.sim.radios:
+            a, b = (self.sim.ports(i, radio.name, cfg.port_offset) for i in (first, last))
+            log.info("extra radio %s: vehicles %d..%d bind %d..%d, talk first to %d", radio.name,
+                     first + 1, last + 1, a.local, b.local, a.remote)
         # The pacer asks this between events, so that a datagram waiting on any vehicle port
         # is read at once, not after the rest of a burst of simulation.
         waiting = self._waiting = select.epoll()
