@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import re
+import subprocess
 import time
 
 import pytest
@@ -36,9 +37,13 @@ position_ned_m = [0.0, 500.0, -30.0]
 """
 
 
+def scenario_text(outages: str = "", faults: str = "") -> str:
+    return SCENARIO.format(outages=outages, faults=faults)
+
+
 def write_scenario(tmp_path, outages: str = "", faults: str = "") -> str:
     path = tmp_path / "two-radios.toml"
-    path.write_text(SCENARIO.format(outages=outages, faults=faults))
+    path.write_text(scenario_text(outages, faults))
     return str(path)
 
 
@@ -64,6 +69,21 @@ def command_over(g: MultiLinkGcs, addr, command: int, *params: float,
                     assert src == addr, f"the ACK came back on {src}, not on {addr}"
                     return msg.result
     return None
+
+
+def test_cornet_check_lists_the_radios_ports_and_refuses_them_on_ns3(tmp_path):
+    from gateway.ci.launcher import cornet_command
+
+    ok = subprocess.run(cornet_command() + ["check", write_scenario(tmp_path)],
+                        capture_output=True, text=True, timeout=30)
+    assert ok.returncode == 0 and "extra radio lte:" in ok.stdout and \
+        "vehicle i binds 19570+i, talks to 14550" in ok.stdout, ok.stdout + ok.stderr
+    ns3 = tmp_path / "ns3.toml"
+    ns3.write_text(scenario_text().replace('topology = "star"', 'backend = "ns3"'))
+    out = subprocess.run(cornet_command() + ["check", str(ns3)], capture_output=True, text=True,
+                         timeout=30)
+    assert out.returncode == 2 and "network.extra_radios: only the embedded backend" in \
+        out.stderr, out.stderr
 
 
 def test_qgc_like_gcs_keeps_the_vehicle_over_the_surviving_radio(daemon_factory, tmp_path):
