@@ -17,8 +17,7 @@ A scenario is a TOML file (docs/scenarios.md shows every key); the daemon's conf
     late_policy = "drop"            # "drop" (the CORNET paper's rule) or "deliver"
     topology = "star"               # the rest of [network] is netsim.topology's
     ...
-    extra_radios = [{name = "lte", radio = {model = "fixed", latency_s = 0.04},
-                     remote_port = 14550}]   # more MAVLink links per vehicle (radios.py)
+    extra_radios = [{name = "lte", radio = {model = "fixed", latency_s = 0.04}}]  # radios.py
 
     [logging]
     level = "info"
