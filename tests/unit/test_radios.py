@@ -255,3 +255,31 @@ def test_a_reload_may_change_the_radios_hops_but_not_the_radios():
         assert sim.network == slower.network
     finally:
         sim.close()
+
+
+def test_flight_logs_and_metrics_name_the_radio(tmp_path):
+    import json
+    from types import SimpleNamespace
+
+    from gateway.daemon.metrics import Exporter
+    from gateway.daemon.pacer import Pacer
+    from gateway.sim.flightlog import FlightLog
+
+    log = FlightLog(tmp_path, boot_unix_s=1000.0)
+    sim = Simulation(1, scenario(LTE).network, tracer=log.tracer)
+    try:
+        log.attach(sim)
+        sim.on_downlink = lambda i, tag, data, peer: log.record_datagram("down", i, tag, data,
+                                                                         sim.now)
+        sim.run(until=1.5)
+        log.close()
+        meta = json.loads((tmp_path / "meta.json").read_text())
+        assert meta["vehicles"][0]["tlogs"] == ["v1-gcs.tlog", "v1-api.tlog", "v1-lte.tlog"]
+        assert (tmp_path / "v1-lte.tlog").stat().st_size > 0
+        assert "v1/lte/down" in (tmp_path / "packets.trace").read_text()
+        d = SimpleNamespace(sim=sim, pacer=Pacer(sim.kernel, clock=lambda: 0.0), endpoints={})
+        labels = {(m.name, tuple(sorted(s.labels.items()))) for m in
+                  Exporter(d, clock=lambda: 1.0).snapshot() for s in m.samples}
+        assert ("cornet_mavlink_tx_frames", (("link", "lte"), ("vehicle", "1"))) in labels
+    finally:
+        sim.close()
