@@ -152,6 +152,39 @@ duration_s = 300.0
     assert table["v1/gcs/down"].startswith("outage=") and table["v1/lte/down"] == "0", table
 
 
+def test_a_radio_with_its_own_remote_port_is_a_second_gcs_link(daemon_factory, tmp_path):
+    # QGC with a second UDP link on 14551: the LTE radio talks there, the primary to 14550.
+    scenario = tmp_path / "second-link.toml"
+    scenario.write_text(scenario_text().replace('name = "lte"',
+                                                'name = "lte"\nremote_port = 14551'))
+    d = daemon_factory("--scenario", str(scenario))
+    assert f"lte {d.radio_port(0, 1)}->{d.gcs_port() + 1}" in d.ready_line
+    links = {port: MultiLinkGcs(port) for port in (d.gcs_port(), d.gcs_port() + 1)}
+    try:
+        heard: dict[int, set] = {port: set() for port in links}
+        deadline = time.monotonic() + 5
+        while time.monotonic() < deadline and not all(heard.values()):
+            for port, g in links.items():
+                for src, msg in g.recv(0.1):
+                    if msg.get_type() == "HEARTBEAT":
+                        heard[port].add((src[1], msg.get_srcSystem()))
+        time.sleep(1.5)
+        for port, g in links.items():  # what else came meanwhile
+            for src, msg in g.recv(0.1):
+                if msg.get_type() == "HEARTBEAT":
+                    heard[port].add((src[1], msg.get_srcSystem()))
+        # One vehicle (system 1) on two links, one radio each.
+        assert heard == {d.gcs_port(): {(d.vehicle_port(0, "gcs"), 1)},
+                         d.gcs_port() + 1: {(d.radio_port(0, 1), 1)}}
+        second = links[d.gcs_port() + 1]
+        assert command_over(second, ("127.0.0.1", d.radio_port(0, 1)),
+                            M.MAV_CMD_REQUEST_MESSAGE,
+                            M.MAVLINK_MSG_ID_AUTOPILOT_VERSION) == M.MAV_RESULT_ACCEPTED
+    finally:
+        for g in links.values():
+            g.close()
+
+
 class _MavsdkServerLog(logging.Handler):
     """What mavsdk_server says (MAVSDK-Python forwards it to the "mavsdk_server" logger)."""
 
