@@ -77,7 +77,8 @@ def build_parser() -> argparse.ArgumentParser:
         "run",
         help="start the daemon",
         description="Start N simulated PX4 vehicles. Vehicle i binds UDP 18570+i (GCS link, "
-        "talks to 14550) and 14580+i (API link, talks to 14540+i), like PX4 SITL.",
+        "talks to 14550) and 14580+i (API link, talks to 14540+i), like PX4 SITL; a scenario's "
+        "extra radio r binds 18570+1000*r+i (talks to 14550 or its remote_port).",
     )
     run.add_argument("--config", type=Path, default=None, metavar="FILE",
                      help="the daemon's configuration file (TOML): a scenario file whose [daemon] "
@@ -323,7 +324,7 @@ def _run_settings(args: argparse.Namespace,
                             "daemon on other ports (--port-offset)")
     port_offset = _first(args.port_offset, d.port_offset, 0)
     check_ports(vehicles, port_offset, "--port-offset" if args.port_offset is not None
-                else f"{source}: daemon.port_offset")
+                else f"{source}: daemon.port_offset", network.radios)
     settings = {
         "vehicles": vehicles,
         "network": network,

@@ -34,9 +34,19 @@ Config (every key optional; positions are metres NED in the world frame, origin 
                   ground: API clients sit with the GCS (behind the AP / the GCS radio);
                   onboard: a companion computer on the vehicle, linked by ``onboard``
     onboard     = {model = "ideal", ...}           api_i <-> v_i when api_clients = "onboard"
+    # every topology: more radios on every vehicle, each with a path of its own to the GCS
+    extra_radios = [{name = "lte", radio = {...}, wired = {...}, position_ned_m = [...]}, ...]
+                  name: [a-z][a-z0-9_]*, not gcs, api, a vehicle, API client or hub name;
+                  radio: hop table as ``radio`` (default wireless), one instance per vehicle
+                  per direction; wired: optional hop between its ground station and the GCS;
+                  position_ned_m: its ground station (default [0, 0, -10])
 
 A hop table's ``model`` defaults as shown; when it is the default model, the given parameters
 are merged over the default ones (``wired = {jitter_s = 0.0005}`` keeps latency_s = 0.001).
+
+Extra radios: vehicle v1's radio "lte" is the node ``v1.lte`` (the gateway pushes it with v1's
+position) and its ground station the node ``lte``; its links are named ``v1/lte/up`` and
+``v1/lte/down`` (gcs -> v1.lte and back).
 
 Paths (hops in order; ``ch`` = the shared channel hop when configured):
     star    v1 -> gcs   ch(ap rx), radio v1->ap, wired ap->gcs
@@ -47,6 +57,7 @@ Paths (hops in order; ``ch`` = the shared channel hop when configured):
             v1 -> api1  ch(gcs rx), radio v1->gcs, wired gcs->api1 (ground)
             v1 -> v2    radio v1->v2 (direct; no relaying through other vehicles)
     direct  any         link
+    any     v1.lte -> gcs   radio v1.lte->lte, [wired lte->gcs]; gcs -> v1.lte the reverse
 An onboard API client reaches other nodes through its vehicle (onboard hop, then the vehicle's).
 The channel comes before the radio hop in both directions: a frame waits for the medium, then
 is sent (and retried). It also keeps the shared queue's arrivals in time order — a queue hop is
@@ -56,9 +67,10 @@ frame; the radio's retries are not charged to it.
 
 Outages: ``link`` is an fnmatch pattern matched against the link's name as the gateway names it
 (``v1/gcs/up`` = gcs->v1, ``v1/gcs/down`` = v1->gcs, ``v1/api/up``, ``v1/api/down``), against
-``src->dst``, and against each end node (``v1`` blacks out every link of v1, ``v*/gcs/*`` every
-GCS link). Each matching link gets one ``outage`` hop, first in its path (the window applies to
-the send time); netsim/models/outage.py says what a window with a loss or a latency does.
+``src->dst``, and against each end node (``v1`` blacks out every link of v1, its extra radios'
+too; ``v*/gcs/*`` every GCS link; ``v1/lte/*`` vehicle 1's radio "lte"). Each matching link
+gets one ``outage`` hop, first in its path (the window applies to the send time);
+netsim/models/outage.py says what a window with a loss or a latency does.
 Note the backend names a path's first hop's random stream after the link, the others
 ``link/hopN``: adding an outage to a link shifts its other hops' streams.
 
@@ -93,16 +105,20 @@ HOP_DEFAULTS: dict[str, tuple[str, dict[str, Any]]] = {
     "channel": ("queue", {}),
     "onboard": ("ideal", {}),
 }
+EXTRA_RADIO_KEYS = {"name", "radio", "wired", "position_ned_m"}
+DEFAULT_EXTRA_RADIO_POSITION_NED_M: Vec3 = (0.0, 0.0, -10.0)  # a ground station's mast at home
 KEYS = {
-    "direct": {"topology", "outages", "link"},
+    "direct": {"topology", "outages", "link", "extra_radios"},
     "star": {"topology", "outages", "ap", "radio", "wired", "channel", "api_clients",
-             "onboard"},
+             "onboard", "extra_radios"},
     "adhoc": {"topology", "outages", "gcs", "radio", "wired", "channel", "api_clients",
-              "onboard"},
+              "onboard", "extra_radios"},
 }
 
 _VEHICLE = re.compile(r"v([1-9][0-9]*)\Z")
 _API = re.compile(r"api([1-9][0-9]*)\Z")
+_RADIO_NAME = re.compile(r"[a-z][a-z0-9_]{0,15}\Z")
+_RADIO_NODE = re.compile(r"(v[1-9][0-9]*)\.([a-z][a-z0-9_]*)\Z")  # v1.lte: v1's radio "lte"
 
 
 class _Hop:
@@ -224,6 +240,12 @@ def link_names(src: str, dst: str) -> tuple[str, ...]:
     """The names an outage pattern is matched against for the link src -> dst."""
     names = [f"{src}->{dst}", src, dst]
     for vehicle, client, direction in ((src, dst, "down"), (dst, src, "up")):
+        radio = _RADIO_NODE.match(vehicle)
+        if radio is not None:  # an extra radio: its own link names, and its vehicle's node
+            names.append(radio.group(1))
+            if client == "gcs":
+                names.insert(0, f"{radio.group(1)}/{radio.group(2)}/{direction}")
+            continue
         m = _VEHICLE.match(vehicle)
         if m is None:
             continue
@@ -271,7 +293,8 @@ def make_router(config: Mapping[str, Any], *, path: str = "network",
         def direct(src: str, dst: str) -> list[HopSpec]:
             return [link.spec(src, dst)]
 
-        return _with_outages(direct, outages), {}
+        radios, radio_positions = _extra_radios(config, path, taken=set())
+        return _with_outages(_with_radios(direct, radios), outages), radio_positions
 
     if kind == "star":
         ap = _table(config, "ap", path, {"name", "position_ned_m"})
@@ -305,7 +328,85 @@ def make_router(config: Mapping[str, Any], *, path: str = "network",
     route = _HubRouter(hub, adhoc=kind == "adhoc", onboard_api=api_clients == "onboard",
                        radio=radio, wired=wired, onboard=onboard, channel=channel,
                        half_duplex=half_duplex)
-    return _with_outages(route, outages), {hub: hub_position}
+    radios, radio_positions = _extra_radios(config, path, taken={hub})
+    return (_with_outages(_with_radios(route, radios), outages),
+            {hub: hub_position, **radio_positions})
+
+
+class _ExtraRadio:
+    """One extra radio of every vehicle: its hops to and from its ground station."""
+
+    def __init__(self, name: str, radio: _Hop, wired: _Hop | None) -> None:
+        self.name = name
+        self.radio = radio
+        self.wired = wired
+
+    def up(self, src: str, dst: str) -> list[HopSpec]:  # a ground node -> vN.<name>
+        hops = [self.radio.spec(self.name, dst)]
+        return hops if self.wired is None else [self.wired.spec(src, self.name), *hops]
+
+    def down(self, src: str, dst: str) -> list[HopSpec]:  # vN.<name> -> a ground node
+        hops = [self.radio.spec(src, self.name)]
+        return hops if self.wired is None else [*hops, self.wired.spec(self.name, dst)]
+
+
+def _extra_radios(config: Mapping[str, Any], path: str,
+                  taken: set[str]) -> tuple[dict[str, _ExtraRadio], dict[str, Vec3]]:
+    """``extra_radios``: validated, by name, and their ground stations' positions."""
+    entries = config.get("extra_radios", [])
+    if not isinstance(entries, (list, tuple)):
+        raise _fail(f"{path}.extra_radios", f"expected a list of tables, got {entries!r}")
+    radios: dict[str, _ExtraRadio] = {}
+    positions: dict[str, Vec3] = {}
+    for k, entry in enumerate(entries):
+        where = f"{path}.extra_radios[{k}]"
+        if not isinstance(entry, Mapping):
+            raise _fail(where, f"expected a table {{name = ..., radio = {{...}}}}, got {entry!r}")
+        for key in entry:
+            if key not in EXTRA_RADIO_KEYS:
+                raise _fail(f"{where}.{key}",
+                            f"unknown key (known: {', '.join(sorted(EXTRA_RADIO_KEYS))})")
+        name = entry.get("name")
+        if name is None:
+            raise _fail(f"{where}.name", "missing")
+        if (not isinstance(name, str) or not _RADIO_NAME.match(name) or _VEHICLE.match(name)
+                or _API.match(name) or name in ("gcs", "api") or name in taken):
+            raise _fail(f"{where}.name", f"expected a name of lower-case letters, digits and _ "
+                                         f"(at most 16, not gcs, api, a vehicle, an API client "
+                                         f"or a hub), got {name!r}")
+        if name in radios:
+            raise _fail(f"{where}.name", f"{name!r} is already an extra radio")
+        model, params = HOP_DEFAULTS["radio"]
+        radio = _hop(entry, "radio", where, absent=_Hop(model, dict(params)))
+        assert radio is not None
+        wired = _hop(entry, "wired", where)
+        radios[name] = _ExtraRadio(name, radio, wired)
+        positions[name] = _position(entry.get("position_ned_m",
+                                              DEFAULT_EXTRA_RADIO_POSITION_NED_M),
+                                    f"{where}.position_ned_m")
+    return radios, positions
+
+
+def _with_radios(route: Router, radios: Mapping[str, _ExtraRadio]) -> Router:
+    """Links from and to ``vN.<radio>`` take that radio's hops; the rest ``route``'s."""
+    if not radios:
+        return route
+
+    def routed(src: str, dst: str) -> list[HopSpec]:
+        for node, other, direction in ((src, dst, "down"), (dst, src, "up")):
+            m = _RADIO_NODE.match(node)
+            if m is None:
+                continue
+            radio = radios.get(m.group(2))
+            if radio is None:
+                raise ValueError(f"unknown node {node!r}: no extra radio {m.group(2)!r}")
+            if _RADIO_NODE.match(other) or _VEHICLE.match(other) or other in radios:
+                raise ValueError(f"extra radio {node!r} reaches ground nodes only, "
+                                 f"not {other!r}")
+            return radio.down(src, dst) if direction == "down" else radio.up(src, dst)
+        return route(src, dst)
+
+    return routed
 
 
 class _HubRouter:

@@ -38,6 +38,7 @@ READY_PREFIX = "cornet ready"
 # PX4 SITL's vehicle-side ports (px4_ports in gateway/sim/simulation.py) before the offset.
 VEHICLE_GCS_PORT = 18570
 VEHICLE_API_PORT = 14580
+RADIO_PORT_STRIDE = 1000  # extra radio r (1-based): VEHICLE_GCS_PORT + r·stride + i
 # Every daemon this process started, while it exists: a test suite can look at all of them
 # (e.g. that none of them logged a traceback).
 STARTED: weakref.WeakSet[CornetDaemon] = weakref.WeakSet()
@@ -124,6 +125,11 @@ class CornetDaemon:
     def vehicle_port(self, index: int, kind: str) -> int:
         """The port vehicle ``index`` binds for its ``"gcs"`` or ``"api"`` link."""
         return (VEHICLE_GCS_PORT if kind == "gcs" else VEHICLE_API_PORT) + index + self.offset
+
+    def radio_port(self, index: int, radio: int = 1) -> int:
+        """The port vehicle ``index`` binds for extra radio number ``radio`` (1-based, in the
+        scenario's ``extra_radios`` order; gateway/sim/radios.py)."""
+        return VEHICLE_GCS_PORT + RADIO_PORT_STRIDE * radio + index + self.offset
 
     @property
     def run_dir(self) -> Path:

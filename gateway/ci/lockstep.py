@@ -33,6 +33,7 @@ from gateway.onboard.logs import Logs
 from gateway.onboard.shell import attach_shells
 from gateway.sim import scenario as scenario_mod
 from gateway.sim.flightlog import FlightLog, frame_msgid, split_frames
+from gateway.sim.radios import LinkTag
 from gateway.sim.scenario import NetworkConfig
 from gateway.sim.simulation import PHYSICS_DT_S, Simulation, default_params
 from netsim.kernel import Ticker
@@ -302,7 +303,8 @@ class Sim:
             n, network if network is not None else sc.network,
             params_for=lambda i: default_params(i, overrides), tracer=tracer, home=self.home,
             physics_dt_s=physics_dt_s, link_kinds=tuple(links), wind=sc.wind,
-            sensors=sc.sensors, faults=sc.faults, spawn_ned_m=sc.spawn_ned_m)
+            sensors=sc.sensors, faults=sc.faults, spawn_ned_m=sc.spawn_ned_m,
+            extra_radios=False)
         attach_shells(self.simulation)
         self.logs: Logs | None = None
         if self.flightlog is not None:
@@ -314,7 +316,7 @@ class Sim:
         run_dir = self.flightlog.dir if self.flightlog is not None else None
         attach_ftp(self.simulation,
                    lambda sysid: [run_dir / f"vehicle-{sysid}"] if run_dir is not None else [])
-        self.clients: dict[tuple[int, LinkKind], Client] = {
+        self.clients: dict[tuple[int, LinkTag], Client] = {
             (i, kind): Client(self, i, kind) for i in range(n)
             for kind in self.simulation.link_kinds}
         self.simulation.on_downlink = self._on_downlink
@@ -329,7 +331,7 @@ class Sim:
             self.flightlog.record_datagram("up", index, kind, datagram, self.now)
         self.simulation.inject(index, kind, datagram, peer)
 
-    def _on_downlink(self, index: int, kind: LinkKind, datagram: bytes, peer: object) -> None:
+    def _on_downlink(self, index: int, kind: LinkTag, datagram: bytes, peer: object) -> None:
         now = self.simulation.kernel.now
         if self.flightlog is not None:
             self.flightlog.record_datagram("down", index, kind, datagram, now)

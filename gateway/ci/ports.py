@@ -17,6 +17,10 @@ VEHICLE_GCS_PORT = 18570
 VEHICLE_API_PORT = 14580
 OFFSET_STEP = 200
 MIN_VEHICLES_CHECKED = 10  # a scenario file may spawn more vehicles than --vehicles says
+# Extra radio r of vehicle i binds VEHICLE_GCS_PORT + r·RADIO_PORT_STRIDE + i
+# (gateway/sim/radios.py); a scenario file may give every vehicle up to this many.
+RADIO_PORT_STRIDE = 1000
+RADIOS_CHECKED = 2
 
 
 def udp_free(port: int) -> bool:
@@ -28,22 +32,27 @@ def udp_free(port: int) -> bool:
     return True
 
 
-def daemon_ports(offset: int, vehicles: int) -> list[int]:
-    """Every UDP port a daemon with ``vehicles`` vehicles and its clients use at ``offset``."""
+def daemon_ports(offset: int, vehicles: int, radios: int = 0) -> list[int]:
+    """Every UDP port a daemon with ``vehicles`` vehicles, each with ``radios`` extra radios,
+    and its clients use at ``offset`` (extra radios talking to the GCS client port)."""
     ports = [GCS_CLIENT_PORT + offset]
     for i in range(vehicles):
         ports += [VEHICLE_GCS_PORT + i + offset, VEHICLE_API_PORT + i + offset,
                   API_CLIENT_PORT + min(i, 9) + offset]
+        ports += [VEHICLE_GCS_PORT + r * RADIO_PORT_STRIDE + i + offset
+                  for r in range(1, radios + 1)]
     return ports
 
 
-def free_port_offset(vehicles: int = 1, start: int = 1000, skip: Sequence[int] = ()) -> int:
-    """A ``--port-offset`` at which every UDP port a daemon with ``vehicles`` vehicles and its
-    clients use is free (the search starts at a per-process place, for parallel test runs)."""
+def free_port_offset(vehicles: int = 1, start: int = 1000, skip: Sequence[int] = (),
+                     radios: int = RADIOS_CHECKED) -> int:
+    """A ``--port-offset`` at which every UDP port a daemon with ``vehicles`` vehicles (and
+    ``radios`` extra radios each) and its clients use is free (the search starts at a
+    per-process place, for parallel test runs)."""
     n = max(vehicles, MIN_VEHICLES_CHECKED)
     base = start + (os.getpid() % 40) * OFFSET_STEP
     for k in [*range(base, 40000, OFFSET_STEP), *range(start, base, OFFSET_STEP)]:
-        if k not in skip and all(udp_free(p) for p in daemon_ports(k, n)):
+        if k not in skip and all(udp_free(p) for p in daemon_ports(k, n, radios)):
             return k
     raise RuntimeError("no free port offset for cornet run")
 

@@ -36,14 +36,14 @@ from gateway.daemon.metrics import Exporter, MetricsServer
 from gateway.daemon.pacer import Pacer
 from gateway.daemon.progress import ProgressLine
 from gateway.daemon.sdnotify import Notifier, Watchdog
-from gateway.mavlink.session import LinkKind
 from gateway.mavlink.signing import SigningConfig, SigningKey, SigningState
 from gateway.onboard.files import attach_ftp
 from gateway.onboard.logs import Logs
 from gateway.onboard.shell import attach_shells
 from gateway.sim.flightlog import FlightLog, new_run_dir
+from gateway.sim.radios import LinkTag, ports_text, tag_name
 from gateway.sim.scenario import NetworkConfig, ScenarioError
-from gateway.sim.simulation import Simulation, px4_ports
+from gateway.sim.simulation import Simulation
 from netsim.link import TraceWriter, fan_out
 from vehicles.estimation import SensorConfig
 from vehicles.faults import Fault
@@ -148,7 +148,7 @@ class Daemon:
             sim.every(zmq_pub.LINKS_PERIOD_S, lambda now: pub.link_stats(now, sim))
             sim.fault_observers.append(pub.fault)
         self.pacer = Pacer(self.sim.kernel, speed=config.speed)
-        self.endpoints: dict[tuple[int, LinkKind], UdpEndpoint] = {}
+        self.endpoints: dict[tuple[int, LinkTag], UdpEndpoint] = {}
         self._waiting: select.epoll | None = None  # every endpoint's socket, once open
         self.sim.on_downlink = self._send
 
@@ -184,12 +184,12 @@ class Daemon:
             if kept is not None:
                 state.restore_plans(vehicle, kept)
 
-    def _send(self, index: int, kind: LinkKind, datagram: bytes, peer: object) -> None:
+    def _send(self, index: int, kind: LinkTag, datagram: bytes, peer: object) -> None:
         self.endpoints[(index, kind)].send(datagram, peer)  # type: ignore[arg-type]
         if self.flightlog is not None:
             self.flightlog.record_datagram("down", index, kind, datagram, self.sim.now)
 
-    def _receiver(self, index: int, kind: LinkKind):
+    def _receiver(self, index: int, kind: LinkTag):
         def on_datagram(data: bytes, addr: tuple[str, int]) -> None:
             self.pacer.sync_arrival()  # stamp it with its arrival time, never behind a burst
             if self.flightlog is not None:
@@ -205,23 +205,27 @@ class Daemon:
         loop = asyncio.get_running_loop()
         cfg = self.config
         try:
-            for i in self.sim.indices:
-                for kind in (LinkKind.GCS, LinkKind.API):
-                    ports = px4_ports(i, kind, cfg.port_offset)
-                    endpoint = UdpEndpoint(f"vehicle {i + 1} {kind.name} :{ports.local}",
-                                           (cfg.remote_host, ports.remote),
-                                           self._receiver(i, kind),
-                                           admission=Admission(), clock=self.pacer.wall)
-                    try:
-                        endpoint.open(loop, (cfg.bind, ports.local))
-                    except OSError as exc:
-                        if exc.errno == errno.EADDRINUSE:
-                            raise PortInUse(ports.local, cfg.bind) from exc
-                        raise
-                    self.endpoints[(i, kind)] = endpoint
+            for i, kind in self.sim.links:  # PX4 SITL's two links, then the extra radios
+                ports = self.sim.ports(i, kind, cfg.port_offset)
+                endpoint = UdpEndpoint(f"vehicle {i + 1} {tag_name(kind)} :{ports.local}",
+                                       (cfg.remote_host, ports.remote),
+                                       self._receiver(i, kind),
+                                       admission=Admission(), clock=self.pacer.wall)
+                try:
+                    endpoint.open(loop, (cfg.bind, ports.local))
+                except OSError as exc:
+                    if exc.errno == errno.EADDRINUSE:
+                        raise PortInUse(ports.local, cfg.bind) from exc
+                    raise
+                self.endpoints[(i, kind)] = endpoint
         except BaseException:
             self.close()
             raise
+        first, last = self.sim.indices[0], self.sim.indices[-1]
+        for radio in self.sim.radios:
+            a, b = (self.sim.ports(i, radio.name, cfg.port_offset) for i in (first, last))
+            log.info("extra radio %s: vehicles %d..%d bind %d..%d, talk first to %d", radio.name,
+                     first + 1, last + 1, a.local, b.local, a.remote)
         # The pacer asks this between events, so that a datagram waiting on any vehicle port
         # is read at once, not after the rest of a burst of simulation.
         waiting = self._waiting = select.epoll()
@@ -371,13 +375,8 @@ def format_status(sim_t: float, rtf: float, vehicles: int, counters: dict[str, i
 
 
 def _ports_text(cfg: RunConfig) -> str:
-    text = ", ".join(
-        f"v{i + 1} gcs {px4_ports(i, LinkKind.GCS, cfg.port_offset).local}"
-        f"->{px4_ports(i, LinkKind.GCS, cfg.port_offset).remote}"
-        f" api {px4_ports(i, LinkKind.API, cfg.port_offset).local}"
-        f"->{px4_ports(i, LinkKind.API, cfg.port_offset).remote}"
-        for i in range(min(cfg.vehicles, 4))
-    )
+    text = ", ".join(f"v{i + 1} {ports_text(i, cfg.network.radios, cfg.port_offset)}"
+                     for i in range(min(cfg.vehicles, 4)))
     return text + (" ..." if cfg.vehicles > 4 else "")
 
 

@@ -29,6 +29,8 @@ from prometheus_client import CollectorRegistry, make_wsgi_app
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily, Metric
 from prometheus_client.registry import Collector
 
+from gateway.sim.radios import tag_name
+
 log = logging.getLogger(__name__)
 
 SNAPSHOT_PERIOD_S = 1.0  # wall seconds between two snapshots of the counters
@@ -132,7 +134,7 @@ class Exporter:
                                                                              sim.internal_errors)
         link_labels = ("vehicle", "link")
         for (index, kind), link in sim.links.items():
-            values = [str(index + 1), kind.name.lower()]
+            values = [str(index + 1), tag_name(kind)]
             stats = link.session.stats
             for field, name, help_text in SESSION_COUNTERS:
                 if hasattr(stats, field):

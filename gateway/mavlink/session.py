@@ -71,9 +71,10 @@ SIGNING_LINK_ID = {LinkKind.GCS: 0, LinkKind.API: 1}
 class Session:
     def __init__(self, vehicle: VehiclePort, kind: LinkKind, now_s: float = 0.0, *,
                  boot_unix_s: float | None = None, signing: SigningConfig | None = None,
-                 uploads: UploadLock | None = None) -> None:
+                 uploads: UploadLock | None = None, signing_link_id: int | None = None) -> None:
         """``uploads``: the vehicle's plan-upload lock, shared by the sessions of its links (a
-        session of its own when None)."""
+        session of its own when None). ``signing_link_id``: the link id this link signs with
+        (default: by kind, as below; a vehicle's extra MAVLink instances number on from 2)."""
         self.vehicle = vehicle
         self.kind = kind
         self.sysid = int(vehicle.params["MAV_SYS_ID"])
@@ -85,7 +86,8 @@ class Session:
         if signing is not None:
             # One per link, shared by both directions; the replay state is the key's.
             clock = SigningClock(signing.epoch_unix_s, signing.state)
-            signer = Signer(signing.key, SIGNING_LINK_ID[kind], clock)
+            link_id = SIGNING_LINK_ID[kind] if signing_link_id is None else signing_link_id
+            signer = Signer(signing.key, link_id, clock)
             verifier = Verifier(signing.key, clock, signing.accept_unsigned, stats=self.stats)
         self.encoder = Encoder(self.sysid, self.compid, signer)
         self.encoder.now_s = now_s

@@ -5,6 +5,7 @@ One directory per run (``new_run_dir`` names one under a base directory):
     meta.json         what ran: vehicles (sysid, EKF origin, spawn offset), home, boot epoch, network
     v<i>-gcs.tlog     every MAVLink frame on vehicle i's GCS link, both directions (QGC/MAVProxy
     v<i>-api.tlog     format: 8-byte big-endian µs Unix timestamp + the raw frame, one per frame)
+    v<i>-<radio>.tlog the same for each extra radio's link (gateway/sim/radios.py)
     state.csv         every vehicle at a fixed simulated rate (STATE_COLUMNS)
     packets.trace     the network's log (netsim.link.TraceWriter: time event link size detail)
 
@@ -40,8 +41,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
-from gateway.mavlink.session import LinkKind
 from gateway.sim.files import write_atomic
+from gateway.sim.radios import LinkTag, tag_name
 from netsim.link import TraceWriter
 
 if TYPE_CHECKING:
@@ -73,8 +74,8 @@ STATE_COLUMNS = (
 )
 
 
-def tlog_name(index: int, kind: LinkKind) -> str:
-    return f"v{index + 1}-{kind.name.lower()}.tlog"
+def tlog_name(index: int, kind: LinkTag) -> str:
+    return f"v{index + 1}-{tag_name(kind)}.tlog"
 
 
 def split_frames(datagram: bytes) -> list[bytes]:
@@ -158,7 +159,7 @@ class FlightLog:
         self.flush_period_s = flush_period_s
         self._trace_file = open(self.dir / TRACE_FILE, "w", encoding="ascii", newline="\n")
         self.tracer = TraceWriter(self._trace_file)
-        self._tlogs: dict[tuple[int, LinkKind], BinaryIO] = {}
+        self._tlogs: dict[tuple[int, LinkTag], BinaryIO] = {}
         self._state_file: io.TextIOWrapper | None = None
         self._state_csv: Any = None  # a csv.writer (the type csv does not export)
         self._sim: Simulation | None = None
@@ -187,7 +188,7 @@ class FlightLog:
             vehicles.append({"index": i, "sysid": int(v.params["MAV_SYS_ID"]),
                              "origin": [v.origin.lat_deg, v.origin.lon_deg, v.origin.alt_amsl_m],
                              "spawn_ned_m": [n0, e0],
-                             "tlogs": [tlog_name(i, k) for k in sim.link_kinds]})
+                             "tlogs": [tlog_name(i, k) for k in sim.link_tags]})
         meta = {"format": "cornet-flightlog/1", "boot_unix_s": self.boot_unix_s,
                 "state_period_s": self.state_period_s,
                 "home": None if home is None else [home.lat_deg, home.lon_deg, home.alt_amsl_m],
@@ -197,7 +198,7 @@ class FlightLog:
                            for f in getattr(sim, "faults", ())], **extra}
         write_atomic(self.dir / META_FILE, json.dumps(meta, indent=1, sort_keys=True) + "\n")
 
-    def _tlog(self, index: int, kind: LinkKind) -> BinaryIO:
+    def _tlog(self, index: int, kind: LinkTag) -> BinaryIO:
         f = self._tlogs.get((index, kind))
         if f is None:
             f = open(self.dir / tlog_name(index, kind), "wb")
@@ -205,7 +206,7 @@ class FlightLog:
         return f
 
     # --- hooks --------------------------------------------------------------------------------
-    def record_datagram(self, direction: str, index: int, kind: LinkKind, datagram: bytes,
+    def record_datagram(self, direction: str, index: int, kind: LinkTag, datagram: bytes,
                         t: float) -> None:
         """A datagram the client sent (``"up"``) or received (``"down"``) at simulated ``t``."""
         if self.closed:
@@ -218,7 +219,7 @@ class FlightLog:
             f.write(frame)
         self.frames[direction] += len(frames)
 
-    def record_frame(self, direction: str, index: int, kind: LinkKind, frame: bytes,
+    def record_frame(self, direction: str, index: int, kind: LinkTag, frame: bytes,
                      t: float) -> None:
         """One already-split frame (see ``record_datagram``)."""
         if self.closed:

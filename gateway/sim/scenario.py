@@ -17,6 +17,7 @@ A scenario is a TOML file (docs/scenarios.md shows every key); the daemon's conf
     late_policy = "drop"            # "drop" (the CORNET paper's rule) or "deliver"
     topology = "star"               # the rest of [network] is netsim.topology's
     ...
+    extra_radios = [{name = "lte", radio = {model = "fixed", latency_s = 0.04}}]  # radios.py
 
     [logging]
     level = "info"
@@ -46,6 +47,7 @@ from pathlib import Path
 from typing import Any
 
 from gateway.sim.fault_timeline import parse_faults
+from gateway.sim.radios import ExtraRadio, check_radio_ports, radio_ports, split_entries
 from gateway.sim.values import ScenarioError, spawn_points
 from gateway.sim.values import choice as _choice
 from gateway.sim.values import number as _number
@@ -94,17 +96,20 @@ class NetworkConfig:
     sync_period_s: float = DEFAULT_SYNC_PERIOD_S
     late_policy: str = "drop"
     ns3: dict = field(default_factory=dict)  # options of the ns-3 backend
+    # Every vehicle's extra radios (gateway/sim/radios.py); their hops are in ``topology``.
+    radios: tuple[ExtraRadio, ...] = ()
 
     @property
     def summary(self) -> str:
         topo = self.topology.get("topology", "direct")
         if self.backend != "embedded":
             return f"{self.backend}/{self.ns3.get('topology', 'adhoc')}"
+        extra = "".join(f"+{r.name}" for r in self.radios)
         if topo == "direct":
             link = self.topology.get("link")
             model = "ideal" if link is None else link.get("model", "fixed")
-            return f"{self.backend}/{model}"
-        return f"{self.backend}/{topo}"
+            return f"{self.backend}/{model}{extra}"
+        return f"{self.backend}/{topo}{extra}"
 
     @staticmethod
     def from_flags(latency_ms: float, jitter_ms: float, loss: float, seed: int) -> NetworkConfig:
@@ -178,11 +183,13 @@ def _path(value: Any, path: str, base_dir: Path | None) -> Path:
     return base_dir / p if base_dir is not None and not p.is_absolute() else p
 
 
-def check_ports(vehicles: int, port_offset: int, path: str) -> None:
+def check_ports(vehicles: int, port_offset: int, path: str,
+                radios: tuple[ExtraRadio, ...] = ()) -> None:
     highest = HIGHEST_BASE_PORT + vehicles - 1 + port_offset
     if highest > MAX_PORT:
         raise ScenarioError(f"{path}: {port_offset} with {vehicles} vehicles needs port "
                             f"{highest} > {MAX_PORT}; use a smaller offset")
+    check_radio_ports(radios, vehicles, port_offset, path)
 
 
 def _daemon(table: dict, base_dir: Path | None) -> tuple[DaemonSettings, str | None]:
@@ -267,11 +274,18 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     elif ns3:
         raise ScenarioError("network.ns3: only used with backend = \"ns3\"")
     topology = {k: v for k, v in net.items() if k not in NETWORK_OWN_KEYS}
+    radios: tuple[ExtraRadio, ...] = ()
+    if "extra_radios" in topology:
+        if backend != "embedded":
+            raise ScenarioError("network.extra_radios: only the embedded backend has extra "
+                                "radios so far (the ns-3 engine builds one radio per vehicle)")
+        topology["extra_radios"], radios = split_entries(topology["extra_radios"],
+                                                         "network.extra_radios")
     try:
         make_router(topology, path="network")  # validates topology and every model parameter
     except ValueError as exc:
         raise ScenarioError(str(exc)) from None
-    network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3))
+    network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3), radios)
 
     logging_table = _table(doc, "logging", "logging")
     _unknown(logging_table, ("level",), "logging")
@@ -285,7 +299,9 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
             raise ScenarioError("daemon.log_level: logging.level sets it too; keep one of them")
         level = daemon_level
     if daemon.port_offset is not None:
-        check_ports(count, daemon.port_offset, "daemon.port_offset")
+        check_ports(count, daemon.port_offset, "daemon.port_offset", radios)
+    else:
+        check_radio_ports(radios, count, 0, "network.extra_radios")
     wind = _environment(_table(doc, "environment", "environment"))
     sensors = _sensors(_table(doc, "sensors", "sensors"))
     faults = parse_faults(doc.get("faults", []), count)
@@ -302,7 +318,7 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
             make_router(topology, path="network")
         except ValueError as exc:
             raise ScenarioError(str(exc)) from None
-        network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3))
+        network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3), radios)
     return Scenario(source, count, home, airframe, params, network, level, daemon, wind, sensors,
                     faults, spawn)
 
@@ -395,6 +411,12 @@ def describe(s: Scenario) -> str:
             lines.append(f"  {key}: {net.topology[key]}")
     for key, value in net.ns3.items():
         lines.append(f"  ns3.{key}: {value}")
+    offset = s.daemon.port_offset or 0
+    for radio, entry in zip(net.radios, net.topology.get("extra_radios", [])):
+        hops = {k: v for k, v in entry.items() if k != "name"}
+        lines.append(f"  extra radio {radio.name}: {hops}; vehicle i binds "
+                     f"{radio_ports(0, radio, offset).local}+i, talks to "
+                     f"{radio_ports(0, radio, offset).remote}")
     if not s.wind.calm:
         w = s.wind
         lines.append(f"  environment: wind {w.speed_mps:g} m/s from {w.from_deg:g}°, gusts "

@@ -15,6 +15,9 @@ Invariants:
   into the session.
 - Every random draw comes from a stream named after its link (and hop), seeded from
   ``NetworkConfig.seed``.
+- A vehicle's links are keyed by tag (gateway/sim/radios.py): PX4 SITL's GCS and API links,
+  then one per extra radio of the network. All of them drive the same vehicle and share its
+  telemetry samples and its plan-upload lock; each has its own session, peer and path.
 """
 
 from __future__ import annotations
@@ -22,12 +25,12 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable, Sequence
-from typing import NamedTuple
 
 from gateway.mavlink.mission import UploadLock
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import SigningConfig
 from gateway.mavlink.snapshot import SampleCache
+from gateway.sim.radios import ExtraRadio, LinkTag, Ports, link_ports, px4_ports, tag_name
 from gateway.sim.scenario import NetworkConfig
 from netsim.backend import EmbeddedBackend, NetworkBackend
 from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
@@ -44,45 +47,27 @@ from vehicles.world import World
 log = logging.getLogger(__name__)
 
 PHYSICS_DT_S = 0.004  # 250 Hz, PX4 SITL lockstep rate
+__all__ = ["PHYSICS_DT_S", "Ports", "Simulation", "VehicleLink", "px4_ports"]
 
-# PX4 SITL port scheme (ROMFS px4fmu_common/init.d-posix/px4-rc.mavlink) for instance i.
-GCS_LOCAL_BASE = 18570
-GCS_REMOTE_PORT = 14550
-API_LOCAL_BASE = 14580
-API_REMOTE_BASE = 14540
-API_REMOTE_MAX = 14549  # PX4 sends instances > 9 to 14549
-
-
-class Ports(NamedTuple):
-    """UDP ports of one vehicle link: what the vehicle binds and where it talks first."""
-
-    local: int
-    remote: int
-
-
-def px4_ports(index: int, kind: LinkKind, offset: int = 0) -> Ports:
-    if kind is LinkKind.GCS:
-        return Ports(GCS_LOCAL_BASE + index + offset, GCS_REMOTE_PORT + offset)
-    return Ports(API_LOCAL_BASE + index + offset,
-                 min(API_REMOTE_BASE + index, API_REMOTE_MAX) + offset)
-
-
-# (vehicle index, link kind, datagram, peer): peer is the opaque address of the client the
+# (vehicle index, link tag, datagram, peer): peer is the opaque address of the client the
 # link last heard a valid MAVLink frame from, or None before that (then: PX4's preset remote).
-DownlinkHandler = Callable[[int, LinkKind, bytes, object], None]
+DownlinkHandler = Callable[[int, LinkTag, bytes, object], None]
 
 
 class VehicleLink:
-    """One MAVLink link of one vehicle: a session between an uplink and a downlink."""
+    """One MAVLink link of one vehicle: a session between an uplink and a downlink.
+    ``tag``: which link (a LinkKind, or an extra radio's name); ``kind``: its session's."""
 
-    def __init__(self, sim: Simulation, index: int, kind: LinkKind, session: Session) -> None:
+    def __init__(self, sim: Simulation, index: int, tag: LinkTag, session: Session) -> None:
         self.sim = sim
         self.index = index
-        self.kind = kind
+        self.tag = tag
+        self.kind = session.kind
         self.session = session
-        self.name = f"v{index + 1}/{kind.name.lower()}"
-        vehicle_node = f"v{index + 1}"
-        client_node = "gcs" if kind is LinkKind.GCS else f"api{index + 1}"
+        self.name = f"v{index + 1}/{tag_name(tag)}"
+        # An extra radio is a node of its own that moves with its vehicle (push_mobility).
+        vehicle_node = f"v{index + 1}" if isinstance(tag, LinkKind) else f"v{index + 1}.{tag}"
+        client_node = f"api{index + 1}" if tag is LinkKind.API else "gcs"
         self._nodes = (client_node, vehicle_node)  # the uplink's (src, dst)
         self.uplink = sim.backend.make_link(f"{self.name}/up", client_node, vehicle_node,
                                             self._on_uplink_delivered)
@@ -121,7 +106,7 @@ class VehicleLink:
     def _on_downlink_delivered(self, packet: bytes, peer: object) -> None:
         handler = self.sim.on_downlink
         if handler is not None:
-            handler(self.index, self.kind, packet, peer)
+            handler(self.index, self.tag, packet, peer)
 
     def _on_timer(self) -> None:
         self._timer = None
@@ -186,14 +171,17 @@ class Simulation:
                  signing: SigningConfig | None = None, first_index: int = 0,
                  wind: WindConfig | None = None,
                  sensors: SensorConfig = PX4_SENSORS, faults: Sequence[Fault] = (),
-                 spawn_ned_m: Sequence[tuple[float, float]] = ()) -> None:
+                 spawn_ned_m: Sequence[tuple[float, float]] = (),
+                 extra_radios: bool = True) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence.
         ``link_kinds``: the MAVLink links each vehicle has (the daemon: both, as PX4 SITL; an
         in-process lockstep run may leave out a link no client listens to). ``first_index``: the
         instance number of the first vehicle (a shard of a larger daemon simulates vehicles
         first_index … first_index + vehicles − 1; ports, sysids and spawn points follow it).
-        ``spawn_ned_m``: the scenario's spawn points, by instance number (World)."""
+        ``spawn_ned_m``: the scenario's spawn points, by instance number (World).
+        ``extra_radios``: build a link per extra radio of the network (the daemon); False
+        leaves them out (a lockstep run whose clients use only ``link_kinds``)."""
         if vehicles < 1:
             raise ValueError("need at least one vehicle")
         if not link_kinds:
@@ -201,6 +189,7 @@ class Simulation:
         self.link_kinds = tuple(k for k in LinkKind if k in link_kinds)
         self.kernel = Kernel()
         self.network = network or NetworkConfig()
+        self.radios: tuple[ExtraRadio, ...] = self.network.radios if extra_radios else ()
         self._tracer = tracer
         self.backend: NetworkBackend = make_backend(self.kernel, self.network, tracer,
                                                     realtime=realtime)
@@ -215,7 +204,7 @@ class Simulation:
         self._outer_errors = 0  # failures that escaped a session (its own are in its stats)
         self._next_error_log_s = -math.inf
         self.vehicles = []
-        self.links: dict[tuple[int, LinkKind], VehicleLink] = {}
+        self.links: dict[tuple[int, LinkTag], VehicleLink] = {}
         self.indices = list(range(first_index, first_index + vehicles))
         # Positions of vehicles simulated elsewhere (other shards), by node, pushed with ours.
         self.remote_positions: dict[str, tuple[float, float, float]] = {}
@@ -236,6 +225,11 @@ class Simulation:
                 session = Session(vehicle, kind, now_s=0.0, signing=signing, uploads=uploads)
                 session.samples = samples
                 self.links[(i, kind)] = VehicleLink(self, i, kind, session)
+            for radio in self.radios:  # PX4's extra instances: Normal mode, GCS streams
+                session = Session(vehicle, LinkKind.GCS, now_s=0.0, signing=signing,
+                                  uploads=uploads, signing_link_id=1 + radio.number)
+                session.samples = samples
+                self.links[(i, radio.name)] = VehicleLink(self, i, radio.name, session)
         self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,
                                priority=PRIORITY_PHYSICS)
         # The scenario's fault timeline (vehicles/faults.py): each at its time, before the
@@ -280,6 +274,15 @@ class Simulation:
     def now(self) -> float:
         return self.kernel.now
 
+    @property
+    def link_tags(self) -> tuple[LinkTag, ...]:
+        """Every vehicle's links: PX4 SITL's (``link_kinds``), then one per extra radio."""
+        return (*self.link_kinds, *(r.name for r in self.radios))
+
+    def ports(self, index: int, tag: LinkTag, offset: int = 0) -> Ports:
+        """The UDP ports of vehicle ``index``'s link ``tag`` (bound by the shell)."""
+        return link_ports(index, tag, self.radios, offset)
+
     def vehicle_positions_ned_m(self) -> dict[str, tuple[float, float, float]]:
         """Every vehicle's position in the world frame (NED from the world's home), by node."""
         out = {}
@@ -312,16 +315,18 @@ class Simulation:
 
     def _push_mobility(self, now_s: float) -> None:
         ours = self.vehicle_positions_ned_m()
-        if self.remote_positions:
-            self.backend.update_mobility(now_s, {**self.remote_positions, **ours})
-        else:
-            self.backend.update_mobility(now_s, ours)
+        positions = {**self.remote_positions, **ours} if self.remote_positions else ours
+        if self.radios:  # a vehicle's extra radios (nodes v1.lte …) are where it is
+            names = [r.name for r in self.radios]
+            positions = {**positions, **{f"{node}.{name}": p for node, p in positions.items()
+                                         for name in names}}
+        self.backend.update_mobility(now_s, positions)
         if self.on_sync is not None:
             self.on_sync(now_s, ours)
 
-    def inject(self, index: int, kind: LinkKind, datagram: bytes, peer: object = None) -> None:
+    def inject(self, index: int, tag: LinkTag, datagram: bytes, peer: object = None) -> None:
         """A datagram from client ``peer`` arrives at the vehicle's port now: into the uplink."""
-        self.links[(index, kind)].uplink.send(datagram, peer)
+        self.links[(index, tag)].uplink.send(datagram, peer)
 
     def run(self, until: float) -> None:
         self.kernel.run(until=until)
@@ -339,6 +344,9 @@ class Simulation:
             if config.backend != "embedded":
                 raise ValueError(f"the {what} network uses the {config.backend} backend; only "
                                  "embedded networks can be reloaded (restart the daemon instead)")
+        if network.radios != self.network.radios:
+            raise ValueError("the extra radios (names, ports) changed: their links and ports "
+                             "are built at start (restart the daemon instead)")
         backend = make_backend(self.kernel, network, self._tracer)
         for link in self.links.values():
             link.rewire(backend)

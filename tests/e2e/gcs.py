@@ -95,3 +95,53 @@ def arm_and_take_off(conn, above_m: float, timeout_s: float = 20.0) -> None:
         if pos is not None and pos.relative_alt > above_m * 1000:
             return
         assert time.monotonic() < deadline, "did not climb"
+
+
+class MultiLinkGcs:
+    """A GCS on one UDP port that tells its vehicles' links apart by their source address, as
+    QGC's UDP link does (one vehicle heard from two ports: one system over two links). Each
+    datagram's frames are parsed with the address they came from; ``send_to`` answers one
+    link only (QGC's priority link)."""
+
+    def __init__(self, port: int) -> None:
+        import socket
+
+        from pymavlink.dialects.v20 import common
+
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind(("127.0.0.1", port))
+        self.sock.settimeout(0.2)
+        self.mav = common.MAVLink(None, srcSystem=255, srcComponent=190)
+        self.mav.robust_parsing = True
+        self._parsers: dict[tuple[str, int], object] = {}
+
+    def recv(self, timeout_s: float = 0.5) -> list[tuple[tuple[str, int], object]]:
+        """(source address, message) for every frame of the datagrams that arrive within
+        ``timeout_s`` (at least one datagram's worth if any arrives)."""
+        from pymavlink.dialects.v20 import common
+
+        out: list[tuple[tuple[str, int], object]] = []
+        deadline = time.monotonic() + timeout_s
+        while not out and time.monotonic() < deadline:
+            try:
+                data, addr = self.sock.recvfrom(65535)
+            except TimeoutError:
+                continue
+            parser = self._parsers.setdefault(addr, common.MAVLink(None))
+            parser.robust_parsing = True  # type: ignore[attr-defined]
+            for msg in parser.parse_buffer(data) or []:  # type: ignore[attr-defined]
+                if msg.get_type() != "BAD_DATA":
+                    out.append((addr, msg))
+        return out
+
+    def send_to(self, addr: tuple[str, int], msg) -> None:
+        self.sock.sendto(msg.pack(self.mav), addr)
+
+    def heartbeat(self):
+        from pymavlink.dialects.v20 import common
+
+        return common.MAVLink_heartbeat_message(common.MAV_TYPE_GCS, common.MAV_AUTOPILOT_INVALID,
+                                               0, 0, 0, 3)
+
+    def close(self) -> None:
+        self.sock.close()
