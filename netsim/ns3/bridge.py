@@ -165,6 +165,7 @@ class Ns3Backend:
         self.realtime = realtime
         self.strict = strict
         self.tracer = tracer
+        self.passive_ground = realtime  # deliveries to ground nodes never stop a step (start())
         self.exact = True  # real time falls back to the pipeline when ns-3 cannot keep up
         self.pipeline_s = 0.0
         self.exchanges = 0  # exact time: engine round trips
@@ -257,7 +258,7 @@ class Ns3Backend:
         # need not stop for it (their datagrams enter at the kernel's time, never behind it).
         nodes = [{"name": name, "kind": kind,
                   "position": list(self.positions.get(name, (0.0, 0.0, 0.0))),
-                  "passive": self.realtime and kind == "ground"}
+                  "passive": self.passive_ground and kind == "ground"}
                  for name, kind in self.nodes.items()]
         self._positions_sent = dict(self.positions)
         message = {"v": PROTOCOL_VERSION, "op": "init", "seed": self.seed, "nodes": nodes,
