@@ -25,6 +25,7 @@ pytestmark = [
 SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "ns3-olsr.toml"
 FAR_N = 140.0  # vehicle 1's spawn point, metres north of home (the scenario's)
 RELAY_N = 70.0  # vehicle 2's
+SPEED = 2.0  # simulated seconds per wall second (ns-3's share of this run is small)
 
 
 def item(north_m: float, east_m: float, alt_m: float) -> MissionItem:
@@ -46,7 +47,7 @@ async def connected_until_lost(drone, timeout_s: float) -> float:
 @pytest.mark.asyncio
 async def test_mavsdk_flies_the_far_vehicle_through_a_relay_and_loses_it_when_the_relay_leaves(
         daemon_factory):
-    d = daemon_factory("--scenario", str(SCENARIO), vehicles=2)
+    d = daemon_factory("--scenario", str(SCENARIO), "--speed", str(SPEED), vehicles=2)
     async with connected(d.api_port(1)) as relay, connected(d.api_port(0)) as far:
         # The relay takes off and holds where it spawned, between the ground and vehicle 1.
         await retry_on_timeout(relay.action.arm)
@@ -69,7 +70,7 @@ async def test_mavsdk_flies_the_far_vehicle_through_a_relay_and_loses_it_when_th
 
         # Without its ground station vehicle 1 lands (NAV_DLL_ACT = 3 after COM_DL_LOSS_T).
         # The relay comes back; when OLSR has the route again, MAVSDK hears a landed vehicle.
-        await asyncio.sleep(15)
+        await asyncio.sleep(15 / SPEED)
         lat, lon = offset_deg(HOME_LAT, HOME_LON, RELAY_N, 0.0)
         await retry_on_timeout(lambda: relay.action.goto_location(lat, lon, 490.0, 0.0))
         await first(far.core.connection_state(), lambda s: s.is_connected, 90,
