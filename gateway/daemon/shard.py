@@ -155,8 +155,12 @@ def mpiexec_command(shards: int, argv: list[str]) -> list[str]:
 
 def launch(shards: int, argv: list[str]) -> None:
     """Replace this process with the MPI job (signals sent to this pid reach mpiexec, which
-    forwards SIGINT/SIGTERM to every rank; its exit code is the job's). Raises ShardError."""
+    forwards SIGINT/SIGTERM to every rank; its exit code is the job's; SIGHUP is ignored).
+    Raises ShardError."""
     command = mpiexec_command(shards, argv)
+    # Hydra's mpiexec dies of SIGHUP, taking the job with it; reloading is not supported
+    # sharded, so the job ignores it (an ignored signal stays ignored across exec).
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
     sys.stdout.flush()
     sys.stderr.flush()
     os.execv(command[0], command)
