@@ -213,33 +213,32 @@ class Channel:
         self._pending.append(self.comm.isend(msg, dest=rank, tag=TAG))
         self._pending = [r for r in self._pending if not r.Test()]
 
-    def poll(self) -> list[tuple[int, dict]]:
-        """Every message that has arrived, as (source rank, message), in arrival order."""
-        from mpi4py import MPI
+    def next(self) -> tuple[int, dict] | None:
+        """The next message that has arrived, as (source rank, message), or None."""
+        if not self._inbox:
+            from mpi4py import MPI
 
-        out, status = list(self._inbox), MPI.Status()
-        self._inbox.clear()
-        while (m := self.comm.improbe(source=MPI.ANY_SOURCE, tag=TAG, status=status)) is not None:
-            out.append((status.Get_source(), m.recv()))
-        return out
+            status = MPI.Status()
+            while (m := self.comm.improbe(source=MPI.ANY_SOURCE, tag=TAG,
+                                          status=status)) is not None:
+                self._inbox.append((status.Get_source(), m.recv()))
+        return self._inbox.popleft() if self._inbox else None
 
     async def receive(self, timeout_s: float | None = None) -> tuple[int, dict]:
         deadline = None if timeout_s is None else time.monotonic() + timeout_s
-        while not self._inbox:
-            self._inbox.extend(self.poll())
-            if self._inbox:
-                break
+        while (got := self.next()) is None:
             if deadline is not None and time.monotonic() >= deadline:
                 raise asyncio.TimeoutError
             await asyncio.sleep(POLL_PERIOD_S)
-        return self._inbox.popleft()
+        return got
 
     async def flush(self, timeout_s: float = STOP_TIMEOUT_S) -> None:
         """Before leaving: wait (polling) until every send has completed, dropping whatever
         still arrives, so that no message is left half-way when MPI finalizes."""
         deadline = time.monotonic() + timeout_s
         while True:
-            self.poll()
+            while self.next() is not None:
+                pass
             self._pending = [r for r in self._pending if not r.Test()]
             if not self._pending or time.monotonic() >= deadline:
                 return
@@ -367,8 +366,8 @@ async def _coordinator(config: RunConfig, channel: Channel, ready_out=sys.stdout
         rtf_mark = (time.monotonic(), 0.0)
         next_status = time.monotonic() + STATUS_PERIOD_S
         while not stop.is_set():
-            for rank, msg in channel.poll():
-                take(rank, msg)
+            while (got := channel.next()) is not None:
+                take(*got)  # one at a time: what follows an error stays for the stop
             # Lockstep: grant the next horizon once every shard reported the same sync point.
             for t in sorted(t for t, got in reports.items() if len(got) == k):
                 everyone: dict[str, Any] = {}
