@@ -298,9 +298,13 @@ async def _worker(config: RunConfig, shard: int, channel: Channel) -> int:
     finally:
         for task in tasks:
             task.cancel()
-        for task in tasks:
+        # Bounded: a task that ignored its cancel must not keep the whole job from stopping.
+        _, stuck = await asyncio.wait(tasks, timeout=STOP_TIMEOUT_S / 2)
+        if stuck:
+            log.warning("%d task(s) did not end on cancel; stopping anyway", len(stuck))
+        for task in set(tasks) - stuck:
             with contextlib.suppress(asyncio.CancelledError, Exception):
-                await task
+                task.result()
         counters, now = daemon.counters(), daemon.sim.now
         daemon.close()
         channel.send(0, {"stopped": counters, "t": now})

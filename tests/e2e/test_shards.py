@@ -4,6 +4,7 @@ and a missing MPI are exit-2 errors."""
 
 import asyncio
 import re
+import signal
 import socket
 import subprocess
 import sys
@@ -60,3 +61,11 @@ def test_without_mpi4py_sharding_says_how_to_get_it():
     said = [ln for ln in r.stderr.splitlines() if not ln.startswith("pybullet build time")]
     assert said == [
         "cornet: --shards needs MPI (mpi4py and an MPI library): pip install 'cornet[mpi]'"]
+
+
+def test_sigint_stops_every_rank_with_exit_0(daemon_factory):
+    d = daemon_factory("--shards", "2", vehicles=2)
+    d.proc.send_signal(signal.SIGINT)  # the pid is mpiexec's: it forwards SIGINT to the ranks
+    assert d.proc.wait(timeout=10) == 0, d.log_tail()
+    assert d.stop() == 0
+    assert any("stopping after" in ln and "shards=2" in ln for ln in d.stderr_lines), d.log_tail()
