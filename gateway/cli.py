@@ -135,8 +135,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="serve the daemon's counters in the Prometheus text format on "
                      "http://BIND:PORT/metrics")
     run.add_argument("--shards", type=_non_negative(int, "--shards"), default=1, metavar="K",
-                     help="split the vehicles across K worker processes kept in lockstep (use "
-                     "the cores; embedded network only; see gateway/daemon/shard.py)")
+                     help="split the vehicles across K worker processes kept in lockstep: an MPI "
+                     "job of K+1 ranks, started with mpiexec (pip install 'cornet[mpi]'; "
+                     "embedded network only; see gateway/daemon/shard.py)")
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
@@ -212,7 +213,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command == "run":
-        return _run(parser, args)
+        return _run(parser, args, sys.argv[1:] if argv is None else argv)
     if args.command == "fly":
         return _fly(_subparser(parser, "fly"), args)
     if args.command == "plot":
@@ -368,7 +369,7 @@ def _run_settings(args: argparse.Namespace,
     return settings, _first(args.log_level, scenario.log_level, "info")
 
 
-def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: list[str]) -> int:
     parser = _subparser(parser, "run")  # errors then show `cornet run` usage
     from gateway.sim.scenario import ScenarioError
 
@@ -408,11 +409,15 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     if problem is not None:
         parser.error(problem)
     if config.shards > 1:
-        from gateway.daemon.shard import ShardError, serve_sharded
+        from gateway.daemon import shard
 
+        # Outside an MPI job this process becomes `mpiexec ... cornet run <argv>` (same
+        # arguments); inside one it is a rank (gateway/daemon/shard.py).
         try:
-            return asyncio.run(serve_sharded(config, log_level))
-        except ShardError as exc:
+            if not shard.in_mpi_job():
+                shard.launch(config.shards, argv)
+            return shard.serve_rank(config, log_level)
+        except shard.ShardError as exc:
             print(f"cornet: {exc}", file=sys.stderr)
             return exc.code
         except KeyboardInterrupt:

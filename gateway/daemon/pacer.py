@@ -15,7 +15,6 @@ real-time factor are counted.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import math
 import time
 from collections.abc import Callable
@@ -67,11 +66,17 @@ class Pacer:
             self._horizon_moved.set()
 
     async def _wait_horizon(self, timeout_s: float) -> None:
+        # Not asyncio.wait_for: before Python 3.12 it swallows a cancellation that comes as the
+        # event is set (a shard's last grant and its stop arrive together), and the pacer
+        # would outlive the cancel of its task.
         if self._horizon_moved is None:
             self._horizon_moved = asyncio.Event()
         self._horizon_moved.clear()
-        with contextlib.suppress(asyncio.TimeoutError):
-            await asyncio.wait_for(self._horizon_moved.wait(), timeout_s)
+        wake = asyncio.get_running_loop().call_later(timeout_s, self._horizon_moved.set)
+        try:
+            await self._horizon_moved.wait()
+        finally:
+            wake.cancel()
 
     def wall(self) -> float:
         """The wall clock the pacer runs on (for the shell's wall-clock needs, e.g. rate

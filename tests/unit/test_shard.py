@@ -1,9 +1,11 @@
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
 from gateway.daemon.app import RunConfig
-from gateway.daemon.shard import check, split
+from gateway.daemon.shard import ShardError, check, in_mpi_job, mpiexec_command, split
 from gateway.sim.scenario import NetworkConfig
 from gateway.sim.simulation import Simulation
 
@@ -48,3 +50,23 @@ def test_a_shard_simulates_its_block_and_its_network_sees_the_others():
         assert {name[:3] for name in sim.link_stats()} == {"v4/", "v5/"}
     finally:
         sim.close()
+
+
+def test_a_process_started_by_an_mpi_launcher_is_a_rank():
+    assert in_mpi_job({"PMI_RANK": "0", "PMI_SIZE": "3"})  # MPICH's hydra, Intel MPI
+    assert in_mpi_job({"OMPI_COMM_WORLD_RANK": "2"})  # Open MPI
+    assert not in_mpi_job({"PATH": "/usr/bin"})
+
+
+def test_the_launcher_runs_the_same_command_line_in_k_plus_one_ranks():
+    command = mpiexec_command(3, ["run", "--vehicles", "6", "--shards", "3"])
+    assert Path(command[0]).name == "mpiexec" and command[1:3] == ["-n", "4"]
+    assert command[3:] == [sys.executable, "-m", "gateway.cli",
+                           "run", "--vehicles", "6", "--shards", "3"]
+
+
+def test_without_mpi4py_the_launcher_says_how_to_get_it(monkeypatch):
+    monkeypatch.setitem(sys.modules, "mpi4py", None)
+    with pytest.raises(ShardError, match=r"pip install 'cornet\[mpi\]'") as caught:
+        mpiexec_command(2, ["run", "--shards", "2"])
+    assert caught.value.code == 2
