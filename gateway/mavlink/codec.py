@@ -14,7 +14,10 @@ Rules and invariants:
 - ``Decoder.feed`` never raises: garbage, truncated frames, bad CRC and unknown ids are counted
   and dropped. pymavlink exceptions are caught here, at the boundary, and logged rate-limited.
 - The encoder bypasses ``MAVLink_message.pack`` (≈3 µs) with a per-class generated packer and a
-  direct CRC (≈1 µs); tests prove byte equality with pymavlink for every message we send.
+  direct CRC: one struct call for the header, one compiled CRC call (fastcrc) over header and
+  payload, one table step for CRC_EXTRA (≈0.5 µs a frame). fastcrc rather than numba: a numba
+  function costs more to call from Python (≈0.3 µs) than fastcrc takes (≈0.15 µs). Tests prove
+  byte equality with pymavlink for every message of the dialect, signed and unsigned.
 """
 
 from __future__ import annotations
@@ -50,12 +53,34 @@ MSG_ID_COMPONENT_INFORMATION = 395
 CRC_EXTRA_COMPONENT_INFORMATION = 0
 COMPONENT_INFORMATION = struct.Struct("<III100s100s")
 
-# after the magic: len, incompat flags, compat flags, seq, sysid, compid, msgid lo16, msgid hi8
-_HEADER = struct.Struct("<BBBBBBHB")
-_MAGIC = bytes((MAGIC_V2,))
-# X.25 (MCRF4XX) has no final XOR, so it chains: crc(a + b) == _crc_x25(b, _crc_x25(a, 0xFFFF)).
+# magic, len, incompat flags, compat flags, seq, sysid, compid, msgid lo16, msgid hi8
+_HEADER = struct.Struct("<BBBBBBBHB")
+_CRC = struct.Struct("<H")
 _crc_x25 = _fastcrc16.mcrf4xx
-_CRC_EXTRA_BYTES = tuple(bytes((i,)) for i in range(256))
+
+
+def _crc_table() -> tuple[int, ...]:
+    """X.25 (MCRF4XX, reflected 0x1021) one-byte steps: crc' = (crc >> 8) ^ T[(crc ^ b) & 0xFF]."""
+    table = []
+    for i in range(256):
+        c = i
+        for _ in range(8):
+            c = (c >> 1) ^ 0x8408 if c & 1 else c >> 1
+        table.append(c)
+    return tuple(table)
+
+
+def _state_before(byte: int, after: int) -> int:
+    """The CRC state that ``byte``'s step takes to ``after``: the step is a bijection (the high
+    bytes of the table's entries are all different, so ``after``'s high byte names the entry)."""
+    i = next(i for i in range(256) if _CRC_STEP[i] >> 8 == after >> 8)
+    return ((after ^ _CRC_STEP[i]) & 0xFF) << 8 | (i ^ byte)
+
+
+_CRC_STEP = _crc_table()
+# The CRC covers the frame without its magic: started from the state that the magic's step takes
+# to X.25's 0xFFFF, it runs over the frame as built, magic included, in one call.
+_CRC_INIT_BEFORE_MAGIC = _state_before(MAGIC_V2, 0xFFFF)
 
 
 def _build_packer(cls: type[mavlink2.MAVLink_message]) -> tuple[Callable[..., bytes], tuple]:
@@ -142,12 +167,11 @@ class Encoder:
         body = payload.rstrip(b"\0") or payload[:1]  # MAVLink 2 truncation keeps >= 1 byte
         seq = self.seq
         self.seq = (seq + 1) & 0xFF
-        head = _HEADER.pack(len(body), self._incompat, 0, seq, self.sysid, self.compid,
-                            msg_id & 0xFFFF, msg_id >> 16)
-        # The CRC covers header (without the magic), payload and then the CRC_EXTRA byte;
-        # chaining the C calls saves building that concatenation.
-        crc = _crc_x25(_CRC_EXTRA_BYTES[crc_extra], _crc_x25(body, _crc_x25(head, 0xFFFF)))
-        return b"".join((_MAGIC, head, body, crc.to_bytes(2, "little")))
+        out = _HEADER.pack(MAGIC_V2, len(body), self._incompat, 0, seq, self.sysid, self.compid,
+                           msg_id & 0xFFFF, msg_id >> 16) + body
+        # Header (after the magic) and payload in one C call, then the CRC_EXTRA byte's step.
+        crc = _crc_x25(out, _CRC_INIT_BEFORE_MAGIC)
+        return out + _CRC.pack((crc >> 8) ^ _CRC_STEP[(crc ^ crc_extra) & 0xFF])
 
     def _frame_signed(self, msg_id: int, crc_extra: int, payload: bytes) -> bytes:
         """``frame`` with the signature block appended."""

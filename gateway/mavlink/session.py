@@ -148,6 +148,13 @@ class Session:
         }
         if signing is not None:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing
+        # The services polled on every wake-up, in this order (bound once, not per wake-up).
+        self._timers: tuple[tuple[str, Callable[[float], None]], ...] = (
+            ("the mission timer", self.mission.handle_timer),
+            ("STATUSTEXT", self.statustext.poll),
+            ("the parameter timer", self.params.handle_timer),
+            ("the log download", self.logs.handle_timer),
+            ("the FTP burst", self.ftp.handle_timer))
 
     # --- the sans-IO contract -----------------------------------------------------------------
     def receive_datagram(self, data: bytes, now_s: float, peer: object = None) -> None:
@@ -215,11 +222,7 @@ class Session:
                 if frame is not None:
                     out.append(frame)  # ``send`` inlined: counted once below
             self.stats.tx_frames += len(out) - sent
-        for name, timer in (("the mission timer", self.mission.handle_timer),
-                            ("STATUSTEXT", self.statustext.poll),
-                            ("the parameter timer", self.params.handle_timer),
-                            ("the log download", self.logs.handle_timer),
-                            ("the FTP burst", self.ftp.handle_timer)):
+        for name, timer in self._timers:
             try:
                 timer(now_s)
             except Exception:

@@ -89,14 +89,23 @@ def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None 
     msg_id, crc_extra, pack, defaults = p.msg_id, p.crc_extra, p.pack, p.defaults
 
     def wrap(args: Callable[[Snapshot], tuple]) -> Builder:
-        def build(enc: Encoder, s: Snapshot) -> bytes:
-            payloads = s.sample.payloads
-            k = msg_id if key is None else (msg_id, key(s))
-            payload = payloads.get(k)
-            if payload is None:
-                a = args(s)
-                payload = payloads[k] = pack(a + defaults[len(a):])
-            return enc.frame(msg_id, crc_extra, payload)
+        if key is None:
+            def build(enc: Encoder, s: Snapshot) -> bytes:
+                payloads = s.sample.payloads
+                payload = payloads.get(msg_id)
+                if payload is None:
+                    a = args(s)
+                    payload = payloads[msg_id] = pack(a + defaults[len(a):])
+                return enc.frame(msg_id, crc_extra, payload)
+        else:
+            def build(enc: Encoder, s: Snapshot) -> bytes:
+                payloads = s.sample.payloads
+                k = (msg_id, key(s))
+                payload = payloads.get(k)
+                if payload is None:
+                    a = args(s)
+                    payload = payloads[k] = pack(a + defaults[len(a):])
+                return enc.frame(msg_id, crc_extra, payload)
 
         build.__name__ = build.__qualname__ = args.__name__
         build.__doc__ = args.__doc__
