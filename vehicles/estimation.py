@@ -380,6 +380,17 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
         out[M_ACCEL], out[M_ACCEL + 1], out[M_ACCEL + 2] = an, ae, ad
 
 
+def with_rows(old: np.ndarray, n: int) -> np.ndarray:
+    """``old`` grown to ``n`` rows (new rows zero): a view of its buffer while that has room, else
+    of one twice as large, so adding vehicles one by one copies O(n) rows in all, not O(n²)."""
+    buf = old.base if isinstance(old.base, np.ndarray) and old.base.shape[1:] == old.shape[1:] \
+        and old.base.dtype == old.dtype else old
+    if n > len(buf):
+        buf = np.zeros((max(n, 2 * len(buf)),) + old.shape[1:], dtype=old.dtype)
+        buf[:len(old)] = old
+    return buf[:n]
+
+
 class NoiseBlocks:
     """Standard normal draws for every row, ``BLOCK`` steps at a time, each row from its own
     generator (``rng_for(index)``: a seeded stream named after the vehicle)."""
@@ -393,11 +404,9 @@ class NoiseBlocks:
     def add(self, index: int) -> None:
         gen = self._rng_for(index) if self._rng_for is not None else None
         self._gens.append(gen)
-        grown = np.zeros((len(self._gens), BLOCK, N_SIZE))
-        grown[:-1] = self.block
+        self.block = with_rows(self.block, len(self._gens))
         if gen is not None:
-            grown[-1] = gen.standard_normal((BLOCK, N_SIZE))
-        self.block = grown
+            self.block[-1] = gen.standard_normal((BLOCK, N_SIZE))
 
     def advance(self) -> None:
         """Move to the next step's draws (a new block every ``BLOCK`` steps)."""
@@ -442,14 +451,9 @@ class Estimation:
         self.failed[row] = (self.failed[row] | bits) if on else (self.failed[row] & ~bits)
 
     def _resize(self, n: int) -> None:
-        def grow(old: np.ndarray) -> np.ndarray:
-            new = np.zeros((n,) + old.shape[1:], dtype=old.dtype)
-            new[:len(old)] = old
-            return new
-
-        self.sensed, self.bias, self.est = grow(self.sensed), grow(self.bias), grow(self.est)
-        self.hist, self.ehist, self.delay = grow(self.hist), grow(self.ehist), grow(self.delay)
-        self.failed = grow(self.failed)
+        self.sensed, self.bias, self.est, self.hist, self.ehist, self.delay, self.failed = (
+            with_rows(a, n) for a in (self.sensed, self.bias, self.est, self.hist, self.ehist,
+                                      self.delay, self.failed))
 
     def add(self, index: int, truth: np.ndarray, estimated: np.ndarray,
             gps_delay_s: float = GPS_DELAY_S) -> None:
