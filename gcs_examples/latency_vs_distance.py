@@ -20,7 +20,7 @@ says "access point"), e.g. out to the second cell and past the handover:
 
     .venv/bin/python gcs_examples/latency_vs_distance.py --backends embedded \
         --embedded-scenario scenarios/lte.toml --max-distance 1200 --speed-mps 12 --bin 50 \
-        --out /tmp/lte.png
+        --out lte.png
 """
 
 from __future__ import annotations
@@ -148,6 +148,25 @@ class Gcs:
                 raise RuntimeError(f"timed out waiting for {what}")
             self.poll(0.1)
 
+    def take_off_and_head_north(self, to_north_m: float, speed_mps: float, label: str) -> None:
+        """Wait for the vehicle and its position, arm, take off to TAKEOFF_ALT_M and fly north
+        (DO_REPOSITION at ``speed_mps``) to ``to_north_m`` from where it took off."""
+        if self.mav.wait_heartbeat(timeout=20) is None:
+            raise RuntimeError("no HEARTBEAT from the vehicle")
+        self.wait_state("a position estimate", lambda s: s["rel_alt_m"] is not None, 20)
+        home_lat, home_lon = self.state["lat_deg"], self.state["lon_deg"]
+        home_alt = self.state["alt_amsl_m"] - self.state["rel_alt_m"]
+        self.poll(1.5)
+        print(f"{label}arming, taking off to {TAKEOFF_ALT_M:.0f} m")
+        self.command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+        self.command(mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan,
+                     math.nan)
+        self.wait_state("the takeoff altitude", lambda s: s["rel_alt_m"] > TAKEOFF_ALT_M - 0.5,
+                        40)
+        lat, lon = reproject(home_lat, home_lon, to_north_m, 0.0)
+        self.command(mavutil.mavlink.MAV_CMD_DO_REPOSITION, speed_mps, 1, 0, math.nan, lat, lon,
+                     home_alt + TAKEOFF_ALT_M)
+
 
 def fly_and_measure(run: Run, scenario: Path, args: argparse.Namespace, log_dir: Path) -> None:
     zmq_endpoint = f"tcp://127.0.0.1:{free_tcp_port()}"
@@ -166,23 +185,10 @@ def fly_and_measure(run: Run, scenario: Path, args: argparse.Namespace, log_dir:
         gcs = Gcs(daemon.gcs_port(), zmq_endpoint)
         print(f"[{run.backend}] daemon ready (port offset {daemon.offset}); "
               "waiting for the vehicle")
-        if gcs.mav.wait_heartbeat(timeout=20) is None:
-            raise RuntimeError("no HEARTBEAT from the vehicle")
-        gcs.wait_state("a position estimate", lambda s: s["rel_alt_m"] is not None, 20)
-        home_lat, home_lon = gcs.state["lat_deg"], gcs.state["lon_deg"]
-        home_alt = gcs.state["alt_amsl_m"] - gcs.state["rel_alt_m"]
-        gcs.poll(1.5)
-        print(f"[{run.backend}] arming, taking off to {TAKEOFF_ALT_M:.0f} m")
-        gcs.command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-        gcs.command(mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan,
-                    math.nan)
-        gcs.wait_state("the takeoff altitude", lambda s: s["rel_alt_m"] > TAKEOFF_ALT_M - 0.5, 40)
         # Straight north, past the last bin, so the vehicle is still at cruise speed there.
-        lat, lon = reproject(home_lat, home_lon, args.max_distance + 30.0, 0.0)
         print(f"[{run.backend}] flying north to {args.max_distance:.0f} m from the AP at "
               f"{speed:g} m/s, {args.rate:g} TIMESYNC requests/s on the GCS link")
-        gcs.command(mavutil.mavlink.MAV_CMD_DO_REPOSITION, speed, 1, 0, math.nan, lat, lon,
-                    home_alt + TAKEOFF_ALT_M)
+        gcs.take_off_and_head_north(args.max_distance + 30.0, speed, f"[{run.backend}] ")
         measure(run, gcs, args)
     finally:
         if gcs is not None:

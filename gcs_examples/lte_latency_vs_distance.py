@@ -31,10 +31,8 @@ from pathlib import Path
 import numpy as np
 import tomllib
 from latency_vs_distance import TAKEOFF_ALT_M, Gcs  # the Fig. 6 script's ground station
-from pymavlink import mavutil
 
 from gateway.ci.launcher import free_tcp_port, start_daemon
-from vehicles.geodesy import reproject
 
 ROOT = Path(__file__).resolve().parent.parent
 NS3_BINARY = ROOT / "netsim" / "ns3" / "build" / "cornet-ns3"
@@ -104,22 +102,9 @@ def fly(args: argparse.Namespace, enb1: tuple[float, float, float], log_dir: Pat
     gcs = None
     try:
         gcs = LteGcs(daemon.gcs_port(), zmq_endpoint)
-        if gcs.mav.wait_heartbeat(timeout=20) is None:
-            raise RuntimeError("no HEARTBEAT from the vehicle (through LTE)")
-        gcs.wait_state("a position estimate", lambda s: s["rel_alt_m"] is not None, 20)
-        home_lat, home_lon = gcs.state["lat_deg"], gcs.state["lon_deg"]
-        home_alt = gcs.state["alt_amsl_m"] - gcs.state["rel_alt_m"]
-        gcs.poll(1.5)
-        print(f"arming, taking off to {TAKEOFF_ALT_M:.0f} m")
-        gcs.command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-        gcs.command(mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan,
-                    math.nan)
-        gcs.wait_state("the takeoff altitude", lambda s: s["rel_alt_m"] > TAKEOFF_ALT_M - 0.5, 40)
-        lat, lon = reproject(home_lat, home_lon, args.max_distance + 50.0, 0.0)
         print(f"flying north to {args.max_distance:.0f} m from enb1 at {speed:g} m/s, "
-              f"{args.rate:g} TIMESYNC requests/s on the GCS link")
-        gcs.command(mavutil.mavlink.MAV_CMD_DO_REPOSITION, speed, 1, 0, math.nan, lat, lon,
-                    home_alt + TAKEOFF_ALT_M)
+              f"{args.rate:g} TIMESYNC requests/s on the GCS link (through LTE)")
+        gcs.take_off_and_head_north(args.max_distance + 50.0, speed, "")
         timed = measure(gcs, args, enb1)
         network = dict(gcs.network)
         links = gcs.links[-1][1] if gcs.links else {}

@@ -72,3 +72,21 @@ async def takeoff_hover_land(udp_port: int, hover_s: float = 5.0,
     finally:
         text_task.cancel()
         drone._stop_mavsdk_server()
+
+
+async def fly_square_mission(drone, mission_timeout_s: float, land_timeout_s: float) -> None:
+    """MAVSDK's mission flow on the persona tests' square (return after it): upload, arm,
+    start, every item reached, landed and disarmed, mission finished."""
+    from mavsdk.mission import MissionPlan
+
+    from tests.e2e.persona import first, land_and_disarm
+    from tests.e2e.test_mavsdk3_persona import square_mission
+
+    await drone.mission.set_return_to_launch_after_mission(True)
+    await drone.mission.upload_mission(MissionPlan(square_mission()))
+    await drone.action.arm()
+    await drone.mission.start_mission()
+    await first(drone.mission.mission_progress(),
+                lambda p: p.total > 0 and p.current == p.total, mission_timeout_s, "mission done")
+    await land_and_disarm(drone, land_timeout_s)
+    assert await drone.mission.is_mission_finished()

@@ -7,12 +7,11 @@ from __future__ import annotations
 import struct
 
 import pytest
-from mavsdk.mission import MissionPlan
 
 from netsim.kernel import PRIORITY_PHYSICS, Kernel, Ticker
 from netsim.ns3 import BINARY, Ns3Backend, Ns3Error, build_missing_message
-from tests.e2e.persona import connected, first, land_and_disarm
-from tests.e2e.test_mavsdk3_persona import square_mission
+from tests.e2e.flows import fly_square_mission
+from tests.e2e.persona import connected
 
 pytestmark = [
     pytest.mark.e2e,
@@ -124,15 +123,7 @@ async def test_mavsdk_mission_through_lte(daemon_factory):
     d = daemon_factory("--scenario", "scenarios/ns3-lte.toml", "--speed", "2")
     assert "network=ns3/lte" in d.ready_line and "speed 2x" in d.ready_line, d.ready_line
     async with connected(d.api_port()) as drone:
-        items = square_mission()
-        await drone.mission.set_return_to_launch_after_mission(True)
-        await drone.mission.upload_mission(MissionPlan(items))
-        await drone.action.arm()
-        await drone.mission.start_mission()
-        await first(drone.mission.mission_progress(),
-                    lambda p: p.total > 0 and p.current == p.total, 120, "mission done")
-        await land_and_disarm(drone, 90)
-        assert await drone.mission.is_mission_finished()
+        await fly_square_mission(drone, 120, 90)
 
 
 @pytest.mark.parametrize(("lte", "nodes", "error"), [
