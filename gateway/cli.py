@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import gc
 import ipaddress
 import logging
 import math
@@ -213,7 +214,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command == "run":
-        return _run(parser, args, sys.argv[1:] if argv is None else argv)
+        # The daemon builds long-lived objects only until it serves, and then freezes them out
+        # of the collector and turns it on (gateway.daemon.app.settle_heap).
+        gc.disable()
+        try:
+            return _run(parser, args, sys.argv[1:] if argv is None else argv)
+        finally:
+            gc.enable()
     if args.command == "fly":
         return _fly(_subparser(parser, "fly"), args)
     if args.command == "plot":

@@ -380,6 +380,16 @@ def _ports_text(cfg: RunConfig) -> str:
     return text + (" ..." if cfg.vehicles > 4 else "")
 
 
+def settle_heap() -> None:
+    """Everything built so far (modules, PyBullet, parameter tables, the vehicles) lives as long
+    as the process: keep it out of the cyclic collector's passes, which would otherwise stall
+    the loop for milliseconds at a time as the simulation allocates. ``cornet run`` starts with
+    the collector off (gateway/cli.py), since its passes over a growing heap of long-lived
+    objects are up to 40 % of building many vehicles; this turns it on."""
+    gc.freeze()
+    gc.enable()
+
+
 async def serve(config: RunConfig, ready_out=sys.stdout, *,
                 reload: Callable[[], RunConfig] | None = None,
                 notifier: Notifier | None = None) -> int:
@@ -389,11 +399,7 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
     notifier = notifier if notifier is not None else Notifier.from_env()
     daemon = Daemon(config, notifier)
     await daemon.open()
-    # Everything built so far (modules, PyBullet, parameter tables) lives as long as the
-    # process: keep it out of the cyclic collector's full passes, which would otherwise stall
-    # the loop for milliseconds at a time as the simulation allocates.
-    gc.collect()
-    gc.freeze()
+    settle_heap()
     if not ipaddress.ip_address(config.bind).is_loopback:
         log.warning("the vehicles' ports are open to the network on %s%s", config.bind,
                     "" if config.signing_key is not None else

@@ -61,7 +61,6 @@ from __future__ import annotations
 import asyncio
 import collections
 import contextlib
-import gc
 import logging
 import math
 import os
@@ -80,6 +79,7 @@ from gateway.daemon.app import (
     RunConfig,
     _ports_text,
     format_status,
+    settle_heap,
 )
 from gateway.daemon.sdnotify import Notifier
 
@@ -259,8 +259,7 @@ async def _worker(config: RunConfig, shard: int, channel: Channel) -> int:
         channel.send(0, {"error": f"{exc}; is another cornet or PX4 SITL running?", "code": 2})
         await channel.flush()
         return 2
-    gc.collect()
-    gc.freeze()  # as gateway.daemon.app.serve does
+    settle_heap()  # as gateway.daemon.app.serve does
     own = {f"v{i + 1}" for i in daemon.sim.indices}
     pacer = daemon.pacer
     pacer.set_horizon(0.0)
