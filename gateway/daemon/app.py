@@ -82,6 +82,7 @@ class RunConfig:
     sensors: SensorConfig = field(default_factory=SensorConfig)  # the scenario's [sensors]
     faults: tuple[Fault, ...] = ()  # the scenario's [[faults]] timeline
     spawn_ned_m: tuple[tuple[float, float], ...] = ()  # the scenario's vehicles.spawn_ned_m
+    web: tuple[str, int] | None = None  # the live view's (host, port) (--web; gateway/web/)
 
 
 class MetricsPortError(OSError):
@@ -101,7 +102,7 @@ class Daemon:
     def __init__(self, config: RunConfig, notifier: Notifier | None = None) -> None:
         self.config = config
         self.notifier = notifier or Notifier()  # no socket: notifications are no-ops
-        self.publisher = Publisher(config.zmq_pub) if config.zmq_pub else None
+        self.publisher = Publisher(config.zmq_pub) if config.zmq_pub or config.web else None
         self._trace_file = open(config.packet_trace, "w") if config.packet_trace else None
         self.flightlog = None
         boot_unix_s = time.time()  # the wall-clock moment of simulated t = 0 (logs, signing)
@@ -410,6 +411,17 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
             raise MetricsPortError(f"--metrics-port {config.metrics_port}: {exc.strerror}") \
                 from exc
         log.info("metrics: http://%s:%d/metrics", config.bind, metrics.port)
+    web = None
+    if config.web is not None and daemon.publisher is not None:
+        from gateway.web.run import attach  # aiohttp: imported only for --web
+
+        try:
+            web = await attach(config.web, daemon.publisher)
+        except OSError:
+            if metrics is not None:
+                metrics.close()
+            daemon.close()
+            raise
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
     handled = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGHUP)
@@ -469,6 +481,8 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
         log.info("stopping after %.1f s: %s", time.monotonic() - t0, daemon.status_line())
         if metrics is not None:
             metrics.close()
+        if web is not None:
+            await web.close()
         daemon.close()
         notifier.close()
     return 0
