@@ -360,7 +360,7 @@ def _run_settings(args: argparse.Namespace,
         "metrics_port": _first(args.metrics_port, d.metrics_port),
         "shards": args.shards,
         "ignore_bad_state": args.ignore_bad_state,
-        "web": args.web,
+        "web": _first(args.web, d.web),
     }
     key_path = _first(args.signing_key, d.signing_key)
     what = "--signing-key" if args.signing_key is not None else f"{source}: daemon.signing_key"

@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import ipaddress
+from gateway.sim.values import listen_address
 
-DEFAULT_HOST = "127.0.0.1"
 AIOHTTP_MISSING = "the live view needs aiohttp: pip install 'cornet[web]'"
 
 
@@ -18,25 +17,7 @@ class WebListenError(OSError):
 def parse_listen(text: str, flag: str = "--web") -> tuple[str, int]:
     """(host, port) from ``8080``, ``0.0.0.0:8080``, ``localhost:8080`` or ``[::1]:8080``.
     Raises ValueError with a sentence that says what to write instead."""
-    example = f"{flag} 8080 or {flag} 127.0.0.1:8080"
-    host, sep, port_text = text.rpartition(":")
-    if not sep:
-        host = DEFAULT_HOST
-    elif host.startswith("[") and host.endswith("]"):
-        host = host[1:-1]
-    try:
-        port = int(port_text)
-    except ValueError:
-        raise ValueError(f"{flag} must be [ADDR:]PORT, e.g. {example}; got {text!r}") from None
-    if not 1 <= port <= 65535:
-        raise ValueError(f"{flag}: the port must be between 1 and 65535, got {text!r}")
-    if host != "localhost":
-        try:
-            ipaddress.ip_address(host)
-        except ValueError:
-            raise ValueError(f"{flag}: {host!r} is not an IP address (or localhost); e.g. "
-                             f"{example}") from None
-    return host, port
+    return listen_address(text, flag, f"{flag} 8080 or {flag} 127.0.0.1:8080")
 
 
 def url(host: str, port: int) -> str:
