@@ -18,6 +18,7 @@ import asyncio
 import contextlib
 import json
 import logging
+import math
 from collections import deque
 from pathlib import Path
 from typing import Any
@@ -36,8 +37,26 @@ QUEUE_FRAMES = 8
 SHUTDOWN_TIMEOUT_S = 1.0
 
 
+def _finite(value: Any) -> Any:
+    """``value`` with every NaN or infinity replaced by None (JSON has neither)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+def _json(body: dict[str, Any]) -> str:
+    try:
+        return json.dumps(body, separators=(",", ":"), allow_nan=False)
+    except ValueError:  # a NaN somewhere (a browser's JSON.parse would refuse the whole frame)
+        return json.dumps(_finite(body), separators=(",", ":"))
+
+
 def _event(kind: str, body: dict[str, Any]) -> bytes:
-    return f"event: {kind}\ndata: {json.dumps(body, separators=(',', ':'))}\n\n".encode()
+    return f"event: {kind}\ndata: {_json(body)}\n\n".encode()
 
 
 class _Page:
@@ -126,6 +145,8 @@ class WebServer:
                 self.broadcast()
 
     async def close(self) -> None:
+        log.info("live view: %d frames sent, %d dropped for pages that did not keep up",
+                 self.frames_sent, self.frames_dropped)
         self._closing = True
         for page in self.pages:
             page.ready.set()
@@ -147,7 +168,7 @@ class WebServer:
         return snapshot
 
     async def _state(self, request: web.Request) -> web.Response:
-        return web.json_response(self._snapshot())
+        return web.json_response(text=_json(self._snapshot()))
 
     async def _events(self, request: web.Request) -> web.StreamResponse:
         response = web.StreamResponse(headers={"Content-Type": "text/event-stream",

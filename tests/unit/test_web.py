@@ -10,6 +10,7 @@ import aiohttp
 import pytest
 
 from gateway import cli
+from gateway.sim.scenario import ScenarioError, parse
 from gateway.web import server as web_server
 from gateway.web.address import WebListenError, parse_listen
 from gateway.web.model import LiveModel, classify
@@ -26,7 +27,7 @@ def test_listen_addresses(text, want):
 
 
 @pytest.mark.parametrize("text, says", [
-    ("http", r"must be \[ADDR:\]PORT"), ("70000", "between 1 and 65535"), ("0", "between 1"),
+    ("http", r"expected \[ADDR:\]PORT"), ("70000", "between 1 and 65535"), ("0", "between 1"),
     ("example.org:80", "not an IP address"), ("1.2.3:80", "not an IP address"),
 ])
 def test_bad_listen_addresses_say_what_to_write(text, says):
@@ -34,12 +35,25 @@ def test_bad_listen_addresses_say_what_to_write(text, says):
         parse_listen(text)
 
 
+@pytest.mark.parametrize("value, want", [
+    ("0.0.0.0:8080", ("0.0.0.0", 8080)), (8080, ("127.0.0.1", 8080)), ("[::1]:80", ("::1", 80)),
+])
+def test_the_configuration_file_sets_the_live_view(value, want):
+    assert parse({"daemon": {"web": value}}).daemon.web == want
+
+
+@pytest.mark.parametrize("value", ["", "host:80", True, 70000, [8080]])
+def test_a_bad_daemon_web_names_the_key(value):
+    with pytest.raises(ScenarioError, match=r"^daemon\.web: "):
+        parse({"daemon": {"web": value}})
+
+
 def test_bad_web_flag_exits_2_with_one_line(capsys):
     with pytest.raises(SystemExit) as exit_:
         cli.main(["run", "--web", "localhost:http"])
     assert exit_.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err[-1].endswith("--web must be [ADDR:]PORT, e.g. --web 8080 or --web 127.0.0.1:8080; "
+    assert err[-1].endswith("--web: expected [ADDR:]PORT, e.g. --web 8080 or --web 127.0.0.1:8080; "
                             "got 'localhost:http'"), err
 
 
@@ -250,3 +264,11 @@ async def test_cornet_web_is_fed_from_a_zeromq_bus():
             await feed
         sock.close(0)
         pub.close()
+
+
+def test_frames_are_json_a_browser_parses_even_with_a_nan():
+    body = {"vehicles": [{"battery_remaining": float("nan"), "xs": [1.0, float("inf")]}]}
+    data = web_server._event("frame", body).decode()
+    assert data.startswith("event: frame\ndata: ") and data.endswith("\n\n")
+    assert json.loads(data.split("data: ", 1)[1]) == {
+        "vehicles": [{"battery_remaining": None, "xs": [1.0, None]}]}

@@ -9,7 +9,11 @@ const css = (name) => getComputedStyle(document.documentElement).getPropertyValu
 const REASON_COLOURS = { loss: "#d7263d", outage: "#7a0f1c", range: "#ff7f0e", queue: "#e0a100",
                          late: "#7b3fbf" };
 
-function fmt(x, digits) { return x === null || x === undefined ? "–" : Number(x).toFixed(digits); }
+function fmt(x, digits) {
+  if (x === null || x === undefined) return "–";
+  const text = Number(x).toFixed(digits);
+  return /^-0(\.0+)?$/.test(text) ? text.slice(1) : text;  // no "-0.0"
+}
 
 // --- the stream ----------------------------------------------------------------------------
 function connect() {
@@ -51,6 +55,7 @@ function apply(frame) {
 
 // --- the panel -----------------------------------------------------------------------------
 function renderHeader(frame) {
+  if (frame.server) $("source").textContent = `from ${frame.server.source}`;
   const clock = $("clock");
   clock.dataset.t = frame.t === null ? "" : String(frame.t);
   clock.textContent = frame.t === null ? "sim t = – (waiting for the simulation)"
@@ -158,17 +163,21 @@ function sized(canvas) {
 }
 
 function fit(frame, w, h) {
-  // Every vehicle, its trail, every ground node and home, at least 20 m across, 8 % margin.
+  // Every vehicle, its trail, every ground node and home, at least 20 m across, inside margins
+  // that leave room for the labels (right and below) and the scale bar.
   const pts = [[0, 0]];
   for (const v of frame.vehicles) pts.push(v.world_ned_m);
   for (const t of view.trails.values()) for (const p of t) pts.push(p);
   for (const node of frame.nodes) pts.push(node.world_ned_m);
   let [n0, n1, e0, e1] = [Infinity, -Infinity, Infinity, -Infinity];
   for (const [n, e] of pts) { n0 = Math.min(n0, n); n1 = Math.max(n1, n); e0 = Math.min(e0, e); e1 = Math.max(e1, e); }
-  const span = Math.max(20, (n1 - n0) * 1.16, (e1 - e0) * 1.16 * h / Math.max(w, 1));
-  const scale = h / span;  // pixels per metre, the same both ways
+  const box = { left: 40, right: w - 190, top: 40, bottom: h - 90 };
+  const bw = Math.max(box.right - box.left, 50), bh = Math.max(box.bottom - box.top, 50);
+  const scale = Math.min(bw / Math.max(e1 - e0, 20), bh / Math.max(n1 - n0, 20));  // px per metre
   const cn = (n0 + n1) / 2, ce = (e0 + e1) / 2;
-  return { scale, xy: (n, e) => [w / 2 + (e - ce) * scale, h / 2 - (n - cn) * scale] };
+  const cx = box.left + bw / 2, cy = box.top + bh / 2;
+  return { scale, xy: (n, e) => [cx + (e - ce) * scale, cy - (n - cn) * scale],
+           ne: (x, y) => [cn - (y - cy) / scale, ce + (x - cx) / scale] };
 }
 
 function niceLength(m) {
@@ -194,7 +203,8 @@ function draw() {
   if (!frame) return;
   const [ctx, w, h] = sized($("map"));
   ctx.clearRect(0, 0, w, h);
-  const { scale, xy } = fit(frame, w, h);
+  const { scale, xy, ne } = fit(frame, w, h);
+  view.ne = ne;
   const colour = (state) => css(`--${state}`) || "#999";
   const byId = new Map(frame.vehicles.map((v) => [v.sysid, v]));
   // home
@@ -313,5 +323,22 @@ function drawTimeline(frame) {
   }
 }
 
+// Where the pointer is on the map: metres north/east of home, and latitude/longitude (a flat
+// earth around home, as PX4's local frame).
+$("map").addEventListener("mousemove", (ev) => {
+  const frame = view.frame;
+  if (!frame || !view.ne) return;
+  const r = ev.target.getBoundingClientRect();
+  const [n, e] = view.ne(ev.clientX - r.left, ev.clientY - r.top);
+  let text = `pointer N ${fmt(n, 1)} m, E ${fmt(e, 1)} m`;
+  if (frame.home) {
+    const R = 6371000, lat0 = frame.home.lat_deg * Math.PI / 180;
+    const lat = frame.home.lat_deg + n / R * 180 / Math.PI;
+    const lon = frame.home.lon_deg + e / (R * Math.cos(lat0)) * 180 / Math.PI;
+    text += ` · ${fmt(lat, 7)}, ${fmt(lon, 7)}`;
+  }
+  $("pointer").textContent = text;
+});
+$("map").addEventListener("mouseleave", () => { $("pointer").textContent = ""; });
 window.addEventListener("resize", () => requestAnimationFrame(draw));
 connect();
