@@ -76,7 +76,8 @@ browser-if-possible:
 
 # `sudo make install-service`: the daemon as a systemd service (README.md, "Running as a service").
 # Copies this tree (without .git, virtualenvs or build output) to $(PREFIX) and builds a venv there
-# with a regular, non-editable install (a venv cannot move, and the service may not read /home);
+# with a regular, non-editable install with the live view's [web] extra (a venv cannot move, and
+# the service may not read /home);
 # installs the unit, and $(CONFIG_DIR)/cornet.toml only if there is none: an existing
 # configuration is never overwritten. Needs root, and PyPI (or a pip cache) for the venv.
 # PREFIX, CONFIG_DIR and UNIT_DIR may be changed (the unit's paths follow PREFIX and CONFIG_DIR).
@@ -92,7 +93,7 @@ install-service:
 		--exclude=./logs -f - . | tar -x --no-same-owner -C $(PREFIX)
 	$(PYTHON) -m venv $(PREFIX)/.venv
 	$(PREFIX)/.venv/bin/pip install --quiet --upgrade pip
-	$(PREFIX)/.venv/bin/pip install --quiet $(PREFIX)
+	$(PREFIX)/.venv/bin/pip install --quiet '$(PREFIX)[web]'
 	mkdir -p $(UNIT_DIR)
 	sed -e 's#/opt/cornet#$(PREFIX)#g' -e 's#/etc/cornet/cornet.toml#$(CONFIG_DIR)/cornet.toml#g' \
 		systemd/cornet.service > $(UNIT_DIR)/cornet.service

@@ -241,7 +241,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
         return 0
     if args.command == "web":
-        from gateway.web.run import main as web_main
+        from gateway.web import main as web_main
 
         return web_main(args.zmq, args.listen)
     if args.command in ("watch", "stats"):

@@ -44,6 +44,7 @@ from gateway.sim.flightlog import FlightLog, new_run_dir
 from gateway.sim.radios import LinkTag, ports_text, tag_name
 from gateway.sim.scenario import NetworkConfig, ScenarioError
 from gateway.sim.simulation import Simulation
+from gateway.web.address import AIOHTTP_MISSING, WebListenError, missing_aiohttp
 from netsim.link import TraceWriter, fan_out
 from vehicles.estimation import SensorConfig
 from vehicles.faults import Fault
@@ -413,14 +414,16 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
         log.info("metrics: http://%s:%d/metrics", config.bind, metrics.port)
     web = None
     if config.web is not None and daemon.publisher is not None:
-        from gateway.web.run import attach  # aiohttp: imported only for --web
-
         try:
+            from gateway.web.run import attach  # aiohttp: imported only for the live view
+
             web = await attach(config.web, daemon.publisher)
-        except OSError:
+        except (OSError, ImportError) as exc:
             if metrics is not None:
                 metrics.close()
             daemon.close()
+            if isinstance(exc, ImportError) and missing_aiohttp(exc):  # no [web] extra
+                raise WebListenError(errno.ENOENT, AIOHTTP_MISSING) from exc
             raise
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()

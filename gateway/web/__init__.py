@@ -5,3 +5,21 @@ shows; server.py serves the page and streams it (aiohttp, server-sent events), f
 by the daemon (``cornet run --web``) or from a ZeroMQ bus (``cornet web --zmq``); static/ is the
 page itself (plain JavaScript on a canvas). docs/web.md describes it.
 """
+
+from __future__ import annotations
+
+import sys
+
+from gateway.web.address import AIOHTTP_MISSING, missing_aiohttp
+
+
+def main(endpoint: str, listen: tuple[str, int]) -> int:
+    """``cornet web``: exit 2 naming aiohttp where it is missing."""
+    try:
+        from gateway.web.run import main as run
+    except ImportError as exc:
+        if not missing_aiohttp(exc):
+            raise
+        print(f"cornet web: {AIOHTTP_MISSING}", file=sys.stderr)
+        return 2
+    return run(endpoint, listen)

@@ -7,8 +7,24 @@ from gateway.sim.values import listen_address
 AIOHTTP_MISSING = "the live view needs aiohttp: pip install 'cornet[web]'"
 
 
+def missing_aiohttp(exc: ImportError) -> bool:
+    """Whether ``exc`` is aiohttp (or a part of it) missing."""
+    return (exc.name or "").partition(".")[0] == "aiohttp"
+
+
+def have_aiohttp() -> bool:
+    try:
+        import aiohttp  # noqa: F401
+    except ImportError as exc:
+        if missing_aiohttp(exc):
+            return False
+        raise
+    return True
+
+
 class WebListenError(OSError):
-    """The live view's address could not be listened on; the message says which and why."""
+    """The live view cannot start (its address cannot be listened on, or aiohttp is missing);
+    the message says which and why."""
 
     def __str__(self) -> str:
         return str(self.strerror)
@@ -28,14 +44,13 @@ def url(host: str, port: int) -> str:
 def listen_arg(flag: str):
     """An argparse type for ``flag``: (host, port); also says so if aiohttp is missing."""
     import argparse
-    import importlib.util
 
     def parse(text: str) -> tuple[str, int]:
         try:
             listen = parse_listen(text, flag)
         except ValueError as exc:
             raise argparse.ArgumentTypeError(str(exc)) from None
-        if importlib.util.find_spec("aiohttp") is None:
+        if not have_aiohttp():
             raise argparse.ArgumentTypeError(AIOHTTP_MISSING)
         return listen
 

@@ -3,6 +3,7 @@ the page in a headless Chromium (Debian's chromium and chromedriver, driven by S
 `cornet web` against a daemon's ZeroMQ bus."""
 
 import json
+import os
 import shutil
 import socket
 import subprocess
@@ -175,3 +176,27 @@ def test_a_taken_web_port_exits_2_with_one_line():
     assert out.returncode == 2, out.stderr
     last = out.stderr.strip().splitlines()[-1]
     assert last == f"cornet: --web 127.0.0.1:{port}: Address already in use; choose a free port"
+
+
+def test_without_aiohttp_the_live_view_exits_2_naming_it(tmp_path):
+    """Where the [web] extra is not installed: the flag, `cornet web` and the configuration
+    file's daemon.web each exit 2 with one line that says what to install."""
+    shim = tmp_path / "shim" / "aiohttp"
+    shim.mkdir(parents=True)
+    (shim / "__init__.py").write_text(
+        "raise ModuleNotFoundError(\"No module named 'aiohttp'\", name='aiohttp')\n")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(shim.parent), str(ROOT)])}
+    config = tmp_path / "web.toml"
+    config.write_text('[daemon]\nweb = "127.0.0.1:8080"\n')
+    want = "the live view needs aiohttp: pip install 'cornet[web]'"
+    offset = str(free_port_offset(1))
+    for args, last in (
+        (["run", "--web", "8080"], f"cornet run: error: argument --web: {want}"),
+        (["web"], f"cornet web: {want}"),
+        (["run", "--config", str(config), "--port-offset", offset], f"cornet: {want}"),
+    ):
+        out = subprocess.run(cornet_command() + args, capture_output=True, text=True,
+                             timeout=120, env=env)
+        assert out.returncode == 2, (args, out.stderr)
+        assert out.stderr.strip().splitlines()[-1] == last, (args, out.stderr)
+        assert "Traceback" not in out.stderr, out.stderr
