@@ -272,3 +272,41 @@ def test_frames_are_json_a_browser_parses_even_with_a_nan():
     assert data.startswith("event: frame\ndata: ") and data.endswith("\n\n")
     assert json.loads(data.split("data: ", 1)[1]) == {
         "vehicles": [{"battery_remaining": None, "xs": [1.0, None]}]}
+
+
+@pytest.mark.asyncio
+async def test_a_page_that_stops_reading_never_holds_up_the_feed_or_other_pages():
+    """A browser that stops reading: its socket fills, its queue keeps the newest frames and
+    counts the rest, while messages are taken in and another page gets every frame."""
+    server = WebServer("127.0.0.1", 0, frame_period_s=3600.0)  # frames by hand below
+    await server.start()
+    stalled = socket.socket()
+    stalled.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)  # a small window
+    stalled.connect(("127.0.0.1", server.port))
+    try:
+        stalled.sendall(b"GET /events HTTP/1.1\r\nHost: x\r\n\r\n")  # and never reads
+        async with aiohttp.ClientSession() as http, http.get(f"{server.url}events") as reader:
+            await read_event(reader)  # its snapshot
+            for _ in range(1000):
+                if len(server.pages) == 2:
+                    break
+                await asyncio.sleep(0.01)
+            assert len(server.pages) == 2
+            # Big frames (about 300 kB), so that the stalled socket's buffers fill soon.
+            many = state(0.0, *[(float(k), 0.0) for k in range(2000)])
+            for v in many["vehicles"]:
+                v["mode"] = "Hold" + " " * 100
+            sent = 0
+            while server.frames_dropped == 0 and sent < 500:  # the kernel's buffers, then drops
+                server.publish(b"cornet.state", {**many, "t": float(sent)})
+                server.broadcast()
+                kind, frame = await read_event(reader)
+                assert kind == "frame" and frame["t"] == float(sent)
+                sent += 1
+            assert server.frames_dropped > 0 and server.frames_sent == sent
+            (slow,) = [p for p in server.pages if p.dropped]
+            assert len(slow.frames) == web_server.QUEUE_FRAMES
+            assert server.model.messages == sent
+    finally:
+        stalled.close()
+        await server.close()
