@@ -176,7 +176,8 @@ def build_parser() -> argparse.ArgumentParser:
     web = sub.add_parser("web", help="the live view of a daemon running with --zmq-pub",
                          description="Serve the live view (docs/web.md) of the daemon "
                          "publishing on --zmq.")
-    web.add_argument("--zmq", default="tcp://127.0.0.1:5556", metavar="ENDPOINT")
+    web.add_argument("--zmq", default="tcp://127.0.0.1:5556", metavar="ENDPOINT",
+                     help="the daemon's --zmq-pub endpoint (default tcp://127.0.0.1:5556)")
     web.add_argument("--listen", type=listen_arg("--listen"), default=("127.0.0.1", 8080),
                      metavar="[ADDR:]PORT", help="default 127.0.0.1:8080")
     plot = sub.add_parser("plot", help="draw a recorded run: track vs plan, altitude and speed, "

@@ -44,7 +44,7 @@ from gateway.sim.flightlog import FlightLog, new_run_dir
 from gateway.sim.radios import LinkTag, ports_text, tag_name
 from gateway.sim.scenario import NetworkConfig, ScenarioError
 from gateway.sim.simulation import Simulation
-from gateway.web.address import AIOHTTP_MISSING, WebListenError, missing_aiohttp
+from gateway.web import start as start_web
 from netsim.link import TraceWriter, fan_out
 from vehicles.estimation import SensorConfig
 from vehicles.faults import Fault
@@ -415,15 +415,11 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
     web = None
     if config.web is not None and daemon.publisher is not None:
         try:
-            from gateway.web.run import attach  # aiohttp: imported only for the live view
-
-            web = await attach(config.web, daemon.publisher)
-        except (OSError, ImportError) as exc:
+            web = await start_web(config.web, daemon.publisher)
+        except OSError:
             if metrics is not None:
                 metrics.close()
             daemon.close()
-            if isinstance(exc, ImportError) and missing_aiohttp(exc):  # no [web] extra
-                raise WebListenError(errno.ENOENT, AIOHTTP_MISSING) from exc
             raise
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()

@@ -8,9 +8,27 @@ page itself (plain JavaScript on a canvas). docs/web.md describes it.
 
 from __future__ import annotations
 
+import errno
 import sys
+from typing import TYPE_CHECKING
 
-from gateway.web.address import AIOHTTP_MISSING, missing_aiohttp
+from gateway.web.address import AIOHTTP_MISSING, WebListenError, missing_aiohttp
+
+if TYPE_CHECKING:
+    from gateway.bus.zmq_pub import Publisher
+    from gateway.web.server import WebServer
+
+
+async def start(listen: tuple[str, int], publisher: Publisher) -> WebServer:
+    """The daemon's live view on ``listen``, fed by ``publisher``. Raises WebListenError (an
+    OSError) if it cannot start: the address is taken, or aiohttp is missing."""
+    try:
+        from gateway.web.run import attach  # aiohttp: imported only for the live view
+    except ImportError as exc:
+        if not missing_aiohttp(exc):
+            raise
+        raise WebListenError(errno.ENOENT, AIOHTTP_MISSING) from exc
+    return await attach(listen, publisher)
 
 
 def main(endpoint: str, listen: tuple[str, int]) -> int:
