@@ -57,3 +57,18 @@ def test_direct_links_have_no_ground_node_and_extra_radios_have_theirs():
     radios = [b for t, b in published("two-radios.toml", vehicles=1) if t == TOPIC_STATE][-1]
     kinds = {n["name"]: (n["kind"], n["serves"]) for n in radios["nodes"]}
     assert kinds["lte"] == ("radio", ["lte"])
+
+
+def test_the_ad_hoc_ground_radio_and_onboard_api_clients():
+    from gateway.sim.scenario import NetworkConfig
+
+    network = NetworkConfig(topology={"topology": "adhoc", "api_clients": "onboard",
+                                      "gcs": {"position_ned_m": [10.0, 20.0, -2.0]}})
+    sim = Simulation(1, network)
+    want = [{"name": "gcs", "kind": "gcs", "world_ned_m": (10.0, 20.0, -2.0), "serves": ["gcs"]}]
+    try:
+        assert sim.ground_nodes() == want
+        sim.run(until=0.1)  # the vehicles' positions reach the network: they are no ground node
+        assert "v1" in sim.backend.mobility.positions and sim.ground_nodes() == want
+    finally:
+        sim.close()
