@@ -6,8 +6,9 @@ sockets and no clock but the messages' own simulated time, so tests feed it dict
   nodes (access points, ground radios) and the world's home.
 - ``cornet.links``: per vehicle link (``v1/gcs``: both directions together) the loss and mean
   latency over the last interval (the difference of two messages), and its state for the page's
-  colours: ``idle`` (nothing sent), ``lost`` (nothing delivered, or loss >= LOST_LOSS),
-  ``degraded`` (loss >= GOOD_LOSS or latency >= GOOD_LATENCY_MS), else ``good``. Each interval
+  colours: ``idle`` (nothing sent, or nothing arrived nor lost yet), ``lost`` (loss, the
+  datagrams dropped over those sent, >= LOST_LOSS), ``degraded`` (loss >= GOOD_LOSS or mean
+  latency >= GOOD_LATENCY_MS), else ``good``. Each interval
   is also a bin of the timeline: drops by reason and late packets, over all links.
 - ``cornet.fault``: an event on the timeline. So are links going to or coming back from ``lost``.
 
@@ -35,8 +36,10 @@ STATES = ("good", "degraded", "lost", "idle")
 def classify(sent: int, delivered: int, loss: float, latency_ms: float | None) -> str:
     if sent <= 0:
         return "idle"
-    if delivered <= 0 or loss >= LOST_LOSS:
+    if loss >= LOST_LOSS:
         return "lost"
+    if delivered <= 0:  # nothing lost, nothing arrived yet: still in flight
+        return "idle"
     if loss >= GOOD_LOSS or (latency_ms is not None and latency_ms >= GOOD_LATENCY_MS):
         return "degraded"
     return "good"

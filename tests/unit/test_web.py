@@ -72,7 +72,8 @@ def state(t, *positions, nodes=()):
 
 @pytest.mark.parametrize("sent, delivered, loss, latency, want", [
     (0, 0, 0.0, None, "idle"), (100, 99, 0.01, 20.0, "good"), (100, 90, 0.1, 20.0, "degraded"),
-    (100, 99, 0.01, 150.0, "degraded"), (100, 40, 0.6, 20.0, "lost"), (10, 0, 0.0, None, "lost"),
+    (100, 99, 0.01, 150.0, "degraded"), (100, 40, 0.6, 20.0, "lost"), (10, 0, 1.0, None, "lost"),
+    (10, 0, 0.0, None, "idle"),  # all still in flight
 ])
 def test_link_states(sent, delivered, loss, latency, want):
     assert classify(sent, delivered, loss, latency) == want

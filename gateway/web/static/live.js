@@ -136,7 +136,7 @@ function renderLegend() {
     `(loss < ${100 * th.good_loss} %, latency < ${th.good_latency_ms} ms)`;
   $("legend-degraded").textContent =
     `(loss ≥ ${100 * th.good_loss} % or latency ≥ ${th.good_latency_ms} ms)`;
-  $("legend-lost").textContent = `(nothing delivered, or loss ≥ ${100 * th.lost_loss} %)`;
+  $("legend-lost").textContent = `(loss ≥ ${100 * th.lost_loss} %)`;
 }
 
 function renderEvents(frame) {
@@ -220,18 +220,27 @@ function draw() {
     trail.forEach(([n, e], i) => { const [x, y] = xy(n, e); if (i) ctx.lineTo(x, y); else ctx.moveTo(x, y); });
     ctx.stroke();
   }
-  // radio links: vehicle to the node its hop ends at; with no such node (direct links), a ring
+  // radio links: vehicle to the node its hop ends at, in the worst state of the links over
+  // that hop (gcs and api share an access point's); links with no such node (direct links):
+  // a ring around the vehicle, in the worst state of those
+  const severity = { idle: 0, good: 1, degraded: 2, lost: 3 };
+  const worse = (a, b) => (a === undefined || severity[b] > severity[a] ? b : a);
+  const hops = new Map();
   const rings = new Map();
   for (const l of frame.links) {
     const v = byId.get(l.sysid);
     if (!v) continue;
     const node = nodeFor(frame, l.sysid, l.tag);
-    if (!node) { if (l.tag === "gcs") rings.set(l.sysid, l.state); continue; }
-    if (l.tag === "api" && node.serves.includes("gcs")) continue;  // the same hop as gcs
+    if (!node) { rings.set(l.sysid, worse(rings.get(l.sysid), l.state)); continue; }
+    const key = `${l.sysid} ${node.name}`;
+    const hop = hops.get(key);
+    hops.set(key, [v, node, worse(hop ? hop[2] : undefined, l.state)]);
+  }
+  for (const [v, node, state] of hops.values()) {
     const [x0, y0] = xy(v.world_ned_m[0], v.world_ned_m[1]);
     const [x1, y1] = xy(node.world_ned_m[0], node.world_ned_m[1]);
-    ctx.strokeStyle = colour(l.state); ctx.lineWidth = 2.5;
-    ctx.setLineDash(l.state === "idle" ? [4, 4] : []);
+    ctx.strokeStyle = colour(state); ctx.lineWidth = 2.5;
+    ctx.setLineDash(state === "idle" ? [4, 4] : []);
     ctx.beginPath(); ctx.moveTo(x0, y0); ctx.lineTo(x1, y1); ctx.stroke();
   }
   ctx.setLineDash([]);
