@@ -15,6 +15,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from gateway.web.address import WebListenError, listen_arg
+
 LOG_LEVELS = ("debug", "info", "warning", "error")
 ENV_PARAM_PREFIX = "PX4_PARAM_"
 MAX_SPEED = 1000.0
@@ -135,6 +137,9 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar="PORT",
                      help="serve the daemon's counters in the Prometheus text format on "
                      "http://BIND:PORT/metrics")
+    run.add_argument("--web", type=listen_arg("--web"), default=None, metavar="[ADDR:]PORT",
+                     help="serve the live view (map, links, drops) on http://ADDR:PORT/ "
+                     "(ADDR default 127.0.0.1; docs/web.md)")
     run.add_argument("--shards", type=_non_negative(int, "--shards"), default=1, metavar="K",
                      help="split the vehicles across K worker processes kept in lockstep: an MPI "
                      "job of K+1 ranks, started with mpiexec (pip install 'cornet[mpi]'; "
@@ -169,6 +174,13 @@ def build_parser() -> argparse.ArgumentParser:
                      default=None, metavar="M", help="fail if the path deviates more (metres)")
     fly.add_argument("--log-dir", type=Path, default=None, metavar="DIR",
                      help="record the flight (tlogs, state.csv, packet trace) in DIR")
+    web = sub.add_parser("web", help="the live view of a daemon running with --zmq-pub",
+                         description="Serve the live view (docs/web.md) of the daemon "
+                         "publishing on --zmq.")
+    web.add_argument("--zmq", default="tcp://127.0.0.1:5556", metavar="ENDPOINT",
+                     help="the daemon's --zmq-pub endpoint (default tcp://127.0.0.1:5556)")
+    web.add_argument("--listen", type=listen_arg("--listen"), default=("127.0.0.1", 8080),
+                     metavar="[ADDR:]PORT", help="default 127.0.0.1:8080")
     plot = sub.add_parser("plot", help="draw a recorded run: track vs plan, altitude and speed, "
                           "link latency and loss (PNGs)")
     plot.add_argument("log_dir", type=Path, metavar="LOGDIR")
@@ -236,6 +248,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"cornet check: {exc}", file=sys.stderr)
             return 2
         return 0
+    if args.command == "web":
+        from gateway.web import main as web_main
+
+        return web_main(args.zmq, args.listen)
     if args.command in ("watch", "stats"):
         from gateway.bus import watch
 
@@ -352,6 +368,7 @@ def _run_settings(args: argparse.Namespace,
         "metrics_port": _first(args.metrics_port, d.metrics_port),
         "shards": args.shards,
         "ignore_bad_state": args.ignore_bad_state,
+        "web": _first(args.web, d.web),
     }
     key_path = _first(args.signing_key, d.signing_key)
     what = "--signing-key" if args.signing_key is not None else f"{source}: daemon.signing_key"
@@ -443,6 +460,9 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: list[s
         return 2
     except MetricsPortError as exc:
         print(f"cornet: {exc}; choose a free port", file=sys.stderr)
+        return 2
+    except WebListenError as exc:
+        print(f"cornet: {exc}", file=sys.stderr)
         return 2
     except StateError as exc:
         print(f"cornet: {where('state_dir')}: {exc}", file=sys.stderr)

@@ -52,7 +52,7 @@ so one signalled rank is enough. Workers answer with their final counters, the c
 logs the stop line, every rank exits 0. A rank that fails unexpectedly aborts the whole job
 (MPI_Abort).
 
-Limits: the embedded network only (an ns-3 engine belongs to one process); no --zmq-pub,
+Limits: the embedded network only (an ns-3 engine belongs to one process); no --zmq-pub, --web,
 --log-dir, --packet-trace, --metrics-port or SIGHUP reload with more than one shard yet.
 """
 
@@ -95,7 +95,7 @@ POLL_PERIOD_S = 0.001
 TAG = 7
 MPI_RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
 MPI_MISSING = "--shards needs MPI (mpi4py and an MPI library): pip install 'cornet[mpi]'"
-UNSUPPORTED_WITH_SHARDS = ("zmq_pub", "log_dir", "packet_trace", "metrics_port")
+UNSUPPORTED_WITH_SHARDS = ("zmq_pub", "log_dir", "packet_trace", "metrics_port", "web")
 
 
 class ShardError(RuntimeError):
