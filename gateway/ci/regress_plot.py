@@ -75,7 +75,7 @@ def plot_sweep(cells: Sequence[dict[str, Any]], axis: str, axis_label: str,
                               ("completion_time.png", "completion_s",
                                "completion time (simulated s, mean of the passing flights)"),
                               ("drift.png", "drift_m", "drift: largest deviation from the plan "
-                               "(m, mean over seeds)")):
+                               "(m, mean of the flights that finished)")):
         fig = Figure(figsize=(8, 5))
         ax = fig.add_subplot(1, 1, 1)
         for label, rows in groups.items():

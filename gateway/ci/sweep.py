@@ -10,8 +10,9 @@ count). Flights are deterministic, so the table does not depend on the order the
 
 Writes into ``--out``: ``sweep.csv`` (one row per flight), ``cells.csv`` (one row per cell:
 success rate, mean completion time of the passing flights, mean drift — the largest deviation
-from the planned path) and the PNGs of gateway/ci/regress_plot.py (against the first swept axis,
-the first value at which a cell stops passing every seed highlighted). ``--control ground``
+from the planned path — of the flights that finished the mission) and the PNGs of
+gateway/ci/regress_plot.py (against the first swept axis, the first value at which a cell stops
+passing every seed highlighted). ``--control ground``
 flies the waypoints with a ground-side controller over the network (gateway/ci/ground.py): the
 paper's Fig. 8, where the drift grows with the latency. Progress: a bar on a terminal, a line
 per finished flight elsewhere. Exit 0 every flight passed, 1 some failed, 2 bad input.
@@ -131,7 +132,7 @@ def cells(rows: list[dict[str, Any]], specs: dict[int, FlightSpec]) -> list[dict
         out.append({"cell": cell, "conditions": conditions, "flights": len(mine),
                     "passed": len(ok), "success_rate": round(len(ok) / len(mine), 4),
                     "completion_s": _mean([r["completion_s"] for r in ok]),
-                    "drift_m": _mean([r["drift_m"] for r in mine])})
+                    "drift_m": _mean([r["drift_m"] for r in mine if r["mission_finished"]])})
     return out
 
 
