@@ -163,7 +163,9 @@ def build_parser() -> argparse.ArgumentParser:
     fly.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=None,
                      metavar="Y")
     fly.add_argument("--loss", type=_probability, default=None, metavar="P")
-    fly.add_argument("--seed", type=_non_negative(int, "--seed"), default=None, metavar="S")
+    fly.add_argument("--seed", type=_non_negative(int, "--seed"), default=None, metavar="S",
+                     help="the network's seed, also of sensor noise and wind (default: the "
+                     "scenario's, else 0)")
     fly.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
     fly.add_argument("--time-limit", type=_non_negative(float, "--time-limit"), default=None,
                      metavar="S", help="simulated seconds before giving up (default 900)")

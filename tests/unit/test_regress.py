@@ -171,3 +171,20 @@ def test_tolerances_defaults_match_the_flags():
     t = Tolerances()
     assert (t.track_m, t.time_s, t.loss) == (flags.DEFAULT_TOL_TRACK_M, flags.DEFAULT_TOL_TIME_S,
                                               flags.DEFAULT_TOL_LOSS)
+
+
+def test_flight_spec_network_and_conditions():
+    from gateway.ci.spec import FlightSpec
+    from gateway.sim.scenario import load
+
+    windy = str(PLANS.parents[1] / "scenarios" / "windy.toml")
+    spec = FlightSpec("p.plan", scenario=windy, seed=3)
+    net = spec.network()
+    assert net is not None and net.seed == 3 and net.topology == load(windy).network.topology
+    assert FlightSpec("p.plan", scenario=windy).network() is None  # the scenario's own
+    lossy = FlightSpec("p.plan", latency_ms=50, loss=0.1, seed=2, params={"MPC_XY_CRUISE": 8.0})
+    link = lossy.network().topology["link"]
+    assert (link["latency_s"], link["loss"], lossy.network().seed) == (0.05, 0.1, 2)
+    assert lossy.conditions() == "latency 50 ms, loss 0.1, seed 2, MPC_XY_CRUISE=8"
+    assert FlightSpec("p.plan").network() is None and FlightSpec("p.plan").conditions() == \
+        "ideal network"
