@@ -84,7 +84,13 @@ def _fly_one(spec: FlightSpec) -> dict[str, Any]:
     """One flight, in a worker process: its row of sweep.csv and its report."""
     from gateway.ci.regress import fly_spec
 
-    res = fly_spec(spec)
+    try:
+        res = fly_spec(spec)
+    except Exception as exc:  # one broken flight is a failed cell, not a lost sweep
+        return {"seed": spec.seed, "conditions": spec.conditions(), "passed": False,
+                "reasons": f"error: {exc!r}", "items_reached": 0, "items_total": 0,
+                "mission_finished": False, "landed": False, "completion_s": math.nan,
+                "drift_m": math.nan, "sim_s": 0.0, "wall_s": 0.0, "summary": repr(exc)}
     times = list(res.item_times.values())
     return {"seed": spec.seed, "conditions": spec.conditions(), "passed": res.passed,
             "reasons": "; ".join(res.reasons), "items_reached": res.items_reached,
@@ -113,8 +119,12 @@ def run_grid(flights: list[tuple[int, FlightSpec]], jobs: int,
         ctx = multiprocessing.get_context("spawn")
         with ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
             futures = {pool.submit(_fly_one, spec): k for k, (_, spec) in enumerate(flights)}
-            for fut in as_completed(futures):
-                done(futures[fut], fut.result())
+            try:
+                for fut in as_completed(futures):
+                    done(futures[fut], fut.result())
+            except BaseException:  # Ctrl-C, SIGTERM: no more flights
+                pool.shutdown(wait=False, cancel_futures=True)
+                raise
     return [r for r in rows if r is not None]
 
 
@@ -265,13 +275,18 @@ def main(args: argparse.Namespace, parse_params: Callable[[list[str]], dict[str,
         return report.EXIT_BAD_INPUT
     base = FlightSpec(str(args.plan), time_limit_s=args.time_limit,
                       max_deviation_m=args.max_deviation, control=args.control)
-    jobs = args.jobs or os.cpu_count() or 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    jobs = args.jobs or cores or 1
     flights = len(grid(base, axes, args.seeds))
     print(f"cornet sweep {args.plan}: {flights} flights ({flights // args.seeds} cells x "
           f"{args.seeds} seeds), {min(jobs, flights)} at a time", flush=True)
     wall0 = time.perf_counter()
-    rows, table = sweep(base, axes, args.seeds, args.out, min(jobs, flights),
-                        ProgressLine(sys.stderr, plain_period_s=0.0))
+    try:
+        rows, table = sweep(base, axes, args.seeds, args.out, min(jobs, flights),
+                            ProgressLine(sys.stderr, plain_period_s=0.0))
+    except KeyboardInterrupt:
+        print("\ncornet sweep: interrupted, nothing written", file=sys.stderr)
+        return 130
     wall = time.perf_counter() - wall0
     print(f"{'cell':>4}  {'passed':>6}  {'completion':>10}  {'drift':>7}  conditions")
     for c in table:

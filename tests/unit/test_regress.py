@@ -188,3 +188,11 @@ def test_flight_spec_network_and_conditions():
     assert lossy.conditions() == "latency 50 ms, loss 0.1, seed 2, MPC_XY_CRUISE=8"
     assert FlightSpec("p.plan").network() is None and FlightSpec("p.plan").conditions() == \
         "ideal network"
+
+
+def test_a_broken_flight_is_a_failed_row_not_a_lost_sweep(tmp_path):
+    from gateway.ci.spec import FlightSpec
+    from gateway.ci.sweep import _fly_one
+
+    row = _fly_one(FlightSpec(str(tmp_path / "gone.plan"), seed=0))
+    assert not row["passed"] and row["reasons"].startswith("error: PlanFileError(")
