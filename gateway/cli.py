@@ -270,6 +270,8 @@ def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
             load(args.scenario)
         except ScenarioError as exc:
             parser.error(str(exc))
+    if args.overlay is not None and args.baseline is None:
+        parser.error("--overlay draws the flight over its baseline: give --baseline DIR too")
     for flag, path in (("--log-dir", args.log_dir), ("--save-baseline", args.save_baseline)):
         if path is not None:
             _writable_dir(parser, path, flag)

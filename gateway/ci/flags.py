@@ -68,7 +68,8 @@ def add_fly_flags(p: argparse.ArgumentParser) -> None:
                    "ground-side controller flies its waypoints with offboard velocity setpoints "
                    "over the network")
     p.add_argument("--save-baseline", type=Path, default=None, metavar="DIR",
-                   help="store this flight as the baseline in DIR (manifest.json, track.csv)")
+                   help="store this flight, if it passes, as the baseline in DIR (manifest.json, "
+                   "track.csv)")
     p.add_argument("--baseline", type=Path, default=None, metavar="DIR",
                    help="fly under the baseline's conditions (flags given override them) and "
                    "compare: exit 1 if anything changed beyond the tolerances")

@@ -87,7 +87,7 @@ def run(plan_path: str | Path, overrides: dict[str, Any], *, baseline: str | Pat
         save_baseline: str | Path | None = None, tolerances: Tolerances = DEFAULT_TOLERANCES,
         **fly_kwargs: Any) -> Outcome:
     """Fly ``plan_path`` under ``overrides`` (FlightSpec fields) over the baseline's conditions
-    (if any), judge it, compare it with the baseline, save it as a baseline. Raises
+    (if any), judge it, compare it with the baseline, save it as the baseline if it passed. Raises
     PlanFileError / BaselineError (bad input)."""
     plan = load_plan(plan_path)
     base = None if baseline is None else open_baseline(baseline, plan)
@@ -97,7 +97,7 @@ def run(plan_path: str | Path, overrides: dict[str, Any], *, baseline: str | Pat
     out = Outcome(spec, res, baseline=base)
     if base is not None:
         out.comparison = compare(base, res, tolerances, str(baseline), spec.conditions())
-    if save_baseline is not None and not res.refused_plan:
+    if save_baseline is not None and out.passed:  # a baseline is a good flight
         Baseline.of(res, spec, plan).save(save_baseline)
     return out
 
@@ -119,8 +119,9 @@ def main(plan_path: str | Path, overrides: dict[str, Any], *,
         print(f"cornet fly: {exc}", file=err)
         return report.EXIT_BAD_INPUT
     print(outcome.text(), file=out, flush=True)
-    if save_baseline is not None and not outcome.result.refused_plan:
-        print(f"baseline saved in {save_baseline}", file=out)
+    if save_baseline is not None:
+        print(f"baseline saved in {save_baseline}" if outcome.passed else
+              f"baseline not saved in {save_baseline}: the flight did not pass", file=out)
     if overlay is not None and outcome.baseline is not None:
         from gateway.ci.regress_plot import plot_overlay
 

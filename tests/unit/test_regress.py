@@ -151,6 +151,8 @@ def test_bad_input_exits_2_with_one_line(recorded, tmp_path, capsys):
     other = short_plan(tmp_path, "other.plan", north_items=2)
     line = _exit_2(["fly", str(other), "--baseline", str(base_dir)], capsys)
     assert "the baseline is of another plan (short.plan" in line
+    line = _exit_2(["fly", str(plan), "--overlay", str(tmp_path / "o.png")], capsys)
+    assert "give --baseline DIR too" in line
     line = _exit_2(["sweep", str(plan), "--param", "NOT_A_PARAM=1,2"], capsys)
     assert "no PX4 parameter named 'NOT_A_PARAM'" in line
     line = _exit_2(["sweep", str(plan), "--latency-ms", ""], capsys)
