@@ -15,7 +15,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from gateway.web.address import WebListenError, listen_arg
+from gateway.web.address import WebListenError, add_web_parser, listen_arg
 
 LOG_LEVELS = ("debug", "info", "warning", "error")
 ENV_PARAM_PREFIX = "PX4_PARAM_"
@@ -70,6 +70,8 @@ def _ipv4(text: str) -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from gateway.ci import flags
+
     parser = argparse.ArgumentParser(
         prog="cornet",
         description="MAVLink SITL gateway: simulated PX4 quadrotors behind a simulated network.",
@@ -161,12 +163,14 @@ def build_parser() -> argparse.ArgumentParser:
                          "landed, geofence never breached, optional path deviation limit.")
     fly.add_argument("plan", type=Path, metavar="PLAN")
     fly.add_argument("--scenario", type=Path, default=None, metavar="FILE")
-    fly.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,
+    fly.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=None,
                      metavar="X")
-    fly.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=0.0,
+    fly.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=None,
                      metavar="Y")
-    fly.add_argument("--loss", type=_probability, default=0.0, metavar="P")
-    fly.add_argument("--seed", type=_non_negative(int, "--seed"), default=0, metavar="S")
+    fly.add_argument("--loss", type=_probability, default=None, metavar="P")
+    fly.add_argument("--seed", type=_non_negative(int, "--seed"), default=None, metavar="S",
+                     help="the network's seed, also of sensor noise and wind (default: the "
+                     "scenario's, else 0)")
     fly.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
     fly.add_argument("--time-limit", type=_non_negative(float, "--time-limit"), default=None,
                      metavar="S", help="simulated seconds before giving up (default 900)")
@@ -174,13 +178,11 @@ def build_parser() -> argparse.ArgumentParser:
                      default=None, metavar="M", help="fail if the path deviates more (metres)")
     fly.add_argument("--log-dir", type=Path, default=None, metavar="DIR",
                      help="record the flight (tlogs, state.csv, packet trace) in DIR")
-    web = sub.add_parser("web", help="the live view of a daemon running with --zmq-pub",
-                         description="Serve the live view (docs/web.md) of the daemon "
-                         "publishing on --zmq.")
-    web.add_argument("--zmq", default="tcp://127.0.0.1:5556", metavar="ENDPOINT",
-                     help="the daemon's --zmq-pub endpoint (default tcp://127.0.0.1:5556)")
-    web.add_argument("--listen", type=listen_arg("--listen"), default=("127.0.0.1", 8080),
-                     metavar="[ADDR:]PORT", help="default 127.0.0.1:8080")
+    flags.add_fly_flags(fly)
+    flags.add_sweep_arguments(sub.add_parser(
+        "sweep", help="fly a .plan over a grid of network conditions, seeds, scenarios and "
+        "parameters in parallel: CSV, PNGs, reports (exit 0 all pass, 1 some fail)"))
+    add_web_parser(sub)
     plot = sub.add_parser("plot", help="draw a recorded run: track vs plan, altitude and speed, "
                           "link latency and loss (PNGs)")
     plot.add_argument("log_dir", type=Path, metavar="LOGDIR")
@@ -235,6 +237,10 @@ def main(argv: list[str] | None = None) -> int:
             gc.enable()
     if args.command == "fly":
         return _fly(_subparser(parser, "fly"), args)
+    if args.command == "sweep":
+        from gateway.ci import sweep
+
+        return sweep.main(args, lambda flags: _parse_params(_subparser(parser, "sweep"), flags, {}))
     if args.command == "plot":
         from gateway.ci import plot
 
@@ -264,28 +270,34 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
-    from gateway.ci import fly
+    from gateway.ci import regress
+    from gateway.ci.baseline import Tolerances
     from gateway.daemon.progress import ProgressLine
-    from gateway.sim.scenario import NetworkConfig, ScenarioError, load
+    from gateway.sim.scenario import ScenarioError, load
 
-    network = None
     if args.scenario is not None:
         try:
             load(args.scenario)
         except ScenarioError as exc:
             parser.error(str(exc))
-    elif args.latency_ms or args.jitter_ms or args.loss or args.seed:
-        network = NetworkConfig.from_flags(args.latency_ms, args.jitter_ms, args.loss, args.seed)
-    if args.log_dir is not None:
-        _writable_dir(parser, args.log_dir, "--log-dir")
+    if args.overlay is not None and args.baseline is None:
+        parser.error("--overlay draws the flight over its baseline: give --baseline DIR too")
+    for flag, path in (("--log-dir", args.log_dir), ("--save-baseline", args.save_baseline)):
+        if path is not None:
+            _writable_dir(parser, path, flag)
     logging.basicConfig(level="WARNING", format="%(levelname)s %(name)s: %(message)s")
-    kwargs = {"network": network, "scenario": args.scenario,
-              "params": _parse_params(parser, args.param, dict(os.environ)),
-              "max_deviation_m": args.max_deviation, "log_dir": args.log_dir,
-              "progress": ProgressLine(sys.stderr)}
-    if args.time_limit is not None:
-        kwargs["time_limit_s"] = args.time_limit
-    return fly.main(args.plan, **kwargs)
+    overrides = {k: v for k, v in (("latency_ms", args.latency_ms), ("jitter_ms", args.jitter_ms),
+                                   ("loss", args.loss), ("seed", args.seed),
+                                   ("time_limit_s", args.time_limit), ("control", args.control),
+                                   ("max_deviation_m", args.max_deviation),
+                                   ("scenario", args.scenario and str(args.scenario)),
+                                   ("params", _parse_params(parser, args.param, dict(os.environ))
+                                    or None)) if v is not None}
+    return regress.main(args.plan, overrides, baseline=args.baseline,
+                        save_baseline=args.save_baseline, overlay=args.overlay,
+                        tolerances=Tolerances(args.tol_track_m, args.tol_time_s, args.tol_loss),
+                        junit_xml=args.junit_xml, summary=args.summary, log_dir=args.log_dir,
+                        progress=ProgressLine(sys.stderr))
 
 
 def _writable_dir(parser: argparse.ArgumentParser, path: Path, flag: str) -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from gateway.sim.values import listen_address
 
 AIOHTTP_MISSING = "the live view needs aiohttp: pip install 'cornet[web]'"
@@ -55,3 +57,14 @@ def listen_arg(flag: str):
         return listen
 
     return parse
+
+
+def add_web_parser(sub: Any) -> None:
+    """``cornet web``: its subparser (``sub``: the command line's subparsers)."""
+    web = sub.add_parser("web", help="the live view of a daemon running with --zmq-pub",
+                         description="Serve the live view (docs/web.md) of the daemon "
+                         "publishing on --zmq.")
+    web.add_argument("--zmq", default="tcp://127.0.0.1:5556", metavar="ENDPOINT",
+                     help="the daemon's --zmq-pub endpoint (default tcp://127.0.0.1:5556)")
+    web.add_argument("--listen", type=listen_arg("--listen"), default=("127.0.0.1", 8080),
+                     metavar="[ADDR:]PORT", help="default 127.0.0.1:8080")
