@@ -1,20 +1,32 @@
 """`cornet run --shards 2`: the vehicles split across two worker ranks of an MPI job in lockstep;
 MAVSDK flies one vehicle of each shard at once; the daemon stops cleanly; a worker's start error
-and a missing MPI are exit-2 errors."""
+and a missing MPI are exit-2 errors. A scripted flight on two ranks that talk over TCP (as on
+two hosts) writes the same logs as one process; --state-dir keeps each shard's vehicles."""
 
 import asyncio
+import json
+import os
 import re
 import signal
 import socket
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
+from pymavlink import mavutil
 
 from gateway.ci.launcher import VEHICLE_GCS_PORT, cornet_command, free_port_offset
+from gateway.sim.flightlog import read_tlog
 from tests.e2e.flows import takeoff_hover_land
+from tests.e2e.gcs import gcs, heartbeats_by_sysid
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
+
+M = mavutil.mavlink
+ROOT = Path(__file__).resolve().parents[2]
+# MPICH: no shared memory between the ranks, TCP instead, as if each were on its own host.
+NETWORK_PATH = {"MPIR_CVAR_NOLOCAL": "1", "UCX_TLS": "tcp"}
 
 
 @pytest.mark.asyncio
@@ -31,6 +43,85 @@ async def test_two_shards_fly_a_vehicle_each_and_stop_cleanly(daemon_factory):
     stop_line = next(ln for ln in reversed(d.stderr_lines) if "stopping after" in ln)
     m = re.search(r"sim_t=([\d.]+)s .*shards=2 .*internal_errors=0", stop_line)
     assert m and float(m.group(1)) > 10.0, stop_line
+
+
+def _scripted_run(out: Path, *extra: str, env: dict[str, str] | None = None) -> Path:
+    """scenarios/adhoc-fleet.toml for 30 simulated seconds, flat out, logged to ``out``: the
+    run directory."""
+    out.mkdir()
+    r = subprocess.run(cornet_command() + [
+        "run", "--scenario", str(ROOT / "scenarios" / "adhoc-fleet.toml"), "--seed", "19",
+        "--speed", "max", "--duration", "30", "--log-dir", str(out / "logs"),
+        "--packet-trace", str(out / "trace.txt"), "--port-offset", str(free_port_offset(4)),
+        *extra], capture_output=True, text=True, timeout=240, stdin=subprocess.DEVNULL,
+        env={**os.environ, **(env or {})})
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "stopping after" in r.stderr and "sim_t=30.0s" in r.stderr, r.stderr[-3000:]
+    (run,) = (out / "logs").iterdir()
+    return run
+
+
+def _tlog_records(run: Path, name: str) -> list[tuple[int, bytes]]:
+    """(µs since the run's epoch, frame) of every record: the stamps are the run's wall-clock
+    epoch (meta.json boot_unix_s) plus the simulated time."""
+    boot_us = round(json.loads((run / "meta.json").read_text())["boot_unix_s"] * 1e6)
+    return [(round(t * 1e6) - boot_us, frame) for t, frame in read_tlog(run / name)]
+
+
+def test_two_ranks_over_tcp_write_the_logs_of_one_process(tmp_path):
+    one = _scripted_run(tmp_path / "one")
+    two = _scripted_run(tmp_path / "two", "--shards", "2", env=NETWORK_PATH)
+    files = sorted(p.name for p in one.iterdir() if p.is_file())
+    assert files == sorted(p.name for p in two.iterdir() if p.is_file()) == [
+        "meta.json", "packets.trace", "state.csv", *(f"v{i}-{k}.tlog" for i in range(1, 5)
+                                                     for k in ("api", "gcs"))]
+    # Byte for byte: the vehicles' states, and every datagram's fate on the distance-dependent
+    # radios (both runs' merged in one file, vehicles 1-2 from one rank, 3-4 from the other).
+    for name in ("state.csv", "packets.trace"):
+        assert (one / name).read_bytes() == (two / name).read_bytes(), name
+    assert (tmp_path / "one" / "trace.txt").read_bytes() == \
+        (tmp_path / "two" / "trace.txt").read_bytes() == (one / "packets.trace").read_bytes()
+    # The wall clock's only marks: the epoch in meta.json, the tlogs' stamps (epoch + simulated
+    # time) and the onboard logs' names (vehicle-N/log/<date>/<time>.ulg).
+    metas = [json.loads((run / "meta.json").read_text()) for run in (one, two)]
+    for meta in metas:
+        del meta["boot_unix_s"]
+    assert metas[0] == metas[1] and [v["sysid"] for v in metas[0]["vehicles"]] == [1, 2, 3, 4]
+    for name in files:
+        if name.endswith(".tlog"):
+            records = _tlog_records(one, name)
+            assert len(records) > 5000 and records == _tlog_records(two, name), name
+    for sysid in range(1, 5):
+        (a,), (b,) = (list((run / f"vehicle-{sysid}").rglob("*.ulg")) for run in (one, two))
+        assert a.read_bytes() == b.read_bytes()
+    # It flew: every vehicle 70-130 m out, and the radios lost datagrams on the way.
+    last = (one / "state.csv").read_text().splitlines()[-4:]
+    assert [ln.split(",")[1] for ln in last] == ["1", "2", "3", "4"]
+    assert all(60.0 < abs(float(ln.split(",")[2])) + abs(float(ln.split(",")[3])) for ln in last)
+    assert " drop " in (one / "packets.trace").read_text()
+    plot = subprocess.run(cornet_command() + ["plot", str(two.parent)], capture_output=True,
+                          text=True, timeout=300)
+    assert plot.returncode == 0, plot.stderr
+    assert (two / "track.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_state_dir_keeps_every_shards_vehicles(daemon_factory, tmp_path):
+    d = daemon_factory("--shards", "2", "--state-dir", str(tmp_path), vehicles=2)
+    conn = gcs(d.gcs_port())
+    try:
+        conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        assert set(heartbeats_by_sysid(conn, {1, 2})) == {1, 2}
+        for sysid, alt in ((1, 4.0), (2, 6.0)):  # vehicle 1 on shard 0, vehicle 2 on shard 1
+            conn.mav.param_set_send(sysid, 1, b"MIS_TAKEOFF_ALT", alt, M.MAV_PARAM_TYPE_REAL32)
+            assert conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=10,
+                                   condition=f"PARAM_VALUE.param_id=='MIS_TAKEOFF_ALT' and "
+                                             f"PARAM_VALUE.param_value=={alt}")
+    finally:
+        conn.close()
+    assert d.stop() == 0, d.log_tail()
+    for sysid, alt in ((1, 4.0), (2, 6.0)):
+        saved = (tmp_path / f"vehicle-{sysid}" / "params.json").read_text()
+        assert '"MIS_TAKEOFF_ALT"' in saved and str(alt) in saved, saved
 
 
 def test_shards_refuse_what_they_do_not_support():

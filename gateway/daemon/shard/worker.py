@@ -1,0 +1,106 @@
+"""A worker rank: a normal Daemon for its block of vehicles, held to the coordinator's horizon."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import gc
+import logging
+import signal
+from pathlib import Path
+
+from gateway.daemon.app import STATUS_PERIOD_S, Daemon, PortInUse, RunConfig
+from gateway.daemon.shard.channel import STOP_TIMEOUT_S, Channel
+from netsim.kernel import PRIORITY_PHYSICS
+
+log = logging.getLogger(__name__)
+
+START_TIMEOUT_S = 60.0
+
+
+async def work(config: RunConfig, shard: int, channel: Channel) -> int:
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):  # the coordinator decides when everyone stops
+        loop.add_signal_handler(sig, lambda: channel.send(0, {"interrupt": True}))
+    loop.add_signal_handler(signal.SIGHUP, lambda: None)  # the coordinator answers SIGHUP
+    try:
+        setup = await _setup(channel)
+        run_dir = setup.get("run_dir")
+        daemon = Daemon(config, boot_unix_s=setup["boot_unix_s"], part=shard,
+                        run_dir=Path(run_dir) if run_dir is not None else None)
+        await daemon.open()
+    except PortInUse as exc:
+        channel.send(0, {"error": f"{exc}; is another cornet or PX4 SITL running?", "code": 2})
+        await channel.flush()
+        return 2
+    gc.collect()
+    gc.freeze()  # as gateway.daemon.app.serve does
+    own = {f"v{i + 1}" for i in daemon.sim.indices}
+    pacer = daemon.pacer
+    pacer.set_horizon(0.0, PRIORITY_PHYSICS)  # through sync point 0: its positions
+    daemon.sim.on_sync = lambda t, pos: channel.send(0, {"sync": t, "positions": pos,
+                                                         "next": daemon.sim.next_sync_s})
+    started = [False]
+
+    async def receive() -> None:
+        while True:
+            _, msg = await channel.receive()
+            if msg.get("stop"):
+                stop.set()
+                return
+            if "horizon" in msg:
+                # Held right after sync point t: every vehicle's position at t, before any
+                # event after it (one process pushes them all at once at t).
+                daemon.sim.set_remote_positions(msg["t"], {
+                    k: tuple(v) for k, v in msg["positions"].items() if k not in own})
+                if not started[0]:
+                    started[0] = True
+                    pacer.reanchor()
+                pacer.set_horizon(msg["horizon"], msg.get("priority"))
+
+    async def pace() -> None:
+        await pacer.run()  # returns only at the end of --duration: then wait for the others
+        channel.send(0, {"finished": daemon.sim.now})
+        await stop.wait()
+
+    async def report() -> None:
+        while True:
+            await asyncio.sleep(STATUS_PERIOD_S)
+            channel.send(0, {"status": daemon.counters(), "t": daemon.sim.now})
+
+    channel.send(0, {"ready": shard})
+    tasks = [asyncio.create_task(pace()), asyncio.create_task(receive()),
+             asyncio.create_task(report()), asyncio.create_task(stop.wait())]
+    try:
+        done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+        for task in done:
+            failure = task.exception() if task is not tasks[3] else None
+            if failure is not None:
+                raise failure
+    finally:
+        for task in tasks:
+            task.cancel()
+        # Bounded: a task that ignored its cancel must not keep the whole job from stopping.
+        _, stuck = await asyncio.wait(tasks, timeout=STOP_TIMEOUT_S / 2)
+        if stuck:
+            log.warning("%d task(s) did not end on cancel; stopping anyway", len(stuck))
+        for task in set(tasks) - stuck:
+            with contextlib.suppress(asyncio.CancelledError, Exception):
+                task.result()
+        counters, now = daemon.counters(), daemon.sim.now
+        daemon.close()
+        channel.send(0, {"stopped": counters, "t": now})
+        await channel.flush()
+    return 0
+
+
+async def _setup(channel: Channel) -> dict:
+    """The coordinator's first word: what every shard must share (the epoch of simulated t = 0,
+    the flight log's run directory)."""
+    while True:
+        _, msg = await channel.receive(START_TIMEOUT_S)
+        if "setup" in msg:
+            return msg["setup"]
+
+
