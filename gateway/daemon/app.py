@@ -103,13 +103,15 @@ class PortInUse(OSError):
 class Daemon:
     def __init__(self, config: RunConfig, notifier: Notifier | None = None, *,
                  boot_unix_s: float | None = None, run_dir: Path | None = None,
-                 part: int | None = None) -> None:
+                 part: int | None = None, publisher: Publisher | None = None) -> None:
         """A shard of a sharded run (gateway/daemon/shard/) is given the run's
         ``boot_unix_s`` and flight log ``run_dir`` (the coordinator's), and writes the files
-        that hold every vehicle as its ``part`` (gateway/sim/logparts.py merges them)."""
+        that hold every vehicle as its ``part`` (gateway/sim/logparts.py merges them), and
+        publishes into the ``publisher`` it is given (the coordinator's socket publishes)."""
         self.config = config
         self.notifier = notifier or Notifier()  # no socket: notifications are no-ops
-        self.publisher = Publisher(config.zmq_pub) if config.zmq_pub else None
+        self.publisher = publisher if publisher is not None else \
+            Publisher(config.zmq_pub) if config.zmq_pub else None
         trace = config.packet_trace
         self._trace_file = open(trace.with_name(part_name(trace.name, part)), "w") \
             if trace is not None else None

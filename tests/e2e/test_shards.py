@@ -11,12 +11,20 @@ import signal
 import socket
 import subprocess
 import sys
+import time
+import urllib.request
 from pathlib import Path
 
 import pytest
+import zmq
 from pymavlink import mavutil
 
-from gateway.ci.launcher import VEHICLE_GCS_PORT, cornet_command, free_port_offset
+from gateway.ci.launcher import (
+    VEHICLE_GCS_PORT,
+    cornet_command,
+    free_port_offset,
+    free_tcp_port,
+)
 from gateway.sim.flightlog import read_tlog
 from tests.e2e.flows import takeoff_hover_land
 from tests.e2e.gcs import gcs, heartbeats_by_sysid
@@ -124,11 +132,61 @@ def test_state_dir_keeps_every_shards_vehicles(daemon_factory, tmp_path):
         assert '"MIS_TAKEOFF_ALT"' in saved and str(alt) in saved, saved
 
 
+def test_zmq_and_metrics_of_every_shard_come_from_one_daemon(daemon_factory):
+    endpoint, port = f"tcp://127.0.0.1:{free_tcp_port()}", free_tcp_port()
+    daemon_factory("--shards", "2", "--zmq-pub", endpoint, "--metrics-port", str(port),
+                   "--loss", "0.3", "--seed", "2", vehicles=3)
+    sub = zmq.Context.instance().socket(zmq.SUB)
+    sub.setsockopt(zmq.LINGER, 0)
+    sub.setsockopt(zmq.SUBSCRIBE, b"cornet.")
+    sub.connect(endpoint)
+    states, links, packets = set(), set(), set()
+    deadline = time.monotonic() + 20
+    try:  # shard 0 has vehicles 1-2, shard 1 vehicle 3
+        while time.monotonic() < deadline and (len(states) < 3 or len(links) < 3
+                                                or len(packets) < 3):
+            if sub.poll(500):
+                topic, body = sub.recv_multipart()
+                msg = json.loads(body)
+                assert msg["v"] == 1
+                if topic == b"cornet.state":  # one message: every shard's vehicles
+                    assert [v["sysid"] for v in msg["vehicles"]] == [1, 2, 3]
+                    states = {v["sysid"] for v in msg["vehicles"]}
+                elif topic == b"cornet.links":
+                    links = {name.split("/")[0] for name in msg["links"]}
+                elif topic == b"cornet.packet":
+                    packets.add(msg["link"].split("/")[0])
+    finally:
+        sub.close()
+    assert (states, links, packets) == ({1, 2, 3}, {"v1", "v2", "v3"}, {"v1", "v2", "v3"})
+    stats = subprocess.run(cornet_command() + ["stats", "--zmq", endpoint], capture_output=True,
+                           text=True, timeout=60)
+    assert stats.returncode == 0 and "v1/gcs/down" in stats.stdout and \
+        "v3/gcs/down" in stats.stdout, stats.stdout + stats.stderr
+    with urllib.request.urlopen(f"http://127.0.0.1:{port}/metrics", timeout=5) as r:
+        text = r.read().decode()
+    assert "cornet_vehicles 3.0" in text
+    for sysid in (1, 2, 3):
+        assert f'cornet_mavlink_tx_frames_total{{link="gcs",vehicle="{sysid}"}}' in text
+
+
+def test_a_metrics_port_in_use_stops_a_sharded_run_with_exit_2():
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        r = subprocess.run(cornet_command() + [
+            "run", "--vehicles", "2", "--shards", "2", "--port-offset", str(free_port_offset(2)),
+            "--metrics-port", str(taken.getsockname()[1])],
+            capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    assert r.returncode == 2 and "cornet: --metrics-port" in r.stderr, r.stderr
+    assert "cornet ready" not in r.stdout
+
+
 def test_shards_refuse_what_they_do_not_support():
-    r = subprocess.run(cornet_command() + ["run", "--vehicles", "2", "--shards", "2",
-                                           "--zmq-pub", "tcp://127.0.0.1:5999"],
+    r = subprocess.run(cornet_command() + ["run", "--shards", "2", "--scenario",
+                                           str(ROOT / "scenarios" / "congested.toml")],
                        capture_output=True, text=True, timeout=60)
-    assert r.returncode == 2 and "--zmq-pub" in r.stderr, r.stderr
+    assert r.returncode == 2 and "network.channel" in r.stderr, r.stderr
 
 
 def test_a_port_in_use_in_one_shard_is_an_error_of_the_whole_run():

@@ -151,3 +151,60 @@ def test_a_bad_duration_exits_2_saying_so(value):
     r = subprocess.run([sys.executable, "-m", "gateway.cli", "run", "--duration", value],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "--duration must be" in r.stderr, r.stderr
+
+
+def test_the_coordinator_publishes_every_shards_vehicles_as_one_daemon():
+    from gateway.bus.zmq_pub import TOPIC_PACKET, TOPIC_STATE
+    from gateway.daemon.shard.outlets import BusMerger, RelayPublisher
+
+    sent = []
+
+    class Socketless:
+        wants_packets = False
+
+        def publish(self, topic, body):
+            sent.append((topic, body))
+
+    relays = [RelayPublisher(), RelayPublisher()]
+    sims = [Simulation(2, first_index=0), Simulation(1, first_index=2)]
+    try:
+        merger = BusMerger(Socketless(), 2)  # type: ignore[arg-type]
+        relays[1].wants_packets = True
+        relays[1].packet_event("send", "v3/gcs/down", 0.1, 10, "0")
+        for relay, sim in zip(relays, sims):
+            relay.vehicle_states(0.1, sim)
+        merger.take(1, relays[1].take())
+        assert [t for t, _ in sent] == [TOPIC_PACKET]  # the state waits for shard 0's
+        merger.take(0, relays[0].take())
+        topic, body = sent[-1]
+        assert topic == TOPIC_STATE and [v["sysid"] for v in body["vehicles"]] == [1, 2, 3]
+    finally:
+        for sim in sims:
+            sim.close()
+
+
+def test_the_coordinators_metrics_are_every_shards():
+    from gateway.daemon.metrics import Exporter
+    from gateway.daemon.shard.outlets import ShardedExporter
+
+    class Shard:
+        def __init__(self, first: int, n: int) -> None:
+            self.sim = Simulation(n, first_index=first)
+            self.pacer = Pacer(self.sim.kernel)
+
+    shards = [Shard(0, 2), Shard(2, 1)]
+    try:
+        shards[0].sim.run(until=2.0)
+        shards[1].sim.run(until=1.0)
+        merged = ShardedExporter()
+        for k, shard in enumerate(shards):
+            merged.take(k, Exporter(shard).snapshot())
+        samples = {(s.name, tuple(sorted(s.labels.items()))): s.value
+                   for m in merged.snapshot() for s in m.samples}
+        assert samples[("cornet_vehicles", ())] == 3
+        assert samples[("cornet_sim_seconds_total", ())] == 1.0  # the slowest shard's
+        assert {dict(labels)["vehicle"] for name, labels in samples
+                if name == "cornet_mavlink_tx_frames_total"} == {"1", "2", "3"}
+    finally:
+        for shard in shards:
+            shard.sim.close()

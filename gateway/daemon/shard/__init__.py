@@ -23,10 +23,12 @@ core):
   worker → coordinator
     {"ready": k}                          ports bound, simulation built, simulated t = 0
     {"error": text, "code": 2}            could not start (e.g. a port in use); it exits
-    {"sync": t, "positions": {node: (n, e, d)}, "next": t'}
+    {"sync": t, "positions": {node: (n, e, d)}, "next": t', "bus": [(topic, body), ...]}
                                           reached the sync point t (every sync period of the
                                           network, the CORNET mobility update); its vehicles'
-                                          world-frame positions at t; the next sync point t'
+                                          world-frame positions at t; the next sync point t';
+                                          with --zmq-pub, what it published since the last one
+    {"metrics": [Metric, ...]}            with --metrics-port: its snapshot, every second
     {"finished": t}                       ran every event up to --duration; waits for "stop"
     {"status": {counter: value}, "t": t}  every status period (wall), for the status line
     {"interrupt": true}                   it got SIGINT or SIGTERM: please stop everyone
@@ -39,6 +41,8 @@ core):
                                           every vehicle was at these positions at sync point t;
                                           run up to h = t' (events at h itself only up to
                                           priority p: physics and the mobility update)
+    {"wants_packets": bool}               --zmq-pub: someone subscribes to cornet.packet (or
+                                          no longer): build packet events (or stop)
     {"stop": true}
 
 This is a gather and a broadcast per sync point, written as point-to-point messages because
@@ -62,6 +66,9 @@ worker has stopped, the coordinator merges the parts into the files one process 
 from one process or K shards (tests/e2e/test_shards.py), but for the wall-clock epoch.
 --state-dir is per vehicle: each worker keeps its own vehicles.
 
+--zmq-pub and --metrics-port are the coordinator's: one socket, one HTTP server for every
+vehicle, fed by the workers' batches and snapshots (outlets.py; a port in use: exit 2).
+
 Stopping: mpiexec forwards SIGINT and SIGTERM to every rank. The coordinator then sends
 "stop" to every worker; a worker that gets the signal asks the coordinator to ("interrupt"),
 so one signalled rank is enough. Workers answer with their final counters, the coordinator
@@ -70,8 +77,8 @@ logs the stop line, every rank exits 0. A rank that fails unexpectedly aborts th
 
 Limits: the embedded network only (an ns-3 engine belongs to one process), and no shared
 channel (``network.channel`` queues every vehicle's frames in one place); vehicles of different
-shards never collide (each shard has its own PyBullet world); no --zmq-pub, --metrics-port or
-SIGHUP reload with more than one shard yet.
+shards never collide (each shard has its own PyBullet world); no SIGHUP reload with more than
+one shard yet.
 """
 
 from __future__ import annotations

@@ -12,10 +12,15 @@ import time
 from pathlib import Path
 from typing import Any
 
+import zmq
+
+from gateway.bus.zmq_pub import Publisher
 from gateway.daemon.app import STATUS_PERIOD_S, RunConfig, _ports_text, format_status
+from gateway.daemon.metrics import MetricsServer
 from gateway.daemon.sdnotify import Notifier
 from gateway.daemon.shard.channel import POLL_PERIOD_S, STOP_TIMEOUT_S, Channel
 from gateway.daemon.shard.launch import ShardError
+from gateway.daemon.shard.outlets import BusMerger, ShardedExporter
 from gateway.daemon.shard.worker import START_TIMEOUT_S
 from gateway.sim import logparts
 from gateway.sim.flightlog import new_run_dir
@@ -38,11 +43,9 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
     t0 = time.monotonic()
     # One epoch and one flight log directory for the whole run, chosen here.
     run_dir = None
-    if config.log_dir is not None:
-        run_dir = new_run_dir(config.log_dir, time.strftime("run-%Y%m%d-%H%M%S"))
-    setup = {"boot_unix_s": time.time(), "run_dir": None if run_dir is None else str(run_dir)}
-    for shard in range(k):
-        channel.send(shard + 1, {"setup": setup})
+    bus: BusMerger | None = None
+    exporter: ShardedExporter | None = None
+    metrics: MetricsServer | None = None
     counters: dict[int, dict] = {}
     sim_t: dict[int, float] = {}
     # Sync reports by sync point; a shard may report t = 0 before the last one is ready.
@@ -63,6 +66,11 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
         elif "sync" in msg:
             reports.setdefault(msg["sync"], {})[shard] = msg
             sim_t[shard] = msg["sync"]
+            if bus is not None:
+                bus.take(shard, msg.get("bus", ()))
+        elif "metrics" in msg:
+            if exporter is not None:
+                exporter.take(shard, msg["metrics"])
         elif "finished" in msg:  # --duration reached: stop when every shard has
             finished.add(shard)
             if len(finished) == k:
@@ -74,6 +82,14 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
             raise ShardError(f"shard {shard} stopped on its own")
 
     try:
+        # The outlets of every vehicle are here: a port in use stops the run before it starts.
+        bus, exporter, metrics = await _open_outlets(config)
+        if config.log_dir is not None:
+            run_dir = new_run_dir(config.log_dir, time.strftime("run-%Y%m%d-%H%M%S"))
+        setup = {"boot_unix_s": time.time(),
+                 "run_dir": None if run_dir is None else str(run_dir)}
+        for shard in range(k):
+            channel.send(shard + 1, {"setup": setup})
         deadline = time.monotonic() + START_TIMEOUT_S
         while len(ready) < k and not stop.is_set():
             if time.monotonic() > deadline:
@@ -95,6 +111,9 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
         while not stop.is_set():
             while (got := channel.next()) is not None:
                 take(*got)  # one at a time: what follows an error stays for the stop
+            if bus is not None and bus.subscriptions_changed():
+                for s in range(k):
+                    channel.send(s + 1, {"wants_packets": bus.wants_packets})
             # Lockstep: grant the next horizon once every shard reported the same sync point.
             for t in sorted(t for t, some in reports.items() if len(some) == k):
                 everyone: dict[str, Any] = {}
@@ -131,6 +150,10 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
                  format_status(t_min, t_min / wall if wall > 0 else 0.0, config.vehicles,
                                _sum({**counters, **final}), f"shards={k} "))
         _merge_logs(config, run_dir)
+        if metrics is not None:
+            metrics.close()
+        if bus is not None:
+            bus.publisher.close()
         notifier.close()
         if len(final) + len(failed) < k:
             log.error("shards %s did not stop; aborting the MPI job",
@@ -160,6 +183,31 @@ async def _stop_workers(channel: Channel, k: int, ready: set[int], failed: set[i
             failed.add(rank - 1)
     await channel.flush()
     return final
+
+
+async def _open_outlets(config: RunConfig) -> tuple[BusMerger | None, ShardedExporter | None,
+                                                   MetricsServer | None]:
+    """--zmq-pub's socket and --metrics-port's server, for every shard's vehicles. Raises
+    ShardError (code 2) naming the flag when one cannot be opened."""
+    bus = exporter = metrics = None
+    if config.zmq_pub is not None:
+        try:
+            bus = BusMerger(Publisher(config.zmq_pub), config.shards)
+        except zmq.ZMQError as exc:
+            raise ShardError(f"--zmq-pub {config.zmq_pub}: {exc}", 2) from None
+    if config.metrics_port is not None:
+        exporter = ShardedExporter()
+        metrics = MetricsServer(exporter, config.bind, config.metrics_port)
+        try:
+            await metrics.start()
+        except OSError as exc:
+            if bus is not None:
+                bus.publisher.close()
+            raise ShardError(f"--metrics-port {config.metrics_port}: {exc.strerror}; choose a "
+                             "free port", 2) from None
+        log.info("metrics: http://%s:%d/metrics (every shard's vehicles)", config.bind,
+                 metrics.port)
+    return bus, exporter, metrics
 
 
 def _merge_logs(config: RunConfig, run_dir: Path | None) -> None:

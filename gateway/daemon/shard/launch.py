@@ -12,7 +12,7 @@ from gateway.daemon.app import RunConfig
 
 MPI_RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
 MPI_MISSING = "--shards needs MPI (mpi4py and an MPI library): pip install 'cornet[mpi]'"
-UNSUPPORTED_WITH_SHARDS = ("zmq_pub", "metrics_port")
+UNSUPPORTED_WITH_SHARDS: tuple[str, ...] = ()  # every --flag of one process works sharded
 
 
 class ShardError(RuntimeError):

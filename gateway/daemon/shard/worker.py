@@ -10,7 +10,9 @@ import signal
 from pathlib import Path
 
 from gateway.daemon.app import STATUS_PERIOD_S, Daemon, PortInUse, RunConfig
+from gateway.daemon.metrics import SNAPSHOT_PERIOD_S, Exporter
 from gateway.daemon.shard.channel import STOP_TIMEOUT_S, Channel
+from gateway.daemon.shard.outlets import RelayPublisher
 from netsim.kernel import PRIORITY_PHYSICS
 
 log = logging.getLogger(__name__)
@@ -26,8 +28,13 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
     loop.add_signal_handler(signal.SIGHUP, lambda: None)  # the coordinator answers SIGHUP
     try:
         setup = await _setup(channel)
+        if setup is None:  # stopped before it started (the coordinator could not start)
+            channel.send(0, {"stopped": {}, "t": 0.0})
+            await channel.flush()
+            return 0
         run_dir = setup.get("run_dir")
-        daemon = Daemon(config, boot_unix_s=setup["boot_unix_s"], part=shard,
+        relay = RelayPublisher() if config.zmq_pub is not None else None
+        daemon = Daemon(config, boot_unix_s=setup["boot_unix_s"], part=shard, publisher=relay,
                         run_dir=Path(run_dir) if run_dir is not None else None)
         await daemon.open()
     except PortInUse as exc:
@@ -39,8 +46,14 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
     own = {f"v{i + 1}" for i in daemon.sim.indices}
     pacer = daemon.pacer
     pacer.set_horizon(0.0, PRIORITY_PHYSICS)  # through sync point 0: its positions
-    daemon.sim.on_sync = lambda t, pos: channel.send(0, {"sync": t, "positions": pos,
-                                                         "next": daemon.sim.next_sync_s})
+
+    def on_sync(t: float, positions: dict) -> None:
+        msg = {"sync": t, "positions": positions, "next": daemon.sim.next_sync_s}
+        if relay is not None:
+            msg["bus"] = relay.take()  # what it published since the last sync point
+        channel.send(0, msg)
+
+    daemon.sim.on_sync = on_sync
     started = [False]
 
     async def receive() -> None:
@@ -49,6 +62,8 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
             if msg.get("stop"):
                 stop.set()
                 return
+            if "wants_packets" in msg and relay is not None:
+                relay.wants_packets = msg["wants_packets"]
             if "horizon" in msg:
                 # Held right after sync point t: every vehicle's position at t, before any
                 # event after it (one process pushes them all at once at t).
@@ -65,9 +80,17 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
         await stop.wait()
 
     async def report() -> None:
+        exporter = Exporter(daemon, clock=pacer.wall) if config.metrics_port is not None \
+            else None
+        period = SNAPSHOT_PERIOD_S if exporter is not None else STATUS_PERIOD_S
+        next_status = asyncio.get_running_loop().time() + STATUS_PERIOD_S
         while True:
-            await asyncio.sleep(STATUS_PERIOD_S)
-            channel.send(0, {"status": daemon.counters(), "t": daemon.sim.now})
+            if exporter is not None:  # served by the coordinator's /metrics
+                channel.send(0, {"metrics": exporter.snapshot()})
+            await asyncio.sleep(period)
+            if asyncio.get_running_loop().time() >= next_status:
+                next_status += STATUS_PERIOD_S
+                channel.send(0, {"status": daemon.counters(), "t": daemon.sim.now})
 
     channel.send(0, {"ready": shard})
     tasks = [asyncio.create_task(pace()), asyncio.create_task(receive()),
@@ -95,12 +118,14 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
     return 0
 
 
-async def _setup(channel: Channel) -> dict:
+async def _setup(channel: Channel) -> dict | None:
     """The coordinator's first word: what every shard must share (the epoch of simulated t = 0,
-    the flight log's run directory)."""
+    the flight log's run directory); None if it says stop instead."""
     while True:
         _, msg = await channel.receive(START_TIMEOUT_S)
         if "setup" in msg:
             return msg["setup"]
+        if msg.get("stop"):
+            return None
 
 
