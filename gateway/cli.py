@@ -427,6 +427,11 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: list[s
     problem = check_shards(config)
     if problem is not None:
         parser.error(problem)
+    reload = None
+    if source is not None:
+        def reload() -> RunConfig:  # SIGHUP: the file again, under the same flags
+            return RunConfig(**_run_settings(args, flag_params)[0])
+
     if config.shards > 1:
         from gateway.daemon import shard
 
@@ -434,18 +439,13 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: list[s
         # arguments); inside one it is a rank (gateway/daemon/shard/).
         try:
             if not shard.in_mpi_job():
-                shard.launch(config.shards, argv)
-            return shard.serve_rank(config, log_level)
+                return shard.launch(config.shards, argv)
+            return shard.serve_rank(config, log_level, reload)
         except shard.ShardError as exc:
             print(f"cornet: {exc}", file=sys.stderr)
             return exc.code
         except KeyboardInterrupt:
             return 0
-    reload = None
-    if source is not None:
-        def reload() -> RunConfig:  # SIGHUP: the file again, under the same flags
-            return RunConfig(**_run_settings(args, flag_params)[0])
-
     import zmq
 
     try:

@@ -182,6 +182,72 @@ def test_a_metrics_port_in_use_stops_a_sharded_run_with_exit_2():
     assert "cornet ready" not in r.stdout
 
 
+SHARDED_CONFIG = """\
+[vehicles]
+count = 2
+
+[network]
+topology = "direct"
+link = {link}
+
+[daemon]
+port_offset = {offset}
+"""
+
+
+def test_sighup_reloads_every_shards_network(tmp_path):
+    from tests.e2e.test_systemd import ApiClient, SystemdPeer
+
+    offset = free_port_offset(2)
+    config = tmp_path / "cornet.toml"
+    config.write_text(SHARDED_CONFIG.format(link='{model = "ideal"}', offset=offset))
+    # Vehicle 1 on shard 0, vehicle 2 on shard 1 (ApiClient(offset + 1): vehicle 2's API link).
+    apis = [ApiClient(offset), ApiClient(offset + 1)]
+    systemd = SystemdPeer()
+    err = tmp_path / "stderr.log"
+    proc = None
+    try:
+        with open(err, "w") as f:
+            proc = subprocess.Popen(cornet_command() + ["run", "--config", str(config),
+                                                        "--shards", "2"],
+                                    env={**os.environ, "NOTIFY_SOCKET": systemd.name},
+                                    stdout=subprocess.DEVNULL, stderr=f,
+                                    stdin=subprocess.DEVNULL)
+        systemd.wait_for("READY", 60)
+        assert all(min(api.timesync()[0] for _ in range(3)) < 0.1 for api in apis)
+        config.write_text(SHARDED_CONFIG.format(link='{model = "fixed", latency_s = 0.15}',
+                                                offset=offset))
+        proc.send_signal(signal.SIGHUP)  # the launcher's pid: it relays, mpiexec survives
+        systemd.wait_for("RELOADING", timeout_s=5)
+        systemd.wait_for("READY", timeout_s=5)
+        for api in apis:  # 150 ms each way on both shards
+            assert 0.29 < api.timesync()[0] < 1.0
+        config.write_text(SHARDED_CONFIG.format(link='{model = "warp"}', offset=offset))
+        proc.send_signal(signal.SIGHUP)
+        systemd.wait_for("RELOADING", timeout_s=5)
+        systemd.wait_for("READY", timeout_s=5)
+        proc.send_signal(signal.SIGUSR1)  # no flag: each shard logs its links
+        assert proc.poll() is None
+        assert 0.29 < apis[1].timesync()[0] < 1.0
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=10) == 0, err.read_text()[-3000:]
+        log = err.read_text()
+        for shard in (0, 1):
+            assert f"shard {shard} gateway.daemon.shard.worker: reload: the network is now " \
+                   "embedded/fixed" in log, log[-3000:]
+        assert "reload failed" in log and "network.link" in log, log[-3000:]
+        # SIGUSR1 itself: each shard's links once (a relayed SIGHUP is not a SIGUSR1), then at
+        # the stop.
+        assert log.count("link statistics at sim t") == 4, log[-3000:]
+    finally:
+        if proc is not None and proc.poll() is None:
+            proc.terminate()
+            proc.wait(timeout=10)
+        for api in apis:
+            api.close()
+        systemd.close()
+
+
 def test_shards_refuse_what_they_do_not_support():
     r = subprocess.run(cornet_command() + ["run", "--shards", "2", "--scenario",
                                            str(ROOT / "scenarios" / "congested.toml")],
@@ -214,7 +280,7 @@ def test_without_mpi4py_sharding_says_how_to_get_it():
 
 def test_sigint_stops_every_rank_with_exit_0(daemon_factory):
     d = daemon_factory("--shards", "2", vehicles=2)
-    d.proc.send_signal(signal.SIGINT)  # the pid is mpiexec's: it forwards SIGINT to the ranks
+    d.proc.send_signal(signal.SIGINT)  # the launcher's pid: relayed to mpiexec, then the ranks
     assert d.proc.wait(timeout=10) == 0, d.log_tail()
     assert d.stop() == 0
     assert any("stopping after" in ln and "shards=2" in ln for ln in d.stderr_lines), d.log_tail()

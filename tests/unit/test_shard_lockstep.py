@@ -208,3 +208,30 @@ def test_the_coordinators_metrics_are_every_shards():
     finally:
         for shard in shards:
             shard.sim.close()
+
+
+def test_a_relayed_sighup_is_told_from_a_sigusr1_by_every_rank(tmp_path):
+    from gateway.daemon.shard.reload import ReloadFlag
+
+    path = tmp_path / "reload"
+    ranks = [ReloadFlag(str(path)), ReloadFlag(str(path))]
+    assert not any(r.requested() for r in ranks)  # SIGUSR1: no SIGHUP yet
+    path.write_text("1")  # the launcher got SIGHUP
+    assert all(r.requested() for r in ranks)  # each rank sees it, whoever looks first
+    assert not any(r.requested() for r in ranks)  # the next SIGUSR1 is a SIGUSR1
+
+
+def test_a_sharded_reload_keeps_the_network_it_cannot_swap(caplog):
+    from gateway.daemon.shard.reload import prepare
+
+    running = RunConfig(vehicles=2, shards=2)
+    channel = replace(running, network=NetworkConfig(topology={
+        "topology": "star", "channel": {"model": "queue", "rate_bps": 1e6}}))
+    slower = replace(running, network=replace(running.network, sync_period_s=0.05))
+    lossy = replace(running, network=NetworkConfig.from_flags(10.0, 0.0, 0.2, 0))
+    for new, words in ((channel, "network.channel"), (slower, "sync_period_s")):
+        assert prepare(running, lambda new=new: new) == (running, None)
+        assert words in caplog.text
+    config, change = prepare(running, lambda: lossy)
+    assert config.network == lossy.network and change == {"network": lossy.network,
+                                                          "wind": lossy.wind}

@@ -8,11 +8,13 @@ vehicles in its own PyBullet world and event kernel, binds those vehicles' PX4 p
 paces itself on the wall clock — the same ``Daemon`` as one process runs, given
 ``first_vehicle`` and its share of ``vehicles``.
 
-On one machine ``cornet run --shards K`` replaces itself with ``mpiexec -n K+1 <python> -m
-gateway.cli run <the same arguments>`` (the mpiexec next to the Python interpreter first: the
-``mpich`` wheel's, from ``pip install 'cornet[mpi]'``). Every rank runs the same command line;
-``cornet run`` started by an MPI launcher (PMI_RANK, OMPI_COMM_WORLD_RANK or PMIX_RANK in its
-environment) is a rank, not a launcher. So across machines one runs
+On one machine ``cornet run --shards K`` runs ``mpiexec -n K+1 <python> -m gateway.cli run
+<the same arguments>`` as its child (the mpiexec next to the Python interpreter first: the
+``mpich`` wheel's, from ``pip install 'cornet[mpi]'``) and stays its parent: it relays SIGINT,
+SIGTERM and SIGUSR1 to mpiexec (which forwards them to every rank), turns SIGHUP — of which
+mpiexec dies — into a reload (reload.py), and exits with the job's code. Every rank runs the
+same command line; ``cornet run`` started by an MPI launcher (PMI_RANK, OMPI_COMM_WORLD_RANK or
+PMIX_RANK in its environment) is a rank, not a launcher. So across machines one runs
 ``mpiexec -n K+1 -hosts a,b cornet run ... --shards K`` directly (docs/scaling.md).
 
 Messages (MPI point-to-point between rank 0 and each worker; every message one small dict,
@@ -69,6 +71,11 @@ from one process or K shards (tests/e2e/test_shards.py), but for the wall-clock 
 --zmq-pub and --metrics-port are the coordinator's: one socket, one HTTP server for every
 vehicle, fed by the workers' batches and snapshots (outlets.py; a port in use: exit 2).
 
+SIGHUP (relayed by the launcher as SIGUSR1 with a new count in the job's reload flag file):
+the coordinator re-reads the configuration file and sends its network and wind with the next
+grant; every worker swaps them in at that sync point (reload.py). RELOADING=1, then READY=1 once
+every shard runs the new network.
+
 Stopping: mpiexec forwards SIGINT and SIGTERM to every rank. The coordinator then sends
 "stop" to every worker; a worker that gets the signal asks the coordinator to ("interrupt"),
 so one signalled rank is enough. Workers answer with their final counters, the coordinator
@@ -77,8 +84,9 @@ logs the stop line, every rank exits 0. A rank that fails unexpectedly aborts th
 
 Limits: the embedded network only (an ns-3 engine belongs to one process), and no shared
 channel (``network.channel`` queues every vehicle's frames in one place); vehicles of different
-shards never collide (each shard has its own PyBullet world); no SIGHUP reload with more than
-one shard yet.
+shards never collide (each shard has its own PyBullet world); a reload cannot change the sync
+period; under systemd the notifications come from rank 0, not the main pid (the launcher), so a
+sharded unit needs NotifyAccess=all; the lockstep API (gateway.testing.Sim) is one process.
 """
 
 from __future__ import annotations
@@ -86,6 +94,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import sys
+from collections.abc import Callable
 from dataclasses import replace
 
 from gateway.daemon.app import RunConfig
@@ -107,8 +116,10 @@ __all__ = ["Channel", "ShardError", "check", "in_mpi_job", "launch", "mpiexec_co
 log = logging.getLogger(__name__)
 
 
-def serve_rank(config: RunConfig, log_level: str) -> int:
-    """This process's part of the MPI job: the coordinator on rank 0, a worker elsewhere."""
+def serve_rank(config: RunConfig, log_level: str,
+               reload: Callable[[], RunConfig] | None = None) -> int:
+    """This process's part of the MPI job: the coordinator on rank 0, a worker elsewhere.
+    ``reload`` re-reads the configuration file on SIGHUP (rank 0: reload.py)."""
     import mpi4py
 
     mpi4py.rc.thread_level = "single"  # one thread per rank talks MPI
@@ -125,7 +136,7 @@ def serve_rank(config: RunConfig, log_level: str) -> int:
     channel = Channel(comm)
     try:
         if rank == 0:
-            return asyncio.run(coordinate(config, channel))
+            return asyncio.run(coordinate(config, channel, reload=reload))
         first, n = split(config.vehicles, k)[rank - 1]
         logging.basicConfig(
             level=log_level.upper(), stream=sys.stderr, force=True,

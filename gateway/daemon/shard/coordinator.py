@@ -9,6 +9,7 @@ import math
 import signal
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +22,7 @@ from gateway.daemon.sdnotify import Notifier
 from gateway.daemon.shard.channel import POLL_PERIOD_S, STOP_TIMEOUT_S, Channel
 from gateway.daemon.shard.launch import ShardError
 from gateway.daemon.shard.outlets import BusMerger, ShardedExporter
+from gateway.daemon.shard.reload import ReloadFlag, prepare
 from gateway.daemon.shard.worker import START_TIMEOUT_S
 from gateway.sim import logparts
 from gateway.sim.flightlog import new_run_dir
@@ -31,15 +33,24 @@ log = logging.getLogger(__name__)
 
 
 async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
-                       notifier: Notifier | None = None) -> int:
+                       notifier: Notifier | None = None,
+                       reload: Callable[[], RunConfig] | None = None) -> int:
     notifier = notifier if notifier is not None else Notifier.from_env()
     k = config.shards
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         loop.add_signal_handler(sig, stop.set)
-    loop.add_signal_handler(signal.SIGHUP, lambda: log.warning(
-        "SIGHUP: reloading is not supported with --shards > 1; restart to apply changes"))
+    reloading = asyncio.Event()  # SIGHUP (relayed by the launcher as SIGUSR1 + flag)
+    loop.add_signal_handler(signal.SIGHUP, reloading.set)
+
+    flag = ReloadFlag()
+
+    def on_sigusr1() -> None:  # not a relayed SIGHUP: the workers log link stats
+        if flag.requested():
+            reloading.set()
+
+    loop.add_signal_handler(signal.SIGUSR1, on_sigusr1)
     t0 = time.monotonic()
     # One epoch and one flight log directory for the whole run, chosen here.
     run_dir = None
@@ -100,10 +111,8 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
         if stop.is_set():
             return 0
         speed = "max" if math.isinf(config.speed) else f"{config.speed:g}x"
-        print(f"cornet ready: {config.vehicles} vehicle(s) in {k} shards, "
-              f"network={config.network.summary}, speed {speed}, {_ports_text(config)}",
-              file=ready_out, flush=True)
-        notifier.ready(status=f"serving {config.vehicles} vehicle(s) in {k} shards")
+        announced = False  # ready once simulated time runs (the vehicles talk), as one process
+        reloaded = False  # READY=1 again once every shard has applied the reload
         watchdog_s = notifier.watchdog_interval_s
         next_ping = time.monotonic()
         rtf_mark = (time.monotonic(), 0.0)
@@ -116,6 +125,16 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
                     channel.send(s + 1, {"wants_packets": bus.wants_packets})
             # Lockstep: grant the next horizon once every shard reported the same sync point.
             for t in sorted(t for t, some in reports.items() if len(some) == k):
+                change = None
+                if reloaded:  # every shard reported the sync point after the reload's grant:
+                    reloaded = False  # all of them run the new network
+                    notifier.ready(status=f"serving {config.vehicles} vehicle(s) in {k} "
+                                          f"shards, network {config.network.summary}")
+                if reloading.is_set():
+                    reloading.clear()
+                    notifier.reloading(status="reloading the network")
+                    config, change = prepare(config, reload)
+                    reloaded = True
                 everyone: dict[str, Any] = {}
                 reported = reports.pop(t)
                 for report in reported.values():
@@ -125,7 +144,13 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
                 horizon = min(report["next"] for report in reported.values())
                 for s in range(k):
                     channel.send(s + 1, {"horizon": horizon, "priority": PRIORITY_PHYSICS,
-                                         "t": t, "positions": everyone})
+                                         "t": t, "positions": everyone, "reload": change})
+                if not announced and t > 0:  # every shard has run its first sync period
+                    announced = True
+                    print(f"cornet ready: {config.vehicles} vehicle(s) in {k} shards, "
+                          f"network={config.network.summary}, speed {speed}, "
+                          f"{_ports_text(config)}", file=ready_out, flush=True)
+                    notifier.ready(status=f"serving {config.vehicles} vehicle(s) in {k} shards")
                 now = time.monotonic()
                 if watchdog_s is not None and now >= next_ping:
                     notifier.watchdog()  # simulated time advanced on every shard
@@ -142,7 +167,7 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
     finally:
         notifier.stopping(status="stopping")
         final = await _stop_workers(channel, k, ready, failed, sim_t)
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGUSR1):
             loop.remove_signal_handler(sig)
         t_min = min(sim_t.values(), default=0.0)
         wall = time.monotonic() - t0

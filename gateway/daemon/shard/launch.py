@@ -2,16 +2,20 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
+import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 from gateway.daemon.app import RunConfig
 
 MPI_RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
 MPI_MISSING = "--shards needs MPI (mpi4py and an MPI library): pip install 'cornet[mpi]'"
+RELOAD_FLAG_VARIABLE = "CORNET_RELOAD_FLAG"  # the job's reload flag file (shard/reload.py)
 UNSUPPORTED_WITH_SHARDS: tuple[str, ...] = ()  # every --flag of one process works sharded
 
 
@@ -72,16 +76,50 @@ def mpiexec_command(shards: int, argv: list[str]) -> list[str]:
     return [mpiexec, "-n", str(shards + 1), sys.executable, "-m", "gateway.cli", *argv]
 
 
-def launch(shards: int, argv: list[str]) -> None:
-    """Replace this process with the MPI job (signals sent to this pid reach mpiexec, which
-    forwards SIGINT/SIGTERM to every rank; its exit code is the job's; SIGHUP is ignored).
+def _end_with_parent() -> None:
+    """In the child before exec: SIGTERM when the launcher dies, even of SIGKILL (Linux)."""
+    with contextlib.suppress(OSError, AttributeError):
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+
+
+def launch(shards: int, argv: list[str]) -> int:
+    """Run the MPI job as a child, in a session of its own, and relay the signals this process
+    gets to mpiexec: SIGINT, SIGTERM and SIGUSR1 as they are (mpiexec forwards them to every
+    rank); SIGHUP — of which mpiexec would die — as SIGUSR1 after creating the job's reload flag
+    (gateway/daemon/shard/reload.py). The job's exit code (128 + n if it died of signal n).
     Raises ShardError."""
     command = mpiexec_command(shards, argv)
-    # Hydra's mpiexec dies of SIGHUP, taking the job with it; reloading is not supported
-    # sharded, so the job ignores it (an ignored signal stays ignored across exec).
-    signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    flag_dir = tempfile.mkdtemp(prefix="cornet-")
+    flag = os.path.join(flag_dir, "reload")
     sys.stdout.flush()
     sys.stderr.flush()
-    os.execv(command[0], command)
+    relayed = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGHUP)
+    job: list[subprocess.Popen] = []
+    hups = [0]
+
+    def relay(signum: int, frame: object) -> None:
+        if signum == signal.SIGHUP:
+            hups[0] += 1
+            with open(flag + ".tmp", "w") as f:
+                f.write(str(hups[0]))
+            os.replace(flag + ".tmp", flag)
+            signum = signal.SIGUSR1
+        if job:
+            with contextlib.suppress(ProcessLookupError):
+                job[0].send_signal(signum)
+
+    for sig in relayed:
+        signal.signal(sig, relay)
+    try:
+        job.append(subprocess.Popen(command, env={**os.environ, RELOAD_FLAG_VARIABLE: flag},
+                                    start_new_session=True, preexec_fn=_end_with_parent))
+        code = job[0].wait()
+    finally:
+        for sig in relayed:
+            signal.signal(sig, signal.SIG_DFL)
+        shutil.rmtree(flag_dir, ignore_errors=True)
+    return code if code >= 0 else 128 - code
 
 

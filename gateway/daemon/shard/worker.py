@@ -7,12 +7,14 @@ import contextlib
 import gc
 import logging
 import signal
+from dataclasses import replace
 from pathlib import Path
 
 from gateway.daemon.app import STATUS_PERIOD_S, Daemon, PortInUse, RunConfig
 from gateway.daemon.metrics import SNAPSHOT_PERIOD_S, Exporter
 from gateway.daemon.shard.channel import STOP_TIMEOUT_S, Channel
 from gateway.daemon.shard.outlets import RelayPublisher
+from gateway.daemon.shard.reload import ReloadFlag
 from netsim.kernel import PRIORITY_PHYSICS
 
 log = logging.getLogger(__name__)
@@ -26,6 +28,10 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM):  # the coordinator decides when everyone stops
         loop.add_signal_handler(sig, lambda: channel.send(0, {"interrupt": True}))
     loop.add_signal_handler(signal.SIGHUP, lambda: None)  # the coordinator answers SIGHUP
+    daemon_ref: list[Daemon] = []
+    flag = ReloadFlag()
+    loop.add_signal_handler(signal.SIGUSR1, lambda: None if flag.requested() or
+                            not daemon_ref else daemon_ref[0].log_link_stats())
     try:
         setup = await _setup(channel)
         if setup is None:  # stopped before it started (the coordinator could not start)
@@ -41,6 +47,7 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
         channel.send(0, {"error": f"{exc}; is another cornet or PX4 SITL running?", "code": 2})
         await channel.flush()
         return 2
+    daemon_ref.append(daemon)
     gc.collect()
     gc.freeze()  # as gateway.daemon.app.serve does
     own = {f"v{i + 1}" for i in daemon.sim.indices}
@@ -65,6 +72,8 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
             if "wants_packets" in msg and relay is not None:
                 relay.wants_packets = msg["wants_packets"]
             if "horizon" in msg:
+                if msg.get("reload"):  # SIGHUP: the new network from this sync point on
+                    _apply_reload(daemon, msg["reload"])
                 # Held right after sync point t: every vehicle's position at t, before any
                 # event after it (one process pushes them all at once at t).
                 daemon.sim.set_remote_positions(msg["t"], {
@@ -112,10 +121,28 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 task.result()
         counters, now = daemon.counters(), daemon.sim.now
+        daemon.log_link_stats()  # as one process does at its stop
         daemon.close()
         channel.send(0, {"stopped": counters, "t": now})
         await channel.flush()
     return 0
+
+
+def _apply_reload(daemon: Daemon, change: dict) -> None:
+    """The coordinator's reload (reload.py), at the sync point this worker is held at."""
+    sim = daemon.sim
+    if change["wind"] != daemon.config.wind:
+        sim.set_wind(change["wind"])
+    on_sync, sim.on_sync = sim.on_sync, None  # the sync point is already reported
+    try:
+        sim.reload_network(change["network"])
+    except ValueError as exc:  # the coordinator checked it; a shard must not die of it
+        log.error("reload failed, keeping the running network: %s", exc)
+        return
+    finally:
+        sim.on_sync = on_sync
+    daemon.config = replace(daemon.config, network=change["network"], wind=change["wind"])
+    log.info("reload: the network is now %s from t=%.3f s", change["network"].summary, sim.now)
 
 
 async def _setup(channel: Channel) -> dict | None:
