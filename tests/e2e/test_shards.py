@@ -7,8 +7,10 @@ import asyncio
 import json
 import os
 import re
+import select
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import time
@@ -246,6 +248,47 @@ def test_sighup_reloads_every_shards_network(tmp_path):
         for api in apis:
             api.close()
         systemd.close()
+
+
+def test_systemd_hears_every_notification_from_the_main_pid(tmp_path):
+    """READY, WATCHDOG and STOPPING come from rank 0 through the launcher, the unit's main pid:
+    the shipped NotifyAccess=main holds."""
+    peer = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    name = f"cornet-e2e-shards-{os.getpid()}"
+    peer.bind("\0" + name)
+    peer.setsockopt(socket.SOL_SOCKET, socket.SO_PASSCRED, 1)
+    creds = struct.calcsize("3i")
+    heard: list[tuple[int, str]] = []
+
+    def listen(until: str, timeout_s: float) -> None:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline and not any(until in text for _, text in heard):
+            if select.select([peer], [], [], 0.5)[0]:
+                data, ancdata, _, _ = peer.recvmsg(4096, socket.CMSG_SPACE(creds))
+                pid = next(struct.unpack("3i", d[:creds])[0] for level, kind, d in ancdata
+                           if level == socket.SOL_SOCKET and kind == socket.SCM_CREDENTIALS)
+                heard.append((pid, data.decode()))
+
+    with open(tmp_path / "stderr.log", "w") as err:
+        proc = subprocess.Popen(cornet_command() + ["run", "--vehicles", "2", "--shards", "2",
+                                                    "--port-offset", str(free_port_offset(2))],
+                                env={**os.environ, "NOTIFY_SOCKET": "@" + name,
+                                     "WATCHDOG_USEC": "1000000"},
+                                stdout=subprocess.DEVNULL, stderr=err, stdin=subprocess.DEVNULL)
+    try:
+        listen("READY=1", 90)
+        listen("WATCHDOG=1", 10)
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=30) == 0, (tmp_path / "stderr.log").read_text()[-3000:]
+        listen("STOPPING=1", 5)
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait(timeout=10)
+        peer.close()
+    said = [text.split("\n")[0] for _, text in heard]
+    assert {"READY=1", "WATCHDOG=1", "STOPPING=1"} <= set(said), heard
+    assert {pid for pid, _ in heard} == {proc.pid}, heard
 
 
 def test_shards_refuse_what_they_do_not_support():

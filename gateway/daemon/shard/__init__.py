@@ -85,8 +85,12 @@ logs the stop line, every rank exits 0. A rank that fails unexpectedly aborts th
 Limits: the embedded network only (an ns-3 engine belongs to one process), and no shared
 channel (``network.channel`` queues every vehicle's frames in one place); vehicles of different
 shards never collide (each shard has its own PyBullet world); a reload cannot change the sync
-period; under systemd the notifications come from rank 0, not the main pid (the launcher), so a
-sharded unit needs NotifyAccess=all; the lockstep API (gateway.testing.Sim) is one process.
+period; the lockstep API (gateway.testing.Sim) is one process.
+
+systemd: rank 0 sends READY, RELOADING, STOPPING, STATUS and the watchdog's pings (while
+simulated time advances on every shard) to a socket of the launcher's, which relays them from
+the unit's main pid (NotifyAccess=main, as the shipped unit has). Across hosts, started by
+mpiexec directly, rank 0 notifies $NOTIFY_SOCKET itself.
 """
 
 from __future__ import annotations

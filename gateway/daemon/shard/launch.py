@@ -4,14 +4,18 @@ from __future__ import annotations
 
 import contextlib
 import os
+import select
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
+import uuid
 from pathlib import Path
 
 from gateway.daemon.app import RunConfig
+from gateway.daemon.sdnotify import socket_address
 
 MPI_RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
 MPI_MISSING = "--shards needs MPI (mpi4py and an MPI library): pip install 'cornet[mpi]'"
@@ -112,14 +116,50 @@ def launch(shards: int, argv: list[str]) -> int:
 
     for sig in relayed:
         signal.signal(sig, relay)
+    notify, env = _notify_relay(dict(os.environ))
     try:
-        job.append(subprocess.Popen(command, env={**os.environ, RELOAD_FLAG_VARIABLE: flag},
+        job.append(subprocess.Popen(command, env={**env, RELOAD_FLAG_VARIABLE: flag},
                                     start_new_session=True, preexec_fn=_end_with_parent))
-        code = job[0].wait()
+        code = _wait(job[0], notify, os.environ.get("NOTIFY_SOCKET", ""))
     finally:
         for sig in relayed:
             signal.signal(sig, signal.SIG_DFL)
         shutil.rmtree(flag_dir, ignore_errors=True)
+        if notify is not None:
+            notify.close()
     return code if code >= 0 else 128 - code
+
+
+def _notify_relay(environ: dict[str, str]) -> tuple[socket.socket | None, dict[str, str]]:
+    """Under systemd ($NOTIFY_SOCKET): a socket of the launcher's that the ranks notify instead
+    (rank 0's READY, RELOADING, STOPPING, WATCHDOG), relayed by the launcher — the unit's main
+    pid, so NotifyAccess=main holds; and the job's environment. The watchdog's WATCHDOG_PID is
+    the launcher's: rank 0 feeds it through the relay."""
+    address = socket_address(environ.get("NOTIFY_SOCKET", ""))
+    if address is None:
+        return None, environ
+    relay = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    name = f"cornet-notify-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+    relay.bind("\0" + name)
+    env = {**environ, "NOTIFY_SOCKET": "@" + name}
+    env.pop("WATCHDOG_PID", None)
+    return relay, env
+
+
+def _wait(job: subprocess.Popen, notify: socket.socket | None, notify_socket: str) -> int:
+    """The job's exit code; meanwhile, the ranks' notifications relayed to systemd."""
+    address = socket_address(notify_socket)
+    if notify is None or address is None:
+        return job.wait()
+    with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as out:
+        while True:
+            code = job.poll()
+            while select.select([notify], [], [], 0.0 if code is not None else 0.2)[0]:
+                with contextlib.suppress(OSError):  # the last ones too (STOPPING=1)
+                    out.sendto(notify.recv(4096), address)
+                if code is None:
+                    break
+            if code is not None:
+                return code
 
 
