@@ -36,6 +36,18 @@ def _non_negative(kind: type, what: str):
     return parse
 
 
+def _duration(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--duration must be a number of simulated seconds, "
+                                         f"got {text!r}") from None
+    if not 0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"--duration must be > 0 (simulated seconds), got "
+                                         f"{text!r}")
+    return value
+
+
 def _probability(text: str) -> float:
     try:
         value = float(text)
@@ -109,6 +121,11 @@ def build_parser() -> argparse.ArgumentParser:
                      "rates and network all scale, and client time-outs (COM_*_LOSS_T) are "
                      "scaled as PX4 does with PX4_SIM_SPEED_FACTOR; 'max' runs flat out (for "
                      "runs without clients)")
+    run.add_argument("--duration", type=_duration, default=None, metavar="S",
+                     help="stop once S simulated seconds have run (every event up to S, none "
+                     "after), as on SIGTERM: logs closed, exit 0. With --speed max, a fixed "
+                     "--seed and no clients, two runs write the same logs (default: run until "
+                     "SIGINT/SIGTERM)")
     run.add_argument("--seed", type=_non_negative(int, "--seed"), default=None, metavar="S",
                      help="seed of every random stream (default 0, or the scenario's)")
     run.add_argument("--port-offset", type=_non_negative(int, "--port-offset"), default=None,
@@ -145,7 +162,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--shards", type=_non_negative(int, "--shards"), default=1, metavar="K",
                      help="split the vehicles across K worker processes kept in lockstep: an MPI "
                      "job of K+1 ranks, started with mpiexec (pip install 'cornet[mpi]'; "
-                     "embedded network only; see gateway/daemon/shard.py)")
+                     "embedded network only; see gateway/daemon/shard/)")
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
@@ -369,6 +386,7 @@ def _run_settings(args: argparse.Namespace,
         "sensors": scenario.sensors,
         "faults": scenario.faults,
         "spawn_ned_m": scenario.spawn_ned_m,
+        "commands": scenario.commands,
         "bind": _first(args.bind, d.bind, "127.0.0.1"),
         "port_offset": port_offset,
         "speed": _first(args.speed, d.speed, 1.0),
@@ -379,6 +397,7 @@ def _run_settings(args: argparse.Namespace,
         "params": {**scenario.params, **flag_params},
         "metrics_port": _first(args.metrics_port, d.metrics_port),
         "shards": args.shards,
+        "duration": args.duration,
         "ignore_bad_state": args.ignore_bad_state,
         "web": _first(args.web, d.web),
     }
@@ -444,25 +463,25 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: list[s
     problem = check_shards(config)
     if problem is not None:
         parser.error(problem)
-    if config.shards > 1:
-        from gateway.daemon import shard
-
-        # Outside an MPI job this process becomes `mpiexec ... cornet run <argv>` (same
-        # arguments); inside one it is a rank (gateway/daemon/shard.py).
-        try:
-            if not shard.in_mpi_job():
-                shard.launch(config.shards, argv)
-            return shard.serve_rank(config, log_level)
-        except shard.ShardError as exc:
-            print(f"cornet: {exc}", file=sys.stderr)
-            return exc.code
-        except KeyboardInterrupt:
-            return 0
     reload = None
     if source is not None:
         def reload() -> RunConfig:  # SIGHUP: the file again, under the same flags
             return RunConfig(**_run_settings(args, flag_params)[0])
 
+    if config.shards > 1:
+        from gateway.daemon import shard
+
+        # Outside an MPI job this process becomes `mpiexec ... cornet run <argv>` (same
+        # arguments); inside one it is a rank (gateway/daemon/shard/).
+        try:
+            if not shard.in_mpi_job():
+                return shard.launch(config.shards, argv)
+            return shard.serve_rank(config, log_level, reload)
+        except shard.ShardError as exc:
+            print(f"cornet: {exc}", file=sys.stderr)
+            return exc.code
+        except KeyboardInterrupt:
+            return 0
     import zmq
 
     try:

@@ -89,6 +89,13 @@ class Kernel:
                    priority: int = PRIORITY_DEFAULT) -> Event:
         return self.schedule(self._now + delay_s, callback, *args, priority=priority)
 
+    def peek_key(self) -> tuple[float, int]:
+        """(time, priority) of the next live event, or (+inf, 0) if there is none."""
+        heap = self._heap
+        while heap and heap[0][3].cancelled:
+            heapq.heappop(heap)
+        return (heap[0][0], heap[0][1]) if heap else (math.inf, 0)
+
     def peek(self) -> float:
         """Time of the next live event, or +inf if there is none."""
         heap = self._heap
@@ -120,8 +127,10 @@ class Kernel:
             return True
         return False
 
-    def run(self, until: float | None = None) -> None:
-        """Process events with time <= ``until`` (all of them if None), then set now = until."""
+    def run(self, until: float | None = None, priority: int | None = None) -> None:
+        """Process events with time <= ``until`` (all of them if None), then set now = until.
+        ``priority``: of the events at ``until`` itself, only those of this priority or a lower
+        value (a sharded run's barrier inside an instant: gateway/daemon/shard/)."""
         if until is None:
             while self.step():
                 pass
@@ -140,7 +149,7 @@ class Kernel:
                 t = entry[0]
             else:
                 t = math.inf
-            if t > until:
+            if t > until or (t == until and priority is not None and entry[1] > priority):
                 if until > self.horizon:  # deliveries may be due before until
                     self._cross(until)
                     continue
@@ -184,6 +193,11 @@ class Ticker:
             self._start + self._n * self.period_s, self._fire, priority=self._priority
         )
         self._callback(now)
+
+    @property
+    def next_s(self) -> float:
+        """When it fires next (+inf once cancelled)."""
+        return self._event.time if self._event is not None else math.inf
 
     def cancel(self) -> None:
         if self._event is not None:

@@ -156,6 +156,38 @@ class TraceWriter:
         self.lines += 1
 
 
+class InstantSortedTrace:
+    """A TraceWriter whose lines of one instant (one printed time) come group by group: sorted by
+    ``group(link name)``, in the order they happened within a group. A run split over several
+    simulations (gateway/daemon/shard/), each simulating some groups, then writes exactly the
+    lines one simulation of every group writes once its parts are merged by time. The lines
+    of the present instant are held until time moves on or ``flush`` is called."""
+
+    def __init__(self, out, group: Callable[[str], int]) -> None:
+        self._out = out
+        self._group = group
+        self._time = ""
+        self._held: list[tuple[int, str]] = []
+        self.lines = 0
+
+    def __call__(self, event: str, link: str, time_s: float, size: int, detail: str) -> None:
+        stamp = f"{time_s:.9f}"  # one instant: one printed time (floats that print alike)
+        if stamp != self._time:
+            self.flush()
+            self._time = stamp
+        self._held.append((self._group(link), f"{stamp} {event} {link} {size} {detail}\n"))
+        self.lines += 1
+
+    def flush(self) -> None:
+        """Write the held lines (the file's own flush stays the caller's)."""
+        held = self._held
+        if held:
+            if len(held) > 1:
+                held.sort(key=lambda item: item[0])
+            self._out.write("".join(line for _, line in held))
+            held.clear()
+
+
 def fan_out(tracers: Sequence[Tracer]) -> Tracer | None:
     """One tracer that calls each of ``tracers`` (None for none)."""
     if not tracers:

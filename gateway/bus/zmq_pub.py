@@ -108,7 +108,7 @@ class Publisher:
         self.poll_subscriptions()
         world = sim.vehicle_positions_ned_m()
         out = []
-        for i, v in enumerate(sim.vehicles):
+        for i, v in zip(sim.indices, sim.vehicles):  # a shard's vehicles: their own indices
             status = v.status
             geo = v.global_position
             home = status.home

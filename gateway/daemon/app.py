@@ -23,7 +23,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import fields, replace
 from pathlib import Path
 
 from gateway.bus import zmq_pub
@@ -31,26 +31,23 @@ from gateway.bus.watch import format_link_table
 from gateway.bus.zmq_pub import Publisher
 from gateway.daemon import state
 from gateway.daemon.admission import Admission
+from gateway.daemon.config import RunConfig  # re-exported: the daemon's settings
 from gateway.daemon.endpoint import UdpEndpoint
 from gateway.daemon.metrics import Exporter, MetricsServer
 from gateway.daemon.pacer import Pacer
 from gateway.daemon.progress import ProgressLine
 from gateway.daemon.sdnotify import Notifier, Watchdog
-from gateway.mavlink.signing import SigningConfig, SigningKey, SigningState
+from gateway.mavlink.signing import SigningConfig, SigningState
 from gateway.onboard.files import attach_ftp
 from gateway.onboard.logs import Logs
 from gateway.onboard.shell import attach_shells
-from gateway.sim.flightlog import FlightLog, new_run_dir
+from gateway.sim.flightlog import FlightLog, link_vehicle, new_run_dir, part_name
 from gateway.sim.radios import LinkTag, ports_text, tag_name
-from gateway.sim.scenario import NetworkConfig, ScenarioError
+from gateway.sim.scenario import ScenarioError
 from gateway.sim.simulation import Simulation
 from gateway.web import start as start_web
-from netsim.link import TraceWriter, fan_out
-from vehicles.estimation import SensorConfig
-from vehicles.faults import Fault
+from netsim.link import InstantSortedTrace, fan_out
 from vehicles.params import ParamStore
-from vehicles.types import PX4_SITL_HOME, GeoPoint
-from vehicles.wind import WindConfig
 
 log = logging.getLogger(__name__)
 
@@ -58,32 +55,6 @@ STATUS_PERIOD_S = 10.0
 LIVE_LINE_PERIOD_S = 0.5
 # PX4 rcS multiplies these by PX4_SIM_SPEED_FACTOR (ROMFS init.d-posix/rcS).
 SPEED_SCALED_PARAMS = ("COM_DL_LOSS_T", "COM_RC_LOSS_T", "COM_OF_LOSS_T", "COM_OBC_LOSS_T")
-
-
-@dataclass(frozen=True)
-class RunConfig:
-    vehicles: int = 1
-    network: NetworkConfig = field(default_factory=NetworkConfig)
-    port_offset: int = 0
-    bind: str = "127.0.0.1"
-    remote_host: str = "127.0.0.1"
-    speed: float = 1.0
-    state_dir: Path | None = None  # parameters and plans persist here, per vehicle
-    ignore_bad_state: bool = False  # an unreadable state file: start that vehicle with defaults
-    zmq_pub: str | None = None  # e.g. tcp://127.0.0.1:5556: states, link stats, packet events
-    home: GeoPoint = PX4_SITL_HOME  # the world's home: vehicles spawn around it
-    packet_trace: Path | None = None  # the network's log: one line per datagram event
-    log_dir: Path | None = None  # flight logs: DIR/run-<date>-<time>/
-    params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
-    signing_key: SigningKey | None = None  # MAVLink 2 signing on every link (--signing-key)
-    metrics_port: int | None = None  # Prometheus /metrics on bind:port (--metrics-port)
-    shards: int = 1  # worker processes (gateway/daemon/shard.py); 1: this process simulates all
-    first_vehicle: int = 0  # a shard's first vehicle (instance number)
-    wind: WindConfig = field(default_factory=WindConfig)  # the scenario's [environment]
-    sensors: SensorConfig = field(default_factory=SensorConfig)  # the scenario's [sensors]
-    faults: tuple[Fault, ...] = ()  # the scenario's [[faults]] timeline
-    spawn_ned_m: tuple[tuple[float, float], ...] = ()  # the scenario's vehicles.spawn_ned_m
-    web: tuple[str, int] | None = None  # the live view's (host, port) (--web; gateway/web/)
 
 
 class MetricsPortError(OSError):
@@ -100,16 +71,27 @@ class PortInUse(OSError):
 
 
 class Daemon:
-    def __init__(self, config: RunConfig, notifier: Notifier | None = None) -> None:
+    def __init__(self, config: RunConfig, notifier: Notifier | None = None, *,
+                 boot_unix_s: float | None = None, run_dir: Path | None = None,
+                 part: int | None = None, publisher: Publisher | None = None) -> None:
+        """A shard of a sharded run (gateway/daemon/shard/) is given the run's
+        ``boot_unix_s`` and flight log ``run_dir`` (the coordinator's), and writes the files
+        that hold every vehicle as its ``part`` (gateway/sim/logparts.py merges them), and
+        publishes into the ``publisher`` it is given (the coordinator's socket publishes)."""
         self.config = config
         self.notifier = notifier or Notifier()  # no socket: notifications are no-ops
-        self.publisher = Publisher(config.zmq_pub) if config.zmq_pub or config.web else None
-        self._trace_file = open(config.packet_trace, "w") if config.packet_trace else None
+        self.publisher = publisher if publisher is not None else \
+            Publisher(config.zmq_pub) if config.zmq_pub or config.web else None
+        trace = config.packet_trace
+        self._trace_file = open(trace.with_name(part_name(trace.name, part)), "w") \
+            if trace is not None else None
         self.flightlog = None
-        boot_unix_s = time.time()  # the wall-clock moment of simulated t = 0 (logs, signing)
+        if boot_unix_s is None:
+            boot_unix_s = time.time()  # the wall-clock moment of simulated t = 0 (logs, signing)
         if config.log_dir is not None:
-            run = new_run_dir(config.log_dir, time.strftime("run-%Y%m%d-%H%M%S"))
-            self.flightlog = FlightLog(run, boot_unix_s=boot_unix_s)
+            run = run_dir if run_dir is not None else new_run_dir(
+                config.log_dir, time.strftime("run-%Y%m%d-%H%M%S"))
+            self.flightlog = FlightLog(run, boot_unix_s=boot_unix_s, part=part)
         signing = None
         self._state_writer = state.StateWriter() if config.state_dir is not None else None
         self._signing_keeper: state.SigningKeeper | None = None
@@ -123,14 +105,16 @@ class Daemon:
             log.info("MAVLink 2 signing on (key %s): unsigned and badly signed frames are "
                      "refused", key.fingerprint)
         self._vehicle_states: dict[int, state.VehicleState] = {}
+        self._trace = InstantSortedTrace(self._trace_file, link_vehicle) \
+            if self._trace_file is not None else None
         tracers = [t for t in (self.publisher.packet_event if self.publisher else None,
-                               TraceWriter(self._trace_file) if self._trace_file else None,
+                               self._trace,
                                self.flightlog.tracer if self.flightlog else None) if t]
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
                               tracer=fan_out(tracers), home=config.home, realtime=True,
                               signing=signing, first_index=config.first_vehicle,
                               wind=config.wind, sensors=config.sensors, faults=config.faults,
-                              spawn_ned_m=config.spawn_ned_m)
+                              spawn_ned_m=config.spawn_ned_m, commands=config.commands)
         self._restore_plans()
         if self._signing_keeper is not None:
             self.sim.every(1.0, self._signing_keeper.save)
@@ -149,7 +133,7 @@ class Daemon:
             sim.every(zmq_pub.STATE_PERIOD_S, lambda now: pub.vehicle_states(now, sim))
             sim.every(zmq_pub.LINKS_PERIOD_S, lambda now: pub.link_stats(now, sim))
             sim.fault_observers.append(pub.fault)
-        self.pacer = Pacer(self.sim.kernel, speed=config.speed)
+        self.pacer = Pacer(self.sim.kernel, speed=config.speed, end_s=config.duration)
         self.endpoints: dict[tuple[int, LinkTag], UdpEndpoint] = {}
         self._waiting: select.epoll | None = None  # every endpoint's socket, once open
         self.sim.on_downlink = self._send
@@ -199,7 +183,7 @@ class Daemon:
             self.sim.inject(index, kind, data, addr)
             # What the network delivers at once (an ideal link) is handled now, as PX4 answers
             # at once: a reply does not wait for the pacer's next wake-up.
-            self.sim.kernel.run(until=self.sim.now)
+            self.pacer.run_due()
 
         return on_datagram
 
@@ -236,7 +220,8 @@ class Daemon:
                 waiting.register(endpoint.sock.fileno(), select.EPOLLIN)
         # Simulated time starts now that the ports are bound; the vehicle talks first (as PX4
         # SITL does): the first telemetry goes out as soon as the pacer runs.
-        self.pacer = Pacer(self.sim.kernel, speed=cfg.speed, input_pending=self._input_pending)
+        self.pacer = Pacer(self.sim.kernel, speed=cfg.speed, input_pending=self._input_pending,
+                           end_s=cfg.duration)
 
     def _input_pending(self) -> bool:
         waiting = self._waiting
@@ -253,7 +238,8 @@ class Daemon:
         self.sim.close()
         if self.publisher is not None:
             self.publisher.close()
-        if self._trace_file is not None:
+        if self._trace is not None and self._trace_file is not None:
+            self._trace.flush()
             self._trace_file.close()
         if self.flightlog is not None:
             self.flightlog.close()

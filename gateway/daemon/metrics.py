@@ -22,7 +22,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from socketserver import ThreadingMixIn
-from typing import Any
+from typing import Any, Protocol
 from wsgiref.simple_server import WSGIRequestHandler, WSGIServer, make_server
 
 from prometheus_client import CollectorRegistry, make_wsgi_app
@@ -179,6 +179,12 @@ class Exporter:
         return list(f.by_name.values())
 
 
+class Snapshots(Protocol):
+    """What a MetricsServer serves: ``Exporter``, or a sharded run's (gateway/daemon/shard/)."""
+
+    def snapshot(self) -> list[Metric]: ...
+
+
 class _Snapshot(Collector):
     """What a scrape returns: the latest snapshot, swapped in whole (no lock needed)."""
 
@@ -204,7 +210,7 @@ class MetricsServer:
     """``GET /metrics`` on ``bind:port`` (0: any free port) from a snapshot refreshed on the
     event loop; prometheus_client's exposition, served by a thread per request."""
 
-    def __init__(self, exporter: Exporter, bind: str = "127.0.0.1", port: int = 9464) -> None:
+    def __init__(self, exporter: Snapshots, bind: str = "127.0.0.1", port: int = 9464) -> None:
         self.exporter = exporter
         self.bind = bind
         self.port = port

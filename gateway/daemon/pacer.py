@@ -31,12 +31,17 @@ YIELD_EVERY_S = 0.002
 FLAT_OUT_CHUNK_S = 0.05  # speed "max": simulated time run between two looks at the sockets
 
 
+ALL_PRIORITIES = 1 << 30  # a horizon that takes every event of its instant
+
+
 class Pacer:
     def __init__(self, kernel: Kernel, speed: float = 1.0,
                  clock: Callable[[], float] = time.monotonic,
-                 input_pending: Callable[[], bool] | None = None) -> None:
+                 input_pending: Callable[[], bool] | None = None,
+                 end_s: float | None = None) -> None:
         """``input_pending()``: whether datagrams are waiting on the shell's sockets (None:
-        the pacer cannot tell, and yields every POLL_EVERY_S)."""
+        the pacer cannot tell, and yields every POLL_EVERY_S). ``end_s``: ``run`` returns once
+        every event up to this simulated time has run (``cornet run --duration``)."""
         if not speed > 0:
             raise ValueError("speed must be positive")
         self.kernel = kernel
@@ -50,8 +55,11 @@ class Pacer:
         self._rtf_wall0 = self._wall0
         self._rtf_sim0 = self._sim0
         # Sharded runs: simulated time never passes the horizon the coordinator granted
-        # (gateway/daemon/shard.py); one process alone has none.
-        self.horizon = math.inf
+        # (gateway/daemon/shard/); one process alone has none. Of the events at the horizon
+        # itself, only those of priority <= horizon_priority run (a barrier inside an instant).
+        self.end_s = end_s
+        self.horizon = math.inf if end_s is None else end_s
+        self.horizon_priority = ALL_PRIORITIES
         self._horizon_moved: asyncio.Event | None = None
 
     def reanchor(self) -> None:
@@ -60,8 +68,13 @@ class Pacer:
         self._wall0 = self._rtf_wall0 = self._clock()
         self._sim0 = self._rtf_sim0 = self.kernel.now
 
-    def set_horizon(self, horizon_s: float) -> None:
+    def set_horizon(self, horizon_s: float, priority: int | None = None) -> None:
+        """Run no event later than ``horizon_s``, and of the events at ``horizon_s`` only those
+        of ``priority`` or a lower value (None: all of them)."""
+        if self.end_s is not None and horizon_s >= self.end_s:
+            horizon_s, priority = self.end_s, None
         self.horizon = horizon_s
+        self.horizon_priority = ALL_PRIORITIES if priority is None else priority
         if self._horizon_moved is not None:
             self._horizon_moved.set()
 
@@ -90,11 +103,33 @@ class Pacer:
     def flat_out(self) -> bool:
         return math.isinf(self.speed)
 
+    def _bound(self, until: float) -> int | None:
+        """The priority bound of ``kernel.run(until=until)`` under the horizon."""
+        return self.horizon_priority if until >= self.horizon else None
+
+    def _beyond(self, until: float) -> bool:
+        """Whether the next event lies beyond ``until`` (and the horizon's barrier)."""
+        t, priority = self.kernel.peek_key()
+        return t > until or (t == until and until >= self.horizon
+                             and priority > self.horizon_priority)
+
+    @property
+    def finished(self) -> bool:
+        """Every event up to ``end_s`` has run."""
+        return (self.end_s is not None and self.kernel.now >= self.end_s
+                and self.kernel.peek() > self.end_s)
+
+    def run_due(self) -> None:
+        """Run what is due at the present simulated time (within the horizon's barrier)."""
+        now = self.kernel.now
+        if not self._beyond(now):
+            self.kernel.run(until=now, priority=self._bound(now))
+
     def sync(self) -> None:
         """Bring the kernel to the simulated time of the present wall-clock moment."""
         target = self._sync_target()
         if target is not None:
-            self.kernel.run(until=target)
+            self.kernel.run(until=target, priority=self._bound(target))
 
     def _sync_target(self) -> float | None:
         """The simulated time of the present wall-clock moment (after slip and horizon rules),
@@ -103,8 +138,8 @@ class Pacer:
             return None  # no wall-clock target: time advances in run()
         target = self._target(self._clock())
         now = self.kernel.now
-        if target <= now:
-            return None
+        if target <= now:  # events of the present instant a horizon held may run now
+            return None if self._beyond(now) else now
         lag = (target - now) / self.speed
         if lag > MAX_LAG_S:
             # Fell behind (CPU overload, a stalled event loop): re-anchor so we stay MAX_LAG_S
@@ -129,9 +164,9 @@ class Pacer:
         t = clock()
         check_at, slice_end = t + POLL_EVERY_S, t + YIELD_EVERY_S
         while True:
-            if kernel.peek() > target:
+            if self._beyond(target):
                 if target > kernel.now:
-                    kernel.run(until=target)
+                    kernel.run(until=target, priority=self._bound(target))
                 return
             kernel.step()
             t = clock()
@@ -172,10 +207,12 @@ class Pacer:
         if self.flat_out:
             while True:
                 until = min(self.kernel.now + FLAT_OUT_CHUNK_S, self.horizon)
-                if until > self.kernel.now:
-                    self.kernel.run(until=until)
+                if until > self.kernel.now or not self._beyond(until):
+                    self.kernel.run(until=until, priority=self._bound(until))
                 if on_loop is not None:
                     on_loop()
+                if self.finished:
+                    return
                 if self.kernel.now >= self.horizon:
                     await self._wait_horizon(MAX_SLEEP_S)
                 else:
@@ -186,8 +223,10 @@ class Pacer:
                 await self._run_sliced(target)
             if on_loop is not None:
                 on_loop()
+            if self.finished:
+                return
             nxt = self.kernel.peek()
-            if nxt > self.horizon:  # held by the coordinator: wake when it moves the horizon
+            if self._beyond(self.horizon):  # held: wake when the coordinator moves the horizon
                 await self._wait_horizon(MAX_SLEEP_S)
                 continue
             if math.isinf(nxt):

@@ -7,7 +7,11 @@ One directory per run (``new_run_dir`` names one under a base directory):
     v<i>-api.tlog     format: 8-byte big-endian µs Unix timestamp + the raw frame, one per frame)
     v<i>-<radio>.tlog the same for each extra radio's link (gateway/sim/radios.py)
     state.csv         every vehicle at a fixed simulated rate (STATE_COLUMNS)
-    packets.trace     the network's log (netsim.link.TraceWriter: time event link size detail)
+    packets.trace     the network's log (time event link size detail; one instant's lines vehicle by vehicle)
+
+A shard of a sharded daemon (gateway/daemon/shard/) writes its own vehicles' tlogs and its
+part of the rest as ``meta.json.shard<k>``, ``state.csv.shard<k>``, ``packets.trace.shard<k>``
+(``part=k``); ``merge_parts`` makes them the files one process writes, once every shard is done.
 
 How it is wired (the tracer must exist before the Simulation, which takes it at construction):
 
@@ -19,7 +23,8 @@ How it is wired (the tracer must exist before the Simulation, which takes it at 
     flog.close()                                           # on stop (flushes)
 
 Rules and invariants:
-- Timestamps are ``boot_unix_s + simulated time``: no wall clock is read here, so a lockstep run
+- Timestamps are ``boot_unix_s + simulated time`` (in whole µs: the epoch's, plus the simulated
+  time's): no wall clock is read here, so a lockstep run
   with a fixed epoch writes byte-identical files (the daemon passes its wall-clock start).
 - The tlog records what the client sees: uplink frames when the client sends them (before the
   simulated network), downlink frames when the network delivers them. A datagram may hold several
@@ -43,7 +48,7 @@ from typing import TYPE_CHECKING, Any, BinaryIO
 
 from gateway.sim.files import write_atomic
 from gateway.sim.radios import LinkTag, tag_name
-from netsim.link import TraceWriter
+from netsim.link import InstantSortedTrace
 
 if TYPE_CHECKING:
     from gateway.sim.simulation import Simulation
@@ -72,6 +77,19 @@ STATE_COLUMNS = (
     "sp_n_m", "sp_e_m", "sp_d_m",  # the position setpoint (trajectory carrot), empty if idle
     "mission_seq", "mission_state",
 )
+
+
+def part_name(name: str, part: int | None) -> str:
+    """A shard's part of a file that holds every vehicle (merged by ``merge_parts``)."""
+    return name if part is None else f"{name}.shard{part}"
+
+
+def link_vehicle(link: str) -> int:
+    """The vehicle number a link's name starts with (``v12/gcs/up``: 12), 0 if none. The packet
+    trace's lines of one instant come vehicle by vehicle (``InstantSortedTrace``), so that a
+    sharded run's merged trace is the one one process writes (gateway/sim/logparts.py)."""
+    head = link.split("/", 1)[0]
+    return int(head[1:]) if head[:1] == "v" and head[1:].isdigit() else 0
 
 
 def tlog_name(index: int, kind: LinkTag) -> str:
@@ -151,14 +169,18 @@ def _f(x: float, digits: int = 4) -> str:
 class FlightLog:
     def __init__(self, log_dir: str | Path, *, boot_unix_s: float = 0.0,
                  state_period_s: float = STATE_PERIOD_S,
-                 flush_period_s: float = FLUSH_PERIOD_S) -> None:
+                 flush_period_s: float = FLUSH_PERIOD_S, part: int | None = None) -> None:
         self.dir = Path(log_dir)
+        self.part = part
         self.dir.mkdir(parents=True, exist_ok=True)
         self.boot_unix_s = boot_unix_s
+        # A record's stamp is this plus the simulated time in µs: two runs of one flight differ
+        # in their tlogs' stamps by their epochs' difference only.
+        self._boot_us = int(round(boot_unix_s * 1e6))
         self.state_period_s = state_period_s
         self.flush_period_s = flush_period_s
-        self._trace_file = open(self.dir / TRACE_FILE, "w", encoding="ascii", newline="\n")
-        self.tracer = TraceWriter(self._trace_file)
+        self._trace_file = open(self.dir / part_name(TRACE_FILE, part), "w", encoding="ascii", newline="\n")
+        self.tracer = InstantSortedTrace(self._trace_file, link_vehicle)
         self._tlogs: dict[tuple[int, LinkTag], BinaryIO] = {}
         self._state_file: io.TextIOWrapper | None = None
         self._state_csv: Any = None  # a csv.writer (the type csv does not export)
@@ -172,7 +194,8 @@ class FlightLog:
         """Write meta.json, start the state log and the periodic flush on ``sim``'s clock."""
         self._sim = sim
         self._write_meta(sim, extra_meta or {})
-        self._state_file = open(self.dir / STATE_FILE, "w", encoding="ascii", newline="")
+        self._state_file = open(self.dir / part_name(STATE_FILE, self.part), "w",
+                                encoding="ascii", newline="")
         self._state_csv = csv.writer(self._state_file, lineterminator="\n")
         self._state_csv.writerow(STATE_COLUMNS)
         for i, kind in sim.links:
@@ -183,7 +206,7 @@ class FlightLog:
     def _write_meta(self, sim: Simulation, extra: dict) -> None:
         home = getattr(sim.world, "home", None)
         vehicles = []
-        for i, v in enumerate(sim.vehicles):
+        for i, v in zip(sim.indices, sim.vehicles):
             n0, e0 = sim.world.spawn_offset_ned_m(v.index)
             vehicles.append({"index": i, "sysid": int(v.params["MAV_SYS_ID"]),
                              "origin": [v.origin.lat_deg, v.origin.lon_deg, v.origin.alt_amsl_m],
@@ -196,7 +219,8 @@ class FlightLog:
                 "vehicles": vehicles,
                 "faults": [{"at_s": f.at_s, "fault": f.describe()}
                            for f in getattr(sim, "faults", ())], **extra}
-        write_atomic(self.dir / META_FILE, json.dumps(meta, indent=1, sort_keys=True) + "\n")
+        write_atomic(self.dir / part_name(META_FILE, self.part),
+                     json.dumps(meta, indent=1, sort_keys=True) + "\n")
 
     def _tlog(self, index: int, kind: LinkTag) -> BinaryIO:
         f = self._tlogs.get((index, kind))
@@ -212,7 +236,7 @@ class FlightLog:
         if self.closed:
             return
         f = self._tlog(index, kind)
-        stamp = _TLOG_STAMP.pack(int(round((self.boot_unix_s + t) * 1e6)))
+        stamp = _TLOG_STAMP.pack(self._boot_us + int(round(t * 1e6)))
         frames = split_frames(datagram)
         for frame in frames:
             f.write(stamp)
@@ -225,7 +249,7 @@ class FlightLog:
         if self.closed:
             return
         f = self._tlog(index, kind)
-        f.write(_TLOG_STAMP.pack(int(round((self.boot_unix_s + t) * 1e6))))
+        f.write(_TLOG_STAMP.pack(self._boot_us + int(round(t * 1e6))))
         f.write(frame)
         self.frames[direction] += 1
 
@@ -234,7 +258,7 @@ class FlightLog:
         if sim is None or w is None:
             return
         world = sim.vehicle_positions_ned_m()
-        for i, v in enumerate(sim.vehicles):
+        for i, v in zip(sim.indices, sim.vehicles):
             st, status = v.state, v.status
             p, vel = st.position_ned_m, st.velocity_ned_mps
             roll, pitch, yaw = st.euler_rad()
@@ -254,6 +278,7 @@ class FlightLog:
     def flush(self) -> None:
         if self.closed:
             return
+        self.tracer.flush()
         self._trace_file.flush()
         for f in self._tlogs.values():
             f.flush()

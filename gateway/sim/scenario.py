@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gateway.sim.command_timeline import Command, parse_commands
 from gateway.sim.fault_timeline import parse_faults
 from gateway.sim.radios import ExtraRadio, check_radio_ports, radio_ports, split_entries
 from gateway.sim.values import ScenarioError, listen_address, spawn_points
@@ -153,6 +154,7 @@ class Scenario:
     sensors: SensorConfig = field(default_factory=SensorConfig)  # [sensors]
     faults: tuple[Fault, ...] = ()  # [[faults]], in time order
     spawn_ned_m: tuple[tuple[float, float], ...] = ()  # vehicles.spawn_ned_m, by instance
+    commands: tuple[Command, ...] = ()  # [[commands]], in time order
 
 
 def bind_address(value: Any, path: str) -> str:
@@ -231,7 +233,7 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     """``base_dir``: where relative paths of ``[daemon]`` point from (``load``: the file's
     directory); None keeps them relative to the working directory."""
     _unknown(doc, ("vehicles", "network", "logging", "daemon", "environment", "sensors",
-                   "faults"), "")
+                   "faults", "commands"), "")
     veh = _table(doc, "vehicles", "vehicles")
     _unknown(veh, ("count", "home", "airframe", "params", "spawn_ned_m"), "vehicles")
     count = int(_number(veh.get("count", 1), "vehicles.count", integer=True, minimum=1))
@@ -324,7 +326,7 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
             raise ScenarioError(str(exc)) from None
         network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3), radios)
     return Scenario(source, count, home, airframe, params, network, level, daemon, wind, sensors,
-                    faults, spawn)
+                    faults, spawn, parse_commands(doc.get("commands", []), count))
 
 
 def _sensors(table: dict) -> SensorConfig:
@@ -427,6 +429,8 @@ def describe(s: Scenario) -> str:
                      f"{w.gust_mps:g} m/s over {w.gust_time_s:g} s")
     for f in s.faults:
         lines.append(f"  fault at {f.at_s:g} s: {f.describe()}")
+    for c in s.commands:
+        lines.append(f"  command at {c.at_s:g} s: {c.describe()}")
     if s.sensors != SensorConfig():
         lines.append(f"  sensors: noise × {s.sensors.noise:g}")
     d = s.daemon

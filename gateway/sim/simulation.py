@@ -30,6 +30,7 @@ from gateway.mavlink.mission import UploadLock
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import SigningConfig
 from gateway.mavlink.snapshot import SampleCache
+from gateway.sim.command_timeline import Command
 from gateway.sim.radios import ExtraRadio, LinkTag, Ports, link_ports, px4_ports, tag_name
 from gateway.sim.scenario import NetworkConfig
 from netsim.backend import EmbeddedBackend, NetworkBackend
@@ -172,7 +173,7 @@ class Simulation:
                  wind: WindConfig | None = None,
                  sensors: SensorConfig = PX4_SENSORS, faults: Sequence[Fault] = (),
                  spawn_ned_m: Sequence[tuple[float, float]] = (),
-                 extra_radios: bool = True) -> None:
+                 extra_radios: bool = True, commands: Sequence[Command] = ()) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence.
         ``link_kinds``: the MAVLink links each vehicle has (the daemon: both, as PX4 SITL; an
@@ -181,7 +182,8 @@ class Simulation:
         first_index … first_index + vehicles − 1; ports, sysids and spawn points follow it).
         ``spawn_ned_m``: the scenario's spawn points, by instance number (World).
         ``extra_radios``: build a link per extra radio of the network (the daemon); False
-        leaves them out (a lockstep run whose clients use only ``link_kinds``)."""
+        leaves them out (a lockstep run whose clients use only ``link_kinds``). ``commands``:
+        the scenario's command timeline (gateway/sim/command_timeline.py), each at its time."""
         if vehicles < 1:
             raise ValueError("need at least one vehicle")
         if not link_kinds:
@@ -241,6 +243,10 @@ class Simulation:
             k = fault.vehicle - 1 - first_index
             if fault.on_network or 0 <= k < len(self.vehicles):
                 self.kernel.schedule(fault.at_s, self._fault, k, fault, priority=PRIORITY_PHYSICS)
+        for command in commands:
+            k = command.vehicle - 1 - first_index
+            if 0 <= k < len(self.vehicles):
+                self.kernel.schedule(command.at_s, self._command, k, command)
         # CORNET: the physics clock is the reference; mobility reaches the network once per
         # sync period (scheduled after the physics step of the same instant).
         self._spawn_ned = [self.world.spawn_offset_ned_m(i) for i in self.indices]
@@ -259,6 +265,10 @@ class Simulation:
         log.info("fault at t=%.3f s: %s", self.kernel.now, fault.describe())
         for observer in self.fault_observers:
             observer(self.kernel.now, fault)
+
+    def _command(self, k: int, command: Command) -> None:
+        result = command.apply(self.vehicles[k], self.kernel.now)
+        log.info("command at t=%.3f s: %s: %s", self.kernel.now, command.describe(), result.name)
 
     def _air(self, wind: WindConfig | None) -> Wind | None:
         """The air: gusts drawn from the stream "wind" of the scenario's seed."""
@@ -343,16 +353,32 @@ class Simulation:
         self._observers.append(ticker)
         return ticker
 
-    def _push_mobility(self, now_s: float) -> None:
-        ours = self.vehicle_positions_ned_m()
-        positions = {**self.remote_positions, **ours} if self.remote_positions else ours
+    def _with_radios(self, positions: dict[str, tuple[float, float, float]]) -> dict:
         if self.radios:  # a vehicle's extra radios (nodes v1.lte …) are where it is
             names = [r.name for r in self.radios]
             positions = {**positions, **{f"{node}.{name}": p for node, p in positions.items()
                                          for name in names}}
-        self.backend.update_mobility(now_s, positions)
+        return positions
+
+    def _push_mobility(self, now_s: float) -> None:
+        ours = self.vehicle_positions_ned_m()
+        positions = {**self.remote_positions, **ours} if self.remote_positions else ours
+        self.backend.update_mobility(now_s, self._with_radios(positions))
         if self.on_sync is not None:
             self.on_sync(now_s, ours)
+
+    @property
+    def next_sync_s(self) -> float:
+        """The next sync point (when the mobility update runs next)."""
+        return self._mobility.next_s
+
+    def set_remote_positions(self, sync_s: float,
+                             positions: dict[str, tuple[float, float, float]]) -> None:
+        """The other shards' vehicles at sync point ``sync_s``, which this shard has just
+        passed (nothing but physics since): the network sees them from now on, as one process
+        that pushed every vehicle at ``sync_s`` does."""
+        self.remote_positions = positions
+        self.backend.update_mobility(sync_s, self._with_radios(positions))
 
     def inject(self, index: int, tag: LinkTag, datagram: bytes, peer: object = None) -> None:
         """A datagram from client ``peer`` arrives at the vehicle's port now: into the uplink."""

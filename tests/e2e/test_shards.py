@@ -1,20 +1,42 @@
 """`cornet run --shards 2`: the vehicles split across two worker ranks of an MPI job in lockstep;
 MAVSDK flies one vehicle of each shard at once; the daemon stops cleanly; a worker's start error
-and a missing MPI are exit-2 errors."""
+and a missing MPI are exit-2 errors. A scripted flight on two ranks that talk over TCP (as on
+two hosts) writes the same logs as one process; --state-dir keeps each shard's vehicles."""
 
 import asyncio
+import json
+import os
 import re
+import select
 import signal
 import socket
+import struct
 import subprocess
 import sys
+import time
+import urllib.request
+from pathlib import Path
 
 import pytest
+import zmq
+from pymavlink import mavutil
 
-from gateway.ci.launcher import VEHICLE_GCS_PORT, cornet_command, free_port_offset
+from gateway.ci.launcher import (
+    VEHICLE_GCS_PORT,
+    cornet_command,
+    free_port_offset,
+    free_tcp_port,
+)
+from gateway.sim.flightlog import read_tlog
 from tests.e2e.flows import takeoff_hover_land
+from tests.e2e.gcs import gcs, heartbeats_by_sysid
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
+
+M = mavutil.mavlink
+ROOT = Path(__file__).resolve().parents[2]
+# MPICH: no shared memory between the ranks, TCP instead, as if each were on its own host.
+NETWORK_PATH = {"MPIR_CVAR_NOLOCAL": "1", "UCX_TLS": "tcp"}
 
 
 @pytest.mark.asyncio
@@ -33,11 +55,247 @@ async def test_two_shards_fly_a_vehicle_each_and_stop_cleanly(daemon_factory):
     assert m and float(m.group(1)) > 10.0, stop_line
 
 
+def _scripted_run(out: Path, *extra: str, env: dict[str, str] | None = None) -> Path:
+    """scenarios/adhoc-fleet.toml for 30 simulated seconds, flat out, logged to ``out``: the
+    run directory."""
+    out.mkdir()
+    r = subprocess.run(cornet_command() + [
+        "run", "--scenario", str(ROOT / "scenarios" / "adhoc-fleet.toml"), "--seed", "19",
+        "--speed", "max", "--duration", "30", "--log-dir", str(out / "logs"),
+        "--packet-trace", str(out / "trace.txt"), "--port-offset", str(free_port_offset(4)),
+        *extra], capture_output=True, text=True, timeout=240, stdin=subprocess.DEVNULL,
+        env={**os.environ, **(env or {})})
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "stopping after" in r.stderr and "sim_t=30.0s" in r.stderr, r.stderr[-3000:]
+    (run,) = (out / "logs").iterdir()
+    return run
+
+
+def _tlog_records(run: Path, name: str) -> list[tuple[int, bytes]]:
+    """(µs since the run's epoch, frame) of every record: the stamps are the run's wall-clock
+    epoch (meta.json boot_unix_s) plus the simulated time."""
+    boot_us = round(json.loads((run / "meta.json").read_text())["boot_unix_s"] * 1e6)
+    return [(round(t * 1e6) - boot_us, frame) for t, frame in read_tlog(run / name)]
+
+
+def test_two_ranks_over_tcp_write_the_logs_of_one_process(tmp_path):
+    one = _scripted_run(tmp_path / "one")
+    two = _scripted_run(tmp_path / "two", "--shards", "2", env=NETWORK_PATH)
+    files = sorted(p.name for p in one.iterdir() if p.is_file())
+    assert files == sorted(p.name for p in two.iterdir() if p.is_file()) == [
+        "meta.json", "packets.trace", "state.csv", *(f"v{i}-{k}.tlog" for i in range(1, 5)
+                                                     for k in ("api", "gcs"))]
+    # Byte for byte: the vehicles' states, and every datagram's fate on the distance-dependent
+    # radios (both runs' merged in one file, vehicles 1-2 from one rank, 3-4 from the other).
+    for name in ("state.csv", "packets.trace"):
+        assert (one / name).read_bytes() == (two / name).read_bytes(), name
+    assert (tmp_path / "one" / "trace.txt").read_bytes() == \
+        (tmp_path / "two" / "trace.txt").read_bytes() == (one / "packets.trace").read_bytes()
+    # The wall clock's only marks: the epoch in meta.json, the tlogs' stamps (epoch + simulated
+    # time) and the onboard logs' names (vehicle-N/log/<date>/<time>.ulg).
+    metas = [json.loads((run / "meta.json").read_text()) for run in (one, two)]
+    for meta in metas:
+        del meta["boot_unix_s"]
+    assert metas[0] == metas[1] and [v["sysid"] for v in metas[0]["vehicles"]] == [1, 2, 3, 4]
+    for name in files:
+        if name.endswith(".tlog"):
+            records = _tlog_records(one, name)
+            assert len(records) > 5000 and records == _tlog_records(two, name), name
+    for sysid in range(1, 5):
+        (a,), (b,) = (list((run / f"vehicle-{sysid}").rglob("*.ulg")) for run in (one, two))
+        assert a.read_bytes() == b.read_bytes()
+    # It flew: every vehicle 70-130 m out, and the radios lost datagrams on the way.
+    last = (one / "state.csv").read_text().splitlines()[-4:]
+    assert [ln.split(",")[1] for ln in last] == ["1", "2", "3", "4"]
+    assert all(60.0 < abs(float(ln.split(",")[2])) + abs(float(ln.split(",")[3])) for ln in last)
+    assert " drop " in (one / "packets.trace").read_text()
+    plot = subprocess.run(cornet_command() + ["plot", str(two.parent)], capture_output=True,
+                          text=True, timeout=300)
+    assert plot.returncode == 0, plot.stderr
+    assert (two / "track.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_state_dir_keeps_every_shards_vehicles(daemon_factory, tmp_path):
+    d = daemon_factory("--shards", "2", "--state-dir", str(tmp_path), vehicles=2)
+    conn = gcs(d.gcs_port())
+    try:
+        conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        assert set(heartbeats_by_sysid(conn, {1, 2})) == {1, 2}
+        for sysid, alt in ((1, 4.0), (2, 6.0)):  # vehicle 1 on shard 0, vehicle 2 on shard 1
+            conn.mav.param_set_send(sysid, 1, b"MIS_TAKEOFF_ALT", alt, M.MAV_PARAM_TYPE_REAL32)
+            assert conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=10,
+                                   condition=f"PARAM_VALUE.param_id=='MIS_TAKEOFF_ALT' and "
+                                             f"PARAM_VALUE.param_value=={alt}")
+    finally:
+        conn.close()
+    assert d.stop() == 0, d.log_tail()
+    for sysid, alt in ((1, 4.0), (2, 6.0)):
+        saved = (tmp_path / f"vehicle-{sysid}" / "params.json").read_text()
+        assert '"MIS_TAKEOFF_ALT"' in saved and str(alt) in saved, saved
+
+
+def test_zmq_and_metrics_of_every_shard_come_from_one_daemon(daemon_factory):
+    endpoint, port = f"tcp://127.0.0.1:{free_tcp_port()}", free_tcp_port()
+    daemon_factory("--shards", "2", "--zmq-pub", endpoint, "--metrics-port", str(port),
+                   "--loss", "0.3", "--seed", "2", vehicles=3)
+    sub = zmq.Context.instance().socket(zmq.SUB)
+    sub.setsockopt(zmq.LINGER, 0)
+    sub.setsockopt(zmq.SUBSCRIBE, b"cornet.")
+    sub.connect(endpoint)
+    states, links, packets = set(), set(), set()
+    deadline = time.monotonic() + 20
+    try:  # shard 0 has vehicles 1-2, shard 1 vehicle 3
+        while time.monotonic() < deadline and (len(states) < 3 or len(links) < 3
+                                                or len(packets) < 3):
+            if sub.poll(500):
+                topic, body = sub.recv_multipart()
+                msg = json.loads(body)
+                assert msg["v"] == 1
+                if topic == b"cornet.state":  # one message: every shard's vehicles
+                    assert [v["sysid"] for v in msg["vehicles"]] == [1, 2, 3]
+                    states = {v["sysid"] for v in msg["vehicles"]}
+                elif topic == b"cornet.links":
+                    links = {name.split("/")[0] for name in msg["links"]}
+                elif topic == b"cornet.packet":
+                    packets.add(msg["link"].split("/")[0])
+    finally:
+        sub.close()
+    assert (states, links, packets) == ({1, 2, 3}, {"v1", "v2", "v3"}, {"v1", "v2", "v3"})
+    stats = subprocess.run(cornet_command() + ["stats", "--zmq", endpoint], capture_output=True,
+                           text=True, timeout=60)
+    assert stats.returncode == 0 and "v1/gcs/down" in stats.stdout and \
+        "v3/gcs/down" in stats.stdout, stats.stdout + stats.stderr
+    with urllib.request.urlopen(f"http://127.0.0.1:{port}/metrics", timeout=5) as r:
+        text = r.read().decode()
+    assert "cornet_vehicles 3.0" in text
+    for sysid in (1, 2, 3):
+        assert f'cornet_mavlink_tx_frames_total{{link="gcs",vehicle="{sysid}"}}' in text
+
+
+def test_a_metrics_port_in_use_stops_a_sharded_run_with_exit_2():
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        r = subprocess.run(cornet_command() + [
+            "run", "--vehicles", "2", "--shards", "2", "--port-offset", str(free_port_offset(2)),
+            "--metrics-port", str(taken.getsockname()[1])],
+            capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    assert r.returncode == 2 and "cornet: --metrics-port" in r.stderr, r.stderr
+    assert "cornet ready" not in r.stdout
+
+
+SHARDED_CONFIG = """\
+[vehicles]
+count = 2
+
+[network]
+topology = "direct"
+link = {link}
+
+[daemon]
+port_offset = {offset}
+"""
+
+
+def test_sighup_reloads_every_shards_network(tmp_path):
+    from tests.e2e.test_systemd import ApiClient, SystemdPeer
+
+    offset = free_port_offset(2)
+    config = tmp_path / "cornet.toml"
+    config.write_text(SHARDED_CONFIG.format(link='{model = "ideal"}', offset=offset))
+    # Vehicle 1 on shard 0, vehicle 2 on shard 1 (ApiClient(offset + 1): vehicle 2's API link).
+    apis = [ApiClient(offset), ApiClient(offset + 1)]
+    systemd = SystemdPeer()
+    err = tmp_path / "stderr.log"
+    proc = None
+    try:
+        with open(err, "w") as f:
+            proc = subprocess.Popen(cornet_command() + ["run", "--config", str(config),
+                                                        "--shards", "2"],
+                                    env={**os.environ, "NOTIFY_SOCKET": systemd.name},
+                                    stdout=subprocess.DEVNULL, stderr=f,
+                                    stdin=subprocess.DEVNULL)
+        systemd.wait_for("READY", 60)
+        assert all(min(api.timesync()[0] for _ in range(3)) < 0.1 for api in apis)
+        config.write_text(SHARDED_CONFIG.format(link='{model = "fixed", latency_s = 0.15}',
+                                                offset=offset))
+        proc.send_signal(signal.SIGHUP)  # the launcher's pid: it relays, mpiexec survives
+        systemd.wait_for("RELOADING", timeout_s=5)
+        systemd.wait_for("READY", timeout_s=5)
+        for api in apis:  # 150 ms each way on both shards
+            assert 0.29 < api.timesync()[0] < 1.0
+        config.write_text(SHARDED_CONFIG.format(link='{model = "warp"}', offset=offset))
+        proc.send_signal(signal.SIGHUP)
+        systemd.wait_for("RELOADING", timeout_s=5)
+        systemd.wait_for("READY", timeout_s=5)
+        proc.send_signal(signal.SIGUSR1)  # no flag: each shard logs its links
+        assert proc.poll() is None
+        assert 0.29 < apis[1].timesync()[0] < 1.0
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=10) == 0, err.read_text()[-3000:]
+        log = err.read_text()
+        for shard in (0, 1):
+            assert f"shard {shard} gateway.daemon.shard.worker: reload: the network is now " \
+                   "embedded/fixed" in log, log[-3000:]
+        assert "reload failed" in log and "network.link" in log, log[-3000:]
+        # SIGUSR1 itself: each shard's links once (a relayed SIGHUP is not a SIGUSR1), then at
+        # the stop.
+        assert log.count("link statistics at sim t") == 4, log[-3000:]
+    finally:
+        if proc is not None and proc.poll() is None:
+            proc.terminate()
+            proc.wait(timeout=10)
+        for api in apis:
+            api.close()
+        systemd.close()
+
+
+def test_systemd_hears_every_notification_from_the_main_pid(tmp_path):
+    """READY, WATCHDOG and STOPPING come from rank 0 through the launcher, the unit's main pid:
+    the shipped NotifyAccess=main holds."""
+    peer = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    name = f"cornet-e2e-shards-{os.getpid()}"
+    peer.bind("\0" + name)
+    peer.setsockopt(socket.SOL_SOCKET, socket.SO_PASSCRED, 1)
+    creds = struct.calcsize("3i")
+    heard: list[tuple[int, str]] = []
+
+    def listen(until: str, timeout_s: float) -> None:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline and not any(until in text for _, text in heard):
+            if select.select([peer], [], [], 0.5)[0]:
+                data, ancdata, _, _ = peer.recvmsg(4096, socket.CMSG_SPACE(creds))
+                pid = next(struct.unpack("3i", d[:creds])[0] for level, kind, d in ancdata
+                           if level == socket.SOL_SOCKET and kind == socket.SCM_CREDENTIALS)
+                heard.append((pid, data.decode()))
+
+    with open(tmp_path / "stderr.log", "w") as err:
+        proc = subprocess.Popen(cornet_command() + ["run", "--vehicles", "2", "--shards", "2",
+                                                    "--port-offset", str(free_port_offset(2))],
+                                env={**os.environ, "NOTIFY_SOCKET": "@" + name,
+                                     "WATCHDOG_USEC": "1000000"},
+                                stdout=subprocess.DEVNULL, stderr=err, stdin=subprocess.DEVNULL)
+    try:
+        listen("READY=1", 90)
+        listen("WATCHDOG=1", 10)
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=30) == 0, (tmp_path / "stderr.log").read_text()[-3000:]
+        listen("STOPPING=1", 5)
+    finally:
+        if proc.poll() is None:
+            proc.terminate()
+            proc.wait(timeout=10)
+        peer.close()
+    said = [text.split("\n")[0] for _, text in heard]
+    assert {"READY=1", "WATCHDOG=1", "STOPPING=1"} <= set(said), heard
+    assert {pid for pid, _ in heard} == {proc.pid}, heard
+
+
 def test_shards_refuse_what_they_do_not_support():
-    r = subprocess.run(cornet_command() + ["run", "--vehicles", "2", "--shards", "2",
-                                           "--zmq-pub", "tcp://127.0.0.1:5999"],
+    r = subprocess.run(cornet_command() + ["run", "--shards", "2", "--scenario",
+                                           str(ROOT / "scenarios" / "congested.toml")],
                        capture_output=True, text=True, timeout=60)
-    assert r.returncode == 2 and "--zmq-pub" in r.stderr, r.stderr
+    assert r.returncode == 2 and "network.channel" in r.stderr, r.stderr
 
 
 def test_a_port_in_use_in_one_shard_is_an_error_of_the_whole_run():
@@ -65,7 +323,7 @@ def test_without_mpi4py_sharding_says_how_to_get_it():
 
 def test_sigint_stops_every_rank_with_exit_0(daemon_factory):
     d = daemon_factory("--shards", "2", vehicles=2)
-    d.proc.send_signal(signal.SIGINT)  # the pid is mpiexec's: it forwards SIGINT to the ranks
+    d.proc.send_signal(signal.SIGINT)  # the launcher's pid: relayed to mpiexec, then the ranks
     assert d.proc.wait(timeout=10) == 0, d.log_tail()
     assert d.stop() == 0
     assert any("stopping after" in ln and "shards=2" in ln for ln in d.stderr_lines), d.log_tail()
