@@ -5,65 +5,23 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
-import ipaddress
 import logging
-import math
 import os
 import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-LOG_LEVELS = ("debug", "info", "warning", "error")
-ENV_PARAM_PREFIX = "PX4_PARAM_"
-MAX_SPEED = 1000.0
+from gateway.cli_args import LOG_LEVELS
+from gateway.cli_args import ipv4 as _ipv4
+from gateway.cli_args import list_scenarios as _list_scenarios
+from gateway.cli_args import non_negative as _non_negative
+from gateway.cli_args import parse_params as _parse_params
+from gateway.cli_args import probability as _probability
+from gateway.cli_args import speed as _speed
+from gateway.cli_args import version as _version
+
 SIGNING_CREDENTIAL = "signing.key"  # $CREDENTIALS_DIRECTORY/signing.key: the unit's key
-
-
-def _non_negative(kind: type, what: str):
-    def parse(text: str):
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
-        if not value >= 0:  # also NaN
-            raise argparse.ArgumentTypeError(f"{what} must be >= 0, got {text!r}")
-        return value
-
-    return parse
-
-
-def _probability(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"loss must be a probability, got {text!r}") from None
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"loss must be between 0 and 1 (e.g. 0.2), got {text!r}")
-    return value
-
-
-def _speed(text: str) -> float:
-    if text == "max":
-        return math.inf
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--speed must be a factor like 10, or max; got "
-                                         f"{text!r}") from None
-    if not 0 < value <= MAX_SPEED:
-        raise argparse.ArgumentTypeError(f"--speed must be > 0 and <= {MAX_SPEED:g} (or max), "
-                                         f"got {text!r}")
-    return value
-
-
-def _ipv4(text: str) -> str:
-    try:
-        ipaddress.IPv4Address(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--bind must be an IPv4 address such as 127.0.0.1 or "
-                                         f"0.0.0.0, got {text!r}") from None
-    return text
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -71,6 +29,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="cornet",
         description="MAVLink SITL gateway: simulated PX4 quadrotors behind a simulated network.",
     )
+    parser.add_argument("--version", action="version", version=f"cornet {_version()}",
+                        help="print cornet's version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     run = sub.add_parser(
@@ -83,11 +43,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--config", type=Path, default=None, metavar="FILE",
                      help="the daemon's configuration file (TOML): a scenario file whose [daemon] "
                      "table sets what the flags below set (a flag given wins); SIGHUP re-reads its "
-                     "network. Example: systemd/cornet.toml")
-    run.add_argument("--scenario", type=Path, default=None, metavar="FILE",
+                     "network. Example: the shipped systemd/cornet.toml (`cornet scenarios` says where)")
+    run.add_argument("--scenario", type=Path, default=None, metavar="FILE|NAME",
                      help="a scenario file (TOML: vehicles, network topology and models, sync "
-                     "period, late policy); see scenarios/ and docs/scenarios.md. The same "
-                     "format as --config: give one of them")
+                     "period, late policy), or a shipped scenario's name (`cornet scenarios` "
+                     "lists them); see docs/scenarios.md. The same format as --config: give one "
+                     "of them")
     run.add_argument("--bind", type=_ipv4, default=None, metavar="ADDR",
                      help="the address the vehicles' ports bind to (default 127.0.0.1; 0.0.0.0: "
                      "every interface)")
@@ -146,14 +107,20 @@ def build_parser() -> argparse.ArgumentParser:
                            description="Validate a scenario file or the daemon's configuration "
                            "file (--config). Exit 0 and a summary if it is good; exit 2 and the "
                            "key that is wrong if not.")
-    check.add_argument("scenario", type=Path, metavar="FILE")
+    check.add_argument("scenario", type=Path, metavar="FILE|NAME",
+                       help="the file, or a shipped scenario's name")
+    sub.add_parser("scenarios", help="list the shipped scenarios (name and what it sets up)",
+                   description="List the scenarios shipped with cornet: `--scenario NAME` and "
+                   "`cornet check NAME` take these names. Also says where the shipped files "
+                   "(scenarios, example plans, the systemd unit and its configuration) are.")
     fly = sub.add_parser("fly", help="fly a QGroundControl .plan headless, as fast as possible, "
                          "and judge it (exit 0 pass, 1 fail)",
                          description="Fly a QGroundControl .plan (mission, geofence, rally "
                          "points) on one vehicle in lockstep on the simulated clock, through the "
                          "same MAVLink sessions as the daemon, and judge it: mission finished, "
                          "landed, geofence never breached, optional path deviation limit.")
-    fly.add_argument("plan", type=Path, metavar="PLAN")
+    fly.add_argument("plan", type=Path, metavar="PLAN",
+                     help="a QGroundControl .plan file, or a shipped plan's name (square, breach)")
     fly.add_argument("--scenario", type=Path, default=None, metavar="FILE")
     fly.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,
                      metavar="X")
@@ -166,8 +133,10 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar="S", help="simulated seconds before giving up (default 900)")
     fly.add_argument("--max-deviation", type=_non_negative(float, "--max-deviation"),
                      default=None, metavar="M", help="fail if the path deviates more (metres)")
-    fly.add_argument("--log-dir", type=Path, default=None, metavar="DIR",
-                     help="record the flight (tlogs, state.csv, packet trace) in DIR")
+    fly.add_argument("--log-dir", type=Path, default=Path("logs"), metavar="DIR",
+                     help="record the flight (tlogs, state.csv, packet trace, ULog) in DIR "
+                     "(default logs, replaced by every flight; `cornet plot DIR` draws it)")
+    fly.add_argument("--no-log", action="store_true", help="do not record the flight")
     plot = sub.add_parser("plot", help="draw a recorded run: track vs plan, altitude and speed, "
                           "link latency and loss (PNGs)")
     plot.add_argument("log_dir", type=Path, metavar="LOGDIR")
@@ -184,31 +153,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _parse_params(parser: argparse.ArgumentParser, flags: list[str],
-                  environ: dict[str, str]) -> dict[str, float]:
-    from vehicles.params import ParamStore
-
-    pairs = [(f"--param {flag}", flag) for flag in flags]
-    pairs += [(f"environment {k}", f"{k[len(ENV_PARAM_PREFIX):]}={v}")
-              for k, v in sorted(environ.items()) if k.startswith(ENV_PARAM_PREFIX)]
-    store = ParamStore()
-    out: dict[str, float] = {}
-    for where, text in pairs:
-        name, sep, value_text = text.partition("=")
-        if not sep or not name:
-            parser.error(f"{where}: expected NAME=VALUE, e.g. MIS_TAKEOFF_ALT=5")
-        if name not in store:
-            parser.error(f"{where}: no PX4 parameter named {name!r}")
-        try:
-            value = float(value_text)
-            store.set(name, value)
-        except ValueError:
-            kind = store.info(name).type.name
-            parser.error(f"{where}: {value_text!r} is not a valid {kind} value for {name}")
-        out[name] = value
-    return out
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -217,9 +161,15 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "fly":
         return _fly(_subparser(parser, "fly"), args)
     if args.command == "plot":
-        from gateway.ci import plot
-
+        try:
+            from gateway.ci import plot
+        except ModuleNotFoundError as exc:
+            print(f"cornet plot: needs {exc.name}, which is not installed: pip install "
+                  f"matplotlib", file=sys.stderr)
+            return 2
         return plot.main(args.log_dir, args.plan)
+    if args.command == "scenarios":
+        return _list_scenarios()
     if args.command == "check":
         from gateway.sim.scenario import ScenarioError, describe, load
 
@@ -243,6 +193,7 @@ def main(argv: list[str] | None = None) -> int:
 def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     from gateway.ci import fly
     from gateway.daemon.progress import ProgressLine
+    from gateway.data import plan_path
     from gateway.sim.scenario import NetworkConfig, ScenarioError, load
 
     network = None
@@ -253,16 +204,17 @@ def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
             parser.error(str(exc))
     elif args.latency_ms or args.jitter_ms or args.loss or args.seed:
         network = NetworkConfig.from_flags(args.latency_ms, args.jitter_ms, args.loss, args.seed)
-    if args.log_dir is not None:
-        _writable_dir(parser, args.log_dir, "--log-dir")
+    log_dir = None if args.no_log else args.log_dir
+    if log_dir is not None:
+        _writable_dir(parser, log_dir, "--log-dir")
     logging.basicConfig(level="WARNING", format="%(levelname)s %(name)s: %(message)s")
     kwargs = {"network": network, "scenario": args.scenario,
               "params": _parse_params(parser, args.param, dict(os.environ)),
-              "max_deviation_m": args.max_deviation, "log_dir": args.log_dir,
+              "max_deviation_m": args.max_deviation, "log_dir": log_dir,
               "progress": ProgressLine(sys.stderr)}
     if args.time_limit is not None:
         kwargs["time_limit_s"] = args.time_limit
-    return fly.main(args.plan, **kwargs)
+    return fly.main(plan_path(args.plan), **kwargs)
 
 
 def _writable_dir(parser: argparse.ArgumentParser, path: Path, flag: str) -> None:

@@ -2,7 +2,7 @@
 and the daemon's own settings.
 
 A scenario is a TOML file (docs/scenarios.md shows every key); the daemon's configuration file
-(``cornet run --config``, e.g. systemd/cornet.toml) is the same format:
+(``cornet run --config``, e.g. gateway/data/systemd/cornet.toml) is the same format:
 
     [vehicles]
     count = 3                       # how many
@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gateway.data import scenario_path
 from gateway.sim.fault_timeline import parse_faults
 from gateway.sim.radios import ExtraRadio, check_radio_ports, radio_ports, split_entries
 from gateway.sim.values import ScenarioError, spawn_points
@@ -78,7 +79,7 @@ MIN_SYNC_PERIOD_S = 0.001
 MAX_SYNC_PERIOD_S = 1.0
 MIN_HOME_ALT_M = -500.0  # the Dead Sea shore is -430 m
 MAX_HOME_ALT_M = 9000.0
-MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli.py)
+MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli_args.py)
 MAX_PORT = 65535
 HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it binds (gateway/sim/simulation.py)
 DAEMON_KEYS = ("bind", "port_offset", "speed", "state_dir", "log_dir", "zmq_pub", "packet_trace",
@@ -375,11 +376,15 @@ def _params(table: dict) -> dict[str, float]:
 
 
 def load(path: str | Path) -> Scenario:
-    path = Path(path)
+    """A scenario file, or a shipped scenario by name (``lossy-wifi``; ``cornet scenarios``)."""
+    given, path = path, scenario_path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read ({exc.strerror})") from None
+        hint = ""
+        if not Path(given).parent.parts:
+            hint = "; nor is it a shipped scenario's name (`cornet scenarios` lists them)"
+        raise ScenarioError(f"{path}: cannot read ({exc.strerror}){hint}") from None
     except UnicodeDecodeError as exc:
         raise ScenarioError(f"{path}: not UTF-8 text (byte {exc.start}); TOML files are "
                             "UTF-8") from None

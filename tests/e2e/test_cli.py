@@ -53,7 +53,7 @@ def test_ready_then_sigterm_exits_0_quickly():
 
 
 def test_check_accepts_shipped_scenarios_and_names_bad_keys(tmp_path):
-    ok = subprocess.run(cornet_command() + ["check", "scenarios/lossy-wifi.toml"],
+    ok = subprocess.run(cornet_command() + ["check", "lossy-wifi"],
                         capture_output=True, text=True, timeout=30)
     assert ok.returncode == 0 and "topology star" in ok.stdout, ok.stderr
     bad = tmp_path / "bad.toml"
@@ -64,7 +64,7 @@ def test_check_accepts_shipped_scenarios_and_names_bad_keys(tmp_path):
     out = subprocess.run(cornet_command() + ["run", "--scenario", str(bad)], capture_output=True,
                          text=True, timeout=30)
     assert out.returncode == 2 and "network.radio" in out.stderr
-    out = subprocess.run(cornet_command() + ["run", "--scenario", "scenarios/ideal.toml",
+    out = subprocess.run(cornet_command() + ["run", "--scenario", "ideal",
                                              "--loss", "0.1"], capture_output=True, text=True,
                          timeout=30)
     assert out.returncode == 2 and "--loss" in out.stderr

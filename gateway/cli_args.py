@@ -1,0 +1,106 @@
+"""``cornet``'s argument types and the small commands and helpers of gateway/cli.py: value
+parsers that say what to fix, ``--param`` and PX4_PARAM_* parsing, ``--version``, ``cornet
+scenarios``."""
+
+from __future__ import annotations
+
+import argparse
+import ipaddress
+import math
+
+LOG_LEVELS = ("debug", "info", "warning", "error")
+ENV_PARAM_PREFIX = "PX4_PARAM_"
+MAX_SPEED = 1000.0
+
+
+def non_negative(kind: type, what: str):
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
+        if not value >= 0:  # also NaN
+            raise argparse.ArgumentTypeError(f"{what} must be >= 0, got {text!r}")
+        return value
+
+    return parse
+
+
+def probability(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"loss must be a probability, got {text!r}") from None
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"loss must be between 0 and 1 (e.g. 0.2), got {text!r}")
+    return value
+
+
+def speed(text: str) -> float:
+    if text == "max":
+        return math.inf
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--speed must be a factor like 10, or max; got "
+                                         f"{text!r}") from None
+    if not 0 < value <= MAX_SPEED:
+        raise argparse.ArgumentTypeError(f"--speed must be > 0 and <= {MAX_SPEED:g} (or max), "
+                                         f"got {text!r}")
+    return value
+
+
+def ipv4(text: str) -> str:
+    try:
+        ipaddress.IPv4Address(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--bind must be an IPv4 address such as 127.0.0.1 or "
+                                         f"0.0.0.0, got {text!r}") from None
+    return text
+
+
+def parse_params(parser: argparse.ArgumentParser, flags: list[str],
+                  environ: dict[str, str]) -> dict[str, float]:
+    from vehicles.params import ParamStore
+
+    pairs = [(f"--param {flag}", flag) for flag in flags]
+    pairs += [(f"environment {k}", f"{k[len(ENV_PARAM_PREFIX):]}={v}")
+              for k, v in sorted(environ.items()) if k.startswith(ENV_PARAM_PREFIX)]
+    store = ParamStore()
+    out: dict[str, float] = {}
+    for where, text in pairs:
+        name, sep, value_text = text.partition("=")
+        if not sep or not name:
+            parser.error(f"{where}: expected NAME=VALUE, e.g. MIS_TAKEOFF_ALT=5")
+        if name not in store:
+            parser.error(f"{where}: no PX4 parameter named {name!r}")
+        try:
+            value = float(value_text)
+            store.set(name, value)
+        except ValueError:
+            kind = store.info(name).type.name
+            parser.error(f"{where}: {value_text!r} is not a valid {kind} value for {name}")
+        out[name] = value
+    return out
+
+
+def version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("cornet")
+    except PackageNotFoundError:  # run from a checkout that is not installed
+        return "(not installed)"
+
+
+def list_scenarios() -> int:
+    from gateway import data
+
+    names = data.scenario_names()
+    width = max(map(len, names))
+    for name in names:
+        print(f"{name:<{width}}  {data.summary(data.SCENARIO_DIR / f'{name}.toml')}")
+    print(f"\n`cornet run --scenario NAME`, `cornet check NAME`. Shipped files: scenarios in "
+          f"{data.SCENARIO_DIR}, example plans in {data.PLAN_DIR}, the systemd unit and its "
+          f"configuration in {data.SYSTEMD_DIR}")
+    return 0
