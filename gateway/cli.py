@@ -12,7 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from gateway.cli_args import LOG_LEVELS
+from gateway.cli_args import LOG_LEVELS, env_home, env_speed, gcs_partner
 from gateway.cli_args import ipv4 as _ipv4
 from gateway.cli_args import list_scenarios as _list_scenarios
 from gateway.cli_args import non_negative as _non_negative
@@ -52,6 +52,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--bind", type=_ipv4, default=None, metavar="ADDR",
                      help="the address the vehicles' ports bind to (default 127.0.0.1; 0.0.0.0: "
                      "every interface)")
+    run.add_argument("--gcs", type=gcs_partner, default=None, metavar="HOST[:PORT]",
+                     help="where the GCS links talk first (default 127.0.0.1:14550): a ground "
+                     "station on another machine, as PX4's partner address (mavlink start -t); "
+                     "with --param MAV_BROADCAST=1 they also broadcast until a client is heard")
     run.add_argument("--vehicles", type=int, default=None, metavar="N",
                      help="number of vehicles (default 1, or the scenario's)")
     run.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,
@@ -64,7 +68,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="simulated seconds per wall second (default 1): physics, telemetry "
                      "rates and network all scale, and client time-outs (COM_*_LOSS_T) are "
                      "scaled as PX4 does with PX4_SIM_SPEED_FACTOR; 'max' runs flat out (for "
-                     "runs without clients)")
+                     "runs without clients). Without it (or the file's), PX4_SIM_SPEED_FACTOR "
+                     "in the environment sets it, as in PX4 SITL; PX4_HOME_LAT/LON/ALT move the "
+                     "home unless the scenario sets one")
     run.add_argument("--seed", type=_non_negative(int, "--seed"), default=None, metavar="S",
                      help="seed of every random stream (default 0, or the scenario's)")
     run.add_argument("--port-offset", type=_non_negative(int, "--port-offset"), default=None,
@@ -252,6 +258,7 @@ def _run_settings(args: argparse.Namespace,
         check_ports,
         load,
     )
+    from vehicles.types import PX4_SITL_HOME
 
     source = _first(args.config, args.scenario)
     which = "--config" if args.config is not None else "--scenario"
@@ -270,6 +277,16 @@ def _run_settings(args: argparse.Namespace,
         network = NetworkConfig.from_flags(args.latency_ms, args.jitter_ms, args.loss,
                                            args.seed or 0)
     d = scenario.daemon
+    try:  # PX4 SITL's variables: below the flags and the file
+        speed = _first(args.speed, d.speed, env_speed(dict(os.environ)))
+        home = scenario.home
+        environment: tuple[str, ...] = ()
+        if home == PX4_SITL_HOME:
+            home, environment = env_home(dict(os.environ), home)
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None
+    if args.speed is None and d.speed is None and speed is not None:
+        environment = ("PX4_SIM_SPEED_FACTOR", *environment)
     vehicles = _first(args.vehicles, scenario.vehicles)
     if not 1 <= vehicles <= MAX_VEHICLES:
         raise ScenarioError(f"--vehicles must be between 1 and {MAX_VEHICLES} (one MAVLink network: "
@@ -281,14 +298,16 @@ def _run_settings(args: argparse.Namespace,
     settings = {
         "vehicles": vehicles,
         "network": network,
-        "home": scenario.home,
+        "home": home,
+        "environment": environment,
+        "gcs": args.gcs,
         "wind": scenario.wind,
         "sensors": scenario.sensors,
         "faults": scenario.faults,
         "spawn_ned_m": scenario.spawn_ned_m,
         "bind": _first(args.bind, d.bind, "127.0.0.1"),
         "port_offset": port_offset,
-        "speed": _first(args.speed, d.speed, 1.0),
+        "speed": _first(speed, 1.0),
         "state_dir": _first(args.state_dir, d.state_dir),
         "log_dir": _first(args.log_dir, d.log_dir),
         "zmq_pub": _first(args.zmq_pub, d.zmq_pub),

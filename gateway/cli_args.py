@@ -1,12 +1,16 @@
 """``cornet``'s argument types and the small commands and helpers of gateway/cli.py: value
-parsers that say what to fix, ``--param`` and PX4_PARAM_* parsing, ``--version``, ``cornet
-scenarios``."""
+parsers that say what to fix, ``--param`` and PX4_PARAM_* parsing, ``--gcs``, PX4 SITL's
+environment variables, ``--version``, ``cornet scenarios``."""
 
 from __future__ import annotations
 
 import argparse
 import ipaddress
 import math
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from vehicles.types import GeoPoint
 
 LOG_LEVELS = ("debug", "info", "warning", "error")
 ENV_PARAM_PREFIX = "PX4_PARAM_"
@@ -104,3 +108,60 @@ def list_scenarios() -> int:
           f"{data.SCENARIO_DIR}, example plans in {data.PLAN_DIR}, the systemd unit and its "
           f"configuration in {data.SYSTEMD_DIR}")
     return 0
+
+
+def gcs_partner(text: str) -> tuple[str, int | None]:
+    """``--gcs HOST[:PORT]``: an IPv4 address, and a UDP port or None (the GCS link's own)."""
+    host, sep, port_text = text.partition(":")
+    try:
+        ipaddress.IPv4Address(host)
+        port = int(port_text) if sep else None
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--gcs must be HOST or HOST:PORT with an IPv4 "
+                                         f"address, e.g. 192.168.1.20 or 192.168.1.20:14550; "
+                                         f"got {text!r}") from None
+    if port is not None and not 1 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"--gcs: the port must be between 1 and 65535, got {port}")
+    return host, port
+
+
+# PX4 SITL's start-up variables (ROMFS/px4fmu_common/init.d-posix/rcS, px4-rc.simulator): the
+# speed factor and the home position. Each PX4_HOME_* replaces one coordinate of the default.
+ENV_SPEED = "PX4_SIM_SPEED_FACTOR"
+ENV_HOME = ("PX4_HOME_LAT", "PX4_HOME_LON", "PX4_HOME_ALT")
+
+
+def env_speed(environ: dict[str, str]) -> float | None:
+    """PX4_SIM_SPEED_FACTOR as ``--speed`` reads it; ValueError names the variable."""
+    text = environ.get(ENV_SPEED, "").strip()
+    if not text:
+        return None
+    try:
+        return speed(text)
+    except argparse.ArgumentTypeError as exc:
+        raise ValueError(f"environment {ENV_SPEED}: {str(exc).replace('--speed ', '')}") from None
+
+
+def env_home(environ: dict[str, str], home: GeoPoint) -> tuple[GeoPoint, tuple[str, ...]]:
+    """``home`` (a GeoPoint) with the coordinates PX4_HOME_LAT/LON/ALT give, and their names."""
+    from dataclasses import replace
+
+    from gateway.sim.scenario import MAX_HOME_ALT_M, MIN_HOME_ALT_M
+
+    ranges = ((-90.0, 90.0), (-180.0, 180.0), (MIN_HOME_ALT_M, MAX_HOME_ALT_M))
+    names: list[str] = []
+    changes: dict[str, float] = {}
+    for name, field, (low, high) in zip(ENV_HOME, ("lat_deg", "lon_deg", "alt_amsl_m"), ranges):
+        text = environ.get(name, "").strip()
+        if not text:
+            continue
+        try:
+            value = float(text)
+        except ValueError:
+            raise ValueError(f"environment {name}: must be a number, got {text!r}") from None
+        if not low <= value <= high:
+            raise ValueError(f"environment {name}: must be between {low:g} and {high:g}, "
+                             f"got {text!r}")
+        names.append(name)
+        changes[field] = value
+    return replace(home, **changes), tuple(names)

@@ -34,6 +34,7 @@ from gateway.daemon.admission import Admission
 from gateway.daemon.endpoint import UdpEndpoint
 from gateway.daemon.metrics import Exporter, MetricsServer
 from gateway.daemon.pacer import Pacer
+from gateway.daemon.peers import first_peers
 from gateway.daemon.progress import ProgressLine
 from gateway.daemon.sdnotify import Notifier, Watchdog
 from gateway.mavlink.signing import SigningConfig, SigningKey, SigningState
@@ -66,6 +67,8 @@ class RunConfig:
     port_offset: int = 0
     bind: str = "127.0.0.1"
     remote_host: str = "127.0.0.1"
+    gcs: tuple[str, int | None] | None = None  # --gcs HOST[:PORT]: where GCS links talk first
+    environment: tuple[str, ...] = ()  # the PX4 SITL variables that set something (ready line)
     speed: float = 1.0
     state_dir: Path | None = None  # parameters and plans persist here, per vehicle
     ignore_bad_state: bool = False  # an unreadable state file: start that vehicle with defaults
@@ -207,9 +210,10 @@ class Daemon:
         try:
             for i, kind in self.sim.links:  # PX4 SITL's two links, then the extra radios
                 ports = self.sim.ports(i, kind, cfg.port_offset)
+                peer, broadcast = first_peers(self.sim, i, kind, ports.remote, bind=cfg.bind,
+                                              remote_host=cfg.remote_host, gcs=cfg.gcs)
                 endpoint = UdpEndpoint(f"vehicle {i + 1} {tag_name(kind)} :{ports.local}",
-                                       (cfg.remote_host, ports.remote),
-                                       self._receiver(i, kind),
+                                       peer, self._receiver(i, kind), broadcast=broadcast,
                                        admission=Admission(), clock=self.pacer.wall)
                 try:
                     endpoint.open(loop, (cfg.bind, ports.local))
@@ -433,8 +437,14 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
         daemon.pacer.sync()
         cfg = config
         speed = "max" if math.isinf(cfg.speed) else f"{cfg.speed:g}x"
+        if "PX4_SIM_SPEED_FACTOR" in cfg.environment:
+            speed += " (PX4_SIM_SPEED_FACTOR)"
+        homes = [name for name in cfg.environment if name.startswith("PX4_HOME_")]
+        h = cfg.home
+        env = (f", home {h.lat_deg:.6f}, {h.lon_deg:.6f}, {h.alt_amsl_m:g} m ({', '.join(homes)})"
+               if homes else "")
         print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.summary}, "
-              f"speed {speed}, {_ports_text(cfg)}",
+              f"speed {speed}, {_ports_text(cfg)}{env}",
               file=ready_out, flush=True)
         notifier.ready(status=f"serving {cfg.vehicles} vehicle(s) on {cfg.bind}, network "
                               f"{cfg.network.summary}, speed {speed}")
