@@ -19,6 +19,7 @@ from gateway.cli_args import non_negative as _non_negative
 from gateway.cli_args import parse_params as _parse_params
 from gateway.cli_args import probability as _probability
 from gateway.cli_args import speed as _speed
+from gateway.cli_args import vehicle_params as _vehicle_params
 from gateway.cli_args import version as _version
 
 SIGNING_CREDENTIAL = "signing.key"  # $CREDENTIALS_DIRECTORY/signing.key: the unit's key
@@ -108,6 +109,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
+    run.add_argument("--param-file", action="append", default=[], metavar="[N:]FILE",
+                     help="PX4 parameters from a QGroundControl .params file (QGC's Save to "
+                     "file): each line to the vehicle of its Vehicle-Id column, or with N: every "
+                     "line to vehicle N (repeatable; --param and PX4_PARAM_* still win)")
     check = sub.add_parser("check", help="validate a scenario or configuration file and say what "
                            "it sets up",
                            description="Validate a scenario file or the daemon's configuration "
@@ -313,6 +318,8 @@ def _run_settings(args: argparse.Namespace,
         "zmq_pub": _first(args.zmq_pub, d.zmq_pub),
         "packet_trace": _first(args.packet_trace, d.packet_trace),
         "params": {**scenario.params, **flag_params},
+        "vehicle_params": _vehicle_params(scenario.vehicle_params, args.param_file, vehicles,
+                                          flag_params),
         "metrics_port": _first(args.metrics_port, d.metrics_port),
         "shards": args.shards,
         "ignore_bad_state": args.ignore_bad_state,

@@ -165,3 +165,16 @@ def env_home(environ: dict[str, str], home: GeoPoint) -> tuple[GeoPoint, tuple[s
         names.append(name)
         changes[field] = value
     return replace(home, **changes), tuple(names)
+
+
+def vehicle_params(from_file: dict[int, dict[str, float]], specs: list[str], vehicles: int,
+                   flag_params: dict[str, float]) -> dict[int, dict[str, float]]:
+    """Per-vehicle values: the scenario's param_files, then --param-file's, without what --param
+    and PX4_PARAM_* set (they win). Raises ScenarioError naming the file and line."""
+    from gateway.sim import param_files
+
+    out = {sysid: dict(values) for sysid, values in from_file.items()}
+    for sysid, values in param_files.merge(specs, vehicles).items():
+        out.setdefault(sysid, {}).update(values)
+    return {sysid: kept for sysid, values in out.items()
+            if (kept := {k: v for k, v in values.items() if k not in flag_params})}

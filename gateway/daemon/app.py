@@ -77,6 +77,7 @@ class RunConfig:
     packet_trace: Path | None = None  # the network's log: one line per datagram event
     log_dir: Path | None = None  # flight logs: DIR/run-<date>-<time>/
     params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
+    vehicle_params: dict[int, dict[str, float]] = field(default_factory=dict)  # by sysid, after
     signing_key: SigningKey | None = None  # MAVLink 2 signing on every link (--signing-key)
     metrics_port: int | None = None  # Prometheus /metrics on bind:port (--metrics-port)
     shards: int = 1  # worker processes (gateway/daemon/shard.py); 1: this process simulates all
@@ -172,7 +173,7 @@ class Daemon:
             for name in SPEED_SCALED_PARAMS:
                 if name not in saved.params:
                     store.set(name, state.scaled_value(store, name, speed))
-        for name, value in cfg.params.items():
+        for name, value in {**cfg.params, **cfg.vehicle_params.get(sysid, {})}.items():
             store.set(name, value)
         if cfg.state_dir is not None and self._state_writer is not None:
             kept = state.VehicleState(self._state_writer, cfg.state_dir, sysid, saved)

@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import Any
 
 from gateway.data import scenario_path
+from gateway.sim import param_files
 from gateway.sim.fault_timeline import parse_faults
 from gateway.sim.radios import ExtraRadio, check_radio_ports, radio_ports, split_entries
 from gateway.sim.values import ScenarioError, spawn_points
@@ -152,6 +153,8 @@ class Scenario:
     sensors: SensorConfig = field(default_factory=SensorConfig)  # [sensors]
     faults: tuple[Fault, ...] = ()  # [[faults]], in time order
     spawn_ned_m: tuple[tuple[float, float], ...] = ()  # vehicles.spawn_ned_m, by instance
+    # vehicles.param_files (gateway/sim/param_files.py): values by system id, after `params`
+    vehicle_params: dict[int, dict[str, float]] = field(default_factory=dict)
 
 
 def bind_address(value: Any, path: str) -> str:
@@ -230,7 +233,8 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     _unknown(doc, ("vehicles", "network", "logging", "daemon", "environment", "sensors",
                    "faults"), "")
     veh = _table(doc, "vehicles", "vehicles")
-    _unknown(veh, ("count", "home", "airframe", "params", "spawn_ned_m"), "vehicles")
+    _unknown(veh, ("count", "home", "airframe", "params", "param_files", "spawn_ned_m"),
+             "vehicles")
     count = int(_number(veh.get("count", 1), "vehicles.count", integer=True, minimum=1))
     if count > MAX_VEHICLES:
         raise ScenarioError(f"vehicles.count: at most {MAX_VEHICLES} vehicles per MAVLink network "
@@ -252,6 +256,11 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     airframe = _choice(veh.get("airframe", "x500"), AIRFRAMES, "vehicles.airframe")
     params = _params(_table(veh, "params", "vehicles.params"))
     spawn = spawn_points(veh.get("spawn_ned_m", []), count, grid_spawn_ned_m)
+    files = veh.get("param_files", [])
+    if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
+        raise ScenarioError('vehicles.param_files: expected a list of "FILE" or "N:FILE" '
+                            "(QGC .params files; relative to this file)")
+    vehicle_params = param_files.merge(files, count, base_dir, "vehicles.param_files:")
 
     net = _table(doc, "network", "network")
     backend = _choice(net.get("backend", "embedded"), BACKENDS, "network.backend")
@@ -321,7 +330,7 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
             raise ScenarioError(str(exc)) from None
         network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3), radios)
     return Scenario(source, count, home, airframe, params, network, level, daemon, wind, sensors,
-                    faults, spawn)
+                    faults, spawn, vehicle_params)
 
 
 def _sensors(table: dict) -> SensorConfig:
@@ -408,7 +417,8 @@ def describe(s: Scenario) -> str:
              f"  vehicles: {s.vehicles} × {s.airframe} around {s.home.lat_deg:.6f}, "
              f"{s.home.lon_deg:.6f}, {s.home.alt_amsl_m:.1f} m AMSL"
              + (f"; params {s.params}" if s.params else "")
-             + (f"; spawn points {[list(p) for p in s.spawn_ned_m]}" if s.spawn_ned_m else ""),
+             + (f"; spawn points {[list(p) for p in s.spawn_ned_m]}" if s.spawn_ned_m else "")
+             + "".join(f"; vehicle {k} params {v}" for k, v in sorted(s.vehicle_params.items())),
              f"  network: backend {net.backend}, topology {topo}, seed {net.seed}, sync period "
              f"{net.sync_period_s * 1e3:.0f} ms, late policy {net.late_policy}"]
     for key in ("link", "ap", "gcs", "radio", "wired", "channel", "api_clients", "outages"):

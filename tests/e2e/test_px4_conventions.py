@@ -114,3 +114,38 @@ def test_no_broadcast_by_default():
         conn.close()
         partner.close()
         assert d.stop() == 0, d.log_tail()
+
+
+def param_value(conn, sysid: int, name: str) -> float:
+    """PARAM_REQUEST_READ by name, as QGC refreshes one parameter (re-asked until answered)."""
+    for _ in range(30):
+        conn.mav.param_request_read_send(sysid, 1, name.encode(), -1)
+        msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=1)
+        if msg is not None and msg.get_srcSystem() == sysid and msg.param_id == name:
+            return msg.param_value
+    raise AssertionError(f"vehicle {sysid} never answered PARAM_REQUEST_READ {name}")
+
+
+def test_a_param_file_sets_one_vehicle_only(tmp_path):
+    saved = tmp_path / "vehicle.params"  # as QGC's "Save to file" writes it
+    saved.write_text("# Onboard parameters for Vehicle 1\n#\n# Vehicle-Id Component-Id Name "
+                     "Value Type\n1\t1\tMAV_SYS_ID\t1\t6\n1\t1\tMIS_TAKEOFF_ALT\t7.5\t9\n")
+    d = start_daemon("--param-file", f"2:{saved}", "--param", "RTL_RETURN_ALT=42", vehicles=2)
+    conn = listen("127.0.0.1", d.gcs_port())
+    try:
+        assert set(heartbeats_by_sysid(conn, {1, 2})) == {1, 2}, d.log_tail()
+        assert param_value(conn, 2, "MIS_TAKEOFF_ALT") == 7.5
+        assert param_value(conn, 1, "MIS_TAKEOFF_ALT") == 2.5  # PX4's default
+        assert param_value(conn, 2, "RTL_RETURN_ALT") == 42  # --param: every vehicle
+    finally:
+        conn.close()
+        assert d.stop() == 0, d.log_tail()
+
+
+def test_a_bad_param_file_exits_2_naming_the_line(tmp_path):
+    bad = tmp_path / "bad.params"
+    bad.write_text("1\t1\tNOT_A_PX4_PARAM\t1\t9\n")
+    out = subprocess.run(cornet_command() + ["run", "--param-file", str(bad)],
+                         capture_output=True, text=True, timeout=30)
+    assert out.returncode == 2
+    assert f"{bad}:1: no PX4 parameter named 'NOT_A_PX4_PARAM'" in out.stderr, out.stderr
