@@ -132,14 +132,19 @@ def build_parser() -> argparse.ArgumentParser:
                          "landed, geofence never breached, optional path deviation limit.")
     fly.add_argument("plan", type=Path, metavar="PLAN",
                      help="a QGroundControl .plan file, or a shipped plan's name (square, breach)")
-    fly.add_argument("--scenario", type=Path, default=None, metavar="FILE")
+    fly.add_argument("--scenario", type=Path, default=None, metavar="FILE|NAME",
+                     help="fly through a scenario's network, wind and faults (a file or a "
+                     "shipped scenario's name)")
     fly.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,
-                     metavar="X")
+                     metavar="X", help="one-way network latency in ms on every link (default 0)")
     fly.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=0.0,
-                     metavar="Y")
-    fly.add_argument("--loss", type=_probability, default=0.0, metavar="P")
-    fly.add_argument("--seed", type=_non_negative(int, "--seed"), default=0, metavar="S")
-    fly.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
+                     metavar="Y", help="uniform jitter +-Y ms (default 0)")
+    fly.add_argument("--loss", type=_probability, default=0.0, metavar="P",
+                     help="packet loss probability per datagram, 0..1 (default 0)")
+    fly.add_argument("--seed", type=_non_negative(int, "--seed"), default=0, metavar="S",
+                     help="seed of every random stream (default 0)")
+    fly.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                     help="set a PX4 parameter at start (repeatable; PX4_PARAM_<NAME> too)")
     fly.add_argument("--time-limit", type=_non_negative(float, "--time-limit"), default=None,
                      metavar="S", help="simulated seconds before giving up (default 900)")
     fly.add_argument("--max-deviation", type=_non_negative(float, "--max-deviation"),
@@ -150,7 +155,9 @@ def build_parser() -> argparse.ArgumentParser:
     fly.add_argument("--no-log", action="store_true", help="do not record the flight")
     plot = sub.add_parser("plot", help="draw a recorded run: track vs plan, altitude and speed, "
                           "link latency and loss (PNGs)")
-    plot.add_argument("log_dir", type=Path, metavar="LOGDIR")
+    plot.add_argument("log_dir", type=Path, metavar="LOGDIR",
+                      help="a run directory (it holds meta.json), or a directory of runs (the "
+                      "newest is drawn); the PNGs are written into the run directory")
     plot.add_argument("--plan", type=Path, default=None, metavar="FILE",
                       help="a .plan to draw as the planned track")
     for name, helptext in (("watch", "live table of vehicles and link quality from --zmq-pub"),

@@ -91,3 +91,16 @@ def test_readme_quick_start_runs_as_written(tmp_path):
         assert f"PASS {command}" in out.stdout, out.stdout[-6000:]
     assert {"track.png", "altitude_speed.png", "link.png"} <= {
         p.name for p in (tmp_path / "logs").iterdir()}
+
+
+def test_the_wheel_block_is_what_test_wheel_runs():
+    """README's "from the wheel" commands are those tests/e2e/test_wheel.py runs in a fresh
+    venv outside the repository (that test builds and installs the wheel)."""
+    text = README.read_text()
+    section = text.split("Without the checkout, from the wheel", 1)[1]
+    block = re.search(r"```sh\n(.*?)```", section, re.S)
+    assert block
+    lines = [re.sub(r"\s+#.*$", "", line).strip() for line in block.group(1).splitlines()]
+    assert lines == ["pip install cornet-0.1.0-py3-none-any.whl", "cornet --version",
+                     "cornet scenarios", "cornet run --scenario lossy-wifi",
+                     "cornet fly square && cornet plot logs/"], lines
