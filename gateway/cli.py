@@ -181,9 +181,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "plot":
         try:
             from gateway.ci import plot
-        except ModuleNotFoundError as exc:
-            print(f"cornet plot: needs {exc.name}, which is not installed: pip install "
-                  f"matplotlib", file=sys.stderr)
+        except ModuleNotFoundError as exc:  # matplotlib is a dependency; a stripped install
+            missing = (exc.name or "matplotlib").split(".")[0]
+            print(f"cornet plot: needs {missing}, which is not installed: pip install {missing}",
+                  file=sys.stderr)
             return 2
         return plot.main(args.log_dir, args.plan)
     if args.command == "scenarios":
@@ -312,7 +313,7 @@ def _run_settings(args: argparse.Namespace,
         "network": network,
         "home": home,
         "environment": environment,
-        "gcs": args.gcs,
+        "gcs": _first(args.gcs, d.gcs),
         "wind": scenario.wind,
         "sensors": scenario.sensors,
         "faults": scenario.faults,

@@ -112,17 +112,13 @@ def list_scenarios() -> int:
 
 def gcs_partner(text: str) -> tuple[str, int | None]:
     """``--gcs HOST[:PORT]``: an IPv4 address, and a UDP port or None (the GCS link's own)."""
-    host, sep, port_text = text.partition(":")
+    from gateway.sim.values import ScenarioError
+    from gateway.sim.values import gcs_partner as parse
+
     try:
-        ipaddress.IPv4Address(host)
-        port = int(port_text) if sep else None
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--gcs must be HOST or HOST:PORT with an IPv4 "
-                                         f"address, e.g. 192.168.1.20 or 192.168.1.20:14550; "
-                                         f"got {text!r}") from None
-    if port is not None and not 1 <= port <= 65535:
-        raise argparse.ArgumentTypeError(f"--gcs: the port must be between 1 and 65535, got {port}")
-    return host, port
+        return parse(text, "--gcs")
+    except ScenarioError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 # PX4 SITL's start-up variables (ROMFS/px4fmu_common/init.d-posix/rcS, px4-rc.simulator): the

@@ -50,7 +50,7 @@ from gateway.data import scenario_path
 from gateway.sim import param_files
 from gateway.sim.fault_timeline import parse_faults
 from gateway.sim.radios import ExtraRadio, check_radio_ports, radio_ports, split_entries
-from gateway.sim.values import ScenarioError, spawn_points
+from gateway.sim.values import ScenarioError, gcs_partner, spawn_points
 from gateway.sim.values import choice as _choice
 from gateway.sim.values import number as _number
 from gateway.sim.values import table as _table
@@ -84,7 +84,7 @@ MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli_args.py)
 MAX_PORT = 65535
 HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it binds (gateway/sim/simulation.py)
 DAEMON_KEYS = ("bind", "port_offset", "speed", "state_dir", "log_dir", "zmq_pub", "packet_trace",
-               "log_level", "signing_key", "metrics_port")
+               "log_level", "signing_key", "metrics_port", "gcs")
 NETWORK_OWN_KEYS = ("backend", "seed", "sync_period_s", "late_policy", "ns3")
 
 
@@ -137,6 +137,7 @@ class DaemonSettings:
     packet_trace: Path | None = None
     signing_key: Path | None = None  # MAVLink 2 signing key file (gateway/mavlink/signing.py)
     metrics_port: int | None = None  # Prometheus /metrics on bind:port; None: off
+    gcs: tuple[str, int | None] | None = None  # where the GCS links talk first (--gcs)
 
 
 @dataclass(frozen=True)
@@ -201,6 +202,8 @@ def _daemon(table: dict, base_dir: Path | None) -> tuple[DaemonSettings, str | N
     out: dict[str, Any] = {}
     if "bind" in table:
         out["bind"] = bind_address(table["bind"], "daemon.bind")
+    if "gcs" in table:
+        out["gcs"] = gcs_partner(table["gcs"], "daemon.gcs")
     if "port_offset" in table:
         out["port_offset"] = int(_number(table["port_offset"], "daemon.port_offset",
                                          integer=True, minimum=0))
@@ -441,7 +444,9 @@ def describe(s: Scenario) -> str:
     if s.sensors != SensorConfig():
         lines.append(f"  sensors: noise × {s.sensors.noise:g}")
     d = s.daemon
-    settings = [f"{key} {'max' if key == 'speed' and math.isinf(value) else value}"
+    shown = {"speed": lambda v: "max" if math.isinf(v) else v,
+             "gcs": lambda v: v[0] if v[1] is None else f"{v[0]}:{v[1]}"}
+    settings = [f"{key} {shown.get(key, lambda v: v)(value)}"
                 for key in DAEMON_KEYS if (value := getattr(d, key, None)) is not None]
     if s.log_level is not None:
         settings.append(f"log_level {s.log_level}")

@@ -75,3 +75,20 @@ def spawn_points(value: Any, count: int,
                 raise ScenarioError(f"{path}[{i}]: vehicle {i + 1} would spawn within "
                                     f"{MIN_SPAWN_SEPARATION_M:g} m of vehicle {j + 1}")
     return tuple(points)
+
+
+def gcs_partner(value: Any, path: str) -> tuple[str, int | None]:
+    """``HOST`` or ``HOST:PORT`` (an IPv4 address): where the GCS links talk first (``--gcs``,
+    ``daemon.gcs``); the port None keeps each link's own."""
+    import ipaddress
+
+    host, sep, port_text = value.partition(":") if isinstance(value, str) else ("", "", "")
+    try:
+        ipaddress.IPv4Address(host)
+        port = int(port_text) if sep else None
+    except ValueError:
+        raise ScenarioError(f"{path} must be HOST or HOST:PORT with an IPv4 address, e.g. "
+                            f"192.168.1.20 or 192.168.1.20:14550; got {value!r}") from None
+    if port is not None and not 1 <= port <= 65535:
+        raise ScenarioError(f"{path}: the port must be between 1 and 65535, got {port}")
+    return host, port

@@ -149,3 +149,18 @@ def test_a_bad_param_file_exits_2_naming_the_line(tmp_path):
                          capture_output=True, text=True, timeout=30)
     assert out.returncode == 2
     assert f"{bad}:1: no PX4 parameter named 'NOT_A_PX4_PARAM'" in out.stderr, out.stderr
+
+
+def test_the_configuration_file_sets_the_gcs_address(tmp_path):
+    """`[daemon] gcs` in `cornet run --config FILE` (the service's way) does what --gcs does."""
+    offset = free_port_offset(1)
+    port = GCS_PORT + offset
+    config = tmp_path / "cornet.toml"
+    config.write_text('[daemon]\ngcs = "127.0.0.2"\n')
+    conn = listen("127.0.0.2", port)
+    d = start_daemon("--config", str(config), port_offset=offset)
+    try:
+        assert set(heartbeats_by_sysid(conn, {1})) == {1}, d.log_tail()
+    finally:
+        conn.close()
+        assert d.stop() == 0, d.log_tail()

@@ -168,3 +168,17 @@ def test_spawn_points_place_vehicles_and_the_rest_stay_on_the_grid():
         assert (v1.lat_deg - s.home.lat_deg) * 111_195.0 == pytest.approx(140.0, abs=0.5)
     finally:
         sim.close()
+
+
+@pytest.mark.parametrize("value, expected", [("192.168.1.20", ("192.168.1.20", None)),
+                                             ("10.0.0.5:14551", ("10.0.0.5", 14551))])
+def test_daemon_gcs_is_a_partner_address(value, expected):
+    s = parse({"daemon": {"gcs": value}})
+    assert s.daemon.gcs == expected
+    assert "gcs " + value in describe(s)
+
+
+@pytest.mark.parametrize("value", ["qgc.local", "10.0.0.5:0", "10.0.0.5:port", 14550])
+def test_a_bad_daemon_gcs_names_the_key(value):
+    with pytest.raises(ScenarioError, match="daemon.gcs"):
+        parse({"daemon": {"gcs": value}})
