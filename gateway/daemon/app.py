@@ -404,6 +404,10 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
                     "" if config.signing_key is not None else
                     " without MAVLink signing: anyone who can reach them can fly the vehicles "
                     "(--signing-key)")
+        if config.gcs is None:
+            log.info("the GCS links talk first to %s:%d; a ground station on another host: "
+                     "--gcs HOST, or --param MAV_BROADCAST=1", config.remote_host,
+                     14550 + config.port_offset)
     metrics = None
     if config.metrics_port is not None:
         metrics = MetricsServer(Exporter(daemon, clock=daemon.pacer.wall), config.bind,
