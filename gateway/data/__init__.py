@@ -1,6 +1,7 @@
 """The files CORNET ships inside its package: scenarios, example QGroundControl plans, the systemd
 unit and its example configuration. ``cornet run --scenario NAME`` and ``cornet fly NAME`` find
-them by name; a path that exists always wins over a name."""
+them by name (and by the paths the checkout had for them before, ``scenarios/NAME.toml`` and
+``gcs_examples/plans/NAME.plan``); a path that exists always wins."""
 
 from __future__ import annotations
 
@@ -12,9 +13,19 @@ PLAN_DIR = DATA_DIR / "plans"
 SYSTEMD_DIR = DATA_DIR / "systemd"
 
 
+# Where the checkout kept these files before they moved into the package: such a path (from
+# older docs and scripts) that does not exist finds the shipped file of its name.
+FORMER_DIRS = {SCENARIO_DIR: "scenarios", PLAN_DIR: "gcs_examples/plans"}
+
+
 def _builtin(directory: Path, suffix: str, text: str | Path) -> Path | None:
-    """The shipped file ``text`` names (``lossy-wifi`` or ``lossy-wifi.toml``), if any."""
+    """The shipped file ``text`` names (``lossy-wifi`` or ``lossy-wifi.toml``, or its former
+    path ``scenarios/lossy-wifi.toml``), if any."""
     name = str(text)
+    parent, _, base = name.rpartition("/")
+    former = FORMER_DIRS.get(directory)
+    if former is not None and parent and (parent == former or parent.endswith("/" + former)):
+        name = base
     if "/" in name or "\\" in name or not name:
         return None
     if not name.endswith(suffix):

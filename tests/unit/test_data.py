@@ -53,3 +53,11 @@ def test_plot_without_matplotlib_says_what_to_install(monkeypatch, capsys, tmp_p
     assert cli.main(["plot", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err == ["cornet plot: needs matplotlib, which is not installed: pip install matplotlib"]
+
+
+def test_the_former_checkout_paths_still_find_the_shipped_files(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # no scenarios/ here
+    assert load("scenarios/lossy-wifi.toml").source == str(data.SCENARIO_DIR / "lossy-wifi.toml")
+    assert data.plan_path("gcs_examples/plans/square.plan") == data.PLAN_DIR / "square.plan"
+    with pytest.raises(ScenarioError, match="cannot read"):
+        load("myscenarios/lossy-wifi.toml")
