@@ -212,7 +212,6 @@ def main(argv: list[str] | None = None) -> int:
 def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     from gateway.ci import fly
     from gateway.daemon.progress import ProgressLine
-    from gateway.data import plan_path
     from gateway.sim.scenario import NetworkConfig, ScenarioError, load
 
     network = None
@@ -233,7 +232,7 @@ def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
               "progress": ProgressLine(sys.stderr)}
     if args.time_limit is not None:
         kwargs["time_limit_s"] = args.time_limit
-    return fly.main(plan_path(args.plan), **kwargs)
+    return fly.main(args.plan, **kwargs)
 
 
 def _writable_dir(parser: argparse.ArgumentParser, path: Path, flag: str) -> None:

@@ -34,8 +34,8 @@ from gateway.daemon.admission import Admission
 from gateway.daemon.endpoint import UdpEndpoint
 from gateway.daemon.metrics import Exporter, MetricsServer
 from gateway.daemon.pacer import Pacer
-from gateway.daemon.peers import first_peers
 from gateway.daemon.progress import ProgressLine
+from gateway.daemon.px4_sitl import first_peers, home_text, log_first_peer, speed_text
 from gateway.daemon.sdnotify import Notifier, Watchdog
 from gateway.mavlink.signing import SigningConfig, SigningKey, SigningState
 from gateway.onboard.files import attach_ftp
@@ -405,9 +405,7 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
                     " without MAVLink signing: anyone who can reach them can fly the vehicles "
                     "(--signing-key)")
         if config.gcs is None:
-            log.info("the GCS links talk first to %s:%d; a ground station on another host: "
-                     "--gcs HOST, or --param MAV_BROADCAST=1", config.remote_host,
-                     14550 + config.port_offset)
+            log_first_peer(config.bind, config.remote_host, 14550 + config.port_offset)
     metrics = None
     if config.metrics_port is not None:
         metrics = MetricsServer(Exporter(daemon, clock=daemon.pacer.wall), config.bind,
@@ -441,15 +439,9 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
         # anyone is told the daemon is ready.
         daemon.pacer.sync()
         cfg = config
-        speed = "max" if math.isinf(cfg.speed) else f"{cfg.speed:g}x"
-        if "PX4_SIM_SPEED_FACTOR" in cfg.environment:
-            speed += " (PX4_SIM_SPEED_FACTOR)"
-        homes = [name for name in cfg.environment if name.startswith("PX4_HOME_")]
-        h = cfg.home
-        env = (f", home {h.lat_deg:.6f}, {h.lon_deg:.6f}, {h.alt_amsl_m:g} m ({', '.join(homes)})"
-               if homes else "")
+        speed = speed_text(cfg.speed, cfg.environment)
         print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.summary}, "
-              f"speed {speed}, {_ports_text(cfg)}{env}",
+              f"speed {speed}, {_ports_text(cfg)}{home_text(cfg.home, cfg.environment)}",
               file=ready_out, flush=True)
         notifier.ready(status=f"serving {cfg.vehicles} vehicle(s) on {cfg.bind}, network "
                               f"{cfg.network.summary}, speed {speed}")
