@@ -11,7 +11,8 @@ VEHICLES ?= 1
 PORT_OFFSET ?= 0
 PYTEST_ARGS ?=
 
-.PHONY: run test unit typecheck bench clean venv ns3 ns3-deps ns3-if-possible install-service
+.PHONY: run test unit typecheck bench clean venv ns3 ns3-deps ns3-if-possible browser-if-possible \
+	install-service
 
 venv: $(STAMP)
 
@@ -40,7 +41,7 @@ $(STAMPG): pyproject.toml
 run: $(STAMP)
 	$(VENV)/bin/cornet run --vehicles $(VEHICLES) --port-offset $(PORT_OFFSET)
 
-test: $(STAMP) $(STAMP4) $(STAMPG) ns3-if-possible
+test: $(STAMP) $(STAMP4) $(STAMPG) ns3-if-possible browser-if-possible
 	$(VENV)/bin/mypy
 	CORNET_MAVSDK4_PYTHON=$(CURDIR)/$(VENV4)/bin/python \
 	CORNET_MAVSDK_GRPC_PYTHON=$(CURDIR)/$(VENVG)/bin/python \
@@ -75,9 +76,22 @@ ns3-if-possible:
 		$(MAKE) ns3-deps ns3 || echo "note: the ns-3 backend was not built; its tests will skip"; \
 	else echo "note: no apt-get as root here: the ns-3 backend is not built; its tests will skip"; fi
 
+# The live view's browser test (tests/e2e/test_web.py) drives Debian's chromium through its
+# chromedriver (Selenium, in the test extra): installed with apt where we are root; elsewhere
+# that test skips and names what is missing.
+BROWSER_DEBS := chromium chromium-driver
+
+browser-if-possible:
+	@if dpkg -s $(BROWSER_DEBS) >/dev/null 2>&1; then echo "browser: $(BROWSER_DEBS) already installed"; \
+	elif command -v apt-get >/dev/null && [ "$$(id -u)" = 0 ]; then \
+		{ apt-get update && DEBIAN_FRONTEND=noninteractive apt-get install -y $(BROWSER_DEBS); } \
+		|| echo "note: $(BROWSER_DEBS) were not installed; the live view's browser test will skip"; \
+	else echo "note: no apt-get as root here: $(BROWSER_DEBS) are not installed; the live view's browser test will skip"; fi
+
 # `sudo make install-service`: the daemon as a systemd service (README.md, "Running as a service").
 # Copies this tree (without .git, virtualenvs or build output) to $(PREFIX) and builds a venv there
-# with a regular, non-editable install (a venv cannot move, and the service may not read /home);
+# with a regular, non-editable install with the live view's [web] extra (a venv cannot move, and
+# the service may not read /home);
 # installs the unit, and $(CONFIG_DIR)/cornet.toml only if there is none: an existing
 # configuration is never overwritten. Needs root, and PyPI (or a pip cache) for the venv.
 # PREFIX, CONFIG_DIR and UNIT_DIR may be changed (the unit's paths follow PREFIX and CONFIG_DIR).
@@ -94,7 +108,7 @@ install-service:
 		--exclude=./logs -f - . | tar -x --no-same-owner -C $(PREFIX)
 	$(PYTHON) -m venv $(PREFIX)/.venv
 	$(PREFIX)/.venv/bin/pip install --quiet --upgrade pip
-	$(PREFIX)/.venv/bin/pip install --quiet $(PREFIX)
+	$(PREFIX)/.venv/bin/pip install --quiet '$(PREFIX)[web]'
 	mkdir -p $(UNIT_DIR)
 	sed -e 's#/opt/cornet#$(PREFIX)#g' -e 's#/etc/cornet/cornet.toml#$(CONFIG_DIR)/cornet.toml#g' \
 		gateway/data/systemd/cornet.service > $(UNIT_DIR)/cornet.service

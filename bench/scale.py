@@ -37,8 +37,9 @@ a warm-up:
   Interleaved with those (same process, same code), the same frames go to a plain UDP echo
   process on loopback: p50/p99 of both round trips and their difference.
 
-With ``--mavsdk``, at the largest vehicle count vehicle 1 stays on the ground and the unmodified
-MAVSDK example gcs_examples/takeoff_and_land.py (MAVSDK-Python 3.x with its mavsdk_server)
+With ``--mavsdk [EXAMPLE]``, at the largest vehicle count vehicle 1 stays on the ground and the
+unmodified MAVSDK example gcs_examples/EXAMPLE.py (takeoff_and_land by default, or mission: upload,
+fly and return; MAVSDK-Python 3.x with its mavsdk_server)
 flies it from vehicle 1's API client port, started with the measurement window, while every
 other vehicle flies; the table's notes say PASS or FAIL and how long it took (the ping client
 then pings vehicle 2, so that the two clients do not share a link).
@@ -65,7 +66,8 @@ leaves the vehicles on the ground (PX4 SITL streams the same telemetry there). E
 stopped with SIGTERM and must exit 0; every wait is bounded.
 
     .venv/bin/python bench/scale.py [--vehicles 1,10,30,100,200] [--shards auto|K,K,...]
-                                    [--seconds 20] [--idle | --mavsdk] [--scenario FILE]
+                                    [--seconds 20] [--idle | --mavsdk [EXAMPLE]]
+                                    [--scenario FILE]
                                     [--out bench/results]
 
 Prints a markdown table and writes scale-<date>-<time>.csv and .png (real-time factor and
@@ -569,10 +571,14 @@ def _fly(clock: SimClock, commands, n: int, deadline: float, alive, skip: int = 
         time.sleep(0.5)
 
 
-def run_mavsdk_example(offset: int, timeout_s: float) -> tuple[bool, float, str]:
-    """gcs_examples/takeoff_and_land.py, unmodified (MAVSDK 3.x, its own mavsdk_server), on
-    vehicle 1's API client port: (passed, wall seconds, last lines of its output)."""
-    script = Path(__file__).resolve().parents[1] / "gcs_examples" / "takeoff_and_land.py"
+# What the unmodified MAVSDK examples (--mavsdk EXAMPLE) print when they succeed.
+MAVSDK_EXAMPLES = {"takeoff_and_land": "Disarmed", "mission": "-- Mission finished: True"}
+
+
+def run_mavsdk_example(example: str, offset: int, timeout_s: float) -> tuple[bool, float, str]:
+    """gcs_examples/<example>.py, unmodified (MAVSDK 3.x, its own mavsdk_server), on vehicle
+    1's API client port: (passed, wall seconds, last lines of its output)."""
+    script = Path(__file__).resolve().parents[1] / "gcs_examples" / f"{example}.py"
     grpc_port = free_tcp_port()
     t0 = time.monotonic()
     try:
@@ -583,7 +589,7 @@ def run_mavsdk_example(offset: int, timeout_s: float) -> tuple[bool, float, str]
         out = (exc.stdout or b"").decode() if isinstance(exc.stdout, bytes) else (exc.stdout or "")
         return False, time.monotonic() - t0, f"timed out; {out.strip().splitlines()[-3:]}"
     out = (done.stdout + done.stderr).strip().splitlines()
-    passed = done.returncode == 0 and any("Disarmed" in line for line in out)
+    passed = done.returncode == 0 and any(MAVSDK_EXAMPLES[example] in line for line in out)
     return passed, time.monotonic() - t0, " | ".join(out[-3:])
 
 
@@ -608,10 +614,10 @@ def engine_cpu_s(pid: int) -> float:
 
 
 def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, echo_port: int,
-            ctx, mavsdk: bool = False, scenario: Path | None = None) -> Point:
-    """One point. ``mavsdk``: vehicle 1 is left on the ground for an unmodified MAVSDK
-    takeoff-and-land run (gcs_examples/takeoff_and_land.py) started with the measurement window
-    while the others fly; the ping client then pings vehicle 2."""
+            ctx, mavsdk: str | None = None, scenario: Path | None = None) -> Point:
+    """One point. ``mavsdk``: vehicle 1 is left on the ground for an unmodified MAVSDK example
+    (gcs_examples/<mavsdk>.py) started with the measurement window while the others fly; the
+    ping client then pings vehicle 2."""
     point = Point(n, shards, "flying" if flying else "idle", bare_ms_per_body_s=bare_s * 1e3)
     try:
         offset = free_port_offset(n)
@@ -673,7 +679,8 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
         go.set()
         example = None
         if mavsdk:
-            example = ThreadPool(1).apply_async(run_mavsdk_example, (offset, MAVSDK_TIMEOUT_S))
+            example = ThreadPool(1).apply_async(run_mavsdk_example,
+                                                (mavsdk, offset, MAVSDK_TIMEOUT_S))
         time.sleep(seconds)
         cpu1, lcpu1, w1 = tree_cpu_s(pid), tree_cpu_s(helpers[0].pid), time.monotonic()
         ecpu1 = engine_cpu_s(pid)
@@ -697,7 +704,7 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
         if example is not None:
             passed, took, tail = example.get(MAVSDK_TIMEOUT_S + 10)
             others = len([sysid for sysid in clock.flying()[0] if sysid != 1])
-            point.notes.append(f"MAVSDK takeoff_and_land.py on vehicle 1 while "
+            point.notes.append(f"MAVSDK {mavsdk}.py on vehicle 1 while "
                                f"{others} others fly: {'PASS' if passed else 'FAIL'} in "
                                f"{took:.0f} s")
             print(f"    mavsdk: {'PASS' if passed else 'FAIL'} in {took:.1f} s: {tail}",
@@ -894,10 +901,11 @@ def main() -> int:
                       help="arm and take off every vehicle first (default)")
     mode.add_argument("--idle", dest="flying", action="store_false",
                       help="leave the vehicles on the ground")
-    parser.add_argument("--mavsdk", action="store_true",
+    parser.add_argument("--mavsdk", nargs="?", const="takeoff_and_land", default=None,
+                        choices=sorted(MAVSDK_EXAMPLES), metavar="EXAMPLE",
                         help="at the largest vehicle count, fly vehicle 1 with the unmodified "
-                        "MAVSDK example gcs_examples/takeoff_and_land.py while the others fly "
-                        "(needs --flying)")
+                        "MAVSDK example gcs_examples/EXAMPLE.py (takeoff_and_land, the default, "
+                        "or mission) while the others fly (needs --flying)")
     parser.add_argument("--scenario", type=Path,
                         help="run every point with `--scenario FILE` (e.g. ns3-wifi:"
                         " the vehicles through the real ns-3; its network, the given counts)")
@@ -928,7 +936,8 @@ def main() -> int:
         for n in counts:
             bare = bare_pybullet_cpu_per_body_sim_s(n)
             p = measure(n, shards_of[n], args.seconds, args.flying, bare, echo_port, ctx,
-                        mavsdk=args.mavsdk and n == max(counts), scenario=args.scenario)
+                        mavsdk=args.mavsdk if n == max(counts) else None,
+                        scenario=args.scenario)
             points.append(p)
             print(f"  {n} vehicles, {shards_of[n]} shard(s): rtf {_f(p.rtf, '.3f')}, "
                   f"CPU {_f(p.cpu_ms_per_vehicle_s, '.1f')} ms per vehicle-s, "

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import gc
 import logging
 import os
 import sys
@@ -21,11 +22,14 @@ from gateway.cli_args import probability as _probability
 from gateway.cli_args import speed as _speed
 from gateway.cli_args import vehicle_params as _vehicle_params
 from gateway.cli_args import version as _version
+from gateway.web.address import WebListenError, add_web_parser, listen_arg
 
 SIGNING_CREDENTIAL = "signing.key"  # $CREDENTIALS_DIRECTORY/signing.key: the unit's key
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from gateway.ci import flags
+
     parser = argparse.ArgumentParser(
         prog="cornet",
         description="MAVLink SITL gateway: simulated PX4 quadrotors behind a simulated network.",
@@ -102,6 +106,9 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar="PORT",
                      help="serve the daemon's counters in the Prometheus text format on "
                      "http://BIND:PORT/metrics")
+    run.add_argument("--web", type=listen_arg("--web"), default=None, metavar="[ADDR:]PORT",
+                     help="serve the live view (map, links, drops) on http://ADDR:PORT/ "
+                     "(ADDR default 127.0.0.1; docs/web.md)")
     run.add_argument("--shards", type=_non_negative(int, "--shards"), default=1, metavar="K",
                      help="split the vehicles across K worker processes kept in lockstep: an MPI "
                      "job of K+1 ranks, started with mpiexec (pip install 'cornet[mpi]'; "
@@ -135,14 +142,15 @@ def build_parser() -> argparse.ArgumentParser:
     fly.add_argument("--scenario", type=Path, default=None, metavar="FILE|NAME",
                      help="fly through a scenario's network, wind and faults (a file or a "
                      "shipped scenario's name)")
-    fly.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,
+    fly.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=None,
                      metavar="X", help="one-way network latency in ms on every link (default 0)")
-    fly.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=0.0,
+    fly.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=None,
                      metavar="Y", help="uniform jitter +-Y ms (default 0)")
-    fly.add_argument("--loss", type=_probability, default=0.0, metavar="P",
+    fly.add_argument("--loss", type=_probability, default=None, metavar="P",
                      help="packet loss probability per datagram, 0..1 (default 0)")
-    fly.add_argument("--seed", type=_non_negative(int, "--seed"), default=0, metavar="S",
-                     help="seed of every random stream (default 0)")
+    fly.add_argument("--seed", type=_non_negative(int, "--seed"), default=None, metavar="S",
+                     help="the network's seed, also of sensor noise and wind (default: the "
+                     "scenario's, else 0)")
     fly.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter at start (repeatable; PX4_PARAM_<NAME> too)")
     fly.add_argument("--time-limit", type=_non_negative(float, "--time-limit"), default=None,
@@ -153,6 +161,11 @@ def build_parser() -> argparse.ArgumentParser:
                      help="record the flight (tlogs, state.csv, packet trace, ULog) in DIR "
                      "(default logs, replaced by every flight; `cornet plot DIR` draws it)")
     fly.add_argument("--no-log", action="store_true", help="do not record the flight")
+    flags.add_fly_flags(fly)
+    flags.add_sweep_arguments(sub.add_parser(
+        "sweep", help="fly a .plan over a grid of network conditions, seeds, scenarios and "
+        "parameters in parallel: CSV, PNGs, reports (exit 0 all pass, 1 some fail)"))
+    add_web_parser(sub)
     plot = sub.add_parser("plot", help="draw a recorded run: track vs plan, altitude and speed, "
                           "link latency and loss (PNGs)")
     plot.add_argument("log_dir", type=Path, metavar="LOGDIR",
@@ -175,9 +188,19 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command == "run":
-        return _run(parser, args, sys.argv[1:] if argv is None else argv)
+        # The daemon builds long-lived objects only until it serves, and then freezes them out
+        # of the collector and turns it on (gateway.daemon.app.settle_heap).
+        gc.disable()
+        try:
+            return _run(parser, args, sys.argv[1:] if argv is None else argv)
+        finally:
+            gc.enable()
     if args.command == "fly":
         return _fly(_subparser(parser, "fly"), args)
+    if args.command == "sweep":
+        from gateway.ci import sweep
+
+        return sweep.main(args, lambda flags: _parse_params(_subparser(parser, "sweep"), flags, {}))
     if args.command == "plot":
         try:
             from gateway.ci import plot
@@ -198,6 +221,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"cornet check: {exc}", file=sys.stderr)
             return 2
         return 0
+    if args.command == "web":
+        from gateway.web import main as web_main
+
+        return web_main(args.zmq, args.listen)
     if args.command in ("watch", "stats"):
         from gateway.bus import watch
 
@@ -210,29 +237,35 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
-    from gateway.ci import fly
+    from gateway.ci import regress
+    from gateway.ci.baseline import Tolerances
     from gateway.daemon.progress import ProgressLine
-    from gateway.sim.scenario import NetworkConfig, ScenarioError, load
+    from gateway.sim.scenario import ScenarioError, load
 
-    network = None
     if args.scenario is not None:
         try:
             load(args.scenario)
         except ScenarioError as exc:
             parser.error(str(exc))
-    elif args.latency_ms or args.jitter_ms or args.loss or args.seed:
-        network = NetworkConfig.from_flags(args.latency_ms, args.jitter_ms, args.loss, args.seed)
+    if args.overlay is not None and args.baseline is None:
+        parser.error("--overlay draws the flight over its baseline: give --baseline DIR too")
     log_dir = None if args.no_log else args.log_dir
-    if log_dir is not None:
-        _writable_dir(parser, log_dir, "--log-dir")
+    for flag, path in (("--log-dir", log_dir), ("--save-baseline", args.save_baseline)):
+        if path is not None:
+            _writable_dir(parser, path, flag)
     logging.basicConfig(level="WARNING", format="%(levelname)s %(name)s: %(message)s")
-    kwargs = {"network": network, "scenario": args.scenario,
-              "params": _parse_params(parser, args.param, dict(os.environ)),
-              "max_deviation_m": args.max_deviation, "log_dir": log_dir,
-              "progress": ProgressLine(sys.stderr)}
-    if args.time_limit is not None:
-        kwargs["time_limit_s"] = args.time_limit
-    return fly.main(args.plan, **kwargs)
+    overrides = {k: v for k, v in (("latency_ms", args.latency_ms), ("jitter_ms", args.jitter_ms),
+                                   ("loss", args.loss), ("seed", args.seed),
+                                   ("time_limit_s", args.time_limit), ("control", args.control),
+                                   ("max_deviation_m", args.max_deviation),
+                                   ("scenario", args.scenario and str(args.scenario)),
+                                   ("params", _parse_params(parser, args.param, dict(os.environ))
+                                    or None)) if v is not None}
+    return regress.main(args.plan, overrides, baseline=args.baseline,
+                        save_baseline=args.save_baseline, overlay=args.overlay,
+                        tolerances=Tolerances(args.tol_track_m, args.tol_time_s, args.tol_loss),
+                        junit_xml=args.junit_xml, summary=args.summary, log_dir=log_dir,
+                        progress=ProgressLine(sys.stderr))
 
 
 def _writable_dir(parser: argparse.ArgumentParser, path: Path, flag: str) -> None:
@@ -330,6 +363,7 @@ def _run_settings(args: argparse.Namespace,
         "metrics_port": _first(args.metrics_port, d.metrics_port),
         "shards": args.shards,
         "ignore_bad_state": args.ignore_bad_state,
+        "web": _first(args.web, d.web),
     }
     key_path = _first(args.signing_key, d.signing_key)
     what = "--signing-key" if args.signing_key is not None else f"{source}: daemon.signing_key"
@@ -421,6 +455,9 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: list[s
         return 2
     except MetricsPortError as exc:
         print(f"cornet: {exc}; choose a free port", file=sys.stderr)
+        return 2
+    except WebListenError as exc:
+        print(f"cornet: {exc}", file=sys.stderr)
         return 2
     except StateError as exc:
         print(f"cornet: {where('state_dir')}: {exc}", file=sys.stderr)

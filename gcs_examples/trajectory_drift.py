@@ -11,7 +11,8 @@ The script runs ``cornet run --latency-ms X`` itself, once per latency (default 
 way, every link), flies the same square with the same gains each time, records the true track
 from the daemon's ZeroMQ state stream (world frame; vehicle 1's local origin is the world origin),
 then plots planned vs flown tracks (top view) and prints the cross-track deviation from the
-planned path (max, mean) and the time to complete.
+planned path (max, mean) and the time to complete. The control law is gateway/ci/ground.py's,
+which ``cornet sweep --control ground`` runs in lockstep over a grid of network conditions.
 
     .venv/bin/python gcs_examples/trajectory_drift.py                 # ~1 min per latency
     .venv/bin/python gcs_examples/trajectory_drift.py --latencies 0,200 --side 40
@@ -34,13 +35,11 @@ import numpy as np
 import zmq
 from pymavlink import mavutil
 
+from gateway.ci.ground import VELOCITY_ONLY, velocity_towards
 from gateway.ci.launcher import free_tcp_port, start_daemon
 
 ROOT = Path(__file__).resolve().parent.parent
 CONTROL_HZ = 20.0
-# SET_POSITION_TARGET_LOCAL_NED type mask: velocity only
-# (ignore position, acceleration, yaw and yaw rate)
-VELOCITY_ONLY = 0b110111000111
 PX4_MAIN_MODE_OFFBOARD = 6
 
 
@@ -209,9 +208,7 @@ def fly_square(flight: Flight, client: Client, args: argparse.Namespace, tag: st
                   f"truly at {truth[0]:5.1f}, {truth[1]:5.1f})")
             index += 1
             continue
-        speed = min(args.speed_mps, args.kp * dist)
-        client.velocity(speed * dn / dist, speed * de / dist,
-                        max(-2.0, min(2.0, args.kp * (alt_d - d))))
+        client.velocity(*velocity_towards((n, e, d), (wn, we, alt_d), args.speed_mps, args.kp))
         next_tick += 1.0 / CONTROL_HZ
         client.poll(max(0.0, next_tick - time.monotonic()))
     else:

@@ -39,13 +39,11 @@ class AutoTrajectory:
 
     @property
     def position_ned_m(self) -> Vec3:
-        t = self._smoothing.trajectory
-        return (t[0].state.x, t[1].state.x, t[2].state.x)
+        return self._smoothing.position
 
     @property
     def velocity_ned_mps(self) -> Vec3:
-        t = self._smoothing.trajectory
-        return (t[0].state.v, t[1].state.v, t[2].state.v)
+        return self._smoothing.velocity
 
     def stopping_point(self, lim: TrajectoryLimits) -> Vec3:
         """Where the setpoint comes to rest if it brakes now (navigator calculate_breaking_stop:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import csv
 import enum
+import functools
 import math
 import struct
 import zlib
@@ -94,16 +95,30 @@ def param_table() -> list[ParamInfo]:
     return _TABLE
 
 
+@functools.lru_cache(maxsize=1)
+def _shipped() -> tuple[list[ParamInfo], dict[str, int], tuple[int | float, ...],
+                        dict[str, int | float]]:
+    """The shipped table, its name → index map and its defaults (shared, never changed)."""
+    infos = param_table()
+    return (infos, {info.name: i for i, info in enumerate(infos)},
+            tuple(info.default for info in infos), {info.name: info.default for info in infos})
+
+
 class ParamStore:
     """Dense, typed, observable parameter values for one vehicle."""
 
     def __init__(self, overrides: Mapping[str, float] | None = None,
                  table: Iterable[ParamInfo] | None = None) -> None:
-        self._infos = list(table) if table is not None else param_table()
-        self._index = {info.name: i for i, info in enumerate(self._infos)}
-        self._values: list[int | float] = [info.default for info in self._infos]
-        # The same values by name: the controllers read parameters on every 50 Hz tick.
-        self._by_name: dict[str, int | float] = {i.name: v for i, v in zip(self._infos, self._values)}
+        if table is None:  # the shipped table: its index and defaults are built once
+            self._infos, self._index, values, by_name = _shipped()
+            self._values: list[int | float] = list(values)
+            # The same values by name: the controllers read parameters on every 50 Hz tick.
+            self._by_name: dict[str, int | float] = dict(by_name)
+        else:
+            self._infos = list(table)
+            self._index = {info.name: i for i, info in enumerate(self._infos)}
+            self._values = [info.default for info in self._infos]
+            self._by_name = {i.name: v for i, v in zip(self._infos, self._values)}
         self._observers: list[Callable[[str, int | float], None]] = []
         for name, value in (overrides or {}).items():
             if not self.set(name, value):

@@ -35,7 +35,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from vehicles.airframe import X500, Airframe
-from vehicles.control import compiled, position_control
+from vehicles.control import compiled, position_control, position_smoothing
 from vehicles.estimation import EXACT_SENSORS, Estimation, SensorConfig
 from vehicles.inner_loop import (
     IDLE_THRUST_NORM,
@@ -112,6 +112,7 @@ class World:
         self.estimation = Estimation(dt_s, sensors, airframe.mass_kg,
                                      airframe.linear_drag_n_per_mps, rng_for)
         position_control.compile_now()
+        position_smoothing.compile_now()
         global _uncached_warned
         if compiled.UNCACHED and not _uncached_warned:
             _uncached_warned = True

@@ -12,17 +12,23 @@ Messages are two frames: the topic (ASCII) and a JSON object.
 
 The socket is an XPUB, so the publisher knows what subscribers asked for: packet events (one
 per datagram per event, the costly topic) are only built while someone subscribes to them.
+
+In-process listeners get every message (packet events only while a ZeroMQ subscriber asks) as
+the object itself, before it is encoded; with no endpoint there is no socket, only listeners.
+A listener must return at once: it runs on the simulation's clock.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+from collections.abc import Callable
 from typing import Any
 
 import zmq
 
 from gateway.mavlink.modes import custom_mode_of
+from vehicles.geodesy import reproject
 from vehicles.types import NavState
 
 log = logging.getLogger(__name__)
@@ -53,14 +59,19 @@ def _r(x: float, digits: int = 3) -> float:
     return round(float(x), digits)
 
 
+Listener = Callable[[bytes, dict], None]  # (topic, message): must not block
+
+
 class Publisher:
-    def __init__(self, endpoint: str, context: zmq.Context | None = None) -> None:
-        self._ctx = context or zmq.Context.instance()
-        self.socket = self._ctx.socket(zmq.XPUB)
-        self.socket.setsockopt(zmq.SNDHWM, SEND_HWM)
-        self.socket.setsockopt(zmq.LINGER, 0)
-        self.socket.bind(endpoint)
+    def __init__(self, endpoint: str | None, context: zmq.Context | None = None) -> None:
+        self.socket: zmq.Socket | None = None
+        if endpoint is not None:
+            self.socket = (context or zmq.Context.instance()).socket(zmq.XPUB)
+            self.socket.setsockopt(zmq.SNDHWM, SEND_HWM)
+            self.socket.setsockopt(zmq.LINGER, 0)
+            self.socket.bind(endpoint)
         self.endpoint = endpoint
+        self.listeners: list[Listener] = []
         self.sent = 0
         self.dropped = 0
         self._subscriptions: set[bytes] = set()
@@ -68,7 +79,7 @@ class Publisher:
 
     def poll_subscriptions(self) -> None:
         """Read subscribe / unsubscribe notices (XPUB: first subscribe, last unsubscribe)."""
-        while True:
+        while self.socket is not None:
             try:
                 msg = self.socket.recv(zmq.NOBLOCK)
             except zmq.Again:
@@ -81,6 +92,10 @@ class Publisher:
 
     def publish(self, topic: bytes, body: dict) -> None:
         body["v"] = SCHEMA_VERSION
+        for listener in self.listeners:
+            listener(topic, body)
+        if self.socket is None:
+            return
         try:
             self.socket.send_multipart([topic, json.dumps(body, separators=(",", ":")).encode()],
                                        flags=zmq.NOBLOCK)
@@ -113,7 +128,16 @@ class Publisher:
                 "velocity_ned_mps": [_r(vel[0]), _r(vel[1]), _r(vel[2])],
                 "battery_remaining": _r(status.battery.remaining),
             })
-        self.publish(TOPIC_STATE, {"t": _r(now_s, 4), "vehicles": out})
+        home = sim.world.home
+        nodes = []
+        for node in sim.ground_nodes():
+            n, e, d = node["world_ned_m"]
+            lat, lon = reproject(home.lat_deg, home.lon_deg, n, e)
+            nodes.append({**node, "world_ned_m": [_r(n), _r(e), _r(d)], "lat_deg": _r(lat, 7),
+                          "lon_deg": _r(lon, 7), "alt_amsl_m": _r(home.alt_amsl_m - d)})
+        self.publish(TOPIC_STATE, {"t": _r(now_s, 4), "vehicles": out, "nodes": nodes,
+                                   "home": {"lat_deg": home.lat_deg, "lon_deg": home.lon_deg,
+                                            "alt_amsl_m": home.alt_amsl_m}})
 
     def link_stats(self, now_s: float, sim) -> None:
         body = {"t": _r(now_s, 4), "links": sim.link_stats()}
@@ -140,4 +164,5 @@ class Publisher:
         self.publish(TOPIC_FAULT, body)
 
     def close(self) -> None:
-        self.socket.close(0)
+        if self.socket is not None:
+            self.socket.close(0)

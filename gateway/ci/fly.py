@@ -43,6 +43,7 @@ from vehicles.types import GeoPoint, NavState, Vec3
 
 DEFAULT_TIME_LIMIT_S = 900.0
 GEOFENCE_SAMPLE_S = 0.02  # the position-control rate
+TRACK_SAMPLE_S = 0.1  # the flown track kept in FlyResult.track (baselines compare it)
 POSITION_VALID_TIMEOUT_S = 10.0
 PROGRESS_PERIOD_S = 0.5  # simulated time between progress reports (ProgressLine throttles)
 MISSION_STATE_COMPLETE = 5
@@ -51,8 +52,8 @@ POSITION_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_UNLIM,
                                MavCmd.NAV_LOITER_TO_ALT})
 LAND_COMMANDS = frozenset({MavCmd.NAV_LAND, 85})
 TAKEOFF_COMMANDS = frozenset({MavCmd.NAV_TAKEOFF, 84})
-# Modes in which the flown path is compared with the plan.
-JUDGED_MODES = frozenset({NavState.AUTO_MISSION})
+# Modes in which the flown path is compared with the plan (offboard: ground control).
+JUDGED_MODES = frozenset({NavState.AUTO_MISSION, NavState.OFFBOARD})
 
 
 
@@ -179,27 +180,34 @@ def load_plan(path: str | Path) -> QgcPlan:
 
 
 # --- the planned path --------------------------------------------------------------------------
-def planned_path(items: Sequence[PlanItem], origin: GeoPoint, start_ned_m: Vec3) -> list[Vec3]:
-    """The polyline the mission asks for, in the local NED frame of ``origin``."""
-    pts: list[Vec3] = [start_ned_m]
+def planned_targets(items: Sequence[PlanItem], origin: GeoPoint,
+                    start_ned_m: Vec3) -> list[tuple[int | None, Vec3]]:
+    """The points of :func:`planned_path`, each with the seq of the item that asks for it (None
+    for the start)."""
+    pts: list[tuple[int | None, Vec3]] = [(None, start_ned_m)]
     home_alt = origin.alt_amsl_m
-    for it in items:
-        prev = pts[-1]
+    for seq, it in enumerate(items):
+        prev = pts[-1][1]
         has_xy = it.frame in GLOBAL_FRAMES and (it.x != 0 or it.y != 0)
         n, e, d = item_ned(it, origin, home_alt) if it.frame in GLOBAL_FRAMES else (*prev[:2], 0.0)
         if not has_xy:
             n, e = prev[0], prev[1]
         if it.command in TAKEOFF_COMMANDS:
-            pts.append((prev[0], prev[1], d))
-            pts.append((n, e, d))
+            pts.append((seq, (prev[0], prev[1], d)))
+            pts.append((seq, (n, e, d)))
         elif it.command in POSITION_COMMANDS:
-            pts.append((n, e, d))
+            pts.append((seq, (n, e, d)))
         elif it.command in LAND_COMMANDS:
-            pts.append((n, e, prev[2]))
-            pts.append((n, e, start_ned_m[2]))
+            pts.append((seq, (n, e, prev[2])))
+            pts.append((seq, (n, e, start_ned_m[2])))
         elif it.command == MavCmd.NAV_RETURN_TO_LAUNCH:
             break
     return pts
+
+
+def planned_path(items: Sequence[PlanItem], origin: GeoPoint, start_ned_m: Vec3) -> list[Vec3]:
+    """The polyline the mission asks for, in the local NED frame of ``origin``."""
+    return [p for _, p in planned_targets(items, origin, start_ned_m)]
 
 
 def distance_to_path(p: Vec3, path: Sequence[Vec3]) -> float:
@@ -238,6 +246,13 @@ class FlyResult:
     faults: list[str] = field(default_factory=list)  # the scenario's faults, as they fired
     failsafes: list[str] = field(default_factory=list)  # what the vehicle said of failsafes
     refused_plan: bool = False  # the vehicle refused the plan: bad input, not a failed flight
+    # What a baseline keeps (gateway/ci/baseline.py): (t, n, e, d) every TRACK_SAMPLE_S from
+    # arming on, (t, mode) at each mode change while armed, first MISSION_ITEM_REACHED time by seq, and the
+    # links' counters at the end.
+    track: list[tuple[float, float, float, float]] = field(default_factory=list)
+    mode_changes: list[tuple[float, str]] = field(default_factory=list)
+    item_times: dict[int, float] = field(default_factory=dict)
+    link_stats: dict[str, dict] = field(default_factory=dict)
 
     @property
     def exit_code(self) -> int:
@@ -278,13 +293,18 @@ def fly(plan: QgcPlan | str | Path, *, network: NetworkConfig | None = None,
         scenario: str | Path | Scenario | None = None, params: dict[str, float] | None = None,
         time_limit_s: float = DEFAULT_TIME_LIMIT_S, max_deviation_m: float | None = None,
         log_dir: str | Path | None = None, use_plan_home: bool = True,
-        progress: ProgressLine | None = None,
+        progress: ProgressLine | None = None, control: str = "mission",
         clock: Callable[[], float] = time.perf_counter) -> FlyResult:
     """Fly ``plan`` on vehicle 1 in lockstep and judge it (see the module doc).
 
     ``use_plan_home``: spawn at the plan's plannedHomePosition (else the scenario's / PX4 SITL
     home). ``progress`` shows sim time, real-time factor, mode and mission item (a bar on a
-    terminal, plain periodic lines elsewhere). Raises PlanFileError for an unreadable plan."""
+    terminal, plain periodic lines elsewhere). ``control``: ``mission`` (PX4 flies the plan in
+    Mission mode) or ``ground`` (a ground-side controller flies its waypoints with offboard
+    velocity setpoints over the network, gateway/ci/ground.py). Raises PlanFileError for an
+    unreadable plan."""
+    if control not in ("mission", "ground"):
+        raise ValueError(f"control must be 'mission' or 'ground', not {control!r}")
     if not isinstance(plan, QgcPlan):
         plan = load_plan(plan)
     wall0 = clock()
@@ -294,13 +314,14 @@ def fly(plan: QgcPlan | str | Path, *, network: NetworkConfig | None = None,
     sim = Sim(1 if scenario is None else None, network, scenario=scenario, params=params,
               home=home, log_dir=log_dir, extra_meta={"plan": plan.source})
     try:
-        _fly(sim, plan, res, time_limit_s, progress, clock, wall0)
+        _fly(sim, plan, res, time_limit_s, progress, clock, wall0, control)
     finally:
         if progress is not None:
             progress.close()
         res.sim_s = sim.now
         res.wall_s = clock() - wall0
         res.faults = [f"t={t:.1f} s {f.describe()}" for t, f in sim.simulation.faults_fired]
+        res.link_stats = sim.link_stats()
         sim.close()
     if max_deviation_m is not None and res.max_deviation_m >= max_deviation_m:
         res.reasons.append(f"max deviation {res.max_deviation_m:.1f} m >= {max_deviation_m:g} m")
@@ -316,7 +337,7 @@ def fly(plan: QgcPlan | str | Path, *, network: NetworkConfig | None = None,
 
 def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
          progress: ProgressLine | None, clock: Callable[[], float],
-         wall0: float) -> None:
+         wall0: float, control: str = "mission") -> None:
     api = sim.api(0)
     vehicle = sim.vehicles[0]
     if not sim.run_until(lambda: sim.status(0).position_valid, POSITION_VALID_TIMEOUT_S):
@@ -342,10 +363,18 @@ def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
     inclusions = [a for a in areas if a.inclusion]
     exclusions = [a for a in areas if not a.inclusion]
 
+    tick = [0]
+
     def watch(now: float) -> None:
         st = vehicle.state
         n, e, d = (float(x) for x in st.position_ned_m)
         status = vehicle.status
+        mode = status.nav_state.name
+        if status.armed and (not res.mode_changes or res.mode_changes[-1][1] != mode):
+            res.mode_changes.append((round(now, 3), mode))
+        if status.armed and tick[0] % round(TRACK_SAMPLE_S / GEOFENCE_SAMPLE_S) == 0:
+            res.track.append((round(now, 3), n, e, d))
+        tick[0] += 1
         if areas and status.armed and res.geofence_breach is None:
             inside = (not inclusions or any(a.contains(n, e) for a in inclusions)) and \
                 not any(a.contains(n, e) for a in exclusions)
@@ -386,10 +415,16 @@ def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
                            + ("" if result is None else f" (MAV_RESULT {result})"))
         _collect(api, res, plan)
         return
-    result = api.start_mission()
-    if result != 0:
-        res.reasons.append("mission start " + ("timed out" if result is None
-                                               else f"denied (MAV_RESULT {result})"))
+    if control == "ground":
+        from gateway.ci.ground import fly_ground
+
+        failed = fly_ground(sim, planned_targets(plan.mission, origin, start), res, time_limit_s)
+    else:
+        result = api.start_mission()
+        failed = None if result == 0 else "mission start " + (
+            "timed out" if result is None else f"denied (MAV_RESULT {result})")
+    if failed is not None:
+        res.reasons.append(failed)
         _collect(api, res, plan)
         return
     deadline = time_limit_s
@@ -407,10 +442,12 @@ def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
 
 def _collect(api, res: FlyResult, plan: QgcPlan) -> None:
     """What the GCS heard: items reached, mission state, the vehicle's warnings."""
-    reached = {m.seq for m in api.messages("MISSION_ITEM_REACHED")}
+    for t, m in api.timed_messages("MISSION_ITEM_REACHED"):
+        res.item_times.setdefault(int(m.seq), round(t, 3))
+    reached = set(res.item_times)
     res.items_reached = len(reached & set(range(len(plan.mission))))
-    res.mission_finished = res.items_reached == len(plan.mission) or any(
-        m.mission_state == MISSION_STATE_COMPLETE for m in api.messages("MISSION_CURRENT"))
+    res.mission_finished = res.mission_finished or res.items_reached == len(plan.mission) or \
+        any(m.mission_state == MISSION_STATE_COMPLETE for m in api.messages("MISSION_CURRENT"))
     res.vehicle_texts = [m.text for m in api.messages("STATUSTEXT") if m.severity <= 4]
     res.failsafes = [f"t={t:.1f} s {m.text}" for t, m in api.timed_messages("STATUSTEXT")
                      if "ailsafe" in m.text]

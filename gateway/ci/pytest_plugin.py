@@ -1,8 +1,9 @@
 """CORNET's pytest plugin: simulated PX4 vehicles as fixtures, assertions on their flight logs.
 
 Installed with cornet (the ``pytest11`` entry point ``cornet``), or loaded by hand with
-``pytest -p gateway.pytest_plugin``. Importing it does nothing else: no autouse fixture, no hook,
-and the simulator itself is imported only when a fixture or helper needs it.
+``pytest -p gateway.pytest_plugin``. Importing it does nothing else: no autouse fixture, one hook
+(the ``--cornet-update-baselines`` option), and the simulator itself is imported only when a
+fixture or helper needs it.
 
 Fixtures (both are factories; everything they start is stopped at the end of the test):
 
@@ -16,6 +17,15 @@ Fixtures (both are factories; everything they start is stopped at the end of the
 ``cornet_sim(vehicles=1, **kwargs)``
     a lockstep :class:`gateway.ci.lockstep.Sim` (no sockets, simulated clock) logging to a directory
     under ``tmp_path`` (its ``log_dir`` attribute); closed at teardown.
+
+``cornet_baseline(plan, directory=None, tolerances=None, **conditions)``
+    flies ``plan`` in lockstep (``cornet fly``'s judge; ``conditions``: fields of
+    ``gateway.ci.spec.FlightSpec`` such as ``latency_ms=100``, ``seed=1``, ``control="ground"``)
+    and compares it with the baseline stored in ``directory`` (default: ``baselines/<test name>``
+    next to the test file, gateway/ci/baseline.py): the test fails with the comparison report if
+    the flight failed or changed beyond the tolerances. ``pytest --cornet-update-baselines``
+    stores the flights as the new baselines instead (a failed flight is not stored). Returns the
+    ``gateway.ci.regress.Outcome``.
 
 Assertion helpers, on a run's logs (a run directory, a base directory holding runs, a
 :class:`CornetDaemon`, a ``Sim`` or a :class:`FlightLogView`). ``reached`` and ``landed_within``
@@ -53,6 +63,15 @@ from gateway.ci.ports import free_port_offset, free_tcp_port
 __all__ = ["Check", "CornetDaemon", "FlightLogView", "StateSample", "distance_m",
            "free_port_offset", "free_tcp_port", "landed_within", "max_deviation_m", "reached",
            "start_daemon"]
+
+
+UPDATE_BASELINES = "--cornet-update-baselines"
+
+
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.getgroup("cornet").addoption(
+        UPDATE_BASELINES, action="store_true", default=False,
+        help="cornet_baseline: store the flights as the new baselines instead of comparing")
 
 
 # --- fixtures ------------------------------------------------------------------------------------
@@ -103,3 +122,33 @@ def cornet_sim(tmp_path: Path):
     yield make
     for sim in sims:
         sim.close()
+
+
+@pytest.fixture
+def cornet_baseline(request: pytest.FixtureRequest):
+    """Factory: ``cornet_baseline(plan, directory=None, tolerances=None, **conditions)`` → the
+    ``gateway.ci.regress.Outcome`` of a lockstep flight compared with its stored baseline."""
+    from gateway.ci import regress
+    from gateway.ci.baseline import DEFAULT_TOLERANCES, MANIFEST
+
+    update = bool(request.config.getoption(UPDATE_BASELINES))
+    default_dir = Path(str(request.node.path)).parent / "baselines" / request.node.name
+
+    def check(plan: str | Path, directory: str | Path | None = None, tolerances: Any = None,
+              **conditions: Any) -> Any:
+        where = Path(directory) if directory is not None else default_dir
+        if not update and not (where / MANIFEST).is_file():
+            pytest.fail(f"no baseline in {where}: record it with pytest {UPDATE_BASELINES}",
+                        pytrace=False)
+        outcome = regress.run(plan, conditions, baseline=None if update else where,
+                              tolerances=tolerances or DEFAULT_TOLERANCES)
+        if not outcome.passed:
+            pytest.fail(outcome.text(), pytrace=False)
+        if update:
+            from gateway.ci.baseline import Baseline
+            from gateway.ci.fly import load_plan
+
+            Baseline.of(outcome.result, outcome.spec, load_plan(plan)).save(where)
+        return outcome
+
+    return check

@@ -45,6 +45,7 @@ from gateway.sim.flightlog import FlightLog, new_run_dir
 from gateway.sim.radios import LinkTag, ports_text, tag_name
 from gateway.sim.scenario import NetworkConfig, ScenarioError
 from gateway.sim.simulation import Simulation
+from gateway.web import start as start_web
 from netsim.link import TraceWriter, fan_out
 from vehicles.estimation import SensorConfig
 from vehicles.faults import Fault
@@ -86,6 +87,7 @@ class RunConfig:
     sensors: SensorConfig = field(default_factory=SensorConfig)  # the scenario's [sensors]
     faults: tuple[Fault, ...] = ()  # the scenario's [[faults]] timeline
     spawn_ned_m: tuple[tuple[float, float], ...] = ()  # the scenario's vehicles.spawn_ned_m
+    web: tuple[str, int] | None = None  # the live view's (host, port) (--web; gateway/web/)
 
 
 class MetricsPortError(OSError):
@@ -105,7 +107,7 @@ class Daemon:
     def __init__(self, config: RunConfig, notifier: Notifier | None = None) -> None:
         self.config = config
         self.notifier = notifier or Notifier()  # no socket: notifications are no-ops
-        self.publisher = Publisher(config.zmq_pub) if config.zmq_pub else None
+        self.publisher = Publisher(config.zmq_pub) if config.zmq_pub or config.web else None
         self._trace_file = open(config.packet_trace, "w") if config.packet_trace else None
         self.flightlog = None
         boot_unix_s = time.time()  # the wall-clock moment of simulated t = 0 (logs, signing)
@@ -385,6 +387,16 @@ def _ports_text(cfg: RunConfig) -> str:
     return text + (" ..." if cfg.vehicles > 4 else "")
 
 
+def settle_heap() -> None:
+    """Everything built so far (modules, PyBullet, parameter tables, the vehicles) lives as long
+    as the process: keep it out of the cyclic collector's passes, which would otherwise stall
+    the loop for milliseconds at a time as the simulation allocates. ``cornet run`` starts with
+    the collector off (gateway/cli.py), since its passes over a growing heap of long-lived
+    objects are up to 40 % of building many vehicles; this turns it on."""
+    gc.freeze()
+    gc.enable()
+
+
 async def serve(config: RunConfig, ready_out=sys.stdout, *,
                 reload: Callable[[], RunConfig] | None = None,
                 notifier: Notifier | None = None) -> int:
@@ -394,11 +406,7 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
     notifier = notifier if notifier is not None else Notifier.from_env()
     daemon = Daemon(config, notifier)
     await daemon.open()
-    # Everything built so far (modules, PyBullet, parameter tables) lives as long as the
-    # process: keep it out of the cyclic collector's full passes, which would otherwise stall
-    # the loop for milliseconds at a time as the simulation allocates.
-    gc.collect()
-    gc.freeze()
+    settle_heap()
     if not ipaddress.ip_address(config.bind).is_loopback:
         log.warning("the vehicles' ports are open to the network on %s%s", config.bind,
                     "" if config.signing_key is not None else
@@ -417,6 +425,15 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
             raise MetricsPortError(f"--metrics-port {config.metrics_port}: {exc.strerror}") \
                 from exc
         log.info("metrics: http://%s:%d/metrics", config.bind, metrics.port)
+    web = None
+    if config.web is not None and daemon.publisher is not None:
+        try:
+            web = await start_web(config.web, daemon.publisher)
+        except OSError:
+            if metrics is not None:
+                metrics.close()
+            daemon.close()
+            raise
     loop = asyncio.get_running_loop()
     stop = asyncio.Event()
     handled = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGHUP)
@@ -476,6 +493,8 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
         log.info("stopping after %.1f s: %s", time.monotonic() - t0, daemon.status_line())
         if metrics is not None:
             metrics.close()
+        if web is not None:
+            await web.close()
         daemon.close()
         notifier.close()
     return 0

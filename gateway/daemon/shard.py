@@ -52,7 +52,7 @@ so one signalled rank is enough. Workers answer with their final counters, the c
 logs the stop line, every rank exits 0. A rank that fails unexpectedly aborts the whole job
 (MPI_Abort).
 
-Limits: the embedded network only (an ns-3 engine belongs to one process); no --zmq-pub,
+Limits: the embedded network only (an ns-3 engine belongs to one process); no --zmq-pub, --web,
 --log-dir, --packet-trace, --metrics-port or SIGHUP reload with more than one shard yet.
 """
 
@@ -61,7 +61,6 @@ from __future__ import annotations
 import asyncio
 import collections
 import contextlib
-import gc
 import logging
 import math
 import os
@@ -80,6 +79,7 @@ from gateway.daemon.app import (
     RunConfig,
     _ports_text,
     format_status,
+    settle_heap,
 )
 from gateway.daemon.sdnotify import Notifier
 
@@ -95,7 +95,7 @@ POLL_PERIOD_S = 0.001
 TAG = 7
 MPI_RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
 MPI_MISSING = "--shards needs MPI (mpi4py and an MPI library): pip install 'cornet[mpi]'"
-UNSUPPORTED_WITH_SHARDS = ("zmq_pub", "log_dir", "packet_trace", "metrics_port")
+UNSUPPORTED_WITH_SHARDS = ("zmq_pub", "log_dir", "packet_trace", "metrics_port", "web")
 
 
 class ShardError(RuntimeError):
@@ -259,8 +259,7 @@ async def _worker(config: RunConfig, shard: int, channel: Channel) -> int:
         channel.send(0, {"error": f"{exc}; is another cornet or PX4 SITL running?", "code": 2})
         await channel.flush()
         return 2
-    gc.collect()
-    gc.freeze()  # as gateway.daemon.app.serve does
+    settle_heap()  # as gateway.daemon.app.serve does
     own = {f"v{i + 1}" for i in daemon.sim.indices}
     pacer = daemon.pacer
     pacer.set_horizon(0.0)

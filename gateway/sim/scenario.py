@@ -30,6 +30,7 @@ A scenario is a TOML file (docs/scenarios.md shows every key); the daemon's conf
     log_dir = "/var/log/cornet"
     zmq_pub = "tcp://127.0.0.1:5556"
     packet_trace = "packets.trace"
+    web = "127.0.0.1:8080"          # the live view ([ADDR:]PORT)
     # log_level = "info"            # or [logging] level: set one of them
 
 Every error names the key's path and the file (``lossy.toml: network.radio.mcs: ...``); the CLI
@@ -50,7 +51,7 @@ from gateway.data import scenario_path
 from gateway.sim import param_files
 from gateway.sim.fault_timeline import parse_faults
 from gateway.sim.radios import ExtraRadio, check_radio_ports, radio_ports, split_entries
-from gateway.sim.values import ScenarioError, gcs_partner, spawn_points
+from gateway.sim.values import ScenarioError, gcs_partner, listen_address, spawn_points
 from gateway.sim.values import choice as _choice
 from gateway.sim.values import number as _number
 from gateway.sim.values import table as _table
@@ -84,7 +85,7 @@ MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli_args.py)
 MAX_PORT = 65535
 HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it binds (gateway/sim/simulation.py)
 DAEMON_KEYS = ("bind", "port_offset", "speed", "state_dir", "log_dir", "zmq_pub", "packet_trace",
-               "log_level", "signing_key", "metrics_port", "gcs")
+               "log_level", "signing_key", "metrics_port", "web", "gcs")
 NETWORK_OWN_KEYS = ("backend", "seed", "sync_period_s", "late_policy", "ns3")
 
 
@@ -137,6 +138,7 @@ class DaemonSettings:
     packet_trace: Path | None = None
     signing_key: Path | None = None  # MAVLink 2 signing key file (gateway/mavlink/signing.py)
     metrics_port: int | None = None  # Prometheus /metrics on bind:port; None: off
+    web: tuple[str, int] | None = None  # the live view's (host, port); None: off
     gcs: tuple[str, int | None] | None = None  # where the GCS links talk first (--gcs)
 
 
@@ -224,6 +226,8 @@ def _daemon(table: dict, base_dir: Path | None) -> tuple[DaemonSettings, str | N
             raise ScenarioError(f"daemon.zmq_pub: expected a ZeroMQ endpoint such as "
                                 f"tcp://127.0.0.1:5556, got {value!r}")
         out["zmq_pub"] = value
+    if "web" in table:
+        out["web"] = listen_address(table["web"], "daemon.web", 'web = "127.0.0.1:8080"')
     level = table.get("log_level")
     if level is not None:
         _choice(level, LOG_LEVELS, "daemon.log_level")
@@ -444,12 +448,21 @@ def describe(s: Scenario) -> str:
     if s.sensors != SensorConfig():
         lines.append(f"  sensors: noise × {s.sensors.noise:g}")
     d = s.daemon
-    shown = {"speed": lambda v: "max" if math.isinf(v) else v,
-             "gcs": lambda v: v[0] if v[1] is None else f"{v[0]}:{v[1]}"}
-    settings = [f"{key} {shown.get(key, lambda v: v)(value)}"
+    settings = [f"{key} {_shown(key, value)}"
                 for key in DAEMON_KEYS if (value := getattr(d, key, None)) is not None]
     if s.log_level is not None:
         settings.append(f"log_level {s.log_level}")
     if settings:
         lines.append(f"  daemon: {', '.join(settings)}")
     return "\n".join(lines)
+
+
+def _shown(key: str, value: Any) -> str:
+    if key == "speed" and math.isinf(value):
+        return "max"
+    if key == "web":  # (host, port)
+        host, port = value
+        return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+    if key == "gcs":  # (host, port or None)
+        return value[0] if value[1] is None else f"{value[0]}:{value[1]}"
+    return str(value)

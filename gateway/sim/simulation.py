@@ -292,6 +292,36 @@ class Simulation:
             out[f"v{self.indices[k] + 1}"] = (n0 + n, e0 + e, d)
         return out
 
+    def ground_nodes(self) -> list[dict]:
+        """The network's nodes that stay put and have a position — the star's access point, the
+        ad hoc topology's ground radio, the extra radios' ground stations, ns-3's positioned
+        nodes — each ``{"name", "kind", "world_ned_m", "serves"}``; ``serves``: the link tags
+        (gcs, api, an extra radio's name) whose radio hop ends there. Empty for direct links."""
+        backend = self.backend
+        radios = {r.name for r in self.radios}
+        out = []
+        if isinstance(backend, EmbeddedBackend):
+            topology = self.network.topology
+            hub_kind = {"star": "ap", "adhoc": "gcs"}.get(topology.get("topology", "direct"))
+            hub_serves = ["gcs"] if topology.get("api_clients") == "onboard" else ["gcs", "api"]
+            for name, position in backend.mobility.positions.items():
+                if name in radios:
+                    out.append({"name": name, "kind": "radio", "world_ned_m": position,
+                                "serves": [name]})
+                elif hub_kind is not None and not self._is_vehicle_node(name):
+                    out.append({"name": name, "kind": hub_kind, "world_ned_m": position,
+                                "serves": hub_serves})
+            return out
+        positions: dict = getattr(backend, "positions", {})
+        for name, kind in getattr(backend, "nodes", {}).items():
+            if name in positions and kind in ("ap", "enb"):
+                out.append({"name": name, "kind": kind, "world_ned_m": positions[name],
+                            "serves": ["gcs", "api"]})
+        return out
+
+    def _is_vehicle_node(self, name: str) -> bool:
+        return name[:1] == "v" and name[1:].partition(".")[0].isdigit()
+
     @property
     def internal_errors(self) -> int:
         """Bugs met while handling clients' input or building telemetry: every one is counted

@@ -4,6 +4,7 @@ print it."""
 
 from __future__ import annotations
 
+import ipaddress
 import math
 from collections.abc import Callable
 from typing import Any
@@ -80,8 +81,6 @@ def spawn_points(value: Any, count: int,
 def gcs_partner(value: Any, path: str) -> tuple[str, int | None]:
     """``HOST`` or ``HOST:PORT`` (an IPv4 address): where the GCS links talk first (``--gcs``,
     ``daemon.gcs``); the port None keeps each link's own."""
-    import ipaddress
-
     host, sep, port_text = value.partition(":") if isinstance(value, str) else ("", "", "")
     try:
         ipaddress.IPv4Address(host)
@@ -91,4 +90,34 @@ def gcs_partner(value: Any, path: str) -> tuple[str, int | None]:
                             f"192.168.1.20 or 192.168.1.20:14550; got {value!r}") from None
     if port is not None and not 1 <= port <= 65535:
         raise ScenarioError(f"{path}: the port must be between 1 and 65535, got {port}")
+    return host, port
+
+
+DEFAULT_LISTEN_HOST = "127.0.0.1"
+
+
+def listen_address(value: Any, path: str, example: str) -> tuple[str, int]:
+    """(host, port) from ``[ADDR:]PORT``: ``8080``, ``0.0.0.0:8080``, ``localhost:8080``,
+    ``[::1]:8080`` (the live view's ``--web``, ``daemon.web``)."""
+    text = str(value) if isinstance(value, int) and not isinstance(value, bool) else value
+    if not isinstance(text, str):
+        raise ScenarioError(f"{path}: expected [ADDR:]PORT, e.g. {example}; got {value!r}")
+    host, sep, port_text = text.rpartition(":")
+    if not sep:
+        host = DEFAULT_LISTEN_HOST
+    elif host.startswith("[") and host.endswith("]"):
+        host = host[1:-1]
+    try:
+        port = int(port_text)
+    except ValueError:
+        raise ScenarioError(f"{path}: expected [ADDR:]PORT, e.g. {example}; got {value!r}") \
+            from None
+    if not 1 <= port <= 65535:
+        raise ScenarioError(f"{path}: the port must be between 1 and 65535, got {value!r}")
+    if host != "localhost":
+        try:
+            ipaddress.ip_address(host)
+        except ValueError:
+            raise ScenarioError(f"{path}: {host!r} is not an IP address (or localhost); e.g. "
+                                f"{example}") from None
     return host, port

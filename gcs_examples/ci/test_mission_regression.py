@@ -5,6 +5,8 @@
   deterministic), then judged on its flight logs.
 - ``test_square_mission_cornet_fly``: the same plan through ``gateway.ci.fly.fly`` (what
   ``cornet fly PLAN`` runs), its verdict and the same assertions on its logs.
+- ``test_square_mission_matches_its_baseline``: the same flight compared with its stored baseline
+  (``cornet_baseline``; ``pytest --cornet-update-baselines`` records it again).
 - ``test_mavsdk_takeoff_and_land``: an unmodified MAVSDK-Python 3.x script against a real
   ``cornet run --speed 10`` subprocess (``cornet_daemon``), then assertions on its logs.
 
@@ -115,3 +117,11 @@ def test_mavsdk_takeoff_and_land(cornet_daemon):
     assert reached(log, home_lat, home_lon, rel_alt_m=2.5, within_m=0.5)  # takeoff altitude
     assert landed_within(log, "home", 1)
     assert log.tlog(0, "api").stat().st_size > 0  # every MAVLink frame, for mavlogdump.py
+
+
+def test_square_mission_matches_its_baseline(cornet_baseline):
+    """The flight compared with the one stored in baselines/<this test's name>/ (track at equal
+    progress, mission item and mode timing, events, link loss); record it again with
+    ``pytest --cornet-update-baselines`` after an intended change."""
+    outcome = cornet_baseline(PLAN)
+    assert outcome.comparison is None or outcome.comparison.track.max_m == 0.0

@@ -64,14 +64,16 @@ def upload_mission(conn, sysid: int, items: list[tuple[int, int, float, float, f
     raise AssertionError("mission upload timed out")
 
 
-def command_long(conn, command: int, *params: float, timeout_s: float = 6.0) -> int | None:
-    """COMMAND_LONG to vehicle 1 (component 1), resent with a higher confirmation every 0.5 s as
-    MAVSDK does, until its COMMAND_ACK or ``timeout_s``. Returns MAV_RESULT, None on time-out."""
+def command_long(conn, command: int, *params: float, timeout_s: float = 6.0,
+                 target: int = 1) -> int | None:
+    """COMMAND_LONG to vehicle ``target`` (component 1), resent with a higher confirmation every
+    0.5 s as MAVSDK does, until its COMMAND_ACK or ``timeout_s``. Returns MAV_RESULT, None on
+    time-out."""
     p = list(params) + [0.0] * (7 - len(params))
     deadline = time.monotonic() + timeout_s
     confirmation = 0
     while time.monotonic() < deadline:
-        conn.mav.command_long_send(1, 1, command, min(confirmation, 255), *p)
+        conn.mav.command_long_send(target, 1, command, min(confirmation, 255), *p)
         confirmation += 1
         ack = conn.recv_match(type="COMMAND_ACK", blocking=True, timeout=0.5,
                               condition=f"COMMAND_ACK.command=={command}")
@@ -80,19 +82,19 @@ def command_long(conn, command: int, *params: float, timeout_s: float = 6.0) -> 
     return None
 
 
-def arm_and_take_off(conn, above_m: float, timeout_s: float = 20.0) -> None:
-    """Arm (retrying while pre-arm checks settle), NAV_TAKEOFF to the default altitude, and wait
-    until GLOBAL_POSITION_INT shows the vehicle ``above_m`` over home."""
+def arm_and_take_off(conn, above_m: float, timeout_s: float = 20.0, target: int = 1) -> None:
+    """Arm vehicle ``target`` (retrying while pre-arm checks settle), NAV_TAKEOFF to the default
+    altitude, and wait until its GLOBAL_POSITION_INT shows it ``above_m`` over home."""
     arm, takeoff = 400, 22  # MAV_CMD_COMPONENT_ARM_DISARM, MAV_CMD_NAV_TAKEOFF
     deadline = time.monotonic() + timeout_s
-    while command_long(conn, arm, 1) != 0:
+    while command_long(conn, arm, 1, target=target) != 0:
         assert time.monotonic() < deadline, "could not arm"
         time.sleep(0.5)
-    assert command_long(conn, takeoff, *([float("nan")] * 7)) == 0
+    assert command_long(conn, takeoff, *([float("nan")] * 7), target=target) == 0
     deadline = time.monotonic() + timeout_s
     while True:
         pos = conn.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=1)
-        if pos is not None and pos.relative_alt > above_m * 1000:
+        if pos is not None and pos.get_srcSystem() == target and pos.relative_alt > above_m * 1000:
             return
         assert time.monotonic() < deadline, "did not climb"
 

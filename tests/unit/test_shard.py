@@ -23,6 +23,7 @@ def test_split_is_contiguous_and_balanced():
     ({"shards": 0}, "at least 1"),
     ({"shards": 3, "vehicles": 2}, "more than --vehicles"),
     ({"shards": 2, "vehicles": 2, "zmq_pub": "tcp://127.0.0.1:5556"}, "--zmq-pub"),
+    ({"shards": 2, "vehicles": 2, "web": ("127.0.0.1", 8080)}, "--web"),
     ({"shards": 2, "vehicles": 2, "network": NetworkConfig(backend="ns3")}, "embedded"),
 ])
 def test_what_cannot_run_sharded_is_named(changes, words):

@@ -19,7 +19,26 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from vehicles.control.velocity_smoothing import VelocitySmoothing
+import numpy as np
+from numba.extending import register_jitable
+
+from vehicles.control.compiled import njit_cached
+from vehicles.control.velocity_smoothing import (
+    AMAX,
+    JMAX,
+    VMAX,
+    A,
+    J,
+    V,
+    VelocitySmoothing,
+    X,
+    mn,
+    mx,
+    new_axes,
+    vs_time_synchronization,
+    vs_update_durations,
+    vs_update_traj,
+)
 from vehicles.types import Vec3
 
 _EPS = 1.1920929e-07  # FLT_EPSILON
@@ -27,6 +46,7 @@ _NAN3: Vec3 = (math.nan, math.nan, math.nan)
 
 
 # --- TrajMath.hpp -----------------------------------------------------------------------------
+@register_jitable
 def max_speed_from_distance(jerk: float, accel: float, braking_distance: float,
                             final_speed: float) -> float:
     """The speed from which the vehicle can still brake to ``final_speed`` within the distance
@@ -36,6 +56,7 @@ def max_speed_from_distance(jerk: float, accel: float, braking_distance: float,
     return 0.5 * (-b + math.sqrt(b * b - 4.0 * c))
 
 
+@register_jitable
 def max_speed_in_waypoint(alpha: float, accel: float, d: float) -> float:
     """The tangential speed on the circle tangent to two segments of length ``d`` that meet at
     angle ``alpha``, at centripetal acceleration ``accel``."""
@@ -53,32 +74,42 @@ class DynamicLimits:
     max_acc_xy_radius_scale: float
 
 
+@register_jitable
 def _sgn(x: float) -> float:
     return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
 
 
+@register_jitable
 def _unit2(x: float, y: float) -> tuple[float, float]:
     n = math.hypot(x, y)
     return (x / n, y / n) if n > _EPS else (0.0, 0.0)
+
+
+@register_jitable
+def _start_xy_speed(sx: float, sy: float, tx: float, ty: float, nx: float, ny: float,
+                    exit_speed: float, xy_accept_rad: float, max_acc_xy: float, max_jerk: float,
+                    max_speed_xy: float, radius_scale: float) -> float:
+    d_next = math.hypot(tx - nx, ty - ny)
+    speed_at_target = 0.0
+    if d_next > 0.001 and not d_next < xy_accept_rad:
+        ux, uy = _unit2(tx - sx, ty - sy)
+        wx, wy = _unit2(tx - nx, ty - ny)
+        alpha = math.acos(mn(mx(ux * wx + uy * wy, -1.0), 1.0))
+        alpha = mn(mx(alpha, 0.0), math.pi - _EPS)
+        turn = max_speed_in_waypoint(alpha, radius_scale * max_acc_xy, xy_accept_rad)
+        speed_at_target = mn(mn(turn, exit_speed), max_speed_xy)
+    distance = math.hypot(sx - tx, sy - ty)
+    return mn(max_speed_xy, max_speed_from_distance(max_jerk, max_acc_xy, distance,
+                                                     speed_at_target))
 
 
 def start_xy_speed(start: Vec3, target: Vec3, next_target: Vec3, exit_speed: float,
                    cfg: DynamicLimits) -> float:
     """computeStartXYSpeedFromWaypoints: the speed at ``start`` that reaches ``target`` at the
     speed the corner towards ``next_target`` allows."""
-    d_next = math.hypot(target[0] - next_target[0], target[1] - next_target[1])
-    speed_at_target = 0.0
-    if d_next > 0.001 and not d_next < cfg.xy_accept_rad:
-        u = _unit2(target[0] - start[0], target[1] - start[1])
-        w = _unit2(target[0] - next_target[0], target[1] - next_target[1])
-        alpha = math.acos(min(max(u[0] * w[0] + u[1] * w[1], -1.0), 1.0))
-        alpha = min(max(alpha, 0.0), math.pi - _EPS)
-        turn = max_speed_in_waypoint(alpha, cfg.max_acc_xy_radius_scale * cfg.max_acc_xy,
-                                     cfg.xy_accept_rad)
-        speed_at_target = min(turn, exit_speed, cfg.max_speed_xy)
-    distance = math.hypot(start[0] - target[0], start[1] - target[1])
-    return min(cfg.max_speed_xy, max_speed_from_distance(cfg.max_jerk, cfg.max_acc_xy, distance,
-                                                         speed_at_target))
+    return _start_xy_speed(start[0], start[1], target[0], target[1], next_target[0],
+                           next_target[1], exit_speed, cfg.xy_accept_rad, cfg.max_acc_xy,
+                           cfg.max_jerk, cfg.max_speed_xy, cfg.max_acc_xy_radius_scale)
 
 
 def xy_speed_from_waypoints(waypoints: list[Vec3], cfg: DynamicLimits) -> float:
@@ -101,124 +132,179 @@ class SmoothedSetpoints:
     unsmoothed_velocity: Vec3
 
 
+# --- the compiled step --------------------------------------------------------------------------
+# ``cfg``: the planner's settings and memory. ``inp``: the vehicle's position, then the previous,
+# target and next waypoints, then the feed-forward velocity (3 floats each).
+HERR, VERR, VRAD, CRUISE, GAIN, TRAD, SPEED_PREV = range(7)
+P_POS, P_PREV, P_TARGET, P_NEXT, P_FF = 0, 3, 6, 9, 12
+
+
+@register_jitable
+def _is_turning(traj, cfg, tx: float, ty: float) -> bool:
+    vx, vy = traj[0, V], traj[1, V]
+    ux, uy = _unit2(vx, vy)
+    dx, dy = tx - traj[0, X], ty - traj[1, X]
+    wx, wy = _unit2(dx, dy)
+    return (math.hypot(vx, vy) > 0.2 and ux * wx + uy * wy < 0.98
+            and math.hypot(dx, dy) > cfg[TRAD])
+
+
+@register_jitable
+def _max_xy_speed(traj, cfg, inp) -> float:
+    """computeXYSpeedFromWaypoints over (here, target, next)."""
+    tx, ty, nx, ny = inp[P_TARGET], inp[P_TARGET + 1], inp[P_NEXT], inp[P_NEXT + 1]
+    acc, jerk, cruise, rad, gain = traj[0, AMAX], traj[0, JMAX], cfg[CRUISE], cfg[TRAD], cfg[GAIN]
+    speed = _start_xy_speed(tx, ty, nx, ny, nx, ny, 0.0, rad, acc, jerk, cruise, gain)
+    return _start_xy_speed(traj[0, X], traj[1, X], tx, ty, nx, ny, speed, rad, acc, jerk,
+                           cruise, gain)
+
+
+@register_jitable
+def _max_z_speed(traj, cfg, inp) -> float:
+    sx, sy, sz = traj[0, X], traj[1, X], traj[2, X]
+    tx, ty, tz = inp[P_TARGET], inp[P_TARGET + 1], inp[P_TARGET + 2]
+    nx, ny, nz = inp[P_NEXT], inp[P_NEXT + 1], inp[P_NEXT + 2]
+    arrival = 0.0
+    if abs(tz - nz) > 0.001:
+        s0, g0, n0 = math.hypot(sx, sy), math.hypot(tx, ty), math.hypot(nx, ny)
+        ux, uy = _unit2(g0 - s0, tz - sz)
+        wx, wy = _unit2(g0 - n0, tz - nz)
+        alpha = math.acos(mn(mx(ux * wx + uy * wy, -1.0), 1.0))
+        alpha = mn(mx(alpha, 0.0), math.pi - _EPS)
+        arrival = mn(max_speed_in_waypoint(alpha, traj[2, AMAX], cfg[VRAD]), traj[2, VMAX])
+    distance = abs(tz - sz)
+    return mn(traj[2, VMAX], max_speed_from_distance(traj[2, JMAX], traj[2, AMAX], distance,
+                                                     arrival))
+
+
+@register_jitable
+def _l1_point(traj, cfg, inp) -> tuple[float, float, float]:
+    p0, p1, p2 = traj[0, X], traj[1, X], traj[2, X]
+    a0, a1, a2 = inp[P_PREV], inp[P_PREV + 1], inp[P_PREV + 2]
+    d0, d1, d2 = inp[P_TARGET] - a0, inp[P_TARGET + 1] - a1, inp[P_TARGET + 2] - a2
+    n = math.sqrt(d0 ** 2 + d1 ** 2 + d2 ** 2)
+    u0, u1, u2 = (d0 / n, d1 / n, d2 / n) if n > _EPS else (0.0, 0.0, 0.0)
+    along = (p0 - a0) * u0 + (p1 - a1) * u1 + (p2 - a2) * u2
+    c0, c1, c2 = a0 + u0 * along, a1 + u1 * along, a2 + u2 * along
+    cross = math.sqrt((c0 - p0) ** 2 + (c1 - p1) ** 2 + (c2 - p2) ** 2)
+    l1 = mx(cfg[TRAD], 5.0)
+    ahead = math.sqrt(l1 * l1 - cross * cross) if l1 > cross else 0.0
+    return (c0 + ahead * u0, c1 + ahead * u1, c2 + ahead * u2)
+
+
+@register_jitable
+def _added(out: float, v: float) -> float:
+    return out + v if math.isfinite(out) else v
+
+
+@register_jitable
+def _velocity_setpoint(traj, cfg, inp, single_waypoint: bool) -> tuple[float, float, float]:
+    """The unsmoothed velocity setpoint (_generateVelocitySetpoint): the feed-forward plus the
+    planned velocity on the axes the target gives."""
+    tx, ty, tz = inp[P_TARGET], inp[P_TARGET + 1], inp[P_TARGET + 2]
+    xy_valid = math.isfinite(tx) and math.isfinite(ty)
+    z_valid = math.isfinite(tz)
+    o0, o1, o2 = inp[P_FF], inp[P_FF + 1], inp[P_FF + 2]
+    px, py, pz = traj[0, X], traj[1, X], traj[2, X]
+    if xy_valid:
+        cx, cy, cz = tx, ty, tz
+        turning = _is_turning(traj, cfg, tx, ty)
+        if not single_waypoint and turning:
+            cx, cy, cz = _l1_point(traj, cfg, inp)
+        xy_speed = _max_xy_speed(traj, cfg, inp)
+        if (not single_waypoint or not z_valid) and turning:
+            xy_speed = mn(cfg[SPEED_PREV], xy_speed)  # hold the speed in a turn
+        else:
+            cfg[SPEED_PREV] = xy_speed
+        ux, uy = _unit2(cx - px, cy - py)
+        o0, o1 = _added(o0, ux * xy_speed), _added(o1, uy * xy_speed)
+        if z_valid:
+            o2 = _added(o2, _sgn(cz - pz) * _max_z_speed(traj, cfg, inp))
+    elif z_valid:
+        o2 = _added(o2, _sgn(tz - pz) * _max_z_speed(traj, cfg, inp))
+    return (o0, o1, o2)
+
+
+@njit_cached
+def generate_step(traj, cfg, inp, dt_s, force_zero_velocity, single_waypoint, out
+                  ):  # pragma: no cover - compiled
+    """One generateSetpoints on ``traj`` (3 axis rows) and ``cfg``, both updated in place;
+    ``out`` rows: jerk, acceleration, velocity, position, unsmoothed velocity."""
+    if force_zero_velocity:
+        vel_sp = (0.0, 0.0, 0.0)
+    else:
+        vel_sp = _velocity_setpoint(traj, cfg, inp, single_waypoint)
+    out[4, 0], out[4, 1], out[4, 2] = vel_sp
+    if not (math.isfinite(vel_sp[0]) and math.isfinite(vel_sp[1]) and math.isfinite(vel_sp[2])):
+        out[:4, :] = math.nan
+        return
+    px, py, pz = traj[0, X], traj[1, X], traj[2, X]
+    vx, vy, vz = traj[0, V], traj[1, V], traj[2, V]
+    ex, ey = px - inp[P_POS], py - inp[P_POS + 1]
+    stretch_xy = 1.0
+    if cfg[HERR] > _EPS and ex * vx + ey * vy >= 0.0:  # behind the trajectory
+        stretch_xy = 1.0 - mn(mx(math.hypot(ex, ey) / cfg[HERR], 0.0), 1.0)
+    stretch_z = 1.0
+    ez = pz - inp[P_POS + 2]
+    if cfg[VERR] > _EPS and ez * vz >= 0.0:
+        stretch_z = 1.0 - mn(mx(abs(ez) / cfg[VERR], 0.0), 1.0)
+    vs_update_traj(traj[0], dt_s, stretch_xy)
+    vs_update_traj(traj[1], dt_s, stretch_xy)
+    vs_update_traj(traj[2], dt_s, stretch_z)
+    for i in range(3):
+        out[0, i], out[1, i], out[2, i], out[3, i] = traj[i, J], traj[i, A], traj[i, V], traj[i, X]
+        vs_update_durations(traj[i], vel_sp[i])
+    vs_time_synchronization(traj)
+
+
+def _config(col: int) -> property:
+    def get(self: PositionSmoothing) -> float:
+        return float(self.cfg[col])
+
+    def set_(self: PositionSmoothing, value: float) -> None:
+        self.cfg[col] = value
+
+    return property(get, set_)
+
+
 class PositionSmoothing:
+    max_allowed_horizontal_error = _config(HERR)
+    max_allowed_vertical_error = _config(VERR)
+    vertical_acceptance_radius = _config(VRAD)
+    cruise_speed = _config(CRUISE)
+    horizontal_trajectory_gain = _config(GAIN)
+    target_acceptance_radius = _config(TRAD)
+
     def __init__(self) -> None:
-        self.trajectory = [VelocitySmoothing(), VelocitySmoothing(), VelocitySmoothing()]
-        self.max_allowed_horizontal_error = 0.0
-        self.max_allowed_vertical_error = 0.0
-        self.vertical_acceptance_radius = 0.0
-        self.cruise_speed = 0.0
-        self.horizontal_trajectory_gain = 0.0
-        self.target_acceptance_radius = 0.0
-        self._max_speed_previous = 0.0
+        self.axes = new_axes(3)
+        self.cfg = np.zeros(7)
+        self.trajectory = [VelocitySmoothing(row=self.axes[i]) for i in range(3)]
+        self._inp = np.zeros(15)
+        self._out = np.zeros((5, 3))
 
     # --- configuration and state ----------------------------------------------------------------
     def set_max_jerk(self, jerk: float) -> None:
-        for t in self.trajectory:
-            t.max_jerk = jerk
+        self.axes[:, JMAX] = jerk
 
     def set_max_acceleration(self, acc: Vec3) -> None:
-        for t, a in zip(self.trajectory, acc):
-            t.max_accel = a
+        self.axes[:, AMAX] = acc
 
     def set_max_velocity(self, vel: Vec3) -> None:
-        for t, v in zip(self.trajectory, vel):
-            t.max_vel = v
+        self.axes[:, VMAX] = vel
 
     def reset(self, acceleration: Vec3, velocity: Vec3, position: Vec3) -> None:
         for t, a, v, x in zip(self.trajectory, acceleration, velocity, position):
             t.reset(a, v, x)
 
-    def _pos(self) -> Vec3:
-        t = self.trajectory
-        return (t[0].state.x, t[1].state.x, t[2].state.x)
+    @property
+    def position(self) -> Vec3:
+        x, y, z = self.axes[:, X].tolist()
+        return (x, y, z)
 
-    def _vel(self) -> Vec3:
-        t = self.trajectory
-        return (t[0].state.v, t[1].state.v, t[2].state.v)
-
-    # --- planning -------------------------------------------------------------------------------
-    def _is_turning(self, target: Vec3) -> bool:
-        px, py, _ = self._pos()
-        vx, vy, _ = self._vel()
-        ux, uy = _unit2(vx, vy)
-        dx, dy = target[0] - px, target[1] - py
-        wx, wy = _unit2(dx, dy)
-        return (math.hypot(vx, vy) > 0.2 and ux * wx + uy * wy < 0.98
-                and math.hypot(dx, dy) > self.target_acceptance_radius)
-
-    def _max_xy_speed(self, waypoints: tuple[Vec3, Vec3, Vec3]) -> float:
-        t = self.trajectory
-        cfg = DynamicLimits(self.vertical_acceptance_radius, self.target_acceptance_radius,
-                            t[0].max_accel, t[0].max_jerk, self.cruise_speed,
-                            self.horizontal_trajectory_gain)
-        return xy_speed_from_waypoints([self._pos(), waypoints[1], waypoints[2]], cfg)
-
-    def _max_z_speed(self, waypoints: tuple[Vec3, Vec3, Vec3]) -> float:
-        start = self._pos()
-        target, nxt = waypoints[1], waypoints[2]
-        tz = self.trajectory[2]
-        arrival = 0.0
-        if abs(target[2] - nxt[2]) > 0.001:
-            s = (math.hypot(start[0], start[1]), start[2])
-            g = (math.hypot(target[0], target[1]), target[2])
-            n = (math.hypot(nxt[0], nxt[1]), nxt[2])
-            u = _unit2(g[0] - s[0], g[1] - s[1])
-            w = _unit2(g[0] - n[0], g[1] - n[1])
-            alpha = math.acos(min(max(u[0] * w[0] + u[1] * w[1], -1.0), 1.0))
-            alpha = min(max(alpha, 0.0), math.pi - _EPS)
-            arrival = min(max_speed_in_waypoint(alpha, tz.max_accel,
-                                                self.vertical_acceptance_radius), tz.max_vel)
-        distance = abs(target[2] - start[2])
-        return min(tz.max_vel, max_speed_from_distance(tz.max_jerk, tz.max_accel, distance,
-                                                        arrival))
-
-    def _l1_point(self, waypoints: tuple[Vec3, Vec3, Vec3]) -> Vec3:
-        p = self._pos()
-        a, b = waypoints[0], waypoints[1]
-        d = (b[0] - a[0], b[1] - a[1], b[2] - a[2])
-        n = math.sqrt(d[0] ** 2 + d[1] ** 2 + d[2] ** 2)
-        u = (d[0] / n, d[1] / n, d[2] / n) if n > _EPS else (0.0, 0.0, 0.0)
-        along = sum((p[i] - a[i]) * u[i] for i in range(3))
-        closest = (a[0] + u[0] * along, a[1] + u[1] * along, a[2] + u[2] * along)
-        cross = math.dist(closest, p)
-        l1 = max(self.target_acceptance_radius, 5.0)
-        ahead = math.sqrt(l1 * l1 - cross * cross) if l1 > cross else 0.0
-        return (closest[0] + ahead * u[0], closest[1] + ahead * u[1], closest[2] + ahead * u[2])
-
-    def _crossing_point(self, waypoints: tuple[Vec3, Vec3, Vec3]) -> Vec3:
-        target = waypoints[1]
-        return self._l1_point(waypoints) if self._is_turning(target) else target
-
-    def velocity_setpoint(self, waypoints: tuple[Vec3, Vec3, Vec3], feedforward: Vec3,
-                          single_waypoint: bool = False) -> Vec3:
-        """The unsmoothed velocity setpoint (_generateVelocitySetpoint)."""
-        target = waypoints[1]
-        xy_valid = math.isfinite(target[0]) and math.isfinite(target[1])
-        z_valid = math.isfinite(target[2])
-        out = list(feedforward)
-        pos = self._pos()
-
-        def add(i: int, v: float) -> None:
-            out[i] = out[i] + v if math.isfinite(out[i]) else v
-
-        if xy_valid:
-            crossing = target if single_waypoint else self._crossing_point(waypoints)
-            xy_speed = self._max_xy_speed(waypoints)
-            if (not single_waypoint or not z_valid) and self._is_turning(target):
-                xy_speed = min(self._max_speed_previous, xy_speed)  # hold the speed in a turn
-            else:
-                self._max_speed_previous = xy_speed
-            ux, uy = _unit2(crossing[0] - pos[0], crossing[1] - pos[1])
-            add(0, ux * xy_speed)
-            add(1, uy * xy_speed)
-            if z_valid:
-                dz = crossing[2] - pos[2]
-                add(2, _sgn(dz) * self._max_z_speed(waypoints))
-        elif z_valid:
-            dz = target[2] - pos[2]
-            add(2, _sgn(dz) * self._max_z_speed(waypoints))
-        return (out[0], out[1], out[2])
+    @property
+    def velocity(self) -> Vec3:
+        x, y, z = self.axes[:, V].tolist()
+        return (x, y, z)
 
     # --- the step -------------------------------------------------------------------------------
     def generate(self, position: Vec3, waypoints: tuple[Vec3, Vec3, Vec3], feedforward: Vec3,
@@ -226,33 +312,18 @@ class PositionSmoothing:
                  single_waypoint: bool = False) -> SmoothedSetpoints:
         """One update (generateSetpoints): ``waypoints`` = (previous, target, next); NaN target
         axes are velocity-controlled at ``feedforward``."""
-        vel_sp: Vec3 = (0.0, 0.0, 0.0) if force_zero_velocity else self.velocity_setpoint(
-            waypoints, feedforward, single_waypoint)
-        t = self.trajectory
-        if not all(math.isfinite(v) for v in vel_sp):
-            return SmoothedSetpoints(_NAN3, _NAN3, _NAN3, _NAN3, vel_sp)
-        px, py, pz = self._pos()
-        vx, vy, vz = self._vel()
-        ex, ey = px - position[0], py - position[1]
-        stretch_xy = 1.0
-        behind = ex * vx + ey * vy >= 0.0
-        if self.max_allowed_horizontal_error > _EPS and behind:
-            stretch_xy = 1.0 - min(max(math.hypot(ex, ey) / self.max_allowed_horizontal_error,
-                                       0.0), 1.0)
-        stretch_z = 1.0
-        ez = pz - position[2]
-        if self.max_allowed_vertical_error > _EPS and ez * vz >= 0.0:
-            stretch_z = 1.0 - min(max(abs(ez) / self.max_allowed_vertical_error, 0.0), 1.0)
-        for traj, stretch in zip(t, (stretch_xy, stretch_xy, stretch_z)):
-            traj.update_traj(dt_s, stretch)
-        out = SmoothedSetpoints(
-            (t[0].state.j, t[1].state.j, t[2].state.j), (t[0].state.a, t[1].state.a, t[2].state.a),
-            (t[0].state.v, t[1].state.v, t[2].state.v), (t[0].state.x, t[1].state.x, t[2].state.x),
-            vel_sp)
-        for traj, v in zip(t, vel_sp):
-            traj.update_durations(v)
-        VelocitySmoothing.time_synchronization(t)
-        return out
+        prev, target, nxt = waypoints
+        self._inp[:] = (*position, *prev, *target, *nxt, *feedforward)
+        generate_step(self.axes, self.cfg, self._inp, float(dt_s), bool(force_zero_velocity),
+                      bool(single_waypoint), self._out)
+        j, a, v, x, u = self._out.tolist()
+        return SmoothedSetpoints((j[0], j[1], j[2]), (a[0], a[1], a[2]), (v[0], v[1], v[2]),
+                                 (x[0], x[1], x[2]), (u[0], u[1], u[2]))
+
+
+def compile_now() -> None:
+    """Compile ``generate_step`` (or load it from numba's cache) now, not in the first flight."""
+    PositionSmoothing().generate((0.0,) * 3, ((0.0,) * 3,) * 3, (0.0,) * 3, 0.02)
 
 
 def ideal_track(s: PositionSmoothing, waypoints: list[Vec3], acceptance_radius_m: float,
