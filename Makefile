@@ -1,10 +1,14 @@
 # Two commands: `make run` and `make test`. Both create/refresh the virtualenv in .venv.
+# `make run VEHICLES=3 PORT_OFFSET=100`: three vehicles, every port shifted by 100.
 PYTHON ?= python3
 VENV := .venv
 VENV4 := .venv-mavsdk4
+VENVG := .venv-mavsdk-grpc
 STAMP := $(VENV)/.installed
 STAMP4 := $(VENV4)/.installed
+STAMPG := $(VENVG)/.installed
 VEHICLES ?= 1
+PORT_OFFSET ?= 0
 PYTEST_ARGS ?=
 
 .PHONY: run test unit typecheck bench clean venv ns3 ns3-deps ns3-if-possible browser-if-possible \
@@ -26,12 +30,22 @@ $(STAMP4): pyproject.toml
 	$(VENV4)/bin/pip install --quiet 'mavsdk>=4'
 	touch $@
 
-run: $(STAMP)
-	$(VENV)/bin/cornet run --vehicles $(VEHICLES)
+# MAVSDK-Python's gRPC wrapper as published from 4.0 on, `mavsdk-grpc` (import mavsdk_grpc,
+# mavsdk_server v4): a third venv, for the same reason.
+$(STAMPG): pyproject.toml
+	$(PYTHON) -m venv $(VENVG)
+	$(VENVG)/bin/pip install --quiet --upgrade pip
+	$(VENVG)/bin/pip install --quiet 'mavsdk-grpc>=4,<5'
+	touch $@
 
-test: $(STAMP) $(STAMP4) ns3-if-possible browser-if-possible
+run: $(STAMP)
+	$(VENV)/bin/cornet run --vehicles $(VEHICLES) --port-offset $(PORT_OFFSET)
+
+test: $(STAMP) $(STAMP4) $(STAMPG) ns3-if-possible browser-if-possible
 	$(VENV)/bin/mypy
-	CORNET_MAVSDK4_PYTHON=$(CURDIR)/$(VENV4)/bin/python $(VENV)/bin/python -m pytest $(PYTEST_ARGS)
+	CORNET_MAVSDK4_PYTHON=$(CURDIR)/$(VENV4)/bin/python \
+	CORNET_MAVSDK_GRPC_PYTHON=$(CURDIR)/$(VENVG)/bin/python \
+		$(VENV)/bin/python -m pytest $(PYTEST_ARGS)
 
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
@@ -88,7 +102,8 @@ UNIT_DIR ?= /etc/systemd/system
 install-service:
 	@[ "$$(id -u)" = 0 ] || { echo "install-service: needs root: sudo make install-service"; exit 1; }
 	mkdir -p $(PREFIX)
-	tar -c --exclude=./.git --exclude=./.venv --exclude=./.venv-mavsdk4 --exclude=__pycache__ \
+	tar -c --exclude=./.git --exclude=./.venv --exclude=./.venv-mavsdk4 --exclude=./.venv-mavsdk-grpc \
+		--exclude=__pycache__ \
 		--exclude=./.pytest_cache --exclude='*.egg-info' --exclude=./build --exclude=./state \
 		--exclude=./logs -f - . | tar -x --no-same-owner -C $(PREFIX)
 	$(PYTHON) -m venv $(PREFIX)/.venv
@@ -96,14 +111,14 @@ install-service:
 	$(PREFIX)/.venv/bin/pip install --quiet '$(PREFIX)[web]'
 	mkdir -p $(UNIT_DIR)
 	sed -e 's#/opt/cornet#$(PREFIX)#g' -e 's#/etc/cornet/cornet.toml#$(CONFIG_DIR)/cornet.toml#g' \
-		systemd/cornet.service > $(UNIT_DIR)/cornet.service
+		gateway/data/systemd/cornet.service > $(UNIT_DIR)/cornet.service
 	@if [ -e $(CONFIG_DIR)/cornet.toml ]; then \
-		echo "install-service: keeping $(CONFIG_DIR)/cornet.toml (the example: $(PREFIX)/systemd/cornet.toml)"; \
-	else install -D -m 0644 systemd/cornet.toml $(CONFIG_DIR)/cornet.toml; fi
+		echo "install-service: keeping $(CONFIG_DIR)/cornet.toml (the example: $(PREFIX)/gateway/data/systemd/cornet.toml)"; \
+	else install -D -m 0644 gateway/data/systemd/cornet.toml $(CONFIG_DIR)/cornet.toml; fi
 	$(PREFIX)/.venv/bin/cornet check $(CONFIG_DIR)/cornet.toml
 	@if [ -d /run/systemd/system ]; then systemctl daemon-reload; \
 	else echo "install-service: systemd is not running here; run 'systemctl daemon-reload' where it is"; fi
 	@echo "install-service: done; start it with: systemctl enable --now cornet"
 
 clean:
-	rm -rf $(VENV) $(VENV4) *.egg-info .pytest_cache
+	rm -rf $(VENV) $(VENV4) $(VENVG) *.egg-info .pytest_cache

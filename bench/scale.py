@@ -45,7 +45,7 @@ other vehicle flies; the table's notes say PASS or FAIL and how long it took (th
 then pings vehicle 2, so that the two clients do not share a link).
 
 With ``--scenario FILE`` every point runs ``cornet run --scenario FILE --vehicles N``: the paper's
-case of many vehicles through the real ns-3 is ``--vehicles 30 --scenario scenarios/ns3-wifi.toml``
+case of many vehicles through the real ns-3 is ``--vehicles 30 --scenario ns3-wifi``
 (every datagram of every vehicle through ns-3's 802.11 at exact time); the notes give the ns-3
 engine's CPU beside the daemon's, and say when ns-3 could not keep exact time (the backend's
 fallback to its pipeline).
@@ -907,7 +907,7 @@ def main() -> int:
                         "MAVSDK example gcs_examples/EXAMPLE.py (takeoff_and_land, the default, "
                         "or mission) while the others fly (needs --flying)")
     parser.add_argument("--scenario", type=Path,
-                        help="run every point with `--scenario FILE` (e.g. scenarios/ns3-wifi.toml:"
+                        help="run every point with `--scenario FILE` (e.g. ns3-wifi:"
                         " the vehicles through the real ns-3; its network, the given counts)")
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results",
                         help="directory for the CSV and PNG (default bench/results/)")

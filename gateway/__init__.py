@@ -9,5 +9,6 @@ Rooms (docs/architecture.md), each importing only from the ones listed after it:
   sim/         the simulation on one simulated clock: Simulation, VehicleLink, scenarios, run logs,
                saved parameters
   mavlink/     the sans-IO MAVLink protocol: one Session per (vehicle, link), one module per service
+  data/        the shipped files: scenarios, example plans, the systemd unit and its configuration
 Below them all: vehicles/ (physics and autopilot) and netsim/ (event kernel and network).
 """

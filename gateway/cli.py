@@ -6,79 +6,26 @@ import argparse
 import asyncio
 import contextlib
 import gc
-import ipaddress
 import logging
-import math
 import os
 import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from gateway.cli_args import LOG_LEVELS, env_home, env_speed, gcs_partner
+from gateway.cli_args import duration as _duration
+from gateway.cli_args import ipv4 as _ipv4
+from gateway.cli_args import list_scenarios as _list_scenarios
+from gateway.cli_args import non_negative as _non_negative
+from gateway.cli_args import parse_params as _parse_params
+from gateway.cli_args import probability as _probability
+from gateway.cli_args import speed as _speed
+from gateway.cli_args import vehicle_params as _vehicle_params
+from gateway.cli_args import version as _version
 from gateway.web.address import WebListenError, add_web_parser, listen_arg
 
-LOG_LEVELS = ("debug", "info", "warning", "error")
-ENV_PARAM_PREFIX = "PX4_PARAM_"
-MAX_SPEED = 1000.0
 SIGNING_CREDENTIAL = "signing.key"  # $CREDENTIALS_DIRECTORY/signing.key: the unit's key
-
-
-def _non_negative(kind: type, what: str):
-    def parse(text: str):
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
-        if not value >= 0:  # also NaN
-            raise argparse.ArgumentTypeError(f"{what} must be >= 0, got {text!r}")
-        return value
-
-    return parse
-
-
-def _duration(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--duration must be a number of simulated seconds, "
-                                         f"got {text!r}") from None
-    if not 0 < value < math.inf:
-        raise argparse.ArgumentTypeError(f"--duration must be > 0 (simulated seconds), got "
-                                         f"{text!r}")
-    return value
-
-
-def _probability(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"loss must be a probability, got {text!r}") from None
-    if not 0.0 <= value <= 1.0:
-        raise argparse.ArgumentTypeError(f"loss must be between 0 and 1 (e.g. 0.2), got {text!r}")
-    return value
-
-
-def _speed(text: str) -> float:
-    if text == "max":
-        return math.inf
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--speed must be a factor like 10, or max; got "
-                                         f"{text!r}") from None
-    if not 0 < value <= MAX_SPEED:
-        raise argparse.ArgumentTypeError(f"--speed must be > 0 and <= {MAX_SPEED:g} (or max), "
-                                         f"got {text!r}")
-    return value
-
-
-def _ipv4(text: str) -> str:
-    try:
-        ipaddress.IPv4Address(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"--bind must be an IPv4 address such as 127.0.0.1 or "
-                                         f"0.0.0.0, got {text!r}") from None
-    return text
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -88,6 +35,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="cornet",
         description="MAVLink SITL gateway: simulated PX4 quadrotors behind a simulated network.",
     )
+    parser.add_argument("--version", action="version", version=f"cornet {_version()}",
+                        help="print cornet's version and exit")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     run = sub.add_parser(
@@ -100,14 +49,19 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--config", type=Path, default=None, metavar="FILE",
                      help="the daemon's configuration file (TOML): a scenario file whose [daemon] "
                      "table sets what the flags below set (a flag given wins); SIGHUP re-reads its "
-                     "network. Example: systemd/cornet.toml")
-    run.add_argument("--scenario", type=Path, default=None, metavar="FILE",
+                     "network. Example: the shipped systemd/cornet.toml (`cornet scenarios` says where)")
+    run.add_argument("--scenario", type=Path, default=None, metavar="FILE|NAME",
                      help="a scenario file (TOML: vehicles, network topology and models, sync "
-                     "period, late policy); see scenarios/ and docs/scenarios.md. The same "
-                     "format as --config: give one of them")
+                     "period, late policy), or a shipped scenario's name (`cornet scenarios` "
+                     "lists them); see docs/scenarios.md. The same format as --config: give one "
+                     "of them")
     run.add_argument("--bind", type=_ipv4, default=None, metavar="ADDR",
                      help="the address the vehicles' ports bind to (default 127.0.0.1; 0.0.0.0: "
                      "every interface)")
+    run.add_argument("--gcs", type=gcs_partner, default=None, metavar="HOST[:PORT]",
+                     help="where the GCS links talk first (default 127.0.0.1:14550): a ground "
+                     "station on another machine, as PX4's partner address (mavlink start -t); "
+                     "with --param MAV_BROADCAST=1 they also broadcast until a client is heard")
     run.add_argument("--vehicles", type=int, default=None, metavar="N",
                      help="number of vehicles (default 1, or the scenario's)")
     run.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,
@@ -120,7 +74,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="simulated seconds per wall second (default 1): physics, telemetry "
                      "rates and network all scale, and client time-outs (COM_*_LOSS_T) are "
                      "scaled as PX4 does with PX4_SIM_SPEED_FACTOR; 'max' runs flat out (for "
-                     "runs without clients)")
+                     "runs without clients). Without it (or the file's), PX4_SIM_SPEED_FACTOR "
+                     "in the environment sets it, as in PX4 SITL; PX4_HOME_LAT/LON/ALT move the "
+                     "home unless the scenario sets one")
     run.add_argument("--duration", type=_duration, default=None, metavar="S",
                      help="stop once S simulated seconds have run (every event up to S, none "
                      "after), as on SIGTERM: logs closed, exit 0. With --speed max, a fixed "
@@ -166,35 +122,51 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                      help="set a PX4 parameter on every vehicle at start (repeatable); "
                      "PX4_PARAM_<NAME>=VALUE in the environment does the same, as in PX4 SITL")
+    run.add_argument("--param-file", action="append", default=[], metavar="[N:]FILE",
+                     help="PX4 parameters from a QGroundControl .params file (QGC's Save to "
+                     "file): each line to the vehicle of its Vehicle-Id column, or with N: every "
+                     "line to vehicle N (repeatable; --param and PX4_PARAM_* still win)")
     check = sub.add_parser("check", help="validate a scenario or configuration file and say what "
                            "it sets up",
                            description="Validate a scenario file or the daemon's configuration "
                            "file (--config). Exit 0 and a summary if it is good; exit 2 and the "
                            "key that is wrong if not.")
-    check.add_argument("scenario", type=Path, metavar="FILE")
+    check.add_argument("scenario", type=Path, metavar="FILE|NAME",
+                       help="the file, or a shipped scenario's name")
+    sub.add_parser("scenarios", help="list the shipped scenarios (name and what it sets up)",
+                   description="List the scenarios shipped with cornet: `--scenario NAME` and "
+                   "`cornet check NAME` take these names. Also says where the shipped files "
+                   "(scenarios, example plans, the systemd unit and its configuration) are.")
     fly = sub.add_parser("fly", help="fly a QGroundControl .plan headless, as fast as possible, "
                          "and judge it (exit 0 pass, 1 fail)",
                          description="Fly a QGroundControl .plan (mission, geofence, rally "
                          "points) on one vehicle in lockstep on the simulated clock, through the "
                          "same MAVLink sessions as the daemon, and judge it: mission finished, "
                          "landed, geofence never breached, optional path deviation limit.")
-    fly.add_argument("plan", type=Path, metavar="PLAN")
-    fly.add_argument("--scenario", type=Path, default=None, metavar="FILE")
+    fly.add_argument("plan", type=Path, metavar="PLAN",
+                     help="a QGroundControl .plan file, or a shipped plan's name (square, breach)")
+    fly.add_argument("--scenario", type=Path, default=None, metavar="FILE|NAME",
+                     help="fly through a scenario's network, wind and faults (a file or a "
+                     "shipped scenario's name)")
     fly.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=None,
-                     metavar="X")
+                     metavar="X", help="one-way network latency in ms on every link (default 0)")
     fly.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=None,
-                     metavar="Y")
-    fly.add_argument("--loss", type=_probability, default=None, metavar="P")
+                     metavar="Y", help="uniform jitter +-Y ms (default 0)")
+    fly.add_argument("--loss", type=_probability, default=None, metavar="P",
+                     help="packet loss probability per datagram, 0..1 (default 0)")
     fly.add_argument("--seed", type=_non_negative(int, "--seed"), default=None, metavar="S",
                      help="the network's seed, also of sensor noise and wind (default: the "
                      "scenario's, else 0)")
-    fly.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
+    fly.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                     help="set a PX4 parameter at start (repeatable; PX4_PARAM_<NAME> too)")
     fly.add_argument("--time-limit", type=_non_negative(float, "--time-limit"), default=None,
                      metavar="S", help="simulated seconds before giving up (default 900)")
     fly.add_argument("--max-deviation", type=_non_negative(float, "--max-deviation"),
                      default=None, metavar="M", help="fail if the path deviates more (metres)")
-    fly.add_argument("--log-dir", type=Path, default=None, metavar="DIR",
-                     help="record the flight (tlogs, state.csv, packet trace) in DIR")
+    fly.add_argument("--log-dir", type=Path, default=Path("logs"), metavar="DIR",
+                     help="record the flight (tlogs, state.csv, packet trace, ULog) in DIR "
+                     "(default logs, replaced by every flight; `cornet plot DIR` draws it)")
+    fly.add_argument("--no-log", action="store_true", help="do not record the flight")
     flags.add_fly_flags(fly)
     flags.add_sweep_arguments(sub.add_parser(
         "sweep", help="fly a .plan over a grid of network conditions, seeds, scenarios and "
@@ -202,7 +174,9 @@ def build_parser() -> argparse.ArgumentParser:
     add_web_parser(sub)
     plot = sub.add_parser("plot", help="draw a recorded run: track vs plan, altitude and speed, "
                           "link latency and loss (PNGs)")
-    plot.add_argument("log_dir", type=Path, metavar="LOGDIR")
+    plot.add_argument("log_dir", type=Path, metavar="LOGDIR",
+                      help="a run directory (it holds meta.json), or a directory of runs (the "
+                      "newest is drawn); the PNGs are written into the run directory")
     plot.add_argument("--plan", type=Path, default=None, metavar="FILE",
                       help="a .plan to draw as the planned track")
     for name, helptext in (("watch", "live table of vehicles and link quality from --zmq-pub"),
@@ -214,31 +188,6 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("--duration", type=_non_negative(float, "--duration"), default=None,
                            metavar="S", help="stop after S seconds (default: until Ctrl-C)")
     return parser
-
-
-def _parse_params(parser: argparse.ArgumentParser, flags: list[str],
-                  environ: dict[str, str]) -> dict[str, float]:
-    from vehicles.params import ParamStore
-
-    pairs = [(f"--param {flag}", flag) for flag in flags]
-    pairs += [(f"environment {k}", f"{k[len(ENV_PARAM_PREFIX):]}={v}")
-              for k, v in sorted(environ.items()) if k.startswith(ENV_PARAM_PREFIX)]
-    store = ParamStore()
-    out: dict[str, float] = {}
-    for where, text in pairs:
-        name, sep, value_text = text.partition("=")
-        if not sep or not name:
-            parser.error(f"{where}: expected NAME=VALUE, e.g. MIS_TAKEOFF_ALT=5")
-        if name not in store:
-            parser.error(f"{where}: no PX4 parameter named {name!r}")
-        try:
-            value = float(value_text)
-            store.set(name, value)
-        except ValueError:
-            kind = store.info(name).type.name
-            parser.error(f"{where}: {value_text!r} is not a valid {kind} value for {name}")
-        out[name] = value
-    return out
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -259,9 +208,16 @@ def main(argv: list[str] | None = None) -> int:
 
         return sweep.main(args, lambda flags: _parse_params(_subparser(parser, "sweep"), flags, {}))
     if args.command == "plot":
-        from gateway.ci import plot
-
+        try:
+            from gateway.ci import plot
+        except ModuleNotFoundError as exc:  # matplotlib is a dependency; a stripped install
+            missing = (exc.name or "matplotlib").split(".")[0]
+            print(f"cornet plot: needs {missing}, which is not installed: pip install {missing}",
+                  file=sys.stderr)
+            return 2
         return plot.main(args.log_dir, args.plan)
+    if args.command == "scenarios":
+        return _list_scenarios()
     if args.command == "check":
         from gateway.sim.scenario import ScenarioError, describe, load
 
@@ -299,7 +255,8 @@ def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
             parser.error(str(exc))
     if args.overlay is not None and args.baseline is None:
         parser.error("--overlay draws the flight over its baseline: give --baseline DIR too")
-    for flag, path in (("--log-dir", args.log_dir), ("--save-baseline", args.save_baseline)):
+    log_dir = None if args.no_log else args.log_dir
+    for flag, path in (("--log-dir", log_dir), ("--save-baseline", args.save_baseline)):
         if path is not None:
             _writable_dir(parser, path, flag)
     logging.basicConfig(level="WARNING", format="%(levelname)s %(name)s: %(message)s")
@@ -313,7 +270,7 @@ def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     return regress.main(args.plan, overrides, baseline=args.baseline,
                         save_baseline=args.save_baseline, overlay=args.overlay,
                         tolerances=Tolerances(args.tol_track_m, args.tol_time_s, args.tol_loss),
-                        junit_xml=args.junit_xml, summary=args.summary, log_dir=args.log_dir,
+                        junit_xml=args.junit_xml, summary=args.summary, log_dir=log_dir,
                         progress=ProgressLine(sys.stderr))
 
 
@@ -352,6 +309,7 @@ def _run_settings(args: argparse.Namespace,
         check_ports,
         load,
     )
+    from vehicles.types import PX4_SITL_HOME
 
     source = _first(args.config, args.scenario)
     which = "--config" if args.config is not None else "--scenario"
@@ -370,6 +328,16 @@ def _run_settings(args: argparse.Namespace,
         network = NetworkConfig.from_flags(args.latency_ms, args.jitter_ms, args.loss,
                                            args.seed or 0)
     d = scenario.daemon
+    try:  # PX4 SITL's variables: below the flags and the file
+        speed = _first(args.speed, d.speed, env_speed(dict(os.environ)))
+        home = scenario.home
+        environment: tuple[str, ...] = ()
+        if home == PX4_SITL_HOME:
+            home, environment = env_home(dict(os.environ), home)
+    except ValueError as exc:
+        raise ScenarioError(str(exc)) from None
+    if args.speed is None and d.speed is None and speed is not None:
+        environment = ("PX4_SIM_SPEED_FACTOR", *environment)
     vehicles = _first(args.vehicles, scenario.vehicles)
     if not 1 <= vehicles <= MAX_VEHICLES:
         raise ScenarioError(f"--vehicles must be between 1 and {MAX_VEHICLES} (one MAVLink network: "
@@ -381,7 +349,9 @@ def _run_settings(args: argparse.Namespace,
     settings = {
         "vehicles": vehicles,
         "network": network,
-        "home": scenario.home,
+        "home": home,
+        "environment": environment,
+        "gcs": _first(args.gcs, d.gcs),
         "wind": scenario.wind,
         "sensors": scenario.sensors,
         "faults": scenario.faults,
@@ -389,12 +359,14 @@ def _run_settings(args: argparse.Namespace,
         "commands": scenario.commands,
         "bind": _first(args.bind, d.bind, "127.0.0.1"),
         "port_offset": port_offset,
-        "speed": _first(args.speed, d.speed, 1.0),
+        "speed": _first(speed, 1.0),
         "state_dir": _first(args.state_dir, d.state_dir),
         "log_dir": _first(args.log_dir, d.log_dir),
         "zmq_pub": _first(args.zmq_pub, d.zmq_pub),
         "packet_trace": _first(args.packet_trace, d.packet_trace),
         "params": {**scenario.params, **flag_params},
+        "vehicle_params": _vehicle_params(scenario.vehicle_params, args.param_file, vehicles,
+                                          flag_params),
         "metrics_port": _first(args.metrics_port, d.metrics_port),
         "shards": args.shards,
         "duration": args.duration,

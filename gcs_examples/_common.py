@@ -31,6 +31,20 @@ async def connect(port: int, grpc_port: int) -> System:
     return drone
 
 
+async def retry(call, *args, attempts: int = 5):
+    """``await call(*args)``, asked again when it timed out. MAVSDK sends a command a few times
+    before it gives up; over a lossy link (e.g. ``--scenario lossy-wifi``, 20 % each way) all of
+    them can be lost, and a script meant for such links asks again, as a pilot would."""
+    for attempt in range(attempts):
+        try:
+            return await call(*args)
+        except Exception as exc:  # ActionError, MissionError, OffboardError, GeofenceError, ...
+            result = getattr(getattr(exc, "_result", None), "result", None)
+            if getattr(result, "name", "") != "TIMEOUT" or attempt == attempts - 1:
+                raise
+            print(f"-- {call.__name__}: no answer, asking again")
+
+
 def offset(lat_deg: float, lon_deg: float, north_m: float, east_m: float) -> tuple[float, float]:
     """The point north_m / east_m away (PX4's map projection, as the vehicle computes it)."""
     return reproject(lat_deg, lon_deg, north_m, east_m)

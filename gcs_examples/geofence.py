@@ -11,7 +11,7 @@ COM_FAIL_ACT_T delay the vehicle returns home and lands. Watch the status texts.
 
 import asyncio
 
-from _common import arguments, connect, first_value, offset, wait_landed
+from _common import arguments, connect, first_value, offset, retry, wait_landed
 from mavsdk.geofence import FenceType, GeofenceData, Point, Polygon
 from mavsdk.offboard import VelocityNedYaw
 
@@ -23,19 +23,19 @@ async def run(port: int, grpc_port: int) -> None:
     corners = [offset(lat0, lon0, n, e) for n, e in [(-15, -15), (15, -15), (15, 15), (-15, 15)]]
     polygon = Polygon([Point(lat, lon) for lat, lon in corners], FenceType.INCLUSION)
     print("-- Uploading the geofence")
-    await drone.geofence.upload_geofence(GeofenceData([polygon], []))
+    await retry(drone.geofence.upload_geofence, GeofenceData([polygon], []))
 
     async def texts():
         async for t in drone.telemetry.status_text():
             print(f"   [{t.type}] {t.text}")
 
     text_task = asyncio.ensure_future(texts())
-    await drone.action.arm()
-    await drone.action.takeoff()
+    await retry(drone.action.arm)
+    await retry(drone.action.takeoff)
     await asyncio.sleep(8)
     print("-- Flying north at 3 m/s in offboard, towards the fence")
     await drone.offboard.set_velocity_ned(VelocityNedYaw(3.0, 0.0, 0.0, 0.0))
-    await drone.offboard.start()
+    await retry(drone.offboard.start)
     await asyncio.sleep(15)
     async for mode in drone.telemetry.flight_mode():
         print(f"-- Flight mode now: {mode}")
@@ -44,8 +44,8 @@ async def run(port: int, grpc_port: int) -> None:
         print(f"-- Stopped {pv.position.north_m:.1f} m north of the start")
         break
     print("-- Landing")
-    await drone.offboard.stop()
-    await drone.action.land()
+    await retry(drone.offboard.stop)
+    await retry(drone.action.land)
     await wait_landed(drone)
     text_task.cancel()
 

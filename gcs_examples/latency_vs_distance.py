@@ -1,7 +1,7 @@
 """Fig. 6 of the CORNET paper: round-trip latency and loss grow with the distance to the AP.
 
 Runs ``cornet run`` itself, once per network backend: the embedded wireless model
-(scenarios/fig6-embedded.toml) and the real ns-3 (scenarios/fig6-ns3.toml; skipped, with a note,
+(scenario fig6-embedded) and the real ns-3 (scenario fig6-ns3; skipped, with a note,
 if the ns-3 build is missing). In each run one vehicle takes off next to the access point (a 10 m
 mast at home, where vehicle 1 spawns) and flies straight north to --max-distance (a DO_REPOSITION
 at --speed-mps), while this script, as a pymavlink ground station on the GCS link, sends TIMESYNC
@@ -15,11 +15,11 @@ Writes a PNG (mean RTT and loss per distance bin, one line per backend) and prin
     .venv/bin/python gcs_examples/latency_vs_distance.py            # both backends, ~1.5 min each
     .venv/bin/python gcs_examples/latency_vs_distance.py --backends embedded --max-distance 200
 
-On the embedded LTE model (scenarios/lte.toml; distances to its first cell, the x axis still
+On the embedded LTE model (scenario lte; distances to its first cell, the x axis still
 says "access point"), e.g. out to the second cell and past the handover:
 
     .venv/bin/python gcs_examples/latency_vs_distance.py --backends embedded \
-        --embedded-scenario scenarios/lte.toml --max-distance 1200 --speed-mps 12 --bin 50 \
+        --embedded-scenario lte --max-distance 1200 --speed-mps 12 --bin 50 \
         --out lte.png
 """
 
@@ -43,6 +43,7 @@ import zmq
 from pymavlink import mavutil
 
 from gateway.ci.launcher import free_tcp_port, start_daemon
+from gateway.data import scenario_path
 from vehicles.geodesy import reproject
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -52,8 +53,9 @@ LTE_DEFAULT_CELL_NED_M = [0.0, 0.0, -30.0]  # netsim/models/lte.py's cells_ned_m
 
 BACKENDS = {
     "embedded": ("embedded wireless model (802.11n MCS0)",
-                 ROOT / "scenarios" / "fig6-embedded.toml"),
-    "ns3": ("ns-3 3.37 (802.11g 6 Mbit/s, Rayleigh)", ROOT / "scenarios" / "fig6-ns3.toml"),
+                 ROOT / "gateway" / "data" / "scenarios" / "fig6-embedded.toml"),
+    "ns3": ("ns-3 3.37 (802.11g 6 Mbit/s, Rayleigh)",
+            ROOT / "gateway" / "data" / "scenarios" / "fig6-ns3.toml"),
 }
 
 
@@ -408,9 +410,9 @@ def main() -> int:
                         help="PNG to write (default docs/fig6_latency_vs_distance.png)")
     parser.add_argument("--embedded-scenario", type=Path, default=BACKENDS["embedded"][1],
                         metavar="FILE",
-                        help="scenario of the embedded run (default scenarios/fig6-embedded.toml)")
+                        help="scenario of the embedded run (default fig6-embedded)")
     parser.add_argument("--ns3-scenario", type=Path, default=BACKENDS["ns3"][1], metavar="FILE",
-                        help="scenario of the ns-3 run (default scenarios/fig6-ns3.toml)")
+                        help="scenario of the ns-3 run (default fig6-ns3)")
     args = parser.parse_args()
     wanted = [b.strip() for b in args.backends.split(",") if b.strip()]
     for b in wanted:
@@ -428,7 +430,7 @@ def main() -> int:
     try:
         for backend in wanted:
             scenario = (args.embedded_scenario if backend == "embedded" else args.ns3_scenario)
-            scenario = scenario.resolve()
+            scenario = scenario_path(scenario).resolve()
             cfg = tomllib.loads(scenario.read_text())
             net = cfg.get("network", {})
             if net.get("backend", "embedded") == "ns3" and not NS3_BINARY.exists():

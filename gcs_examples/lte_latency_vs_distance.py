@@ -1,6 +1,6 @@
 """Fig. 6 over LTE: round-trip latency and loss vs distance from eNB 1, through a handover.
 
-Runs ``cornet run --scenario scenarios/ns3-lte.toml`` itself (the real ns-3's LTE, `make ns3`):
+Runs ``cornet run --scenario ns3-lte`` itself (the real ns-3's LTE, `make ns3`):
 one vehicle, a UE of two eNBs (enb1 at home, enb2 1 km north). It takes off and flies straight
 north past enb2 (a DO_REPOSITION at --speed-mps) while this script, a pymavlink ground station
 on the GCS link (a remote host behind the PGW), sends TIMESYNC requests --rate times a second
@@ -33,10 +33,11 @@ import tomllib
 from latency_vs_distance import TAKEOFF_ALT_M, Gcs  # the Fig. 6 script's ground station
 
 from gateway.ci.launcher import free_tcp_port, start_daemon
+from gateway.data import scenario_path
 
 ROOT = Path(__file__).resolve().parent.parent
 NS3_BINARY = ROOT / "netsim" / "ns3" / "build" / "cornet-ns3"
-SCENARIO = ROOT / "scenarios" / "ns3-lte.toml"
+SCENARIO = ROOT / "gateway" / "data" / "scenarios" / "ns3-lte.toml"
 
 
 class _Tap:
@@ -258,7 +259,7 @@ def main() -> int:
         "plot TIMESYNC round trips and loss vs distance, with the handover marked. Starts "
         "`cornet run` itself.")
     parser.add_argument("--scenario", type=Path, default=SCENARIO, metavar="FILE",
-                        help="an ns-3 lte scenario (default scenarios/ns3-lte.toml)")
+                        help="an ns-3 lte scenario (default ns3-lte)")
     parser.add_argument("--max-distance", type=float, default=1300.0, metavar="M",
                         help="fly until this far from enb1 (default 1300 m)")
     parser.add_argument("--speed-mps", type=float, default=15.0, metavar="V",
@@ -278,7 +279,7 @@ def main() -> int:
     if not NS3_BINARY.exists():
         print("ns-3 build missing: run `make ns3`", file=sys.stderr)
         return 1
-    args.scenario = args.scenario.resolve()
+    args.scenario = scenario_path(args.scenario).resolve()
     ns3 = tomllib.loads(args.scenario.read_text()).get("network", {}).get("ns3", {})
     if ns3.get("topology") != "lte":
         parser.error(f"--scenario: {args.scenario} is not an ns-3 lte scenario")

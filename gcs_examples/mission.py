@@ -3,7 +3,7 @@
 
 import asyncio
 
-from _common import arguments, connect, first_value, offset, wait_landed
+from _common import arguments, connect, first_value, offset, retry, wait_landed
 from mavsdk.mission import MissionItem, MissionPlan
 
 NAN = float("nan")
@@ -21,10 +21,10 @@ async def run(port: int, grpc_port: int) -> None:
     corners = [(20, 0, 12), (20, 20, 13), (0, 20, 14), (0, 0, 15)]
     items = [waypoint(*offset(home.latitude_deg, home.longitude_deg, n, e), alt, 5.0)
              for n, e, alt in corners]
-    await drone.mission.set_return_to_launch_after_mission(True)
+    await retry(drone.mission.set_return_to_launch_after_mission, True)
     print(f"-- Uploading {len(items)} waypoints")
-    await drone.mission.upload_mission(MissionPlan(items))
-    downloaded = await drone.mission.download_mission()
+    await retry(drone.mission.upload_mission, MissionPlan(items))
+    downloaded = await retry(drone.mission.download_mission)
     print(f"-- Downloaded {len(downloaded.mission_items)} waypoints back")
 
     async def progress():
@@ -33,9 +33,9 @@ async def run(port: int, grpc_port: int) -> None:
 
     progress_task = asyncio.ensure_future(progress())
     print("-- Arming")
-    await drone.action.arm()
+    await retry(drone.action.arm)
     print("-- Starting mission")
-    await drone.mission.start_mission()
+    await retry(drone.mission.start_mission)
     async for in_air in drone.telemetry.in_air():
         if in_air:
             break

@@ -3,22 +3,22 @@
 
 import asyncio
 
-from _common import arguments, connect, wait_landed
+from _common import arguments, connect, retry, wait_landed
 from mavsdk.offboard import OffboardError, PositionNedYaw
 
 
 async def run(port: int, grpc_port: int) -> None:
     drone = await connect(port, grpc_port)
     print("-- Arming")
-    await drone.action.arm()
+    await retry(drone.action.arm)
     print("-- Setting initial setpoint")
     await drone.offboard.set_position_ned(PositionNedYaw(0.0, 0.0, 0.0, 0.0))
     print("-- Starting offboard")
     try:
-        await drone.offboard.start()
+        await retry(drone.offboard.start)
     except OffboardError as error:
         print(f"Starting offboard mode failed: {error._result.result}")
-        await drone.action.disarm()
+        await retry(drone.action.disarm)
         return
     for north, east, down, yaw in [(0, 0, -5, 0), (10, 0, -5, 0), (10, 10, -8, 0),
                                    (10, 10, -8, 90)]:
@@ -30,9 +30,9 @@ async def run(port: int, grpc_port: int) -> None:
         print(f"-- At N {p.north_m:.2f} E {p.east_m:.2f} D {p.down_m:.2f}")
         break
     print("-- Stopping offboard")
-    await drone.offboard.stop()
+    await retry(drone.offboard.stop)
     print("-- Landing")
-    await drone.action.land()
+    await retry(drone.action.land)
     await wait_landed(drone)
 
 

@@ -3,21 +3,21 @@
 
 import asyncio
 
-from _common import arguments, connect, wait_landed
+from _common import arguments, connect, retry, wait_landed
 from mavsdk.offboard import OffboardError, VelocityBodyYawspeed, VelocityNedYaw
 
 
 async def run(port: int, grpc_port: int) -> None:
     drone = await connect(port, grpc_port)
     print("-- Arming")
-    await drone.action.arm()
+    await retry(drone.action.arm)
     await drone.offboard.set_velocity_ned(VelocityNedYaw(0.0, 0.0, 0.0, 0.0))
     print("-- Starting offboard")
     try:
-        await drone.offboard.start()
+        await retry(drone.offboard.start)
     except OffboardError as error:
         print(f"Starting offboard mode failed: {error._result.result}")
-        await drone.action.disarm()
+        await retry(drone.action.disarm)
         return
     print("-- Climb at 2 m/s for 3 s, facing east")
     await drone.offboard.set_velocity_ned(VelocityNedYaw(0.0, 0.0, -2.0, 90.0))
@@ -38,8 +38,8 @@ async def run(port: int, grpc_port: int) -> None:
         print(f"-- At N {p.north_m:.2f} E {p.east_m:.2f} D {p.down_m:.2f}")
         break
     print("-- Stopping offboard, landing")
-    await drone.offboard.stop()
-    await drone.action.land()
+    await retry(drone.offboard.stop)
+    await retry(drone.action.land)
     await wait_landed(drone)
 
 

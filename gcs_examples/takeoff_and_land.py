@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Take off, hover, land — the MAVSDK-Python example flow, unchanged, against `make run`.
+"""Take off, hover, land — the MAVSDK-Python example flow against `make run` (a command that
+timed out on a lossy link is asked again).
 
     .venv/bin/python gcs_examples/takeoff_and_land.py            # vehicle 1 (API port 14540)
     .venv/bin/python gcs_examples/takeoff_and_land.py --port 14541   # vehicle 2
@@ -9,17 +10,17 @@ Needs MAVSDK-Python 3.x (`pip install "mavsdk<4"`; `make run` installs it in .ve
 
 import asyncio
 
-from _common import arguments, connect, first_value, wait_landed
+from _common import arguments, connect, first_value, retry, wait_landed
 
 
 async def run(port: int, grpc_port: int) -> None:
     drone = await connect(port, grpc_port)
 
     print("-- Arming")
-    await drone.action.arm()
+    await retry(drone.action.arm)
 
     print("-- Taking off")
-    await drone.action.takeoff()
+    await retry(drone.action.takeoff)
 
     await asyncio.sleep(10)
 
@@ -27,7 +28,7 @@ async def run(port: int, grpc_port: int) -> None:
     print(f"-- Hovering at {position.relative_altitude_m:.2f} m above home")
 
     print("-- Landing")
-    await drone.action.land()
+    await retry(drone.action.land)
     await wait_landed(drone)
 
 

@@ -33,7 +33,6 @@ import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
-import pybullet as pb
 
 from vehicles.airframe import X500, Airframe
 from vehicles.control import compiled, position_control, position_smoothing
@@ -49,10 +48,12 @@ from vehicles.inner_loop import (
     InnerLoop,
 )
 from vehicles.params import ParamStore
+from vehicles.quiet_import import import_quietly
 from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint, Measurement, grid_spawn_ned_m
 from vehicles.vehicle import Vehicle
 from vehicles.wind import Wind
 
+pb = import_quietly("pybullet")
 log = logging.getLogger(__name__)
 _uncached_warned = False  # the warning about numba's cache is given once per process
 

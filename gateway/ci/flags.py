@@ -88,11 +88,12 @@ def add_fly_flags(p: argparse.ArgumentParser) -> None:
 
 
 def add_sweep_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("plan", type=Path, metavar="PLAN")
+    p.add_argument("plan", type=Path, metavar="PLAN",
+                   help="a QGroundControl .plan file, or a shipped plan's name (square, breach)")
     p.add_argument("--latency-ms", type=number_list("--latency-ms"), default=None,
                    metavar="X,X,...", help="one-way latencies, every link (default 0)")
     p.add_argument("--jitter-ms", type=number_list("--jitter-ms"), default=None,
-                   metavar="Y,Y,...")
+                   metavar="Y,Y,...", help="uniform jitters +-Y ms, every link (default 0)")
     p.add_argument("--loss", type=number_list("--loss", maximum=1.0), default=None,
                    metavar="P,P,...", help="loss probabilities, every link (default 0)")
     p.add_argument("--seeds", type=_positive_int("--seeds"), default=1, metavar="N",

@@ -34,6 +34,7 @@ from typing import Any
 
 from gateway.ci.lockstep import Sim, mission_item
 from gateway.daemon.progress import ProgressLine
+from gateway.data import plan_path
 from gateway.sim.scenario import NetworkConfig, Scenario
 from vehicles.geofence import build_areas
 from vehicles.plan_types import MavCmd, MavFrame, PlanItem, PlanResult, PlanType
@@ -163,7 +164,8 @@ def parse_plan(doc: dict, source: str = "<plan>") -> QgcPlan:
 
 
 def load_plan(path: str | Path) -> QgcPlan:
-    path = Path(path)
+    """A .plan file, or a shipped plan by name (``square``; gateway/data/)."""
+    path = plan_path(path)
     try:
         doc = json.loads(path.read_text())
     except OSError as exc:

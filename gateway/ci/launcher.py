@@ -249,8 +249,13 @@ def start_daemon(*args: str, vehicles: int | None = None, log_dir: str | Path | 
                               None if output_file is None else Path(output_file))
         if daemon.wait_ready(ready_timeout_s):
             return daemon
+        exited_at_start = not daemon.running
         daemon.stop()
         if "already in use" not in daemon.log_tail():
             break
+    if exited_at_start:
+        raise RuntimeError(f"cornet run exited with code {daemon.returncode} before it was ready: "
+                           f"{' '.join(cmd)}\n{daemon.log_tail()}")
     raise RuntimeError(f"cornet run was not ready within {ready_timeout_s:g} s "
-                       f"(exit code {daemon.returncode}): {' '.join(cmd)}\n{daemon.log_tail()}")
+                       f"(stopped; exit code {daemon.returncode}): {' '.join(cmd)}\n"
+                       f"{daemon.log_tail()}")

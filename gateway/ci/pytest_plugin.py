@@ -85,7 +85,10 @@ def cornet_daemon(tmp_path_factory: pytest.TempPathFactory):
               **kwargs: Any) -> CornetDaemon:
         if log_dir is None and option(args, "--log-dir") is None:
             log_dir = tmp_path_factory.mktemp("cornet-logs")
-        d = start_daemon(*args, vehicles=vehicles, log_dir=log_dir, **kwargs)
+        try:
+            d = start_daemon(*args, vehicles=vehicles, log_dir=log_dir, **kwargs)
+        except RuntimeError as exc:  # it exited at start (bad flags, a port in use) or hung
+            pytest.fail(str(exc), pytrace=False)
         started.append(d)
         return d
 

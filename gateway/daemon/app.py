@@ -3,7 +3,7 @@
 Everything that touches sockets, signals, systemd or the wall clock lives here, in pacer.py,
 endpoint.py and sdnotify.py; the simulation itself (gateway/sim/simulation.py) runs on simulated time only.
 
-Under systemd (Type=notify, systemd/cornet.service): READY=1 once every port is bound and the
+Under systemd (Type=notify, gateway/data/systemd/cornet.service): READY=1 once every port is bound and the
 vehicles have started talking; WATCHDOG=1 from the pacer's loop while the simulation is healthy
 (``sdnotify.Watchdog``); SIGHUP re-reads the configuration file and rebuilds the network (RELOADING=1 …
 READY=1); SIGTERM/SIGINT send STOPPING=1, close the logs and exit 0.
@@ -36,6 +36,7 @@ from gateway.daemon.endpoint import UdpEndpoint
 from gateway.daemon.metrics import Exporter, MetricsServer
 from gateway.daemon.pacer import Pacer
 from gateway.daemon.progress import ProgressLine
+from gateway.daemon.px4_sitl import first_peers, home_text, log_first_peer, speed_text
 from gateway.daemon.sdnotify import Notifier, Watchdog
 from gateway.mavlink.signing import SigningConfig, SigningState
 from gateway.onboard.files import attach_ftp
@@ -155,7 +156,7 @@ class Daemon:
             for name in SPEED_SCALED_PARAMS:
                 if name not in saved.params:
                     store.set(name, state.scaled_value(store, name, speed))
-        for name, value in cfg.params.items():
+        for name, value in {**cfg.params, **cfg.vehicle_params.get(sysid, {})}.items():
             store.set(name, value)
         if cfg.state_dir is not None and self._state_writer is not None:
             kept = state.VehicleState(self._state_writer, cfg.state_dir, sysid, saved)
@@ -193,9 +194,10 @@ class Daemon:
         try:
             for i, kind in self.sim.links:  # PX4 SITL's two links, then the extra radios
                 ports = self.sim.ports(i, kind, cfg.port_offset)
+                peer, broadcast = first_peers(self.sim, i, kind, ports.remote, bind=cfg.bind,
+                                              remote_host=cfg.remote_host, gcs=cfg.gcs)
                 endpoint = UdpEndpoint(f"vehicle {i + 1} {tag_name(kind)} :{ports.local}",
-                                       (cfg.remote_host, ports.remote),
-                                       self._receiver(i, kind),
+                                       peer, self._receiver(i, kind), broadcast=broadcast,
                                        admission=Admission(), clock=self.pacer.wall)
                 try:
                     endpoint.open(loop, (cfg.bind, ports.local))
@@ -393,6 +395,8 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
                     "" if config.signing_key is not None else
                     " without MAVLink signing: anyone who can reach them can fly the vehicles "
                     "(--signing-key)")
+        if config.gcs is None:
+            log_first_peer(config.bind, config.remote_host, 14550 + config.port_offset)
     metrics = None
     if config.metrics_port is not None:
         metrics = MetricsServer(Exporter(daemon, clock=daemon.pacer.wall), config.bind,
@@ -435,9 +439,9 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
         # anyone is told the daemon is ready.
         daemon.pacer.sync()
         cfg = config
-        speed = "max" if math.isinf(cfg.speed) else f"{cfg.speed:g}x"
+        speed = speed_text(cfg.speed, cfg.environment)
         print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.summary}, "
-              f"speed {speed}, {_ports_text(cfg)}",
+              f"speed {speed}, {_ports_text(cfg)}{home_text(cfg.home, cfg.environment)}",
               file=ready_out, flush=True)
         notifier.ready(status=f"serving {cfg.vehicles} vehicle(s) on {cfg.bind}, network "
                               f"{cfg.network.summary}, speed {speed}")

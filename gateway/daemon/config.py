@@ -22,6 +22,8 @@ class RunConfig:
     port_offset: int = 0
     bind: str = "127.0.0.1"
     remote_host: str = "127.0.0.1"
+    gcs: tuple[str, int | None] | None = None  # --gcs HOST[:PORT]: where GCS links talk first
+    environment: tuple[str, ...] = ()  # the PX4 SITL variables that set something (ready line)
     speed: float = 1.0
     state_dir: Path | None = None  # parameters and plans persist here, per vehicle
     ignore_bad_state: bool = False  # an unreadable state file: start that vehicle with defaults
@@ -30,6 +32,7 @@ class RunConfig:
     packet_trace: Path | None = None  # the network's log: one line per datagram event
     log_dir: Path | None = None  # flight logs: DIR/run-<date>-<time>/
     params: dict[str, float] = field(default_factory=dict)  # set at every boot (--param)
+    vehicle_params: dict[int, dict[str, float]] = field(default_factory=dict)  # by sysid, after
     signing_key: SigningKey | None = None  # MAVLink 2 signing on every link (--signing-key)
     metrics_port: int | None = None  # Prometheus /metrics on bind:port (--metrics-port)
     duration: float | None = None  # stop at this simulated time (--duration); None: on a signal

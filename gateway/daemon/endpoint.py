@@ -55,11 +55,14 @@ class UdpEndpoint:
     def __init__(self, name: str, default_peer: tuple[str, int],
                  on_datagram: Callable[[bytes, tuple[str, int]], None], *,
                  admission: Admission | None = None,
-                 clock: Callable[[], float] | None = None) -> None:
+                 clock: Callable[[], float] | None = None,
+                 broadcast: tuple[str, int] | None = None) -> None:
         """``admission``: the port's budgets (None: everything is let in); ``clock``: the
-        monotonic clock they run on (the daemon passes the pacer's)."""
+        monotonic clock they run on (the daemon passes the pacer's); ``broadcast``: also send
+        to this broadcast address until a client is heard (PX4's MAV_BROADCAST = 1)."""
         self.name = name
         self.default_peer = default_peer
+        self.broadcast = broadcast
         self._on_datagram = on_datagram
         self.admission = admission
         self._clock = clock
@@ -80,6 +83,8 @@ class UdpEndpoint:
             sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, RCVBUF_BYTES)
             if sys.platform.startswith("linux"):
                 sock.setsockopt(socket.SOL_SOCKET, SO_RXQ_OVFL, 1)
+            if self.broadcast is not None:
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_BROADCAST, 1)
             sock.bind(local_addr)
         except BaseException:
             sock.close()
@@ -140,8 +145,15 @@ class UdpEndpoint:
         sock = self.sock
         if sock is None:
             return
+        self._send_to(sock, data, peer or self.default_peer)
+        if peer is None and self.broadcast is not None:
+            # PX4 (mavlink_main.cpp, send_finish): a normal-mode link with MAV_BROADCAST = 1
+            # sends to the network's broadcast address too while no client is connected.
+            self._send_to(sock, data, self.broadcast)
+
+    def _send_to(self, sock: socket.socket, data: bytes, peer: tuple[str, int]) -> None:
         try:
-            sock.sendto(data, peer or self.default_peer)
+            sock.sendto(data, peer)
             self.stats.tx_datagrams += 1
         except (BlockingIOError, InterruptedError):
             self.stats.tx_dropped += 1
@@ -158,3 +170,34 @@ class UdpEndpoint:
     @property
     def tx_datagrams(self) -> int:
         return self.stats.tx_datagrams
+
+
+SIOCGIFADDR = 0x8915
+SIOCGIFBRDADDR = 0x8919
+
+
+def _interface_address(sock: socket.socket, name: str, request: int) -> str | None:
+    import fcntl
+
+    try:
+        raw = fcntl.ioctl(sock.fileno(), request, struct.pack("256s", name.encode()[:15]))
+    except OSError:
+        return None
+    return socket.inet_ntoa(raw[20:24])
+
+
+def broadcast_address(bind: str) -> str | None:
+    """The broadcast address MAV_BROADCAST sends to, as PX4's find_broadcast_address: that of
+    the interface holding ``bind``, or with 0.0.0.0 the first interface that has one (not the
+    loopback). None where there is none (a loopback bind)."""
+    if not sys.platform.startswith("linux"):
+        return None if bind.startswith("127.") else "255.255.255.255"
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        for _index, name in socket.if_nameindex():
+            address = _interface_address(sock, name, SIOCGIFADDR)
+            if address is None or address.startswith("127.") or bind not in ("0.0.0.0", address):
+                continue
+            found = _interface_address(sock, name, SIOCGIFBRDADDR)
+            if found not in (None, "0.0.0.0"):
+                return found
+    return None

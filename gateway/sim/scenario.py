@@ -2,7 +2,7 @@
 and the daemon's own settings.
 
 A scenario is a TOML file (docs/scenarios.md shows every key); the daemon's configuration file
-(``cornet run --config``, e.g. systemd/cornet.toml) is the same format:
+(``cornet run --config``, e.g. gateway/data/systemd/cornet.toml) is the same format:
 
     [vehicles]
     count = 3                       # how many
@@ -47,10 +47,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gateway.data import scenario_path
+from gateway.sim import param_files
 from gateway.sim.command_timeline import Command, parse_commands
 from gateway.sim.fault_timeline import parse_faults
 from gateway.sim.radios import ExtraRadio, check_radio_ports, radio_ports, split_entries
-from gateway.sim.values import ScenarioError, listen_address, spawn_points
+from gateway.sim.values import ScenarioError, gcs_partner, listen_address, spawn_points
 from gateway.sim.values import choice as _choice
 from gateway.sim.values import number as _number
 from gateway.sim.values import table as _table
@@ -80,11 +82,11 @@ MIN_SYNC_PERIOD_S = 0.001
 MAX_SYNC_PERIOD_S = 1.0
 MIN_HOME_ALT_M = -500.0  # the Dead Sea shore is -430 m
 MAX_HOME_ALT_M = 9000.0
-MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli.py)
+MAX_SPEED = 1000.0  # as `cornet run --speed` (gateway/cli_args.py)
 MAX_PORT = 65535
 HIGHEST_BASE_PORT = 18570  # vehicle i's GCS port 18570+i is the highest it binds (gateway/sim/simulation.py)
 DAEMON_KEYS = ("bind", "port_offset", "speed", "state_dir", "log_dir", "zmq_pub", "packet_trace",
-               "log_level", "signing_key", "metrics_port", "web")
+               "log_level", "signing_key", "metrics_port", "web", "gcs")
 NETWORK_OWN_KEYS = ("backend", "seed", "sync_period_s", "late_policy", "ns3")
 
 
@@ -138,6 +140,7 @@ class DaemonSettings:
     signing_key: Path | None = None  # MAVLink 2 signing key file (gateway/mavlink/signing.py)
     metrics_port: int | None = None  # Prometheus /metrics on bind:port; None: off
     web: tuple[str, int] | None = None  # the live view's (host, port); None: off
+    gcs: tuple[str, int | None] | None = None  # where the GCS links talk first (--gcs)
 
 
 @dataclass(frozen=True)
@@ -155,6 +158,8 @@ class Scenario:
     faults: tuple[Fault, ...] = ()  # [[faults]], in time order
     spawn_ned_m: tuple[tuple[float, float], ...] = ()  # vehicles.spawn_ned_m, by instance
     commands: tuple[Command, ...] = ()  # [[commands]], in time order
+    # vehicles.param_files (gateway/sim/param_files.py): values by system id, after `params`
+    vehicle_params: dict[int, dict[str, float]] = field(default_factory=dict)
 
 
 def bind_address(value: Any, path: str) -> str:
@@ -201,6 +206,8 @@ def _daemon(table: dict, base_dir: Path | None) -> tuple[DaemonSettings, str | N
     out: dict[str, Any] = {}
     if "bind" in table:
         out["bind"] = bind_address(table["bind"], "daemon.bind")
+    if "gcs" in table:
+        out["gcs"] = gcs_partner(table["gcs"], "daemon.gcs")
     if "port_offset" in table:
         out["port_offset"] = int(_number(table["port_offset"], "daemon.port_offset",
                                          integer=True, minimum=0))
@@ -235,7 +242,8 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     _unknown(doc, ("vehicles", "network", "logging", "daemon", "environment", "sensors",
                    "faults", "commands"), "")
     veh = _table(doc, "vehicles", "vehicles")
-    _unknown(veh, ("count", "home", "airframe", "params", "spawn_ned_m"), "vehicles")
+    _unknown(veh, ("count", "home", "airframe", "params", "param_files", "spawn_ned_m"),
+             "vehicles")
     count = int(_number(veh.get("count", 1), "vehicles.count", integer=True, minimum=1))
     if count > MAX_VEHICLES:
         raise ScenarioError(f"vehicles.count: at most {MAX_VEHICLES} vehicles per MAVLink network "
@@ -257,6 +265,11 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
     airframe = _choice(veh.get("airframe", "x500"), AIRFRAMES, "vehicles.airframe")
     params = _params(_table(veh, "params", "vehicles.params"))
     spawn = spawn_points(veh.get("spawn_ned_m", []), count, grid_spawn_ned_m)
+    files = veh.get("param_files", [])
+    if not isinstance(files, list) or not all(isinstance(f, str) for f in files):
+        raise ScenarioError('vehicles.param_files: expected a list of "FILE" or "N:FILE" '
+                            "(QGC .params files; relative to this file)")
+    vehicle_params = param_files.merge(files, count, base_dir, "vehicles.param_files:")
 
     net = _table(doc, "network", "network")
     backend = _choice(net.get("backend", "embedded"), BACKENDS, "network.backend")
@@ -326,7 +339,8 @@ def parse(doc: dict, source: str = "<scenario>", base_dir: Path | None = None) -
             raise ScenarioError(str(exc)) from None
         network = NetworkConfig(backend, topology, seed, sync, late, dict(ns3), radios)
     return Scenario(source, count, home, airframe, params, network, level, daemon, wind, sensors,
-                    faults, spawn, parse_commands(doc.get("commands", []), count))
+                    faults, spawn, commands=parse_commands(doc.get("commands", []), count),
+                    vehicle_params=vehicle_params)
 
 
 def _sensors(table: dict) -> SensorConfig:
@@ -381,11 +395,15 @@ def _params(table: dict) -> dict[str, float]:
 
 
 def load(path: str | Path) -> Scenario:
-    path = Path(path)
+    """A scenario file, or a shipped scenario by name (``lossy-wifi``; ``cornet scenarios``)."""
+    given, path = path, scenario_path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as exc:
-        raise ScenarioError(f"{path}: cannot read ({exc.strerror})") from None
+        hint = ""
+        if not Path(given).parent.parts:
+            hint = "; nor is it a shipped scenario's name (`cornet scenarios` lists them)"
+        raise ScenarioError(f"{path}: cannot read ({exc.strerror}){hint}") from None
     except UnicodeDecodeError as exc:
         raise ScenarioError(f"{path}: not UTF-8 text (byte {exc.start}); TOML files are "
                             "UTF-8") from None
@@ -409,7 +427,8 @@ def describe(s: Scenario) -> str:
              f"  vehicles: {s.vehicles} × {s.airframe} around {s.home.lat_deg:.6f}, "
              f"{s.home.lon_deg:.6f}, {s.home.alt_amsl_m:.1f} m AMSL"
              + (f"; params {s.params}" if s.params else "")
-             + (f"; spawn points {[list(p) for p in s.spawn_ned_m]}" if s.spawn_ned_m else ""),
+             + (f"; spawn points {[list(p) for p in s.spawn_ned_m]}" if s.spawn_ned_m else "")
+             + "".join(f"; vehicle {k} params {v}" for k, v in sorted(s.vehicle_params.items())),
              f"  network: backend {net.backend}, topology {topo}, seed {net.seed}, sync period "
              f"{net.sync_period_s * 1e3:.0f} ms, late policy {net.late_policy}"]
     for key in ("link", "ap", "gcs", "radio", "wired", "channel", "api_clients", "outages"):
@@ -449,4 +468,6 @@ def _shown(key: str, value: Any) -> str:
     if key == "web":  # (host, port)
         host, port = value
         return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+    if key == "gcs":  # (host, port or None)
+        return value[0] if value[1] is None else f"{value[0]}:{value[1]}"
     return str(value)

@@ -78,6 +78,21 @@ def spawn_points(value: Any, count: int,
     return tuple(points)
 
 
+def gcs_partner(value: Any, path: str) -> tuple[str, int | None]:
+    """``HOST`` or ``HOST:PORT`` (an IPv4 address): where the GCS links talk first (``--gcs``,
+    ``daemon.gcs``); the port None keeps each link's own."""
+    host, sep, port_text = value.partition(":") if isinstance(value, str) else ("", "", "")
+    try:
+        ipaddress.IPv4Address(host)
+        port = int(port_text) if sep else None
+    except ValueError:
+        raise ScenarioError(f"{path} must be HOST or HOST:PORT with an IPv4 address, e.g. "
+                            f"192.168.1.20 or 192.168.1.20:14550; got {value!r}") from None
+    if port is not None and not 1 <= port <= 65535:
+        raise ScenarioError(f"{path}: the port must be between 1 and 65535, got {port}")
+    return host, port
+
+
 DEFAULT_LISTEN_HOST = "127.0.0.1"
 
 

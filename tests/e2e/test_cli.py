@@ -2,12 +2,16 @@
 
 import socket
 import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
 from gateway.ci.launcher import cornet_command, free_port_offset, start_daemon
 
 pytestmark = [pytest.mark.e2e]
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.parametrize("flags, words", [
@@ -53,7 +57,7 @@ def test_ready_then_sigterm_exits_0_quickly():
 
 
 def test_check_accepts_shipped_scenarios_and_names_bad_keys(tmp_path):
-    ok = subprocess.run(cornet_command() + ["check", "scenarios/lossy-wifi.toml"],
+    ok = subprocess.run(cornet_command() + ["check", "lossy-wifi"],
                         capture_output=True, text=True, timeout=30)
     assert ok.returncode == 0 and "topology star" in ok.stdout, ok.stderr
     bad = tmp_path / "bad.toml"
@@ -64,7 +68,7 @@ def test_check_accepts_shipped_scenarios_and_names_bad_keys(tmp_path):
     out = subprocess.run(cornet_command() + ["run", "--scenario", str(bad)], capture_output=True,
                          text=True, timeout=30)
     assert out.returncode == 2 and "network.radio" in out.stderr
-    out = subprocess.run(cornet_command() + ["run", "--scenario", "scenarios/ideal.toml",
+    out = subprocess.run(cornet_command() + ["run", "--scenario", "ideal",
                                              "--loss", "0.1"], capture_output=True, text=True,
                          timeout=30)
     assert out.returncode == 2 and "--loss" in out.stderr
@@ -96,3 +100,56 @@ def test_unreadable_state_file_stops_the_start_with_one_line_and_is_kept(tmp_pat
         out.stderr
     assert "Traceback" not in out.stderr
     assert path.read_text() == '{"version": 1, "params": {"MIS_TAK'
+
+
+def test_the_pytest_plugin_says_the_daemon_exited_and_its_code(tmp_path):
+    """A user's test whose daemon dies at start: the report names the exit code and the
+    daemon's own message, not a time-out."""
+    (tmp_path / "test_user.py").write_text(
+        "def test_it(cornet_daemon):\n    cornet_daemon('--loss', '7')\n")
+    out = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                          str(tmp_path / "test_user.py")],  # the plugin: installed with cornet
+                         capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert out.returncode == 1, out.stdout + out.stderr
+    assert "cornet run exited with code 2 before it was ready" in out.stdout, out.stdout
+    assert "loss must be between 0 and 1" in out.stdout, out.stdout
+
+
+@pytest.mark.parametrize("argv, usage", [
+    (["run", "--loss", "7"], "usage: cornet run"),
+    (["run", "--scenario", "no-such-scenario"], "usage: cornet run"),
+    (["fly", "square", "--loss", "7"], "usage: cornet fly"),
+    (["fly", "no-such-plan", "--scenario", "no-such-scenario"], "usage: cornet fly"),
+    (["check"], "usage: cornet check"),
+    (["plot"], "usage: cornet plot"),
+    (["watch", "--duration", "-1"], "usage: cornet watch"),
+])
+def test_a_subcommand_error_shows_that_subcommand_usage(argv, usage):
+    out = subprocess.run(cornet_command() + argv, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 2, out.stderr
+    assert out.stderr.startswith(usage), out.stderr
+    assert len(out.stderr.strip().splitlines()[-1]) > len("cornet x: error: "), out.stderr
+
+
+def test_version():
+    out = subprocess.run(cornet_command() + ["--version"], capture_output=True, text=True,
+                         timeout=30)
+    assert out.returncode == 0 and out.stdout.startswith("cornet "), out
+
+
+def test_no_pybullet_banner_on_stdout():
+    """What a program reads from `cornet check` is the summary alone (PyBullet prints a build
+    banner from C when it loads)."""
+    out = subprocess.run(cornet_command() + ["check", "gateway/data/scenarios/ideal.toml"],
+                         capture_output=True, text=True, timeout=60, cwd=ROOT)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines()[0] == "gateway/data/scenarios/ideal.toml: ok", out.stdout
+    assert "pybullet" not in out.stdout + out.stderr
+
+
+def test_the_ready_line_is_the_first_line_on_stdout():
+    d = start_daemon()
+    code = d.stop()
+    assert code == 0, d.log_tail()
+    assert d.stdout_lines[0].startswith("cornet ready:"), d.stdout_lines
+    assert not any("pybullet build time" in line for line in d.stderr_lines)

@@ -166,7 +166,7 @@ def test_ns3_engine_killed_mid_run_the_daemon_keeps_its_clock_and_stops_cleanly(
 
     if not BINARY.is_file():
         pytest.skip(build_missing_message())
-    d = daemon_factory("--scenario", "scenarios/ns3-wifi.toml")
+    d = daemon_factory("--scenario", "ns3-wifi")
     conn = gcs(d.api_port(0))
     try:
         conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)

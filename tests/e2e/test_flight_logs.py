@@ -36,10 +36,13 @@ async def test_log_dir_tlog_readable_by_mavlogdump_and_plotted(daemon_factory, t
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
 
 
-@pytest.mark.parametrize("plan, code, words", [("square.plan", 0, "PASS"),
-                                              ("breach.plan", 1, "geofence: breached")])
-def test_cornet_fly_judges_plans(plan, code, words):
-    out = subprocess.run(cornet_command() + ["fly", f"gcs_examples/plans/{plan}"],
-                         capture_output=True, text=True, timeout=300)
+@pytest.mark.parametrize("plan, code, words", [("square", 0, "PASS"),
+                                              ("breach", 1, "geofence: breached")])
+def test_cornet_fly_judges_plans(plan, code, words, tmp_path):
+    """The shipped plans by name; the flight recorded in ./logs, where `cornet plot logs/`
+    (README) looks."""
+    out = subprocess.run(cornet_command() + ["fly", plan], capture_output=True, text=True,
+                         timeout=300, cwd=tmp_path)
     assert out.returncode == code, out.stdout + out.stderr
     assert words in out.stdout
+    assert (tmp_path / "logs" / "state.csv").is_file()

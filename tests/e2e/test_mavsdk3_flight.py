@@ -29,7 +29,7 @@ async def test_takeoff_land_over_lossy_jittery_network(daemon_factory):
 
 @pytest.mark.asyncio
 async def test_takeoff_land_over_the_lossy_wifi_scenario(daemon_factory):
-    d = daemon_factory("--scenario", "scenarios/lossy-wifi.toml", vehicles=1)
+    d = daemon_factory("--scenario", "lossy-wifi", vehicles=1)
     r = await takeoff_hover_land(d.api_port(0), hover_s=3.0, timeout_scale=2.0)
     assert 2.2 <= r.hover_alt_min_m and r.hover_alt_max_m <= 2.8, r
 
@@ -40,6 +40,6 @@ async def test_takeoff_land_over_the_real_ns3_backend(daemon_factory):
 
     if not BINARY.exists():
         pytest.skip(build_missing_message())
-    d = daemon_factory("--scenario", "scenarios/ns3-wifi.toml", vehicles=1)
+    d = daemon_factory("--scenario", "ns3-wifi", vehicles=1)
     r = await takeoff_hover_land(d.api_port(0), hover_s=3.0, timeout_scale=2.0)
     assert 2.2 <= r.hover_alt_min_m and r.hover_alt_max_m <= 2.8, r

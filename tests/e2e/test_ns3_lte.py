@@ -1,6 +1,6 @@
 """LTE through the real ns-3 (netsim/ns3/lte.cc): the engine's protocol on the kernel (attach,
 handover between two eNBs, every packet reported once, bad config refused naming the key), and
-an unmodified MAVSDK mission flown through scenarios/ns3-lte.toml."""
+an unmodified MAVSDK mission flown through the ns3-lte scenario."""
 
 from __future__ import annotations
 
@@ -120,7 +120,7 @@ def test_lte_nodes_and_keys_are_checked_before_the_engine_starts():
 @pytest.mark.slow
 @pytest.mark.asyncio
 async def test_mavsdk_mission_through_lte(daemon_factory):
-    d = daemon_factory("--scenario", "scenarios/ns3-lte.toml", "--speed", "2")
+    d = daemon_factory("--scenario", "ns3-lte", "--speed", "2")
     assert "network=ns3/lte" in d.ready_line and "speed 2x" in d.ready_line, d.ready_line
     async with connected(d.api_port()) as drone:
         await fly_square_mission(drone, 120, 90)

@@ -20,7 +20,8 @@ from tests.e2e.gcs import arm_and_take_off, gcs
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
 ROOT = Path(__file__).resolve().parents[2]
-BLACKOUT = ROOT / "scenarios" / "blackout.toml"  # vehicle 1 loses every link at t = 40 s for 15 s
+# vehicle 1 loses every link at t = 40 s for 15 s
+BLACKOUT = ROOT / "gateway" / "data" / "scenarios" / "blackout.toml"
 WAIT_S = 120.0  # a bound on each wait in wall-clock seconds, never a measurement
 
 
@@ -137,7 +138,7 @@ def get_json(url: str) -> dict:
 
 def test_cornet_web_shows_a_daemon_through_its_zeromq_bus(daemon_factory):
     endpoint = f"tcp://127.0.0.1:{free_tcp_port()}"
-    daemon_factory("--zmq-pub", endpoint, "--scenario", str(ROOT / "scenarios" / "far-ap.toml"),
+    daemon_factory("--zmq-pub", endpoint, "--scenario", "far-ap",
                    vehicles=2)
     port = free_tcp_port()
     web = subprocess.Popen(cornet_command() + ["web", "--zmq", endpoint, "--listen",

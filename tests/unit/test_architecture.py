@@ -20,7 +20,8 @@ WALL_CLOCK_CALLS = {("time", "time"), ("time", "monotonic"), ("time", "perf_coun
                     ("time", "sleep"), ("datetime", "now")}
 # gateway's rooms, lowest first: a room imports only from rooms before it (and from vehicles/
 # and netsim/). The loose modules at the top (cli, the public aliases) may import any room.
-ROOMS = ["gateway.mavlink", "gateway.sim", "gateway.onboard", "gateway.bus", "gateway.web",
+ROOMS = ["gateway.data", "gateway.mavlink", "gateway.sim", "gateway.onboard", "gateway.bus",
+         "gateway.web",
          "gateway.daemon", "gateway.ci"]
 MAX_LOOSE_GATEWAY_MODULES = 8
 MAX_MODULE_LINES = 500

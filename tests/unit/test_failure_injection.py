@@ -65,13 +65,13 @@ def test_refusals_and_the_units_without_effect(params, unit, kind, result):
 
 
 def test_fault_timeline_in_a_scenario_is_deterministic_and_fly_reports_the_failsafe(tmp_path):
-    """scenarios/gps-loss.toml: the GPS goes off at t=20 s, the square mission is cut short by
+    """The gps-loss scenario: the GPS goes off at t=20 s, the square mission is cut short by
     the Descend failsafe; two lockstep runs write identical logs; `cornet fly` says so."""
     from gateway.ci.fly import fly
     from gateway.sim import scenario as scenario_mod
 
     root = Path(__file__).resolve().parents[2]
-    plan, sc = root / "gcs_examples/plans/square.plan", root / "scenarios/gps-loss.toml"
+    plan, sc = root / "gateway/data/plans/square.plan", root / "gateway/data/scenarios/gps-loss.toml"
     runs = [fly(plan, scenario=sc, log_dir=tmp_path / name, time_limit_s=200)
             for name in ("a", "b")]
     res = runs[0]

@@ -14,7 +14,7 @@ import pytest
 from gateway.ci.baseline import Baseline, Tolerances, by_progress, track_diff
 from gateway.cli import main as cli
 
-PLANS = Path(__file__).resolve().parents[2] / "gcs_examples" / "plans"
+PLANS = Path(__file__).resolve().parents[2] / "gateway" / "data" / "plans"
 
 
 def short_plan(directory: Path, name: str = "short.plan", north_items: int = 1) -> Path:
@@ -179,7 +179,7 @@ def test_flight_spec_network_and_conditions():
     from gateway.ci.spec import FlightSpec
     from gateway.sim.scenario import load
 
-    windy = str(PLANS.parents[1] / "scenarios" / "windy.toml")
+    windy = str(PLANS.parent / "scenarios" / "windy.toml")
     spec = FlightSpec("p.plan", scenario=windy, seed=3)
     net = spec.network()
     assert net is not None and net.seed == 3 and net.topology == load(windy).network.topology

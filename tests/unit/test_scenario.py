@@ -11,7 +11,7 @@ from gateway.sim.simulation import Simulation
 from netsim.ns3.bridge import BINARY, build_missing_message
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-SHIPPED = sorted((ROOT / "scenarios").glob("*.toml"))
+SHIPPED = sorted((ROOT / "gateway" / "data" / "scenarios").glob("*.toml"))
 
 
 def test_the_five_scenarios_are_shipped():
@@ -123,7 +123,7 @@ def test_daemon_table_values_and_relative_paths(tmp_path):
 
 
 def test_shipped_service_config_loads():
-    s = load(ROOT / "systemd" / "cornet.toml")
+    s = load(ROOT / "gateway" / "data" / "systemd" / "cornet.toml")
     assert s.vehicles == 1 and s.network.backend == "embedded"
     d = s.daemon
     assert (d.bind, d.state_dir, d.log_dir) == ("127.0.0.1", pathlib.Path("/var/lib/cornet"),
@@ -131,10 +131,10 @@ def test_shipped_service_config_loads():
 
 
 def test_speed_limit_matches_the_cli():
-    from gateway import cli
+    from gateway import cli_args
     from gateway.sim import scenario
 
-    assert scenario.MAX_SPEED == cli.MAX_SPEED
+    assert scenario.MAX_SPEED == cli_args.MAX_SPEED
 
 
 @pytest.mark.parametrize("doc, key", [
@@ -168,3 +168,17 @@ def test_spawn_points_place_vehicles_and_the_rest_stay_on_the_grid():
         assert (v1.lat_deg - s.home.lat_deg) * 111_195.0 == pytest.approx(140.0, abs=0.5)
     finally:
         sim.close()
+
+
+@pytest.mark.parametrize("value, expected", [("192.168.1.20", ("192.168.1.20", None)),
+                                             ("10.0.0.5:14551", ("10.0.0.5", 14551))])
+def test_daemon_gcs_is_a_partner_address(value, expected):
+    s = parse({"daemon": {"gcs": value}})
+    assert s.daemon.gcs == expected
+    assert "gcs " + value in describe(s)
+
+
+@pytest.mark.parametrize("value", ["qgc.local", "10.0.0.5:0", "10.0.0.5:port", 14550])
+def test_a_bad_daemon_gcs_names_the_key(value):
+    with pytest.raises(ScenarioError, match="daemon.gcs"):
+        parse({"daemon": {"gcs": value}})

@@ -1,0 +1,104 @@
+"""What a new user gets from ``pip install cornet``: the wheel built from this tree, installed
+alone in a fresh venv (no system site-packages; its dependencies from PyPI or pip's cache), used
+from a directory outside the repository."""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from gateway.ci.launcher import CornetDaemon
+from gateway.ci.ports import free_port_offset
+
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
+
+ROOT = Path(__file__).resolve().parents[2]
+SOURCES = ("gateway", "vehicles", "netsim", "pyproject.toml", "README.md", "LICENSE")
+INSTALL_TIMEOUT_S = 900
+
+
+def sh(args, cwd, timeout=120, env=None):
+    return subprocess.run([str(a) for a in args], cwd=cwd, capture_output=True, text=True,
+                          timeout=timeout, env=env, stdin=subprocess.DEVNULL)
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory):
+    """(the venv's bin/, a working directory outside the repository, its environment)."""
+    tmp = tmp_path_factory.mktemp("wheel")
+    src = tmp / "src"
+    src.mkdir()
+    ignore = shutil.ignore_patterns("__pycache__", "build", "*.egg-info")
+    for name in SOURCES:  # a clean copy: an in-tree build/ could carry stale files
+        path = ROOT / name
+        if path.is_dir():
+            shutil.copytree(path, src / name, ignore=ignore)
+        else:
+            shutil.copy2(path, src / name)
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    dist = tmp / "dist"
+    out = sh([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", dist, src], tmp,
+             timeout=INSTALL_TIMEOUT_S, env=env)
+    assert out.returncode == 0, out.stderr
+    (wheel,) = dist.glob("cornet-*.whl")
+    venv = tmp / "venv"
+    out = sh([sys.executable, "-m", "venv", venv], tmp, env=env)
+    assert out.returncode == 0, out.stderr
+    assert "include-system-site-packages = false" in (venv / "pyvenv.cfg").read_text()
+    out = sh([venv / "bin" / "python", "-m", "pip", "install", "-q", wheel], tmp,
+             timeout=INSTALL_TIMEOUT_S, env=env)
+    assert out.returncode == 0, out.stderr
+    work = tmp / "elsewhere"
+    work.mkdir()
+    env["NUMBA_CACHE_DIR"] = str(tmp / "numba-cache")
+    return venv / "bin", work, env
+
+
+def test_version(installed):
+    bin_dir, work, env = installed
+    out = sh([bin_dir / "cornet", "--version"], work, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("cornet 0."), out.stdout
+
+
+def test_scenarios_lists_the_shipped_ones_and_check_finds_them_by_name(installed):
+    bin_dir, work, env = installed
+    out = sh([bin_dir / "cornet", "scenarios"], work, env=env)
+    assert out.returncode == 0, out.stderr
+    names = {line.split()[0] for line in out.stdout.splitlines() if line and line[0] != "`"}
+    assert {"ideal", "lossy-wifi", "far-ap", "two-radios", "gps-loss"} <= names, out.stdout
+    out = sh([bin_dir / "cornet", "check", "lossy-wifi"], work, env=env)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines()[0].endswith("lossy-wifi.toml: ok"), out.stdout
+    assert "site-packages" in out.stdout.splitlines()[0], out.stdout
+
+
+def test_run_a_shipped_scenario_by_name(installed):
+    bin_dir, work, env = installed
+    offset = free_port_offset(2)
+    cmd = [str(bin_dir / "cornet"), "run", "--scenario", "lossy-wifi", "--port-offset",
+           str(offset)]
+    proc = subprocess.Popen(cmd, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, stdin=subprocess.DEVNULL)
+    daemon = CornetDaemon(proc, cmd, offset, 2, None)
+    try:
+        assert daemon.wait_ready(120), daemon.log_tail()
+    finally:
+        code = daemon.stop()
+    assert code == 0, daemon.log_tail()
+    # Nothing before the ready line on stdout (no PyBullet build banner), nor on stderr.
+    assert daemon.stdout_lines[0].startswith("cornet ready: 2 vehicle(s)"), daemon.stdout_lines
+    assert not any("pybullet build time" in line for line in daemon.output), daemon.log_tail()
+
+
+def test_fly_then_plot_a_shipped_plan(installed):
+    bin_dir, work, env = installed
+    out = sh([bin_dir / "cornet", "fly", "square"], work, timeout=600, env=env)
+    assert out.returncode == 0, out.stdout + out.stderr
+    out = sh([bin_dir / "cornet", "plot", "logs"], work, timeout=300, env=env)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert {"track.png", "altitude_speed.png", "link.png"} <= {p.name for p in
+                                                               (work / "logs").iterdir()}
