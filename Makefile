@@ -111,10 +111,10 @@ install-service:
 	$(PREFIX)/.venv/bin/pip install --quiet '$(PREFIX)[web]'
 	mkdir -p $(UNIT_DIR)
 	sed -e 's#/opt/cornet#$(PREFIX)#g' -e 's#/etc/cornet/cornet.toml#$(CONFIG_DIR)/cornet.toml#g' \
-		gateway/data/systemd/cornet.service > $(UNIT_DIR)/cornet.service
+		systemd/cornet.service > $(UNIT_DIR)/cornet.service
 	@if [ -e $(CONFIG_DIR)/cornet.toml ]; then \
-		echo "install-service: keeping $(CONFIG_DIR)/cornet.toml (the example: $(PREFIX)/gateway/data/systemd/cornet.toml)"; \
-	else install -D -m 0644 gateway/data/systemd/cornet.toml $(CONFIG_DIR)/cornet.toml; fi
+		echo "install-service: keeping $(CONFIG_DIR)/cornet.toml (the example: $(PREFIX)/systemd/cornet.toml)"; \
+	else install -D -m 0644 systemd/cornet.toml $(CONFIG_DIR)/cornet.toml; fi
 	$(PREFIX)/.venv/bin/cornet check $(CONFIG_DIR)/cornet.toml
 	@if [ -d /run/systemd/system ]; then systemctl daemon-reload; \
 	else echo "install-service: systemd is not running here; run 'systemctl daemon-reload' where it is"; fi

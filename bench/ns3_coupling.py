@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """What the ns-3 coupling adds to a round trip: PING from the API client to the vehicle of
-gateway/data/scenarios/ns3-wifi.toml (802.11g, 30 m from its access point) at sync periods 1, 5 and 20 ms,
+scenarios/ns3-wifi.toml (802.11g, 30 m from its access point) at sync periods 1, 5 and 20 ms,
 in lockstep and in real time, beside ns-3's own latency up and down that link.
 
 Each run builds the simulation in-process from the scenario (its sync period replaced), arms
@@ -39,7 +39,7 @@ from gateway.sim import scenario as scenario_mod  # noqa: E402
 from gateway.sim.simulation import Simulation  # noqa: E402
 from netsim.ns3.bridge import BINARY, build_missing_message  # noqa: E402
 
-SCENARIO = ROOT / "gateway" / "data" / "scenarios" / "ns3-wifi.toml"
+SCENARIO = ROOT / "scenarios" / "ns3-wifi.toml"
 PING_PERIOD_S = 0.2
 SETTLE_S = 1.0
 SLICE_S = 0.001

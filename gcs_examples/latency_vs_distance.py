@@ -53,9 +53,9 @@ LTE_DEFAULT_CELL_NED_M = [0.0, 0.0, -30.0]  # netsim/models/lte.py's cells_ned_m
 
 BACKENDS = {
     "embedded": ("embedded wireless model (802.11n MCS0)",
-                 ROOT / "gateway" / "data" / "scenarios" / "fig6-embedded.toml"),
+                 ROOT / "scenarios" / "fig6-embedded.toml"),
     "ns3": ("ns-3 3.37 (802.11g 6 Mbit/s, Rayleigh)",
-            ROOT / "gateway" / "data" / "scenarios" / "fig6-ns3.toml"),
+            ROOT / "scenarios" / "fig6-ns3.toml"),
 }
 
 

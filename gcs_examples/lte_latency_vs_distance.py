@@ -37,7 +37,7 @@ from gateway.data import scenario_path
 
 ROOT = Path(__file__).resolve().parent.parent
 NS3_BINARY = ROOT / "netsim" / "ns3" / "build" / "cornet-ns3"
-SCENARIO = ROOT / "gateway" / "data" / "scenarios" / "ns3-lte.toml"
+SCENARIO = ROOT / "scenarios" / "ns3-lte.toml"
 
 
 class _Tap:

@@ -3,7 +3,7 @@
 Everything that touches sockets, signals, systemd or the wall clock lives here, in pacer.py,
 endpoint.py and sdnotify.py; the simulation itself (gateway/sim/simulation.py) runs on simulated time only.
 
-Under systemd (Type=notify, gateway/data/systemd/cornet.service): READY=1 once every port is bound and the
+Under systemd (Type=notify, systemd/cornet.service): READY=1 once every port is bound and the
 vehicles have started talking; WATCHDOG=1 from the pacer's loop while the simulation is healthy
 (``sdnotify.Watchdog``); SIGHUP re-reads the configuration file and rebuilds the network (RELOADING=1 …
 READY=1); SIGTERM/SIGINT send STOPPING=1, close the logs and exit 0.

@@ -1,7 +1,9 @@
 """The files CORNET ships inside its package: scenarios, example QGroundControl plans, the systemd
-unit and its example configuration. ``cornet run --scenario NAME`` and ``cornet fly NAME`` find
-them by name (and by the paths the checkout had for them before, ``scenarios/NAME.toml`` and
-``gcs_examples/plans/NAME.plan``); a path that exists always wins."""
+unit and its example configuration. In the checkout they live where users look for them
+(scenarios/, gcs_examples/plans/, systemd/); ``scenarios``, ``plans`` and ``systemd`` here are
+links to those directories, and the wheel carries their files. ``cornet run --scenario NAME`` and
+``cornet fly NAME`` find them by name, and by their checkout paths (``scenarios/NAME.toml``,
+``gcs_examples/plans/NAME.plan``) outside the checkout; a path that exists always wins."""
 
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 and the daemon's own settings.
 
 A scenario is a TOML file (docs/scenarios.md shows every key); the daemon's configuration file
-(``cornet run --config``, e.g. gateway/data/systemd/cornet.toml) is the same format:
+(``cornet run --config``, e.g. systemd/cornet.toml) is the same format:
 
     [vehicles]
     count = 3                       # how many

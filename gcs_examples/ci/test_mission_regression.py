@@ -20,7 +20,7 @@ from pathlib import Path
 
 from gateway.ci.pytest_plugin import FlightLogView, free_tcp_port, landed_within, max_deviation_m, reached
 
-PLAN = Path(__file__).resolve().parents[2] / "gateway" / "data" / "plans" / "square.plan"
+PLAN = Path(__file__).resolve().parents[2] / "gcs_examples" / "plans" / "square.plan"
 CRUISE_ALT_M = 15.0  # the plan's waypoints: 15 m above home
 WAYPOINT_TOLERANCE_M = 2.0
 MAX_DEVIATION_M = 3.0

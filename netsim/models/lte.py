@@ -83,7 +83,7 @@ is under −12 dB, beyond ~2.37 km the RSRP under −124 dBm: Drop.RANGE. Denser
 behind the retransmissions there (in order): at 2 km and 100 packets/s the uplink p95 is 175 ms.
 Shadowing moves all this by its value at the place (6 dB ≈ a factor 1.44 in distance). A
 handover holds the packets that reach the radio during its 40 ms (none lost with handover_loss
-= 0): up to 40 ms more. Two cells 1 km apart (gateway/data/scenarios/lte.toml): without shadowing a vehicle
+= 0): up to 40 ms more. Two cells 1 km apart (scenarios/lte.toml): without shadowing a vehicle
 flying from one to the other changes cell once, where the new cell is 3 dB better (546 m from
 the first) plus the TTT; hovering at the midpoint with 2 dB measurement noise it never changes
 (with handover_ttt_s = 0 it ping-pongs hundreds of times in ten minutes). With the 6 dB

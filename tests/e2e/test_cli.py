@@ -140,10 +140,10 @@ def test_version():
 def test_no_pybullet_banner_on_stdout():
     """What a program reads from `cornet check` is the summary alone (PyBullet prints a build
     banner from C when it loads)."""
-    out = subprocess.run(cornet_command() + ["check", "gateway/data/scenarios/ideal.toml"],
+    out = subprocess.run(cornet_command() + ["check", "scenarios/ideal.toml"],
                          capture_output=True, text=True, timeout=60, cwd=ROOT)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.splitlines()[0] == "gateway/data/scenarios/ideal.toml: ok", out.stdout
+    assert out.stdout.splitlines()[0] == "scenarios/ideal.toml: ok", out.stdout
     assert "pybullet" not in out.stdout + out.stderr
 
 

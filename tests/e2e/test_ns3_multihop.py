@@ -22,7 +22,7 @@ pytestmark = [
     pytest.mark.skipif(not BINARY.is_file(), reason=build_missing_message()),
 ]
 
-SCENARIO = Path(__file__).resolve().parents[2] / "gateway" / "data" / "scenarios" / "ns3-olsr.toml"
+SCENARIO = Path(__file__).resolve().parents[2] / "scenarios" / "ns3-olsr.toml"
 FAR_N = 140.0  # vehicle 1's spawn point, metres north of home (the scenario's)
 RELAY_N = 70.0  # vehicle 2's
 SPEED = 2.0  # simulated seconds per wall second (ns-3's share of this run is small)

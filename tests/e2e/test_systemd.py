@@ -26,7 +26,7 @@ from gateway.ci.ports import udp_free
 pytestmark = [pytest.mark.e2e]
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-UNIT = ROOT / "gateway" / "data" / "systemd" / "cornet.service"
+UNIT = ROOT / "systemd" / "cornet.service"
 READY_TIMEOUT_S = 30.0
 
 
@@ -285,7 +285,7 @@ def test_bad_config_exits_2_naming_the_key(tmp_path, text, flags, words):
 
 
 def test_check_accepts_the_shipped_config():
-    out = subprocess.run(cornet_command() + ["check", str(ROOT / "gateway/data/systemd/cornet.toml")],
+    out = subprocess.run(cornet_command() + ["check", str(ROOT / "systemd/cornet.toml")],
                          capture_output=True, text=True, timeout=30)
     assert out.returncode == 0, out.stderr
     assert "daemon: bind 127.0.0.1" in out.stdout and "state_dir /var/lib/cornet" in out.stdout

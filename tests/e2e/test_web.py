@@ -21,7 +21,7 @@ pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
 ROOT = Path(__file__).resolve().parents[2]
 # vehicle 1 loses every link at t = 40 s for 15 s
-BLACKOUT = ROOT / "gateway" / "data" / "scenarios" / "blackout.toml"
+BLACKOUT = ROOT / "scenarios" / "blackout.toml"
 WAIT_S = 120.0  # a bound on each wait in wall-clock seconds, never a measurement
 
 

@@ -12,7 +12,7 @@ ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
 
 
 def published(scenario: str | None, vehicles: int = 2) -> list[tuple[bytes, dict]]:
-    network = load(ROOT / "gateway" / "data" / "scenarios" / scenario).network if scenario else None
+    network = load(ROOT / "scenarios" / scenario).network if scenario else None
     sim = Simulation(vehicles, network)
     pub = Publisher(None)
     got: list[tuple[bytes, dict]] = []

@@ -71,7 +71,7 @@ def test_fault_timeline_in_a_scenario_is_deterministic_and_fly_reports_the_fails
     from gateway.sim import scenario as scenario_mod
 
     root = Path(__file__).resolve().parents[2]
-    plan, sc = root / "gateway/data/plans/square.plan", root / "gateway/data/scenarios/gps-loss.toml"
+    plan, sc = root / "gcs_examples/plans/square.plan", root / "scenarios/gps-loss.toml"
     runs = [fly(plan, scenario=sc, log_dir=tmp_path / name, time_limit_s=200)
             for name in ("a", "b")]
     res = runs[0]

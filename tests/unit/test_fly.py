@@ -10,7 +10,7 @@ from gateway.ci.fly import PlanFileError, distance_to_path, fly, load_plan, main
 from vehicles.plan_types import MavCmd, PlanType
 from vehicles.types import PX4_SITL_HOME
 
-PLANS = Path(__file__).resolve().parents[2] / "gateway" / "data" / "plans"
+PLANS = Path(__file__).resolve().parents[2] / "gcs_examples" / "plans"
 
 
 def test_square_plan_parses_as_qgc_writes_it():

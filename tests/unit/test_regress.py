@@ -14,7 +14,7 @@ import pytest
 from gateway.ci.baseline import Baseline, Tolerances, by_progress, track_diff
 from gateway.cli import main as cli
 
-PLANS = Path(__file__).resolve().parents[2] / "gateway" / "data" / "plans"
+PLANS = Path(__file__).resolve().parents[2] / "gcs_examples" / "plans"
 
 
 def short_plan(directory: Path, name: str = "short.plan", north_items: int = 1) -> Path:

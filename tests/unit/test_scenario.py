@@ -11,7 +11,7 @@ from gateway.sim.simulation import Simulation
 from netsim.ns3.bridge import BINARY, build_missing_message
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-SHIPPED = sorted((ROOT / "gateway" / "data" / "scenarios").glob("*.toml"))
+SHIPPED = sorted((ROOT / "scenarios").glob("*.toml"))
 
 
 def test_the_five_scenarios_are_shipped():
@@ -123,7 +123,7 @@ def test_daemon_table_values_and_relative_paths(tmp_path):
 
 
 def test_shipped_service_config_loads():
-    s = load(ROOT / "gateway" / "data" / "systemd" / "cornet.toml")
+    s = load(ROOT / "systemd" / "cornet.toml")
     assert s.vehicles == 1 and s.network.backend == "embedded"
     d = s.daemon
     assert (d.bind, d.state_dir, d.log_dir) == ("127.0.0.1", pathlib.Path("/var/lib/cornet"),

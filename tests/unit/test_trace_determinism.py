@@ -12,7 +12,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
 def run(scenario: str, seed: int | None = None) -> tuple[str, int]:
-    s = load(ROOT / "gateway" / "data" / "scenarios" / scenario)
+    s = load(ROOT / "scenarios" / scenario)
     network = s.network if seed is None else s.network.__class__(
         **{**s.network.__dict__, "seed": seed})
     out = io.StringIO()
