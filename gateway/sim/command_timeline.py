@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from gateway.sim.values import ScenarioError, choice, number, unknown
+from gateway.sim.values import ScenarioError, choice, number, timeline_entry, unknown
 from vehicles.types import CommandResult
 
 ACTIONS = ("arm", "takeoff", "reposition", "land")
@@ -55,15 +55,7 @@ def parse_commands(entries: Any, vehicles: int) -> tuple[Command, ...]:
         if not isinstance(entry, dict):
             raise ScenarioError(f"{where}: expected a table with at_s, vehicle, command")
         unknown(entry, ("at_s", "vehicle", "command", "ned_m"), where)
-        for key in ("at_s", "command"):
-            if key not in entry:
-                raise ScenarioError(f"{where}.{key}: missing")
-        at = number(entry["at_s"], f"{where}.at_s", minimum=0.0)
-        vehicle = int(number(entry.get("vehicle", 1), f"{where}.vehicle", integer=True,
-                              minimum=1))
-        if vehicle > vehicles:
-            raise ScenarioError(f"{where}.vehicle: the scenario has {vehicles} vehicle(s), "
-                                f"got {vehicle}")
+        at, vehicle = timeline_entry(entry, where, ("at_s", "command"), vehicles)
         command = choice(entry["command"], ACTIONS, f"{where}.command")
         ned = entry.get("ned_m")
         if (ned is None) != (command != "reposition"):

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from gateway.sim.values import ScenarioError, choice, number, unknown
+from gateway.sim.values import ScenarioError, choice, number, timeline_entry, unknown
 from vehicles.faults import EVENTS, SUPPORTED, TYPES, UNITS, Fault
 
 
@@ -55,15 +55,7 @@ def parse_faults(entries: Any, vehicles: int) -> tuple[Fault, ...]:
             out.append(Fault(float(at), link=link, event=event, duration_s=float(duration),
                              loss=float(loss), latency_ms=float(latency)))
             continue
-        for key in ("at_s", "unit", "type"):
-            if key not in entry:
-                raise ScenarioError(f"{where}.{key}: missing")
-        at = number(entry["at_s"], f"{where}.at_s", minimum=0.0)
-        vehicle = int(number(entry.get("vehicle", 1), f"{where}.vehicle", integer=True,
-                              minimum=1))
-        if vehicle > vehicles:
-            raise ScenarioError(f"{where}.vehicle: the scenario has {vehicles} vehicle(s), "
-                                f"got {vehicle}")
+        at, vehicle = timeline_entry(entry, where, ("at_s", "unit", "type"), vehicles)
         unit = choice(entry["unit"], tuple(UNITS), f"{where}.unit")
         kind = choice(entry["type"], tuple(TYPES), f"{where}.type")
         if kind not in SUPPORTED[unit]:

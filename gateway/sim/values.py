@@ -51,6 +51,21 @@ MAX_SPAWN_M = 100_000.0  # spawn points within 100 km of home (the local frame i
 MIN_SPAWN_SEPARATION_M = 1.0  # closer bodies would start inside each other
 
 
+def timeline_entry(entry: dict, where: str, required: tuple[str, ...],
+                   vehicles: int) -> tuple[float, int]:
+    """A timeline entry's ``at_s`` (>= 0) and ``vehicle`` (1 .. ``vehicles``, default 1), after
+    checking that every key of ``required`` is there."""
+    for key in required:
+        if key not in entry:
+            raise ScenarioError(f"{where}.{key}: missing")
+    at = number(entry["at_s"], f"{where}.at_s", minimum=0.0)
+    vehicle = int(number(entry.get("vehicle", 1), f"{where}.vehicle", integer=True, minimum=1))
+    if vehicle > vehicles:
+        raise ScenarioError(f"{where}.vehicle: the scenario has {vehicles} vehicle(s), "
+                            f"got {vehicle}")
+    return at, vehicle
+
+
 def spawn_points(value: Any, count: int,
                  grid: Callable[[int], tuple[float, float]]) -> tuple[tuple[float, float], ...]:
     """``vehicles.spawn_ned_m``: a list of ``[north, east]`` metres from home, one per vehicle

@@ -66,19 +66,23 @@ def test_home_from_the_environment_moves_global_position_int():
         assert d.stop() == 0, d.log_tail()
 
 
-@pytest.mark.parametrize("with_port", [True, False], ids=["host:port", "host"])
-def test_gcs_on_another_address_receives_heartbeats(with_port):
-    offset = free_port_offset(1)
-    port = GCS_PORT + offset + (7 if with_port else 0)
-    conn = listen("127.0.0.2", port)  # a ground station on another address
-    target = f"127.0.0.2:{port}" if with_port else "127.0.0.2"
-    d = start_daemon("--gcs", target, port_offset=offset)
+def hears_vehicle_1(conn, d) -> None:
+    """``conn`` receives vehicle 1's HEARTBEATs from daemon ``d``, which then stops cleanly."""
     try:
         seen = heartbeats_by_sysid(conn, {1})
         assert set(seen) == {1}, d.log_tail()
     finally:
         conn.close()
         assert d.stop() == 0, d.log_tail()
+
+
+@pytest.mark.parametrize("with_port", [True, False], ids=["host:port", "host"])
+def test_gcs_on_another_address_receives_heartbeats(with_port):
+    offset = free_port_offset(1)
+    port = GCS_PORT + offset + (7 if with_port else 0)
+    conn = listen("127.0.0.2", port)  # a ground station on another address
+    target = f"127.0.0.2:{port}" if with_port else "127.0.0.2"
+    hears_vehicle_1(conn, start_daemon("--gcs", target, port_offset=offset))
 
 
 def test_mav_broadcast_sends_heartbeats_to_the_broadcast_address():
@@ -87,14 +91,8 @@ def test_mav_broadcast_sends_heartbeats_to_the_broadcast_address():
         pytest.skip("no network interface with a broadcast address here")
     offset = free_port_offset(1)
     conn = listen(bcast, GCS_PORT + offset)  # only what is sent to the broadcast address
-    d = start_daemon("--bind", "0.0.0.0", "--gcs", "127.0.0.3", "--param", "MAV_BROADCAST=1",
-                     port_offset=offset)
-    try:
-        seen = heartbeats_by_sysid(conn, {1})
-        assert set(seen) == {1}, d.log_tail()
-    finally:
-        conn.close()
-        assert d.stop() == 0, d.log_tail()
+    hears_vehicle_1(conn, start_daemon("--bind", "0.0.0.0", "--gcs", "127.0.0.3", "--param",
+                                       "MAV_BROADCAST=1", port_offset=offset))
 
 
 def test_no_broadcast_by_default():

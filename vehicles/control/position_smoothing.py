@@ -32,6 +32,7 @@ from vehicles.control.velocity_smoothing import (
     V,
     VelocitySmoothing,
     X,
+    array_field,
     mn,
     mx,
     new_axes,
@@ -257,23 +258,13 @@ def generate_step(traj, cfg, inp, dt_s, force_zero_velocity, single_waypoint, ou
     vs_time_synchronization(traj)
 
 
-def _config(col: int) -> property:
-    def get(self: PositionSmoothing) -> float:
-        return float(self.cfg[col])
-
-    def set_(self: PositionSmoothing, value: float) -> None:
-        self.cfg[col] = value
-
-    return property(get, set_)
-
-
 class PositionSmoothing:
-    max_allowed_horizontal_error = _config(HERR)
-    max_allowed_vertical_error = _config(VERR)
-    vertical_acceptance_radius = _config(VRAD)
-    cruise_speed = _config(CRUISE)
-    horizontal_trajectory_gain = _config(GAIN)
-    target_acceptance_radius = _config(TRAD)
+    max_allowed_horizontal_error = array_field("cfg", HERR)
+    max_allowed_vertical_error = array_field("cfg", VERR)
+    vertical_acceptance_radius = array_field("cfg", VRAD)
+    cruise_speed = array_field("cfg", CRUISE)
+    horizontal_trajectory_gain = array_field("cfg", GAIN)
+    target_acceptance_radius = array_field("cfg", TRAD)
 
     def __init__(self) -> None:
         self.axes = new_axes(3)

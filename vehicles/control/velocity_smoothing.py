@@ -213,12 +213,13 @@ def vs_update_traj(s: Any, dt: float, time_stretch: float) -> None:
 
 
 # --- the object view ----------------------------------------------------------------------------
-def _column(col: int) -> property:
-    def get(self: VelocitySmoothing) -> float:
-        return float(self.row[col])
+def array_field(array: str, col: int) -> property:
+    """A float attribute kept in column ``col`` of the instance's 1-D array ``array``."""
+    def get(self: Any) -> float:
+        return float(getattr(self, array)[col])
 
-    def set_(self: VelocitySmoothing, value: float) -> None:
-        self.row[col] = value
+    def set_(self: Any, value: float) -> None:
+        getattr(self, array)[col] = value
 
     return property(get, set_)
 
@@ -227,13 +228,13 @@ class VelocitySmoothing:
     """One axis; ``row`` (NCOL floats) is its whole state, its own or a row of PositionSmoothing's
     array."""
 
-    max_jerk = _column(JMAX)
-    max_accel = _column(AMAX)
-    max_vel = _column(VMAX)
-    vel_sp = _column(VSP)
-    t1 = _column(T1)
-    t2 = _column(T2)
-    t3 = _column(T3)
+    max_jerk = array_field("row", JMAX)
+    max_accel = array_field("row", AMAX)
+    max_vel = array_field("row", VMAX)
+    vel_sp = array_field("row", VSP)
+    t1 = array_field("row", T1)
+    t2 = array_field("row", T2)
+    t3 = array_field("row", T3)
 
     def __init__(self, accel: float = 0.0, vel: float = 0.0, pos: float = 0.0,
                  row: np.ndarray | None = None) -> None:
