@@ -10,6 +10,9 @@ STAMPG := $(VENVG)/.installed
 VEHICLES ?= 1
 PORT_OFFSET ?= 0
 PYTEST_ARGS ?=
+# Two pytest workers: an end-to-end test mostly waits on the wall clock (a daemon at 1x), so two
+# share the machine's cores; each test finds free ports of its own (gateway/ci/ports.py).
+PYTEST_WORKERS ?= 2
 
 .PHONY: run test unit typecheck bench clean venv ns3 ns3-deps ns3-if-possible browser-if-possible \
 	install-service
@@ -45,7 +48,7 @@ test: $(STAMP) $(STAMP4) $(STAMPG) ns3-if-possible browser-if-possible
 	$(VENV)/bin/mypy
 	CORNET_MAVSDK4_PYTHON=$(CURDIR)/$(VENV4)/bin/python \
 	CORNET_MAVSDK_GRPC_PYTHON=$(CURDIR)/$(VENVG)/bin/python \
-		$(VENV)/bin/python -m pytest $(PYTEST_ARGS)
+		$(VENV)/bin/python -m pytest -n $(PYTEST_WORKERS) $(PYTEST_ARGS)
 
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
