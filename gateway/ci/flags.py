@@ -103,8 +103,10 @@ def add_sweep_arguments(p: argparse.ArgumentParser) -> None:
                    "--latency-ms/--jitter-ms/--loss are given")
     p.add_argument("--param", action="append", default=[], metavar="NAME=V1,V2",
                    help="a PX4 parameter to sweep over (repeatable)")
-    p.add_argument("--control", choices=CONTROLS, default="mission",
-                   help="mission (default) or ground: see cornet fly --help")
+    p.add_argument("--control", choices=CONTROLS, default="ground",
+                   help="ground (default): a ground-side controller flies the plan's waypoints "
+                   "over the swept network, so latency and loss shape the path (the paper's "
+                   "Fig. 8); mission: PX4 flies the plan onboard, as cornet fly does")
     p.add_argument("--time-limit", type=_number("--time-limit"), default=None, metavar="S",
                    help="simulated seconds per flight before giving up (default 900)")
     p.add_argument("--max-deviation", type=_number("--max-deviation"), default=None,

@@ -71,8 +71,9 @@ class FlightSpec:
         names = {f.name for f in dataclasses.fields(cls)}
         return cls(**{k: v for k, v in d.items() if k in names})
 
-    def conditions(self) -> str:
-        """``latency 100 ms, loss 0.2, seed 3, MPC_XY_CRUISE=8`` (what differs from the default)."""
+    def conditions(self, control: bool = True) -> str:
+        """``latency 100 ms, loss 0.2, seed 3, MPC_XY_CRUISE=8`` (what differs from the default;
+        ``control=False`` leaves out the control, which a sweep states once for every cell)."""
         parts = []
         if self.scenario is not None:
             parts.append(f"scenario {Path(self.scenario).name}")
@@ -85,7 +86,7 @@ class FlightSpec:
         if self.seed is not None:
             parts.append(f"seed {self.seed}")
         parts += [f"{k}={v:g}" for k, v in sorted(self.params.items())]
-        if self.control != "mission":
+        if control and self.control != "mission":
             parts.append(f"{self.control} control")
         return ", ".join(parts) or "ideal network"
 

@@ -12,10 +12,14 @@ Writes into ``--out``: ``sweep.csv`` (one row per flight), ``cells.csv`` (one ro
 success rate, mean completion time of the passing flights, mean drift — the largest deviation
 from the planned path — of the flights that finished the mission) and the PNGs of
 gateway/ci/regress_plot.py (against the first swept axis, the first value at which a cell stops
-passing every seed highlighted). ``--control ground``
-flies the waypoints with a ground-side controller over the network (gateway/ci/ground.py): the
-paper's Fig. 8, where the drift grows with the latency. Progress: a bar on a terminal, a line
-per finished flight elsewhere. Exit 0 every flight passed, 1 some failed, 2 bad input.
+passing every seed highlighted).
+
+The control is the sweep's own question. By default (``--control ground``) a ground-side
+controller (gateway/ci/ground.py) flies the waypoints: it sees the vehicle only through telemetry
+and sends offboard velocity setpoints, both across the swept network, so the drift grows with the
+latency — the paper's Fig. 8. ``--control mission`` uploads the plan and PX4 flies it onboard, as
+``cornet fly`` does: the network then only delays the upload and the commands. Progress: a bar
+on a terminal, a line per finished flight elsewhere. Exit 0 every flight passed, 1 some failed, 2 bad input.
 """
 
 from __future__ import annotations
@@ -38,7 +42,7 @@ from typing import Any
 from gateway.ci import report
 from gateway.ci.spec import FlightSpec
 
-FLIGHT_COLUMNS = ("cell", "seed", "conditions", "passed", "reasons", "items_reached",
+FLIGHT_COLUMNS = ("cell", "seed", "conditions", "control", "passed", "reasons", "items_reached",
                   "items_total", "mission_finished", "landed", "completion_s", "drift_m",
                   "sim_s", "wall_s")
 CELL_COLUMNS = ("cell", "conditions", "flights", "passed", "success_rate", "completion_s",
@@ -87,12 +91,14 @@ def _fly_one(spec: FlightSpec) -> dict[str, Any]:
     try:
         res = fly_spec(spec)
     except Exception as exc:  # one broken flight is a failed cell, not a lost sweep
-        return {"seed": spec.seed, "conditions": spec.conditions(), "passed": False,
+        return {"seed": spec.seed, "conditions": spec.conditions(control=False),
+                "control": spec.control, "passed": False,
                 "reasons": f"error: {exc!r}", "items_reached": 0, "items_total": 0,
                 "mission_finished": False, "landed": False, "completion_s": math.nan,
                 "drift_m": math.nan, "sim_s": 0.0, "wall_s": 0.0, "summary": repr(exc)}
     times = list(res.item_times.values())
-    return {"seed": spec.seed, "conditions": spec.conditions(), "passed": res.passed,
+    return {"seed": spec.seed, "conditions": spec.conditions(control=False),
+            "control": spec.control, "passed": res.passed,
             "reasons": "; ".join(res.reasons), "items_reached": res.items_reached,
             "items_total": res.items_total, "mission_finished": res.mission_finished,
             "landed": res.landed,
@@ -138,7 +144,7 @@ def cells(rows: list[dict[str, Any]], specs: dict[int, FlightSpec]) -> list[dict
     for cell in sorted({r["cell"] for r in rows}):
         mine = [r for r in rows if r["cell"] == cell]
         ok = [r for r in mine if r["passed"]]
-        conditions = dataclasses.replace(specs[cell], seed=None).conditions()
+        conditions = dataclasses.replace(specs[cell], seed=None).conditions(control=False)
         out.append({"cell": cell, "conditions": conditions, "flights": len(mine),
                     "passed": len(ok), "success_rate": round(len(ok) / len(mine), 4),
                     "completion_s": _mean([r["completion_s"] for r in ok]),
@@ -278,8 +284,11 @@ def main(args: argparse.Namespace, parse_params: Callable[[list[str]], dict[str,
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
     jobs = args.jobs or cores or 1
     flights = len(grid(base, axes, args.seeds))
+    how = {"ground": "waypoints flown from the ground over the network",
+           "mission": "PX4 flies the plan onboard"}[args.control]
     print(f"cornet sweep {args.plan}: {flights} flights ({flights // args.seeds} cells x "
-          f"{args.seeds} seeds), {min(jobs, flights)} at a time", flush=True)
+          f"{args.seeds} seeds), {min(jobs, flights)} at a time; control {args.control}: {how}",
+          flush=True)
     wall0 = time.perf_counter()
     try:
         rows, table = sweep(base, axes, args.seeds, args.out, min(jobs, flights),

@@ -102,20 +102,22 @@ def test_equal_progress_ignores_a_late_start():
 
 
 def test_junit_of_a_sweep_has_one_testcase_per_flight(tmp_path, capsys):
-    """A small sweep: 2 latencies x 1 seed, two processes, ground control (Fig. 8)."""
+    """A small sweep: 2 latencies x 1 seed, two processes, flown from the ground (the default:
+    the paper's Fig. 8)."""
     plan = short_plan(tmp_path, north_items=2)
     out = tmp_path / "sweep"
-    code = cli(["sweep", str(plan), "--control", "ground", "--latency-ms", "0,300", "--jobs", "2",
+    code = cli(["sweep", str(plan), "--latency-ms", "0,300", "--jobs", "2",
                 "--out", str(out), "--junit-xml", str(tmp_path / "sweep.xml"),
                 "--summary", str(tmp_path / "sweep.md")])
     text = capsys.readouterr().out
     assert code == 0, text
     with open(out / "cells.csv", newline="") as f:
         cells = list(csv.DictReader(f))
-    assert [c["conditions"] for c in cells] == ["ground control", "latency 300 ms, ground control"]
+    assert "control ground: waypoints flown from the ground" in text.splitlines()[0]
+    assert [c["conditions"] for c in cells] == ["ideal network", "latency 300 ms"]
     assert float(cells[1]["drift_m"]) > float(cells[0]["drift_m"]) + 0.5  # drift grows
     with open(out / "sweep.csv", newline="") as f:
-        assert len(list(csv.DictReader(f))) == 2
+        assert [r["control"] for r in csv.DictReader(f)] == ["ground", "ground"]
     for name in ("success_rate.png", "completion_time.png", "drift.png"):
         assert (out / name).stat().st_size > 10_000
     suite = ET.parse(tmp_path / "sweep.xml").getroot().find("testsuite")
