@@ -425,9 +425,9 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: list[s
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
         stream=sys.stderr,
     )
-    # Imported here so that `cornet --help` and flag errors stay fast.
-    from gateway.daemon.app import MetricsPortError, PortInUse, RunConfig, serve
-    from gateway.daemon.state import StateError
+    # Imported here so that `cornet --help` and flag errors stay fast, and the simulation only
+    # where it runs: not in the launcher of a sharded run, nor in its coordinator.
+    from gateway.daemon.config import RunConfig
 
     config = RunConfig(**settings)
     from gateway.daemon.shard import check as check_shards
@@ -455,6 +455,9 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: list[s
         except KeyboardInterrupt:
             return 0
     import zmq
+
+    from gateway.daemon.app import MetricsPortError, PortInUse, serve
+    from gateway.daemon.state import StateError
 
     try:
         return asyncio.run(serve(config, reload=reload))

@@ -51,14 +51,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
 from vehicles.control.compiled import njit_cached
 from vehicles.control.rotation import dcm
 from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_SIZE, M_VEL
-from vehicles.types import GRAVITY_MPS2
+from vehicles.types import GRAVITY_MPS2, SensorConfig
 
 # --- the sensor models (module docstring for the sources) ---------------------------------------
 IMU_RATE_HZ = 250.0
@@ -125,17 +124,6 @@ L_HGT, L_VZ_FROM_HGT, L_ACC_BIAS = 2.8, 4.0, 0.4
 TAU_ACCEL_REF_S = 0.3
 TAU_WIND_S = 5.0
 TAU_ACCURACY_S = 5.0
-
-
-@dataclass(frozen=True)
-class SensorConfig:
-    """A scenario's ``[sensors]``: ``noise`` scales every sensor's noise and bias (0 = exact)."""
-
-    noise: float = 1.0
-
-
-PX4_SENSORS = SensorConfig()  # the noise of PX4's simulated sensors
-EXACT_SENSORS = SensorConfig(noise=0.0)
 
 
 def _gm(dt_s: float, tau_s: float, sigma: float) -> tuple[float, float]:

@@ -36,7 +36,7 @@ import numpy as np
 
 from vehicles.airframe import X500, Airframe
 from vehicles.control import compiled, position_control, position_smoothing
-from vehicles.estimation import EXACT_SENSORS, Estimation, SensorConfig
+from vehicles.estimation import Estimation
 from vehicles.inner_loop import (
     IDLE_THRUST_NORM,
     M_ACCEL,
@@ -49,7 +49,15 @@ from vehicles.inner_loop import (
 )
 from vehicles.params import ParamStore
 from vehicles.quiet_import import import_quietly
-from vehicles.types import GRAVITY_MPS2, PX4_SITL_HOME, GeoPoint, Measurement, grid_spawn_ned_m
+from vehicles.types import (
+    EXACT_SENSORS,
+    GRAVITY_MPS2,
+    PX4_SITL_HOME,
+    GeoPoint,
+    Measurement,
+    SensorConfig,
+    grid_spawn_ned_m,
+)
 from vehicles.vehicle import Vehicle
 from vehicles.wind import Wind
 

@@ -201,3 +201,15 @@ SPAWN_COLUMNS = 10  # rows to the north
 def grid_spawn_ned_m(index: int) -> tuple[float, float]:
     """Vehicle ``index``'s place on the default spawn grid (north, east metres from home)."""
     return (SPAWN_SPACING_M * (index // SPAWN_COLUMNS), SPAWN_SPACING_M * (index % SPAWN_COLUMNS))
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """A scenario's ``[sensors]``: ``noise`` scales every sensor's noise and bias (0 = exact;
+    vehicles/estimation.py)."""
+
+    noise: float = 1.0
+
+
+PX4_SENSORS = SensorConfig()  # the noise of PX4's simulated sensors
+EXACT_SENSORS = SensorConfig(noise=0.0)

@@ -38,12 +38,13 @@ from gateway.daemon.pacer import Pacer
 from gateway.daemon.progress import ProgressLine
 from gateway.daemon.px4_sitl import first_peers, home_text, log_first_peer, speed_text
 from gateway.daemon.sdnotify import Notifier, Watchdog
+from gateway.daemon.status import STATUS_PERIOD_S, format_status, ports_summary
 from gateway.mavlink.signing import SigningConfig, SigningState
 from gateway.onboard.files import attach_ftp
 from gateway.onboard.logs import Logs
 from gateway.onboard.shell import attach_shells
 from gateway.sim.flightlog import FlightLog, link_vehicle, new_run_dir, part_name
-from gateway.sim.radios import LinkTag, ports_text, tag_name
+from gateway.sim.radios import LinkTag, tag_name
 from gateway.sim.scenario import ScenarioError
 from gateway.sim.simulation import Simulation
 from gateway.web import start as start_web
@@ -52,7 +53,6 @@ from vehicles.params import ParamStore
 
 log = logging.getLogger(__name__)
 
-STATUS_PERIOD_S = 10.0
 LIVE_LINE_PERIOD_S = 0.5
 # PX4 rcS multiplies these by PX4_SIM_SPEED_FACTOR (ROMFS init.d-posix/rcS).
 SPEED_SCALED_PARAMS = ("COM_DL_LOSS_T", "COM_RC_LOSS_T", "COM_OF_LOSS_T", "COM_OBC_LOSS_T")
@@ -358,18 +358,6 @@ class Daemon:
             self.notifier.status(self.short_status())
 
 
-def format_status(sim_t: float, rtf: float, vehicles: int, counters: dict[str, int],
-                  extra: str = "") -> str:
-    return (f"sim_t={sim_t:.1f}s rtf={rtf:.2f} vehicles={vehicles} {extra}"
-            + " ".join(f"{k}={v}" for k, v in counters.items()))
-
-
-def _ports_text(cfg: RunConfig) -> str:
-    text = ", ".join(f"v{i + 1} {ports_text(i, cfg.network.radios, cfg.port_offset)}"
-                     for i in range(min(cfg.vehicles, 4)))
-    return text + (" ..." if cfg.vehicles > 4 else "")
-
-
 def settle_heap() -> None:
     """Everything built so far (modules, PyBullet, parameter tables, the vehicles) lives as long
     as the process: keep it out of the cyclic collector's passes, which would otherwise stall
@@ -441,7 +429,7 @@ async def serve(config: RunConfig, ready_out=sys.stdout, *,
         cfg = config
         speed = speed_text(cfg.speed, cfg.environment)
         print(f"cornet ready: {cfg.vehicles} vehicle(s), network={cfg.network.summary}, "
-              f"speed {speed}, {_ports_text(cfg)}{home_text(cfg.home, cfg.environment)}",
+              f"speed {speed}, {ports_summary(cfg)}{home_text(cfg.home, cfg.environment)}",
               file=ready_out, flush=True)
         notifier.ready(status=f"serving {cfg.vehicles} vehicle(s) on {cfg.bind}, network "
                               f"{cfg.network.summary}, speed {speed}")

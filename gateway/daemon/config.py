@@ -9,9 +9,8 @@ from pathlib import Path
 from gateway.mavlink.signing import SigningKey
 from gateway.sim.command_timeline import Command
 from gateway.sim.scenario import NetworkConfig
-from vehicles.estimation import SensorConfig
 from vehicles.faults import Fault
-from vehicles.types import PX4_SITL_HOME, GeoPoint
+from vehicles.types import PX4_SITL_HOME, GeoPoint, SensorConfig
 from vehicles.wind import WindConfig
 
 

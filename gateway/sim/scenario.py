@@ -58,10 +58,9 @@ from gateway.sim.values import number as _number
 from gateway.sim.values import table as _table
 from gateway.sim.values import unknown as _unknown
 from netsim.topology import make_router
-from vehicles.estimation import SensorConfig
 from vehicles.faults import Fault
 from vehicles.params import ParamStore
-from vehicles.types import PX4_SITL_HOME, GeoPoint, grid_spawn_ned_m
+from vehicles.types import PX4_SITL_HOME, GeoPoint, SensorConfig, grid_spawn_ned_m
 from vehicles.wind import WindConfig
 
 if sys.version_info >= (3, 11):

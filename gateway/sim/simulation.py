@@ -38,10 +38,9 @@ from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
 from netsim.link import Tracer
 from netsim.rng import named_generator
 from netsim.topology import make_router
-from vehicles.estimation import PX4_SENSORS, SensorConfig
 from vehicles.faults import TYPES, UNITS, Fault
 from vehicles.params import ParamStore
-from vehicles.types import PX4_SITL_HOME, GeoPoint
+from vehicles.types import PX4_SENSORS, PX4_SITL_HOME, GeoPoint, SensorConfig
 from vehicles.wind import Wind, WindConfig
 from vehicles.world import World
 

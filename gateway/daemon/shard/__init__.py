@@ -18,8 +18,9 @@ PMIX_RANK in its environment) is a rank, not a launcher. So across machines one 
 ``mpiexec -n K+1 -hosts a,b cornet run ... --shards K`` directly (docs/scaling.md).
 
 Messages (MPI point-to-point between rank 0 and each worker; every message one small dict,
-pickled by mpi4py; sends are ``isend``, receives are polled with ``improbe`` every
-POLL_PERIOD_S, so no MPI call ever blocks an event loop — MPICH's blocking calls would spin a
+pickled by mpi4py; sends are ``isend``, receives are found with ``improbe`` when the sender
+rings the receiver's doorbell, a loopback UDP socket (ranks of one host), or at the next poll
+(channel.py), so no MPI call ever blocks an event loop — MPICH's blocking calls would spin a
 core):
 
   worker → coordinator
@@ -101,9 +102,8 @@ import sys
 from collections.abc import Callable
 from dataclasses import replace
 
-from gateway.daemon.app import RunConfig
+from gateway.daemon.config import RunConfig
 from gateway.daemon.shard.channel import Channel
-from gateway.daemon.shard.coordinator import coordinate
 from gateway.daemon.shard.launch import (
     ShardError,
     check,
@@ -112,7 +112,6 @@ from gateway.daemon.shard.launch import (
     mpiexec_command,
     split,
 )
-from gateway.daemon.shard.worker import work
 
 __all__ = ["Channel", "ShardError", "check", "in_mpi_job", "launch", "mpiexec_command",
            "serve_rank", "split"]
@@ -138,9 +137,14 @@ def serve_rank(config: RunConfig, log_level: str,
                              f"and {k} workers), not {size}", 2)
         return 2
     channel = Channel(comm)
+    channel.open_doorbells()
     try:
-        if rank == 0:
+        if rank == 0:  # imports nothing of the simulation: the workers' start-up is theirs
+            from gateway.daemon.shard.coordinator import coordinate
+
             return asyncio.run(coordinate(config, channel, reload=reload))
+        from gateway.daemon.shard.worker import work
+
         first, n = split(config.vehicles, k)[rank - 1]
         logging.basicConfig(
             level=log_level.upper(), stream=sys.stderr, force=True,

@@ -16,14 +16,14 @@ from typing import Any
 import zmq
 
 from gateway.bus.zmq_pub import Publisher
-from gateway.daemon.app import STATUS_PERIOD_S, RunConfig, _ports_text, format_status
+from gateway.daemon.config import RunConfig
 from gateway.daemon.metrics import MetricsServer
 from gateway.daemon.sdnotify import Notifier
-from gateway.daemon.shard.channel import POLL_PERIOD_S, STOP_TIMEOUT_S, Channel
+from gateway.daemon.shard.channel import START_TIMEOUT_S, STOP_TIMEOUT_S, Channel
 from gateway.daemon.shard.launch import ShardError
 from gateway.daemon.shard.outlets import BusMerger, ShardedExporter
 from gateway.daemon.shard.reload import ReloadFlag, prepare
-from gateway.daemon.shard.worker import START_TIMEOUT_S
+from gateway.daemon.status import STATUS_PERIOD_S, format_status, ports_summary
 from gateway.sim import logparts
 from gateway.sim.flightlog import new_run_dir
 from netsim.kernel import PRIORITY_PHYSICS
@@ -149,7 +149,7 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
                     announced = True
                     print(f"cornet ready: {config.vehicles} vehicle(s) in {k} shards, "
                           f"network={config.network.summary}, speed {speed}, "
-                          f"{_ports_text(config)}", file=ready_out, flush=True)
+                          f"{ports_summary(config)}", file=ready_out, flush=True)
                     notifier.ready(status=f"serving {config.vehicles} vehicle(s) in {k} shards")
                 now = time.monotonic()
                 if watchdog_s is not None and now >= next_ping:
@@ -162,7 +162,7 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
                 next_status = now + STATUS_PERIOD_S
                 log.info("%s", format_status(t_min, rtf, config.vehicles, _sum(counters),
                                              f"shards={k} "))
-            await asyncio.sleep(POLL_PERIOD_S)
+            await channel.wait()  # a worker's message rings, else the poll period
         return 0
     finally:
         notifier.stopping(status="stopping")

@@ -14,7 +14,7 @@ import tempfile
 import uuid
 from pathlib import Path
 
-from gateway.daemon.app import RunConfig
+from gateway.daemon.config import RunConfig
 from gateway.daemon.sdnotify import socket_address
 
 MPI_RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")

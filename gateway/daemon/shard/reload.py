@@ -22,7 +22,7 @@ import os
 from collections.abc import Callable
 from dataclasses import fields, replace
 
-from gateway.daemon.app import RunConfig
+from gateway.daemon.config import RunConfig
 from gateway.daemon.shard.launch import RELOAD_FLAG_VARIABLE, check
 from gateway.sim.scenario import ScenarioError
 

@@ -9,16 +9,16 @@ import signal
 from dataclasses import replace
 from pathlib import Path
 
-from gateway.daemon.app import STATUS_PERIOD_S, Daemon, PortInUse, RunConfig, settle_heap
+from gateway.daemon.app import Daemon, PortInUse, RunConfig, settle_heap
 from gateway.daemon.metrics import SNAPSHOT_PERIOD_S, Exporter
-from gateway.daemon.shard.channel import STOP_TIMEOUT_S, Channel
+from gateway.daemon.shard.channel import START_TIMEOUT_S, STOP_TIMEOUT_S, Channel
 from gateway.daemon.shard.outlets import RelayPublisher
 from gateway.daemon.shard.reload import ReloadFlag
+from gateway.daemon.status import STATUS_PERIOD_S
 from netsim.kernel import PRIORITY_PHYSICS
 
 log = logging.getLogger(__name__)
 
-START_TIMEOUT_S = 60.0
 
 
 async def work(config: RunConfig, shard: int, channel: Channel) -> int:
