@@ -172,6 +172,40 @@ def test_zmq_and_metrics_of_every_shard_come_from_one_daemon(daemon_factory):
         assert f'cornet_mavlink_tx_frames_total{{link="gcs",vehicle="{sysid}"}}' in text
 
 
+def test_the_live_view_shows_every_shards_vehicles(daemon_factory):
+    pytest.importorskip("aiohttp", reason="aiohttp missing: pip install 'cornet[web]'")
+    port = free_tcp_port()
+    daemon_factory("--shards", "2", "--web", f"127.0.0.1:{port}", vehicles=3)
+    snapshot: dict = {}
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline:  # until every vehicle and a link interval arrived
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/state.json", timeout=5) as r:
+            snapshot = json.loads(r.read())
+        if len(snapshot["vehicles"]) == 3 and len(snapshot["links"]) == 6:
+            break
+        time.sleep(0.2)
+    assert [v["sysid"] for v in snapshot["vehicles"]] == [1, 2, 3]
+    assert {link["link"] for link in snapshot["links"]} == {
+        f"v{i}/{kind}" for i in (1, 2, 3) for kind in ("gcs", "api")}
+    with urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=5) as r:
+        assert r.status == 200 and b"<canvas" in r.read()
+
+
+def test_a_taken_web_port_stops_a_sharded_run_with_exit_2():
+    pytest.importorskip("aiohttp", reason="aiohttp missing: pip install 'cornet[web]'")
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        r = subprocess.run(cornet_command() + [
+            "run", "--vehicles", "2", "--shards", "2", "--port-offset", str(free_port_offset(2)),
+            "--web", f"127.0.0.1:{port}"],
+            capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    assert r.returncode == 2, r.stderr
+    assert f"cornet: --web 127.0.0.1:{port}: Address already in use" in r.stderr, r.stderr
+    assert "cornet ready" not in r.stdout
+
+
 def test_a_metrics_port_in_use_stops_a_sharded_run_with_exit_2():
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))

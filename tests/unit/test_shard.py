@@ -22,7 +22,6 @@ def test_split_is_contiguous_and_balanced():
 @pytest.mark.parametrize("changes, words", [
     ({"shards": 0}, "at least 1"),
     ({"shards": 3, "vehicles": 2}, "more than --vehicles"),
-    ({"shards": 2, "vehicles": 2, "web": ("127.0.0.1", 8080)}, "--web"),
     ({"shards": 2, "vehicles": 2, "network": NetworkConfig(backend="ns3")}, "embedded"),
 ])
 def test_what_cannot_run_sharded_is_named(changes, words):
@@ -33,7 +32,7 @@ def test_one_shard_and_plain_sharding_are_fine():
     assert check(RunConfig()) is None
     assert check(RunConfig(vehicles=4, shards=2)) is None
     assert check(RunConfig(vehicles=4, shards=2, zmq_pub="tcp://127.0.0.1:5556",
-                           metrics_port=9464)) is None
+                           metrics_port=9464, web=("127.0.0.1", 8080))) is None
 
 
 def test_a_shard_simulates_its_block_and_its_network_sees_the_others():

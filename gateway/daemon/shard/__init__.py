@@ -69,8 +69,9 @@ worker has stopped, the coordinator merges the parts into the files one process 
 from one process or K shards (tests/e2e/test_shards.py), but for the wall-clock epoch.
 --state-dir is per vehicle: each worker keeps its own vehicles.
 
---zmq-pub and --metrics-port are the coordinator's: one socket, one HTTP server for every
-vehicle, fed by the workers' batches and snapshots (outlets.py; a port in use: exit 2).
+--zmq-pub, --metrics-port and --web are the coordinator's: one socket, one HTTP server, one
+live view for every vehicle, fed by the workers' batches and snapshots (outlets.py; a port in
+use: exit 2).
 
 SIGHUP (relayed by the launcher as SIGUSR1 with a new count in the job's reload flag file):
 the coordinator re-reads the configuration file and sends its network and wind with the next
@@ -86,7 +87,7 @@ logs the stop line, every rank exits 0. A rank that fails unexpectedly aborts th
 Limits: the embedded network only (an ns-3 engine belongs to one process), and no shared
 channel (``network.channel`` queues every vehicle's frames in one place); vehicles of different
 shards never collide (each shard has its own PyBullet world); a reload cannot change the sync
-period; the lockstep API (gateway.testing.Sim) and the live view (--web) are one process.
+period; the lockstep API (gateway.testing.Sim) is one process.
 
 systemd: rank 0 sends READY, RELOADING, STOPPING, STATUS and the watchdog's pings (while
 simulated time advances on every shard) to a socket of the launcher's, which relays them from

@@ -11,7 +11,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import zmq
 
@@ -26,7 +26,12 @@ from gateway.daemon.shard.reload import ReloadFlag, prepare
 from gateway.daemon.status import STATUS_PERIOD_S, format_status, ports_summary
 from gateway.sim import logparts
 from gateway.sim.flightlog import new_run_dir
+from gateway.web import start as start_web
+from gateway.web.address import WebListenError
 from netsim.kernel import PRIORITY_PHYSICS
+
+if TYPE_CHECKING:
+    from gateway.web.server import WebServer
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +62,7 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
     bus: BusMerger | None = None
     exporter: ShardedExporter | None = None
     metrics: MetricsServer | None = None
+    web: WebServer | None = None
     counters: dict[int, dict] = {}
     sim_t: dict[int, float] = {}
     # Sync reports by sync point; a shard may report t = 0 before the last one is ready.
@@ -94,7 +100,7 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
 
     try:
         # The outlets of every vehicle are here: a port in use stops the run before it starts.
-        bus, exporter, metrics = await _open_outlets(config)
+        bus, exporter, metrics, web = await _open_outlets(config)
         if config.log_dir is not None:
             run_dir = new_run_dir(config.log_dir, time.strftime("run-%Y%m%d-%H%M%S"))
         setup = {"boot_unix_s": time.time(),
@@ -175,6 +181,8 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
                  format_status(t_min, t_min / wall if wall > 0 else 0.0, config.vehicles,
                                _sum({**counters, **final}), f"shards={k} "))
         _merge_logs(config, run_dir)
+        if web is not None:
+            await web.close()
         if metrics is not None:
             metrics.close()
         if bus is not None:
@@ -211,28 +219,38 @@ async def _stop_workers(channel: Channel, k: int, ready: set[int], failed: set[i
 
 
 async def _open_outlets(config: RunConfig) -> tuple[BusMerger | None, ShardedExporter | None,
-                                                   MetricsServer | None]:
-    """--zmq-pub's socket and --metrics-port's server, for every shard's vehicles. Raises
-    ShardError (code 2) naming the flag when one cannot be opened."""
-    bus = exporter = metrics = None
-    if config.zmq_pub is not None:
-        try:
+                                                   MetricsServer | None, WebServer | None]:
+    """--zmq-pub's socket, --metrics-port's server and --web's live view, for every shard's
+    vehicles. Raises ShardError (code 2) naming the flag when one cannot be opened."""
+    bus = exporter = metrics = web = None
+    if config.zmq_pub is not None or config.web is not None:
+        try:  # --web alone: a publisher without a socket, feeding the live view
             bus = BusMerger(Publisher(config.zmq_pub), config.shards)
         except zmq.ZMQError as exc:
             raise ShardError(f"--zmq-pub {config.zmq_pub}: {exc}", 2) from None
-    if config.metrics_port is not None:
-        exporter = ShardedExporter()
-        metrics = MetricsServer(exporter, config.bind, config.metrics_port)
-        try:
-            await metrics.start()
-        except OSError as exc:
-            if bus is not None:
-                bus.publisher.close()
-            raise ShardError(f"--metrics-port {config.metrics_port}: {exc.strerror}; choose a "
-                             "free port", 2) from None
-        log.info("metrics: http://%s:%d/metrics (every shard's vehicles)", config.bind,
-                 metrics.port)
-    return bus, exporter, metrics
+    try:
+        if config.metrics_port is not None:
+            exporter = ShardedExporter()
+            metrics = MetricsServer(exporter, config.bind, config.metrics_port)
+            try:
+                await metrics.start()
+            except OSError as exc:
+                raise ShardError(f"--metrics-port {config.metrics_port}: {exc.strerror}; "
+                                 "choose a free port", 2) from None
+            log.info("metrics: http://%s:%d/metrics (every shard's vehicles)", config.bind,
+                     metrics.port)
+        if config.web is not None and bus is not None:
+            try:
+                web = await start_web(config.web, bus.publisher)
+            except WebListenError as exc:
+                raise ShardError(str(exc), 2) from None
+    except ShardError:
+        if metrics is not None:
+            metrics.close()
+        if bus is not None:
+            bus.publisher.close()
+        raise
+    return bus, exporter, metrics, web
 
 
 def _merge_logs(config: RunConfig, run_dir: Path | None) -> None:

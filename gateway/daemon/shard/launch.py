@@ -20,7 +20,6 @@ from gateway.daemon.sdnotify import socket_address
 MPI_RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
 MPI_MISSING = "--shards needs MPI (mpi4py and an MPI library): pip install 'cornet[mpi]'"
 RELOAD_FLAG_VARIABLE = "CORNET_RELOAD_FLAG"  # the job's reload flag file (shard/reload.py)
-UNSUPPORTED_WITH_SHARDS: tuple[str, ...] = ("web",)  # the live view runs beside one Daemon
 
 
 class ShardError(RuntimeError):
@@ -53,9 +52,6 @@ def check(config: RunConfig) -> str | None:
     if "channel" in config.network.topology:
         return ("--shards: the scenario's network.channel is one medium every vehicle's frames "
                 "queue on; it cannot be split across shards (run one process, or drop it)")
-    for key in UNSUPPORTED_WITH_SHARDS:
-        if getattr(config, key) is not None:
-            return f"--{key.replace('_', '-')} is not supported with --shards > 1 yet"
     return None
 
 

@@ -38,7 +38,8 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
             await channel.flush()
             return 0
         run_dir = setup.get("run_dir")
-        relay = RelayPublisher() if config.zmq_pub is not None else None
+        relay = RelayPublisher() if config.zmq_pub is not None or config.web is not None \
+            else None
         daemon = Daemon(config, boot_unix_s=setup["boot_unix_s"], part=shard, publisher=relay,
                         run_dir=Path(run_dir) if run_dir is not None else None)
         await daemon.open()
