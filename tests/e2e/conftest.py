@@ -3,6 +3,8 @@ import pytest
 from gateway.ci import launcher
 from gateway.ci.launcher import start_daemon
 
+STOP_BOUND_S = 5.0
+
 
 @pytest.fixture(autouse=True)
 def no_traceback_in_any_daemon_log():
@@ -28,4 +30,6 @@ def daemon_factory():
         code = d.stop()
         took = d.stop_took_s
         assert code == 0, f"daemon exit code {code}\n{d.log_tail()}"
-        assert took < 2.0, f"daemon took {took:.2f} s to stop"
+        # A bound on hanging, not a measurement: a sharded daemon stops an MPI job of three
+        # processes, which on a loaded 2-core machine takes a little over 2 s.
+        assert took < STOP_BOUND_S, f"daemon took {took:.2f} s to stop"

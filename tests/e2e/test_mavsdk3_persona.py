@@ -66,7 +66,7 @@ def square_mission(side_m: float = 20.0) -> list[MissionItem]:
 
 @pytest.mark.asyncio
 async def test_mission_square_with_return(daemon_factory):
-    d = daemon_factory()
+    d = daemon_factory("--speed", "2")  # PX4_SIM_SPEED_FACTOR=2: the same flight in half the time
     async with connected(d.api_port()) as drone:
         items = square_mission()
         await drone.mission.set_return_to_launch_after_mission(True)
@@ -92,7 +92,7 @@ async def test_mission_square_with_return(daemon_factory):
 
 @pytest.mark.asyncio
 async def test_takeoff_altitude_params_goto_hold_and_return(daemon_factory):
-    d = daemon_factory()
+    d = daemon_factory("--speed", "2")
     async with connected(d.api_port()) as drone:
         assert await drone.action.get_takeoff_altitude() == pytest.approx(2.5)
         await drone.action.set_takeoff_altitude(6.0)
