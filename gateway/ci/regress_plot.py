@@ -71,11 +71,12 @@ def plot_sweep(cells: Sequence[dict[str, Any]], axis: str, axis_label: str,
     for c in cells:
         groups.setdefault(c["group"], []).append(c)
     paths = []
-    for name, key, ylabel in (("success_rate.png", "success_rate", "success rate"),
-                              ("completion_time.png", "completion_s",
-                               "completion time (simulated s, mean of the passing flights)"),
-                              ("drift.png", "drift_m", "drift: largest deviation from the plan "
-                               "(m, mean of the flights that finished)")):
+    for name, key, what, ylabel in (
+            ("success_rate.png", "success_rate", "success rate", "flights passed / flown"),
+            ("completion_time.png", "completion_s", "completion time",
+             "simulated s (mean of the passing flights)"),
+            ("drift.png", "drift_m", "drift: largest deviation from the plan",
+             "m (mean of the flights that finished)")):
         fig = Figure(figsize=(8, 5))
         ax = fig.add_subplot(1, 1, 1)
         for label, rows in groups.items():
@@ -100,8 +101,8 @@ def plot_sweep(cells: Sequence[dict[str, Any]], axis: str, axis_label: str,
         ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8, loc="best")
-        ax.set_title(f"{ylabel.split(' (')[0]} per cell (x: failing cells; dotted: failure "
-                     "boundary)", fontsize=10)
+        ax.set_title(f"{what} per cell (x: failing cells; dotted: failure boundary)",
+                     fontsize=10)
         fig.tight_layout()
         paths.append(_save(fig, out_dir / name))
     return paths
