@@ -61,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--gcs", type=gcs_partner, default=None, metavar="HOST[:PORT]",
                      help="where the GCS links talk first (default 127.0.0.1:14550): a ground "
                      "station on another machine, as PX4's partner address (mavlink start -t); "
-                     "with --param MAV_BROADCAST=1 they also broadcast until a client is heard")
+                     "with --param MAV_BROADCAST=1 they also broadcast while no ground station is connected")
     run.add_argument("--vehicles", type=int, default=None, metavar="N",
                      help="number of vehicles (default 1, or the scenario's)")
     run.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,

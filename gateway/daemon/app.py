@@ -172,7 +172,10 @@ class Daemon:
                 state.restore_plans(vehicle, kept)
 
     def _send(self, index: int, kind: LinkTag, datagram: bytes, peer: object) -> None:
-        self.endpoints[(index, kind)].send(datagram, peer)  # type: ignore[arg-type]
+        endpoint = self.endpoints[(index, kind)]
+        gcs = endpoint.broadcast is not None and \
+            self.sim.links[(index, kind)].session.gcs_present(self.sim.now)
+        endpoint.send(datagram, peer, gcs)  # type: ignore[arg-type]
         if self.flightlog is not None:
             self.flightlog.record_datagram("down", index, kind, datagram, self.sim.now)
 

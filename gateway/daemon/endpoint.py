@@ -59,7 +59,8 @@ class UdpEndpoint:
                  broadcast: tuple[str, int] | None = None) -> None:
         """``admission``: the port's budgets (None: everything is let in); ``clock``: the
         monotonic clock they run on (the daemon passes the pacer's); ``broadcast``: also send
-        to this broadcast address until a client is heard (PX4's MAV_BROADCAST = 1)."""
+        to this broadcast address while no ground station is connected (PX4's
+        MAV_BROADCAST = 1)."""
         self.name = name
         self.default_peer = default_peer
         self.broadcast = broadcast
@@ -141,14 +142,18 @@ class UdpEndpoint:
                     self._ovfl_seen = total
 
     # --- out ------------------------------------------------------------------------------------
-    def send(self, data: bytes, peer: tuple[str, int] | None) -> None:
+    def send(self, data: bytes, peer: tuple[str, int] | None, gcs_connected: bool = False
+             ) -> None:
+        """To ``peer`` (the client last heard; None: the default partner). ``gcs_connected``:
+        a ground station's HEARTBEAT arrived on this link lately."""
         sock = self.sock
         if sock is None:
             return
         self._send_to(sock, data, peer or self.default_peer)
-        if peer is None and self.broadcast is not None:
+        if self.broadcast is not None and (peer is None or not gcs_connected):
             # PX4 (mavlink_main.cpp, send_finish): a normal-mode link with MAV_BROADCAST = 1
-            # sends to the network's broadcast address too while no client is connected.
+            # sends to the network's broadcast address too until a client is heard, and again
+            # whenever no ground station is connected (its HEARTBEATs stopped).
             self._send_to(sock, data, self.broadcast)
 
     def _send_to(self, sock: socket.socket, data: bytes, peer: tuple[str, int]) -> None:

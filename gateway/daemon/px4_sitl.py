@@ -4,8 +4,9 @@ Where a vehicle link talks before it hears a client: PX4 SITL's links talk first
 preset remote, 127.0.0.1:14550 (GCS, normal mode) or :14540+i (API, onboard mode); ``mavlink
 start -t HOST`` sets another partner address, here ``cornet run --gcs HOST[:PORT]`` for the
 normal-mode links (the GCS link and extra radios). With MAV_BROADCAST = 1 a normal-mode link
-also sends to the network's broadcast address while no client is connected (``send_finish``),
-so a ground station on the LAN finds the vehicle.
+also sends to the network's broadcast address until it hears a client, and again whenever no
+ground station's HEARTBEAT came for 2.5 s (``send_finish``), so a ground station on the LAN
+finds the vehicle, and finds it again after a restart.
 
 What PX4 SITL's environment set (PX4_SIM_SPEED_FACTOR, PX4_HOME_*; read by the CLI) is said in
 the ready line.
@@ -34,7 +35,8 @@ def first_peers(sim: Simulation, index: int, tag: LinkTag, remote_port: int, *, 
                 remote_host: str, gcs: tuple[str, int | None] | None
                 ) -> tuple[Address, Address | None]:
     """Vehicle ``index``'s link ``tag``: the address it talks to first, and the broadcast
-    address it also talks to until it hears a client (None: no broadcast). ``gcs``: --gcs."""
+    address it also talks to while no ground station is connected (None: no broadcast).
+    ``gcs``: --gcs."""
     if sim.links[(index, tag)].kind is LinkKind.API:
         return (remote_host, remote_port), None
     host, port = gcs or (remote_host, None)

@@ -4,11 +4,12 @@ MAV_BROADCAST."""
 
 import os
 import subprocess
+import time
 
 import pytest
 from pymavlink import mavutil
 
-from gateway.ci.launcher import cornet_command, free_port_offset, start_daemon
+from gateway.ci.launcher import VEHICLE_GCS_PORT, cornet_command, free_port_offset, start_daemon
 from gateway.daemon.endpoint import broadcast_address
 from tests.e2e.gcs import heartbeats_by_sysid
 
@@ -93,6 +94,43 @@ def test_mav_broadcast_sends_heartbeats_to_the_broadcast_address():
     conn = listen(bcast, GCS_PORT + offset)  # only what is sent to the broadcast address
     hears_vehicle_1(conn, start_daemon("--bind", "0.0.0.0", "--gcs", "127.0.0.3", "--param",
                                        "MAV_BROADCAST=1", port_offset=offset))
+
+
+def test_broadcast_stops_while_a_ground_station_is_connected_and_resumes_when_it_goes():
+    """PX4 (send_finish): broadcast until a client is heard and whenever no ground station's
+    HEARTBEAT came lately, so a restarted QGC on the LAN finds the vehicle again."""
+    bcast = broadcast_address("0.0.0.0")
+    if bcast is None:
+        pytest.skip("no network interface with a broadcast address here")
+    offset = free_port_offset(1)
+    conn = listen(bcast, GCS_PORT + offset)
+    d = start_daemon("--bind", "0.0.0.0", "--gcs", "127.0.0.3", "--param", "MAV_BROADCAST=1",
+                     port_offset=offset)
+    station = mavutil.mavlink_connection(f"udpout:127.0.0.1:{VEHICLE_GCS_PORT + offset}",
+                                         source_system=255, source_component=190,
+                                         dialect="common")
+
+    def heartbeats_on_broadcast(seconds: float, beat: bool) -> int:
+        n, end, next_beat = 0, time.monotonic() + seconds, 0.0
+        while time.monotonic() < end:
+            if beat and time.monotonic() >= next_beat:  # a ground station's 1 Hz, doubled
+                station.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS,
+                                           mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+                next_beat = time.monotonic() + 0.5
+            msg = conn.recv_match(type="HEARTBEAT", blocking=True, timeout=0.1)
+            n += msg is not None and msg.get_srcSystem() == 1
+        return n
+
+    try:
+        assert set(heartbeats_by_sysid(conn, {1})) == {1}, d.log_tail()  # no client yet
+        heartbeats_on_broadcast(1.5, beat=True)  # the station is heard; copies in flight drain
+        assert heartbeats_on_broadcast(3.0, beat=True) == 0, d.log_tail()
+        assert station.recv_match(type="HEARTBEAT", blocking=True, timeout=5) is not None
+        assert heartbeats_on_broadcast(6.0, beat=False) >= 2, d.log_tail()  # 2.5 s after
+    finally:
+        conn.close()
+        station.close()
+        assert d.stop() == 0, d.log_tail()
 
 
 def test_no_broadcast_by_default():
