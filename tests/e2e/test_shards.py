@@ -361,3 +361,51 @@ def test_sigint_stops_every_rank_with_exit_0(daemon_factory):
     assert d.proc.wait(timeout=10) == 0, d.log_tail()
     assert d.stop() == 0
     assert any("stopping after" in ln and "shards=2" in ln for ln in d.stderr_lines), d.log_tail()
+
+
+CHANNEL_SCRIPT = """
+import asyncio, socket, sys, time
+from mpi4py import MPI
+from gateway.daemon.shard import channel as C
+comm = MPI.COMM_WORLD
+rank = comm.Get_rank()
+if sys.argv[1] == "two-hosts" and rank == 1:
+    socket.gethostname = lambda: "another-host"  # as if rank 1 ran elsewhere
+ch = C.Channel(comm)
+ch.open_doorbells()
+
+async def main():
+    for i in range(50):
+        if rank == 0:
+            ch.send(1, {"grant": i})
+            _, msg = await ch.receive(5.0)
+            assert msg == {"report": i}, msg
+        else:
+            _, msg = await ch.receive(5.0)
+            assert msg == {"grant": i}, msg
+            ch.send(0, {"report": i})
+    await ch.flush(1.0)
+    print(f"rank {rank}: poll {ch.poll_period_s * 1e3:g} ms, doorbells {sorted(ch._peers)}")
+
+asyncio.run(main())
+"""
+
+
+@pytest.mark.parametrize("hosts", ["one-host", "two-hosts"])
+def test_ranks_of_one_host_ring_each_others_doorbell_others_are_probed(hosts):
+    """The channel between ranks (gateway/daemon/shard/channel.py): on one host every message
+    rings its receiver's doorbell and the periodic probe is only a safety net; a rank on
+    another host has no doorbell and is found by the 1 ms probe. Either way every message
+    arrives, in order."""
+    pytest.importorskip("mpi4py", reason="mpi4py missing: pip install 'cornet[mpi]'")
+    from gateway.daemon.shard.launch import mpiexec_command
+
+    command = mpiexec_command(1, [])[:4] + ["-c", CHANNEL_SCRIPT, hosts]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    r = subprocess.run(command, capture_output=True, text=True, timeout=120, env=env)
+    assert r.returncode == 0, r.stdout + r.stderr
+    said = sorted(line for line in r.stdout.splitlines() if line.startswith("rank"))
+    if hosts == "one-host":
+        assert said == ["rank 0: poll 20 ms, doorbells [1]", "rank 1: poll 20 ms, doorbells [0]"]
+    else:
+        assert said == ["rank 0: poll 1 ms, doorbells []", "rank 1: poll 1 ms, doorbells []"]
