@@ -114,6 +114,7 @@ class VehicleLink:
 
     def on_timer(self, now: float) -> None:
         """The session's deadline has come (called by the vehicle's ``VehicleWake``)."""
+        self.deadline_s = math.inf  # until ``flush`` reads the next one (stays if it raises)
         try:
             self.session.handle_timer(now)
         except Exception:
@@ -154,10 +155,17 @@ class VehicleWake:
         self._at = math.inf
         self._running = False
 
+    def _earliest(self) -> float:
+        at = math.inf
+        for link in self.links:
+            if link.deadline_s < at:
+                at = link.deadline_s
+        return at
+
     def arm(self) -> None:
         if self._running:
             return
-        at = min([link.deadline_s for link in self.links])
+        at = self._earliest()
         if at == self._at:
             return
         if self._event is not None:
@@ -168,17 +176,18 @@ class VehicleWake:
             self._event = self.kernel.schedule(max(at, self.kernel.now), self._fire)
 
     def _fire(self) -> None:
-        self._event = None
-        self._at = math.inf
         now = self.kernel.now
         self._running = True
         try:
             for link in self.links:
                 if link.deadline_s <= now:
                     link.on_timer(now)
-        finally:
+        finally:  # re-armed even if a link raised: its vehicle's other links go on
             self._running = False
-        self.arm()
+            # ``arm`` without its checks: this event is spent and no other is pending.
+            at = self._at = self._earliest()
+            self._event = self.kernel.schedule(at if at > now else now, self._fire) \
+                if at < math.inf else None
 
 
 def make_backend(kernel: Kernel, network: NetworkConfig, tracer: Tracer | None = None, *,

@@ -195,3 +195,20 @@ def test_a_links_datagrams_do_not_depend_on_the_vehicles_other_links():
     for kind in LinkKind:
         alone = _downlink_digests(Simulation(1, link_kinds=(kind,)), 3.0)
         assert alone == {(0, kind): both[(0, kind)]}
+
+
+def test_a_link_that_raises_while_flushing_stops_alone():
+    sim = Simulation(1)
+    api_times = []
+
+    def handler(index, tag, datagram, peer) -> None:
+        if tag is LinkKind.GCS:
+            raise RuntimeError("the endpoint broke")
+        api_times.append(sim.now)
+
+    sim.on_downlink = handler
+    with pytest.raises(RuntimeError):
+        sim.run(until=1.0)
+    sim.run(until=1.0)  # the API link goes on (no busy loop on the broken one)
+    sim.close()
+    assert len(api_times) == 131 and api_times[-1] == pytest.approx(1.0)  # 100 + 30 Hz
