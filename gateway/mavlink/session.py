@@ -190,9 +190,10 @@ class Session:
         if not out:
             return []
         self._out = []
-        size = sum(map(len, out))
         # Most wake-ups fit one datagram: skip the packing loop then.
-        datagrams = [b"".join(out)] if size <= MAX_DATAGRAM_BYTES else pack_datagrams(out)
+        joined = b"".join(out)
+        size = len(joined)
+        datagrams = [joined] if size <= MAX_DATAGRAM_BYTES else pack_datagrams(out)
         self.stats.tx_datagrams += len(datagrams)
         self.stats.tx_bytes += size
         return datagrams

@@ -109,6 +109,17 @@ class Snapshot:
         self.samples = samples
         self.time_boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
         self.time_usec = int(now_s * 1e6)
+        # Nearly every wake-up sends a message of the kinematics, so the sample is taken now
+        # rather than through three lazy attributes. A vehicle whose kinematics raise leaves
+        # them lazy: each builder that needs them fails on its own, the others still send.
+        try:
+            sample = (samples if samples is not None else SampleCache()).at(vehicle, now_s)
+        except Exception:  # noqa: BLE001 - re-raised by the first builder that reads it
+            return
+        fields = self.__dict__
+        fields["sample"] = sample
+        fields["kin"] = sample.kin
+        fields["payloads"] = sample.payloads
 
     @_once
     def status(self) -> VehicleStatus:
@@ -123,6 +134,11 @@ class Snapshot:
     def kin(self) -> Kinematics:
         """``vehicle.kinematics``: position, velocity, attitude, rates as plain floats."""
         return self.sample.kin
+
+    @_once
+    def payloads(self) -> dict[object, bytes]:
+        """The sample's packed payloads (``Sample.payloads``)."""
+        return self.sample.payloads
 
     @_once
     def geo(self) -> GeoPoint:

@@ -170,8 +170,17 @@ class Scheduler:
         if now_us < self.next_us:
             return ()
         heap = self._heap
-        fired = []
-        mask = 0
+        # The first due group; most wake-ups have no other (then no merging either).
+        nxt, first, iv, specs = heap[0]
+        nxt += iv
+        if nxt <= now_us:  # late wake-up: re-phase, never burst
+            nxt = now_us + iv
+        heapq.heapreplace(heap, (nxt, first, iv, specs))
+        if heap[0][0] > now_us:
+            self.next_us = heap[0][0]
+            return specs
+        fired = [specs]
+        mask = 1 << first
         while heap[0][0] <= now_us:
             nxt, first, iv, specs = heap[0]
             nxt += iv
@@ -181,8 +190,6 @@ class Scheduler:
             fired.append(specs)
             mask |= 1 << first
         self.next_us = heap[0][0]
-        if len(fired) == 1:
-            return fired[0]
         out = self._merged.get(mask)
         if out is None:
             out = tuple(sorted((spec for specs in fired for spec in specs),

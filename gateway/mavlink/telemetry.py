@@ -87,24 +87,29 @@ def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None 
     packed once per ``Sample`` and key, whichever link asks first, and framed per link."""
     p = packer_of(cls)
     msg_id, crc_extra, pack, defaults = p.msg_id, p.crc_extra, p.pack, p.defaults
+    arity = len(defaults)
 
     def wrap(args: Callable[[Snapshot], tuple]) -> Builder:
         if key is None:
             def build(enc: Encoder, s: Snapshot) -> bytes:
-                payloads = s.sample.payloads
+                payloads = s.payloads
                 payload = payloads.get(msg_id)
                 if payload is None:
                     a = args(s)
-                    payload = payloads[msg_id] = pack(a + defaults[len(a):])
+                    if len(a) != arity:
+                        a += defaults[len(a):]
+                    payload = payloads[msg_id] = pack(a)
                 return enc.frame(msg_id, crc_extra, payload)
         else:
             def build(enc: Encoder, s: Snapshot) -> bytes:
-                payloads = s.sample.payloads
+                payloads = s.payloads
                 k = (msg_id, key(s))
                 payload = payloads.get(k)
                 if payload is None:
                     a = args(s)
-                    payload = payloads[k] = pack(a + defaults[len(a):])
+                    if len(a) != arity:
+                        a += defaults[len(a):]
+                    payload = payloads[k] = pack(a)
                 return enc.frame(msg_id, crc_extra, payload)
 
         build.__name__ = build.__qualname__ = args.__name__

@@ -11,8 +11,8 @@ Path of one datagram (STYLE.md "one message, fewest hops"):
 Invariants:
 - One kernel owns time. Physics runs on a fixed 250 Hz grid (priority PHYSICS, so at equal
   times the world is stepped before packets are delivered and telemetry is sampled).
-- Each session has at most one pending timer event in the heap, rescheduled after every call
-  into the session.
+- Each vehicle has at most one pending timer event in the heap (``VehicleWake``), for the
+  earliest deadline of its links' sessions, re-armed after every call into one of them.
 - Every random draw comes from a stream named after its link (and hop), seeded from
   ``NetworkConfig.seed``.
 - A vehicle's links are keyed by tag (gateway/sim/radios.py): PX4 SITL's GCS and API links,
@@ -58,7 +58,9 @@ class VehicleLink:
     """One MAVLink link of one vehicle: a session between an uplink and a downlink.
     ``tag``: which link (a LinkKind, or an extra radio's name); ``kind``: its session's."""
 
-    def __init__(self, sim: Simulation, index: int, tag: LinkTag, session: Session) -> None:
+    def __init__(self, sim: Simulation, index: int, tag: LinkTag, session: Session,
+                 wake: VehicleWake) -> None:
+        """``wake``: the vehicle's timer, shared by its links (this one joins it)."""
         self.sim = sim
         self.index = index
         self.tag = tag
@@ -73,8 +75,9 @@ class VehicleLink:
                                             self._on_uplink_delivered)
         self.downlink = sim.backend.make_link(f"{self.name}/down", vehicle_node, client_node,
                                               self._on_downlink_delivered)
-        self._timer: Event | None = None
-        self._timer_at = math.inf
+        self.deadline_s = math.inf  # when the session wants ``handle_timer`` next
+        self.wake = wake
+        wake.links.append(self)
 
     def rewire(self, backend: NetworkBackend) -> None:
         """Take both directions from ``backend`` (a reloaded network), keeping their counters:
@@ -108,31 +111,82 @@ class VehicleLink:
         if handler is not None:
             handler(self.index, self.tag, packet, peer)
 
-    def _on_timer(self) -> None:
-        self._timer = None
-        self._timer_at = math.inf
+    def on_timer(self, now: float) -> None:
+        """The session's deadline has come (called by the vehicle's ``VehicleWake``)."""
+        self.deadline_s = math.inf  # until ``flush`` reads the next one (stays if it raises)
         try:
-            self.session.handle_timer(self.sim.kernel.now)
+            self.session.handle_timer(now)
         except Exception:
             self.sim.session_failed(self.name, "in a session timer")
-        self.service()
+        self.flush(now)
+
+    def flush(self, now: float) -> None:
+        """Push what the session wants to send into the downlink; note its next deadline."""
+        session = self.session
+        for datagram in session.datagrams_to_send(now):
+            self.downlink.send(datagram, session.peer)
+        deadline = session.get_timer()
+        self.deadline_s = math.inf if deadline is None else deadline
 
     def service(self) -> None:
-        """Push what the session wants to send into the downlink; re-arm its one timer."""
-        now = self.sim.kernel.now
-        for datagram in self.session.datagrams_to_send(now):
-            self.downlink.send(datagram, self.session.peer)
-        deadline = self.session.get_timer()
-        if deadline is None:
-            deadline = math.inf
-        if deadline == self._timer_at:
+        """``flush``, then re-arm the vehicle's timer for the new deadline."""
+        self.flush(self.sim.kernel.now)
+        self.wake.arm()
+
+
+class VehicleWake:
+    """The one timer event of a vehicle's links, at the earliest of their sessions' deadlines.
+
+    The links of a vehicle fall due together most of the time (every stream of the GCS link is
+    on the API link's 100 Hz grid), so one kernel event per instant serves them all: each link
+    whose deadline has come gets ``handle_timer`` and is flushed, in the order the links were
+    made (PX4 SITL's GCS link, then the API link, then extra radios). A link that is not due is
+    not woken. ``arm`` called while the wake runs (a reply that a delivery brought back in the
+    same instant) waits for its end, which re-arms once.
+    """
+
+    __slots__ = ("kernel", "links", "_event", "_at", "_running")
+
+    def __init__(self, kernel: Kernel) -> None:
+        self.kernel = kernel
+        self.links: list[VehicleLink] = []
+        self._event: Event | None = None
+        self._at = math.inf
+        self._running = False
+
+    def _earliest(self) -> float:
+        at = math.inf
+        for link in self.links:
+            if link.deadline_s < at:
+                at = link.deadline_s
+        return at
+
+    def arm(self) -> None:
+        if self._running:
             return
-        if self._timer is not None:
-            self._timer.cancel()
-            self._timer = None
-        self._timer_at = deadline
-        if deadline < math.inf:
-            self._timer = self.sim.kernel.schedule(max(deadline, now), self._on_timer)
+        at = self._earliest()
+        if at == self._at:
+            return
+        if self._event is not None:
+            self._event.cancel()
+            self._event = None
+        self._at = at
+        if at < math.inf:
+            self._event = self.kernel.schedule(max(at, self.kernel.now), self._fire)
+
+    def _fire(self) -> None:
+        now = self.kernel.now
+        self._running = True
+        try:
+            for link in self.links:
+                if link.deadline_s <= now:
+                    link.on_timer(now)
+        finally:  # re-armed even if a link raised: its vehicle's other links go on
+            self._running = False
+            # ``arm`` without its checks: this event is spent and no other is pending.
+            at = self._at = self._earliest()
+            self._event = self.kernel.schedule(at if at > now else now, self._fire) \
+                if at < math.inf else None
 
 
 def make_backend(kernel: Kernel, network: NetworkConfig, tracer: Tracer | None = None, *,
@@ -222,15 +276,16 @@ class Simulation:
             # derives from one kinematics sample (snapshot.SampleCache).
             samples = SampleCache()
             uploads = UploadLock()  # one plan upload at a time, whichever link it comes on
+            wake = VehicleWake(self.kernel)  # and one timer event for all its links
             for kind in self.link_kinds:
                 session = Session(vehicle, kind, now_s=0.0, signing=signing, uploads=uploads)
                 session.samples = samples
-                self.links[(i, kind)] = VehicleLink(self, i, kind, session)
+                self.links[(i, kind)] = VehicleLink(self, i, kind, session, wake)
             for radio in self.radios:  # PX4's extra instances: Normal mode, GCS streams
                 session = Session(vehicle, LinkKind.GCS, now_s=0.0, signing=signing,
                                   uploads=uploads, signing_link_id=1 + radio.number)
                 session.samples = samples
-                self.links[(i, radio.name)] = VehicleLink(self, i, radio.name, session)
+                self.links[(i, radio.name)] = VehicleLink(self, i, radio.name, session, wake)
         self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,
                                priority=PRIORITY_PHYSICS)
         # The scenario's fault timeline (vehicles/faults.py): each at its time, before the
@@ -255,7 +310,9 @@ class Simulation:
         if start is not None:  # an external backend: set its network up before time runs,
             start(self.vehicle_positions_ned_m())  # with the vehicles where they spawned
         for link in self.links.values():
-            link.service()
+            link.flush(self.kernel.now)
+        for link in self.links.values():
+            link.wake.arm()
 
     def _fault(self, k: int, fault: Fault) -> None:
         if not fault.on_network:  # network events are the topology's outage windows

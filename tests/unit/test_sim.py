@@ -151,3 +151,64 @@ def test_the_links_of_a_vehicle_share_its_telemetry_samples():
         assert sim.links[(1, LinkKind.GCS)].session.samples is not a
     finally:
         sim.close()
+
+
+def _downlink_digests(sim: Simulation, until_s: float) -> dict:
+    digests: dict = {}
+
+    def record(index, tag, datagram, peer) -> None:
+        digests.setdefault((index, tag), hashlib.sha256()).update(f"{sim.now:.6f}".encode()
+                                                                  + datagram)
+    sim.on_downlink = record
+    sim.run(until=until_s)
+    sim.close()
+    return {key: h.hexdigest() for key, h in digests.items()}
+
+
+def _wake_times(sim: Simulation, until_s: float) -> dict:
+    """When each link's session got ``handle_timer``, and the vehicles' pending timer events."""
+    times: dict = {}
+    for key, link in sim.links.items():
+        def counted(now_s, key=key, inner=link.session.handle_timer):
+            times.setdefault(key, []).append(now_s)
+            inner(now_s)
+        link.session.handle_timer = counted
+    wakes = {id(link.wake) for link in sim.links.values()}
+    pending = [entry for entry in sim.kernel._heap if not entry[3].cancelled
+               and id(getattr(entry[3].callback, "__self__", None)) in wakes]
+    sim.run(until=until_s)
+    sim.close()
+    return {"times": times, "pending": len(pending)}
+
+
+def test_a_vehicle_has_one_timer_event_and_each_link_wakes_only_when_due():
+    both = _wake_times(Simulation(2), 1.999)
+    assert both["pending"] == 2  # one per vehicle, not one per link
+    for kind in LinkKind:
+        alone = _wake_times(Simulation(2, link_kinds=(kind,)), 1.999)
+        for index in range(2):
+            assert both["times"][(index, kind)] == alone["times"][(index, kind)]
+
+
+def test_a_links_datagrams_do_not_depend_on_the_vehicles_other_links():
+    both = _downlink_digests(Simulation(1), 3.0)
+    for kind in LinkKind:
+        alone = _downlink_digests(Simulation(1, link_kinds=(kind,)), 3.0)
+        assert alone == {(0, kind): both[(0, kind)]}
+
+
+def test_a_link_that_raises_while_flushing_stops_alone():
+    sim = Simulation(1)
+    api_times = []
+
+    def handler(index, tag, datagram, peer) -> None:
+        if tag is LinkKind.GCS:
+            raise RuntimeError("the endpoint broke")
+        api_times.append(sim.now)
+
+    sim.on_downlink = handler
+    with pytest.raises(RuntimeError):
+        sim.run(until=1.0)
+    sim.run(until=1.0)  # the API link goes on (no busy loop on the broken one)
+    sim.close()
+    assert len(api_times) == 131 and api_times[-1] == pytest.approx(1.0)  # 100 + 30 Hz
