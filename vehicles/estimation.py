@@ -57,7 +57,7 @@ import numpy as np
 
 from vehicles.control.compiled import njit_cached
 from vehicles.control.rotation import dcm
-from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_SIZE, M_VEL
+from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_VEL
 from vehicles.types import GRAVITY_MPS2
 
 # --- the sensor models (module docstring for the sources) ---------------------------------------
@@ -434,7 +434,6 @@ class Estimation:
                                       ACCEL_NOISE_MPS2, BARO_NOISE_M, *MAG_NOISE_GAUSS,
                                       *MAG_NED_GAUSS])
         self.est_consts = np.array([*MAG_NED_GAUSS, mass_kg / drag_n_per_mps])
-        self.steps = 0
         self.hist_i = 0
         self.sensed = np.zeros((0, S_SIZE))  # the latest sample of each sensor (S_*)
         self.bias = np.zeros((0, B_SIZE))  # the sensors' own state (B_*)
@@ -443,8 +442,6 @@ class Estimation:
         self.ehist = np.zeros((0, HISTORY, 6))  # estimated positions and velocities, a ring
         self.delay = np.zeros(0, np.int64)  # EKF2_GPS_DELAY in physics steps
         self.failed = np.zeros(0, np.int64)  # failure injection: F_* bits per row
-        # Compile (or load) both kernels now, with no rows.
-        self.step(np.zeros((0, M_SIZE)), np.zeros((0, M_SIZE)), np.zeros(0, np.bool_), 0.0)
 
     def set_failed(self, row: int, bits: int, on: bool) -> None:
         """Failure injection: the row's sensors of ``bits`` (F_*) fail (``on``) or work again."""
@@ -475,18 +472,18 @@ class Estimation:
         estimated[:] = truth
         estimated[M_ACCEL:M_ACCEL + 3] = 0.0
 
-    def step(self, measured: np.ndarray, estimated: np.ndarray, flying: np.ndarray,
-             t_s: float) -> None:
-        """After the physics step that ended at ``t_s``: sample the sensors, update the
-        estimates into ``estimated``."""
-        dt = self.dt_s
-        baro_due = int(t_s * BARO_RATE_HZ + 1e-9) != int((t_s - dt) * BARO_RATE_HZ + 1e-9)
-        gps_due = int(t_s * GPS_RATE_HZ + 1e-9) != int((t_s - dt) * GPS_RATE_HZ + 1e-9)
+    def kernel_args(self) -> tuple:
+        """What ``sense`` and ``estimate`` read and write, in the order the World's compiled step
+        takes it (physics.py): valid until the next ``add``."""
+        return (float(self.config.noise), self.noise.block, self.delay, self.hist, self.bias,
+                self.sensed, self.sense_consts, self.failed, self.est, self.ehist,
+                self.est_consts)
+
+    def begin_step(self) -> tuple[int, int]:
+        """The ring slot that this step's samples go to and the column of this step's draws in
+        the noise block; ``end_step`` after the compiled step."""
         self.hist_i = (self.hist_i + 1) % HISTORY
-        sense(measured, self.noise.block, self.noise.j, dt, self.config.noise, baro_due, gps_due,
-              self.delay, self.hist, self.hist_i, self.bias, self.sensed, self.sense_consts,
-              self.failed)
-        estimate(self.sensed, self.est, self.ehist, self.hist_i, self.delay, dt, baro_due,
-                 gps_due, flying, self.est_consts, estimated, self.failed)
+        return self.hist_i, self.noise.j
+
+    def end_step(self) -> None:
         self.noise.advance()
-        self.steps += 1

@@ -1,6 +1,7 @@
 """The 250 Hz inner loop of every vehicle of a World, compiled: one call per physics step runs,
-for each vehicle, attitude P → rate PID → mixer → motor lag → body force and torque; a second call
-turns the raw PyBullet states read after the step into NED/FRD measurements.
+for each vehicle, attitude P → rate PID → mixer → motor lag → body force and torque; ``measure``
+turns the raw PyBullet states read after the step into NED/FRD measurements (physics.py runs it
+inside its one compiled call after PyBullet's step).
 
 Why compiled: these few hundred floating-point operations per vehicle and step were most of a
 vehicle's cost in CPython (~25 µs, 250 times a simulated second); compiled they cost well under a
@@ -47,6 +48,9 @@ M_POS, M_VEL, M_Q, M_RATES, M_ACCEL, M_SIZE = 0, 3, 6, 10, 13, 16
 # Columns of ``InnerLoop.forces``: force ENU (N), torque ENU (N m), 1.0 when there is anything
 # to apply (PyBullet clears external forces after every step).
 F_SIZE = 7
+# Numbers per body of a raw PyBullet state (``measure``): position, orientation xyzw, linear and
+# angular velocity, ENU.
+RAW_SIZE = 13
 _SQRT_HALF = math.sqrt(0.5)
 
 
@@ -198,7 +202,7 @@ class InnerLoop:
         # Compile (or load from numba's cache) both kernels now, with no rows: a World is ready
         # to step when it is built, so the daemon never stalls on its first physics step.
         self.control()
-        self.measure(np.zeros((0, 13)), 0.0)
+        measure(np.zeros((0, RAW_SIZE)), self.spawn_enu, 0.0, self.measured)
 
     def _resize(self, n: int) -> None:
         def grow(old, shape, dtype=float):
@@ -228,6 +232,14 @@ class InnerLoop:
             self.motor_ok[:len(old_ok)] = old_ok
         self.spawn_enu = grow(get("spawn_enu"), (n, 3))
         self.forces = grow(get("forces"), (n, F_SIZE))
+        # ``control_and_forces``' arguments, gathered once per resize rather than looked up
+        # attribute by attribute at every step (the arrays are only ever written in place).
+        self._control_args = (
+            self.mode, self.att_sp, self.yawspeed_sp, self.thrust_sp, self.rates_sp,
+            self.use_rates_sp, self.landed, self.att_gains, self.rate_gains, self.rate_state,
+            self.saturation, self.rows, self.idle_thrust_norm, self.alpha, self.dt_s,
+            self.measured, self.estimated, self.rotor_speed, self.motor, self.rotor_xy,
+            self.yaw_k, self.wind, self.forces, self.motor_ok)
 
     def add(self, spawn_enu_m: tuple[float, float, float], raw_state: tuple[float, ...]) -> int:
         """A new row for a vehicle spawned at ``spawn_enu_m`` whose PyBullet state is
@@ -260,13 +272,4 @@ class InnerLoop:
 
     def control(self) -> None:
         """Motor commands, rotor speeds and the force/torque to apply for every row."""
-        control_and_forces(self.mode, self.att_sp, self.yawspeed_sp, self.thrust_sp, self.rates_sp,
-                           self.use_rates_sp, self.landed, self.att_gains, self.rate_gains, self.rate_state,
-                           self.saturation, self.rows, self.idle_thrust_norm, self.alpha, self.dt_s,
-                           self.measured, self.estimated, self.rotor_speed, self.motor,
-                           self.rotor_xy, self.yaw_k, self.wind, self.forces, self.motor_ok)
-
-    def measure(self, raw, dt_s: float) -> None:
-        """``raw``: one row per vehicle (position, orientation xyzw, linear and angular velocity,
-        PyBullet's ENU), as a list of tuples or an array."""
-        measure(np.asarray(raw, dtype=float), self.spawn_enu, dt_s, self.measured)
+        control_and_forces(*self._control_args)
