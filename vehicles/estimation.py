@@ -58,6 +58,7 @@ import numpy as np
 from vehicles.control.compiled import njit_cached
 from vehicles.control.rotation import dcm
 from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_VEL
+from vehicles.noise_blocks import NoiseBlocks, with_rows
 from vehicles.types import GRAVITY_MPS2
 
 # --- the sensor models (module docstring for the sources) ---------------------------------------
@@ -97,10 +98,6 @@ F_MAG = F_MAG_OFF | F_MAG_STUCK
 
 HISTORY = 64  # steps of past states kept: delays up to 63 physics steps (252 ms at 250 Hz)
 
-# Noise draws per vehicle and step (columns of a noise block).
-N_GYRO, N_GYRO_BIAS, N_ACC, N_ACC_BIAS, N_BARO, N_MAG, N_GPS_POS, N_GPS_VEL, N_SIZE = (
-    0, 3, 6, 9, 12, 13, 16, 19, 22)
-BLOCK = 250  # steps of noise drawn at once per vehicle
 
 # Columns of ``sensed`` (the latest sample of each sensor; NED positions from the spawn point).
 S_GYRO, S_ACC, S_MAG, S_BARO_DOWN, S_GPS_POS, S_GPS_VEL, S_VIB, S_PREV, S_SIZE = (
@@ -378,44 +375,6 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
         out[M_RATES + 1] = s[S_GYRO + 1] - e[E_GYRO_BIAS + 1]
         out[M_RATES + 2] = s[S_GYRO + 2] - e[E_GYRO_BIAS + 2]
         out[M_ACCEL], out[M_ACCEL + 1], out[M_ACCEL + 2] = an, ae, ad
-
-
-def with_rows(old: np.ndarray, n: int) -> np.ndarray:
-    """``old`` grown to ``n`` rows (new rows zero): a view of its buffer while that has room, else
-    of one twice as large, so adding vehicles one by one copies O(n) rows in all, not O(n²)."""
-    buf = old.base if isinstance(old.base, np.ndarray) and old.base.shape[1:] == old.shape[1:] \
-        and old.base.dtype == old.dtype else old
-    if n > len(buf):
-        buf = np.zeros((max(n, 2 * len(buf)),) + old.shape[1:], dtype=old.dtype)
-        buf[:len(old)] = old
-    return buf[:n]
-
-
-class NoiseBlocks:
-    """Standard normal draws for every row, ``BLOCK`` steps at a time, each row from its own
-    generator (``rng_for(index)``: a seeded stream named after the vehicle)."""
-
-    def __init__(self, rng_for: Callable[[int], np.random.Generator] | None) -> None:
-        self._rng_for = rng_for
-        self._gens: list[np.random.Generator | None] = []
-        self.block = np.zeros((0, BLOCK, N_SIZE))
-        self.j = 0
-
-    def add(self, index: int) -> None:
-        gen = self._rng_for(index) if self._rng_for is not None else None
-        self._gens.append(gen)
-        self.block = with_rows(self.block, len(self._gens))
-        if gen is not None:
-            self.block[-1] = gen.standard_normal((BLOCK, N_SIZE))
-
-    def advance(self) -> None:
-        """Move to the next step's draws (a new block every ``BLOCK`` steps)."""
-        self.j += 1
-        if self.j == BLOCK:
-            self.j = 0
-            for k, gen in enumerate(self._gens):
-                if gen is not None:
-                    self.block[k] = gen.standard_normal((BLOCK, N_SIZE))
 
 
 class Estimation:
