@@ -160,7 +160,6 @@ class World:
         self._vehicles: list[Vehicle] = []
         self._body_ids: list[int] = []
         self._com_enu: list[tuple[float, float, float]] = []  # where forces are applied
-        self._rows: list[list[float]] | None = None  # ``inner.estimated`` as lists, per step
         self._truth_rows: list[list[float]] | None = None  # ``inner.measured`` as lists
         self._closed = False
 
@@ -182,7 +181,7 @@ class World:
         store = params if params is not None else ParamStore()
         self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row],
                             float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3)
-        self._rows = self._truth_rows = self._after_args = None
+        self._truth_rows = self._after_args = None
         origin = self.home.offset_ned(north, east, 0.0)
         vehicle = Vehicle(index, store, self.airframe,
                           origin, self.dt_s, boot_time_s=self.time_s, world=self, row=row)
@@ -198,14 +197,14 @@ class World:
         return pos + orn + lin + ang
 
     def measurement(self, row: int) -> Measurement:
-        """Row ``row``'s estimated state after the last step (NED/FRD): what it flies on."""
-        rows = self._rows
-        if rows is None:
-            rows = self._rows = self.inner.estimated.tolist()
-        return _measurement(rows[row])
+        """Row ``row``'s estimated state after the last step (NED/FRD): what it flies on. One row
+        converted per call: a vehicle keeps its own per step, and between the autopilot's ticks
+        only the few whose telemetry is due ask."""
+        return _measurement(self.inner.estimated[row].tolist())
 
     def truth(self, row: int) -> Measurement:
-        """Row ``row``'s true state after the last step (NED/FRD)."""
+        """Row ``row``'s true state after the last step (NED/FRD). Every row is converted at once:
+        the network asks for every vehicle's position together."""
         rows = self._truth_rows
         if rows is None:
             rows = self._truth_rows = self.inner.measured.tolist()
@@ -271,7 +270,7 @@ class World:
             extend(ang)
         t = now_s + self.dt_s
         self._after_physics(np.array(raw), t - self.time_s, t)
-        self._rows = self._truth_rows = None
+        self._truth_rows = None
         self.time_s = t
         self.steps += 1
 
