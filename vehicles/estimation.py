@@ -56,7 +56,8 @@ import numpy as np
 
 from vehicles.control.compiled import njit_cached
 from vehicles.control.rotation import dcm
-from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_SIZE, M_VEL
+from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_VEL
+from vehicles.noise_blocks import NoiseBlocks, with_rows
 from vehicles.types import GRAVITY_MPS2, SensorConfig
 
 # --- the sensor models (module docstring for the sources) ---------------------------------------
@@ -96,10 +97,6 @@ F_MAG = F_MAG_OFF | F_MAG_STUCK
 
 HISTORY = 64  # steps of past states kept: delays up to 63 physics steps (252 ms at 250 Hz)
 
-# Noise draws per vehicle and step (columns of a noise block).
-N_GYRO, N_GYRO_BIAS, N_ACC, N_ACC_BIAS, N_BARO, N_MAG, N_GPS_POS, N_GPS_VEL, N_SIZE = (
-    0, 3, 6, 9, 12, 13, 16, 19, 22)
-BLOCK = 250  # steps of noise drawn at once per vehicle
 
 # Columns of ``sensed`` (the latest sample of each sensor; NED positions from the spawn point).
 S_GYRO, S_ACC, S_MAG, S_BARO_DOWN, S_GPS_POS, S_GPS_VEL, S_VIB, S_PREV, S_SIZE = (
@@ -368,44 +365,6 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
         out[M_ACCEL], out[M_ACCEL + 1], out[M_ACCEL + 2] = an, ae, ad
 
 
-def with_rows(old: np.ndarray, n: int) -> np.ndarray:
-    """``old`` grown to ``n`` rows (new rows zero): a view of its buffer while that has room, else
-    of one twice as large, so adding vehicles one by one copies O(n) rows in all, not O(n²)."""
-    buf = old.base if isinstance(old.base, np.ndarray) and old.base.shape[1:] == old.shape[1:] \
-        and old.base.dtype == old.dtype else old
-    if n > len(buf):
-        buf = np.zeros((max(n, 2 * len(buf)),) + old.shape[1:], dtype=old.dtype)
-        buf[:len(old)] = old
-    return buf[:n]
-
-
-class NoiseBlocks:
-    """Standard normal draws for every row, ``BLOCK`` steps at a time, each row from its own
-    generator (``rng_for(index)``: a seeded stream named after the vehicle)."""
-
-    def __init__(self, rng_for: Callable[[int], np.random.Generator] | None) -> None:
-        self._rng_for = rng_for
-        self._gens: list[np.random.Generator | None] = []
-        self.block = np.zeros((0, BLOCK, N_SIZE))
-        self.j = 0
-
-    def add(self, index: int) -> None:
-        gen = self._rng_for(index) if self._rng_for is not None else None
-        self._gens.append(gen)
-        self.block = with_rows(self.block, len(self._gens))
-        if gen is not None:
-            self.block[-1] = gen.standard_normal((BLOCK, N_SIZE))
-
-    def advance(self) -> None:
-        """Move to the next step's draws (a new block every ``BLOCK`` steps)."""
-        self.j += 1
-        if self.j == BLOCK:
-            self.j = 0
-            for k, gen in enumerate(self._gens):
-                if gen is not None:
-                    self.block[k] = gen.standard_normal((BLOCK, N_SIZE))
-
-
 class Estimation:
     """The sensors and estimators of every row of a World (module rules)."""
 
@@ -422,7 +381,6 @@ class Estimation:
                                       ACCEL_NOISE_MPS2, BARO_NOISE_M, *MAG_NOISE_GAUSS,
                                       *MAG_NED_GAUSS])
         self.est_consts = np.array([*MAG_NED_GAUSS, mass_kg / drag_n_per_mps])
-        self.steps = 0
         self.hist_i = 0
         self.sensed = np.zeros((0, S_SIZE))  # the latest sample of each sensor (S_*)
         self.bias = np.zeros((0, B_SIZE))  # the sensors' own state (B_*)
@@ -431,8 +389,6 @@ class Estimation:
         self.ehist = np.zeros((0, HISTORY, 6))  # estimated positions and velocities, a ring
         self.delay = np.zeros(0, np.int64)  # EKF2_GPS_DELAY in physics steps
         self.failed = np.zeros(0, np.int64)  # failure injection: F_* bits per row
-        # Compile (or load) both kernels now, with no rows.
-        self.step(np.zeros((0, M_SIZE)), np.zeros((0, M_SIZE)), np.zeros(0, np.bool_), 0.0)
 
     def set_failed(self, row: int, bits: int, on: bool) -> None:
         """Failure injection: the row's sensors of ``bits`` (F_*) fail (``on``) or work again."""
@@ -463,18 +419,18 @@ class Estimation:
         estimated[:] = truth
         estimated[M_ACCEL:M_ACCEL + 3] = 0.0
 
-    def step(self, measured: np.ndarray, estimated: np.ndarray, flying: np.ndarray,
-             t_s: float) -> None:
-        """After the physics step that ended at ``t_s``: sample the sensors, update the
-        estimates into ``estimated``."""
-        dt = self.dt_s
-        baro_due = int(t_s * BARO_RATE_HZ + 1e-9) != int((t_s - dt) * BARO_RATE_HZ + 1e-9)
-        gps_due = int(t_s * GPS_RATE_HZ + 1e-9) != int((t_s - dt) * GPS_RATE_HZ + 1e-9)
+    def kernel_args(self) -> tuple:
+        """What ``sense`` and ``estimate`` read and write, in the order the World's compiled step
+        takes it (physics.py): valid until the next ``add``."""
+        return (float(self.config.noise), self.noise.block, self.delay, self.hist, self.bias,
+                self.sensed, self.sense_consts, self.failed, self.est, self.ehist,
+                self.est_consts)
+
+    def begin_step(self) -> tuple[int, int]:
+        """The ring slot that this step's samples go to and the column of this step's draws in
+        the noise block; ``end_step`` after the compiled step."""
         self.hist_i = (self.hist_i + 1) % HISTORY
-        sense(measured, self.noise.block, self.noise.j, dt, self.config.noise, baro_due, gps_due,
-              self.delay, self.hist, self.hist_i, self.bias, self.sensed, self.sense_consts,
-              self.failed)
-        estimate(self.sensed, self.est, self.ehist, self.hist_i, self.delay, dt, baro_due,
-                 gps_due, flying, self.est_consts, estimated, self.failed)
+        return self.hist_i, self.noise.j
+
+    def end_step(self) -> None:
         self.noise.advance()
-        self.steps += 1

@@ -1,6 +1,7 @@
 """The 250 Hz inner loop of every vehicle of a World, compiled: one call per physics step runs,
-for each vehicle, attitude P → rate PID → mixer → motor lag → body force and torque; a second call
-turns the raw PyBullet states read after the step into NED/FRD measurements.
+for each vehicle, attitude P → rate PID → mixer → motor lag → body force and torque; ``measure``
+turns the raw PyBullet states read after the step into NED/FRD measurements (physics.py runs it
+inside its one compiled call after PyBullet's step).
 
 Why compiled: these few hundred floating-point operations per vehicle and step were most of a
 vehicle's cost in CPython (~25 µs, 250 times a simulated second); compiled they cost well under a
@@ -47,6 +48,17 @@ M_POS, M_VEL, M_Q, M_RATES, M_ACCEL, M_SIZE = 0, 3, 6, 10, 13, 16
 # Columns of ``InnerLoop.forces``: force ENU (N), torque ENU (N m), 1.0 when there is anything
 # to apply (PyBullet clears external forces after every step).
 F_SIZE = 7
+# Columns of ``InnerLoop.setpoint``: attitude q (w, x, y, z), heading rate (rad/s), collective
+# thrust (0..1), body rates FRD (rad/s; flown instead of the attitude when ``use_rates_sp``).
+SP_Q, SP_YAWSPEED, SP_THRUST, SP_RATES, SP_SIZE = 0, 4, 5, 6, 9
+# Columns of ``InnerLoop.gains``: ``attitude_rates``' seven coefficients, then ``rate_pid``'s 15.
+G_ATT, G_RATE, G_SIZE = 0, 7, 22
+# Columns of ``InnerLoop.rotors`` (one row per rotor): the mixer's roll, pitch and yaw factors,
+# the rotor's x and y (FRD, m), its reaction torque per newton of thrust (signed, m).
+R_MIX, R_X, R_Y, R_YAW_K, R_SIZE = 0, 3, 4, 5, 6
+# Numbers per body of a raw PyBullet state (``measure``): position, orientation xyzw, linear and
+# angular velocity, ENU.
+RAW_SIZE = 13
 _SQRT_HALF = math.sqrt(0.5)
 
 
@@ -68,17 +80,18 @@ class InnerCommand:
 
 
 @njit_cached
-def control_and_forces(mode, att_sp, yawspeed_sp, thrust_sp, rates_sp, use_rates_sp, landed,
-                       att_gains, rate_gains, rate_state, saturation, rows, idle, alpha, dt_s, measured,
-                       estimated, rotor_speed, motor, rotor_xy, yaw_k, wind, forces,
+def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, saturation,
+                       rotors, plant, measured, estimated, rotor_speed, wind, forces,
                        motor_ok):  # pragma: no cover
     """One physics step of every vehicle's inner loop (module rules). The controllers fly on
     ``estimated`` (attitude, gyro rates less their bias); the physics acts on ``measured``, the
-    truth. ``motor``: max rotor speed, motor constant, lag coefficient up, lag coefficient down,
-    linear drag; ``wind``: the air's velocity (NED), which the drag acts against; ``motor_ok``:
-    0 for a rotor whose motor has failed (failure injection: it spins down)."""
-    w_max, k_motor, alpha_up, alpha_down, drag = motor[0], motor[1], motor[2], motor[3], motor[4]
-    n_rotors = len(yaw_k)
+    truth. ``plant``: max rotor speed, motor constant, lag coefficient up, lag coefficient down,
+    linear drag, idle thrust, the D term's filter coefficient, the step (s); ``wind``: the air's
+    velocity (NED), which the drag acts against; ``motor_ok``: 0 for a rotor whose motor has
+    failed (failure injection: it spins down)."""
+    w_max, k_motor, alpha_up, alpha_down, drag = plant[0], plant[1], plant[2], plant[3], plant[4]
+    idle, alpha, dt_s = plant[5], plant[6], plant[7]
+    n_rotors = len(rotors)
     u = np.zeros(n_rotors)
     for v in range(len(mode)):
         m = measured[v]
@@ -91,19 +104,20 @@ def control_and_forces(mode, att_sp, yawspeed_sp, thrust_sp, rates_sp, use_rates
         else:
             if mode[v] == MODE_IDLE:
                 rate_state[v, :] = 0.0
-                mix_into(0.0, 0.0, 0.0, 0.0, rows, idle, u)
+                mix_into(0.0, 0.0, 0.0, 0.0, rotors, idle, u)
             else:
+                c = setpoint[v]
+                g = gains[v]
                 if use_rates_sp[v]:
-                    sp = (rates_sp[v, 0], rates_sp[v, 1], rates_sp[v, 2])
+                    sp = (c[SP_RATES], c[SP_RATES + 1], c[SP_RATES + 2])
                 else:
-                    g = att_gains[v]
-                    sp = attitude_rates(q_est, (att_sp[v, 0], att_sp[v, 1], att_sp[v, 2], att_sp[v, 3]),
-                                        g[0], g[1], g[2], g[3], g[4], g[5], g[6], yawspeed_sp[v])
+                    sp = attitude_rates(q_est, (c[SP_Q], c[SP_Q + 1], c[SP_Q + 2], c[SP_Q + 3]),
+                                        g[0], g[1], g[2], g[3], g[4], g[5], g[6], c[SP_YAWSPEED])
                 s = saturation[v]
                 torque = rate_pid(dt_s, alpha, (est[M_RATES], est[M_RATES + 1], est[M_RATES + 2]), sp,
-                                  landed[v], (s[0], s[1], s[2]), (s[3], s[4], s[5]), rate_gains[v],
+                                  landed[v], (s[0], s[1], s[2]), (s[3], s[4], s[5]), g[G_RATE:],
                                   rate_state[v])
-                flags = mix_into(thrust_sp[v], torque[0], torque[1], torque[2], rows, idle, u)
+                flags = mix_into(c[SP_THRUST], torque[0], torque[1], torque[2], rotors, idle, u)
                 for i in range(6):
                     s[i] = flags[i]
             for i in range(n_rotors):
@@ -118,9 +132,9 @@ def control_and_forces(mode, att_sp, yawspeed_sp, thrust_sp, rates_sp, use_rates
             speeds[i] = w
             t = k_motor * w * w
             total += t
-            tx -= rotor_xy[i, 1] * t
-            ty += rotor_xy[i, 0] * t
-            tz += yaw_k[i] * t
+            tx -= rotors[i, R_Y] * t
+            ty += rotors[i, R_X] * t
+            tz += rotors[i, R_YAW_K] * t
         out = forces[v]
         vn, ve, vd = m[M_VEL] - wind[0], m[M_VEL + 1] - wind[1], m[M_VEL + 2] - wind[2]
         if total == 0.0 and vn == 0.0 and ve == 0.0 and vd == 0.0:
@@ -182,14 +196,15 @@ class InnerLoop:
         self.idle_thrust_norm = idle_thrust_norm
         self.alpha = d_filter_alpha(dt_s)
         roll, pitch, yaw = airframe.mixer_rows()
-        self.rows = np.array([roll, pitch, yaw], dtype=float).T.copy()
-        self.rotor_xy = np.array([r.position_frd_m[:2] for r in airframe.rotors], dtype=float)
-        self.yaw_k = np.array([r.yaw_sign * airframe.moment_constant_m for r in airframe.rotors])
-        self.motor = np.array([
+        self.rotors = np.array([
+            (roll[i], pitch[i], yaw[i], r.position_frd_m[0], r.position_frd_m[1],
+             r.yaw_sign * airframe.moment_constant_m) for i, r in enumerate(airframe.rotors)],
+            dtype=float)
+        self.plant = np.array([
             airframe.max_rotor_speed_radps, airframe.motor_constant_n_per_radps2,
             1.0 - math.exp(-dt_s / airframe.motor_time_constant_up_s),
             1.0 - math.exp(-dt_s / airframe.motor_time_constant_down_s),
-            airframe.linear_drag_n_per_mps,
+            airframe.linear_drag_n_per_mps, idle_thrust_norm, self.alpha, dt_s,
         ])
         self._rotors = airframe.rotor_count
         self.wind = np.zeros(3)  # the air's velocity, NED (wind.py); World.step sets it
@@ -198,7 +213,7 @@ class InnerLoop:
         # Compile (or load from numba's cache) both kernels now, with no rows: a World is ready
         # to step when it is built, so the daemon never stalls on its first physics step.
         self.control()
-        self.measure(np.zeros((0, 13)), 0.0)
+        measure(np.zeros((0, RAW_SIZE)), self.spawn_enu, 0.0, self.measured)
 
     def _resize(self, n: int) -> None:
         def grow(old, shape, dtype=float):
@@ -209,14 +224,10 @@ class InnerLoop:
 
         get = self.__dict__.get
         self.mode = grow(get("mode"), n, np.int8)
-        self.att_sp = grow(get("att_sp"), (n, 4))
-        self.yawspeed_sp = grow(get("yawspeed_sp"), n)
-        self.thrust_sp = grow(get("thrust_sp"), n)
-        self.rates_sp = grow(get("rates_sp"), (n, 3))
+        self.setpoint = grow(get("setpoint"), (n, SP_SIZE))
         self.use_rates_sp = grow(get("use_rates_sp"), n, np.bool_)
         self.landed = grow(get("landed"), n, np.bool_)
-        self.att_gains = grow(get("att_gains"), (n, 7))
-        self.rate_gains = grow(get("rate_gains"), (n, 15))
+        self.gains = grow(get("gains"), (n, G_SIZE))
         self.rate_state = grow(get("rate_state"), (n, STATE_SIZE))
         self.saturation = grow(get("saturation"), (n, 6), np.bool_)
         self.measured = grow(get("measured"), (n, M_SIZE))
@@ -228,6 +239,13 @@ class InnerLoop:
             self.motor_ok[:len(old_ok)] = old_ok
         self.spawn_enu = grow(get("spawn_enu"), (n, 3))
         self.forces = grow(get("forces"), (n, F_SIZE))
+        # ``control_and_forces``' arguments, gathered once per resize rather than looked up
+        # attribute by attribute at every step (the arrays are only ever written in place), and
+        # few: numba checks the type of every argument at every call.
+        self._control_args = (
+            self.mode, self.setpoint, self.use_rates_sp, self.landed, self.gains,
+            self.rate_state, self.saturation, self.rotors, self.plant, self.measured,
+            self.estimated, self.rotor_speed, self.wind, self.forces, self.motor_ok)
 
     def add(self, spawn_enu_m: tuple[float, float, float], raw_state: tuple[float, ...]) -> int:
         """A new row for a vehicle spawned at ``spawn_enu_m`` whose PyBullet state is
@@ -235,7 +253,7 @@ class InnerLoop:
         k = self.count
         self._resize(k + 1)
         self.count = k + 1
-        self.att_sp[k, 0] = 1.0
+        self.setpoint[k, SP_Q] = 1.0
         self.spawn_enu[k] = spawn_enu_m
         measure(np.array([raw_state]), self.spawn_enu[k:k + 1], 0.0, self.measured[k:k + 1])
         self.estimated[k] = self.measured[k]
@@ -245,28 +263,21 @@ class InnerLoop:
         """Row ``k`` takes the autopilot's ``command``."""
         self.mode[k] = command.mode
         if command.gains is not None:
-            self.att_gains[k], self.rate_gains[k] = command.gains
+            attitude, rate = command.gains
+            self.gains[k] = (*attitude, *rate)
             self.rate_state[k] = 0.0
         if command.reset_rates:
             self.rate_state[k] = 0.0
-        self.att_sp[k] = command.attitude_q
-        self.yawspeed_sp[k] = command.yawspeed_radps
-        self.thrust_sp[k] = command.thrust_norm
         rates = command.rates_frd_radps
         self.use_rates_sp[k] = rates is not None
-        if rates is not None:
-            self.rates_sp[k] = rates
+        if rates is None:
+            self.setpoint[k, :SP_RATES] = (*command.attitude_q, command.yawspeed_radps,
+                                           command.thrust_norm)
+        else:
+            self.setpoint[k] = (*command.attitude_q, command.yawspeed_radps, command.thrust_norm,
+                                *rates)
         self.landed[k] = command.landed
 
     def control(self) -> None:
         """Motor commands, rotor speeds and the force/torque to apply for every row."""
-        control_and_forces(self.mode, self.att_sp, self.yawspeed_sp, self.thrust_sp, self.rates_sp,
-                           self.use_rates_sp, self.landed, self.att_gains, self.rate_gains, self.rate_state,
-                           self.saturation, self.rows, self.idle_thrust_norm, self.alpha, self.dt_s,
-                           self.measured, self.estimated, self.rotor_speed, self.motor,
-                           self.rotor_xy, self.yaw_k, self.wind, self.forces, self.motor_ok)
-
-    def measure(self, raw, dt_s: float) -> None:
-        """``raw``: one row per vehicle (position, orientation xyzw, linear and angular velocity,
-        PyBullet's ENU), as a list of tuples or an array."""
-        measure(np.asarray(raw, dtype=float), self.spawn_enu, dt_s, self.measured)
+        control_and_forces(*self._control_args)

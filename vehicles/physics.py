@@ -12,12 +12,14 @@ Rules and invariants:
   clears external forces after each ``stepSimulation``, so they are applied every step.
 - A step is: every vehicle's autopilot (its 50 Hz part when due, Python) handing its row of the
   inner loop a new command when it has one, one compiled call for every
-  vehicle's attitude/rate/mixer/motor loop, the PyBullet calls per body, one compiled call that
-  turns the bodies' states into measurements. PyBullet has no call that reads or pushes many
-  bodies at once, so the per-body calls stay.
-- After the step, one compiled call samples every vehicle's sensors and updates its estimate
-  (estimation.py); the controllers, the autopilot and the telemetry read the estimate
-  (``measurement``), the physics and the radio's position the truth (``truth``).
+  vehicle's attitude/rate/mixer/motor loop, the PyBullet calls per body, one compiled call
+  (``after_physics``) that turns the bodies' states into measurements, samples every vehicle's
+  sensors and updates its estimate (estimation.py). So a step enters compiled code twice,
+  whatever the number of vehicles: numba's per-call cost (checking each argument's type) is
+  paid twice, not per kernel and vehicle. PyBullet has no call that reads or pushes many bodies
+  at once, so the per-body calls stay.
+- The controllers, the autopilot and the telemetry read the estimate (``measurement``), the
+  physics and the radio's position the truth (``truth``).
 - Fixed step ``dt_s`` (default 0.004 s = 250 Hz, PX4 lockstep), one sub-step.
 - ``World.step(now_s)`` steps each vehicle (``Vehicle.step``) at ``now_s`` on the state measured at
   ``now_s``, then integrates to ``now_s + dt_s``; the new state is stamped ``now_s + dt_s``.
@@ -36,7 +38,14 @@ import numpy as np
 
 from vehicles.airframe import X500, Airframe
 from vehicles.control import compiled, position_control, position_smoothing
-from vehicles.estimation import Estimation
+from vehicles.control.compiled import njit_cached
+from vehicles.estimation import (
+    BARO_RATE_HZ,
+    GPS_RATE_HZ,
+    Estimation,
+    estimate,
+    sense,
+)
 from vehicles.inner_loop import (
     IDLE_THRUST_NORM,
     M_ACCEL,
@@ -45,7 +54,9 @@ from vehicles.inner_loop import (
     M_RATES,
     M_VEL,
     MODE_FLY,
+    RAW_SIZE,
     InnerLoop,
+    measure,
 )
 from vehicles.params import ParamStore
 from vehicles.quiet_import import import_quietly
@@ -69,6 +80,29 @@ GROUND_FRICTION = 1.0
 _SQRT_HALF = math.sqrt(0.5)
 # Spawn with the nose north (NED yaw 0): FLU x along ENU y is a +90 deg turn about ENU z.
 _FACING_NORTH_XYZW = (0.0, 0.0, _SQRT_HALF, _SQRT_HALF)
+
+
+@njit_cached
+def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, estimated, mode,
+                  landed, dt_s, scale, noise, delay, hist, bias, sensed, sense_consts, failed, est,
+                  ehist, est_consts):  # pragma: no cover - compiled
+    """Everything compiled that follows PyBullet's step, for every row, in one call: ``raw``
+    (RAW_SIZE numbers per body, flat) into the true state, then the sensors and the estimate
+    (estimation.py). ``meas_dt_s``: the time since the last measurement (the acceleration's
+    finite difference); ``t_s``: the time the step ended at; ``hist_i``, ``noise_j``: this
+    step's slot of the history rings and column of the noise block."""
+    n = len(measured)
+    measure(raw.reshape((n, RAW_SIZE)), spawn_enu, meas_dt_s, measured)
+    # Whether a barometer/magnetometer sample and a GPS fix fall within this step.
+    baro_due = int(t_s * BARO_RATE_HZ + 1e-9) != int((t_s - dt_s) * BARO_RATE_HZ + 1e-9)
+    gps_due = int(t_s * GPS_RATE_HZ + 1e-9) != int((t_s - dt_s) * GPS_RATE_HZ + 1e-9)
+    sense(measured, noise, noise_j, dt_s, scale, baro_due, gps_due, delay, hist, hist_i, bias,
+          sensed, sense_consts, failed)
+    flying = np.empty(n, np.bool_)  # the rows whose drag tells the wind
+    for v in range(n):
+        flying[v] = mode[v] == MODE_FLY and not landed[v]
+    estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, est_consts,
+             estimated, failed)
 
 
 def _create_body(client: int, airframe: Airframe, spawn_enu_m: tuple[float, float, float]) -> int:
@@ -119,6 +153,8 @@ class World:
         self.inner = InnerLoop(airframe, dt_s, IDLE_THRUST_NORM)  # compiles its kernels
         self.estimation = Estimation(dt_s, sensors, airframe.mass_kg,
                                      airframe.linear_drag_n_per_mps, rng_for)
+        self._after_args: tuple | None = None  # ``after_physics``' arrays, until rows are added
+        self._after_physics(np.zeros(0), 0.0, 0.0)  # compile (or load) it now, with no rows
         position_control.compile_now()
         position_smoothing.compile_now()
         global _uncached_warned
@@ -130,7 +166,6 @@ class World:
         self._vehicles: list[Vehicle] = []
         self._body_ids: list[int] = []
         self._com_enu: list[tuple[float, float, float]] = []  # where forces are applied
-        self._rows: list[list[float]] | None = None  # ``inner.estimated`` as lists, per step
         self._truth_rows: list[list[float]] | None = None  # ``inner.measured`` as lists
         self._closed = False
 
@@ -152,7 +187,7 @@ class World:
         store = params if params is not None else ParamStore()
         self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row],
                             float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3)
-        self._rows = self._truth_rows = None
+        self._truth_rows = self._after_args = None
         origin = self.home.offset_ned(north, east, 0.0)
         vehicle = Vehicle(index, store, self.airframe,
                           origin, self.dt_s, boot_time_s=self.time_s, world=self, row=row)
@@ -168,14 +203,14 @@ class World:
         return pos + orn + lin + ang
 
     def measurement(self, row: int) -> Measurement:
-        """Row ``row``'s estimated state after the last step (NED/FRD): what it flies on."""
-        rows = self._rows
-        if rows is None:
-            rows = self._rows = self.inner.estimated.tolist()
-        return _measurement(rows[row])
+        """Row ``row``'s estimated state after the last step (NED/FRD): what it flies on. One row
+        converted per call: a vehicle keeps its own per step, and between the autopilot's ticks
+        only the few whose telemetry is due ask."""
+        return _measurement(self.inner.estimated[row].tolist())
 
     def truth(self, row: int) -> Measurement:
-        """Row ``row``'s true state after the last step (NED/FRD)."""
+        """Row ``row``'s true state after the last step (NED/FRD). Every row is converted at once:
+        the network asks for every vehicle's position together."""
         rows = self._truth_rows
         if rows is None:
             rows = self._truth_rows = self.inner.measured.tolist()
@@ -213,33 +248,48 @@ class World:
         inner = self.inner
         if self.wind is not None:
             inner.wind[:] = self.wind.step(self.dt_s)
+        load = inner.load
         for k, vehicle in enumerate(self._vehicles):
             command = vehicle.step(now_s)
             if command is not None:
-                inner.load(k, command)
+                load(k, command)
         inner.control()
+        # PyBullet's functions take their arguments by position too, and parse those faster.
         c = self.client_id
         apply_force, apply_torque, frame = pb.applyExternalForce, pb.applyExternalTorque, pb.WORLD_FRAME
-        com = self._com_enu
-        for k, (body_id, f) in enumerate(zip(self._body_ids, inner.forces.tolist())):
+        for body_id, f, com in zip(self._body_ids, inner.forces.tolist(), self._com_enu):
             if f[6]:
-                apply_force(body_id, -1, (f[0], f[1], f[2]), com[k], frame, physicsClientId=c)
-                apply_torque(body_id, -1, (f[3], f[4], f[5]), frame, physicsClientId=c)
-        pb.stepSimulation(physicsClientId=c)
+                apply_force(body_id, -1, f[0:3], com, frame, c)
+                apply_torque(body_id, -1, f[3:6], frame, c)
+        pb.stepSimulation(c)
         get_pose, get_velocity = pb.getBasePositionAndOrientation, pb.getBaseVelocity
-        raw = []
-        for k, body_id in enumerate(self._body_ids):
-            pos, orn = get_pose(body_id, physicsClientId=c)
-            lin, ang = get_velocity(body_id, physicsClientId=c)
-            com[k] = pos
-            raw.append(pos + orn + lin + ang)
+        raw: list[float] = []  # RAW_SIZE numbers per body, one flat list
+        extend = raw.extend
+        self._com_enu = coms = []
+        for body_id in self._body_ids:
+            pos, orn = get_pose(body_id, c)
+            lin, ang = get_velocity(body_id, c)
+            coms.append(pos)
+            extend(pos)
+            extend(orn)
+            extend(lin)
+            extend(ang)
         t = now_s + self.dt_s
-        inner.measure(raw, t - self.time_s)
-        self.estimation.step(inner.measured, inner.estimated,
-                             (inner.mode == MODE_FLY) & ~inner.landed, t)
-        self._rows = self._truth_rows = None
+        self._after_physics(np.array(raw), t - self.time_s, t)
+        self._truth_rows = None
         self.time_s = t
         self.steps += 1
+
+    def _after_physics(self, raw: np.ndarray, meas_dt_s: float, t_s: float) -> None:
+        args = self._after_args
+        if args is None:
+            inner = self.inner
+            args = self._after_args = (
+                inner.spawn_enu, inner.measured, inner.estimated, inner.mode, inner.landed,
+                self.dt_s, *self.estimation.kernel_args())
+        hist_i, noise_j = self.estimation.begin_step()
+        after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, *args)
+        self.estimation.end_step()
 
     def close(self) -> None:
         if not self._closed:

@@ -152,3 +152,29 @@ def test_rows_grow_in_place_and_keep_their_values():
     assert a.shape == (39, 3) and list(a[:, 0]) == list(range(1, 40))
     assert len(buffers) <= 7  # the buffer doubles: a handful of copies for 39 rows, not 39
     assert a.flags.c_contiguous  # the compiled kernels take the rows as C arrays
+
+
+def test_noise_rows_refill_in_turn_yet_read_the_draws_of_whole_blocks():
+    """Each row refills at its own step, yet reads at every step the draw it read when every row
+    drew a whole block at j == 0: a generator's stream does not depend on how it is split."""
+    from vehicles.noise_blocks import BLOCK, N_SIZE, NoiseBlocks
+
+    def seeded(i):
+        return np.random.default_rng(100 + i)
+
+    blocks = NoiseBlocks(seeded)
+    # Rows join at these steps: at j == 0, before their turn in the block and after it.
+    joins = [0, 0, 3, 130, 260, 260, 499]
+    ref_gens, ref = [], []
+    for step in range(4 * BLOCK + 17):
+        if step % BLOCK == 0:
+            ref = [g.standard_normal((BLOCK, N_SIZE)) for g in ref_gens]
+        while joins and joins[0] == step:
+            joins.pop(0)
+            blocks.add(len(ref_gens))
+            ref_gens.append(seeded(len(ref_gens)))
+            ref.append(ref_gens[-1].standard_normal((BLOCK, N_SIZE)))
+        assert blocks.j == step % BLOCK
+        for k in range(len(ref_gens)):
+            assert np.array_equal(blocks.block[k, blocks.j], ref[k][blocks.j]), (step, k)
+        blocks.advance()
