@@ -240,8 +240,11 @@ class Commander:
         self._update_data_link(now_s)
         if flags is not None:
             self._update_manual_control(now_s, not flags.manual_control_lost)
-            self._update_failsafe(now_s, replace(flags, armed=self.armed, gcs_lost=self.gcs_lost,
-                                                 user_nav_state=self.user_nav_state))
+            if (flags.armed is not self.armed or flags.gcs_lost is not self.gcs_lost
+                    or flags.user_nav_state is not self.user_nav_state):
+                flags = replace(flags, armed=self.armed, gcs_lost=self.gcs_lost,
+                                user_nav_state=self.user_nav_state)
+            self._update_failsafe(now_s, flags)
         became_valid = False
         valid = self.position_aided and now_s - self._boot_time_s >= POSITION_VALID_DELAY_S - 1e-9
         if valid and not self.position_valid and not self._ever_valid:

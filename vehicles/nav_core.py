@@ -66,10 +66,11 @@ class NavContext:
             return float(self.params["MPC_XY_CRUISE"])
         return min(self.cruise_mps, float(self.params["MPC_XY_VEL_MAX"]))
 
-    def limits(self, **kw) -> TrajectoryLimits:
+    def limits(self, speed_xy_mps: float | None = None, speed_up_mps: float | None = None,
+               speed_down_mps: float | None = None) -> TrajectoryLimits:
         """Auto-mode limits at the current cruise speed."""
-        kw.setdefault("speed_xy_mps", self.speed_xy_mps)
-        return auto_limits(self.params, **kw)
+        return auto_limits(self.params, self.speed_xy_mps if speed_xy_mps is None else speed_xy_mps,
+                           speed_up_mps, speed_down_mps)
 
     @property
     def home_alt_amsl_m(self) -> float:
@@ -78,17 +79,35 @@ class NavContext:
         return self.origin.alt_amsl_m
 
 
+# How many auto_limits a parameter store keeps (a landing asks for a new descent speed every
+# tick between MPC_LAND_ALT1 and MPC_LAND_ALT2; the rest are a handful).
+_LIMITS_KEPT = 64
+
+
 def auto_limits(params, speed_xy_mps: float | None = None, speed_up_mps: float | None = None,
                 speed_down_mps: float | None = None) -> TrajectoryLimits:
-    p = params
-    return TrajectoryLimits(
-        speed_xy_mps=float(p["MPC_XY_CRUISE"]) if speed_xy_mps is None else speed_xy_mps,
-        speed_up_mps=float(p["MPC_Z_V_AUTO_UP"]) if speed_up_mps is None else speed_up_mps,
-        speed_down_mps=float(p["MPC_Z_V_AUTO_DN"]) if speed_down_mps is None else speed_down_mps,
-        acc_xy_mps2=float(p["MPC_ACC_HOR"]),
-        acc_up_mps2=float(p["MPC_ACC_UP_MAX"]),
-        acc_down_mps2=float(p["MPC_ACC_DOWN_MAX"]),
-    )
+    """The auto modes' limits from the parameters, with the speeds given (not None) in place of
+    MPC_XY_CRUISE, MPC_Z_V_AUTO_UP and MPC_Z_V_AUTO_DN. Kept in ``params.derived`` (emptied on
+    any parameter change): the navigator asks every 50 Hz tick, and the trajectory
+    (auto_trajectory.py) skips its set-up while the same limits come back."""
+    key = ("auto_limits", speed_xy_mps, speed_up_mps, speed_down_mps)
+    derived = params.derived
+    limits = derived.get(key)
+    if limits is None:
+        p = params
+        limits = TrajectoryLimits(
+            speed_xy_mps=float(p["MPC_XY_CRUISE"]) if speed_xy_mps is None else speed_xy_mps,
+            speed_up_mps=float(p["MPC_Z_V_AUTO_UP"]) if speed_up_mps is None else speed_up_mps,
+            speed_down_mps=(float(p["MPC_Z_V_AUTO_DN"]) if speed_down_mps is None
+                            else speed_down_mps),
+            acc_xy_mps2=float(p["MPC_ACC_HOR"]),
+            acc_up_mps2=float(p["MPC_ACC_UP_MAX"]),
+            acc_down_mps2=float(p["MPC_ACC_DOWN_MAX"]),
+        )
+        if len(derived) >= _LIMITS_KEPT:
+            derived.clear()
+        derived[key] = limits
+    return limits
 
 
 def land_speed_mps(params, height_m: float) -> float:

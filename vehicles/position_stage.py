@@ -49,6 +49,8 @@ class PositionStage:
         self.params = params
         self.takeoff = TakeoffHandling()
         self._tilt_limit = math.radians(float(params["MPC_TILTMAX_LND"]))
+        self._params_version = -1  # the tilt limits below are read at the first ``apply``
+        self._tilt_air_rad = self._tilt_land_rad = 0.0
         self._now_s = 0.0
         self._armed = False
         self.trajectory = AutoTrajectory(params)
@@ -129,7 +131,11 @@ class PositionStage:
                 # the climb setpoint first has to turn round instead of running far ahead.
                 self.trajectory.reset(meas.position_ned_m, _REACTIVATE_VEL)
         g, p = pc.gains, self.params
-        tilt = math.radians(float(p["MPC_TILTMAX_AIR" if flying else "MPC_TILTMAX_LND"]))
+        if p.version != self._params_version:
+            self._params_version = p.version
+            self._tilt_air_rad = math.radians(float(p["MPC_TILTMAX_AIR"]))
+            self._tilt_land_rad = math.radians(float(p["MPC_TILTMAX_LND"]))
+        tilt = self._tilt_air_rad if flying else self._tilt_land_rad
         step = TILT_LIMIT_SLEW_RADPS * dt
         self._tilt_limit += min(max(tilt - self._tilt_limit, -step), step)
         up_max = g.vel_max_up_mps
