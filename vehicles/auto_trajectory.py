@@ -107,13 +107,12 @@ class AutoTrajectory:
             prev = (prev[0], prev[1], math.nan)
             nxt = (nxt[0], nxt[1], math.nan)
         vehicle = position_ned_m if position_ned_m is not None else here
-        out = s.generate(vehicle, (prev, target, nxt), feedforward, dt_s,
-                         single_waypoint=next_ned_m is None)
-        if not all(math.isfinite(v) for v in out.position):  # nothing to plan: hold still
-            s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), here)
+        pos, vel, acc = s.generate_pva(vehicle, (prev, target, nxt), feedforward, dt_s,
+                                       single_waypoint=next_ned_m is None)
+        if not (math.isfinite(pos[0]) and math.isfinite(pos[1]) and math.isfinite(pos[2])):
+            s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), here)  # nothing to plan: hold still
             return here, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-        pos = out.position
         if vertical_speed:  # the altitude follows the vehicle (velocity control)
             s.trajectory[2].set_current_position(current_z_m)
             pos = (pos[0], pos[1], math.nan)
-        return pos, out.velocity, out.acceleration
+        return pos, vel, acc

@@ -74,6 +74,14 @@ class AttitudeControlGains:
 
 def thrust_to_attitude(thrust_ned: Vec3, yaw_rad: float) -> AttitudeSetpoint:
     """ControlMath::thrustToAttitude: body z opposite to the thrust vector, nose towards yaw."""
+    q, thrust_norm = thrust_to_attitude_q(thrust_ned, yaw_rad)
+    return AttitudeSetpoint(q, thrust_norm)
+
+
+@register_jitable
+def thrust_to_attitude_q(thrust_ned: Vec3, yaw_rad: float) -> tuple[Quat, float]:
+    """``thrust_to_attitude`` as (attitude, collective thrust): plain Python from Python,
+    compiled into position control's kernel (position_control.py)."""
     bz = (-thrust_ned[0], -thrust_ned[1], -thrust_ned[2])
     n = norm(bz)
     if n * n < 1.2e-7:
@@ -88,7 +96,7 @@ def thrust_to_attitude(thrust_ned: Vec3, yaw_rad: float) -> AttitudeSetpoint:
     nx = norm(bx)
     bx = (bx[0] / nx, bx[1] / nx, bx[2] / nx)
     by = cross(bz, bx)
-    return AttitudeSetpoint(q_from_dcm_columns(bx, by, bz), norm(thrust_ned))
+    return q_from_dcm_columns(bx, by, bz), norm(thrust_ned)
 
 
 @register_jitable

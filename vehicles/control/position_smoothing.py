@@ -311,6 +311,18 @@ class PositionSmoothing:
         return SmoothedSetpoints((j[0], j[1], j[2]), (a[0], a[1], a[2]), (v[0], v[1], v[2]),
                                  (x[0], x[1], x[2]), (u[0], u[1], u[2]))
 
+    def generate_pva(self, position: Vec3, waypoints: tuple[Vec3, Vec3, Vec3],
+                     feedforward: Vec3, dt_s: float, single_waypoint: bool = False
+                     ) -> tuple[Vec3, Vec3, Vec3]:
+        """``generate``'s (position, velocity, acceleration) only: what the auto modes take from
+        it every tick."""
+        prev, target, nxt = waypoints
+        self._inp[:] = (*position, *prev, *target, *nxt, *feedforward)
+        generate_step(self.axes, self.cfg, self._inp, float(dt_s), False, bool(single_waypoint),
+                      self._out)
+        a, v, x = self._out[1:4].tolist()
+        return (x[0], x[1], x[2]), (v[0], v[1], v[2]), (a[0], a[1], a[2])
+
 
 def compile_now() -> None:
     """Compile ``generate_step`` (or load it from numba's cache) now, not in the first flight."""
