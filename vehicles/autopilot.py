@@ -112,6 +112,8 @@ class Autopilot:
         self._of_loss_t_s = self._rc_loss_t_s = 0.0
         self._battery_thresholds: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._gf_action = 0
+        self._flags_inputs: tuple[object, ...] = ()  # what ``_flags`` was built from
+        self._flags = FailsafeFlags(armed=False, user_nav_state=NavState.AUTO_LOITER)
         self._out = InnerCommand(MODE_OFF, (1.0, 0.0, 0.0, 0.0), 0.0, 0.0, None, True, None, False)
         self.time_s = boot_time_s
 
@@ -404,11 +406,17 @@ class Autopilot:
             self.log.critical(now_s, breach)
         self._fence_breach = breach
         c = self.commander
-        return FailsafeFlags(armed=c.armed, user_nav_state=c.user_nav_state, gcs_lost=c.gcs_lost,
-                             offboard_lost=not c.offboard_available, battery_warning=level,
-                             geofence_breached=breach is not None,
-                             manual_control_lost=not c.manual_control_available,
-                             position_invalid=c.position_lost)
+        inputs = (c.armed, c.user_nav_state, c.gcs_lost, c.offboard_available, level,
+                  breach is not None, c.manual_control_available, c.position_lost)
+        if inputs != self._flags_inputs:  # the flags are frozen: the last ones serve again
+            self._flags_inputs = inputs
+            self._flags = FailsafeFlags(
+                armed=c.armed, user_nav_state=c.user_nav_state, gcs_lost=c.gcs_lost,
+                offboard_lost=not c.offboard_available, battery_warning=level,
+                geofence_breached=breach is not None,
+                manual_control_lost=not c.manual_control_available,
+                position_invalid=c.position_lost)
+        return self._flags
 
     def _update_slow(self, now_s: float, meas: Measurement) -> None:
         cmd, st = self.commander, self.stage

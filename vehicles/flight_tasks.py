@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
 from vehicles.control.position_control import PositionSetpoint
@@ -45,9 +46,8 @@ from vehicles.types import Measurement, NavState, Vec3
 TAKEOFF_TRIGGER_M = 0.2
 
 
-@dataclass(frozen=True, slots=True)
-class TaskInput:
-    """One 50 Hz tick, as every task sees it."""
+class TaskInput(NamedTuple):
+    """One 50 Hz tick, as every task sees it (a NamedTuple, as Measurement: built every tick)."""
 
     now_s: float
     dt_s: float

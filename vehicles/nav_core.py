@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from vehicles.control.trajectory import TrajectoryLimits
 from vehicles.params import ParamStore
@@ -24,8 +25,10 @@ from vehicles.status_log import StatusLog
 from vehicles.types import GeoPoint, HomePosition, NavState, Vec3
 
 
-@dataclass(frozen=True)
-class NavSetpoint:
+class NavSetpoint(NamedTuple):
+    """What a mode asks of the trajectory this tick (a NamedTuple: one is made every 50 Hz tick
+    and a frozen dataclass takes several times as long to build)."""
+
     target_ned_m: Vec3
     yaw_rad: float
     limits: TrajectoryLimits

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from numba.extending import register_jitable
 
@@ -34,8 +35,9 @@ from vehicles.control.quat import (
 )
 
 
-@dataclass(frozen=True)
-class AttitudeSetpoint:
+class AttitudeSetpoint(NamedTuple):
+    """An attitude and collective thrust setpoint (a NamedTuple: one is built every 50 Hz tick)."""
+
     attitude_q: Quat
     thrust_body_norm: float  # collective thrust, 0..1 (body -z)
     yawspeed_radps: float = 0.0  # heading rate feed-forward (sticks, offboard yaw rate)

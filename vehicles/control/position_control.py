@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba.extending import register_jitable
@@ -84,9 +85,10 @@ class PositionControlGains:
                 self.hover_thrust)
 
 
-@dataclass(frozen=True)
-class PositionSetpoint:
-    """What the navigator/trajectory asks of the position controller (NaN = not commanded)."""
+class PositionSetpoint(NamedTuple):
+    """What the navigator/trajectory asks of the position controller (NaN = not commanded). A
+    NamedTuple: the flight tasks build one every 50 Hz tick, several times as fast as a frozen
+    dataclass."""
 
     position_ned_m: Vec3 = NAN3
     velocity_ned_mps: Vec3 = NAN3
