@@ -14,6 +14,7 @@ Rules and invariants:
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -57,11 +58,17 @@ class NavContext:
     yaw_rad: float
     home: HomePosition | None
     setpoint_ned_m: Vec3  # where the trajectory carrot is now
-    stopping_point_ned_m: Vec3
+    # Where the carrot comes to rest if it brakes now (``stopping_point_ned_m``): worked out
+    # when a mode first asks, which few ticks do.
+    stopping_point: Callable[[], Vec3]
     origin: GeoPoint  # EKF origin: lat/lon of plan items -> local NED
     switch_to: Callable[[NavState, Vec3 | None], None] = field(default=lambda s, p: None)
     cruise_mps: float = math.nan  # NaN = MPC_XY_CRUISE
     set_cruise_mps: Callable[[float], None] = field(default=lambda v: None)
+
+    @functools.cached_property
+    def stopping_point_ned_m(self) -> Vec3:
+        return self.stopping_point()
 
     @property
     def speed_xy_mps(self) -> float:
