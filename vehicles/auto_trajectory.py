@@ -61,7 +61,7 @@ class AutoTrajectory:
         """Where the setpoint comes to rest if it brakes now (navigator calculate_breaking_stop:
         computeBrakingDistanceFromVelocity with MPC_JERK_AUTO, MPC_ACC_HOR and an acceleration
         delay of 0.6 x MPC_JERK_AUTO)."""
-        (px, py, pz), (vx, vy, vz) = self.position_ned_m, self.velocity_ned_mps
+        (px, py, pz), (vx, vy, vz) = self._smoothing.position_velocity()
         speed = math.hypot(vx, vy)
         k = speed / (2.0 * lim.acc_xy_mps2) + 0.6  # braking distance / speed
         acc_z = lim.acc_down_mps2 if vz > 0.0 else lim.acc_up_mps2
@@ -78,8 +78,8 @@ class AutoTrajectory:
         p, s = self._params, self._smoothing
         if p.version != self._params_version:
             self._update_params()
-        here = self.position_ned_m
-        going_up = self.velocity_ned_mps[2] < 0.0
+        here, velocity = s.position_velocity()
+        going_up = velocity[2] < 0.0
         set_up = self._set_up
         if (set_up is None or lim is not set_up[0] or going_up != set_up[1]
                 or self._params_version != set_up[2]):

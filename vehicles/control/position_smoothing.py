@@ -297,6 +297,11 @@ class PositionSmoothing:
         x, y, z = self.axes[:, V].tolist()
         return (x, y, z)
 
+    def position_velocity(self) -> tuple[Vec3, Vec3]:
+        """(``position``, ``velocity``) in one read of the axes."""
+        (vx, x), (vy, y), (vz, z) = self.axes[:, V:X + 1].tolist()
+        return (x, y, z), (vx, vy, vz)
+
     # --- the step -------------------------------------------------------------------------------
     def generate(self, position: Vec3, waypoints: tuple[Vec3, Vec3, Vec3], feedforward: Vec3,
                  dt_s: float, force_zero_velocity: bool = False,
