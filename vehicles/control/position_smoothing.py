@@ -25,6 +25,7 @@ from numba.extending import register_jitable
 from vehicles.control.compiled import njit_cached
 from vehicles.control.velocity_smoothing import (
     AMAX,
+    IX,
     JMAX,
     VMAX,
     A,
@@ -284,8 +285,12 @@ class PositionSmoothing:
         self.axes[:, VMAX] = vel
 
     def reset(self, acceleration: Vec3, velocity: Vec3, position: Vec3) -> None:
-        for t, a, v, x in zip(self.trajectory, acceleration, velocity, position):
-            t.reset(a, v, x)
+        """Every axis's VelocitySmoothing.reset, in one write (the auto tasks reset every tick
+        while the vehicle is not flying under the trajectory)."""
+        a, v, x = acceleration, velocity, position
+        self.axes[:, J:IX + 1] = [(0.0, a[0], v[0], x[0], 0.0, a[0], v[0], x[0]),
+                                  (0.0, a[1], v[1], x[1], 0.0, a[1], v[1], x[1]),
+                                  (0.0, a[2], v[2], x[2], 0.0, a[2], v[2], x[2])]
 
     @property
     def position(self) -> Vec3:
