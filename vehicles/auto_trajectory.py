@@ -32,6 +32,18 @@ class AutoTrajectory:
         self._smoothing = PositionSmoothing()
         self._smoothing.max_allowed_horizontal_error = XY_ERR_MAX_M
         self._acc: Vec3 = (0.0, 0.0, 0.0)
+        self._params_version = -1  # the parameters below are read at the first update
+        self._jerk = self._traj_p = self._alt_rad = self._acc_rad = 0.0
+        # What the smoothing's limits were last set from: (limits, going up, parameter version).
+        self._set_up: tuple[TrajectoryLimits, bool, int] | None = None
+
+    def _update_params(self) -> None:
+        p = self._params
+        self._params_version = p.version
+        self._jerk = float(p["MPC_JERK_AUTO"])
+        self._traj_p = float(p["MPC_XY_TRAJ_P"])
+        self._alt_rad = float(p["NAV_MC_ALT_RAD"])
+        self._acc_rad = float(p["NAV_ACC_RAD"])
 
     def reset(self, position_ned_m: Vec3, velocity_ned_mps: Vec3) -> None:
         self._smoothing.reset((0.0, 0.0, 0.0), velocity_ned_mps, position_ned_m)
@@ -49,7 +61,7 @@ class AutoTrajectory:
         """Where the setpoint comes to rest if it brakes now (navigator calculate_breaking_stop:
         computeBrakingDistanceFromVelocity with MPC_JERK_AUTO, MPC_ACC_HOR and an acceleration
         delay of 0.6 x MPC_JERK_AUTO)."""
-        (px, py, pz), (vx, vy, vz) = self.position_ned_m, self.velocity_ned_mps
+        (px, py, pz), (vx, vy, vz) = self._smoothing.position_velocity()
         speed = math.hypot(vx, vy)
         k = speed / (2.0 * lim.acc_xy_mps2) + 0.6  # braking distance / speed
         acc_z = lim.acc_down_mps2 if vz > 0.0 else lim.acc_up_mps2
@@ -64,19 +76,27 @@ class AutoTrajectory:
         ``position_ned_m``: the vehicle's (for the lag stretch; the setpoint's own when None).
         ``feedforward_ned_mps``: the target's own velocity (a moving target: Follow Me)."""
         p, s = self._params, self._smoothing
-        here = self.position_ned_m
-        going_up = self.velocity_ned_mps[2] < 0.0
-        acc_xy = lim.acc_xy_mps2
-        s.set_max_jerk(float(p["MPC_JERK_AUTO"]))
-        s.set_max_acceleration((acc_xy, acc_xy, lim.acc_up_mps2 if going_up
-                                else lim.acc_down_mps2))
-        s.set_max_velocity((lim.speed_xy_mps, lim.speed_xy_mps, lim.speed_up_mps if going_up
-                            else lim.speed_down_mps))
-        s.cruise_speed = lim.speed_xy_mps
-        s.horizontal_trajectory_gain = float(p["MPC_XY_TRAJ_P"])
-        s.vertical_acceptance_radius = float(p["NAV_MC_ALT_RAD"])
+        if p.version != self._params_version:
+            self._update_params()
+        here, velocity = s.position_velocity()
+        going_up = velocity[2] < 0.0
+        set_up = self._set_up
+        if (set_up is None or lim is not set_up[0] or going_up != set_up[1]
+                or self._params_version != set_up[2]):
+            # New limits (the limits are shared frozen objects, nav_core.auto_limits): set up
+            # the smoothing as FlightTaskAuto does; the same ones again leave it as it is.
+            self._set_up = (lim, going_up, self._params_version)
+            acc_xy = lim.acc_xy_mps2
+            s.set_max_jerk(self._jerk)
+            s.set_max_acceleration((acc_xy, acc_xy, lim.acc_up_mps2 if going_up
+                                    else lim.acc_down_mps2))
+            s.set_max_velocity((lim.speed_xy_mps, lim.speed_xy_mps, lim.speed_up_mps if going_up
+                                else lim.speed_down_mps))
+            s.cruise_speed = lim.speed_xy_mps
+            s.horizontal_trajectory_gain = self._traj_p
+            s.vertical_acceptance_radius = self._alt_rad
         s.target_acceptance_radius = (acceptance_radius_m if math.isfinite(acceptance_radius_m)
-                                      else float(p["NAV_ACC_RAD"]))
+                                      else self._acc_rad)
         vertical_speed = math.isnan(target_ned_m[2])
         target = target_ned_m
         ff = feedforward_ned_mps if feedforward_ned_mps is not None else (math.nan,) * 3
@@ -87,13 +107,12 @@ class AutoTrajectory:
             prev = (prev[0], prev[1], math.nan)
             nxt = (nxt[0], nxt[1], math.nan)
         vehicle = position_ned_m if position_ned_m is not None else here
-        out = s.generate(vehicle, (prev, target, nxt), feedforward, dt_s,
-                         single_waypoint=next_ned_m is None)
-        if not all(math.isfinite(v) for v in out.position):  # nothing to plan: hold still
-            s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), here)
+        pos, vel, acc = s.generate_pva(vehicle, (prev, target, nxt), feedforward, dt_s,
+                                       single_waypoint=next_ned_m is None)
+        if not (math.isfinite(pos[0]) and math.isfinite(pos[1]) and math.isfinite(pos[2])):
+            s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), here)  # nothing to plan: hold still
             return here, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-        pos = out.position
         if vertical_speed:  # the altitude follows the vehicle (velocity control)
             s.trajectory[2].set_current_position(current_z_m)
             pos = (pos[0], pos[1], math.nan)
-        return pos, out.velocity, out.acceleration
+        return pos, vel, acc

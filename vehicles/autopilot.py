@@ -23,6 +23,7 @@ Rules and invariants:
 
 from __future__ import annotations
 
+import functools
 import math
 
 from vehicles.airframe import Airframe
@@ -108,6 +109,12 @@ class Autopilot:
         self._new_gains = True
         self._load_gains()
         params.on_change(lambda name, value: self._load_gains())
+        self._params_version = -1  # the values below are read at the first 50 Hz tick
+        self._of_loss_t_s = self._rc_loss_t_s = 0.0
+        self._battery_thresholds: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._gf_action = 0
+        self._flags_inputs: tuple[object, ...] = ()  # what ``_flags`` was built from
+        self._flags = FailsafeFlags(armed=False, user_nav_state=NavState.AUTO_LOITER)
         self._out = InnerCommand(MODE_OFF, (1.0, 0.0, 0.0, 0.0), 0.0, 0.0, None, True, None, False)
         self.time_s = boot_time_s
 
@@ -133,6 +140,16 @@ class Autopilot:
 
     def _position_gains(self) -> PositionControlGains:
         return PositionControlGains.from_params(self.params, hover_thrust=self._hover)
+
+    def _update_params(self) -> None:
+        """The parameters the 50 Hz part reads, re-read when one changes."""
+        p = self.params
+        self._params_version = p.version
+        self._of_loss_t_s = float(p["COM_OF_LOSS_T"])
+        self._rc_loss_t_s = float(p["COM_RC_LOSS_T"])
+        self._battery_thresholds = (float(p["BAT_LOW_THR"]), float(p["BAT_CRIT_THR"]),
+                                    float(p["BAT_EMERGEN_THR"]))
+        self._gf_action = int(p["GF_ACTION"])
 
     def _load_gains(self) -> None:
         self.stage.set_gains(self._position_gains())
@@ -190,10 +207,12 @@ class Autopilot:
 
     # --- missions, offboard, actions (README "the PX4 persona") ----------------------------------
     def _refresh_requirements(self, now_s: float) -> None:
+        if self.params.version != self._params_version:
+            self._update_params()
         c = self.commander
         c.mission_valid = self.navigator.mission.valid()
-        c.offboard_available = self.offboard.fresh(now_s, float(self.params["COM_OF_LOSS_T"]))
-        c.manual_control_available = self.manual.fresh(now_s, float(self.params["COM_RC_LOSS_T"]))
+        c.offboard_available = self.offboard.fresh(now_s, self._of_loss_t_s)
+        c.manual_control_available = self.manual.fresh(now_s, self._rc_loss_t_s)
         c.home_valid = self.home is not None
 
     def manual_control(self, now_s: float, sticks: Sticks, source: object = None) -> None:
@@ -372,27 +391,33 @@ class Autopilot:
         return self.stage.setpoint_ned_m() if self.commander.armed else None
 
     def _failsafe_flags(self, now_s: float, pos: Vec3) -> FailsafeFlags:
-        p = self.params
-        remaining = self.battery.state().remaining
+        """(Called after ``_refresh_requirements``: the parameters are current.)"""
+        remaining = self.battery.remaining
         level = 0
-        for i, name in enumerate(("BAT_LOW_THR", "BAT_CRIT_THR", "BAT_EMERGEN_THR")):
-            if remaining <= float(p[name]):
+        for i, threshold in enumerate(self._battery_thresholds):
+            if remaining <= threshold:
                 level = i + 1
         if level > self._battery_level:  # framework.cpp notifyUser texts per battery cause
             self.log.add(now_s, BATTERY_TEXTS[level][0], BATTERY_TEXTS[level][1])
         self._battery_level = level
         breach = None
-        if self.geofence.enabled and self.home is not None and int(p["GF_ACTION"]) != 0:
+        if self.geofence.enabled and self.home is not None and self._gf_action != 0:
             breach = self.geofence.check(pos, self.home.position_ned_m)
         if breach is not None and self._fence_breach is None:
             self.log.critical(now_s, breach)
         self._fence_breach = breach
         c = self.commander
-        return FailsafeFlags(armed=c.armed, user_nav_state=c.user_nav_state,
-                             offboard_lost=not c.offboard_available, battery_warning=level,
-                             geofence_breached=breach is not None,
-                             manual_control_lost=not c.manual_control_available,
-                             position_invalid=c.position_lost)
+        inputs = (c.armed, c.user_nav_state, c.gcs_lost, c.offboard_available, level,
+                  breach is not None, c.manual_control_available, c.position_lost)
+        if inputs != self._flags_inputs:  # the flags are frozen: the last ones serve again
+            self._flags_inputs = inputs
+            self._flags = FailsafeFlags(
+                armed=c.armed, user_nav_state=c.user_nav_state, gcs_lost=c.gcs_lost,
+                offboard_lost=not c.offboard_available, battery_warning=level,
+                geofence_breached=breach is not None,
+                manual_control_lost=not c.manual_control_available,
+                position_invalid=c.position_lost)
+        return self._flags
 
     def _update_slow(self, now_s: float, meas: Measurement) -> None:
         cmd, st = self.commander, self.stage
@@ -412,10 +437,14 @@ class Autopilot:
         if not st.flying:
             st.trajectory.reset(pos, vel)
         auto = self.tasks.auto
+        # (The trajectory does not move before the navigator has run: the stopping point can
+        # wait until a mode asks for it.)
+        stopping_point = functools.partial(
+            st.trajectory.stopping_point,
+            auto.setpoint.limits if auto.setpoint else auto_limits(self.params))
         ctx = NavContext(now_s, self.params, self.log, cmd.armed, ld.landed, pos, vel, yaw,
-                         self.home, st.trajectory.position_ned_m, st.trajectory.stopping_point(
-                             auto.setpoint.limits if auto.setpoint else auto_limits(self.params)),
-                         self.origin, self._switch_by_vehicle, self.navigator.cruise_mps,
+                         self.home, st.trajectory.position_ned_m, stopping_point, self.origin,
+                         self._switch_by_vehicle, self.navigator.cruise_mps,
                          self.navigator.set_cruise_mps)
         state = cmd.nav_state
         entered = state is not self._prev_nav_state

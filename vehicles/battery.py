@@ -24,40 +24,74 @@ AVIONICS_CURRENT_A = 0.4
 class BatterySim:
     def __init__(self, params, hover_thrust_norm: float) -> None:
         self._params = params
+        self._params_version = -1  # the parameters below are read when first needed
+        self._enabled = False
+        self._drain_s = self._min_remaining = self._load_drop_v = 0.0
+        self._cells = 0
+        self._v_empty = self._v_full = 0.0
         self._hover = hover_thrust_norm
         self._remaining = 1.0
         self._consumed_mah = 0.0
         self._last_s: float | None = None
         self._current_a = 0.0
-        self.force_empty = False
+        self._force_empty = False
+        self._state: BatteryState | None = None  # ``state()`` until something it shows changes
+
+    def _update_params(self) -> None:
+        p = self._params
+        self._params_version = p.version
+        self._enabled = bool(int(p["SIM_BAT_ENABLE"]))
+        self._drain_s = float(p["SIM_BAT_DRAIN"])
+        self._min_remaining = float(p["SIM_BAT_MIN_PCT"]) / 100.0
+        self._cells = int(p["BAT1_N_CELLS"])
+        self._v_empty, self._v_full = float(p["BAT1_V_EMPTY"]), float(p["BAT1_V_CHARGED"])
+        self._load_drop_v = float(p["BAT1_V_LOAD_DROP"])
+        self._state = None
+
+    @property
+    def force_empty(self) -> bool:
+        return self._force_empty
+
+    @force_empty.setter
+    def force_empty(self, empty: bool) -> None:
+        self._force_empty = empty
+        self._state = None
 
     def update(self, now_s: float, armed: bool, thrust_norm: float) -> None:
         dt = 0.0 if self._last_s is None else max(now_s - self._last_s, 0.0)
         self._last_s = now_s
-        p = self._params
-        if not int(p["SIM_BAT_ENABLE"]):
+        if self._params.version != self._params_version:
+            self._update_params()
+        if not self._enabled:
             return
+        self._state = None
         ratio = max(thrust_norm, 0.0) / self._hover
         self._current_a = AVIONICS_CURRENT_A + HOVER_CURRENT_A * ratio**1.5 if armed else 0.0
         self._consumed_mah += self._current_a * dt / 3.6
         if armed:
-            self._remaining -= dt / float(p["SIM_BAT_DRAIN"])
+            self._remaining -= dt / self._drain_s
         else:
             self._remaining = 1.0
-        self._remaining = max(self._remaining, float(p["SIM_BAT_MIN_PCT"]) / 100.0)
+        self._remaining = max(self._remaining, self._min_remaining)
+
+    @property
+    def remaining(self) -> float:
+        """``state().remaining`` without building the state."""
+        if self._force_empty:
+            return 0.0
+        r = self._remaining
+        return 0.0 if r < 0.0 else (1.0 if r > 1.0 else r)
 
     def state(self) -> BatteryState:
-        p = self._params
-        cells = int(p["BAT1_N_CELLS"])
-        v_empty, v_full = float(p["BAT1_V_EMPTY"]), float(p["BAT1_V_CHARGED"])
-        r = 0.0 if self.force_empty else min(max(self._remaining, 0.0), 1.0)
-        cell_v = v_empty + (v_full - v_empty) * r
-        if self.force_empty:
-            cell_v = v_empty - float(p["BAT1_V_LOAD_DROP"])
-        return BatteryState(
-            voltage_v=cells * cell_v,
-            current_a=self._current_a,
-            remaining=r,
-            consumed_mah=self._consumed_mah,
-            cell_count=cells,
-        )
+        if self._params.version != self._params_version:
+            self._update_params()
+        if self._state is None:
+            r = self.remaining
+            v_empty = self._v_empty
+            cell_v = v_empty + (self._v_full - v_empty) * r
+            if self._force_empty:
+                cell_v = v_empty - self._load_drop_v
+            self._state = BatteryState(voltage_v=self._cells * cell_v, current_a=self._current_a,
+                                       remaining=r, consumed_mah=self._consumed_mah,
+                                       cell_count=self._cells)
+        return self._state

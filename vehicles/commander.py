@@ -132,6 +132,15 @@ class Commander:
         self.have_taken_off_since_arming = False
         self._armed_at_s = 0.0
         self._landed_since_s: float | None = None
+        self._params_version = -1  # the timeouts below are read at the first update
+        self._disarm_land_s = self._disarm_preflight_s = self._dl_loss_t_s = 0.0
+
+    def _update_params(self) -> None:
+        p = self._params
+        self._params_version = p.version
+        self._disarm_land_s = float(p["COM_DISARM_LAND"])
+        self._disarm_preflight_s = float(p["COM_DISARM_PRFLT"])
+        self._dl_loss_t_s = float(p["COM_DL_LOSS_T"])
 
     # --- queries ------------------------------------------------------------------------------
     def prearm_ok(self) -> bool:
@@ -237,11 +246,16 @@ class Commander:
         """Advance timers; returns True when the position estimate has just become valid.
 
         ``flags`` (battery, geofence, offboard inputs from the autopilot) run the failsafes."""
+        if self._params.version != self._params_version:
+            self._update_params()
         self._update_data_link(now_s)
         if flags is not None:
             self._update_manual_control(now_s, not flags.manual_control_lost)
-            self._update_failsafe(now_s, replace(flags, armed=self.armed, gcs_lost=self.gcs_lost,
-                                                 user_nav_state=self.user_nav_state))
+            if (flags.armed is not self.armed or flags.gcs_lost is not self.gcs_lost
+                    or flags.user_nav_state is not self.user_nav_state):
+                flags = replace(flags, armed=self.armed, gcs_lost=self.gcs_lost,
+                                user_nav_state=self.user_nav_state)
+            self._update_failsafe(now_s, flags)
         became_valid = False
         valid = self.position_aided and now_s - self._boot_time_s >= POSITION_VALID_DELAY_S - 1e-9
         if valid and not self.position_valid and not self._ever_valid:
@@ -258,7 +272,7 @@ class Commander:
             return became_valid
         # Auto-disarm (Commander::checkForAutoDisarm-like; one hysteresis, two delays).
         if self.have_taken_off_since_arming:
-            delay = float(self._params["COM_DISARM_LAND"])
+            delay = self._disarm_land_s
             if landed:
                 if self._landed_since_s is None:
                     self._landed_since_s = now_s
@@ -267,7 +281,7 @@ class Commander:
             else:
                 self._landed_since_s = None
         else:
-            delay = float(self._params["COM_DISARM_PRFLT"])
+            delay = self._disarm_preflight_s
             if delay > 0.0 and now_s - self._armed_at_s >= delay - 1e-9:
                 self._disarm(now_s, "Disarmed by auto preflight disarming")
         return became_valid
@@ -290,7 +304,7 @@ class Commander:
     def _update_data_link(self, now_s: float) -> None:
         if self._gcs_seen_s is None or self.gcs_lost:
             return
-        if now_s - self._gcs_seen_s > float(self._params["COM_DL_LOSS_T"]):
+        if now_s - self._gcs_seen_s > self._dl_loss_t_s:
             self.gcs_lost = True
             self._log.critical(now_s, "Connection to ground station lost")
 

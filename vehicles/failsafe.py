@@ -230,11 +230,10 @@ class Failsafe:
             self._remove(Clear.ON_MODE_CHANGE_OR_DISARM)
             self._user_takeover = False
             self._last_armed = flags.armed
-        p = self._params
+        p, actions = self._params, self.actions
         for check in CHECKS:
-            failing = check.condition(flags, p)
-            current = self.actions.get(check.name)
-            if failing:
+            if check.condition(flags, p):
+                current = actions.get(check.name)
                 opts = check.options(flags, p)
                 if opts.action is Action.NONE:
                     continue
@@ -244,13 +243,15 @@ class Failsafe:
                     # takeover of the earlier one does not cover.
                     self._add(now_s, check.name, opts)
                 else:
-                    self.actions[check.name] = replace(current, failing=True)
-            elif current is not None and current.failing:
-                if current.clear is Clear.WHEN_CONDITION_CLEARS:
-                    del self.actions[check.name]
-                else:
-                    self.actions[check.name] = replace(current, failing=False)
-        if not any(a.action >= Action.HOLD for a in self.actions.values()):
+                    actions[check.name] = replace(current, failing=True)
+            elif actions:  # (nothing to clear without actions: the common case)
+                current = actions.get(check.name)
+                if current is not None and current.failing:
+                    if current.clear is Clear.WHEN_CONDITION_CLEARS:
+                        del actions[check.name]
+                    else:
+                        actions[check.name] = replace(current, failing=False)
+        if not actions or not any(a.action >= Action.HOLD for a in actions.values()):
             self._delay_until = -math.inf  # clearDelayIfNeeded
         action, delayed = self._select(now_s, flags)
         if action > self.selected and action > Action.NONE:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
 from vehicles.control.position_control import PositionSetpoint
@@ -45,9 +46,8 @@ from vehicles.types import Measurement, NavState, Vec3
 TAKEOFF_TRIGGER_M = 0.2
 
 
-@dataclass(frozen=True, slots=True)
-class TaskInput:
-    """One 50 Hz tick, as every task sees it."""
+class TaskInput(NamedTuple):
+    """One 50 Hz tick, as every task sees it (a NamedTuple, as Measurement: built every tick)."""
 
     now_s: float
     dt_s: float
@@ -84,6 +84,8 @@ class AutoTask(FlightTask):
         super().__init__(stage, params)
         self.navigator = navigator
         self.setpoint: NavSetpoint | None = None  # the navigator's last (None outside auto)
+        self._params_version = -1  # MPC_YAWRAUTO_MAX, read when first needed
+        self._yawrate_max_radps = 0.0
 
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
@@ -100,7 +102,11 @@ class AutoTask(FlightTask):
             t.dt_s, nav_sp.target_ned_m, nav_sp.limits, nav_sp.vz_cmd_mps, pos[2], pos,
             nav_sp.previous_ned_m, nav_sp.next_ned_m, nav_sp.acceptance_radius_m)
         if not math.isnan(nav_sp.yaw_rad):
-            step = math.radians(float(self.params["MPC_YAWRAUTO_MAX"])) * t.dt_s
+            p = self.params
+            if p.version != self._params_version:
+                self._params_version = p.version
+                self._yawrate_max_radps = math.radians(float(p["MPC_YAWRAUTO_MAX"]))
+            step = self._yawrate_max_radps * t.dt_s
             err = math.remainder(nav_sp.yaw_rad - st.yaw_sp, math.tau)
             st.yaw_sp = math.remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
         st.apply(t.dt_s, t.meas, PositionSetpoint(p_sp, v_sp, st.yaw_sp, a_sp), t.yaw_rad,

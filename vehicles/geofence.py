@@ -75,6 +75,8 @@ def build_areas(items: Sequence[PlanItem], origin: GeoPoint) -> tuple[FenceArea,
 class Geofence:
     def __init__(self, params) -> None:
         self._params = params
+        self._params_version = -1  # GF_MAX_HOR_DIST / GF_MAX_VER_DIST, read when first needed
+        self._max_dist_set = False
         self.areas: tuple[FenceArea, ...] = ()
 
     def load(self, items: Sequence[PlanItem], origin: GeoPoint,
@@ -98,8 +100,14 @@ class Geofence:
 
     @property
     def enabled(self) -> bool:
+        if self.areas:
+            return True
         p = self._params
-        return bool(self.areas) or float(p["GF_MAX_HOR_DIST"]) > 0 or float(p["GF_MAX_VER_DIST"]) > 0
+        if p.version != self._params_version:  # (asked every 50 Hz tick)
+            self._params_version = p.version
+            self._max_dist_set = (float(p["GF_MAX_HOR_DIST"]) > 0
+                                  or float(p["GF_MAX_VER_DIST"]) > 0)
+        return self._max_dist_set
 
     def inside_areas(self, n: float, e: float) -> bool:
         inclusions = [a for a in self.areas if a.inclusion]

@@ -49,6 +49,9 @@ class _Hysteresis:
 class LandDetector:
     def __init__(self, params) -> None:
         self._params = params
+        self._params_version = -1  # the parameters below are read on the first update
+        self._z_vel_max = self._thr_min = self._land_speed_thr = 0.0
+        self._max_climb = self._xy_vel_max = 0.0
         self.landed = True
         self.ground_contact = False
         self.maybe_landed = False
@@ -57,16 +60,25 @@ class LandDetector:
         self._landed = _Hysteresis(LANDED_TRIGGER_S)
         self._takeoff = _Hysteresis(TAKEOFF_TRIGGER_S)
 
+    def _update_params(self) -> None:
+        p = self._params
+        self._params_version = p.version
+        self._z_vel_max = float(p["LNDMC_Z_VEL_MAX"])
+        self._thr_min = float(p["MPC_THR_MIN"])
+        self._land_speed_thr = 0.9 * max(float(p["MPC_LAND_SPEED"]), 0.1)
+        self._max_climb = min(0.5 * self._land_speed_thr, self._z_vel_max)
+        self._xy_vel_max = float(p["LNDMC_XY_VEL_MAX"])
+
     def update(self, now_s: float, armed: bool, velocity_ned_mps: tuple[float, float, float],
                velocity_sp_z_mps: float, thrust_norm: float, hover_thrust: float) -> None:
-        p = self._params
+        if self._params.version != self._params_version:
+            self._update_params()
         if not armed:
             self.landed, self.ground_contact, self.maybe_landed = True, False, False
             for h in (self._contact, self._maybe, self._landed, self._takeoff):
                 h.reset()
             return
-        z_vel_max = float(p["LNDMC_Z_VEL_MAX"])
-        thr_min = float(p["MPC_THR_MIN"])
+        z_vel_max, thr_min = self._z_vel_max, self._thr_min
         low_thrust = thrust_norm <= thr_min + (hover_thrust - thr_min) * LOW_THRUST_THRESHOLD
         if self.landed:
             if self._takeoff.update(now_s, -velocity_ned_mps[2] > z_vel_max or not low_thrust):
@@ -74,11 +86,9 @@ class LandDetector:
                 for h in (self._contact, self._maybe, self._landed):
                     h.reset()
             return
-        land_speed_thr = 0.9 * max(float(p["MPC_LAND_SPEED"]), 0.1)
-        max_climb = min(0.5 * land_speed_thr, z_vel_max)
-        vertical = abs(velocity_ned_mps[2]) > max_climb
-        horizontal = math.hypot(velocity_ned_mps[0], velocity_ned_mps[1]) > float(
-            p["LNDMC_XY_VEL_MAX"])
+        land_speed_thr = self._land_speed_thr
+        vertical = abs(velocity_ned_mps[2]) > self._max_climb
+        horizontal = math.hypot(velocity_ned_mps[0], velocity_ned_mps[1]) > self._xy_vel_max
         # Without a climb-rate setpoint (Stabilized, Acro, offboard attitude/rates) PX4 judges
         # ground contact by the missing movement alone; low thrust still has to follow.
         in_descend = (velocity_sp_z_mps >= land_speed_thr if math.isfinite(velocity_sp_z_mps)

@@ -14,9 +14,11 @@ Rules and invariants:
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from vehicles.control.trajectory import TrajectoryLimits
 from vehicles.params import ParamStore
@@ -24,8 +26,10 @@ from vehicles.status_log import StatusLog
 from vehicles.types import GeoPoint, HomePosition, NavState, Vec3
 
 
-@dataclass(frozen=True)
-class NavSetpoint:
+class NavSetpoint(NamedTuple):
+    """What a mode asks of the trajectory this tick (a NamedTuple: one is made every 50 Hz tick
+    and a frozen dataclass takes several times as long to build)."""
+
     target_ned_m: Vec3
     yaw_rad: float
     limits: TrajectoryLimits
@@ -54,11 +58,17 @@ class NavContext:
     yaw_rad: float
     home: HomePosition | None
     setpoint_ned_m: Vec3  # where the trajectory carrot is now
-    stopping_point_ned_m: Vec3
+    # Where the carrot comes to rest if it brakes now (``stopping_point_ned_m``): worked out
+    # when a mode first asks, which few ticks do.
+    stopping_point: Callable[[], Vec3]
     origin: GeoPoint  # EKF origin: lat/lon of plan items -> local NED
     switch_to: Callable[[NavState, Vec3 | None], None] = field(default=lambda s, p: None)
     cruise_mps: float = math.nan  # NaN = MPC_XY_CRUISE
     set_cruise_mps: Callable[[float], None] = field(default=lambda v: None)
+
+    @functools.cached_property
+    def stopping_point_ned_m(self) -> Vec3:
+        return self.stopping_point()
 
     @property
     def speed_xy_mps(self) -> float:
@@ -66,10 +76,11 @@ class NavContext:
             return float(self.params["MPC_XY_CRUISE"])
         return min(self.cruise_mps, float(self.params["MPC_XY_VEL_MAX"]))
 
-    def limits(self, **kw) -> TrajectoryLimits:
+    def limits(self, speed_xy_mps: float | None = None, speed_up_mps: float | None = None,
+               speed_down_mps: float | None = None) -> TrajectoryLimits:
         """Auto-mode limits at the current cruise speed."""
-        kw.setdefault("speed_xy_mps", self.speed_xy_mps)
-        return auto_limits(self.params, **kw)
+        return auto_limits(self.params, self.speed_xy_mps if speed_xy_mps is None else speed_xy_mps,
+                           speed_up_mps, speed_down_mps)
 
     @property
     def home_alt_amsl_m(self) -> float:
@@ -78,17 +89,35 @@ class NavContext:
         return self.origin.alt_amsl_m
 
 
+# How many auto_limits a parameter store keeps (a landing asks for a new descent speed every
+# tick between MPC_LAND_ALT1 and MPC_LAND_ALT2; the rest are a handful).
+_LIMITS_KEPT = 64
+
+
 def auto_limits(params, speed_xy_mps: float | None = None, speed_up_mps: float | None = None,
                 speed_down_mps: float | None = None) -> TrajectoryLimits:
-    p = params
-    return TrajectoryLimits(
-        speed_xy_mps=float(p["MPC_XY_CRUISE"]) if speed_xy_mps is None else speed_xy_mps,
-        speed_up_mps=float(p["MPC_Z_V_AUTO_UP"]) if speed_up_mps is None else speed_up_mps,
-        speed_down_mps=float(p["MPC_Z_V_AUTO_DN"]) if speed_down_mps is None else speed_down_mps,
-        acc_xy_mps2=float(p["MPC_ACC_HOR"]),
-        acc_up_mps2=float(p["MPC_ACC_UP_MAX"]),
-        acc_down_mps2=float(p["MPC_ACC_DOWN_MAX"]),
-    )
+    """The auto modes' limits from the parameters, with the speeds given (not None) in place of
+    MPC_XY_CRUISE, MPC_Z_V_AUTO_UP and MPC_Z_V_AUTO_DN. Kept in ``params.derived`` (emptied on
+    any parameter change): the navigator asks every 50 Hz tick, and the trajectory
+    (auto_trajectory.py) skips its set-up while the same limits come back."""
+    key = ("auto_limits", speed_xy_mps, speed_up_mps, speed_down_mps)
+    derived = params.derived
+    limits = derived.get(key)
+    if limits is None:
+        p = params
+        limits = TrajectoryLimits(
+            speed_xy_mps=float(p["MPC_XY_CRUISE"]) if speed_xy_mps is None else speed_xy_mps,
+            speed_up_mps=float(p["MPC_Z_V_AUTO_UP"]) if speed_up_mps is None else speed_up_mps,
+            speed_down_mps=(float(p["MPC_Z_V_AUTO_DN"]) if speed_down_mps is None
+                            else speed_down_mps),
+            acc_xy_mps2=float(p["MPC_ACC_HOR"]),
+            acc_up_mps2=float(p["MPC_ACC_UP_MAX"]),
+            acc_down_mps2=float(p["MPC_ACC_DOWN_MAX"]),
+        )
+        if len(derived) >= _LIMITS_KEPT:
+            derived.clear()
+        derived[key] = limits
+    return limits
 
 
 def land_speed_mps(params, height_m: float) -> float:

@@ -9,6 +9,9 @@ Invariants:
   is not there does not exist: ``set`` refuses it.
 - Observers registered with ``on_change`` are called after every successful change, so the
   gateway can broadcast PARAM_VALUE and the autopilot can re-read what it caches.
+- ``version`` counts the changes: a module that keeps values derived from parameters re-reads
+  them when it differs from the one it read them at (PX4 modules' updateParams() on
+  parameter_update). ``derived`` is a memo for such values that any change empties.
 """
 
 from __future__ import annotations
@@ -120,6 +123,8 @@ class ParamStore:
             self._values = [info.default for info in self._infos]
             self._by_name = {i.name: v for i, v in zip(self._infos, self._values)}
         self._observers: list[Callable[[str, int | float], None]] = []
+        self.version = 0
+        self.derived: dict[object, object] = {}
         for name, value in (overrides or {}).items():
             if not self.set(name, value):
                 raise KeyError(f"unknown PX4 parameter {name!r}")
@@ -166,6 +171,8 @@ class ParamStore:
         if new != self._values[i]:
             self._values[i] = new
             self._by_name[name] = new
+            self.version += 1
+            self.derived.clear()
             for observer in list(self._observers):
                 observer(name, new)
         return True

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 
 from vehicles.auto_trajectory import AutoTrajectory
-from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
+from vehicles.control.attitude_control import AttitudeSetpoint
 from vehicles.control.position_control import (
     PositionControl,
     PositionControlGains,
@@ -49,6 +49,8 @@ class PositionStage:
         self.params = params
         self.takeoff = TakeoffHandling()
         self._tilt_limit = math.radians(float(params["MPC_TILTMAX_LND"]))
+        self._params_version = -1  # the tilt limits below are read at the first ``apply``
+        self._tilt_air_rad = self._tilt_land_rad = 0.0
         self._now_s = 0.0
         self._armed = False
         self.trajectory = AutoTrajectory(params)
@@ -129,7 +131,11 @@ class PositionStage:
                 # the climb setpoint first has to turn round instead of running far ahead.
                 self.trajectory.reset(meas.position_ned_m, _REACTIVATE_VEL)
         g, p = pc.gains, self.params
-        tilt = math.radians(float(p["MPC_TILTMAX_AIR" if flying else "MPC_TILTMAX_LND"]))
+        if p.version != self._params_version:
+            self._params_version = p.version
+            self._tilt_air_rad = math.radians(float(p["MPC_TILTMAX_AIR"]))
+            self._tilt_land_rad = math.radians(float(p["MPC_TILTMAX_LND"]))
+        tilt = self._tilt_air_rad if flying else self._tilt_land_rad
         step = TILT_LIMIT_SLEW_RADPS * dt
         self._tilt_limit += min(max(tilt - self._tilt_limit, -step), step)
         up_max = g.vel_max_up_mps
@@ -137,19 +143,16 @@ class PositionStage:
             else up_max
         up = min(self.takeoff.update_ramp(dt, wanted_up), up_max)
         pc.set_limits(up, g.thrust_min if flying else 0.0, self._tilt_limit)
-        out = pc.update(dt, meas.position_ned_m, meas.velocity_ned_mps, meas.accel_ned_mps2, sp)
-        thrust = out.thrust_ned
-        yaw_sp = out.yaw_rad if not math.isnan(out.yaw_rad) else yaw
-        self.vel_sp_z = task_vz if math.isfinite(task_vz) else out.velocity_sp_ned_mps[2]
-        self.vel_sp = out.velocity_sp_ned_mps
+        yaw_sp = yaw if no_setpoint or math.isnan(sp.yaw_rad) else sp.yaw_rad
+        q, thrust, vel_sp = pc.update_attitude(dt, meas.position_ned_m, meas.velocity_ned_mps,
+                                               meas.accel_ned_mps2, sp, yaw_sp)
+        self.vel_sp_z = task_vz if math.isfinite(task_vz) else vel_sp[2]
+        self.vel_sp = vel_sp
         if no_setpoint:
-            yaw_sp = yaw
             pc.reset_integral()
-        att_sp = thrust_to_attitude(thrust, yaw_sp)
-        if yawspeed != 0.0 and not no_setpoint:
-            att_sp = AttitudeSetpoint(att_sp.attitude_q, att_sp.thrust_body_norm, yawspeed)
-        self.attitude = att_sp
-        self.thrust = att_sp.thrust_body_norm
+        self.attitude = AttitudeSetpoint(q, thrust, yawspeed if yawspeed != 0.0
+                                         and not no_setpoint else 0.0)
+        self.thrust = thrust
 
     def direct(self, attitude: AttitudeSetpoint, rates: Vec3 | None = None,
                flying: bool = False) -> None:

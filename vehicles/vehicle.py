@@ -113,6 +113,8 @@ class Vehicle:
         self._meas: Measurement | None = None
         self._state: VehicleState | None = None
         self._kin: Kinematics | None = None
+        self._params_version = -1  # EKF2_NOAID_TOUT, read at the first 50 Hz tick
+        self._noaid_timeout_s = 5.0
 
     # --- the World's --------------------------------------------------------------------------
     def step(self, now_s: float) -> InnerCommand | None:
@@ -122,8 +124,11 @@ class Vehicle:
         tick = self._tick
         self._tick = tick + 1 if tick + 1 < POSITION_CONTROL_DIVIDER else 0
         if tick == 0:
-            timeout = self.params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000
-            aided = self._world.estimator(self._row)[E_GPS_AGE] < timeout * 1e-6
+            if self.params.version != self._params_version:
+                self._params_version = self.params.version
+                timeout = self.params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000
+                self._noaid_timeout_s = timeout * 1e-6
+            aided = self._world.estimator(self._row)[E_GPS_AGE] < self._noaid_timeout_s
             self._autopilot.set_position_aided(aided)
             return self._autopilot.step(self._measurement(), now_s)
         return self._autopilot.poll(now_s)

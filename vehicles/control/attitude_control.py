@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from numba.extending import register_jitable
 
@@ -34,8 +35,9 @@ from vehicles.control.quat import (
 )
 
 
-@dataclass(frozen=True)
-class AttitudeSetpoint:
+class AttitudeSetpoint(NamedTuple):
+    """An attitude and collective thrust setpoint (a NamedTuple: one is built every 50 Hz tick)."""
+
     attitude_q: Quat
     thrust_body_norm: float  # collective thrust, 0..1 (body -z)
     yawspeed_radps: float = 0.0  # heading rate feed-forward (sticks, offboard yaw rate)
@@ -74,6 +76,14 @@ class AttitudeControlGains:
 
 def thrust_to_attitude(thrust_ned: Vec3, yaw_rad: float) -> AttitudeSetpoint:
     """ControlMath::thrustToAttitude: body z opposite to the thrust vector, nose towards yaw."""
+    q, thrust_norm = thrust_to_attitude_q(thrust_ned, yaw_rad)
+    return AttitudeSetpoint(q, thrust_norm)
+
+
+@register_jitable
+def thrust_to_attitude_q(thrust_ned: Vec3, yaw_rad: float) -> tuple[Quat, float]:
+    """``thrust_to_attitude`` as (attitude, collective thrust): plain Python from Python,
+    compiled into position control's kernel (position_control.py)."""
     bz = (-thrust_ned[0], -thrust_ned[1], -thrust_ned[2])
     n = norm(bz)
     if n * n < 1.2e-7:
@@ -88,7 +98,7 @@ def thrust_to_attitude(thrust_ned: Vec3, yaw_rad: float) -> AttitudeSetpoint:
     nx = norm(bx)
     bx = (bx[0] / nx, bx[1] / nx, bx[2] / nx)
     by = cross(bz, bx)
-    return AttitudeSetpoint(q_from_dcm_columns(bx, by, bz), norm(thrust_ned))
+    return q_from_dcm_columns(bx, by, bz), norm(thrust_ned)
 
 
 @register_jitable

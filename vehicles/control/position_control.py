@@ -23,12 +23,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numba.extending import register_jitable
 
+from vehicles.control.attitude_control import thrust_to_attitude_q
 from vehicles.control.compiled import njit_cached
-from vehicles.types import GRAVITY_MPS2, Vec3
+from vehicles.types import GRAVITY_MPS2, Quat, Vec3
 
 NAN3: Vec3 = (math.nan, math.nan, math.nan)
 
@@ -83,9 +85,10 @@ class PositionControlGains:
                 self.hover_thrust)
 
 
-@dataclass(frozen=True)
-class PositionSetpoint:
-    """What the navigator/trajectory asks of the position controller (NaN = not commanded)."""
+class PositionSetpoint(NamedTuple):
+    """What the navigator/trajectory asks of the position controller (NaN = not commanded). A
+    NamedTuple: the flight tasks build one every 50 Hz tick, several times as fast as a frozen
+    dataclass."""
 
     position_ned_m: Vec3 = NAN3
     velocity_ned_mps: Vec3 = NAN3
@@ -119,6 +122,23 @@ def position_control_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gain
     """One PositionControl update (module docstring), compiled. ``gains``: the 15 numbers of
     ``PositionControlGains.vector()``; ``integ``: the velocity integrator, updated in place.
     Returns (normalized thrust NED, velocity setpoint NED)."""
+    return _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ)
+
+
+@njit_cached
+def position_attitude_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ,
+                           yaw_rad):  # pragma: no cover - compiled
+    """``position_control_step`` and then its thrust at heading ``yaw_rad`` as an attitude
+    (PX4 PositionControl::getAttitudeSetpoint: ControlMath::thrustToAttitude). Returns
+    (attitude setpoint, collective thrust, velocity setpoint NED)."""
+    thrust, vel_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains,
+                                       integ)
+    q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)
+    return q, thrust_norm, vel_sp
+
+
+@register_jitable
+def _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ):
     (pos_p_xy, pos_p_z, vel_p_xy, vel_i_xy, vel_d_xy, vel_p_z, vel_i_z, vel_d_z, vel_max_xy,
      vel_max_up, vel_max_down, tilt_max, thrust_min, thrust_max, hover) = (
         gains[0], gains[1], gains[2], gains[3], gains[4], gains[5], gains[6], gains[7], gains[8],
@@ -221,12 +241,25 @@ class PositionControl:
             self._gains, self._vel_int)
         return PositionControlOutput(thrust, vel_sp, sp.yaw_rad)
 
+    def update_attitude(self, dt_s: float, position_ned_m: Vec3, velocity_ned_mps: Vec3,
+                        acceleration_ned_mps2: Vec3, sp: PositionSetpoint, yaw_rad: float
+                        ) -> tuple[Quat, float, Vec3]:
+        """``update``, then the thrust as an attitude setpoint at heading ``yaw_rad``
+        (``thrust_to_attitude``) in one compiled call: (attitude, collective thrust, velocity
+        setpoint)."""
+        q, thrust_norm, vel_sp = position_attitude_step(
+            dt_s, _vec3(position_ned_m), _vec3(velocity_ned_mps), _vec3(acceleration_ned_mps2),
+            _vec3(sp.position_ned_m), _vec3(sp.velocity_ned_mps), _vec3(sp.acceleration_ned_mps2),
+            self._gains, self._vel_int, float(yaw_rad))
+        return q, thrust_norm, vel_sp
+
 
 def compile_now() -> None:
     """Compile ``position_control_step`` (or load it from numba's cache) now, not in the middle
     of the first flight."""
     z = (0.0, 0.0, 0.0)
     position_control_step(0.02, z, z, z, z, z, z, np.ones(15), np.zeros(3))
+    position_attitude_step(0.02, z, z, z, z, z, z, np.ones(15), np.zeros(3), 0.0)
 
 
 def _vec3(v) -> Vec3:

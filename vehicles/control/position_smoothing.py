@@ -25,6 +25,7 @@ from numba.extending import register_jitable
 from vehicles.control.compiled import njit_cached
 from vehicles.control.velocity_smoothing import (
     AMAX,
+    IX,
     JMAX,
     VMAX,
     A,
@@ -284,8 +285,12 @@ class PositionSmoothing:
         self.axes[:, VMAX] = vel
 
     def reset(self, acceleration: Vec3, velocity: Vec3, position: Vec3) -> None:
-        for t, a, v, x in zip(self.trajectory, acceleration, velocity, position):
-            t.reset(a, v, x)
+        """Every axis's VelocitySmoothing.reset, in one write (the auto tasks reset every tick
+        while the vehicle is not flying under the trajectory)."""
+        a, v, x = acceleration, velocity, position
+        self.axes[:, J:IX + 1] = [(0.0, a[0], v[0], x[0], 0.0, a[0], v[0], x[0]),
+                                  (0.0, a[1], v[1], x[1], 0.0, a[1], v[1], x[1]),
+                                  (0.0, a[2], v[2], x[2], 0.0, a[2], v[2], x[2])]
 
     @property
     def position(self) -> Vec3:
@@ -296,6 +301,11 @@ class PositionSmoothing:
     def velocity(self) -> Vec3:
         x, y, z = self.axes[:, V].tolist()
         return (x, y, z)
+
+    def position_velocity(self) -> tuple[Vec3, Vec3]:
+        """(``position``, ``velocity``) in one read of the axes."""
+        (vx, x), (vy, y), (vz, z) = self.axes[:, V:X + 1].tolist()
+        return (x, y, z), (vx, vy, vz)
 
     # --- the step -------------------------------------------------------------------------------
     def generate(self, position: Vec3, waypoints: tuple[Vec3, Vec3, Vec3], feedforward: Vec3,
@@ -310,6 +320,18 @@ class PositionSmoothing:
         j, a, v, x, u = self._out.tolist()
         return SmoothedSetpoints((j[0], j[1], j[2]), (a[0], a[1], a[2]), (v[0], v[1], v[2]),
                                  (x[0], x[1], x[2]), (u[0], u[1], u[2]))
+
+    def generate_pva(self, position: Vec3, waypoints: tuple[Vec3, Vec3, Vec3],
+                     feedforward: Vec3, dt_s: float, single_waypoint: bool = False
+                     ) -> tuple[Vec3, Vec3, Vec3]:
+        """``generate``'s (position, velocity, acceleration) only: what the auto modes take from
+        it every tick."""
+        prev, target, nxt = waypoints
+        self._inp[:] = (*position, *prev, *target, *nxt, *feedforward)
+        generate_step(self.axes, self.cfg, self._inp, float(dt_s), False, bool(single_waypoint),
+                      self._out)
+        a, v, x = self._out[1:4].tolist()
+        return (x[0], x[1], x[2]), (v[0], v[1], v[2]), (a[0], a[1], a[2])
 
 
 def compile_now() -> None:

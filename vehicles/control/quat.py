@@ -81,6 +81,7 @@ def q_from_two_vectors(src: Vec3, dst: Vec3) -> Quat:
     return q_normalized((w, cr[0], cr[1], cr[2]))
 
 
+@register_jitable
 def q_from_dcm_columns(bx: Vec3, by: Vec3, bz: Vec3) -> Quat:
     """Quaternion of the rotation matrix whose columns are the body axes in NED."""
     r00, r10, r20 = bx
