@@ -80,7 +80,7 @@ class FtpService:
         self.root: FileRoot | None = None  # attached by the shell
         self._session: tuple[str, bool] | None = None  # (path, writable)
         self._burst: tuple[int, int, int, int, tuple[int, int]] | None = None
-        self._next_at = math.inf
+        self.due_s = math.inf  # when ``handle_timer`` has work next (the burst); inf: none
 
     # --- wire ---------------------------------------------------------------------------------
     def _reply(self, to: tuple[int, int], seq: int, session: int, req: int, offset: int,
@@ -131,7 +131,7 @@ class FtpService:
         elif op in (OP_TERMINATE, OP_RESET):
             if op == OP_TERMINATE and (self._session is None or session != 0):
                 raise FtpError(ERR_INVALID_SESSION)
-            self._session, self._burst, self._next_at = None, None, math.inf
+            self._session, self._burst, self.due_s = None, None, math.inf
             ack(to, seq, session, op, offset)
         elif op == OP_LIST:
             entries = self._need_root().list(arg)
@@ -167,7 +167,7 @@ class FtpService:
             if offset >= self._need_root().size(path):
                 raise FtpError(ERR_EOF)
             self._burst = (seq, session, offset, min(size or DATA_LEN, DATA_LEN), to)
-            self._next_at = now_s
+            self.due_s = now_s
         elif op == OP_WRITE:
             path, writable = self._need_session(session)
             if not writable:
@@ -200,14 +200,14 @@ class FtpService:
 
     # --- burst reads ----------------------------------------------------------------------------
     def get_timer(self) -> float:
-        return self._next_at
+        return self.due_s
 
     def handle_timer(self, now_s: float) -> None:
-        if self._burst is None or now_s < self._next_at:
+        if self._burst is None or now_s < self.due_s:
             return
         seq, session, offset, size, to = self._burst
         if self._session is None or self.root is None:
-            self._burst, self._next_at = None, math.inf
+            self._burst, self.due_s = None, math.inf
             return
         path = self._session[0]
         try:
@@ -222,11 +222,11 @@ class FtpService:
                 seq += 1
                 offset += len(chunk)
                 if last:
-                    self._burst, self._next_at = None, math.inf
+                    self._burst, self.due_s = None, math.inf
                     return
         except FtpError as exc:
             self._reply(to, seq, session, OP_BURST, offset, nak=exc.code, errno=exc.errno)
-            self._burst, self._next_at = None, math.inf
+            self._burst, self.due_s = None, math.inf
             return
         self._burst = (seq, session, offset, size, to)
-        self._next_at = now_s + PERIOD_S
+        self.due_s = now_s + PERIOD_S

@@ -44,7 +44,7 @@ class LogHandlerService:
         self.store: LogStore | None = None
         self._listed: list[tuple[int, int]] | None = None
         self._sending: tuple[int, int, int] | None = None  # id, next offset, bytes remaining
-        self._next_at = math.inf
+        self.due_s = math.inf  # when ``handle_timer`` has work next (the download); inf: none
 
     def _for_us(self, msg: Any) -> bool:
         return msg.target_system in (0, self.sysid)
@@ -53,7 +53,7 @@ class LogHandlerService:
         if not self._for_us(msg):
             return
         self._sending = None
-        self._next_at = math.inf
+        self.due_s = math.inf
         self._listed = entries = self.store.entries() if self.store is not None else []
         if not entries:
             self.send(self.encoder.pack(M.MAVLink_log_entry_message, 0, 0, 0, 0, 0))
@@ -71,28 +71,28 @@ class LogHandlerService:
         size = self._listed[msg.id][0]
         remaining = max(0, min(size - msg.ofs, msg.count))
         self._sending = (msg.id, msg.ofs, remaining)
-        self._next_at = now_s
+        self.due_s = now_s
 
     def on_request_end(self, msg: M.MAVLink_log_request_end_message, now_s: float) -> None:
         if self._for_us(msg):
             self._sending = None
             self._listed = None
-            self._next_at = math.inf
+            self.due_s = math.inf
 
     def on_erase(self, msg: M.MAVLink_log_erase_message, now_s: float) -> None:
         if not self._for_us(msg):
             return
         self._sending = None
         self._listed = None
-        self._next_at = math.inf
+        self.due_s = math.inf
         if self.store is not None:
             self.store.erase()
 
     def get_timer(self) -> float:
-        return self._next_at
+        return self.due_s
 
     def handle_timer(self, now_s: float) -> None:
-        if self._sending is None or now_s < self._next_at:
+        if self._sending is None or now_s < self.due_s:
             return
         log_id, offset, remaining = self._sending
         store = self.store
@@ -105,7 +105,7 @@ class LogHandlerService:
             remaining -= len(data)
             if len(data) < DATA_LEN or remaining == 0:
                 self._sending = None
-                self._next_at = math.inf
+                self.due_s = math.inf
                 return
         self._sending = (log_id, offset, remaining)
-        self._next_at = now_s + PERIOD_S
+        self.due_s = now_s + PERIOD_S

@@ -353,18 +353,20 @@ class MissionService:
         return min(self._retry_at, self._timeout_at, self._repeat_at)
 
     def handle_timer(self, now_s: float) -> None:
-        if self.phase is not Phase.IDLE and now_s >= self._timeout_at:
-            self._text(now_s, "Operation timeout")
-            self._idle()
-        elif self.phase is Phase.UPLOAD and now_s >= self._retry_at:
-            self._request(now_s)
-        self._poll_status(now_s)
-
-    def _poll_status(self, now_s: float) -> None:
+        phase = self.phase
+        if phase is not Phase.IDLE:
+            if now_s >= self._timeout_at:
+                self._text(now_s, "Operation timeout")
+                self._idle()
+            elif phase is Phase.UPLOAD and now_s >= self._retry_at:
+                self._request(now_s)
         progress = getattr(self.vehicle, "mission_progress", None)
+        if progress is not None and progress == self._last_progress and now_s < self._repeat_at:
+            return  # the usual wake-up: no progress and no repeat due, nothing to report
+        self._poll_status(now_s, progress)
+
+    def _poll_status(self, now_s: float, progress: object) -> None:
         if progress is not None:
-            if progress == self._last_progress and now_s < self._repeat_at:
-                return  # nothing to report: no progress and no repeat due
             self._last_progress = progress
         st = mission_status_of(self.vehicle)
         enc = self.encoder

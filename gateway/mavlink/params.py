@@ -60,7 +60,8 @@ class ParamService:
         self.other_target = ctx.other_target
         self.store = ctx.vehicle.params
         self._list_next: int | None = None  # next index of a running list transfer
-        self._list_due_s = math.inf
+        # When ``handle_timer`` has work next (the list transfer's next burst); inf: none.
+        self.due_s = math.inf
         self._own_set: str | None = None  # name being set by this link (echo sent explicitly)
         ref = weakref.ref(self)
 
@@ -73,19 +74,19 @@ class ParamService:
 
     # --- timer --------------------------------------------------------------------------------
     def get_timer(self) -> float:
-        return self._list_due_s
+        return self.due_s
 
     def handle_timer(self, now_s: float) -> None:
-        if self._list_next is None or now_s < self._list_due_s:
+        if self._list_next is None or now_s < self.due_s:
             return
         count = self.store.count
         end = min(self._list_next + PARAM_BURST, count)
         for i in range(self._list_next, end):
             self.send(self.param_value(i))
         if end >= count:
-            self._list_next, self._list_due_s = None, math.inf
+            self._list_next, self.due_s = None, math.inf
         else:
-            self._list_next, self._list_due_s = end, now_s + PARAM_TICK_S
+            self._list_next, self.due_s = end, now_s + PARAM_TICK_S
 
     # --- inbound ------------------------------------------------------------------------------
     def on_request_list(self, msg: M.MAVLink_param_request_list_message, now_s: float) -> None:
@@ -93,7 +94,7 @@ class ParamService:
             return
         if self._list_next is None:
             self.send(self.hash_check())
-        self._list_next, self._list_due_s = 0, now_s
+        self._list_next, self.due_s = 0, now_s
 
     def on_request_read(self, msg: M.MAVLink_param_request_read_message, now_s: float) -> None:
         if not self._for_us(msg):
@@ -117,7 +118,7 @@ class ParamService:
         name = msg.param_id
         if name == HASH_CHECK_NAME:
             # QGC: its cache matches, stop streaming the list.
-            self._list_next, self._list_due_s = None, math.inf
+            self._list_next, self.due_s = None, math.inf
             self._error(msg, name, -1, PARAM_ERROR_READ_ONLY)
             return
         if name not in self.store:

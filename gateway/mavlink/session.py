@@ -148,13 +148,15 @@ class Session:
         }
         if signing is not None:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing
-        # The services polled on every wake-up, in this order (bound once, not per wake-up).
-        self._timers: tuple[tuple[str, Callable[[float], None]], ...] = (
-            ("the mission timer", self.mission.handle_timer),
-            ("STATUSTEXT", self.statustext.poll),
-            ("the parameter timer", self.params.handle_timer),
-            ("the log download", self.logs.handle_timer),
-            ("the FTP burst", self.ftp.handle_timer))
+        # After the telemetry, every wake-up polls the mission progress and the status texts,
+        # then the paced services (bursts of PARAM_VALUE, LOG_DATA, FTP data), in this order.
+        # A paced service has nothing to do before its ``due_s`` (inf while idle), so it is
+        # only called from then on.
+        self._paced: tuple[tuple[str, ParamService | LogHandlerService | FtpService], ...] = (
+            ("the parameter timer", self.params),
+            ("the log download", self.logs),
+            ("the FTP burst", self.ftp))
+        self._paced_services = (self.params, self.logs, self.ftp)
 
     # --- the sans-IO contract -----------------------------------------------------------------
     def receive_datagram(self, data: bytes, now_s: float, peer: object = None) -> None:
@@ -199,8 +201,7 @@ class Session:
         return datagrams
 
     def get_timer(self) -> float | None:
-        t = min(self.params.get_timer(), self.mission.get_timer(), self.logs.get_timer(),
-                self.ftp.get_timer())
+        t = min(self.params.due_s, self.mission.get_timer(), self.logs.due_s, self.ftp.due_s)
         next_us = self.scheduler.next_us
         if next_us < NEVER:
             t = min(t, next_us * 1e-6)
@@ -223,11 +224,22 @@ class Session:
                 if frame is not None:
                     out.append(frame)  # ``send`` inlined: counted once below
             self.stats.tx_frames += len(out) - sent
-        for name, timer in self._timers:
-            try:
-                timer(now_s)
-            except Exception:
-                self._failed(now_s, name)
+        try:
+            self.mission.handle_timer(now_s)
+        except Exception:
+            self._failed(now_s, "the mission timer")
+        try:
+            self.statustext.poll(now_s)
+        except Exception:
+            self._failed(now_s, "STATUSTEXT")
+        params, logs, ftp = self._paced_services
+        if params.due_s <= now_s or logs.due_s <= now_s or ftp.due_s <= now_s:
+            for name, service in self._paced:
+                if service.due_s <= now_s:
+                    try:
+                        service.handle_timer(now_s)
+                    except Exception:
+                        self._failed(now_s, name)
 
     def _failed(self, now_s: float, what: str) -> None:
         """A service raised: counted (``handler_errors``), logged with its traceback the first

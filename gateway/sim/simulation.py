@@ -111,15 +111,6 @@ class VehicleLink:
         if handler is not None:
             handler(self.index, self.tag, packet, peer)
 
-    def on_timer(self, now: float) -> None:
-        """The session's deadline has come (called by the vehicle's ``VehicleWake``)."""
-        self.deadline_s = math.inf  # until ``flush`` reads the next one (stays if it raises)
-        try:
-            self.session.handle_timer(now)
-        except Exception:
-            self.sim.session_failed(self.name, "in a session timer")
-        self.flush(now)
-
     def flush(self, now: float) -> None:
         """Push what the session wants to send into the downlink; note its next deadline."""
         session = self.session
@@ -175,16 +166,31 @@ class VehicleWake:
             self._event = self.kernel.schedule(max(at, self.kernel.now), self._fire)
 
     def _fire(self) -> None:
+        """Each due link: ``handle_timer``, its datagrams into the downlink, its next deadline
+        (``VehicleLink.flush``, inlined here: this runs at every telemetry instant)."""
         now = self.kernel.now
         self._running = True
         try:
             for link in self.links:
                 if link.deadline_s <= now:
-                    link.on_timer(now)
+                    link.deadline_s = math.inf  # until its next one is read (stays if it raises)
+                    session = link.session
+                    try:
+                        session.handle_timer(now)
+                    except Exception:
+                        link.sim.session_failed(link.name, "in a session timer")
+                    for datagram in session.datagrams_to_send(now):
+                        link.downlink.send(datagram, session.peer)
+                    deadline = session.get_timer()
+                    link.deadline_s = math.inf if deadline is None else deadline
         finally:  # re-armed even if a link raised: its vehicle's other links go on
             self._running = False
             # ``arm`` without its checks: this event is spent and no other is pending.
-            at = self._at = self._earliest()
+            at = math.inf
+            for link in self.links:
+                if link.deadline_s < at:
+                    at = link.deadline_s
+            self._at = at
             self._event = self.kernel.schedule(at if at > now else now, self._fire) \
                 if at < math.inf else None
 
