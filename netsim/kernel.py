@@ -85,6 +85,19 @@ class Kernel:
         heapq.heappush(self._heap, (time_s, priority, seq, event))
         return event
 
+    def reschedule(self, event: Event, time_s: float) -> Event:
+        """Schedule ``event``, which has run, again at ``time_s`` with the same callback and
+        arguments, as ``schedule`` would a new one (a fresh ``seq``): for a timer that re-arms
+        itself from its own callback, without making a new Event every time."""
+        if not time_s >= self._now:  # also rejects NaN
+            raise SchedulingError(f"cannot schedule at {time_s!r}, now is {self._now!r}")
+        seq = self._seq
+        event.time = time_s
+        event.seq = seq
+        self._seq = seq + 1
+        heapq.heappush(self._heap, (time_s, event.priority, seq, event))
+        return event
+
     def call_later(self, delay_s: float, callback: Callable[..., Any], *args: Any,
                    priority: int = PRIORITY_DEFAULT) -> Event:
         return self.schedule(self._now + delay_s, callback, *args, priority=priority)

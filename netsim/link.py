@@ -106,17 +106,16 @@ class Link:
         stats.sent += 1
         stats.bytes_sent += size
         verdict = self.model.transit(size, now)
-        if isinstance(verdict, Drop):
+        tracer = self.tracer
+        if verdict.__class__ is not float and isinstance(verdict, Drop):
             stats.dropped[verdict.value] += 1
-            if self.tracer is not None:
-                self.tracer("drop", self.name, now, size, verdict.value)
+            if tracer is not None:
+                tracer("drop", self.name, now, size, verdict.value)
             return
         arrival = now + verdict
         if self.fifo and arrival < self._last_arrival_s:
             arrival = self._last_arrival_s
         self._last_arrival_s = arrival
-        if self.tracer is not None:
-            self.tracer("send", self.name, now, size, f"{arrival - now:.6f}")
         if arrival == now:
             # No delay (an ideal link): delivered in the same instant, without an event. This is
             # ``record_delivery(0.0, size)`` inlined (the hot path of every ideal link): a zero
@@ -124,10 +123,13 @@ class Link:
             stats.delivered += 1
             stats.bytes_delivered += size
             stats.latency_histogram[0] += 1
-            if self.tracer is not None:
-                self.tracer("recv", self.name, now, size, "")
+            if tracer is not None:
+                tracer("send", self.name, now, size, f"{arrival - now:.6f}")
+                tracer("recv", self.name, now, size, "")
             self._deliver(packet, meta)
             return
+        if tracer is not None:
+            tracer("send", self.name, now, size, f"{arrival - now:.6f}")
         stats.in_flight += 1
         self.kernel.schedule(arrival, self._arrive, packet, meta, now, priority=PRIORITY_NETWORK)
 

@@ -166,7 +166,7 @@ class Scheduler:
 
     def due(self, now_s: float) -> tuple[StreamSpec, ...]:
         """Streams due at ``now_s`` in table order, with their deadlines advanced."""
-        now_us = int(round(now_s * 1e6))
+        now_us = round(now_s * 1e6)  # an int: round() of a float without ndigits
         if now_us < self.next_us:
             return ()
         heap = self._heap

@@ -11,7 +11,7 @@ Path of one datagram (STYLE.md "one message, fewest hops"):
 Invariants:
 - One kernel owns time. Physics runs on a fixed 250 Hz grid (priority PHYSICS, so at equal
   times the world is stepped before packets are delivered and telemetry is sampled).
-- Each vehicle has at most one pending timer event in the heap (``VehicleWake``), for the
+- Each vehicle has at most one pending timer event in the heap (``VehicleWake``, wake.py), for the
   earliest deadline of its links' sessions, re-armed after every call into one of them.
 - Every random draw comes from a stream named after its link (and hop), seeded from
   ``NetworkConfig.seed``.
@@ -33,8 +33,9 @@ from gateway.mavlink.snapshot import SampleCache
 from gateway.sim.command_timeline import Command
 from gateway.sim.radios import ExtraRadio, LinkTag, Ports, link_ports, px4_ports, tag_name
 from gateway.sim.scenario import NetworkConfig
+from gateway.sim.wake import VehicleWake
 from netsim.backend import EmbeddedBackend, NetworkBackend
-from netsim.kernel import PRIORITY_PHYSICS, Event, Kernel, Ticker
+from netsim.kernel import PRIORITY_PHYSICS, Kernel, Ticker
 from netsim.link import Tracer
 from netsim.rng import named_generator
 from netsim.topology import make_router
@@ -111,6 +112,9 @@ class VehicleLink:
         if handler is not None:
             handler(self.index, self.tag, packet, peer)
 
+    def timer_failed(self) -> None:
+        self.sim.session_failed(self.name, "in a session timer")
+
     def flush(self, now: float) -> None:
         """Push what the session wants to send into the downlink; note its next deadline."""
         session = self.session
@@ -123,76 +127,6 @@ class VehicleLink:
         """``flush``, then re-arm the vehicle's timer for the new deadline."""
         self.flush(self.sim.kernel.now)
         self.wake.arm()
-
-
-class VehicleWake:
-    """The one timer event of a vehicle's links, at the earliest of their sessions' deadlines.
-
-    The links of a vehicle fall due together most of the time (every stream of the GCS link is
-    on the API link's 100 Hz grid), so one kernel event per instant serves them all: each link
-    whose deadline has come gets ``handle_timer`` and is flushed, in the order the links were
-    made (PX4 SITL's GCS link, then the API link, then extra radios). A link that is not due is
-    not woken. ``arm`` called while the wake runs (a reply that a delivery brought back in the
-    same instant) waits for its end, which re-arms once.
-    """
-
-    __slots__ = ("kernel", "links", "_event", "_at", "_running")
-
-    def __init__(self, kernel: Kernel) -> None:
-        self.kernel = kernel
-        self.links: list[VehicleLink] = []
-        self._event: Event | None = None
-        self._at = math.inf
-        self._running = False
-
-    def _earliest(self) -> float:
-        at = math.inf
-        for link in self.links:
-            if link.deadline_s < at:
-                at = link.deadline_s
-        return at
-
-    def arm(self) -> None:
-        if self._running:
-            return
-        at = self._earliest()
-        if at == self._at:
-            return
-        if self._event is not None:
-            self._event.cancel()
-            self._event = None
-        self._at = at
-        if at < math.inf:
-            self._event = self.kernel.schedule(max(at, self.kernel.now), self._fire)
-
-    def _fire(self) -> None:
-        """Each due link: ``handle_timer``, its datagrams into the downlink, its next deadline
-        (``VehicleLink.flush``, inlined here: this runs at every telemetry instant)."""
-        now = self.kernel.now
-        self._running = True
-        try:
-            for link in self.links:
-                if link.deadline_s <= now:
-                    link.deadline_s = math.inf  # until its next one is read (stays if it raises)
-                    session = link.session
-                    try:
-                        session.handle_timer(now)
-                    except Exception:
-                        link.sim.session_failed(link.name, "in a session timer")
-                    for datagram in session.datagrams_to_send(now):
-                        link.downlink.send(datagram, session.peer)
-                    deadline = session.get_timer()
-                    link.deadline_s = math.inf if deadline is None else deadline
-        finally:  # re-armed even if a link raised: its vehicle's other links go on
-            self._running = False
-            # ``arm`` without its checks: this event is spent and no other is pending.
-            at = math.inf
-            for link in self.links:
-                if link.deadline_s < at:
-                    at = link.deadline_s
-            self._at = at
-            self._event = self.kernel.schedule(at if at > now else now, self._fire) \
-                if at < math.inf else None
 
 
 def make_backend(kernel: Kernel, network: NetworkConfig, tracer: Tracer | None = None, *,
