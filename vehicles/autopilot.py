@@ -358,9 +358,14 @@ class Autopilot:
         """Between 50 Hz ticks: a new command when the motor mode changed since the last one
         (arm, disarm, termination) or new gains wait; else None (the inner loop keeps its)."""
         self.time_s = now_s
-        if self._new_gains or self._mode() != self._out.mode:
+        if self._new_gains:
             return self._command()
-        return None
+        cmd = self.commander  # ``_mode()``, inline: this runs at every physics step
+        if not cmd.armed or cmd.terminated:
+            mode = MODE_OFF
+        else:
+            mode = MODE_IDLE if self.stage.idle else MODE_FLY
+        return self._command() if mode != self._out.mode else None
 
     def _mode(self) -> int:
         cmd = self.commander

@@ -201,6 +201,8 @@ class Failsafe:
         self._user_takeover = False
         self._last_armed = False
         self._manual_control_lost_at_arming = False
+        self._quiet_flags: FailsafeFlags | None = None  # see ``update``
+        self._quiet_version = -1
 
     @property
     def in_failsafe(self) -> bool:
@@ -231,8 +233,18 @@ class Failsafe:
             self._user_takeover = False
             self._last_armed = flags.armed
         p, actions = self._params, self.actions
-        for check in CHECKS:
+        # The conditions are functions of the flags and the parameters alone: when the last
+        # pass found none true on these very flags (the autopilot hands the same frozen object
+        # while its inputs stay) and the parameters have not changed, this pass would change
+        # nothing (its clearing is done).
+        if flags is self._quiet_flags and p.version == self._quiet_version:
+            checks: tuple[Check, ...] = ()
+        else:
+            checks = CHECKS
+            self._quiet_flags, self._quiet_version = flags, p.version
+        for check in checks:
             if check.condition(flags, p):
+                self._quiet_flags = None
                 current = actions.get(check.name)
                 opts = check.options(flags, p)
                 if opts.action is Action.NONE:

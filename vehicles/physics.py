@@ -41,6 +41,8 @@ from vehicles.control import compiled, position_control, position_smoothing
 from vehicles.control.compiled import njit_cached
 from vehicles.estimation import (
     BARO_RATE_HZ,
+    E_GPS_AGE,
+    E_RATIOS,
     GPS_RATE_HZ,
     Estimation,
     estimate,
@@ -223,6 +225,14 @@ class World:
     def estimator(self, row: int) -> list[float]:
         """Row ``row``'s estimator state (estimation.E_* columns)."""
         return self.estimation.est[row].tolist()
+
+    def gps_age_s(self, row: int) -> float:
+        """Row ``row``'s time since its estimator last fused a GPS fix (estimation.E_GPS_AGE)."""
+        return self.estimation.est.item(row, E_GPS_AGE)
+
+    def estimator_ratios(self, row: int) -> list[float]:
+        """Row ``row``'s innovation test ratios (estimation.E_RATIOS, four columns)."""
+        return self.estimation.est[row, E_RATIOS:E_RATIOS + 4].tolist()
 
     def set_motor_off(self, row: int, motor: int, off: bool) -> None:
         """Failure injection: motor ``motor`` (0-based) of row ``row`` stops (``off``) or runs."""

@@ -23,8 +23,6 @@ import numpy as np
 from vehicles.airframe import Airframe
 from vehicles.autopilot import POSITION_CONTROL_DIVIDER, Autopilot
 from vehicles.estimation import (
-    E_GPS_AGE,
-    E_RATIOS,
     F_ACC_OFF,
     F_ACC_STUCK,
     F_BARO_OFF,
@@ -51,6 +49,7 @@ from vehicles.types import (
     Vec3,
     VehicleState,
     VehicleStatus,
+    vehicle_status,
 )
 
 # MAV_CMD_INJECT_FAILURE: FAILURE_UNIT and FAILURE_TYPE values this vehicle knows.
@@ -83,6 +82,10 @@ class WorldRow(Protocol):
     def sensors(self, row: int) -> list[float]: ...
 
     def estimator(self, row: int) -> list[float]: ...
+
+    def estimator_ratios(self, row: int) -> list[float]: ...
+
+    def gps_age_s(self, row: int) -> float: ...
 
     def set_sensor_failed(self, row: int, bits: int, on: bool) -> None: ...
 
@@ -128,7 +131,7 @@ class Vehicle:
                 self._params_version = self.params.version
                 timeout = self.params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000
                 self._noaid_timeout_s = timeout * 1e-6
-            aided = self._world.estimator(self._row)[E_GPS_AGE] < self._noaid_timeout_s
+            aided = self._world.gps_age_s(self._row) < self._noaid_timeout_s
             self._autopilot.set_position_aided(aided)
             return self._autopilot.step(self._measurement(), now_s)
         return self._autopilot.poll(now_s)
@@ -169,23 +172,15 @@ class Vehicle:
     def status(self) -> VehicleStatus:
         ap = self._autopilot
         c = ap.commander
-        return VehicleStatus(
-            time_s=self._world.time_s,
-            armed=c.armed,
-            nav_state=c.nav_state,
-            landed_state=ap.landed_state,
-            position_valid=c.position_valid,
-            prearm_ok=c.prearm_ok(),
-            failsafe=c.failsafe_active,
-            terminated=c.terminated,
-            battery=ap.battery.state(),
-            home=ap.home,
-            extra={"thrust_norm": ap.thrust_norm,
-                   "estimator_ok": max(self.estimator[E_RATIOS:E_RATIOS + 4]) <= 1.0,
-                   "rotor_speed_radps": self._world.rotor_speeds(self._row),
-                   "manual_control": c.manual_control_state,
-                   "sensor_failures": self._world.sensor_failures(self._row)},
-        )
+        world, row = self._world, self._row
+        return vehicle_status(
+            world.time_s, c.armed, c.nav_state, ap.landed_state, c.position_valid,
+            c.prearm_ok(), c.failsafe_active, c.terminated, ap.battery.state(), ap.home,
+            {"thrust_norm": ap.thrust_norm,
+             "estimator_ok": max(world.estimator_ratios(row)) <= 1.0,
+             "rotor_speed_radps": world.rotor_speeds(row),
+             "manual_control": c.manual_control_state,
+             "sensor_failures": world.sensor_failures(row)})
 
     @property
     def position_setpoint_ned_m(self) -> Vec3 | None:

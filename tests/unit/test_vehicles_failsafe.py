@@ -60,6 +60,19 @@ def test_each_check_holds_then_acts_and_clears_on_disarm(check):
     assert fs.update(7.0, FailsafeFlags(**{**flags.__dict__, "armed": False})) is Action.NONE
 
 
+def test_the_same_flags_are_checked_again_after_a_parameter_change():
+    """A data-link loss ignored in Mission (COM_DLL_EXCEPT bit 0) acts on the very same flags
+    once the exception is taken away."""
+    params = ParamStore({"NAV_DLL_ACT": 2, "COM_DLL_EXCEPT": 1, "COM_FAIL_ACT_T": 0.0})
+    fs = Failsafe(params, StatusLog())
+    flags = FailsafeFlags(armed=True, user_nav_state=NavState.AUTO_MISSION, gcs_lost=True,
+                          manual_control_lost=False, manual_control_lost_at_arming=False)
+    assert fs.update(0.0, flags) is Action.NONE
+    assert fs.update(0.1, flags) is Action.NONE
+    params.set("COM_DLL_EXCEPT", 0)
+    assert fs.update(0.2, flags) is Action.RTL
+
+
 def test_position_loss_descends_at_once_and_clears_with_the_position():
     """checkModeFallback: Hold/Return/Land need a position, so Descend, with no Hold delay (Hold
     cannot run); Position mode with sticks falls back to Altitude; modes that need no position

@@ -1,11 +1,12 @@
 """Whole vehicles in a PyBullet World: physics + autopilot, on simulated time only."""
 
+import dataclasses
 
 import numpy as np
 import pytest
 
 from vehicles.params import ParamStore
-from vehicles.types import CommandResult, LandedState, NavState
+from vehicles.types import CommandResult, LandedState, NavState, VehicleStatus
 from vehicles.world import World
 
 
@@ -68,6 +69,16 @@ def test_position_valid_and_home_after_boot(sim):
     st = sim.v.status
     assert st.position_valid and st.prearm_ok and st.home is not None
     assert st.home.geo.alt_amsl_m == pytest.approx(sim.v.origin.alt_amsl_m, abs=0.01)
+
+
+def test_status_is_the_frozen_dataclass_of_its_values(sim):
+    sim.run(1.2)
+    st = sim.v.status
+    values = {f.name: getattr(st, f.name) for f in dataclasses.fields(VehicleStatus)}
+    assert st == VehicleStatus(**values) and repr(st) == repr(VehicleStatus(**values))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        st.armed = True  # type: ignore[misc]
+    assert sim.v.status is not st and sim.v.status == st  # a new snapshot per read
 
 
 def test_takeoff_reaches_default_altitude_then_holds_steady(sim):
