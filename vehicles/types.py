@@ -194,20 +194,6 @@ class VehicleStatus:
     extra: dict = field(default_factory=dict)
 
 
-def vehicle_status(time_s: float, armed: bool, nav_state: NavState, landed_state: LandedState,
-                   position_valid: bool, prearm_ok: bool, failsafe: bool, terminated: bool,
-                   battery: BatteryState, home: HomePosition | None, extra: dict) -> VehicleStatus:
-    """``VehicleStatus(...)`` of these values, built without the frozen ``__init__``'s
-    ``object.__setattr__`` per field: the vehicle builds a new one at every read, and the lockstep
-    harness and telemetry read it many times per simulated second."""
-    status = object.__new__(VehicleStatus)
-    status.__dict__.update(time_s=time_s, armed=armed, nav_state=nav_state,
-                           landed_state=landed_state, position_valid=position_valid,
-                           prearm_ok=prearm_ok, failsafe=failsafe, terminated=terminated,
-                           battery=battery, home=home, extra=extra)
-    return status
-
-
 SPAWN_SPACING_M = 5.0  # the default spawn grid: vehicles 5 m apart, ten per row eastwards,
 SPAWN_COLUMNS = 10  # rows to the north
 

@@ -49,7 +49,6 @@ from vehicles.types import (
     Vec3,
     VehicleState,
     VehicleStatus,
-    vehicle_status,
 )
 
 # MAV_CMD_INJECT_FAILURE: FAILURE_UNIT and FAILURE_TYPE values this vehicle knows.
@@ -173,7 +172,7 @@ class Vehicle:
         ap = self._autopilot
         c = ap.commander
         world, row = self._world, self._row
-        return vehicle_status(
+        return VehicleStatus(
             world.time_s, c.armed, c.nav_state, ap.landed_state, c.position_valid,
             c.prearm_ok(), c.failsafe_active, c.terminated, ap.battery.state(), ap.home,
             {"thrust_norm": ap.thrust_norm,
