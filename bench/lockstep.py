@@ -37,7 +37,7 @@ def main() -> None:
     prof.disable()
     # (file, function) of the profile entries, whatever line they start on.
     groups = {"physics+autopilot (World.step)": ("physics.py", "step"),
-              "sessions: telemetry/timers (VehicleWake._fire)": ("simulation.py", "_fire"),
+              "sessions: telemetry/timers (VehicleWake._fire)": ("wake.py", "_fire"),
               "uplink delivery → session": ("simulation.py", "_on_uplink_delivered"),
               "downlink delivery → client": ("simulation.py", "_on_downlink_delivered")}
     stats = pstats.Stats(prof)
