@@ -10,9 +10,10 @@ STAMPG := $(VENVG)/.installed
 VEHICLES ?= 1
 PORT_OFFSET ?= 0
 PYTEST_ARGS ?=
-# Two pytest workers: an end-to-end test mostly waits on the wall clock (a daemon at 1x), so two
-# share the machine's cores; each test finds free ports of its own (gateway/ci/ports.py).
-PYTEST_WORKERS ?= 2
+# Three pytest workers: an end-to-end test mostly waits on the wall clock (a daemon at 1x; the
+# whole suite keeps two cores ~25 % busy), so three share the machine's cores; each test finds
+# free ports of its own (gateway/ci/ports.py).
+PYTEST_WORKERS ?= 3
 
 .PHONY: run test unit typecheck bench clean venv ns3 ns3-deps ns3-if-possible browser-if-possible \
 	install-service
