@@ -52,6 +52,7 @@ from vehicles.plans import PlanStore
 from vehicles.position_stage import PositionStage
 from vehicles.status_log import StatusLog
 from vehicles.types import (
+    Changes,
     CommandResult,
     GeoPoint,
     HomePosition,
@@ -84,10 +85,11 @@ class Autopilot:
         self.airframe = airframe
         self.origin = origin
         self.dt_s = dt_s
-        self.log = StatusLog(name)
+        self.changes = Changes()  # what the links poll (vehicles/types.py)
+        self.log = StatusLog(name, changes=self.changes)
         self.commander = Commander(params, self.log, boot_time_s)
         self.plans = PlanStore()
-        self.navigator = Navigator(self.plans)
+        self.navigator = Navigator(self.plans, self.changes)
         self.geofence = Geofence(params)
         self.plans.on_change(self._plan_changed)
         self.offboard = Offboard()

@@ -29,7 +29,7 @@ from vehicles.plan_types import (
     PlanType,
 )
 from vehicles.plans import PlanStore, item_ned
-from vehicles.types import NavState, Vec3
+from vehicles.types import Changes, NavState, Vec3
 
 # Items that move the vehicle (the rest is executed instantly).
 GOTO_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.NAV_LOITER_UNLIM,
@@ -42,9 +42,12 @@ YAW_LOCK_DIST_M = 1.0
 
 
 class Mission(NavMode):
-    def __init__(self, plans: PlanStore) -> None:
+    def __init__(self, plans: PlanStore, changes: Changes | None = None) -> None:
+        """``changes``: the vehicle's generations (``mission_progress`` moves with ``current``,
+        the item count and ``reached_count``)."""
         self.plans = plans
-        self.current = 0
+        self._changes = changes if changes is not None else Changes()
+        self._current = 0
         self.finished = False
         self.reached_seq = -1
         self.reached_count = 0
@@ -65,6 +68,17 @@ class Mission(NavMode):
         self._plan_changed(PlanType.MISSION)
 
     # --- bookkeeping ---------------------------------------------------------------------------
+    @property
+    def current(self) -> int:
+        return self._current
+
+    @current.setter
+    def current(self, seq: int) -> None:
+        # Every write moves the generation, so no path that moves the mission can miss it (a new
+        # plan, the item count's only source of change, sets it too).
+        self._current = seq
+        self._changes.mission_progress += 1
+
     @property
     def items(self) -> tuple[PlanItem, ...]:
         return self.plans.get(PlanType.MISSION)
@@ -114,6 +128,7 @@ class Mission(NavMode):
     def _reached(self, seq: int) -> None:
         self.reached_seq = seq
         self.reached_count += 1
+        self._changes.mission_progress += 1
         self._history.append(seq)
         self._reached_any = True
 

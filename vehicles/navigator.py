@@ -32,15 +32,15 @@ from vehicles.nav_core import (  # noqa: F401  (re-exported: the autopilot and t
 from vehicles.nav_mission import Mission
 from vehicles.nav_rtl import Return, RtlPhase  # noqa: F401
 from vehicles.plans import PlanStore
-from vehicles.types import NavState
+from vehicles.types import Changes, NavState
 
 
 class Navigator:
-    def __init__(self, plans: PlanStore | None = None) -> None:
+    def __init__(self, plans: PlanStore | None = None, changes: Changes | None = None) -> None:
         self.plans = plans if plans is not None else PlanStore()
         self.hold = Hold()
         self.takeoff = Takeoff()
-        self.mission = Mission(self.plans)
+        self.mission = Mission(self.plans, changes)
         self.rtl = Return(self.plans)
         self.modes: dict[NavState, NavMode] = {
             NavState.AUTO_LOITER: self.hold,

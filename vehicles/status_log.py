@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 from collections import deque
 
-from vehicles.types import Severity, StatusText
+from vehicles.types import Changes, Severity, StatusText
 
 log = logging.getLogger(__name__)
 
@@ -18,10 +18,13 @@ STATUS_LOG_CAPACITY = 100
 
 
 class StatusLog:
-    def __init__(self, name: str = "", capacity: int = STATUS_LOG_CAPACITY) -> None:
+    def __init__(self, name: str = "", capacity: int = STATUS_LOG_CAPACITY,
+                 changes: Changes | None = None) -> None:
+        """``changes``: the vehicle's generations (``status_texts`` moves with every text)."""
         self._texts: deque[StatusText] = deque(maxlen=capacity)
         self._seq = 0
         self._name = name
+        self._changes = changes if changes is not None else Changes()
 
     @property
     def last_seq(self) -> int:
@@ -31,6 +34,7 @@ class StatusLog:
         self._seq += 1
         entry = StatusText(self._seq, time_s, severity, text)
         self._texts.append(entry)
+        self._changes.status_texts += 1
         log.info("%s t=%.3f [%s] %s", self._name, time_s, severity.name, text)
         return entry
 

@@ -169,6 +169,20 @@ class BatteryState:
     cell_count: int
 
 
+class Changes:
+    """Generations of what the links poll at every wake-up, like a uORB topic's generation:
+    ``mission_progress`` moves whenever ``Vehicle.mission_progress`` may have (current item,
+    item count, items reached), ``status_texts`` whenever a text is logged. A poller keeps the
+    generation it saw last and reads the thing itself only once it has moved; a move without a
+    change is allowed, a change without a move is not."""
+
+    __slots__ = ("mission_progress", "status_texts")
+
+    def __init__(self) -> None:
+        self.mission_progress = 0
+        self.status_texts = 0
+
+
 @dataclass(frozen=True)
 class StatusText:
     seq: int

@@ -39,6 +39,7 @@ from vehicles.orbit import OrbitStatus
 from vehicles.params import ParamStore
 from vehicles.plan_types import MissionStatus, OffboardSetpoint, PlanItem, PlanResult, PlanType
 from vehicles.types import (
+    Changes,
     CommandResult,
     GeoPoint,
     HomePosition,
@@ -219,6 +220,12 @@ class Vehicle:
     def status_texts(self, after_seq: int = 0) -> list[StatusText]:
         return self._autopilot.log.after(after_seq)
 
+    @property
+    def changes(self) -> Changes:
+        """Generations of ``mission_progress`` and ``status_texts``: the same object for the
+        vehicle's life, so a poller may keep it."""
+        return self._autopilot.changes
+
     def arm(self, now_s: float, forced: bool = False) -> CommandResult:
         return self._autopilot.arm(now_s, self._measurement(), forced)
 
@@ -266,7 +273,8 @@ class Vehicle:
     @property
     def mission_progress(self) -> tuple[int, int, int]:
         """(current item, item count, items reached so far): changes whenever
-        ``mission_status.current_seq`` or ``.reached_count`` does; cheap enough to poll."""
+        ``mission_status.current_seq`` or ``.reached_count`` does (and then so does
+        ``changes.mission_progress``)."""
         m = self._autopilot.navigator.mission
         return (m.current, len(m.items), m.reached_count)
 

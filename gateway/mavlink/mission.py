@@ -20,7 +20,8 @@ Rules and invariants:
   REQUEST_LIST, so a concurrent upload elsewhere cannot mix two plans into one download.
   An empty plan answers COUNT 0 and stays idle. The client drives retries (PX4 never resends).
 - MISSION_CURRENT goes out at once on this link after MISSION_SET_CURRENT, and on every link
-  whenever ``vehicle.mission_status.current_seq`` changes (checked at each wake-up); the 1 Hz
+  whenever ``vehicle.mission_status.current_seq`` changes (checked at the wake-ups after the
+  vehicle's ``changes.mission_progress`` moved, or at each one without it); the 1 Hz
   stream is in telemetry.py. MISSION_ITEM_REACHED goes out when ``reached_count`` changes, then
   REACHED_REPEATS more times at 1 Hz (PX4: "send the reached message another 10 times").
 """
@@ -47,7 +48,7 @@ from gateway.mavlink.mission_items import (
 from gateway.mavlink.vehicle_port import VehicleFeatures
 from vehicles.plan_types import PlanItem, PlanResult, PlanType
 from vehicles.plans import CAPACITY  # one source: what the vehicle can store
-from vehicles.types import Severity
+from vehicles.types import Changes, Severity
 
 RETRY_S = 0.25  # MAVLINK_MISSION_RETRY_TIMEOUT_DEFAULT: re-request the expected item
 TIMEOUT_S = 5.0  # MAVLINK_MISSION_PROTOCOL_TIMEOUT_DEFAULT: give the transfer up
@@ -108,6 +109,10 @@ class MissionService:
         self._last_current = st.current_seq
         self._last_reached_count = st.reached_count
         self._last_progress: object = None  # vehicle.mission_progress at the last full poll
+        # The vehicle's generations (None: it has none, progress is read at every wake-up) and
+        # the one of mission_progress when it was last read (-1: never).
+        self._changes: Changes | None = getattr(self.vehicle, "changes", None)
+        self._seen_progress = -1
         self._reached_seq = -1
         self._repeats_left = 0
         self._repeat_at = math.inf
@@ -360,9 +365,14 @@ class MissionService:
                 self._idle()
             elif phase is Phase.UPLOAD and now_s >= self._retry_at:
                 self._request(now_s)
+        changes = self._changes
+        if changes is not None:
+            if changes.mission_progress == self._seen_progress and now_s < self._repeat_at:
+                return  # the usual wake-up: progress as last read, no repeat due
+            self._seen_progress = changes.mission_progress
         progress = getattr(self.vehicle, "mission_progress", None)
         if progress is not None and progress == self._last_progress and now_s < self._repeat_at:
-            return  # the usual wake-up: no progress and no repeat due, nothing to report
+            return  # no progress and no repeat due, nothing to report
         self._poll_status(now_s, progress)
 
     def _poll_status(self, now_s: float, progress: object) -> None:

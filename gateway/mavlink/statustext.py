@@ -4,7 +4,8 @@ Source: PX4 mavlink_main.cpp (STATUSTEXT always streamed), mavlink_log texts (a 
 marks an events-backed text).
 Rules:
 - A cursor per link drains ``vehicle.status_texts(after_seq)``; texts are consumed whether or
-  not they are sent (PX4 drops them too), so nothing piles up while no GCS listens.
+  not they are sent (PX4 drops them too), so nothing piles up while no GCS listens. A vehicle
+  with ``changes`` is asked only once its ``status_texts`` generation has moved.
 - Sent only while a MAV_TYPE_GCS heartbeat arrived on this link within GCS_PRESENT_S, and only
   texts younger than MAX_AGE_S.
 - PX4's trailing tab (marks texts duplicated by events) is stripped: we send no events.
@@ -20,7 +21,7 @@ from collections.abc import Callable
 from pymavlink.dialects.v20 import common as mavlink2
 
 from gateway.mavlink.link import LinkContext
-from vehicles.types import Severity
+from vehicles.types import Changes, Severity
 
 GCS_PRESENT_S = 2.5
 MAX_AGE_S = 5.0
@@ -39,16 +40,22 @@ class StatusTextService:
         self._cursor = -1
         self._next_id = 1
         self._pending: list[tuple[float, int, str]] = []  # (time_s, severity, text)
+        # The vehicle's generations (None: it has none, its log is asked at every poll) and the
+        # one of its texts when they were last read (-1: never).
+        self._changes: Changes | None = getattr(self.vehicle, "changes", None)
+        self._seen_texts = -1
 
     def local(self, now_s: float, severity: Severity, text: str) -> None:
         self._pending.append((now_s, int(severity), text))
 
     def poll(self, now_s: float) -> None:
-        texts = getattr(self.vehicle, "status_texts", None)
-        if texts is not None:
-            for t in texts(self._cursor):
-                self._cursor = max(self._cursor, t.seq)
-                self._pending.append((t.time_s, int(t.severity), t.text))
+        changes = self._changes
+        if changes is not None:
+            if changes.status_texts != self._seen_texts:
+                self._seen_texts = changes.status_texts
+                self._drain()
+        else:
+            self._drain()
         if not self._pending:
             return
         if not self.gcs_present(now_s):
@@ -59,6 +66,14 @@ class StatusTextService:
             if now_s - time_s < MAX_AGE_S:
                 for frame in self.frames(severity, text):
                     self.send(frame)
+
+    def _drain(self) -> None:
+        """The vehicle's texts after the cursor onto ``_pending``."""
+        texts = getattr(self.vehicle, "status_texts", None)
+        if texts is not None:
+            for t in texts(self._cursor):
+                self._cursor = max(self._cursor, t.seq)
+                self._pending.append((t.time_s, int(t.severity), t.text))
 
     def frames(self, severity: int, text: str) -> list[bytes]:
         data = text.rstrip("\t").encode("utf-8", "replace")

@@ -26,6 +26,7 @@ if TYPE_CHECKING:  # annotations only: importing this module loads nothing of ve
     from vehicles.params import ParamStore
     from vehicles.plan_types import MissionStatus, OffboardSetpoint, PlanItem, PlanResult, PlanType
     from vehicles.types import (
+        Changes,
         CommandResult,
         HomePosition,
         Kinematics,
@@ -82,6 +83,9 @@ class VehicleFeatures(Protocol):
     """What the protocol calls only when the vehicle has it (looked up by name)."""
 
     def status_texts(self, after_seq: int = ...) -> list[StatusText]: ...
+
+    @property
+    def changes(self) -> Changes: ...  # generations of mission_progress and status_texts
 
     def on_gcs_heartbeat(self, now_s: float) -> None: ...  # data-link-loss failsafe input
 

@@ -220,3 +220,36 @@ def test_land_item_lands_at_its_position_and_disarms(sim):
     assert v.mission_status.state is MissionState.COMPLETE
     p = v.state.position_ned_m
     assert math.hypot(p[0] - 15.0, p[1] - 10.0) < 1.0
+
+
+def test_changes_move_with_every_change_of_mission_progress_and_status_texts(sim):
+    """The links skip their polls while ``v.changes`` stands still: it must move with every
+    change of what they poll (a move without a change is allowed)."""
+    v = sim.v
+    seen = (v.mission_progress, v.status_texts(0)[-1:], v.changes.mission_progress,
+            v.changes.status_texts)
+    changed = {"progress": 0, "texts": 0}
+
+    def watch():
+        nonlocal seen
+        now = (v.mission_progress, v.status_texts(0)[-1:], v.changes.mission_progress,
+               v.changes.status_texts)
+        if now[0] != seen[0]:
+            assert now[2] != seen[2], (seen, now)
+            changed["progress"] += 1
+        if now[1] != seen[1]:
+            assert now[3] != seen[3], (seen, now)
+            changed["texts"] += 1
+        seen = now
+        return False
+
+    assert v.set_plan(sim.t, PlanType.MISSION, waypoints(v, SQUARE)) is PlanResult.ACCEPTED
+    watch()
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    sim.run(25.0, until=watch)
+    assert v.set_current_mission_item(sim.t, 0)
+    watch()
+    assert v.set_plan(sim.t, PlanType.MISSION, waypoints(v, SQUARE[:2])) is PlanResult.ACCEPTED
+    watch()
+    sim.run(5.0, until=watch)
+    assert changed["progress"] >= 4 and changed["texts"] >= 2, changed
