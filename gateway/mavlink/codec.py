@@ -37,7 +37,6 @@ from gateway.mavlink.signing import IFLAG_SIGNED, Signer, Verifier
 log = logging.getLogger(__name__)
 
 MAGIC_V2 = 0xFD
-MAX_DATAGRAM_BYTES = 1400
 LOG_INTERVAL_S = 1.0  # at most one debug line per second of simulated time per decoder
 
 # PROTOCOL_VERSION (300) is not in pymavlink 2.4.50's common dialect; we frame it by hand.
@@ -261,22 +260,6 @@ class Decoder:
         if now_s >= self._next_log_s:
             self._next_log_s = now_s + LOG_INTERVAL_S
             log.debug(fmt, *args)
-
-
-def pack_datagrams(frames: list[bytes], limit: int = MAX_DATAGRAM_BYTES) -> list[bytes]:
-    """Concatenate frames into datagrams of at most ``limit`` bytes; a frame is never split."""
-    out: list[bytes] = []
-    cur: list[bytes] = []
-    size = 0
-    for f in frames:
-        if cur and size + len(f) > limit:
-            out.append(b"".join(cur))
-            cur, size = [], 0
-        cur.append(f)
-        size += len(f)
-    if cur:
-        out.append(b"".join(cur))
-    return out
 
 
 def fixed_name(name: str) -> bytes:

@@ -5,7 +5,7 @@ The asyncio shell drives it exactly like aioquic's QuicConnection:
     s = Session(vehicle, LinkKind.API, now_s=0.0)
     s.receive_datagram(data, now_s, peer)  # a datagram arrived from ``peer`` (never raises)
     s.handle_timer(now_s)                  # at s.get_timer(): emit due telemetry, paced params …
-    for d in s.datagrams_to_send(now_s):   # then drain; frames packed into ≤ 1400-byte datagrams
+    for d in s.datagrams_to_send(now_s):   # then drain: one datagram per frame, as PX4 sends
         link.send(d, s.peer)
 
 Rules and invariants:
@@ -41,7 +41,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import MAX_DATAGRAM_BYTES, Decoder, Encoder, pack_datagrams
+from gateway.mavlink.codec import Decoder, Encoder
 from gateway.mavlink.commands import CommandService
 from gateway.mavlink.ftp import FtpService
 from gateway.mavlink.link import LinkContext, LinkKind, SessionStats
@@ -188,17 +188,16 @@ class Session:
                 self.peer = peer
 
     def datagrams_to_send(self, now_s: float) -> list[bytes]:
+        """Every frame queued since the last call, each in a datagram of its own, in order: PX4
+        sends each message as it is finalised (mavlink_main.cpp ``send_finish``: one
+        ``sendto`` per message), so a network loses, delays and queues messages one by one."""
         out = self._out
         if not out:
-            return []
+            return out
         self._out = []
-        # Most wake-ups fit one datagram: skip the packing loop then.
-        joined = b"".join(out)
-        size = len(joined)
-        datagrams = [joined] if size <= MAX_DATAGRAM_BYTES else pack_datagrams(out)
-        self.stats.tx_datagrams += len(datagrams)
-        self.stats.tx_bytes += size
-        return datagrams
+        self.stats.tx_datagrams += len(out)
+        self.stats.tx_bytes += sum(map(len, out))
+        return out
 
     def get_timer(self) -> float | None:
         t = min(self.params.due_s, self.mission.get_timer(), self.logs.due_s, self.ftp.due_s)

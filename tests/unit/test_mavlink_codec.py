@@ -13,7 +13,6 @@ from gateway.mavlink.codec import (
     Decoder,
     DecodeStats,
     Encoder,
-    pack_datagrams,
 )
 from gateway.mavlink.session import LinkKind
 from gateway.mavlink.snapshot import Snapshot
@@ -67,22 +66,6 @@ def test_sequence_wraps_per_link():
     enc = Encoder(1, 1)
     seqs = [enc.pack(M.MAVLink_ping_message, 0, 0, 0, 0)[4] for _ in range(300)]
     assert seqs[:3] == [0, 1, 2] and seqs[256] == 0
-
-
-def test_pack_datagrams_never_splits_frames():
-    frames = [bytes([0xFD, n % 251]) + bytes(n) for n in range(10, 280, 7)]  # MAVLink max 280
-    datagrams = pack_datagrams(frames)
-    assert b"".join(datagrams) == b"".join(frames)
-    assert all(len(d) <= 1400 for d in datagrams)
-    bounds = set()
-    pos = 0
-    for f in frames:
-        bounds.add(pos)
-        pos += len(f)
-    pos = 0
-    for d in datagrams:
-        assert pos in bounds  # every datagram starts at a frame boundary
-        pos += len(d)
 
 
 def test_v1_and_signed_v2_frames_are_accepted():
