@@ -20,6 +20,7 @@ import math
 
 from vehicles.control.position_smoothing import PositionSmoothing
 from vehicles.control.trajectory import TrajectoryLimits
+from vehicles.control.velocity_smoothing import V
 from vehicles.params import ParamStore
 from vehicles.types import Vec3
 
@@ -78,8 +79,7 @@ class AutoTrajectory:
         p, s = self._params, self._smoothing
         if p.version != self._params_version:
             self._update_params()
-        here, velocity = s.position_velocity()
-        going_up = velocity[2] < 0.0
+        going_up = s.axes.item(2, V) < 0.0
         set_up = self._set_up
         if (set_up is None or lim is not set_up[0] or going_up != set_up[1]
                 or self._params_version != set_up[2]):
@@ -95,24 +95,10 @@ class AutoTrajectory:
             s.cruise_speed = lim.speed_xy_mps
             s.horizontal_trajectory_gain = self._traj_p
             s.vertical_acceptance_radius = self._alt_rad
-        s.target_acceptance_radius = (acceptance_radius_m if math.isfinite(acceptance_radius_m)
-                                      else self._acc_rad)
-        vertical_speed = math.isnan(target_ned_m[2])
-        target = target_ned_m
-        ff = feedforward_ned_mps if feedforward_ned_mps is not None else (math.nan,) * 3
-        feedforward = (ff[0], ff[1], vz_cmd_mps if vertical_speed else ff[2])
-        prev = previous_ned_m if previous_ned_m is not None else here
-        nxt = next_ned_m if next_ned_m is not None else target
-        if vertical_speed:  # the triplet's altitude is the setpoint's (only xy is planned)
-            prev = (prev[0], prev[1], math.nan)
-            nxt = (nxt[0], nxt[1], math.nan)
-        vehicle = position_ned_m if position_ned_m is not None else here
-        pos, vel, acc = s.generate_pva(vehicle, (prev, target, nxt), feedforward, dt_s,
-                                       single_waypoint=next_ned_m is None)
-        if not (math.isfinite(pos[0]) and math.isfinite(pos[1]) and math.isfinite(pos[2])):
-            s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), here)  # nothing to plan: hold still
-            return here, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-        if vertical_speed:  # the altitude follows the vehicle (velocity control)
-            s.trajectory[2].set_current_position(current_z_m)
-            pos = (pos[0], pos[1], math.nan)
-        return pos, vel, acc
+        # The triplet as FlightTaskAuto completes it: the setpoint's own position for a missing
+        # vehicle position or previous waypoint, the target for a missing next one (a single
+        # waypoint); with a NaN target z only xy is planned and z follows the vehicle.
+        return s.generate_auto(position_ned_m, previous_ned_m, target_ned_m, next_ned_m,
+                               feedforward_ned_mps, dt_s,
+                               acceptance_radius_m if math.isfinite(acceptance_radius_m)
+                               else self._acc_rad, vz_cmd_mps, current_z_m)
