@@ -23,7 +23,6 @@ Rules and invariants:
 
 from __future__ import annotations
 
-import functools
 import math
 
 from vehicles.airframe import Airframe
@@ -442,14 +441,12 @@ class Autopilot:
         if not st.flying:
             st.trajectory.reset(pos, vel)
         auto = self.tasks.auto
-        # (The trajectory does not move before the navigator has run: the stopping point can
-        # wait until a mode asks for it.)
-        stopping_point = functools.partial(
-            st.trajectory.stopping_point,
-            auto.setpoint.limits if auto.setpoint else auto_limits(self.params))
+        # (The trajectory does not move before the navigator has run: where its setpoint is and
+        # the stopping point can wait until a mode asks for them.)
         ctx = NavContext(now_s, self.params, self.log, cmd.armed, ld.landed, pos, vel, yaw,
-                         self.home, st.trajectory.position_ned_m, stopping_point, self.origin,
-                         self._switch_by_vehicle, self.navigator.cruise_mps,
+                         self.home, st.trajectory,
+                         auto.setpoint.limits if auto.setpoint else auto_limits(self.params),
+                         self.origin, self._switch_by_vehicle, self.navigator.cruise_mps,
                          self.navigator.set_cruise_mps)
         state = cmd.nav_state
         entered = state is not self._prev_nav_state
