@@ -30,7 +30,7 @@ from vehicles.control.position_control import (
     PositionControlGains,
     PositionSetpoint,
 )
-from vehicles.control.takeoff import TakeoffHandling, TakeoffState
+from vehicles.control.takeoff import FLIGHT, RAMPUP, TakeoffHandling, TakeoffState
 from vehicles.land_detector import LandDetector
 from vehicles.params import ParamStore
 from vehicles.types import Measurement, Vec3
@@ -120,12 +120,12 @@ class PositionStage:
         ld, pc = self.land_detector, self.position_control
         task_vz = sp.velocity_ned_mps[2]  # the land detector judges the task's setpoint (PX4)
         state = self._takeoff_state(True)
-        flying = state >= TakeoffState.FLIGHT
-        no_setpoint = state < TakeoffState.RAMPUP or (flying and ld.ground_contact)
+        flying = state >= FLIGHT
+        no_setpoint = state < RAMPUP or (flying and ld.ground_contact)
         if no_setpoint:
             sp = PositionSetpoint(_NAN3, _NAN3, sp.yaw_rad, _NO_THRUST_ACC)
             pc.reset_integral()
-            if state < TakeoffState.RAMPUP:
+            if state < RAMPUP:
                 # PX4 re-activates the flight task (FlightTaskAuto::reActivate): the smoothing
                 # restarts here at rest but for a 0.7 m/s descent, so that once the ramp starts
                 # the climb setpoint first has to turn round instead of running far ahead.
