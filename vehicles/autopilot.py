@@ -397,10 +397,9 @@ class Autopilot:
     def _failsafe_flags(self, now_s: float, pos: Vec3) -> FailsafeFlags:
         """(Called after ``_refresh_requirements``: the parameters are current.)"""
         remaining = self.battery.remaining
-        level = 0
-        for i, threshold in enumerate(self._battery_thresholds):
-            if remaining <= threshold:
-                level = i + 1
+        low, critical, emergency = self._battery_thresholds  # the last one reached counts
+        level = (3 if remaining <= emergency else 2 if remaining <= critical
+                 else 1 if remaining <= low else 0)
         if level > self._battery_level:  # framework.cpp notifyUser texts per battery cause
             self.log.add(now_s, BATTERY_TEXTS[level][0], BATTERY_TEXTS[level][1])
         self._battery_level = level
@@ -430,7 +429,7 @@ class Autopilot:
         was_armed = cmd.armed
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
         self._refresh_requirements(now_s)
-        if cmd.nav_state is NavState.AUTO_MISSION and not cmd.mission_valid:
+        if not cmd.mission_valid and cmd.nav_state is NavState.AUTO_MISSION:
             cmd.switch_by_vehicle(NavState.AUTO_LOITER)  # mission cleared under our feet
         if cmd.update(now_s, ld.landed, self._failsafe_flags(now_s, pos)):
             self._set_home(meas)

@@ -287,7 +287,7 @@ class Failsafe:
     def _select(self, now_s: float, flags: FailsafeFlags) -> tuple[Action, Action]:
         if self.selected is Action.TERMINATE:
             return Action.TERMINATE, Action.NONE
-        if not flags.armed:
+        if not flags.armed or not self.actions:  # (no actions: the common case)
             return Action.NONE, Action.NONE
         worst = max((a.action for a in self.actions.values()), default=Action.NONE)
         if self._user_takeover and worst is not Action.TERMINATE:
