@@ -309,8 +309,8 @@ class PositionSmoothing:
         self.axes = new_axes(3)
         self.cfg = np.zeros(7)
         self.trajectory = [VelocitySmoothing(row=self.axes[i]) for i in range(3)]
-        self._inp = np.zeros(15)
-        self._out = np.zeros((5, 3))
+        self.inp = np.zeros(15)  # the compiled step's input (P_POS …) and output rows
+        self.out = np.zeros((5, 3))
 
     # --- configuration and state ----------------------------------------------------------------
     def set_max_jerk(self, jerk: float) -> None:
@@ -352,25 +352,12 @@ class PositionSmoothing:
         """One update (generateSetpoints): ``waypoints`` = (previous, target, next); NaN target
         axes are velocity-controlled at ``feedforward``."""
         prev, target, nxt = waypoints
-        self._inp[:] = (*position, *prev, *target, *nxt, *feedforward)
-        generate_step(self.axes, self.cfg, self._inp, float(dt_s), bool(force_zero_velocity),
-                      bool(single_waypoint), self._out)
-        j, a, v, x, u = self._out.tolist()
+        self.inp[:] = (*position, *prev, *target, *nxt, *feedforward)
+        generate_step(self.axes, self.cfg, self.inp, float(dt_s), bool(force_zero_velocity),
+                      bool(single_waypoint), self.out)
+        j, a, v, x, u = self.out.tolist()
         return SmoothedSetpoints((j[0], j[1], j[2]), (a[0], a[1], a[2]), (v[0], v[1], v[2]),
                                  (x[0], x[1], x[2]), (u[0], u[1], u[2]))
-
-    def generate_pva(self, position: Vec3, waypoints: tuple[Vec3, Vec3, Vec3],
-                     feedforward: Vec3, dt_s: float, single_waypoint: bool = False
-                     ) -> tuple[Vec3, Vec3, Vec3]:
-        """``generate``'s (position, velocity, acceleration) only: what the auto modes take from
-        it every tick."""
-        prev, target, nxt = waypoints
-        self._inp[:] = (*position, *prev, *target, *nxt, *feedforward)
-        generate_step(self.axes, self.cfg, self._inp, float(dt_s), False, bool(single_waypoint),
-                      self._out)
-        a, v, x = self._out[1:4].tolist()
-        return (x[0], x[1], x[2]), (v[0], v[1], v[2]), (a[0], a[1], a[2])
-
 
     def generate_auto(self, position: Vec3 | None, previous: Vec3 | None, target: Vec3,
                       next_: Vec3 | None, feedforward: Vec3 | None, dt_s: float,
@@ -381,15 +368,20 @@ class PositionSmoothing:
         is, for the next waypoint as the target (a single waypoint then) and for no feed-forward;
         ``target_acceptance_radius`` is set to ``acceptance_radius``. Returns (position,
         velocity, acceleration)."""
-        n3 = _NAN3
-        self._inp[:] = (*(n3 if position is None else position),
-                        *(n3 if previous is None else previous), *target,
-                        *(n3 if next_ is None else next_),
-                        *(n3 if feedforward is None else feedforward))
-        return generate_auto_step(self.axes, self.cfg, self._inp, float(dt_s),
+        self.set_auto_input(position, previous, target, next_, feedforward)
+        return generate_auto_step(self.axes, self.cfg, self.inp, float(dt_s),
                                   position is not None, previous is not None, next_ is not None,
                                   float(acceptance_radius), float(vz_cmd), float(current_z),
-                                  self._out)
+                                  self.out)
+
+    def set_auto_input(self, position: Vec3 | None, previous: Vec3 | None, target: Vec3,
+                       next_: Vec3 | None, feedforward: Vec3 | None) -> None:
+        """``inp`` for ``generate_auto_step`` (None: a row it fills itself, or no feed-forward)."""
+        n3 = _NAN3
+        self.inp[:] = (*(n3 if position is None else position),
+                       *(n3 if previous is None else previous), *target,
+                       *(n3 if next_ is None else next_),
+                       *(n3 if feedforward is None else feedforward))
 
 def compile_now() -> None:
     """Compile ``generate_step`` (or load it from numba's cache) now, not in the first flight."""
