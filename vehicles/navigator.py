@@ -38,6 +38,7 @@ from vehicles.types import NavState
 # (``NavState.AUTO_LOITER``) goes through EnumType.__getattr__ (~0.2 us).
 _HOLD = NavState.AUTO_LOITER
 
+
 class Navigator:
     def __init__(self, plans: PlanStore | None = None) -> None:
         self.plans = plans if plans is not None else PlanStore()
