@@ -20,6 +20,7 @@ import math
 
 from vehicles.control.position_smoothing import PositionSmoothing
 from vehicles.control.trajectory import TrajectoryLimits
+from vehicles.control.velocity_smoothing import V
 from vehicles.params import ParamStore
 from vehicles.types import Vec3
 
@@ -29,8 +30,8 @@ XY_ERR_MAX_M = 2.0  # PX4 MPC_XY_ERR_MAX default
 class AutoTrajectory:
     def __init__(self, params: ParamStore) -> None:
         self._params = params
-        self._smoothing = PositionSmoothing()
-        self._smoothing.max_allowed_horizontal_error = XY_ERR_MAX_M
+        self.smoothing = PositionSmoothing()
+        self.smoothing.max_allowed_horizontal_error = XY_ERR_MAX_M
         self._acc: Vec3 = (0.0, 0.0, 0.0)
         self._params_version = -1  # the parameters below are read at the first update
         self._jerk = self._traj_p = self._alt_rad = self._acc_rad = 0.0
@@ -46,40 +47,34 @@ class AutoTrajectory:
         self._acc_rad = float(p["NAV_ACC_RAD"])
 
     def reset(self, position_ned_m: Vec3, velocity_ned_mps: Vec3) -> None:
-        self._smoothing.reset((0.0, 0.0, 0.0), velocity_ned_mps, position_ned_m)
+        self.smoothing.reset((0.0, 0.0, 0.0), velocity_ned_mps, position_ned_m)
         self._acc = (0.0, 0.0, 0.0)
 
     @property
     def position_ned_m(self) -> Vec3:
-        return self._smoothing.position
+        return self.smoothing.position
 
     @property
     def velocity_ned_mps(self) -> Vec3:
-        return self._smoothing.velocity
+        return self.smoothing.velocity
 
     def stopping_point(self, lim: TrajectoryLimits) -> Vec3:
         """Where the setpoint comes to rest if it brakes now (navigator calculate_breaking_stop:
         computeBrakingDistanceFromVelocity with MPC_JERK_AUTO, MPC_ACC_HOR and an acceleration
         delay of 0.6 x MPC_JERK_AUTO)."""
-        (px, py, pz), (vx, vy, vz) = self._smoothing.position_velocity()
+        (px, py, pz), (vx, vy, vz) = self.smoothing.position_velocity()
         speed = math.hypot(vx, vy)
         k = speed / (2.0 * lim.acc_xy_mps2) + 0.6  # braking distance / speed
         acc_z = lim.acc_down_mps2 if vz > 0.0 else lim.acc_up_mps2
         return (px + vx * k, py + vy * k, pz + vz * abs(vz) / (2.0 * acc_z))
 
-    def update(self, dt_s: float, target_ned_m: Vec3, lim: TrajectoryLimits,
-               vz_cmd_mps: float = 0.0, current_z_m: float = 0.0,
-               position_ned_m: Vec3 | None = None, previous_ned_m: Vec3 | None = None,
-               next_ned_m: Vec3 | None = None, acceptance_radius_m: float = math.nan,
-               feedforward_ned_mps: Vec3 | None = None) -> tuple[Vec3, Vec3, Vec3]:
-        """Advance by ``dt_s``; returns (position, velocity, acceleration) setpoints.
-        ``position_ned_m``: the vehicle's (for the lag stretch; the setpoint's own when None).
-        ``feedforward_ned_mps``: the target's own velocity (a moving target: Follow Me)."""
-        p, s = self._params, self._smoothing
+    def set_up(self, lim: TrajectoryLimits) -> None:
+        """The smoothing's limits for this tick (what ``update`` does first; the auto task's
+        compiled tick, position_stage.py, calls it itself)."""
+        p, s = self._params, self.smoothing
         if p.version != self._params_version:
             self._update_params()
-        here, velocity = s.position_velocity()
-        going_up = velocity[2] < 0.0
+        going_up = s.axes.item(2, V) < 0.0
         set_up = self._set_up
         if (set_up is None or lim is not set_up[0] or going_up != set_up[1]
                 or self._params_version != set_up[2]):
@@ -95,24 +90,24 @@ class AutoTrajectory:
             s.cruise_speed = lim.speed_xy_mps
             s.horizontal_trajectory_gain = self._traj_p
             s.vertical_acceptance_radius = self._alt_rad
-        s.target_acceptance_radius = (acceptance_radius_m if math.isfinite(acceptance_radius_m)
-                                      else self._acc_rad)
-        vertical_speed = math.isnan(target_ned_m[2])
-        target = target_ned_m
-        ff = feedforward_ned_mps if feedforward_ned_mps is not None else (math.nan,) * 3
-        feedforward = (ff[0], ff[1], vz_cmd_mps if vertical_speed else ff[2])
-        prev = previous_ned_m if previous_ned_m is not None else here
-        nxt = next_ned_m if next_ned_m is not None else target
-        if vertical_speed:  # the triplet's altitude is the setpoint's (only xy is planned)
-            prev = (prev[0], prev[1], math.nan)
-            nxt = (nxt[0], nxt[1], math.nan)
-        vehicle = position_ned_m if position_ned_m is not None else here
-        pos, vel, acc = s.generate_pva(vehicle, (prev, target, nxt), feedforward, dt_s,
-                                       single_waypoint=next_ned_m is None)
-        if not (math.isfinite(pos[0]) and math.isfinite(pos[1]) and math.isfinite(pos[2])):
-            s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), here)  # nothing to plan: hold still
-            return here, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-        if vertical_speed:  # the altitude follows the vehicle (velocity control)
-            s.trajectory[2].set_current_position(current_z_m)
-            pos = (pos[0], pos[1], math.nan)
-        return pos, vel, acc
+
+    def acceptance_radius(self, acceptance_radius_m: float) -> float:
+        """The target's acceptance radius: the navigator's, NAV_ACC_RAD when not finite."""
+        return acceptance_radius_m if math.isfinite(acceptance_radius_m) else self._acc_rad
+
+    def update(self, dt_s: float, target_ned_m: Vec3, lim: TrajectoryLimits,
+               vz_cmd_mps: float = 0.0, current_z_m: float = 0.0,
+               position_ned_m: Vec3 | None = None, previous_ned_m: Vec3 | None = None,
+               next_ned_m: Vec3 | None = None, acceptance_radius_m: float = math.nan,
+               feedforward_ned_mps: Vec3 | None = None) -> tuple[Vec3, Vec3, Vec3]:
+        """Advance by ``dt_s``; returns (position, velocity, acceleration) setpoints.
+        ``position_ned_m``: the vehicle's (for the lag stretch; the setpoint's own when None).
+        ``feedforward_ned_mps``: the target's own velocity (a moving target: Follow Me)."""
+        self.set_up(lim)
+        # The triplet as FlightTaskAuto completes it: the setpoint's own position for a missing
+        # vehicle position or previous waypoint, the target for a missing next one (a single
+        # waypoint); with a NaN target z only xy is planned and z follows the vehicle.
+        return self.smoothing.generate_auto(position_ned_m, previous_ned_m, target_ned_m,
+                                            next_ned_m, feedforward_ned_mps, dt_s,
+                                            self.acceptance_radius(acceptance_radius_m),
+                                            vz_cmd_mps, current_z_m)

@@ -23,7 +23,6 @@ Rules and invariants:
 
 from __future__ import annotations
 
-import functools
 import math
 
 from vehicles.airframe import Airframe
@@ -400,10 +399,9 @@ class Autopilot:
     def _failsafe_flags(self, now_s: float, pos: Vec3) -> FailsafeFlags:
         """(Called after ``_refresh_requirements``: the parameters are current.)"""
         remaining = self.battery.remaining
-        level = 0
-        for i, threshold in enumerate(self._battery_thresholds):
-            if remaining <= threshold:
-                level = i + 1
+        low, critical, emergency = self._battery_thresholds  # the last one reached counts
+        level = (3 if remaining <= emergency else 2 if remaining <= critical
+                 else 1 if remaining <= low else 0)
         if level > self._battery_level:  # framework.cpp notifyUser texts per battery cause
             self.log.add(now_s, BATTERY_TEXTS[level][0], BATTERY_TEXTS[level][1])
         self._battery_level = level
@@ -433,7 +431,7 @@ class Autopilot:
         was_armed = cmd.armed
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
         self._refresh_requirements(now_s)
-        if cmd.nav_state is NavState.AUTO_MISSION and not cmd.mission_valid:
+        if not cmd.mission_valid and cmd.nav_state is NavState.AUTO_MISSION:
             cmd.switch_by_vehicle(NavState.AUTO_LOITER)  # mission cleared under our feet
         if cmd.update(now_s, ld.landed, self._failsafe_flags(now_s, pos)):
             self._set_home(meas)
@@ -444,14 +442,12 @@ class Autopilot:
         if not st.flying:
             st.trajectory.reset(pos, vel)
         auto = self.tasks.auto
-        # (The trajectory does not move before the navigator has run: the stopping point can
-        # wait until a mode asks for it.)
-        stopping_point = functools.partial(
-            st.trajectory.stopping_point,
-            auto.setpoint.limits if auto.setpoint else auto_limits(self.params))
+        # (The trajectory does not move before the navigator has run: where its setpoint is and
+        # the stopping point can wait until a mode asks for them.)
         ctx = NavContext(now_s, self.params, self.log, cmd.armed, ld.landed, pos, vel, yaw,
-                         self.home, st.trajectory.position_ned_m, stopping_point, self.origin,
-                         self._switch_by_vehicle, self.navigator.cruise_mps,
+                         self.home, st.trajectory,
+                         auto.setpoint.limits if auto.setpoint else auto_limits(self.params),
+                         self.origin, self._switch_by_vehicle, self.navigator.cruise_mps,
                          self.navigator.set_cruise_mps)
         state = cmd.nav_state
         entered = state is not self._prev_nav_state

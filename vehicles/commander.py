@@ -72,6 +72,9 @@ class ModeSpec:
 
 
 _L = NavState.AUTO_LOITER
+# Read at every 50 Hz tick (``_update_failsafe``), by module names: in Python 3.11 a member read
+# off its class (``Action.TERMINATE``) goes through EnumType.__getattr__ (~0.2 us).
+_TERMINATE, _DISARM = Action.TERMINATE, Action.DISARM
 
 # What a failsafe action makes the vehicle fly (failsafe.cpp modeFromAction).
 ACTION_NAV_STATE: dict[Action, NavState] = {
@@ -312,9 +315,9 @@ class Commander:
         action = self.failsafe.update(now_s, flags)
         if self.terminated:
             return
-        if action is Action.TERMINATE:
+        if action is _TERMINATE:
             self.terminate(now_s)
-        elif action is Action.DISARM and self.armed:
+        elif action is _DISARM and self.armed:
             self._disarm(now_s, "Disarmed by failsafe")
         elif action in ACTION_NAV_STATE:
             target = ACTION_NAV_STATE[action]

@@ -98,9 +98,6 @@ class AutoTask(FlightTask):
         if not st.flying or math.isnan(st.yaw_sp):
             st.yaw_sp = t.yaw_rad
         st.start_flying(t.meas)
-        p_sp, v_sp, a_sp = st.trajectory.update(
-            t.dt_s, nav_sp.target_ned_m, nav_sp.limits, nav_sp.vz_cmd_mps, pos[2], pos,
-            nav_sp.previous_ned_m, nav_sp.next_ned_m, nav_sp.acceptance_radius_m)
         if not math.isnan(nav_sp.yaw_rad):
             p = self.params
             if p.version != self._params_version:
@@ -109,8 +106,11 @@ class AutoTask(FlightTask):
             step = self._yawrate_max_radps * t.dt_s
             err = math.remainder(nav_sp.yaw_rad - st.yaw_sp, math.tau)
             st.yaw_sp = math.remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
-        st.apply(t.dt_s, t.meas, PositionSetpoint(p_sp, v_sp, st.yaw_sp, a_sp), t.yaw_rad,
-                 speed_up_mps=nav_sp.limits.speed_up_mps)
+        # The trajectory towards the triplet, then position control on it at the slewed
+        # heading (one compiled call).
+        st.apply_auto(t.dt_s, t.meas, nav_sp.target_ned_m, nav_sp.limits, nav_sp.vz_cmd_mps,
+                      nav_sp.previous_ned_m, nav_sp.next_ned_m, nav_sp.acceptance_radius_m,
+                      t.yaw_rad)
 
 
 class OffboardTask(FlightTask):

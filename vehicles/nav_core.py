@@ -18,12 +18,15 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 from vehicles.control.trajectory import TrajectoryLimits
 from vehicles.params import ParamStore
 from vehicles.status_log import StatusLog
 from vehicles.types import GeoPoint, HomePosition, NavState, Vec3
+
+if TYPE_CHECKING:
+    from vehicles.auto_trajectory import AutoTrajectory
 
 
 class NavSetpoint(NamedTuple):
@@ -57,18 +60,23 @@ class NavContext:
     velocity_ned_mps: Vec3
     yaw_rad: float
     home: HomePosition | None
-    setpoint_ned_m: Vec3  # where the trajectory carrot is now
-    # Where the carrot comes to rest if it brakes now (``stopping_point_ned_m``): worked out
-    # when a mode first asks, which few ticks do.
-    stopping_point: Callable[[], Vec3]
+    # The trajectory carrot: where it is now (``setpoint_ned_m``) and where it comes to rest if
+    # it brakes now within ``stop_limits`` (``stopping_point_ned_m``), read when a mode asks,
+    # which few ticks do.
+    trajectory: AutoTrajectory
+    stop_limits: TrajectoryLimits
     origin: GeoPoint  # EKF origin: lat/lon of plan items -> local NED
     switch_to: Callable[[NavState, Vec3 | None], None] = field(default=lambda s, p: None)
     cruise_mps: float = math.nan  # NaN = MPC_XY_CRUISE
     set_cruise_mps: Callable[[float], None] = field(default=lambda v: None)
 
+    @property
+    def setpoint_ned_m(self) -> Vec3:
+        return self.trajectory.position_ned_m
+
     @functools.cached_property
     def stopping_point_ned_m(self) -> Vec3:
-        return self.stopping_point()
+        return self.trajectory.stopping_point(self.stop_limits)
 
     @property
     def speed_xy_mps(self) -> float:

@@ -34,6 +34,10 @@ from vehicles.nav_rtl import Return, RtlPhase  # noqa: F401
 from vehicles.plans import PlanStore
 from vehicles.types import Changes, NavState
 
+# Read at every 50 Hz tick, by a module name: in Python 3.11 a member read off its class
+# (``NavState.AUTO_LOITER``) goes through EnumType.__getattr__ (~0.2 us).
+_HOLD = NavState.AUTO_LOITER
+
 
 class Navigator:
     def __init__(self, plans: PlanStore | None = None, changes: Changes | None = None) -> None:
@@ -70,7 +74,7 @@ class Navigator:
     def update(self, nav_state: NavState, ctx: NavContext) -> NavSetpoint:
         if nav_state not in self.modes:
             nav_state = NavState.AUTO_LOITER  # modes without a navigator part behave as Hold
-        if nav_state is not NavState.AUTO_LOITER:
+        if nav_state is not _HOLD:
             self.hold.hint, self.hold.hint_yaw = None, math.nan  # a hand-over target is stale now
         if nav_state != self.active_state or self._reactivate:
             if self.active_state is not None:

@@ -3,7 +3,8 @@ with a task's trajectory setpoint (position control, thrust → attitude, landin
 
 Rules and invariants:
 - One per autopilot. The flight task of the present navigation state (flight_tasks.py) drives it
-  once per 50 Hz tick through ``set_idle``, ``start_flying``, ``apply`` or ``direct``; the
+  once per 50 Hz tick through ``set_idle``, ``start_flying``, ``apply`` (``apply_auto``: the
+  auto tasks' trajectory and position control in one compiled call) or ``direct``; the
   autopilot turns what it holds (``attitude``, ``rates``, ``reset_rates``) into the inner loop's
   command.
 - ``trajectory`` (the jerk-limited setpoint generator the auto tasks share) restarts from the
@@ -26,20 +27,20 @@ import math
 from vehicles.auto_trajectory import AutoTrajectory
 from vehicles.control.attitude_control import AttitudeSetpoint
 from vehicles.control.position_control import (
+    NO_THRUST_ACC,
+    REACTIVATE_VEL,
     PositionControl,
     PositionControlGains,
     PositionSetpoint,
 )
-from vehicles.control.takeoff import TakeoffHandling, TakeoffState
+from vehicles.control.takeoff import FLIGHT, RAMPUP, TakeoffHandling, TakeoffState
+from vehicles.control.trajectory import TrajectoryLimits
 from vehicles.land_detector import LandDetector
 from vehicles.params import ParamStore
-from vehicles.types import Measurement, Vec3
+from vehicles.types import Measurement, Quat, Vec3
 
 _NAN3: Vec3 = (math.nan, math.nan, math.nan)
-# No setpoint: a strong downward acceleration, so no thrust (mc_pos_control, not taken off).
-_NO_THRUST_ACC: Vec3 = (0.0, 0.0, 100.0)
 TILT_LIMIT_SLEW_RADPS = 0.2  # mc_pos_control _tilt_limit_slew_rate
-_REACTIVATE_VEL: Vec3 = (0.0, 0.0, 0.7)
 
 
 class PositionStage:
@@ -112,24 +113,14 @@ class PositionStage:
         self.start_flying(meas)
         return True
 
-    def apply(self, dt: float, meas: Measurement, sp: PositionSetpoint, yaw: float,
-              yawspeed: float = 0.0, speed_up_mps: float = math.nan) -> None:
-        """Position control on ``sp`` (the task wants to fly: a takeoff when landed), then
-        thrust vector → attitude (PX4 thrustToAttitude). ``speed_up_mps``: the task's climb
-        speed (the takeoff ramp's end; MPC_Z_VEL_MAX_UP when NaN or above it)."""
-        ld, pc = self.land_detector, self.position_control
-        task_vz = sp.velocity_ned_mps[2]  # the land detector judges the task's setpoint (PX4)
+    def _limits(self, dt: float, speed_up_mps: float) -> tuple[bool, bool]:
+        """The takeoff state, tilt limit and climb-speed ramp of this tick, set on the position
+        controller: (no setpoint, restart the trajectory) for ``apply``. ``speed_up_mps``: the
+        task's climb speed (the takeoff ramp's end; MPC_Z_VEL_MAX_UP when NaN or above it)."""
+        pc = self.position_control
         state = self._takeoff_state(True)
-        flying = state >= TakeoffState.FLIGHT
-        no_setpoint = state < TakeoffState.RAMPUP or (flying and ld.ground_contact)
-        if no_setpoint:
-            sp = PositionSetpoint(_NAN3, _NAN3, sp.yaw_rad, _NO_THRUST_ACC)
-            pc.reset_integral()
-            if state < TakeoffState.RAMPUP:
-                # PX4 re-activates the flight task (FlightTaskAuto::reActivate): the smoothing
-                # restarts here at rest but for a 0.7 m/s descent, so that once the ramp starts
-                # the climb setpoint first has to turn round instead of running far ahead.
-                self.trajectory.reset(meas.position_ned_m, _REACTIVATE_VEL)
+        flying = state >= FLIGHT
+        no_setpoint = state < RAMPUP or (flying and self.land_detector.ground_contact)
         g, p = pc.gains, self.params
         if p.version != self._params_version:
             self._params_version = p.version
@@ -143,15 +134,58 @@ class PositionStage:
             else up_max
         up = min(self.takeoff.update_ramp(dt, wanted_up), up_max)
         pc.set_limits(up, g.thrust_min if flying else 0.0, self._tilt_limit)
+        # PX4 re-activates the flight task (FlightTaskAuto::reActivate) until the ramp starts:
+        # the smoothing restarts at the vehicle at rest but for a 0.7 m/s descent, so that once
+        # the ramp starts the climb setpoint first has to turn round instead of running far ahead.
+        return no_setpoint, state < RAMPUP
+
+    def apply(self, dt: float, meas: Measurement, sp: PositionSetpoint, yaw: float,
+              yawspeed: float = 0.0, speed_up_mps: float = math.nan) -> None:
+        """Position control on ``sp`` (the task wants to fly: a takeoff when landed), then
+        thrust vector → attitude (PX4 thrustToAttitude). ``speed_up_mps``: the task's climb
+        speed (the takeoff ramp's end; MPC_Z_VEL_MAX_UP when NaN or above it)."""
+        pc = self.position_control
+        task_vz = sp.velocity_ned_mps[2]  # the land detector judges the task's setpoint (PX4)
+        no_setpoint, reactivate = self._limits(dt, speed_up_mps)
+        if no_setpoint:
+            sp = PositionSetpoint(_NAN3, _NAN3, sp.yaw_rad, NO_THRUST_ACC)
+            pc.reset_integral()
+            if reactivate:
+                self.trajectory.reset(meas.position_ned_m, REACTIVATE_VEL)
         yaw_sp = yaw if no_setpoint or math.isnan(sp.yaw_rad) else sp.yaw_rad
         q, thrust, vel_sp = pc.update_attitude(dt, meas.position_ned_m, meas.velocity_ned_mps,
                                                meas.accel_ned_mps2, sp, yaw_sp)
-        self.vel_sp_z = task_vz if math.isfinite(task_vz) else vel_sp[2]
-        self.vel_sp = vel_sp
         if no_setpoint:
             pc.reset_integral()
-        self.attitude = AttitudeSetpoint(q, thrust, yawspeed if yawspeed != 0.0
-                                         and not no_setpoint else 0.0)
+        self._output(task_vz, q, thrust, vel_sp,
+                     yawspeed if yawspeed != 0.0 and not no_setpoint else 0.0)
+
+    def apply_auto(self, dt: float, meas: Measurement, target_ned_m: Vec3,
+                   lim: TrajectoryLimits, vz_cmd_mps: float, previous_ned_m: Vec3 | None,
+                   next_ned_m: Vec3 | None, acceptance_radius_m: float, yaw: float) -> None:
+        """The auto tasks' ``trajectory.update`` towards the navigator's triplet (the vehicle's
+        position for the lag stretch and the vertical-speed altitude) and then ``apply`` on its
+        setpoint at the heading ``yaw_sp`` and the limits' climb speed, in one compiled call
+        (position_control.auto_position_attitude_step)."""
+        traj, pc = self.trajectory, self.position_control
+        traj.set_up(lim)
+        no_setpoint, reactivate = self._limits(dt, lim.speed_up_mps)
+        s = traj.smoothing
+        s.set_auto_input(meas.position_ned_m, previous_ned_m, target_ned_m, next_ned_m, None)
+        yaw_sp = yaw if no_setpoint or math.isnan(self.yaw_sp) else self.yaw_sp
+        _, v_sp, _, q, thrust, vel_sp = pc.update_attitude_auto(
+            s, dt, previous_ned_m is not None, next_ned_m is not None,
+            traj.acceptance_radius(acceptance_radius_m), vz_cmd_mps, meas.velocity_ned_mps,
+            meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate)
+        self._output(v_sp[2], q, thrust, vel_sp, 0.0)
+
+    def _output(self, task_vz: float, q: Quat, thrust: float, vel_sp: Vec3,
+                yawspeed: float) -> None:
+        # The land detector judges the task's vertical velocity setpoint (PX4), else the
+        # controller's.
+        self.vel_sp_z = task_vz if math.isfinite(task_vz) else vel_sp[2]
+        self.vel_sp = vel_sp
+        self.attitude = AttitudeSetpoint(q, thrust, yawspeed)
         self.thrust = thrust
 
     def direct(self, attitude: AttitudeSetpoint, rates: Vec3 | None = None,

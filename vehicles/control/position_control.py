@@ -30,9 +30,15 @@ from numba.extending import register_jitable
 
 from vehicles.control.attitude_control import thrust_to_attitude_q
 from vehicles.control.compiled import njit_cached
+from vehicles.control.position_smoothing import PositionSmoothing, generate_auto_step
+from vehicles.control.velocity_smoothing import IA, IJ, IV, IX, A, J, V, X
 from vehicles.types import GRAVITY_MPS2, Quat, Vec3
 
 NAN3: Vec3 = (math.nan, math.nan, math.nan)
+# No setpoint: a strong downward acceleration, so no thrust (mc_pos_control, not taken off).
+NO_THRUST_ACC: Vec3 = (0.0, 0.0, 100.0)
+# Where the smoothing restarts while the takeoff has not ramped (FlightTaskAuto::reActivate).
+REACTIVATE_VEL: Vec3 = (0.0, 0.0, 0.7)
 
 # PX4 MPC_THR_XY_MARG (v1.13+) is not in our parameter table: its default value.
 THRUST_XY_MARGIN = 0.3
@@ -135,6 +141,38 @@ def position_attitude_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gai
                                        integ)
     q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)
     return q, thrust_norm, vel_sp
+
+
+@njit_cached
+def auto_position_attitude_step(traj, cfg, traj_inp, traj_out, dt_s, has_previous, has_next,
+                                acceptance_radius, vz_cmd, vel, acc_meas, gains, integ, yaw_rad,
+                                no_setpoint, reactivate):  # pragma: no cover - compiled
+    """An auto mode's tick in one call: the smoothed trajectory (position_smoothing
+    ``generate_auto_step`` on ``traj``; the vehicle's position is ``traj_inp``'s first row and
+    the vertical-speed altitude follows it), then ``position_attitude_step`` on its setpoint.
+    ``no_setpoint`` (the takeoff has not ramped, or ground contact): position control gets no
+    setpoint and its integrator is held at zero; ``reactivate``: the trajectory then restarts at
+    the vehicle at rest but for a 0.7 m/s descent (position_stage.py). Returns (trajectory
+    position, velocity, acceleration, attitude, collective thrust, velocity setpoint)."""
+    pos = (traj_inp[0], traj_inp[1], traj_inp[2])
+    p_sp, v_sp, a_sp = generate_auto_step(traj, cfg, traj_inp, dt_s, True, has_previous,
+                                          has_next, acceptance_radius, vz_cmd, pos[2], traj_out)
+    sp_pos, sp_vel, sp_acc = p_sp, v_sp, a_sp
+    if no_setpoint:
+        sp_pos, sp_vel, sp_acc = NAN3, NAN3, NO_THRUST_ACC
+        integ[:] = 0.0
+        if reactivate:  # PositionSmoothing.reset((0, 0, 0), REACTIVATE_VEL, pos)
+            for i, x, v in ((0, pos[0], REACTIVATE_VEL[0]), (1, pos[1], REACTIVATE_VEL[1]),
+                            (2, pos[2], REACTIVATE_VEL[2])):
+                traj[i, J] = traj[i, A] = traj[i, IJ] = traj[i, IA] = 0.0
+                traj[i, V] = traj[i, IV] = v
+                traj[i, X] = traj[i, IX] = x
+    thrust, vel_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains,
+                                       integ)
+    q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)
+    if no_setpoint:
+        integ[:] = 0.0
+    return p_sp, v_sp, a_sp, q, thrust_norm, vel_sp
 
 
 @register_jitable
@@ -253,6 +291,21 @@ class PositionControl:
             self._gains, self._vel_int, float(yaw_rad))
         return q, thrust_norm, vel_sp
 
+    def update_attitude_auto(self, smoothing: PositionSmoothing, dt_s: float,
+                             has_previous: bool, has_next: bool, acceptance_radius_m: float,
+                             vz_cmd_mps: float, velocity_ned_mps: Vec3,
+                             acceleration_ned_mps2: Vec3, yaw_rad: float, no_setpoint: bool,
+                             reactivate: bool) -> tuple[Vec3, Vec3, Vec3, Quat, float, Vec3]:
+        """``smoothing.generate_auto`` (its input set with ``set_auto_input``, the vehicle's
+        position first) and ``update_attitude`` on its setpoint in one compiled call
+        (``auto_position_attitude_step``): (trajectory position, velocity, acceleration,
+        attitude, collective thrust, velocity setpoint)."""
+        return auto_position_attitude_step(
+            smoothing.axes, smoothing.cfg, smoothing.inp, smoothing.out, float(dt_s),
+            has_previous, has_next, float(acceptance_radius_m), float(vz_cmd_mps),
+            _vec3(velocity_ned_mps), _vec3(acceleration_ned_mps2), self._gains, self._vel_int,
+            float(yaw_rad), no_setpoint, reactivate)
+
 
 def compile_now() -> None:
     """Compile ``position_control_step`` (or load it from numba's cache) now, not in the middle
@@ -260,6 +313,9 @@ def compile_now() -> None:
     z = (0.0, 0.0, 0.0)
     position_control_step(0.02, z, z, z, z, z, z, np.ones(15), np.zeros(3))
     position_attitude_step(0.02, z, z, z, z, z, z, np.ones(15), np.zeros(3), 0.0)
+    s = PositionSmoothing()
+    PositionControl(PositionControlGains(*np.ones(15).tolist())).update_attitude_auto(
+        s, 0.02, False, False, 1.0, 0.0, z, z, 0.0, False, False)
 
 
 def _vec3(v) -> Vec3:

@@ -25,6 +25,9 @@ from numba.extending import register_jitable
 from vehicles.control.compiled import njit_cached
 from vehicles.control.velocity_smoothing import (
     AMAX,
+    IA,
+    IJ,
+    IV,
     IX,
     JMAX,
     VMAX,
@@ -259,6 +262,41 @@ def generate_step(traj, cfg, inp, dt_s, force_zero_velocity, single_waypoint, ou
     vs_time_synchronization(traj)
 
 
+@njit_cached
+def generate_auto_step(traj, cfg, inp, dt_s, has_position, has_previous, has_next,
+                       acceptance_radius, vz_cmd, current_z, out):  # pragma: no cover - compiled
+    """``generate_step`` with the waypoints as FlightTaskAuto hands them (``generate_auto``):
+    ``inp`` as ``generate_step`` takes it, the rows whose ``has_*`` is False to be filled here
+    (position and previous waypoint: where the setpoint is; next: the target). A NaN target z
+    is vertical speed control: the triplet's altitude is left out, ``vz_cmd`` is the vertical
+    feed-forward and the setpoint's altitude then follows ``current_z``. Returns (position,
+    velocity, acceleration); with nothing to plan the setpoint holds still where it was."""
+    hx, hy, hz = traj[0, X], traj[1, X], traj[2, X]
+    cfg[TRAD] = acceptance_radius
+    if not has_position:
+        inp[P_POS], inp[P_POS + 1], inp[P_POS + 2] = hx, hy, hz
+    if not has_previous:
+        inp[P_PREV], inp[P_PREV + 1], inp[P_PREV + 2] = hx, hy, hz
+    if not has_next:
+        inp[P_NEXT], inp[P_NEXT + 1], inp[P_NEXT + 2] = (inp[P_TARGET], inp[P_TARGET + 1],
+                                                         inp[P_TARGET + 2])
+    vertical_speed = math.isnan(inp[P_TARGET + 2])
+    if vertical_speed:
+        inp[P_PREV + 2] = inp[P_NEXT + 2] = math.nan
+        inp[P_FF + 2] = vz_cmd
+    generate_step(traj, cfg, inp, dt_s, False, not has_next, out)
+    px, py, pz = out[3, 0], out[3, 1], out[3, 2]
+    if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)):
+        for i, x in ((0, hx), (1, hy), (2, hz)):  # PositionSmoothing.reset at rest
+            traj[i, J] = traj[i, A] = traj[i, V] = traj[i, IJ] = traj[i, IA] = traj[i, IV] = 0.0
+            traj[i, X] = traj[i, IX] = x
+        return (hx, hy, hz), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    if vertical_speed:
+        traj[2, X] = traj[2, IX] = current_z
+        pz = math.nan
+    return (px, py, pz), (out[2, 0], out[2, 1], out[2, 2]), (out[1, 0], out[1, 1], out[1, 2])
+
+
 class PositionSmoothing:
     max_allowed_horizontal_error = array_field("cfg", HERR)
     max_allowed_vertical_error = array_field("cfg", VERR)
@@ -271,8 +309,8 @@ class PositionSmoothing:
         self.axes = new_axes(3)
         self.cfg = np.zeros(7)
         self.trajectory = [VelocitySmoothing(row=self.axes[i]) for i in range(3)]
-        self._inp = np.zeros(15)
-        self._out = np.zeros((5, 3))
+        self.inp = np.zeros(15)  # the compiled step's input (P_POS …) and output rows
+        self.out = np.zeros((5, 3))
 
     # --- configuration and state ----------------------------------------------------------------
     def set_max_jerk(self, jerk: float) -> None:
@@ -314,29 +352,41 @@ class PositionSmoothing:
         """One update (generateSetpoints): ``waypoints`` = (previous, target, next); NaN target
         axes are velocity-controlled at ``feedforward``."""
         prev, target, nxt = waypoints
-        self._inp[:] = (*position, *prev, *target, *nxt, *feedforward)
-        generate_step(self.axes, self.cfg, self._inp, float(dt_s), bool(force_zero_velocity),
-                      bool(single_waypoint), self._out)
-        j, a, v, x, u = self._out.tolist()
+        self.inp[:] = (*position, *prev, *target, *nxt, *feedforward)
+        generate_step(self.axes, self.cfg, self.inp, float(dt_s), bool(force_zero_velocity),
+                      bool(single_waypoint), self.out)
+        j, a, v, x, u = self.out.tolist()
         return SmoothedSetpoints((j[0], j[1], j[2]), (a[0], a[1], a[2]), (v[0], v[1], v[2]),
                                  (x[0], x[1], x[2]), (u[0], u[1], u[2]))
 
-    def generate_pva(self, position: Vec3, waypoints: tuple[Vec3, Vec3, Vec3],
-                     feedforward: Vec3, dt_s: float, single_waypoint: bool = False
-                     ) -> tuple[Vec3, Vec3, Vec3]:
-        """``generate``'s (position, velocity, acceleration) only: what the auto modes take from
-        it every tick."""
-        prev, target, nxt = waypoints
-        self._inp[:] = (*position, *prev, *target, *nxt, *feedforward)
-        generate_step(self.axes, self.cfg, self._inp, float(dt_s), False, bool(single_waypoint),
-                      self._out)
-        a, v, x = self._out[1:4].tolist()
-        return (x[0], x[1], x[2]), (v[0], v[1], v[2]), (a[0], a[1], a[2])
+    def generate_auto(self, position: Vec3 | None, previous: Vec3 | None, target: Vec3,
+                      next_: Vec3 | None, feedforward: Vec3 | None, dt_s: float,
+                      acceptance_radius: float, vz_cmd: float = 0.0, current_z: float = 0.0
+                      ) -> tuple[Vec3, Vec3, Vec3]:
+        """One update as FlightTaskAuto runs it (``generate_auto_step``, one compiled call):
+        None stands for the vehicle's position and the previous waypoint as where the setpoint
+        is, for the next waypoint as the target (a single waypoint then) and for no feed-forward;
+        ``target_acceptance_radius`` is set to ``acceptance_radius``. Returns (position,
+        velocity, acceleration)."""
+        self.set_auto_input(position, previous, target, next_, feedforward)
+        return generate_auto_step(self.axes, self.cfg, self.inp, float(dt_s),
+                                  position is not None, previous is not None, next_ is not None,
+                                  float(acceptance_radius), float(vz_cmd), float(current_z),
+                                  self.out)
 
+    def set_auto_input(self, position: Vec3 | None, previous: Vec3 | None, target: Vec3,
+                       next_: Vec3 | None, feedforward: Vec3 | None) -> None:
+        """``inp`` for ``generate_auto_step`` (None: a row it fills itself, or no feed-forward)."""
+        n3 = _NAN3
+        self.inp[:] = (*(n3 if position is None else position),
+                       *(n3 if previous is None else previous), *target,
+                       *(n3 if next_ is None else next_),
+                       *(n3 if feedforward is None else feedforward))
 
 def compile_now() -> None:
     """Compile ``generate_step`` (or load it from numba's cache) now, not in the first flight."""
     PositionSmoothing().generate((0.0,) * 3, ((0.0,) * 3,) * 3, (0.0,) * 3, 0.02)
+    PositionSmoothing().generate_auto(None, None, (0.0,) * 3, None, None, 0.02, 0.0)
 
 
 def ideal_track(s: PositionSmoothing, waypoints: list[Vec3], acceptance_radius_m: float,

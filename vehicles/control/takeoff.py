@@ -30,6 +30,14 @@ class TakeoffState(enum.IntEnum):
     FLIGHT = 4
 
 
+# The states by their own names for the state machine, which runs at every 50 Hz tick: in Python
+# 3.11 reading a member off its class (``TakeoffState.FLIGHT``) goes through EnumType.__getattr__
+# and costs ~0.2 us.
+DISARMED, SPOOLUP, READY_FOR_TAKEOFF, RAMPUP, FLIGHT = (
+    TakeoffState.DISARMED, TakeoffState.SPOOLUP, TakeoffState.READY_FOR_TAKEOFF,
+    TakeoffState.RAMPUP, TakeoffState.FLIGHT)
+
+
 class TakeoffHandling:
     def __init__(self, spoolup_time_s: float = 1.0, ramp_time_s: float = 3.0,
                  velocity_p_gain: float = 4.0) -> None:
@@ -52,30 +60,30 @@ class TakeoffHandling:
             self._armed_since = now_s
         spooled_up = armed and now_s - self._armed_since >= self.spoolup_time_s
         s = self.state
-        if s is TakeoffState.DISARMED and armed:
-            s = TakeoffState.SPOOLUP
-        if s is TakeoffState.SPOOLUP and spooled_up:
-            s = TakeoffState.READY_FOR_TAKEOFF
-        if s is TakeoffState.READY_FOR_TAKEOFF and want_takeoff:
-            s = TakeoffState.RAMPUP
+        if s is DISARMED and armed:
+            s = SPOOLUP
+        if s is SPOOLUP and spooled_up:
+            s = READY_FOR_TAKEOFF
+        if s is READY_FOR_TAKEOFF and want_takeoff:
+            s = RAMPUP
             self.ramp_progress = 0.0
-        if s is TakeoffState.RAMPUP and self.ramp_progress >= 1.0:
-            s = TakeoffState.FLIGHT
-        if s is TakeoffState.FLIGHT and landed:
-            s = TakeoffState.READY_FOR_TAKEOFF
+        if s is RAMPUP and self.ramp_progress >= 1.0:
+            s = FLIGHT
+        if s is FLIGHT and landed:
+            s = READY_FOR_TAKEOFF
         if armed and skip_takeoff:
-            s = TakeoffState.FLIGHT
+            s = FLIGHT
         if not armed:
-            s = TakeoffState.DISARMED
+            s = DISARMED
         self.state = s
         return s
 
     def update_ramp(self, dt_s: float, desired_vz_up_mps: float) -> float:
         """The upward velocity limit (m/s, positive up) for this tick."""
         limit = desired_vz_up_mps
-        if self.state < TakeoffState.RAMPUP:
+        if self.state < RAMPUP:
             limit = self.ramp_vz_init
-        if self.state is TakeoffState.RAMPUP:
+        if self.state is RAMPUP:
             if self.ramp_time_s > dt_s:
                 self.ramp_progress += dt_s / self.ramp_time_s
             else:
