@@ -139,6 +139,9 @@ class CommandService:
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
                 lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
             M.MAV_CMD_RUN_PREARM_CHECKS: lambda c, t: ACCEPTED,
+            # Commander.cpp ACCEPTs it unchecked; the mixer's FunctionActuatorSet drives the
+            # outputs mapped to "Peripheral via Actuator Set N", which a quadrotor has none of.
+            M.MAV_CMD_DO_SET_ACTUATOR: lambda c, t: ACCEPTED,
             M.MAV_CMD_DO_REPOSITION: self._reposition,
             M.MAV_CMD_DO_ORBIT: self._orbit,
             M.MAV_CMD_DO_CHANGE_SPEED: self._change_speed,

@@ -131,6 +131,14 @@ def test_land_start_jumps_to_the_missions_landing_sequence_or_is_cancelled():
     assert vehicle.nav_state is NavState.AUTO_MISSION
 
 
+def test_set_actuator_is_accepted_as_commander_does():
+    """MAVSDK action.set_actuator(1, 0.5): DO_SET_ACTUATOR (187) p1 = 0.5, p7 = 0 (set 1)."""
+    vehicle, _, client = make()
+    n = len(vehicle.calls)
+    assert results(client.command_long(187, 0.5, NAN, NAN, NAN, NAN, NAN, 0)) == [(187, 0)]
+    assert len(vehicle.calls) == n
+
+
 def test_flight_termination():
     vehicle, _, client = make()
     assert results(client.command_long(185, 1)) == [(185, 2)]  # disarmed: vehicle DENIES
