@@ -14,6 +14,9 @@ Rules:
   contract command the vehicle object does not implement (yet).
 - DO_ORBIT (multicopter): switch to Orbit and hand it the parameters; TEMPORARILY_REJECTED
   when the mode cannot run (no position estimate).
+- DO_LAND_START (navigator_main.cpp): MISSION_START from the mission's DO_LAND_START marker,
+  ACCEPTED whatever Commander then decides; no marker → CANCELLED (PX4 says "planned mission
+  landing not available" on its console only). MAVProxy's `land` sends it.
 - DO_REPOSITION: p2 must be exactly MAV_DO_REPOSITION_FLAGS_CHANGE_MODE (PX4 Commander:
   uint32(p2) != 1 → UNSUPPORTED); p1 ≤ 0/NaN = default speed; p4 yaw rad; NaN lat/lon/alt = keep
   (QGC's pause sends all of them NaN → brake and hold). z is AMSL whatever the frame (≤ 1.16).
@@ -44,6 +47,7 @@ from gateway.mavlink.modes import decode_set_mode
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.streams import STREAMS_BY_ID, Scheduler
 from gateway.mavlink.telemetry import home_position
+from vehicles.plan_types import PlanItem, PlanType
 from vehicles.types import CommandResult, GeoPoint, Severity
 
 ACCEPTED = CommandResult.ACCEPTED
@@ -51,6 +55,7 @@ TEMPORARILY_REJECTED = CommandResult.TEMPORARILY_REJECTED
 DENIED = CommandResult.DENIED
 UNSUPPORTED = CommandResult.UNSUPPORTED
 FAILED = CommandResult.FAILED
+CANCELLED = CommandResult.CANCELLED
 
 FORCE_MAGIC = 21196  # COMPONENT_ARM_DISARM p2: forced arm/disarm (kill)
 INT32_MAX = 2**31 - 1
@@ -134,11 +139,15 @@ class CommandService:
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
                 lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
             M.MAV_CMD_RUN_PREARM_CHECKS: lambda c, t: ACCEPTED,
+            # Commander.cpp ACCEPTs it unchecked; the mixer's FunctionActuatorSet drives the
+            # outputs mapped to "Peripheral via Actuator Set N", which a quadrotor has none of.
+            M.MAV_CMD_DO_SET_ACTUATOR: lambda c, t: ACCEPTED,
             M.MAV_CMD_DO_REPOSITION: self._reposition,
             M.MAV_CMD_DO_ORBIT: self._orbit,
             M.MAV_CMD_DO_CHANGE_SPEED: self._change_speed,
             M.MAV_CMD_DO_SET_HOME: self._set_home,
             M.MAV_CMD_MISSION_START: self._mission_start,
+            M.MAV_CMD_DO_LAND_START: self._land_start,
             M.MAV_CMD_DO_FLIGHTTERMINATION: self._terminate,
             M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
         }
@@ -267,6 +276,18 @@ class CommandService:
         if start is None:
             return UNSUPPORTED
         return start(now_s, cmd.p(1))  # the vehicle checks it as Commander.cpp does
+
+    def _land_start(self, cmd: Command, now_s: float) -> int:
+        plan = getattr(self.vehicle, "plan", None)
+        start = self._vehicle("start_mission")
+        if plan is None or start is None:
+            return UNSUPPORTED
+        items: tuple[PlanItem, ...] = plan(PlanType.MISSION)
+        for item in items:
+            if item.command == M.MAV_CMD_DO_LAND_START:
+                start(now_s, float(item.seq))  # the navigator ACKs before Commander decides
+                return ACCEPTED
+        return CANCELLED
 
     def _terminate(self, cmd: Command, now_s: float) -> int:
         terminate = self._vehicle("terminate")

@@ -9,6 +9,7 @@ from pymavlink.dialects.v20 import common as M
 from test_mavlink_mission import mavsdk_mission, upload
 from test_mavlink_support import acks, make, of_type
 
+from vehicles.plan_types import PlanItem
 from vehicles.types import GeoPoint, NavState
 
 NAN = math.nan
@@ -109,6 +110,33 @@ def test_mission_start():
     # param1 goes to the vehicle as it came: Commander.cpp denies a non-finite one there
     # (tests/unit/test_hostile.py flies the real vehicle through it).
     assert vehicle.calls[-1][:2] == ("start_mission", 0.0) and math.isnan(vehicle.calls[-1][2])
+
+
+def test_land_start_jumps_to_the_missions_landing_sequence_or_is_cancelled():
+    """MAVProxy's `land` sends DO_LAND_START (189). PX4's navigator: MISSION_START from the
+    DO_LAND_START marker → ACCEPTED; no marker → CANCELLED (not UNSUPPORTED)."""
+    vehicle, _, client = make()
+    vehicle.become_ready()
+    assert results(client.command_long(189, 0, 0, 0, 0, 0, 0, 0)) == [(189, 6)]  # no mission
+    upload(client, mavsdk_mission())
+    n = len(vehicle.calls)
+    assert results(client.command_long(189, 0, 0, 0, 0, 0, 0, 0)) == [(189, 6)]  # no marker
+    assert len(vehicle.calls) == n and not vehicle.armed
+    items = mavsdk_mission()[:-1]
+    items.append(PlanItem(len(items), 2, 189, 0, 1, 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0))
+    items.append(PlanItem(len(items), 2, 21, 0, 1, NAN, NAN, NAN, NAN, 0, 0, NAN))
+    upload(client, items)
+    assert results(client.command_long(189, 0, 0, 0, 0, 0, 0, 0)) == [(189, 0)]
+    assert vehicle.calls[-1] == ("start_mission", 0.0, len(items) - 2)
+    assert vehicle.nav_state is NavState.AUTO_MISSION
+
+
+def test_set_actuator_is_accepted_as_commander_does():
+    """MAVSDK action.set_actuator(1, 0.5): DO_SET_ACTUATOR (187) p1 = 0.5, p7 = 0 (set 1)."""
+    vehicle, _, client = make()
+    n = len(vehicle.calls)
+    assert results(client.command_long(187, 0.5, NAN, NAN, NAN, NAN, NAN, 0)) == [(187, 0)]
+    assert len(vehicle.calls) == n
 
 
 def test_flight_termination():
