@@ -66,7 +66,15 @@ SPEED_RESET = -1.0  # DO_CHANGE_SPEED: ≤ 0 → back to the cruise speed
 # AUTOPILOT_VERSION as PX4 SITL fills it (MAVLink FTP included: gateway/mavlink/ftp.py).
 CAPABILITIES = 59647
 FLIGHT_SW_VERSION = 0x010F00FF  # v1.15.0 release
-FLIGHT_CUSTOM_VERSION = list(b"c0rnet01")  # "git hash" bytes
+# PX4_GIT_VERSION_BINARY is the first 16 hex digits of the build's git commit as a uint64; ours is
+# a fixed one (the start of SHA-1("CORNET")). mavlink_main.cpp send_autopilot_capabilities keeps
+# its top 5 bytes, puts the vendor version (0 for a release build) in the low 3 and copies the
+# uint64 little-endian. MAVSDK's flight_sw_git_hash prints bytes 3..7 back to front in hex, and
+# (info_impl.cpp swap_and_translate_binary_to_str, its buffer one short) loses the last digit to
+# the terminating NUL, with PX4 as with us: "3fccf9453\0".
+GIT_VERSION_BINARY = 0x3FCCF9453A2543FF
+FLIGHT_CUSTOM_VERSION = list((GIT_VERSION_BINARY & 0xFFFFFFFFFF000000).to_bytes(8, "little"))
+MIDDLEWARE_CUSTOM_VERSION = FLIGHT_CUSTOM_VERSION  # the same masked hash, no vendor version
 UID_BASE = 0x434F524E45540000  # "CORNET\0\0"; + sysid so every vehicle differs
 
 # Message ids QGC asks for that we do not serve: answering at once keeps its connect fast.
@@ -391,7 +399,8 @@ class CommandService:
         uid = (UID_BASE + self.sysid) & 0xFFFFFFFFFFFFFFFF
         return self.encoder.pack(
             M.MAVLink_autopilot_version_message, CAPABILITIES, FLIGHT_SW_VERSION,
-            FLIGHT_SW_VERSION, 0, 0, FLIGHT_CUSTOM_VERSION, FLIGHT_CUSTOM_VERSION, [0] * 8, 0, 0,
+            FLIGHT_SW_VERSION, 0, 0, FLIGHT_CUSTOM_VERSION, MIDDLEWARE_CUSTOM_VERSION, [0] * 8,
+            0, 0,
             uid, [0] * 18)
 
 

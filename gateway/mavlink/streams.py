@@ -7,7 +7,8 @@ Rules:
   in the same wake-up (all 50 Hz streams go out together) and counts are exact.
 - A late wake-up sends each due stream once and re-phases it; it never bursts to catch up.
 - SET_MESSAGE_INTERVAL may enable any message that has a builder, on either link; HEARTBEAT's
-  rate is fixed.
+  rate is fixed. Messages PX4 has no stream for (RAW_IMU, ACTUATOR_CONTROL_TARGET: not in
+  mavlink_messages.cpp streams_list) have no entry, so their request FAILS as in PX4.
 - Due streams come out in table order, so a wake-up's frames are always in the same order.
 """
 
@@ -43,6 +44,13 @@ from gateway.mavlink.telemetry import (
     vfr_hud,
     vibration,
     wind_cov,
+)
+from gateway.mavlink.telemetry_requested import (
+    actuator_output_status,
+    distance_sensor,
+    hil_state_quaternion,
+    rc_channels,
+    scaled_imu,
 )
 
 
@@ -80,6 +88,12 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_ESTIMATOR_STATUS, estimator_status, 0.5, 1.0),
     StreamSpec(M.MAVLINK_MSG_ID_VIBRATION, vibration, 0.1, 0.5),
     StreamSpec(M.MAVLINK_MSG_ID_WIND_COV, wind_cov, 0.5, 10.0),
+    # Not streamed by default; PX4 SITL sends them once asked (MAVSDK's telemetry.set_rate_*).
+    StreamSpec(M.MAVLINK_MSG_ID_SCALED_IMU, scaled_imu, 0.0, 0.0),
+    StreamSpec(M.MAVLINK_MSG_ID_RC_CHANNELS, rc_channels, 0.0, 0.0),
+    StreamSpec(M.MAVLINK_MSG_ID_DISTANCE_SENSOR, distance_sensor, 0.0, 0.0),
+    StreamSpec(M.MAVLINK_MSG_ID_HIL_STATE_QUATERNION, hil_state_quaternion, 0.0, 0.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, actuator_output_status, 0.0, 0.0),
 )
 STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
 # HEARTBEAT rate is fixed (PX4: SET_MESSAGE_INTERVAL on it → FAILED).

@@ -201,6 +201,18 @@ def test_request_message_emits_message_before_ack():
     assert [m.get_type() for m in got] == ["ATTITUDE", "COMMAND_ACK"]
 
 
+def test_autopilot_version_custom_version_is_a_binary_git_hash():
+    """PX4 sends the top 5 bytes of its git hash's uint64, little-endian, over a 3-byte vendor
+    version (0); MAVSDK's flight_sw_git_hash is bytes 3..7 read back to front, in hex."""
+    _, _, client = make()
+    av = client.command_long(M.MAV_CMD_REQUEST_MESSAGE, 148)[0]
+    custom = bytes(av.flight_custom_version)
+    assert custom[:3] == bytes(3)  # vendor patch, minor, major
+    assert custom[3:][::-1].hex() == "3fccf9453a"
+    assert bytes(av.middleware_custom_version) == custom
+    assert bytes(av.os_custom_version) == bytes(8)
+
+
 def test_uid_differs_per_sysid():
     _, _, c1 = make(sysid=1)
     _, _, c2 = make(sysid=2)

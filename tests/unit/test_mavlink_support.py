@@ -33,6 +33,7 @@ from vehicles.types import (
     HomePosition,
     Kinematics,
     LandedState,
+    Measurement,
     NavState,
     Severity,
     StatusText,
@@ -68,6 +69,7 @@ class FakeVehicle:
         self.mission_finished = False
         self.setpoints: list[tuple[float, OffboardSetpoint]] = []
         self.orbit_status: OrbitStatus | None = None
+        self.rotor_speeds_radps: tuple[float, ...] = (0.0,) * 4
 
     # --- contract -------------------------------------------------------------------------
     @property
@@ -76,7 +78,8 @@ class FakeVehicle:
             time_s=self.state.time_s, armed=self.armed, nav_state=self.nav_state,
             landed_state=self.landed_state, position_valid=self.position_valid,
             prearm_ok=self.prearm_ok, failsafe=self.failsafe, terminated=self.terminated,
-            battery=BatteryState(16.2, 0.5, 0.9, 12.0, 4), home=self.home)
+            battery=BatteryState(16.2, 0.5, 0.9, 12.0, 4), home=self.home,
+            extra={"rotor_speed_radps": self.rotor_speeds_radps})
 
     @property
     def kinematics(self) -> Kinematics:
@@ -106,6 +109,14 @@ class FakeVehicle:
         e[est.E_RATIOS:est.E_RATIOS + 4] = [0.05, 0.04, 0.01, 0.2]
         e[est.E_ACCURACY:est.E_ACCURACY + 2] = [0.02, 0.01]
         return e
+
+    @property
+    def truth(self) -> Measurement:
+        """The simulator's ground truth: here the state itself."""
+        st = self.state
+        return Measurement(*(tuple(float(x) for x in v) for v in (
+            st.position_ned_m, st.velocity_ned_mps, st.attitude_q, st.rates_frd_radps,
+            st.acceleration_ned_mps2)))
 
     @property
     def acceleration_ned_mps2(self) -> tuple[float, float, float]:

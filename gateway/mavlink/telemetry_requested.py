@@ -1,0 +1,117 @@
+"""Messages PX4 SITL sends only when a client asks for them (SET_MESSAGE_INTERVAL), from a
+``Snapshot`` of the vehicle: SCALED_IMU, RC_CHANNELS, DISTANCE_SENSOR, HIL_STATE_QUATERNION,
+ACTUATOR_OUTPUT_STATUS.
+
+Source: PX4's stream classes src/modules/mavlink/streams/<MESSAGE>.hpp. Each is compiled into
+SITL, so MavlinkReceiver::set_message_interval accepts it, and it sends only when its uORB topic
+has new data.
+Rules:
+- A builder returns None where the default SITL quad publishes no such topic: RC_CHANNELS
+  (input_rc: no RC input, COM_RC_IN_MODE 1 takes MAVLink MANUAL_CONTROL, which PX4 publishes as
+  manual_control_setpoint) and DISTANCE_SENSOR (no rangefinder on the default airframe).
+- Fields are filled as PX4's streams fill them, quirks included: C's float-to-integer
+  conversions truncate toward zero; HIL_STATE_QUATERNION leaves time_usec 0 and puts the ground
+  truth's acceleration in m/s² into its mG fields.
+- None of these is streamed by default (streams.py: 0 Hz on both links).
+"""
+
+from __future__ import annotations
+
+import math
+
+from pymavlink.dialects.v20 import common as M
+
+from gateway.mavlink.codec import Encoder
+from gateway.mavlink.snapshot import Snapshot
+from gateway.mavlink.telemetry import (
+    MAG_NED_GAUSS,
+    G,
+    _baro_alt_m,
+    _to_body,
+    isa_temperature_c,
+)
+from vehicles.estimation import S_ACC, S_GYRO, S_MAG
+
+INT16_MIN, INT16_MAX = -32768, 32767
+INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
+# actuator_outputs.noutputs: MixingOutput publishes all of its channels (MixingOutput::
+# MAX_ACTUATORS, the gz bridge's ESC output module), the unassigned ones at their disarmed 0.
+ACTUATOR_OUTPUTS = 16
+
+
+def _c_int(value: float, lo: int, hi: int) -> int:
+    """C's conversion of a float to an integer type: toward zero (clamped: out of range is
+    undefined in C, and the field cannot hold it)."""
+    if not math.isfinite(value):
+        return 0
+    return max(lo, min(hi, math.trunc(value)))
+
+
+def _i16(value: float) -> int:
+    return _c_int(value, INT16_MIN, INT16_MAX)
+
+
+def _i32(value: float) -> int:
+    return _c_int(value, INT32_MIN, INT32_MAX)
+
+
+def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
+    """SCALED_IMU.hpp: the IMU (vehicle_imu, IMU_INTEG_RATE 250 Hz in SITL, so it has a new
+    sample at any requested rate) in mG and mrad/s, the magnetometer in mgauss, the sensor
+    temperature in c°C (0 is sent as 1). The same samples as HIGHRES_IMU."""
+    sensed = s.sample.sensors
+    if sensed is None:  # a vehicle without simulated sensors: what its kinematics give
+        kin = s.kin
+        an, ae, ad = s.vehicle.acceleration_ned_mps2
+        fx, fy, fz = _to_body(kin.attitude_q, (an, ae, ad - G))
+        mx, my, mz = _to_body(kin.attitude_q, MAG_NED_GAUSS)
+        p, q, r = kin.rates_frd_radps
+    else:
+        fx, fy, fz = sensed[S_ACC:S_ACC + 3]
+        mx, my, mz = sensed[S_MAG:S_MAG + 3]
+        p, q, r = sensed[S_GYRO:S_GYRO + 3]
+    centi_c = isa_temperature_c(_baro_alt_m(s)) * 100.0
+    temperature = _i16(math.copysign(math.floor(abs(centi_c) + 0.5), centi_c)) or 1  # roundf
+    return enc.pack(M.MAVLink_scaled_imu_message, s.time_boot_ms,
+                    _i16(fx * 1000.0 / G), _i16(fy * 1000.0 / G), _i16(fz * 1000.0 / G),
+                    _i16(p * 1000.0), _i16(q * 1000.0), _i16(r * 1000.0),
+                    _i16(mx * 1000.0), _i16(my * 1000.0), _i16(mz * 1000.0), temperature)
+
+
+def rc_channels(enc: Encoder, s: Snapshot) -> None:
+    """RC_CHANNELS.hpp sends on input_rc updates; SITL has no RC input."""
+    return None
+
+
+def distance_sensor(enc: Encoder, s: Snapshot) -> None:
+    """DISTANCE_SENSOR.hpp sends on distance_sensor updates; the default quad has no
+    rangefinder."""
+    return None
+
+
+def hil_state_quaternion(enc: Encoder, s: Snapshot) -> bytes | None:
+    """HIL_STATE_QUATERNION.hpp: the simulator's ground truth (vehicle_*_groundtruth): attitude,
+    body rates, position (degE7, mm AMSL), NED velocity in cm/s, acceleration (m/s², as PX4
+    puts it); airspeeds 0, time_usec never set (0). Nothing without a ground truth."""
+    truth = getattr(s.vehicle, "truth", None)
+    if truth is None:
+        return None
+    g = s.vehicle.origin.offset_ned(*truth.position_ned_m)
+    p, q, r = truth.rates_frd_radps
+    vn, ve, vd = truth.velocity_ned_mps
+    an, ae, ad = truth.accel_ned_mps2
+    return enc.pack(M.MAVLink_hil_state_quaternion_message, 0, list(truth.attitude_q), p, q, r,
+                    _i32(g.lat_deg * 1e7), _i32(g.lon_deg * 1e7), _i32(g.alt_amsl_m * 1e3),
+                    _i16(vn * 100.0), _i16(ve * 100.0), _i16(vd * 100.0), 0, 0,
+                    _i16(an), _i16(ae), _i16(ad))
+
+
+def actuator_output_status(enc: Encoder, s: Snapshot) -> bytes:
+    """ACTUATOR_OUTPUT_STATUS.hpp: actuator_outputs as the gz bridge's ESC outputs publish them
+    (SIM_GZ_EC_MIN/MAX 0..1000: the rotor speed in rad/s; 0 disarmed), ``active`` = the
+    number of channels. Ours are the rotors' speeds, which follow PX4's commanded ones with the
+    motors' lag."""
+    speeds = list(s.status.extra.get("rotor_speed_radps", ()))[:ACTUATOR_OUTPUTS]
+    outputs = [float(w) for w in speeds] + [0.0] * (32 - len(speeds))
+    return enc.pack(M.MAVLink_actuator_output_status_message, s.time_usec, ACTUATOR_OUTPUTS,
+                    outputs)
