@@ -258,7 +258,7 @@ def isa_temperature_c(alt_amsl_m: float) -> float:
     return 15.0 - 0.0065 * alt_amsl_m
 
 
-def _to_body(q: tuple[float, float, float, float], v: tuple[float, float, float]
+def to_body(q: tuple[float, float, float, float], v: tuple[float, float, float]
              ) -> tuple[float, float, float]:
     """NED vector ``v`` in the body frame of attitude ``q`` (FRD → NED): Rᵀ v."""
     w, x, y, z = q
@@ -268,7 +268,7 @@ def _to_body(q: tuple[float, float, float, float], v: tuple[float, float, float]
             2 * (x * z + w * y) * a + 2 * (y * z - w * x) * b + (1 - 2 * (x * x + y * y)) * c)
 
 
-def _baro_alt_m(s: Snapshot) -> float:
+def baro_alt_m(s: Snapshot) -> float:
     sensed = s.sample.sensors
     if sensed is None:
         return s.geo.alt_amsl_m
@@ -282,14 +282,14 @@ def highres_imu(s: Snapshot) -> tuple:
     if sensed is None:  # a vehicle without simulated sensors: what its kinematics give
         kin = s.kin
         an, ae, ad = s.vehicle.acceleration_ned_mps2
-        fx, fy, fz = _to_body(kin.attitude_q, (an, ae, ad - G))
-        mx, my, mz = _to_body(kin.attitude_q, MAG_NED_GAUSS)
+        fx, fy, fz = to_body(kin.attitude_q, (an, ae, ad - G))
+        mx, my, mz = to_body(kin.attitude_q, MAG_NED_GAUSS)
         p, q, r = kin.rates_frd_radps
     else:
         fx, fy, fz = sensed[S_ACC:S_ACC + 3]
         mx, my, mz = sensed[S_MAG:S_MAG + 3]
         p, q, r = sensed[S_GYRO:S_GYRO + 3]
-    alt = _baro_alt_m(s)
+    alt = baro_alt_m(s)
     return (s.time_usec, fx, fy, fz, p, q, r, mx, my, mz, isa_pressure_hpa(alt), 0.0, alt,
             isa_temperature_c(alt), HIGHRES_IMU_FIELDS, 0)
 
@@ -299,7 +299,7 @@ def odometry(s: Snapshot) -> tuple:
     """PX4's ODOMETRY stream: local NED pose, velocity and rates in the body frame (FRD)."""
     kin = s.kin
     x, y, z = kin.position_ned_m
-    vx, vy, vz = _to_body(kin.attitude_q, kin.velocity_ned_mps)
+    vx, vy, vz = to_body(kin.attitude_q, kin.velocity_ned_mps)
     p, q, r = kin.rates_frd_radps
     return (s.time_usec, MAV_FRAME_LOCAL_NED, MAV_FRAME_BODY_FRD, x, y, z, kin.attitude_q,
             vx, vy, vz, p, q, r, COVARIANCE_UNKNOWN, COVARIANCE_UNKNOWN, 0,
@@ -307,7 +307,7 @@ def odometry(s: Snapshot) -> tuple:
 
 
 def scaled_pressure(enc: Encoder, s: Snapshot) -> bytes:
-    alt = _baro_alt_m(s)
+    alt = baro_alt_m(s)
     return enc.pack(M.MAVLink_scaled_pressure_message, s.time_boot_ms, isa_pressure_hpa(alt), 0.0,
                     int(round(isa_temperature_c(alt) * 100.0)), 0)
 

@@ -26,9 +26,9 @@ from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.telemetry import (
     MAG_NED_GAUSS,
     G,
-    _baro_alt_m,
-    _to_body,
+    baro_alt_m,
     isa_temperature_c,
+    to_body,
 )
 from vehicles.estimation import S_ACC, S_GYRO, S_MAG
 
@@ -63,14 +63,14 @@ def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
     if sensed is None:  # a vehicle without simulated sensors: what its kinematics give
         kin = s.kin
         an, ae, ad = s.vehicle.acceleration_ned_mps2
-        fx, fy, fz = _to_body(kin.attitude_q, (an, ae, ad - G))
-        mx, my, mz = _to_body(kin.attitude_q, MAG_NED_GAUSS)
+        fx, fy, fz = to_body(kin.attitude_q, (an, ae, ad - G))
+        mx, my, mz = to_body(kin.attitude_q, MAG_NED_GAUSS)
         p, q, r = kin.rates_frd_radps
     else:
         fx, fy, fz = sensed[S_ACC:S_ACC + 3]
         mx, my, mz = sensed[S_MAG:S_MAG + 3]
         p, q, r = sensed[S_GYRO:S_GYRO + 3]
-    centi_c = isa_temperature_c(_baro_alt_m(s)) * 100.0
+    centi_c = isa_temperature_c(baro_alt_m(s)) * 100.0
     temperature = _i16(math.copysign(math.floor(abs(centi_c) + 0.5), centi_c)) or 1  # roundf
     return enc.pack(M.MAVLink_scaled_imu_message, s.time_boot_ms,
                     _i16(fx * 1000.0 / G), _i16(fy * 1000.0 / G), _i16(fz * 1000.0 / G),
