@@ -90,10 +90,10 @@ class FakeVehicle:
         """Exact sensors at the present state, GPS and barometer included (estimation.S_*)."""
         from vehicles import estimation as est
         s = [0.0] * est.S_SIZE
-        from gateway.mavlink.telemetry import _to_body
+        from gateway.mavlink.telemetry import to_body
         q = self.kinematics.attitude_q
-        s[est.S_ACC:est.S_ACC + 3] = _to_body(q, (0.0, 0.0, -9.80665))
-        s[est.S_MAG:est.S_MAG + 3] = _to_body(q, est.MAG_NED_GAUSS)
+        s[est.S_ACC:est.S_ACC + 3] = to_body(q, (0.0, 0.0, -9.80665))
+        s[est.S_MAG:est.S_MAG + 3] = to_body(q, est.MAG_NED_GAUSS)
         pos = [float(v) for v in self.state.position_ned_m]
         s[est.S_GPS_POS:est.S_GPS_POS + 3] = pos
         s[est.S_GPS_VEL:est.S_GPS_VEL + 3] = [float(v) for v in self.state.velocity_ned_mps]
