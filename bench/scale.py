@@ -699,7 +699,10 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
         point.window_s = w1 - w0
         point.rtf = clock.rtf(w0, w1)
         point.sim_s = point.rtf * point.window_s
-        point.cpu_ms_per_vehicle_s = (cpu1 - cpu0) / (n * point.sim_s) * 1e3
+        if point.sim_s > 1e-3:
+            point.cpu_ms_per_vehicle_s = (cpu1 - cpu0) / (n * point.sim_s) * 1e3
+        else:  # no ATTITUDE of some vehicle arrived in the window (a saturated network)
+            point.notes.append("the slowest vehicle's telemetry did not advance in the window")
         point.cpu_over_bare = point.cpu_ms_per_vehicle_s / point.bare_ms_per_body_s
         point.datagrams_per_s = (out1[0] - out0[0]) / point.window_s
         point.mbytes_per_s = (out1[1] - out0[1]) / point.window_s / 1e6
