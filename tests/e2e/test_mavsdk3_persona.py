@@ -294,6 +294,13 @@ async def test_follow_me_follows_a_moving_target(daemon_factory):
         # MAVSDK takes targets once a HEARTBEAT shows Follow Me (as with PX4).
         await first(drone.telemetry.flight_mode(), lambda m: m is FlightMode.FOLLOW_ME, 5,
                     "Follow Me mode")
+        # The follow_me plugin reads that HEARTBEAT in a handler of its own, which a loaded
+        # machine may run after the telemetry stream has already shown the mode.
+        for _ in range(50):
+            if await drone.follow_me.is_active():
+                break
+            await asyncio.sleep(0.1)
+        assert await drone.follow_me.is_active(), "MAVSDK's follow_me never became active"
         target_n = 10.0
         for _ in range(20):  # a target walking north at 1.5 m/s
             lat, lon = offset_deg(HOME_LAT, HOME_LON, target_n, 0.0)
