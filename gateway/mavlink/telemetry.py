@@ -275,20 +275,23 @@ def baro_alt_m(s: Snapshot) -> float:
     return s.vehicle.origin.alt_amsl_m - sensed[S_BARO_DOWN]
 
 
+def imu_sample(s: Snapshot) -> tuple[float, ...]:
+    """The IMU's specific force (m/s²) and rates (rad/s), body FRD, and the magnetometer
+    (gauss): ``(fx, fy, fz, p, q, r, mx, my, mz)`` of the simulated sensors, or what the
+    kinematics give for a vehicle without them."""
+    sensed = s.sample.sensors
+    if sensed is None:
+        kin = s.kin
+        an, ae, ad = s.vehicle.acceleration_ned_mps2
+        return (*to_body(kin.attitude_q, (an, ae, ad - G)), *kin.rates_frd_radps,
+                *to_body(kin.attitude_q, MAG_NED_GAUSS))
+    return (*sensed[S_ACC:S_ACC + 3], *sensed[S_GYRO:S_GYRO + 3], *sensed[S_MAG:S_MAG + 3])
+
+
 @_shared(M.MAVLink_highres_imu_message)
 def highres_imu(s: Snapshot) -> tuple:
     """The IMU's specific force and rates (body FRD), the magnetometer, the barometer."""
-    sensed = s.sample.sensors
-    if sensed is None:  # a vehicle without simulated sensors: what its kinematics give
-        kin = s.kin
-        an, ae, ad = s.vehicle.acceleration_ned_mps2
-        fx, fy, fz = to_body(kin.attitude_q, (an, ae, ad - G))
-        mx, my, mz = to_body(kin.attitude_q, MAG_NED_GAUSS)
-        p, q, r = kin.rates_frd_radps
-    else:
-        fx, fy, fz = sensed[S_ACC:S_ACC + 3]
-        mx, my, mz = sensed[S_MAG:S_MAG + 3]
-        p, q, r = sensed[S_GYRO:S_GYRO + 3]
+    fx, fy, fz, p, q, r, mx, my, mz = imu_sample(s)
     alt = baro_alt_m(s)
     return (s.time_usec, fx, fy, fz, p, q, r, mx, my, mz, isa_pressure_hpa(alt), 0.0, alt,
             isa_temperature_c(alt), HIGHRES_IMU_FIELDS, 0)

@@ -24,13 +24,11 @@ from pymavlink.dialects.v20 import common as M
 from gateway.mavlink.codec import Encoder
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.telemetry import (
-    MAG_NED_GAUSS,
     G,
     baro_alt_m,
+    imu_sample,
     isa_temperature_c,
-    to_body,
 )
-from vehicles.estimation import S_ACC, S_GYRO, S_MAG
 
 INT16_MIN, INT16_MAX = -32768, 32767
 INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
@@ -59,17 +57,7 @@ def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
     """SCALED_IMU.hpp: the IMU (vehicle_imu, IMU_INTEG_RATE 250 Hz in SITL, so it has a new
     sample at any requested rate) in mG and mrad/s, the magnetometer in mgauss, the sensor
     temperature in c°C (0 is sent as 1). The same samples as HIGHRES_IMU."""
-    sensed = s.sample.sensors
-    if sensed is None:  # a vehicle without simulated sensors: what its kinematics give
-        kin = s.kin
-        an, ae, ad = s.vehicle.acceleration_ned_mps2
-        fx, fy, fz = to_body(kin.attitude_q, (an, ae, ad - G))
-        mx, my, mz = to_body(kin.attitude_q, MAG_NED_GAUSS)
-        p, q, r = kin.rates_frd_radps
-    else:
-        fx, fy, fz = sensed[S_ACC:S_ACC + 3]
-        mx, my, mz = sensed[S_MAG:S_MAG + 3]
-        p, q, r = sensed[S_GYRO:S_GYRO + 3]
+    fx, fy, fz, p, q, r, mx, my, mz = imu_sample(s)
     centi_c = isa_temperature_c(baro_alt_m(s)) * 100.0
     temperature = _i16(math.copysign(math.floor(abs(centi_c) + 0.5), centi_c)) or 1  # roundf
     return enc.pack(M.MAVLink_scaled_imu_message, s.time_boot_ms,
