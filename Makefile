@@ -10,9 +10,11 @@ STAMPG := $(VENVG)/.installed
 VEHICLES ?= 1
 PORT_OFFSET ?= 0
 PYTEST_ARGS ?=
-# Three pytest workers: an end-to-end test mostly waits on the wall clock (a daemon at 1x; the
-# whole suite keeps two cores ~25 % busy), so three share the machine's cores (four measured no
-# faster: 18.7 vs 19.1 min); each test finds free ports of its own (gateway/ci/ports.py).
+# Three pytest workers: an end-to-end test mostly waits on the wall clock (a daemon at 1x), so
+# three share the machine's two cores; each test finds free ports of its own
+# (gateway/ci/ports.py). Work stealing: xdist's default hands each worker a first chunk of
+# consecutive tests (a quarter of its share), and the first chunk held every end-to-end test, so
+# one worker ran them all in a row (~19 min) while the others sat idle after the unit tests.
 PYTEST_WORKERS ?= 3
 
 .PHONY: run test unit typecheck bench clean venv ns3 ns3-deps ns3-if-possible browser-if-possible \
@@ -49,7 +51,7 @@ test: $(STAMP) $(STAMP4) $(STAMPG) ns3-if-possible browser-if-possible
 	$(VENV)/bin/mypy
 	CORNET_MAVSDK4_PYTHON=$(CURDIR)/$(VENV4)/bin/python \
 	CORNET_MAVSDK_GRPC_PYTHON=$(CURDIR)/$(VENVG)/bin/python \
-		$(VENV)/bin/python -m pytest -n $(PYTEST_WORKERS) $(PYTEST_ARGS)
+		$(VENV)/bin/python -m pytest -n $(PYTEST_WORKERS) --dist worksteal $(PYTEST_ARGS)
 
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
