@@ -57,8 +57,52 @@ def free_port_offset(vehicles: int = 1, start: int = 1000, skip: Sequence[int] =
     raise RuntimeError("no free port offset for cornet run")
 
 
-def free_tcp_port() -> int:
-    """A free local TCP port, e.g. for MAVSDK-Python's ``System(port=...)`` (its gRPC server)."""
+# TCP ports handed out below the kernel's ephemeral range, in blocks of TCP_BLOCK, one block per
+# process (a pytest-xdist worker's own by its number).
+TCP_PORTS_FROM = 10000
+TCP_BLOCK = 400
+_tcp_next: list[int] = []  # this process's next candidate
+
+
+def _ephemeral_low(path: str = "/proc/sys/net/ipv4/ip_local_port_range") -> int:
+    try:
+        with open(path) as f:
+            return int(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 32768  # Linux's default
+
+
+def _tcp_bound(port: int) -> bool:
     with contextlib.closing(socket.socket()) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+        try:
+            s.bind(("0.0.0.0", port))
+        except OSError:
+            return True
+    return False
+
+
+def free_tcp_port() -> int:
+    """A free local TCP port, e.g. for MAVSDK-Python's ``System(port=...)`` (its gRPC server),
+    which binds it a second or two later, once it has found the vehicle.
+
+    Not from the kernel's ephemeral range: connections and ``bind(0)`` of every process draw
+    their ports from there, and one of them could take the port in those seconds (mavsdk_server
+    then exits, 2: "Failed to bind server"). Below it, each process (pytest-xdist worker) has a
+    block of its own and walks it, so two calls never return the same port."""
+    low = _ephemeral_low()
+    blocks = (low - TCP_PORTS_FROM) // TCP_BLOCK
+    if blocks < 1:  # an unusual ephemeral range: the kernel's choice
+        with contextlib.closing(socket.socket()) as s:
+            s.bind(("127.0.0.1", 0))
+            return s.getsockname()[1]
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    slot = int(worker[2:]) if worker[2:].isdigit() else os.getpid()
+    first = TCP_PORTS_FROM + (slot % blocks) * TCP_BLOCK
+    if not _tcp_next:
+        _tcp_next.append(0)
+    for _ in range(TCP_BLOCK):
+        port = first + _tcp_next[0] % TCP_BLOCK
+        _tcp_next[0] += 1
+        if not _tcp_bound(port):
+            return port
+    raise RuntimeError(f"no free TCP port in {first}..{first + TCP_BLOCK - 1}")
