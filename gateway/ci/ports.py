@@ -44,13 +44,22 @@ def daemon_ports(offset: int, vehicles: int, radios: int = 0) -> list[int]:
     return ports
 
 
+def _process_slot() -> int:
+    """This process's number among parallel ones: a pytest-xdist worker's (gw0, gw1, ...), else
+    the pid."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    return int(worker[2:]) if worker[2:].isdigit() else os.getpid()
+
+
 def free_port_offset(vehicles: int = 1, start: int = 1000, skip: Sequence[int] = (),
                      radios: int = RADIOS_CHECKED) -> int:
     """A ``--port-offset`` at which every UDP port a daemon with ``vehicles`` vehicles (and
     ``radios`` extra radios each) and its clients use is free (the search starts at a
     per-process place, for parallel test runs)."""
     n = max(vehicles, MIN_VEHICLES_CHECKED)
-    base = start + (os.getpid() % 40) * OFFSET_STEP
+    # Parallel workers start far apart (7 offsets, not a multiple of the radios' stride), so
+    # that two daemons starting at once do not both find the same offset free.
+    base = start + (_process_slot() % 8) * 7 * OFFSET_STEP
     for k in [*range(base, 40000, OFFSET_STEP), *range(start, base, OFFSET_STEP)]:
         if k not in skip and all(udp_free(p) for p in daemon_ports(k, n, radios)):
             return k
@@ -95,9 +104,7 @@ def free_tcp_port() -> int:
         with contextlib.closing(socket.socket()) as s:
             s.bind(("127.0.0.1", 0))
             return s.getsockname()[1]
-    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
-    slot = int(worker[2:]) if worker[2:].isdigit() else os.getpid()
-    first = TCP_PORTS_FROM + (slot % blocks) * TCP_BLOCK
+    first = TCP_PORTS_FROM + (_process_slot() % blocks) * TCP_BLOCK
     if not _tcp_next:
         _tcp_next.append(0)
     for _ in range(TCP_BLOCK):
