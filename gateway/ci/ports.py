@@ -23,13 +23,18 @@ RADIO_PORT_STRIDE = 1000
 RADIOS_CHECKED = 2
 
 
-def udp_free(port: int) -> bool:
-    with contextlib.closing(socket.socket(socket.AF_INET, socket.SOCK_DGRAM)) as s:
+def _free(kind: socket.SocketKind, port: int) -> bool:
+    """Whether ``port`` can be bound on every address for ``kind`` (SOCK_DGRAM or SOCK_STREAM)."""
+    with contextlib.closing(socket.socket(socket.AF_INET, kind)) as s:
         try:
             s.bind(("0.0.0.0", port))
         except OSError:
             return False
     return True
+
+
+def udp_free(port: int) -> bool:
+    return _free(socket.SOCK_DGRAM, port)
 
 
 def daemon_ports(offset: int, vehicles: int, radios: int = 0) -> list[int]:
@@ -81,15 +86,6 @@ def _ephemeral_low(path: str = "/proc/sys/net/ipv4/ip_local_port_range") -> int:
         return 32768  # Linux's default
 
 
-def _tcp_bound(port: int) -> bool:
-    with contextlib.closing(socket.socket()) as s:
-        try:
-            s.bind(("0.0.0.0", port))
-        except OSError:
-            return True
-    return False
-
-
 def free_tcp_port() -> int:
     """A free local TCP port, e.g. for MAVSDK-Python's ``System(port=...)`` (its gRPC server),
     which binds it a second or two later, once it has found the vehicle.
@@ -110,6 +106,6 @@ def free_tcp_port() -> int:
     for _ in range(TCP_BLOCK):
         port = first + _tcp_next[0] % TCP_BLOCK
         _tcp_next[0] += 1
-        if not _tcp_bound(port):
+        if _free(socket.SOCK_STREAM, port):
             return port
     raise RuntimeError(f"no free TCP port in {first}..{first + TCP_BLOCK - 1}")
