@@ -16,12 +16,14 @@ def test_tcp_ports_are_new_at_each_call_and_outside_the_ephemeral_range():
 
 
 def test_a_bound_tcp_port_is_skipped(monkeypatch):
+    # A block no worker of this run uses (the workers' own may be in use right now).
     monkeypatch.setattr(ports, "_tcp_next", [])
-    monkeypatch.setenv("PYTEST_XDIST_WORKER", "gw0")
+    monkeypatch.setenv("PYTEST_XDIST_WORKER", "gw50")
+    first = ports.TCP_PORTS_FROM + 50 * ports.TCP_BLOCK
     with contextlib.closing(socket.socket()) as taken:
-        taken.bind(("0.0.0.0", ports.TCP_PORTS_FROM))
+        taken.bind(("0.0.0.0", first))
         taken.listen()
-        assert ports.TCP_PORTS_FROM < ports.free_tcp_port() < ports.TCP_PORTS_FROM + ports.TCP_BLOCK
+        assert first < ports.free_tcp_port() < first + ports.TCP_BLOCK
 
 
 def test_each_xdist_worker_has_a_block_of_its_own(monkeypatch):
