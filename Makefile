@@ -10,11 +10,10 @@ STAMPG := $(VENVG)/.installed
 VEHICLES ?= 1
 PORT_OFFSET ?= 0
 PYTEST_ARGS ?=
-# Three pytest workers: an end-to-end test mostly waits on the wall clock (a daemon at 1x), so
-# three share the machine's two cores; each test finds free ports of its own
-# (gateway/ci/ports.py). Work stealing: xdist's default hands each worker a first chunk of
-# consecutive tests (a quarter of its share), and the first chunk held every end-to-end test, so
-# one worker ran them all in a row (~19 min) while the others sat idle after the unit tests.
+# Three pytest workers. xdist's default hands each worker a first chunk of consecutive tests, so
+# one worker runs every end-to-end test in a row (~19 min) while the others idle after the unit
+# tests. `--dist worksteal` runs the suite in ~8.5 min, but the ns-3 multihop flight then fails
+# beside other tests (OLSR does not get the relay's route back): until it holds, the default.
 PYTEST_WORKERS ?= 3
 
 .PHONY: run test unit typecheck bench clean venv ns3 ns3-deps ns3-if-possible browser-if-possible \
@@ -51,7 +50,7 @@ test: $(STAMP) $(STAMP4) $(STAMPG) ns3-if-possible browser-if-possible
 	$(VENV)/bin/mypy
 	CORNET_MAVSDK4_PYTHON=$(CURDIR)/$(VENV4)/bin/python \
 	CORNET_MAVSDK_GRPC_PYTHON=$(CURDIR)/$(VENVG)/bin/python \
-		$(VENV)/bin/python -m pytest -n $(PYTEST_WORKERS) --dist worksteal $(PYTEST_ARGS)
+		$(VENV)/bin/python -m pytest -n $(PYTEST_WORKERS) $(PYTEST_ARGS)
 
 typecheck: $(STAMP)
 	$(VENV)/bin/mypy
