@@ -387,6 +387,11 @@ class Autopilot:
         st.reset_rates = False
         return self._out
 
+    @property
+    def last_command(self) -> InnerCommand:
+        """What the inner loop flies now (the last ``step`` or ``poll`` that built one)."""
+        return self._out
+
     def set_position_aided(self, aided: bool) -> None:
         """The estimator's word on its position (vehicles/estimation.py: a fix within
         EKF2_NOAID_TOUT); the commander's ``position_valid`` follows it."""

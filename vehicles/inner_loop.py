@@ -48,6 +48,9 @@ M_POS, M_VEL, M_Q, M_RATES, M_ACCEL, M_SIZE = 0, 3, 6, 10, 13, 16
 # Columns of ``InnerLoop.forces``: force ENU (N), torque ENU (N m), 1.0 when there is anything
 # to apply (PyBullet clears external forces after every step).
 F_SIZE = 7
+# Columns of ``InnerLoop.commanded``: the rate setpoint FRD (rad/s), then one commanded rotor
+# speed (rad/s) per rotor.
+C_RATES_SP, C_OUTPUTS = 0, 3
 # Columns of ``InnerLoop.setpoint``: attitude q (w, x, y, z), heading rate (rad/s), collective
 # thrust (0..1), body rates FRD (rad/s; flown instead of the attitude when ``use_rates_sp``).
 SP_Q, SP_YAWSPEED, SP_THRUST, SP_RATES, SP_SIZE = 0, 4, 5, 6, 9
@@ -82,13 +85,16 @@ class InnerCommand(NamedTuple):
 @njit_cached
 def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, saturation,
                        rotors, plant, measured, estimated, rotor_speed, wind, forces,
-                       motor_ok):  # pragma: no cover
+                       motor_ok, commanded):  # pragma: no cover
     """One physics step of every vehicle's inner loop (module rules). The controllers fly on
     ``estimated`` (attitude, gyro rates less their bias); the physics acts on ``measured``, the
     truth. ``plant``: max rotor speed, motor constant, lag coefficient up, lag coefficient down,
     linear drag, idle thrust, the D term's filter coefficient, the step (s); ``wind``: the air's
     velocity (NED), which the drag acts against; ``motor_ok``: 0 for a rotor whose motor has
-    failed (failure injection: it spins down)."""
+    failed (failure injection: it spins down). ``commanded`` (out): per row the rate controller's
+    setpoint (C_RATES_SP, PX4 vehicle_rates_setpoint; 0 when it does not run) and each rotor's
+    commanded speed (C_OUTPUTS, rad/s: PX4's actuator_outputs as the gz bridge's ESC outputs
+    carry them, before the motor's lag and whatever failure injection did to the motor)."""
     w_max, k_motor, alpha_up, alpha_down, drag = plant[0], plant[1], plant[2], plant[3], plant[4]
     idle, alpha, dt_s = plant[5], plant[6], plant[7]
     n_rotors = len(rotors)
@@ -98,6 +104,8 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
         q = (m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3])
         est = estimated[v]
         q_est = (est[M_Q], est[M_Q + 1], est[M_Q + 2], est[M_Q + 3])
+        out_cmd = commanded[v]
+        out_cmd[C_RATES_SP] = out_cmd[C_RATES_SP + 1] = out_cmd[C_RATES_SP + 2] = 0.0
         if mode[v] == MODE_OFF:
             for i in range(n_rotors):
                 u[i] = 0.0
@@ -113,6 +121,7 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
                 else:
                     sp = attitude_rates(q_est, (c[SP_Q], c[SP_Q + 1], c[SP_Q + 2], c[SP_Q + 3]),
                                         g[0], g[1], g[2], g[3], g[4], g[5], g[6], c[SP_YAWSPEED])
+                out_cmd[C_RATES_SP], out_cmd[C_RATES_SP + 1], out_cmd[C_RATES_SP + 2] = sp
                 s = saturation[v]
                 torque = rate_pid(dt_s, alpha, (est[M_RATES], est[M_RATES + 1], est[M_RATES + 2]), sp,
                                   landed[v], (s[0], s[1], s[2]), (s[3], s[4], s[5]), g[G_RATE:],
@@ -126,7 +135,9 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
         speeds = rotor_speed[v]
         total = tx = ty = tz = 0.0
         for i in range(n_rotors):
-            cmd = u[i] * w_max * motor_ok[v, i]
+            cmd = u[i] * w_max
+            out_cmd[C_OUTPUTS + i] = cmd
+            cmd *= motor_ok[v, i]
             w = speeds[i]
             w += (cmd - w) * (alpha_up if cmd > w else alpha_down)
             speeds[i] = w
@@ -239,13 +250,15 @@ class InnerLoop:
             self.motor_ok[:len(old_ok)] = old_ok
         self.spawn_enu = grow(get("spawn_enu"), (n, 3))
         self.forces = grow(get("forces"), (n, F_SIZE))
+        self.commanded = grow(get("commanded"), (n, C_OUTPUTS + self._rotors))
         # ``control_and_forces``' arguments, gathered once per resize rather than looked up
         # attribute by attribute at every step (the arrays are only ever written in place), and
         # few: numba checks the type of every argument at every call.
         self._control_args = (
             self.mode, self.setpoint, self.use_rates_sp, self.landed, self.gains,
             self.rate_state, self.saturation, self.rotors, self.plant, self.measured,
-            self.estimated, self.rotor_speed, self.wind, self.forces, self.motor_ok)
+            self.estimated, self.rotor_speed, self.wind, self.forces, self.motor_ok,
+            self.commanded)
 
     def add(self, spawn_enu_m: tuple[float, float, float], raw_state: tuple[float, ...]) -> int:
         """A new row for a vehicle spawned at ``spawn_enu_m`` whose PyBullet state is
@@ -277,6 +290,10 @@ class InnerLoop:
             self.setpoint[k] = (*command.attitude_q, command.yawspeed_radps, command.thrust_norm,
                                 *rates)
         self.landed[k] = command.landed
+
+    def commanded_row(self, k: int) -> list[float]:
+        """Row ``k``'s last rate setpoint and commanded rotor speeds (C_* columns)."""
+        return self.commanded[k].tolist()
 
     def control(self) -> None:
         """Motor commands, rotor speeds and the force/torque to apply for every row."""

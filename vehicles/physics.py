@@ -254,6 +254,10 @@ class World:
     def rotor_speeds(self, row: int) -> tuple[float, ...]:
         return tuple(self.inner.rotor_speed[row].tolist())
 
+    def commanded(self, row: int) -> list[float]:
+        """Row ``row``'s last rate setpoint and commanded rotor speeds (inner_loop C_* columns)."""
+        return self.inner.commanded_row(row)
+
     def step(self, now_s: float) -> None:
         inner = self.inner
         if self.wind is not None:

@@ -80,6 +80,11 @@ class PositionStage:
         self._armed = armed
         self.rates = None
 
+    @property
+    def tick_s(self) -> float:
+        """When the present tick began (the setpoints' time)."""
+        return self._now_s
+
     def _takeoff_state(self, want_takeoff: bool, skip: bool = False) -> TakeoffState:
         return self.takeoff.update_state(self._armed, self.land_detector.landed, want_takeoff,
                                          self._now_s, skip)

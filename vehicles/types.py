@@ -5,7 +5,7 @@ Rules:
   ``_ned`` (north-east-down, local to the vehicle's EKF origin = its spawn point), ``_frd`` (body
   forward-right-down).
 - Quaternions are (w, x, y, z) and rotate body FRD vectors into NED.
-- Setpoints use NaN for "not commanded" (PX4's convention). They are validated where built.
+- Targets use NaN for "not commanded" (PX4's convention). They are validated where built.
 - Nothing here knows about MAVLink, sockets or the wall clock.
 """
 
@@ -151,6 +151,26 @@ class Kinematics(NamedTuple):
         pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
         yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
         return roll, pitch, yaw
+
+
+class Targets(NamedTuple):
+    """What the controllers aim for, as PX4 publishes it (the ATTITUDE_TARGET,
+    POSITION_TARGET_* and SERVO_OUTPUT_RAW streams read it). Angles in rad, NED/FRD."""
+
+    time_s: float  # the autopilot tick that set them (PX4: the setpoint's timestamp)
+    attitude_q: tuple[float, float, float, float]  # vehicle_attitude_setpoint q_d
+    thrust_norm: float  # |thrust_body|
+    rates_frd_radps: tuple[float, float, float]  # vehicle_rates_setpoint
+    # vehicle_control_mode flag_multicopter_position_control_enabled: the local setpoint exists
+    position_control: bool
+    position_ned_m: tuple[float, float, float]  # vehicle_local_position_setpoint, NaN: none
+    velocity_ned_mps: tuple[float, float, float]
+    yaw_rad: float
+    yawspeed_radps: float
+    # position_setpoint_triplet.current (lat, lon, alt AMSL) while flag_control_position_enabled
+    # and the navigator has one, else None
+    global_target: tuple[float, float, float] | None
+    outputs: tuple[float, ...]  # actuator_outputs: commanded rotor speeds (rad/s), 0 disarmed
 
 
 @dataclass(frozen=True)

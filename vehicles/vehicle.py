@@ -22,6 +22,7 @@ import numpy as np
 
 from vehicles.airframe import Airframe
 from vehicles.autopilot import POSITION_CONTROL_DIVIDER, Autopilot
+from vehicles.control.quat import q_yaw
 from vehicles.estimation import (
     F_ACC_OFF,
     F_ACC_STUCK,
@@ -47,6 +48,7 @@ from vehicles.types import (
     Measurement,
     NavState,
     StatusText,
+    Targets,
     Vec3,
     VehicleState,
     VehicleStatus,
@@ -66,6 +68,11 @@ SENSOR_FAILURES = {
     FAILURE_UNIT_SENSOR_BARO: (F_BARO_OFF, F_BARO_STUCK),
     FAILURE_UNIT_SENSOR_GPS: (F_GPS_OFF, 0),  # PX4 SITL's GPS has no stuck
 }
+# vehicle_control_mode: the navigation states without flag_multicopter_position_control_enabled,
+# and those with it but without flag_control_position_enabled (no horizontal position).
+_NO_POSITION_CONTROL = frozenset({NavState.MANUAL, NavState.STAB, NavState.ACRO,
+                                  NavState.TERMINATION})
+_NO_POSITION_HOLD = frozenset({NavState.ALTCTL, NavState.DESCEND})
 IMU_INSTANCES = 3  # PX4's simulator takes instances 1..3 for the IMU (one is simulated here)
 
 
@@ -94,6 +101,8 @@ class WorldRow(Protocol):
     def set_motor_off(self, row: int, motor: int, off: bool) -> None: ...
 
     def rotor_speeds(self, row: int) -> tuple[float, ...]: ...
+
+    def commanded(self, row: int) -> list[float]: ...
 
 
 class Vehicle:
@@ -186,6 +195,38 @@ class Vehicle:
     def position_setpoint_ned_m(self) -> Vec3 | None:
         """The trajectory's position setpoint while armed and flying under it (else None)."""
         return self._autopilot.position_setpoint_ned_m()
+
+    @property
+    def targets(self) -> Targets:
+        """The controllers' setpoints and the motors' commands, as PX4 publishes them."""
+        ap = self._autopilot
+        st, cmd = ap.stage, ap.commander
+        out = ap.last_command
+        commanded = self._world.commanded(self._row)
+        nav = cmd.nav_state
+        if nav in _NO_POSITION_CONTROL:
+            position_control = False
+        else:  # Offboard attitude and rates bypass the position controller
+            position_control = nav is not NavState.OFFBOARD or st.flying
+        nan3 = (math.nan, math.nan, math.nan)
+        pos = vel = nan3
+        if st.flying:
+            pos = st.trajectory.position_ned_m
+            vel = st.vel_sp
+        yaw = st.yaw_sp if math.isfinite(st.yaw_sp) else q_yaw(self.kinematics.attitude_q)
+        target = None
+        auto_sp = ap.tasks.auto.setpoint
+        if position_control and auto_sp is not None and nav not in _NO_POSITION_HOLD:
+            n, e, d = auto_sp.target_ned_m
+            if math.isfinite(n) and math.isfinite(e):
+                geo = self.origin.offset_ned(n, e, d if math.isfinite(d) else 0.0)
+                target = (geo.lat_deg, geo.lon_deg,
+                          geo.alt_amsl_m if math.isfinite(d) else math.nan)
+        return Targets(st.tick_s, out.attitude_q, out.thrust_norm,
+                         (commanded[0], commanded[1], commanded[2]), position_control,
+                         (pos[0], pos[1], pos[2]), (vel[0], vel[1], vel[2]), yaw,
+                         out.yawspeed_radps, target, tuple(commanded[3:]) if cmd.armed else
+                         (0.0,) * (len(commanded) - 3))
 
     @property
     def truth(self) -> Measurement:

@@ -56,6 +56,7 @@ from gateway.mavlink.signing import Signer, SigningClock, SigningConfig, Verifie
 from gateway.mavlink.snapshot import SampleCache, Snapshot
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
 from gateway.mavlink.streams import NEVER, Scheduler
+from gateway.mavlink.telemetry_link import LinkTelemetry
 from gateway.mavlink.vehicle_port import VehiclePort
 
 __all__ = ["LinkKind", "Session", "SessionStats", "SigningConfig"]
@@ -102,6 +103,7 @@ class Session:
         # What telemetry derives from one kinematics sample; the shell may give the sessions of
         # one vehicle the same cache (they sample it at the same instants).
         self.samples = SampleCache()
+        self.link_telemetry = LinkTelemetry()
         ctx = LinkContext(vehicle, kind, self.sysid, self.encoder, self.stats, self.send,
                           self._other_target)
         self.statustext = StatusTextService(ctx, self.gcs_present)
@@ -211,7 +213,8 @@ class Session:
         enc.now_s = now_s
         due = self.scheduler.due(now_s)
         if due:
-            snap = Snapshot(self.vehicle, now_s, self.boot_unix_s, self.samples)
+            snap = Snapshot(self.vehicle, now_s, self.boot_unix_s, self.samples,
+                            self.link_telemetry)
             out = self._out
             sent = len(out)
             for spec in due:
@@ -256,7 +259,9 @@ class Session:
         self.stats.tx_frames += 1
 
     def snapshot(self, now_s: float) -> Snapshot:
-        return Snapshot(self.vehicle, now_s, self.boot_unix_s, self.samples)
+        """What a REQUEST_MESSAGE builds its answer from."""
+        return Snapshot(self.vehicle, now_s, self.boot_unix_s, self.samples,
+                        self.link_telemetry, requested=True)
 
     def _other_target(self) -> None:
         self.stats.rx_other_target += 1

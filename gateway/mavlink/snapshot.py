@@ -19,7 +19,7 @@ from typing import Any, Generic, TypeVar, overload
 
 from gateway.mavlink.vehicle_port import VehiclePort
 from vehicles.geodesy import GeoPoint
-from vehicles.types import Kinematics, VehicleStatus
+from vehicles.types import Kinematics, Targets, VehicleStatus
 
 T = TypeVar("T")
 
@@ -102,8 +102,14 @@ class Snapshot:
     one)."""
 
     def __init__(self, vehicle: VehiclePort, now_s: float, boot_unix_s: float | None,
-                 samples: SampleCache | None = None) -> None:
+                 samples: SampleCache | None = None, link: Any = None,
+                 requested: bool = False) -> None:
+        """``link``: what the link remembers of its streams (telemetry_link.LinkTelemetry; None:
+        nothing, as for a one-off build); ``requested``: built for a REQUEST_MESSAGE, which
+        streams that send only on change answer all the same."""
         self.vehicle = vehicle
+        self.link = link
+        self.requested = requested
         self.now_s = now_s
         self.boot_unix_s = boot_unix_s
         self.samples = samples
@@ -152,6 +158,11 @@ class Snapshot:
     def home_alt_m(self) -> float:
         home = self.vehicle.home
         return home.geo.alt_amsl_m if home is not None else self.vehicle.origin.alt_amsl_m
+
+    @_once
+    def targets(self) -> Targets | None:
+        """The controllers' setpoints and motor commands; None: the vehicle has none."""
+        return getattr(self.vehicle, "targets", None)
 
     @_once
     def mav_type(self) -> int:

@@ -45,6 +45,13 @@ from gateway.mavlink.telemetry import (
     vibration,
     wind_cov,
 )
+from gateway.mavlink.telemetry_control import (
+    attitude_target,
+    position_target_global_int,
+    position_target_local_ned,
+    servo_output_raw,
+)
+from gateway.mavlink.telemetry_link import gps_global_origin, ping, timesync
 from gateway.mavlink.telemetry_requested import (
     actuator_output_status,
     distance_sensor,
@@ -67,12 +74,17 @@ class StreamSpec:
 
 STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_HEARTBEAT, heartbeat, 1.0, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_TIMESYNC, timesync, 0.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_SYS_STATUS, sys_status, 1.0, 5.0),
     StreamSpec(M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, extended_sys_state, 1.0, 5.0),
     StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE, attitude, 50.0, 100.0),
     StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION, attitude_quaternion, 50.0, 50.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE_TARGET, attitude_target, 50.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_LOCAL_POSITION_NED, local_position_ned, 50.0, 30.0),
+    StreamSpec(M.MAVLINK_MSG_ID_POSITION_TARGET_LOCAL_NED, position_target_local_ned, 50.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, global_position_int, 50.0, 50.0),
+    StreamSpec(M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT, position_target_global_int, 1.0, 10.0),
+    StreamSpec(M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, servo_output_raw, 50.0, 10.0),
     # Onboard sends GPS_RAW_INT on every GPS update; PX4's simulated GPS runs at 10 Hz.
     StreamSpec(M.MAVLINK_MSG_ID_GPS_RAW_INT, gps_raw_int, 5.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_HOME_POSITION, home_position, 0.5, 0.5),
@@ -88,6 +100,8 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_ESTIMATOR_STATUS, estimator_status, 0.5, 1.0),
     StreamSpec(M.MAVLINK_MSG_ID_VIBRATION, vibration, 0.1, 0.5),
     StreamSpec(M.MAVLINK_MSG_ID_WIND_COV, wind_cov, 0.5, 10.0),
+    StreamSpec(M.MAVLINK_MSG_ID_PING, ping, 0.1, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, gps_global_origin, 0.1, 1.0),
     # Not streamed by default; PX4 SITL sends them once asked (MAVSDK's telemetry.set_rate_*).
     StreamSpec(M.MAVLINK_MSG_ID_SCALED_IMU, scaled_imu, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_RC_CHANNELS, rc_channels, 0.0, 0.0),

@@ -94,12 +94,14 @@ def hil_state_quaternion(enc: Encoder, s: Snapshot) -> bytes | None:
                     _i16(an), _i16(ae), _i16(ad))
 
 
-def actuator_output_status(enc: Encoder, s: Snapshot) -> bytes:
+def actuator_output_status(enc: Encoder, s: Snapshot) -> bytes | None:
     """ACTUATOR_OUTPUT_STATUS.hpp: actuator_outputs as the gz bridge's ESC outputs publish them
-    (SIM_GZ_EC_MIN/MAX 0..1000: the rotor speed in rad/s; 0 disarmed), ``active`` = the
-    number of channels. Ours are the rotors' speeds, which follow PX4's commanded ones with the
-    motors' lag."""
-    speeds = list(s.status.extra.get("rotor_speed_radps", ()))[:ACTUATOR_OUTPUTS]
-    outputs = [float(w) for w in speeds] + [0.0] * (32 - len(speeds))
+    (SIM_GZ_EC_MIN/MAX 0..1000: the commanded rotor speed in rad/s; 0 disarmed), ``active`` = the
+    number of channels."""
+    sp = s.targets
+    if sp is None:
+        return None
+    outputs = [float(w) for w in sp.outputs[:ACTUATOR_OUTPUTS]]
+    outputs += [0.0] * (32 - len(outputs))
     return enc.pack(M.MAVLink_actuator_output_status_message, s.time_usec, ACTUATOR_OUTPUTS,
                     outputs)

@@ -136,6 +136,17 @@ _DOWN: list[bytes] = []  # what the vehicle sent since the last check
 # Fields PX4 itself fills with NaN (no terrain estimate, unknown covariance): NaN is their value.
 NAN_BY_DESIGN = {("ALTITUDE", "bottom_clearance"), ("ALTITUDE", "altitude_terrain"),
                  ("ODOMETRY", "pose_covariance"), ("ODOMETRY", "velocity_covariance")}
+# POSITION_TARGET_*: a setpoint PX4 does not have is NaN, with its IGNORE bit in type_mask.
+_IGNORE_BITS = {"x": 1, "y": 2, "z": 4, "vx": 8, "vy": 16, "vz": 32, "afx": 64, "afy": 128,
+                "afz": 256, "yaw": 1024, "yaw_rate": 2048}
+
+
+def _ignored(msg, name: str) -> bool:
+    if msg.get_type() == "POSITION_TARGET_GLOBAL_INT":  # PX4 copies the local setpoint's NaNs
+        return name in _IGNORE_BITS
+    bit = _IGNORE_BITS.get(name)
+    return bit is not None and msg.get_type() == "POSITION_TARGET_LOCAL_NED" \
+        and bool(msg.type_mask & bit)
 
 
 def _sim() -> Simulation:
@@ -160,7 +171,8 @@ def non_finite_telemetry() -> list[str]:
                 value = getattr(msg, name)
                 values = value if isinstance(value, list) else [value]
                 if any(isinstance(v, float) and not math.isfinite(v) for v in values) \
-                        and (msg.get_type(), name) not in NAN_BY_DESIGN:
+                        and (msg.get_type(), name) not in NAN_BY_DESIGN \
+                        and not _ignored(msg, name):
                     bad.append(f"{msg.get_type()}.{name}")
     _DOWN.clear()
     return bad

@@ -80,8 +80,10 @@ def test_ground_truth_as_px4_fills_hil_state_quaternion():
 
 
 def test_actuator_output_status_carries_the_motor_outputs():
+    """The commanded outputs (actuator_outputs), not the rotors' speeds that lag them."""
     vehicle, session, client = make(LinkKind.GCS)
-    vehicle.rotor_speeds_radps = (512.5, 530.0, 498.25, 505.0)
+    vehicle.motor_outputs = (512.5, 530.0, 498.25, 505.0)
+    vehicle.rotor_speeds_radps = (400.0, 410.0, 420.0, 430.0)
     assert _enable(client, M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, 10.0) == ACCEPTED
     got = of_type(client.run_until(3.0), "ACTUATOR_OUTPUT_STATUS")
     assert abs(len(got) - 30) <= 1

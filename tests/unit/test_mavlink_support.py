@@ -37,6 +37,7 @@ from vehicles.types import (
     NavState,
     Severity,
     StatusText,
+    Targets,
     VehicleState,
     VehicleStatus,
 )
@@ -70,6 +71,10 @@ class FakeVehicle:
         self.setpoints: list[tuple[float, OffboardSetpoint]] = []
         self.orbit_status: OrbitStatus | None = None
         self.rotor_speeds_radps: tuple[float, ...] = (0.0,) * 4
+        self.motor_outputs: tuple[float, ...] = (0.0,) * 4  # commanded rotor speeds (rad/s)
+        # What ``targets`` reports of the controllers (None: the real vehicle's defaults below).
+        self.position_setpoint_ned_m: tuple[float, float, float] | None = None
+        self.global_target: tuple[float, float, float] | None = None
 
     # --- contract -------------------------------------------------------------------------
     @property
@@ -84,6 +89,15 @@ class FakeVehicle:
     @property
     def kinematics(self) -> Kinematics:
         return Kinematics.of(self.state)
+
+    @property
+    def targets(self) -> Targets:
+        """Level attitude at hover thrust; a position setpoint when one is set."""
+        pos = self.position_setpoint_ned_m or (math.nan,) * 3
+        vel = (0.0, 0.0, 0.0) if self.position_setpoint_ned_m else (math.nan,) * 3
+        return Targets(self.state.time_s, (1.0, 0.0, 0.0, 0.0), 0.5, (0.01, -0.02, 0.03),
+                       self.nav_state not in (NavState.MANUAL, NavState.STAB, NavState.ACRO),
+                       pos, vel, 0.25, 0.0, self.global_target, self.motor_outputs)
 
     @property
     def sensors(self) -> list[float]:

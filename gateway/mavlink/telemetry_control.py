@@ -1,0 +1,95 @@
+"""What the controllers aim for and what the motors are told: ATTITUDE_TARGET,
+POSITION_TARGET_LOCAL_NED, POSITION_TARGET_GLOBAL_INT and SERVO_OUTPUT_RAW (port 0), from the
+vehicle's ``targets`` (vehicles/types.py Targets).
+
+Source: PX4's stream classes src/modules/mavlink/streams/<MESSAGE>.hpp, streamed by default
+(mavlink_main.cpp configure_streams_to_default, and px4-rc.mavlink's SITL overrides for the GCS
+link: 50 Hz for all but POSITION_TARGET_GLOBAL_INT).
+Rules:
+- ATTITUDE_TARGET: vehicle_attitude_setpoint's q_d and |thrust_body|, vehicle_rates_setpoint's
+  body rates (the attitude controller's output; 0 while the motors are off), type_mask 0.
+- POSITION_TARGET_LOCAL_NED: vehicle_local_position_setpoint, which mc_pos_control publishes
+  whenever flag_multicopter_position_control_enabled (armed or not): a field that is NaN sets
+  its IGNORE bit, as PX4 does. Before take-off PX4 resets the setpoint to NaN with a 100 m/s²
+  downward acceleration; the acceleration setpoint in flight is not kept here, so it is sent as
+  NaN (ignored).
+- POSITION_TARGET_GLOBAL_INT: position_setpoint_triplet.current while
+  flag_control_position_enabled and the navigator has one (MAV_FRAME_GLOBAL_INT, alt AMSL), with
+  the local setpoint's velocity, acceleration and yaw; type_mask 0.
+- SERVO_OUTPUT_RAW: actuator_outputs as the gz bridge's ESC output module publishes them
+  (SIM_GZ_EC_MIN/MAX 0..1000: the commanded rotor speed in rad/s, 0 disarmed), truncated to
+  uint16 as C converts; time_usec (the outputs are published at every control step: now)
+  truncated to 32 bits as the message has it.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pymavlink.dialects.v20 import common as M
+
+from gateway.mavlink.codec import Encoder
+from gateway.mavlink.snapshot import Snapshot
+
+# POSITION_TARGET_TYPEMASK bits, in the order of the fields they ignore.
+_IGNORE_BITS = ((0, 1), (1, 2), (2, 4), (3, 8), (4, 16), (5, 32), (6, 64), (7, 128), (8, 256),
+                (9, 1024), (10, 2048))
+MAV_FRAME_LOCAL_NED = 1
+MAV_FRAME_GLOBAL_INT = 5
+NO_THRUST_ACCEL = (0.0, 0.0, 100.0)  # mc_pos_control: not taken off yet
+NAN3 = (math.nan, math.nan, math.nan)
+
+
+def _ms(t_s: float) -> int:
+    return int(t_s * 1000.0) & 0xFFFFFFFF
+
+
+def attitude_target(enc: Encoder, s: Snapshot) -> bytes | None:
+    sp = s.targets
+    if sp is None:
+        return None
+    p, q, r = sp.rates_frd_radps
+    return enc.pack(M.MAVLink_attitude_target_message, _ms(sp.time_s), 0, list(sp.attitude_q),
+                    p, q, r, sp.thrust_norm)
+
+
+def _local_fields(sp) -> tuple[float, ...]:
+    """x, y, z, vx, vy, vz, afx, afy, afz, yaw, yaw_rate of vehicle_local_position_setpoint."""
+    pos, vel = sp.position_ned_m, sp.velocity_ned_mps
+    flying = not math.isnan(pos[0])
+    acc = NAN3 if flying else NO_THRUST_ACCEL
+    if not flying:
+        vel = NAN3
+    return (*pos, *vel, *acc, sp.yaw_rad, sp.yawspeed_radps)
+
+
+def position_target_local_ned(enc: Encoder, s: Snapshot) -> bytes | None:
+    sp = s.targets
+    if sp is None or not sp.position_control:
+        return None
+    f = _local_fields(sp)
+    mask = 0
+    for i, bit in _IGNORE_BITS:
+        if not math.isfinite(f[i]):
+            mask |= bit
+    return enc.pack(M.MAVLink_position_target_local_ned_message, _ms(sp.time_s),
+                    MAV_FRAME_LOCAL_NED, mask, *f)
+
+
+def position_target_global_int(enc: Encoder, s: Snapshot) -> bytes | None:
+    sp = s.targets
+    if sp is None or sp.global_target is None:
+        return None
+    lat, lon, alt = sp.global_target
+    f = _local_fields(sp)
+    return enc.pack(M.MAVLink_position_target_global_int_message, s.time_boot_ms,
+                    MAV_FRAME_GLOBAL_INT, 0, int(lat * 1e7), int(lon * 1e7), alt, *f[3:])
+
+
+def servo_output_raw(enc: Encoder, s: Snapshot) -> bytes | None:
+    sp = s.targets
+    if sp is None:
+        return None
+    raw = [min(max(int(v), 0), 0xFFFF) for v in sp.outputs[:16]]
+    raw += [0] * (16 - len(raw))
+    return enc.pack(M.MAVLink_servo_output_raw_message, s.time_usec & 0xFFFFFFFF, 0, *raw)

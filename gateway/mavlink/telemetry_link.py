@@ -1,0 +1,73 @@
+"""Streams that belong to a link rather than to its vehicle alone: TIMESYNC and PING (PX4 asks
+its peer, on the link's own clock and sequence) and GPS_GLOBAL_ORIGIN (sent once per link, then
+on change), with the little each link remembers for them (``LinkTelemetry``).
+
+Source: PX4's stream classes src/modules/mavlink/streams/TIMESYNC.hpp, PING.hpp and
+GPS_GLOBAL_ORIGIN.hpp; rates from mavlink_main.cpp configure_streams_to_default (TIMESYNC 10 Hz
+on the onboard link only; PING 0.1 Hz normal, 1 Hz onboard; GPS_GLOBAL_ORIGIN 0.1 / 1 Hz).
+Rules:
+- TIMESYNC is a request (tc1 = 0, ts1 = the time since boot in ns); the peer's answer is
+  ignored (ping.py), as the simulated clock needs no offset estimate.
+- PING is a request to all (target 0/0) with time_usec since boot and the link's own sequence;
+  replies (MAVSDK answers PX4's pings) are ignored.
+- GPS_GLOBAL_ORIGIN: the estimator's origin (vehicle_local_position ref_lat/lon/alt, here the
+  local frame's origin, fixed at start) once it is global (a position fix), then again only when
+  it moves by more than 1e-7 deg / 1 mm; a REQUEST_MESSAGE always gets it. time_usec is the
+  origin's time (ref_timestamp): when the estimator first had a position.
+"""
+
+from __future__ import annotations
+
+from pymavlink.dialects.v20 import common as M
+
+from gateway.mavlink.codec import Encoder
+from gateway.mavlink.snapshot import Snapshot
+
+LLA_MIN_DIFF_DEG = 1e-7
+ALT_MIN_DIFF_M = 0.001
+
+
+class LinkTelemetry:
+    """What one link remembers of the streams it sent (the fields of PX4's stream objects)."""
+
+    __slots__ = ("ping_seq", "origin_sent", "origin_time_us")
+
+    def __init__(self) -> None:
+        self.ping_seq = 0
+        self.origin_sent: tuple[float, float, float] | None = None  # (lat, lon, alt) last sent
+        self.origin_time_us = 0  # when the origin became global (0: not yet)
+
+
+def timesync(enc: Encoder, s: Snapshot) -> bytes:
+    return enc.pack(M.MAVLink_timesync_message, 0, s.time_usec * 1000)
+
+
+def ping(enc: Encoder, s: Snapshot) -> bytes:
+    link = s.link
+    seq = 0
+    if link is not None:
+        seq = link.ping_seq
+        link.ping_seq = (seq + 1) & 0xFFFFFFFF
+    return enc.pack(M.MAVLink_ping_message, s.time_usec, seq, 0, 0)
+
+
+def gps_global_origin(enc: Encoder, s: Snapshot) -> bytes | None:
+    link = s.link
+    status = s.status
+    if not status.position_valid:
+        return None
+    origin = s.vehicle.origin
+    lat, lon, alt = origin.lat_deg, origin.lon_deg, origin.alt_amsl_m
+    if link is None:
+        time_us = s.time_usec
+    else:
+        if link.origin_time_us == 0:
+            link.origin_time_us = s.time_usec
+        time_us = link.origin_time_us
+        last = link.origin_sent
+        if not s.requested and last is not None and abs(last[0] - lat) <= LLA_MIN_DIFF_DEG \
+                and abs(last[1] - lon) <= LLA_MIN_DIFF_DEG and abs(last[2] - alt) <= ALT_MIN_DIFF_M:
+            return None
+        link.origin_sent = (lat, lon, alt)
+    return enc.pack(M.MAVLink_gps_global_origin_message, int(round(lat * 1e7)),
+                    int(round(lon * 1e7)), int(round(alt * 1e3)), time_us)

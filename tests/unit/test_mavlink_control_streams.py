@@ -1,0 +1,111 @@
+"""The streams of what the controllers aim for and of the link itself, on a real vehicle in
+lockstep: ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED/GLOBAL_INT, SERVO_OUTPUT_RAW (PX4 SITL's
+GCS link at 50 Hz, the onboard link at 10 Hz), TIMESYNC, PING and GPS_GLOBAL_ORIGIN."""
+
+import math
+
+import pytest
+from pymavlink.dialects.v20 import common as M
+
+from gateway.ci.lockstep import Sim
+from gateway.mavlink.session import LinkKind
+from tests.unit.test_testing_sim import geo, square_mission
+from vehicles.plan_types import PlanResult
+from vehicles.types import PX4_SITL_HOME
+
+IGNORE_POSITION_AND_VELOCITY = 1 | 2 | 4 | 8 | 16 | 32
+IGNORE_ACCELERATION = 64 | 128 | 256
+
+
+@pytest.fixture(scope="module")
+def flight():
+    """One vehicle with both links: 3 s on the ground, then 15 s into the square mission."""
+    with Sim(1, links=(LinkKind.API, LinkKind.GCS)) as sim:
+        gcs, api = sim.gcs(0), sim.api(0)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=5)
+        sim.advance(3.0)
+        ground = {name: gcs.last(name) for name in (
+            "ATTITUDE_TARGET", "POSITION_TARGET_LOCAL_NED", "SERVO_OUTPUT_RAW")}
+        assert api.upload_mission(square_mission()) == PlanResult.ACCEPTED
+        assert api.arm() == 0 and api.start_mission() == 0
+        sim.advance(15.0)
+        mission = {name: gcs.last(name) for name in (
+            "ATTITUDE_TARGET", "POSITION_TARGET_LOCAL_NED", "POSITION_TARGET_GLOBAL_INT",
+            "SERVO_OUTPUT_RAW", "LOCAL_POSITION_NED")}
+        start = {name: (len(gcs.messages(name)), len(api.messages(name))) for name in (
+            "ATTITUDE_TARGET", "POSITION_TARGET_LOCAL_NED", "POSITION_TARGET_GLOBAL_INT",
+            "SERVO_OUTPUT_RAW", "TIMESYNC", "PING")}
+        sim.advance(10.0)
+        rates = {name: ((len(gcs.messages(name)) - g) / 10.0, (len(api.messages(name)) - a) / 10.0)
+                 for name, (g, a) in start.items()}
+        yield {"sim": sim, "gcs": gcs, "api": api, "ground": ground, "mission": mission,
+               "rates": rates}
+
+
+def test_rates_are_px4_sitls(flight):
+    assert flight["rates"] == {
+        "ATTITUDE_TARGET": (50.0, 10.0), "POSITION_TARGET_LOCAL_NED": (50.0, 10.0),
+        "POSITION_TARGET_GLOBAL_INT": (1.0, 10.0), "SERVO_OUTPUT_RAW": (50.0, 10.0),
+        "TIMESYNC": (0.0, 10.0), "PING": (0.1, 1.0)}
+
+
+def test_on_the_ground_disarmed_the_setpoint_is_no_thrust_and_the_motors_are_off(flight):
+    g = flight["ground"]
+    att, pos, out = g["ATTITUDE_TARGET"], g["POSITION_TARGET_LOCAL_NED"], g["SERVO_OUTPUT_RAW"]
+    assert att.thrust == 0.0 and (att.body_roll_rate, att.body_pitch_rate) == (0.0, 0.0)
+    # mc_pos_control before take-off: no position or velocity, 100 m/s² down.
+    assert pos.coordinate_frame == M.MAV_FRAME_LOCAL_NED
+    assert pos.type_mask == IGNORE_POSITION_AND_VELOCITY
+    assert math.isnan(pos.x) and math.isnan(pos.vz) and (pos.afx, pos.afy, pos.afz) == (0, 0, 100)
+    assert [getattr(out, f"servo{i}_raw") for i in range(1, 17)] == [0] * 16
+
+
+def test_in_the_mission_the_targets_lead_the_vehicle(flight):
+    m = flight["mission"]  # 15 s after the start: on the way to the first corner
+    att, pos = m["ATTITUDE_TARGET"], m["POSITION_TARGET_LOCAL_NED"]
+    lpos, out = m["LOCAL_POSITION_NED"], m["SERVO_OUTPUT_RAW"]
+    assert 0.4 < att.thrust < 0.8 and abs(sum(q * q for q in att.q) - 1.0) < 1e-6
+    assert pos.type_mask == IGNORE_ACCELERATION
+    assert math.dist((pos.x, pos.y, pos.z), (lpos.x, lpos.y, lpos.z)) < 3.0
+    assert pos.vx > 1.0  # flying north to the first corner
+    motors = [getattr(out, f"servo{i}_raw") for i in range(1, 5)]
+    assert all(600 < m < 950 for m in motors)  # commanded rad/s of the x500's 1000
+    assert [getattr(out, f"servo{i}_raw") for i in range(5, 17)] == [0] * 12
+    # The navigator's current setpoint: the first corner, 40 m north, 10 m above home.
+    tgt = m["POSITION_TARGET_GLOBAL_INT"]
+    lat, lon = geo(40, 0)
+    assert (tgt.lat_int, tgt.lon_int) == (int(lat * 1e7), int(lon * 1e7))
+    assert tgt.alt == pytest.approx(PX4_SITL_HOME.alt_amsl_m + 10.0, abs=0.01)
+    assert tgt.coordinate_frame == M.MAV_FRAME_GLOBAL_INT and tgt.type_mask == 0
+
+
+def test_actuator_output_status_is_the_same_command_as_servo_output_raw():
+    with Sim(1) as sim:
+        api = sim.api(0)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=5)
+        assert api.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL,
+                                M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, 100_000) == 0
+        assert api.arm() == 0 and api.takeoff() == 0
+        sim.advance(8.0)
+        # Both at 10 Hz on the same grid: the last of each come from the same instant.
+        status, raw = api.last("ACTUATOR_OUTPUT_STATUS"), api.last("SERVO_OUTPUT_RAW")
+        assert status.time_usec == raw.time_usec
+        assert [int(a) for a in status.actuator[:4]] == [
+            raw.servo1_raw, raw.servo2_raw, raw.servo3_raw, raw.servo4_raw]
+
+
+def test_timesync_ping_and_origin(flight):
+    api, gcs = flight["api"], flight["gcs"]
+    ts = api.timed_messages("TIMESYNC")
+    assert len(ts) > 200 and all(m.tc1 == 0 and abs(m.ts1 - t * 1e9) < 1e3 for t, m in ts)
+    assert [m.seq for m in api.messages("PING")][:5] == [0, 1, 2, 3, 4]
+    assert all((m.target_system, m.target_component) == (0, 0) for m in api.messages("PING"))
+    for client in (api, gcs):
+        origins = client.messages("GPS_GLOBAL_ORIGIN")
+        assert len(origins) == 1  # once, then only if it moves
+        o = origins[0]
+        assert (o.latitude, o.longitude, o.altitude) == (
+            round(PX4_SITL_HOME.lat_deg * 1e7), round(PX4_SITL_HOME.lon_deg * 1e7),
+            round(PX4_SITL_HOME.alt_amsl_m * 1e3))
+    assert api.command_long(M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN) == 0
+    assert len(api.messages("GPS_GLOBAL_ORIGIN")) == 2  # a request always gets it
