@@ -2,8 +2,8 @@
 """What does a simulated second through ns-3 cost, and where does it go?
 
 For 5, 10, 20 and 30 vehicles (plus the GCS, and the AP in the `ap` topology), every vehicle sends
-MAVLink-like telemetry to the GCS (``--telemetry-hz`` datagrams/s of 54 bytes: PX4 SITL's GCS and
-API links together send ~590 messages/s, each in a datagram of its own, 54 bytes on average) and
+MAVLink-like telemetry to the GCS (``--telemetry-hz`` datagrams/s of 50 bytes: PX4 SITL's GCS and
+API links together send ~790 messages/s, each in a datagram of its own, 50 bytes on average) and
 the GCS sends each vehicle a few commands (5 datagrams/s of 40 bytes); vehicles sit on a 60 m
 circle around the GCS/AP and drift along it. The kernel runs the backend at exact time
 (netsim/ns3/README.md "Timing") in lockstep, with the GCS's deliveries not stopping ns-3's steps
@@ -13,7 +13,7 @@ real time through ns-3 on this machine), the engine's CPU and this process's CPU
 second (the exchanges alternate: the two add up to the wall time), engine round trips per simulated
 second, and the share delivered.
 
-    .venv/bin/python bench/ns3_cycle.py [--sim-seconds 2] [--telemetry-hz 590] [--engine ns3]
+    .venv/bin/python bench/ns3_cycle.py [--sim-seconds 2] [--telemetry-hz 790] [--engine ns3]
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from netsim.kernel import PRIORITY_PHYSICS, Kernel, Ticker  # noqa: E402
 from netsim.ns3 import Ns3Backend  # noqa: E402
 
-TELEMETRY_BYTES = 54
+TELEMETRY_BYTES = 50
 COMMAND_HZ, COMMAND_BYTES = 5.0, 40
 RADIUS_M = 60.0
 
@@ -97,7 +97,7 @@ def main() -> None:
     parser.add_argument("--sync-ms", type=float, default=20.0)
     parser.add_argument("--engine", choices=["ns3", "reference"], default="ns3")
     parser.add_argument("--data-mode", default="ErpOfdmRate6Mbps")
-    parser.add_argument("--telemetry-hz", type=float, default=590.0)
+    parser.add_argument("--telemetry-hz", type=float, default=790.0)
     parser.add_argument("--topology", choices=["ap", "adhoc"], default="ap")
     parser.add_argument("--vehicles", type=int, nargs="+", default=[5, 10, 20, 30])
     args = parser.parse_args()

@@ -42,6 +42,7 @@ from gateway.mavlink.codec import (
     MSG_ID_PROTOCOL_VERSION,
     PROTOCOL_VERSION_PAYLOAD,
 )
+from gateway.mavlink.identity import px4_guid, uid
 from gateway.mavlink.link import LinkContext, Say
 from gateway.mavlink.modes import decode_set_mode
 from gateway.mavlink.snapshot import Snapshot
@@ -75,7 +76,6 @@ FLIGHT_SW_VERSION = 0x010F00FF  # v1.15.0 release
 GIT_VERSION_BINARY = 0x3FCCF9453A2543FF
 FLIGHT_CUSTOM_VERSION = list((GIT_VERSION_BINARY & 0xFFFFFFFFFF000000).to_bytes(8, "little"))
 MIDDLEWARE_CUSTOM_VERSION = FLIGHT_CUSTOM_VERSION  # the same masked hash, no vendor version
-UID_BASE = 0x434F524E45540000  # "CORNET\0\0"; + sysid so every vehicle differs
 
 # Message ids QGC asks for that we do not serve: answering at once keeps its connect fast.
 REFUSED_MESSAGES = frozenset({435})  # AVAILABLE_MODES
@@ -396,12 +396,11 @@ class CommandService:
         return ACCEPTED
 
     def autopilot_version(self) -> bytes:
-        uid = (UID_BASE + self.sysid) & 0xFFFFFFFFFFFFFFFF
         return self.encoder.pack(
             M.MAVLink_autopilot_version_message, CAPABILITIES, FLIGHT_SW_VERSION,
             FLIGHT_SW_VERSION, 0, 0, FLIGHT_CUSTOM_VERSION, MIDDLEWARE_CUSTOM_VERSION, [0] * 8,
             0, 0,
-            uid, [0] * 18)
+            uid(self.sysid), px4_guid(self.sysid))
 
 
 def _finite_or_nan(value: float) -> float:

@@ -50,6 +50,7 @@ from gateway.mavlink.telemetry_control import (
     position_target_global_int,
     position_target_local_ned,
     servo_output_raw,
+    utm_global_position,
 )
 from gateway.mavlink.telemetry_link import gps_global_origin, ping, timesync
 from gateway.mavlink.telemetry_requested import (
@@ -102,6 +103,8 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_WIND_COV, wind_cov, 0.5, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_PING, ping, 0.1, 1.0),
     StreamSpec(M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, gps_global_origin, 0.1, 1.0),
+    # PX4 ≤ 1.15 (this firmware's version) streams it; 1.16 dropped it.
+    StreamSpec(M.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION, utm_global_position, 0.5, 1.0),
     # Not streamed by default; PX4 SITL sends them once asked (MAVSDK's telemetry.set_rate_*).
     StreamSpec(M.MAVLINK_MSG_ID_SCALED_IMU, scaled_imu, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_RC_CHANNELS, rc_channels, 0.0, 0.0),

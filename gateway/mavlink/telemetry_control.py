@@ -1,6 +1,7 @@
 """What the controllers aim for and what the motors are told: ATTITUDE_TARGET,
 POSITION_TARGET_LOCAL_NED, POSITION_TARGET_GLOBAL_INT and SERVO_OUTPUT_RAW (port 0), from the
-vehicle's ``targets`` (vehicles/types.py Targets).
+vehicle's ``targets`` (vehicles/types.py Targets); and UTM_GLOBAL_POSITION, where the vehicle is
+and where it goes next.
 
 Source: PX4's stream classes src/modules/mavlink/streams/<MESSAGE>.hpp, streamed by default
 (mavlink_main.cpp configure_streams_to_default, and px4-rc.mavlink's SITL overrides for the GCS
@@ -29,7 +30,10 @@ import math
 from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Encoder
+from gateway.mavlink.identity import px4_guid
 from gateway.mavlink.snapshot import Snapshot
+from vehicles.estimation import E_ACCURACY
+from vehicles.types import LandedState, NavState
 
 # POSITION_TARGET_TYPEMASK bits, in the order of the fields they ignore.
 _IGNORE_BITS = ((0, 1), (1, 2), (2, 4), (3, 8), (4, 16), (5, 32), (6, 64), (7, 128), (8, 256),
@@ -93,3 +97,48 @@ def servo_output_raw(enc: Encoder, s: Snapshot) -> bytes | None:
     raw = [min(max(int(v), 0), 0xFFFF) for v in sp.outputs[:16]]
     raw += [0] * (16 - len(raw))
     return enc.pack(M.MAVLink_servo_output_raw_message, s.time_usec & 0xFFFFFFFF, 0, *raw)
+
+
+# UTM_DATA_AVAIL_FLAGS and UTM_FLIGHT_STATE
+UTM_TIME_VALID, UTM_UAS_ID, UTM_POSITION, UTM_ALTITUDE = 1, 2, 4, 8
+UTM_HORIZONTAL_VELO, UTM_VERTICAL_VELO, UTM_NEXT_WAYPOINT = 32, 64, 128
+UTM_FLIGHT_UNKNOWN, UTM_FLIGHT_GROUND, UTM_FLIGHT_AIRBORNE = 1, 2, 3
+_UTM_AUTO = frozenset({NavState.AUTO_FOLLOW_TARGET, NavState.AUTO_LAND, NavState.AUTO_PRECLAND,
+                       NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF,
+                       NavState.AUTO_RTL})
+
+
+def utm_global_position(enc: Encoder, s: Snapshot) -> bytes | None:
+    """UTM_GLOBAL_POSITION.hpp (PX4 ≤ 1.15, at a constant rate while vehicle_global_position
+    is published: once the estimator has a position). The GPS altitude is the ellipsoid's, as
+    in GPS_RAW_INT; no range finder, so no relative altitude; the velocity accuracy is not
+    modelled (0)."""
+    status = s.status
+    if not status.position_valid:
+        return None
+    flags = UTM_UAS_ID | UTM_POSITION | UTM_ALTITUDE | UTM_HORIZONTAL_VELO | UTM_VERTICAL_VELO
+    unix_us = 0
+    if s.boot_unix_s is not None:
+        unix_us = int((s.boot_unix_s + s.now_s) * 1e6)
+        flags |= UTM_TIME_VALID
+    g = s.geo
+    vn, ve, vd = s.kin.velocity_ned_mps
+    e = s.sample.estimator
+    h_acc, v_acc = (e[E_ACCURACY], e[E_ACCURACY + 1]) if e is not None else (0.0, 0.0)
+    next_lat = next_lon = next_alt = 0
+    tg = s.targets
+    if status.nav_state in _UTM_AUTO and tg is not None and tg.global_target is not None:
+        lat, lon, alt = tg.global_target
+        if math.isfinite(alt):
+            next_lat, next_lon, next_alt = int(lat * 1e7), int(lon * 1e7), int(alt * 1000.0)
+            flags |= UTM_NEXT_WAYPOINT
+    if status.armed:
+        state = UTM_FLIGHT_GROUND if status.landed_state == LandedState.ON_GROUND \
+            else UTM_FLIGHT_AIRBORNE
+    else:
+        state = UTM_FLIGHT_UNKNOWN
+    return enc.pack(M.MAVLink_utm_global_position_message, unix_us, px4_guid(enc.sysid),
+                    int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), int(g.alt_amsl_m * 1000.0), 0,
+                    int(vn * 100.0), int(ve * 100.0), int(vd * 100.0),
+                    min(int(h_acc * 1000.0), 0xFFFF), min(int(v_acc * 1000.0), 0xFFFF), 0,
+                    next_lat, next_lon, next_alt, 0, state, flags)
