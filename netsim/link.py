@@ -22,6 +22,7 @@ from typing import Any
 
 from netsim.kernel import PRIORITY_NETWORK, Kernel
 from netsim.models import Drop, LinkModel
+from netsim.models.fixed import IdealModel
 
 Deliver = Callable[[bytes, Any], None]
 Tracer = Callable[[str, str, float, int, str], None]  # (event, link, time_s, size, detail)
@@ -98,6 +99,26 @@ class Link:
         self.stats = LinkStats()
         self._deliver = deliver
         self._last_arrival_s = float("-inf")
+        if isinstance(model, IdealModel):
+            # An instance attribute shadows the method: an ideal link (the daemon's default
+            # network) skips the model, which never delays or drops.
+            self.send = self._send_ideal  # type: ignore[method-assign]
+
+    def _send_ideal(self, packet: bytes, meta: Any = None) -> None:
+        """``send`` through an ideal model: delivered at once, counted as ``send`` counts it."""
+        size = len(packet)
+        stats = self.stats
+        stats.sent += 1
+        stats.bytes_sent += size
+        stats.delivered += 1
+        stats.bytes_delivered += size
+        stats.latency_histogram[0] += 1
+        tracer = self.tracer
+        if tracer is not None:
+            now = self.kernel.now
+            tracer("send", self.name, now, size, "0.000000")
+            tracer("recv", self.name, now, size, "")
+        self._deliver(packet, meta)
 
     def send(self, packet: bytes, meta: Any = None) -> None:
         now = self.kernel.now

@@ -167,9 +167,9 @@ class Targets(NamedTuple):
     velocity_ned_mps: tuple[float, float, float]
     yaw_rad: float
     yawspeed_radps: float
-    # position_setpoint_triplet.current (lat, lon, alt AMSL) while flag_control_position_enabled
-    # and the navigator has one, else None
-    global_target: tuple[float, float, float] | None
+    # position_setpoint_triplet.current while flag_control_position_enabled and the navigator
+    # has one (NED metres from the vehicle's origin; down NaN: no altitude), else None
+    global_target_ned_m: tuple[float, float, float] | None
     outputs: tuple[float, ...]  # actuator_outputs: commanded rotor speeds (rad/s), 0 disarmed
 
 

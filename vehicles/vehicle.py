@@ -73,6 +73,7 @@ SENSOR_FAILURES = {
 _NO_POSITION_CONTROL = frozenset({NavState.MANUAL, NavState.STAB, NavState.ACRO,
                                   NavState.TERMINATION})
 _NO_POSITION_HOLD = frozenset({NavState.ALTCTL, NavState.DESCEND})
+_NAN3 = (math.nan, math.nan, math.nan)
 IMU_INSTANCES = 3  # PX4's simulator takes instances 1..3 for the IMU (one is simulated here)
 
 
@@ -208,25 +209,21 @@ class Vehicle:
             position_control = False
         else:  # Offboard attitude and rates bypass the position controller
             position_control = nav is not NavState.OFFBOARD or st.flying
-        nan3 = (math.nan, math.nan, math.nan)
-        pos = vel = nan3
+        pos = vel = _NAN3
         if st.flying:
             pos = st.trajectory.position_ned_m
             vel = st.vel_sp
-        yaw = st.yaw_sp if math.isfinite(st.yaw_sp) else q_yaw(self.kinematics.attitude_q)
+        yaw = st.yaw_sp
+        if yaw != yaw:  # NaN: PX4 holds the present heading
+            yaw = q_yaw(self.kinematics.attitude_q)
         target = None
         auto_sp = ap.tasks.auto.setpoint
         if position_control and auto_sp is not None and nav not in _NO_POSITION_HOLD:
-            n, e, d = auto_sp.target_ned_m
-            if math.isfinite(n) and math.isfinite(e):
-                geo = self.origin.offset_ned(n, e, d if math.isfinite(d) else 0.0)
-                target = (geo.lat_deg, geo.lon_deg,
-                          geo.alt_amsl_m if math.isfinite(d) else math.nan)
+            target = auto_sp.target_ned_m
         return Targets(st.tick_s, out.attitude_q, out.thrust_norm,
-                         (commanded[0], commanded[1], commanded[2]), position_control,
-                         (pos[0], pos[1], pos[2]), (vel[0], vel[1], vel[2]), yaw,
-                         out.yawspeed_radps, target, tuple(commanded[3:]) if cmd.armed else
-                         (0.0,) * (len(commanded) - 3))
+                       (commanded[0], commanded[1], commanded[2]), position_control, pos, vel,
+                       yaw, out.yawspeed_radps, target,
+                       tuple(commanded[3:]) if cmd.armed else (0.0,) * (len(commanded) - 3))
 
     @property
     def truth(self) -> Measurement:

@@ -35,9 +35,6 @@ from gateway.mavlink.snapshot import Snapshot
 from vehicles.estimation import E_ACCURACY
 from vehicles.types import LandedState, NavState
 
-# POSITION_TARGET_TYPEMASK bits, in the order of the fields they ignore.
-_IGNORE_BITS = ((0, 1), (1, 2), (2, 4), (3, 8), (4, 16), (5, 32), (6, 64), (7, 128), (8, 256),
-                (9, 1024), (10, 2048))
 MAV_FRAME_LOCAL_NED = 1
 MAV_FRAME_GLOBAL_INT = 5
 NO_THRUST_ACCEL = (0.0, 0.0, 100.0)  # mc_pos_control: not taken off yet
@@ -71,20 +68,34 @@ def position_target_local_ned(enc: Encoder, s: Snapshot) -> bytes | None:
     sp = s.targets
     if sp is None or not sp.position_control:
         return None
-    f = _local_fields(sp)
-    mask = 0
-    for i, bit in _IGNORE_BITS:
-        if not math.isfinite(f[i]):
-            mask |= bit
+    x, y, z, vx, vy, vz, ax, ay, az, yaw, yawspeed = f = _local_fields(sp)
+    # POSITION_TARGET_TYPEMASK: the IGNORE bit of every NaN field (x != x: NaN).
+    mask = ((x != x) | (y != y) << 1 | (z != z) << 2 | (vx != vx) << 3 | (vy != vy) << 4
+            | (vz != vz) << 5 | (ax != ax) << 6 | (ay != ay) << 7 | (az != az) << 8
+            | (yaw != yaw) << 10 | (yawspeed != yawspeed) << 11)
     return enc.pack(M.MAVLink_position_target_local_ned_message, _ms(sp.time_s),
                     MAV_FRAME_LOCAL_NED, mask, *f)
 
 
+def global_target(s: Snapshot, ned: tuple[float, float, float] | None
+                  ) -> tuple[float, float, float] | None:
+    """The navigator's current setpoint (NED from the vehicle's origin) as (lat, lon, alt
+    AMSL); alt NaN when the setpoint has none; None without a horizontal position."""
+    if ned is None:
+        return None
+    n, e, d = ned
+    if n != n or e != e:
+        return None
+    g = s.vehicle.origin.offset_ned(n, e, 0.0 if d != d else d)
+    return g.lat_deg, g.lon_deg, (math.nan if d != d else g.alt_amsl_m)
+
+
 def position_target_global_int(enc: Encoder, s: Snapshot) -> bytes | None:
     sp = s.targets
-    if sp is None or sp.global_target is None:
+    target = None if sp is None else global_target(s, sp.global_target_ned_m)
+    if target is None:
         return None
-    lat, lon, alt = sp.global_target
+    lat, lon, alt = target
     f = _local_fields(sp)
     return enc.pack(M.MAVLink_position_target_global_int_message, s.time_boot_ms,
                     MAV_FRAME_GLOBAL_INT, 0, int(lat * 1e7), int(lon * 1e7), alt, *f[3:])
@@ -94,7 +105,7 @@ def servo_output_raw(enc: Encoder, s: Snapshot) -> bytes | None:
     sp = s.targets
     if sp is None:
         return None
-    raw = [min(max(int(v), 0), 0xFFFF) for v in sp.outputs[:16]]
+    raw = [int(v) for v in sp.outputs[:16]]  # commanded rad/s: 0..1000, within uint16
     raw += [0] * (16 - len(raw))
     return enc.pack(M.MAVLink_servo_output_raw_message, s.time_usec & 0xFFFFFFFF, 0, *raw)
 
@@ -127,8 +138,11 @@ def utm_global_position(enc: Encoder, s: Snapshot) -> bytes | None:
     h_acc, v_acc = (e[E_ACCURACY], e[E_ACCURACY + 1]) if e is not None else (0.0, 0.0)
     next_lat = next_lon = next_alt = 0
     tg = s.targets
-    if status.nav_state in _UTM_AUTO and tg is not None and tg.global_target is not None:
-        lat, lon, alt = tg.global_target
+    target = None
+    if status.nav_state in _UTM_AUTO and tg is not None:
+        target = global_target(s, tg.global_target_ned_m)
+    if target is not None:
+        lat, lon, alt = target
         if math.isfinite(alt):
             next_lat, next_lon, next_alt = int(lat * 1e7), int(lon * 1e7), int(alt * 1000.0)
             flags |= UTM_NEXT_WAYPOINT

@@ -56,7 +56,7 @@ def test_fast_encoder_matches_pymavlink_pack(spec):
     vehicle.move_to(3.0, -4.0, -10.0)
     vehicle.orbit_status = OrbitStatus(-20.0, (5.0, 6.0), -12.0)
     vehicle.position_setpoint_ned_m = (3.5, -4.0, -10.0)
-    vehicle.global_target = (47.3977, 8.5456, 498.5)
+    vehicle.global_target_ned_m = (12.5, -3.0, -10.5)
     vehicle.motor_outputs = (512.5, 530.0, 498.25, 505.0)
     snap = Snapshot(vehicle, 12.345, 1.7e9)
     enc = Encoder(3, 1)

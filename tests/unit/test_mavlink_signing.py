@@ -115,7 +115,7 @@ def test_signed_frames_are_byte_identical_to_pymavlink(spec):
     vehicle.become_ready()
     vehicle.move_to(3.0, -4.0, -10.0)
     vehicle.orbit_status = OrbitStatus(-20.0, (5.0, 6.0), -12.0)
-    vehicle.global_target = (47.3977, 8.5456, 498.5)
+    vehicle.global_target_ned_m = (12.5, -3.0, -10.5)
     snap = Snapshot(vehicle, 12.345, 1.7e9)
     enc = Encoder(3, 1, Signer(KEY, 1, SigningClock(EPOCH_UNIX_S)))
     enc.seq, enc.now_s = 77, 12.345
