@@ -14,7 +14,8 @@ reply comes back through the downlink model. Waiting (command retries, mission t
 kernel event by event, so same seed + same calls → the same bytes.
 
 Clients keep received frames raw and decode lazily (by message id), because decoding every
-telemetry frame with pymavlink would cost more than the simulation itself.
+telemetry frame with pymavlink would cost more than the simulation itself. Like MAVSDK and QGC,
+a client answers the vehicle's PING requests at once.
 """
 
 from __future__ import annotations
@@ -58,6 +59,7 @@ LOCKSTEP_EPOCH_UNIX_S = 1_767_225_600.0
 GLOBAL_RELATIVE_ALT_INT = 6
 
 _ID_COMMAND_ACK = M.MAVLINK_MSG_ID_COMMAND_ACK
+_ID_PING = M.MAVLINK_MSG_ID_PING
 _MISSION_REPLY_IDS = (M.MAVLINK_MSG_ID_MISSION_REQUEST_INT, M.MAVLINK_MSG_ID_MISSION_REQUEST,
                       M.MAVLINK_MSG_ID_MISSION_ACK)
 _NAME_TO_ID = {cls.msgname: msgid for msgid, cls in M.mavlink_map.items()}
@@ -93,7 +95,18 @@ class Client:
     # --- receiving ----------------------------------------------------------------------------
     def _on_datagram(self, data: bytes, now: float) -> None:
         for frame in split_frames(data):
-            self.frames.append((now, frame_msgid(frame), frame))
+            msgid = frame_msgid(frame)
+            self.frames.append((now, msgid, frame))
+            if msgid == _ID_PING:
+                self._answer_ping(len(self.frames) - 1)
+
+    def _answer_ping(self, i: int) -> None:
+        """A PING to all (PX4's PING stream) is a request: MAVSDK and QGC answer it at once,
+        addressed to its sender, with its time and sequence."""
+        ping = self._decode(i)
+        if ping and ping.target_system == 0 and ping.target_component == 0:
+            self.send(self.mav.ping_encode(ping.time_usec, ping.seq, ping.get_srcSystem(),
+                                           ping.get_srcComponent()))
 
     def _decode(self, i: int) -> Any:
         msg = self._decoded.get(i)

@@ -58,6 +58,8 @@ SESSION_COUNTERS = (
     ("rx_signed", "cornet_mavlink_rx_signed_total", "Frames with a valid signature accepted."),
     ("rx_setup_signing_refused", "cornet_mavlink_rx_setup_signing_refused_total",
      "SETUP_SIGNING messages refused (the key is the operator's)."),
+    ("rx_ping_replies", "cornet_mavlink_rx_ping_replies_total",
+     "Answers to the vehicle's own PING requests."),
     ("tx_frames", "cornet_mavlink_tx_frames_total", "MAVLink frames sent."),
     ("tx_datagrams", "cornet_mavlink_tx_datagrams_total", "Datagrams sent."),
     ("tx_bytes", "cornet_mavlink_tx_bytes_total", "Bytes sent."),

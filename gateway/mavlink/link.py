@@ -37,6 +37,7 @@ class SessionStats(DecodeStats):
     rx_unhandled: int = 0  # valid, for us (or broadcast), but no service handles it
     handler_errors: int = 0  # a service or a telemetry builder raised (a bug: logged, skipped)
     rx_setup_signing_refused: int = 0  # SETUP_SIGNING that passed verification (signing on)
+    rx_ping_replies: int = 0  # answers to the vehicle's own PINGs
     offboard_setpoints: int = 0  # setpoints handed to the vehicle
     offboard_dropped: int = 0  # setpoint messages that were unusable (frame, inf, nothing set)
     tx_frames: int = 0

@@ -1,7 +1,8 @@
 """PING and TIMESYNC responders (PX4 mavlink_receiver.cpp handle_message_ping, MavlinkTimesync).
 
 - PING with target 0/0 is a request: answer with the same time_usec/seq, target = sender.
-  Pings addressed to someone are replies to others' requests: ignored (we never ping).
+  A PING addressed to this vehicle answers its own PING stream (telemetry_link.py): counted
+  (``rx_ping_replies``, what PX4 keeps as its ping statistics); others' replies are ignored.
 - TIMESYNC with tc1 == 0 is a request: answer tc1 = our clock (simulated ns since boot),
   ts1 echoed. tc1 ≠ 0 is a reply: ignored.
 """
@@ -14,14 +15,18 @@ from gateway.mavlink.link import LinkContext
 
 
 class PingService:
-    """Uses the context's encoder and send only."""
+    """Uses the context's encoder, send and stats only."""
 
     def __init__(self, ctx: LinkContext) -> None:
         self.encoder = ctx.encoder
         self.send = ctx.send
+        self.stats = ctx.stats
 
     def on_ping(self, msg: M.MAVLink_ping_message, now_s: float) -> None:
         if msg.target_system != 0 or msg.target_component != 0:
+            if msg.target_system == self.encoder.sysid \
+                    and msg.target_component == self.encoder.compid:
+                self.stats.rx_ping_replies += 1
             return
         self.send(self.encoder.pack(M.MAVLink_ping_message, msg.time_usec, msg.seq,
                                     msg.get_srcSystem(), msg.get_srcComponent()))

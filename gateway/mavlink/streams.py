@@ -94,7 +94,7 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_BATTERY_STATUS, battery_status, 0.5, 0.5),
     StreamSpec(M.MAVLINK_MSG_ID_SYSTEM_TIME, system_time, 0.0, 1.0),
     StreamSpec(M.MAVLINK_MSG_ID_MISSION_CURRENT, mission_current, 1.0, 1.0),
-    StreamSpec(M.MAVLINK_MSG_ID_ORBIT_EXECUTION_STATUS, orbit_execution_status, 2.0, 0.0),
+    StreamSpec(M.MAVLINK_MSG_ID_ORBIT_EXECUTION_STATUS, orbit_execution_status, 2.0, 5.0),
     StreamSpec(M.MAVLINK_MSG_ID_HIGHRES_IMU, highres_imu, 0.0, 50.0),
     StreamSpec(M.MAVLINK_MSG_ID_ODOMETRY, odometry, 0.0, 30.0),
     StreamSpec(M.MAVLINK_MSG_ID_SCALED_PRESSURE, scaled_pressure, 1.0, 1.0),

@@ -129,3 +129,12 @@ def test_utm_global_position_tells_where_the_vehicle_is_and_goes(flight):
     assert first.flight_state == 1 and first.flags & 128
     assert abs(first.next_lat - PX4_SITL_HOME.lat_deg * 1e7) < 5
     assert abs(first.next_lon - PX4_SITL_HOME.lon_deg * 1e7) < 5
+
+
+def test_clients_answer_the_vehicles_pings_as_mavsdk_and_qgc_do(flight):
+    """PX4 pings its peers (0.1 Hz on the GCS link, 1 Hz onboard); MAVSDK and QGC answer each
+    request at once, and the vehicle counts the answers."""
+    sim = flight["sim"]
+    for kind, client in ((LinkKind.API, flight["api"]), (LinkKind.GCS, flight["gcs"])):
+        stats = sim.simulation.links[(0, kind)].session.stats
+        assert stats.rx_ping_replies == len(client.messages("PING")) > 0
