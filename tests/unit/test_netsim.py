@@ -224,3 +224,26 @@ def test_the_horizon_hook_runs_before_the_kernel_passes_it():
     k.schedule(3.0, lambda: None)
     with pytest.raises(SchedulingError, match="on_horizon"):
         k.run(until=4.0)
+
+
+def _through(model) -> tuple:
+    """Five packets through one link with ``model``: counters, trace, deliveries, fast path."""
+    k = Kernel()
+    got, trace = [], []
+    link = Link(k, model, lambda p, meta: got.append((k.now, p, meta)), name="l",
+                tracer=lambda *event: trace.append(event))
+    for i in range(5):
+        k.schedule(0.1 * i, link.send, bytes(10 + i), ("peer", i))
+    k.run()
+    return link.stats.as_dict(), link.stats.latency_histogram, trace, got, "send" in vars(link)
+
+
+def test_an_ideal_link_counts_traces_and_delivers_as_any_link_with_no_delay():
+    """An ideal link skips its model (Link._send_ideal): a zero-delay, lossless fixed model goes
+    the general way, and both must leave the same counters, trace lines and deliveries."""
+    ideal = _through(make_model("ideal", {}, seed=1, stream_name="l"))
+    fixed = _through(make_model("fixed", {"latency_s": 0.0, "jitter_s": 0.0, "loss": 0.0},
+                                seed=1, stream_name="l"))
+    assert ideal[:4] == fixed[:4]
+    assert (ideal[4], fixed[4]) == (True, False)  # the fast path, the general one
+    assert ideal[0]["sent"] == ideal[0]["delivered"] == 5
