@@ -105,3 +105,45 @@ def test_qgc_connect_sequence_rates_and_guided_flight(daemon_factory):
         assert not armed, "vehicle 2 did not land and disarm"
     finally:
         conn.close()
+
+
+def test_the_gcs_link_carries_what_the_controllers_aim_for_as_px4_sitl_sends_it(daemon_factory):
+    """px4-rc.mavlink raises ATTITUDE_TARGET, POSITION_TARGET_LOCAL_NED and SERVO_OUTPUT_RAW to
+    50 Hz on the GCS link; QGC's MAVLink Inspector, actuator view and setpoint facts read them.
+    Once airborne: thrust, motor outputs and a position setpoint near the vehicle."""
+    d = daemon_factory(vehicles=1)
+    conn = gcs(d.gcs_port())
+    try:
+        assert set(heartbeats_by_sysid(conn, {1})) == {1}
+        conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+        pos = conn.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=5)
+        nan = math.nan
+        assert command(conn, 1, M.MAV_CMD_NAV_TAKEOFF, -1, 0, 0, nan, nan, nan,
+                       pos.alt / 1000.0 + 5.0).result == M.MAV_RESULT_ACCEPTED
+        assert command(conn, 1, M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == \
+            M.MAV_RESULT_ACCEPTED
+        kinds = ("ATTITUDE_TARGET", "POSITION_TARGET_LOCAL_NED", "SERVO_OUTPUT_RAW",
+                 "LOCAL_POSITION_NED")
+        conn.recv_match(type="LOCAL_POSITION_NED", blocking=True, timeout=20,
+                        condition="LOCAL_POSITION_NED.z < -3.0")
+        last, counts = {}, dict.fromkeys(kinds, 0)
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 4.0:
+            msg = conn.recv_match(type=list(kinds), blocking=True, timeout=0.2)
+            if msg is not None:
+                counts[msg.get_type()] += 1
+                last[msg.get_type()] = msg
+        # 50 Hz each at real time (a loaded machine may run the daemon a little slower).
+        for kind in kinds:
+            assert counts[kind] / 4.0 >= 35, (kind, counts)
+        assert abs(counts["ATTITUDE_TARGET"] - counts["LOCAL_POSITION_NED"]) <= 10, counts
+        att, sp, out = last["ATTITUDE_TARGET"], last["POSITION_TARGET_LOCAL_NED"], \
+            last["SERVO_OUTPUT_RAW"]
+        lpos = last["LOCAL_POSITION_NED"]
+        assert 0.3 < att.thrust < 0.9
+        assert all(300 < getattr(out, f"servo{i}_raw") < 1000 for i in range(1, 5))
+        assert out.servo5_raw == 0
+        assert sp.type_mask & 7 == 0 and math.dist((sp.x, sp.y, sp.z), (lpos.x, lpos.y, lpos.z)) < 3
+        assert command(conn, 1, M.MAV_CMD_NAV_LAND).result == M.MAV_RESULT_ACCEPTED
+    finally:
+        conn.close()
