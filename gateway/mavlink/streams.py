@@ -15,7 +15,6 @@ Rules:
 from __future__ import annotations
 
 import heapq
-import math
 from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as M
@@ -117,6 +116,10 @@ STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
 FIXED_RATE_IDS = frozenset({M.MAVLINK_MSG_ID_HEARTBEAT})
 
 NEVER = 1 << 62
+# Mavlink::task_main's loop runs at most every MAVLINK_MIN_INTERVAL µs (its "hard limit to 1000 Hz
+# at max"; SITL's 4 MB/s datarate asks for less), and a stream sends at most once per loop: a
+# shorter interval is accepted and reported as set, and streams at this period.
+MAVLINK_MIN_INTERVAL_US = 1500
 # A group of streams that fire together: (deadline µs, table position of its first stream,
 # interval µs, the streams in table order).
 Group = tuple[int, int, int, tuple[StreamSpec, ...]]
@@ -140,7 +143,8 @@ class Scheduler:
     def __init__(self, kind: LinkKind, now_s: float) -> None:
         self.kind = kind
         start = int(round(now_s * 1e6))
-        self._interval_us: dict[int, int] = {}
+        self._interval_us: dict[int, int] = {}  # what the streams run at
+        self._requested_us: dict[int, int] = {}  # what SET_MESSAGE_INTERVAL set (MESSAGE_INTERVAL)
         nexts: dict[int, int] = {}
         for spec in STREAMS:
             iv = _interval_us(spec.default_hz(kind))
@@ -176,20 +180,28 @@ class Scheduler:
         """MESSAGE_INTERVAL semantics: µs, −1 disabled, 0 unknown/not available."""
         if msg_id not in self._interval_us:
             return 0
-        return self._interval_us[msg_id] or -1
+        return self._requested_us.get(msg_id, self._interval_us[msg_id]) or -1
 
     def set_interval(self, msg_id: int, interval_us: float, now_s: float) -> bool:
-        """SET_MESSAGE_INTERVAL p2: −1 stop, 0 default, > 0 interval µs. False if refused."""
+        """SET_MESSAGE_INTERVAL p2 as MavlinkReceiver::set_message_interval reads it: below
+        -1e-5 stop; above 1e-5 the rate 1e6 / p2, whose interval (Mavlink::configure_stream,
+        truncated to whole µs) is 0, i.e. stopped, for rates of 1e-6 Hz and less and for
+        intervals under 1 µs (inf, 3e38 …); anything else (0, NaN) the default. False if the
+        message has no stream or is HEARTBEAT."""
         spec = STREAMS_BY_ID.get(msg_id)
-        if spec is None or msg_id in FIXED_RATE_IDS or math.isnan(interval_us):
+        if spec is None or msg_id in FIXED_RATE_IDS:
             return False
-        if interval_us < 0:
+        if interval_us < -1e-5:
             iv = 0
-        elif interval_us == 0:
+        elif interval_us > 1e-5:
+            rate = 1e6 / interval_us
+            iv = int(1e6 / rate) if rate > 1e-6 else 0
+        else:  # 0, tiny or NaN
             iv = _interval_us(spec.default_hz(self.kind))
-        else:
-            iv = max(1, int(round(interval_us)))
         nexts = self._deadlines()
+        self._requested_us[msg_id] = iv
+        if 0 < iv < MAVLINK_MIN_INTERVAL_US:
+            iv = MAVLINK_MIN_INTERVAL_US
         self._interval_us[msg_id] = iv
         nexts[msg_id] = int(round(now_s * 1e6)) if iv else NEVER
         self._group(nexts)

@@ -8,6 +8,7 @@ is shrunk to a minimal datagram or document.
 
 from __future__ import annotations
 
+import itertools
 import math
 import struct
 
@@ -283,3 +284,51 @@ def test_param_store_refuses_what_the_wire_can_say():
         with pytest.raises(ValueError):
             store.set("MAV_SYS_ID", value)
     assert struct.unpack("<f", struct.pack("<f", 6.0))[0] == 6.0
+
+
+def _served_commands() -> list[int]:
+    """Every MAV_CMD the command service names (gateway/mavlink/commands.py)."""
+    from pathlib import Path
+
+    import gateway.mavlink.commands as commands
+
+    text = Path(commands.__file__).read_text()
+    return sorted({v for n, v in vars(M).items()
+                   if n.startswith("MAV_CMD_") and isinstance(v, int) and f"M.{n}" in text})
+
+
+def test_every_served_command_with_each_parameter_hostile_in_turn():
+    """inf, -inf, NaN, ±3e38 and 1e12 in each of the seven parameters of every command served,
+    as COMMAND_LONG and COMMAND_INT: each gets its ACK, nothing fails inside, no stream floods
+    and the vehicle still answers (an inf SET_MESSAGE_INTERVAL once failed inside, and a 1 µs
+    one made a stream outrun PX4's MAVLink loop, stalling every vehicle). What the values
+    legitimately do stays done (PX4 too terminates on DO_FLIGHTTERMINATION p1 = inf)."""
+    from gateway.ci.lockstep import Sim
+
+    hostile = (math.inf, -math.inf, math.nan, 3e38, -3e38, 1e12)
+    with Sim(1) as sim:
+        api = sim.api(0)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=5)
+        for cmd in _served_commands():
+            for v, base in itertools.product(hostile, (0.0, 30.0)):  # 30: ATTITUDE's id
+                for pos in range(7):
+                    p = [base] * 7
+                    p[pos] = v
+                    xy = 0 if not math.isfinite(v) else int(max(-2**31, min(2**31 - 1, v)))
+                    api.send(api.mav.command_long_encode(1, 1, cmd, 0, *p))
+                    api.send(api.mav.command_int_encode(1, 1, 0, cmd, 0, 0, *p[:4], xy, xy,
+                                                        p[6]))
+                sim.advance(0.02)
+        sim.advance(1.0)
+        assert sim.simulation.internal_errors == 0
+        assert len(api.messages("COMMAND_ACK")) >= len(_served_commands()) * len(hostile) * 14
+        # No stream outruns PX4's MAVLink loop (one send per 1500 µs at most), and the vehicle
+        # still answers.
+        n0 = len(api.messages("ATTITUDE"))
+        sim.advance(1.0)
+        assert len(api.messages("ATTITUDE")) - n0 <= 1e6 / 1500 + 1
+        assert api.command_long(M.MAV_CMD_REQUEST_MESSAGE,
+                                M.MAVLINK_MSG_ID_AUTOPILOT_VERSION) == 0
+        n0 = len(api.messages("HEARTBEAT"))
+        sim.advance(2.0)
+        assert len(api.messages("HEARTBEAT")) - n0 == 2

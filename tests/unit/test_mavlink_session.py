@@ -251,6 +251,27 @@ def test_message_interval_commands():
     assert got[0].interval_us == 2_000_000
 
 
+@pytest.mark.parametrize("interval_us, expected_hz, reported_us", [
+    (1.0, 1e6 / 1500, 1),  # accepted as set; Mavlink's loop sends at most every 1500 µs
+    (0.4, 0.0, -1),  # under 1 µs: configure_stream's interval truncates to 0, stopped
+    (math.inf, 0.0, -1), (3e38, 0.0, -1),  # a rate of ~0: stopped
+    (-math.inf, 0.0, -1), (-3e38, 0.0, -1),  # negative: stopped
+    (math.nan, 50.0, 20_000), (1e-6, 50.0, 20_000),  # neither: the default
+])
+def test_hostile_message_intervals_get_px4s_reading_and_never_flood(interval_us, expected_hz,
+                                                                      reported_us):
+    """MavlinkReceiver::set_message_interval reads p2 as a float rate; a 1 µs interval cannot
+    make a stream outrun the MAVLink loop (which would stall every vehicle of the daemon)."""
+    vehicle, session, client = make(LinkKind.GCS)
+    got = client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 30, interval_us)  # ATTITUDE
+    assert acks(got)[0].result == 0 and session.stats.handler_errors == 0
+    got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, 30)
+    assert got[0].interval_us == reported_us
+    t0 = client.now_s
+    n = len(of_type(client.run_until(t0 + 2.0), "ATTITUDE"))
+    assert abs(n - expected_hz * 2.0) <= 2, n
+
+
 def test_arm_takeoff_land_commands():
     vehicle, session, client = make()
     assert acks(client.command_long(M.MAV_CMD_COMPONENT_ARM_DISARM, 1))[0].result == 1

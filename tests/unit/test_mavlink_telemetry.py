@@ -24,17 +24,22 @@ class ReferenceScheduler:
         start = int(round(now_s * 1e6))
         self.interval = {s.msg_id: streams._interval_us(s.default_hz(kind)) for s in STREAMS}
         self.next = {i: start if iv else NEVER for i, iv in self.interval.items()}
+        self.requested = dict(self.interval)  # what MESSAGE_INTERVAL reports
 
     def set_interval(self, msg_id: int, interval_us: float, now_s: float) -> bool:
         spec = STREAMS_BY_ID.get(msg_id)
-        if spec is None or msg_id in streams.FIXED_RATE_IDS or math.isnan(interval_us):
+        if spec is None or msg_id in streams.FIXED_RATE_IDS:
             return False
-        if interval_us < 0:
+        if interval_us < -1e-5:  # MavlinkReceiver::set_message_interval: stop
             iv = 0
-        elif interval_us == 0:
+        elif interval_us > 1e-5:  # a rate, back to whole µs (Mavlink::configure_stream)
+            rate = 1e6 / interval_us
+            iv = int(1e6 / rate) if rate > 1e-6 else 0
+        else:  # 0, NaN: the default
             iv = streams._interval_us(spec.default_hz(self.kind))
-        else:
-            iv = max(1, int(round(interval_us)))
+        self.requested[msg_id] = iv
+        if 0 < iv < streams.MAVLINK_MIN_INTERVAL_US:  # one send per MAVLink loop at most
+            iv = streams.MAVLINK_MIN_INTERVAL_US
         self.interval[msg_id] = iv
         self.next[msg_id] = int(round(now_s * 1e6)) if iv else NEVER
         return True
@@ -61,14 +66,15 @@ class ReferenceScheduler:
 @pytest.mark.parametrize("kind", list(LinkKind))
 def test_grouped_scheduler_matches_the_per_stream_reference(kind, seed):
     rng = random.Random(seed)
-    ids = [s.msg_id for s in STREAMS] + [M.MAVLINK_MSG_ID_PING]  # one without a builder
+    ids = [s.msg_id for s in STREAMS] + [M.MAVLINK_MSG_ID_RAW_IMU]  # one without a builder
     ours, ref = Scheduler(kind, 0.25), ReferenceScheduler(kind, 0.25)
     now_s = 0.25
     for _ in range(3000):
         roll = rng.random()
         if roll < 0.03:
             msg_id = rng.choice(ids)
-            interval = rng.choice([-1.0, 0.0, math.nan, 7_000.0, 20_000.0, 33_333.4, 1e6, 0.3])
+            interval = rng.choice([-1.0, 0.0, math.nan, 7_000.0, 20_000.0, 33_333.4, 1e6, 0.3,
+                                   1.0, 1_000.0, math.inf, -math.inf, 3e38])
             assert ours.set_interval(msg_id, interval, now_s) == ref.set_interval(
                 msg_id, interval, now_s)
         elif roll < 0.1:
@@ -81,7 +87,7 @@ def test_grouped_scheduler_matches_the_per_stream_reference(kind, seed):
         assert ours.next_us == ref.next_us
         for msg_id in ids:
             assert ours.interval_us(msg_id) == (
-                0 if msg_id not in ref.interval else ref.interval[msg_id] or -1)
+                0 if msg_id not in ref.interval else ref.requested[msg_id] or -1)
 
 
 def test_streams_due_together_go_out_in_table_order():
