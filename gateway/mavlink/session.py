@@ -53,10 +53,9 @@ from gateway.mavlink.params import ParamService
 from gateway.mavlink.ping import PingService
 from gateway.mavlink.serial_control import SerialControlService
 from gateway.mavlink.signing import Signer, SigningClock, SigningConfig, Verifier
-from gateway.mavlink.snapshot import SampleCache, Snapshot
+from gateway.mavlink.snapshot import LinkTelemetry, SampleCache, Snapshot
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
 from gateway.mavlink.streams import NEVER, Scheduler
-from gateway.mavlink.telemetry_link import LinkTelemetry
 from gateway.mavlink.vehicle_port import VehiclePort
 
 __all__ = ["LinkKind", "Session", "SessionStats", "SigningConfig"]

@@ -1,5 +1,6 @@
 """What one wake-up of a link reads from its vehicle: ``Snapshot``, and ``Sample``, the part
-both links of a vehicle share.
+both links of a vehicle share; and ``LinkTelemetry``, what a link remembers of the streams it
+sent (PING's sequence, the GPS origin it announced: telemetry_link.py).
 
 Rules and invariants:
 - A ``Snapshot`` reads each vehicle property at most once per wake-up (``_once``), however many
@@ -78,6 +79,17 @@ class Sample:
         return getattr(self.vehicle, "estimator", None)
 
 
+class LinkTelemetry:
+    """What one link remembers of the streams it sent (the fields of PX4's stream objects)."""
+
+    __slots__ = ("ping_seq", "origin_sent", "origin_time_us")
+
+    def __init__(self) -> None:
+        self.ping_seq = 0
+        self.origin_sent: tuple[float, float, float] | None = None  # (lat, lon, alt) last sent
+        self.origin_time_us = 0  # when the origin became global (0: not yet)
+
+
 class SampleCache:
     """The latest ``Sample`` of one vehicle; the sessions of one vehicle share one cache."""
 
@@ -102,9 +114,9 @@ class Snapshot:
     one)."""
 
     def __init__(self, vehicle: VehiclePort, now_s: float, boot_unix_s: float | None,
-                 samples: SampleCache | None = None, link: Any = None,
+                 samples: SampleCache | None = None, link: LinkTelemetry | None = None,
                  requested: bool = False) -> None:
-        """``link``: what the link remembers of its streams (telemetry_link.LinkTelemetry; None:
+        """``link``: what the link remembers of its streams (``LinkTelemetry``; None:
         nothing, as for a one-off build); ``requested``: built for a REQUEST_MESSAGE, which
         streams that send only on change answer all the same."""
         self.vehicle = vehicle

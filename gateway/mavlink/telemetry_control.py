@@ -35,8 +35,6 @@ from gateway.mavlink.snapshot import Snapshot
 from vehicles.estimation import E_ACCURACY
 from vehicles.types import LandedState, NavState
 
-MAV_FRAME_LOCAL_NED = 1
-MAV_FRAME_GLOBAL_INT = 5
 NO_THRUST_ACCEL = (0.0, 0.0, 100.0)  # mc_pos_control: not taken off yet
 NAN3 = (math.nan, math.nan, math.nan)
 
@@ -74,7 +72,7 @@ def position_target_local_ned(enc: Encoder, s: Snapshot) -> bytes | None:
             | (vz != vz) << 5 | (ax != ax) << 6 | (ay != ay) << 7 | (az != az) << 8
             | (yaw != yaw) << 10 | (yawspeed != yawspeed) << 11)
     return enc.pack(M.MAVLink_position_target_local_ned_message, _ms(sp.time_s),
-                    MAV_FRAME_LOCAL_NED, mask, *f)
+                    M.MAV_FRAME_LOCAL_NED, mask, *f)
 
 
 def global_target(s: Snapshot, ned: tuple[float, float, float] | None
@@ -98,7 +96,7 @@ def position_target_global_int(enc: Encoder, s: Snapshot) -> bytes | None:
     lat, lon, alt = target
     f = _local_fields(sp)
     return enc.pack(M.MAVLink_position_target_global_int_message, s.time_boot_ms,
-                    MAV_FRAME_GLOBAL_INT, 0, int(lat * 1e7), int(lon * 1e7), alt, *f[3:])
+                    M.MAV_FRAME_GLOBAL_INT, 0, int(lat * 1e7), int(lon * 1e7), alt, *f[3:])
 
 
 def servo_output_raw(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -110,10 +108,11 @@ def servo_output_raw(enc: Encoder, s: Snapshot) -> bytes | None:
     return enc.pack(M.MAVLink_servo_output_raw_message, s.time_usec & 0xFFFFFFFF, 0, *raw)
 
 
-# UTM_DATA_AVAIL_FLAGS and UTM_FLIGHT_STATE
-UTM_TIME_VALID, UTM_UAS_ID, UTM_POSITION, UTM_ALTITUDE = 1, 2, 4, 8
-UTM_HORIZONTAL_VELO, UTM_VERTICAL_VELO, UTM_NEXT_WAYPOINT = 32, 64, 128
-UTM_FLIGHT_UNKNOWN, UTM_FLIGHT_GROUND, UTM_FLIGHT_AIRBORNE = 1, 2, 3
+# UTM_DATA_AVAIL_FLAGS always set here: a board id, the position, its altitude, the velocity.
+_UTM_ALWAYS = (M.UTM_DATA_AVAIL_FLAGS_UAS_ID_AVAILABLE | M.UTM_DATA_AVAIL_FLAGS_POSITION_AVAILABLE
+               | M.UTM_DATA_AVAIL_FLAGS_ALTITUDE_AVAILABLE
+               | M.UTM_DATA_AVAIL_FLAGS_HORIZONTAL_VELO_AVAILABLE
+               | M.UTM_DATA_AVAIL_FLAGS_VERTICAL_VELO_AVAILABLE)
 _UTM_AUTO = frozenset({NavState.AUTO_FOLLOW_TARGET, NavState.AUTO_LAND, NavState.AUTO_PRECLAND,
                        NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF,
                        NavState.AUTO_RTL})
@@ -127,11 +126,11 @@ def utm_global_position(enc: Encoder, s: Snapshot) -> bytes | None:
     status = s.status
     if not status.position_valid:
         return None
-    flags = UTM_UAS_ID | UTM_POSITION | UTM_ALTITUDE | UTM_HORIZONTAL_VELO | UTM_VERTICAL_VELO
+    flags = _UTM_ALWAYS
     unix_us = 0
     if s.boot_unix_s is not None:
         unix_us = int((s.boot_unix_s + s.now_s) * 1e6)
-        flags |= UTM_TIME_VALID
+        flags |= M.UTM_DATA_AVAIL_FLAGS_TIME_VALID
     g = s.geo
     vn, ve, vd = s.kin.velocity_ned_mps
     e = s.sample.estimator
@@ -145,12 +144,12 @@ def utm_global_position(enc: Encoder, s: Snapshot) -> bytes | None:
         lat, lon, alt = target
         if math.isfinite(alt):
             next_lat, next_lon, next_alt = int(lat * 1e7), int(lon * 1e7), int(alt * 1000.0)
-            flags |= UTM_NEXT_WAYPOINT
+            flags |= M.UTM_DATA_AVAIL_FLAGS_NEXT_WAYPOINT_AVAILABLE
     if status.armed:
-        state = UTM_FLIGHT_GROUND if status.landed_state == LandedState.ON_GROUND \
-            else UTM_FLIGHT_AIRBORNE
+        state = M.UTM_FLIGHT_STATE_GROUND if status.landed_state == LandedState.ON_GROUND \
+            else M.UTM_FLIGHT_STATE_AIRBORNE
     else:
-        state = UTM_FLIGHT_UNKNOWN
+        state = M.UTM_FLIGHT_STATE_UNKNOWN
     return enc.pack(M.MAVLink_utm_global_position_message, unix_us, px4_guid(enc.sysid),
                     int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), int(g.alt_amsl_m * 1000.0), 0,
                     int(vn * 100.0), int(ve * 100.0), int(vd * 100.0),

@@ -1,6 +1,6 @@
 """Streams that belong to a link rather than to its vehicle alone: TIMESYNC and PING (PX4 asks
 its peer, on the link's own clock and sequence) and GPS_GLOBAL_ORIGIN (sent once per link, then
-on change), with the little each link remembers for them (``LinkTelemetry``).
+on change), with the little each link remembers for them (snapshot.LinkTelemetry).
 
 Source: PX4's stream classes src/modules/mavlink/streams/TIMESYNC.hpp, PING.hpp and
 GPS_GLOBAL_ORIGIN.hpp; rates from mavlink_main.cpp configure_streams_to_default (TIMESYNC 10 Hz
@@ -25,17 +25,6 @@ from gateway.mavlink.snapshot import Snapshot
 
 LLA_MIN_DIFF_DEG = 1e-7
 ALT_MIN_DIFF_M = 0.001
-
-
-class LinkTelemetry:
-    """What one link remembers of the streams it sent (the fields of PX4's stream objects)."""
-
-    __slots__ = ("ping_seq", "origin_sent", "origin_time_us")
-
-    def __init__(self) -> None:
-        self.ping_seq = 0
-        self.origin_sent: tuple[float, float, float] | None = None  # (lat, lon, alt) last sent
-        self.origin_time_us = 0  # when the origin became global (0: not yet)
 
 
 def timesync(enc: Encoder, s: Snapshot) -> bytes:
