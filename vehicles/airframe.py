@@ -12,6 +12,14 @@ ixx = iyy = 0.021667, izz = 0.04 kg m², rotors at (±0.174, ±0.174) m) and ``m
 maxRotVelocity 1000 rad/s, timeConstantUp 0.0125 s, timeConstantDown 0.025 s;
 rotor_0 (+x,-y FLU = front-right) ccw, rotor_1 rear-left ccw, rotor_2 front-left cw,
 rotor_3 rear-right cw). Collision box after the sdf's 0.354 m square base plate.
+
+The motor command: PX4's mixer output for a motor (actuator_motors, 0..1, linear in the
+allocated thrust with the default THR_MDL_FAC 0) goes to gz as a rotor speed through the ESC
+output range of airframe 4001_gz_x500, SIM_GZ_EC_MINn 150 and SIM_GZ_EC_MAXn 1000 rad/s:
+ω = 150 + 850·u, and 0 disarmed (SIM_GZ_EC_DISn). Thrust, k·ω², is therefore quadratic in the
+command, and an armed motor at zero command still spins at 150 rad/s. The hover command follows
+from it (≈ 0.71 for the X500; PX4 sets MPC_THR_HOVER 0.60 for it and its hover-thrust estimator
+converges to the plant's value).
 """
 
 from __future__ import annotations
@@ -57,6 +65,9 @@ class Airframe:
     motor_constant_n_per_radps2: float = 8.54858e-06
     moment_constant_m: float = 0.016
     max_rotor_speed_radps: float = 1000.0
+    # The ESC output range (SIM_GZ_EC_MINn / SIM_GZ_EC_MAXn of 4001_gz_x500): command 0 → min.
+    esc_min_radps: float = 150.0
+    esc_max_radps: float = 1000.0
     motor_time_constant_up_s: float = 0.0125
     motor_time_constant_down_s: float = 0.025
     # Linear body drag (N per m/s), not in the sdf: a small value so that cruise needs a tilt.
@@ -80,10 +91,22 @@ class Airframe:
     def max_total_thrust_n(self) -> float:
         return self.rotor_count * self.max_rotor_thrust_n
 
+    def rotor_speed_radps(self, command: float) -> float:
+        """The rotor speed an armed motor is commanded for mixer output ``command`` (0..1)."""
+        return self.esc_min_radps + (self.esc_max_radps - self.esc_min_radps) * command
+
+    def rotor_thrust_n(self, command: float) -> float:
+        """One rotor's steady thrust at mixer output ``command`` (armed)."""
+        w = min(self.rotor_speed_radps(command), self.max_rotor_speed_radps)
+        return self.motor_constant_n_per_radps2 * w * w
+
     @property
     def hover_thrust_norm(self) -> float:
-        """Collective normalized thrust (0..1) that balances gravity."""
-        return self.mass_kg * GRAVITY_MPS2 / self.max_total_thrust_n
+        """The collective thrust command (0..1, what every motor gets level and still) whose
+        thrust balances gravity."""
+        w = math.sqrt(self.mass_kg * GRAVITY_MPS2
+                      / (self.rotor_count * self.motor_constant_n_per_radps2))
+        return (w - self.esc_min_radps) / (self.esc_max_radps - self.esc_min_radps)
 
     @property
     def rest_height_m(self) -> float:

@@ -39,8 +39,9 @@ from vehicles.control.rotation import dcm
 MODE_OFF = 0
 MODE_IDLE = 1
 MODE_FLY = 2
-# Motors spin at this normalized thrust when armed and idle (PX4 idle PWM / CA idle).
-IDLE_THRUST_NORM = 0.02
+# The mixer's lowest motor command when armed: PX4's allocation gives 0 (actuator_motors); the
+# armed motor still spins, at the ESC's minimum (Airframe.esc_min_radps).
+IDLE_THRUST_NORM = 0.0
 
 # Columns of ``InnerLoop.measured``: position NED (m), velocity NED (m/s), attitude q (w, x, y, z)
 # FRD → NED, body rates FRD (rad/s), acceleration NED (m/s², finite difference of velocity).
@@ -96,7 +97,7 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
     commanded speed (C_OUTPUTS, rad/s: PX4's actuator_outputs as the gz bridge's ESC outputs
     carry them, before the motor's lag and whatever failure injection did to the motor)."""
     w_max, k_motor, alpha_up, alpha_down, drag = plant[0], plant[1], plant[2], plant[3], plant[4]
-    idle, alpha, dt_s = plant[5], plant[6], plant[7]
+    idle, alpha, dt_s, esc_min, esc_span = plant[5], plant[6], plant[7], plant[8], plant[9]
     n_rotors = len(rotors)
     u = np.zeros(n_rotors)
     for v in range(len(mode)):
@@ -106,7 +107,8 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
         q_est = (est[M_Q], est[M_Q + 1], est[M_Q + 2], est[M_Q + 3])
         out_cmd = commanded[v]
         out_cmd[C_RATES_SP] = out_cmd[C_RATES_SP + 1] = out_cmd[C_RATES_SP + 2] = 0.0
-        if mode[v] == MODE_OFF:
+        armed = mode[v] != MODE_OFF
+        if not armed:
             for i in range(n_rotors):
                 u[i] = 0.0
         else:
@@ -129,13 +131,11 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
                 flags = mix_into(c[SP_THRUST], torque[0], torque[1], torque[2], rotors, idle, u)
                 for i in range(6):
                     s[i] = flags[i]
-            for i in range(n_rotors):
-                u[i] = math.sqrt(u[i])
         # Motor lag (first order, faster up than down) and the rotors' thrust and torque.
         speeds = rotor_speed[v]
         total = tx = ty = tz = 0.0
         for i in range(n_rotors):
-            cmd = u[i] * w_max
+            cmd = min(esc_min + esc_span * u[i], w_max) if armed else 0.0
             out_cmd[C_OUTPUTS + i] = cmd
             cmd *= motor_ok[v, i]
             w = speeds[i]
@@ -216,6 +216,7 @@ class InnerLoop:
             1.0 - math.exp(-dt_s / airframe.motor_time_constant_up_s),
             1.0 - math.exp(-dt_s / airframe.motor_time_constant_down_s),
             airframe.linear_drag_n_per_mps, idle_thrust_norm, self.alpha, dt_s,
+            airframe.esc_min_radps, airframe.esc_max_radps - airframe.esc_min_radps,
         ])
         self._rotors = airframe.rotor_count
         self.wind = np.zeros(3)  # the air's velocity, NED (wind.py); World.step sets it

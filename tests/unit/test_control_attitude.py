@@ -79,27 +79,26 @@ def mixer():
     return Mixer(X500.mixer_rows())
 
 
-def test_mixer_hover_is_equal_thrust_and_sqrt_command():
+def test_mixer_hover_is_equal_thrust_and_a_linear_command():
     out = mixer().mix(0.5, (0.0, 0.0, 0.0))
-    assert out.rotor_thrust_norm == pytest.approx((0.5,) * 4)
-    assert out.motor_u == pytest.approx((math.sqrt(0.5),) * 4)
+    assert out.motor_u == pytest.approx((0.5,) * 4)  # linear in thrust (THR_MDL_FAC 0)
 
 
 def test_mixer_geometry_signs():
     # Roll right: left rotors (2 rear-left, 3 front-left) up.
-    t = mixer().mix(0.5, (0.2, 0.0, 0.0)).rotor_thrust_norm
+    t = mixer().mix(0.5, (0.2, 0.0, 0.0)).motor_u
     assert t[1] > t[0] and t[2] > t[3]
     # Pitch up: front rotors (1, 3) up.
-    t = mixer().mix(0.5, (0.0, 0.2, 0.0)).rotor_thrust_norm
+    t = mixer().mix(0.5, (0.0, 0.2, 0.0)).motor_u
     assert t[0] > t[1] and t[2] > t[3]
     # Yaw right (clockwise from above): CCW rotors (1, 2) up.
-    t = mixer().mix(0.5, (0.0, 0.0, 0.2)).rotor_thrust_norm
+    t = mixer().mix(0.5, (0.0, 0.0, 0.2)).motor_u
     assert t[0] > t[2] and t[1] > t[3]
 
 
 def test_mixer_keeps_roll_pitch_over_yaw_when_saturated():
     out = mixer().mix(0.9, (0.3, 0.0, 1.0))
-    t = out.rotor_thrust_norm
+    t = out.motor_u
     assert all(0.0 <= x <= 1.0 for x in t)
     # Roll difference between left and right survives in full (0.3 · 2 · 0.5 per side pair).
     assert (t[1] + t[2]) - (t[0] + t[3]) == pytest.approx(0.6, abs=1e-9)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from tests.unit.test_vehicles_flight import Sim, take_off
+from vehicles.airframe import X500
 from vehicles.manual_control import Sticks, deadzone, expo, superexpo, throttle_to_thrust
 from vehicles.params import ParamStore
 from vehicles.types import CommandResult, NavState
@@ -101,10 +102,14 @@ def test_position_mode_takes_off_from_the_ground_with_the_stick_up(sim):
 @pytest.mark.parametrize("mode", [NavState.STAB, NavState.ALTCTL, NavState.ACRO])
 def test_attitude_modes_tilt_with_the_roll_stick(sim, mode):
     take_off(sim)
-    sim.v.manual_control(sim.t, CENTRED)
+    # Stabilized and Altitude: a centred throttle is the hover thrust (mc_att_control's throttle
+    # curve, mc_pos_control). Acro passes the stick on: centred is 0.5, and the gz X500 needs
+    # ~0.71 to hover, so the pilot holds the stick there.
+    hold = Sticks(throttle=2.0 * X500.hover_thrust_norm - 1.0) if mode is NavState.ACRO else CENTRED
+    sim.v.manual_control(sim.t, hold)
     assert sim.v.set_nav_state(sim.t, mode) is CommandResult.ACCEPTED
-    fly(sim, 1.0, CENTRED)
-    roll = Sticks(roll=0.5 if mode is not NavState.ACRO else 0.3)
+    fly(sim, 1.0, hold)
+    roll = Sticks(roll=0.5) if mode is not NavState.ACRO else Sticks(roll=0.3, throttle=hold.throttle)
     fly(sim, 0.6, roll)
     assert sim.v.state.euler_rad()[0] > math.radians(8.0)  # rolled right
     assert sim.v.state.velocity_ned_mps[1] > 0.3  # and drifting east

@@ -9,9 +9,9 @@ pitch always win over yaw.
 Rules:
 - Input thrust is normalized collective thrust (0..1); torques are normalized (-1..1); the rows
   (per-rotor thrust change per unit torque) come from the airframe geometry.
-- Output per motor: the command ``u`` in 0..1 that the plant turns into rotor speed
-  ``u * max_rotor_speed``. Since rotor thrust is k·ω², ``u = sqrt(normalized rotor thrust)`` makes
-  the plant linear in thrust.
+- Output per motor: the command ``u`` in 0..1 (PX4's actuator_motors), linear in the allocated
+  thrust as PX4's with its default THR_MDL_FAC 0. The plant turns it into a rotor speed through
+  the ESC's range (vehicles/airframe.py), so thrust is quadratic in ``u``, as in PX4's gz SITL.
 - Also reports per-axis saturation so the rate integrator can stop winding up.
 - ``mix_into`` is the one source: ``Mixer`` calls it in Python, the compiled inner loop
   (vehicles/inner_loop.py) inlines it.
@@ -28,7 +28,6 @@ from numba.extending import register_jitable
 
 class MixerOutput(NamedTuple):
     motor_u: tuple[float, ...]  # 0..1 commands, PX4 motor order
-    rotor_thrust_norm: tuple[float, ...]  # 0..1 per rotor
     saturation_positive: tuple[bool, bool, bool]
     saturation_negative: tuple[bool, bool, bool]
 
@@ -102,5 +101,4 @@ class Mixer:
         out = np.zeros(len(self.rows))
         sat = mix_into(thrust, torque[0], torque[1], torque[2], self.rows, self.idle_thrust_norm,
                        out)
-        rotor = tuple(float(t) for t in out)
-        return MixerOutput(tuple(math.sqrt(t) for t in rotor), rotor, sat[:3], sat[3:])
+        return MixerOutput(tuple(float(t) for t in out), sat[:3], sat[3:])
