@@ -6,8 +6,11 @@ Rules:
 - Derived quantities (max thrust, hover thrust, mixer rows) are computed here once, so the
   controller and the plant can never disagree about the geometry.
 
-Source of the X500 numbers: PX4/PX4-gazebo-models ``models/x500_base/model.sdf`` (mass 2.0 kg,
-ixx = iyy = 0.021667, izz = 0.04 kg m², rotors at (±0.174, ±0.174) m) and ``models/x500/model.sdf``
+Source of the X500 numbers: PX4/PX4-gazebo-models ``models/x500_base/model.sdf`` (base_link
+2.0 kg, ixx = iyy = 0.021667, izz = 0.04 kg m²; four rotor links of 0.016077 kg at
+(±0.174, ±0.174, 0.06) m, which gz carries with the body: the rigid body here is the base with its
+rotors, 2.064 kg, inertia about the base's origin by the parallel-axis rule, each rotor's own
+inertia averaged over its spin) and ``models/x500/model.sdf``
 (MulticopterMotorModel: motorConstant 8.54858e-06 N/(rad/s)², momentConstant 0.016 m,
 maxRotVelocity 1000 rad/s, timeConstantUp 0.0125 s, timeConstantDown 0.025 s;
 rotor_0 (+x,-y FLU = front-right) ccw, rotor_1 rear-left ccw, rotor_2 front-left cw,
@@ -18,7 +21,7 @@ allocated thrust with the default THR_MDL_FAC 0) goes to gz as a rotor speed thr
 output range of airframe 4001_gz_x500, SIM_GZ_EC_MINn 150 and SIM_GZ_EC_MAXn 1000 rad/s:
 ω = 150 + 850·u, and 0 disarmed (SIM_GZ_EC_DISn). Thrust, k·ω², is therefore quadratic in the
 command, and an armed motor at zero command still spins at 150 rad/s. The hover command follows
-from it (≈ 0.71 for the X500; PX4 sets MPC_THR_HOVER 0.60 for it and its hover-thrust estimator
+from it (≈ 0.73 for the X500; PX4 sets MPC_THR_HOVER 0.60 for it and its hover-thrust estimator
 converges to the plant's value).
 """
 
@@ -54,13 +57,28 @@ def _x500_rotors() -> tuple[Rotor, ...]:
     )
 
 
+# x500_base's rotor links: mass (kg), position (m, FLU; the sign does not matter here) and
+# their own inertia (kg m²) about their x, y and spin axis.
+_ROTOR_MASS_KG = 0.016076923076923075
+_ROTOR_XYZ_M = (0.174, 0.174, 0.06)
+_ROTOR_INERTIA = (3.8464910483993325e-07, 2.6115851691700804e-05, 2.649858234714004e-05)
+
+
+def _with_rotors(base_kgm2: float, axis: int) -> float:
+    """The base link's moment about ``axis`` (0 x, 1 y, 2 z) plus the four rotors'."""
+    x, y, z = _ROTOR_XYZ_M
+    arm2 = (y * y + z * z, x * x + z * z, x * x + y * y)[axis]
+    own = _ROTOR_INERTIA[2] if axis == 2 else (_ROTOR_INERTIA[0] + _ROTOR_INERTIA[1]) / 2.0
+    return base_kgm2 + 4 * (own + _ROTOR_MASS_KG * arm2)
+
+
 @dataclass(frozen=True)
 class Airframe:
     name: str = "x500"
-    mass_kg: float = 2.0
-    ixx_kgm2: float = 0.02166666666666667
-    iyy_kgm2: float = 0.02166666666666667
-    izz_kgm2: float = 0.04
+    mass_kg: float = 2.0 + 4 * _ROTOR_MASS_KG
+    ixx_kgm2: float = _with_rotors(0.02166666666666667, 0)
+    iyy_kgm2: float = _with_rotors(0.02166666666666667, 1)
+    izz_kgm2: float = _with_rotors(0.04, 2)
     rotors: tuple[Rotor, ...] = field(default_factory=_x500_rotors)
     motor_constant_n_per_radps2: float = 8.54858e-06
     moment_constant_m: float = 0.016

@@ -65,12 +65,12 @@ def test_in_the_mission_the_targets_lead_the_vehicle(flight):
     m = flight["mission"]  # 15 s after the start: on the way to the first corner
     att, pos = m["ATTITUDE_TARGET"], m["POSITION_TARGET_LOCAL_NED"]
     lpos, out = m["LOCAL_POSITION_NED"], m["SERVO_OUTPUT_RAW"]
-    assert 0.6 < att.thrust < 0.9 and abs(sum(q * q for q in att.q) - 1.0) < 1e-6  # hover ~0.71
+    assert 0.6 < att.thrust < 0.9 and abs(sum(q * q for q in att.q) - 1.0) < 1e-6  # hover ~0.73
     assert pos.type_mask == IGNORE_ACCELERATION
     assert math.dist((pos.x, pos.y, pos.z), (lpos.x, lpos.y, lpos.z)) < 3.0
     assert pos.vx > 1.0  # flying north to the first corner
     motors = [getattr(out, f"servo{i}_raw") for i in range(1, 5)]
-    assert all(650 < m < 950 for m in motors)  # commanded rad/s: hover ~757 of 150..1000
+    assert all(650 < m < 950 for m in motors)  # commanded rad/s: hover ~769 of 150..1000
     assert [getattr(out, f"servo{i}_raw") for i in range(5, 17)] == [0] * 12
     # The navigator's current setpoint: the first corner, 40 m north, 10 m above home.
     tgt = m["POSITION_TARGET_GLOBAL_INT"]

@@ -101,10 +101,10 @@ def test_takeoff_reaches_default_altitude_then_holds_steady(sim):
 def test_motors_run_through_the_gz_x500_esc_range(sim):
     """PX4's mixer output u (linear in thrust, THR_MDL_FAC 0) drives the rotor at 150 + 850·u
     rad/s (4001_gz_x500: SIM_GZ_EC_MIN 150, SIM_GZ_EC_MAX 1000): disarmed 0, armed idle 150,
-    and a hover command of ~0.71 (thrust k·ω² balances the weight at ~757 rad/s)."""
+    and a hover command of ~0.73 (thrust k·ω² balances the weight at ~769 rad/s)."""
     af = sim.v.airframe
     assert (af.rotor_speed_radps(0.0), af.rotor_speed_radps(1.0)) == (150.0, 1000.0)
-    assert af.hover_thrust_norm == pytest.approx(0.7145, abs=1e-4)
+    assert af.hover_thrust_norm == pytest.approx(0.7287, abs=1e-4)  # 2.064 kg with its rotors
     assert af.rotor_count * af.rotor_thrust_n(af.hover_thrust_norm) == pytest.approx(
         af.mass_kg * 9.80665)
     sim.run(1.2)
@@ -117,7 +117,7 @@ def test_motors_run_through_the_gz_x500_esc_range(sim):
     sim.run(5.0)
     t = sim.v.targets
     assert t.thrust_norm == pytest.approx(af.hover_thrust_norm, abs=0.01)
-    assert t.outputs[:4] == pytest.approx((757.0,) * 4, abs=10.0)
+    assert t.outputs[:4] == pytest.approx((769.4,) * 4, abs=10.0)
 
 
 def test_landed_state_is_takeoff_during_the_climb(sim):

@@ -104,7 +104,7 @@ def test_attitude_modes_tilt_with_the_roll_stick(sim, mode):
     take_off(sim)
     # Stabilized and Altitude: a centred throttle is the hover thrust (mc_att_control's throttle
     # curve, mc_pos_control). Acro passes the stick on: centred is 0.5, and the gz X500 needs
-    # ~0.71 to hover, so the pilot holds the stick there.
+    # ~0.73 to hover, so the pilot holds the stick there.
     hold = Sticks(throttle=2.0 * X500.hover_thrust_norm - 1.0) if mode is NavState.ACRO else CENTRED
     sim.v.manual_control(sim.t, hold)
     assert sim.v.set_nav_state(sim.t, mode) is CommandResult.ACCEPTED
