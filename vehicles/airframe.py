@@ -30,6 +30,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from vehicles.types import GRAVITY_MPS2
 
 
@@ -92,10 +94,11 @@ class Airframe:
     linear_drag_n_per_mps: float = 0.25
     # Collision box (full size, m) centred on the centre of mass.
     collision_box_m: tuple[float, float, float] = (0.354, 0.354, 0.1)
-    # Normalized torque 1.0 changes each rotor's normalized thrust by this much (PX4's allocation
-    # normalization gives about ±0.5 per motor for full roll/pitch on a symmetric quad X).
-    torque_to_thrust_rp: float = 0.5
-    torque_to_thrust_yaw: float = 0.5
+    # The geometry PX4's control allocation is configured with, per motor: CA_ROTORn_PX, _PY (m,
+    # FRD) and _KM (4001_gz_x500; CA_ROTORn_CT cancels out in the normalization). It is not the
+    # model's (±0.174 m square): PX4 SITL flies the gz x500 with this allocation, and so do we.
+    allocation_rotors: tuple[tuple[float, float, float], ...] = (
+        (0.13, 0.22, 0.05), (-0.13, -0.20, 0.05), (0.13, -0.22, -0.05), (-0.13, 0.20, -0.05))
 
     @property
     def rotor_count(self) -> int:
@@ -132,20 +135,28 @@ class Airframe:
         return self.collision_box_m[2] / 2.0
 
     def mixer_rows(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
-        """Per-rotor normalized-thrust change for unit normalized roll, pitch and yaw torque.
+        """Per-motor command change for unit normalized roll, pitch and yaw torque: PX4's
+        multicopter allocation (control_allocator: ActuatorEffectivenessRotors' effectiveness
+        from ``allocation_rotors`` with thrust along -z, its pseudo-inverse, then
+        ControlAllocationPseudoInverse's normalization with normalize_rpy: roll and pitch
+        columns by the larger of sqrt(|col|² / (non-zero entries / 2)), yaw by its largest
+        entry; the thrust column becomes 1 per motor, so the collective thrust is the motor
+        command). Roll (right side down) raises the left motors, pitch (nose up) the front ones,
+        yaw the motors whose KM > 0 (counter-clockwise)."""
+        effectiveness = np.zeros((6, len(self.allocation_rotors)))
+        for i, (px, py, km) in enumerate(self.allocation_rotors):
+            # moment = CT (p × axis) - CT KM axis, thrust = CT axis, axis = (0, 0, -1), CT = 1
+            effectiveness[:, i] = (-py, px, km, 0.0, 0.0, -1.0)
+        mix = np.linalg.pinv(effectiveness)
+        nonzero = (np.abs(mix[:, :2]) > 1e-3).sum(axis=0)
+        rp_scale = max(math.sqrt(float(mix[:, axis] @ mix[:, axis]) / (nonzero[axis] / 2.0))
+                       for axis in (0, 1))
+        yaw_scale = float(mix[:, 2].max())
+        def column(values: np.ndarray) -> tuple[float, ...]:
+            # PX4 zeroes entries below 1e-3 after normalizing.
+            return tuple(0.0 if abs(v) < 1e-3 else float(v) for v in values)
 
-        Roll (about +x FRD, right side down) needs more thrust on the left (y < 0) rotors; pitch
-        (nose up) needs more thrust in front (x > 0); yaw needs more thrust on the rotors whose
-        reaction torque is positive.
-        """
-        roll = tuple(
-            -self.torque_to_thrust_rp * math.copysign(1.0, r.position_frd_m[1]) for r in self.rotors
-        )
-        pitch = tuple(
-            self.torque_to_thrust_rp * math.copysign(1.0, r.position_frd_m[0]) for r in self.rotors
-        )
-        yaw = tuple(self.torque_to_thrust_yaw * r.yaw_sign for r in self.rotors)
-        return roll, pitch, yaw
+        return column(mix[:, 0] / rp_scale), column(mix[:, 1] / rp_scale), column(mix[:, 2] / yaw_scale)
 
 
 X500 = Airframe()

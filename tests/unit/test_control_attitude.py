@@ -84,6 +84,16 @@ def test_mixer_hover_is_equal_thrust_and_a_linear_command():
     assert out.motor_u == pytest.approx((0.5,) * 4)  # linear in thrust (THR_MDL_FAC 0)
 
 
+def test_mixer_rows_are_px4s_allocation_of_the_gz_x500():
+    """PX4's pseudo-inverse of the CA_ROTORn geometry of 4001_gz_x500, normalized as
+    ControlAllocationPseudoInverse does: roll and pitch share one scale (the larger), so the
+    short pitch arm (0.13 m) gets ±1/√2 and roll (0.20-0.22 m) ±0.438; yaw by its largest."""
+    roll, pitch, yaw = X500.mixer_rows()
+    assert roll == pytest.approx((-0.4377, 0.4377, 0.4377, -0.4377), abs=1e-4)
+    assert pitch == pytest.approx((0.7071, -0.7071, 0.7071, -0.7071), abs=1e-4)
+    assert yaw == pytest.approx((0.9091, 1.0, -0.9091, -1.0), abs=1e-4)
+
+
 def test_mixer_geometry_signs():
     # Roll right: left rotors (2 rear-left, 3 front-left) up.
     t = mixer().mix(0.5, (0.2, 0.0, 0.0)).motor_u
@@ -100,8 +110,9 @@ def test_mixer_keeps_roll_pitch_over_yaw_when_saturated():
     out = mixer().mix(0.9, (0.3, 0.0, 1.0))
     t = out.motor_u
     assert all(0.0 <= x <= 1.0 for x in t)
-    # Roll difference between left and right survives in full (0.3 · 2 · 0.5 per side pair).
-    assert (t[1] + t[2]) - (t[0] + t[3]) == pytest.approx(0.6, abs=1e-9)
+    # Roll difference between left and right survives in full (0.3 · 4 · 0.4377).
+    roll = X500.mixer_rows()[0]
+    assert (t[1] + t[2]) - (t[0] + t[3]) == pytest.approx(0.3 * sum(map(abs, roll)), abs=1e-9)
     assert out.saturation_positive[2]
 
 
