@@ -19,7 +19,8 @@ rotor_3 rear-right cw). Collision box after the sdf's 0.354 m square base plate.
 The motor command: PX4's mixer output for a motor (actuator_motors, 0..1, linear in the
 allocated thrust with the default THR_MDL_FAC 0) goes to gz as a rotor speed through the ESC
 output range of airframe 4001_gz_x500, SIM_GZ_EC_MINn 150 and SIM_GZ_EC_MAXn 1000 rad/s:
-ω = 150 + 850·u, and 0 disarmed (SIM_GZ_EC_DISn). Thrust, k·ω², is therefore quadratic in the
+ω = 150 + 850·u rounded to a whole number (MixingOutput's lroundf), and 0 disarmed
+(SIM_GZ_EC_DISn). Thrust, k·ω², is therefore quadratic in the
 command, and an armed motor at zero command still spins at 150 rad/s. The hover command follows
 from it (≈ 0.73 for the X500; PX4 sets MPC_THR_HOVER 0.60 for it and its hover-thrust estimator
 converges to the plant's value).

@@ -135,7 +135,8 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
         speeds = rotor_speed[v]
         total = tx = ty = tz = 0.0
         for i in range(n_rotors):
-            cmd = min(esc_min + esc_span * u[i], w_max) if armed else 0.0
+            # MixingOutput::output_limit_calc_single: the ESC output is a whole number (lroundf).
+            cmd = min(math.floor(esc_min + esc_span * u[i] + 0.5), w_max) if armed else 0.0
             out_cmd[C_OUTPUTS + i] = cmd
             cmd *= motor_ok[v, i]
             w = speeds[i]

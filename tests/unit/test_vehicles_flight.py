@@ -118,6 +118,7 @@ def test_motors_run_through_the_gz_x500_esc_range(sim):
     t = sim.v.targets
     assert t.thrust_norm == pytest.approx(af.hover_thrust_norm, abs=0.01)
     assert t.outputs[:4] == pytest.approx((769.4,) * 4, abs=10.0)
+    assert all(w == int(w) for w in t.outputs)  # whole rad/s, as MixingOutput rounds them
 
 
 def test_landed_state_is_takeoff_during_the_climb(sim):
