@@ -64,6 +64,7 @@ class PositionStage:
         self.thrust = 0.0  # the collective thrust asked for (battery model, land detector)
         self.vel_sp_z = 0.0  # the task's vertical velocity setpoint (the land detector's input)
         self.vel_sp: Vec3 = _NAN3  # the last velocity setpoint (Orbit's and the sticks' feedback)
+        self.acc_sp: Vec3 = _NAN3  # the last acceleration setpoint (PX4's _acc_sp)
         self.yaw_sp = math.nan  # the auto tasks' slewed heading setpoint
 
     def set_gains(self, gains: PositionControlGains) -> None:
@@ -158,11 +159,11 @@ class PositionStage:
             if reactivate:
                 self.trajectory.reset(meas.position_ned_m, REACTIVATE_VEL)
         yaw_sp = yaw if no_setpoint or math.isnan(sp.yaw_rad) else sp.yaw_rad
-        q, thrust, vel_sp = pc.update_attitude(dt, meas.position_ned_m, meas.velocity_ned_mps,
-                                               meas.accel_ned_mps2, sp, yaw_sp)
+        q, thrust, vel_sp, acc_sp = pc.update_attitude(
+            dt, meas.position_ned_m, meas.velocity_ned_mps, meas.accel_ned_mps2, sp, yaw_sp)
         if no_setpoint:
             pc.reset_integral()
-        self._output(task_vz, q, thrust, vel_sp,
+        self._output(task_vz, q, thrust, vel_sp, acc_sp,
                      yawspeed if yawspeed != 0.0 and not no_setpoint else 0.0)
 
     def apply_auto(self, dt: float, meas: Measurement, target_ned_m: Vec3,
@@ -178,18 +179,19 @@ class PositionStage:
         s = traj.smoothing
         s.set_auto_input(meas.position_ned_m, previous_ned_m, target_ned_m, next_ned_m, None)
         yaw_sp = yaw if no_setpoint or math.isnan(self.yaw_sp) else self.yaw_sp
-        _, v_sp, _, q, thrust, vel_sp = pc.update_attitude_auto(
+        _, v_sp, _, q, thrust, vel_sp, acc_sp = pc.update_attitude_auto(
             s, dt, previous_ned_m is not None, next_ned_m is not None,
             traj.acceptance_radius(acceptance_radius_m), vz_cmd_mps, meas.velocity_ned_mps,
             meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate)
-        self._output(v_sp[2], q, thrust, vel_sp, 0.0)
+        self._output(v_sp[2], q, thrust, vel_sp, acc_sp, 0.0)
 
-    def _output(self, task_vz: float, q: Quat, thrust: float, vel_sp: Vec3,
+    def _output(self, task_vz: float, q: Quat, thrust: float, vel_sp: Vec3, acc_sp: Vec3,
                 yawspeed: float) -> None:
         # The land detector judges the task's vertical velocity setpoint (PX4), else the
         # controller's.
         self.vel_sp_z = task_vz if math.isfinite(task_vz) else vel_sp[2]
         self.vel_sp = vel_sp
+        self.acc_sp = acc_sp
         self.attitude = AttitudeSetpoint(q, thrust, yawspeed)
         self.thrust = thrust
 

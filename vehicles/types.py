@@ -165,6 +165,7 @@ class Targets(NamedTuple):
     position_control: bool
     position_ned_m: tuple[float, float, float]  # vehicle_local_position_setpoint, NaN: none
     velocity_ned_mps: tuple[float, float, float]
+    acceleration_ned_mps2: tuple[float, float, float]  # the velocity PID's (PX4 _acc_sp)
     yaw_rad: float
     yawspeed_radps: float
     # position_setpoint_triplet.current while flag_control_position_enabled and the navigator

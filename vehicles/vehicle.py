@@ -209,10 +209,10 @@ class Vehicle:
             position_control = False
         else:  # Offboard attitude and rates bypass the position controller
             position_control = nav is not NavState.OFFBOARD or st.flying
-        pos = vel = _NAN3
+        pos = vel = acc = _NAN3
         if st.flying:
             pos = st.trajectory.position_ned_m
-            vel = st.vel_sp
+            vel, acc = st.vel_sp, st.acc_sp
         yaw = st.yaw_sp
         if yaw != yaw:  # NaN: PX4 holds the present heading
             yaw = q_yaw(self.kinematics.attitude_q)
@@ -222,7 +222,7 @@ class Vehicle:
             target = auto_sp.target_ned_m
         return Targets(st.tick_s, out.attitude_q, out.thrust_norm,
                        (commanded[0], commanded[1], commanded[2]), position_control, pos, vel,
-                       yaw, out.yawspeed_radps, target,
+                       acc, yaw, out.yawspeed_radps, target,
                        tuple(commanded[3:]) if cmd.armed else (0.0,) * (len(commanded) - 3))
 
     @property

@@ -55,10 +55,10 @@ def attitude_target(enc: Encoder, s: Snapshot) -> bytes | None:
 def _local_fields(sp) -> tuple[float, ...]:
     """x, y, z, vx, vy, vz, afx, afy, afz, yaw, yaw_rate of vehicle_local_position_setpoint."""
     pos, vel = sp.position_ned_m, sp.velocity_ned_mps
-    flying = not math.isnan(pos[0])
-    acc = NAN3 if flying else NO_THRUST_ACCEL
-    if not flying:
-        vel = NAN3
+    if math.isnan(pos[0]):  # not taken off: mc_pos_control's "no thrust" setpoint
+        vel, acc = NAN3, NO_THRUST_ACCEL
+    else:
+        acc = sp.acceleration_ned_mps2
     return (*pos, *vel, *acc, sp.yaw_rad, sp.yawspeed_radps)
 
 

@@ -97,7 +97,7 @@ class FakeVehicle:
         vel = (0.0, 0.0, 0.0) if self.position_setpoint_ned_m else (math.nan,) * 3
         return Targets(self.state.time_s, (1.0, 0.0, 0.0, 0.0), 0.5, (0.01, -0.02, 0.03),
                        self.nav_state not in (NavState.MANUAL, NavState.STAB, NavState.ACRO),
-                       pos, vel, 0.25, 0.0, self.global_target_ned_m, self.motor_outputs)
+                       pos, vel, vel, 0.25, 0.0, self.global_target_ned_m, self.motor_outputs)
 
     @property
     def sensors(self) -> list[float]:

@@ -128,7 +128,9 @@ def position_control_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gain
     """One PositionControl update (module docstring), compiled. ``gains``: the 15 numbers of
     ``PositionControlGains.vector()``; ``integ``: the velocity integrator, updated in place.
     Returns (normalized thrust NED, velocity setpoint NED)."""
-    return _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ)
+    thrust, vel_sp, _ = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
+                                          gains, integ)
+    return thrust, vel_sp
 
 
 @njit_cached
@@ -136,11 +138,11 @@ def position_attitude_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gai
                            yaw_rad):  # pragma: no cover - compiled
     """``position_control_step`` and then its thrust at heading ``yaw_rad`` as an attitude
     (PX4 PositionControl::getAttitudeSetpoint: ControlMath::thrustToAttitude). Returns
-    (attitude setpoint, collective thrust, velocity setpoint NED)."""
-    thrust, vel_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains,
-                                       integ)
+    (attitude setpoint, collective thrust, velocity setpoint NED, acceleration setpoint NED)."""
+    thrust, vel_sp, acc_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
+                                               gains, integ)
     q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)
-    return q, thrust_norm, vel_sp
+    return q, thrust_norm, vel_sp, acc_sp
 
 
 @njit_cached
@@ -153,7 +155,8 @@ def auto_position_attitude_step(traj, cfg, traj_inp, traj_out, dt_s, has_previou
     ``no_setpoint`` (the takeoff has not ramped, or ground contact): position control gets no
     setpoint and its integrator is held at zero; ``reactivate``: the trajectory then restarts at
     the vehicle at rest but for a 0.7 m/s descent (position_stage.py). Returns (trajectory
-    position, velocity, acceleration, attitude, collective thrust, velocity setpoint)."""
+    position, velocity, acceleration, attitude, collective thrust, velocity setpoint,
+    acceleration setpoint)."""
     pos = (traj_inp[0], traj_inp[1], traj_inp[2])
     p_sp, v_sp, a_sp = generate_auto_step(traj, cfg, traj_inp, dt_s, True, has_previous,
                                           has_next, acceptance_radius, vz_cmd, pos[2], traj_out)
@@ -167,12 +170,12 @@ def auto_position_attitude_step(traj, cfg, traj_inp, traj_out, dt_s, has_previou
                 traj[i, J] = traj[i, A] = traj[i, IJ] = traj[i, IA] = 0.0
                 traj[i, V] = traj[i, IV] = v
                 traj[i, X] = traj[i, IX] = x
-    thrust, vel_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains,
-                                       integ)
+    thrust, vel_sp, acc_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
+                                               gains, integ)
     q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)
     if no_setpoint:
         integ[:] = 0.0
-    return p_sp, v_sp, a_sp, q, thrust_norm, vel_sp
+    return p_sp, v_sp, a_sp, q, thrust_norm, vel_sp, acc_sp
 
 
 @register_jitable
@@ -247,7 +250,9 @@ def _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, i
         integ[2] += e2 * vel_i_z * dt_s
     # PX4 limits the vertical integral to one g worth of acceleration.
     integ[2] = min(max(integ[2], -GRAVITY_MPS2), GRAVITY_MPS2)
-    return (t0, t1, t2), (v0, v1, v2)
+    # The acceleration setpoint is the velocity PID's (PX4's _acc_sp, which
+    # vehicle_local_position_setpoint carries), before the tilt and thrust limits.
+    return (t0, t1, t2), (v0, v1, v2), (a0, a1, a2)
 
 
 class PositionControl:
@@ -281,25 +286,25 @@ class PositionControl:
 
     def update_attitude(self, dt_s: float, position_ned_m: Vec3, velocity_ned_mps: Vec3,
                         acceleration_ned_mps2: Vec3, sp: PositionSetpoint, yaw_rad: float
-                        ) -> tuple[Quat, float, Vec3]:
+                        ) -> tuple[Quat, float, Vec3, Vec3]:
         """``update``, then the thrust as an attitude setpoint at heading ``yaw_rad``
         (``thrust_to_attitude``) in one compiled call: (attitude, collective thrust, velocity
-        setpoint)."""
-        q, thrust_norm, vel_sp = position_attitude_step(
+        setpoint, acceleration setpoint)."""
+        return position_attitude_step(
             dt_s, _vec3(position_ned_m), _vec3(velocity_ned_mps), _vec3(acceleration_ned_mps2),
             _vec3(sp.position_ned_m), _vec3(sp.velocity_ned_mps), _vec3(sp.acceleration_ned_mps2),
             self._gains, self._vel_int, float(yaw_rad))
-        return q, thrust_norm, vel_sp
 
     def update_attitude_auto(self, smoothing: PositionSmoothing, dt_s: float,
                              has_previous: bool, has_next: bool, acceptance_radius_m: float,
                              vz_cmd_mps: float, velocity_ned_mps: Vec3,
                              acceleration_ned_mps2: Vec3, yaw_rad: float, no_setpoint: bool,
-                             reactivate: bool) -> tuple[Vec3, Vec3, Vec3, Quat, float, Vec3]:
+                             reactivate: bool
+                             ) -> tuple[Vec3, Vec3, Vec3, Quat, float, Vec3, Vec3]:
         """``smoothing.generate_auto`` (its input set with ``set_auto_input``, the vehicle's
         position first) and ``update_attitude`` on its setpoint in one compiled call
         (``auto_position_attitude_step``): (trajectory position, velocity, acceleration,
-        attitude, collective thrust, velocity setpoint)."""
+        attitude, collective thrust, velocity setpoint, acceleration setpoint)."""
         return auto_position_attitude_step(
             smoothing.axes, smoothing.cfg, smoothing.inp, smoothing.out, float(dt_s),
             has_previous, has_next, float(acceptance_radius_m), float(vz_cmd_mps),
