@@ -23,6 +23,7 @@ Rules and invariants:
 from __future__ import annotations
 
 import logging
+import math
 import struct
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -56,6 +57,26 @@ COMPONENT_INFORMATION = struct.Struct("<III100s100s")
 _HEADER = struct.Struct("<BBBBBBBHB")
 _CRC = struct.Struct("<H")
 _crc_x25 = _fastcrc16.mcrf4xx
+
+INT16_MIN, INT16_MAX = -32768, 32767
+INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
+
+
+def c_int(value: float, lo: int, hi: int) -> int:
+    """C's conversion of a float to an integer field, as PX4's streams make it: toward zero,
+    clamped (out of range is undefined in C and the field cannot hold it; a setpoint taken from
+    a client, such as an altitude of 3e38 m, must not stop the stream), 0 for NaN and inf."""
+    if not math.isfinite(value):
+        return 0
+    return max(lo, min(hi, math.trunc(value)))
+
+
+def i16(value: float) -> int:
+    return c_int(value, INT16_MIN, INT16_MAX)
+
+
+def i32(value: float) -> int:
+    return c_int(value, INT32_MIN, INT32_MAX)
 
 
 def _crc_table() -> tuple[int, ...]:

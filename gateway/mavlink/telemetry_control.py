@@ -29,7 +29,7 @@ import math
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder
+from gateway.mavlink.codec import Encoder, i32
 from gateway.mavlink.identity import px4_guid
 from gateway.mavlink.snapshot import Snapshot
 from vehicles.estimation import E_ACCURACY
@@ -142,8 +142,8 @@ def utm_global_position(enc: Encoder, s: Snapshot) -> bytes | None:
         target = global_target(s, tg.global_target_ned_m)
     if target is not None:
         lat, lon, alt = target
-        if math.isfinite(alt):
-            next_lat, next_lon, next_alt = int(lat * 1e7), int(lon * 1e7), int(alt * 1000.0)
+        if math.isfinite(alt):  # a client's setpoint: any finite altitude (DO_REPOSITION)
+            next_lat, next_lon, next_alt = i32(lat * 1e7), i32(lon * 1e7), i32(alt * 1000.0)
             flags |= M.UTM_DATA_AVAIL_FLAGS_NEXT_WAYPOINT_AVAILABLE
     if status.armed:
         state = M.UTM_FLIGHT_STATE_GROUND if status.landed_state == LandedState.ON_GROUND \

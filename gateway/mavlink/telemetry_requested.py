@@ -21,7 +21,7 @@ import math
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder
+from gateway.mavlink.codec import Encoder, i16, i32
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.telemetry import (
     G,
@@ -30,27 +30,9 @@ from gateway.mavlink.telemetry import (
     isa_temperature_c,
 )
 
-INT16_MIN, INT16_MAX = -32768, 32767
-INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
 # actuator_outputs.noutputs: MixingOutput publishes all of its channels (MixingOutput::
 # MAX_ACTUATORS, the gz bridge's ESC output module), the unassigned ones at their disarmed 0.
 ACTUATOR_OUTPUTS = 16
-
-
-def _c_int(value: float, lo: int, hi: int) -> int:
-    """C's conversion of a float to an integer type: toward zero (clamped: out of range is
-    undefined in C, and the field cannot hold it)."""
-    if not math.isfinite(value):
-        return 0
-    return max(lo, min(hi, math.trunc(value)))
-
-
-def _i16(value: float) -> int:
-    return _c_int(value, INT16_MIN, INT16_MAX)
-
-
-def _i32(value: float) -> int:
-    return _c_int(value, INT32_MIN, INT32_MAX)
 
 
 def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
@@ -59,11 +41,11 @@ def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
     temperature in c°C (0 is sent as 1). The same samples as HIGHRES_IMU."""
     fx, fy, fz, p, q, r, mx, my, mz = imu_sample(s)
     centi_c = isa_temperature_c(baro_alt_m(s)) * 100.0
-    temperature = _i16(math.copysign(math.floor(abs(centi_c) + 0.5), centi_c)) or 1  # roundf
+    temperature = i16(math.copysign(math.floor(abs(centi_c) + 0.5), centi_c)) or 1  # roundf
     return enc.pack(M.MAVLink_scaled_imu_message, s.time_boot_ms,
-                    _i16(fx * 1000.0 / G), _i16(fy * 1000.0 / G), _i16(fz * 1000.0 / G),
-                    _i16(p * 1000.0), _i16(q * 1000.0), _i16(r * 1000.0),
-                    _i16(mx * 1000.0), _i16(my * 1000.0), _i16(mz * 1000.0), temperature)
+                    i16(fx * 1000.0 / G), i16(fy * 1000.0 / G), i16(fz * 1000.0 / G),
+                    i16(p * 1000.0), i16(q * 1000.0), i16(r * 1000.0),
+                    i16(mx * 1000.0), i16(my * 1000.0), i16(mz * 1000.0), temperature)
 
 
 def rc_channels(enc: Encoder, s: Snapshot) -> None:
@@ -89,9 +71,9 @@ def hil_state_quaternion(enc: Encoder, s: Snapshot) -> bytes | None:
     vn, ve, vd = truth.velocity_ned_mps
     an, ae, ad = truth.accel_ned_mps2
     return enc.pack(M.MAVLink_hil_state_quaternion_message, 0, list(truth.attitude_q), p, q, r,
-                    _i32(g.lat_deg * 1e7), _i32(g.lon_deg * 1e7), _i32(g.alt_amsl_m * 1e3),
-                    _i16(vn * 100.0), _i16(ve * 100.0), _i16(vd * 100.0), 0, 0,
-                    _i16(an), _i16(ae), _i16(ad))
+                    i32(g.lat_deg * 1e7), i32(g.lon_deg * 1e7), i32(g.alt_amsl_m * 1e3),
+                    i16(vn * 100.0), i16(ve * 100.0), i16(vd * 100.0), 0, 0,
+                    i16(an), i16(ae), i16(ad))
 
 
 def actuator_output_status(enc: Encoder, s: Snapshot) -> bytes | None:

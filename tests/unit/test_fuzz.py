@@ -332,3 +332,28 @@ def test_every_served_command_with_each_parameter_hostile_in_turn():
         n0 = len(api.messages("HEARTBEAT"))
         sim.advance(2.0)
         assert len(api.messages("HEARTBEAT")) - n0 == 2
+
+
+@pytest.mark.parametrize("alt_m", [1e12, 3e38, -1e12])
+def test_a_reposition_to_a_hostile_altitude_never_stops_a_stream(alt_m):
+    """DO_REPOSITION takes any finite altitude (PX4's navigator checks only that it is finite).
+    The streams that carry the setpoint as an integer (UTM_GLOBAL_POSITION's next_alt, mm in an
+    int32) clamp it as the field allows; none of them may fail and fall silent."""
+    from gateway.ci.lockstep import Sim
+
+    with Sim(1) as sim:
+        api = sim.api(0)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        assert api.arm() == 0 and api.takeoff() == 0
+        assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=20)
+        lat, lon = api.last("GLOBAL_POSITION_INT").lat * 1e-7, api.last("GLOBAL_POSITION_INT").lon * 1e-7
+        assert api.command_long(M.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat, lon,
+                                alt_m) == M.MAV_RESULT_ACCEPTED
+        since = len(api.frames)
+        sim.run_until(lambda: False, timeout_s=3)
+        assert sim.simulation.internal_errors == 0
+        utm = api.messages("UTM_GLOBAL_POSITION", since)
+        assert len(utm) >= 2  # PX4 ≤ 1.15 sends it at 1 Hz on the API link
+        assert utm[-1].next_alt == (2**31 - 1 if alt_m > 0 else -(2**31))
+        assert api.messages("POSITION_TARGET_GLOBAL_INT", since)[-1].alt == pytest.approx(
+            alt_m, rel=1e-6)
