@@ -91,6 +91,8 @@ OVERRIDES = {
     "SYS_FAILURE_EN": "1",
     "LNDMC_Z_VEL_MAX": "0.25",
     "EKF2_REQ_GPS_H": "0.5",
+    "HTE_HT_NOISE": "0.0036",  # hover_thrust_estimator_params.yaml
+    "RTL_CONE_ANG": "45",  # rtl_params.yaml (PX4 1.15)
 }
 
 # In current PX4 but not in the old metadata table: (type, default, unit, group, description).
@@ -122,6 +124,13 @@ ADDED = {
     "FLW_TGT_ALT_M": ("INT32", "0", "", "Follow target", "Altitude control mode"),
     "FLW_TGT_MAX_VEL": ("FLOAT", "5.0", "m/s", "Follow target",
                         "Max tangential velocity for follow orbit trajectory"),
+    # The hover thrust estimator's (mc_hover_thrust_estimator/hover_thrust_estimator_params.yaml).
+    "HTE_VXY_THR": ("FLOAT", "10.0", "m/s", "Hover Thrust Estimator",
+                    "Horizontal velocity threshold for sensitivity reduction"),
+    "HTE_VZ_THR": ("FLOAT", "2.0", "m/s", "Hover Thrust Estimator",
+                   "Vertical velocity threshold for sensitivity reduction"),
+    "HTE_THR_RANGE": ("FLOAT", "0.2", "normalized_thrust", "Hover Thrust Estimator",
+                      "Max deviation from MPC_THR_HOVER"),
 }
 
 FIELDS = ["name", "type", "default", "min", "max", "unit", "group", "short_desc"]

@@ -31,6 +31,7 @@ from vehicles.battery import BatterySim
 from vehicles.calibration import Calibration
 from vehicles.commander import Commander
 from vehicles.control.attitude_control import AttitudeControlGains
+from vehicles.control.hover_thrust import HoverThrustEstimator
 from vehicles.control.position_control import PositionControl, PositionControlGains
 from vehicles.control.quat import q_yaw
 from vehicles.control.rate_control import RateControlGains
@@ -99,14 +100,14 @@ class Autopilot:
         self.battery = BatterySim(params, airframe.hover_thrust_norm)
         self.calibration = Calibration(self.log)
         self.home: HomePosition | None = None
-        self._hover = airframe.hover_thrust_norm
+        self.hover_thrust = HoverThrustEstimator(params)
         self._prev_nav_state: NavState | None = None
         self._fence_breach: str | None = None
         self._battery_level = 0
         self._last: Measurement | None = None  # the measurement of the last 50 Hz tick
         self.stage = PositionStage(self.land_detector, self._position_gains(), params)
         self.tasks = make_tasks(self.stage, params, self.navigator, self.offboard, self.manual,
-                                self.orbit_task, self.follow_target, self._hover)
+                                self.orbit_task, self.follow_target, self.hover_thrust)
         self._new_gains = True
         self._load_gains()
         params.on_change(lambda name, value: self._load_gains())
@@ -140,7 +141,8 @@ class Autopilot:
             self.navigator.cruise_mps = math.nan  # a new mission starts at cruise speed
 
     def _position_gains(self) -> PositionControlGains:
-        return PositionControlGains.from_params(self.params, hover_thrust=self._hover)
+        return PositionControlGains.from_params(self.params,
+                                                hover_thrust=self.hover_thrust.hover_thrust)
 
     def _update_params(self) -> None:
         """The parameters the 50 Hz part reads, re-read when one changes."""
@@ -432,7 +434,15 @@ class Autopilot:
     def _update_slow(self, now_s: float, meas: Measurement) -> None:
         cmd, st = self.commander, self.stage
         ld = self.land_detector
-        ld.update(now_s, cmd.armed, meas.velocity_ned_mps, st.vel_sp_z, st.thrust, self._hover)
+        # mc_hover_thrust_estimator on this local position and the last position setpoint;
+        # mc_pos_control takes a new estimate (moving its integrator so the thrust holds).
+        hover = self.hover_thrust.update(now_s, cmd.armed, ld.landed, -meas.position_ned_m[2],
+                                         meas.velocity_ned_mps, meas.accel_ned_mps2[2],
+                                         st.thrust_z_ned)
+        pc = st.position_control
+        if hover != pc.hover_thrust:
+            pc.update_hover_thrust(hover, st.acc_sp[2])
+        ld.update(now_s, cmd.armed, meas.velocity_ned_mps, st.vel_sp_z, st.thrust, hover)
         was_armed = cmd.armed
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
         self._refresh_requirements(now_s)
@@ -442,7 +452,7 @@ class Autopilot:
             self._set_home(meas)
         self.battery.update(now_s, cmd.armed, st.thrust if cmd.armed else 0.0)
         if was_armed and not cmd.armed:
-            ld.update(now_s, False, meas.velocity_ned_mps, 0.0, 0.0, self._hover)
+            ld.update(now_s, False, meas.velocity_ned_mps, 0.0, 0.0, hover)
         yaw = q_yaw(meas.attitude_q)
         if not st.flying:
             st.trajectory.reset(pos, vel)

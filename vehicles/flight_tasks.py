@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
+from vehicles.control.hover_thrust import HoverThrustEstimator
 from vehicles.control.position_control import PositionSetpoint
 from vehicles.follow_target import FollowTarget
 from vehicles.manual_control import (
@@ -146,10 +147,10 @@ class OffboardTask(FlightTask):
                             and not math.isnan(sp.yaw_rate_radps) else 0.0)
                 st.apply(t.dt_s, meas, PositionSetpoint(p, v, oc.yaw_rad, a), t.yaw_rad, yawspeed)
                 return
-            g = st.position_control.gains
+            pc = st.position_control
             acc: Vec3 = (0.0 if math.isnan(a[0]) else a[0], 0.0 if math.isnan(a[1]) else a[1],
                          0.0 if math.isnan(a[2]) else a[2])
-            thrust = acceleration_to_thrust(acc, g.hover_thrust, g.tilt_max_rad)
+            thrust = acceleration_to_thrust(acc, pc.hover_thrust, pc.gains.tilt_max_rad)
             st.direct(thrust_to_attitude(thrust, oc.yaw_rad), flying=True)
             return
         thrust_norm = 0.0 if math.isnan(sp.thrust) else min(max(sp.thrust, 0.0), 1.0)
@@ -291,11 +292,11 @@ class StickAttitudeTask(FlightTask):
     rates and thrust straight from the sticks."""
 
     def __init__(self, stage: PositionStage, params: ParamStore, manual: ManualControl,
-                 stabilized: Stabilized, hover_thrust: float, acro: bool = False) -> None:
+                 stabilized: Stabilized, hover: HoverThrustEstimator, acro: bool = False) -> None:
         super().__init__(stage, params)
         self.manual = manual
         self.stabilized = stabilized
-        self.hover = hover_thrust
+        self.hte = hover  # its hover_thrust: the throttle curve's centre (mc_att_control)
         self.acro = acro
 
     def activate(self, t: TaskInput) -> None:
@@ -305,12 +306,13 @@ class StickAttitudeTask(FlightTask):
         st, meas = self.stage, t.meas
         st.trajectory.reset(meas.position_ned_m, meas.velocity_ned_mps)
         sticks = self.manual.current(t.now_s) if t.armed else CENTRED
+        hover = self.hte.hover_thrust
         if self.acro:
             thrust = acro_thrust(sticks)
         else:
-            thrust = throttle_to_thrust(sticks.throttle, self.params, self.hover)
+            thrust = throttle_to_thrust(sticks.throttle, self.params, hover)
         landed = st.land_detector.landed
-        if not t.armed or (landed and thrust <= self.hover):
+        if not t.armed or (landed and thrust <= hover):
             self.stabilized.activate(t.yaw_rad)
             st.set_idle(meas)
             return
@@ -332,15 +334,15 @@ class Tasks:
 
 def make_tasks(stage: PositionStage, params: ParamStore, navigator: Navigator,
                offboard: Offboard, manual: ManualControl, orbit: Orbit, follow: FollowTarget,
-               hover_thrust: float) -> Tasks:
+               hover: HoverThrustEstimator) -> Tasks:
     auto = AutoTask(stage, params, navigator)
     orbit_task = OrbitTask(stage, params, orbit, manual)
     stabilized = Stabilized(params)
-    stab = StickAttitudeTask(stage, params, manual, stabilized, hover_thrust)
+    stab = StickAttitudeTask(stage, params, manual, stabilized, hover)
     by_state: dict[NavState, FlightTask] = {
         NavState.MANUAL: stab,
         NavState.STAB: stab,
-        NavState.ACRO: StickAttitudeTask(stage, params, manual, stabilized, hover_thrust, acro=True),
+        NavState.ACRO: StickAttitudeTask(stage, params, manual, stabilized, hover, acro=True),
         NavState.ALTCTL: StickPositionTask(stage, params, manual, ManualAltitude(params)),
         NavState.POSCTL: StickPositionTask(stage, params, manual, ManualPosition(params)),
         NavState.OFFBOARD: OffboardTask(stage, params, offboard),

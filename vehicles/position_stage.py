@@ -65,6 +65,9 @@ class PositionStage:
         self.vel_sp_z = 0.0  # the task's vertical velocity setpoint (the land detector's input)
         self.vel_sp: Vec3 = _NAN3  # the last velocity setpoint (Orbit's and the sticks' feedback)
         self.acc_sp: Vec3 = _NAN3  # the last acceleration setpoint (PX4's _acc_sp)
+        # The position controller's last thrust setpoint's z (NED; PX4's
+        # vehicle_local_position_setpoint thrust[2]); NaN when it did not run this tick.
+        self.thrust_z_ned = math.nan
         self.yaw_sp = math.nan  # the auto tasks' slewed heading setpoint
 
     def set_gains(self, gains: PositionControlGains) -> None:
@@ -78,6 +81,7 @@ class PositionStage:
     def begin_tick(self, now_s: float, armed: bool) -> None:
         """Called by the autopilot before the flight task of this 50 Hz tick."""
         self._now_s = now_s
+        self.thrust_z_ned = math.nan
         self._armed = armed
         self.rates = None
 
@@ -192,6 +196,8 @@ class PositionStage:
         self.vel_sp_z = task_vz if math.isfinite(task_vz) else vel_sp[2]
         self.vel_sp = vel_sp
         self.acc_sp = acc_sp
+        qw, qx, qy, qz = q
+        self.thrust_z_ned = -thrust * (1.0 - 2.0 * (qx * qx + qy * qy))  # along body z
         self.attitude = AttitudeSetpoint(q, thrust, yawspeed)
         self.thrust = thrust
 

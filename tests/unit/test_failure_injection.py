@@ -41,6 +41,7 @@ def test_gps_off_in_hold_descends_lands_and_disarms():
         truth = sim.vehicles[0].truth
         assert truth.position_ned_m[2] > -0.3
         assert math.hypot(*truth.position_ned_m[:2]) < 5.0  # it drifts a little, no more
+        sim.advance(0.5)  # the disarm's STATUSTEXT goes out at the next send
         texts = [m.text for m in api.messages("STATUSTEXT")]
         assert "Failsafe activated" in texts and "Disarmed by landing" in texts
         # The GPS back: the position is valid again.

@@ -78,18 +78,20 @@ def test_gps_fix_is_ekf2_gps_delay_old_and_exact_without_noise():
         sim.advance(3.0)
         dt = sim.simulation.world.dt_s
         delay = int(round(est.GPS_DELAY_S / dt))
-        truths = []
-        fixes = []
+        world = sim.simulation.world
+        truths = {}  # physics step -> the truth after it
+        fixes = []  # (physics step, the GPS fix after it)
         for _ in range(200):
-            sim.advance(dt)
+            sim.advance(dt)  # one step, or none or two where the float clock rounds
             v = sim.vehicles[0]
-            truths.append(v.truth.position_ned_m)
-            fixes.append(tuple(v.sensors[S_GPS_POS:S_GPS_POS + 3]))
+            truths[world.steps] = v.truth.position_ned_m
+            fixes.append((world.steps, tuple(v.sensors[S_GPS_POS:S_GPS_POS + 3])))
         # Each new fix is the truth of ``delay`` steps before it was taken.
-        new = [i for i in range(1, len(fixes)) if fixes[i] != fixes[i - 1] and i >= delay]
-        assert len(new) > 20
-        for i in new:
-            assert fixes[i] == pytest.approx(truths[i - delay], abs=1e-9)
+        new = [(step, fix) for (step, fix), (before_step, before) in zip(fixes[1:], fixes)
+               if fix != before and before_step == step - 1 and step - delay in truths]
+        assert len(new) >= 15  # 0.8 s of 30 Hz fixes, less the first delay
+        for step, fix in new:
+            assert fix == pytest.approx(truths[step - delay], abs=1e-9)
         # Without noise the estimate stays on the truth.
         v = sim.vehicles[0]
         assert math.dist(v.kinematics.position_ned_m, v.truth.position_ned_m) < 0.02

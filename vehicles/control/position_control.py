@@ -12,8 +12,9 @@ Rules:
 - NaN in a setpoint component means "not commanded" (PX4 convention): NaN position -> that axis is
   velocity-controlled; NaN velocity feed-forward -> 0.
 - The gains are PX4's physical gains (m/s per m, m/s² per m/s): the plant is physical, so no
-  scaling is needed here. The hover thrust is the airframe's true value, standing in for PX4's
-  converged hover-thrust estimator (MPC_USE_HTE=1); MPC_THR_HOVER is used only if none is given.
+  scaling is needed here. The hover thrust is MPC_THR_HOVER until PX4's hover thrust estimator
+  gives one (vehicles/control/hover_thrust.py; ``update_hover_thrust``, as
+  PositionControl::updateHoverThrust).
 - Pure: no physics engine, no clock; ``update`` takes ``dt_s``.
 - The arithmetic is ``position_control_step``, compiled with numba (cached next to this file):
   it runs at 50 Hz for every vehicle and was a large part of the 50 Hz loop in CPython.
@@ -270,6 +271,21 @@ class PositionControl:
         update; the takeoff ramp moves them)."""
         g = self._gains
         g[9], g[12], g[11] = speed_up_mps, thrust_min, tilt_max_rad
+
+    @property
+    def hover_thrust(self) -> float:
+        return float(self._gains[14])
+
+    def update_hover_thrust(self, hover_thrust: float, acc_sp_z: float) -> None:
+        """PositionControl::updateHoverThrust: a new hover thrust (0.05..0.9), the vertical
+        integrator moved so that the thrust of the last acceleration setpoint ``acc_sp_z``
+        (NED) stays the same: T = (a − g)·Th/g."""
+        previous = float(self._gains[14])
+        new = min(max(hover_thrust, 0.05), 0.9)
+        self._gains[14] = new
+        if math.isfinite(acc_sp_z):
+            self._vel_int[2] += ((acc_sp_z - GRAVITY_MPS2) * previous / new + GRAVITY_MPS2
+                                 - acc_sp_z)
 
     @property
     def velocity_integral(self) -> Vec3:
