@@ -43,6 +43,7 @@ def main() -> int:
     sim = fuzz._sim()
     tried: collections.Counter[str] = collections.Counter()
     failures = {"escaped": 0, "telemetry": 0, "state": 0}
+    bad_fields: collections.Counter[str] = collections.Counter()  # TYPE.field: times non-finite
     examples = [0]
     t0 = time.perf_counter()
 
@@ -62,7 +63,9 @@ def main() -> int:
             sim.inject(0, kind, f, ("fuzz", 1))
         sim.run(until=sim.now + 0.05)
         failures["escaped"] += sim.internal_errors - before
-        failures["telemetry"] += len(fuzz.non_finite_telemetry())
+        bad = fuzz.non_finite_telemetry()
+        failures["telemetry"] += len(bad)
+        bad_fields.update(bad)
         k = sim.vehicles[0].kinematics
         if not all(math.isfinite(x) for x in k.position_ned_m + k.attitude_q):
             failures["state"] += 1
@@ -83,6 +86,9 @@ def main() -> int:
     print(f"escaped exceptions: {failures['escaped']}; non-finite telemetry fields: "
           f"{failures['telemetry']}; non-finite vehicle states: {failures['state']}; "
           f"afterwards HEARTBEAT and land ACK: {'yes' if health_ok else 'NO'}")
+    if bad_fields:
+        print("non-finite fields: " + ", ".join(f"{name} {n}" for name, n in
+                                                 bad_fields.most_common()))
     for s in fuzz._SIM:
         s.close()
     return 0 if health_ok and not any(failures.values()) else 1
