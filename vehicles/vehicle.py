@@ -220,6 +220,9 @@ class Vehicle:
         auto_sp = ap.tasks.auto.setpoint
         if position_control and auto_sp is not None and nav not in _NO_POSITION_HOLD:
             target = auto_sp.target_ned_m
+            if target[2] != target[2]:  # a landing: PX4's land setpoint is at the ground's altitude
+                home = ap.home
+                target = (target[0], target[1], home.position_ned_m[2] if home else 0.0)
         return Targets(st.tick_s, out.attitude_q, out.thrust_norm,
                        (commanded[0], commanded[1], commanded[2]), position_control, pos, vel,
                        acc, yaw, out.yawspeed_radps, target,

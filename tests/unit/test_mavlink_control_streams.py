@@ -140,3 +140,20 @@ def test_clients_answer_the_vehicles_pings_as_mavsdk_and_qgc_do(flight):
     for kind, client in ((LinkKind.API, flight["api"]), (LinkKind.GCS, flight["gcs"])):
         stats = sim.simulation.links[(0, kind)].session.stats
         assert stats.rx_ping_replies == len(client.messages("PING")) > 0
+
+
+def test_while_landing_the_global_target_is_on_the_ground():
+    """PX4's land setpoint (navigator set_land_item, RTL's and a mission's land) carries an
+    altitude: POSITION_TARGET_GLOBAL_INT.alt is the ground's (home's), never NaN."""
+    with Sim(1) as sim:
+        api = sim.api(0)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        assert api.arm() == 0 and api.takeoff() == 0
+        assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=20)
+        assert api.command_long(M.MAV_CMD_NAV_LAND, 0, 0, 0, math.nan, math.nan, math.nan,
+                                math.nan) == 0
+        since = len(api.frames)
+        sim.advance(2.0)
+        targets = api.messages("POSITION_TARGET_GLOBAL_INT", since)
+        assert targets and all(t.alt == pytest.approx(PX4_SITL_HOME.alt_amsl_m, abs=0.01)
+                               for t in targets)
