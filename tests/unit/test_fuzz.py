@@ -334,7 +334,7 @@ def test_every_served_command_with_each_parameter_hostile_in_turn():
         assert len(api.messages("HEARTBEAT")) - n0 == 2
 
 
-@pytest.mark.parametrize("alt_m", [1e12, 3e38, -1e12])
+@pytest.mark.parametrize("alt_m", [1e12, 3e38, -1e12, 3.4028234663852886e38, -3.4028234663852886e38])
 def test_a_reposition_to_a_hostile_altitude_never_stops_a_stream(alt_m):
     """DO_REPOSITION takes any finite altitude (PX4's navigator checks only that it is finite).
     The streams that carry the setpoint as an integer (UTM_GLOBAL_POSITION's next_alt, mm in an
@@ -355,5 +355,5 @@ def test_a_reposition_to_a_hostile_altitude_never_stops_a_stream(alt_m):
         utm = api.messages("UTM_GLOBAL_POSITION", since)
         assert len(utm) >= 2  # PX4 ≤ 1.15 sends it at 1 Hz on the API link
         assert utm[-1].next_alt == (2**31 - 1 if alt_m > 0 else -(2**31))
-        assert api.messages("POSITION_TARGET_GLOBAL_INT", since)[-1].alt == pytest.approx(
-            alt_m, rel=1e-6)
+        alt = api.messages("POSITION_TARGET_GLOBAL_INT", since)[-1].alt
+        assert math.isfinite(alt) and alt == pytest.approx(alt_m, rel=1e-6)
