@@ -226,7 +226,8 @@ class CommandService:
         return None
 
     def _takeoff(self, cmd: Command, now_s: float) -> int:
-        return self.vehicle.takeoff(now_s, alt_amsl_m=cmd.p(7))
+        # PX4's navigator takes param7 only when finite: inf asks for the default altitude.
+        return self.vehicle.takeoff(now_s, alt_amsl_m=_finite_or_nan(cmd.p(7)))
 
     def _set_mode(self, cmd: Command, now_s: float) -> int:
         base, main, sub = cmd.p(1), cmd.p(2), cmd.p(3)

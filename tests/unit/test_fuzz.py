@@ -357,3 +357,23 @@ def test_a_reposition_to_a_hostile_altitude_never_stops_a_stream(alt_m):
         assert utm[-1].next_alt == (2**31 - 1 if alt_m > 0 else -(2**31))
         alt = api.messages("POSITION_TARGET_GLOBAL_INT", since)[-1].alt
         assert math.isfinite(alt) and alt == pytest.approx(alt_m, rel=1e-6)
+
+
+@pytest.mark.parametrize("alt_m", [math.inf, -math.inf, math.nan])
+def test_a_takeoff_to_a_non_finite_altitude_takes_the_default(alt_m):
+    """PX4's navigator reads NAV_TAKEOFF's param7 only when it is finite: inf climbs to
+    MIS_TAKEOFF_ALT like NaN does (it had set a target at -inf, sent as an infinite
+    POSITION_TARGET_GLOBAL_INT.alt)."""
+    from gateway.ci.lockstep import Sim
+
+    with Sim(1) as sim:
+        api = sim.api(0)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        assert api.arm() == 0
+        assert api.command_long(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan,
+                                alt_m) == M.MAV_RESULT_ACCEPTED
+        since = len(api.frames)
+        sim.run_until(lambda: False, timeout_s=2)
+        target = sim.vehicles[0].targets.global_target_ned_m
+        assert target is not None and target[2] == pytest.approx(-2.5, abs=0.05)  # MIS_TAKEOFF_ALT
+        assert all(math.isfinite(t.alt) for t in api.messages("POSITION_TARGET_GLOBAL_INT", since))
