@@ -61,7 +61,7 @@ class PositionControlGains:
     tilt_max_rad: float
     thrust_min: float
     thrust_max: float
-    hover_thrust: float
+    hover_thrust: float  # the controller's first; PositionControl.hover_thrust is the present one
 
     @staticmethod
     def from_params(params, hover_thrust: float | None = None) -> PositionControlGains:
@@ -274,6 +274,8 @@ class PositionControl:
 
     @property
     def hover_thrust(self) -> float:
+        """The hover thrust the controller uses now (``update_hover_thrust`` moves it; the
+        frozen ``gains`` keep the one it was built with)."""
         return float(self._gains[14])
 
     def update_hover_thrust(self, hover_thrust: float, acc_sp_z: float) -> None:
