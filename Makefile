@@ -9,6 +9,9 @@ STAMP4 := $(VENV4)/.installed
 STAMPG := $(VENVG)/.installed
 VEHICLES ?= 1
 PORT_OFFSET ?= 0
+# What clients change (parameters, mission, geofence) and the flight logs, kept across runs as a
+# PX4 SITL instance keeps them in its rootfs: `make run STATE_DIR=elsewhere`.
+STATE_DIR ?= state
 PYTEST_ARGS ?=
 # Three pytest workers that steal work from each other: xdist's default hands each worker a first
 # chunk of consecutive tests, so one worker would run every end-to-end test in a row. Tests marked
@@ -44,7 +47,7 @@ $(STAMPG): pyproject.toml
 	touch $@
 
 run: $(STAMP)
-	$(VENV)/bin/cornet run --vehicles $(VEHICLES) --port-offset $(PORT_OFFSET)
+	$(VENV)/bin/cornet run --vehicles $(VEHICLES) --port-offset $(PORT_OFFSET) --state-dir $(STATE_DIR)
 
 test: $(STAMP) $(STAMP4) $(STAMPG) ns3-if-possible browser-if-possible
 	$(VENV)/bin/mypy

@@ -48,7 +48,8 @@ def make_run_command() -> list[str]:
     recipe = re.search(r"^run: .*\n\t(.+)$", (ROOT / "Makefile").read_text(), re.M)
     assert recipe, "Makefile: no run recipe"
     words = recipe.group(1).replace("$(VENV)", ".venv").replace("$(VEHICLES)", "1")
-    return shlex.split(words.replace("$(PORT_OFFSET)", "0"))
+    words = words.replace("$(PORT_OFFSET)", "0").replace("$(STATE_DIR)", "state")
+    return shlex.split(words)
 
 
 def test_the_quick_start_blocks_are_what_this_test_runs():
@@ -57,11 +58,12 @@ def test_the_quick_start_blocks_are_what_this_test_runs():
         ".venv/bin/python gcs_examples/takeoff_and_land.py",
         ".venv/bin/python gcs_examples/params.py",
         ".venv/bin/python gcs_examples/mission.py",
+        ".venv/bin/python gcs_examples/download_log.py",
         ".venv/bin/cornet fly square",
         ".venv/bin/cornet plot logs/",
     ], lines
     assert make_run_command() == [".venv/bin/cornet", "run", "--vehicles", "1", "--port-offset",
-                                  "0"]
+                                  "0", "--state-dir", "state"]
 
 
 def test_readme_quick_start_runs_as_written(tmp_path):
