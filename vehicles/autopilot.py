@@ -165,6 +165,9 @@ class Autopilot:
             text: str = "Armed by external command") -> CommandResult:
         """``here``: the vehicle's latest measurement (arming sets home there)."""
         was_armed = self.commander.armed
+        if not was_armed and self.calibration.busy:
+            self.log.critical(now_s, "Arming denied: calibrating")
+            return CommandResult.TEMPORARILY_REJECTED
         self._refresh_requirements(now_s)
         result = self.commander.arm(now_s, forced, text)
         if result is CommandResult.ACCEPTED and not was_armed:

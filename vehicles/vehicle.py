@@ -33,6 +33,8 @@ from vehicles.estimation import (
     F_GYRO_STUCK,
     F_MAG_OFF,
     F_MAG_STUCK,
+    S_ACC,
+    S_GYRO,
 )
 from vehicles.inner_loop import InnerCommand
 from vehicles.manual_control import Sticks
@@ -143,6 +145,10 @@ class Vehicle:
                 self._noaid_timeout_s = timeout * 1e-6
             aided = self._world.gps_age_s(self._row) < self._noaid_timeout_s
             self._autopilot.set_position_aided(aided)
+            if self._autopilot.calibration.needs_sensors:
+                sensed = self._world.sensors(self._row)
+                self._autopilot.calibration.sample(sensed[S_ACC:S_ACC + 3],
+                                                   sensed[S_GYRO:S_GYRO + 3])
             return self._autopilot.step(self._measurement(), now_s)
         return self._autopilot.poll(now_s)
 
@@ -409,9 +415,17 @@ class Vehicle:
         return CommandResult.UNSUPPORTED
 
     def calibrate(self, now_s: float, kind: str) -> CommandResult:
-        """MAV_CMD_PREFLIGHT_CALIBRATION for ``kind`` (vehicles/calibration.py KINDS)."""
+        """MAV_CMD_PREFLIGHT_CALIBRATION for ``kind``: one of vehicles/calibration.py KINDS,
+        "radio", "esc", or "cancel" (every parameter 0)."""
         ap = self._autopilot
-        return ap.calibration.start(now_s, kind, ap.commander.armed)
+        cal, armed = ap.calibration, ap.commander.armed
+        if kind == "cancel":
+            return cal.cancel(now_s)
+        if kind == "radio":
+            return cal.start_radio(now_s, armed)
+        if kind == "esc":
+            return cal.start_esc(now_s, armed)
+        return cal.start(now_s, kind, armed)
 
     def terminate(self, now_s: float) -> CommandResult:
         return self._autopilot.terminate(now_s)

@@ -305,20 +305,34 @@ class CommandService:
         return terminate(now_s) if cmd.p(1) > 0.5 else DENIED
 
     def _calibration(self, cmd: Command, now_s: float) -> int:
-        """PX4 SITL's gyro (param1), barometer (param3) and level-horizon (param5 = 2)
-        calibrations; the ones that need the vehicle turned by hand, radio and ESCs: refused."""
+        """PX4 Commander's PREFLIGHT_CALIBRATION, in its order of parameters: gyro (param1 1),
+        magnetometer (param2 1), barometer (param3 1), radio (param4 1), accelerometer
+        (param5 1), level horizon (param5 2), ESCs (param7 1); param4 0 otherwise ends a radio
+        calibration or cancels a running one (QGC's and MAVSDK's cancel: every parameter 0).
+        Not served: radio trim, quick accelerometer, airspeed, temperature."""
         calibrate = self._vehicle("calibrate")
         if calibrate is None:
             return UNSUPPORTED
-        if _eq(cmd.p(1), 1.0):
+        p = [_c_int(cmd.p(i)) for i in range(1, 8)]
+        if p[0] == 1:
             return calibrate(now_s, "gyro")
-        if _eq(cmd.p(3), 1.0):
+        if p[1] == 1:
+            return calibrate(now_s, "mag")
+        if p[2] == 1:
             return calibrate(now_s, "baro")
-        if _eq(cmd.p(5), 2.0):
+        if p[3] == 1:
+            return calibrate(now_s, "radio")
+        if p[4] == 1:
+            return calibrate(now_s, "accel")
+        if p[4] == 2:
             return calibrate(now_s, "level")
-        if all(_eq(cmd.p(i), 0.0) for i in range(1, 8)):
-            return ACCEPTED  # nothing asked (QGC's cancel)
-        return TEMPORARILY_REJECTED
+        if p[6] == 1:
+            return calibrate(now_s, "esc")
+        if p[3] == 2 or p[4] == 4 or p[5] in (1, 2) or 3 in (p[0], p[4], p[6]):
+            return TEMPORARILY_REJECTED
+        if p[3] == 0:
+            return calibrate(now_s, "cancel")
+        return UNSUPPORTED
 
     def _inject_failure(self, cmd: Command, now_s: float) -> int:
         inject = self._vehicle("inject_failure")
@@ -406,6 +420,14 @@ class CommandService:
 
 def _finite_or_nan(value: float) -> float:
     return value if math.isfinite(value) else math.nan
+
+
+def _c_int(value: float) -> int:
+    """C's ``(int)value`` as PX4 reads command parameters: truncation; NaN and infinities (whose
+    conversion C leaves undefined) give x86's INT_MIN."""
+    if math.isnan(value) or math.isinf(value) or abs(value) >= 2**31:
+        return -(2**31)
+    return int(value)
 
 
 def _int_or(value: float, default: int) -> int:

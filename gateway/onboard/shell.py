@@ -177,6 +177,11 @@ class Pxh:
                 self.print(f"ERROR [commander] argument {args[1]} unsupported.\n")
                 return 1
             result = v.set_nav_state(now_s, mode)
+        elif cmd == "calibrate" and len(args) > 1:
+            if args[1] not in ("gyro", "mag", "accel", "level", "baro", "esc"):
+                self.print(f"ERROR [commander] argument {args[1]} unsupported.\n")
+                return 1
+            result = v.calibrate(now_s, args[1])
         elif cmd == "status":
             st = v.status
             self.print(f"arming state: {'ARMED' if st.armed else 'DISARMED'}\n"

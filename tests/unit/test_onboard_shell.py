@@ -61,25 +61,3 @@ def test_failure_command_needs_sys_failure_en_and_closing_the_shell():
         assert not sim.status(0).position_valid
         shell(sim, "", flags=0)  # no RESPOND: the shell closes; the next one starts afresh
         assert shell(sim, "\n") == "\npxh> "
-
-
-def test_gyro_and_level_calibration_as_px4_sitl():
-    """MAV_CMD_PREFLIGHT_CALIBRATION: gyro and level horizon run with PX4's "[cal]" texts (QGC's
-    sensor page); turning the vehicle by hand is not modelled (TEMPORARILY_REJECTED); armed:
-    DENIED."""
-    with Sim() as sim:
-        sim.advance(1.0)
-        api = sim.api(0)
-        assert api.command_long(M.MAV_CMD_PREFLIGHT_CALIBRATION, 1, 0, 0, 0, 0, 0, 0) == 0
-        assert api.command_long(M.MAV_CMD_PREFLIGHT_CALIBRATION, 0, 0, 0, 0, 2, 0, 0) == 1
-        sim.advance(3.0)
-        assert api.command_long(M.MAV_CMD_PREFLIGHT_CALIBRATION, 0, 0, 0, 0, 2, 0, 0) == 0
-        sim.advance(3.0)
-        texts = [m.text for m in api.messages("STATUSTEXT")]
-        assert texts[:2] == ["[cal] calibration started: 2 gyro", "[cal] progress <0>"]
-        assert "[cal] progress <100>" in texts and "[cal] calibration done: gyro" in texts
-        assert "[cal] calibration done: level" in texts
-        assert api.command_long(M.MAV_CMD_PREFLIGHT_CALIBRATION, 0, 0, 0, 0, 1, 0, 0) == 1
-        sim.advance(3.0)
-        assert api.arm() == 0
-        assert api.command_long(M.MAV_CMD_PREFLIGHT_CALIBRATION, 1, 0, 0, 0, 0, 0, 0) == 2
