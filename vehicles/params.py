@@ -125,8 +125,9 @@ class ParamStore:
         self._observers: list[Callable[[str, int | float], None]] = []
         self.version = 0
         self.derived: dict[object, object] = {}
+        self._set_defaults: dict[str, int | float] = {}  # ``set_default``'s, over the table's
         for name, value in (overrides or {}).items():
-            if not self.set(name, value):
+            if not self.set_default(name, value):
                 raise KeyError(f"unknown PX4 parameter {name!r}")
 
     # --- lookup -------------------------------------------------------------------------------
@@ -176,6 +177,29 @@ class ParamStore:
             for observer in list(self._observers):
                 observer(name, new)
         return True
+
+    def set_default(self, name: str, value: float) -> bool:
+        """PX4's ``param set-default`` (an airframe's or the launch's values, e.g. the instance's
+        MAV_SYS_ID): set the value and make it the one a reset returns to."""
+        if not self.set(name, value):
+            return False
+        self._set_defaults[name] = self._by_name[name]
+        return True
+
+    def default_of(self, name: str) -> int | float:
+        return self._set_defaults.get(name, self._infos[self._index[name]].default)
+
+    def reset(self, selected: Callable[[str], bool]) -> int:
+        """PX4's param_reset_all / _excludes / _specific: every parameter ``selected`` accepts
+        back to its default (observers see each change); how many changed."""
+        changed = 0
+        for info in self._infos:
+            name = info.name
+            if selected(name):
+                before = self._by_name[name]
+                self.set(name, self.default_of(name))
+                changed += self._by_name[name] != before
+        return changed
 
     def on_change(self, observer: Callable[[str, int | float], None]) -> None:
         self._observers.append(observer)

@@ -427,6 +427,25 @@ class Vehicle:
             return cal.start_esc(now_s, armed)
         return cal.start(now_s, kind, armed)
 
+    def param_storage(self, now_s: float, action: int) -> CommandResult | None:
+        """MAV_CMD_PREFLIGHT_STORAGE param1, as PX4's commander worker: 0 load and 1 save (the
+        parameters are saved as they change, so the file already holds them), 2 reset all but
+        the flight-time counters (QGC's "Reset all to firmware's defaults"), 3 reset the sensor
+        calibrations, 4 reset all; to the defaults with the launch's values (``set_default``).
+        Armed or calibrating: TEMPORARILY_REJECTED. Another action: no answer, as PX4."""
+        ap = self._autopilot
+        if ap.commander.armed or ap.calibration.kind is not None:
+            return CommandResult.TEMPORARILY_REJECTED
+        if action in (0, 1):
+            return CommandResult.ACCEPTED
+        selected = {2: lambda n: n not in ("LND_FLIGHT_T_HI", "LND_FLIGHT_T_LO", "COM_FLIGHT_UUID"),
+                    3: lambda n: n.startswith(("CAL_ACC", "CAL_GYRO", "CAL_MAG")),
+                    4: lambda n: True}.get(action)
+        if selected is None:
+            return None
+        self.params.reset(selected)
+        return CommandResult.ACCEPTED
+
     def terminate(self, now_s: float) -> CommandResult:
         return self._autopilot.terminate(now_s)
 

@@ -155,9 +155,10 @@ class Daemon:
             # the wall clock, are counted in simulated time, so they are scaled by the factor.
             for name in SPEED_SCALED_PARAMS:
                 if name not in saved.params:
-                    store.set(name, state.scaled_value(store, name, speed))
+                    store.set_default(name, state.scaled_value(store, name, speed))
+        # Launch values are defaults (PX4's rcS ``param set-default``): a reset keeps them.
         for name, value in {**cfg.params, **cfg.vehicle_params.get(sysid, {})}.items():
-            store.set(name, value)
+            store.set_default(name, value)
         if cfg.state_dir is not None and self._state_writer is not None:
             kept = state.VehicleState(self._state_writer, cfg.state_dir, sysid, saved)
             self._vehicle_states[sysid] = kept

@@ -144,6 +144,7 @@ class CommandService:
             M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_message_interval,
             M.MAV_CMD_GET_MESSAGE_INTERVAL: self._get_message_interval,
             M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibration,
+            M.MAV_CMD_PREFLIGHT_STORAGE: self._storage,
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
                 lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
             M.MAV_CMD_RUN_PREARM_CHECKS: lambda c, t: ACCEPTED,
@@ -333,6 +334,12 @@ class CommandService:
         if p[3] == 0:
             return calibrate(now_s, "cancel")
         return UNSUPPORTED
+
+    def _storage(self, cmd: Command, now_s: float) -> int | None:
+        storage = self._vehicle("param_storage")
+        if storage is None:
+            return UNSUPPORTED
+        return storage(now_s, _c_int(cmd.p(1)))
 
     def _inject_failure(self, cmd: Command, now_s: float) -> int:
         inject = self._vehicle("inject_failure")

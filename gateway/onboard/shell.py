@@ -144,10 +144,11 @@ class Pxh:
                 return 1
             self.print(f"  {name}: curr: {fmt(old)} -> new: {fmt(params[name])}\n")
             return 0
-        if cmd == "reset" and rest:
-            for name in rest:
-                if name in params:
-                    params.set(name, params.info(name).default)
+        if cmd == "reset" and rest:  # param_reset_specific: names, "*" wildcards allowed
+            params.reset(lambda n: any(fnmatch.fnmatchcase(n, p) for p in rest))
+            return 0
+        if cmd == "reset_all":  # param_reset_excludes: all but the names given
+            params.reset(lambda n: not any(fnmatch.fnmatchcase(n, p) for p in rest))
             return 0
         if cmd in ("save", "load", "status"):
             if cmd == "status":

@@ -139,3 +139,35 @@ def test_param_set_errors():
     assert (m.get_type(), m.error) == ("PARAM_ERROR", 5)  # READ_ONLY
     assert vehicle.params["MIS_TAKEOFF_ALT"] == 2.5
     assert client.send(M.MAVLink_param_set_message(9, 1, b"MIS_TAKEOFF_ALT", 1.0, 9)) == []
+
+
+def test_preflight_storage_resets_as_px4s_commander_worker():
+    """MAV_CMD_PREFLIGHT_STORAGE: 2 (QGC's "Reset all to firmware's defaults") puts every
+    parameter back to its default but the flight-time counters; the instance's MAV_SYS_ID and
+    other launch values are defaults (``set-default``) and stay; each change is broadcast. 3
+    resets only the sensor calibrations; armed: TEMPORARILY_REJECTED; 0/1 (load, save):
+    ACCEPTED; another action: no answer."""
+    from gateway.testing import Sim
+
+    storage = M.MAV_CMD_PREFLIGHT_STORAGE
+    with Sim(2, params={"MPC_XY_CRUISE": 7.0}) as sim:
+        sim.advance(1.0)
+        api = sim.api(1)
+        params = sim.vehicles[1].params
+        for name, value in (("MIS_TAKEOFF_ALT", 4.0), ("LND_FLIGHT_T_HI", 3),
+                            ("CAL_ACC0_XOFF", 0.5), ("NAV_DLL_ACT", 2)):
+            assert params.set(name, value)
+        assert api.command_long(storage, 3) == 0
+        assert params["CAL_ACC0_XOFF"] == 0.0 and params["MIS_TAKEOFF_ALT"] == 4.0
+        since = len(api.frames)
+        assert api.command_long(storage, 2) == 0
+        sim.advance(0.1)
+        assert params["MIS_TAKEOFF_ALT"] == 2.5 and params["NAV_DLL_ACT"] == 0
+        assert params["LND_FLIGHT_T_HI"] == 3  # PX4's exclude list
+        assert params["MAV_SYS_ID"] == 2 and params["MPC_XY_CRUISE"] == 7.0  # launch values
+        sent = {m.param_id for m in api.messages("PARAM_VALUE", since)}
+        assert {"MIS_TAKEOFF_ALT", "NAV_DLL_ACT"} <= sent and "MAV_SYS_ID" not in sent
+        assert api.command_long(storage, 1) == 0 and api.command_long(storage, 0) == 0
+        assert api.command_long(storage, 7, retries=0) is None  # PX4 answers nothing
+        assert api.arm() == 0
+        assert api.command_long(storage, 2) == 1

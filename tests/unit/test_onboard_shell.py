@@ -35,6 +35,13 @@ def test_prompt_echo_and_commands():
         assert "  MPC_XY_CRUISE: curr: 5.0000 -> new: 7.0000" in \
             shell(sim, "param set MPC_XY_CRUISE 7\n")
         assert sim.vehicles[0].params["MPC_XY_CRUISE"] == 7.0
+        shell(sim, "param set MIS_TAKEOFF_ALT 4\n")
+        shell(sim, "param reset MPC_XY_CRU*\n")
+        assert sim.vehicles[0].params["MPC_XY_CRUISE"] == 5.0
+        shell(sim, "param set MPC_XY_CRUISE 7\n")
+        shell(sim, "param reset_all MPC_*\n")  # all but the MPC_ parameters
+        assert sim.vehicles[0].params["MIS_TAKEOFF_ALT"] == 2.5
+        assert sim.vehicles[0].params["MPC_XY_CRUISE"] == 7.0
         assert "Parameter NOPE not found." in shell(sim, "param set NOPE 1\n")
         assert "Invalid command: frobnicate\ntype 'help' for a list of commands" in \
             shell(sim, "frobnicate\n")
