@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 
+from vehicles.actuator_test import ActuatorTest
 from vehicles.airframe import Airframe
 from vehicles.auto_trajectory import AutoTrajectory
 from vehicles.battery import BatterySim
@@ -40,7 +41,7 @@ from vehicles.flight_tasks import TaskInput, make_tasks
 from vehicles.follow_target import FollowTarget
 from vehicles.geodesy import position_fault
 from vehicles.geofence import Geofence
-from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF, InnerCommand
+from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF, MODE_TEST, InnerCommand
 from vehicles.land_detector import LandDetector
 from vehicles.manual_control import ManualControl, Sticks
 from vehicles.navigator import NavContext, Navigator, auto_limits
@@ -109,6 +110,7 @@ class Autopilot:
         self.tasks = make_tasks(self.stage, params, self.navigator, self.offboard, self.manual,
                                 self.orbit_task, self.follow_target, self.hover_thrust)
         self._new_gains = True
+        self.motor_test = ActuatorTest()
         self._load_gains()
         params.on_change(lambda name, value: self._load_gains())
         self._params_version = -1  # the values below are read at the first 50 Hz tick
@@ -172,6 +174,7 @@ class Autopilot:
         result = self.commander.arm(now_s, forced, text)
         if result is CommandResult.ACCEPTED and not was_armed:
             self._set_home(here)
+            self.motor_test.clear()
         return result
 
     def disarm(self, now_s: float, forced: bool = False) -> CommandResult:
@@ -358,17 +361,19 @@ class Autopilot:
         self._last = meas
         self._update_slow(now_s, meas)
         self.calibration.update(now_s)
+        if self.motor_test:
+            self.motor_test.expire(now_s)
         return self._command()
 
     def poll(self, now_s: float) -> InnerCommand | None:
         """Between 50 Hz ticks: a new command when the motor mode changed since the last one
         (arm, disarm, termination) or new gains wait; else None (the inner loop keeps its)."""
         self.time_s = now_s
-        if self._new_gains:
+        if self._new_gains or self.motor_test.changed:
             return self._command()
         cmd = self.commander  # ``_mode()``, inline: this runs at every physics step
         if not cmd.armed or cmd.terminated:
-            mode = MODE_OFF
+            mode = MODE_OFF if cmd.armed or cmd.terminated or not self.motor_test else MODE_TEST
         else:
             mode = MODE_IDLE if self.stage.idle else MODE_FLY
         return self._command() if mode != self._out.mode else None
@@ -376,7 +381,7 @@ class Autopilot:
     def _mode(self) -> int:
         cmd = self.commander
         if not cmd.armed or cmd.terminated:
-            return MODE_OFF
+            return MODE_OFF if cmd.armed or cmd.terminated or not self.motor_test else MODE_TEST
         return MODE_IDLE if self.stage.idle else MODE_FLY
 
     def _command(self) -> InnerCommand:
@@ -386,9 +391,12 @@ class Autopilot:
             gains = (self.attitude_gains.coefficients(), self.rate_gains.vector())
             self._new_gains = False
         sp = st.attitude
-        self._out = InnerCommand(self._mode(), sp.attitude_q, sp.yawspeed_radps,
+        mode = self._mode()
+        self.motor_test.changed = False
+        self._out = InnerCommand(mode, sp.attitude_q, sp.yawspeed_radps,
                                  sp.thrust_body_norm, st.rates, self.land_detector.landed, gains,
-                                 st.reset_rates)
+                                 st.reset_rates, self.motor_test.values() if mode == MODE_TEST
+                                 else ())
         st.reset_rates = False
         return self._out
 

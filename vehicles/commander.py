@@ -134,6 +134,7 @@ class Commander:
         self.landed = True
         self.have_taken_off_since_arming = False
         self._armed_at_s = 0.0
+        self.takeoff_at_s: float | None = None  # vehicle_status.takeoff_time, while armed
         self._landed_since_s: float | None = None
         self._params_version = -1  # the timeouts below are read at the first update
         self._disarm_land_s = self._disarm_preflight_s = self._dl_loss_t_s = 0.0
@@ -226,6 +227,11 @@ class Commander:
         self._log.info(now_s, text)
         return CommandResult.ACCEPTED
 
+    @property
+    def armed_at_s(self) -> float | None:
+        """vehicle_status.armed_time: when the vehicle armed, while armed."""
+        return self._armed_at_s if self.armed else None
+
     def disarm(self, now_s: float, forced: bool = False) -> CommandResult:
         if not self.armed:
             return CommandResult.ACCEPTED
@@ -237,7 +243,11 @@ class Commander:
 
     def _disarm(self, now_s: float, text: str) -> None:
         self.armed = False
+        self.takeoff_at_s = None
         self._log.info(now_s, text)
+        # PX4 counts flights in COM_FLIGHT_UUID at every disarm (an int32: it wraps).
+        uuid = int(self._params.get("COM_FLIGHT_UUID", 0) or 0)
+        self._params.set("COM_FLIGHT_UUID", (uuid + 1 + 2**31) % 2**32 - 2**31)
         fallback = MODE_TABLE[self.nav_state].after_disarm
         if fallback is not None:
             self.nav_state = self.user_nav_state = fallback
@@ -270,6 +280,7 @@ class Commander:
             else:
                 self._log.info(now_s, "Takeoff detected")
                 self.have_taken_off_since_arming = True
+                self.takeoff_at_s = now_s
         self.landed = landed
         if not self.armed:
             return became_valid

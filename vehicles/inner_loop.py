@@ -39,6 +39,9 @@ from vehicles.control.rotation import dcm
 MODE_OFF = 0
 MODE_IDLE = 1
 MODE_FLY = 2
+# Disarmed, with PX4's actuator test (MAV_CMD_ACTUATOR_TEST) driving motors: ``setpoint``'s first
+# columns hold each rotor's test value (0..1 over the ESC range; NaN: the motor stays stopped).
+MODE_TEST = 3
 # The mixer's lowest motor command when armed: PX4's allocation gives 0 (actuator_motors); the
 # armed motor still spins, at the ESC's minimum (Airframe.esc_min_radps).
 IDLE_THRUST_NORM = 0.0
@@ -73,7 +76,7 @@ class InnerCommand(NamedTuple):
     whether the rate controller restarts (the motors went idle). A NamedTuple: one is built at
     every 50 Hz tick of every vehicle."""
 
-    mode: int  # MODE_OFF, MODE_IDLE or MODE_FLY
+    mode: int  # MODE_OFF, MODE_IDLE, MODE_FLY or MODE_TEST
     attitude_q: tuple[float, float, float, float]
     yawspeed_radps: float
     thrust_norm: float
@@ -81,6 +84,7 @@ class InnerCommand(NamedTuple):
     landed: bool
     gains: tuple[tuple[float, ...], tuple[float, ...]] | None  # (attitude, rate) coefficients
     reset_rates: bool
+    motor_test: tuple[float, ...] = ()  # MODE_TEST: each rotor's test value (NaN: stopped)
 
 
 @njit_cached
@@ -111,6 +115,11 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
         if not armed:
             for i in range(n_rotors):
                 u[i] = 0.0
+        elif mode[v] == MODE_TEST:
+            rate_state[v, :] = 0.0
+            for i in range(n_rotors):
+                x = setpoint[v, i]
+                u[i] = min(x, 1.0) if x >= 0.0 else -1.0  # NaN (or below 0): stopped
         else:
             if mode[v] == MODE_IDLE:
                 rate_state[v, :] = 0.0
@@ -136,7 +145,8 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
         total = tx = ty = tz = 0.0
         for i in range(n_rotors):
             # MixingOutput::output_limit_calc_single: the ESC output is a whole number (lroundf).
-            cmd = min(math.floor(esc_min + esc_span * u[i] + 0.5), w_max) if armed else 0.0
+            cmd = (min(math.floor(esc_min + esc_span * u[i] + 0.5), w_max)
+                   if armed and u[i] >= 0.0 else 0.0)
             out_cmd[C_OUTPUTS + i] = cmd
             cmd *= motor_ok[v, i]
             w = speeds[i]
@@ -292,6 +302,10 @@ class InnerLoop:
             self.setpoint[k] = (*command.attitude_q, command.yawspeed_radps, command.thrust_norm,
                                 *rates)
         self.landed[k] = command.landed
+        if command.mode == MODE_TEST:
+            n = min(len(command.motor_test), self._rotors)
+            self.setpoint[k, :self._rotors] = math.nan
+            self.setpoint[k, :n] = command.motor_test[:n]
 
     def commanded_row(self, k: int) -> list[float]:
         """Row ``k``'s last rate setpoint and commanded rotor speeds (C_* columns)."""

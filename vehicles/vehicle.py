@@ -196,7 +196,8 @@ class Vehicle:
              "estimator_ok": max(world.estimator_ratios(row)) <= 1.0,
              "rotor_speed_radps": world.rotor_speeds(row),
              "manual_control": c.manual_control_state,
-             "sensor_failures": world.sensor_failures(row)})
+             "sensor_failures": world.sensor_failures(row),
+             "armed_at_s": c.armed_at_s, "takeoff_at_s": c.takeoff_at_s})
 
     @property
     def position_setpoint_ned_m(self) -> Vec3 | None:
@@ -232,7 +233,8 @@ class Vehicle:
         return Targets(st.tick_s, out.attitude_q, out.thrust_norm,
                        (commanded[0], commanded[1], commanded[2]), position_control, pos, vel,
                        acc, yaw, out.yawspeed_radps, target,
-                       tuple(commanded[3:]) if cmd.armed else (0.0,) * (len(commanded) - 3))
+                       tuple(commanded[3:]) if cmd.armed or ap.motor_test
+                       else (0.0,) * (len(commanded) - 3))
 
     @property
     def truth(self) -> Measurement:
@@ -426,6 +428,15 @@ class Vehicle:
         if kind == "esc":
             return cal.start_esc(now_s, armed)
         return cal.start(now_s, kind, armed)
+
+    def actuator_test(self, now_s: float, function: int, value: float,
+                      timeout_s: float) -> CommandResult:
+        """MAV_CMD_ACTUATOR_TEST (vehicles/actuator_test.py): disarmed and with
+        COM_MOT_TEST_EN 1 only, else DENIED, as PX4's commander."""
+        ap = self._autopilot
+        if ap.commander.armed or int(self.params.get("COM_MOT_TEST_EN", 1) or 0) != 1:
+            return CommandResult.DENIED
+        return ap.motor_test.command(now_s, function, value, timeout_s, self.airframe.rotor_count)
 
     def param_storage(self, now_s: float, action: int) -> CommandResult | None:
         """MAV_CMD_PREFLIGHT_STORAGE param1, as PX4's commander worker: 0 load and 1 save (the

@@ -145,6 +145,7 @@ class CommandService:
             M.MAV_CMD_GET_MESSAGE_INTERVAL: self._get_message_interval,
             M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibration,
             M.MAV_CMD_PREFLIGHT_STORAGE: self._storage,
+            M.MAV_CMD_ACTUATOR_TEST: self._actuator_test,
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
                 lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
             M.MAV_CMD_RUN_PREARM_CHECKS: lambda c, t: ACCEPTED,
@@ -334,6 +335,14 @@ class CommandService:
         if p[3] == 0:
             return calibrate(now_s, "cancel")
         return UNSUPPORTED
+
+    def _actuator_test(self, cmd: Command, now_s: float) -> int:
+        test = self._vehicle("actuator_test")
+        if test is None:
+            return UNSUPPORTED
+        value = cmd.p(1)
+        return test(now_s, _c_int(cmd.p(5) + 0.5), value if math.isfinite(value) else math.nan,
+                    cmd.p(2))
 
     def _storage(self, cmd: Command, now_s: float) -> int | None:
         storage = self._vehicle("param_storage")

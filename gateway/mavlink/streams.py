@@ -55,6 +55,7 @@ from gateway.mavlink.telemetry_link import gps_global_origin, ping, timesync
 from gateway.mavlink.telemetry_requested import (
     actuator_output_status,
     distance_sensor,
+    flight_information,
     hil_state_quaternion,
     rc_channels,
     scaled_imu,
@@ -110,6 +111,7 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_DISTANCE_SENSOR, distance_sensor, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_HIL_STATE_QUATERNION, hil_state_quaternion, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, actuator_output_status, 0.0, 0.0),
+    StreamSpec(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION, flight_information, 0.0, 0.0),
 )
 STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
 # HEARTBEAT rate is fixed (PX4: SET_MESSAGE_INTERVAL on it → FAILED).

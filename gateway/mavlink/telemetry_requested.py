@@ -87,3 +87,15 @@ def actuator_output_status(enc: Encoder, s: Snapshot) -> bytes | None:
     outputs += [0.0] * (32 - len(outputs))
     return enc.pack(M.MAVLink_actuator_output_status_message, s.time_usec, ACTUATOR_OUTPUTS,
                     outputs)
+
+
+def flight_information(enc: Encoder, s: Snapshot) -> bytes | None:
+    """FLIGHT_INFORMATION.hpp (on request): despite the field names, the arming and takeoff
+    times are vehicle_status's armed_time and takeoff_time, microseconds since boot (0 when
+    disarmed or not yet flying); flight_uuid is COM_FLIGHT_UUID, which every disarm counts up."""
+    status = s.status
+    armed, takeoff = status.extra.get("armed_at_s"), status.extra.get("takeoff_at_s")
+    uuid = int(s.vehicle.params.get("COM_FLIGHT_UUID", 0) or 0) % 2**64  # static_cast<uint64_t>
+    return enc.pack(M.MAVLink_flight_information_message, s.time_boot_ms,
+                    0 if armed is None else int(armed * 1e6), 0 if takeoff is None else
+                    int(takeoff * 1e6), uuid)

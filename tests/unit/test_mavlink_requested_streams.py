@@ -103,3 +103,35 @@ def test_streams_without_data_in_sitl_send_nothing(msg_id):
     msgs = client.run_until(3.0)
     assert [m for m in msgs if m.get_msgId() == msg_id] == []
     assert of_type(msgs, "ATTITUDE")  # the other streams go on
+
+
+def test_flight_information_as_px4_on_request():
+    """FLIGHT_INFORMATION.hpp: arming and takeoff times in microseconds since boot (0 until
+    then, and again after disarming); COM_FLIGHT_UUID, which each disarm counts up."""
+    from gateway.testing import Sim
+
+    def info(api):
+        since = len(api.frames)
+        assert api.command_long(M.MAV_CMD_REQUEST_MESSAGE,
+                                M.MAVLINK_MSG_ID_FLIGHT_INFORMATION) == 0
+        api.sim.advance(0.05)
+        return api.messages("FLIGHT_INFORMATION", since)[-1]
+
+    with Sim() as sim:
+        sim.advance(6.0)
+        api = sim.api(0)
+        first = info(api)
+        assert (first.arming_time_utc, first.takeoff_time_utc, first.flight_uuid) == (0, 0, 0)
+        assert abs(first.time_boot_ms - 6000) < 100
+        assert api.arm() == 0
+        armed_at = sim.now
+        assert api.takeoff() == 0
+        sim.run_until(lambda: sim.status(0).landed_state == 2, 20.0)  # in the air
+        flying = info(api)
+        assert abs(flying.arming_time_utc - armed_at * 1e6) < 50_000
+        assert flying.takeoff_time_utc > flying.arming_time_utc
+        assert api.land() == 0
+        sim.run_until(lambda: not sim.status(0).armed, 60.0)
+        landed = info(api)
+        assert (landed.arming_time_utc, landed.takeoff_time_utc, landed.flight_uuid) == (0, 0, 1)
+        assert sim.vehicles[0].params["COM_FLIGHT_UUID"] == 1
