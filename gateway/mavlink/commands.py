@@ -24,6 +24,7 @@ Rules:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -141,6 +142,7 @@ class CommandService:
             M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._autopilot_capabilities,
             M.MAV_CMD_REQUEST_PROTOCOL_VERSION: self._protocol_version,
             M.MAV_CMD_GET_HOME_POSITION: self._home_position,
+            M.MAV_CMD_REQUEST_FLIGHT_INFORMATION: self._request_flight_information,
             M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_message_interval,
             M.MAV_CMD_GET_MESSAGE_INTERVAL: self._get_message_interval,
             M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibration,
@@ -378,6 +380,12 @@ class CommandService:
             return DENIED  # e.g. HOME_POSITION before home is set
         self.send(frame)
         return ACCEPTED
+
+    def _request_flight_information(self, cmd: Command, now_s: float) -> int:
+        """The deprecated request command: PX4's mavlink receiver answers it as REQUEST_MESSAGE
+        for FLIGHT_INFORMATION."""
+        as_request = (float(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION),) + (0.0,) * 6
+        return self._request_message(dataclasses.replace(cmd, params=as_request), now_s)
 
     def _component_metadata(self, msg_id: int, now_s: float) -> int:
         """PX4's COMPONENT_METADATA stream answers with the general metadata file's URI and

@@ -135,3 +135,7 @@ def test_flight_information_as_px4_on_request():
         landed = info(api)
         assert (landed.arming_time_utc, landed.takeoff_time_utc, landed.flight_uuid) == (0, 0, 1)
         assert sim.vehicles[0].params["COM_FLIGHT_UUID"] == 1
+        since = len(api.frames)  # the deprecated command, answered as REQUEST_MESSAGE
+        assert api.command_long(M.MAV_CMD_REQUEST_FLIGHT_INFORMATION, 1) == 0
+        sim.advance(0.05)
+        assert api.messages("FLIGHT_INFORMATION", since)[-1].flight_uuid == 1
