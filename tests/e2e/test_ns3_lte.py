@@ -140,7 +140,9 @@ def test_the_engine_itself_refuses_a_bad_lte_init(lte, nodes, error):
     try:
         init = {"v": PROTOCOL_VERSION, "op": "init", "topology": "lte", "lte": lte,
                 "nodes": [{"name": n, "kind": node_kind(n)} for n in nodes]}
+        # A generous wait: on a loaded machine ns-3's libraries take a while to load, and a
+        # request that times out returns None, which would pass for an accepted init.
         with pytest.raises(Ns3Error, match=error):
-            process.request(init, 10.0)
+            process.request(init, 60.0)
     finally:
         process.release()
