@@ -7,15 +7,18 @@ from mavsdk import System
 from vehicles.geodesy import reproject
 
 
-def arguments(description: str) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=description)
+def arguments(description: str, parser: argparse.ArgumentParser | None = None
+              ) -> argparse.Namespace:
+    """--port and --grpc-port (added to ``parser``, a script's own, if given), parsed."""
+    parser = parser or argparse.ArgumentParser(description=description)
     parser.add_argument("--port", type=int, default=14540,
                         help="UDP port to listen on (vehicle i talks to 14540+i)")
     parser.add_argument("--grpc-port", type=int, default=50051, help="mavsdk_server gRPC port")
     return parser.parse_args()
 
 
-async def connect(port: int, grpc_port: int) -> System:
+async def connect(port: int, grpc_port: int, healthy: bool = True) -> System:
+    """Connected, and (``healthy``) with a global position estimate and a home position."""
     drone = System(port=grpc_port)
     await drone.connect(system_address=f"udpin://0.0.0.0:{port}")
     print("Waiting for drone to connect...")
@@ -23,6 +26,8 @@ async def connect(port: int, grpc_port: int) -> System:
         if state.is_connected:
             print("-- Connected to drone!")
             break
+    if not healthy:
+        return drone
     print("Waiting for drone to have a global position estimate...")
     async for health in drone.telemetry.health():
         if health.is_global_position_ok and health.is_home_position_ok:

@@ -14,19 +14,13 @@ import asyncio
 import sys
 from pathlib import Path
 
-from mavsdk import System
+from _common import arguments, connect
 
 ULOG_MAGIC = b"ULog\x01\x12\x35"
 
 
 async def run(port: int, grpc_port: int, out: Path | None) -> int:
-    drone = System(port=grpc_port)
-    await drone.connect(system_address=f"udpin://0.0.0.0:{port}")
-    print("Waiting for drone to connect...")
-    async for state in drone.core.connection_state():
-        if state.is_connected:
-            print("-- Connected to drone!")
-            break
+    drone = await connect(port, grpc_port, healthy=False)
     entries = await drone.log_files.get_entries()
     for entry in entries:
         print(f"-- log {entry.id}: {entry.date}, {entry.size_bytes} bytes")
@@ -48,9 +42,6 @@ async def run(port: int, grpc_port: int, out: Path | None) -> int:
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--port", type=int, default=14540,
-                        help="UDP port to listen on (vehicle i talks to 14540+i)")
-    parser.add_argument("--grpc-port", type=int, default=50051, help="mavsdk_server gRPC port")
     parser.add_argument("--out", type=Path, help="file to write (default: log-<date>.ulg)")
-    args = parser.parse_args()
+    args = arguments(parser.description or "", parser)
     sys.exit(asyncio.run(run(args.port, args.grpc_port, args.out)))
