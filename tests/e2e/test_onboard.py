@@ -75,14 +75,21 @@ async def test_mavsdk_shell_talks_to_pxh(daemon_factory):
             async for text in drone.shell.receive():
                 received.append(text)
 
+        async def until(text: str) -> None:
+            for _ in range(50):
+                if text in "".join(received):
+                    return
+                await asyncio.sleep(0.1)
+
         task = asyncio.ensure_future(collect())
         try:
+            # MAVSDK's receive stream starts asynchronously: what pxh says before it is
+            # subscribed is not delivered, so the first command waits for an answer first.
+            await drone.shell.send("")
+            await until("pxh> ")
             await drone.shell.send("ver all")
             await drone.shell.send("param show MPC_XY_CRUISE")
-            for _ in range(50):
-                if "MPC_XY_CRUISE [" in "".join(received):
-                    break
-                await asyncio.sleep(0.1)
+            await until("MPC_XY_CRUISE [")
         finally:
             task.cancel()
         out = "".join(received)
