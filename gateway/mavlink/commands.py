@@ -318,24 +318,14 @@ class CommandService:
         if calibrate is None:
             return UNSUPPORTED
         p = [_c_int(cmd.p(i)) for i in range(1, 8)]
-        if p[0] == 1:
-            return calibrate(now_s, "gyro")
-        if p[1] == 1:
-            return calibrate(now_s, "mag")
-        if p[2] == 1:
-            return calibrate(now_s, "baro")
-        if p[3] == 1:
-            return calibrate(now_s, "radio")
-        if p[4] == 1:
-            return calibrate(now_s, "accel")
-        if p[4] == 2:
-            return calibrate(now_s, "level")
-        if p[6] == 1:
-            return calibrate(now_s, "esc")
-        if p[3] == 2 or p[4] == 4 or p[5] in (1, 2) or 3 in (p[0], p[4], p[6]):
-            return TEMPORARILY_REJECTED
-        if p[3] == 0:
-            return calibrate(now_s, "cancel")
+        # In Commander's order; None: one PX4 starts that is not served here.
+        for asked, kind in ((p[0] == 1, "gyro"), (3 in (p[0], p[4], p[6]), None),
+                             (p[1] == 1, "mag"), (p[2] == 1, "baro"), (p[3] == 1, "radio"),
+                             (p[3] == 2, None), (p[4] == 1, "accel"), (p[4] == 2, "level"),
+                             (p[4] == 4, None), (p[5] in (1, 2), None), (p[6] == 1, "esc"),
+                             (p[3] == 0, "cancel")):
+            if asked:
+                return TEMPORARILY_REJECTED if kind is None else calibrate(now_s, kind)
         return UNSUPPORTED
 
     def _actuator_test(self, cmd: Command, now_s: float) -> int:
