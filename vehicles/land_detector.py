@@ -8,8 +8,9 @@ controller sees ground contact it cuts thrust (PX4 ``limit_thrust_during_landing
 makes the thrust low. Takeoff: a landed, armed vehicle is in the air once, for TAKEOFF_TRIGGER_S,
 its thrust is no longer minimal (PX4: landed needs maybe-landed, which needs thrust below
 MPC_THR_MIN + 30 % of (hover - MPC_THR_MIN)) or it climbs faster than LNDMC_Z_VEL_MAX; the takeoff
-ramp (control/takeoff.py) reaches its flight state on that. Disarmed means landed. Pure logic;
-time is an argument.
+ramp (control/takeoff.py) reaches its flight state on that. Disarmed means landed. At disarming
+the time since the first takeoff is added to the total flight time (LND_FLIGHT_T_HI/_LO, µs), as
+PX4's LandDetector counts it. Pure logic; time is an argument.
 """
 
 from __future__ import annotations
@@ -59,6 +60,8 @@ class LandDetector:
         self._maybe = _Hysteresis(MAYBE_LANDED_TRIGGER_S)
         self._landed = _Hysteresis(LANDED_TRIGGER_S)
         self._takeoff = _Hysteresis(TAKEOFF_TRIGGER_S)
+        self._takeoff_time_s: float | None = None  # the first takeoff since arming
+        self._was_armed = False
 
     def _update_params(self) -> None:
         p = self._params
@@ -73,6 +76,10 @@ class LandDetector:
                velocity_sp_z_mps: float, thrust_norm: float, hover_thrust: float) -> None:
         if self._params.version != self._params_version:
             self._update_params()
+        if not armed and self._was_armed and self._takeoff_time_s is not None:
+            self._add_flight_time(now_s - self._takeoff_time_s)
+            self._takeoff_time_s = None
+        self._was_armed = armed
         if not armed:
             self.landed, self.ground_contact, self.maybe_landed = True, False, False
             for h in (self._contact, self._maybe, self._landed, self._takeoff):
@@ -83,6 +90,8 @@ class LandDetector:
         if self.landed:
             if self._takeoff.update(now_s, -velocity_ned_mps[2] > z_vel_max or not low_thrust):
                 self.landed = False
+                if self._takeoff_time_s is None:
+                    self._takeoff_time_s = now_s
                 for h in (self._contact, self._maybe, self._landed):
                     h.reset()
             return
@@ -99,3 +108,14 @@ class LandDetector:
             self.landed = True
             self.ground_contact = self.maybe_landed = False
             self._takeoff.reset()
+
+    def _add_flight_time(self, seconds: float) -> None:
+        """PX4's total flight time, counted at disarming (from the first takeoff since arming)
+        in microseconds, kept as two int32 halves in LND_FLIGHT_T_HI and _LO."""
+        p = self._params
+        total = ((int(p.get("LND_FLIGHT_T_HI", 0) or 0) & 0xFFFFFFFF) << 32
+                 | (int(p.get("LND_FLIGHT_T_LO", 0) or 0) & 0xFFFFFFFF))
+        total = (total + int(seconds * 1e6)) & 0xFFFFFFFFFFFFFFFF
+        for name, half in (("LND_FLIGHT_T_HI", total >> 32), ("LND_FLIGHT_T_LO", total)):
+            half &= 0xFFFFFFFF
+            p.set(name, half - (1 << 32) if half >= 1 << 31 else half)

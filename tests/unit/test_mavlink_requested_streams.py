@@ -134,7 +134,12 @@ def test_flight_information_as_px4_on_request():
         sim.run_until(lambda: not sim.status(0).armed, 60.0)
         landed = info(api)
         assert (landed.arming_time_utc, landed.takeoff_time_utc, landed.flight_uuid) == (0, 0, 1)
-        assert sim.vehicles[0].params["COM_FLIGHT_UUID"] == 1
+        params = sim.vehicles[0].params
+        assert params["COM_FLIGHT_UUID"] == 1
+        # The land detector's total flight time: from takeoff to disarming, in µs.
+        flown_us = landed.time_boot_ms * 1000 - flying.takeoff_time_utc
+        assert params["LND_FLIGHT_T_HI"] == 0
+        assert 0.5 * flown_us < params["LND_FLIGHT_T_LO"] < flown_us, flown_us
         since = len(api.frames)  # the deprecated command, answered as REQUEST_MESSAGE
         assert api.command_long(M.MAV_CMD_REQUEST_FLIGHT_INFORMATION, 1) == 0
         sim.advance(0.05)
