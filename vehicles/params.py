@@ -189,17 +189,12 @@ class ParamStore:
     def default_of(self, name: str) -> int | float:
         return self._set_defaults.get(name, self._infos[self._index[name]].default)
 
-    def reset(self, selected: Callable[[str], bool]) -> int:
+    def reset(self, selected: Callable[[str], bool]) -> None:
         """PX4's param_reset_all / _excludes / _specific: every parameter ``selected`` accepts
-        back to its default (observers see each change); how many changed."""
-        changed = 0
+        back to its default (observers see each change)."""
         for info in self._infos:
-            name = info.name
-            if selected(name):
-                before = self._by_name[name]
-                self.set(name, self.default_of(name))
-                changed += self._by_name[name] != before
-        return changed
+            if selected(info.name):
+                self.set(info.name, self.default_of(info.name))
 
     def on_change(self, observer: Callable[[str, int | float], None]) -> None:
         self._observers.append(observer)
