@@ -22,7 +22,7 @@ import resource
 from collections.abc import Callable
 from typing import Any
 
-from gateway.onboard.logger import TOPICS, Topic
+from gateway.onboard.logged_topics import TOPICS, Topic
 from vehicles.faults import TYPES, UNITS
 from vehicles.params import ParamType
 from vehicles.types import CommandResult, NavState
@@ -218,8 +218,11 @@ class Pxh:
                        if args else "Usage: listener <topic_name> [-n <num>]\n")
             return 1
         topic = topics[args[0]]
-        values = topic.read(self.vehicle)
         us = int(now_s * 1e6)
+        values = topic.read(self.vehicle, us)
+        if values is None:
+            self.print("never published\n")
+            return 0
         self.print(f"\nTOPIC: {topic.name}\n {topic.name}\n"
                    f"    timestamp: {us} (0.000000 seconds ago)\n")
         for (_type, field), value in zip(topic.fields, values):

@@ -63,11 +63,14 @@ def _key_value(key: str, value: bytes) -> bytes:
     return bytes((len(k),)) + k + value
 
 
-def info(name: str, value: str | int) -> bytes:
-    """'I': a string as ``char[len] name``, an integer as ``int32_t name``."""
+def info(name: str, value: str | int, unsigned: bool = False) -> bytes:
+    """'I': a string as ``char[len] name``, an integer as ``int32_t name`` (``unsigned``:
+    ``uint32_t name``)."""
     if isinstance(value, str):
         raw = value.encode()
         return _message(b"I", _key_value(f"char[{len(raw)}] {name}", raw))
+    if unsigned:
+        return _message(b"I", _key_value(f"uint32_t {name}", struct.pack("<I", value)))
     return _message(b"I", _key_value(f"int32_t {name}", struct.pack("<i", value)))
 
 
@@ -85,6 +88,12 @@ def add_logged(msg_id: int, name: str, multi_id: int = 0) -> bytes:
 
 def data(msg_id: int, payload: bytes) -> bytes:
     return _message(b"D", struct.pack("<H", msg_id) + payload)
+
+
+def data_prefix(msg_id: int, payload_size: int) -> bytes:
+    """What ``data(msg_id, payload)`` puts before a payload of ``payload_size`` bytes: a topic's
+    records all have its struct's size, so the prefix is computed once per topic."""
+    return struct.pack("<HBH", payload_size + 2, ord("D"), msg_id)
 
 
 def logged_string(level: int, timestamp_us: int, text: str) -> bytes:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import pyulog
 
@@ -15,7 +16,12 @@ from gateway.testing import Sim
 TOPICS = {"vehicle_attitude", "vehicle_local_position", "vehicle_global_position",
           "vehicle_status", "sensor_combined", "vehicle_gps_position", "battery_status",
           "actuator_outputs", "vehicle_local_position_setpoint", "trajectory_setpoint",
-          "vehicle_land_detected", "estimator_status", "wind"}
+          "vehicle_land_detected", "estimator_status", "wind", "vehicle_attitude_setpoint",
+          "vehicle_rates_setpoint", "vehicle_angular_velocity", "vehicle_thrust_setpoint",
+          "actuator_motors", "hover_thrust_estimate", "home_position", "vehicle_control_mode",
+          "vehicle_air_data", "vehicle_magnetometer", "vehicle_attitude_groundtruth",
+          "vehicle_angular_velocity_groundtruth", "vehicle_local_position_groundtruth",
+          "vehicle_global_position_groundtruth"}
 
 
 def fly(log_dir: Path, **params) -> list[Path]:
@@ -56,6 +62,44 @@ def test_a_flight_is_one_ulog_that_pyulog_reads(tmp_path):
     assert set(gps["fix_type"]) == {3}
 
 
+def test_the_log_has_what_px4s_log_analysis_reads(tmp_path):
+    """Setpoints beside the estimate (attitude, rates, thrust), the motors, the hover thrust
+    estimator, home, the control mode, and SITL's ground truth beside the estimate; the
+    firmware version as flight review reads it."""
+    log = pyulog.ULog(str(fly(tmp_path)[0]))
+    assert log.get_version_info_str() == "v1.15.0"
+    assert log.msg_info_dict["ver_hw"] == "PX4_SITL"
+
+    def data(topic: str) -> dict:
+        return log.get_dataset(topic).data
+
+    att_sp = data("vehicle_attitude_setpoint")
+    q_norm = np.sqrt(sum(att_sp[f"q_d[{i}]"] ** 2 for i in range(4)))
+    assert np.allclose(q_norm, 1.0, atol=1e-5)
+    hover = data("hover_thrust_estimate")
+    flying = att_sp["thrust_body[2]"] < -0.1
+    assert flying.any() and (att_sp["thrust_body[2]"] <= 0).all()
+    rates = data("vehicle_rates_setpoint")
+    assert np.allclose(rates["thrust_body[2]"][-1], 0.0)  # landed and disarmed
+    motors = data("actuator_motors")
+    assert np.nanmax(motors["control[0]"]) <= 1.0 and np.nanmax(motors["control[0]"]) > 0.3
+    assert np.isnan(motors["control[4]"]).all()  # a quadrotor: four motors
+    assert 0.1 < hover["hover_thrust"].max() <= 0.9 and hover["valid"].any()
+    home = data("home_position")
+    assert home["valid_hpos"].all() and abs(home["lat"][-1] - 47.397742) < 1e-4
+    mode = data("vehicle_control_mode")
+    auto = mode["flag_control_auto_enabled"] == 1
+    assert auto.any() and (mode["flag_control_position_enabled"][auto] == 1).all()
+    assert (mode["flag_armed"] == 1).any() and mode["flag_armed"][-1] == 0
+    est, truth = data("vehicle_local_position"), data("vehicle_local_position_groundtruth")
+    n = min(len(est["z"]), len(truth["z"]))
+    assert np.max(np.abs(est["z"][:n] - truth["z"][:n])) < 0.5 and truth["z"].min() < -2.0
+    gyro = data("vehicle_angular_velocity")
+    assert (gyro["timestamp_sample"] == gyro["timestamp"]).all()
+    air = data("vehicle_air_data")
+    assert 90_000 < air["baro_pressure_pa"][0] < 101_325 and 1.0 < air["rho"][0] < 1.3
+
+
 def test_same_lockstep_flight_same_bytes_and_sdlog_mode_0_starts_at_arming(tmp_path):
     a = fly(tmp_path / "a")
     b = fly(tmp_path / "b")
@@ -72,6 +116,7 @@ def test_writer_parts_follow_the_spec():
     assert ulog.format_message("t", (("uint64_t", "timestamp"), ("float[3]", "v")))[3:] == \
         b"t:uint64_t timestamp;float[3] v;"
     assert ulog.struct_of((("uint64_t", "timestamp"), ("float[3]", "v"), ("bool", "b"))).size == 21
+    assert ulog.data_prefix(3, 5) + b"12345" == ulog.data(3, b"12345")
 
 
 def test_log_download_over_mavlink_as_px4s_log_handler(tmp_path):

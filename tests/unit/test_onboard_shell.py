@@ -48,6 +48,7 @@ def test_prompt_echo_and_commands():
         assert "  listener\n" in shell(sim, "help\n")
         listened = shell(sim, "listener vehicle_attitude\n")
         assert "TOPIC: vehicle_attitude" in listened and "    q: [" in listened
+        assert "    thrust_body: [" in shell(sim, "listener vehicle_rates_setpoint\n")
         sim.advance(6.0)
         shell(sim, "commander arm\n")
         assert sim.status(0).armed

@@ -1,0 +1,351 @@
+"""The topics PX4's logger writes, with PX4's names and field names, read from a vehicle.
+
+Source: PX4 src/modules/logger/logged_topics.cpp (add_default_topics, and the SITL block that
+adds the ground truth and logs the estimator's outputs at full rate), the uORB messages of
+PX4 1.15 (msg/*.msg) for the field names, and commander's ModeUtil/control_mode.cpp for
+vehicle_control_mode.
+Rules:
+- Each topic has a subset of PX4's fields, as CORNET has them; a field is never invented.
+- ``interval_s`` is logged_topics.cpp's (SITL profile); the logger samples at 50 Hz, so every
+  interval under 20 ms means "every tick". ``on_change`` topics (PX4: no interval, published
+  on change) are logged when their values change.
+- ``read(vehicle, now_us)`` returns the field values in order, or None while PX4 would not
+  have published the topic yet (home_position before home is set). A ``timestamp_sample`` is
+  the sampling instant ``now_us`` (the state read is the one of that instant).
+- The ``*_groundtruth`` topics are the simulator's truth (PX4 SITL logs them), the others the
+  estimate or the controllers' setpoints, as PX4 logs them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from vehicles.estimation import (
+    E_ACCURACY,
+    E_RATIOS,
+    E_WIND,
+    E_WIND_VAR,
+    S_ACC,
+    S_BARO_DOWN,
+    S_GPS_POS,
+    S_GPS_VEL,
+    S_GYRO,
+    S_MAG,
+)
+from vehicles.types import NavState
+
+ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # vehicle_status.arming_state (PX4 1.15)
+GPS_EPH_M, GPS_EPV_M, GPS_FIX_3D, GPS_SATELLITES = 0.9, 1.78, 3, 10  # sensor_gps_sim
+ACTUATOR_MOTORS = 12  # actuator_motors.control: NUM_CONTROLS
+AIR_GAS_CONST = 287.1  # PX4 CONSTANTS_AIR_GAS_CONST, J/(kg·K)
+ABSOLUTE_NULL_C = -273.15  # CONSTANTS_ABSOLUTE_NULL_CELSIUS
+
+Fields = Sequence[tuple[str, str]]
+
+
+@dataclass(frozen=True)
+class Topic:
+    name: str
+    fields: Fields  # after the leading "uint64_t timestamp"
+    interval_s: float  # logged_topics.cpp's interval (0: every tick)
+    read: Callable[[Any, int], tuple | None]  # (vehicle, now µs) → the field values
+    on_change: bool = False  # log only when the values change (and at the start)
+
+
+def _sensors(v: Any) -> list[float]:
+    return v.sensors
+
+
+def _attitude(v: Any, now_us: int) -> tuple:
+    return (v.kinematics.attitude_q,)
+
+
+def _local_position(v: Any, now_us: int) -> tuple:
+    k = v.kinematics
+    a = v.acceleration_ned_mps2
+    heading = _heading(k.attitude_q)
+    valid = v.status.position_valid
+    e = v.estimator
+    o = v.origin
+    return (*k.position_ned_m, *k.velocity_ned_mps, *a, heading, valid, valid, valid, valid,
+            o.lat_deg, o.lon_deg, o.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1])
+
+
+def _global_position(v: Any, now_us: int) -> tuple:
+    g = v.global_position
+    e = v.estimator
+    return (g.lat_deg, g.lon_deg, g.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1])
+
+
+def _status(v: Any, now_us: int) -> tuple:
+    st = v.status
+    mav_type = v.params.get("MAV_TYPE", 2)
+    return (ARMING_STATE_ARMED if st.armed else ARMING_STATE_DISARMED, int(st.nav_state),
+            bool(st.failsafe), int(mav_type if mav_type is not None else 2))
+
+
+def _sensor_combined(v: Any, now_us: int) -> tuple:
+    s = _sensors(v)
+    return (tuple(s[S_GYRO:S_GYRO + 3]), 4000, 0, tuple(s[S_ACC:S_ACC + 3]), 4000)
+
+
+def _gps(v: Any, now_us: int) -> tuple:
+    s = _sensors(v)
+    g = v.origin.offset_ned(s[S_GPS_POS], s[S_GPS_POS + 1], s[S_GPS_POS + 2])
+    return (g.lat_deg, g.lon_deg, g.alt_amsl_m, GPS_EPH_M, GPS_EPV_M, *s[S_GPS_VEL:S_GPS_VEL + 3],
+            GPS_FIX_3D, GPS_SATELLITES)
+
+
+def _battery(v: Any, now_us: int) -> tuple:
+    b = v.status.battery
+    return (b.voltage_v, b.current_a, b.consumed_mah, b.remaining)
+
+
+def _actuator_outputs(v: Any, now_us: int) -> tuple:
+    speeds = list(v.status.extra.get("rotor_speed_radps", ()))[:16]
+    return (len(speeds), tuple(speeds + [0.0] * (16 - len(speeds))))
+
+
+def _setpoint(v: Any, now_us: int) -> tuple:
+    sp = v.position_setpoint_ned_m
+    pos = tuple(sp) if sp is not None else (math.nan,) * 3
+    return (*pos, math.nan, math.nan, math.nan)
+
+
+def _trajectory_setpoint(v: Any, now_us: int) -> tuple:
+    sp = v.position_setpoint_ned_m
+    return (tuple(sp) if sp is not None else (math.nan,) * 3, (math.nan,) * 3)
+
+
+def _land_detected(v: Any, now_us: int) -> tuple:
+    landed = int(v.status.landed_state) == 1  # MAV_LANDED_STATE_ON_GROUND
+    return (landed, landed, landed)
+
+
+def _estimator_status(v: Any, now_us: int) -> tuple:
+    e = v.estimator
+    return (*e[E_RATIOS:E_RATIOS + 4], e[E_ACCURACY], e[E_ACCURACY + 1])
+
+
+def _wind(v: Any, now_us: int) -> tuple:
+    e = v.estimator
+    return (e[E_WIND], e[E_WIND + 1], e[E_WIND_VAR] / 2, e[E_WIND_VAR] / 2)
+
+
+def _heading(q: tuple[float, float, float, float]) -> float:
+    w, x, y, z = q
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def _attitude_setpoint(v: Any, now_us: int) -> tuple:
+    t = v.targets
+    return (t.yawspeed_radps, t.attitude_q, (0.0, 0.0, -t.thrust_norm))
+
+
+def _rates_setpoint(v: Any, now_us: int) -> tuple:
+    t = v.targets
+    return (*t.rates_frd_radps, (0.0, 0.0, -t.thrust_norm))
+
+
+def _angular_velocity(v: Any, now_us: int) -> tuple:
+    k = v.kinematics
+    return (now_us, k.rates_frd_radps)
+
+
+def _thrust_setpoint(v: Any, now_us: int) -> tuple:
+    t = v.targets
+    return (now_us, (0.0, 0.0, -t.thrust_norm))
+
+
+def _actuator_motors(v: Any, now_us: int) -> tuple:
+    """The allocator's normalized motor commands, from the ESC outputs (SIM_GZ_EC_MIN + control
+    × (SIM_GZ_EC_MAX − SIM_GZ_EC_MIN)); 0 while disarmed; NaN past the vehicle's motors."""
+    t = v.targets
+    frame = v.airframe
+    low, span = frame.esc_min_radps, frame.esc_max_radps - frame.esc_min_radps
+    controls = [max(0.0, (out - low) / span) if out > 0.0 else 0.0
+                for out in t.outputs[:ACTUATOR_MOTORS]]
+    controls += [math.nan] * (ACTUATOR_MOTORS - len(controls))
+    return (now_us, 0, tuple(controls))
+
+
+def _hover_thrust(v: Any, now_us: int) -> tuple:
+    hte = v.autopilot.hover_thrust
+    ekf = hte.ekf
+    return (now_us, ekf.hover_thr, ekf.state_var, ekf.innov, ekf.innov_var,
+            ekf.innov_test_ratio, ekf.acc_var * ekf.acc_var_scale, hte.valid)
+
+
+def _home(v: Any, now_us: int) -> tuple | None:
+    home = v.home
+    if home is None:
+        return None
+    g = home.geo
+    return (g.lat_deg, g.lon_deg, g.alt_amsl_m, *home.position_ned_m, home.yaw_rad, True, True,
+            True)
+
+
+def _air_data(v: Any, now_us: int) -> tuple:
+    s = _sensors(v)
+    alt = v.origin.alt_amsl_m - s[S_BARO_DOWN]
+    pressure_pa = 101325.0 * (1.0 - 2.25577e-5 * alt) ** 5.25588  # PX4's SITL barometer (ISA)
+    temp_c = 15.0 - 0.0065 * alt
+    return (now_us, alt, temp_c, pressure_pa,
+            pressure_pa / (AIR_GAS_CONST * (temp_c - ABSOLUTE_NULL_C)))
+
+
+def _magnetometer(v: Any, now_us: int) -> tuple:
+    s = _sensors(v)
+    return (now_us, tuple(s[S_MAG:S_MAG + 3]))
+
+
+_MANUAL = {NavState.MANUAL: 0b0000011, NavState.STAB: 0b0000011, NavState.ACRO: 0b0000001,
+           NavState.ALTCTL: 0b0001111, NavState.POSCTL: 0b0111111,
+           NavState.POSITION_SLOW: 0b0111111}
+_AUTO = frozenset({NavState.AUTO_RTL, NavState.AUTO_LAND, NavState.AUTO_PRECLAND,
+                   NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF})
+# Controller bits: rates, attitude, altitude, climb rate, position, velocity, acceleration.
+_RATES, _ATT, _ALT, _CLIMB, _POS, _VEL, _ACC = (1 << i for i in range(7))
+
+
+def _control_mode(v: Any, now_us: int) -> tuple:
+    """commander's getVehicleControlMode for a multicopter (ModeUtil/control_mode.cpp)."""
+    st = v.status
+    nav = st.nav_state
+    manual = auto = offboard = termination = False
+    bits = 0
+    if nav in _MANUAL:
+        manual, bits = True, _MANUAL[nav]
+    elif nav in _AUTO:
+        auto, bits = True, _RATES | _ATT | _ALT | _CLIMB | _POS | _VEL
+    elif nav is NavState.DESCEND:
+        auto, bits = True, _RATES | _ATT | _CLIMB
+    elif nav is NavState.TERMINATION:
+        termination = True
+    elif nav in (NavState.AUTO_FOLLOW_TARGET, NavState.ORBIT):
+        bits = _RATES | _ATT | _ALT | _CLIMB | _POS | _VEL
+    elif nav is NavState.OFFBOARD:
+        offboard = True
+        sp = v.autopilot.offboard.setpoint  # offboard_control_mode, in the switch's order
+        if sp is None:
+            pass
+        elif sp.attitude_q is None and sp.has_body_rates:
+            bits = _RATES
+        elif sp.attitude_q is not None:
+            bits = _RATES | _ATT
+        elif sp.has_acceleration:
+            bits = _ACC | _RATES | _ATT
+        elif sp.has_velocity:
+            bits = _VEL | _ALT | _CLIMB | _ACC | _RATES | _ATT
+        elif sp.has_position:
+            bits = _POS | _VEL | _ALT | _CLIMB | _ACC | _RATES | _ATT
+    mc_position = bool(bits & (_ALT | _CLIMB | _POS | _VEL | _ACC))
+    return (st.armed, mc_position, manual, auto, offboard, bool(bits & _RATES),
+            bool(bits & _ATT), bool(bits & _ACC), bool(bits & _VEL), bool(bits & _POS),
+            bool(bits & _ALT), bool(bits & _CLIMB), termination)
+
+
+def _attitude_truth(v: Any, now_us: int) -> tuple:
+    return (v.truth.attitude_q,)
+
+
+def _angular_velocity_truth(v: Any, now_us: int) -> tuple:
+    return (now_us, v.truth.rates_frd_radps)
+
+
+def _local_position_truth(v: Any, now_us: int) -> tuple:
+    m = v.truth
+    o = v.origin
+    return (*m.position_ned_m, *m.velocity_ned_mps, *m.accel_ned_mps2, _heading(m.attitude_q),
+            o.lat_deg, o.lon_deg, o.alt_amsl_m)
+
+
+def _global_position_truth(v: Any, now_us: int) -> tuple:
+    n, e, d = v.truth.position_ned_m
+    g = v.origin.offset_ned(n, e, d)
+    return (g.lat_deg, g.lon_deg, g.alt_amsl_m)
+
+
+F, D, B, U64 = "float", "double", "bool", "uint64_t"
+TOPICS: tuple[Topic, ...] = (
+    Topic("vehicle_attitude", (("float[4]", "q"),), 0.0, _attitude),
+    Topic("vehicle_local_position", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"), (F, "vy"), (F, "vz"),
+                                     (F, "ax"), (F, "ay"), (F, "az"), (F, "heading"),
+                                     (B, "xy_valid"), (B, "z_valid"), (B, "v_xy_valid"),
+                                     (B, "v_z_valid"), (D, "ref_lat"), (D, "ref_lon"),
+                                     (F, "ref_alt"), (F, "eph"), (F, "epv")), 0.0, _local_position),
+    Topic("vehicle_global_position", ((D, "lat"), (D, "lon"), (F, "alt"), (F, "eph"), (F, "epv")),
+          0.0, _global_position),
+    Topic("vehicle_status", (("uint8_t", "arming_state"), ("uint8_t", "nav_state"),
+                             (B, "failsafe"), ("uint8_t", "system_type")), 0.0, _status,
+          on_change=True),
+    Topic("sensor_combined", (("float[3]", "gyro_rad"), ("uint32_t", "gyro_integral_dt"),
+                              ("int32_t", "accelerometer_timestamp_relative"),
+                              ("float[3]", "accelerometer_m_s2"),
+                              ("uint32_t", "accelerometer_integral_dt")), 0.0, _sensor_combined),
+    Topic("vehicle_gps_position", ((D, "latitude_deg"), (D, "longitude_deg"),
+                                   (D, "altitude_msl_m"), (F, "eph"), (F, "epv"),
+                                   (F, "vel_n_m_s"), (F, "vel_e_m_s"), (F, "vel_d_m_s"),
+                                   ("uint8_t", "fix_type"), ("uint8_t", "satellites_used")),
+          0.1, _gps),
+    Topic("battery_status", ((F, "voltage_v"), (F, "current_a"), (F, "discharged_mah"),
+                             (F, "remaining")), 0.2, _battery),
+    Topic("actuator_outputs", (("uint32_t", "noutputs"), ("float[16]", "output")), 0.1,
+          _actuator_outputs),
+    Topic("vehicle_local_position_setpoint", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"), (F, "vy"),
+                                              (F, "vz")), 0.1, _setpoint),
+    Topic("trajectory_setpoint", (("float[3]", "position"), ("float[3]", "velocity")), 0.2,
+          _trajectory_setpoint),
+    Topic("vehicle_land_detected", ((B, "landed"), (B, "maybe_landed"), (B, "ground_contact")),
+          0.0, _land_detected, on_change=True),
+    Topic("estimator_status", ((F, "vel_test_ratio"), (F, "pos_test_ratio"),
+                               (F, "hgt_test_ratio"), (F, "mag_test_ratio"),
+                               (F, "pos_horiz_accuracy"), (F, "pos_vert_accuracy")), 0.2,
+          _estimator_status),
+    Topic("wind", ((F, "windspeed_north"), (F, "windspeed_east"), (F, "variance_north"),
+                   (F, "variance_east")), 0.0, _wind),
+    Topic("vehicle_attitude_setpoint", ((F, "yaw_sp_move_rate"), ("float[4]", "q_d"),
+                                        ("float[3]", "thrust_body")), 0.05, _attitude_setpoint),
+    Topic("vehicle_rates_setpoint", ((F, "roll"), (F, "pitch"), (F, "yaw"),
+                                     ("float[3]", "thrust_body")), 0.02, _rates_setpoint),
+    Topic("vehicle_angular_velocity", ((U64, "timestamp_sample"), ("float[3]", "xyz")), 0.0,
+          _angular_velocity),
+    Topic("vehicle_thrust_setpoint", ((U64, "timestamp_sample"), ("float[3]", "xyz")), 0.02,
+          _thrust_setpoint),
+    Topic("actuator_motors", ((U64, "timestamp_sample"), ("uint16_t", "reversible_flags"),
+                              (f"float[{ACTUATOR_MOTORS}]", "control")), 0.1, _actuator_motors),
+    Topic("hover_thrust_estimate", ((U64, "timestamp_sample"), (F, "hover_thrust"),
+                                    (F, "hover_thrust_var"), (F, "accel_innov"),
+                                    (F, "accel_innov_var"), (F, "accel_innov_test_ratio"),
+                                    (F, "accel_noise_var"), (B, "valid")), 0.1, _hover_thrust),
+    Topic("home_position", ((D, "lat"), (D, "lon"), (F, "alt"), (F, "x"), (F, "y"), (F, "z"),
+                            (F, "yaw"), (B, "valid_alt"), (B, "valid_hpos"), (B, "valid_lpos")),
+          0.0, _home, on_change=True),
+    Topic("vehicle_control_mode", tuple((B, f"flag_{name}") for name in (
+        "armed", "multicopter_position_control_enabled", "control_manual_enabled",
+        "control_auto_enabled", "control_offboard_enabled", "control_rates_enabled",
+        "control_attitude_enabled", "control_acceleration_enabled", "control_velocity_enabled",
+        "control_position_enabled", "control_altitude_enabled", "control_climb_rate_enabled",
+        "control_termination_enabled")), 0.0, _control_mode, on_change=True),
+    Topic("vehicle_air_data", ((U64, "timestamp_sample"), (F, "baro_alt_meter"),
+                               (F, "baro_temp_celcius"), (F, "baro_pressure_pa"), (F, "rho")),
+          0.2, _air_data),
+    Topic("vehicle_magnetometer", ((U64, "timestamp_sample"), ("float[3]", "magnetometer_ga")),
+          0.2, _magnetometer),
+    Topic("vehicle_attitude_groundtruth", (("float[4]", "q"),), 0.0, _attitude_truth),
+    Topic("vehicle_angular_velocity_groundtruth", ((U64, "timestamp_sample"),
+                                                   ("float[3]", "xyz")), 0.0,
+          _angular_velocity_truth),
+    Topic("vehicle_local_position_groundtruth", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"),
+                                                 (F, "vy"), (F, "vz"), (F, "ax"), (F, "ay"),
+                                                 (F, "az"), (F, "heading"), (D, "ref_lat"),
+                                                 (D, "ref_lon"), (F, "ref_alt")), 0.02,
+          _local_position_truth),
+    Topic("vehicle_global_position_groundtruth", ((D, "lat"), (D, "lon"), (F, "alt")), 0.1,
+          _global_position_truth),
+)
+
+
