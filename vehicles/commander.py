@@ -247,7 +247,7 @@ class Commander:
         self._log.info(now_s, text)
         # PX4 counts flights in COM_FLIGHT_UUID at every disarm (an int32: it wraps).
         uuid = int(self._params.get("COM_FLIGHT_UUID", 0) or 0)
-        self._params.set("COM_FLIGHT_UUID", (uuid + 1 + 2**31) % 2**32 - 2**31)
+        self._params.set("COM_FLIGHT_UUID", (uuid + 1 + 2**31) % 2**32 - 2**31, notify=False)
         fallback = MODE_TABLE[self.nav_state].after_disarm
         if fallback is not None:
             self.nav_state = self.user_nav_state = fallback

@@ -118,4 +118,5 @@ class LandDetector:
         total = (total + int(seconds * 1e6)) & 0xFFFFFFFFFFFFFFFF
         for name, half in (("LND_FLIGHT_T_HI", total >> 32), ("LND_FLIGHT_T_LO", total)):
             half &= 0xFFFFFFFF
-            p.set(name, half - (1 << 32) if half >= 1 << 31 else half)
+            # commit_no_notification: no PARAM_VALUE goes out
+            p.set(name, half - (1 << 32) if half >= 1 << 31 else half, notify=False)

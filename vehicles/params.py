@@ -8,7 +8,12 @@ Invariants:
 - Names come from ``data/px4_params.csv`` (PX4 metadata; see tools/make_param_table.py). A name that
   is not there does not exist: ``set`` refuses it.
 - Observers registered with ``on_change`` are called after every successful change, so the
-  gateway can broadcast PARAM_VALUE and the autopilot can re-read what it caches.
+  gateway can broadcast PARAM_VALUE and the autopilot can re-read what it caches. A change
+  made with ``notify=False`` is PX4's ``commit_no_notification`` (no parameter_update: no
+  PARAM_VALUE, no logger entry); only observers registered with ``quiet=True`` (the storage,
+  which PX4's autosave still writes) see it.
+- ``VOLATILE``: the parameters PX4's metadata marks ``@volatile`` (the autopilot's own
+  bookkeeping); ``hash32`` leaves them out, as PX4's param_hash_check does.
 - ``version`` counts the changes: a module that keeps values derived from parameters re-reads
   them when it differs from the one it read them at (PX4 modules' updateParams() on
   parameter_update). ``derived`` is a memo for such values that any change empties.
@@ -98,6 +103,19 @@ def param_table() -> list[ParamInfo]:
     return _TABLE
 
 
+# @volatile in PX4's parameter definitions: commander_params.c (COM_FLIGHT_UUID),
+# land_detector_params.c (LND_FLIGHT_T_HI/_LO), ekf2_params.c (EKF2_MAGBIAS_X/Y/Z) and the
+# airspeed sensor's params.c (SENS_DPRES_OFF).
+VOLATILE = frozenset({"COM_FLIGHT_UUID", "LND_FLIGHT_T_HI", "LND_FLIGHT_T_LO", "EKF2_MAGBIAS_X",
+                      "EKF2_MAGBIAS_Y", "EKF2_MAGBIAS_Z", "SENS_DPRES_OFF"})
+
+
+def crc32part(data: bytes, crc: int = 0) -> int:
+    """PX4's (and QGC's) ``crc32part``: the CRC-32 polynomial from ``crc`` with no inversion
+    before or after, so parts chain. zlib inverts both, hence the inversions around it."""
+    return ~zlib.crc32(data, ~crc & 0xFFFFFFFF) & 0xFFFFFFFF
+
+
 @functools.lru_cache(maxsize=1)
 def _shipped() -> tuple[list[ParamInfo], dict[str, int], tuple[int | float, ...],
                         dict[str, int | float]]:
@@ -123,6 +141,7 @@ class ParamStore:
             self._values = [info.default for info in self._infos]
             self._by_name = {i.name: v for i, v in zip(self._infos, self._values)}
         self._observers: list[Callable[[str, int | float], None]] = []
+        self._quiet_observers: list[Callable[[str, int | float], None]] = []
         self.version = 0
         self.derived: dict[object, object] = {}
         self._set_defaults: dict[str, int | float] = {}  # ``set_default``'s, over the table's
@@ -163,8 +182,9 @@ class ParamStore:
         return zip(self._infos, self._values)
 
     # --- change -------------------------------------------------------------------------------
-    def set(self, name: str, value: float) -> bool:
-        """Set a value, coerced to the parameter's type. False if the name does not exist."""
+    def set(self, name: str, value: float, notify: bool = True) -> bool:
+        """Set a value, coerced to the parameter's type. False if the name does not exist.
+        ``notify=False``: PX4's commit_no_notification (module rules)."""
         i = self._index.get(name)
         if i is None:
             return False
@@ -174,7 +194,7 @@ class ParamStore:
             self._by_name[name] = new
             self.version += 1
             self.derived.clear()
-            for observer in list(self._observers):
+            for observer in list(self._observers if notify else self._quiet_observers):
                 observer(name, new)
         return True
 
@@ -196,8 +216,13 @@ class ParamStore:
             if selected(info.name):
                 self.set(info.name, self.default_of(info.name))
 
-    def on_change(self, observer: Callable[[str, int | float], None]) -> None:
+    def on_change(self, observer: Callable[[str, int | float], None], quiet: bool = False
+                  ) -> None:
+        """``observer(name, value)`` after each change; with ``quiet`` also after the changes
+        made without notification."""
         self._observers.append(observer)
+        if quiet:
+            self._quiet_observers.append(observer)
 
     def changed_from_default(self) -> dict[str, int | float]:
         return {
@@ -205,10 +230,14 @@ class ParamStore:
         }
 
     def hash32(self) -> int:
-        """A 32-bit hash over names and values (PX4's ``_HASH_CHECK`` role: equal iff same set)."""
+        """PX4's param_hash_check (``_HASH_CHECK``): crc32part over each parameter's name and
+        its four value bytes, in name order, volatile ones left out. QGC computes the same over
+        its cache (ParameterManager::_tryCacheHashLoad) to skip a download when they match."""
         crc = 0
         for info, value in zip(self._infos, self._values):
-            crc = zlib.crc32(info.name.encode(), crc)
-            packed = struct.pack("<i" if info.type is ParamType.INT32 else "<f", value)
-            crc = zlib.crc32(packed, crc)
-        return crc & 0xFFFFFFFF
+            if info.name in VOLATILE:
+                continue
+            crc = crc32part(info.name.encode(), crc)
+            crc = crc32part(struct.pack("<i" if info.type is ParamType.INT32 else "<f", value),
+                            crc)
+        return crc

@@ -162,7 +162,8 @@ class Daemon:
         if cfg.state_dir is not None and self._state_writer is not None:
             kept = state.VehicleState(self._state_writer, cfg.state_dir, sysid, saved)
             self._vehicle_states[sysid] = kept
-            store.on_change(kept.on_param)  # from now on: what clients set
+            # From now on what clients set, and what PX4 saves without notification.
+            store.on_change(kept.on_param, quiet=True)
         return store
 
     def _restore_plans(self) -> None:

@@ -9,7 +9,8 @@ Rules:
   interval has passed (0: every tick; topics marked on-change: when their values change).
 - The topics, with PX4's names, field names and intervals: logged_topics.py.
 - A log holds the info fields (ver_sw, ver_sw_release, ver_hw, sys_name, sys_uuid,
-  time_ref_utc), every parameter at its
+  time_ref_utc), every parameter and the defaults of those that differ from them (PX4's 'Q'
+  messages: the system's and the airframe's) at its
   start, every parameter change ('P' in the data section), and every status text ('L').
 - ``drain()`` hands the shell what to append to which file: (relative path, bytes, closed).
   Paths follow PX4: ``log/<YYYY-MM-DD>/<HH_MM_SS>.ulg`` (UTC) when the boot epoch is known,
@@ -26,7 +27,7 @@ from gateway.mavlink.commands import FLIGHT_SW_VERSION
 from gateway.mavlink.vehicle_port import VehiclePort
 from gateway.onboard import ulog
 from gateway.onboard.logged_topics import TOPICS, Topic
-from vehicles.params import ParamType
+from vehicles.params import VOLATILE, ParamType
 from vehicles.types import Severity
 
 VER_SW = "CORNET"
@@ -44,6 +45,29 @@ def _flatten(values: tuple) -> list:
             out.extend(x)
         else:
             out.append(x)
+    return out
+
+
+def _parameter_defaults(params: Any) -> list[bytes]:
+    """logger.cpp write_parameter_defaults: for each parameter that differs from a default, the
+    system default (PX4's) and the current setup's (the airframe's and the launch's
+    ``param set-default``), as one message when they are equal; volatile ones left out."""
+    out = []
+    for info, value in params.items():
+        if info.name in VOLATILE:
+            continue
+        is_int = info.type is ParamType.INT32
+        system, setup = info.default, params.default_of(info.name)
+        if system == setup:
+            if value != setup:
+                out.append(ulog.parameter_default(
+                    info.name, setup, is_int, ulog.DEFAULT_SYSTEM | ulog.DEFAULT_CURRENT_SETUP))
+            continue
+        if value != setup:
+            out.append(ulog.parameter_default(info.name, setup, is_int,
+                                              ulog.DEFAULT_CURRENT_SETUP))
+        if value != system:
+            out.append(ulog.parameter_default(info.name, system, is_int, ulog.DEFAULT_SYSTEM))
     return out
 
 
@@ -113,7 +137,7 @@ class VehicleLogger:
         self.files.append(self._path)
         v = self.vehicle
         sysid = v.params.get("MAV_SYS_ID", 1)
-        parts = [ulog.header(us), ulog.flag_bits()]
+        parts = [ulog.header(us), ulog.flag_bits(ulog.COMPAT_DEFAULT_PARAMETERS)]
         parts += [ulog.format_message(t.name, (("uint64_t", "timestamp"), *t.fields))
                   for t in self.topics]
         parts += [ulog.info("ver_sw", VER_SW), ulog.info("ver_sw_release", VER_SW_RELEASE, unsigned=True),
@@ -124,6 +148,7 @@ class VehicleLogger:
             parts.append(ulog.info("time_ref_utc", 0))
         for param, value in v.params.items():
             parts.append(ulog.parameter(param.name, value, param.type is ParamType.INT32))
+        parts += _parameter_defaults(v.params)
         parts += [ulog.add_logged(i, t.name) for i, t in enumerate(self.topics)]
         parts.append(ulog.sync())
         self._buf += b"".join(parts)

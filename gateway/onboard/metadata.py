@@ -23,10 +23,9 @@ from __future__ import annotations
 
 import json
 import lzma
-import zlib
 from dataclasses import dataclass
 
-from vehicles.params import ParamInfo, ParamType, param_table
+from vehicles.params import VOLATILE, ParamInfo, ParamType, crc32part, param_table
 
 EXTRAS_DIR = "etc/extras"
 GENERAL_URI = f"mftp://{EXTRAS_DIR}/component_general.json.xz"
@@ -36,9 +35,8 @@ COMP_METADATA_TYPE_PARAMETER = 1
 
 def mavlink_crc32(data: bytes, crc: int = 0) -> int:
     """MAVLink's CRC-32 as PX4 computes it (crc32part, its generators, MAVSDK): the CRC-32
-    polynomial starting at 0 with no final XOR; ``crc`` continues an earlier part. zlib inverts
-    before and after, so its start is the inverted value and its result is inverted back."""
-    return ~zlib.crc32(data, ~crc & 0xFFFFFFFF) & 0xFFFFFFFF
+    polynomial starting at 0 with no final XOR; ``crc`` continues an earlier part."""
+    return crc32part(data, crc)
 
 
 def _typed(info: ParamInfo, value: float) -> int | float:
@@ -53,6 +51,9 @@ def parameter_entry(info: ParamInfo) -> dict[str, object]:
         "group": info.group or "Miscellaneous",
         "category": "Standard",
     }
+    if info.name in VOLATILE:  # jsonout.py: "volatile" and the @category (system)
+        entry["volatile"] = True
+        entry["category"] = "System"
     if info.description:
         entry["shortDesc"] = info.description
     if info.unit:

@@ -3,8 +3,9 @@
 Source: the ULog file format (PX4 docs, "ULog File Format"; PX4 src/modules/logger/messages.h).
 Rules:
 - A file is the 16-byte header, the definitions section (flag bits first, then formats, info,
-  parameters) and the data section (subscriptions 'A', data 'D', logged strings 'L', parameter
-  changes 'P', sync 'S'). Every message is ``uint16 size, uint8 type, payload`` (little endian).
+  parameters, default parameters 'Q' when the flag bits say so) and the data section
+  (subscriptions 'A', data 'D', logged strings 'L', parameter changes 'P', sync 'S'). Every
+  message is ``uint16 size, uint8 type, payload`` (little endian).
 - Formats are packed as declared: no implicit padding; the first field of every logged topic is
   ``uint64_t timestamp`` (µs).
 - Types: int8_t … uint64_t, float, double, bool, char, and arrays ``type[n]``.
@@ -36,9 +37,13 @@ def header(timestamp_us: int) -> bytes:
     return MAGIC + bytes((VERSION,)) + struct.pack("<Q", timestamp_us)
 
 
-def flag_bits() -> bytes:
-    """'B': no compatible or incompatible flags, no appended data."""
-    return _message(b"B", bytes(16) + struct.pack("<3Q", 0, 0, 0))
+COMPAT_DEFAULT_PARAMETERS = 1  # compat_flags[0]: the file has 'Q' (default parameter) messages
+DEFAULT_SYSTEM, DEFAULT_CURRENT_SETUP = 1, 2  # ulog_parameter_default_type_t bits
+
+
+def flag_bits(compat0: int = 0) -> bytes:
+    """'B': compat_flags[0] = ``compat0``, no incompatible flags, no appended data."""
+    return _message(b"B", bytes((compat0,)) + bytes(15) + struct.pack("<3Q", 0, 0, 0))
 
 
 def field_code(type_name: str) -> str:
@@ -79,6 +84,14 @@ def parameter(name: str, value: float, is_int: bool) -> bytes:
     if is_int:
         return _message(b"P", _key_value(f"int32_t {name}", struct.pack("<i", int(value))))
     return _message(b"P", _key_value(f"float {name}", struct.pack("<f", float(value))))
+
+
+def parameter_default(name: str, value: float, is_int: bool, default_types: int) -> bytes:
+    """'Q': a parameter's default (``default_types``: DEFAULT_SYSTEM, DEFAULT_CURRENT_SETUP or
+    both), as ``int32_t NAME`` or ``float NAME``."""
+    raw = struct.pack("<i", int(value)) if is_int else struct.pack("<f", float(value))
+    key = f"{'int32_t' if is_int else 'float'} {name}"
+    return _message(b"Q", bytes((default_types,)) + _key_value(key, raw))
 
 
 def add_logged(msg_id: int, name: str, multi_id: int = 0) -> bytes:

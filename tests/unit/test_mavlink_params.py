@@ -171,3 +171,66 @@ def test_preflight_storage_resets_as_px4s_commander_worker():
         assert api.command_long(storage, 7, retries=0) is None  # PX4 answers nothing
         assert api.arm() == 0
         assert api.command_long(storage, 2) == 1
+
+
+def qgc_cache_crc(values: dict[str, tuple[int, float]], volatile: set[str]) -> int:
+    """QGC's ParameterManager::_tryCacheHashLoad: QGC::crc32 (table CRC-32, no inversion)
+    over each cached parameter's name and four value bytes, in the cache map's (name) order,
+    the parameters its metadata marks volatile left out."""
+    table = []
+    for n in range(256):
+        c = n
+        for _ in range(8):
+            c = (c >> 1) ^ 0xEDB88320 if c & 1 else c >> 1
+        table.append(c)
+    crc = 0
+    for name in sorted(values):
+        if name in volatile:
+            continue
+        ptype, value = values[name]
+        for byte in name.encode() + struct.pack("<i" if ptype == 6 else "<f", value):
+            crc = table[(crc ^ byte) & 0xFF] ^ (crc >> 8)
+    return crc
+
+
+def test_qgc_cache_matches_the_hash_across_flights_and_bookkeeping_is_not_broadcast():
+    """QGC keeps the parameters of the last connection and asks for none when _HASH_CHECK
+    equals the CRC it computes over them: ours is PX4's param_hash_check, which leaves out
+    the volatile parameters (metadata "volatile": true), so a flight — which counts
+    COM_FLIGHT_UUID and LND_FLIGHT_T_HI/_LO up without notification (no PARAM_VALUE) — does
+    not cost the next connection a download. A parameter a user sets changes the hash."""
+    import json
+    import lzma
+
+    from gateway.onboard.metadata import shared
+    from gateway.testing import Sim
+
+    doc = json.loads(lzma.decompress(shared().files["parameters.json.xz"]))
+    volatile = {p["name"] for p in doc["parameters"] if p.get("volatile")}
+    assert {"COM_FLIGHT_UUID", "LND_FLIGHT_T_HI", "LND_FLIGHT_T_LO"} <= volatile
+    with Sim() as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        api = sim.api(0)
+        since = len(api.frames)
+        api.send(M.MAVLink_param_request_list_message(1, 1))
+        sim.advance(2.0)
+        listed = api.messages("PARAM_VALUE", since)
+        hash_before = struct.unpack("<I", raw_value(listed[0]))[0]
+        cache = {m.param_id: (m.param_type, struct.unpack("<i" if m.param_type == 6 else "<f",
+                                                          raw_value(m))[0])
+                 for m in listed[1:]}
+        assert qgc_cache_crc(cache, volatile) == hash_before
+        since = len(api.frames)
+        assert api.arm() == 0 and api.takeoff() == 0
+        assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=30)
+        assert api.land() == 0
+        assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
+        params = sim.vehicles[0].params
+        assert params["COM_FLIGHT_UUID"] == 1 and params["LND_FLIGHT_T_LO"] > 0
+        broadcast = {m.param_id for m in api.messages("PARAM_VALUE", since)}
+        assert not broadcast & volatile
+        api.send(M.MAVLink_param_request_read_message(1, 1, b"_HASH_CHECK", -1))
+        sim.advance(0.1)
+        assert struct.unpack("<I", raw_value(api.messages("PARAM_VALUE")[-1]))[0] == hash_before
+        params.set("MPC_XY_CRUISE", 7.0)
+        assert params.hash32() != hash_before

@@ -96,6 +96,7 @@ def test_the_log_has_what_px4s_log_analysis_reads(tmp_path):
     assert np.max(np.abs(est["z"][:n] - truth["z"][:n])) < 0.5 and truth["z"].min() < -2.0
     gyro = data("vehicle_angular_velocity")
     assert (gyro["timestamp_sample"] == gyro["timestamp"]).all()
+    assert not log.get_default_parameters(0)  # nothing differs from a default here
     air = data("vehicle_air_data")
     assert 90_000 < air["baro_pressure_pa"][0] < 101_325 and 1.0 < air["rho"][0] < 1.3
 
@@ -151,3 +152,26 @@ def test_log_download_over_mavlink_as_px4s_log_handler(tmp_path):
         api.send(M.MAVLink_log_erase_message(1, 1))
         sim.advance(0.2)
         assert len(list((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))) == 1
+
+
+def test_parameter_defaults_as_px4s_logger_writes_them(tmp_path):
+    """'Q' messages (logger.cpp write_parameter_defaults): a launch value (``param
+    set-default``) is the current setup's default, PX4's own the system default; a parameter at
+    both defaults has none, one a client changed has both; volatile ones never."""
+    with Sim(log_dir=tmp_path, params={"MPC_XY_CRUISE": 7.0, "SDLOG_MODE": 0}) as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        params = sim.vehicles[0].params
+        params.set("MIS_TAKEOFF_ALT", 4.0)
+        params.set("MPC_XY_CRUISE", 6.0)
+        params.set("COM_FLIGHT_UUID", 9, notify=False)
+        api = sim.api(0)
+        assert api.arm() == 0
+        sim.advance(1.0)
+        assert api.disarm() == 0
+        sim.advance(1.0)
+    log = pyulog.ULog(str(sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))[0]))
+    assert log.has_default_parameters
+    system, setup = log.get_default_parameters(0), log.get_default_parameters(1)
+    assert system == {"MIS_TAKEOFF_ALT": 2.5, "MPC_XY_CRUISE": 5.0, "SDLOG_MODE": 1}
+    assert setup == {"MIS_TAKEOFF_ALT": 2.5, "MPC_XY_CRUISE": 7.0}
+    assert log.initial_parameters["COM_FLIGHT_UUID"] == 9

@@ -59,6 +59,20 @@ def test_client_changes_and_plans_survive_a_restart(tmp_path):
     written(d2)
 
 
+def test_flight_bookkeeping_committed_without_notification_is_saved(tmp_path):
+    """PX4 saves COM_FLIGHT_UUID and the flight time (commit_no_notification still autosaves):
+    the next boot counts on from them."""
+    d = boot(tmp_path)
+    params = d.sim.vehicles[0].params
+    params.set("COM_FLIGHT_UUID", 4, notify=False)
+    params.set("LND_FLIGHT_T_LO", 123_000_000, notify=False)
+    written(d)
+    d2 = boot(tmp_path)
+    assert d2.sim.vehicles[0].params["COM_FLIGHT_UUID"] == 4
+    assert d2.sim.vehicles[0].params["LND_FLIGHT_T_LO"] == 123_000_000
+    written(d2)
+
+
 def test_boot_values_are_not_saved(tmp_path):
     """--param and the speed-scaled time-outs are set at every boot, never written."""
     d = boot(tmp_path, speed=10, params={"MPC_XY_CRUISE": 7.0})
