@@ -19,6 +19,7 @@ Rules:
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Sequence
 from typing import Any
@@ -35,6 +36,7 @@ VER_SW_RELEASE = FLIGHT_SW_VERSION  # px4_firmware_version(), as AUTOPILOT_VERSI
 VER_HW = "PX4_SITL"  # px4_board_name() of the SITL build
 SDLOG_OFF, SDLOG_ARMED, SDLOG_BOOT_TO_DISARM, SDLOG_BOOT_TO_SHUTDOWN, SDLOG_AUX1, \
     SDLOG_FIRST_ARM = -1, 0, 1, 2, 3, 4
+log = logging.getLogger(__name__)
 LEVELS = {s: ord(str(int(s))) for s in Severity}  # syslog digit per MAV_SEVERITY
 
 
@@ -110,6 +112,7 @@ class VehicleLogger:
         self._param_changes: list[tuple[str, float]] = []
         vehicle.params.on_change(self._on_param)
         self.files: list[str] = []  # every log started, oldest first
+        self.errors = 0  # samples a topic's reader failed (logged once)
 
     @property
     def logging(self) -> bool:
@@ -204,16 +207,23 @@ class VehicleLogger:
         for i, topic in enumerate(self.topics):
             if not force and soon < due[i]:
                 continue
-            values = topic.read(view, us)
-            if values is None:  # not published yet
-                continue
-            if topic.on_change and values == self._last[i] and not force:
+            try:
+                values = topic.read(view, us)
+                if values is None:  # not published yet
+                    continue
+                if topic.on_change and values == self._last[i] and not force:
+                    continue
+                flat = _flatten(values) if self._nested[i] else values
+                record = self._structs[i].pack(us, *flat)
+            except Exception:  # a topic that cannot be read is missing, the log goes on
+                self.errors += 1
+                if self.errors == 1:
+                    log.exception("logger: topic %s could not be sampled", topic.name)
                 continue
             self._last[i] = values
             due[i] = now_s + topic.interval_s
-            flat = _flatten(values) if self._nested[i] else values
             buf += self._prefixes[i]  # ulog.data(i, payload), in two appends
-            buf += self._structs[i].pack(us, *flat)
+            buf += record
 
     def drain(self) -> list[tuple[str, bytes, bool]]:
         """What to append to which file since the last drain: (path, bytes, closed)."""

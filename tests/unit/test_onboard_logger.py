@@ -175,3 +175,23 @@ def test_parameter_defaults_as_px4s_logger_writes_them(tmp_path):
     assert system == {"MIS_TAKEOFF_ALT": 2.5, "MPC_XY_CRUISE": 5.0, "SDLOG_MODE": 1}
     assert setup == {"MIS_TAKEOFF_ALT": 2.5, "MPC_XY_CRUISE": 7.0}
     assert log.initial_parameters["COM_FLIGHT_UUID"] == 9
+
+
+def test_a_topic_that_cannot_be_read_is_left_out_and_the_log_goes_on(tmp_path):
+    from gateway.onboard.logged_topics import TOPICS, Topic
+    from gateway.onboard.logger import VehicleLogger
+
+    def broken(v, now_us):
+        raise RuntimeError("no such sensor")
+
+    with Sim() as sim:
+        sim.advance(1.0)
+        logger = VehicleLogger(sim.vehicles[0], None,
+                               (TOPICS[0], Topic("broken", (("float", "x"),), 0.0, broken)))
+        for k in range(5):
+            logger.tick(1.0 + 0.02 * k)
+        (path, data, _closed), = logger.close()
+    (tmp_path / "log.ulg").write_bytes(data)
+    log = pyulog.ULog(str(tmp_path / "log.ulg"))
+    assert logger.errors == 5
+    assert len(log.get_dataset("vehicle_attitude").data["timestamp"]) == 5
