@@ -318,13 +318,13 @@ class Sim:
             physics_dt_s=physics_dt_s, link_kinds=tuple(links), wind=sc.wind,
             sensors=sc.sensors, faults=sc.faults, spawn_ned_m=sc.spawn_ned_m,
             extra_radios=False)
-        attach_shells(self.simulation)
         self.logs: Logs | None = None
         if self.flightlog is not None:
             self.flightlog.attach(self.simulation, extra_meta)
             run = self.flightlog.dir  # PX4's logger: <log_dir>/vehicle-<sysid>/log/…
             self.logs = Logs(self.simulation, lambda sysid: [run / f"vehicle-{sysid}"],
                              boot_unix_s)
+        attach_shells(self.simulation, self.logs.loggers.get if self.logs is not None else None)
         # MAVLink FTP: the vehicle's root when there is a log dir, PX4's etc/extras always.
         run_dir = self.flightlog.dir if self.flightlog is not None else None
         attach_ftp(self.simulation,

@@ -125,10 +125,10 @@ class Daemon:
         # <state dir>/vehicle-<sysid>/log/… and <run dir>/vehicle-<sysid>/log/….
         roots = [d for d in (config.state_dir, self.flightlog.dir if self.flightlog else None)
                  if d is not None]
-        attach_shells(self.sim)
         attach_ftp(self.sim, lambda sysid: [state.vehicle_dir(r, sysid) for r in roots])
         self.logs = Logs(self.sim, lambda sysid: [state.vehicle_dir(r, sysid) for r in roots],
                          boot_unix_s) if roots else None
+        attach_shells(self.sim, self.logs.loggers.get if self.logs is not None else None)
         if self.publisher is not None:
             pub, sim = self.publisher, self.sim
             sim.every(zmq_pub.STATE_PERIOD_S, lambda now: pub.vehicle_states(now, sim))

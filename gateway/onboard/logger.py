@@ -113,6 +113,9 @@ class VehicleLogger:
         vehicle.params.on_change(self._on_param)
         self.files: list[str] = []  # every log started, oldest first
         self.errors = 0  # samples a topic's reader failed (logged once)
+        self.override = False  # ``logger on``: log whatever the arming state
+        self._file_bytes = 0  # of the log being written, handed out so far
+        self._started_s = 0.0
 
     @property
     def logging(self) -> bool:
@@ -138,6 +141,8 @@ class VehicleLogger:
         us = int(now_s * 1e6)
         self._path = self._name(now_s)
         self.files.append(self._path)
+        self._file_bytes = 0
+        self._started_s = now_s
         v = self.vehicle
         sysid = v.params.get("MAV_SYS_ID", 1)
         parts = [ulog.header(us), ulog.flag_bits(ulog.COMPAT_DEFAULT_PARAMETERS)]
@@ -162,6 +167,7 @@ class VehicleLogger:
 
     def _stop(self) -> None:
         if self._path is not None:
+            self._file_bytes += len(self._buf)
             self._out.append((self._path, bytes(self._buf), True))
             self._buf.clear()
             self._path = None
@@ -183,14 +189,46 @@ class VehicleLogger:
                     armed and not self._was_armed and mode != SDLOG_OFF
                     and not (mode == SDLOG_FIRST_ARM and self._armed_once)):
                 self._start(now_s)
-        elif self._was_armed and not armed and mode in (SDLOG_ARMED, SDLOG_BOOT_TO_DISARM,
-                                                        SDLOG_AUX1):
+        elif self._was_armed and not armed and not self.override and mode in (
+                SDLOG_ARMED, SDLOG_BOOT_TO_DISARM, SDLOG_AUX1):
             self._sample(now_s, True, view)
             self._stop()
         self._armed_once = self._armed_once or armed
         self._was_armed = armed
         if self._path is not None:
             self._sample(now_s, False, view)
+
+    # --- the console's ``logger on`` / ``off`` / ``status`` ------------------------------------
+    def on(self, now_s: float) -> None:
+        """Logger::set_arm_override(true): log now, whatever the arming state, until ``off``."""
+        self.override = True
+        if self._path is None:
+            self._start(now_s)
+            self._sample(now_s, False, _Sample(self.vehicle))
+
+    def off(self, now_s: float) -> None:
+        """set_arm_override(false): logging follows SDLOG_MODE again, so an unarmed vehicle's
+        log ends (unless SDLOG_MODE logs until shutdown)."""
+        self.override = False
+        mode = self.vehicle.params.get("SDLOG_MODE", SDLOG_ARMED)
+        if (self._path is not None and not self.vehicle.status.armed
+                and mode != SDLOG_BOOT_TO_SHUTDOWN):
+            self._sample(now_s, True, _Sample(self.vehicle))
+            self._stop()
+
+    def status(self, now_s: float) -> list[str]:
+        """Logger::print_status's lines (the file backend; LoggerSubscription is 40 bytes)."""
+        n = len(self.topics)
+        lines = ["Running in mode: all", f"Number of subscriptions: {n} ({n * 40} bytes)"]
+        if self._path is None:
+            return [*lines, "Not logging"]
+        kib = (self._file_bytes + len(self._buf)) / 1024.0
+        seconds = max(now_s - self._started_s, 1e-6)
+        wrote = f"{kib:4.2f} KiB" if kib / 1024.0 < 0.1 else f"{kib / 1024.0:4.2f} MiB"
+        return [*lines, "Full File Logging Running:", f"Log file: ./{self._path}",
+                f"Wrote {wrote} (avg {kib / seconds:5.2f} KiB/s)",
+                "Since last status: dropouts: 0 (max len: 0.000 s), max used buffer: 0 / "
+                "12288 B"]
 
     def _sample(self, now_s: float, force: bool, view: _Sample) -> None:
         us = int(now_s * 1e6)
@@ -230,6 +268,7 @@ class VehicleLogger:
         out = self._out
         self._out = []
         if self._path is not None and self._buf:
+            self._file_bytes += len(self._buf)
             out.append((self._path, bytes(self._buf), False))
             self._buf.clear()
         return out

@@ -10,8 +10,9 @@ Rules:
 - Unknown commands: "Invalid command: X\\ntype 'help' for a list of commands"; a command that
   fails: "Command 'X' failed, returned N.".
 - The commands act on the vehicle through the same calls as MAVLink (arm, takeoff, modes,
-  parameters, failure injection); ``listener`` prints the logger's topics (logger.py) with
-  PX4's topic and field names.
+  parameters, failure injection); ``listener`` prints the logger's topics (logged_topics.py)
+  with PX4's topic and field names; ``logger on|off|status`` drives the vehicle's logger
+  (logger.py) as logger.cpp's commands do.
 """
 
 from __future__ import annotations
@@ -48,13 +49,15 @@ def _value(v: Any) -> str:
 
 
 class Pxh:
-    def __init__(self, vehicle: Any, version: str) -> None:
+    def __init__(self, vehicle: Any, version: str, logger: Any = None) -> None:
         self.vehicle = vehicle
         self.version = version
+        self.logger = logger  # the vehicle's VehicleLogger; None: no storage, no logger
         self._line = bytearray()
         self._commands: dict[str, Callable[[list[str], float], int]] = {
             "commander": self._commander, "dmesg": self._dmesg, "failure": self._failure,
-            "free": self._free, "listener": self._listener, "param": self._param,
+            "free": self._free, "listener": self._listener, "logger": self._logger,
+            "param": self._param,
             "top": self._top, "ver": self._ver,
         }
         self._out: list[str] = []
@@ -229,6 +232,31 @@ class Pxh:
             self.print(f"    {field}: {_value(value)}\n")
         return 0
 
+    def _logger(self, args: list[str], now_s: float) -> int:
+        """logger's custom_command and print_status (logger.cpp)."""
+        usage = ("\n### Description\nSystem logger which logs a configurable set of uORB topics "
+                 "and system printf messages\n\nUsage: logger <command> [arguments...]\n"
+                 " Commands:\n   start\n   on            start logging now, override arming "
+                 "(logger must be running)\n   off           stop logging now, override arming "
+                 "(logger must be running)\n   stop\n   status        print status info\n")
+        if self.logger is None:
+            self.print("WARN  [logger] logger not running\n" + usage
+                       if args and args[0] != "status" else "INFO  [logger] not running\n")
+            return 1
+        cmd = args[0] if args else ""
+        if cmd == "status":
+            for line in self.logger.status(now_s):
+                self.print(f"INFO  [logger] {line}\n")
+            return 0
+        if cmd == "on":
+            self.logger.on(now_s)
+            return 0
+        if cmd == "off":
+            self.logger.off(now_s)
+            return 0
+        self.print(("WARN  [logger] unknown command\n" if cmd else "") + usage)
+        return 1
+
     def _dmesg(self, args: list[str], now_s: float) -> int:
         texts = getattr(self.vehicle, "status_texts", None)
         for t in (texts(0) if texts is not None else [])[-50:]:
@@ -252,8 +280,10 @@ class Pxh:
         return 0
 
 
-def attach_shells(sim: Any) -> None:
-    """Every link of every vehicle gets PX4's MAVLink shell (a pxh per shell session)."""
+def attach_shells(sim: Any, loggers: Callable[[int], Any] | None = None) -> None:
+    """Every link of every vehicle gets PX4's MAVLink shell (a pxh per shell session);
+    ``loggers(sysid)``: the vehicle's logger (``logger`` commands), None without storage."""
     for link in sim.links.values():
         vehicle = link.session.vehicle
-        link.session.serial.terminal_factory = lambda v=vehicle: Pxh(v, VERSION)
+        logger = loggers(link.session.sysid) if loggers is not None else None
+        link.session.serial.terminal_factory = lambda v=vehicle, g=logger: Pxh(v, VERSION, g)

@@ -69,3 +69,30 @@ def test_failure_command_needs_sys_failure_en_and_closing_the_shell():
         assert not sim.status(0).position_valid
         shell(sim, "", flags=0)  # no RESPOND: the shell closes; the next one starts afresh
         assert shell(sim, "\n") == "\npxh> "
+
+
+def test_logger_on_off_and_status(tmp_path):
+    """pxh's ``logger``: ``status`` as Logger::print_status, ``on`` logs whatever the arming
+    state (SDLOG_MODE 0 would wait for arming), ``off`` ends it; without storage the logger is
+    not running."""
+    import pyulog
+
+    with Sim() as sim:
+        sim.advance(1.0)
+        assert "INFO  [logger] not running" in shell(sim, "logger status\n")
+    with Sim(log_dir=tmp_path, params={"SDLOG_MODE": 0}) as sim:
+        sim.advance(1.0)
+        assert "INFO  [logger] Not logging\n" in shell(sim, "logger status\n")
+        shell(sim, "logger on\n")
+        sim.advance(3.0)
+        status = shell(sim, "logger status\n")
+        assert "INFO  [logger] Full File Logging Running:" in status
+        assert "INFO  [logger] Log file: ./log/" in status and "KiB/s)" in status
+        shell(sim, "logger off\n")
+        assert "Not logging" in shell(sim, "logger status\n")
+        assert "Command 'logger' failed" in shell(sim, "logger frobnicate\n")
+    files = sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))
+    assert len(files) == 1
+    log = pyulog.ULog(str(files[0]))
+    assert set(log.get_dataset("vehicle_status").data["arming_state"]) == {1}  # never armed
+    assert log.last_timestamp - log.start_timestamp > 2_500_000
