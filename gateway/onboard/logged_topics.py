@@ -248,6 +248,18 @@ def _control_mode(v: Any, now_us: int) -> tuple:
             bool(bits & _ALT), bool(bits & _CLIMB), termination)
 
 
+def _manual_control(v: Any, now_us: int) -> tuple | None:
+    """The stick input the vehicle flies on (PX4's ManualControl publishes once one came)."""
+    manual = v.autopilot.manual
+    if manual.sticks is None:
+        return None
+    now_s = now_us * 1e-6
+    sticks = manual.current(now_s)
+    valid = manual.fresh(now_s, float(v.params["COM_RC_LOSS_T"]))
+    return (now_us, valid, sticks.roll, sticks.pitch, sticks.yaw, sticks.throttle,
+            manual.moving)
+
+
 def _attitude_truth(v: Any, now_us: int) -> tuple:
     return (v.truth.attitude_q,)
 
@@ -330,6 +342,9 @@ TOPICS: tuple[Topic, ...] = (
         "control_attitude_enabled", "control_acceleration_enabled", "control_velocity_enabled",
         "control_position_enabled", "control_altitude_enabled", "control_climb_rate_enabled",
         "control_termination_enabled")), 0.0, _control_mode, on_change=True),
+    Topic("manual_control_setpoint", ((U64, "timestamp_sample"), (B, "valid"), (F, "roll"),
+                                      (F, "pitch"), (F, "yaw"), (F, "throttle"),
+                                      (B, "sticks_moving")), 0.2, _manual_control),
     Topic("vehicle_air_data", ((U64, "timestamp_sample"), (F, "baro_alt_meter"),
                                (F, "baro_temp_celcius"), (F, "baro_pressure_pa"), (F, "rho")),
           0.2, _air_data),

@@ -195,3 +195,22 @@ def test_a_topic_that_cannot_be_read_is_left_out_and_the_log_goes_on(tmp_path):
     log = pyulog.ULog(str(tmp_path / "log.ulg"))
     assert logger.errors == 5
     assert len(log.get_dataset("vehicle_attitude").data["timestamp"]) == 5
+
+
+def test_stick_input_is_logged_once_it_comes(tmp_path):
+    """manual_control_setpoint (200 ms): not in the log before any stick input, then the sticks
+    the vehicle flies on, invalid (and centred) once the input is lost."""
+    from pymavlink.dialects.v20 import common as M
+
+    with Sim(log_dir=tmp_path, params={"SDLOG_MODE": 2}) as sim:
+        sim.advance(2.0)
+        api = sim.api(0)
+        for _ in range(20):
+            api.send(M.MAVLink_manual_control_message(1, 300, -200, 500, 100, 0))
+            sim.advance(0.05)
+        sim.advance(3.0)  # COM_RC_LOSS_T later: lost
+    log = pyulog.ULog(str(sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))[0]))
+    sticks = log.get_dataset("manual_control_setpoint").data
+    assert sticks["timestamp"][0] >= 2_000_000
+    assert sticks["valid"][0] == 1 and sticks["pitch"][0] == pytest.approx(0.3)
+    assert sticks["valid"][-1] == 0 and sticks["pitch"][-1] == 0.0
