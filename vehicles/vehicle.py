@@ -22,6 +22,7 @@ import numpy as np
 
 from vehicles.airframe import Airframe
 from vehicles.autopilot import POSITION_CONTROL_DIVIDER, Autopilot
+from vehicles.command_journal import CommandJournal
 from vehicles.control.quat import q_yaw
 from vehicles.estimation import (
     F_ACC_OFF,
@@ -121,6 +122,7 @@ class Vehicle:
         self._row = row
         self._autopilot = Autopilot(params, airframe, origin, dt_s, boot_time_s,
                                     name=f"vehicle {index + 1}")
+        self.commands = CommandJournal()  # what the logger records as vehicle_command(_ack)
         # The 50 Hz part runs on physics steps index, index + 5, …: the World's vehicles do not
         # all do their 50 Hz work on one step.
         self._tick = -index % POSITION_CONTROL_DIVIDER
@@ -268,6 +270,12 @@ class Vehicle:
 
     def status_texts(self, after_seq: int = 0) -> list[StatusText]:
         return self._autopilot.log.after(after_seq)
+
+    def record_command(self, now_s: float, command: int,
+                       params: tuple[float, float, float, float, float, float, float],
+                       source: tuple[int, int], result: int | None) -> None:
+        """A command a link dispatched and its ACK's result (vehicle_command(_ack))."""
+        self.commands.record(now_s, command, params, source, result)
 
     @property
     def changes(self) -> Changes:

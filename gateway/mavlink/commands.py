@@ -214,6 +214,10 @@ class CommandService:
         result = UNSUPPORTED if handler is None else handler(cmd, now_s)
         if result is not None:
             self.ack(cmd, int(result))
+        record = getattr(self.vehicle, "record_command", None)
+        if record is not None:  # the logger's vehicle_command and vehicle_command_ack
+            record(now_s, cmd.command, cmd.params, (cmd.src_system, cmd.src_component),
+                   None if result is None else int(result))
 
     def ack(self, cmd: Command, result: int) -> None:
         self.send(self.encoder.pack(M.MAVLink_command_ack_message, cmd.command, result, 0, 0,

@@ -89,6 +89,10 @@ class VehicleFeatures(Protocol):
 
     def on_gcs_heartbeat(self, now_s: float) -> None: ...  # data-link-loss failsafe input
 
+    def record_command(self, now_s: float, command: int,
+                       params: tuple[float, float, float, float, float, float, float],
+                       source: tuple[int, int], result: int | None) -> None: ...  # for the log
+
     # plans (MISSION / FENCE / RALLY)
     def plan(self, plan_type: PlanType) -> tuple[PlanItem, ...]: ...
 

@@ -364,3 +364,29 @@ TOPICS: tuple[Topic, ...] = (
 )
 
 
+
+
+# Topics logged at every message (logged_topics.cpp: no interval), from the vehicle's command
+# journal (vehicles/command_journal.py) rather than sampled: the commands a link dispatched
+# (mavlink_receiver publishes vehicle_command, from_external) and the ACKs sent back.
+VEHICLE_COMMAND = ("vehicle_command", ((F, "param1"), (F, "param2"), (F, "param3"), (F, "param4"),
+                                       (D, "param5"), (D, "param6"), (F, "param7"),
+                                       ("uint32_t", "command"), ("uint8_t", "source_system"),
+                                       ("uint16_t", "source_component"), (B, "from_external")))
+VEHICLE_COMMAND_ACK = ("vehicle_command_ack", (("uint32_t", "command"), ("uint8_t", "result"),
+                                               ("uint8_t", "target_system"),
+                                               ("uint16_t", "target_component"),
+                                               (B, "from_external")))
+EVENT_TOPICS = (VEHICLE_COMMAND, VEHICLE_COMMAND_ACK)
+
+
+def command_values(record: Any) -> tuple:
+    """vehicle_command's fields of a CommandRecord."""
+    return (*record.params, record.command, record.source_system & 0xFF,
+            record.source_component & 0xFFFF, True)
+
+
+def command_ack_values(record: Any) -> tuple:
+    """vehicle_command_ack's fields of a CommandRecord that was answered."""
+    return (record.command, record.result & 0xFF, record.source_system & 0xFF,
+            record.source_component & 0xFFFF, True)

@@ -8,6 +8,8 @@ Rules:
   2 from boot on; 4 from the first arming on; 3, AUX1, as 0) and samples each topic when its
   interval has passed (0: every tick; topics marked on-change: when their values change).
 - The topics, with PX4's names, field names and intervals: logged_topics.py.
+- vehicle_command and vehicle_command_ack are written for every command the vehicle's journal
+  (vehicles/command_journal.py) recorded since the last tick, at the time it came.
 - A log holds the info fields (ver_sw, ver_sw_release, ver_hw, sys_name, sys_uuid,
   time_ref_utc), every parameter and the defaults of those that differ from them (PX4's 'Q'
   messages: the system's and the airframe's) at its
@@ -27,7 +29,13 @@ from typing import Any
 from gateway.mavlink.commands import FLIGHT_SW_VERSION
 from gateway.mavlink.vehicle_port import VehiclePort
 from gateway.onboard import ulog
-from gateway.onboard.logged_topics import TOPICS, Topic
+from gateway.onboard.logged_topics import (
+    EVENT_TOPICS,
+    TOPICS,
+    Topic,
+    command_ack_values,
+    command_values,
+)
 from vehicles.params import VOLATILE, ParamType
 from vehicles.types import Severity
 
@@ -98,6 +106,13 @@ class VehicleLogger:
                          for t in self.topics]
         self._nested = [any("[" in ftype for ftype, _ in t.fields) for t in self.topics]
         self._prefixes = [ulog.data_prefix(i, st.size) for i, st in enumerate(self._structs)]
+        # vehicle_command and vehicle_command_ack: every record of the vehicle's command journal
+        n = len(self.topics)
+        self._event_structs = [ulog.struct_of((("uint64_t", "timestamp"), *fields))
+                               for _, fields in EVENT_TOPICS]
+        self._event_prefixes = [ulog.data_prefix(n + k, st.size)
+                                for k, st in enumerate(self._event_structs)]
+        self._command_seq = 0
         self._path: str | None = None
         self._buf = bytearray()
         self._out: list[tuple[str, bytes, bool]] = []
@@ -148,6 +163,8 @@ class VehicleLogger:
         parts = [ulog.header(us), ulog.flag_bits(ulog.COMPAT_DEFAULT_PARAMETERS)]
         parts += [ulog.format_message(t.name, (("uint64_t", "timestamp"), *t.fields))
                   for t in self.topics]
+        parts += [ulog.format_message(name, (("uint64_t", "timestamp"), *fields))
+                  for name, fields in EVENT_TOPICS]
         parts += [ulog.info("ver_sw", VER_SW), ulog.info("ver_sw_release", VER_SW_RELEASE, unsigned=True),
                   ulog.info("ver_hw", VER_HW), ulog.info("sys_name", "PX4"),
                   ulog.info("sys_uuid", f"CORNET{int(sysid or 1):04d}"),
@@ -158,12 +175,16 @@ class VehicleLogger:
             parts.append(ulog.parameter(param.name, value, param.type is ParamType.INT32))
         parts += _parameter_defaults(v.params)
         parts += [ulog.add_logged(i, t.name) for i, t in enumerate(self.topics)]
+        parts += [ulog.add_logged(len(self.topics) + k, name)
+                  for k, (name, _) in enumerate(EVENT_TOPICS)]
         parts.append(ulog.sync())
         self._buf += b"".join(parts)
         self._due = [now_s] * len(self.topics)
         self._last = [None] * len(self.topics)
         self._param_changes.clear()
         self._text_seq = max((t.seq for t in self._texts(0)), default=self._text_seq)
+        journal = getattr(v, "commands", None)
+        self._command_seq = journal.seq if journal is not None else 0
 
     def _stop(self) -> None:
         if self._path is not None:
@@ -241,6 +262,17 @@ class VehicleLogger:
             buf += ulog.logged_string(LEVELS.get(text.severity, ulog.LOG_INFO),
                                       int(text.time_s * 1e6), text.text)
             self._text_seq = text.seq
+        journal = getattr(self.vehicle, "commands", None)
+        if journal is not None and journal.seq > self._command_seq:
+            command, ack = self._event_structs
+            for record in journal.after(self._command_seq):
+                t = int(record.time_s * 1e6)
+                buf += self._event_prefixes[0]
+                buf += command.pack(t, *command_values(record))
+                if record.result is not None:
+                    buf += self._event_prefixes[1]
+                    buf += ack.pack(t, *command_ack_values(record))
+            self._command_seq = journal.seq
         due, soon = self._due, now_s + 1e-9
         for i, topic in enumerate(self.topics):
             if not force and soon < due[i]:

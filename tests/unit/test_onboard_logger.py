@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import pyulog
 
+from gateway.ci.lockstep import CLIENT_SYSID
 from gateway.onboard import ulog
 from gateway.testing import Sim
 
@@ -97,6 +98,12 @@ def test_the_log_has_what_px4s_log_analysis_reads(tmp_path):
     gyro = data("vehicle_angular_velocity")
     assert (gyro["timestamp_sample"] == gyro["timestamp"]).all()
     assert not log.get_default_parameters(0)  # nothing differs from a default here
+    commands, acks = data("vehicle_command"), data("vehicle_command_ack")
+    sent = list(commands["command"])
+    assert sent[:2] == [400, 22] and 21 in sent  # arm, takeoff, ..., land
+    assert commands["param1"][0] == 1.0 and commands["from_external"].all()
+    assert list(acks["command"]) == sent and set(acks["result"]) == {0}
+    assert acks["target_system"][0] == CLIENT_SYSID  # the client that sent it
     air = data("vehicle_air_data")
     assert 90_000 < air["baro_pressure_pa"][0] < 101_325 and 1.0 < air["rho"][0] < 1.3
 

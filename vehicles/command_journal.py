@@ -1,0 +1,47 @@
+"""The commands a vehicle was sent and how it answered them: what PX4's logger records from the
+vehicle_command and vehicle_command_ack topics (every message, no interval).
+
+Rules:
+- ``record`` is called once per command a link dispatched (COMMAND_LONG, COMMAND_INT and the
+  legacy SET_MODE as DO_SET_MODE), with the MAV_RESULT its COMMAND_ACK carried, or None when
+  none was sent (PX4 leaves some unanswered).
+- Records are numbered from 1 (``seq``); the newest ``KEEP`` are kept, so a reader that polls
+  ``after(seq)`` at the logger's rate never misses one.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+KEEP = 256
+
+
+@dataclass(frozen=True)
+class CommandRecord:
+    seq: int
+    time_s: float
+    command: int
+    params: tuple[float, float, float, float, float, float, float]
+    source_system: int
+    source_component: int
+    result: int | None  # the COMMAND_ACK's MAV_RESULT; None: not answered
+
+
+class CommandJournal:
+    def __init__(self) -> None:
+        self._records: deque[CommandRecord] = deque(maxlen=KEEP)
+        self.seq = 0
+
+    def record(self, now_s: float, command: int,
+               params: tuple[float, float, float, float, float, float, float],
+               source: tuple[int, int], result: int | None) -> None:
+        self.seq += 1
+        self._records.append(CommandRecord(self.seq, now_s, command, params, source[0],
+                                           source[1], result))
+
+    def after(self, seq: int) -> list[CommandRecord]:
+        """The records numbered above ``seq``, oldest first."""
+        if seq >= self.seq:
+            return []
+        return [r for r in self._records if r.seq > seq]
