@@ -128,7 +128,8 @@ class Daemon:
         attach_ftp(self.sim, lambda sysid: [state.vehicle_dir(r, sysid) for r in roots])
         self.logs = Logs(self.sim, lambda sysid: [state.vehicle_dir(r, sysid) for r in roots],
                          boot_unix_s) if roots else None
-        attach_shells(self.sim, self.logs.loggers.get if self.logs is not None else None)
+        attach_shells(self.sim, self.logs.loggers.get if self.logs is not None else None,
+                      self._transport)
         if self.publisher is not None:
             pub, sim = self.publisher, self.sim
             sim.every(zmq_pub.STATE_PERIOD_S, lambda now: pub.vehicle_states(now, sim))
@@ -180,6 +181,14 @@ class Daemon:
         endpoint.send(datagram, peer, gcs)  # type: ignore[arg-type]
         if self.flightlog is not None:
             self.flightlog.record_datagram("down", index, kind, datagram, self.sim.now)
+
+    def _transport(self, index: int, tag: LinkTag) -> tuple[int, int, bool] | None:
+        """``mavlink status``'s view of a link's UDP port (None before it is open)."""
+        endpoint = self.endpoints.get((index, tag))
+        if endpoint is None:
+            return None
+        ports = self.sim.ports(index, tag, self.config.port_offset)
+        return ports.local, ports.remote, endpoint.broadcast is not None
 
     def _receiver(self, index: int, kind: LinkTag):
         def on_datagram(data: bytes, addr: tuple[str, int]) -> None:

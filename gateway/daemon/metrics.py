@@ -44,6 +44,8 @@ SESSION_COUNTERS = (
     ("rx_malformed", "cornet_mavlink_rx_malformed_total",
      "Malformed input: bad CRC, garbage, truncated frames."),
     ("rx_unknown", "cornet_mavlink_rx_unknown_total", "Frames with unknown message ids."),
+    ("rx_lost", "cornet_mavlink_rx_lost_total",
+     "Frames missing from the senders' sequence numbers (MAVLink's loss count)."),
     ("rx_bad_datagrams", "cornet_mavlink_rx_bad_datagrams_total",
      "Datagrams with anything unusable in them (malformed or unknown)."),
     ("rx_other_target", "cornet_mavlink_rx_other_target_total",

@@ -214,6 +214,7 @@ class DecodeStats:
     rx_malformed: int = 0  # bad CRC, garbage bytes, truncated frames, parser errors
     rx_unknown: int = 0  # well-framed but message id not in common.xml
     rx_bad_datagrams: int = 0  # datagrams with anything unusable in them (malformed or unknown)
+    rx_lost: int = 0  # frames missing from a sender's sequence numbers (MavlinkReceiver's count)
     # signing on (a Verifier), see signing.py. Dropped after decoding, not in rx_frames:
     rx_unsigned: int = 0  # unsigned or MAVLink 1, not on the accept-unsigned list
     rx_bad_signature: int = 0  # signature does not match the key (or no room for a new stream)
@@ -235,6 +236,7 @@ class Decoder:
         self.stats = stats
         self.verifier = verifier
         self._next_log_s = -1.0
+        self._seqs: dict[tuple[int, int], int] = {}  # last sequence number per (sysid, compid)
 
     def feed(self, data: bytes, now_s: float) -> list[mavlink2.MAVLink_message]:
         st = self.stats
@@ -254,6 +256,12 @@ class Decoder:
                 else:
                     st.rx_frames += 1
                     out.append(m)
+                    # MavlinkReceiver's loss count: the sequence gap per sender
+                    sender, seq = (m.get_srcSystem(), m.get_srcComponent()), m.get_seq()
+                    last = self._seqs.get(sender)
+                    if last is not None:
+                        st.rx_lost += (seq - last - 1) & 0xFF
+                    self._seqs[sender] = seq
             if mav.buf_len() > 0:
                 st.rx_malformed += 1
                 self._log(now_s, "truncated frame: %d bytes left", mav.buf_len())

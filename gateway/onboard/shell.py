@@ -12,7 +12,8 @@ Rules:
 - The commands act on the vehicle through the same calls as MAVLink (arm, takeoff, modes,
   parameters, failure injection); ``listener`` prints the logger's topics (logged_topics.py)
   with PX4's topic and field names; ``logger on|off|status`` drives the vehicle's logger
-  (logger.py) as logger.cpp's commands do.
+  (logger.py) as logger.cpp's commands do; ``mavlink status [streams]`` and ``mavlink stream``
+  show and set the vehicle's links (mavlink_status.py).
 """
 
 from __future__ import annotations
@@ -20,10 +21,12 @@ from __future__ import annotations
 import fnmatch
 import math
 import resource
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
+from gateway.onboard import mavlink_status
 from gateway.onboard.logged_topics import TOPICS, Topic
+from gateway.onboard.mavlink_status import Instance
 from vehicles.faults import TYPES, UNITS
 from vehicles.params import ParamType
 from vehicles.types import CommandResult, NavState
@@ -49,15 +52,17 @@ def _value(v: Any) -> str:
 
 
 class Pxh:
-    def __init__(self, vehicle: Any, version: str, logger: Any = None) -> None:
+    def __init__(self, vehicle: Any, version: str, logger: Any = None,
+                 instances: Sequence[Instance] = ()) -> None:
         self.vehicle = vehicle
         self.version = version
         self.logger = logger  # the vehicle's VehicleLogger; None: no storage, no logger
+        self.instances = tuple(Instance(i.session, i.transport) for i in instances)  # its links
         self._line = bytearray()
         self._commands: dict[str, Callable[[list[str], float], int]] = {
             "commander": self._commander, "dmesg": self._dmesg, "failure": self._failure,
             "free": self._free, "listener": self._listener, "logger": self._logger,
-            "param": self._param,
+            "mavlink": self._mavlink, "param": self._param,
             "top": self._top, "ver": self._ver,
         }
         self._out: list[str] = []
@@ -257,6 +262,17 @@ class Pxh:
         self.print(("WARN  [logger] unknown command\n" if cmd else "") + usage)
         return 1
 
+    def _mavlink(self, args: list[str], now_s: float) -> int:
+        if args and args[0] == "status":
+            self.print(mavlink_status.status(self.instances, now_s, args[1:2] == ["streams"]))
+            return 0
+        if args and args[0] == "stream":
+            ret, text = mavlink_status.stream(self.instances, args[1:], now_s)
+            self.print(text)
+            return ret
+        self.print(mavlink_status.USAGE)
+        return 1
+
     def _dmesg(self, args: list[str], now_s: float) -> int:
         texts = getattr(self.vehicle, "status_texts", None)
         for t in (texts(0) if texts is not None else [])[-50:]:
@@ -280,10 +296,19 @@ class Pxh:
         return 0
 
 
-def attach_shells(sim: Any, loggers: Callable[[int], Any] | None = None) -> None:
+def attach_shells(sim: Any, loggers: Callable[[int], Any] | None = None,
+                  transport: Callable[[int, Any], Any] | None = None) -> None:
     """Every link of every vehicle gets PX4's MAVLink shell (a pxh per shell session);
-    ``loggers(sysid)``: the vehicle's logger (``logger`` commands), None without storage."""
-    for link in sim.links.values():
+    ``loggers(sysid)``: the vehicle's logger (``logger`` commands), None without storage;
+    ``transport(index, tag)``: a link's (local port, remote port, broadcast) for ``mavlink
+    status``, None without sockets."""
+    links: dict[int, list[Instance]] = {}
+    for (index, tag), link in sim.links.items():
+        get = (lambda i=index, t=tag: transport(i, t)) if transport is not None else \
+            (lambda: None)
+        links.setdefault(index, []).append(Instance(link.session, get))
+    for (index, _tag), link in sim.links.items():
         vehicle = link.session.vehicle
         logger = loggers(link.session.sysid) if loggers is not None else None
-        link.session.serial.terminal_factory = lambda v=vehicle, g=logger: Pxh(v, VERSION, g)
+        link.session.serial.terminal_factory = \
+            lambda v=vehicle, g=logger, own=links[index]: Pxh(v, VERSION, g, own)

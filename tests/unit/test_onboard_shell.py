@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pymavlink.dialects.v20 import common as M
 
+from gateway.mavlink.link import LinkKind
 from gateway.testing import Sim
 from vehicles.types import NavState
 
@@ -96,3 +97,37 @@ def test_logger_on_off_and_status(tmp_path):
     log = pyulog.ULog(str(files[0]))
     assert set(log.get_dataset("vehicle_status").data["arming_state"]) == {1}  # never armed
     assert log.last_timestamp - log.start_timestamp > 2_500_000
+
+
+def test_mavlink_status_streams_and_stream_rates():
+    """``mavlink status``: one instance per link (GCS link Normal, API link Onboard) with its
+    rates, loss and transport; ``status streams``: the link's streams at their rates;
+    ``mavlink stream -u PORT -s NAME -r HZ`` sets one on the link bound to PORT."""
+    from pymavlink.dialects.v20 import common as M
+
+    from gateway.onboard.shell import attach_shells
+
+    with Sim(links=(LinkKind.GCS, LinkKind.API)) as sim:
+        ports = {"GCS": (18570, 14550, True), "API": (14580, 14540, False)}
+        attach_shells(sim.simulation, None, lambda i, tag: ports[tag.name])
+        sim.advance(2.0)
+        api = sim.api(0)
+        shell(sim, "\n")
+        api.mav.seq = (api.mav.seq + 3) % 256  # three frames lost on the way
+        out = shell(sim, "mavlink status\n")
+        assert "\ninstance #0:\n" in out and "\ninstance #1:\n" in out
+        first, second = out.split("\ninstance #1:\n")
+        assert "\tmode: Normal\n" in first and "\tmode: Onboard\n" in second
+        assert "\ttransport protocol: UDP (18570, remote port: 14550)\n" in first
+        assert "\tBroadcast enabled: YES\n" in first and "\tBroadcast enabled: NO\n" in second
+        assert "\t  rx loss: 0.0%\n" in first and "\t  rx loss: 0.0%\n" not in second
+        assert "partner IP" not in out  # no sockets: the lockstep's clients have no address
+        tx = float(second.split("\t  tx: ")[1].split(" B/s")[0])
+        assert tx > 10_000  # the API link's ~400 messages a second
+        streams = shell(sim, "mavlink status streams\n").split("\ninstance #1:\n")[1]
+        assert "\tATTITUDE                      100.00 (100.000)  40\n" in streams
+        assert shell(sim, "mavlink stream -u 14580 -s ATTITUDE -r 5\n").endswith("pxh> ")
+        assert sim.simulation.links[(0, LinkKind.API)].session.scheduler.interval_us(
+            M.MAVLINK_MSG_ID_ATTITUDE) == 200_000
+        assert "not running" in shell(sim, "mavlink stream -u 1 -s ATTITUDE -r 5\n")
+        assert "Usage: mavlink" in shell(sim, "mavlink frobnicate\n")
