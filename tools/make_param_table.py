@@ -46,6 +46,10 @@ KEEP_GROUPS = {
     "Mixer Output",
 }
 
+# Single parameters of groups not kept whole, which the simulated vehicle uses: the motors'
+# thrust model (FunctionMotors, MixingOutput's THR_MDL_FAC).
+KEEP_NAMES = {"THR_MDL_FAC"}
+
 # Current PX4 defaults and SITL / multicopter overrides (PX4's parameter files and rcS scripts).
 OVERRIDES = {
     "SYS_AUTOSTART": "10016",  # none_iris: a quad with no external simulator
@@ -140,7 +144,8 @@ def main(src: str, dst: str) -> None:
     rows = []
     with open(src, newline="") as f:
         for row in csv.DictReader(f):
-            if row["group"] not in KEEP_GROUPS or row["type"] not in ("INT32", "FLOAT"):
+            if (row["group"] not in KEEP_GROUPS and row["name"] not in KEEP_NAMES) or \
+                    row["type"] not in ("INT32", "FLOAT"):
                 continue
             row["default"] = OVERRIDES.get(row["name"], row["default"])
             rows.append({k: row[k] for k in FIELDS})

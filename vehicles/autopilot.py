@@ -388,7 +388,8 @@ class Autopilot:
         st = self.stage
         gains = None
         if self._new_gains:
-            gains = (self.attitude_gains.coefficients(), self.rate_gains.vector())
+            gains = (self.attitude_gains.coefficients(), self.rate_gains.vector(),
+                     float(self.params["THR_MDL_FAC"]))
             self._new_gains = False
         sp = st.attitude
         mode = self._mode()

@@ -58,8 +58,9 @@ C_RATES_SP, C_OUTPUTS = 0, 3
 # Columns of ``InnerLoop.setpoint``: attitude q (w, x, y, z), heading rate (rad/s), collective
 # thrust (0..1), body rates FRD (rad/s; flown instead of the attitude when ``use_rates_sp``).
 SP_Q, SP_YAWSPEED, SP_THRUST, SP_RATES, SP_SIZE = 0, 4, 5, 6, 9
-# Columns of ``InnerLoop.gains``: ``attitude_rates``' seven coefficients, then ``rate_pid``'s 15.
-G_ATT, G_RATE, G_SIZE = 0, 7, 22
+# Columns of ``InnerLoop.gains``: ``attitude_rates``' seven coefficients, then ``rate_pid``'s 15,
+# then THR_MDL_FAC (the motors' thrust model).
+G_ATT, G_RATE, G_THR_MDL_FAC, G_SIZE = 0, 7, 22, 23
 # Columns of ``InnerLoop.rotors`` (one row per rotor): the mixer's roll, pitch and yaw factors,
 # the rotor's x and y (FRD, m), its reaction torque per newton of thrust (signed, m).
 R_MIX, R_X, R_Y, R_YAW_K, R_SIZE = 0, 3, 4, 5, 6
@@ -82,9 +83,27 @@ class InnerCommand(NamedTuple):
     thrust_norm: float
     rates_frd_radps: tuple[float, float, float] | None  # replaces the attitude controller
     landed: bool
-    gains: tuple[tuple[float, ...], tuple[float, ...]] | None  # (attitude, rate) coefficients
+    # (attitude, rate) coefficients and THR_MDL_FAC
+    gains: tuple[tuple[float, ...], tuple[float, ...], float] | None
     reset_rates: bool
     motor_test: tuple[float, ...] = ()  # MODE_TEST: each rotor's test value (NaN: stopped)
+
+
+@njit_cached
+def thrust_model(control: float, factor: float) -> float:  # pragma: no cover
+    """FunctionMotors::updateValues: with THR_MDL_FAC ``factor`` in (0, 1] the motor command
+    whose thrust factor·x² + (1 − factor)·x is ``control`` (the inverse of PX4's thrust model);
+    otherwise ``control`` unchanged."""
+    if not 0.0 < factor <= 1.0:
+        return control
+    a, b = factor, 1.0 - factor
+    tmp1 = b / (2.0 * a)
+    tmp2 = b * b / (4.0 * a * a)
+    if control > 0.0:
+        return -tmp1 + math.sqrt(tmp2 + control / a)
+    if control < 0.0:
+        return tmp1 - math.sqrt(tmp2 - control / a)
+    return 0.0
 
 
 @njit_cached
@@ -119,7 +138,8 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
             rate_state[v, :] = 0.0
             for i in range(n_rotors):
                 x = setpoint[v, i]
-                u[i] = min(x, 1.0) if x >= 0.0 else -1.0  # NaN (or below 0): stopped
+                # NaN (or below 0): stopped; the test value goes through the thrust model too
+                u[i] = thrust_model(min(x, 1.0), gains[v, G_THR_MDL_FAC]) if x >= 0.0 else -1.0
         else:
             if mode[v] == MODE_IDLE:
                 rate_state[v, :] = 0.0
@@ -140,6 +160,10 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
                 flags = mix_into(c[SP_THRUST], torque[0], torque[1], torque[2], rotors, idle, u)
                 for i in range(6):
                     s[i] = flags[i]
+            factor = gains[v, G_THR_MDL_FAC]
+            if factor > 0.0:
+                for i in range(n_rotors):
+                    u[i] = thrust_model(u[i], factor)
         # Motor lag (first order, faster up than down) and the rotors' thrust and torque.
         speeds = rotor_speed[v]
         total = tx = ty = tz = 0.0
@@ -288,8 +312,8 @@ class InnerLoop:
         """Row ``k`` takes the autopilot's ``command``."""
         self.mode[k] = command.mode
         if command.gains is not None:
-            attitude, rate = command.gains
-            self.gains[k] = (*attitude, *rate)
+            attitude, rate, thrust_model = command.gains
+            self.gains[k] = (*attitude, *rate, thrust_model)
             self.rate_state[k] = 0.0
         if command.reset_rates:
             self.rate_state[k] = 0.0
