@@ -9,8 +9,9 @@ Rules:
 - ``interval_s`` is logged_topics.cpp's (SITL profile); the logger samples at 50 Hz, so every
   interval under 20 ms means "every tick". ``on_change`` topics (PX4: no interval, published
   on change) are logged when their values change.
-- ``read(vehicle, now_us)`` returns the field values in order, or None while PX4 would not
-  have published the topic yet (home_position before home is set). A ``timestamp_sample`` is
+- ``read(vehicle, now_us)`` returns the field values in order, an array field's elements one by
+  one (flat, as the record is packed), or None while PX4 would not have published the topic yet
+  (home_position before home is set). A ``timestamp_sample`` is
   the sampling instant ``now_us`` (the state read is the one of that instant).
 - The ``*_groundtruth`` topics are the simulator's truth (PX4 SITL logs them), the others the
   estimate or the controllers' setpoints, as PX4 logs them.
@@ -40,6 +41,7 @@ from vehicles.types import NavState
 ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # vehicle_status.arming_state (PX4 1.15)
 GPS_EPH_M, GPS_EPV_M, GPS_FIX_3D, GPS_SATELLITES = 0.9, 1.78, 3, 10  # sensor_gps_sim
 ACTUATOR_MOTORS = 12  # actuator_motors.control: NUM_CONTROLS
+NAN3 = (math.nan, math.nan, math.nan)
 AIR_GAS_CONST = 287.1  # PX4 CONSTANTS_AIR_GAS_CONST, J/(kg·K)
 ABSOLUTE_NULL_C = -273.15  # CONSTANTS_ABSOLUTE_NULL_CELSIUS
 
@@ -51,7 +53,7 @@ class Topic:
     name: str
     fields: Fields  # after the leading "uint64_t timestamp"
     interval_s: float  # logged_topics.cpp's interval (0: every tick)
-    read: Callable[[Any, int], tuple | None]  # (vehicle, now µs) → the field values
+    read: Callable[[Any, int], Sequence[Any] | None]  # (vehicle, now µs) → the values, flat
     on_change: bool = False  # log only when the values change (and at the start)
 
 
@@ -60,7 +62,7 @@ def _sensors(v: Any) -> list[float]:
 
 
 def _attitude(v: Any, now_us: int) -> tuple:
-    return (v.kinematics.attitude_q,)
+    return v.kinematics.attitude_q
 
 
 def _local_position(v: Any, now_us: int) -> tuple:
@@ -89,7 +91,7 @@ def _status(v: Any, now_us: int) -> tuple:
 
 def _sensor_combined(v: Any, now_us: int) -> tuple:
     s = _sensors(v)
-    return (tuple(s[S_GYRO:S_GYRO + 3]), 4000, 0, tuple(s[S_ACC:S_ACC + 3]), 4000)
+    return (*s[S_GYRO:S_GYRO + 3], 4000, 0, *s[S_ACC:S_ACC + 3], 4000)
 
 
 def _gps(v: Any, now_us: int) -> tuple:
@@ -105,8 +107,9 @@ def _battery(v: Any, now_us: int) -> tuple:
 
 
 def _actuator_outputs(v: Any, now_us: int) -> tuple:
-    speeds = list(v.status.extra.get("rotor_speed_radps", ()))[:16]
-    return (len(speeds), tuple(speeds + [0.0] * (16 - len(speeds))))
+    """The ESC outputs (the commanded rotor speeds, as SERVO_OUTPUT_RAW), unused ones 0."""
+    outputs = v.targets.outputs[:16]
+    return (len(outputs), *outputs, *(0.0,) * (16 - len(outputs)))
 
 
 def _setpoint(v: Any, now_us: int) -> tuple:
@@ -117,7 +120,7 @@ def _setpoint(v: Any, now_us: int) -> tuple:
 
 def _trajectory_setpoint(v: Any, now_us: int) -> tuple:
     sp = v.position_setpoint_ned_m
-    return (tuple(sp) if sp is not None else (math.nan,) * 3, (math.nan,) * 3)
+    return (*(sp if sp is not None else NAN3), *NAN3)
 
 
 def _land_detected(v: Any, now_us: int) -> tuple:
@@ -142,22 +145,22 @@ def _heading(q: tuple[float, float, float, float]) -> float:
 
 def _attitude_setpoint(v: Any, now_us: int) -> tuple:
     t = v.targets
-    return (t.yawspeed_radps, t.attitude_q, (0.0, 0.0, -t.thrust_norm))
+    return (t.yawspeed_radps, *t.attitude_q, 0.0, 0.0, -t.thrust_norm)
 
 
 def _rates_setpoint(v: Any, now_us: int) -> tuple:
     t = v.targets
-    return (*t.rates_frd_radps, (0.0, 0.0, -t.thrust_norm))
+    return (*t.rates_frd_radps, 0.0, 0.0, -t.thrust_norm)
 
 
 def _angular_velocity(v: Any, now_us: int) -> tuple:
     k = v.kinematics
-    return (now_us, k.rates_frd_radps)
+    return (now_us, *k.rates_frd_radps)
 
 
 def _thrust_setpoint(v: Any, now_us: int) -> tuple:
     t = v.targets
-    return (now_us, (0.0, 0.0, -t.thrust_norm))
+    return (now_us, 0.0, 0.0, -t.thrust_norm)
 
 
 def _actuator_motors(v: Any, now_us: int) -> tuple:
@@ -169,7 +172,7 @@ def _actuator_motors(v: Any, now_us: int) -> tuple:
     controls = [max(0.0, (out - low) / span) if out > 0.0 else 0.0
                 for out in t.outputs[:ACTUATOR_MOTORS]]
     controls += [math.nan] * (ACTUATOR_MOTORS - len(controls))
-    return (now_us, 0, tuple(controls))
+    return (now_us, 0, *controls)
 
 
 def _hover_thrust(v: Any, now_us: int) -> tuple:
@@ -199,7 +202,7 @@ def _air_data(v: Any, now_us: int) -> tuple:
 
 def _magnetometer(v: Any, now_us: int) -> tuple:
     s = _sensors(v)
-    return (now_us, tuple(s[S_MAG:S_MAG + 3]))
+    return (now_us, *s[S_MAG:S_MAG + 3])
 
 
 _MANUAL = {NavState.MANUAL: 0b0000011, NavState.STAB: 0b0000011, NavState.ACRO: 0b0000001,
@@ -261,11 +264,11 @@ def _manual_control(v: Any, now_us: int) -> tuple | None:
 
 
 def _attitude_truth(v: Any, now_us: int) -> tuple:
-    return (v.truth.attitude_q,)
+    return v.truth.attitude_q
 
 
 def _angular_velocity_truth(v: Any, now_us: int) -> tuple:
-    return (now_us, v.truth.rates_frd_radps)
+    return (now_us, *v.truth.rates_frd_radps)
 
 
 def _local_position_truth(v: Any, now_us: int) -> tuple:

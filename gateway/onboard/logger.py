@@ -48,16 +48,6 @@ log = logging.getLogger(__name__)
 LEVELS = {s: ord(str(int(s))) for s in Severity}  # syslog digit per MAV_SEVERITY
 
 
-def _flatten(values: tuple) -> list:
-    out: list = []
-    for x in values:
-        if isinstance(x, (tuple, list)):
-            out.extend(x)
-        else:
-            out.append(x)
-    return out
-
-
 def _parameter_defaults(params: Any) -> list[bytes]:
     """logger.cpp write_parameter_defaults: for each parameter that differs from a default, the
     system default (PX4's) and the current setup's (the airframe's and the launch's
@@ -104,7 +94,6 @@ class VehicleLogger:
         self.topics = tuple(topics)
         self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields))
                          for t in self.topics]
-        self._nested = [any("[" in ftype for ftype, _ in t.fields) for t in self.topics]
         self._prefixes = [ulog.data_prefix(i, st.size) for i, st in enumerate(self._structs)]
         # vehicle_command and vehicle_command_ack: every record of the vehicle's command journal
         n = len(self.topics)
@@ -117,7 +106,7 @@ class VehicleLogger:
         self._buf = bytearray()
         self._out: list[tuple[str, bytes, bool]] = []
         self._due = [0.0] * len(self.topics)
-        self._last: list[tuple | None] = [None] * len(self.topics)
+        self._last: list[Sequence[Any] | None] = [None] * len(self.topics)
         self._params: dict[str, float] = {}
         self._text_seq = 0
         self._sessions = 0
@@ -283,8 +272,7 @@ class VehicleLogger:
                     continue
                 if topic.on_change and values == self._last[i] and not force:
                     continue
-                flat = _flatten(values) if self._nested[i] else values
-                record = self._structs[i].pack(us, *flat)
+                record = self._structs[i].pack(us, *values)
             except Exception:  # a topic that cannot be read is missing, the log goes on
                 self.errors += 1
                 if self.errors == 1:

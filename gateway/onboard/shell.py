@@ -233,8 +233,14 @@ class Pxh:
             return 0
         self.print(f"\nTOPIC: {topic.name}\n {topic.name}\n"
                    f"    timestamp: {us} (0.000000 seconds ago)\n")
-        for (_type, field), value in zip(topic.fields, values):
-            self.print(f"    {field}: {_value(value)}\n")
+        flat = iter(values)  # an array field's elements come one by one
+        for ftype, field in topic.fields:
+            _, _, size = ftype.partition("[")
+            if size:
+                items = [next(flat) for _ in range(int(size[:-1]))]
+                self.print(f"    {field}: {_value(items)}\n")
+            else:
+                self.print(f"    {field}: {_value(next(flat))}\n")
         return 0
 
     def _logger(self, args: list[str], now_s: float) -> int:
