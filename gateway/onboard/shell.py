@@ -191,6 +191,10 @@ class Pxh:
                 self.print(f"ERROR [commander] argument {args[1]} unsupported.\n")
                 return 1
             result = v.calibrate(now_s, args[1])
+        elif cmd == "check":  # Commander's custom_command "check" (runs the pre-arm checks)
+            ok = v.status.prearm_ok
+            self.print(f"INFO  [commander] Preflight check: {'OK' if ok else 'FAILED'}\n")
+            return 0
         elif cmd == "status":
             st = v.status
             self.print(f"arming state: {'ARMED' if st.armed else 'DISARMED'}\n"

@@ -47,10 +47,14 @@ def test_prompt_echo_and_commands():
         assert "Invalid command: frobnicate\ntype 'help' for a list of commands" in \
             shell(sim, "frobnicate\n")
         assert "  listener\n" in shell(sim, "help\n")
+        shell(sim, "param set COM_ARMABLE 0\n")
+        assert "INFO  [commander] Preflight check: FAILED\n" in shell(sim, "commander check\n")
+        shell(sim, "param set COM_ARMABLE 1\n")
         listened = shell(sim, "listener vehicle_attitude\n")
         assert "TOPIC: vehicle_attitude" in listened and "    q: [" in listened
         assert "    thrust_body: [" in shell(sim, "listener vehicle_rates_setpoint\n")
         sim.advance(6.0)
+        assert "INFO  [commander] Preflight check: OK\n" in shell(sim, "commander check\n")
         shell(sim, "commander arm\n")
         assert sim.status(0).armed
         shell(sim, "commander mode auto:rtl\n")
