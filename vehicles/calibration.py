@@ -19,8 +19,13 @@ Rules:
   nobody picks up: the accelerometer measures the "down" side, then fails after five more rests
   on it ("[cal] calibration failed: timeout: no motion"); the magnetometer fails after 35 s
   without rotation ("Failed: This calibration requires rotation.").
-- Cancel (every parameter 0 while one runs): "[cal] calibration cancelled", at the points where
-  PX4's routines check for it (simple kinds: the next tick).
+- Cancel (every parameter 0 while one runs) is answered twice, as in PX4, both through
+  ``on_ack`` to the sender: the routine sees the command where PX4's routines check for it
+  (their loops run at the sensors' rate; here at the next tick), says "[cal] calibration
+  cancelled" and ACCEPTs it (calibrate_answer_command); Commander, whose worker is busy,
+  answers TEMPORARILY_REJECTED at its next cycle (here: that tick, after the routine ran). A
+  routine in a phase without the check (averaging a side) ACCEPTs later, so the rejection
+  comes first there; MAVSDK and QGC take the first answer.
 - Radio calibration (param4 1) only blocks arming until param4 0 ends it; ESC calibration is
   refused while the battery is connected, as always in simulation. The quick accelerometer
   calibration and airspeed are not served.
@@ -29,11 +34,12 @@ Rules:
 from __future__ import annotations
 
 import math
-from collections.abc import Generator, Sequence
+from collections.abc import Callable, Generator, Sequence
 
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult
 
+PREFLIGHT_CALIBRATION = 241  # MAV_CMD_PREFLIGHT_CALIBRATION
 DURATION_S = 2.0
 KINDS = ("gyro", "level", "baro", "accel", "mag")
 ORIENTED = ("accel", "mag")  # the kinds that read the sensors (``sample``)
@@ -78,6 +84,10 @@ class Calibration:
         self._accel: Sequence[float] = (0.0, 0.0, -ONE_G)
         self._gyro: Sequence[float] = (0.0, 0.0, 0.0)
         self._cancel = False
+        self._cancel_source = (0, 0)
+        self._reject_pending = False  # Commander's TEMPORARILY_REJECTED of a cancel, not sent yet
+        # (now, command, result, (sysid, compid) answered): the routines' own COMMAND_ACKs
+        self.on_ack: Callable[[float, int, int, tuple[int, int]], None] | None = None
 
     @property
     def busy(self) -> bool:
@@ -97,12 +107,13 @@ class Calibration:
         self._routine = routine() if routine else self._timed(kind)
         return CommandResult.ACCEPTED
 
-    def cancel(self, now_s: float) -> CommandResult:
-        """PREFLIGHT_CALIBRATION with every parameter 0: cancels a running calibration (its
-        routine sees it where PX4's checks), ends a radio calibration; else nothing to do."""
+    def cancel(self, now_s: float, source: tuple[int, int] = (0, 0)) -> CommandResult | None:
+        """PREFLIGHT_CALIBRATION with every parameter 0 from ``source``: cancels a running
+        calibration (module rules), ends a radio calibration; else nothing to do."""
         if self.kind is not None:
-            self._cancel = True
-        elif self.rc_in_progress:
+            self._cancel, self._cancel_source, self._reject_pending = True, source, True
+            return None  # both answers come from ``update`` (module rules)
+        if self.rc_in_progress:
             self.rc_in_progress = False
             self.log.info(now_s, "Calibration: Restoring RC input")
         return CommandResult.ACCEPTED
@@ -126,13 +137,17 @@ class Calibration:
         self._accel, self._gyro = accel_frd, gyro_frd
 
     def update(self, now_s: float) -> None:
-        if self._routine is None:
-            return
-        self._now = now_s
-        try:
-            next(self._routine)
-        except StopIteration:
-            self.kind = self._routine = None
+        if self._routine is not None:
+            self._now = now_s
+            try:
+                next(self._routine)
+            except StopIteration:
+                self.kind = self._routine = None
+        if self._reject_pending:
+            self._reject_pending = False
+            if self.on_ack is not None:
+                self.on_ack(now_s, PREFLIGHT_CALIBRATION, int(CommandResult.TEMPORARILY_REJECTED),
+                            self._cancel_source)
 
     # --- the routines: generators resumed once per tick, as PX4's worker thread's loops -------
     def _sleep(self, seconds: float) -> Generator[None, None, None]:
@@ -144,6 +159,9 @@ class Calibration:
         """calibrate_cancel_check."""
         if self._cancel:
             self._cancel = False
+            if self.on_ack is not None:  # the ACK before the text: MAVSDK's cancel() waits
+                self.on_ack(self._now, PREFLIGHT_CALIBRATION, int(CommandResult.ACCEPTED),
+                            self._cancel_source)  # for it and holds the text's lock meanwhile
             self.log.critical(self._now, CAL_CANCELLED)
             return True
         return False

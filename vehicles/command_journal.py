@@ -7,6 +7,9 @@ Rules:
   none was sent (PX4 leaves some unanswered).
 - Records are numbered from 1 (``seq``); the newest ``KEEP`` are kept, so a reader that polls
   ``after(seq)`` at the logger's rate never misses one.
+- ``onboard_ack`` is an answer a module gives later, on its own (PX4's calibration routine
+  ACCEPTs the cancel that Commander had TEMPORARILY_REJECTED): every link of the vehicle sends
+  it as COMMAND_ACK (``acks_after``), and the logger records it.
 """
 
 from __future__ import annotations
@@ -28,10 +31,32 @@ class CommandRecord:
     result: int | None  # the COMMAND_ACK's MAV_RESULT; None: not answered
 
 
+@dataclass(frozen=True)
+class OnboardAck:
+    seq: int
+    time_s: float
+    command: int
+    result: int
+    target_system: int
+    target_component: int
+
+
 class CommandJournal:
     def __init__(self) -> None:
         self._records: deque[CommandRecord] = deque(maxlen=KEEP)
         self.seq = 0
+        self._acks: deque[OnboardAck] = deque(maxlen=KEEP)
+        self.ack_seq = 0
+
+    def onboard_ack(self, now_s: float, command: int, result: int, target: tuple[int, int]
+                    ) -> None:
+        self.ack_seq += 1
+        self._acks.append(OnboardAck(self.ack_seq, now_s, command, result, *target))
+
+    def acks_after(self, seq: int) -> list[OnboardAck]:
+        if seq >= self.ack_seq:
+            return []
+        return [a for a in self._acks if a.seq > seq]
 
     def record(self, now_s: float, command: int,
                params: tuple[float, float, float, float, float, float, float],

@@ -123,6 +123,7 @@ class Vehicle:
         self._autopilot = Autopilot(params, airframe, origin, dt_s, boot_time_s,
                                     name=f"vehicle {index + 1}")
         self.commands = CommandJournal()  # what the logger records as vehicle_command(_ack)
+        self._autopilot.calibration.on_ack = self.commands.onboard_ack
         # The 50 Hz part runs on physics steps index, index + 5, …: the World's vehicles do not
         # all do their 50 Hz work on one step.
         self._tick = -index % POSITION_CONTROL_DIVIDER
@@ -424,13 +425,14 @@ class Vehicle:
             return CommandResult.ACCEPTED
         return CommandResult.UNSUPPORTED
 
-    def calibrate(self, now_s: float, kind: str) -> CommandResult:
+    def calibrate(self, now_s: float, kind: str, source: tuple[int, int] = (0, 0)
+                  ) -> CommandResult | None:
         """MAV_CMD_PREFLIGHT_CALIBRATION for ``kind``: one of vehicles/calibration.py KINDS,
-        "radio", "esc", or "cancel" (every parameter 0)."""
+        "radio", "esc", or "cancel" (every parameter 0, from ``source``)."""
         ap = self._autopilot
         cal, armed = ap.calibration, ap.commander.armed
         if kind == "cancel":
-            return cal.cancel(now_s)
+            return cal.cancel(now_s, source)
         if kind == "radio":
             return cal.start_radio(now_s, armed)
         if kind == "esc":

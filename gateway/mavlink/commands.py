@@ -312,7 +312,7 @@ class CommandService:
             return UNSUPPORTED
         return terminate(now_s) if cmd.p(1) > 0.5 else DENIED
 
-    def _calibration(self, cmd: Command, now_s: float) -> int:
+    def _calibration(self, cmd: Command, now_s: float) -> int | None:
         """PX4 Commander's PREFLIGHT_CALIBRATION, in its order of parameters: gyro (param1 1),
         magnetometer (param2 1), barometer (param3 1), radio (param4 1), accelerometer
         (param5 1), level horizon (param5 2), ESCs (param7 1); param4 0 otherwise ends a radio
@@ -329,7 +329,11 @@ class CommandService:
                              (p[4] == 4, None), (p[5] in (1, 2), None), (p[6] == 1, "esc"),
                              (p[3] == 0, "cancel")):
             if asked:
-                return TEMPORARILY_REJECTED if kind is None else calibrate(now_s, kind)
+                if kind is None:
+                    return TEMPORARILY_REJECTED
+                if kind == "cancel":  # a running one answers later (vehicles/calibration.py)
+                    return calibrate(now_s, kind, (cmd.src_system, cmd.src_component))
+                return calibrate(now_s, kind)
         return UNSUPPORTED
 
     def _actuator_test(self, cmd: Command, now_s: float) -> int:

@@ -158,6 +158,9 @@ class Session:
             ("the log download", self.logs),
             ("the FTP burst", self.ftp))
         self._paced_services = (self.params, self.logs, self.ftp)
+        # COMMAND_ACKs the vehicle's modules give later, on their own (vehicles/command_journal.py)
+        self._journal = getattr(vehicle, "commands", None)
+        self._ack_seq = self._journal.ack_seq if self._journal is not None else 0
 
     # --- the sans-IO contract -----------------------------------------------------------------
     def receive_datagram(self, data: bytes, now_s: float, peer: object = None) -> None:
@@ -229,6 +232,13 @@ class Session:
             self.mission.handle_timer(now_s)
         except Exception:
             self._failed(now_s, "the mission timer")
+        # before the texts: an ACK and the text it explains go out in that order
+        journal = self._journal
+        if journal is not None and journal.ack_seq != self._ack_seq:
+            for ack in journal.acks_after(self._ack_seq):
+                self.send(enc.pack(M.MAVLink_command_ack_message, ack.command, ack.result, 0, 0,
+                                   ack.target_system, ack.target_component))
+            self._ack_seq = journal.ack_seq
         try:
             self.statustext.poll(now_s)
         except Exception:

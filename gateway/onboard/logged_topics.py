@@ -393,3 +393,9 @@ def command_ack_values(record: Any) -> tuple:
     """vehicle_command_ack's fields of a CommandRecord that was answered."""
     return (record.command, record.result & 0xFF, record.source_system & 0xFF,
             record.source_component & 0xFFFF, True)
+
+
+def onboard_ack_values(ack: Any) -> tuple:
+    """vehicle_command_ack's fields of an answer a module gave on its own (an OnboardAck)."""
+    return (ack.command, ack.result & 0xFF, ack.target_system & 0xFF,
+            ack.target_component & 0xFFFF, False)

@@ -35,6 +35,7 @@ from gateway.onboard.logged_topics import (
     Topic,
     command_ack_values,
     command_values,
+    onboard_ack_values,
 )
 from vehicles.params import VOLATILE, ParamType
 from vehicles.types import Severity
@@ -101,7 +102,7 @@ class VehicleLogger:
                                for _, fields in EVENT_TOPICS]
         self._event_prefixes = [ulog.data_prefix(n + k, st.size)
                                 for k, st in enumerate(self._event_structs)]
-        self._command_seq = 0
+        self._command_seq = self._ack_seq = 0
         self._path: str | None = None
         self._buf = bytearray()
         self._out: list[tuple[str, bytes, bool]] = []
@@ -174,6 +175,7 @@ class VehicleLogger:
         self._text_seq = max((t.seq for t in self._texts(0)), default=self._text_seq)
         journal = getattr(v, "commands", None)
         self._command_seq = journal.seq if journal is not None else 0
+        self._ack_seq = journal.ack_seq if journal is not None else 0
 
     def _stop(self) -> None:
         if self._path is not None:
@@ -262,6 +264,12 @@ class VehicleLogger:
                     buf += self._event_prefixes[1]
                     buf += ack.pack(t, *command_ack_values(record))
             self._command_seq = journal.seq
+        if journal is not None and journal.ack_seq > self._ack_seq:
+            ack = self._event_structs[1]
+            for onboard in journal.acks_after(self._ack_seq):
+                buf += self._event_prefixes[1]
+                buf += ack.pack(int(onboard.time_s * 1e6), *onboard_ack_values(onboard))
+            self._ack_seq = journal.ack_seq
         due, soon = self._due, now_s + 1e-9
         for i, topic in enumerate(self.topics):
             if not force and soon < due[i]:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pymavlink.dialects.v20 import common as M
 
+from gateway.ci.lockstep import CLIENT_SYSID
 from gateway.testing import Sim
 
 CAL = M.MAV_CMD_PREFLIGHT_CALIBRATION
@@ -102,10 +103,14 @@ def test_cancel_ends_a_running_calibration_where_px4_checks_for_it():
         assert api.command_long(CAL, *ACCEL) == 0
         sim.advance(9.0)  # measuring the down side, or just done
         since = len(api.frames)
-        assert api.command_long(CAL, *CANCEL) == 0
+        # Answered twice: the routine ACCEPTs it where it checks, Commander (its worker busy)
+        # rejects it; here the routine is averaging a side, so the rejection comes first.
+        assert api.command_long(CAL, *CANCEL, retries=0) == 1
         sim.advance(6.0)
         lines = [text for _, text in texts(api, since)]
         assert lines[-2:] == ["[cal] calibration cancelled", "[cal] calibration failed: accel"]
+        acks = [(m.command, m.result, m.target_system) for m in api.messages("COMMAND_ACK", since)]
+        assert sorted(acks) == [(CAL, 0, CLIENT_SYSID), (CAL, 1, CLIENT_SYSID)]
         sim.advance(1.0)
         assert api.command_long(CAL, 1, 0, 0, 0, 0, 0, 0) == 0  # free again
 
@@ -141,3 +146,20 @@ def test_shell_commander_calibrate_starts_one():
         assert "[cal] calibration started: 2 gyro" in lines
         assert "[cal] calibration done: gyro" in lines
         assert "unsupported" in shell(sim, "commander calibrate radio\n")
+
+
+def test_a_routine_that_checks_at_once_accepts_the_cancel_before_commander_rejects_it():
+    """Gyro calibration checks for a cancel in every loop (at the sensors' rate): its ACCEPTED
+    is the first answer, which is what MAVSDK's cancel() and QGC act on; Commander's
+    TEMPORARILY_REJECTED follows."""
+    with Sim() as sim:
+        sim.advance(1.0)
+        api = sim.api(0)
+        assert api.command_long(CAL, 1, 0, 0, 0, 0, 0, 0) == 0
+        sim.advance(0.5)
+        since = len(api.frames)
+        assert api.command_long(CAL, *CANCEL, retries=0) == 0
+        sim.advance(0.5)
+        acks = [(m.command, m.result) for m in api.messages("COMMAND_ACK", since)]
+        assert acks == [(CAL, 0), (CAL, 1)]
+        assert [text for _, text in texts(api, since)][-1] == "[cal] calibration cancelled"
