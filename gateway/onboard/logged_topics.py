@@ -24,6 +24,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from gateway.mavlink.telemetry import isa_pressure_hpa, isa_temperature_c
+from vehicles.control.quat import q_yaw
 from vehicles.estimation import (
     E_ACCURACY,
     E_RATIOS,
@@ -68,7 +70,7 @@ def _attitude(v: Any, now_us: int) -> tuple:
 def _local_position(v: Any, now_us: int) -> tuple:
     k = v.kinematics
     a = v.acceleration_ned_mps2
-    heading = _heading(k.attitude_q)
+    heading = q_yaw(k.attitude_q)
     valid = v.status.position_valid
     e = v.estimator
     o = v.origin
@@ -138,11 +140,6 @@ def _wind(v: Any, now_us: int) -> tuple:
     return (e[E_WIND], e[E_WIND + 1], e[E_WIND_VAR] / 2, e[E_WIND_VAR] / 2)
 
 
-def _heading(q: tuple[float, float, float, float]) -> float:
-    w, x, y, z = q
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-
-
 def _attitude_setpoint(v: Any, now_us: int) -> tuple:
     t = v.targets
     return (t.yawspeed_radps, *t.attitude_q, 0.0, 0.0, -t.thrust_norm)
@@ -194,8 +191,8 @@ def _home(v: Any, now_us: int) -> tuple | None:
 def _air_data(v: Any, now_us: int) -> tuple:
     s = _sensors(v)
     alt = v.origin.alt_amsl_m - s[S_BARO_DOWN]
-    pressure_pa = 101325.0 * (1.0 - 2.25577e-5 * alt) ** 5.25588  # PX4's SITL barometer (ISA)
-    temp_c = 15.0 - 0.0065 * alt
+    pressure_pa = isa_pressure_hpa(alt) * 100.0  # PX4's SITL barometer, as HIGHRES_IMU has it
+    temp_c = isa_temperature_c(alt)
     return (now_us, alt, temp_c, pressure_pa,
             pressure_pa / (AIR_GAS_CONST * (temp_c - ABSOLUTE_NULL_C)))
 
@@ -274,7 +271,7 @@ def _angular_velocity_truth(v: Any, now_us: int) -> tuple:
 def _local_position_truth(v: Any, now_us: int) -> tuple:
     m = v.truth
     o = v.origin
-    return (*m.position_ned_m, *m.velocity_ned_mps, *m.accel_ned_mps2, _heading(m.attitude_q),
+    return (*m.position_ned_m, *m.velocity_ned_mps, *m.accel_ned_mps2, q_yaw(m.attitude_q),
             o.lat_deg, o.lon_deg, o.alt_amsl_m)
 
 
