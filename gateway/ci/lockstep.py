@@ -15,7 +15,8 @@ kernel event by event, so same seed + same calls → the same bytes.
 
 Clients keep received frames raw and decode lazily (by message id), because decoding every
 telemetry frame with pymavlink would cost more than the simulation itself. Like MAVSDK and QGC,
-a client answers the vehicle's PING requests at once.
+a client answers the vehicle's PING requests at once, and, while it streams the vehicle's ULog
+(``start_log_stream``), acknowledges each LOGGING_DATA_ACKED at once.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
 
+from gateway.ci.ulog_receiver import UlogReceiver
 from gateway.mavlink.modes import custom_mode_of
 from gateway.mavlink.session import LinkKind
 from gateway.onboard.files import attach_ftp
@@ -60,6 +62,8 @@ GLOBAL_RELATIVE_ALT_INT = 6
 
 _ID_COMMAND_ACK = M.MAVLINK_MSG_ID_COMMAND_ACK
 _ID_PING = M.MAVLINK_MSG_ID_PING
+_ID_LOGGING_DATA = M.MAVLINK_MSG_ID_LOGGING_DATA
+_ID_LOGGING_DATA_ACKED = M.MAVLINK_MSG_ID_LOGGING_DATA_ACKED
 _MISSION_REPLY_IDS = (M.MAVLINK_MSG_ID_MISSION_REQUEST_INT, M.MAVLINK_MSG_ID_MISSION_REQUEST,
                       M.MAVLINK_MSG_ID_MISSION_ACK)
 _NAME_TO_ID = {cls.msgname: msgid for msgid, cls in M.mavlink_map.items()}
@@ -91,6 +95,7 @@ class Client:
         self.frames: list[tuple[float, int, bytes]] = []
         self._decoded: dict[int, Any] = {}
         self._heartbeat: Ticker | None = None
+        self.log_stream: UlogReceiver | None = None  # while streaming the ULog
 
     # --- receiving ----------------------------------------------------------------------------
     def _on_datagram(self, data: bytes, now: float) -> None:
@@ -99,6 +104,20 @@ class Client:
             self.frames.append((now, msgid, frame))
             if msgid == _ID_PING:
                 self._answer_ping(len(self.frames) - 1)
+            elif (msgid == _ID_LOGGING_DATA or msgid == _ID_LOGGING_DATA_ACKED) \
+                    and self.log_stream is not None:
+                self._on_logging_data(len(self.frames) - 1, msgid == _ID_LOGGING_DATA_ACKED)
+
+    def _on_logging_data(self, i: int, acked: bool) -> None:
+        msg = self._decode(i)
+        if not msg or msg.target_system != self.mav.srcSystem \
+                or msg.target_component != self.mav.srcComponent:
+            return
+        if acked:  # MAVSDK acknowledges first, then takes the data
+            self.send(self.mav.logging_ack_encode(msg.get_srcSystem(), msg.get_srcComponent(),
+                                                  msg.sequence))
+        assert self.log_stream is not None
+        self.log_stream.feed(msg.sequence, msg.length, msg.first_message_offset, bytes(msg.data))
 
     def _answer_ping(self, i: int) -> None:
         """A PING to all (PX4's PING stream) is a request: MAVSDK and QGC answer it at once,
@@ -206,6 +225,18 @@ class Client:
 
     def arm(self) -> int | None:
         return self.command_long(M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
+
+    # --- ULog streaming (MAVSDK log_streaming, PX4 Tools/mavlink_ulog_streaming.py) -----------
+    def start_log_stream(self) -> int | None:
+        """MAV_CMD_LOGGING_START: the vehicle's logger streams its ULog to this client."""
+        self.log_stream = UlogReceiver()
+        return self.command_long(M.MAV_CMD_LOGGING_START, 0)
+
+    def stop_log_stream(self) -> tuple[int | None, bytes]:
+        """MAV_CMD_LOGGING_STOP; the result and the ULog file the stream made."""
+        result = self.command_long(M.MAV_CMD_LOGGING_STOP)
+        stream, self.log_stream = self.log_stream, None
+        return result, stream.ulog() if stream is not None else b""
 
     def disarm(self) -> int | None:
         return self.command_long(M.MAV_CMD_COMPONENT_ARM_DISARM, 0)
@@ -318,13 +349,14 @@ class Sim:
             physics_dt_s=physics_dt_s, link_kinds=tuple(links), wind=sc.wind,
             sensors=sc.sensors, faults=sc.faults, spawn_ned_m=sc.spawn_ned_m,
             extra_radios=False)
-        self.logs: Logs | None = None
+        # PX4's logger: <log_dir>/vehicle-<sysid>/log/…; without a log dir it only streams.
+        run = self.flightlog.dir if self.flightlog is not None else None
         if self.flightlog is not None:
             self.flightlog.attach(self.simulation, extra_meta)
-            run = self.flightlog.dir  # PX4's logger: <log_dir>/vehicle-<sysid>/log/…
-            self.logs = Logs(self.simulation, lambda sysid: [run / f"vehicle-{sysid}"],
-                             boot_unix_s)
-        attach_shells(self.simulation, self.logs.loggers.get if self.logs is not None else None)
+        self.logs = Logs(self.simulation,
+                         lambda sysid: [run / f"vehicle-{sysid}"] if run is not None else [],
+                         boot_unix_s, storage=run is not None)
+        attach_shells(self.simulation, self.logs.loggers.get)
         # MAVLink FTP: the vehicle's root when there is a log dir, PX4's etc/extras always.
         run_dir = self.flightlog.dir if self.flightlog is not None else None
         attach_ftp(self.simulation,

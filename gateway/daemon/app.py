@@ -126,10 +126,10 @@ class Daemon:
         roots = [d for d in (config.state_dir, self.flightlog.dir if self.flightlog else None)
                  if d is not None]
         attach_ftp(self.sim, lambda sysid: [state.vehicle_dir(r, sysid) for r in roots])
+        # Without storage the loggers only stream (MAV_CMD_LOGGING_START).
         self.logs = Logs(self.sim, lambda sysid: [state.vehicle_dir(r, sysid) for r in roots],
-                         boot_unix_s) if roots else None
-        attach_shells(self.sim, self.logs.loggers.get if self.logs is not None else None,
-                      self._transport)
+                         boot_unix_s, storage=bool(roots))
+        attach_shells(self.sim, self.logs.loggers.get, self._transport)
         if self.publisher is not None:
             pub, sim = self.publisher, self.sim
             sim.every(zmq_pub.STATE_PERIOD_S, lambda now: pub.vehicle_states(now, sim))

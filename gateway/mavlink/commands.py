@@ -11,7 +11,9 @@ Rules:
 - COMMAND_INT x/y are degE7 (INT32_MAX = unset → NaN), z as-is (AMSL). The frame is ignored, as
   PX4 ≤ 1.16 does: QGC sends 0, MAVSDK4 3, MAVSDK 5 — all work (PX4 main would reject ≠ 5).
 - Every command is answered at once (never IN_PROGRESS): unknown → UNSUPPORTED, and so is a
-  contract command the vehicle object does not implement (yet).
+  contract command the vehicle object does not implement (yet). Except those a module answers
+  later, on its own (vehicles/command_journal.py): a calibration's cancel, and LOGGING_START /
+  LOGGING_STOP, which the logger answers once the link has them (log_streaming.py).
 - DO_ORBIT (multicopter): switch to Orbit and hand it the parameters; TEMPORARILY_REJECTED
   when the mode cannot run (no position estimate).
 - DO_LAND_START (navigator_main.cpp): MISSION_START from the mission's DO_LAND_START marker,
@@ -121,7 +123,9 @@ class CommandService:
     link's stream ``scheduler`` (SET/GET_MESSAGE_INTERVAL)."""
 
     def __init__(self, ctx: LinkContext, say: Say, snapshot: Callable[[float], Snapshot],
-                 scheduler: Scheduler) -> None:
+                 scheduler: Scheduler, *,
+                 logging_command: Callable[[int, tuple[int, int], float], int | None]
+                 | None = None) -> None:
         self.vehicle = ctx.vehicle
         self.encoder = ctx.encoder
         self.send = ctx.send
@@ -132,6 +136,8 @@ class CommandService:
         self.scheduler = scheduler
         # Attached with the vehicle's FTP files; without them the request is UNSUPPORTED.
         self.component_metadata: MetadataFiles | None = None
+        # LOGGING_START / LOGGING_STOP: the link's log stream (log_streaming.py), then the logger
+        self.logging_command = logging_command
         self._handlers: dict[int, Callable[[Command, float], int | None]] = {
             M.MAV_CMD_COMPONENT_ARM_DISARM: self._arm_disarm,
             M.MAV_CMD_NAV_TAKEOFF: self._takeoff,
@@ -162,6 +168,8 @@ class CommandService:
             M.MAV_CMD_DO_LAND_START: self._land_start,
             M.MAV_CMD_DO_FLIGHTTERMINATION: self._terminate,
             M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
+            M.MAV_CMD_LOGGING_START: self._logging,
+            M.MAV_CMD_LOGGING_STOP: self._logging,
         }
         for cmd in ROI_COMMANDS:
             self._handlers[cmd] = lambda c, t: ACCEPTED
@@ -356,6 +364,11 @@ class CommandService:
             return UNSUPPORTED
         unit, kind, instance = (_int_or(cmd.p(i), -1) for i in (1, 2, 3))
         return inject(now_s, unit, kind, instance)
+
+    def _logging(self, cmd: Command, now_s: float) -> int | None:
+        if self.logging_command is None:
+            return UNSUPPORTED
+        return self.logging_command(cmd.command, (cmd.src_system, cmd.src_component), now_s)
 
     def _request_message(self, cmd: Command, now_s: float) -> int:
         msg_id = _int_or(cmd.p(1), -1)

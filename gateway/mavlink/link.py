@@ -22,6 +22,8 @@ from gateway.mavlink.codec import DecodeStats, Encoder
 from gateway.mavlink.vehicle_port import VehiclePort
 from vehicles.types import Severity
 
+DATARATE_B_S = 4_000_000  # px4-rc.mavlink: -r 4000000 on every SITL instance
+
 # A text for this link only, from the gateway itself: (now_s, severity, text).
 Say = Callable[[float, Severity, str], None]
 

@@ -46,6 +46,7 @@ from gateway.mavlink.commands import CommandService
 from gateway.mavlink.ftp import FtpService
 from gateway.mavlink.link import LinkContext, LinkKind, SessionStats
 from gateway.mavlink.log_handler import LogHandlerService
+from gateway.mavlink.log_streaming import LogStreamingService
 from gateway.mavlink.manual import ManualControlService
 from gateway.mavlink.mission import MissionService, UploadLock
 from gateway.mavlink.offboard import OffboardService
@@ -107,7 +108,9 @@ class Session:
                           self._other_target)
         self.statustext = StatusTextService(ctx, self.gcs_present)
         say = self.statustext.local
-        self.commands = CommandService(ctx, say, self.snapshot, self.scheduler)
+        self.log_streaming = LogStreamingService(ctx, say)  # its ``topic`` too
+        self.commands = CommandService(ctx, say, self.snapshot, self.scheduler,
+                                       logging_command=self.log_streaming.on_command)
         self.params = ParamService(ctx)
         self.ping = PingService(ctx)
         self.mission = MissionService(ctx, say, uploads if uploads is not None else UploadLock())
@@ -144,6 +147,7 @@ class Session:
             M.MAVLINK_MSG_ID_LOG_REQUEST_DATA: self.logs.on_request_data,
             M.MAVLINK_MSG_ID_LOG_REQUEST_END: self.logs.on_request_end,
             M.MAVLINK_MSG_ID_LOG_ERASE: self.logs.on_erase,
+            M.MAVLINK_MSG_ID_LOGGING_ACK: self.log_streaming.on_logging_ack,
             M.MAVLINK_MSG_ID_SERIAL_CONTROL: self.serial.on_serial_control,
             M.MAVLINK_MSG_ID_FILE_TRANSFER_PROTOCOL: self.ftp.on_file_transfer_protocol,
         }
@@ -153,11 +157,13 @@ class Session:
         # then the paced services (bursts of PARAM_VALUE, LOG_DATA, FTP data), in this order.
         # A paced service has nothing to do before its ``due_s`` (inf while idle), so it is
         # only called from then on.
-        self._paced: tuple[tuple[str, ParamService | LogHandlerService | FtpService], ...] = (
+        self._paced: tuple[tuple[str, ParamService | LogHandlerService | FtpService
+                                 | LogStreamingService], ...] = (
             ("the parameter timer", self.params),
             ("the log download", self.logs),
-            ("the FTP burst", self.ftp))
-        self._paced_services = (self.params, self.logs, self.ftp)
+            ("the FTP burst", self.ftp),
+            ("the log stream", self.log_streaming))
+        self._paced_services = (self.params, self.logs, self.ftp, self.log_streaming)
         # COMMAND_ACKs the vehicle's modules give later, on their own (vehicles/command_journal.py)
         self._journal = getattr(vehicle, "commands", None)
         self._ack_seq = self._journal.ack_seq if self._journal is not None else 0
@@ -204,7 +210,8 @@ class Session:
         return out
 
     def get_timer(self) -> float | None:
-        t = min(self.params.due_s, self.mission.get_timer(), self.logs.due_s, self.ftp.due_s)
+        t = min(self.params.due_s, self.mission.get_timer(), self.logs.due_s, self.ftp.due_s,
+                self.log_streaming.due_s)
         next_us = self.scheduler.next_us
         if next_us < NEVER:
             t = min(t, next_us * 1e-6)
@@ -238,13 +245,15 @@ class Session:
             for ack in journal.acks_after(self._ack_seq):
                 self.send(enc.pack(M.MAVLink_command_ack_message, ack.command, ack.result, 0, 0,
                                    ack.target_system, ack.target_component))
+                self.log_streaming.on_logger_ack(ack.command, ack.result, now_s)
             self._ack_seq = journal.ack_seq
         try:
             self.statustext.poll(now_s)
         except Exception:
             self._failed(now_s, "STATUSTEXT")
-        params, logs, ftp = self._paced_services
-        if params.due_s <= now_s or logs.due_s <= now_s or ftp.due_s <= now_s:
+        params, logs, ftp, stream = self._paced_services
+        if params.due_s <= now_s or logs.due_s <= now_s or ftp.due_s <= now_s \
+                or stream.due_s <= now_s:
             for name, service in self._paced:
                 if service.due_s <= now_s:
                     try:

@@ -16,15 +16,28 @@ Rules:
   start, every parameter change ('P' in the data section), and every status text ('L').
 - ``drain()`` hands the shell what to append to which file: (relative path, bytes, closed).
   Paths follow PX4: ``log/<YYYY-MM-DD>/<HH_MM_SS>.ulg`` (UTC) when the boot epoch is known,
-  else ``log/sess<NNN>/log<NNN>.ulg``.
+  else ``log/sess<NNN>/log<NNN>.ulg``. Without storage (``file_backend=False``, a PX4 without
+  its SD card) no file is written and only a stream samples.
+- The MAVLink backend (logger.cpp handle_vehicle_command_update, start_log_mavlink): the
+  LOGGING_START a link passed on (vehicles/command_journal.py, unanswered) is UNSUPPORTED unless
+  param1 rounds to 0 (ULog), TEMPORARILY_REJECTED while a stream runs, else ACCEPTED and the
+  stream starts: a header and definitions of its own, sent reliably, then the same samples the
+  file gets. LOGGING_STOP: IN_PROGRESS and the stream ends, if one runs; then ACCEPTED. The
+  answers go out on every link (``onboard_ack``). The packets: ulog_stream.py. While a reliable
+  packet waits for its ack the logger does nothing at all (PX4's logger thread blocks).
+- A log or stream that starts while the other runs shares its sampling state: it gets topics
+  from their next update on (PX4's one set of subscriptions).
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import time
 from collections.abc import Sequence
 from typing import Any
+
+from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.commands import FLIGHT_SW_VERSION
 from gateway.mavlink.vehicle_port import VehiclePort
@@ -37,8 +50,9 @@ from gateway.onboard.logged_topics import (
     command_values,
     onboard_ack_values,
 )
+from gateway.onboard.ulog_stream import MavlinkLogWriter, UlogStreamTopic
 from vehicles.params import VOLATILE, ParamType
-from vehicles.types import Severity
+from vehicles.types import CommandResult, Severity
 
 VER_SW = "CORNET"
 VER_SW_RELEASE = FLIGHT_SW_VERSION  # px4_firmware_version(), as AUTOPILOT_VERSION has it
@@ -89,8 +103,12 @@ class VehicleLogger:
     """One vehicle's logs (module rules)."""
 
     def __init__(self, vehicle: VehiclePort, boot_unix_s: float | None,
-                 topics: Sequence[Topic] = TOPICS) -> None:
+                 topics: Sequence[Topic] = TOPICS, *, file_backend: bool = True) -> None:
         self.vehicle = vehicle
+        self.file_backend = file_backend
+        self.stream = UlogStreamTopic()  # the link that streams reads it (log_streaming.py)
+        self._mavlink = MavlinkLogWriter(self.stream)
+        self._scratch = bytearray()  # a sample for the stream alone
         self.boot_unix_s = boot_unix_s
         self.topics = tuple(topics)
         self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields))
@@ -121,6 +139,8 @@ class VehicleLogger:
         self.override = False  # ``logger on``: log whatever the arming state
         self._file_bytes = 0  # of the log being written, handed out so far
         self._started_s = 0.0
+        self._journal = getattr(vehicle, "commands", None)
+        self._handled_seq = self._journal.seq if self._journal is not None else 0
 
     @property
     def logging(self) -> bool:
@@ -131,8 +151,12 @@ class VehicleLogger:
         """The path of the log being written (relative to the vehicle's root), or None."""
         return self._path
 
+    @property
+    def streaming(self) -> bool:
+        return self._mavlink.started
+
     def _on_param(self, name: str, value: float) -> None:
-        if self._path is not None:
+        if self._path is not None or self._mavlink.started:
             self._param_changes.append((name, value))
 
     def _name(self, now_s: float) -> str:
@@ -142,15 +166,11 @@ class VehicleLogger:
         t = time.gmtime(self.boot_unix_s + now_s)
         return f"log/{time.strftime('%Y-%m-%d', t)}/{time.strftime('%H_%M_%S', t)}.ulg"
 
-    def _start(self, now_s: float) -> None:
-        us = int(now_s * 1e6)
-        self._path = self._name(now_s)
-        self.files.append(self._path)
-        self._file_bytes = 0
-        self._started_s = now_s
+    def _definitions(self, now_s: float) -> tuple[bytes, bytes]:
+        """The file header, and the definitions section with the subscriptions."""
         v = self.vehicle
         sysid = v.params.get("MAV_SYS_ID", 1)
-        parts = [ulog.header(us), ulog.flag_bits(ulog.COMPAT_DEFAULT_PARAMETERS)]
+        parts = [ulog.flag_bits(ulog.COMPAT_DEFAULT_PARAMETERS)]
         parts += [ulog.format_message(t.name, (("uint64_t", "timestamp"), *t.fields))
                   for t in self.topics]
         parts += [ulog.format_message(name, (("uint64_t", "timestamp"), *fields))
@@ -168,14 +188,67 @@ class VehicleLogger:
         parts += [ulog.add_logged(len(self.topics) + k, name)
                   for k, (name, _) in enumerate(EVENT_TOPICS)]
         parts.append(ulog.sync())
-        self._buf += b"".join(parts)
+        return ulog.header(int(now_s * 1e6)), b"".join(parts)
+
+    def _start(self, now_s: float) -> None:
+        self._path = self._name(now_s)
+        self.files.append(self._path)
+        self._file_bytes = 0
+        self._started_s = now_s
+        header, definitions = self._definitions(now_s)
+        self._buf += header
+        self._buf += definitions
+        if not self._mavlink.started:
+            self._reset_sampling(now_s)
+
+    def _reset_sampling(self, now_s: float) -> None:
+        """Nothing was logging: every topic is sampled at once, texts and commands from now."""
         self._due = [now_s] * len(self.topics)
         self._last = [None] * len(self.topics)
         self._param_changes.clear()
         self._text_seq = max((t.seq for t in self._texts(0)), default=self._text_seq)
-        journal = getattr(v, "commands", None)
+        journal = self._journal
         self._command_seq = journal.seq if journal is not None else 0
         self._ack_seq = journal.ack_seq if journal is not None else 0
+
+    def _start_mavlink(self, now_s: float) -> None:
+        """Logger::start_log_mavlink: the stream's own header and definitions, reliably."""
+        writer = self._mavlink
+        writer.start()
+        writer.set_reliable(True, now_s)
+        header, definitions = self._definitions(now_s)
+        writer.write_raw(header, now_s)
+        writer.write(definitions, now_s)
+        writer.set_reliable(False, now_s)
+        if self._path is None:
+            self._reset_sampling(now_s)
+
+    def _handle_commands(self, now_s: float) -> None:
+        """LOGGING_START / LOGGING_STOP that a link passed on (module rules)."""
+        journal = self._journal
+        assert journal is not None
+        for record in journal.after(self._handled_seq):
+            if record.result is not None:  # answered by the link (no bandwidth, no logger)
+                continue
+            source = (record.source_system, record.source_component)
+            if record.command == M.MAV_CMD_LOGGING_START:
+                p1 = record.params[0]
+                if not math.isfinite(p1) or int(p1 + 0.5) != 0:
+                    result = CommandResult.UNSUPPORTED
+                elif self._mavlink.started:
+                    result = CommandResult.TEMPORARILY_REJECTED
+                else:
+                    result = CommandResult.ACCEPTED
+                journal.onboard_ack(now_s, record.command, int(result), source)
+                if result == CommandResult.ACCEPTED:
+                    self._start_mavlink(now_s)
+            elif record.command == M.MAV_CMD_LOGGING_STOP:
+                if self._mavlink.started:
+                    journal.onboard_ack(now_s, record.command, int(CommandResult.IN_PROGRESS),
+                                        source)
+                    self._mavlink.stop()
+                journal.onboard_ack(now_s, record.command, int(CommandResult.ACCEPTED), source)
+        self._handled_seq = journal.seq
 
     def _stop(self) -> None:
         if self._path is not None:
@@ -190,6 +263,20 @@ class VehicleLogger:
 
     def tick(self, now_s: float) -> None:
         """Start or stop a log as SDLOG_MODE says; sample what is due (module rules)."""
+        writer = self._mavlink
+        if writer.blocked:  # waiting for a stream's ack
+            writer.poll(now_s)
+            if writer.blocked:
+                return
+        journal = self._journal
+        if journal is not None and journal.seq > self._handled_seq:
+            self._handle_commands(now_s)
+            if writer.blocked:
+                return
+        if not self.file_backend:
+            if writer.started:
+                self._sample(now_s, False, _Sample(self.vehicle))
+            return
         mode = self.vehicle.params.get("SDLOG_MODE", SDLOG_ARMED)
         mode = SDLOG_ARMED if mode is None else int(mode)
         view = _Sample(self.vehicle)
@@ -207,14 +294,14 @@ class VehicleLogger:
             self._stop()
         self._armed_once = self._armed_once or armed
         self._was_armed = armed
-        if self._path is not None:
+        if self._path is not None or writer.started:
             self._sample(now_s, False, view)
 
     # --- the console's ``logger on`` / ``off`` / ``status`` ------------------------------------
     def on(self, now_s: float) -> None:
         """Logger::set_arm_override(true): log now, whatever the arming state, until ``off``."""
         self.override = True
-        if self._path is None:
+        if self._path is None and self.file_backend:
             self._start(now_s)
             self._sample(now_s, False, _Sample(self.vehicle))
 
@@ -232,19 +319,24 @@ class VehicleLogger:
         """Logger::print_status's lines (the file backend; LoggerSubscription is 40 bytes)."""
         n = len(self.topics)
         lines = ["Running in mode: all", f"Number of subscriptions: {n} ({n * 40} bytes)"]
-        if self._path is None:
-            return [*lines, "Not logging"]
-        kib = (self._file_bytes + len(self._buf)) / 1024.0
-        seconds = max(now_s - self._started_s, 1e-6)
-        wrote = f"{kib:4.2f} KiB" if kib / 1024.0 < 0.1 else f"{kib / 1024.0:4.2f} MiB"
-        return [*lines, "Full File Logging Running:", f"Log file: ./{self._path}",
-                f"Wrote {wrote} (avg {kib / seconds:5.2f} KiB/s)",
-                "Since last status: dropouts: 0 (max len: 0.000 s), max used buffer: 0 / "
-                "12288 B"]
+        if self._path is not None:
+            kib = (self._file_bytes + len(self._buf)) / 1024.0
+            seconds = max(now_s - self._started_s, 1e-6)
+            wrote = f"{kib:4.2f} KiB" if kib / 1024.0 < 0.1 else f"{kib / 1024.0:4.2f} MiB"
+            lines += ["Full File Logging Running:", f"Log file: ./{self._path}",
+                      f"Wrote {wrote} (avg {kib / seconds:5.2f} KiB/s)",
+                      "Since last status: dropouts: 0 (max len: 0.000 s), max used buffer: 0 / "
+                      "12288 B"]
+        if self._mavlink.started:
+            lines.append("Mavlink Logging Running (Full log)")
+        if self._path is None and not self._mavlink.started:
+            lines.append("Not logging")
+        return lines
 
     def _sample(self, now_s: float, force: bool, view: _Sample) -> None:
         us = int(now_s * 1e6)
-        buf = self._buf
+        buf = self._buf if self._path is not None else self._scratch
+        start = len(buf)
         for name, value in self._param_changes:
             info = self.vehicle.params.info(name)
             buf += ulog.parameter(name, value, info.type is ParamType.INT32)
@@ -253,7 +345,7 @@ class VehicleLogger:
             buf += ulog.logged_string(LEVELS.get(text.severity, ulog.LOG_INFO),
                                       int(text.time_s * 1e6), text.text)
             self._text_seq = text.seq
-        journal = getattr(self.vehicle, "commands", None)
+        journal = self._journal
         if journal is not None and journal.seq > self._command_seq:
             command, ack = self._event_structs
             for record in journal.after(self._command_seq):
@@ -290,6 +382,10 @@ class VehicleLogger:
             due[i] = now_s + topic.interval_s
             buf += self._prefixes[i]  # ulog.data(i, payload), in two appends
             buf += record
+        if self._mavlink.started and len(buf) > start:
+            self._mavlink.write(bytes(buf[start:]), now_s)
+        if buf is self._scratch:
+            buf.clear()
 
     def drain(self) -> list[tuple[str, bytes, bool]]:
         """What to append to which file since the last drain: (path, bytes, closed)."""

@@ -7,6 +7,9 @@ Rules:
   instance's rootfs.
 - The loggers tick at 50 Hz of simulated time; their bytes are appended to the files every
   simulated second and at ``close`` (a crash loses at most the last second, as flightlog.py).
+- Without storage (``storage=False``) the loggers write no file but still stream: every link of
+  a vehicle gets its logger's ulog_stream (gateway/mavlink/log_streaming.py), and the link that
+  streams is woken when a tick published packets.
 - ``LogFiles`` is what a vehicle's log handler (gateway/mavlink/log_handler.py) reads: every
   ``.ulg`` under its first root's ``log/`` (earlier runs' too, as PX4 lists its SD card), oldest
   first, dated by their path (``<date>/<time>.ulg``; ``sess<N>/log<M>.ulg``: N days and M
@@ -23,7 +26,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from gateway.onboard.logger import VehicleLogger
-from gateway.sim.simulation import Simulation
+from gateway.sim.simulation import Simulation, VehicleLink
 
 log = logging.getLogger(__name__)
 
@@ -33,23 +36,33 @@ FLUSH_S = 1.0
 
 class Logs:
     def __init__(self, sim: Simulation, roots_for: Callable[[int], list[Path]],
-                 boot_unix_s: float | None) -> None:
+                 boot_unix_s: float | None, *, storage: bool = True) -> None:
         self.roots_for = roots_for
         self.loggers: dict[int, VehicleLogger] = {}
         for vehicle in sim.vehicles:
             sysid = int(vehicle.params.get("MAV_SYS_ID", 1) or 1)
-            self.loggers[sysid] = VehicleLogger(vehicle, boot_unix_s)
+            self.loggers[sysid] = VehicleLogger(vehicle, boot_unix_s, file_backend=storage)
         self._failed = False
+        self._links: dict[int, list[VehicleLink]] = {}
         for link in sim.links.values():
             sysid = link.session.sysid
             if sysid in self.loggers:
-                link.session.logs.store = LogFiles(self, sysid)
+                if storage:
+                    link.session.logs.store = LogFiles(self, sysid)
+                link.session.log_streaming.topic = self.loggers[sysid].stream
+                self._links.setdefault(sysid, []).append(link)
         sim.every(TICK_S, self._tick)
         sim.every(FLUSH_S, lambda now: self.flush())
 
     def _tick(self, now_s: float) -> None:
-        for logger in self.loggers.values():
+        for sysid, logger in self.loggers.items():
+            stream = logger.stream
+            published = stream.generation
             logger.tick(now_s)
+            if stream.generation != published and stream.owner is not None:
+                for link in self._links.get(sysid, ()):
+                    if link.session.log_streaming is stream.owner:
+                        link.service()  # its next deadline: the packets
 
     def _write(self, sysid: int, chunks: list[tuple[str, bytes, bool]]) -> None:
         for rel, data, _closed in chunks:

@@ -20,10 +20,9 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.link import LinkKind
+from gateway.mavlink.link import DATARATE_B_S, LinkKind
 from gateway.mavlink.streams import STREAMS
 
-DATARATE_B_S = 4_000_000  # px4-rc.mavlink: -r 4000000 on every SITL instance
 NON_PAYLOAD_BYTES = 12  # MAVLINK_NUM_NON_PAYLOAD_BYTES (MAVLink 2, unsigned)
 USAGE = ("\n### Description\nThis module implements the MAVLink protocol, which can be used on a "
          "Serial link or UDP network connection.\n\nUsage: mavlink <command> [arguments...]\n"

@@ -78,13 +78,19 @@ def test_failure_command_needs_sys_failure_en_and_closing_the_shell():
 
 def test_logger_on_off_and_status(tmp_path):
     """pxh's ``logger``: ``status`` as Logger::print_status, ``on`` logs whatever the arming
-    state (SDLOG_MODE 0 would wait for arming), ``off`` ends it; without storage the logger is
-    not running."""
+    state (SDLOG_MODE 0 would wait for arming), ``off`` ends it; without storage the logger
+    runs (PX4's without its SD card) but only a MAVLink stream makes it log."""
     import pyulog
 
     with Sim() as sim:
         sim.advance(1.0)
-        assert "INFO  [logger] not running" in shell(sim, "logger status\n")
+        shell(sim, "logger on\n")
+        sim.advance(0.5)
+        assert "INFO  [logger] Not logging\n" in shell(sim, "logger status\n")
+        assert sim.api(0).start_log_stream() == 0
+        status = shell(sim, "logger status\n")
+        assert "INFO  [logger] Mavlink Logging Running (Full log)\n" in status
+        assert "Not logging" not in status
     with Sim(log_dir=tmp_path, params={"SDLOG_MODE": 0}) as sim:
         sim.advance(1.0)
         assert "INFO  [logger] Not logging\n" in shell(sim, "logger status\n")
