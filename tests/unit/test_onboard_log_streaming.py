@@ -128,16 +128,21 @@ class FakeLink:
         while self.service.due_s <= until_s:
             self.service.handle_timer(self.service.due_s)
 
+    def start(self, now_s: float, header_bytes: int) -> None:
+        """LOGGING_START from MAVSDK (245/190), the logger's ACCEPTED, and a reliable header of
+        one message of ``header_bytes`` payload."""
+        assert self.service.on_command(M.MAV_CMD_LOGGING_START, (245, 190), 0.0) is None
+        self.service.on_logger_ack(M.MAV_CMD_LOGGING_START, 0, now_s)
+        self.writer.start()
+        self.writer.set_reliable(True, now_s)
+        self.writer.write(_message(header_bytes), now_s)
+        self.writer.set_reliable(False, now_s)
+
 
 def test_a_link_resends_an_unacked_packet_every_50_ms_and_gives_up_after_50_tries():
     link = FakeLink()
     s = link.service
-    assert s.on_command(M.MAV_CMD_LOGGING_START, (245, 190), 0.0) is None
-    s.on_logger_ack(M.MAV_CMD_LOGGING_START, 0, 0.02)
-    link.writer.start()
-    link.writer.set_reliable(True, 0.02)
-    link.writer.write(_message(100), 0.02)
-    link.writer.set_reliable(False, 0.02)
+    link.start(0.02, 100)
     link.run(0.03)
     assert [m.get_type() for m in link.sent] == ["LOGGING_DATA_ACKED"]
     m = link.sent[0]
@@ -154,12 +159,7 @@ def test_a_link_resends_an_unacked_packet_every_50_ms_and_gives_up_after_50_trie
 def test_an_ack_lets_the_next_packet_out_within_a_loop():
     link = FakeLink()
     s = link.service
-    s.on_command(M.MAV_CMD_LOGGING_START, (245, 190), 0.0)
-    s.on_logger_ack(M.MAV_CMD_LOGGING_START, 0, 0.0)
-    link.writer.start()
-    link.writer.set_reliable(True, 0.0)
-    link.writer.write(_message(400), 0.0)
-    link.writer.set_reliable(False, 0.0)
+    link.start(0.0, 400)
     link.run(0.0)
     s.on_logging_ack(M.MAVLink_logging_ack_message(1, 1, 0), 0.005)
     assert s.due_s == pytest.approx(0.0065)
