@@ -13,7 +13,9 @@ Rules:
 - A log holds the info fields (ver_sw, ver_sw_release, ver_hw, sys_name, sys_uuid,
   time_ref_utc), every parameter and the defaults of those that differ from them (PX4's 'Q'
   messages: the system's and the airframe's) at its
-  start, every parameter change ('P' in the data section), and every status text ('L').
+  start, every parameter change ('P' in the data section), and every status text ('L'); a
+  sync message ('S') whenever 500 ms passed since the last (Logger::run), so that a reader can
+  find the next message after damage.
 - ``drain()`` hands the shell what to append to which file: (relative path, bytes, closed).
   Paths follow PX4: ``log/<YYYY-MM-DD>/<HH_MM_SS>.ulg`` (UTC) when the boot epoch is known,
   else ``log/sess<NNN>/log<NNN>.ulg``. Without storage (``file_backend=False``, a PX4 without
@@ -61,6 +63,8 @@ SDLOG_OFF, SDLOG_ARMED, SDLOG_BOOT_TO_DISARM, SDLOG_BOOT_TO_SHUTDOWN, SDLOG_AUX1
     SDLOG_FIRST_ARM = -1, 0, 1, 2, 3, 4
 log = logging.getLogger(__name__)
 LEVELS = {s: ord(str(int(s))) for s in Severity}  # syslog digit per MAV_SEVERITY
+SYNC = ulog.sync()
+SYNC_PERIOD_S = 0.5
 
 
 def _parameter_defaults(params: Any) -> list[bytes]:
@@ -139,6 +143,7 @@ class VehicleLogger:
         self.override = False  # ``logger on``: log whatever the arming state
         self._file_bytes = 0  # of the log being written, handed out so far
         self._started_s = 0.0
+        self._last_sync_s = 0.0
         self._journal = getattr(vehicle, "commands", None)
         self._handled_seq = self._journal.seq if self._journal is not None else 0
 
@@ -382,6 +387,9 @@ class VehicleLogger:
             due[i] = now_s + topic.interval_s
             buf += self._prefixes[i]  # ulog.data(i, payload), in two appends
             buf += record
+        if now_s - self._last_sync_s > SYNC_PERIOD_S:
+            buf += SYNC
+            self._last_sync_s = now_s
         if self._mavlink.started and len(buf) > start:
             self._mavlink.write(bytes(buf[start:]), now_s)
         if buf is self._scratch:

@@ -61,6 +61,9 @@ def test_a_flight_is_one_ulog_that_pyulog_reads(tmp_path):
     assert log.msg_info_dict["sys_name"] == "PX4" and "ver_sw" in log.msg_info_dict
     gps = log.get_dataset("vehicle_gps_position").data
     assert set(gps["fix_type"]) == {3}
+    # a sync message every 500 ms of logging, as PX4's logger writes them
+    seconds = (log.last_timestamp - log.start_timestamp) / 1e6
+    assert path.read_bytes().count(ulog.SYNC_MAGIC) >= int(seconds / 0.5) - 1
 
 
 def test_the_log_has_what_px4s_log_analysis_reads(tmp_path):
