@@ -292,3 +292,38 @@ def test_receiver_skips_to_the_next_message_after_a_gap():
         pos += size
     assert data.startswith(header) and pos == len(data)
     assert set(kept) < set(messages) and len(kept) >= 3
+
+
+def test_hostile_logging_traffic_is_refused_or_ignored_and_streaming_still_works():
+    """LOGGING_START/STOP with NaN, inf and 3e38 params from many senders, and LOGGING_ACKs for
+    sequences never sent, interleaved: no service fails, telemetry flows, and a client that
+    then asks properly gets its stream."""
+    import random
+
+    rng = random.Random(5)
+    hostile = [math.nan, math.inf, -math.inf, 3e38, -3e38, 0.0, 1.0, 0.4, -0.6]
+    with Sim(1) as sim:
+        api = sim.api(0)
+        mav = M.MAVLink(None, 0, 0)
+        for k in range(600):
+            mav.srcSystem, mav.srcComponent = rng.randrange(1, 256), rng.randrange(0, 256)
+            kind = rng.randrange(3)
+            if kind == 2:
+                msg = mav.logging_ack_encode(1, 1, rng.randrange(0, 65536))
+            else:
+                command = M.MAV_CMD_LOGGING_START if kind == 0 else M.MAV_CMD_LOGGING_STOP
+                msg = mav.command_long_encode(1, rng.choice([0, 1]), command, 0,
+                                              *(rng.choice(hostile) for _ in range(7)))
+            api.send_bytes(msg.pack(mav))
+            if k % 20 == 0:
+                sim.advance(0.05)
+        before = len(api.messages("ATTITUDE"))
+        sim.advance(3.0)  # whatever stream a stranger started times out or runs on
+        assert len(api.messages("ATTITUDE")) - before > 100  # telemetry flows
+        api.command_long(M.MAV_CMD_LOGGING_STOP)  # whoever holds the stream: it ends
+        assert api.start_log_stream() == CommandResult.ACCEPTED
+        sim.advance(1.0)
+        _, data = api.stop_log_stream()
+        assert data.startswith(ulog.MAGIC) and len(data) > 30_000
+        assert sum(link.session.stats.handler_errors
+                   for link in sim.simulation.links.values()) == 0
