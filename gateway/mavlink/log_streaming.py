@@ -78,6 +78,7 @@ class LogStreamingService:
         self.due_s = math.inf  # when ``handle_timer`` has work next; inf: none
         self.target = (0, 0)
         self.missed = 0  # packets the logger published that this link never saw
+        self.current_rate_factor = MAX_RATE_FACTOR  # of the datarate, over the last period
         self._last_gen = 0
         self._waiting_initial = False
         self._started_s = 0.0
@@ -111,6 +112,7 @@ class LogStreamingService:
                 self._waiting_for = None
                 self._count = 0
                 self._next_rate_check_s = now_s + RATE_PERIOD_S
+                self.current_rate_factor = MAX_RATE_FACTOR
                 self.due_s = now_s + INITIAL_ACK_TIMEOUT_S + LOOP_S
         return None
 
@@ -176,6 +178,7 @@ class LogStreamingService:
             self._send(packet, now_s)
             self._count += 1
         if now_s > self._next_rate_check_s:
+            self.current_rate_factor = MAX_RATE_FACTOR * min(1.0, self._count / self.max_messages)
             self._count = 0
             self._next_rate_check_s = now_s + RATE_PERIOD_S
         if self._waiting_for is not None:

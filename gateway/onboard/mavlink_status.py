@@ -21,6 +21,7 @@ from typing import Any
 from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.link import DATARATE_B_S, LinkKind
+from gateway.mavlink.log_streaming import MAX_RATE_FACTOR
 from gateway.mavlink.streams import STREAMS
 
 NON_PAYLOAD_BYTES = 12  # MAVLINK_NUM_NON_PAYLOAD_BYTES (MAVLink 2, unsigned)
@@ -76,6 +77,10 @@ def _status(k: int, inst: Instance, now_s: float) -> str:
         peer = s.peer
         if isinstance(peer, tuple) and peer and _is_ip(peer[0]):
             lines.append(f"\tpartner IP: {peer[0]}\n")
+    stream = s.log_streaming
+    if stream.active:  # this link streams the ULog (MavlinkULog's rates)
+        lines.append(f"\tULog rate: {100 * stream.current_rate_factor:.1f}% of max "
+                     f"{100 * MAX_RATE_FACTOR:.1f}%\n")
     return "".join(lines)
 
 

@@ -140,4 +140,11 @@ def test_mavlink_status_streams_and_stream_rates():
         assert sim.simulation.links[(0, LinkKind.API)].session.scheduler.interval_us(
             M.MAVLINK_MSG_ID_ATTITUDE) == 200_000
         assert "not running" in shell(sim, "mavlink stream -u 1 -s ATTITUDE -r 5\n")
+        assert "ULog rate" not in out
+        assert api.start_log_stream() == 0
+        sim.advance(1.0)
+        first, second = shell(sim, "mavlink status\n").split("\ninstance #1:\n")
+        assert "ULog rate" not in first  # the link that streams says how much it sends
+        rate = float(second.split("\tULog rate: ")[1].split("%")[0])
+        assert 0.0 < rate < 70.0 and "% of max 70.0%\n" in second
         assert "Usage: mavlink" in shell(sim, "mavlink frobnicate\n")
