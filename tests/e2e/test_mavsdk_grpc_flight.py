@@ -35,9 +35,11 @@ def fly(flow: str, port: int, d) -> str:
 def test_mavsdk_grpc_takeoff_hover_land(daemon_factory):
     d = daemon_factory()
     stdout = fly("takeoff_land", d.api_port(0), d)
-    m = re.search(r"RESULT ok hover_min=([\d.]+) hover_max=([\d.]+)", stdout)
+    m = re.search(r"RESULT ok hover_min=([\d.]+) hover_max=([\d.]+) ulog_bytes=(\d+) "
+                  r"ulog_magic=(\w+)", stdout)
     assert m, stdout
     assert 2.2 <= float(m.group(1)) and float(m.group(2)) <= 2.8, stdout
+    assert int(m.group(3)) > 200_000 and m.group(4) == "True", stdout  # the flight's ULog
 
 
 def test_mavsdk_grpc_square_mission_with_return(daemon_factory):

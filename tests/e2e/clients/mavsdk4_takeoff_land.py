@@ -1,14 +1,17 @@
-"""MAVSDK 4.x (native binding) takeoff → hover → land, run in its own venv by the e2e test.
+"""MAVSDK 4.x (native binding) takeoff → hover → land, run in its own venv by the e2e test, with
+the flight's ULog streamed (log_streaming) into ULOG_FILE.
 
-Usage: python mavsdk4_takeoff_land.py UDP_PORT
+Usage: python mavsdk4_takeoff_land.py UDP_PORT ULOG_FILE
 Prints one line per phase and "RESULT ok hover_min=.. hover_max=.." on success; exits 1 otherwise.
 """
 
 import asyncio
+import base64
 import sys
 
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.action import ActionAsync
+from mavsdk.asyncio.plugins.log_streaming import LogStreamingAsync
 from mavsdk.asyncio.plugins.param import ParamAsync
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 
@@ -24,7 +27,7 @@ async def wait_for(what, check, timeout_s, period_s=0.1):
     raise SystemExit(f"FAIL: timed out waiting for {what}")
 
 
-async def main(port: int) -> None:
+async def main(port: int, ulog_file: str) -> None:
     config = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
     async with Mavsdk(config) as mavsdk:
         await mavsdk.add_any_connection(f"udpin://0.0.0.0:{port}")
@@ -45,6 +48,17 @@ async def main(port: int) -> None:
             return h.is_global_position_ok and h.is_home_position_ok
 
         await wait_for("health", healthy, 30)
+        stream = LogStreamingAsync(system)
+        parts: list[bytes] = []
+
+        async def collect():
+            async for part in stream.subscribe_log_streaming_raw():
+                parts.append(base64.b64decode(part.data_base64))
+
+        receiver = asyncio.ensure_future(collect())
+        await asyncio.sleep(0.5)
+        await stream.start_log_streaming()
+        print("ok: log streaming", flush=True)
         await action.arm()
         print("ok: armed", flush=True)
         await action.takeoff()
@@ -69,8 +83,13 @@ async def main(port: int) -> None:
             return not await telemetry.armed()
 
         await wait_for("auto-disarm", disarmed, 15)
+        await stream.stop_log_streaming()
+        await asyncio.sleep(0.5)
+        receiver.cancel()
+        with open(ulog_file, "wb") as f:
+            f.write(b"".join(parts))
         print(f"RESULT ok hover_min={min(alts):.2f} hover_max={max(alts):.2f}", flush=True)
 
 
 if __name__ == "__main__":
-    asyncio.run(main(int(sys.argv[1])))
+    asyncio.run(main(int(sys.argv[1]), sys.argv[2]))

@@ -6,6 +6,7 @@ Prints one line per phase and "RESULT ok ..." on success; exits 1 otherwise.
 """
 
 import asyncio
+import base64
 import math
 import sys
 
@@ -49,6 +50,17 @@ def square(side_m=20.0):
 
 
 async def takeoff_land(drone):
+    """...with the flight's ULog streamed (log_streaming): its size and whether it is one."""
+    parts = []
+
+    async def collect():
+        async for part in drone.log_streaming.log_streaming_raw():
+            parts.append(base64.b64decode(part.data_base64))
+
+    receiver = asyncio.ensure_future(collect())
+    await asyncio.sleep(0.5)
+    await drone.log_streaming.start_log_streaming()
+    print("ok: log streaming", flush=True)
     await drone.action.arm()
     print("ok: armed", flush=True)
     await drone.action.takeoff()
@@ -62,7 +74,12 @@ async def takeoff_land(drone):
     await drone.action.land()
     await first(drone.telemetry.in_air(), lambda x: not x, 60, "landed")
     await first(drone.telemetry.armed(), lambda a: not a, 15, "auto-disarm")
-    return f"hover_min={min(alts):.2f} hover_max={max(alts):.2f}"
+    await drone.log_streaming.stop_log_streaming()
+    await asyncio.sleep(0.5)
+    receiver.cancel()
+    data = b"".join(parts)
+    return (f"hover_min={min(alts):.2f} hover_max={max(alts):.2f} ulog_bytes={len(data)} "
+            f"ulog_magic={data[:7] == bytes.fromhex('554c6f67011235')}")
 
 
 async def mission(drone):
