@@ -35,8 +35,11 @@ class Prompt:
         self._reader.start()
 
     def _pump(self) -> None:
-        for line in self.proc.stdout:
-            self.lines.append(line.rstrip())
+        try:
+            for line in self.proc.stdout:
+                self.lines.append(line.rstrip())
+        except ValueError:  # the pipe closed by ``close`` after a 5 s wait: reading is over
+            return
 
     def wait_for(self, text: str, timeout_s: float = 30.0, since: int = 0) -> str:
         deadline = time.monotonic() + timeout_s
@@ -57,9 +60,11 @@ class Prompt:
         if self.proc.poll() is None:
             self.proc.kill()
         self.proc.wait()
+        # The reader ends at the pipe's EOF; closing the pipe under it first would make its
+        # loop raise "I/O operation on closed file" in the thread.
+        self._reader.join(timeout=5)
         self.proc.stdout.close()
         self.proc.stdin.close()
-        self._reader.join(timeout=5)
 
 
 def test_mavproxy_params_modes_and_mission(daemon_factory, tmp_path):
