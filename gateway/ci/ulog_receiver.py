@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import struct
 
-HEADER_LEN = 16
-NO_MESSAGE_START = 255
+from gateway.mavlink.log_streaming import NO_MESSAGE_START
+
+HEADER_LEN = 16  # the file header (magic, version, timestamp) before the first message
 
 
 class UlogReceiver:

@@ -35,10 +35,11 @@ MAX_RATE_FACTOR = 0.7  # Mavlink::try_start_ulog_streaming
 RATE_PERIOD_S = 0.1
 FRAME_BYTES = 255 + 12  # MAVLINK_MSG_ID_LOGGING_DATA_LEN + MAVLINK_NUM_NON_PAYLOAD_BYTES
 INITIAL_ACK_TIMEOUT_S = 0.3
-ACK_TIMEOUT_S = 0.050
+ACK_TIMEOUT_S = 0.050  # ulog_stream_ack ACK_TIMEOUT (ms)
 ACK_MAX_TRIES = 50
 LOOP_S = 0.0015  # the mavlink thread's loop at 4 MB/s (MAVLINK_MIN_INTERVAL)
-DATA_LEN = 249
+DATA_LEN = 249  # LOGGING_DATA.data, ulog_stream.data
+NO_MESSAGE_START = 255  # first_message_offset: no message starts in this packet
 
 log = logging.getLogger(__name__)
 

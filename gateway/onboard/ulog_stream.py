@@ -25,11 +25,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
-DATA_LEN = 249  # ulog_stream.data, LOGGING_DATA.data
-NO_MESSAGE_START = 255
+from gateway.mavlink.log_streaming import (  # the link's side uses the same
+    ACK_MAX_TRIES,
+    ACK_TIMEOUT_S,
+    DATA_LEN,
+    NO_MESSAGE_START,
+)
+
 FLAGS_NEED_ACK = 1
-ACK_TIMEOUT_S = 0.050  # ulog_stream_ack ACK_TIMEOUT (ms)
-ACK_MAX_TRIES = 50
 ORB_QUEUE_LENGTH = 16
 
 log = logging.getLogger(__name__)
