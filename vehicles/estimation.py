@@ -96,6 +96,10 @@ F_BARO = F_BARO_OFF | F_BARO_STUCK
 F_MAG = F_MAG_OFF | F_MAG_STUCK
 
 HISTORY = 64  # steps of past states kept: delays up to 63 physics steps (252 ms at 250 Hz)
+# The World's recent-steps ring (physics.py): per row and physics step, what PX4's logger records
+# at the sensors' rate while it runs at 50 Hz: the IMU samples (sensor_combined), the estimated
+# attitude and rates (vehicle_attitude, vehicle_angular_velocity), the true ones (*_groundtruth).
+R_GYRO, R_ACC, R_Q, R_RATES, R_TRUE_Q, R_TRUE_RATES, R_SIZE = 0, 3, 6, 10, 13, 17, 20
 
 
 # Columns of ``sensed`` (the latest sample of each sensor; NED positions from the spawn point).

@@ -44,6 +44,16 @@ from vehicles.estimation import (
     E_GPS_AGE,
     E_RATIOS,
     GPS_RATE_HZ,
+    HISTORY,
+    R_ACC,
+    R_GYRO,
+    R_Q,
+    R_RATES,
+    R_SIZE,
+    R_TRUE_Q,
+    R_TRUE_RATES,
+    S_ACC,
+    S_GYRO,
     Estimation,
     estimate,
     sense,
@@ -86,13 +96,13 @@ _FACING_NORTH_XYZW = (0.0, 0.0, _SQRT_HALF, _SQRT_HALF)
 
 @njit_cached
 def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, estimated, mode,
-                  landed, dt_s, scale, noise, delay, hist, bias, sensed, sense_consts, failed, est,
-                  ehist, est_consts):  # pragma: no cover - compiled
+                  landed, recent, dt_s, scale, noise, delay, hist, bias, sensed, sense_consts,
+                  failed, est, ehist, est_consts):  # pragma: no cover - compiled
     """Everything compiled that follows PyBullet's step, for every row, in one call: ``raw``
     (RAW_SIZE numbers per body, flat) into the true state, then the sensors and the estimate
     (estimation.py). ``meas_dt_s``: the time since the last measurement (the acceleration's
     finite difference); ``t_s``: the time the step ended at; ``hist_i``, ``noise_j``: this
-    step's slot of the history rings and column of the noise block."""
+    step's slot of the history rings (``recent`` too) and column of the noise block."""
     n = len(measured)
     measure(raw.reshape((n, RAW_SIZE)), spawn_enu, meas_dt_s, measured)
     # Whether a barometer/magnetometer sample and a GPS fix fall within this step.
@@ -105,6 +115,16 @@ def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, est
         flying[v] = mode[v] == MODE_FLY and not landed[v]
     estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, est_consts,
              estimated, failed)
+    for v in range(n):
+        r, s, e, m = recent[v, hist_i], sensed[v], estimated[v], measured[v]
+        for i in range(3):
+            r[R_GYRO + i] = s[S_GYRO + i]
+            r[R_ACC + i] = s[S_ACC + i]
+            r[R_RATES + i] = e[M_RATES + i]
+            r[R_TRUE_RATES + i] = m[M_RATES + i]
+        for i in range(4):
+            r[R_Q + i] = e[M_Q + i]
+            r[R_TRUE_Q + i] = m[M_Q + i]
 
 
 def _create_body(client: int, airframe: Airframe, spawn_enu_m: tuple[float, float, float]) -> int:
@@ -156,6 +176,7 @@ class World:
         self.estimation = Estimation(dt_s, sensors, airframe.mass_kg,
                                      airframe.linear_drag_n_per_mps, rng_for)
         self._after_args: tuple | None = None  # ``after_physics``' arrays, until rows are added
+        self.recent = np.zeros((0, HISTORY, R_SIZE))  # the recent-steps ring (R_* columns)
         self._after_physics(np.zeros(0), 0.0, 0.0)  # compile (or load) it now, with no rows
         position_control.compile_now()
         position_smoothing.compile_now()
@@ -190,6 +211,7 @@ class World:
         self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row],
                             float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3)
         self._truth_rows = self._after_args = None
+        self.recent = np.concatenate([self.recent, np.zeros((1, HISTORY, R_SIZE))])
         origin = self.home.offset_ned(north, east, 0.0)
         vehicle = Vehicle(index, store, self.airframe,
                           origin, self.dt_s, boot_time_s=self.time_s, world=self, row=row)
@@ -217,6 +239,18 @@ class World:
         if rows is None:
             rows = self._truth_rows = self.inner.measured.tolist()
         return _measurement(rows[row])
+
+    def recent_steps(self, row: int, after_s: float | None) -> list[tuple[float, list[float]]]:
+        """Row ``row``'s ring entries (R_* columns) of the physics steps taken after ``after_s``
+        (None: the last step only; at most HISTORY steps), oldest first, each with the time it
+        was taken at: ``step(now_s)`` makes its state current from ``now_s`` on."""
+        t = self.time_s - self.dt_s  # the last step's
+        count = 1 if after_s is None else int(round((t - after_s) / self.dt_s))
+        count = max(0, min(count, HISTORY, self.steps))
+        i = self.estimation.hist_i
+        ring = self.recent[row]
+        return [(t - k * self.dt_s, ring[(i - k) % HISTORY].tolist())
+                for k in range(count - 1, -1, -1)]
 
     def sensors(self, row: int) -> list[float]:
         """Row ``row``'s latest sensor samples (estimation.S_* columns)."""
@@ -300,7 +334,7 @@ class World:
             inner = self.inner
             args = self._after_args = (
                 inner.spawn_enu, inner.measured, inner.estimated, inner.mode, inner.landed,
-                self.dt_s, *self.estimation.kernel_args())
+                self.recent, self.dt_s, *self.estimation.kernel_args())
         hist_i, noise_j = self.estimation.begin_step()
         after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, *args)
         self.estimation.end_step()

@@ -94,6 +94,9 @@ class WorldRow(Protocol):
 
     def estimator(self, row: int) -> list[float]: ...
 
+    def recent_steps(self, row: int, after_s: float | None) -> list[tuple[float, list[float]]]:
+        ...
+
     def estimator_ratios(self, row: int) -> list[float]: ...
 
     def gps_age_s(self, row: int) -> float: ...
@@ -248,6 +251,12 @@ class Vehicle:
     def sensors(self) -> list[float]:
         """The latest sensor samples (vehicles/estimation.py S_* columns; NED from ``origin``)."""
         return self._world.sensors(self._row)
+
+    def recent_steps(self, after_s: float | None) -> list[tuple[float, list[float]]]:
+        """The IMU samples, estimated and true attitude and rates (estimation.py R_* columns) of
+        the physics steps taken after ``after_s`` (None: the last one; at most 64), oldest
+        first, with the times they were taken at: what the logger records at the sensors' rate."""
+        return self._world.recent_steps(self._row, after_s)
 
     @property
     def estimator(self) -> list[float]:

@@ -6,9 +6,13 @@ PX4 1.15 (msg/*.msg) for the field names, and commander's ModeUtil/control_mode.
 vehicle_control_mode.
 Rules:
 - Each topic has a subset of PX4's fields, as CORNET has them; a field is never invented.
-- ``interval_s`` is logged_topics.cpp's (SITL profile); the logger samples at 50 Hz, so every
-  interval under 20 ms means "every tick". ``on_change`` topics (PX4: no interval, published
-  on change) are logged when their values change.
+- ``interval_s`` is logged_topics.cpp's (SITL profile). The logger samples at 50 Hz; topics
+  PX4 publishes at the sensors' rate have a ``step`` reader, and the logger writes one record
+  per physics step (250 Hz) since its last sample, from the World's recent-steps ring, keeping
+  the interval (sensor_combined and vehicle_attitude: every step; vehicle_angular_velocity and
+  the attitude ground truth: every 10 ms). For the others an interval under 20 ms means "every
+  tick". ``on_change`` topics (PX4: no interval, published on change) are logged when their
+  values change.
 - ``read(vehicle, now_us)`` returns the field values in order, an array field's elements one by
   one (flat, as the record is packed), or None while PX4 would not have published the topic yet
   (home_position before home is set). A ``timestamp_sample`` is
@@ -31,6 +35,12 @@ from vehicles.estimation import (
     E_RATIOS,
     E_WIND,
     E_WIND_VAR,
+    R_ACC,
+    R_GYRO,
+    R_Q,
+    R_RATES,
+    R_TRUE_Q,
+    R_TRUE_RATES,
     S_ACC,
     S_BARO_DOWN,
     S_GPS_POS,
@@ -57,6 +67,8 @@ class Topic:
     interval_s: float  # logged_topics.cpp's interval (0: every tick)
     read: Callable[[Any, int], Sequence[Any] | None]  # (vehicle, now µs) → the values, flat
     on_change: bool = False  # log only when the values change (and at the start)
+    # (ring row, step time µs) → the values, for a topic logged at the sensors' rate
+    step: Callable[[Sequence[float], int], Sequence[Any]] | None = None
 
 
 def _sensors(v: Any) -> list[float]:
@@ -93,7 +105,31 @@ def _status(v: Any, now_us: int) -> tuple:
 
 def _sensor_combined(v: Any, now_us: int) -> tuple:
     s = _sensors(v)
-    return (*s[S_GYRO:S_GYRO + 3], 4000, 0, *s[S_ACC:S_ACC + 3], 4000)
+    return (*s[S_GYRO:S_GYRO + 3], IMU_INTEGRAL_DT_US, 0, *s[S_ACC:S_ACC + 3],
+            IMU_INTEGRAL_DT_US)
+
+
+IMU_INTEGRAL_DT_US = 4000  # one physics step: the IMU sample's integration interval
+
+
+def _sensor_combined_step(r: Sequence[float], t_us: int) -> tuple:
+    return (*r[R_GYRO:R_GYRO + 3], IMU_INTEGRAL_DT_US, 0, *r[R_ACC:R_ACC + 3], IMU_INTEGRAL_DT_US)
+
+
+def _attitude_step(r: Sequence[float], t_us: int) -> Sequence[float]:
+    return r[R_Q:R_Q + 4]
+
+
+def _angular_velocity_step(r: Sequence[float], t_us: int) -> tuple:
+    return (t_us, *r[R_RATES:R_RATES + 3])
+
+
+def _attitude_truth_step(r: Sequence[float], t_us: int) -> Sequence[float]:
+    return r[R_TRUE_Q:R_TRUE_Q + 4]
+
+
+def _angular_velocity_truth_step(r: Sequence[float], t_us: int) -> tuple:
+    return (t_us, *r[R_TRUE_RATES:R_TRUE_RATES + 3])
 
 
 def _gps(v: Any, now_us: int) -> tuple:
@@ -283,7 +319,7 @@ def _global_position_truth(v: Any, now_us: int) -> tuple:
 
 F, D, B, U64 = "float", "double", "bool", "uint64_t"
 TOPICS: tuple[Topic, ...] = (
-    Topic("vehicle_attitude", (("float[4]", "q"),), 0.0, _attitude),
+    Topic("vehicle_attitude", (("float[4]", "q"),), 0.0, _attitude, step=_attitude_step),
     Topic("vehicle_local_position", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"), (F, "vy"), (F, "vz"),
                                      (F, "ax"), (F, "ay"), (F, "az"), (F, "heading"),
                                      (B, "xy_valid"), (B, "z_valid"), (B, "v_xy_valid"),
@@ -297,7 +333,8 @@ TOPICS: tuple[Topic, ...] = (
     Topic("sensor_combined", (("float[3]", "gyro_rad"), ("uint32_t", "gyro_integral_dt"),
                               ("int32_t", "accelerometer_timestamp_relative"),
                               ("float[3]", "accelerometer_m_s2"),
-                              ("uint32_t", "accelerometer_integral_dt")), 0.0, _sensor_combined),
+                              ("uint32_t", "accelerometer_integral_dt")), 0.0, _sensor_combined,
+          step=_sensor_combined_step),
     Topic("vehicle_gps_position", ((D, "latitude_deg"), (D, "longitude_deg"),
                                    (D, "altitude_msl_m"), (F, "eph"), (F, "epv"),
                                    (F, "vel_n_m_s"), (F, "vel_e_m_s"), (F, "vel_d_m_s"),
@@ -323,8 +360,8 @@ TOPICS: tuple[Topic, ...] = (
                                         ("float[3]", "thrust_body")), 0.05, _attitude_setpoint),
     Topic("vehicle_rates_setpoint", ((F, "roll"), (F, "pitch"), (F, "yaw"),
                                      ("float[3]", "thrust_body")), 0.02, _rates_setpoint),
-    Topic("vehicle_angular_velocity", ((U64, "timestamp_sample"), ("float[3]", "xyz")), 0.0,
-          _angular_velocity),
+    Topic("vehicle_angular_velocity", ((U64, "timestamp_sample"), ("float[3]", "xyz")), 0.01,
+          _angular_velocity, step=_angular_velocity_step),
     Topic("vehicle_thrust_setpoint", ((U64, "timestamp_sample"), ("float[3]", "xyz")), 0.02,
           _thrust_setpoint),
     Topic("actuator_motors", ((U64, "timestamp_sample"), ("uint16_t", "reversible_flags"),
@@ -350,10 +387,11 @@ TOPICS: tuple[Topic, ...] = (
           0.2, _air_data),
     Topic("vehicle_magnetometer", ((U64, "timestamp_sample"), ("float[3]", "magnetometer_ga")),
           0.2, _magnetometer),
-    Topic("vehicle_attitude_groundtruth", (("float[4]", "q"),), 0.0, _attitude_truth),
+    Topic("vehicle_attitude_groundtruth", (("float[4]", "q"),), 0.01, _attitude_truth,
+          step=_attitude_truth_step),
     Topic("vehicle_angular_velocity_groundtruth", ((U64, "timestamp_sample"),
-                                                   ("float[3]", "xyz")), 0.0,
-          _angular_velocity_truth),
+                                                   ("float[3]", "xyz")), 0.01,
+          _angular_velocity_truth, step=_angular_velocity_truth_step),
     Topic("vehicle_local_position_groundtruth", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"),
                                                  (F, "vy"), (F, "vz"), (F, "ax"), (F, "ay"),
                                                  (F, "az"), (F, "heading"), (D, "ref_lat"),

@@ -130,6 +130,8 @@ class VehicleLogger:
         self._out: list[tuple[str, bytes, bool]] = []
         self._due = [0.0] * len(self.topics)
         self._last: list[Sequence[Any] | None] = [None] * len(self.topics)
+        self._stepped = [i for i, t in enumerate(self.topics) if t.step is not None]
+        self._step_s: list[float | None] = [None] * len(self.topics)  # last step logged
         self._params: dict[str, float] = {}
         self._text_seq = 0
         self._sessions = 0
@@ -210,6 +212,7 @@ class VehicleLogger:
         """Nothing was logging: every topic is sampled at once, texts and commands from now."""
         self._due = [now_s] * len(self.topics)
         self._last = [None] * len(self.topics)
+        self._step_s = [None] * len(self.topics)
         self._param_changes.clear()
         self._text_seq = max((t.seq for t in self._texts(0)), default=self._text_seq)
         journal = self._journal
@@ -368,8 +371,9 @@ class VehicleLogger:
                 buf += ack.pack(int(onboard.time_s * 1e6), *onboard_ack_values(onboard))
             self._ack_seq = journal.ack_seq
         due, soon = self._due, now_s + 1e-9
+        stepped = self._sample_steps(view, force, buf)
         for i, topic in enumerate(self.topics):
-            if not force and soon < due[i]:
+            if i in stepped or (not force and soon < due[i]):
                 continue
             try:
                 values = topic.read(view, us)
@@ -394,6 +398,39 @@ class VehicleLogger:
             self._mavlink.write(bytes(buf[start:]), now_s)
         if buf is self._scratch:
             buf.clear()
+
+    def _sample_steps(self, view: _Sample, force: bool, buf: bytearray) -> set[int]:
+        """The topics PX4 publishes at the sensors' rate: one record per physics step since the
+        last sample, each at its step's time, keeping the topic's interval (logged_topics.py).
+        Returns the topics written here; none when the vehicle keeps no recent steps."""
+        indices = self._stepped
+        recent = getattr(view, "recent_steps", None)
+        if not indices or recent is None:
+            return set()
+        last = self._step_s
+        since = [t for t in (last[i] for i in indices) if t is not None]
+        rows = recent(None if len(since) < len(indices) else min(since))
+        due = self._due
+        for i in indices:
+            topic, after, st, prefix = self.topics[i], last[i], self._structs[i], self._prefixes[i]
+            step = topic.step
+            assert step is not None
+            for t_s, row in rows:
+                if (after is not None and t_s <= after + 1e-9) or (not force and t_s + 1e-9 < due[i]):
+                    continue
+                us = round(t_s * 1e6)
+                try:
+                    record = st.pack(us, *step(row, us))
+                except Exception:  # as for the other topics: missing, the log goes on
+                    self.errors += 1
+                    if self.errors == 1:
+                        log.exception("logger: topic %s could not be sampled", topic.name)
+                    continue
+                buf += prefix
+                buf += record
+                due[i] = t_s + topic.interval_s
+                last[i] = t_s
+        return set(indices)
 
     def drain(self) -> list[tuple[str, bytes, bool]]:
         """What to append to which file since the last drain: (path, bytes, closed)."""
