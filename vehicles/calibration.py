@@ -27,8 +27,13 @@ Rules:
   routine in a phase without the check (averaging a side) ACCEPTs later, so the rejection
   comes first there; MAVSDK and QGC take the first answer.
 - Radio calibration (param4 1) only blocks arming until param4 0 ends it; ESC calibration is
-  refused while the battery is connected, as always in simulation. The quick accelerometer
-  calibration and airspeed are not served.
+  refused while the battery is connected, as always in simulation. Airspeed is not served.
+- The quick accelerometer calibration (param5 4, do_accel_calibration_quick) prints no "started"
+  text: for up to QUICK_READ_S it averages the resting accelerometer (restarted on a jump of
+  0.5 m/s^2) until more than QUICK_SAMPLES IMU samples have a small variance, takes the closest
+  of the six orientations as the truth, and ends "[cal] calibration done: accel" (the offset
+  from that orientation within 0.9..1.1 g; the simulated sensors need none saved), or "[cal]
+  calibration failed: accel" when the vehicle never rested.
 """
 
 from __future__ import annotations
@@ -41,13 +46,16 @@ from vehicles.types import CommandResult
 
 PREFLIGHT_CALIBRATION = 241  # MAV_CMD_PREFLIGHT_CALIBRATION
 DURATION_S = 2.0
-KINDS = ("gyro", "level", "baro", "accel", "mag")
-ORIENTED = ("accel", "mag")  # the kinds that read the sensors (``sample``)
+KINDS = ("gyro", "level", "baro", "accel", "mag", "accel_quick")
+ORIENTED = ("accel", "mag", "accel_quick")  # the kinds that read the sensors (``sample``)
 
 # detect_orientation_return, in PX4's order, and detect_orientation_str.
 TAIL_DOWN, NOSE_DOWN, LEFT, RIGHT, UPSIDE_DOWN, RIGHTSIDE_UP, ORIENTATION_ERROR = range(7)
 SIDES = ("back", "front", "left", "right", "up", "down")
 ONE_G = 9.80665  # CONSTANTS_ONE_G
+# What the accelerometer reads at rest on each side, in SIDES' order (the quick calibration's Y).
+ORIENTATION_ACCEL = ((ONE_G, 0.0, 0.0), (-ONE_G, 0.0, 0.0), (0.0, ONE_G, 0.0),
+                     (0.0, -ONE_G, 0.0), (0.0, 0.0, ONE_G), (0.0, 0.0, -ONE_G))
 
 IMU_RATE_HZ = 250.0  # PX4's gz x500 IMU: sample counts below are in its samples
 EMA_LEN_S = 0.5  # detect_orientation: EMA time constant
@@ -58,6 +66,8 @@ ACCEL_READ_S = 5.0  # read_accelerometer_avg: at most
 ACCEL_READ_SAMPLES = 1000  # ... or until more samples than this with a small variance
 ACCEL_MAX_VARIANCE = 0.01
 ACCEL_ATTEMPTS = 10
+QUICK_READ_S = 3.0  # do_accel_calibration_quick: at most
+QUICK_SAMPLES = 300  # ... until more samples than this with a small variance
 MAG_DURATION_S = 42.0  # calibraton_duration_seconds, over six sides
 GYRO_INT_THRESH_RAD = 0.5
 
@@ -102,8 +112,10 @@ class Calibration:
         if armed or self.kind is not None:
             return CommandResult.TEMPORARILY_REJECTED
         self.kind, self._now, self._cancel = kind, now_s, False
-        self.log.info(now_s, CAL_STARTED.format(kind))
-        routine = {"accel": self._accel_calibration, "mag": self._mag_calibration}.get(kind)
+        if kind != "accel_quick":
+            self.log.info(now_s, CAL_STARTED.format(kind))
+        routine = {"accel": self._accel_calibration, "mag": self._mag_calibration,
+                   "accel_quick": self._accel_quick}.get(kind)
         self._routine = routine() if routine else self._timed(kind)
         return CommandResult.ACCEPTED
 
@@ -291,14 +303,32 @@ class Calibration:
         yield from self._sleep(0.6)  # "give this message enough time to propagate"
         return result
 
-    def _read_accel_avg(self) -> Generator[None, None, tuple[float, float, float] | None]:
+    def _accel_quick(self) -> Routine:
+        """do_accel_calibration_quick (module rules)."""
+        mean = yield from self._read_accel_avg(QUICK_READ_S, QUICK_SAMPLES, until_valid=True)
+        ok = False
+        if mean is not None:
+            down = min(ORIENTATION_ACCEL, key=lambda y: math.dist(y, mean))
+            offset = [m - y for m, y in zip(mean, down)]
+            corrected = math.dist(mean, offset) if all(map(math.isfinite, offset)) else math.nan
+            ok = 0.9 * ONE_G < corrected <= 1.1 * ONE_G
+        if ok:
+            self.log.info(self._now, CAL_DONE.format("accel"))
+            return OK
+        self.log.critical(self._now, CAL_FAILED.format("accel"))
+        return ERROR
+
+    def _read_accel_avg(self, read_s: float = ACCEL_READ_S, min_samples: int = ACCEL_READ_SAMPLES,
+                        until_valid: bool = False
+                        ) -> Generator[None, None, tuple[float, float, float] | None]:
         """read_accelerometer_avg: a Welford mean of the resting accelerometer, restarted on a
-        jump of 0.5 m/s^2; done after ACCEL_READ_SAMPLES IMU samples with a small variance, or
-        ACCEL_READ_S. None: too noisy."""
+        jump of 0.5 m/s^2; done after ``min_samples`` IMU samples with a small variance, or
+        ``read_s``. None: too noisy (``until_valid``: not yet valid when ``read_s`` ran out)."""
         t0 = t_prev = self._now
         prev = (0.0, 0.0, 0.0)
         n, mean, m2, samples = 0, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 0.0
-        while self._now - t0 < ACCEL_READ_S:
+        valid = False
+        while self._now - t0 < read_s:
             yield
             a = self._accel
             samples += (self._now - t_prev) * IMU_RATE_HZ
@@ -312,9 +342,10 @@ class Calibration:
                 d = a[i] - mean[i]
                 mean[i] += d / n
                 m2[i] += d * (a[i] - mean[i])
-            if n > 1 and samples > ACCEL_READ_SAMPLES and _variance_ok(m2, n):
+            if n > 1 and samples > min_samples and _variance_ok(m2, n):
+                valid = True
                 break
-        if n > 1 and _variance_ok(m2, n):
+        if (valid or not until_valid) and n > 1 and _variance_ok(m2, n):
             return mean[0], mean[1], mean[2]
         return None
 

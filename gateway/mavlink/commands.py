@@ -323,9 +323,9 @@ class CommandService:
     def _calibration(self, cmd: Command, now_s: float) -> int | None:
         """PX4 Commander's PREFLIGHT_CALIBRATION, in its order of parameters: gyro (param1 1),
         magnetometer (param2 1), barometer (param3 1), radio (param4 1), accelerometer
-        (param5 1), level horizon (param5 2), ESCs (param7 1); param4 0 otherwise ends a radio
-        calibration or cancels a running one (QGC's and MAVSDK's cancel: every parameter 0).
-        Not served: radio trim, quick accelerometer, airspeed, temperature."""
+        (param5 1), level horizon (param5 2), quick accelerometer (param5 4), ESCs (param7 1);
+        param4 0 otherwise ends a radio calibration or cancels a running one (QGC's and MAVSDK's
+        cancel: every parameter 0). Not served: radio trim, airspeed, temperature."""
         calibrate = self._vehicle("calibrate")
         if calibrate is None:
             return UNSUPPORTED
@@ -334,7 +334,7 @@ class CommandService:
         for asked, kind in ((p[0] == 1, "gyro"), (3 in (p[0], p[4], p[6]), None),
                              (p[1] == 1, "mag"), (p[2] == 1, "baro"), (p[3] == 1, "radio"),
                              (p[3] == 2, None), (p[4] == 1, "accel"), (p[4] == 2, "level"),
-                             (p[4] == 4, None), (p[5] in (1, 2), None), (p[6] == 1, "esc"),
+                             (p[4] == 4, "accel_quick"), (p[5] in (1, 2), None), (p[6] == 1, "esc"),
                              (p[3] == 0, "cancel")):
             if asked:
                 if kind is None:

@@ -190,7 +190,8 @@ class Pxh:
             if args[1] not in ("gyro", "mag", "accel", "level", "baro", "esc"):
                 self.print(f"ERROR [commander] argument {args[1]} unsupported.\n")
                 return 1
-            result = v.calibrate(now_s, args[1])
+            quick = args[1] == "accel" and args[2:3] == ["quick"]  # param5 4
+            result = v.calibrate(now_s, "accel_quick" if quick else args[1])
         elif cmd == "check":  # Commander's custom_command "check" (runs the pre-arm checks)
             ok = v.status.prearm_ok
             self.print(f"INFO  [commander] Preflight check: {'OK' if ok else 'FAILED'}\n")

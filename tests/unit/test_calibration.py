@@ -115,6 +115,50 @@ def test_cancel_ends_a_running_calibration_where_px4_checks_for_it():
         assert api.command_long(CAL, 1, 0, 0, 0, 0, 0, 0) == 0  # free again
 
 
+def test_quick_accelerometer_calibration_on_the_resting_vehicle():
+    """do_accel_calibration_quick (param5 4): no "started" text; more than 300 resting IMU samples
+    (1.2 s at 250 Hz) and the closest orientation, then "[cal] calibration done: accel";
+    arming is denied meanwhile. The shell's `commander calibrate accel quick` sends the same."""
+    from tests.unit.test_onboard_shell import shell
+
+    with Sim() as sim:
+        sim.advance(1.0)
+        api = sim.api(0)
+        assert api.command_long(CAL, 0, 0, 0, 0, 4, 0, 0) == 0
+        assert api.arm() == 1
+        sim.advance(1.0)
+        assert not any("accel" in text for _, text in texts(api))  # still averaging
+        sim.advance(1.0)
+        said = texts(api)
+        done = [t for t, text in said if text == "[cal] calibration done: accel"]
+        assert len(done) == 1 and 1.2 <= done[0] - 1.0 < 1.5, said
+        assert not any("started" in text for _, text in said)
+        assert api.arm() == 0
+        assert api.disarm() == 0
+        since = len(texts(api))
+        assert shell(sim, "commander calibrate accel quick\n").endswith("pxh> ")
+        sim.advance(2.0)
+        assert [text for _, text in texts(api)][since:].count("[cal] calibration done: accel") == 1
+
+
+def test_quick_accelerometer_calibration_fails_on_a_moving_vehicle():
+    """A vehicle that never rests for 300 samples within 3 s: "[cal] calibration failed:
+    accel", as do_accel_calibration_quick ends."""
+    from vehicles.calibration import Calibration
+    from vehicles.status_log import StatusLog
+
+    log = StatusLog()
+    cal = Calibration(log)
+    assert cal.start(0.0, "accel_quick", armed=False) == 0
+    t = 0.0
+    while cal.busy and t < 5.0:
+        t += 0.02
+        cal.sample((0.0, 0.0, -9.8 + (0.8 if int(t * 50) % 2 else 0.0)), (0.0, 0.0, 0.0))
+        cal.update(t)
+    assert not cal.busy and 3.0 <= t < 3.1
+    assert [m.text for m in log.after(0)] == ["[cal] calibration failed: accel"]
+
+
 def test_radio_esc_and_unserved_calibrations():
     with Sim() as sim:
         sim.advance(1.0)
@@ -129,7 +173,6 @@ def test_radio_esc_and_unserved_calibrations():
         assert api.command_long(CAL, *CANCEL) == 0  # param4 0: radio calibration over
         sim.advance(0.1)
         assert texts(api)[-1][1] == "Calibration: Restoring RC input"
-        assert api.command_long(CAL, 0, 0, 0, 0, 4, 0, 0) == 1  # quick accel: not served
         assert api.command_long(CAL, 0, 0, 0, 5, 0, 0, 0) == 3  # no such calibration
         assert api.arm() == 0
 
