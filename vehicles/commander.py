@@ -34,6 +34,7 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass, replace
 
+from vehicles.events import ARM_DENIED, LANDING_DETECTED, TAKEOFF_DETECTED, EventLog, Log
 from vehicles.failsafe import Action, Failsafe, FailsafeFlags
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, NavState
@@ -138,6 +139,7 @@ class Commander:
         self._landed_since_s: float | None = None
         self._params_version = -1  # the timeouts below are read at the first update
         self._disarm_land_s = self._disarm_preflight_s = self._dl_loss_t_s = 0.0
+        self.events: EventLog | None = None  # PX4's events::send, where it sends as well as says
 
     def _update_params(self) -> None:
         p = self._params
@@ -219,6 +221,8 @@ class Commander:
             if self._needs_sticks_now():
                 self._log.critical(now_s, "Preflight Fail: No manual control input")
             self._log.critical(now_s, ARMING_DENIED_TEXT)
+            if self.events is not None:
+                self.events.send(now_s, ARM_DENIED, Log.CRITICAL, Log.INFO)
             return CommandResult.TEMPORARILY_REJECTED
         self.armed = True
         self._armed_at_s = now_s
@@ -277,8 +281,12 @@ class Commander:
         if self.armed and landed != self.landed:
             if landed:
                 self._log.info(now_s, "Landing detected")
+                if self.events is not None:
+                    self.events.send(now_s, LANDING_DETECTED, Log.INFO)
             else:
                 self._log.info(now_s, "Takeoff detected")
+                if self.events is not None:
+                    self.events.send(now_s, TAKEOFF_DETECTED, Log.INFO)
                 self.have_taken_off_since_arming = True
                 self.takeoff_at_s = now_s
         self.landed = landed

@@ -37,6 +37,8 @@ from vehicles.estimation import (
     S_ACC,
     S_GYRO,
 )
+from vehicles.events import EventLog
+from vehicles.health_checks import CheckInputs, HealthChecks, inputs_of
 from vehicles.inner_loop import InnerCommand
 from vehicles.manual_control import Sticks
 from vehicles.orbit import OrbitStatus
@@ -126,6 +128,9 @@ class Vehicle:
         self._autopilot = Autopilot(params, airframe, origin, dt_s, boot_time_s,
                                     name=f"vehicle {index + 1}")
         self.commands = CommandJournal()  # what the logger records as vehicle_command(_ack)
+        self.events = EventLog(boot_time_s)  # what every link sends as EVENT (vehicles/events.py)
+        self._health = HealthChecks(self.events)
+        self._autopilot.commander.events = self.events
         self._autopilot.calibration.on_ack = self.commands.onboard_ack
         # The 50 Hz part runs on physics steps index, index + 5, …: the World's vehicles do not
         # all do their 50 Hz work on one step.
@@ -155,8 +160,20 @@ class Vehicle:
                 sensed = self._world.sensors(self._row)
                 self._autopilot.calibration.sample(sensed[S_ACC:S_ACC + 3],
                                                    sensed[S_GYRO:S_GYRO + 3])
-            return self._autopilot.step(self._measurement(), now_s)
+            command = self._autopilot.step(self._measurement(), now_s)
+            c = self._autopilot.commander
+            self._health.update(now_s, c.armed, c.nav_state, self._check_inputs)
+            return command
         return self._autopilot.poll(now_s)
+
+    def _check_inputs(self) -> CheckInputs:
+        return inputs_of(self._autopilot, self.params, self._world.sensor_failures(self._row))
+
+    def run_prearm_checks(self, now_s: float) -> CommandResult:
+        """MAV_CMD_RUN_PREARM_CHECKS: the health and arming report, at once (health_checks.py)."""
+        c = self._autopilot.commander
+        self._health.update(now_s, c.armed, c.nav_state, self._check_inputs, force=True)
+        return CommandResult.ACCEPTED
 
     def _measurement(self) -> Measurement:
         """The state measured after the world's last step."""

@@ -156,7 +156,7 @@ class CommandService:
             M.MAV_CMD_ACTUATOR_TEST: self._actuator_test,
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
                 lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
-            M.MAV_CMD_RUN_PREARM_CHECKS: lambda c, t: ACCEPTED,
+            M.MAV_CMD_RUN_PREARM_CHECKS: self._run_prearm_checks,
             # Commander.cpp ACCEPTs it unchecked; the mixer's FunctionActuatorSet drives the
             # outputs mapped to "Peripheral via Actuator Set N", which a quadrotor has none of.
             M.MAV_CMD_DO_SET_ACTUATOR: lambda c, t: ACCEPTED,
@@ -343,6 +343,11 @@ class CommandService:
                     return calibrate(now_s, kind, (cmd.src_system, cmd.src_component))
                 return calibrate(now_s, kind)
         return UNSUPPORTED
+
+    def _run_prearm_checks(self, cmd: Command, now_s: float) -> int:
+        """Commander: the health and arming report at once (its events), then ACCEPTED."""
+        run = self._vehicle("run_prearm_checks")
+        return ACCEPTED if run is None else run(now_s)
 
     def _actuator_test(self, cmd: Command, now_s: float) -> int:
         test = self._vehicle("actuator_test")

@@ -43,6 +43,8 @@ from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Decoder, Encoder
 from gateway.mavlink.commands import CommandService
+from gateway.mavlink.event_messages import REQUEST_EVENT
+from gateway.mavlink.events import EventsService
 from gateway.mavlink.ftp import FtpService
 from gateway.mavlink.link import LinkContext, LinkKind, SessionStats
 from gateway.mavlink.log_handler import LogHandlerService
@@ -107,6 +109,7 @@ class Session:
         ctx = LinkContext(vehicle, kind, self.sysid, self.encoder, self.stats, self.send,
                           self._other_target)
         self.statustext = StatusTextService(ctx, self.gcs_present)
+        self.events = EventsService(ctx)
         say = self.statustext.local
         self.log_streaming = LogStreamingService(ctx, say)  # its ``topic`` too
         self.commands = CommandService(ctx, say, self.snapshot, self.scheduler,
@@ -150,6 +153,7 @@ class Session:
             M.MAVLINK_MSG_ID_LOGGING_ACK: self.log_streaming.on_logging_ack,
             M.MAVLINK_MSG_ID_SERIAL_CONTROL: self.serial.on_serial_control,
             M.MAVLINK_MSG_ID_FILE_TRANSFER_PROTOCOL: self.ftp.on_file_transfer_protocol,
+            REQUEST_EVENT.id: self.events.on_request_event,
         }
         if signing is not None:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing
@@ -211,7 +215,7 @@ class Session:
 
     def get_timer(self) -> float | None:
         t = min(self.params.due_s, self.mission.get_timer(), self.logs.due_s, self.ftp.due_s,
-                self.log_streaming.due_s)
+                self.log_streaming.due_s, self.events.due_s)
         next_us = self.scheduler.next_us
         if next_us < NEVER:
             t = min(t, next_us * 1e-6)
@@ -251,6 +255,10 @@ class Session:
             self.statustext.poll(now_s)
         except Exception:
             self._failed(now_s, "STATUSTEXT")
+        try:
+            self.events.poll(now_s)
+        except Exception:
+            self._failed(now_s, "the events")
         params, logs, ftp, stream = self._paced_services
         if params.due_s <= now_s or logs.due_s <= now_s or ftp.due_s <= now_s \
                 or stream.due_s <= now_s:

@@ -8,7 +8,8 @@ Rules:
   with ``changes`` is asked only once its ``status_texts`` generation has moved.
 - Sent only while a MAV_TYPE_GCS heartbeat arrived on this link within GCS_PRESENT_S, and only
   texts younger than MAX_AGE_S.
-- PX4's trailing tab (marks texts duplicated by events) is stripped: we send no events.
+- A trailing tab (PX4's mark of a text also sent as an event) is stripped: the vehicle's texts
+  that are also events (events.py: takeoff, landing, arming denied) go out as plain texts.
 - Texts longer than 50 bytes are chunked MAVLink-2 style: non-zero ``id`` shared by the chunks,
   ``chunk_seq`` 0.., the last chunk shorter than 50 (an empty one if the length divides by 50).
 - ``local()`` queues a gateway-originated text (e.g. "Unsupported auto mode") for this link only.

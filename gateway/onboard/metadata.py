@@ -25,12 +25,17 @@ import json
 import lzma
 from dataclasses import dataclass
 
+from gateway.mavlink.modes import custom_mode_of
+from vehicles.events import COMPONENT_AUTOPILOT, DEFINITIONS
+from vehicles.health_checks import HEALTH_COMPONENTS, MODE_GROUPS
 from vehicles.params import VOLATILE, ParamInfo, ParamType, crc32part, param_table
 
 EXTRAS_DIR = "etc/extras"
 GENERAL_URI = f"mftp://{EXTRAS_DIR}/component_general.json.xz"
 PARAMETERS_URI = f"mftp://{EXTRAS_DIR}/parameters.json.xz"
+EVENTS_URI = f"mftp://{EXTRAS_DIR}/all_events.json.xz"
 COMP_METADATA_TYPE_PARAMETER = 1
+COMP_METADATA_TYPE_EVENTS = 4
 
 
 def mavlink_crc32(data: bytes, crc: int = 0) -> int:
@@ -70,12 +75,47 @@ def parameters_json(table: list[ParamInfo]) -> bytes:
     return json.dumps(doc, indent=2, sort_keys=True).encode()
 
 
-def general_json(parameters: bytes) -> bytes:
-    doc = {"version": 1, "metadataTypes": [{
-        "type": COMP_METADATA_TYPE_PARAMETER,
-        "uri": PARAMETERS_URI,
-        "fileCrc": mavlink_crc32(parameters),
-    }]}
+def events_json() -> bytes:
+    """all_events.json as libevents reads it: the px4 namespace (component 1) with every event
+    a vehicle here sends (vehicles/events.py DEFINITIONS, keyed by the 24-bit sub id), the two
+    enums the health report uses, the navigation mode groups (a group's HEARTBEAT custom_mode)
+    and the health_and_arming_check protocol."""
+    groups: dict[str, dict[str, dict[str, object]]] = {}
+    for d in DEFINITIONS:
+        event: dict[str, object] = {"name": d.name, "message": d.message}
+        if d.description:
+            event["description"] = d.description
+        if d.type:
+            event["type"] = d.type
+        if d.arguments:
+            event["arguments"] = [{"type": t, "name": n} for t, n in d.arguments]
+        groups.setdefault(d.group, {"events": {}})["events"][str(d.id & 0xFFFFFF)] = event
+    modes = {str(1 << int(nav)): {"name": name, "description": label}
+             for nav, (name, label) in MODE_GROUPS.items()}
+    components = {str(1 << i): {"name": name, "description": label}
+                  for i, (name, label) in enumerate(HEALTH_COMPONENTS)}
+    px4 = {
+        "namespace": "px4",
+        "enums": {
+            "navigation_mode_group_t": {"type": "uint32_t", "is_bitfield": True,
+                                        "description": "Navigation mode group",
+                                        "entries": modes},
+            "health_component_t": {"type": "uint32_t", "is_bitfield": True,
+                                   "description": "Health component", "entries": components}},
+        "event_groups": groups,
+        "navigation_mode_groups": {"groups": {str(int(nav)): [custom_mode_of(nav)]
+                                              for nav in MODE_GROUPS}},
+        "supported_protocols": ["health_and_arming_check"]}
+    return json.dumps({"version": 2, "components": {str(COMPONENT_AUTOPILOT): px4}},
+                      indent=2, sort_keys=True).encode()
+
+
+def general_json(parameters: bytes, events: bytes) -> bytes:
+    doc = {"version": 1, "metadataTypes": [
+        {"type": COMP_METADATA_TYPE_PARAMETER, "uri": PARAMETERS_URI,
+         "fileCrc": mavlink_crc32(parameters)},
+        {"type": COMP_METADATA_TYPE_EVENTS, "uri": EVENTS_URI, "fileCrc": mavlink_crc32(events)},
+    ]}
     return json.dumps(doc).encode()
 
 
@@ -90,11 +130,13 @@ class ComponentMetadata:
 
 def build(table: list[ParamInfo] | None = None) -> ComponentMetadata:
     parameters = parameters_json(param_table() if table is None else table)
-    general = general_json(parameters)
+    events = events_json()
+    general = general_json(parameters, events)
     xz = lzma.FORMAT_XZ
     return ComponentMetadata(
         files={"component_general.json.xz": lzma.compress(general, format=xz),
-               "parameters.json.xz": lzma.compress(parameters, format=xz)},
+               "parameters.json.xz": lzma.compress(parameters, format=xz),
+               "all_events.json.xz": lzma.compress(events, format=xz)},
         general_crc=mavlink_crc32(general))
 
 

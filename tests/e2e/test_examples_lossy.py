@@ -16,9 +16,13 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "gcs_examples"
 
 
 def run(script: str, *args, d, timeout_s: float = 300) -> str:
-    out = subprocess.run([sys.executable, str(EXAMPLES / script), *map(str, args)],
-                         capture_output=True, text=True, timeout=timeout_s,
-                         stdin=subprocess.DEVNULL)
+    try:
+        out = subprocess.run([sys.executable, str(EXAMPLES / script), *map(str, args)],
+                             capture_output=True, text=True, timeout=timeout_s,
+                             stdin=subprocess.DEVNULL)
+    except subprocess.TimeoutExpired as exc:  # where it stopped, and what the daemon said
+        pytest.fail(f"{script} still running after {timeout_s} s:\n{exc.stdout}\n{exc.stderr}\n"
+                    f"{d.log_tail()}")
     assert out.returncode == 0, f"{out.stdout}\n{out.stderr}\n{d.log_tail()}"
     assert "Traceback" not in out.stderr, out.stderr
     return out.stdout

@@ -59,8 +59,12 @@ def test_the_metadata_flow_qgc_and_mavsdk_follow(tmp_path):
         assert metadata.mavlink_crc32(general_raw) == crc
         general = json.loads(general_raw)
         assert general["version"] == 1
-        [ptype] = general["metadataTypes"]
+        ptype, etype = general["metadataTypes"]
         assert ptype["type"] == 1 and ptype["uri"] == "mftp://etc/extras/parameters.json.xz"
+        assert etype["type"] == 4 and etype["uri"] == "mftp://etc/extras/all_events.json.xz"
+        events_raw = lzma.decompress(fetch(f, b"/etc/extras/all_events.json.xz"))
+        assert metadata.mavlink_crc32(events_raw) == etype["fileCrc"]
+        assert json.loads(events_raw)["components"]["1"]["namespace"] == "px4"
         params_raw = lzma.decompress(fetch(f, b"/etc/extras/parameters.json.xz"))
         assert metadata.mavlink_crc32(params_raw) == ptype["fileCrc"]
         params = json.loads(params_raw)

@@ -1,0 +1,64 @@
+"""PX4's events protocol against MAVSDK's `events` plugin (libevents inside mavsdk_server): it
+downloads the events metadata named by COMPONENT_METADATA over MAVLink FTP, asks for the health
+and arming report (MAV_CMD_RUN_PREARM_CHECKS) and shows the report and the vehicle's events."""
+
+import asyncio
+
+import pytest
+
+from tests.e2e.persona import connected, first, land_and_disarm
+
+pytestmark = pytest.mark.e2e
+
+
+@pytest.mark.asyncio
+async def test_mavsdk_events_health_report_and_takeoff_event(daemon_factory):
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        messages: list[str] = []
+
+        async def collect():
+            async for event in drone.events.events():
+                messages.append(event.message)
+
+        task = asyncio.ensure_future(collect())
+        report = await first(drone.events.health_and_arming_checks(),
+                             lambda r: r.current_mode_intention.mode_name != "", 30,
+                             "a health and arming report")
+        # Hold with the position estimate, no mission, no sticks: it can arm.
+        assert report.current_mode_intention.can_arm_or_run, report
+        problems = [p.message for p in report.all_problems]
+        assert "No manual control input" in problems and "No valid mission available" in problems
+        by_name = {c.name: c for c in report.health_components}
+        assert by_name["gps"].is_present and not by_name["gps"].has_error
+        assert by_name["accel"].is_present and by_name["gyro"].is_present
+        await drone.action.arm()
+        await drone.action.takeoff()
+        await first(drone.telemetry.in_air(), bool, 30, "in the air")
+        await drone.action.land()
+        await land_and_disarm(drone)
+        for _ in range(50):
+            if "Landing detected" in messages:
+                break
+            await asyncio.sleep(0.1)
+        task.cancel()
+        assert "Takeoff detected" in messages and "Landing detected" in messages, messages
+
+
+@pytest.mark.asyncio
+async def test_mavsdk_health_report_names_the_failed_sensor(daemon_factory):
+    """A GPS failure injected (MAV_CMD_INJECT_FAILURE, SYS_FAILURE_EN 1) is an error of the GPS
+    component in the next report."""
+    from mavsdk.failure import FailureType, FailureUnit
+
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        await drone.param.set_param_int("SYS_FAILURE_EN", 1)
+        await first(drone.events.health_and_arming_checks(),
+                    lambda r: r.current_mode_intention.mode_name != "", 30, "a report")
+        await drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OFF, 0)
+        report = await first(drone.events.health_and_arming_checks(),
+                             lambda r: any(c.name == "gps" and c.has_error
+                                           for c in r.health_components), 30,
+                             "the GPS failure in a report")
+        assert report is not None

@@ -1,0 +1,161 @@
+"""PX4's events (src/lib/events, px4_platform_common/events.h, mavlink_events.h): what a vehicle
+reports as EVENT messages, and the definitions its events metadata (all_events.json) names them by.
+
+Rules:
+- An event's id is the FNV-1a 32-bit hash of its name, low 24 bits, with PX4's component 1 in
+  the top byte (events::ID); its arguments are packed little-endian without padding, at most
+  MAX_ARGUMENTS bytes; ``log_levels`` has the internal level in the high nibble, the external
+  one in the low nibble.
+- ``EventLog.send`` numbers the events with a 16-bit sequence that starts at INITIAL_SEQUENCE
+  (events.h: 65535 - 10, "so it wraps soon"; the first event is 65526) and keeps the newest
+  BUFFER_SIZE (EventBuffer), which every link sends and sends again on REQUEST_EVENT.
+- ``DEFINITIONS`` holds every event a vehicle here sends, with PX4's name, group, message and
+  argument types: the metadata is built from it, so nothing is sent that a client cannot name.
+"""
+
+from __future__ import annotations
+
+import enum
+import struct
+from collections import deque
+from dataclasses import dataclass
+
+INITIAL_SEQUENCE = 65535 - 10
+BUFFER_SIZE = 20  # EventBuffer's default capacity
+MAX_ARGUMENTS = 25  # libevents config.ini max_arguments_size
+COMPONENT_AUTOPILOT = 1  # the px4 namespace's component (events::ID)
+
+
+class Log(enum.IntEnum):
+    """events::Log (libevents' levels; PROTOCOL: not shown to the user)."""
+
+    EMERGENCY = 0
+    ALERT = 1
+    CRITICAL = 2
+    ERROR = 3
+    WARNING = 4
+    NOTICE = 5
+    INFO = 6
+    DEBUG = 7
+    PROTOCOL = 8
+    DISABLED = 9
+
+
+def event_id(name: str) -> int:
+    """events::ID(name): FNV-1a 32 of the name, low 24 bits, component 1 on top."""
+    h = 0x811C9DC5
+    for c in name.encode():
+        h = ((h ^ c) * 0x01000193) & 0xFFFFFFFF
+    return (h & 0xFFFFFF) | (COMPONENT_AUTOPILOT << 24)
+
+
+@dataclass(frozen=True)
+class EventDef:
+    name: str
+    group: str  # "default" (shown as a message), "arming_check", "health"
+    message: str
+    arguments: tuple[tuple[str, str], ...] = ()  # (type, name), in order
+    type: str | None = None  # "summary" for the health report's frame events
+    description: str | None = None
+
+    @property
+    def id(self) -> int:
+        return event_id(self.name)
+
+
+MODES = ("px4::navigation_mode_group_t", "modes")
+COMPONENT_INDEX = ("uint8_t", "health_component_index")
+HEALTH = "px4::health_component_t"
+
+
+def _check(name: str, message: str, description: str | None = None) -> EventDef:
+    """An arming check's event: the modes it affects and its health component come first
+    (Report::armingCheckFailure)."""
+    return EventDef(name, "arming_check", message, (MODES, COMPONENT_INDEX),
+                    description=description)
+
+
+TAKEOFF_DETECTED = EventDef("commander_takeoff_detected", "default", "Takeoff detected")
+LANDING_DETECTED = EventDef("commander_landing_detected", "default", "Landing detected")
+ARM_DENIED = EventDef("commander_arm_denied_resolve_failures", "default",
+                      "Arming denied: Resolve system health failures first")
+ARMING_SUMMARY = EventDef(
+    "commander_arming_check_summary", "arming_check", "Arming check summary event",
+    (("uint8_t", "chunk_idx"), (HEALTH, "error"), (HEALTH, "warning"),
+     ("px4::navigation_mode_group_t", "can_arm"), ("px4::navigation_mode_group_t", "can_run")),
+    type="summary")
+HEALTH_SUMMARY = EventDef(
+    "commander_health_summary", "health", "Health report summary event",
+    (("uint8_t", "chunk_idx"), (HEALTH, "is_present"), (HEALTH, "error"), (HEALTH, "warning")),
+    type="summary")
+# modeCheck.cpp's checks, with its names, messages and descriptions.
+CHECK_LOCAL_POS = _check("check_modes_local_pos", "No valid local position estimate")
+CHECK_GLOBAL_POS = _check("check_modes_global_pos", "No valid global position estimate")
+CHECK_MISSION = _check("check_modes_mission", "No valid mission available",
+                       "Upload a mission first.")
+CHECK_OFFBOARD = _check("check_modes_offboard_signal", "No offboard signal",
+                        "The offboard component is not sending setpoints or the required "
+                        "estimate (e.g. position) is missing.")
+CHECK_HOME = _check("check_modes_home_position", "Home position not set")
+CHECK_MANUAL_CONTROL = _check("check_modes_manual_control", "No manual control input",
+                              "Connect and enable stick input or use autonomous mode.")
+CHECK_CANNOT_TAKEOFF = _check("check_modes_cannot_takeoff", "Mode not suitable for arming",
+                              "Switch to another mode first.")
+DEFINITIONS: tuple[EventDef, ...] = (
+    TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARMING_SUMMARY, HEALTH_SUMMARY,
+    CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_OFFBOARD, CHECK_HOME,
+    CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF)
+
+
+@dataclass(frozen=True)
+class Event:
+    sequence: int
+    id: int
+    time_boot_ms: int
+    log_levels: int  # internal << 4 | external
+    arguments: bytes  # MAX_ARGUMENTS bytes at most
+
+
+class EventLog:
+    """One vehicle's events, as PX4's events::send and the MAVLink EventBuffer keep them."""
+
+    def __init__(self, boot_time_s: float = 0.0) -> None:
+        self.boot_time_s = boot_time_s
+        self.latest = INITIAL_SEQUENCE  # the newest event's sequence (none yet: the initial)
+        self._buffer: deque[Event] = deque(maxlen=BUFFER_SIZE)
+
+    def __len__(self) -> int:
+        return len(self._buffer)
+
+    def send(self, now_s: float, event: EventDef, external: Log, internal: Log | None = None,
+             fmt: str = "", *args: int) -> Event:
+        """events::send: ``args`` packed little-endian by ``fmt`` (struct codes, no padding)."""
+        payload = struct.pack("<" + fmt, *args) if fmt else b""
+        if len(payload) > MAX_ARGUMENTS:
+            raise ValueError(f"{event.name}: {len(payload)} argument bytes")
+        self.latest = (self.latest + 1) & 0xFFFF
+        level = external if internal is None else internal
+        record = Event(self.latest, event.id, max(0, int((now_s - self.boot_time_s) * 1000)),
+                       (int(level) << 4) | int(external), payload)
+        self._buffer.append(record)
+        return record
+
+    def after(self, sequence: int) -> list[Event]:
+        """The buffered events newer than ``sequence`` (16-bit wrap-around), oldest first."""
+        return [e for e in self._buffer if 0 < (e.sequence - sequence) & 0xFFFF < 0x8000]
+
+    def get(self, sequence: int) -> Event | None:
+        for e in self._buffer:
+            if e.sequence == sequence:
+                return e
+        return None
+
+    def oldest_after(self, sequence: int) -> int:
+        """EventBuffer::get_oldest_sequence_after: the buffered sequence closest after
+        ``sequence`` (wrapping), the newest when none is buffered."""
+        best, best_d = self.latest, None
+        for e in self._buffer:
+            d = (e.sequence - sequence) & 0xFFFF
+            if d and (best_d is None or d < best_d):
+                best, best_d = e.sequence, d
+        return best

@@ -1,0 +1,227 @@
+"""PX4's health and arming checks report for the simulated multicopter, sent as events
+(vehicles/events.py). Source: PX4 src/modules/commander/HealthAndArmingChecks (Common.cpp's
+Report, checks/modeCheck.cpp) and ModeUtil/mode_requirements.cpp.
+
+Rules:
+- A mode group is ``1 << nav_state``. ``REQUIREMENTS`` are mode_requirements.cpp's for a rotary
+  wing (the navigation states a vehicle here has). A failing requirement clears the can_run bits
+  of the modes that have it; modeCheck.cpp's check reports its event (the modes, then the health
+  component's index; "no modes" is reported as all, so that the UI still shows it), clears those
+  modes' can_arm bits and marks its component's arming error (level <= Error) or warning.
+- The checks, in modeCheck.cpp's order: mode not suitable for arming (disarmed only), local
+  position, global position, mission (every mode with COM_ARM_MIS_REQ), offboard signal, home
+  position, manual control (a Warning affecting no mode unless COM_RC_IN_MODE is 4, when it is
+  an Error of the modes that need sticks; either way those modes can neither arm nor run).
+- Health: the simulated sensors (accelerometer, gyro, magnetometer, barometer, GPS) and the
+  battery are present; an injected sensor failure is an error of its component.
+- ``update`` runs at Commander's 10 Hz (or when the mode or arming changed). A report is one
+  burst: the arming summary, each failing check's event, the health summary. It is sent when the
+  results differ from the previous evaluation, at most every MIN_REPORT_INTERVAL_S (a change
+  within it is sent once it passed), or at once when forced (MAV_CMD_RUN_PREARM_CHECKS).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from vehicles.estimation import F_ACC, F_BARO, F_GPS_OFF, F_GYRO, F_MAG
+from vehicles.events import (
+    ARMING_SUMMARY,
+    CHECK_CANNOT_TAKEOFF,
+    CHECK_GLOBAL_POS,
+    CHECK_HOME,
+    CHECK_LOCAL_POS,
+    CHECK_MANUAL_CONTROL,
+    CHECK_MISSION,
+    CHECK_OFFBOARD,
+    HEALTH_SUMMARY,
+    EventDef,
+    EventLog,
+    Log,
+)
+from vehicles.types import NavState
+
+UPDATE_PERIOD_S = 0.1
+MIN_REPORT_INTERVAL_S = 2.0  # Report::_min_reporting_interval
+ALL_MODES = 0xFFFFFFFF  # NavModes::All
+
+# health_component_t (events/enums.json, px4): component index i is the bit 1 << i; its label.
+HEALTH_COMPONENTS = (
+    ("none", "None"), ("absolute_pressure", "Absolute pressure"),
+    ("differential_pressure", "Differential pressure"), ("gps", "GPS"),
+    ("optical_flow", "Optical flow"), ("vision_position", "Vision position estimate"),
+    ("distance_sensor", "Distance sensor"), ("remote_control", "RC"),
+    ("motors_escs", "Motors/ESCs"), ("utm", "UTM"), ("logging", "Logging"),
+    ("battery", "Battery"), ("communication_links", "Communication links"),
+    ("rate_controller", "Rate controller"), ("attitude_controller", "Attitude controller"),
+    ("position_controller", "Position controller"), ("attitude_estimate", "Attitude estimate"),
+    ("local_position_estimate", "Local position estimate"), ("mission", "Mission"),
+    ("avoidance", "Avoidance"), ("system", "System"), ("camera", "Camera"), ("gimbal", "Gimbal"),
+    ("payload", "Payload"), ("global_position_estimate", "Global position estimate"),
+    ("storage", "Storage"), ("parachute", "Parachute"), ("magnetometer", "Magnetometer"),
+    ("accel", "Accelerometer"), ("gyro", "Gyroscope"), ("open_drone_id", "Open Drone ID"))
+INDEX = {name: i for i, (name, _label) in enumerate(HEALTH_COMPONENTS)}
+SYSTEM, REMOTE_CONTROL = INDEX["system"], INDEX["remote_control"]
+PRESENT = sum(1 << INDEX[c] for c in ("accel", "gyro", "magnetometer", "absolute_pressure", "gps",
+                                      "battery"))
+FAILURE_COMPONENT = ((F_ACC, "accel"), (F_GYRO, "gyro"), (F_MAG, "magnetometer"),
+                     (F_BARO, "absolute_pressure"), (F_GPS_OFF, "gps"))
+
+
+def _modes(*states: NavState) -> int:
+    return sum(1 << int(s) for s in states)
+
+
+N = NavState
+# navigation_mode_group_t (events/enums.json, px4): the group of each navigation state.
+MODE_GROUPS = {
+    N.MANUAL: ("manual", "Manual"), N.ALTCTL: ("altctl", "Altitude"),
+    N.POSCTL: ("posctl", "Position"), N.AUTO_MISSION: ("mission", "Mission"),
+    N.AUTO_LOITER: ("loiter", "Hold"), N.AUTO_RTL: ("rtl", "RTL"),
+    N.POSITION_SLOW: ("position_slow", "Position Slow"), N.ACRO: ("acro", "Acro"),
+    N.DESCEND: ("descend", "Descend"), N.TERMINATION: ("termination", "Termination"),
+    N.OFFBOARD: ("offboard", "Offboard"), N.STAB: ("stab", "Stabilized"),
+    N.AUTO_TAKEOFF: ("takeoff", "Takeoff"), N.AUTO_LAND: ("land", "Land"),
+    N.AUTO_FOLLOW_TARGET: ("follow_target", "Follow Target"),
+    N.AUTO_PRECLAND: ("precland", "Precision Landing"), N.ORBIT: ("orbit", "Orbit")}
+# mode_requirements.cpp, rotary wing: the modes that need each.
+REQ_LOCAL_POSITION = _modes(N.AUTO_MISSION, N.AUTO_LOITER, N.AUTO_RTL, N.AUTO_TAKEOFF,
+                            N.AUTO_FOLLOW_TARGET, N.AUTO_PRECLAND, N.ORBIT)
+REQ_LOCAL_POSITION_RELAXED = _modes(N.POSCTL, N.POSITION_SLOW, N.AUTO_LAND)
+REQ_GLOBAL_POSITION = _modes(N.AUTO_MISSION, N.AUTO_LOITER, N.AUTO_RTL)
+REQ_MISSION = _modes(N.AUTO_MISSION)
+REQ_OFFBOARD = _modes(N.OFFBOARD)
+REQ_HOME = _modes(N.AUTO_RTL)
+REQ_MANUAL_CONTROL = _modes(N.MANUAL, N.ALTCTL, N.POSCTL, N.POSITION_SLOW, N.ACRO, N.STAB)
+REQ_PREVENT_ARMING = _modes(N.AUTO_RTL, N.DESCEND, N.TERMINATION, N.AUTO_LAND,
+                            N.AUTO_FOLLOW_TARGET, N.AUTO_PRECLAND, N.ORBIT)
+
+
+@dataclass(frozen=True)
+class CheckInputs:
+    """What Commander's checks read (failsafe_flags and vehicle_status, as the vehicle has them)."""
+
+    armed: bool
+    nav_state: NavState
+    position_valid: bool
+    manual_control: bool  # stick input present
+    mission_valid: bool
+    offboard_available: bool
+    home_valid: bool
+    rc_in_mode: int  # COM_RC_IN_MODE
+    mission_required: bool  # COM_ARM_MIS_REQ
+    sensor_failures: int  # estimation.F_* bits
+
+
+def inputs_of(autopilot: Any, params: Any, sensor_failures: int) -> CheckInputs:
+    """The checks' inputs from a vehicle's autopilot (its commander and home) and params."""
+    c = autopilot.commander
+    return CheckInputs(c.armed, c.nav_state, c.position_valid, c.manual_control_available,
+                       c.mission_valid, c.offboard_available, autopilot.home is not None,
+                       int(params.get("COM_RC_IN_MODE", 0) or 0),
+                       bool(params.get("COM_ARM_MIS_REQ", 0)), sensor_failures)
+
+
+@dataclass(frozen=True)
+class Results:
+    can_arm: int
+    can_run: int
+    error: int  # arming checks, health_component_t bits
+    warning: int
+    present: int  # health
+    health_error: int
+    health_warning: int
+    checks: tuple[tuple[EventDef, Log, int, int], ...]  # (event, level, modes, component index)
+
+    def can_arm_in(self, nav_state: NavState) -> bool:
+        return bool(self.can_arm & (1 << int(nav_state)))
+
+
+def evaluate(i: CheckInputs) -> Results:
+    """One run of the checks (module rules)."""
+    can_arm = can_run = ALL_MODES
+    error = warning = 0
+    checks: list[tuple[EventDef, Log, int, int]] = []
+
+    def failure(event: EventDef, level: Log, modes: int, component: int) -> None:
+        nonlocal can_arm, error, warning
+        if level <= Log.ERROR:
+            error |= 1 << component
+        elif level <= Log.WARNING:
+            warning |= 1 << component
+        can_arm &= ~modes
+        checks.append((event, level, modes or ALL_MODES, component))
+
+    if not i.armed and REQ_PREVENT_ARMING & (1 << int(i.nav_state)):
+        failure(CHECK_CANNOT_TAKEOFF, Log.INFO, REQ_PREVENT_ARMING, SYSTEM)
+    if not i.position_valid:
+        local = REQ_LOCAL_POSITION | REQ_LOCAL_POSITION_RELAXED
+        failure(CHECK_LOCAL_POS, Log.ERROR, local, SYSTEM)
+        can_run &= ~local
+        failure(CHECK_GLOBAL_POS, Log.ERROR, REQ_GLOBAL_POSITION, SYSTEM)
+        can_run &= ~REQ_GLOBAL_POSITION
+    if not i.mission_valid:
+        failure(CHECK_MISSION, Log.INFO, ALL_MODES if i.mission_required else REQ_MISSION, SYSTEM)
+        can_run &= ~REQ_MISSION
+    if not i.offboard_available:
+        failure(CHECK_OFFBOARD, Log.ERROR, REQ_OFFBOARD, SYSTEM)
+        can_run &= ~REQ_OFFBOARD
+    if not i.home_valid:
+        failure(CHECK_HOME, Log.INFO, REQ_HOME, SYSTEM)
+        can_run &= ~REQ_HOME
+    if not i.manual_control:
+        disabled = i.rc_in_mode == 4
+        failure(CHECK_MANUAL_CONTROL, Log.ERROR if disabled else Log.WARNING,
+                REQ_MANUAL_CONTROL if disabled else 0, REMOTE_CONTROL)
+        can_arm &= ~REQ_MANUAL_CONTROL
+        can_run &= ~REQ_MANUAL_CONTROL
+    health_error = 0
+    for bits, component in FAILURE_COMPONENT:
+        if i.sensor_failures & bits:
+            health_error |= 1 << INDEX[component]
+    return Results(can_arm, can_run, error, warning, PRESENT, health_error, 0, tuple(checks))
+
+
+class HealthChecks:
+    """Commander's HealthAndArmingChecks and its Report (module rules)."""
+
+    def __init__(self, events: EventLog) -> None:
+        self.events = events
+        self.results: Results | None = None
+        self._next_s = 0.0
+        self._last_report_s = -MIN_REPORT_INTERVAL_S
+        self._unreported = False
+        self._mode: tuple[bool, NavState] | None = None
+
+    def update(self, now_s: float, armed: bool, nav_state: NavState,
+               inputs: Callable[[], CheckInputs], force: bool = False) -> bool:
+        """Run the checks on ``inputs()`` if due (or ``force``); report as the module rules
+        say. True: a report was sent."""
+        mode = (armed, nav_state)
+        if not force and now_s < self._next_s and mode == self._mode:
+            return False
+        self._next_s, self._mode = now_s + UPDATE_PERIOD_S, mode
+        checked = inputs()
+        previous, self.results = self.results, evaluate(checked)
+        changed = self._unreported or self.results != previous
+        if now_s - self._last_report_s < MIN_REPORT_INTERVAL_S and not force:
+            self._unreported = self._unreported or changed
+            return False
+        if not (changed or force):
+            return False
+        self._last_report_s, self._unreported = now_s, False
+        self._report(now_s)
+        return True
+
+    def _report(self, now_s: float) -> None:
+        r = self.results
+        assert r is not None
+        send = self.events.send
+        send(now_s, ARMING_SUMMARY, Log.PROTOCOL, None, "BIIII", 0, r.error, r.warning,
+             r.can_arm, r.can_run)
+        for event, level, modes, component in r.checks:
+            send(now_s, event, level, None, "IB", modes, component)
+        send(now_s, HEALTH_SUMMARY, Log.PROTOCOL, None, "BIII", 0, r.present, r.health_error,
+             r.health_warning)
