@@ -204,3 +204,24 @@ async def test_mavsdk_log_streaming_gets_the_ulog_of_a_flight(daemon_factory, tm
         assert min(log.get_dataset("vehicle_local_position").data["z"]) < -1.5  # the takeoff
         assert any("Takeoff" in m.message for m in log.logged_messages)
         await drone.action.land()
+
+
+def test_stream_log_example_saves_the_ulog_of_its_flight(daemon_factory, tmp_path):
+    """gcs_examples/stream_log.py as a user runs it: a takeoff, hover and landing streamed into
+    a .ulg file that pyulog reads."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from gateway.ci.launcher import free_tcp_port
+
+    d = daemon_factory()
+    out = tmp_path / "streamed.ulg"
+    script = Path(__file__).resolve().parents[2] / "gcs_examples" / "stream_log.py"
+    run = subprocess.run([sys.executable, str(script), "--port", str(d.api_port(0)),
+                          "--grpc-port", str(free_tcp_port()), "--out", str(out), "--hover", "8"],
+                         capture_output=True, text=True, timeout=300, stdin=subprocess.DEVNULL)
+    assert run.returncode == 0 and "-- saved" in run.stdout, f"{run.stdout}\n{run.stderr}"
+    log = pyulog.ULog(str(out))
+    assert len(log.initial_parameters) > 600 and log.msg_info_dict["ver_hw"] == "PX4_SITL"
+    assert min(log.get_dataset("vehicle_local_position").data["z"]) < -1.0  # it flew
