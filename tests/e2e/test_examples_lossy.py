@@ -50,17 +50,25 @@ def test_log_stream_over_lossy_wifi_with_pymavlink(daemon_factory, tmp_path):
     data packets leave gaps, and the ULog is whole messages that pyulog reads, the takeoff in it.
     (MAVSDK's log_streaming over this link: mavsdk_server 3.x was seen to stop acknowledging
     mid-stream and then never answer LOGGING_STOP, in about one run in three.)"""
+    from tests.e2e.gcs import gcs
+
+    d = daemon_factory("--scenario", "lossy-wifi")
+    conn = gcs(d.gcs_port())
+    try:
+        assert conn.wait_heartbeat(timeout=15) is not None
+        stream_a_flight(conn, tmp_path)
+    finally:
+        conn.close()
+
+
+def stream_a_flight(conn, tmp_path) -> None:
     import time
 
     import pyulog
     from pymavlink.dialects.v20 import common as M
 
     from gateway.ci.ulog_receiver import UlogReceiver
-    from tests.e2e.gcs import gcs
 
-    d = daemon_factory("--scenario", "lossy-wifi")
-    conn = gcs(d.gcs_port())
-    assert conn.wait_heartbeat(timeout=15) is not None
     receiver = UlogReceiver()
 
     def pump(seconds: float, command: int | None = None):
@@ -96,7 +104,10 @@ def test_log_stream_over_lossy_wifi_with_pymavlink(daemon_factory, tmp_path):
         if started is not None or receiver.packets:
             break
     assert started == M.MAV_RESULT_ACCEPTED or receiver.packets, started
-    assert command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1) == M.MAV_RESULT_ACCEPTED
+    deadline = time.monotonic() + 30  # armed once the position estimate is valid
+    while command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1) != M.MAV_RESULT_ACCEPTED:
+        assert time.monotonic() < deadline, "never armed"
+        pump(0.5)
     assert command(M.MAV_CMD_NAV_TAKEOFF, *(float("nan"),) * 7) == M.MAV_RESULT_ACCEPTED
     pump(8.0)
     assert command(M.MAV_CMD_LOGGING_STOP) == M.MAV_RESULT_ACCEPTED
