@@ -62,3 +62,22 @@ async def test_mavsdk_health_report_names_the_failed_sensor(daemon_factory):
                                            for c in r.health_components), 30,
                              "the GPS failure in a report")
         assert report is not None
+
+
+def test_health_report_example_prints_the_report(daemon_factory):
+    """gcs_examples/health_report.py as a user runs it."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from gateway.ci.launcher import free_tcp_port
+
+    d = daemon_factory()
+    script = Path(__file__).resolve().parents[2] / "gcs_examples" / "health_report.py"
+    run = subprocess.run([sys.executable, str(script), "--port", str(d.api_port(0)),
+                          "--grpc-port", str(free_tcp_port())],
+                         capture_output=True, text=True, timeout=120, stdin=subprocess.DEVNULL)
+    assert run.returncode == 0, f"{run.stdout}\n{run.stderr}"
+    assert "-- Hold: can arm" in run.stdout, run.stdout
+    assert "warning: No manual control input [remote_control]" in run.stdout, run.stdout
+    assert "-- present: " in run.stdout and "GPS" in run.stdout, run.stdout
