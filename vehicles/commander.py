@@ -42,7 +42,7 @@ from vehicles.types import CommandResult, NavState
 # EKF2/GPS "ready" this long after boot (PX4 SITL needs a few seconds; EKF2_REQ_GPS_H is 0.5 s).
 POSITION_VALID_DELAY_S = 1.0
 
-ARMING_DENIED_TEXT = "Arming denied: Resolve system health failures first"
+ARMING_DENIED_TEXT = ARM_DENIED.message  # "Arming denied: Resolve system health failures first"
 
 
 class SwitchRule(enum.Enum):
@@ -280,11 +280,11 @@ class Commander:
         self.position_valid = valid
         if self.armed and landed != self.landed:
             if landed:
-                self._log.info(now_s, "Landing detected")
+                self._log.info(now_s, LANDING_DETECTED.message)
                 if self.events is not None:
                     self.events.send(now_s, LANDING_DETECTED, Log.INFO)
             else:
-                self._log.info(now_s, "Takeoff detected")
+                self._log.info(now_s, TAKEOFF_DETECTED.message)
                 if self.events is not None:
                     self.events.send(now_s, TAKEOFF_DETECTED, Log.INFO)
                 self.have_taken_off_since_arming = True

@@ -131,6 +131,7 @@ class VehicleLogger:
         self._due = [0.0] * len(self.topics)
         self._last: list[Sequence[Any] | None] = [None] * len(self.topics)
         self._stepped = [i for i, t in enumerate(self.topics) if t.step is not None]
+        self._stepped_set = frozenset(self._stepped)
         self._step_s: list[float | None] = [None] * len(self.topics)  # last step logged
         self._params: dict[str, float] = {}
         self._text_seq = 0
@@ -399,14 +400,14 @@ class VehicleLogger:
         if buf is self._scratch:
             buf.clear()
 
-    def _sample_steps(self, view: _Sample, force: bool, buf: bytearray) -> set[int]:
+    def _sample_steps(self, view: _Sample, force: bool, buf: bytearray) -> frozenset[int]:
         """The topics PX4 publishes at the sensors' rate: one record per physics step since the
         last sample, each at its step's time, keeping the topic's interval (logged_topics.py).
         Returns the topics written here; none when the vehicle keeps no recent steps."""
         indices = self._stepped
         recent = getattr(view, "recent_steps", None)
         if not indices or recent is None:
-            return set()
+            return frozenset()
         last = self._step_s
         since = [t for t in (last[i] for i in indices) if t is not None]
         rows = recent(None if len(since) < len(indices) else min(since))
@@ -430,7 +431,7 @@ class VehicleLogger:
                 buf += record
                 due[i] = t_s + topic.interval_s
                 last[i] = t_s
-        return set(indices)
+        return self._stepped_set
 
     def drain(self) -> list[tuple[str, bytes, bool]]:
         """What to append to which file since the last drain: (path, bytes, closed)."""
