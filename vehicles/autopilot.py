@@ -165,7 +165,7 @@ class Autopilot:
     # --- commands (the Vehicle API delegates here) -----------------------------------------------
     def arm(self, now_s: float, here: Measurement, forced: bool = False,
             text: str = "Armed by external command") -> CommandResult:
-        """``here``: the vehicle's latest measurement (arming sets home there)."""
+        """``here``: the vehicle's latest measurement (arming sets home there if positioned)."""
         was_armed = self.commander.armed
         if not was_armed and self.calibration.busy:
             self.log.critical(now_s, "Arming denied: calibrating")
@@ -173,8 +173,9 @@ class Autopilot:
         self._refresh_requirements(now_s)
         result = self.commander.arm(now_s, forced, text)
         if result is CommandResult.ACCEPTED and not was_armed:
-            self._set_home(here)
             self.motor_test.clear()
+            if self.commander.position_valid:  # Stabilized and the like arm without a position
+                self._set_home(here)
         return result
 
     def disarm(self, now_s: float, forced: bool = False) -> CommandResult:
@@ -355,8 +356,7 @@ class Autopilot:
 
     # --- the loop ----------------------------------------------------------------------------
     def step(self, meas: Measurement, now_s: float) -> InnerCommand:
-        """The 50 Hz part on the state measured at ``now_s``: what the inner loop applies until
-        the next command."""
+        """The 50 Hz part on the state measured at ``now_s``: the inner loop's next command."""
         self.time_s = now_s
         self._last = meas
         self._update_slow(now_s, meas)

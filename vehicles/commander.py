@@ -42,7 +42,8 @@ from vehicles.types import CommandResult, NavState
 # EKF2/GPS "ready" this long after boot (PX4 SITL needs a few seconds; EKF2_REQ_GPS_H is 0.5 s).
 POSITION_VALID_DELAY_S = 1.0
 
-ARMING_DENIED_TEXT = ARM_DENIED.message  # "Arming denied: Resolve system health failures first"
+# PX4 ends a mavlink_log text that it also sends as an event with a tab (QGC then shows the event).
+ARMING_DENIED_TEXT = ARM_DENIED.message + "\t"  # "Arming denied: Resolve system health failures first"
 
 
 class SwitchRule(enum.Enum):
@@ -150,8 +151,16 @@ class Commander:
 
     # --- queries ------------------------------------------------------------------------------
     def prearm_ok(self) -> bool:
-        return (self.position_valid and int(self._params["COM_ARMABLE"]) == 1
-                and not self.terminated and MODE_TABLE[self.nav_state].arming_allowed
+        """Arming possible in the current mode (HealthAndArmingChecks canArm(nav_state)): the
+        mode allows arming and what it requires is there (mode_requirements.cpp): a position
+        estimate for the modes that fly one (Stabilized, Acro, Manual and Altitude arm without
+        it), a mission, an offboard signal, stick input."""
+        spec = MODE_TABLE[self.nav_state]
+        return (int(self._params["COM_ARMABLE"]) == 1 and not self.terminated
+                and spec.arming_allowed
+                and (self.position_valid or not spec.needs_position)
+                and (self.mission_valid or not spec.needs_mission)
+                and (self.offboard_available or not spec.needs_offboard)
                 and not self._needs_sticks_now())
 
     def _needs_sticks_now(self) -> bool:
@@ -219,7 +228,7 @@ class Commander:
         if not self.prearm_ok():
             # PX4 runs the checks for external commands even when forced.
             if self._needs_sticks_now():
-                self._log.critical(now_s, "Preflight Fail: No manual control input")
+                self._log.critical(now_s, "Preflight Fail: No manual control input\t")
             self._log.critical(now_s, ARMING_DENIED_TEXT)
             if self.events is not None:
                 self.events.send(now_s, ARM_DENIED, Log.CRITICAL, Log.INFO)
@@ -280,11 +289,11 @@ class Commander:
         self.position_valid = valid
         if self.armed and landed != self.landed:
             if landed:
-                self._log.info(now_s, LANDING_DETECTED.message)
+                self._log.info(now_s, LANDING_DETECTED.message + "\t")
                 if self.events is not None:
                     self.events.send(now_s, LANDING_DETECTED, Log.INFO)
             else:
-                self._log.info(now_s, TAKEOFF_DETECTED.message)
+                self._log.info(now_s, TAKEOFF_DETECTED.message + "\t")
                 if self.events is not None:
                     self.events.send(now_s, TAKEOFF_DETECTED, Log.INFO)
                 self.have_taken_off_since_arming = True

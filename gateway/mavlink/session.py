@@ -68,6 +68,7 @@ log = logging.getLogger(__name__)
 COMPONENT_ID = 1
 ERROR_LOG_INTERVAL_S = 10.0  # a failing service logs at most once per this (simulated) time
 MAV_TYPE_GCS = 6
+MAV_TYPE_ONBOARD_CONTROLLER = 18
 SIGNING_LINK_ID = {LinkKind.GCS: 0, LinkKind.API: 1}
 
 
@@ -100,6 +101,7 @@ class Session:
         self._addressed = False  # the frame being routed is for us (cleared by other_target)
         self._out: list[bytes] = []
         self.last_gcs_heartbeat_s = -math.inf
+        self.last_onboard_heartbeat_s = -math.inf  # MAV_TYPE_ONBOARD_CONTROLLER
         self._next_error_log_s = -math.inf
         self.scheduler = Scheduler(kind, now_s)
         # What telemetry derives from one kinematics sample; the shell may give the sessions of
@@ -108,7 +110,7 @@ class Session:
         self.link_telemetry = LinkTelemetry()
         ctx = LinkContext(vehicle, kind, self.sysid, self.encoder, self.stats, self.send,
                           self._other_target)
-        self.statustext = StatusTextService(ctx, self.gcs_present)
+        self.statustext = StatusTextService(ctx, self._text_listener_present)
         self.events = EventsService(ctx)
         say = self.statustext.local
         self.log_streaming = LogStreamingService(ctx, say)  # its ``topic`` too
@@ -296,8 +298,15 @@ class Session:
     def gcs_present(self, now_s: float) -> bool:
         return now_s - self.last_gcs_heartbeat_s <= GCS_PRESENT_S
 
+    def _text_listener_present(self, now_s: float) -> bool:
+        """PX4 sends STATUSTEXT while ``is_gcs_connected() || is_onboard_controller_connected()``."""
+        return (now_s - self.last_gcs_heartbeat_s <= GCS_PRESENT_S
+                or now_s - self.last_onboard_heartbeat_s <= GCS_PRESENT_S)
+
     def _on_heartbeat(self, msg: M.MAVLink_heartbeat_message, now_s: float) -> None:
         if msg.type != MAV_TYPE_GCS:
+            if msg.type == MAV_TYPE_ONBOARD_CONTROLLER:
+                self.last_onboard_heartbeat_s = now_s
             return
         self.last_gcs_heartbeat_s = now_s
         hook = getattr(self.vehicle, "on_gcs_heartbeat", None)

@@ -1,17 +1,20 @@
-"""STATUSTEXT: the vehicle's append-only text log → this link, with PX4's gating.
+"""STATUSTEXT: the vehicle's append-only text log → this link, with PX4's gating and framing.
 
-Source: PX4 mavlink_main.cpp (STATUSTEXT always streamed), mavlink_log texts (a trailing tab
-marks an events-backed text).
+Source: PX4 src/modules/mavlink/streams/STATUSTEXT.hpp (the mavlink_log topic → STATUSTEXT) and
+mavlink_log.h (mavlink_log_s.text: 127 chars with the terminator).
 Rules:
 - A cursor per link drains ``vehicle.status_texts(after_seq)``; texts are consumed whether or
   not they are sent (PX4 drops them too), so nothing piles up while no GCS listens. A vehicle
   with ``changes`` is asked only once its ``status_texts`` generation has moved.
-- Sent only while a MAV_TYPE_GCS heartbeat arrived on this link within GCS_PRESENT_S, and only
+- Sent only while a MAV_TYPE_GCS or MAV_TYPE_ONBOARD_CONTROLLER heartbeat arrived on this link
+  within GCS_PRESENT_S (``is_gcs_connected() || is_onboard_controller_connected()``), and only
   texts younger than MAX_AGE_S.
-- A trailing tab (PX4's mark of a text also sent as an event) is stripped: the vehicle's texts
-  that are also events (events.py: takeoff, landing, arming denied) go out as plain texts.
-- Texts longer than 50 bytes are chunked MAVLink-2 style: non-zero ``id`` shared by the chunks,
-  ``chunk_seq`` 0.., the last chunk shorter than 50 (an empty one if the length divides by 50).
+- Sent as PX4 sends them: a trailing tab (PX4's mark of a text also sent as an event; QGC drops
+  such texts from PX4 and shows the event) is kept; a text is cut to MAX_TEXT_BYTES; every text
+  takes the link's next ``id`` (0, 1, 2, … for single-chunk texts too, wrapping at 65536);
+  longer than 50 bytes it goes out in 50-byte chunks, ``chunk_seq`` 0.., and a text whose
+  length divides by 50 ends with a full chunk (no empty one after it); an empty text sends
+  nothing.
 - ``local()`` queues a gateway-originated text (e.g. "Unsupported auto mode") for this link only.
 """
 
@@ -27,11 +30,13 @@ from vehicles.types import Changes, Severity
 GCS_PRESENT_S = 2.5
 MAX_AGE_S = 5.0
 CHUNK_LEN = 50
+MAX_TEXT_BYTES = 126  # mavlink_log_s.text[127], NUL-terminated
 MAX_PER_TICK = 20  # PX4 STATUSTEXT is limited to ~20 Hz; a burst beyond this waits a tick
 
 
 class StatusTextService:
-    """``gcs_present(now_s)``: whether a GCS heartbeat arrived on this link lately."""
+    """``gcs_present(now_s)``: whether a GCS (or onboard controller) heartbeat arrived on this
+    link lately."""
 
     def __init__(self, ctx: LinkContext, gcs_present: Callable[[float], bool]) -> None:
         self.vehicle = ctx.vehicle
@@ -39,7 +44,7 @@ class StatusTextService:
         self.send = ctx.send
         self.gcs_present = gcs_present
         self._cursor = -1
-        self._next_id = 1
+        self._next_id = 0  # STATUSTEXT.hpp _id
         self._pending: list[tuple[float, int, str]] = []  # (time_s, severity, text)
         # The vehicle's generations (None: it has none, its log is asked at every poll) and the
         # one of its texts when they were last read (-1: never).
@@ -77,14 +82,10 @@ class StatusTextService:
                 self._pending.append((t.time_s, int(t.severity), t.text))
 
     def frames(self, severity: int, text: str) -> list[bytes]:
-        data = text.rstrip("\t").encode("utf-8", "replace")
+        data = text.encode("utf-8", "replace")[:MAX_TEXT_BYTES]
+        msg_id = self._next_id
+        self._next_id = (msg_id + 1) & 0xFFFF
         enc = self.encoder
         cls = mavlink2.MAVLink_statustext_message
-        if len(data) <= CHUNK_LEN:
-            return [enc.pack(cls, severity, data, 0, 0)]
-        msg_id = self._next_id
-        self._next_id = self._next_id % 0xFFFF + 1
-        chunks = [data[i:i + CHUNK_LEN] for i in range(0, len(data), CHUNK_LEN)]
-        if len(chunks[-1]) == CHUNK_LEN:
-            chunks.append(b"")
-        return [enc.pack(cls, severity, c, msg_id, n) for n, c in enumerate(chunks)]
+        return [enc.pack(cls, severity, data[i:i + CHUNK_LEN], msg_id, n)
+                for n, i in enumerate(range(0, len(data), CHUNK_LEN))]

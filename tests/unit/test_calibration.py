@@ -18,10 +18,11 @@ CANCEL = (0, 0, 0, 0, 0, 0, 0)
 
 
 def texts(api, since: int = 0) -> list[tuple[float, str]]:
-    """(time, text) of the STATUSTEXTs received, a text sent in chunks (id > 0) joined."""
+    """(time, text) of the STATUSTEXTs received, a text sent in chunks (chunk_seq 1.. follow
+    chunk 0) joined."""
     out: list[tuple[float, str]] = []
     for t, m in api.timed_messages("STATUSTEXT", since):
-        if m.id and m.chunk_seq:
+        if m.chunk_seq:
             out[-1] = (out[-1][0], out[-1][1] + m.text)
         else:
             out.append((t, m.text))

@@ -49,6 +49,28 @@ def test_gps_off_in_hold_descends_lands_and_disarms():
         assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=5)
 
 
+def test_without_gps_arming_is_denied_in_hold_and_allowed_in_stabilized():
+    """HealthAndArmingChecks canArm(nav_state): with the position lost, Hold (which needs one)
+    refuses to arm; Stabilized (attitude only) arms on the sticks, and home stays where it was."""
+    with Sim() as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        api = sim.api(0)
+        api.start_heartbeat()
+        assert api.arm() == 0 and api.disarm() == 0
+        home = sim.status(0).home
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OFF, 0) == 0
+        assert sim.run_until(lambda: not sim.status(0).position_valid, timeout_s=10)
+        assert api.arm() == M.MAV_RESULT_TEMPORARILY_REJECTED
+        sticks = sim.every(0.05, lambda t: api.send(
+            M.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0)))
+        sim.advance(0.2)
+        assert api.set_mode(NavState.STAB) == 0
+        assert not sim.status(0).position_valid and sim.status(0).prearm_ok
+        assert api.arm() == 0 and sim.status(0).armed
+        assert sim.status(0).home == home
+        sticks.cancel()
+
+
 @pytest.mark.parametrize("params, unit, kind, result", [
     ({"SYS_FAILURE_EN": 0}, GPS, OFF, 2),  # DENIED: failure injection disabled
     ({}, 100, 2, 3),  # the battery stuck: UNSUPPORTED (off and ok only, as PX4's simulator)

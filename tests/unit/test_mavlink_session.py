@@ -371,14 +371,32 @@ def test_statustext_gating_and_chunking():
     long = "x" * 120
     vehicle.say(0.5, long, Severity.WARNING)
     texts = of_type(client.run_until(1.0), "STATUSTEXT")
-    assert [(t.text, t.id, t.chunk_seq) for t in texts[:1]] == [("Takeoff detected", 0, 0)]
+    # STATUSTEXT.hpp: the tab goes out (QGC drops such a text from PX4 and shows its event); the
+    # link's id counts every text from 0, single-chunk ones too.
+    assert [(t.text, t.id, t.chunk_seq) for t in texts[:1]] == [("Takeoff detected\t", 0, 0)]
     chunks = texts[1:]
-    assert [c.chunk_seq for c in chunks] == [0, 1, 2] and len({c.id for c in chunks}) == 1
-    assert chunks[0].id != 0 and "".join(c.text for c in chunks) == long
+    assert [c.chunk_seq for c in chunks] == [0, 1, 2] and {c.id for c in chunks} == {1}
+    assert "".join(c.text for c in chunks) == long
     assert all(c.severity == Severity.WARNING for c in chunks)
     client.now_s = 5.0  # GCS heartbeat 4.5 s old: gated again
     vehicle.say(5.0, "late")
     assert of_type(client.run_until(6.0), "STATUSTEXT") == []
+
+
+def test_statustext_framing_follows_px4s_stream():
+    """STATUSTEXT.hpp: a text of exactly 50 or 100 bytes ends with a full chunk (no empty one),
+    an empty text sends nothing but takes its id, a text is cut at mavlink_log_s's 126 bytes,
+    and an onboard controller's heartbeat opens the stream as a GCS's does."""
+    vehicle, session, client = make()
+    client.heartbeat(M.MAV_TYPE_ONBOARD_CONTROLLER)
+    for text in ("a" * 50, "", "b" * 100, "c" * 200):
+        vehicle.say(0.1, text)
+    texts = of_type(client.run_until(0.5), "STATUSTEXT")
+    assert [(t.id, t.chunk_seq, len(t.text)) for t in texts] == [
+        (0, 0, 50), (2, 0, 50), (2, 1, 50), (3, 0, 50), (3, 1, 50), (3, 2, 26)]
+    client.now_s = 4.0  # the onboard controller's heartbeat is 4 s old
+    vehicle.say(4.0, "unheard")
+    assert of_type(client.run_until(4.5), "STATUSTEXT") == []
 
 
 def test_unsupported_auto_mode_text_when_gcs_present():

@@ -108,7 +108,7 @@ def test_mode_requests_need_a_position_estimate(target):
 def test_arming_in_a_stick_mode_needs_stick_input(mode):
     c, log = make(mode)
     assert c.arm(0.0) is CommandResult.TEMPORARILY_REJECTED
-    assert [t.text for t in log.after(0)] == ["Preflight Fail: No manual control input",
+    assert [t.text for t in log.after(0)] == ["Preflight Fail: No manual control input\t",
                                               ARMING_DENIED_TEXT]
     c.manual_control_available = True
     assert c.arm(0.0) is CommandResult.ACCEPTED
@@ -144,6 +144,27 @@ def test_arming_denied_before_position_valid():
     assert c.arm(0.0) is CommandResult.TEMPORARILY_REJECTED
     assert c.arm(0.0, forced=True) is CommandResult.TEMPORARILY_REJECTED
     assert [t.text for t in log.after(0)] == [ARMING_DENIED_TEXT] * 2
+
+
+@pytest.mark.parametrize("mode", sorted(STICK_MODES))
+def test_arming_without_position_only_in_modes_that_do_not_fly_one(mode):
+    """HealthAndArmingChecks canArm(nav_state): a missing position estimate (GPS failed) denies
+    arming in the modes that require one (mode_requirements.cpp), not in Stabilized, Acro,
+    Manual or Altitude."""
+    c, log = make(mode, position_valid=False, manual_control_available=True)
+    needs = MODE_TABLE[mode].needs_position
+    assert c.prearm_ok() is not needs
+    assert c.arm(0.0) is (CommandResult.TEMPORARILY_REJECTED if needs else CommandResult.ACCEPTED)
+    assert c.armed is not needs
+
+
+def test_arming_needs_the_missions_and_offboard_signal_of_its_mode():
+    c, _ = make(NavState.AUTO_MISSION, mission_valid=False)
+    assert c.arm(0.0) is CommandResult.TEMPORARILY_REJECTED
+    c, _ = make(NavState.OFFBOARD, offboard_available=False)
+    assert c.arm(0.0) is CommandResult.TEMPORARILY_REJECTED
+    c.offboard_available = True
+    assert c.arm(0.0) is CommandResult.ACCEPTED
 
 
 def test_already_armed_is_accepted_and_com_armable_zero_denies():

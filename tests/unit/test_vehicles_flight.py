@@ -64,7 +64,7 @@ def test_disarmed_vehicle_rests_still_on_the_ground(sim):
 def test_position_valid_and_home_after_boot(sim):
     assert sim.v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
     assert sim.v.status.home is None and not sim.v.status.position_valid
-    assert "Arming denied: Resolve system health failures first" in sim.texts()
+    assert "Arming denied: Resolve system health failures first\t" in sim.texts()
     sim.run(1.2)
     st = sim.v.status
     assert st.position_valid and st.prearm_ok and st.home is not None
@@ -95,7 +95,7 @@ def test_takeoff_reaches_default_altitude_then_holds_steady(sim):
     assert worst < 0.1
     texts = sim.texts()
     assert texts[:3] == ["Armed by external command", "Using default takeoff altitude: 2.5 m",
-                         "Takeoff detected"]
+                         "Takeoff detected\t"]
 
 
 def test_motors_run_through_the_gz_x500_esc_range(sim):
@@ -163,7 +163,7 @@ def test_land_touches_down_and_auto_disarms_two_seconds_later(sim):
     assert sim.v.status.nav_state is NavState.AUTO_LOITER  # Land forbids arming -> Hold
     assert abs(sim.v.state.position_ned_m[2]) < 0.02
     texts = sim.texts()
-    assert texts[-3:] == ["Landing at current position", "Landing detected", "Disarmed by landing"]
+    assert texts[-3:] == ["Landing at current position", "Landing detected\t", "Disarmed by landing"]
 
 
 def test_auto_disarm_ten_seconds_after_arming_without_takeoff(sim):

@@ -159,7 +159,7 @@ def test_arming_in_position_mode_without_sticks_is_denied(sim):
     assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
     sim.run(1.0)  # the input is gone
     assert sim.v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
-    assert "Preflight Fail: No manual control input" in sim.texts()
+    assert "Preflight Fail: No manual control input\t" in sim.texts()
 
 
 def test_sys_status_reports_the_joystick(sim):
