@@ -33,11 +33,15 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 from vehicles.events import ARM_DENIED, LANDING_DETECTED, TAKEOFF_DETECTED, EventLog, Log
 from vehicles.failsafe import Action, Failsafe, FailsafeFlags
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, NavState
+
+if TYPE_CHECKING:
+    from vehicles.health_checks import Results
 
 # EKF2/GPS "ready" this long after boot (PX4 SITL needs a few seconds; EKF2_REQ_GPS_H is 0.5 s).
 POSITION_VALID_DELAY_S = 1.0
@@ -141,6 +145,9 @@ class Commander:
         self._params_version = -1  # the timeouts below are read at the first update
         self._disarm_land_s = self._disarm_preflight_s = self._dl_loss_t_s = 0.0
         self.events: EventLog | None = None  # PX4's events::send, where it sends as well as says
+        # The health checks' failures that deny arming in every mode, as an arming request's
+        # "Preflight Fail: …" texts (health_checks.py, told at each evaluation).
+        self.health_failures: tuple[str, ...] = ()
 
     def _update_params(self) -> None:
         p = self._params
@@ -148,6 +155,10 @@ class Commander:
         self._disarm_land_s = float(p["COM_DISARM_LAND"])
         self._disarm_preflight_s = float(p["COM_DISARM_PRFLT"])
         self._dl_loss_t_s = float(p["COM_DL_LOSS_T"])
+
+    def set_health(self, results: Results) -> None:
+        """health_checks.HealthChecks' ``on_results``."""
+        self.health_failures = results.preflight_texts
 
     # --- queries ------------------------------------------------------------------------------
     def prearm_ok(self) -> bool:
@@ -157,7 +168,7 @@ class Commander:
         it), a mission, an offboard signal, stick input."""
         spec = MODE_TABLE[self.nav_state]
         return (int(self._params["COM_ARMABLE"]) == 1 and not self.terminated
-                and spec.arming_allowed
+                and spec.arming_allowed and not self.health_failures
                 and (self.position_valid or not spec.needs_position)
                 and (self.mission_valid or not spec.needs_mission)
                 and (self.offboard_available or not spec.needs_offboard)
@@ -227,6 +238,8 @@ class Commander:
             return CommandResult.ACCEPTED
         if not self.prearm_ok():
             # PX4 runs the checks for external commands even when forced.
+            for text in self.health_failures:
+                self._log.critical(now_s, text)
             if self._needs_sticks_now():
                 self._log.critical(now_s, "Preflight Fail: No manual control input\t")
             self._log.critical(now_s, ARMING_DENIED_TEXT)

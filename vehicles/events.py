@@ -75,6 +75,13 @@ def _check(name: str, message: str, description: str | None = None) -> EventDef:
                     description=description)
 
 
+def _health(name: str, message: str) -> EventDef:
+    """A health failure's event (Report::healthFailure): the modes and the component first, then
+    the sensor instance. PX4's events parser shifts the message's placeholders past the two it
+    puts first, so PX4's "{1}" (the instance) is "{3}" here, as in all_events.json."""
+    return EventDef(name, "health", message, (MODES, COMPONENT_INDEX, ("uint8_t", "arg0")))
+
+
 TAKEOFF_DETECTED = EventDef("commander_takeoff_detected", "default", "Takeoff detected")
 LANDING_DETECTED = EventDef("commander_landing_detected", "default", "Landing detected")
 ARM_DENIED = EventDef("commander_arm_denied_resolve_failures", "default",
@@ -101,10 +108,17 @@ CHECK_MANUAL_CONTROL = _check("check_modes_manual_control", "No manual control i
                               "Connect and enable stick input or use autonomous mode.")
 CHECK_CANNOT_TAKEOFF = _check("check_modes_cannot_takeoff", "Mode not suitable for arming",
                               "Switch to another mode first.")
+# The sensor checks (accelerometerCheck.cpp, baroCheck.cpp, gyroCheck.cpp, magnetometerCheck.cpp):
+# a sensor that published nothing for 1 s.
+CHECK_ACCEL_NO_DATA = _health("check_accel_no_data", "No valid data from Accelerometer {3}")
+CHECK_BARO_NO_DATA = _health("check_baro_no_data", "No valid data from barometer {3}")
+CHECK_GYRO_NO_DATA = _health("check_gyro_no_data", "No valid data from Gyro {3}")
+CHECK_MAG_NO_DATA = _health("check_mag_no_data", "No valid data from Compass {3}")
 DEFINITIONS: tuple[EventDef, ...] = (
     TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARMING_SUMMARY, HEALTH_SUMMARY,
     CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_OFFBOARD, CHECK_HOME,
-    CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF)
+    CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF, CHECK_ACCEL_NO_DATA, CHECK_BARO_NO_DATA,
+    CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA)
 
 
 @dataclass(frozen=True)

@@ -8,12 +8,19 @@ Rules:
   of the modes that have it; modeCheck.cpp's check reports its event (the modes, then the health
   component's index; "no modes" is reported as all, so that the UI still shows it), clears those
   modes' can_arm bits and marks its component's arming error (level <= Error) or warning.
-- The checks, in modeCheck.cpp's order: mode not suitable for arming (disarmed only), local
+- The sensor checks first (HealthAndArmingChecks' order: accelerometer, barometer, gyro,
+  magnetometer): a sensor whose data stopped (failure injection "off") SENSOR_TIMEOUT_S ago is a
+  health failure of its component (Report::healthFailure: an error, no mode can arm) with its
+  instance, 0; the barometer and the magnetometer only with SYS_HAS_BARO / SYS_HAS_MAG. A stuck
+  sensor still publishes: no check fails. On an arming request each failing one says its
+  "Preflight Fail: …" text (``preflight_texts``).
+- Then modeCheck.cpp's checks, in its order: mode not suitable for arming (disarmed only), local
   position, global position, mission (every mode with COM_ARM_MIS_REQ), offboard signal, home
   position, manual control (a Warning affecting no mode unless COM_RC_IN_MODE is 4, when it is
   an Error of the modes that need sticks; either way those modes can neither arm nor run).
 - Health: the simulated sensors (accelerometer, gyro, magnetometer, barometer, GPS) and the
-  battery are present; an injected sensor failure is an error of its component.
+  battery are present; a GPS that is off is an error of the GPS component (the estimator's
+  checks: no fixes).
 - ``update`` runs at Commander's 10 Hz (or when the mode or arming changed). A report is one
   burst: the arming summary, each failing check's event, the health summary. It is sent when the
   results differ from the previous evaluation, at most every MIN_REPORT_INTERVAL_S (a change
@@ -23,16 +30,20 @@ Rules:
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
-from vehicles.estimation import F_ACC, F_BARO, F_GPS_OFF, F_GYRO, F_MAG
+from vehicles.estimation import F_ACC_OFF, F_BARO_OFF, F_GPS_OFF, F_GYRO_OFF, F_MAG_OFF
 from vehicles.events import (
     ARMING_SUMMARY,
+    CHECK_ACCEL_NO_DATA,
+    CHECK_BARO_NO_DATA,
     CHECK_CANNOT_TAKEOFF,
     CHECK_GLOBAL_POS,
+    CHECK_GYRO_NO_DATA,
     CHECK_HOME,
     CHECK_LOCAL_POS,
+    CHECK_MAG_NO_DATA,
     CHECK_MANUAL_CONTROL,
     CHECK_MISSION,
     CHECK_OFFBOARD,
@@ -44,6 +55,7 @@ from vehicles.events import (
 from vehicles.types import NavState
 
 UPDATE_PERIOD_S = 0.1
+SENSOR_TIMEOUT_S = 1.0  # the checks' hrt_elapsed_time(&data.timestamp) < 1_s
 MIN_REPORT_INTERVAL_S = 2.0  # Report::_min_reporting_interval
 ALL_MODES = 0xFFFFFFFF  # NavModes::All
 
@@ -66,8 +78,15 @@ INDEX = {name: i for i, (name, _label) in enumerate(HEALTH_COMPONENTS)}
 SYSTEM, REMOTE_CONTROL = INDEX["system"], INDEX["remote_control"]
 PRESENT = sum(1 << INDEX[c] for c in ("accel", "gyro", "magnetometer", "absolute_pressure", "gps",
                                       "battery"))
-FAILURE_COMPONENT = ((F_ACC, "accel"), (F_GYRO, "gyro"), (F_MAG, "magnetometer"),
-                     (F_BARO, "absolute_pressure"), (F_GPS_OFF, "gps"))
+# (failure bit, event, component, the arming request's text); in the checks' order.
+SENSOR_CHECKS = (
+    (F_ACC_OFF, CHECK_ACCEL_NO_DATA, INDEX["accel"], "Preflight Fail: No valid data from Accel 0"),
+    (F_BARO_OFF, CHECK_BARO_NO_DATA, INDEX["absolute_pressure"],
+     "Preflight Fail: No valid data from Baro 0"),
+    (F_GYRO_OFF, CHECK_GYRO_NO_DATA, INDEX["gyro"], "Preflight Fail: No valid data from Gyro 0"),
+    (F_MAG_OFF, CHECK_MAG_NO_DATA, INDEX["magnetometer"],
+     "Preflight Fail: No valid data from Compass 0"))
+SENSORS_OFF = F_ACC_OFF | F_BARO_OFF | F_GYRO_OFF | F_MAG_OFF
 
 
 def _modes(*states: NavState) -> int:
@@ -113,15 +132,22 @@ class CheckInputs:
     rc_in_mode: int  # COM_RC_IN_MODE
     mission_required: bool  # COM_ARM_MIS_REQ
     sensor_failures: int  # estimation.F_* bits
+    required_sensors: int = SENSORS_OFF  # the F_*_OFF bits checked (SYS_HAS_BARO, SYS_HAS_MAG)
+    sensors_no_data: int = 0  # the F_*_OFF bits off for SENSOR_TIMEOUT_S (HealthChecks.update)
 
 
 def inputs_of(autopilot: Any, params: Any, sensor_failures: int) -> CheckInputs:
     """The checks' inputs from a vehicle's autopilot (its commander and home) and params."""
     c = autopilot.commander
+    required = F_ACC_OFF | F_GYRO_OFF
+    if params.get("SYS_HAS_BARO", 1):
+        required |= F_BARO_OFF
+    if params.get("SYS_HAS_MAG", 1):
+        required |= F_MAG_OFF
     return CheckInputs(c.armed, c.nav_state, c.position_valid, c.manual_control_available,
                        c.mission_valid, c.offboard_available, autopilot.home is not None,
                        int(params.get("COM_RC_IN_MODE", 0) or 0),
-                       bool(params.get("COM_ARM_MIS_REQ", 0)), sensor_failures)
+                       bool(params.get("COM_ARM_MIS_REQ", 0)), sensor_failures, required)
 
 
 @dataclass(frozen=True)
@@ -133,7 +159,9 @@ class Results:
     present: int  # health
     health_error: int
     health_warning: int
-    checks: tuple[tuple[EventDef, Log, int, int], ...]  # (event, level, modes, component index)
+    # (event, level, modes, component index, sensor instance or None)
+    checks: tuple[tuple[EventDef, Log, int, int, int | None], ...]
+    preflight_texts: tuple[str, ...] = ()  # what an arming request says of the health failures
 
     def can_arm_in(self, nav_state: NavState) -> bool:
         return bool(self.can_arm & (1 << int(nav_state)))
@@ -142,8 +170,9 @@ class Results:
 def evaluate(i: CheckInputs) -> Results:
     """One run of the checks (module rules)."""
     can_arm = can_run = ALL_MODES
-    error = warning = 0
-    checks: list[tuple[EventDef, Log, int, int]] = []
+    error = warning = health_error = 0
+    checks: list[tuple[EventDef, Log, int, int, int | None]] = []
+    texts: list[str] = []
 
     def failure(event: EventDef, level: Log, modes: int, component: int) -> None:
         nonlocal can_arm, error, warning
@@ -152,8 +181,14 @@ def evaluate(i: CheckInputs) -> Results:
         elif level <= Log.WARNING:
             warning |= 1 << component
         can_arm &= ~modes
-        checks.append((event, level, modes or ALL_MODES, component))
+        checks.append((event, level, modes or ALL_MODES, component, None))
 
+    for bit, event, component, text in SENSOR_CHECKS:  # Report::healthFailure, Error, all modes
+        if i.sensors_no_data & i.required_sensors & bit:
+            health_error |= 1 << component
+            can_arm = 0
+            checks.append((event, Log.ERROR, ALL_MODES, component, 0))
+            texts.append(text)
     if not i.armed and REQ_PREVENT_ARMING & (1 << int(i.nav_state)):
         failure(CHECK_CANNOT_TAKEOFF, Log.INFO, REQ_PREVENT_ARMING, SYSTEM)
     if not i.position_valid:
@@ -177,18 +212,20 @@ def evaluate(i: CheckInputs) -> Results:
                 REQ_MANUAL_CONTROL if disabled else 0, REMOTE_CONTROL)
         can_arm &= ~REQ_MANUAL_CONTROL
         can_run &= ~REQ_MANUAL_CONTROL
-    health_error = 0
-    for bits, component in FAILURE_COMPONENT:
-        if i.sensor_failures & bits:
-            health_error |= 1 << INDEX[component]
-    return Results(can_arm, can_run, error, warning, PRESENT, health_error, 0, tuple(checks))
+    if i.sensor_failures & F_GPS_OFF:
+        health_error |= 1 << INDEX["gps"]
+    return Results(can_arm, can_run, error, warning, PRESENT, health_error, 0, tuple(checks),
+                   tuple(texts))
 
 
 class HealthChecks:
     """Commander's HealthAndArmingChecks and its Report (module rules)."""
 
-    def __init__(self, events: EventLog) -> None:
+    def __init__(self, events: EventLog,
+                 on_results: Callable[[Results], None] | None = None) -> None:
         self.events = events
+        self.on_results = on_results  # told every evaluation (the commander's arming)
+        self._off_since: dict[int, float] = {}  # F_*_OFF bit → when its data stopped
         self.results: Results | None = None
         self._next_s = 0.0
         self._last_report_s = -MIN_REPORT_INTERVAL_S
@@ -203,8 +240,10 @@ class HealthChecks:
         if not force and now_s < self._next_s and mode == self._mode:
             return False
         self._next_s, self._mode = now_s + UPDATE_PERIOD_S, mode
-        checked = inputs()
+        checked = self._with_timeouts(now_s, inputs())
         previous, self.results = self.results, evaluate(checked)
+        if self.on_results is not None:
+            self.on_results(self.results)
         changed = self._unreported or self.results != previous
         if now_s - self._last_report_s < MIN_REPORT_INTERVAL_S and not force:
             self._unreported = self._unreported or changed
@@ -215,13 +254,28 @@ class HealthChecks:
         self._report(now_s)
         return True
 
+    def _with_timeouts(self, now_s: float, checked: CheckInputs) -> CheckInputs:
+        """``checked`` with ``sensors_no_data``: its sensors off for SENSOR_TIMEOUT_S."""
+        off, since = checked.sensor_failures & SENSORS_OFF, self._off_since
+        for bit in list(since):
+            if not off & bit:
+                del since[bit]
+        stale = 0
+        for bit in (F_ACC_OFF, F_BARO_OFF, F_GYRO_OFF, F_MAG_OFF):
+            if off & bit and now_s - since.setdefault(bit, now_s) >= SENSOR_TIMEOUT_S - 1e-9:
+                stale |= bit
+        return replace(checked, sensors_no_data=stale) if stale else checked
+
     def _report(self, now_s: float) -> None:
         r = self.results
         assert r is not None
         send = self.events.send
         send(now_s, ARMING_SUMMARY, Log.PROTOCOL, None, "BIIII", 0, r.error, r.warning,
              r.can_arm, r.can_run)
-        for event, level, modes, component in r.checks:
-            send(now_s, event, level, None, "IB", modes, component)
+        for event, level, modes, component, instance in r.checks:
+            if instance is None:
+                send(now_s, event, level, None, "IB", modes, component)
+            else:
+                send(now_s, event, level, None, "IBB", modes, component, instance)
         send(now_s, HEALTH_SUMMARY, Log.PROTOCOL, None, "BIII", 0, r.present, r.health_error,
              r.health_warning)

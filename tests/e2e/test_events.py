@@ -64,6 +64,31 @@ async def test_mavsdk_health_report_names_the_failed_sensor(daemon_factory):
         assert report is not None
 
 
+@pytest.mark.asyncio
+async def test_mavsdk_health_report_and_arming_with_the_gyro_off(daemon_factory):
+    """The gyro off (failure injection) for a second: PX4's "No valid data from Gyro 0" health
+    failure, rendered by libevents from the metadata with its instance argument, and arming
+    refused in every mode."""
+    from mavsdk.action import ActionError
+    from mavsdk.failure import FailureType, FailureUnit
+
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        await drone.param.set_param_int("SYS_FAILURE_EN", 1)
+        await first(drone.events.health_and_arming_checks(),
+                    lambda r: r.current_mode_intention.mode_name != "", 30, "a report")
+        await drone.failure.inject(FailureUnit.SENSOR_GYRO, FailureType.OFF, 0)
+        report = await first(drone.events.health_and_arming_checks(),
+                             lambda r: any("Gyro" in p.message for p in r.all_problems), 30,
+                             "the gyro failure in a report")
+        problems = [p.message for p in report.all_problems]
+        assert "No valid data from Gyro 0" in problems, problems
+        assert not report.current_mode_intention.can_arm_or_run
+        assert any(c.name == "gyro" and c.has_error for c in report.health_components)
+        with pytest.raises(ActionError):
+            await drone.action.arm()
+
+
 def test_health_report_example_prints_the_report(daemon_factory):
     """gcs_examples/health_report.py as a user runs it."""
     import subprocess

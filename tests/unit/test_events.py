@@ -99,7 +99,7 @@ def test_mode_checks_as_modecheck_cpp():
     assert no_pos.error == 1 << INDEX["system"]
     # Sticks missing: a warning shown for every mode, and no manual mode can arm or run.
     sticks = evaluate(inputs(manual_control=False))
-    (event, level, modes, component), = sticks.checks
+    (event, level, modes, component, _), = sticks.checks
     assert (event.message, level, modes) == ("No manual control input", Log.WARNING, 0xFFFFFFFF)
     assert component == INDEX["remote_control"] and sticks.warning == 1 << component
     assert sticks.can_arm & REQ_MANUAL_CONTROL == 0 and sticks.can_arm_in(NavState.AUTO_LOITER)
@@ -116,11 +116,43 @@ def test_mode_checks_as_modecheck_cpp():
 
 
 def test_gps_failure_is_a_health_error_of_the_gps():
-    from vehicles.estimation import F_GPS_OFF, F_GYRO_OFF
+    from vehicles.estimation import F_GPS_OFF, F_GYRO_STUCK
 
-    r = evaluate(inputs(sensor_failures=F_GPS_OFF | F_GYRO_OFF))
-    assert r.health_error == (1 << INDEX["gps"]) | (1 << INDEX["gyro"])
+    r = evaluate(inputs(sensor_failures=F_GPS_OFF | F_GYRO_STUCK))  # a stuck gyro still publishes
+    assert r.health_error == 1 << INDEX["gps"] and r.checks == ()
     assert r.present & (1 << INDEX["gps"])
+
+
+def test_a_sensor_off_for_a_second_fails_its_check_and_no_mode_arms():
+    """gyroCheck.cpp and the others: data older than 1 s is "No valid data from Gyro 0", a
+    health failure (Error) of the gyro affecting every mode; SYS_HAS_MAG 0 skips the compass."""
+    from vehicles.estimation import F_GYRO_OFF, F_MAG_OFF
+
+    log = EventLog()
+    seen = []
+    checks = HealthChecks(log, seen.append)
+
+    def update(t, failures, required=0xFFFF):
+        return checks.update(t, False, NavState.AUTO_LOITER, lambda: inputs(
+            sensor_failures=failures, required_sensors=required), force=True)
+
+    update(0.0, F_GYRO_OFF | F_MAG_OFF)
+    assert seen[-1].checks == () and seen[-1].can_arm == 0xFFFFFFFF
+    update(0.9, F_GYRO_OFF | F_MAG_OFF)
+    assert seen[-1].checks == ()
+    update(1.0, F_GYRO_OFF | F_MAG_OFF)
+    r = seen[-1]
+    assert names(r) == ["No valid data from Gyro {3}", "No valid data from Compass {3}"]
+    assert r.can_arm == 0 and r.error == 0  # a health failure, not an arming check's
+    assert r.health_error == (1 << INDEX["gyro"]) | (1 << INDEX["magnetometer"])
+    assert r.preflight_texts == ("Preflight Fail: No valid data from Gyro 0",
+                                 "Preflight Fail: No valid data from Compass 0")
+    gyro = [e for e in log.after(INITIAL_SEQUENCE) if e.id == event_id("check_gyro_no_data")][-1]
+    assert gyro.arguments == struct.pack("<IBB", 0xFFFFFFFF, INDEX["gyro"], 0)
+    update(1.1, F_GYRO_OFF | F_MAG_OFF, required=0xFFFF & ~F_MAG_OFF)  # SYS_HAS_MAG 0
+    assert names(seen[-1]) == ["No valid data from Gyro {3}"]
+    update(1.2, 0)  # back: the check passes at once
+    assert seen[-1].checks == () and seen[-1].health_error == 0
 
 
 def test_reports_on_change_at_most_every_two_seconds_or_when_forced():

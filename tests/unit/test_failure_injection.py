@@ -71,6 +71,28 @@ def test_without_gps_arming_is_denied_in_hold_and_allowed_in_stabilized():
         sticks.cancel()
 
 
+def test_a_sensor_off_denies_arming_with_its_preflight_text():
+    """gyroCheck.cpp: no gyro data for 1 s fails the check in every mode; the arming request
+    says "Preflight Fail: No valid data from Gyro 0" before "Arming denied"."""
+    with Sim() as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        api = sim.api(0)
+        api.start_heartbeat()
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 0, OFF, 0) == 0  # FAILURE_UNIT_SENSOR_GYRO
+        assert sim.status(0).prearm_ok  # still publishing within the last second
+        assert sim.run_until(lambda: not sim.status(0).prearm_ok, timeout_s=1.5)
+        assert api.arm() == M.MAV_RESULT_TEMPORARILY_REJECTED
+        sim.advance(0.1)
+        texts: list[str] = []
+        for m in api.messages("STATUSTEXT"):  # the 52-byte denial comes in two chunks
+            texts[-1:] = [texts[-1] + m.text] if m.chunk_seq else [*texts[-1:], m.text]
+        assert texts[-2:] == ["Preflight Fail: No valid data from Gyro 0",
+                              "Arming denied: Resolve system health failures first\t"], texts
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 0, OK, 0) == 0
+        assert sim.run_until(lambda: sim.status(0).prearm_ok, timeout_s=0.5)
+        assert api.arm() == 0
+
+
 @pytest.mark.parametrize("params, unit, kind, result", [
     ({"SYS_FAILURE_EN": 0}, GPS, OFF, 2),  # DENIED: failure injection disabled
     ({}, 100, 2, 3),  # the battery stuck: UNSUPPORTED (off and ok only, as PX4's simulator)
