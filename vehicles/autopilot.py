@@ -36,6 +36,7 @@ from vehicles.control.hover_thrust import HoverThrustEstimator
 from vehicles.control.position_control import PositionControl, PositionControlGains
 from vehicles.control.quat import q_yaw
 from vehicles.control.rate_control import RateControlGains
+from vehicles.events import ArmReason
 from vehicles.failsafe import FailsafeFlags
 from vehicles.flight_tasks import TaskInput, make_tasks
 from vehicles.follow_target import FollowTarget
@@ -164,14 +165,14 @@ class Autopilot:
 
     # --- commands (the Vehicle API delegates here) -----------------------------------------------
     def arm(self, now_s: float, here: Measurement, forced: bool = False,
-            text: str = "Armed by external command") -> CommandResult:
+            reason: ArmReason = ArmReason.COMMAND_EXTERNAL) -> CommandResult:
         """``here``: the vehicle's latest measurement (arming sets home there if positioned)."""
         was_armed = self.commander.armed
         if not was_armed and self.calibration.busy:
             self.log.critical(now_s, "Arming denied: calibrating")
             return CommandResult.TEMPORARILY_REJECTED
         self._refresh_requirements(now_s)
-        result = self.commander.arm(now_s, forced, text)
+        result = self.commander.arm(now_s, forced, reason)
         if result is CommandResult.ACCEPTED and not was_armed:
             self.motor_test.clear()
             if self.commander.position_valid:  # Stabilized and the like arm without a position
@@ -240,8 +241,7 @@ class Autopilot:
             if c.request_nav_state(now_s, NavState.POSCTL) is CommandResult.ACCEPTED:
                 self.log.info(now_s, "Pilot took over using sticks")
 
-    def start_mission(self, now_s: float, here: Measurement, first_seq: float = -1
-                      ) -> CommandResult:
+    def start_mission(self, now_s: float, here: Measurement, first_seq: float = -1) -> CommandResult:
         """MISSION_START (Commander.cpp): Mission mode and arm. ``first_seq`` is the command's
         param1: finite, >= -1 and below the item count, else DENIED; from 0 up it picks the
         first item (navigator_main.cpp), below 0 the mission goes on where it is."""
@@ -254,7 +254,7 @@ class Autopilot:
         if first_seq >= 0:
             mission.set_current(int(first_seq))
         if (self.set_nav_state(now_s, NavState.AUTO_MISSION) is not CommandResult.ACCEPTED
-                or self.arm(now_s, here, text="Armed by mission start") is not CommandResult.ACCEPTED):
+                or self.arm(now_s, here, reason=ArmReason.MISSION_START) is not CommandResult.ACCEPTED):
             self.log.critical(now_s, "Mission start denied")
             return CommandResult.TEMPORARILY_REJECTED
         return CommandResult.ACCEPTED

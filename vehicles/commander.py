@@ -35,7 +35,17 @@ import enum
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
-from vehicles.events import ARM_DENIED, LANDING_DETECTED, TAKEOFF_DETECTED, EventLog, Log
+from vehicles.events import (
+    ARM_DENIED,
+    ARM_REASON_TEXT,
+    ARMED_BY,
+    DISARMED_BY,
+    LANDING_DETECTED,
+    TAKEOFF_DETECTED,
+    ArmReason,
+    EventLog,
+    Log,
+)
 from vehicles.failsafe import Action, Failsafe, FailsafeFlags
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, NavState
@@ -233,7 +243,7 @@ class Commander:
         self._gcs_seen_s = now_s
 
     def arm(self, now_s: float, forced: bool = False,
-            text: str = "Armed by external command") -> CommandResult:
+            reason: ArmReason = ArmReason.COMMAND_EXTERNAL) -> CommandResult:
         if self.armed:
             return CommandResult.ACCEPTED
         if not self.prearm_ok():
@@ -250,7 +260,9 @@ class Commander:
         self._armed_at_s = now_s
         self.have_taken_off_since_arming = False
         self._landed_since_s = None
-        self._log.info(now_s, text)
+        self._log.info(now_s, f"Armed by {ARM_REASON_TEXT[reason]}\t")
+        if self.events is not None:
+            self.events.send(now_s, ARMED_BY, Log.INFO, None, "B", int(reason))
         return CommandResult.ACCEPTED
 
     @property
@@ -264,13 +276,15 @@ class Commander:
         if not self.landed and not forced:
             self._log.critical(now_s, "Disarming denied: not landed")
             return CommandResult.TEMPORARILY_REJECTED
-        self._disarm(now_s, "Disarmed by external command")
+        self._disarm(now_s, ArmReason.COMMAND_EXTERNAL)
         return CommandResult.ACCEPTED
 
-    def _disarm(self, now_s: float, text: str) -> None:
+    def _disarm(self, now_s: float, reason: ArmReason) -> None:
         self.armed = False
         self.takeoff_at_s = None
-        self._log.info(now_s, text)
+        self._log.info(now_s, f"Disarmed by {ARM_REASON_TEXT[reason]}\t")
+        if self.events is not None:
+            self.events.send(now_s, DISARMED_BY, Log.INFO, None, "B", int(reason))
         # PX4 counts flights in COM_FLIGHT_UUID at every disarm (an int32: it wraps).
         uuid = int(self._params.get("COM_FLIGHT_UUID", 0) or 0)
         self._params.set("COM_FLIGHT_UUID", (uuid + 1 + 2**31) % 2**32 - 2**31, notify=False)
@@ -321,13 +335,13 @@ class Commander:
                 if self._landed_since_s is None:
                     self._landed_since_s = now_s
                 if delay > 0.0 and now_s - self._landed_since_s >= delay - 1e-9:
-                    self._disarm(now_s, "Disarmed by landing")
+                    self._disarm(now_s, ArmReason.AUTO_DISARM_LAND)
             else:
                 self._landed_since_s = None
         else:
             delay = self._disarm_preflight_s
             if delay > 0.0 and now_s - self._armed_at_s >= delay - 1e-9:
-                self._disarm(now_s, "Disarmed by auto preflight disarming")
+                self._disarm(now_s, ArmReason.AUTO_DISARM_PREFLIGHT)
         return became_valid
 
     @property
@@ -359,7 +373,7 @@ class Commander:
         if action is _TERMINATE:
             self.terminate(now_s)
         elif action is _DISARM and self.armed:
-            self._disarm(now_s, "Disarmed by failsafe")
+            self._disarm(now_s, ArmReason.FAILSAFE)
         elif action in ACTION_NAV_STATE:
             target = ACTION_NAV_STATE[action]
             if target is NavState.AUTO_RTL and not self.home_valid:

@@ -41,6 +41,39 @@ class Log(enum.IntEnum):
     DISABLED = 9
 
 
+class ArmReason(enum.IntEnum):
+    """arm_disarm_reason_t (src/lib/events/enums.json): why the vehicle armed or disarmed."""
+
+    TRANSITION_TO_STANDBY = 0
+    RC_STICK = 1
+    RC_SWITCH = 2
+    COMMAND_INTERNAL = 3
+    COMMAND_EXTERNAL = 4
+    MISSION_START = 5
+    AUTO_DISARM_LAND = 6
+    AUTO_DISARM_PREFLIGHT = 7
+    KILL_SWITCH = 8
+    LOCKDOWN = 9
+    FAILURE_DETECTOR = 10
+    SHUTDOWN = 11
+    UNIT_TEST = 12
+    RC_BUTTON = 13
+    FAILSAFE = 14
+
+
+# The enum's descriptions: what "Armed by {1}" shows, and Commander's arm_disarm_reason_str.
+ARM_REASON_TEXT = {
+    ArmReason.TRANSITION_TO_STANDBY: "Transition to standby", ArmReason.RC_STICK: "RC",
+    ArmReason.RC_SWITCH: "RC (switch)", ArmReason.COMMAND_INTERNAL: "internal command",
+    ArmReason.COMMAND_EXTERNAL: "external command", ArmReason.MISSION_START: "mission start",
+    ArmReason.AUTO_DISARM_LAND: "landing",
+    ArmReason.AUTO_DISARM_PREFLIGHT: "auto preflight disarming",
+    ArmReason.KILL_SWITCH: "kill switch", ArmReason.LOCKDOWN: "lockdown",
+    ArmReason.FAILURE_DETECTOR: "failure detector", ArmReason.SHUTDOWN: "shutdown request",
+    ArmReason.UNIT_TEST: "unit tests", ArmReason.RC_BUTTON: "RC (button)",
+    ArmReason.FAILSAFE: "failsafe"}
+
+
 def event_id(name: str) -> int:
     """events::ID(name): FNV-1a 32 of the name, low 24 bits, component 1 on top."""
     h = 0x811C9DC5
@@ -82,6 +115,10 @@ def _health(name: str, message: str) -> EventDef:
     return EventDef(name, "health", message, (MODES, COMPONENT_INDEX, ("uint8_t", "arg0")))
 
 
+ARMED_BY = EventDef("commander_armed_by", "default", "Armed by {1}",
+                    (("px4::arm_disarm_reason_t", "arg0"),))
+DISARMED_BY = EventDef("commander_disarmed_by", "default", "Disarmed by {1}",
+                       (("px4::arm_disarm_reason_t", "arg0"),))
 TAKEOFF_DETECTED = EventDef("commander_takeoff_detected", "default", "Takeoff detected")
 LANDING_DETECTED = EventDef("commander_landing_detected", "default", "Landing detected")
 ARM_DENIED = EventDef("commander_arm_denied_resolve_failures", "default",
@@ -115,7 +152,8 @@ CHECK_BARO_NO_DATA = _health("check_baro_no_data", "No valid data from barometer
 CHECK_GYRO_NO_DATA = _health("check_gyro_no_data", "No valid data from Gyro {3}")
 CHECK_MAG_NO_DATA = _health("check_mag_no_data", "No valid data from Compass {3}")
 DEFINITIONS: tuple[EventDef, ...] = (
-    TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARMING_SUMMARY, HEALTH_SUMMARY,
+    ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARMING_SUMMARY,
+    HEALTH_SUMMARY,
     CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_OFFBOARD, CHECK_HOME,
     CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF, CHECK_ACCEL_NO_DATA, CHECK_BARO_NO_DATA,
     CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA)

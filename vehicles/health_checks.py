@@ -64,7 +64,7 @@ HEALTH_COMPONENTS = (
     ("none", "None"), ("absolute_pressure", "Absolute pressure"),
     ("differential_pressure", "Differential pressure"), ("gps", "GPS"),
     ("optical_flow", "Optical flow"), ("vision_position", "Vision position estimate"),
-    ("distance_sensor", "Distance sensor"), ("remote_control", "RC"),
+    ("distance_sensor", "Distance sensor"), ("remote_control", "Remote Control (RC or Joystick)"),
     ("motors_escs", "Motors/ESCs"), ("utm", "UTM"), ("logging", "Logging"),
     ("battery", "Battery"), ("communication_links", "Communication links"),
     ("rate_controller", "Rate controller"), ("attitude_controller", "Attitude controller"),
@@ -73,7 +73,7 @@ HEALTH_COMPONENTS = (
     ("avoidance", "Avoidance"), ("system", "System"), ("camera", "Camera"), ("gimbal", "Gimbal"),
     ("payload", "Payload"), ("global_position_estimate", "Global position estimate"),
     ("storage", "Storage"), ("parachute", "Parachute"), ("magnetometer", "Magnetometer"),
-    ("accel", "Accelerometer"), ("gyro", "Gyroscope"), ("open_drone_id", "Open Drone ID"))
+    ("accel", "Accelerometer"), ("gyro", "Gyroscope"), ("open_drone_id", "Open Drone ID system"))
 INDEX = {name: i for i, (name, _label) in enumerate(HEALTH_COMPONENTS)}
 SYSTEM, REMOTE_CONTROL = INDEX["system"], INDEX["remote_control"]
 PRESENT = sum(1 << INDEX[c] for c in ("accel", "gyro", "magnetometer", "absolute_pressure", "gps",

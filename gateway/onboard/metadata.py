@@ -26,7 +26,7 @@ import lzma
 from dataclasses import dataclass
 
 from gateway.mavlink.modes import custom_mode_of
-from vehicles.events import COMPONENT_AUTOPILOT, DEFINITIONS
+from vehicles.events import ARM_REASON_TEXT, COMPONENT_AUTOPILOT, DEFINITIONS, ArmReason
 from vehicles.health_checks import HEALTH_COMPONENTS, MODE_GROUPS
 from vehicles.params import VOLATILE, ParamInfo, ParamType, crc32part, param_table
 
@@ -94,6 +94,8 @@ def events_json() -> bytes:
              for nav, (name, label) in MODE_GROUPS.items()}
     components = {str(1 << i): {"name": name, "description": label}
                   for i, (name, label) in enumerate(HEALTH_COMPONENTS)}
+    reasons = {str(int(r)): {"name": r.name.lower(), "description": ARM_REASON_TEXT[r]}
+               for r in ArmReason}
     px4 = {
         "namespace": "px4",
         "enums": {
@@ -101,7 +103,10 @@ def events_json() -> bytes:
                                         "description": "Navigation mode group",
                                         "entries": modes},
             "health_component_t": {"type": "uint32_t", "is_bitfield": True,
-                                   "description": "Health component", "entries": components}},
+                                   "description": "Bitfield for subsystems & components",
+                                   "entries": components},
+            "arm_disarm_reason_t": {"type": "uint8_t", "description": "Reason for arming/disarming",
+                                    "entries": reasons}},
         "event_groups": groups,
         "navigation_mode_groups": {"groups": {str(int(nav)): [custom_mode_of(nav)]
                                               for nav in MODE_GROUPS}},

@@ -38,11 +38,14 @@ async def test_mavsdk_events_health_report_and_takeoff_event(daemon_factory):
         await drone.action.land()
         await land_and_disarm(drone)
         for _ in range(50):
-            if "Landing detected" in messages:
+            if "Disarmed by landing" in messages:
                 break
             await asyncio.sleep(0.1)
         task.cancel()
-        assert "Takeoff detected" in messages and "Landing detected" in messages, messages
+        # commander_armed_by / _disarmed_by: libevents names the reason from the metadata's
+        # arm_disarm_reason_t.
+        assert messages[-4:] == ["Armed by external command", "Takeoff detected",
+                                 "Landing detected", "Disarmed by landing"], messages
 
 
 @pytest.mark.asyncio

@@ -182,7 +182,7 @@ def test_disarm_denied_in_air_unless_forced():
     assert log.after(0)[-1].text == "Disarming denied: not landed"
     assert c.disarm(0.0, forced=True) is CommandResult.ACCEPTED
     assert not c.armed
-    assert log.after(0)[-1].text == "Disarmed by external command"
+    assert log.after(0)[-1].text == "Disarmed by external command\t"
 
 
 def test_status_log_sequence_and_bound():

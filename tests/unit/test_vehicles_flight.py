@@ -94,7 +94,7 @@ def test_takeoff_reaches_default_altitude_then_holds_steady(sim):
         worst = max(worst, float(np.linalg.norm(sim.v.state.position_ned_m - start)))
     assert worst < 0.1
     texts = sim.texts()
-    assert texts[:3] == ["Armed by external command", "Using default takeoff altitude: 2.5 m",
+    assert texts[:3] == ["Armed by external command\t", "Using default takeoff altitude: 2.5 m",
                          "Takeoff detected\t"]
 
 
@@ -163,7 +163,8 @@ def test_land_touches_down_and_auto_disarms_two_seconds_later(sim):
     assert sim.v.status.nav_state is NavState.AUTO_LOITER  # Land forbids arming -> Hold
     assert abs(sim.v.state.position_ned_m[2]) < 0.02
     texts = sim.texts()
-    assert texts[-3:] == ["Landing at current position", "Landing detected\t", "Disarmed by landing"]
+    assert texts[-3:] == ["Landing at current position", "Landing detected\t",
+                         "Disarmed by landing\t"]
 
 
 def test_auto_disarm_ten_seconds_after_arming_without_takeoff(sim):
@@ -172,7 +173,7 @@ def test_auto_disarm_ten_seconds_after_arming_without_takeoff(sim):
     sim.v.arm(sim.t)
     assert sim.run(12.0, until=lambda: not sim.v.status.armed)
     assert sim.t - armed_at == pytest.approx(10.0, abs=0.05)  # COM_DISARM_PRFLT
-    assert sim.texts()[-1] == "Disarmed by auto preflight disarming"
+    assert sim.texts()[-1] == "Disarmed by auto preflight disarming\t"
     assert np.allclose(sim.v.state.position_ned_m, 0.0, atol=2e-3)  # idle never lifted it
 
 
@@ -209,7 +210,7 @@ def test_rtl_returns_home_and_lands():
         home = np.array(sim.v.status.home.position_ned_m)
         assert np.linalg.norm(sim.v.state.position_ned_m[:2] - home[:2]) < 1.0
         assert sim.v.status.nav_state is NavState.AUTO_LOITER
-        assert "Returning to launch" in sim.texts() and "Disarmed by landing" in sim.texts()
+        assert "Returning to launch" in sim.texts() and "Disarmed by landing\t" in sim.texts()
     finally:
         sim.close()
 

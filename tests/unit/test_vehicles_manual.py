@@ -82,7 +82,7 @@ def test_position_mode_lands_and_disarms_with_the_stick_down(sim):
     sim.v.manual_control(sim.t, CENTRED)
     assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
     assert fly(sim, 30.0, Sticks(throttle=-1.0), until=lambda: not sim.v.status.armed)
-    assert "Disarmed by landing" in sim.texts()
+    assert "Disarmed by landing\t" in sim.texts()
     assert abs(sim.v.state.position_ned_m[2]) < 0.1
 
 

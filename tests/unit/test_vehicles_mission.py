@@ -149,7 +149,7 @@ def test_square_mission_from_the_ground_with_rtl(sim):
     texts = sim.texts()
     assert "Executing Mission" in texts
     assert "Climb to 12.0 meters above home" in texts
-    assert "Returning to launch" in texts and "Disarmed by landing" in texts
+    assert "Returning to launch" in texts and "Disarmed by landing\t" in texts
     p = v.state.position_ned_m
     assert math.hypot(p[0], p[1]) < 2.0
     assert v.status.nav_state is NavState.AUTO_LOITER
@@ -165,7 +165,7 @@ def test_mission_start_arms_takeoff_item_speed_change_and_loiter_at_end(sim):
              item(3, MavCmd.NAV_WAYPOINT, 30.0, 0.0, 8.0, o, p1=2.0)]
     assert v.set_plan(sim.t, PlanType.MISSION, items) is PlanResult.ACCEPTED
     assert v.start_mission(sim.t) is CommandResult.ACCEPTED
-    assert v.status.armed and "Armed by mission start" in sim.texts()
+    assert v.status.armed and "Armed by mission start\t" in sim.texts()
     top_speed = 0.0
     def done():
         nonlocal top_speed
