@@ -166,6 +166,7 @@ class Event:
     time_boot_ms: int
     log_levels: int  # internal << 4 | external
     arguments: bytes  # MAX_ARGUMENTS bytes at most
+    time_s: float = 0.0  # simulated time it was sent (the logger's timestamp)
 
 
 class EventLog:
@@ -188,7 +189,7 @@ class EventLog:
         self.latest = (self.latest + 1) & 0xFFFF
         level = external if internal is None else internal
         record = Event(self.latest, event.id, max(0, int((now_s - self.boot_time_s) * 1000)),
-                       (int(level) << 4) | int(external), payload)
+                       (int(level) << 4) | int(external), payload, now_s)
         self._buffer.append(record)
         return record
 

@@ -415,7 +415,16 @@ VEHICLE_COMMAND_ACK = ("vehicle_command_ack", (("uint32_t", "command"), ("uint8_
                                                ("uint8_t", "target_system"),
                                                ("uint16_t", "target_component"),
                                                (B, "from_external")))
-EVENT_TOPICS = (VEHICLE_COMMAND, VEHICLE_COMMAND_ACK)
+# The events (vehicles/events.py) as PX4's logger logs the `event` topic (msg/Event.msg); Flight
+# Review and pyulog's PX4Events read them by these names.
+EVENT = ("event", (("uint32_t", "id"), ("uint16_t", "event_sequence"),
+                   ("uint8_t[25]", "arguments"), ("uint8_t", "log_levels")))
+EVENT_TOPICS = (VEHICLE_COMMAND, VEHICLE_COMMAND_ACK, EVENT)
+
+
+def event_values(event: Any) -> tuple:
+    """event's fields of a vehicles.events.Event."""
+    return (event.id, event.sequence, *event.arguments.ljust(25, b"\0"), event.log_levels)
 
 
 def command_values(record: Any) -> tuple:

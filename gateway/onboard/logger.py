@@ -33,6 +33,7 @@ Rules:
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import math
 import time
@@ -43,13 +44,14 @@ from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.commands import FLIGHT_SW_VERSION
 from gateway.mavlink.vehicle_port import VehiclePort
-from gateway.onboard import ulog
+from gateway.onboard import metadata, ulog
 from gateway.onboard.logged_topics import (
     EVENT_TOPICS,
     TOPICS,
     Topic,
     command_ack_values,
     command_values,
+    event_values,
     onboard_ack_values,
 )
 from gateway.onboard.ulog_stream import MavlinkLogWriter, UlogStreamTopic
@@ -125,6 +127,8 @@ class VehicleLogger:
         self._event_prefixes = [ulog.data_prefix(n + k, st.size)
                                 for k, st in enumerate(self._event_structs)]
         self._command_seq = self._ack_seq = 0
+        self._events = getattr(vehicle, "events", None)  # its EventLog: the `event` topic
+        self._event_seq = self._events.latest if self._events is not None else 0
         self._path: str | None = None
         self._buf = bytearray()
         self._out: list[tuple[str, bytes, bool]] = []
@@ -189,6 +193,10 @@ class VehicleLogger:
                   ulog.info("sys_mcu", "SITL"), ulog.info("sys_os_name", "Linux")]
         if self.boot_unix_s is not None:
             parts.append(ulog.info("time_ref_utc", 0))
+        # Logger::write_events_file: the events metadata, so that Flight Review names the events.
+        events_xz = metadata.shared().files["all_events.json.xz"]
+        parts += ulog.info_multiple("metadata_events", events_xz)
+        parts.append(ulog.info("metadata_events_sha256", hashlib.sha256(events_xz).hexdigest()))
         for param, value in v.params.items():
             parts.append(ulog.parameter(param.name, value, param.type is ParamType.INT32))
         parts += _parameter_defaults(v.params)
@@ -219,6 +227,8 @@ class VehicleLogger:
         journal = self._journal
         self._command_seq = journal.seq if journal is not None else 0
         self._ack_seq = journal.ack_seq if journal is not None else 0
+        if self._events is not None:
+            self._event_seq = self._events.latest
 
     def _start_mavlink(self, now_s: float) -> None:
         """Logger::start_log_mavlink: the stream's own header and definitions, reliably."""
@@ -356,7 +366,7 @@ class VehicleLogger:
             self._text_seq = text.seq
         journal = self._journal
         if journal is not None and journal.seq > self._command_seq:
-            command, ack = self._event_structs
+            command, ack = self._event_structs[:2]
             for record in journal.after(self._command_seq):
                 t = int(record.time_s * 1e6)
                 buf += self._event_prefixes[0]
@@ -371,6 +381,13 @@ class VehicleLogger:
                 buf += self._event_prefixes[1]
                 buf += ack.pack(int(onboard.time_s * 1e6), *onboard_ack_values(onboard))
             self._ack_seq = journal.ack_seq
+        events = self._events
+        if events is not None and events.latest != self._event_seq:
+            st, prefix = self._event_structs[2], self._event_prefixes[2]
+            for event in events.after(self._event_seq):
+                buf += prefix
+                buf += st.pack(int(event.time_s * 1e6), *event_values(event))
+            self._event_seq = events.latest
         due, soon = self._due, now_s + 1e-9
         stepped = self._sample_steps(view, force, buf)
         for i, topic in enumerate(self.topics):

@@ -79,6 +79,12 @@ def info(name: str, value: str | int, unsigned: bool = False) -> bytes:
     return _message(b"I", _key_value(f"int32_t {name}", struct.pack("<i", value)))
 
 
+def info_multiple(name: str, data: bytes, chunk: int = 4096) -> list[bytes]:
+    """'M': ``uint8_t[n] name`` in chunks, each after the first marked continued."""
+    return [_message(b"M", bytes((i > 0,)) + _key_value(f"uint8_t[{len(part)}] {name}", part))
+            for i, part in enumerate(data[k:k + chunk] for k in range(0, len(data), chunk))]
+
+
 def parameter(name: str, value: float, is_int: bool) -> bytes:
     """'P': ``int32_t NAME`` or ``float NAME`` (in either section)."""
     if is_int:

@@ -14,6 +14,7 @@ import pyulog
 from gateway.ci.lockstep import CLIENT_SYSID
 from gateway.onboard import ulog
 from gateway.testing import Sim
+from vehicles.events import event_id
 
 TOPICS = {"vehicle_attitude", "vehicle_local_position", "vehicle_global_position",
           "vehicle_status", "sensor_combined", "vehicle_gps_position", "battery_status",
@@ -110,6 +111,17 @@ def test_the_log_has_what_px4s_log_analysis_reads(tmp_path):
     assert acks["target_system"][0] == CLIENT_SYSID  # the client that sent it
     air = data("vehicle_air_data")
     assert 90_000 < air["baro_pressure_pa"][0] < 101_325 and 1.0 < air["rho"][0] < 1.3
+    # The events, named by the events metadata the log carries (pyulog's PX4Events, as Flight
+    # Review shows them), from the arming on.
+    from pyulog.px4_events import PX4Events
+
+    events = PX4Events()
+    events.set_default_json_definitions_cb(lambda _: None)  # no download: the log's metadata
+    shown = [m for _, _, m in events.get_logged_events(log)]
+    assert shown == ["Armed by external command", "Takeoff detected", "Landing detected",
+                     "Disarmed by landing"], shown
+    assert set(data("event")["id"]) >= {event_id("commander_takeoff_detected"),
+                                        event_id("commander_arming_check_summary")}
 
 
 def test_same_lockstep_flight_same_bytes_and_sdlog_mode_0_starts_at_arming(tmp_path):
