@@ -94,13 +94,12 @@ def _modes(*states: NavState) -> int:
 
 
 N = NavState
-# navigation_mode_group_t (events/enums.json, px4): the group of each navigation state.
+# navigation_mode_group_t (events/enums.json, px4): the group of each navigation state that has
+# one (Position Slow, Descend and Termination have none there).
 MODE_GROUPS = {
     N.MANUAL: ("manual", "Manual"), N.ALTCTL: ("altctl", "Altitude"),
     N.POSCTL: ("posctl", "Position"), N.AUTO_MISSION: ("mission", "Mission"),
-    N.AUTO_LOITER: ("loiter", "Hold"), N.AUTO_RTL: ("rtl", "RTL"),
-    N.POSITION_SLOW: ("position_slow", "Position Slow"), N.ACRO: ("acro", "Acro"),
-    N.DESCEND: ("descend", "Descend"), N.TERMINATION: ("termination", "Termination"),
+    N.AUTO_LOITER: ("loiter", "Hold"), N.AUTO_RTL: ("rtl", "RTL"), N.ACRO: ("acro", "Acro"),
     N.OFFBOARD: ("offboard", "Offboard"), N.STAB: ("stab", "Stabilized"),
     N.AUTO_TAKEOFF: ("takeoff", "Takeoff"), N.AUTO_LAND: ("land", "Land"),
     N.AUTO_FOLLOW_TARGET: ("follow_target", "Follow Target"),
