@@ -217,7 +217,7 @@ class Session:
 
     def get_timer(self) -> float | None:
         t = min(self.params.due_s, self.mission.get_timer(), self.logs.due_s, self.ftp.due_s,
-                self.log_streaming.due_s, self.events.due_s)
+                self.log_streaming.due_s, self.events.due_s, self.statustext.due_s)
         next_us = self.scheduler.next_us
         if next_us < NEVER:
             t = min(t, next_us * 1e-6)

@@ -3,12 +3,15 @@
 Source: PX4 src/modules/mavlink/streams/STATUSTEXT.hpp (the mavlink_log topic → STATUSTEXT) and
 mavlink_log.h (mavlink_log_s.text: 127 chars with the terminator).
 Rules:
-- A cursor per link drains ``vehicle.status_texts(after_seq)``; texts are consumed whether or
-  not they are sent (PX4 drops them too), so nothing piles up while no GCS listens. A vehicle
-  with ``changes`` is asked only once its ``status_texts`` generation has moved.
-- Sent only while a MAV_TYPE_GCS or MAV_TYPE_ONBOARD_CONTROLLER heartbeat arrived on this link
-  within GCS_PRESENT_S (``is_gcs_connected() || is_onboard_controller_connected()``), and only
-  texts younger than MAX_AGE_S.
+- A cursor per link drains ``vehicle.status_texts(after_seq)`` into the link's queue, which
+  keeps the newest QUEUE_LENGTH texts as the mavlink_log topic's uORB queue does (an older one
+  is lost, counted in ``missed``). A vehicle with ``changes`` is asked only once its
+  ``status_texts`` generation has moved.
+- The stream runs at PX4's 20 Hz (mavlink_main.cpp: STATUSTEXT at 20/s): each run sends the
+  oldest queued text younger than MAX_AGE_S (older ones are skipped), one text per run, and only
+  while a MAV_TYPE_GCS or MAV_TYPE_ONBOARD_CONTROLLER heartbeat arrived on this link within
+  GCS_PRESENT_S (``is_gcs_connected() || is_onboard_controller_connected()``); while none
+  listens the queue waits, so a GCS that comes gets the last texts of the last 5 s.
 - Sent as PX4 sends them: a trailing tab (PX4's mark of a text also sent as an event; QGC drops
   such texts from PX4 and shows the event) is kept; a text is cut to MAX_TEXT_BYTES; every text
   takes the link's next ``id`` (0, 1, 2, … for single-chunk texts too, wrapping at 65536);
@@ -20,6 +23,8 @@ Rules:
 
 from __future__ import annotations
 
+import math
+from collections import deque
 from collections.abc import Callable
 
 from pymavlink.dialects.v20 import common as mavlink2
@@ -31,7 +36,8 @@ GCS_PRESENT_S = 2.5
 MAX_AGE_S = 5.0
 CHUNK_LEN = 50
 MAX_TEXT_BYTES = 126  # mavlink_log_s.text[127], NUL-terminated
-MAX_PER_TICK = 20  # PX4 STATUSTEXT is limited to ~20 Hz; a burst beyond this waits a tick
+QUEUE_LENGTH = 8  # MavlinkLog.msg ORB_QUEUE_LENGTH
+PERIOD_S = 0.05  # the STATUSTEXT stream's 20 Hz
 
 
 class StatusTextService:
@@ -45,14 +51,25 @@ class StatusTextService:
         self.gcs_present = gcs_present
         self._cursor = -1
         self._next_id = 0  # STATUSTEXT.hpp _id
-        self._pending: list[tuple[float, int, str]] = []  # (time_s, severity, text)
+        # (time_s, severity, text), the newest QUEUE_LENGTH
+        self._pending: deque[tuple[float, int, str]] = deque()
+        self.missed = 0  # texts the queue lost before they could be sent
+        self.due_s = math.inf  # the next stream run while texts wait
+        self._next_run_s = -math.inf
         # The vehicle's generations (None: it has none, its log is asked at every poll) and the
         # one of its texts when they were last read (-1: never).
         self._changes: Changes | None = getattr(self.vehicle, "changes", None)
         self._seen_texts = -1
 
     def local(self, now_s: float, severity: Severity, text: str) -> None:
-        self._pending.append((now_s, int(severity), text))
+        self._queue(now_s, int(severity), text)
+        self.due_s = min(self.due_s, max(now_s, self._next_run_s))
+
+    def _queue(self, time_s: float, severity: int, text: str) -> None:
+        if len(self._pending) == QUEUE_LENGTH:
+            self._pending.popleft()
+            self.missed += 1
+        self._pending.append((time_s, severity, text))
 
     def poll(self, now_s: float) -> None:
         changes = self._changes
@@ -62,16 +79,24 @@ class StatusTextService:
                 self._drain()
         else:
             self._drain()
-        if not self._pending:
+        pending = self._pending
+        if not pending:
+            self.due_s = math.inf
             return
-        if not self.gcs_present(now_s):
-            self._pending.clear()
+        if now_s < self._next_run_s - 1e-9:
+            self.due_s = self._next_run_s
             return
-        batch, self._pending = self._pending[:MAX_PER_TICK], self._pending[MAX_PER_TICK:]
-        for time_s, severity, text in batch:
+        if not self.gcs_present(now_s):  # the queue waits for a listener
+            self.due_s = math.inf
+            return
+        self._next_run_s = now_s + PERIOD_S
+        while pending:
+            time_s, severity, text = pending.popleft()
             if now_s - time_s < MAX_AGE_S:
                 for frame in self.frames(severity, text):
                     self.send(frame)
+                break
+        self.due_s = self._next_run_s if pending else math.inf
 
     def _drain(self) -> None:
         """The vehicle's texts after the cursor onto ``_pending``."""
@@ -79,7 +104,7 @@ class StatusTextService:
         if texts is not None:
             for t in texts(self._cursor):
                 self._cursor = max(self._cursor, t.seq)
-                self._pending.append((t.time_s, int(t.severity), t.text))
+                self._queue(t.time_s, int(t.severity), t.text)
 
     def frames(self, severity: int, text: str) -> list[bytes]:
         data = text.encode("utf-8", "replace")[:MAX_TEXT_BYTES]

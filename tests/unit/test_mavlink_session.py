@@ -364,23 +364,44 @@ def test_gcs_heartbeat_tracking():
 def test_statustext_gating_and_chunking():
     vehicle, session, client = make()
     vehicle.say(0.0, "before any GCS\t")
-    assert of_type(client.run_until(0.5), "STATUSTEXT") == []  # no GCS heartbeat: dropped
+    assert of_type(client.run_until(0.5), "STATUSTEXT") == []  # no GCS heartbeat: it waits
     client.heartbeat()
     vehicle.say(0.5, "Takeoff detected\t", Severity.INFO)
     vehicle.say(-10.0, "too old")
     long = "x" * 120
     vehicle.say(0.5, long, Severity.WARNING)
     texts = of_type(client.run_until(1.0), "STATUSTEXT")
-    # STATUSTEXT.hpp: the tab goes out (QGC drops such a text from PX4 and shows its event); the
-    # link's id counts every text from 0, single-chunk ones too.
-    assert [(t.text, t.id, t.chunk_seq) for t in texts[:1]] == [("Takeoff detected\t", 0, 0)]
-    chunks = texts[1:]
-    assert [c.chunk_seq for c in chunks] == [0, 1, 2] and {c.id for c in chunks} == {1}
+    # STATUSTEXT.hpp: the text queued before the GCS came (younger than 5 s) goes first, the
+    # tab goes out (QGC drops such a text from PX4 and shows its event), the link's id counts
+    # every text from 0, single-chunk ones too, and the stale one is skipped.
+    assert [(t.text, t.id, t.chunk_seq) for t in texts[:2]] == [
+        ("before any GCS\t", 0, 0), ("Takeoff detected\t", 1, 0)]
+    chunks = texts[2:]
+    assert [c.chunk_seq for c in chunks] == [0, 1, 2] and {c.id for c in chunks} == {2}
     assert "".join(c.text for c in chunks) == long
     assert all(c.severity == Severity.WARNING for c in chunks)
     client.now_s = 5.0  # GCS heartbeat 4.5 s old: gated again
     vehicle.say(5.0, "late")
     assert of_type(client.run_until(6.0), "STATUSTEXT") == []
+
+
+def test_statustext_is_px4s_20_hz_stream_over_an_8_text_queue():
+    """MavlinkLog's uORB queue keeps 8 texts; the stream sends one per 50 ms run: a burst of 12
+    loses its 4 oldest, the others go out 50 ms apart."""
+    vehicle, session, client = make()
+    client.heartbeat()
+    for n in range(12):
+        vehicle.say(0.1, f"text {n}")
+    times, texts = [], []
+    while client.now_s < 1.0:
+        for m in of_type(client.run_until(client.now_s + 0.01), "STATUSTEXT"):
+            times.append(client.now_s)
+            texts.append(m.text)
+    assert texts == [f"text {n}" for n in range(4, 12)]
+    # (seen at the end of 10 ms steps: 50 ms apart, to within a step)
+    assert all(b - a >= 0.04 - 1e-6 for a, b in zip(times, times[1:])), times
+    assert times[-1] - times[0] >= 7 * 0.05 - 0.01
+    assert session.statustext.missed == 4
 
 
 def test_statustext_framing_follows_px4s_stream():
