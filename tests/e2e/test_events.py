@@ -48,22 +48,28 @@ async def test_mavsdk_events_health_report_and_takeoff_event(daemon_factory):
                                  "Landing detected", "Disarmed by landing"], messages
 
 
+async def report_with_failure(drone, unit: str, predicate, what: str):
+    """SYS_FAILURE_EN 1, a first report, then sensor ``unit`` (FailureUnit's name) off: the
+    first report that satisfies ``predicate``."""
+    from mavsdk.failure import FailureType, FailureUnit
+
+    await drone.param.set_param_int("SYS_FAILURE_EN", 1)
+    await first(drone.events.health_and_arming_checks(),
+                lambda r: r.current_mode_intention.mode_name != "", 30, "a report")
+    await drone.failure.inject(getattr(FailureUnit, unit), FailureType.OFF, 0)
+    return await first(drone.events.health_and_arming_checks(), predicate, 30, what)
+
+
 @pytest.mark.asyncio
 async def test_mavsdk_health_report_names_the_failed_sensor(daemon_factory):
     """A GPS failure injected (MAV_CMD_INJECT_FAILURE, SYS_FAILURE_EN 1) is an error of the GPS
     component in the next report."""
-    from mavsdk.failure import FailureType, FailureUnit
-
     d = daemon_factory()
     async with connected(d.api_port()) as drone:
-        await drone.param.set_param_int("SYS_FAILURE_EN", 1)
-        await first(drone.events.health_and_arming_checks(),
-                    lambda r: r.current_mode_intention.mode_name != "", 30, "a report")
-        await drone.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OFF, 0)
-        report = await first(drone.events.health_and_arming_checks(),
-                             lambda r: any(c.name == "gps" and c.has_error
-                                           for c in r.health_components), 30,
-                             "the GPS failure in a report")
+        report = await report_with_failure(
+            drone, "SENSOR_GPS", lambda r: any(c.name == "gps" and c.has_error
+                                               for c in r.health_components),
+            "the GPS failure in a report")
         assert report is not None
 
 
@@ -73,17 +79,12 @@ async def test_mavsdk_health_report_and_arming_with_the_gyro_off(daemon_factory)
     failure, rendered by libevents from the metadata with its instance argument, and arming
     refused in every mode."""
     from mavsdk.action import ActionError
-    from mavsdk.failure import FailureType, FailureUnit
 
     d = daemon_factory()
     async with connected(d.api_port()) as drone:
-        await drone.param.set_param_int("SYS_FAILURE_EN", 1)
-        await first(drone.events.health_and_arming_checks(),
-                    lambda r: r.current_mode_intention.mode_name != "", 30, "a report")
-        await drone.failure.inject(FailureUnit.SENSOR_GYRO, FailureType.OFF, 0)
-        report = await first(drone.events.health_and_arming_checks(),
-                             lambda r: any("Gyro" in p.message for p in r.all_problems), 30,
-                             "the gyro failure in a report")
+        report = await report_with_failure(
+            drone, "SENSOR_GYRO", lambda r: any("Gyro" in p.message for p in r.all_problems),
+            "the gyro failure in a report")
         problems = [p.message for p in report.all_problems]
         assert "No valid data from Gyro 0" in problems, problems
         assert not report.current_mode_intention.can_arm_or_run
