@@ -7,12 +7,35 @@ Usage: python readme_driver.py '{"daemon": [...], "commands": [...], "timeout_s"
 """
 
 import json
+import os
 import shlex
+import signal
 import subprocess
 import sys
 
 from gateway.ci.launcher import CornetDaemon
 from gateway.ci.ports import daemon_ports, udp_free
+
+
+def run(command: str, timeout_s: float) -> tuple[bool, str]:
+    """``command`` in a session of its own: on time-out the whole session goes (a MAVSDK
+    script's mavsdk_server too, which would otherwise keep the client ports and the gRPC port
+    for the next command)."""
+    proc = subprocess.Popen(shlex.split(command), stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True, stdin=subprocess.DEVNULL,
+                            start_new_session=True)
+    try:
+        out, _ = proc.communicate(timeout=timeout_s)
+        return proc.returncode == 0, f"exit {proc.returncode}\n{out}"
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        out, _ = proc.communicate()
+        return False, f"timed out after {timeout_s} s\n{out}"
+    finally:
+        try:  # what the command left running (a script that exits early leaves its server)
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
 
 
 def main(plan: dict) -> int:
@@ -29,12 +52,7 @@ def main(plan: dict) -> int:
             print(f"FAIL daemon: {' '.join(cmd)}\n{daemon.log_tail()}")
             return 1
         for command in plan["commands"]:
-            try:
-                out = subprocess.run(shlex.split(command), capture_output=True, text=True,
-                                     timeout=plan["timeout_s"], stdin=subprocess.DEVNULL)
-                ok, text = out.returncode == 0, f"exit {out.returncode}\n{out.stdout}{out.stderr}"
-            except subprocess.TimeoutExpired as exc:
-                ok, text = False, f"timed out after {exc.timeout} s"
+            ok, text = run(command, plan["timeout_s"])
             print(f"{'PASS' if ok else 'FAIL'} {command}", flush=True)
             if not ok:
                 failed += 1
