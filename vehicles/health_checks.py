@@ -256,6 +256,8 @@ class HealthChecks:
     def _with_timeouts(self, now_s: float, checked: CheckInputs) -> CheckInputs:
         """``checked`` with ``sensors_no_data``: its sensors off for SENSOR_TIMEOUT_S."""
         off, since = checked.sensor_failures & SENSORS_OFF, self._off_since
+        if not off and not since:  # the usual case, at every evaluation of every vehicle
+            return checked
         for bit in list(since):
             if not off & bit:
                 del since[bit]
