@@ -21,6 +21,12 @@ a warm-up:
   with N boxes on the daemon's spawn grid (5 m apart, so they never touch), each getting
   applyExternalForce + applyExternalTorque every 4 ms step, CPU seconds per simulated second
   / N, measured in this run. The listener's own CPU (it shares the machine) goes to the CSV;
+- the wire's floor under that: PX4 sends every message in a datagram of its own (one
+  ``sendto`` per message, mavlink_main.cpp), and the kernel charges each ``sendto`` to the
+  sender. After the window the parent sends the daemon's mean datagram to the listener's GCS
+  port (5,000 of them, in bursts of 100 with the listener's nap between) and times its own
+  thread's CPU; that per-datagram cost times the daemon's datagrams per vehicle-second is
+  what the sends alone cost, whatever the daemon does in Python ("UDP sends alone");
 - memory: VmRSS summed over the daemon's processes, and (RSS at N - RSS at 1) / (N - 1) per
   vehicle (a sharded point counts K interpreters more than the baseline: a coordinator and
   K workers against one process);
@@ -497,6 +503,35 @@ class SimClock(threading.Thread):
         return up, unarmed
 
 
+# --- the wire's own cost -----------------------------------------------------------------------------
+SEND_FLOOR_DATAGRAMS = 5000
+SEND_FLOOR_BURST = 100
+
+
+def send_cost_us(port: int, size: int) -> float:
+    """CPU µs (this thread's user + system time) of one ``sendto`` of a ``size``-byte datagram
+    to the listener's ``port`` on loopback, while it drains the port as it drains the daemon's
+    datagrams: what the kernel charges the daemon for each datagram it sends, whatever the
+    daemon does in Python. Sent in bursts with naps between them so the listener keeps up."""
+    data = bytes(max(1, size))
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.setblocking(False)
+        peer = ("127.0.0.1", port)
+        spent = 0.0
+        sent = 0
+        while sent < SEND_FLOOR_DATAGRAMS:
+            t0 = time.thread_time()
+            for _ in range(SEND_FLOOR_BURST):
+                try:
+                    s.sendto(data, peer)
+                except OSError:
+                    pass
+            spent += time.thread_time() - t0
+            sent += SEND_FLOOR_BURST
+            time.sleep(LISTENER_NAP_S)
+    return spent / sent * 1e6
+
+
 # --- one point ---------------------------------------------------------------------------------------
 @dataclass
 class Point:
@@ -519,6 +554,8 @@ class Point:
     mbytes_per_s: float = math.nan
     listener_drops: int = 0
     listener_cpu_pct: float = math.nan
+    send_us: float = math.nan
+    send_floor_ms_per_vehicle_s: float = math.nan
     gw_p50_ms: float = math.nan
     gw_p99_ms: float = math.nan
     lo_p50_ms: float = math.nan
@@ -693,6 +730,10 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
                                f"daemon {(cpu1 - cpu0 - ecpu1 + ecpu0) / (w1 - w0) * 100:.0f} %")
         out1 = counts[0] + counts[2], counts[1] + counts[3]
         drops1 = udp_drops(listener_ports)
+        sent = out1[0] - out0[0]
+        if sent > 0:  # the daemon's mean datagram, to the port most of them go to
+            point.send_us = send_cost_us(GCS_CLIENT_PORT + offset,
+                                         round((out1[1] - out0[1]) / sent))
         stop_pings.set()
         point.rss_mb = tree_rss_bytes(pid) / 2**20
         point.flying = len(clock.flying()[0]) if flying else 0
@@ -708,6 +749,9 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
         point.mbytes_per_s = (out1[1] - out0[1]) / point.window_s / 1e6
         point.listener_drops = drops1 - drops0
         point.listener_cpu_pct = (lcpu1 - lcpu0) / point.window_s * 100
+        if point.sim_s > 1e-3:  # one sendto per datagram, per vehicle and simulated second
+            point.send_floor_ms_per_vehicle_s = (point.send_us * (out1[0] - out0[0])
+                                                 / (n * point.sim_s) / 1e3)
         if example is not None:
             passed, took, tail = example.get(MAVSDK_TIMEOUT_S + 10)
             others = len([sysid for sysid in clock.flying()[0] if sysid != 1])
@@ -790,7 +834,8 @@ def _f(x: float, spec: str) -> str:
 
 def markdown_table(points: list[Point]) -> str:
     head = ["vehicles", "shards", "launch", "first HEARTBEAT", "flying (wait)", "real-time factor",
-            "CPU per vehicle-s", "bare PyBullet per body-s", "÷ bare", "RSS", "RSS per vehicle",
+            "CPU per vehicle-s", "bare PyBullet per body-s", "÷ bare", "UDP sends alone per vehicle-s",
+            "RSS", "RSS per vehicle",
             "datagrams/s out", "MB/s out", "ping RTT gateway p50 / p99", "loopback p50 / p99",
             "added p50 / p99", "notes"]
     rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
@@ -806,7 +851,9 @@ def markdown_table(points: list[Point]) -> str:
             str(p.vehicles), str(p.shards), _f(p.launch_s, ".2f") + " s",
             _f(p.first_heartbeat_s, ".2f") + " s", flying, _f(p.rtf, ".3f"),
             _f(p.cpu_ms_per_vehicle_s, ".1f") + " ms", _f(p.bare_ms_per_body_s, ".2f") + " ms",
-            _f(p.cpu_over_bare, ".0f") + "×", _f(p.rss_mb, ".0f") + " MB",
+            _f(p.cpu_over_bare, ".0f") + "×",
+            f"{_f(p.send_floor_ms_per_vehicle_s, '.1f')} ms ({_f(p.send_us, '.1f')} µs each)",
+            _f(p.rss_mb, ".0f") + " MB",
             _f(p.rss_per_vehicle_mb, ".2f") + " MB" if p.vehicles > 1 else "-",
             _f(p.datagrams_per_s, ",.0f"), _f(p.mbytes_per_s, ".2f"),
             f"{_f(p.gw_p50_ms, '.2f')} / {_f(p.gw_p99_ms, '.2f')} ms"
@@ -968,7 +1015,10 @@ def main() -> int:
     print("Real-time factor: minimum simulated time across vehicles (ATTITUDE time_boot_ms) "
           "per wall second. First HEARTBEAT: daemon start to the first HEARTBEAT received. "
           "CPU per vehicle-s: daemon CPU (all its processes) / (N x simulated s); ÷ bare: over "
-          "N PyBullet boxes stepped alone. RSS: summed over the daemon's processes; per vehicle: "
+          "N PyBullet boxes stepped alone. UDP sends alone: the CPU one sendto of the daemon's "
+          "mean datagram costs (measured here, to the listener's port while it drains) times "
+          "the datagrams per vehicle-s, the floor under the daemon's CPU while PX4's "
+          "one-datagram-per-message streams go out. RSS: summed over the daemon's processes; per vehicle: "
           "(RSS at N - RSS at 1) / (N - 1). Ping: MAVLink PING "
           "to vehicle 1's API port vs a UDP echo on loopback, interleaved, stop-and-wait, "
           f"up to {PING_COUNT} each at {PING_HZ:g} Hz within the window.")
