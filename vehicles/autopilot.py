@@ -179,9 +179,6 @@ class Autopilot:
                 self._set_home(here)
         return result
 
-    def disarm(self, now_s: float, forced: bool = False) -> CommandResult:
-        return self.commander.disarm(now_s, forced)
-
     def takeoff(self, now_s: float, alt_amsl_m: float = math.nan) -> CommandResult:
         if not self.commander.position_valid:
             return CommandResult.TEMPORARILY_REJECTED

@@ -270,13 +270,14 @@ class Commander:
         """vehicle_status.armed_time: when the vehicle armed, while armed."""
         return self._armed_at_s if self.armed else None
 
-    def disarm(self, now_s: float, forced: bool = False) -> CommandResult:
+    def disarm(self, now_s: float, forced: bool = False,
+               reason: ArmReason = ArmReason.COMMAND_EXTERNAL) -> CommandResult:
         if not self.armed:
             return CommandResult.ACCEPTED
         if not self.landed and not forced:
             self._log.critical(now_s, "Disarming denied: not landed")
             return CommandResult.TEMPORARILY_REJECTED
-        self._disarm(now_s, ArmReason.COMMAND_EXTERNAL)
+        self._disarm(now_s, reason)
         return CommandResult.ACCEPTED
 
     def _disarm(self, now_s: float, reason: ArmReason) -> None:

@@ -20,24 +20,12 @@ from typing import Protocol
 
 import numpy as np
 
+from vehicles import estimation as est
 from vehicles.airframe import Airframe
 from vehicles.autopilot import POSITION_CONTROL_DIVIDER, Autopilot
 from vehicles.command_journal import CommandJournal
 from vehicles.control.quat import q_yaw
-from vehicles.estimation import (
-    F_ACC_OFF,
-    F_ACC_STUCK,
-    F_BARO_OFF,
-    F_BARO_STUCK,
-    F_GPS_OFF,
-    F_GYRO_OFF,
-    F_GYRO_STUCK,
-    F_MAG_OFF,
-    F_MAG_STUCK,
-    S_ACC,
-    S_GYRO,
-)
-from vehicles.events import EventLog
+from vehicles.events import ArmReason, EventLog
 from vehicles.health_checks import CheckInputs, HealthChecks, inputs_of
 from vehicles.inner_loop import InnerCommand
 from vehicles.manual_control import Sticks
@@ -67,11 +55,11 @@ FAILURE_UNIT_SYSTEM_BATTERY, FAILURE_UNIT_SYSTEM_MOTOR = 100, 101
 FAILURE_TYPE_OK, FAILURE_TYPE_OFF, FAILURE_TYPE_STUCK = 0, 1, 2
 # Sensor units → (the bits that fail when off, when stuck); every bit clears with ok.
 SENSOR_FAILURES = {
-    FAILURE_UNIT_SENSOR_GYRO: (F_GYRO_OFF, F_GYRO_STUCK),
-    FAILURE_UNIT_SENSOR_ACCEL: (F_ACC_OFF, F_ACC_STUCK),
-    FAILURE_UNIT_SENSOR_MAG: (F_MAG_OFF, F_MAG_STUCK),
-    FAILURE_UNIT_SENSOR_BARO: (F_BARO_OFF, F_BARO_STUCK),
-    FAILURE_UNIT_SENSOR_GPS: (F_GPS_OFF, 0),  # PX4 SITL's GPS has no stuck
+    FAILURE_UNIT_SENSOR_GYRO: (est.F_GYRO_OFF, est.F_GYRO_STUCK),
+    FAILURE_UNIT_SENSOR_ACCEL: (est.F_ACC_OFF, est.F_ACC_STUCK),
+    FAILURE_UNIT_SENSOR_MAG: (est.F_MAG_OFF, est.F_MAG_STUCK),
+    FAILURE_UNIT_SENSOR_BARO: (est.F_BARO_OFF, est.F_BARO_STUCK),
+    FAILURE_UNIT_SENSOR_GPS: (est.F_GPS_OFF, 0),  # PX4 SITL's GPS has no stuck
 }
 # vehicle_control_mode: the navigation states without flag_multicopter_position_control_enabled,
 # and those with it but without flag_control_position_enabled (no horizontal position).
@@ -112,6 +100,10 @@ class WorldRow(Protocol):
     def rotor_speeds(self, row: int) -> tuple[float, ...]: ...
 
     def commanded(self, row: int) -> list[float]: ...
+
+
+def _reason(internal: bool) -> ArmReason:
+    return ArmReason.COMMAND_INTERNAL if internal else ArmReason.COMMAND_EXTERNAL
 
 
 class Vehicle:
@@ -158,8 +150,8 @@ class Vehicle:
             self._autopilot.set_position_aided(aided)
             if self._autopilot.calibration.needs_sensors:
                 sensed = self._world.sensors(self._row)
-                self._autopilot.calibration.sample(sensed[S_ACC:S_ACC + 3],
-                                                   sensed[S_GYRO:S_GYRO + 3])
+                self._autopilot.calibration.sample(sensed[est.S_ACC:est.S_ACC + 3],
+                                                   sensed[est.S_GYRO:est.S_GYRO + 3])
             command = self._autopilot.step(self._measurement(), now_s)
             c = self._autopilot.commander
             self._health.update(now_s, c.armed, c.nav_state, self._check_inputs)
@@ -310,11 +302,13 @@ class Vehicle:
         vehicle's life, so a poller may keep it."""
         return self._autopilot.changes
 
-    def arm(self, now_s: float, forced: bool = False) -> CommandResult:
-        return self._autopilot.arm(now_s, self._measurement(), forced)
+    def arm(self, now_s: float, forced: bool = False, internal: bool = False) -> CommandResult:
+        """``internal``: a command of the vehicle's own (its shell's ``commander arm``), which
+        PX4 reports as arm_disarm_reason_t command_internal; else command_external."""
+        return self._autopilot.arm(now_s, self._measurement(), forced, _reason(internal))
 
-    def disarm(self, now_s: float, forced: bool = False) -> CommandResult:
-        return self._autopilot.disarm(now_s, forced)
+    def disarm(self, now_s: float, forced: bool = False, internal: bool = False) -> CommandResult:
+        return self._autopilot.commander.disarm(now_s, forced, _reason(internal))
 
     def takeoff(self, now_s: float, alt_amsl_m: float = math.nan) -> CommandResult:
         return self._autopilot.takeoff(now_s, alt_amsl_m)
@@ -465,14 +459,18 @@ class Vehicle:
             return cal.start_esc(now_s, armed)
         return cal.start(now_s, kind, armed)
 
+    def motor_test_allowed(self) -> bool:
+        """Commander's gate of both motor tests: disarmed and COM_MOT_TEST_EN 1."""
+        return (not self._autopilot.commander.armed
+                and int(self.params.get("COM_MOT_TEST_EN", 1) or 0) == 1)
+
     def actuator_test(self, now_s: float, function: int, value: float,
                       timeout_s: float) -> CommandResult:
-        """MAV_CMD_ACTUATOR_TEST (vehicles/actuator_test.py): disarmed and with
-        COM_MOT_TEST_EN 1 only, else DENIED, as PX4's commander."""
-        ap = self._autopilot
-        if ap.commander.armed or int(self.params.get("COM_MOT_TEST_EN", 1) or 0) != 1:
+        """MAV_CMD_ACTUATOR_TEST (vehicles/actuator_test.py); DENIED unless allowed."""
+        if not self.motor_test_allowed():
             return CommandResult.DENIED
-        return ap.motor_test.command(now_s, function, value, timeout_s, self.airframe.rotor_count)
+        return self._autopilot.motor_test.command(now_s, function, value, timeout_s,
+                                                  self.airframe.rotor_count)
 
     def param_storage(self, now_s: float, action: int) -> CommandResult | None:
         """MAV_CMD_PREFLIGHT_STORAGE param1, as PX4's commander worker: 0 load and 1 save (the

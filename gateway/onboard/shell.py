@@ -173,9 +173,11 @@ class Pxh:
             return 1
         cmd = args[0]
         if cmd == "arm":
-            result = v.arm(now_s, forced="-f" in args)
+            # Commander's custom_command sends an internal vehicle_command: "Armed by internal
+            # command", as PX4's shell reports it.
+            result = v.arm(now_s, forced="-f" in args, internal=True)
         elif cmd == "disarm":
-            result = v.disarm(now_s, forced="-f" in args)
+            result = v.disarm(now_s, forced="-f" in args, internal=True)
         elif cmd == "takeoff":
             result = v.takeoff(now_s)
         elif cmd == "land":

@@ -153,7 +153,7 @@ class FakeVehicle:
         self.prearm_ok = True
         self.home = HomePosition(self.origin, (0.0, 0.0, 0.0), 0.0)
 
-    def arm(self, now_s: float, forced: bool = False) -> CommandResult:
+    def arm(self, now_s: float, forced: bool = False, internal: bool = False) -> CommandResult:
         self.calls.append(("arm", now_s, forced))
         if not self.prearm_ok and not forced:
             return CommandResult.TEMPORARILY_REJECTED
@@ -161,7 +161,8 @@ class FakeVehicle:
         self.say(now_s, "Armed by external command")
         return CommandResult.ACCEPTED
 
-    def disarm(self, now_s: float, forced: bool = False) -> CommandResult:
+    def disarm(self, now_s: float, forced: bool = False, internal: bool = False
+               ) -> CommandResult:
         self.calls.append(("disarm", now_s, forced))
         if self.landed_state is not LandedState.ON_GROUND and not forced:
             return CommandResult.TEMPORARILY_REJECTED
