@@ -151,12 +151,45 @@ CHECK_ACCEL_NO_DATA = _health("check_accel_no_data", "No valid data from Acceler
 CHECK_BARO_NO_DATA = _health("check_baro_no_data", "No valid data from barometer {3}")
 CHECK_GYRO_NO_DATA = _health("check_gyro_no_data", "No valid data from Gyro {3}")
 CHECK_MAG_NO_DATA = _health("check_mag_no_data", "No valid data from Compass {3}")
+# framework.cpp FailsafeBase::notifyUser: the first argument is the user's mode (its PX4 custom
+# mode), then the action (failsafe_action_t), the hold's seconds, the cause (failsafe_cause_t).
+_MODE_ARG = ("uint32_t", "arg0")
+_APPEND = "append_health_and_arming_messages"
+FAILSAFE_GENERIC_HOLD = EventDef(
+    "commander_failsafe_enter_generic_hold", "default",
+    "Failsafe activated, triggering {2} in {3} seconds",
+    (_MODE_ARG, ("px4::failsafe_action_t", "arg1"), ("uint16_t", "arg2")), type=_APPEND)
+FAILSAFE_HOLD = EventDef(
+    "commander_failsafe_enter_hold", "default",
+    "Failsafe activated due to {4}, triggering {2} in {3} seconds",
+    (_MODE_ARG, ("px4::failsafe_action_t", "arg1"), ("uint16_t", "arg2"),
+     ("px4::failsafe_cause_t", "arg3")))
+FAILSAFE_GENERIC_WARN = EventDef(
+    "commander_failsafe_enter_generic_warn", "default", "Failsafe warning triggered",
+    (_MODE_ARG,), type=_APPEND, description="No action is triggered.")
+FAILSAFE_GENERIC = EventDef(
+    "commander_failsafe_enter_generic", "default", "Failsafe activated, triggering {2}",
+    (_MODE_ARG, ("px4::failsafe_action_t", "arg1")), type=_APPEND)
+FAILSAFE_LOW_BAT = EventDef("commander_failsafe_enter_low_bat", "default",
+                            "Low battery level, return advised")
+FAILSAFE_CRIT_BAT = EventDef("commander_failsafe_enter_crit_bat_warn", "default",
+                             "Critical battery level, land now")
+FAILSAFE_EMERGENCY_BAT = EventDef("commander_failsafe_enter_crit_low_bat_warn", "default",
+                                  "Emergency battery level, land immediately")
+FAILSAFE_WARN = EventDef(
+    "commander_failsafe_enter_warn", "default", "Failsafe warning triggered due to {2}",
+    (_MODE_ARG, ("px4::failsafe_cause_t", "arg1")), description="No action is triggered.")
+FAILSAFE_ENTER = EventDef(
+    "commander_failsafe_enter", "default", "Failsafe activated due to {3}, triggering {2}",
+    (_MODE_ARG, ("px4::failsafe_action_t", "arg1"), ("px4::failsafe_cause_t", "arg2")))
 DEFINITIONS: tuple[EventDef, ...] = (
     ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARMING_SUMMARY,
     HEALTH_SUMMARY,
     CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_OFFBOARD, CHECK_HOME,
     CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF, CHECK_ACCEL_NO_DATA, CHECK_BARO_NO_DATA,
-    CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA)
+    CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA,
+    FAILSAFE_GENERIC_HOLD, FAILSAFE_HOLD, FAILSAFE_GENERIC_WARN, FAILSAFE_GENERIC, FAILSAFE_LOW_BAT,
+    FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER)
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,8 @@ Rules and invariants (PX4 semantics, simplified to what SITL exercises):
 - The selected action is the most severe one. Adding an action worse than Warn starts the
   COM_FAIL_ACT_T hold delay: the vehicle holds first ("Failsafe activated, entering Hold for N
   seconds") and then takes the action ("Failsafe activated"). Terminate/Disarm skip the delay.
+- The user is told when the action gets worse or a warning is added (notifyUser): an event that
+  names the action and its cause (a lost link, a battery level) and the text above.
 - Without a position estimate the delay's Hold cannot run: the action is taken at once.
 - A user mode change while a failsafe is active is a user takeover: the action is dropped until a
   new one is added. Terminate is never cleared. Disarmed -> no action.
@@ -23,6 +25,20 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+from vehicles.custom_mode import custom_mode_of
+from vehicles.events import (
+    FAILSAFE_CRIT_BAT,
+    FAILSAFE_EMERGENCY_BAT,
+    FAILSAFE_ENTER,
+    FAILSAFE_GENERIC,
+    FAILSAFE_GENERIC_HOLD,
+    FAILSAFE_GENERIC_WARN,
+    FAILSAFE_HOLD,
+    FAILSAFE_LOW_BAT,
+    FAILSAFE_WARN,
+    EventLog,
+    Log,
+)
 from vehicles.params import ParamStore
 from vehicles.status_log import StatusLog
 from vehicles.types import NavState
@@ -44,10 +60,42 @@ class Action(enum.IntEnum):
     TERMINATE = 10
 
 
+# failsafe_action_t's descriptions (src/lib/events/enums.json), as the events name the actions
+ACTION_TEXT = {Action.NONE: "", Action.WARN: "warning",
+               Action.FALLBACK_POSCTRL: "fallback to position control",
+               Action.FALLBACK_ALTCTRL: "fallback to altitude control",
+               Action.FALLBACK_STABILIZED: "fallback to stabilized", Action.HOLD: "hold",
+               Action.RTL: "RTL", Action.LAND: "land", Action.DESCEND: "descend",
+               Action.DISARM: "disarm", Action.TERMINATE: "terminate"}
+
+
+class Cause(enum.IntEnum):
+    """framework.h Cause = the events' failsafe_cause_t (names as enums.json has them)."""
+
+    GENERIC = 0
+    MANUAL_CONTROL_LOSS = 1
+    GCS_CONNECTION_LOSS = 2
+    LOW_BATTERY_LEVEL = 3
+    CRITICAL_BATTERY_LEVEL = 4
+    EMERGENCY_BATTERY_LEVEL = 5
+    LOW_REMAINING_FLIGHT_TIME = 6
+
+
+CAUSE_TEXT = {Cause.GENERIC: "", Cause.MANUAL_CONTROL_LOSS: "manual control loss",
+              Cause.GCS_CONNECTION_LOSS: "GCS connection loss",
+              Cause.LOW_BATTERY_LEVEL: "low battery level",
+              Cause.CRITICAL_BATTERY_LEVEL: "critical battery level",
+              Cause.EMERGENCY_BATTERY_LEVEL: "emergency battery level",
+              Cause.LOW_REMAINING_FLIGHT_TIME: "low remaining flight time"}
+# Warnings with a cause of their own event (notifyUser), by cause: (event, external level)
+_CAUSE_WARNINGS = {Cause.LOW_BATTERY_LEVEL: (FAILSAFE_LOW_BAT, Log.WARNING),
+                   Cause.CRITICAL_BATTERY_LEVEL: (FAILSAFE_CRIT_BAT, Log.CRITICAL),
+                   Cause.EMERGENCY_BATTERY_LEVEL: (FAILSAFE_EMERGENCY_BAT, Log.EMERGENCY)}
+
 # What ``Failsafe.update`` reads at every 50 Hz tick, by module names: in Python 3.11 a member
 # read off its class (``Action.TERMINATE``) goes through EnumType.__getattr__ (~0.2 us).
 _TERMINATE = Action.TERMINATE
-_NO_ACTION = (Action.NONE, Action.NONE)  # (selected, delayed)
+_NO_ACTION = (Action.NONE, Action.NONE, Cause.GENERIC)  # (selected, delayed, cause)
 
 
 class Clear(enum.Enum):
@@ -62,6 +110,7 @@ class ActionOptions:
     action: Action
     clear: Clear = Clear.WHEN_CONDITION_CLEARS
     failing: bool = True  # the condition currently holds (PX4 state_failure)
+    cause: Cause = Cause.GENERIC  # what the user is told (ActionOptions::causedBy)
 
 
 @dataclass(frozen=True)
@@ -111,13 +160,15 @@ def from_offboard_loss_act(params, manual_control_lost: bool = True) -> ActionOp
 
 
 def from_battery_act(params, level: int) -> ActionOptions:
-    """COM_LOW_BAT_ACT: 0 warn, 2 Land, 3 Return at critical / Land at emergency."""
+    """COM_LOW_BAT_ACT: 0 warn, 2 Land, 3 Return at critical / Land at emergency; the cause is
+    the warning's level (fromBatteryWarningActParam)."""
     act = int(params["COM_LOW_BAT_ACT"])
+    cause = Cause(Cause.LOW_BATTERY_LEVEL + min(max(level, 1), 3) - 1)
     if level <= 1 or act == 0:
-        return ActionOptions(Action.WARN)
+        return ActionOptions(Action.WARN, cause=cause)
     if level == 2 and act == 3:
-        return ActionOptions(Action.RTL, Clear.ON_MODE_CHANGE_OR_DISARM)
-    return ActionOptions(Action.LAND, Clear.ON_DISARM)
+        return ActionOptions(Action.RTL, Clear.ON_MODE_CHANGE_OR_DISARM, cause=cause)
+    return ActionOptions(Action.LAND, Clear.ON_DISARM, cause=cause)
 
 
 def from_gf_act(params) -> ActionOptions:
@@ -183,9 +234,11 @@ class Check:
 
 CHECKS: tuple[Check, ...] = (
     Check("gcs_connection_lost", _dll_condition,
-          lambda f, p: from_nav_dll_or_rcl_act(int(p["NAV_DLL_ACT"]))),
+          lambda f, p: replace(from_nav_dll_or_rcl_act(int(p["NAV_DLL_ACT"])),
+                               cause=Cause.GCS_CONNECTION_LOSS)),
     Check("manual_control_signal_lost", _rcl_condition,
-          lambda f, p: from_nav_dll_or_rcl_act(int(p["NAV_RCL_ACT"]))),
+          lambda f, p: replace(from_nav_dll_or_rcl_act(int(p["NAV_RCL_ACT"])),
+                               cause=Cause.MANUAL_CONTROL_LOSS)),
     Check("offboard_signal_lost",
           lambda f, p: f.offboard_lost and f.user_nav_state is NavState.OFFBOARD,
           lambda f, p: from_offboard_loss_act(p, f.manual_control_lost)),
@@ -209,6 +262,8 @@ class Failsafe:
         self._manual_control_lost_at_arming = False
         self._quiet_flags: FailsafeFlags | None = None  # see ``update``
         self._quiet_version = -1
+        self._notification_required = False  # a warning was added (checkFailsafe)
+        self.events: EventLog | None = None  # events::send (notifyUser), where there are events
 
     @property
     def in_failsafe(self) -> bool:
@@ -271,15 +326,48 @@ class Failsafe:
                         actions[check.name] = replace(current, failing=False)
         if not actions or not any(a.action >= Action.HOLD for a in actions.values()):
             self._delay_until = -math.inf  # clearDelayIfNeeded
-        action, delayed = self._select(now_s, flags)
-        if action > self.selected and action > Action.NONE:
-            if action is Action.HOLD and delayed is not Action.NONE:
-                secs = int(self._delay_until - now_s + 0.5)
-                self._log.critical(now_s, f"Failsafe activated, entering Hold for {secs} seconds")
-            else:
-                self._log.critical(now_s, "Failsafe activated")
+        action, delayed, cause = self._select(now_s, flags)
+        # The action is worse than before, or a warning was added (framework.cpp update)
+        if action > self.selected or (self._notification_required and action is not Action.NONE):
+            self._notify_user(now_s, flags.user_nav_state, action, delayed, cause)
+        self._notification_required = False
         self.selected = action
         return action
+
+    def _notify_user(self, now_s: float, mode: NavState, action: Action, delayed: Action,
+                     cause: Cause) -> None:
+        """framework.cpp notifyUser: one event (which says what the action is and why) and a
+        text (which only says that a failsafe began)."""
+        events, custom_mode = self.events, custom_mode_of(mode)
+        if action is Action.HOLD and delayed is not Action.NONE:
+            secs = int(self._delay_until - now_s + 0.5)
+            if events is None:
+                pass
+            elif cause is Cause.GENERIC:
+                events.send(now_s, FAILSAFE_GENERIC_HOLD, Log.CRITICAL, Log.WARNING, "IBH",
+                            custom_mode, int(delayed), secs)
+            else:
+                events.send(now_s, FAILSAFE_HOLD, Log.CRITICAL, Log.WARNING, "IBHB", custom_mode,
+                            int(delayed), secs, int(cause))
+            self._log.critical(now_s, f"Failsafe activated, entering Hold for {secs} seconds\t")
+            return
+        if events is None:
+            pass
+        elif cause is Cause.GENERIC and action is Action.WARN:
+            events.send(now_s, FAILSAFE_GENERIC_WARN, Log.WARNING, Log.WARNING, "I", custom_mode)
+        elif cause is Cause.GENERIC:
+            events.send(now_s, FAILSAFE_GENERIC, Log.CRITICAL, Log.WARNING, "IB", custom_mode,
+                        int(action))
+        elif action is Action.WARN and cause in _CAUSE_WARNINGS:
+            event, level = _CAUSE_WARNINGS[cause]
+            events.send(now_s, event, level, Log.INFO)
+        elif action is Action.WARN:
+            events.send(now_s, FAILSAFE_WARN, Log.WARNING, Log.WARNING, "IB", custom_mode,
+                        int(cause))
+        else:
+            events.send(now_s, FAILSAFE_ENTER, Log.CRITICAL, Log.WARNING, "IBB", custom_mode,
+                        int(action), int(cause))
+        self._log.critical(now_s, "Failsafe activated\t")
 
     def _add(self, now_s: float, name: str, opts: ActionOptions) -> None:
         self.actions[name] = opts
@@ -287,18 +375,24 @@ class Failsafe:
         if (opts.action > Action.WARN and delay > 0.1 and now_s >= self._delay_until
                 and opts.clear is not Clear.NEVER):
             self._delay_until = now_s + delay
+        if opts.action is Action.WARN:
+            self._notification_required = True
         if opts.action >= Action.HOLD:
             self._user_takeover = False
 
-    def _select(self, now_s: float, flags: FailsafeFlags) -> tuple[Action, Action]:
+    def _select(self, now_s: float, flags: FailsafeFlags) -> tuple[Action, Action, Cause]:
+        """getSelectedAction: (action, the action a Hold delays, the cause of the worst)."""
         if self.selected is _TERMINATE:
-            return Action.TERMINATE, Action.NONE
+            return Action.TERMINATE, Action.NONE, Cause.GENERIC
         if not flags.armed or not self.actions:  # (no actions: the common case)
             return _NO_ACTION
-        worst = max((a.action for a in self.actions.values()), default=Action.NONE)
+        worst, cause = Action.NONE, Cause.GENERIC
+        for a in self.actions.values():  # the first of the worst, as PX4 walks its slots
+            if a.action > worst:
+                worst, cause = a.action, a.cause
         if self._user_takeover and worst is not Action.TERMINATE:
-            return Action.NONE, Action.NONE
+            return Action.NONE, Action.NONE, cause
         if (now_s < self._delay_until and worst > Action.WARN and not flags.position_invalid
                 and worst not in (Action.DISARM, Action.TERMINATE)):  # Hold needs a position
-            return Action.HOLD, worst
-        return worst, Action.NONE
+            return Action.HOLD, worst, cause
+        return worst, Action.NONE, cause

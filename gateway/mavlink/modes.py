@@ -1,6 +1,6 @@
 """PX4 flight modes on the wire: NavState ↔ (main_mode, sub_mode) ↔ HEARTBEAT custom/base mode.
 
-Source: PX4 px4_custom_mode.h, HEARTBEAT.hpp; Commander's DO_SET_MODE.
+Source: PX4 px4_custom_mode.h (vehicles/custom_mode.py), HEARTBEAT.hpp; Commander's DO_SET_MODE.
 - ``custom_mode = (main << 16) | (sub << 24)``; bits 0–15 are zero.
 - ``base_mode`` = CUSTOM_MODE_ENABLED (1) plus the per-mode flags of the table, +SAFETY_ARMED (128)
   when armed. pymavlink's ``interpret_px4_mode`` relies on exactly these flags.
@@ -10,8 +10,13 @@ Source: PX4 px4_custom_mode.h, HEARTBEAT.hpp; Commander's DO_SET_MODE.
 
 from __future__ import annotations
 
-import enum
-
+from vehicles.custom_mode import (  # noqa: F401 - the modes' names, for the gateway
+    MAIN_SUB,
+    AutoSubMode,
+    MainMode,
+    PosctlSubMode,
+    custom_mode_of,
+)
 from vehicles.types import NavState
 
 # MAV_MODE_FLAG bits
@@ -30,69 +35,26 @@ BASE_ACRO = CUSTOM_MODE_ENABLED | MANUAL_INPUT_ENABLED  # 65
 BASE_TERMINATION = CUSTOM_MODE_ENABLED  # 1
 
 
-class MainMode(enum.IntEnum):
-    MANUAL = 1
-    ALTCTL = 2
-    POSCTL = 3
-    AUTO = 4
-    ACRO = 5
-    OFFBOARD = 6
-    STABILIZED = 7
-    RATTITUDE_LEGACY = 8
-    SIMPLE = 9
-    TERMINATION = 10
-    ALTITUDE_CRUISE = 11
-
-
-class AutoSubMode(enum.IntEnum):
-    READY = 1
-    TAKEOFF = 2
-    LOITER = 3
-    MISSION = 4
-    RTL = 5
-    LAND = 6
-    FOLLOW_TARGET = 8
-    PRECLAND = 9
-    VTOL_TAKEOFF = 10
-
-
-class PosctlSubMode(enum.IntEnum):
-    POSCTL = 0
-    ORBIT = 1
-    SLOW = 2
-
-
+# The base mode flags of each navigation state (without SAFETY_ARMED)
+_BASE: dict[NavState, int] = {
+    NavState.MANUAL: BASE_MANUAL, NavState.ALTCTL: BASE_MANUAL, NavState.POSCTL: BASE_MANUAL,
+    NavState.ORBIT: BASE_POSCTL_NO_STICKS, NavState.POSITION_SLOW: BASE_MANUAL,
+    NavState.AUTO_TAKEOFF: BASE_AUTO, NavState.AUTO_LOITER: BASE_AUTO,
+    NavState.AUTO_MISSION: BASE_AUTO, NavState.AUTO_RTL: BASE_AUTO, NavState.AUTO_LAND: BASE_AUTO,
+    NavState.DESCEND: BASE_AUTO, NavState.AUTO_FOLLOW_TARGET: BASE_POSCTL_NO_STICKS,
+    NavState.AUTO_PRECLAND: BASE_AUTO, NavState.ACRO: BASE_ACRO,
+    NavState.OFFBOARD: BASE_POSCTL_NO_STICKS, NavState.STAB: BASE_MANUAL,
+    NavState.TERMINATION: BASE_TERMINATION,
+}
 # NavState → (main, sub, base_mode flags without SAFETY_ARMED)
 MODE_TABLE: dict[NavState, tuple[int, int, int]] = {
-    NavState.MANUAL: (MainMode.MANUAL, 0, BASE_MANUAL),
-    NavState.ALTCTL: (MainMode.ALTCTL, 0, BASE_MANUAL),
-    NavState.POSCTL: (MainMode.POSCTL, PosctlSubMode.POSCTL, BASE_MANUAL),
-    NavState.ORBIT: (MainMode.POSCTL, PosctlSubMode.ORBIT, BASE_POSCTL_NO_STICKS),
-    NavState.POSITION_SLOW: (MainMode.POSCTL, PosctlSubMode.SLOW, BASE_MANUAL),
-    NavState.AUTO_TAKEOFF: (MainMode.AUTO, AutoSubMode.TAKEOFF, BASE_AUTO),
-    NavState.AUTO_LOITER: (MainMode.AUTO, AutoSubMode.LOITER, BASE_AUTO),
-    NavState.AUTO_MISSION: (MainMode.AUTO, AutoSubMode.MISSION, BASE_AUTO),
-    NavState.AUTO_RTL: (MainMode.AUTO, AutoSubMode.RTL, BASE_AUTO),
-    NavState.AUTO_LAND: (MainMode.AUTO, AutoSubMode.LAND, BASE_AUTO),
-    NavState.DESCEND: (MainMode.AUTO, AutoSubMode.LAND, BASE_AUTO),
-    NavState.AUTO_FOLLOW_TARGET: (MainMode.AUTO, AutoSubMode.FOLLOW_TARGET, BASE_POSCTL_NO_STICKS),
-    NavState.AUTO_PRECLAND: (MainMode.AUTO, AutoSubMode.PRECLAND, BASE_AUTO),
-    NavState.ACRO: (MainMode.ACRO, 0, BASE_ACRO),
-    NavState.OFFBOARD: (MainMode.OFFBOARD, 0, BASE_POSCTL_NO_STICKS),
-    NavState.STAB: (MainMode.STABILIZED, 0, BASE_MANUAL),
-    NavState.TERMINATION: (MainMode.TERMINATION, 0, BASE_TERMINATION),
-}
+    nav: (main, sub, _BASE[nav]) for nav, (main, sub) in MAIN_SUB.items()}
 
 # (main, sub) → NavState for DO_SET_MODE. DESCEND is not selectable; AUTO sub 0 means Mission.
 _DECODE: dict[tuple[int, int], NavState] = {
     (main, sub): nav for nav, (main, sub, _) in MODE_TABLE.items() if nav is not NavState.DESCEND
 }
 _DECODE[(MainMode.AUTO, 0)] = NavState.AUTO_MISSION
-
-
-def custom_mode_of(nav: NavState) -> int:
-    main, sub, _ = MODE_TABLE[nav]
-    return (main << 16) | (sub << 24)
 
 
 def heartbeat_modes(nav: NavState, armed: bool) -> tuple[int, int]:

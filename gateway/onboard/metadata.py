@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 from gateway.mavlink.modes import custom_mode_of
 from vehicles.events import ARM_REASON_TEXT, COMPONENT_AUTOPILOT, DEFINITIONS, ArmReason
+from vehicles.failsafe import ACTION_TEXT, CAUSE_TEXT, Action, Cause
 from vehicles.health_checks import HEALTH_COMPONENTS, MODE_GROUPS
 from vehicles.params import VOLATILE, ParamInfo, ParamType, crc32part, param_table
 
@@ -78,8 +79,8 @@ def parameters_json(table: list[ParamInfo]) -> bytes:
 def events_json() -> bytes:
     """all_events.json as libevents reads it: the px4 namespace (component 1) with every event
     a vehicle here sends (vehicles/events.py DEFINITIONS, keyed by the 24-bit sub id), the two
-    enums the health report uses, the navigation mode groups (a group's HEARTBEAT custom_mode)
-    and the health_and_arming_check protocol."""
+    enums the health report uses, those of the arming and failsafe events, the navigation mode
+    groups (a group's HEARTBEAT custom_mode) and the health_and_arming_check protocol."""
     groups: dict[str, dict[str, dict[str, object]]] = {}
     for d in DEFINITIONS:
         event: dict[str, object] = {"name": d.name, "message": d.message}
@@ -96,6 +97,9 @@ def events_json() -> bytes:
                   for i, (name, label) in enumerate(HEALTH_COMPONENTS)}
     reasons = {str(int(r)): {"name": r.name.lower(), "description": ARM_REASON_TEXT[r]}
                for r in ArmReason}
+    actions = {str(int(a)): {"name": a.name.lower(), "description": ACTION_TEXT[a]}
+               for a in Action}
+    causes = {str(int(c)): {"name": c.name.lower(), "description": CAUSE_TEXT[c]} for c in Cause}
     px4 = {
         "namespace": "px4",
         "enums": {
@@ -106,7 +110,11 @@ def events_json() -> bytes:
                                    "description": "Bitfield for subsystems & components",
                                    "entries": components},
             "arm_disarm_reason_t": {"type": "uint8_t", "description": "Reason for arming/disarming",
-                                    "entries": reasons}},
+                                    "entries": reasons},
+            "failsafe_action_t": {"type": "uint8_t", "description": "failsafe action",
+                                  "entries": actions},
+            "failsafe_cause_t": {"type": "uint8_t", "description": "Cause for entering failsafe",
+                                 "entries": causes}},
         "event_groups": groups,
         "navigation_mode_groups": {"groups": {str(int(nav)): [custom_mode_of(nav)]
                                               for nav in MODE_GROUPS}},

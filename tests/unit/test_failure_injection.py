@@ -43,7 +43,7 @@ def test_gps_off_in_hold_descends_lands_and_disarms():
         assert math.hypot(*truth.position_ned_m[:2]) < 5.0  # it drifts a little, no more
         sim.advance(0.5)  # the disarm's STATUSTEXT goes out at the next send
         texts = [m.text for m in api.messages("STATUSTEXT")]
-        assert "Failsafe activated" in texts and "Disarmed by landing\t" in texts
+        assert "Failsafe activated\t" in texts and "Disarmed by landing\t" in texts
         # The GPS back: the position is valid again.
         assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OK, 0) == 0
         assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=5)

@@ -1,12 +1,14 @@
 """Failsafes (data link, offboard, battery, geofence) and Return to rally points."""
 
 import math
+import struct
 
 import pytest
 
 from tests.unit.test_vehicles_flight import Sim, take_off
 from tests.unit.test_vehicles_mission import item
-from vehicles.failsafe import CHECKS, Action, Failsafe, FailsafeFlags
+from vehicles.events import DEFINITIONS, EventLog, Log
+from vehicles.failsafe import CHECKS, Action, Cause, Failsafe, FailsafeFlags
 from vehicles.params import ParamStore
 from vehicles.plan_types import MavCmd, PlanItem, PlanResult, PlanType
 from vehicles.status_log import StatusLog
@@ -52,12 +54,75 @@ def test_each_check_holds_then_acts_and_clears_on_disarm(check):
     assert fs.update(0.0, FailsafeFlags(**base)) is Action.NONE
     flags = FailsafeFlags(**{**base, **FLAG_FOR_CHECK[check]})
     assert fs.update(1.0, flags) is Action.HOLD  # COM_FAIL_ACT_T = 5 s hold first
-    assert log.after(0)[-1].text == "Failsafe activated, entering Hold for 5 seconds"
+    assert log.after(0)[-1].text == "Failsafe activated, entering Hold for 5 seconds\t"
     expected = Action.LAND if check == "battery_warning" else Action.RTL
     assert fs.update(6.1, flags) is expected
-    assert log.after(0)[-1].text == "Failsafe activated"
+    assert log.after(0)[-1].text == "Failsafe activated\t"
     assert fs.in_failsafe
     assert fs.update(7.0, FailsafeFlags(**{**flags.__dict__, "armed": False})) is Action.NONE
+
+
+def _told(events: EventLog) -> list[tuple[str, int, int, tuple]]:
+    """(name, external level, internal level, arguments) of every event sent."""
+    names = {d.id: d for d in DEFINITIONS}
+    out = []
+    for e in events.after(events.latest - len(events)):
+        d = names[e.id]
+        fmt = "<" + "".join({"uint32_t": "I", "uint16_t": "H"}.get(t, "B") for t, _ in d.arguments)
+        out.append((d.name, e.log_levels & 0xF, e.log_levels >> 4,
+                    struct.unpack(fmt, e.arguments)))
+    return out
+
+
+def test_the_user_is_told_what_the_failsafe_does_and_why():
+    """framework.cpp notifyUser: a lost data link in Mission holds first ("due to GCS connection
+    loss, triggering RTL in 5 seconds"), then returns ("due to GCS connection loss, triggering
+    RTL"); each event names the user's mode by its PX4 custom mode, the action and the cause, and
+    comes with the text "Failsafe activated…\t". A geofence breach (no cause) and a low battery
+    (a warning with an event of its own) say it their way."""
+    log, events = StatusLog(), EventLog()
+    fs = Failsafe(ParamStore({"NAV_DLL_ACT": 2}), log)
+    fs.events = events
+    mission = 0x04040000  # AUTO.MISSION
+    base = dict(armed=True, user_nav_state=NavState.AUTO_MISSION, manual_control_lost=False)
+    fs.update(0.0, FailsafeFlags(**base))
+    lost = FailsafeFlags(**base, gcs_lost=True)
+    assert fs.update(1.0, lost) is Action.HOLD
+    assert fs.update(6.1, lost) is Action.RTL
+    assert _told(events) == [
+        ("commander_failsafe_enter_hold", Log.CRITICAL, Log.WARNING,
+         (mission, int(Action.RTL), 5, int(Cause.GCS_CONNECTION_LOSS))),
+        ("commander_failsafe_enter", Log.CRITICAL, Log.WARNING,
+         (mission, int(Action.RTL), int(Cause.GCS_CONNECTION_LOSS)))]
+    assert [t.text for t in log.after(0)] == [
+        "Failsafe activated, entering Hold for 5 seconds\t", "Failsafe activated\t"]
+    # As a ground station shows them: libevents (pyulog's copy) with the vehicle's metadata.
+    import json
+
+    from pyulog.libevents_parse.parser import Parser
+
+    from gateway.onboard.metadata import events_json
+
+    parser = Parser()
+    parser.load_definitions(json.loads(events_json()))
+    parser.set_profile("dev")
+    assert [parser.parse(e.id, e.arguments.ljust(25, b"\0")).message()
+            for e in events.after(events.latest - len(events))] == [
+        "Failsafe activated due to GCS connection loss, triggering RTL in 5 seconds",
+        "Failsafe activated due to GCS connection loss, triggering RTL"]
+
+    events = EventLog()
+    fs = Failsafe(ParamStore({"GF_ACTION": 3, "COM_FAIL_ACT_T": 0.0}), StatusLog())
+    fs.events = events
+    fs.update(0.0, FailsafeFlags(**base, geofence_breached=True))
+    assert _told(events) == [("commander_failsafe_enter_generic", Log.CRITICAL, Log.WARNING,
+                              (mission, int(Action.RTL)))]
+
+    events = EventLog()
+    fs = Failsafe(ParamStore(), StatusLog())
+    fs.events = events
+    assert fs.update(0.0, FailsafeFlags(**base, battery_warning=1)) is Action.WARN
+    assert _told(events) == [("commander_failsafe_enter_low_bat", Log.WARNING, Log.INFO, ())]
 
 
 def test_the_same_flags_are_checked_again_after_a_parameter_change():

@@ -125,7 +125,7 @@ def test_stick_loss_in_position_mode_returns(sim):
     sim.run(7.0)  # no input: COM_RC_LOSS_T, then Hold for COM_FAIL_ACT_T, then NAV_RCL_ACT
     assert sim.v.status.nav_state is NavState.AUTO_RTL
     texts = sim.texts()
-    assert texts.index("Manual control lost") < texts.index("Failsafe activated")
+    assert texts.index("Manual control lost") < texts.index("Failsafe activated\t")
     fly(sim, 0.2, CENTRED)
     last = sim.texts()[-1]  # 7 s minus COM_RC_LOSS_T, to the 50 Hz tick that noticed it
     assert last.startswith("Manual control regained after ") and last.endswith("s")
