@@ -48,6 +48,39 @@ async def test_mavsdk_events_health_report_and_takeoff_event(daemon_factory):
                                  "Landing detected", "Disarmed by landing"], messages
 
 
+@pytest.mark.asyncio
+async def test_mavsdk_events_say_why_the_failsafe_acts(daemon_factory):
+    """The battery emptied in flight (failure injection): PX4's failsafe framework tells the
+    user what it does and why (commander_failsafe_enter_hold, then commander_failsafe_enter),
+    libevents naming the action and the cause from the metadata's enums; PX4 SITL's
+    COM_LOW_BAT_ACT 3 lands at the emergency level after the COM_FAIL_ACT_T hold."""
+    from mavsdk.failure import FailureType, FailureUnit
+
+    d = daemon_factory()
+    async with connected(d.api_port()) as drone:
+        messages: list[str] = []
+
+        async def collect():
+            async for event in drone.events.events():
+                messages.append(event.message)
+
+        task = asyncio.ensure_future(collect())
+        await drone.param.set_param_int("SYS_FAILURE_EN", 1)
+        await drone.action.arm()
+        await drone.action.takeoff()
+        await first(drone.telemetry.in_air(), bool, 30, "in the air")
+        await drone.failure.inject(FailureUnit.SYSTEM_BATTERY, FailureType.OFF, 0)
+        want = ["Failsafe activated due to emergency battery level, triggering land in 5 seconds",
+                "Failsafe activated due to emergency battery level, triggering land"]
+        for _ in range(200):
+            if all(m in messages for m in want):
+                break
+            await asyncio.sleep(0.1)
+        task.cancel()
+        assert [m for m in messages if m.startswith("Failsafe")] == want, messages
+        await land_and_disarm(drone)
+
+
 async def report_with_failure(drone, unit: str, predicate, what: str):
     """SYS_FAILURE_EN 1, a first report, then sensor ``unit`` (FailureUnit's name) off: the
     first report that satisfies ``predicate``."""
