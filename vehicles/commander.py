@@ -90,7 +90,7 @@ class ModeSpec:
 _L = NavState.AUTO_LOITER
 # Read at every 50 Hz tick (``_update_failsafe``), by module names: in Python 3.11 a member read
 # off its class (``Action.TERMINATE``) goes through EnumType.__getattr__ (~0.2 us).
-_TERMINATE, _DISARM = Action.TERMINATE, Action.DISARM
+_TERMINATE, _DISARM, _WARN = Action.TERMINATE, Action.DISARM, Action.WARN
 
 # What a failsafe action makes the vehicle fly (failsafe.cpp modeFromAction).
 ACTION_NAV_STATE: dict[Action, NavState] = {
@@ -368,7 +368,12 @@ class Commander:
             self._log.critical(now_s, "Connection to ground station lost")
 
     def _update_failsafe(self, now_s: float, flags: FailsafeFlags) -> None:
+        before = self.failsafe.selected
         action = self.failsafe.update(now_s, flags)
+        if before <= _WARN < action and self.user_nav_state is NavState.ORBIT:
+            # modifyUserIntendedMode: a failsafe that engages during an orbit leaves Hold, not
+            # the orbit, to come back to once it clears.
+            self.user_nav_state = NavState.AUTO_LOITER
         if self.terminated:
             return
         if action is _TERMINATE:

@@ -128,6 +128,9 @@ class FailsafeFlags:
     # Filled in by Failsafe.update: the input was already missing when the vehicle armed (and has
     # not come back since), so its loss is not a failsafe (PX4 _manual_control_lost_at_arming).
     manual_control_lost_at_arming: bool = True
+    # Filled in by Failsafe.update: the battery warning when the vehicle armed (COM_ARM_BAT_MIN
+    # may let it arm low): only a worse level takes COM_LOW_BAT_ACT's action, this one warns.
+    battery_warning_at_arming: int = 0
     # The position estimate was valid and is lost (no aiding for EKF2_NOAID_TOUT: GPS off).
     position_invalid: bool = False
 
@@ -159,10 +162,11 @@ def from_offboard_loss_act(params, manual_control_lost: bool = True) -> ActionOp
     return from_nav_dll_or_rcl_act(int(params["NAV_RCL_ACT"]))
 
 
-def from_battery_act(params, level: int) -> ActionOptions:
+def from_battery_act(params, level: int, worse_than_at_arming: bool = True) -> ActionOptions:
     """COM_LOW_BAT_ACT: 0 warn, 2 Land, 3 Return at critical / Land at emergency; the cause is
-    the warning's level (fromBatteryWarningActParam)."""
-    act = int(params["COM_LOW_BAT_ACT"])
+    the warning's level (fromBatteryWarningActParam). A level no worse than the one the vehicle
+    armed with only warns (failsafe.cpp, warning_worse_than_at_arming)."""
+    act = int(params["COM_LOW_BAT_ACT"]) if worse_than_at_arming else 0
     cause = Cause(Cause.LOW_BATTERY_LEVEL + min(max(level, 1), 3) - 1)
     if level <= 1 or act == 0:
         return ActionOptions(Action.WARN, cause=cause)
@@ -243,7 +247,8 @@ CHECKS: tuple[Check, ...] = (
           lambda f, p: f.offboard_lost and f.user_nav_state is NavState.OFFBOARD,
           lambda f, p: from_offboard_loss_act(p, f.manual_control_lost)),
     Check("battery_warning", lambda f, p: f.battery_warning > 0,
-          lambda f, p: from_battery_act(p, f.battery_warning)),
+          lambda f, p: from_battery_act(p, f.battery_warning,
+                                        f.battery_warning > f.battery_warning_at_arming)),
     Check("geofence_breached", lambda f, p: f.geofence_breached, lambda f, p: from_gf_act(p)),
     Check("position_lost", lambda f, p: f.position_invalid and f.user_nav_state in NEEDS_POSITION,
           lambda f, p: from_position_loss(f)),
@@ -260,6 +265,7 @@ class Failsafe:
         self._user_takeover = False
         self._last_armed = False
         self._manual_control_lost_at_arming = False
+        self._battery_warning_at_arming = 0
         self._quiet_flags: FailsafeFlags | None = None  # see ``update``
         self._quiet_version = -1
         self._notification_required = False  # a warning was added (checkFailsafe)
@@ -288,6 +294,10 @@ class Failsafe:
             self._manual_control_lost_at_arming = False
         if flags.manual_control_lost_at_arming != self._manual_control_lost_at_arming:
             flags = replace(flags, manual_control_lost_at_arming=self._manual_control_lost_at_arming)
+        if flags.armed and not self._last_armed:
+            self._battery_warning_at_arming = flags.battery_warning
+        if self._battery_warning_at_arming != flags.battery_warning_at_arming:
+            flags = replace(flags, battery_warning_at_arming=self._battery_warning_at_arming)
         if flags.armed != self._last_armed:
             self._remove(Clear.ON_DISARM)
             self._remove(Clear.ON_MODE_CHANGE_OR_DISARM)
@@ -315,8 +325,10 @@ class Failsafe:
                     # loss after the link came back): a fresh failsafe event, which a user
                     # takeover of the earlier one does not cover.
                     self._add(now_s, check.name, opts)
-                else:
-                    actions[check.name] = replace(current, failing=True)
+                elif opts.action != current.action:
+                    # checkFailsafe: the caller's action follows its options, the rest is kept
+                    # (a lesser one too: a battery level the vehicle armed with only warns)
+                    actions[check.name] = replace(current, failing=True, action=opts.action)
             elif actions:  # (nothing to clear without actions: the common case)
                 current = actions.get(check.name)
                 if current is not None and current.failing:

@@ -192,3 +192,18 @@ def test_status_log_sequence_and_bound():
     assert [t.seq for t in log.after(0)] == [3, 4, 5]
     assert [t.text for t in log.after(4)] == ["t4"]
     assert log.after(5) == []
+
+
+def test_a_failsafe_during_an_orbit_comes_back_to_hold():
+    """failsafe.cpp modifyUserIntendedMode: when a failsafe engages while the user's mode is
+    Orbit, the user's mode becomes Hold, so the vehicle holds once the failsafe clears."""
+    from vehicles.failsafe import FailsafeFlags
+
+    c, _ = make(nav_state=NavState.ORBIT, armed=True, landed=False)
+    c._params.set("GF_ACTION", 2)  # geofence breach: Hold until a mode change
+    c._params.set("COM_FAIL_ACT_T", 0.0)
+    flags = FailsafeFlags(armed=True, user_nav_state=NavState.ORBIT, manual_control_lost=False)
+    c.update(0.0, False, flags)
+    assert c.nav_state is NavState.ORBIT
+    c.update(0.1, False, FailsafeFlags(**{**flags.__dict__, "geofence_breached": True}))
+    assert c.nav_state is NavState.AUTO_LOITER and c.user_nav_state is NavState.AUTO_LOITER

@@ -125,6 +125,20 @@ def test_the_user_is_told_what_the_failsafe_does_and_why():
     assert _told(events) == [("commander_failsafe_enter_low_bat", Log.WARNING, Log.INFO, ())]
 
 
+def test_a_battery_level_the_vehicle_armed_with_only_warns():
+    """failsafe.cpp: armed at the critical level (COM_ARM_BAT_MIN let it), the critical level
+    warns instead of taking COM_LOW_BAT_ACT's Return; the emergency level, worse than at arming,
+    lands."""
+    fs = Failsafe(ParamStore({"COM_LOW_BAT_ACT": 3, "COM_FAIL_ACT_T": 0.0}), StatusLog())
+    base = dict(user_nav_state=NavState.AUTO_MISSION, manual_control_lost=False)
+    fs.update(0.0, FailsafeFlags(armed=False, battery_warning=2, **base))
+    assert fs.update(0.1, FailsafeFlags(armed=True, battery_warning=2, **base)) is Action.WARN
+    assert fs.update(0.2, FailsafeFlags(armed=True, battery_warning=3, **base)) is Action.LAND
+    fresh = Failsafe(ParamStore({"COM_LOW_BAT_ACT": 3, "COM_FAIL_ACT_T": 0.0}), StatusLog())
+    fresh.update(0.0, FailsafeFlags(armed=True, **base))
+    assert fresh.update(0.1, FailsafeFlags(armed=True, battery_warning=2, **base)) is Action.RTL
+
+
 def test_the_same_flags_are_checked_again_after_a_parameter_change():
     """A data-link loss ignored in Mission (COM_DLL_EXCEPT bit 0) acts on the very same flags
     once the exception is taken away."""
