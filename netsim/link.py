@@ -189,6 +189,7 @@ class InstantSortedTrace:
     def __init__(self, out, group: Callable[[str], int]) -> None:
         self._out = out
         self._group = group
+        self._groups: dict[str, int] = {}  # ``group`` of each link name seen (a run has few)
         self._time = ""
         self._held: list[tuple[int, str]] = []
         self.lines = 0
@@ -198,7 +199,10 @@ class InstantSortedTrace:
         if stamp != self._time:
             self.flush()
             self._time = stamp
-        self._held.append((self._group(link), f"{stamp} {event} {link} {size} {detail}\n"))
+        group = self._groups.get(link)
+        if group is None:
+            group = self._groups[link] = self._group(link)
+        self._held.append((group, f"{stamp} {event} {link} {size} {detail}\n"))
         self.lines += 1
 
     def flush(self) -> None:
