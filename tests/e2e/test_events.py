@@ -11,17 +11,23 @@ from tests.e2e.persona import connected, first, land_and_disarm
 pytestmark = pytest.mark.e2e
 
 
+def collect_events(drone) -> tuple[list[str], asyncio.Future]:
+    """The messages of the vehicle's events as MAVSDK renders them, collected in the background
+    (cancel the task when done)."""
+    messages: list[str] = []
+
+    async def collect():
+        async for event in drone.events.events():
+            messages.append(event.message)
+
+    return messages, asyncio.ensure_future(collect())
+
+
 @pytest.mark.asyncio
 async def test_mavsdk_events_health_report_and_takeoff_event(daemon_factory):
     d = daemon_factory()
     async with connected(d.api_port()) as drone:
-        messages: list[str] = []
-
-        async def collect():
-            async for event in drone.events.events():
-                messages.append(event.message)
-
-        task = asyncio.ensure_future(collect())
+        messages, task = collect_events(drone)
         report = await first(drone.events.health_and_arming_checks(),
                              lambda r: r.current_mode_intention.mode_name != "", 30,
                              "a health and arming report")
@@ -58,13 +64,7 @@ async def test_mavsdk_events_say_why_the_failsafe_acts(daemon_factory):
 
     d = daemon_factory()
     async with connected(d.api_port()) as drone:
-        messages: list[str] = []
-
-        async def collect():
-            async for event in drone.events.events():
-                messages.append(event.message)
-
-        task = asyncio.ensure_future(collect())
+        messages, task = collect_events(drone)
         await drone.param.set_param_int("SYS_FAILURE_EN", 1)
         await drone.action.arm()
         await drone.action.takeoff()
