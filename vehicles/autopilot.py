@@ -72,11 +72,9 @@ STICK_OVERRIDE_AUTO = frozenset({NavState.AUTO_MISSION, NavState.AUTO_LOITER, Na
                                  NavState.AUTO_TAKEOFF, NavState.AUTO_LAND,
                                  NavState.AUTO_PRECLAND, NavState.AUTO_FOLLOW_TARGET,
                                  NavState.DESCEND})
-BATTERY_TEXTS = {
-    1: (Severity.WARNING, "Low battery level, return advised"),
-    2: (Severity.CRITICAL, "Critical battery level, land now"),
-    3: (Severity.EMERGENCY, "Emergency battery level, land immediately"),
-}
+# batteryCheck.cpp's texts as a level is reached (the failsafe's events say what to do)
+BATTERY_TEXTS = {1: (Severity.CRITICAL, "Low battery\t"), 2: (Severity.CRITICAL, "Critical battery\t"),
+                 3: (Severity.EMERGENCY, "Emergency battery level\t")}
 
 
 class Autopilot:
@@ -418,7 +416,7 @@ class Autopilot:
         low, critical, emergency = self._battery_thresholds  # the last one reached counts
         level = (3 if remaining <= emergency else 2 if remaining <= critical
                  else 1 if remaining <= low else 0)
-        if level > self._battery_level:  # framework.cpp notifyUser texts per battery cause
+        if level > self._battery_level:
             self.log.add(now_s, BATTERY_TEXTS[level][0], BATTERY_TEXTS[level][1])
         self._battery_level = level
         breach = None

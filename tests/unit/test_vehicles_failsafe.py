@@ -15,6 +15,10 @@ from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, NavState
 
 
+def event_name(event_id: int) -> str:
+    return next(d.name for d in DEFINITIONS if d.id == event_id)
+
+
 def make_sim(**overrides):
     s = Sim(**overrides)
     s.run(1.2)
@@ -301,9 +305,10 @@ def test_battery_emergency_lands():
         take_off(sim)  # ~3 s of the 40 s battery
         v.goto(sim.t, *_above(v, 10.0))
         assert sim.run(40.0, until=lambda: v.status.nav_state is NavState.AUTO_LAND)
-        texts = sim.texts()
-        assert "Low battery level, return advised" in texts
-        assert "Emergency battery level, land immediately" in texts
+        texts = sim.texts()  # batteryCheck.cpp's texts; the failsafe's events say the rest
+        assert "Low battery\t" in texts and "Emergency battery level\t" in texts
+        told = [event_name(e.id) for e in v.events.after(v.events.latest - len(v.events))]
+        assert "commander_failsafe_enter_low_bat" in told
         assert v.status.battery.remaining <= 0.05 + 1e-3
         assert sim.run(40.0, until=lambda: not v.status.armed)
     finally:
