@@ -1,6 +1,5 @@
-"""The autopilot wrapper: owns params, timestamps, commander, navigator and the control libraries.
-
-After PX4's split between libraries (PositionControl, AttitudeControl, RateControl) and module
+"""The autopilot wrapper: owns params, timestamps, commander, navigator and the control libraries,
+after PX4's split between libraries (PositionControl, AttitudeControl, RateControl) and module
 wrappers (MulticopterPositionControl, mc_att_control, mc_rate_control, control_allocator).
 
 Rules and invariants:
@@ -16,8 +15,8 @@ Rules and invariants:
 - Disarmed or terminated -> no motor output (the inner loop's OFF mode).
 - Gains come from PX4 parameter names, re-read when a parameter changes. No scale factors are
   applied: the mixer's normalization (airframe.py) makes PX4's rate gains fit this plant.
-- Failsafe inputs (battery level, geofence, offboard freshness) are gathered here every 50 Hz
-  tick and handed to the commander, which owns the failsafe state machine.
+- Failsafe inputs (battery level, geofence, offboard freshness, the failure detector) are gathered
+  here every 50 Hz tick and handed to the commander, which owns the failsafe state machine.
 - Time is an argument; nothing here calls a clock or a physics engine.
 """
 
@@ -38,6 +37,7 @@ from vehicles.control.quat import q_yaw
 from vehicles.control.rate_control import RateControlGains
 from vehicles.events import ArmReason
 from vehicles.failsafe import FailsafeFlags
+from vehicles.failure_detector import FailureDetector, attitude_control
 from vehicles.flight_tasks import TaskInput, make_tasks
 from vehicles.follow_target import FollowTarget
 from vehicles.geodesy import position_fault
@@ -69,12 +69,10 @@ POSITION_CONTROL_DIVIDER = 5  # 250 Hz / 5 = 50 Hz
 # COM_RC_OVERRIDE bit 0: sticks take over these modes (Commander: isAutoMode). Not Orbit: there
 # the sticks are part of the mode (altitude; PX4 also trims radius and speed with them).
 STICK_OVERRIDE_AUTO = frozenset({NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_RTL,
-                                 NavState.AUTO_TAKEOFF, NavState.AUTO_LAND,
-                                 NavState.AUTO_PRECLAND, NavState.AUTO_FOLLOW_TARGET,
-                                 NavState.DESCEND})
-# batteryCheck.cpp's texts as a level is reached (the failsafe's events say what to do)
+                                 NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_PRECLAND,
+                                 NavState.AUTO_FOLLOW_TARGET, NavState.DESCEND})
 BATTERY_TEXTS = {1: (Severity.CRITICAL, "Low battery\t"), 2: (Severity.CRITICAL, "Critical battery\t"),
-                 3: (Severity.EMERGENCY, "Emergency battery level\t")}
+                 3: (Severity.EMERGENCY, "Emergency battery level\t")}  # batteryCheck.cpp's
 
 
 class Autopilot:
@@ -92,7 +90,7 @@ class Autopilot:
         self.navigator = Navigator(self.plans, self.changes)
         self.geofence = Geofence(params)
         self.plans.on_change(self._plan_changed)
-        self.offboard = Offboard()
+        self.offboard, self.failure_detector = Offboard(), FailureDetector()
         self.manual = ManualControl(params)
         self.orbit_task = Orbit(params)
         self.follow_target = FollowTarget(params)
@@ -425,9 +423,12 @@ class Autopilot:
         if breach is not None and self._fence_breach is None:
             self.log.critical(now_s, breach)
         self._fence_breach = breach
-        c = self.commander
+        c, fd = self.commander, self.failure_detector
+        at = c.armed_at_s  # failsafe.cpp's early takeoff phase: MPC_SPOOLUP_TIME + 3 s
+        early = at is not None and now_s < at + float(self.params["MPC_SPOOLUP_TIME"]) + 3.0
         inputs = (c.armed, c.user_nav_state, c.gcs_lost, c.offboard_available, level,
-                  breach is not None, c.manual_control_available, c.position_lost)
+                  breach is not None, c.manual_control_available, c.position_lost, fd.critical,
+                  early)
         if inputs != self._flags_inputs:  # the flags are frozen: the last ones serve again
             self._flags_inputs = inputs
             self._flags = FailsafeFlags(
@@ -435,7 +436,8 @@ class Autopilot:
                 offboard_lost=not c.offboard_available, battery_warning=level,
                 geofence_breached=breach is not None,
                 manual_control_lost=not c.manual_control_available,
-                position_invalid=c.position_lost)
+                position_invalid=c.position_lost, fd_critical_failure=fd.critical,
+                early_takeoff=early)
         return self._flags
 
     def _update_slow(self, now_s: float, meas: Measurement) -> None:
@@ -452,6 +454,9 @@ class Autopilot:
         ld.update(now_s, cmd.armed, meas.velocity_ned_mps, st.vel_sp_z, st.thrust, hover)
         was_armed = cmd.armed
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
+        self.failure_detector.update(now_s, meas.attitude_q, attitude_control(
+            cmd.nav_state, self.offboard.setpoint), self.params)
+        cmd.attitude_failure = self.failure_detector.critical
         self._refresh_requirements(now_s)
         if not cmd.mission_valid and cmd.nav_state is NavState.AUTO_MISSION:
             cmd.switch_by_vehicle(NavState.AUTO_LOITER)  # mission cleared under our feet

@@ -158,6 +158,8 @@ class Commander:
         # The health checks' failures that deny arming in every mode, as an arming request's
         # "Preflight Fail: …" texts (health_checks.py, told at each evaluation).
         self.health_failures: tuple[str, ...] = ()
+        # failure_detector.py's verdict: failureDetectorCheck.cpp denies arming in every mode
+        self.attitude_failure = False
 
     def _update_params(self) -> None:
         p = self._params
@@ -178,7 +180,7 @@ class Commander:
         it), a mission, an offboard signal, stick input."""
         spec = MODE_TABLE[self.nav_state]
         return (int(self._params["COM_ARMABLE"]) == 1 and not self.terminated
-                and spec.arming_allowed and not self.health_failures
+                and spec.arming_allowed and not self.health_failures and not self.attitude_failure
                 and (self.position_valid or not spec.needs_position)
                 and (self.mission_valid or not spec.needs_mission)
                 and (self.offboard_available or not spec.needs_offboard)

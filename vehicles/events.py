@@ -182,12 +182,17 @@ FAILSAFE_WARN = EventDef(
 FAILSAFE_ENTER = EventDef(
     "commander_failsafe_enter", "default", "Failsafe activated due to {3}, triggering {2}",
     (_MODE_ARG, ("px4::failsafe_action_t", "arg1"), ("px4::failsafe_cause_t", "arg2")))
+# failureDetectorCheck.cpp: the attitude beyond FD_FAIL_R / FD_FAIL_P (failure_detector.py)
+CHECK_FD_ROLL = _check("check_failure_detector_roll", "Attitude failure detected",
+                       "The vehicle exceeded the maximum configured roll angle.")
+CHECK_FD_PITCH = _check("check_failure_detector_pitch", "Attitude failure detected",
+                        "The vehicle exceeded the maximum configured pitch angle.")
 DEFINITIONS: tuple[EventDef, ...] = (
     ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARMING_SUMMARY,
     HEALTH_SUMMARY,
     CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_OFFBOARD, CHECK_HOME,
     CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF, CHECK_ACCEL_NO_DATA, CHECK_BARO_NO_DATA,
-    CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA,
+    CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA, CHECK_FD_ROLL, CHECK_FD_PITCH,
     FAILSAFE_GENERIC_HOLD, FAILSAFE_HOLD, FAILSAFE_GENERIC_WARN, FAILSAFE_GENERIC, FAILSAFE_LOW_BAT,
     FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER)
 

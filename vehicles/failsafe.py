@@ -133,6 +133,10 @@ class FailsafeFlags:
     battery_warning_at_arming: int = 0
     # The position estimate was valid and is lost (no aiding for EKF2_NOAID_TOUT: GPS off).
     position_invalid: bool = False
+    # failure_detector.py: roll or pitch beyond its limit (fd_critical_failure), and whether the
+    # vehicle armed less than MPC_SPOOLUP_TIME + 3 s ago (PX4's early takeoff phase)
+    fd_critical_failure: bool = False
+    early_takeoff: bool = False
 
 
 # NAV_DLL_ACT / NAV_RCL_ACT values: 0 disabled, 1 Hold, 2 Return, 3 Land, 5 Terminate, 6 Disarm.
@@ -229,6 +233,19 @@ def from_position_loss(f: FailsafeFlags) -> ActionOptions:
     return ActionOptions(Action.DESCEND)
 
 
+CBRK_FLIGHTTERM_KEY = 121212  # circuit_breaker.h: CBRK_FLIGHTTERM at this value disables it
+
+
+def from_fd_critical_failure(f: FailsafeFlags, params) -> ActionOptions:
+    """failsafe.cpp: in the early takeoff phase Disarm; later Terminate unless the flight
+    termination circuit breaker is set (CBRK_FLIGHTTERM 121212, PX4's default), then Warn."""
+    if f.early_takeoff:
+        return ActionOptions(Action.DISARM)
+    if int(params["CBRK_FLIGHTTERM"]) != CBRK_FLIGHTTERM_KEY:
+        return ActionOptions(Action.TERMINATE, Clear.NEVER)
+    return ActionOptions(Action.WARN)
+
+
 @dataclass(frozen=True)
 class Check:
     name: str
@@ -250,6 +267,7 @@ CHECKS: tuple[Check, ...] = (
           lambda f, p: from_battery_act(p, f.battery_warning,
                                         f.battery_warning > f.battery_warning_at_arming)),
     Check("geofence_breached", lambda f, p: f.geofence_breached, lambda f, p: from_gf_act(p)),
+    Check("fd_critical_failure", lambda f, p: f.fd_critical_failure, from_fd_critical_failure),
     Check("position_lost", lambda f, p: f.position_invalid and f.user_nav_state in NEEDS_POSITION,
           lambda f, p: from_position_loss(f)),
 )

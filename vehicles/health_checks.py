@@ -39,6 +39,8 @@ from vehicles.events import (
     CHECK_ACCEL_NO_DATA,
     CHECK_BARO_NO_DATA,
     CHECK_CANNOT_TAKEOFF,
+    CHECK_FD_PITCH,
+    CHECK_FD_ROLL,
     CHECK_GLOBAL_POS,
     CHECK_GYRO_NO_DATA,
     CHECK_HOME,
@@ -133,6 +135,7 @@ class CheckInputs:
     sensor_failures: int  # estimation.F_* bits
     required_sensors: int = SENSORS_OFF  # the F_*_OFF bits checked (SYS_HAS_BARO, SYS_HAS_MAG)
     sensors_no_data: int = 0  # the F_*_OFF bits off for SENSOR_TIMEOUT_S (HealthChecks.update)
+    attitude_failure: int = 0  # failure_detector.py: 1 roll, 2 pitch
 
 
 def inputs_of(autopilot: Any, params: Any, sensor_failures: int) -> CheckInputs:
@@ -143,10 +146,12 @@ def inputs_of(autopilot: Any, params: Any, sensor_failures: int) -> CheckInputs:
         required |= F_BARO_OFF
     if params.get("SYS_HAS_MAG", 1):
         required |= F_MAG_OFF
+    fd = autopilot.failure_detector
     return CheckInputs(c.armed, c.nav_state, c.position_valid, c.manual_control_available,
                        c.mission_valid, c.offboard_available, autopilot.home is not None,
                        int(params.get("COM_RC_IN_MODE", 0) or 0),
-                       bool(params.get("COM_ARM_MIS_REQ", 0)), sensor_failures, required)
+                       bool(params.get("COM_ARM_MIS_REQ", 0)), sensor_failures, required,
+                       attitude_failure=(1 if fd.roll else 0) | (2 if fd.pitch else 0))
 
 
 @dataclass(frozen=True)
@@ -211,6 +216,9 @@ def evaluate(i: CheckInputs) -> Results:
                 REQ_MANUAL_CONTROL if disabled else 0, REMOTE_CONTROL)
         can_arm &= ~REQ_MANUAL_CONTROL
         can_run &= ~REQ_MANUAL_CONTROL
+    if i.attitude_failure:  # failureDetectorCheck.cpp: roll first, else pitch
+        failure(CHECK_FD_ROLL if i.attitude_failure & 1 else CHECK_FD_PITCH, Log.CRITICAL,
+                ALL_MODES, SYSTEM)
     if i.sensor_failures & F_GPS_OFF:
         health_error |= 1 << INDEX["gps"]
     return Results(can_arm, can_run, error, warning, PRESENT, health_error, 0, tuple(checks),

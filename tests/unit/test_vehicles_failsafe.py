@@ -40,6 +40,7 @@ FLAG_FOR_CHECK = {
     "geofence_breached": dict(geofence_breached=True),
     "manual_control_signal_lost": dict(manual_control_lost=True),
     "position_lost": dict(position_invalid=True),
+    "fd_critical_failure": dict(fd_critical_failure=True),
 }
 
 
@@ -47,7 +48,8 @@ def test_every_check_has_a_trigger_in_this_test():
     assert {c.name for c in CHECKS} == set(FLAG_FOR_CHECK)
 
 
-@pytest.mark.parametrize("check", [c.name for c in CHECKS if c.name != "position_lost"])
+@pytest.mark.parametrize("check", [c.name for c in CHECKS
+                                   if c.name not in ("position_lost", "fd_critical_failure")])
 def test_each_check_holds_then_acts_and_clears_on_disarm(check):
     params = ParamStore({"NAV_DLL_ACT": 2, "GF_ACTION": 3, "COM_LOW_BAT_ACT": 3})
     log = StatusLog()
@@ -127,6 +129,20 @@ def test_the_user_is_told_what_the_failsafe_does_and_why():
     fs.events = events
     assert fs.update(0.0, FailsafeFlags(**base, battery_warning=1)) is Action.WARN
     assert _told(events) == [("commander_failsafe_enter_low_bat", Log.WARNING, Log.INFO, ())]
+
+
+def test_an_attitude_failure_disarms_on_takeoff_and_then_warns_or_terminates():
+    """failsafe.cpp fd_critical_failure: Disarm in the early takeoff phase; later Warn with the
+    flight termination circuit breaker set (CBRK_FLIGHTTERM 121212, PX4's default), Terminate
+    without it."""
+    base = dict(armed=True, user_nav_state=NavState.AUTO_LOITER, manual_control_lost=False)
+    cases = ((121212, True, Action.DISARM), (121212, False, Action.WARN),
+             (0, False, Action.TERMINATE), (0, True, Action.DISARM))
+    for breaker, early, action in cases:
+        fs = Failsafe(ParamStore({"CBRK_FLIGHTTERM": breaker}), StatusLog())
+        fs.update(0.0, FailsafeFlags(**base, early_takeoff=early))
+        assert fs.update(0.1, FailsafeFlags(**base, early_takeoff=early,
+                                            fd_critical_failure=True)) is action, (breaker, early)
 
 
 def test_a_battery_level_the_vehicle_armed_with_only_warns():
@@ -296,6 +312,34 @@ def test_rtl_lands_at_closer_rally_point(sim):
     p = v.state.position_ned_m
     assert math.hypot(p[0] - 30.0, p[1] - 10.0) < 1.5
     assert "RTL: land at destination" in sim.texts()
+
+
+def test_a_motor_lost_in_flight_is_an_attitude_failure_that_denies_arming():
+    """A motor off in flight (failure injection): the vehicle rolls past FD_FAIL_R for
+    FD_FAIL_R_TTRI, the failure detector's roll failure; the failsafe warns (CBRK_FLIGHTTERM
+    set), and where it lies tilted, arming is denied ("Attitude failure detected")."""
+    sim = make_sim(SYS_FAILURE_EN=1)
+    try:
+        v = sim.v
+        take_off(sim)
+        sim.run(3.0)
+        assert v.inject_failure(sim.t, 101, 1, 1) is CommandResult.ACCEPTED  # motor 1 off
+        fd = v._autopilot.failure_detector
+        assert sim.run(6.0, until=lambda: fd.roll or fd.pitch)
+        sim.run(0.2)
+        told = [event_name(e.id) for e in v.events.after(v.events.latest - len(v.events))]
+        assert "commander_failsafe_enter_generic_warn" in told
+        assert "Failsafe activated\t" in sim.texts()
+        sim.run(6.0)
+        assert fd.critical  # it lies tilted where it fell
+        v.disarm(sim.t, forced=True)
+        assert v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
+        assert sim.texts()[-1] == "Arming denied: Resolve system health failures first\t"
+        assert v.run_prearm_checks(sim.t) is CommandResult.ACCEPTED
+        told = [event_name(e.id) for e in v.events.after(v.events.latest - len(v.events))]
+        assert {"check_failure_detector_roll", "check_failure_detector_pitch"} & set(told)
+    finally:
+        sim.close()
 
 
 def test_battery_emergency_lands():

@@ -1,0 +1,68 @@
+"""PX4's failure detector, its attitude part (commander/failure_detector/FailureDetector.cpp).
+
+Rules:
+- While attitude control runs (vehicle_control_mode flag_control_attitude_enabled: every
+  multicopter mode but Acro, Termination and Offboard on body rates), a roll beyond FD_FAIL_R
+  degrees held for FD_FAIL_R_TTRI seconds is a roll failure, the same for pitch (FD_FAIL_P,
+  FD_FAIL_P_TTRI); a threshold of 0 turns its check off. A failure clears as soon as the angle is
+  back within the threshold (PX4's hysteresis: from false to true after the time, at once back).
+- Without attitude control both flags are false.
+- ``critical`` is failsafe_flags fd_critical_failure: the commander's failsafe disarms, terminates
+  or warns (failsafe.py), and the health report denies arming ("Attitude failure detected").
+- Pure: time and the attitude are arguments.
+"""
+
+from __future__ import annotations
+
+import math
+
+from vehicles.types import NavState
+
+NO_ATTITUDE_CONTROL = frozenset({NavState.ACRO, NavState.TERMINATION})
+
+
+def attitude_control(nav_state: NavState, offboard_setpoint) -> bool:
+    """vehicle_control_mode flag_control_attitude_enabled of a multicopter (control_mode.cpp)."""
+    if nav_state in NO_ATTITUDE_CONTROL:
+        return False
+    sp = offboard_setpoint
+    return not (nav_state is NavState.OFFBOARD and sp is not None and sp.attitude_q is None
+                and sp.has_body_rates)
+
+
+class FailureDetector:
+    def __init__(self) -> None:
+        self.roll = self.pitch = False
+        self._roll_since: float | None = None  # since when the roll has been beyond its limit
+        self._pitch_since: float | None = None
+
+    @property
+    def critical(self) -> bool:
+        return self.roll or self.pitch
+
+    def update(self, now_s: float, q: tuple[float, float, float, float], attitude_control: bool,
+               params) -> None:
+        if not attitude_control:
+            self.roll = self.pitch = False
+            self._roll_since = self._pitch_since = None
+            return
+        w, x, y, z = q
+        roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+        pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+        max_roll = abs(math.radians(float(params["FD_FAIL_R"])))
+        max_pitch = abs(math.radians(float(params["FD_FAIL_P"])))
+        self.roll, self._roll_since = _held(
+            max_roll > 1e-7 and abs(roll) > max_roll, self._roll_since, now_s,
+            float(params["FD_FAIL_R_TTRI"]), self.roll)
+        self.pitch, self._pitch_since = _held(
+            max_pitch > 1e-7 and abs(pitch) > max_pitch, self._pitch_since, now_s,
+            float(params["FD_FAIL_P_TTRI"]), self.pitch)
+
+
+def _held(beyond: bool, since: float | None, now_s: float, hold_s: float,
+          state: bool) -> tuple[bool, float | None]:
+    """systemlib::Hysteresis with a time from false only: (state, since when beyond)."""
+    if not beyond:
+        return False, None
+    since = now_s if since is None else since
+    return state or now_s - since >= hold_s, since
