@@ -274,7 +274,10 @@ CHECKS: tuple[Check, ...] = (
 
 
 class Failsafe:
-    def __init__(self, params, log: StatusLog) -> None:
+    def __init__(self, params, log: StatusLog, checks: tuple[Check, ...] = CHECKS) -> None:
+        """``checks``: the conditions and their actions (failsafe.cpp checkStateAndMode); PX4's
+        own framework tests run theirs."""
+        self._checks = checks
         self._params = params
         self._log = log
         self.actions: dict[str, ActionOptions] = {}
@@ -329,7 +332,7 @@ class Failsafe:
         if flags is self._quiet_flags and p.version == self._quiet_version:
             checks: tuple[Check, ...] = ()
         else:
-            checks = CHECKS
+            checks = self._checks
             self._quiet_flags, self._quiet_version = flags, p.version
         for check in checks:
             if check.condition(flags, p):
@@ -354,8 +357,10 @@ class Failsafe:
                         del actions[check.name]
                     else:
                         actions[check.name] = replace(current, failing=False)
-        if not actions or not any(a.action >= Action.HOLD for a in actions.values()):
-            self._delay_until = -math.inf  # clearDelayIfNeeded
+        if (not actions or not any(a.action >= Action.HOLD for a in actions.values())
+                or self.selected > Action.HOLD or self._user_takeover):
+            # clearDelayIfNeeded: no Hold first when already in a failsafe or taken over
+            self._delay_until = -math.inf
         action, delayed, cause = self._select(now_s, flags)
         # The action is worse than before, or a warning was added (framework.cpp update)
         if action > self.selected or (self._notification_required and action is not Action.NONE):
@@ -422,7 +427,15 @@ class Failsafe:
                 worst, cause = a.action, a.cause
         if self._user_takeover and worst is not Action.TERMINATE:
             return Action.NONE, Action.NONE, cause
+        delayed = Action.NONE
         if (now_s < self._delay_until and worst > Action.WARN and not flags.position_invalid
                 and worst not in (Action.DISARM, Action.TERMINATE)):  # Hold needs a position
-            return Action.HOLD, worst, cause
-        return worst, Action.NONE, cause
+            worst, delayed = Action.HOLD, worst
+        # getSelectedAction's UX rule: already landing, a Return (or, precision landing, a Land)
+        # only warns
+        mode = flags.user_nav_state
+        if mode is NavState.AUTO_LAND and Action.RTL in (worst, delayed) or (
+                mode is NavState.AUTO_PRECLAND
+                and (Action.RTL in (worst, delayed) or Action.LAND in (worst, delayed))):
+            return Action.WARN, Action.NONE, cause
+        return worst, delayed, cause

@@ -8,7 +8,16 @@ import pytest
 from tests.unit.test_vehicles_flight import Sim, take_off
 from tests.unit.test_vehicles_mission import item
 from vehicles.events import DEFINITIONS, EventLog, Log
-from vehicles.failsafe import CHECKS, Action, Cause, Failsafe, FailsafeFlags
+from vehicles.failsafe import (
+    CHECKS,
+    Action,
+    ActionOptions,
+    Cause,
+    Check,
+    Clear,
+    Failsafe,
+    FailsafeFlags,
+)
 from vehicles.params import ParamStore
 from vehicles.plan_types import MavCmd, PlanItem, PlanResult, PlanType
 from vehicles.status_log import StatusLog
@@ -157,6 +166,40 @@ def test_a_battery_level_the_vehicle_armed_with_only_warns():
     fresh = Failsafe(ParamStore({"COM_LOW_BAT_ACT": 3, "COM_FAIL_ACT_T": 0.0}), StatusLog())
     fresh.update(0.0, FailsafeFlags(armed=True, **base))
     assert fresh.update(0.1, FailsafeFlags(armed=True, battery_warning=2, **base)) is Action.RTL
+
+
+def test_px4s_framework_test_general():
+    """PX4's own FailsafeTest.general (failsafe_test.cpp), its checks (FailsafeTester: manual
+    control lost -> RTL cleared on a mode change, data link lost -> Descend) and steps: RC lost
+    holds, then returns; the data link lost on top descends at once (already in a failsafe: no
+    second hold, clearDelayIfNeeded); back -> RTL; RC back -> RTL stays; a mode change clears."""
+    tester = (
+        Check("manual_control_signal_lost", lambda f, p: f.manual_control_lost,
+              lambda f, p: ActionOptions(Action.RTL, Clear.ON_MODE_CHANGE_OR_DISARM)),
+        Check("gcs_connection_lost", lambda f, p: f.gcs_lost,
+              lambda f, p: ActionOptions(Action.DESCEND)))
+    fs = Failsafe(ParamStore({"COM_FAIL_ACT_T": 5.0}), StatusLog(), tester)
+    ok = dict(armed=True, user_nav_state=NavState.POSCTL, manual_control_lost=False,
+              manual_control_lost_at_arming=False)
+    rc_lost = dict(ok, manual_control_lost=True)
+    t = 5.0
+    steps = ((0.0, ok, Action.NONE), (0.01, rc_lost, Action.HOLD), (6.0, rc_lost, Action.RTL),
+             (0.01, dict(rc_lost, gcs_lost=True), Action.DESCEND), (0.01, rc_lost, Action.RTL),
+             (0.01, ok, Action.RTL))
+    for dt, flags, action in steps:
+        t += dt
+        assert fs.update(t, FailsafeFlags(**flags)) is action, (t, flags)
+    fs.user_mode_changed()
+    assert fs.update(t + 0.01, FailsafeFlags(**dict(ok, user_nav_state=NavState.ALTCTL))) \
+        is Action.NONE
+
+
+def test_already_landing_a_return_only_warns():
+    """getSelectedAction's UX rule: in Land a Return failsafe only warns."""
+    fs = Failsafe(ParamStore({"GF_ACTION": 3}), StatusLog())
+    flags = FailsafeFlags(armed=True, user_nav_state=NavState.AUTO_LAND, geofence_breached=True,
+                          manual_control_lost=False)
+    assert fs.update(0.0, flags) is Action.WARN
 
 
 def test_the_same_flags_are_checked_again_after_a_parameter_change():
