@@ -231,8 +231,7 @@ class Autopilot:
         state = c.nav_state
         if (bits & 1 and state in STICK_OVERRIDE_AUTO) or (bits & 2 and state is NavState.OFFBOARD):
             self._refresh_requirements(now_s)
-            if c.request_nav_state(now_s, NavState.POSCTL) is CommandResult.ACCEPTED:
-                self.log.info(now_s, "Pilot took over using sticks")
+            c.stick_override(now_s)
 
     def start_mission(self, now_s: float, here: Measurement, first_seq: float = -1) -> CommandResult:
         """MISSION_START (Commander.cpp): Mission mode and arm. ``first_seq`` is the command's

@@ -40,7 +40,9 @@ from vehicles.events import (
     ARM_REASON_TEXT,
     ARMED_BY,
     DISARMED_BY,
+    FAILSAFE_RC_OVERRIDE,
     LANDING_DETECTED,
+    RC_OVERRIDE,
     TAKEOFF_DETECTED,
     ArmReason,
     EventLog,
@@ -389,6 +391,21 @@ class Commander:
             self.nav_state = target
         elif self.armed:
             self.nav_state = self.user_nav_state
+
+    def stick_override(self, now_s: float) -> None:
+        """Sticks moved in an auto mode or Offboard (COM_RC_OVERRIDE): Position. Without a
+        failsafe acting it is a mode change ("Pilot took over using sticks", text and event);
+        with one it is the failsafe's user takeover (its event only)."""
+        in_failsafe = self.failsafe.selected > _WARN
+        if self.request_nav_state(now_s, NavState.POSCTL) is not CommandResult.ACCEPTED:
+            return
+        if in_failsafe:
+            if self.events is not None:
+                self.events.send(now_s, FAILSAFE_RC_OVERRIDE, Log.INFO)
+            return
+        self._log.info(now_s, "Pilot took over using sticks\t")
+        if self.events is not None:
+            self.events.send(now_s, RC_OVERRIDE, Log.INFO)
 
     def switch_by_vehicle(self, target: NavState) -> None:
         """A switch the vehicle makes itself (takeoff done -> Hold): no request rules apply."""

@@ -187,6 +187,10 @@ CHECK_FD_ROLL = _check("check_failure_detector_roll", "Attitude failure detected
                        "The vehicle exceeded the maximum configured roll angle.")
 CHECK_FD_PITCH = _check("check_failure_detector_pitch", "Attitude failure detected",
                         "The vehicle exceeded the maximum configured pitch angle.")
+# Commander's stick override (auto mode or Offboard, COM_RC_OVERRIDE), and the failsafe
+# framework's takeover when a failsafe acts
+RC_OVERRIDE = EventDef("commander_rc_override", "default", "Pilot took over using sticks")
+FAILSAFE_RC_OVERRIDE = EventDef("failsafe_rc_override", "default", "Pilot took over using sticks")
 DEFINITIONS: tuple[EventDef, ...] = (
     ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARMING_SUMMARY,
     HEALTH_SUMMARY,
@@ -194,7 +198,8 @@ DEFINITIONS: tuple[EventDef, ...] = (
     CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF, CHECK_ACCEL_NO_DATA, CHECK_BARO_NO_DATA,
     CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA, CHECK_FD_ROLL, CHECK_FD_PITCH,
     FAILSAFE_GENERIC_HOLD, FAILSAFE_HOLD, FAILSAFE_GENERIC_WARN, FAILSAFE_GENERIC, FAILSAFE_LOW_BAT,
-    FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER)
+    FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER, RC_OVERRIDE,
+    FAILSAFE_RC_OVERRIDE)
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ import pytest
 
 from tests.unit.test_vehicles_flight import Sim, take_off
 from vehicles.airframe import X500
+from vehicles.events import event_id
 from vehicles.manual_control import Sticks, deadzone, expo, superexpo, throttle_to_thrust
 from vehicles.params import ParamStore
 from vehicles.types import CommandResult, NavState
@@ -139,7 +140,26 @@ def test_moving_the_sticks_takes_over_a_mission_hold(sim):
     assert sim.v.status.nav_state is NavState.AUTO_LOITER
     fly(sim, 0.5, Sticks(pitch=0.8))
     assert sim.v.status.nav_state is NavState.POSCTL
-    assert "Pilot took over using sticks" in sim.texts()
+    assert "Pilot took over using sticks\t" in sim.texts()
+    assert sim.v.events.after(sim.v.events.latest - 1)[0].id == event_id("commander_rc_override")
+
+
+def test_moving_the_sticks_during_a_failsafe_is_the_failsafes_takeover(sim):
+    """Commander passes the override to the failsafe while one acts: Position, the framework's
+    "Pilot took over using sticks" event (failsafe_rc_override), no text."""
+    take_off(sim)
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    fly(sim, 1.0, CENTRED)
+    sim.run(7.0)  # sticks lost: Hold, then Return
+    assert sim.v.status.nav_state is NavState.AUTO_RTL
+    fly(sim, 0.5, CENTRED)  # the joystick is back: the Return goes on (cleared by a mode change)
+    assert sim.v.status.nav_state is NavState.AUTO_RTL and sim.v.status.failsafe
+    fly(sim, 0.5, Sticks(pitch=0.8))
+    assert sim.v.status.nav_state is NavState.POSCTL and not sim.v.status.failsafe
+    ids = [e.id for e in sim.v.events.after(sim.v.events.latest - len(sim.v.events))]
+    assert event_id("failsafe_rc_override") in ids and event_id("commander_rc_override") not in ids
+    assert "Pilot took over using sticks\t" not in sim.texts()
 
 
 def test_no_takeover_with_com_rc_override_zero():
