@@ -20,7 +20,7 @@ Rules and invariants:
   runs: the failsafe state machine (failsafe.py) may override it while a failsafe is active.
 - Stick input (MANUAL_CONTROL, manual_control.py): the stick modes (``NEEDS_MANUAL_CONTROL``)
   are entered and armed in only while it is fresh (``manual_control_available``); once seen, its
-  loss and return are announced ("Manual control lost" / "... regained after N.Ns").
+  loss and return are announced as events ("Manual control lost" / "... regained after N.N s").
 - Data-link loss (Commander::dataLinkCheck): the timer starts at the first GCS heartbeat; no
   heartbeat for COM_DL_LOSS_T -> "Connection to ground station lost"; a new one -> "GCS connection
   regained". The mode is not restored automatically.
@@ -41,8 +41,12 @@ from vehicles.events import (
     ARMED_BY,
     DISARMED_BY,
     FAILSAFE_RC_OVERRIDE,
+    GCS_LOST,
+    GCS_REGAINED,
     LANDING_DETECTED,
+    RC_LOST,
     RC_OVERRIDE,
+    RC_REGAINED,
     TAKEOFF_DETECTED,
     ArmReason,
     EventLog,
@@ -242,7 +246,9 @@ class Commander:
 
     def on_gcs_heartbeat(self, now_s: float) -> None:
         if self.gcs_lost:
-            self._log.info(now_s, "GCS connection regained")
+            self._log.info(now_s, "GCS connection regained\t")
+            if self.events is not None:
+                self.events.send(now_s, GCS_REGAINED, Log.INFO)
         self.gcs_lost = False
         self._gcs_seen_s = now_s
 
@@ -355,12 +361,17 @@ class Commander:
         return self._ever_valid and not self.position_valid
 
     def _update_manual_control(self, now_s: float, available: bool) -> None:
-        """Commander::manualControlCheck's texts, once stick input has been seen."""
+        """rcAndDataLinkCheck.cpp's events (no texts), once stick input has been seen; the
+        time regained counts from the last input (the loss shows COM_RC_LOSS_T after it)."""
+        events = self.events
         if available and self._sticks_lost_s is not None:
-            self._log.info(now_s, f"Manual control regained after {now_s - self._sticks_lost_s:.1f}s")
+            if events is not None:
+                since_s = self._sticks_lost_s - float(self._params["COM_RC_LOSS_T"])
+                events.send(now_s, RC_REGAINED, Log.INFO, None, "f", now_s - since_s)
             self._sticks_lost_s = None
         elif not available and self._sticks_seen and self._sticks_lost_s is None:
-            self._log.critical(now_s, "Manual control lost")
+            if events is not None:
+                events.send(now_s, RC_LOST, Log.INFO, Log.INFO)
             self._sticks_lost_s = now_s
         self._sticks_seen = self._sticks_seen or available
 
@@ -369,7 +380,9 @@ class Commander:
             return
         if now_s - self._gcs_seen_s > self._dl_loss_t_s:
             self.gcs_lost = True
-            self._log.critical(now_s, "Connection to ground station lost")
+            self._log.info(now_s, "Connection to ground station lost\t")
+            if self.events is not None:
+                self.events.send(now_s, GCS_LOST, Log.WARNING, Log.INFO)
 
     def _update_failsafe(self, now_s: float, flags: FailsafeFlags) -> None:
         before = self.failsafe.selected

@@ -187,6 +187,12 @@ CHECK_FD_ROLL = _check("check_failure_detector_roll", "Attitude failure detected
                        "The vehicle exceeded the maximum configured roll angle.")
 CHECK_FD_PITCH = _check("check_failure_detector_pitch", "Attitude failure detected",
                         "The vehicle exceeded the maximum configured pitch angle.")
+# rcAndDataLinkCheck.cpp (stick input: events only) and Commander's dataLinkCheck (GCS link)
+RC_LOST = EventDef("commander_rc_lost", "default", "Manual control lost")
+RC_REGAINED = EventDef("commander_rc_regained", "default", "Manual control regained after {1:.1} s",
+                       (("float", "arg0"),))
+GCS_LOST = EventDef("commander_gcs_lost", "default", "Connection to ground control station lost")
+GCS_REGAINED = EventDef("commander_dl_regained", "default", "GCS connection regained")
 # Commander's stick override (auto mode or Offboard, COM_RC_OVERRIDE), and the failsafe
 # framework's takeover when a failsafe acts
 RC_OVERRIDE = EventDef("commander_rc_override", "default", "Pilot took over using sticks")
@@ -199,7 +205,7 @@ DEFINITIONS: tuple[EventDef, ...] = (
     CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA, CHECK_FD_ROLL, CHECK_FD_PITCH,
     FAILSAFE_GENERIC_HOLD, FAILSAFE_HOLD, FAILSAFE_GENERIC_WARN, FAILSAFE_GENERIC, FAILSAFE_LOW_BAT,
     FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER, RC_OVERRIDE,
-    FAILSAFE_RC_OVERRIDE)
+    FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED)
 
 
 @dataclass(frozen=True)
@@ -224,7 +230,7 @@ class EventLog:
         return len(self._buffer)
 
     def send(self, now_s: float, event: EventDef, external: Log, internal: Log | None = None,
-             fmt: str = "", *args: int) -> Event:
+             fmt: str = "", *args: float) -> Event:
         """events::send: ``args`` packed little-endian by ``fmt`` (struct codes, no padding)."""
         payload = struct.pack("<" + fmt, *args) if fmt else b""
         if len(payload) > MAX_ARGUMENTS:

@@ -286,10 +286,12 @@ def test_data_link_loss_default_does_nothing(sim):
     take_off(sim)
     v.on_gcs_heartbeat(sim.t)
     sim.run(16.0)
-    assert "Connection to ground station lost" in sim.texts()
+    assert "Connection to ground station lost\t" in sim.texts()
     assert v.status.nav_state is NavState.AUTO_LOITER and not v.status.failsafe
     v.on_gcs_heartbeat(sim.t)
-    assert sim.texts()[-1] == "GCS connection regained"
+    assert sim.texts()[-1] == "GCS connection regained\t"
+    told = [event_name(e.id) for e in v.events.after(v.events.latest - len(v.events))]
+    assert told[-2:] == ["commander_gcs_lost", "commander_dl_regained"]
 
 
 def test_data_link_loss_returns_with_nav_dll_act_2():

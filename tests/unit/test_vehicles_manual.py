@@ -2,6 +2,7 @@
 simulated time, sticks fed as a joystick would at 20 Hz."""
 
 import math
+import struct
 
 import numpy as np
 import pytest
@@ -125,13 +126,15 @@ def test_stick_loss_in_position_mode_returns(sim):
     fly(sim, 1.0, CENTRED)
     sim.run(7.0)  # no input: COM_RC_LOSS_T, then Hold for COM_FAIL_ACT_T, then NAV_RCL_ACT
     assert sim.v.status.nav_state is NavState.AUTO_RTL
-    texts = sim.texts()
-    assert texts.index("Manual control lost") < texts.index("Failsafe activated\t")
+    # rcAndDataLinkCheck.cpp: events, no texts; regained after the whole gap since the last input
+    events = sim.v.events
+    lost = [e for e in events.after(events.latest - len(events))
+            if e.id == event_id("commander_rc_lost")]
+    assert lost and "Manual control lost" not in sim.texts()
     fly(sim, 0.2, CENTRED)
-    last = sim.texts()[-1]  # 7 s minus COM_RC_LOSS_T, to the 50 Hz tick that noticed it
-    assert last.startswith("Manual control regained after ") and last.endswith("s")
-    assert float(last.removeprefix("Manual control regained after ")[:-1]) == \
-        pytest.approx(6.5, abs=0.1)
+    regained = next(e for e in reversed(events.after(events.latest - len(events)))
+                    if e.id == event_id("commander_rc_regained"))
+    assert struct.unpack("<f", regained.arguments)[0] == pytest.approx(7.0, abs=0.1)
 
 
 def test_moving_the_sticks_takes_over_a_mission_hold(sim):
