@@ -193,6 +193,20 @@ RC_REGAINED = EventDef("commander_rc_regained", "default", "Manual control regai
                        (("float", "arg0"),))
 GCS_LOST = EventDef("commander_gcs_lost", "default", "Connection to ground control station lost")
 GCS_REGAINED = EventDef("commander_dl_regained", "default", "GCS connection regained")
+# The navigator's (mission_base.cpp, rtl_direct.cpp, takeoff.cpp): each beside its text
+MISSION_EXECUTE = EventDef("mission_execute", "default", "Executing Mission")
+MISSION_FINISHED = EventDef("mission_finished", "default", "Mission finished, landed")
+MISSION_FINISHED_LOITER = EventDef("mission_finished_loiter", "default",
+                                   "Mission finished, loitering")
+RTL_RETURN_AT = EventDef("vrtl_return_at", "default",
+                         "RTL: start return at {1m_v} ({2m_v} above destination)",
+                         (("int32_t", "arg0"), ("int32_t", "arg1")))
+RTL_LAND = EventDef("rtl_land_at_destination", "default", "RTL: land at destination")
+RTL_COMPLETED_LOITER = EventDef("rtl_completed_loiter", "default", "RTL: completed, loitering")
+TAKEOFF_DEFAULT_ALT = EventDef("navigator_takeoff_default_alt", "default",
+                               "Using default takeoff altitude: {1:.2m}", (("float", "arg0"),))
+TAKEOFF_ALREADY_HIGHER = EventDef("navigator_takeoff_already_higher", "default",
+                                  "Already higher than takeoff altitude (not descending)")
 # Commander's stick override (auto mode or Offboard, COM_RC_OVERRIDE), and the failsafe
 # framework's takeover when a failsafe acts
 RC_OVERRIDE = EventDef("commander_rc_override", "default", "Pilot took over using sticks")
@@ -205,7 +219,9 @@ DEFINITIONS: tuple[EventDef, ...] = (
     CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA, CHECK_FD_ROLL, CHECK_FD_PITCH,
     FAILSAFE_GENERIC_HOLD, FAILSAFE_HOLD, FAILSAFE_GENERIC_WARN, FAILSAFE_GENERIC, FAILSAFE_LOW_BAT,
     FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER, RC_OVERRIDE,
-    FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED)
+    FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED, MISSION_EXECUTE,
+    MISSION_FINISHED, MISSION_FINISHED_LOITER, RTL_RETURN_AT, RTL_LAND, RTL_COMPLETED_LOITER,
+    TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER)
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, NamedTuple
 
 from vehicles.control.trajectory import TrajectoryLimits
+from vehicles.events import TAKEOFF_ALREADY_HIGHER, TAKEOFF_DEFAULT_ALT, Log
 from vehicles.params import ParamStore
 from vehicles.status_log import StatusLog
 from vehicles.types import GeoPoint, HomePosition, NavState, Vec3
@@ -195,7 +196,8 @@ class Takeoff(NavMode):
         home_z = ctx.home.position_ned_m[2] if ctx.home is not None else z
         min_z = home_z - alt
         if math.isnan(self.requested_alt_amsl_m):
-            ctx.log.info(ctx.now_s, f"Using default takeoff altitude: {alt:.1f} m")
+            ctx.log.info(ctx.now_s, f"Using default takeoff altitude: {alt:.1f} m\t")
+            ctx.log.event(ctx.now_s, TAKEOFF_DEFAULT_ALT, Log.INFO, Log.INFO, "f", alt)
             target_z = min_z
         else:
             target_z = self.origin_alt_amsl_m - self.requested_alt_amsl_m
@@ -203,7 +205,8 @@ class Takeoff(NavMode):
                 ctx.log.info(ctx.now_s, f"Using minimum takeoff altitude: {alt:.1f} m")
                 target_z = min_z
         if not ctx.landed and target_z > z:
-            ctx.log.info(ctx.now_s, "Already higher than takeoff altitude")
+            ctx.log.critical(ctx.now_s, "Already higher than takeoff altitude\t")
+            ctx.log.event(ctx.now_s, TAKEOFF_ALREADY_HIGHER, Log.ERROR, Log.INFO)
             target_z = z
         self.target = (x, y, target_z)
         self.yaw = ctx.yaw_rad

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections import deque
 
+from vehicles.events import MISSION_EXECUTE, MISSION_FINISHED, MISSION_FINISHED_LOITER
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
 from vehicles.plan_types import (
     REACHED_HISTORY,
@@ -137,7 +138,8 @@ class Mission(NavMode):
         if self.finished:  # a finished mission starts over
             self.current, self.finished = 0, False
             self._jumps_done.clear()
-        ctx.log.info(ctx.now_s, "Executing Mission")
+        ctx.log.info(ctx.now_s, "Executing Mission\t")
+        ctx.log.event(ctx.now_s, MISSION_EXECUTE)
         self._phase = "start"
         self._yaw = ctx.yaw_rad
 
@@ -348,8 +350,10 @@ class Mission(NavMode):
         self._phase = "done"
         self.current = max(len(self.items) - 1, 0)
         if ctx.landed:
-            ctx.log.info(ctx.now_s, "Mission finished, landed")
+            ctx.log.info(ctx.now_s, "Mission finished, landed\t")
+            ctx.log.event(ctx.now_s, MISSION_FINISHED)
             self._target = ctx.position_ned_m
         else:
-            ctx.log.info(ctx.now_s, "Mission finished, loitering")
+            ctx.log.info(ctx.now_s, "Mission finished, loitering\t")
+            ctx.log.event(ctx.now_s, MISSION_FINISHED_LOITER)
             self._target = ctx.stopping_point_ned_m

@@ -19,6 +19,7 @@ from __future__ import annotations
 import enum
 import math
 
+from vehicles.events import RTL_COMPLETED_LOITER, RTL_LAND, RTL_RETURN_AT, Log
 from vehicles.nav_core import Land, NavContext, NavMode, NavSetpoint
 from vehicles.plan_types import MavCmd, PlanType
 from vehicles.plans import PlanStore, item_ned
@@ -90,10 +91,13 @@ class Return(NavMode):
         self.return_z = min(dz - above, z)  # never descend to return
         self.phase = RtlPhase.LAND if ctx.landed else RtlPhase.CLIMB
         if not ctx.landed:
-            above_home = ctx.home.position_ned_m[2] - self.return_z if ctx.home else -self.return_z
-            ctx.log.info(ctx.now_s, f"RTL: start return at {math.ceil(above_home - 1e-6):.0f} m "
-                                    f"({math.ceil(dz - self.return_z - 1e-6):.0f} m above "
-                                    f"destination)")
+            # rtl_direct.cpp: the return altitude AMSL, and above the destination
+            home = ctx.home
+            amsl = math.ceil((home.geo.alt_amsl_m + home.position_ned_m[2] if home else 0.0)
+                             - self.return_z - 1e-6)
+            above = math.ceil(dz - self.return_z - 1e-6)
+            ctx.log.info(ctx.now_s, f"RTL: start return at {amsl} m ({above} m above destination)\t")
+            ctx.log.event(ctx.now_s, RTL_RETURN_AT, Log.INFO, None, "ii", amsl, above)
 
     def on_active(self, ctx: NavContext) -> NavSetpoint:
         p = ctx.params
@@ -118,7 +122,8 @@ class Return(NavMode):
                 self.phase = RtlPhase.LOITER
                 self._loiter_since = ctx.now_s
                 if float(p["RTL_LAND_DELAY"]) < 0:
-                    ctx.log.info(ctx.now_s, "RTL: completed, loitering")
+                    ctx.log.info(ctx.now_s, "RTL: completed, loitering\t")
+                    ctx.log.event(ctx.now_s, RTL_COMPLETED_LOITER)
             else:
                 return NavSetpoint((hx, hy, descend_z), self.yaw, ctx.limits())
         if self.phase is RtlPhase.LOITER:
@@ -126,7 +131,8 @@ class Return(NavMode):
             if delay < 0 or ctx.now_s - self._loiter_since < delay:
                 return NavSetpoint((hx, hy, descend_z), self.yaw, ctx.limits())
             self.phase = RtlPhase.LAND
-            ctx.log.info(ctx.now_s, "RTL: land at destination")
+            ctx.log.info(ctx.now_s, "RTL: land at destination\t")
+            ctx.log.event(ctx.now_s, RTL_LAND)
             self._land.on_activation(ctx)
             self._land.target_xy = (hx, hy)
         return self._land.on_active(ctx)

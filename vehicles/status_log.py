@@ -2,7 +2,8 @@
 
 Invariants: ``seq`` starts at 1 and increases by one per text, never reused; only the newest
 ``capacity`` texts are kept; ``after(seq)`` returns texts with a larger seq, oldest first, so each
-gateway session keeps its own cursor. Texts are stored without PX4's trailing tab.
+gateway session keeps its own cursor. A text that PX4 also sends as an event ends with PX4's
+tab, and ``event`` sends that event to the vehicle's EventLog (``events``, when attached).
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 import logging
 from collections import deque
 
+from vehicles.events import EventDef, EventLog, Log
 from vehicles.types import Changes, Severity, StatusText
 
 log = logging.getLogger(__name__)
@@ -25,6 +27,7 @@ class StatusLog:
         self._seq = 0
         self._name = name
         self._changes = changes if changes is not None else Changes()
+        self.events: EventLog | None = None  # the vehicle's events (vehicles/events.py)
 
     @property
     def last_seq(self) -> int:
@@ -46,6 +49,12 @@ class StatusLog:
 
     def critical(self, time_s: float, text: str) -> None:
         self.add(time_s, Severity.CRITICAL, text)
+
+    def event(self, time_s: float, event: EventDef, external: Log = Log.INFO,
+              internal: Log | None = None, fmt: str = "", *args: float) -> None:
+        """events::send, beside the text PX4 sends with it."""
+        if self.events is not None:
+            self.events.send(time_s, event, external, internal, fmt, *args)
 
     def after(self, seq: int) -> list[StatusText]:
         if seq >= self._seq:

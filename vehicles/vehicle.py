@@ -122,7 +122,8 @@ class Vehicle:
         self.commands = CommandJournal()  # what the logger records as vehicle_command(_ack)
         self.events = EventLog(boot_time_s)  # what every link sends as EVENT (vehicles/events.py)
         self._health = HealthChecks(self.events, self._autopilot.commander.set_health)
-        self._autopilot.commander.events = self._autopilot.commander.failsafe.events = self.events
+        ap = self._autopilot
+        ap.commander.events = ap.commander.failsafe.events = ap.log.events = self.events
         self._autopilot.calibration.on_ack = self.commands.onboard_ack
         # The 50 Hz part runs on physics steps index, index + 5, …: the World's vehicles do not
         # all do their 50 Hz work on one step.

@@ -279,3 +279,34 @@ def test_hostile_requests_are_bounded():
         answers = len(_events(api, n)) + len(api.messages("RESPONSE_EVENT_ERROR", n))
         assert answers <= 2 * 21
         assert api.messages("ATTITUDE", n)
+
+
+def test_the_navigators_texts_come_with_their_events():
+    """takeoff.cpp and rtl_direct.cpp: each text (with PX4's tab) beside its event, as QGC shows
+    the event; the return altitude is AMSL (PX4 SITL's home is 488 m up)."""
+    from pyulog.libevents_parse.parser import Parser
+
+    from tests.unit.test_vehicles_flight import Sim as FlightSim
+    from tests.unit.test_vehicles_flight import take_off
+
+    sim = FlightSim()
+    try:
+        sim.run(1.2)
+        v = sim.v
+        take_off(sim)
+        v.return_to_launch(sim.t)
+        assert sim.run(60.0, until=lambda: not v.status.armed)
+        assert [t for t in sim.texts() if t.startswith(("Using", "RTL"))] == [
+            "Using default takeoff altitude: 2.5 m\t",
+            "RTL: start return at 491 m (3 m above destination)\t", "RTL: land at destination\t"]
+        parser = Parser()
+        parser.load_definitions(json.loads(events_json()))
+        parser.set_profile("dev")
+        shown = [parser.parse(e.id, e.arguments.ljust(25, b"\0"))
+                 for e in v.events.after(v.events.latest - len(v.events))]
+        assert [m.message() for m in shown if m is not None and m.group() == "default"] == [
+            "Armed by external command", "Using default takeoff altitude: 2.50 m",
+            "Takeoff detected", "RTL: start return at 491 m (3 m above destination)",
+            "RTL: land at destination", "Landing detected", "Disarmed by landing"]
+    finally:
+        sim.close()

@@ -356,7 +356,7 @@ def test_rtl_lands_at_closer_rally_point(sim):
     assert sim.run(90.0, until=lambda: not v.status.armed)
     p = v.state.position_ned_m
     assert math.hypot(p[0] - 30.0, p[1] - 10.0) < 1.5
-    assert "RTL: land at destination" in sim.texts()
+    assert "RTL: land at destination\t" in sim.texts()
 
 
 def test_a_motor_lost_in_flight_is_an_attitude_failure_that_denies_arming():

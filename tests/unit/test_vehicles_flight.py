@@ -94,7 +94,7 @@ def test_takeoff_reaches_default_altitude_then_holds_steady(sim):
         worst = max(worst, float(np.linalg.norm(sim.v.state.position_ned_m - start)))
     assert worst < 0.1
     texts = sim.texts()
-    assert texts[:3] == ["Armed by external command\t", "Using default takeoff altitude: 2.5 m",
+    assert texts[:3] == ["Armed by external command\t", "Using default takeoff altitude: 2.5 m\t",
                          "Takeoff detected\t"]
 
 
@@ -137,7 +137,7 @@ def test_takeoff_altitude_param_changes_the_height():
         take_off(sim)
         sim.run(3.0)
         assert -sim.v.state.position_ned_m[2] == pytest.approx(6.0, abs=0.3)
-        assert "Using default takeoff altitude: 6.0 m" in sim.texts()
+        assert "Using default takeoff altitude: 6.0 m\t" in sim.texts()
     finally:
         sim.close()
 

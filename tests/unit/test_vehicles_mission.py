@@ -147,7 +147,7 @@ def test_square_mission_from_the_ground_with_rtl(sim):
         assert d < 2.0, (i, d)  # NAV_ACC_RAD
         assert h == pytest.approx(alt, abs=1.0), (i, h)
     texts = sim.texts()
-    assert "Executing Mission" in texts
+    assert "Executing Mission\t" in texts
     assert "Climb to 12.0 meters above home" in texts
     assert "Returning to launch" in texts and "Disarmed by landing\t" in texts
     p = v.state.position_ned_m
@@ -174,7 +174,7 @@ def test_mission_start_arms_takeoff_item_speed_change_and_loiter_at_end(sim):
     assert sim.run(40.0, until=done)
     assert v.mission_status.reached_seq == 3
     assert top_speed > 6.5  # DO_CHANGE_SPEED 8 m/s, not the 5 m/s cruise
-    assert "Mission finished, loitering" in sim.texts()
+    assert "Mission finished, loitering\t" in sim.texts()
     sim.run(3.0)
     p = v.state.position_ned_m
     assert v.status.nav_state is NavState.AUTO_MISSION and v.status.armed
@@ -216,7 +216,7 @@ def test_land_item_lands_at_its_position_and_disarms(sim):
     assert v.start_mission(sim.t) is CommandResult.ACCEPTED
     assert sim.run(60.0, until=lambda: not v.status.armed)
     texts = sim.texts()
-    assert "Mission finished, landed" in texts
+    assert "Mission finished, landed\t" in texts
     assert v.mission_status.state is MissionState.COMPLETE
     p = v.state.position_ned_m
     assert math.hypot(p[0] - 15.0, p[1] - 10.0) < 1.0
