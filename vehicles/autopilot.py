@@ -186,12 +186,12 @@ class Autopilot:
         return result
 
     def land(self, now_s: float) -> CommandResult:
-        return self.commander.request_nav_state(now_s, NavState.AUTO_LAND)
+        return self.commander.command_mode(now_s, NavState.AUTO_LAND)
 
     def return_to_launch(self, now_s: float) -> CommandResult:
         if self.home is None:
             return CommandResult.TEMPORARILY_REJECTED
-        return self.commander.request_nav_state(now_s, NavState.AUTO_RTL)
+        return self.commander.command_mode(now_s, NavState.AUTO_RTL)
 
     def reposition(self, now_s: float, target_ned_m: tuple[float, float, float]) -> CommandResult:
         """Fly to a local NED point and hold there (what DO_REPOSITION does in PX4: Hold + target)."""

@@ -39,6 +39,8 @@ from vehicles.events import (
     ARM_DENIED,
     ARM_REASON_TEXT,
     ARMED_BY,
+    COMMANDER_LAND,
+    COMMANDER_RTL,
     DISARMED_BY,
     FAILSAFE_RC_OVERRIDE,
     GCS_LOST,
@@ -232,6 +234,16 @@ class Commander:
         if result is CommandResult.ACCEPTED:
             self.nav_state = self.user_nav_state = target
             self.failsafe.user_mode_changed()
+        return result
+
+    def command_mode(self, now_s: float, target: NavState) -> CommandResult:
+        """NAV_RETURN_TO_LAUNCH / NAV_LAND: the mode, and Commander's answer when it is taken
+        ("Returning to launch", "Landing at current position": a text and its event)."""
+        result = self.request_nav_state(now_s, target)
+        if result is CommandResult.ACCEPTED:
+            event = COMMANDER_RTL if target is NavState.AUTO_RTL else COMMANDER_LAND
+            self._log.info(now_s, event.message + "\t")
+            self._log.event(now_s, event)
         return result
 
     def terminate(self, now_s: float) -> CommandResult:

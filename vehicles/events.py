@@ -207,6 +207,11 @@ TAKEOFF_DEFAULT_ALT = EventDef("navigator_takeoff_default_alt", "default",
                                "Using default takeoff altitude: {1:.2m}", (("float", "arg0"),))
 TAKEOFF_ALREADY_HIGHER = EventDef("navigator_takeoff_already_higher", "default",
                                   "Already higher than takeoff altitude (not descending)")
+# Commander's answers to NAV_RETURN_TO_LAUNCH and NAV_LAND (a mission's Return item sends the
+# former too)
+COMMANDER_RTL = EventDef("commander_rtl", "default", "Returning to launch")
+COMMANDER_LAND = EventDef("commander_landing_current_pos", "default",
+                          "Landing at current position")
 # Commander's stick override (auto mode or Offboard, COM_RC_OVERRIDE), and the failsafe
 # framework's takeover when a failsafe acts
 RC_OVERRIDE = EventDef("commander_rc_override", "default", "Pilot took over using sticks")
@@ -221,7 +226,7 @@ DEFINITIONS: tuple[EventDef, ...] = (
     FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER, RC_OVERRIDE,
     FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED, MISSION_EXECUTE,
     MISSION_FINISHED, MISSION_FINISHED_LOITER, RTL_RETURN_AT, RTL_LAND, RTL_COMPLETED_LOITER,
-    TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER)
+    TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, COMMANDER_RTL, COMMANDER_LAND)
 
 
 @dataclass(frozen=True)

@@ -230,11 +230,8 @@ class Land(NavMode):
     def __init__(self) -> None:
         self.target_xy = (0.0, 0.0)
         self.yaw = 0.0
-        self.announce = True
 
     def on_activation(self, ctx: NavContext) -> None:
-        if self.announce:
-            ctx.log.info(ctx.now_s, "Landing at current position")
         sp = ctx.position_ned_m if ctx.landed else ctx.stopping_point_ned_m
         self.target_xy = (sp[0], sp[1])
         self.yaw = ctx.yaw_rad

@@ -19,7 +19,12 @@ from __future__ import annotations
 import math
 from collections import deque
 
-from vehicles.events import MISSION_EXECUTE, MISSION_FINISHED, MISSION_FINISHED_LOITER
+from vehicles.events import (
+    COMMANDER_RTL,
+    MISSION_EXECUTE,
+    MISSION_FINISHED,
+    MISSION_FINISHED_LOITER,
+)
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
 from vehicles.plan_types import (
     REACHED_HISTORY,
@@ -192,6 +197,9 @@ class Mission(NavMode):
                 self._reached(self.current)
                 self.finished = True
                 self._phase = "done"
+                # PX4's mission sends NAV_RETURN_TO_LAUNCH: Commander's answer
+                ctx.log.info(ctx.now_s, "Returning to launch\t")
+                ctx.log.event(ctx.now_s, COMMANDER_RTL)
                 ctx.switch_to(NavState.AUTO_RTL, None)
                 return
             if cmd == MavCmd.DO_JUMP:

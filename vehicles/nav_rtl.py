@@ -76,10 +76,8 @@ class Return(NavMode):
         self.yaw = 0.0
         self._loiter_since = 0.0
         self._land = Land()
-        self._land.announce = False
 
     def on_activation(self, ctx: NavContext) -> None:
-        ctx.log.info(ctx.now_s, "Returning to launch")
         p = ctx.params
         self.yaw = ctx.yaw_rad
         self.dest = rtl_destination(ctx, self.plans)

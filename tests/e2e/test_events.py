@@ -50,9 +50,10 @@ async def test_mavsdk_events_health_report_and_takeoff_event(daemon_factory):
         task.cancel()
         # commander_armed_by / _disarmed_by: libevents names the reason from the metadata's
         # arm_disarm_reason_t.
-        assert messages[-5:] == ["Armed by external command",
+        assert messages[-6:] == ["Armed by external command",
                                  "Using default takeoff altitude: 2.50 m", "Takeoff detected",
-                                 "Landing detected", "Disarmed by landing"], messages
+                                 "Landing at current position", "Landing detected",
+                                 "Disarmed by landing"], messages
 
 
 @pytest.mark.asyncio

@@ -88,5 +88,5 @@ async def test_mavsdk_flies_the_far_vehicle_through_a_relay_and_loses_it_when_th
         assert FAR_N - 20 < north < FAR_N + 5, north
     log = d.log_tail(2000)
     for text in (r"\[INFO\] Connection to ground station lost",
-                 r"\[INFO\] Landing at current position", r"\[INFO\] Disarmed by landing"):
+                 r"\[CRITICAL\] Failsafe activated", r"\[INFO\] Disarmed by landing"):
         assert re.search(r"vehicle 1 t=[0-9.]+ " + text, log), log

@@ -306,7 +306,8 @@ def test_the_navigators_texts_come_with_their_events():
                  for e in v.events.after(v.events.latest - len(v.events))]
         assert [m.message() for m in shown if m is not None and m.group() == "default"] == [
             "Armed by external command", "Using default takeoff altitude: 2.50 m",
-            "Takeoff detected", "RTL: start return at 491 m (3 m above destination)",
+            "Takeoff detected", "Returning to launch",
+            "RTL: start return at 491 m (3 m above destination)",
             "RTL: land at destination", "Landing detected", "Disarmed by landing"]
     finally:
         sim.close()

@@ -119,7 +119,8 @@ def test_the_log_has_what_px4s_log_analysis_reads(tmp_path):
     events.set_default_json_definitions_cb(lambda _: None)  # no download: the log's metadata
     shown = [m for _, _, m in events.get_logged_events(log)]
     assert shown == ["Armed by external command", "Using default takeoff altitude: 2.50 m",
-                     "Takeoff detected", "Landing detected", "Disarmed by landing"], shown
+                     "Takeoff detected", "Landing at current position", "Landing detected",
+                     "Disarmed by landing"], shown
     assert set(data("event")["id"]) >= {event_id("commander_takeoff_detected"),
                                         event_id("commander_arming_check_summary")}
 

@@ -163,7 +163,7 @@ def test_land_touches_down_and_auto_disarms_two_seconds_later(sim):
     assert sim.v.status.nav_state is NavState.AUTO_LOITER  # Land forbids arming -> Hold
     assert abs(sim.v.state.position_ned_m[2]) < 0.02
     texts = sim.texts()
-    assert texts[-3:] == ["Landing at current position", "Landing detected\t",
+    assert texts[-3:] == ["Landing at current position\t", "Landing detected\t",
                          "Disarmed by landing\t"]
 
 
@@ -210,7 +210,7 @@ def test_rtl_returns_home_and_lands():
         home = np.array(sim.v.status.home.position_ned_m)
         assert np.linalg.norm(sim.v.state.position_ned_m[:2] - home[:2]) < 1.0
         assert sim.v.status.nav_state is NavState.AUTO_LOITER
-        assert "Returning to launch" in sim.texts() and "Disarmed by landing\t" in sim.texts()
+        assert "Returning to launch\t" in sim.texts() and "Disarmed by landing\t" in sim.texts()
     finally:
         sim.close()
 

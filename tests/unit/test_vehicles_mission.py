@@ -149,7 +149,7 @@ def test_square_mission_from_the_ground_with_rtl(sim):
     texts = sim.texts()
     assert "Executing Mission\t" in texts
     assert "Climb to 12.0 meters above home" in texts
-    assert "Returning to launch" in texts and "Disarmed by landing\t" in texts
+    assert "Returning to launch\t" in texts and "Disarmed by landing\t" in texts
     p = v.state.position_ned_m
     assert math.hypot(p[0], p[1]) < 2.0
     assert v.status.nav_state is NavState.AUTO_LOITER
