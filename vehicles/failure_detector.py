@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 
-from vehicles.types import NavState
+from vehicles.types import NavState, q_euler_rad
 
 NO_ATTITUDE_CONTROL = frozenset({NavState.ACRO, NavState.TERMINATION})
 
@@ -35,6 +35,8 @@ class FailureDetector:
         self.roll = self.pitch = False
         self._roll_since: float | None = None  # since when the roll has been beyond its limit
         self._pitch_since: float | None = None
+        self._version = -1  # the parameters' version the limits below were read at
+        self._limits = (0.0, 0.0, 0.0, 0.0)  # max roll, max pitch (rad), their trigger times (s)
 
     @property
     def critical(self) -> bool:
@@ -46,17 +48,19 @@ class FailureDetector:
             self.roll = self.pitch = False
             self._roll_since = self._pitch_since = None
             return
-        w, x, y, z = q
-        roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-        pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-        max_roll = abs(math.radians(float(params["FD_FAIL_R"])))
-        max_pitch = abs(math.radians(float(params["FD_FAIL_P"])))
+        if params.version != self._version:  # read again only when a parameter changed
+            self._version = params.version
+            self._limits = (abs(math.radians(float(params["FD_FAIL_R"]))),
+                            abs(math.radians(float(params["FD_FAIL_P"]))),
+                            float(params["FD_FAIL_R_TTRI"]), float(params["FD_FAIL_P_TTRI"]))
+        max_roll, max_pitch, roll_ttri, pitch_ttri = self._limits
+        roll, pitch, _ = q_euler_rad(q)
         self.roll, self._roll_since = _held(
-            max_roll > 1e-7 and abs(roll) > max_roll, self._roll_since, now_s,
-            float(params["FD_FAIL_R_TTRI"]), self.roll)
+            max_roll > 1e-7 and abs(roll) > max_roll, self._roll_since, now_s, roll_ttri,
+            self.roll)
         self.pitch, self._pitch_since = _held(
-            max_pitch > 1e-7 and abs(pitch) > max_pitch, self._pitch_since, now_s,
-            float(params["FD_FAIL_P_TTRI"]), self.pitch)
+            max_pitch > 1e-7 and abs(pitch) > max_pitch, self._pitch_since, now_s, pitch_ttri,
+            self.pitch)
 
 
 def _held(beyond: bool, since: float | None, now_s: float, hold_s: float,

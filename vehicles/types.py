@@ -99,6 +99,15 @@ class Severity(enum.IntEnum):
 PX4_SITL_HOME = GeoPoint(47.397742, 8.545594, 488.0)
 
 
+def q_euler_rad(q: tuple[float, float, float, float]) -> tuple[float, float, float]:
+    """(roll, pitch, yaw) in radians of a (w, x, y, z) quaternion, ZYX as PX4's Eulerf."""
+    w, x, y, z = q
+    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
+    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
 @dataclass(frozen=True)
 class VehicleState:
     """Kinematic truth of one vehicle at ``time_s`` (simulated seconds since boot)."""
@@ -118,10 +127,7 @@ class VehicleState:
     def euler_rad(self) -> tuple[float, float, float]:
         """(roll, pitch, yaw) in radians, ZYX convention as PX4's Eulerf."""
         w, x, y, z = (float(v) for v in self.attitude_q)
-        roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-        pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-        return roll, pitch, yaw
+        return q_euler_rad((w, x, y, z))
 
 
 class Kinematics(NamedTuple):
@@ -146,11 +152,7 @@ class Kinematics(NamedTuple):
 
     def euler_rad(self) -> tuple[float, float, float]:
         """(roll, pitch, yaw) in radians, ZYX convention as PX4's Eulerf."""
-        w, x, y, z = self.attitude_q
-        roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-        pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-        return roll, pitch, yaw
+        return q_euler_rad(self.attitude_q)
 
 
 class Targets(NamedTuple):
