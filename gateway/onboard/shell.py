@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import fnmatch
 import math
-import resource
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -39,8 +38,6 @@ MODES = {"manual": NavState.MANUAL, "altctl": NavState.ALTCTL, "posctl": NavStat
          "auto:rtl": NavState.AUTO_RTL, "auto:takeoff": NavState.AUTO_TAKEOFF,
          "auto:land": NavState.AUTO_LAND, "auto:precland": NavState.AUTO_PRECLAND,
          "acro": NavState.ACRO, "offboard": NavState.OFFBOARD, "stabilized": NavState.STAB}
-LEVELS = {0: "PANIC", 1: "ERROR", 2: "ERROR", 3: "ERROR", 4: "WARN ", 5: "INFO ", 6: "INFO ",
-          7: "DEBUG"}
 
 
 def _value(v: Any) -> str:
@@ -60,10 +57,9 @@ class Pxh:
         self.instances = tuple(Instance(i.session, i.transport) for i in instances)  # its links
         self._line = bytearray()
         self._commands: dict[str, Callable[[list[str], float], int]] = {
-            "commander": self._commander, "dmesg": self._dmesg, "failure": self._failure,
-            "free": self._free, "listener": self._listener, "logger": self._logger,
-            "mavlink": self._mavlink, "param": self._param,
-            "top": self._top, "ver": self._ver,
+            "commander": self._commander, "failure": self._failure,
+            "listener": self._listener, "logger": self._logger,
+            "mavlink": self._mavlink, "param": self._param, "ver": self._ver,
         }
         self._out: list[str] = []
 
@@ -285,28 +281,6 @@ class Pxh:
             return ret
         self.print(mavlink_status.USAGE)
         return 1
-
-    def _dmesg(self, args: list[str], now_s: float) -> int:
-        texts = getattr(self.vehicle, "status_texts", None)
-        for t in (texts(0) if texts is not None else [])[-50:]:
-            self.print(f"{LEVELS.get(int(t.severity), 'INFO ')} [commander] {t.text}\n")
-        return 0
-
-    def _free(self, args: list[str], now_s: float) -> int:
-        used_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-        self.print("             total       used       free\n"
-                   f"Mem:  {'-':>12} {used_kib:>10} {'-':>10}\n")
-        return 0
-
-    def _top(self, args: list[str], now_s: float) -> int:
-        st = self.vehicle.status
-        self.print(f"Processes: simulated vehicle, t={now_s:.3f} s\n"
-                   " PID COMMAND                   CPU(ms) CPU(%)  USED/STACK PRIO(BASE) STATE\n"
-                   f"   0 commander                        -      -           -    -      "
-                   f"{'armed' if st.armed else 'standby'}\n"
-                   "   1 navigator                        -      -           -    -      "
-                   f"{st.nav_state.name.lower()}\n")
-        return 0
 
 
 def attach_shells(sim: Any, loggers: Callable[[int], Any] | None = None,

@@ -101,8 +101,12 @@ def split_frames(datagram: bytes) -> list[bytes]:
 
     Bytes that do not start a frame are skipped; a truncated last frame is dropped.
     """
+    n = len(datagram)
+    if n > 2 and datagram[0] == MAGIC_V2 and n == 12 + datagram[1] + (
+            13 if datagram[2] & 1 else 0):
+        return [datagram[:]]  # one MAVLink 2 frame, as PX4 sends every message
     out = []
-    i, n = 0, len(datagram)
+    i = 0
     while i < n:
         magic = datagram[i]
         if magic == MAGIC_V2 and i + 3 <= n:

@@ -40,6 +40,12 @@ def test_split_frames_by_length_fields_and_skips_garbage():
     assert split_frames(b"\x00junk" + a + b"\x01" + b) == [a, b]
     assert split_frames(a + b[:-3]) == [a]  # a truncated last frame is dropped
     assert [frame_msgid(f) for f in (a, b, c)] == [0, 76, 0]
+    # One frame per datagram (PX4's way), signed or not, and the same with a byte after it
+    signed = bytes([a[0], a[1], a[2] | 1]) + a[3:] + bytes(13)
+    for one in (a, b, signed):
+        assert split_frames(one) == [one]
+        assert split_frames(one + b"\x00") == [one]
+        assert split_frames(one[:-1]) == []
 
 
 def test_tlog_records_are_big_endian_microseconds_then_the_frame(tmp_path):

@@ -47,6 +47,8 @@ def test_prompt_echo_and_commands():
         assert "Invalid command: frobnicate\ntype 'help' for a list of commands" in \
             shell(sim, "frobnicate\n")
         assert "  listener\n" in shell(sim, "help\n")
+        for missing in ("top", "dmesg", "free"):  # not in PX4 SITL's build (NuttX commands)
+            assert f"Invalid command: {missing}\n" in shell(sim, f"{missing}\n")
         shell(sim, "param set COM_ARMABLE 0\n")
         assert "INFO  [commander] Preflight check: FAILED\n" in shell(sim, "commander check\n")
         shell(sim, "param set COM_ARMABLE 1\n")
