@@ -102,7 +102,7 @@ class Autopilot:
         self._prev_nav_state: NavState | None = None
         self._fence_breach: str | None = None
         self._battery_level = 0
-        self._last: Measurement | None = None  # the measurement of the last 50 Hz tick
+        self.last_meas: Measurement | None = None  # the measurement of the last 50 Hz tick
         self.stage = PositionStage(self.land_detector, self._position_gains(), params)
         self.tasks = make_tasks(self.stage, params, self.navigator, self.offboard, self.manual,
                                 self.orbit_task, self.follow_target, self.hover_thrust)
@@ -131,8 +131,8 @@ class Autopilot:
         if plan_type is PlanType.FENCE:
             home = self.home.position_ned_m[:2] if self.home is not None else None
             here = None
-            if not self.land_detector.landed and self._last is not None:
-                n, e, _ = self._last.position_ned_m
+            if not self.land_detector.landed and self.last_meas is not None:
+                n, e, _ = self.last_meas.position_ned_m
                 here = (n, e)
             for text in self.geofence.load(self.plans.get(PlanType.FENCE), self.origin, home, here):
                 self.log.critical(self.time_s, text)
@@ -214,7 +214,7 @@ class Autopilot:
         if self.params.version != self._params_version:
             self._update_params()
         c = self.commander
-        c.mission_valid = self.navigator.mission.valid()
+        c.mission_valid = self.navigator.mission.check.update(now_s, self)
         c.offboard_available = self.offboard.fresh(now_s, self._of_loss_t_s)
         c.manual_control_available = self.manual.fresh(now_s, self._rc_loss_t_s)
         c.home_valid = self.home is not None
@@ -238,7 +238,7 @@ class Autopilot:
         param1: finite, >= -1 and below the item count, else DENIED; from 0 up it picks the
         first item (navigator_main.cpp), below 0 the mission goes on where it is."""
         mission = self.navigator.mission
-        if not mission.valid():
+        if not (mission.check.update(now_s, self) and mission.valid()):
             self.log.critical(now_s, "Mission start denied! No valid mission")
             return CommandResult.DENIED
         if not (math.isfinite(first_seq) and -1 <= first_seq < len(mission.items)):
@@ -350,7 +350,7 @@ class Autopilot:
     def step(self, meas: Measurement, now_s: float) -> InnerCommand:
         """The 50 Hz part on the state measured at ``now_s``: the inner loop's next command."""
         self.time_s = now_s
-        self._last = meas
+        self.last_meas = meas
         self._update_slow(now_s, meas)
         self.calibration.update(now_s)
         if self.motor_test:

@@ -216,6 +216,50 @@ COMMANDER_LAND = EventDef("commander_landing_current_pos", "default",
 # framework's takeover when a failsafe acts
 RC_OVERRIDE = EventDef("commander_rc_override", "default", "Pilot took over using sticks")
 FAILSAFE_RC_OVERRIDE = EventDef("failsafe_rc_override", "default", "Pilot took over using sticks")
+# The navigator's mission feasibility check (MissionFeasibility/FeasibilityChecker.cpp,
+# mission_feasibility_checker.cpp), each beside its text
+_U16, _U32, _I16 = ("uint16_t", "arg0"), ("uint32_t", "arg0"), ("int16_t", "arg0")
+MIS_NO_HOME_REL_ALT = EventDef(
+    "navigator_mis_no_home_rel_alt", "default",
+    "Mission rejected: No home position, waypoint {1} uses relative altitude", (_I16,))
+MIS_UNSUPPORTED_CMD = EventDef("navigator_mis_unsup_cmd", "default",
+                               "Mission rejected: item {1}: unsupported command: {2}",
+                               (_U16, ("uint16_t", "arg1")))
+MIS_STARTS_WITH_LANDING = EventDef("navigator_mis_starts_w_landing", "default",
+                                   "Mission rejected: starts with landing")
+MIS_TAKEOFF_TOO_LOW = EventDef("navigator_mis_takeoff_too_low", "default",
+                               "Mission rejected: takeoff altitude too low! Minimum: {1:.1m_v}",
+                               (("float", "arg0"),))
+MIS_TAKEOFF_NOT_FIRST = EventDef("navigator_mis_takeoff_not_first", "default",
+                                 "Mission rejected: takeoff is not the first waypoint item")
+MIS_VTOL_ITEMS = EventDef("navigator_mis_vtol_items", "default",
+                          "Mission rejected: Mission contains VTOL items but vehicle is not a VTOL")
+MIS_FIRST_WP_TOO_FAR = EventDef("navigator_mis_first_wp_too_far", "default",
+                                "First waypoint too far away: {1m} (maximum: {2m})",
+                                (_U32, ("uint32_t", "arg1")))
+MIS_WP_GATE_TOO_CLOSE = EventDef(
+    "navigator_mis_wp_gate_too_close", "default",
+    "Distance between waypoint and gate too close: {1:.3m} (minimum: {2:.3m})",
+    (("float", "arg0"), ("float", "arg1")))
+MIS_TAKEOFF_MISSING = EventDef("navigator_mis_takeoff_missing", "default",
+                               "Mission rejected: Takeoff waypoint required")
+MIS_LAND_MISSING = EventDef("navigator_mis_land_missing", "default",
+                            "Mission rejected: Landing waypoint/pattern required")
+MIS_TAKEOFF_OR_LAND_MISSING = EventDef("navigator_mis_takeoff_or_land_missing", "default",
+                                       "Mission rejected: Takeoff or Landing item missing")
+MIS_ADD_LAND_OR_RM_TAKEOFF = EventDef("navigator_mis_add_land_or_rm_to", "default",
+                                      "Mission rejected: Add Landing item or remove Takeoff")
+MIS_ADD_TAKEOFF_OR_RM_LAND = EventDef("navigator_mis_add_to_or_rm_land", "default",
+                                      "Mission rejected: Add Takeoff item or remove Landing")
+MIS_IN_AIR_LANDING_REQ = EventDef("feasibility_mis_in_air_landing_req", "default",
+                                  "Mission rejected: Landing waypoint/pattern required")
+MIS_GEOFENCE_VIOLATION = EventDef("navigator_mis_geofence_violation", "default",
+                                  "Geofence violation for waypoint {1}", (_I16,))
+MISSION_FEASIBILITY = (
+    MIS_NO_HOME_REL_ALT, MIS_UNSUPPORTED_CMD, MIS_STARTS_WITH_LANDING, MIS_TAKEOFF_TOO_LOW,
+    MIS_TAKEOFF_NOT_FIRST, MIS_VTOL_ITEMS, MIS_FIRST_WP_TOO_FAR, MIS_WP_GATE_TOO_CLOSE,
+    MIS_TAKEOFF_MISSING, MIS_LAND_MISSING, MIS_TAKEOFF_OR_LAND_MISSING, MIS_ADD_LAND_OR_RM_TAKEOFF,
+    MIS_ADD_TAKEOFF_OR_RM_LAND, MIS_IN_AIR_LANDING_REQ, MIS_GEOFENCE_VIOLATION)
 DEFINITIONS: tuple[EventDef, ...] = (
     ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARMING_SUMMARY,
     HEALTH_SUMMARY,
@@ -226,7 +270,8 @@ DEFINITIONS: tuple[EventDef, ...] = (
     FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER, RC_OVERRIDE,
     FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED, MISSION_EXECUTE,
     MISSION_FINISHED, MISSION_FINISHED_LOITER, RTL_RETURN_AT, RTL_LAND, RTL_COMPLETED_LOITER,
-    TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, COMMANDER_RTL, COMMANDER_LAND)
+    TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, COMMANDER_RTL, COMMANDER_LAND,
+    *MISSION_FEASIBILITY)
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ from vehicles.events import (
     MISSION_FINISHED,
     MISSION_FINISHED_LOITER,
 )
+from vehicles.mission_feasibility import MissionCheck
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
 from vehicles.plan_types import (
     REACHED_HISTORY,
@@ -52,6 +53,7 @@ class Mission(NavMode):
         """``changes``: the vehicle's generations (``mission_progress`` moves with ``current``,
         the item count and ``reached_count``)."""
         self.plans = plans
+        self.check = MissionCheck()  # PX4's feasibility verdict on the stored items
         self._changes = changes if changes is not None else Changes()
         self._current = 0
         self.finished = False
@@ -101,7 +103,8 @@ class Mission(NavMode):
         self._phase = "start"
 
     def valid(self) -> bool:
-        return len(self.items) > 0
+        """Items stored and found feasible (mission_feasibility.py: ``check``)."""
+        return len(self.items) > 0 and self.check.valid
 
     def set_current(self, seq: int) -> bool:
         if not 0 <= seq < len(self.items):
