@@ -5,6 +5,8 @@ Rules:
 - Payload: seq (uint16), session, opcode, size, req_opcode, burst_complete, padding (uint8),
   offset (uint32), data[239]. Every answer is ACK (128) or NAK (129) with ``seq + 1`` and the
   request's opcode in req_opcode; a NAK's data[0] is the error (data[1] errno for FailErrno).
+  As PX4's _process_request: an error whose errno is EEXIST is sent as FileExists, a FailErrno
+  with ENOENT as FileNotFound (one byte each), so a missing file is never FailErrno.
 - One session at a time (PX4's single ``_session_info``): Open* while one is open →
   NoSessionsAvailable; Read/Write/Burst with another session id → InvalidSession.
 - ListDirectory at ``offset`` entries: "F<name>\\t<size>", "D<name>" entries, each NUL-ended, as
@@ -21,6 +23,7 @@ from __future__ import annotations
 
 import math
 import struct
+from errno import EEXIST, ENOENT
 from typing import Any, Protocol
 
 from pymavlink.dialects.v20 import common as M
@@ -102,6 +105,10 @@ class FtpService:
         to = (msg.get_srcSystem(), msg.get_srcComponent())
 
         def nak(code: int, errno: int = 0) -> None:
+            if errno == EEXIST:
+                code = ERR_FILE_EXISTS
+            elif errno == ENOENT and code == ERR_FAIL_ERRNO:
+                code = ERR_FILE_NOT_FOUND
             self._reply(to, seq, session, opcode, offset, nak=code, errno=errno)
 
         if size > DATA_LEN:

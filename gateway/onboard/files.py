@@ -6,9 +6,9 @@ parameters and plans), like a PX4 SITL instance's rootfs, and PX4's read-only RO
 Rules:
 - Paths are relative to the root; a leading "/" and PX4's "/fs/microsd" prefix both mean the
   root. A path that resolves outside the root (``..``, a symlink) is FileProtected.
-- Errors follow PX4's MavlinkFTP: a missing file to open, read or list → FailErrno ENOENT;
-  removing one → FileNotFound; creating a directory that exists → FileExists; other OS errors
-  → FailErrno with their errno.
+- Errors follow PX4's MavlinkFTP: a missing file to open, read or list → FailErrno ENOENT
+  (which the service sends as FileNotFound, as PX4 does); removing one → FileNotFound; creating
+  a directory that exists → FileExists; other OS errors → FailErrno with their errno.
 - ``etc``, ``etc/extras`` and its files exist whether or not there is a root directory; they
   are read-only as PX4's ROMFS (changing them → FailErrno EROFS). Without a root directory
   every other path is FileNotFound.

@@ -76,7 +76,7 @@ def test_ftp_over_the_vehicle_root(tmp_path):
         assert f.one(ftp.OP_LIST, b"/../..")[1] == bytes((ftp.ERR_FILE_PROTECTED,))
         assert f.one(ftp.OP_OPEN_RO, b"/log/../../../etc/passwd")[1] == \
             bytes((ftp.ERR_FILE_PROTECTED,))
-        assert f.one(ftp.OP_OPEN_RO, b"/nope")[1] == bytes((ftp.ERR_FAIL_ERRNO, 2))
+        assert f.one(ftp.OP_OPEN_RO, b"/nope")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))
         assert f.one(99)[1] == bytes((ftp.ERR_UNKNOWN_COMMAND,))
         assert f.one(ftp.OP_READ, size=240)[1] == bytes((ftp.ERR_INVALID_DATA_SIZE,))
         assert f.one(ftp.OP_READ, session=7, size=10)[1] == bytes((ftp.ERR_INVALID_SESSION,))

@@ -169,6 +169,12 @@ def test_list_eof_test(t: MavlinkFtpTest) -> None:
 
 
 
+def test_open_badfile_test(t: MavlinkFtpTest) -> None:
+    """mavlink_ftp_test.cpp, _open_badfile_test: OpenFileRO "/foo" (missing) → Nak
+    kErrFileNotFound, one byte (ENOENT is not sent as kErrFailErrno)."""
+    nak(t.call(ftp.OP_OPEN_RO, cstr("/foo")), 1, ftp.ERR_FILE_NOT_FOUND)
+
+
 def test_open_terminate_test(t: MavlinkFtpTest) -> None:
     """mavlink_ftp_test.cpp, _open_terminate_test: OpenFileRO of each data file → Ack with the
     file size (uint32); TerminateSession on the session it gave → Ack, no data."""
@@ -233,6 +239,16 @@ def test_removedirectory_test(t: MavlinkFtpTest) -> None:
     ack(t.call(ftp.OP_RMDIR, cstr(MICROSD_DIR)), 0)
     assert not (t.root / MICROSD_DIR).exists()
 
+
+
+def test_createdirectory_test(t: MavlinkFtpTest) -> None:
+    """mavlink_ftp_test.cpp, _createdirectory_test (Linux): CreateDirectory ftp_unit_test_dir →
+    Ack; again → Nak kErrFailFileExists (1 byte); ftp_unit_test_data/bogus/bogus (missing
+    parent, ENOENT on Linux) → Nak kErrFileNotFound (1 byte)."""
+    ack(t.call(ftp.OP_MKDIR, cstr(MICROSD_DIR)), 0)
+    assert (t.root / MICROSD_DIR).is_dir()
+    nak(t.call(ftp.OP_MKDIR, cstr(MICROSD_DIR)), 1, ftp.ERR_FILE_EXISTS)
+    nak(t.call(ftp.OP_MKDIR, cstr(f"{DATA_DIR}/bogus/bogus")), 1, ftp.ERR_FILE_NOT_FOUND)
 
 
 def test_removefile_test(t: MavlinkFtpTest) -> None:
