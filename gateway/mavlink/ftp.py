@@ -9,8 +9,9 @@ Rules:
   with ENOENT as FileNotFound (one byte each), so a missing file is never FailErrno.
 - One session at a time (PX4's single ``_session_info``): Open* while one is open →
   NoSessionsAvailable; Read/Write/Burst with another session id → InvalidSession.
-- ListDirectory at ``offset`` entries: "F<name>\\t<size>", "D<name>" entries, each NUL-ended, as
-  many as fit; none left → NAK EOF. Read at or past the end → NAK EOF. BurstReadFile streams
+- ListDirectory at ``offset`` entries (readdir's, "." and ".." included): "F<name>\\t<size>" for a
+  file, "D<name>" for a directory, a bare "S" for anything else ("." and "..", a symlink), each
+  NUL-ended, as many as fit; none left → NAK EOF. Read at or past the end → NAK EOF. BurstReadFile streams
   reads (``BURST`` per wake-up, every ``PERIOD_S``) up to the end, the last with
   burst_complete.
 - The files are the vehicle's root (``root``, a ``FileRoot`` the shell attaches: its logs,
@@ -52,7 +53,7 @@ class FtpError(Exception):
 class FileRoot(Protocol):
     """The vehicle's files; every method raises FtpError (code, errno) on failure."""
 
-    def list(self, path: str) -> list[tuple[bool, str, int]]: ...  # (is dir, name, size)
+    def list(self, path: str) -> list[tuple[str, str, int]]: ...  # (kind, name, size)
 
     def size(self, path: str) -> int: ...
 
@@ -145,8 +146,8 @@ class FtpService:
             if offset >= len(entries):
                 raise FtpError(ERR_EOF)
             out = b""
-            for is_dir, name, fsize in entries[offset:]:
-                item = (f"D{name}" if is_dir else f"F{name}\t{fsize}").encode() + b"\0"
+            for kind, name, fsize in entries[offset:]:
+                item = {"D": f"D{name}", "F": f"F{name}\t{fsize}"}.get(kind, "S").encode() + b"\0"
                 if len(out) + len(item) > DATA_LEN:
                     break
                 out += item

@@ -89,7 +89,7 @@ def test_without_storage_only_px4s_etc_extras_is_there():
     with Sim() as sim:
         sim.advance(0.5)
         f = Ftp(sim)
-        assert f.one(ftp.OP_LIST, b"/") == (ftp.OP_ACK, b"Detc\0")
+        assert f.one(ftp.OP_LIST, b"/") == (ftp.OP_ACK, b"S\0S\0Detc\0")
         assert f.one(ftp.OP_LIST, b"/log")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))
         assert f.one(ftp.OP_OPEN_RO, b"/notes.txt")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))
         assert f.one(ftp.OP_CREATE, b"/new.bin")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))

@@ -162,6 +162,20 @@ def test_bad_datasize_test(t: MavlinkFtpTest) -> None:
 
 
 
+def test_list_test(t: MavlinkFtpTest) -> None:
+    """mavlink_ftp_test.cpp, _list_test: "/bogus" → Nak kErrFileNotFound; the test data
+    directory → its four entries and, on Linux, two skip entries ("S") for "." and "..":
+    "Dempty_dir|Ftest_238.data\\t238|Ftest_239.data\\t239|Ftest_240.data\\t240|S|S", six
+    entries, size strlen + 1 (the order is readdir's, so PX4 compares entries as a set)."""
+    nak(t.call(ftp.OP_LIST, cstr("/bogus")), 1, ftp.ERR_FILE_NOT_FOUND)
+    response = "Dempty_dir|Ftest_238.data\t238|Ftest_239.data\t239|Ftest_240.data\t240|S|S"
+    reply = t.call(ftp.OP_LIST, cstr(DATA_DIR))
+    ack(reply, len(response) + 1)
+    entries = reply.data[:-1].decode().split("\0")
+    assert all(entry in response.split("|") for entry in entries)
+    assert len(entries) == 6
+
+
 def test_list_eof_test(t: MavlinkFtpTest) -> None:
     """mavlink_ftp_test.cpp, _list_eof_test: ListDirectory of the test data directory at offset 6
     (3 files, 1 directory, "." and "..") → Nak kErrEOF."""
