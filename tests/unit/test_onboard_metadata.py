@@ -23,10 +23,16 @@ def fetch(f: Ftp, path: bytes) -> bytes:
     op, data = f.one(ftp.OP_OPEN_RO, path)
     assert op == ftp.OP_ACK
     size = struct.unpack("<I", data)[0]
-    burst = f.call(ftp.OP_BURST, offset=0, size=239)
+    got = b""
+    while True:  # as MAVSDK: bursts from where the last one stopped (burst_complete), to EOF
+        burst = f.call(ftp.OP_BURST, offset=len(got), size=239)
+        got += b"".join(r[4] for r in burst if r[1] == ftp.OP_ACK)
+        if burst[-1][1] == ftp.OP_NAK:
+            assert burst[-1][4] == bytes((ftp.ERR_EOF,))
+            break
+        assert burst[-1][5] == 1
     assert f.one(ftp.OP_TERMINATE)[0] == ftp.OP_ACK
-    got = b"".join(r[4] for r in burst)
-    assert len(got) == size and burst[-1][5] == 1
+    assert len(got) == size
     return got
 
 

@@ -231,6 +231,35 @@ def test_read_test(t: MavlinkFtpTest) -> None:
 
 
 
+def test_burst_test(t: MavlinkFtpTest) -> None:
+    """mavlink_ftp_test.cpp, _burst_test and _receive_message_handler_burst: BurstReadFile
+    (size 239) from offset 0 on each data file: an Ack at offset 0 with min(file, 239) bytes
+    and burst_complete 0; for the 240-byte file a second Ack at offset 239 with the last byte,
+    burst_complete 0; then a Nak (EOF) ends the stream, nothing after it. Terminate → Ack."""
+    for path, length, single_packet, _ in DOWNLOADS:
+        content = t.file_bytes(path)
+        reply = t.call(ftp.OP_OPEN_RO, cstr(path))
+        assert reply.opcode == ftp.OP_ACK
+        session = reply.session
+        t.send(ftp.OP_BURST, size=MAX_DATA_LEN, offset=0, session=session)
+        burst = t.run_burst()
+        first = burst[0]
+        assert (first.opcode, first.offset, first.burst_complete) == (ftp.OP_ACK, 0, 0)
+        expected = length if single_packet else MAX_DATA_LEN
+        assert first.size == expected and first.data == content[:expected]
+        if not single_packet:
+            last = burst[1]
+            assert (last.opcode, last.offset, last.burst_complete) == \
+                (ftp.OP_ACK, MAX_DATA_LEN, 0)
+            assert last.size == length - MAX_DATA_LEN
+            assert last.data == content[MAX_DATA_LEN:]
+        end = burst[-1]
+        assert len(burst) == (2 if single_packet else 3)
+        nak(end, 1, ftp.ERR_EOF)
+        assert (end.req_opcode, end.offset) == (ftp.OP_BURST, length)
+        ack(t.call(ftp.OP_TERMINATE, session=session), 0)
+
+
 def test_read_badsession_test(t: MavlinkFtpTest) -> None:
     """mavlink_ftp_test.cpp, _read_badsession_test: ReadFile on the open session's id + 1 → Nak
     kErrInvalidSession."""
