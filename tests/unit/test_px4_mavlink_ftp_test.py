@@ -16,6 +16,8 @@ How PX4's harness maps here:
   CORNET against the vehicle root. Where PX4 splits NuttX from Linux, the Linux answer is the
   one SITL gives and the one expected here.
 - ``_ftp_server->send()`` (burst packets) is ``handle_timer`` at ``due_s``.
+
+Nothing is skipped: all fourteen cases of PX4's run_tests() apply.
 """
 
 from __future__ import annotations
