@@ -5,12 +5,18 @@ Rules:
 - Payload: seq (uint16), session, opcode, size, req_opcode, burst_complete, padding (uint8),
   offset (uint32), data[239]. Every answer is ACK (128) or NAK (129) with ``seq + 1`` and the
   request's opcode in req_opcode; a NAK's data[0] is the error (data[1] errno for FailErrno).
+  As PX4's _process_request: an error whose errno is EEXIST is sent as FileExists, a FailErrno
+  with ENOENT as FileNotFound (one byte each), so a missing file is never FailErrno.
 - One session at a time (PX4's single ``_session_info``): Open* while one is open →
   NoSessionsAvailable; Read/Write/Burst with another session id → InvalidSession.
-- ListDirectory at ``offset`` entries: "F<name>\\t<size>", "D<name>" entries, each NUL-ended, as
-  many as fit; none left → NAK EOF. Read at or past the end → NAK EOF. BurstReadFile streams
-  reads (``BURST`` per wake-up, every ``PERIOD_S``) up to the end, the last with
-  burst_complete.
+- ListDirectory at ``offset`` entries (readdir's, "." and ".." included): "F<name>\\t<size>" for a
+  file, "D<name>" for a directory, a bare "S" for anything else ("." and "..", a symlink), each
+  NUL-ended, as many as fit; none left → NAK EOF. Read at or past the end → NAK EOF.
+- BurstReadFile answers nothing at once: every ``PERIOD_S`` ``handle_timer`` sends ACKs of
+  DATA_LEN bytes (whatever size was asked; seq counting on from the request's + 1, session 0)
+  while PX4's UDP budget lasts; a NAK EOF after the last byte ends the stream. burst_complete
+  is set only on the last packet of a wake-up once more than CHUNK bytes went out in this
+  burst, which then ends (the client asks again from there).
 - The files are the vehicle's root (``root``, a ``FileRoot`` the shell attaches: its logs,
   parameters and plans); a path that leaves the root is refused (FileProtected); without a
   root every path is FileNotFound. Unknown opcodes → NAK UnknownCommand; a size larger than the
@@ -21,6 +27,7 @@ from __future__ import annotations
 
 import math
 import struct
+from errno import EEXIST, ENOENT
 from typing import Any, Protocol
 
 from pymavlink.dialects.v20 import common as M
@@ -29,8 +36,10 @@ from gateway.mavlink.link import LinkContext
 
 DATA_LEN = 239
 HEADER = struct.Struct("<HBBBBBBI")
-BURST = 32
-PERIOD_S = 0.01
+PERIOD_S = 0.01  # MavlinkReceiver::run calls MavlinkFTP::send() every 10 ms
+TX_BUDGET = 15000  # Mavlink::get_free_tx_buf() on a POSIX UDP link: 1500 * 10
+FRAME_LEN = 254 + 12  # MavlinkFTP::get_size(): FILE_TRANSFER_PROTOCOL + MAVLink 2 framing
+CHUNK = 35000  # bytes after which a wake-up's last packet has burst_complete
 
 (OP_NONE, OP_TERMINATE, OP_RESET, OP_LIST, OP_OPEN_RO, OP_READ, OP_CREATE, OP_WRITE, OP_REMOVE,
  OP_MKDIR, OP_RMDIR, OP_OPEN_WO, OP_TRUNCATE, OP_RENAME, OP_CRC32, OP_BURST) = range(16)
@@ -49,7 +58,7 @@ class FtpError(Exception):
 class FileRoot(Protocol):
     """The vehicle's files; every method raises FtpError (code, errno) on failure."""
 
-    def list(self, path: str) -> list[tuple[bool, str, int]]: ...  # (is dir, name, size)
+    def list(self, path: str) -> list[tuple[str, str, int]]: ...  # (kind, name, size)
 
     def size(self, path: str) -> int: ...
 
@@ -79,7 +88,7 @@ class FtpService:
         self.send = ctx.send
         self.root: FileRoot | None = None  # attached by the shell
         self._session: tuple[str, bool] | None = None  # (path, writable)
-        self._burst: tuple[int, int, int, int, tuple[int, int]] | None = None
+        self._burst: tuple[int, int, int, tuple[int, int]] | None = None  # seq, offset, chunk, to
         self.due_s = math.inf  # when ``handle_timer`` has work next (the burst); inf: none
 
     # --- wire ---------------------------------------------------------------------------------
@@ -102,6 +111,10 @@ class FtpService:
         to = (msg.get_srcSystem(), msg.get_srcComponent())
 
         def nak(code: int, errno: int = 0) -> None:
+            if errno == EEXIST:
+                code = ERR_FILE_EXISTS
+            elif errno == ENOENT and code == ERR_FAIL_ERRNO:
+                code = ERR_FILE_NOT_FOUND
             self._reply(to, seq, session, opcode, offset, nak=code, errno=errno)
 
         if size > DATA_LEN:
@@ -138,8 +151,8 @@ class FtpService:
             if offset >= len(entries):
                 raise FtpError(ERR_EOF)
             out = b""
-            for is_dir, name, fsize in entries[offset:]:
-                item = (f"D{name}" if is_dir else f"F{name}\t{fsize}").encode() + b"\0"
+            for kind, name, fsize in entries[offset:]:
+                item = {"D": f"D{name}", "F": f"F{name}\t{fsize}"}.get(kind, "S").encode() + b"\0"
                 if len(out) + len(item) > DATA_LEN:
                     break
                 out += item
@@ -163,10 +176,8 @@ class FtpService:
                 raise FtpError(ERR_EOF)
             ack(to, seq, session, op, offset, chunk)
         elif op == OP_BURST:
-            path, _ = self._need_session(session)
-            if offset >= self._need_root().size(path):
-                raise FtpError(ERR_EOF)
-            self._burst = (seq, session, offset, min(size or DATA_LEN, DATA_LEN), to)
+            self._need_session(session)
+            self._burst = (seq, offset, 0, to)  # answered by handle_timer, as PX4's stream
             self.due_s = now_s
         elif op == OP_WRITE:
             path, writable = self._need_session(session)
@@ -203,30 +214,34 @@ class FtpService:
         return self.due_s
 
     def handle_timer(self, now_s: float) -> None:
+        """PX4's MavlinkFTP::send(): packets of up to DATA_LEN bytes while the UDP budget lasts
+        (TX_BUDGET, FRAME_LEN each; the one that leaves less than two frames ends the wake-up,
+        with burst_complete and the stream's end once more than CHUNK bytes went out); at the
+        file's end, or on a read error, a NAK ends the stream."""
         if self._burst is None or now_s < self.due_s:
             return
-        seq, session, offset, size, to = self._burst
+        seq, offset, chunk, to = self._burst
         if self._session is None or self.root is None:
             self._burst, self.due_s = None, math.inf
             return
-        path = self._session[0]
-        try:
-            total = self.root.size(path)
-            for _ in range(BURST):
-                chunk = self.root.read(path, offset, size)
-                last = offset + len(chunk) >= total or not chunk
-                if not chunk:
-                    self._reply(to, seq, session, OP_BURST, offset, nak=ERR_EOF)
-                else:
-                    self._reply(to, seq, session, OP_BURST, offset, chunk, burst_complete=last)
-                seq += 1
-                offset += len(chunk)
-                if last:
-                    self._burst, self.due_s = None, math.inf
-                    return
-        except FtpError as exc:
-            self._reply(to, seq, session, OP_BURST, offset, nak=exc.code, errno=exc.errno)
+        path, budget = self._session[0], TX_BUDGET
+        while True:
+            try:
+                if offset >= self.root.size(path):
+                    raise FtpError(ERR_EOF)
+                data = self.root.read(path, offset, DATA_LEN)
+            except FtpError as exc:
+                self._reply(to, seq, 0, OP_BURST, offset, nak=exc.code, errno=exc.errno)
+                self._burst, self.due_s = None, math.inf
+                return
+            last = budget < 2 * FRAME_LEN
+            complete = last and chunk + len(data) > CHUNK
+            self._reply(to, seq, 0, OP_BURST, offset, data, burst_complete=complete)
+            seq, offset, chunk = seq + 1, offset + len(data), chunk + len(data)
+            if last:
+                break
+            budget -= FRAME_LEN
+        if complete:
             self._burst, self.due_s = None, math.inf
-            return
-        self._burst = (seq, session, offset, size, to)
-        self.due_s = now_s + PERIOD_S
+        else:
+            self._burst, self.due_s = (seq, offset, chunk, to), now_s + PERIOD_S

@@ -6,9 +6,11 @@ parameters and plans), like a PX4 SITL instance's rootfs, and PX4's read-only RO
 Rules:
 - Paths are relative to the root; a leading "/" and PX4's "/fs/microsd" prefix both mean the
   root. A path that resolves outside the root (``..``, a symlink) is FileProtected.
-- Errors follow PX4's MavlinkFTP: a missing file to open, read or list → FailErrno ENOENT;
-  removing one → FileNotFound; creating a directory that exists → FileExists; other OS errors
-  → FailErrno with their errno.
+- Errors follow PX4's MavlinkFTP: a missing file to open, read or list → FailErrno ENOENT
+  (which the service sends as FileNotFound, as PX4 does); removing one → FileNotFound; creating
+  a directory that exists → FileExists; other OS errors → FailErrno with their errno.
+- A listing is PX4 SITL's readdir on Linux: "." and ".." first, then the entries by name; a
+  symlink (or anything but a file or a directory) is listed, PX4's way, as a skip entry.
 - ``etc``, ``etc/extras`` and its files exist whether or not there is a root directory; they
   are read-only as PX4's ROMFS (changing them → FailErrno EROFS). Without a root directory
   every other path is FileNotFound.
@@ -35,6 +37,7 @@ from gateway.mavlink.ftp import (
 from gateway.onboard import metadata
 
 PX4_SD_PREFIX = "/fs/microsd"
+DOTS = (("S", ".", 0), ("S", "..", 0))  # readdir's "." and "..": PX4 lists them as skip entries
 
 
 def _errno(exc: OSError) -> FtpError:
@@ -87,29 +90,38 @@ class VehicleFiles:
             raise FtpError(ERR_FILE_PROTECTED)
         return full
 
-    def list(self, path: str) -> list[tuple[bool, str, int]]:
+    def list(self, path: str) -> list[tuple[str, str, int]]:
+        """(kind, name, size) as PX4's readdir loop sees them: "." and ".." first, then the
+        entries by name; "F" a regular file, "D" a directory, "S" anything else (a symlink)."""
         rel = self._rel(path)
         if rel == "etc":
-            return [(True, "extras", 0)]
+            return [*DOTS, ("D", "extras", 0)]
         if rel == metadata.EXTRAS_DIR:
-            return [(False, name, len(data)) for name, data in sorted(self.extras.items())]
+            return [*DOTS, *(("F", name, len(data)) for name, data in sorted(self.extras.items()))]
         if self._rom(path) is not None:
             raise FtpError(ERR_FAIL_ERRNO, errno.ENOENT)
-        out: list[tuple[bool, str, int]] = [(True, "etc", 0)] if rel == "" else []
+        out: list[tuple[str, str, int]] = [*DOTS, ("D", "etc", 0)] if rel == "" else []
         if self.root is None and rel == "":
             return out
         p = self._path(path)
         try:
-            names = sorted(n for n in os.listdir(p) if not (rel == "" and n == "etc"))
+            with os.scandir(p) as it:
+                entries = sorted((e for e in it if not (rel == "" and e.name == "etc")),
+                                 key=lambda e: e.name)
         except OSError as exc:
             raise _errno(exc) from None
-        for name in names:
+        if rel != "":
+            out.extend(DOTS)
+        for entry in entries:
             try:
-                st = (p / name).stat()
+                if entry.is_file(follow_symlinks=False):
+                    out.append(("F", entry.name, entry.stat().st_size))
+                elif entry.is_dir(follow_symlinks=False):
+                    out.append(("D", entry.name, 0))
+                else:
+                    out.append(("S", entry.name, 0))
             except OSError:
-                continue
-            is_dir = (p / name).is_dir()
-            out.append((is_dir, name, 0 if is_dir else st.st_size))
+                out.append(("S", entry.name, 0))
         return out
 
     def size(self, path: str) -> int:

@@ -56,7 +56,9 @@ def test_ftp_over_the_vehicle_root(tmp_path):
         assert op == ftp.OP_ACK and data == (b"hello " * 100)[239:478]
         assert f.one(ftp.OP_READ, offset=600, size=239)[1] == bytes((ftp.ERR_EOF,))
         burst = f.call(ftp.OP_BURST, offset=0, size=239)
-        assert b"".join(r[4] for r in burst) == b"hello " * 100 and burst[-1][5] == 1
+        assert b"".join(r[4] for r in burst[:-1]) == b"hello " * 100
+        assert [r[1] for r in burst] == [ftp.OP_ACK] * 3 + [ftp.OP_NAK]
+        assert burst[-1][4] == bytes((ftp.ERR_EOF,)) and not any(r[5] for r in burst)
         assert f.one(ftp.OP_TERMINATE)[0] == ftp.OP_ACK
         # write a file, check its CRC, rename, remove
         assert f.one(ftp.OP_CREATE, b"/new.bin")[0] == ftp.OP_ACK
@@ -76,7 +78,7 @@ def test_ftp_over_the_vehicle_root(tmp_path):
         assert f.one(ftp.OP_LIST, b"/../..")[1] == bytes((ftp.ERR_FILE_PROTECTED,))
         assert f.one(ftp.OP_OPEN_RO, b"/log/../../../etc/passwd")[1] == \
             bytes((ftp.ERR_FILE_PROTECTED,))
-        assert f.one(ftp.OP_OPEN_RO, b"/nope")[1] == bytes((ftp.ERR_FAIL_ERRNO, 2))
+        assert f.one(ftp.OP_OPEN_RO, b"/nope")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))
         assert f.one(99)[1] == bytes((ftp.ERR_UNKNOWN_COMMAND,))
         assert f.one(ftp.OP_READ, size=240)[1] == bytes((ftp.ERR_INVALID_DATA_SIZE,))
         assert f.one(ftp.OP_READ, session=7, size=10)[1] == bytes((ftp.ERR_INVALID_SESSION,))
@@ -89,7 +91,28 @@ def test_without_storage_only_px4s_etc_extras_is_there():
     with Sim() as sim:
         sim.advance(0.5)
         f = Ftp(sim)
-        assert f.one(ftp.OP_LIST, b"/") == (ftp.OP_ACK, b"Detc\0")
+        assert f.one(ftp.OP_LIST, b"/") == (ftp.OP_ACK, b"S\0S\0Detc\0")
         assert f.one(ftp.OP_LIST, b"/log")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))
         assert f.one(ftp.OP_OPEN_RO, b"/notes.txt")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))
         assert f.one(ftp.OP_CREATE, b"/new.bin")[1] == bytes((ftp.ERR_FILE_NOT_FOUND,))
+
+
+def test_a_long_burst_ends_as_px4s_does(tmp_path):
+    """PX4 mavlink_ftp.cpp send() on a SITL UDP link: 56 packets per 10 ms wake-up (a budget of
+    15000 bytes, 266 per frame); the wake-up's last packet once more than 35000 bytes went out
+    (the 168th) has burst_complete and the burst ends; the client asks again from there, and
+    a NAK EOF follows the file's last byte."""
+    with Sim(log_dir=tmp_path) as sim:
+        sim.advance(1.0)
+        content = bytes(i * 7 & 0xFF for i in range(50_000))
+        (tmp_path / "vehicle-1" / "big.bin").write_bytes(content)
+        f = Ftp(sim)
+        assert f.one(ftp.OP_OPEN_RO, b"/big.bin")[0] == ftp.OP_ACK
+        first = f.call(ftp.OP_BURST, offset=0, size=100)
+        assert len(first) == 168 and [r[5] for r in first] == [0] * 167 + [1]
+        assert [r[0] for r in first] == list(range(f.seq + 1, f.seq + 169))
+        assert [r[3] for r in first] == [239 * i for i in range(168)]
+        rest = f.call(ftp.OP_BURST, offset=168 * 239, size=239)
+        assert rest[-1][1] == ftp.OP_NAK and rest[-1][4] == bytes((ftp.ERR_EOF,))
+        assert rest[-1][3] == len(content) and not any(r[5] for r in rest)
+        assert b"".join(r[4] for r in first + rest[:-1]) == content
