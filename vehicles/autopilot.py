@@ -197,7 +197,7 @@ class Autopilot:
         """Fly to a local NED point and hold there (what DO_REPOSITION does in PX4: Hold + target)."""
         result = self.commander.request_nav_state(now_s, NavState.AUTO_LOITER)
         if result is CommandResult.ACCEPTED:
-            self.navigator.hold.hint = target_ned_m
+            self.navigator.hold.reposition = target_ned_m
             self.navigator.reactivate()
         return result
 
@@ -272,7 +272,7 @@ class Autopilot:
             if speed_mps > 0:
                 self.navigator.set_cruise_mps(speed_mps)
             if self.commander.armed:  # the navigator acts only when armed
-                self.navigator.hold.hint = (n, e, d)
+                self.navigator.hold.reposition = (n, e, d)
                 self.navigator.hold.hint_yaw = yaw_rad
                 self.navigator.reactivate()
         return result

@@ -152,27 +152,40 @@ class NavMode:
 
 
 class Hold(NavMode):
-    """Loiter: brake and hold the stopping point (or a point handed over by the previous mode)."""
+    """Loiter: brake and hold the stopping point (or a point handed over by the previous mode).
+
+    A reposition (DO_REPOSITION, ``reposition``) is flown to even from the ground: loiter.cpp
+    ``reposition()`` asks only that the vehicle be armed, and the auto task takes off towards a
+    target above it. Without one, on the ground Hold idles the motors and follows the vehicle;
+    disarming forgets the reposition (PX4 resets its loiter position)."""
 
     def __init__(self) -> None:
         self.target: Vec3 = (0.0, 0.0, 0.0)
         self.yaw = 0.0
         self.hint: Vec3 | None = None
         self.hint_yaw = math.nan
+        self.reposition: Vec3 | None = None  # taken at the next activation
+        self._repositioned = False
 
     def on_activation(self, ctx: NavContext) -> None:
-        if self.hint is not None and not ctx.landed:
+        self._repositioned = self.reposition is not None
+        if self.reposition is not None:
+            self.target = self.reposition
+        elif self.hint is not None and not ctx.landed:
             self.target = self.hint
         elif ctx.landed:
             self.target = ctx.position_ned_m
         else:
             self.target = ctx.stopping_point_ned_m
-        self.yaw = ctx.yaw_rad if math.isnan(self.hint_yaw) or ctx.landed else self.hint_yaw
-        self.hint = None
+        keep_yaw = math.isnan(self.hint_yaw) or (ctx.landed and not self._repositioned)
+        self.yaw = ctx.yaw_rad if keep_yaw else self.hint_yaw
+        self.hint = self.reposition = None
         self.hint_yaw = math.nan
 
     def on_active(self, ctx: NavContext) -> NavSetpoint:
-        if ctx.landed:
+        if not ctx.armed:
+            self._repositioned = False
+        if ctx.landed and not self._repositioned:
             # On the ground Hold keeps the motors idle and follows the vehicle.
             self.target = ctx.position_ned_m
             return NavSetpoint(self.target, ctx.yaw_rad, ctx.limits(), idle=True)

@@ -69,13 +69,15 @@ class Navigator:
         if self.active_state is not None:
             self.modes[self.active_state].on_inactive(ctx)
         self.active_state = None
-        self.hold.hint, self.hold.hint_yaw = None, math.nan  # a hand-over target is stale now
+        self.hold.hint = self.hold.reposition = None  # a hand-over target is stale now
+        self.hold.hint_yaw = math.nan
 
     def update(self, nav_state: NavState, ctx: NavContext) -> NavSetpoint:
         if nav_state not in self.modes:
             nav_state = NavState.AUTO_LOITER  # modes without a navigator part behave as Hold
         if nav_state is not _HOLD:
-            self.hold.hint, self.hold.hint_yaw = None, math.nan  # a hand-over target is stale now
+            self.hold.hint = self.hold.reposition = None  # a hand-over target is stale now
+            self.hold.hint_yaw = math.nan
         if nav_state != self.active_state or self._reactivate:
             if self.active_state is not None:
                 self.modes[self.active_state].on_inactive(ctx)

@@ -11,7 +11,8 @@ Rules:
   position controller (acceleration alone becomes a thrust vector directly); otherwise an attitude
   quaternion + thrust bypasses position control; otherwise body rates + thrust bypass attitude
   control too.
-- Yaw: ``yaw_rad`` if given, else ``yaw_rate_radps`` integrated, else the yaw held since entry.
+- Yaw: ``yaw_rad`` if given, else the present heading (PX4's PositionControl: a NaN yaw
+  setpoint is the current yaw), with ``yaw_rate_radps`` as the yaw-rate feed-forward.
 - Pure: time is an argument; no physics engine.
 """
 
@@ -48,8 +49,6 @@ class Offboard:
     def __init__(self) -> None:
         self.setpoint: OffboardSetpoint | None = None
         self.received_s = -math.inf
-        self._yaw_sp = math.nan
-        self._last_s: float | None = None
 
     def set(self, now_s: float, setpoint: OffboardSetpoint) -> None:
         self.setpoint = setpoint
@@ -59,21 +58,17 @@ class Offboard:
         return self.setpoint is not None and now_s - self.received_s <= timeout_s
 
     def on_entry(self, yaw_rad: float) -> None:
-        self._yaw_sp = yaw_rad
-        self._last_s = None
+        """Entering Offboard (nothing to keep: the yaw setpoint is the setpoint's or the present
+        heading's at every tick)."""
 
     def command(self, now_s: float, yaw_rad: float) -> OffboardCommand | None:
+        """This tick's command; ``yaw_rad``: the present heading, the yaw setpoint when the
+        setpoint gives none (PositionControl::update: a NaN ``_yaw_sp`` is the current yaw, a
+        yaw rate only its feed-forward, so no yaw error ever builds up)."""
         sp = self.setpoint
         if sp is None:
             return None
-        dt = 0.0 if self._last_s is None else max(now_s - self._last_s, 0.0)
-        self._last_s = now_s
-        if math.isnan(self._yaw_sp):
-            self._yaw_sp = yaw_rad
-        if not math.isnan(sp.yaw_rad):
-            self._yaw_sp = sp.yaw_rad
-        elif not math.isnan(sp.yaw_rate_radps):
-            self._yaw_sp = math.remainder(self._yaw_sp + sp.yaw_rate_radps * dt, math.tau)
+        yaw = sp.yaw_rad if not math.isnan(sp.yaw_rad) else yaw_rad
         if sp.has_position or sp.has_velocity:
             kind = "position"
         elif sp.has_acceleration:
@@ -82,4 +77,4 @@ class Offboard:
             kind = "attitude"
         else:
             kind = "rates"
-        return OffboardCommand(kind, sp, self._yaw_sp)
+        return OffboardCommand(kind, sp, yaw)

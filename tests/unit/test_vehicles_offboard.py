@@ -76,6 +76,24 @@ def test_offboard_velocity_with_yaw_rate(sim):
     assert math.remainder(yaw1 - yaw0, math.tau) == pytest.approx(1.2, abs=0.25)
 
 
+def test_a_yaw_rate_from_the_ground_builds_no_yaw_error(sim):
+    """MAVSDK's offboard_velocity_body: climb at 1 m/s yawing at 60 deg/s from the ground. PX4's
+    PositionControl takes the present heading as the yaw setpoint and the rate as feed-forward
+    (nothing is integrated, and mc_pos_control clears it until the takeoff ramp): the vehicle
+    climbs and yaws at the commanded rate, not at MC_YAWRATE_MAX."""
+    v = sim.v
+    sp = OffboardSetpoint(velocity_ned_mps=(0.0, 0.0, -1.0), yaw_rate_radps=math.radians(60))
+    start_offboard(sim, sp)
+    rates = []
+    for _ in range(32):  # 8 s: spool-up, takeoff ramp, climb
+        yaw0 = q_yaw(tuple(v.state.attitude_q))
+        stream(sim, sp, 0.25)
+        rates.append(math.remainder(q_yaw(tuple(v.state.attitude_q)) - yaw0, math.tau) / 0.25)
+    assert v.state.position_ned_m[2] < -1.5  # climbing (after the spool-up and the ramp)
+    assert max(abs(r) for r in rates) < math.radians(80)  # never catching up on a built-up error
+    assert sum(rates[-4:]) / 4 == pytest.approx(math.radians(60), abs=math.radians(15))
+
+
 def test_offboard_attitude_and_thrust(sim):
     v = sim.v
     take_off(sim)
@@ -163,14 +181,22 @@ def test_goto_speed_and_change_speed(sim):
     assert top == pytest.approx(3.0, abs=0.5)
 
 
-def test_goto_on_the_ground_does_not_take_off(sim):
+def test_goto_on_the_ground_takes_off_to_the_target_when_armed(sim):
+    """PX4 loiter.cpp reposition(): armed is all a reposition needs; the auto flight task then
+    takes off towards a target above (MAVSDK's goto example: arm, takeoff, goto 1 s later)."""
     v = sim.v
-    v.arm(sim.t)
     g = v.origin.offset_ned(20.0, 0.0, -10.0)
     assert v.goto(sim.t, g.lat_deg, g.lon_deg, g.alt_amsl_m) is CommandResult.ACCEPTED
-    sim.run(3.0)
+    sim.run(3.0)  # disarmed: the reposition is not kept (navigator_main.cpp: only when armed)
     assert v.status.landed_state is LandedState.ON_GROUND
-    assert abs(v.state.position_ned_m[2]) < 0.1
+    v.arm(sim.t)
+    sim.run(1.0)
+    assert v.status.landed_state is LandedState.ON_GROUND  # Hold on the ground: idle
+    assert v.goto(sim.t, g.lat_deg, g.lon_deg, g.alt_amsl_m) is CommandResult.ACCEPTED
+    sim.run(15.0)
+    n, e, d = v.state.position_ned_m
+    assert v.status.landed_state is LandedState.IN_AIR
+    assert (n, e, d) == pytest.approx((20.0, 0.0, -10.0), abs=1.0)
 
 
 def test_set_home_and_terminate(sim):
