@@ -108,6 +108,8 @@ class PositionControlOutput:
     thrust_ned: Vec3  # normalized thrust vector
     velocity_sp_ned_mps: Vec3  # the velocity setpoint the P loop produced
     yaw_rad: float
+    acceleration_sp_ned_mps2: Vec3 = NAN3  # the velocity PID's (PX4's _acc_sp)
+    valid: bool = True  # PositionControl::update's answer: the thrust can be flown
 
 
 @register_jitable
@@ -128,10 +130,8 @@ def position_control_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gain
                           ):  # pragma: no cover - compiled
     """One PositionControl update (module docstring), compiled. ``gains``: the 15 numbers of
     ``PositionControlGains.vector()``; ``integ``: the velocity integrator, updated in place.
-    Returns (normalized thrust NED, velocity setpoint NED)."""
-    thrust, vel_sp, _ = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
-                                          gains, integ)
-    return thrust, vel_sp
+    Returns (normalized thrust NED, velocity setpoint NED, acceleration setpoint NED)."""
+    return _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ)
 
 
 @njit_cached
@@ -296,11 +296,14 @@ class PositionControl:
 
     def update(self, dt_s: float, position_ned_m: Vec3, velocity_ned_mps: Vec3,
                acceleration_ned_mps2: Vec3, sp: PositionSetpoint) -> PositionControlOutput:
-        thrust, vel_sp = position_control_step(
+        """PositionControl::update: ``valid`` is False when the thrust or the acceleration
+        setpoint is not finite."""
+        thrust, vel_sp, acc_sp = position_control_step(
             dt_s, _vec3(position_ned_m), _vec3(velocity_ned_mps), _vec3(acceleration_ned_mps2),
             _vec3(sp.position_ned_m), _vec3(sp.velocity_ned_mps), _vec3(sp.acceleration_ned_mps2),
             self._gains, self._vel_int)
-        return PositionControlOutput(thrust, vel_sp, sp.yaw_rad)
+        valid = all(math.isfinite(v) for v in (*thrust, *acc_sp))
+        return PositionControlOutput(thrust, vel_sp, sp.yaw_rad, acc_sp, valid)
 
     def update_attitude(self, dt_s: float, position_ned_m: Vec3, velocity_ned_mps: Vec3,
                         acceleration_ned_mps2: Vec3, sp: PositionSetpoint, yaw_rad: float
