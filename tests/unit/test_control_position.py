@@ -74,7 +74,7 @@ def test_velocity_setpoint_is_limited():
 
 def test_nan_position_means_velocity_control():
     sp = PositionSetpoint(position_ned_m=(math.nan, math.nan, math.nan),
-                          velocity_ned_mps=(1.0, 0.0, math.nan))
+                          velocity_ned_mps=(1.0, 0.0, 0.0))
     out = make_control().update(0.02, (50.0, 50.0, -9.0), ZERO, ZERO, sp)
     assert out.velocity_sp_ned_mps == pytest.approx((1.0, 0.0, 0.0))
     assert out.thrust_ned[0] > 0.0
@@ -119,3 +119,28 @@ def test_trajectory_velocity_mode_for_nan_z():
         p, v, _ = traj.update(0.02, (0.0, 0.0, math.nan), LIMITS, vz_cmd_mps=0.7, current_z_m=-3.0)
     assert math.isnan(p[2])
     assert v[2] == pytest.approx(0.7)
+
+
+def test_axis_with_only_acceleration_is_not_velocity_controlled():
+    # PX4 (addIfNotNan): no position or velocity setpoint on an axis -> its acceleration
+    # feed-forward alone, whatever the velocity (no damping, the integrator untouched).
+    ctrl = make_control()
+    sp = PositionSetpoint(acceleration_ned_mps2=(0.0, 0.0, 100.0))
+    out = ctrl.update(0.02, ZERO, (3.0, -2.0, 1.0), (0.5, 0.5, 0.0), sp)
+    assert out.valid
+    assert out.thrust_ned[:2] == (0.0, 0.0)
+    assert out.thrust_ned[2] == pytest.approx(-0.12)  # MPC_THR_MIN
+    assert ctrl.velocity_integral == (0.0, 0.0, 0.0)
+
+
+def test_invalid_setpoint_fails_and_the_flight_path_stops():
+    # Nothing commanded vertically: PositionControl::update fails and leaves the integrator;
+    # mc_pos_control then flies its failsafe setpoint, zero velocity.
+    sp = PositionSetpoint(position_ned_m=(5.0, 5.0, math.nan))
+    ctrl = make_control()
+    out = ctrl.update(0.02, ZERO, (1.0, 0.0, 0.5), ZERO, sp)
+    assert not out.valid
+    assert ctrl.velocity_integral == (0.0, 0.0, 0.0)
+    q, thrust, vel_sp, _ = ctrl.update_attitude(0.02, ZERO, (1.0, 0.0, 0.5), ZERO, sp, 0.0)
+    assert vel_sp == (0.0, 0.0, 0.0)
+    assert all(math.isfinite(c) for c in q) and 0.12 <= thrust <= 1.0

@@ -268,10 +268,55 @@ def test_input_combinations_position_velocity():
     assert not any(math.isnan(v) for v in t.thrust)
 
 
+def test_setpoint_validity_simple():
+    """PositionControlTest.cpp, TEST_F(PositionControlBasicTest, SetpointValiditySimple)."""
+    t = Basic()
+    assert not t.run()
+    t.setpoint = PositionSetpoint(position_ned_m=(f32(.1), NAN, NAN))
+    assert not t.run()
+    t.setpoint = PositionSetpoint(position_ned_m=(f32(.1), f32(.2), NAN))
+    assert not t.run()
+    t.setpoint = PositionSetpoint(position_ned_m=(f32(.1), f32(.2), NAN),
+                                  acceleration_ned_mps2=(NAN, NAN, f32(.3)))
+    assert t.run()
 
 
+def test_setpoint_validity_all_combinations():
+    """PositionControlTest.cpp, TEST_F(PositionControlBasicTest, SetpointValidityAllCombinations):
+    every combination of set and unset (NaN) position, velocity and acceleration per axis; valid
+    when every axis has one and x and y come in pairs."""
+    t = Basic()
+    wrong = []
+    for combination in range(512):
+        values = [float(np.float32(combination) / np.float32(j + 1))
+                  if combination & (1 << j) else NAN for j in range(9)]
+        # PX4's order: x (position, velocity, acceleration), then y, then z
+        t.setpoint = PositionSetpoint(position_ned_m=(values[0], values[3], values[6]),
+                                      velocity_ned_mps=(values[1], values[4], values[7]),
+                                      acceleration_ned_mps2=(values[2], values[5], values[8]))
+        has_x = (combination & 7) != 0
+        has_y = ((combination >> 3) & 7) != 0
+        has_z = ((combination >> 6) & 7) != 0
+        xy_pairs = (combination & 7) == ((combination >> 3) & 7)
+        if t.run() != (has_x and has_y and has_z and xy_pairs):
+            wrong.append(combination)
+    assert wrong == []
 
 
+def test_invalid_state():
+    """PositionControlTest.cpp, TEST_F(PositionControlBasicTest, InvalidState): a controlled
+    state that is NaN makes the update fail."""
+    t = Basic()
+    t.setpoint = PositionSetpoint(position_ned_m=(f32(.1), f32(.2), f32(.3)))
+    t.position = (NAN, 0.0, 0.0)
+    assert not t.run()
+    t.velocity = (NAN, 0.0, 0.0)
+    assert not t.run()
+    t.position = ZERO
+    assert not t.run()
+    t.velocity = ZERO
+    t.acceleration = (0.0, NAN, 0.0)
+    assert not t.run()
 
 
 def test_update_hover_thrust():
@@ -288,6 +333,18 @@ def test_update_hover_thrust():
     assert float32_eq(t.thrust[2], -hover_thrust)
 
 
+def test_integrator_windup_with_invalid_setpoint():
+    """PositionControlTest.cpp, TEST_F(PositionControlBasicTest,
+    IntegratorWindupWithInvalidSetpoint): an invalid setpoint (x and y positions, nothing
+    vertical) must leave the integrator alone."""
+    t = Basic()
+    t.setpoint = PositionSetpoint(position_ned_m=(f32(.1), f32(.2), NAN))
+    assert not t.run()
+    t.setpoint = PositionSetpoint(velocity_ned_mps=ZERO)
+    assert t.run()
+    roll, pitch, _ = t.euler()
+    assert float_eq(roll, 0.0)
+    assert float_eq(pitch, 0.0)
 
 
 # --- ControlMathTest.cpp ---
@@ -360,3 +417,19 @@ def test_throttle_attitude_mapping():
     assert float_eq(abs(roll), math.pi)
     assert float_eq(pitch, 0.0) and float_eq(psi, yaw)
     assert float_eq(-collective, -1.0)
+
+
+
+
+def test_add_if_not_nan():
+    """ControlMathTest.cpp, TEST(ControlMathTest, addIfNotNan)."""
+    from vehicles.control.position_control import add_if_not_nan
+
+    v = add_if_not_nan(1.0, 2.0)  # regular addition
+    assert v == 3.0
+    v = add_if_not_nan(v, NAN)  # a NaN addition has no influence
+    assert v == 3.0
+    v = add_if_not_nan(NAN, NAN)  # both NaN
+    assert math.isnan(v)
+    v = add_if_not_nan(v, 3.0)  # a value added to NaN replaces it
+    assert v == 3.0

@@ -9,8 +9,13 @@ thrust), and ``ControlMath::limitTilt``.
 Rules:
 - Frames: NED; thrust is normalized (1.0 = all rotors at full thrust), pointing where the body's
   -z axis must point, so hovering level gives (0, 0, -hover_thrust).
-- NaN in a setpoint component means "not commanded" (PX4 convention): NaN position -> that axis is
-  velocity-controlled; NaN velocity feed-forward -> 0.
+- NaN in a setpoint component means "not commanded" (PX4 convention, ControlMath::addIfNotNan):
+  a position's P term is added to the velocity feed-forward; an axis with neither is not
+  velocity-controlled (its acceleration feed-forward alone: no velocity damping, no integral).
+  Every axis needs a position, velocity or acceleration and x, y come in pairs (``input_valid``,
+  PositionControl::_inputValid); otherwise ``update`` fails (``valid`` False) without touching
+  the integrator, and the flight path flies PX4's failsafe setpoint instead
+  (``_control_or_failsafe``, MulticopterPositionControl's).
 - The gains are PX4's physical gains (m/s per m, m/s² per m/s): the plant is physical, so no
   scaling is needed here. The hover thrust is MPC_THR_HOVER until PX4's hover thrust estimator
   gives one (vehicles/control/hover_thrust.py; ``update_hover_thrust``, as
@@ -125,6 +130,36 @@ def limit_tilt(body_z: Vec3, tilt_max_rad: float) -> Vec3:
     return (s * rx, s * ry, math.cos(angle))
 
 
+@register_jitable
+def add_if_not_nan(setpoint: float, addition: float) -> float:
+    """ControlMath::addIfNotNan: the sum; a setpoint that is not finite takes the addition, an
+    addition that is not finite leaves the setpoint."""
+    if math.isfinite(setpoint) and math.isfinite(addition):
+        return setpoint + addition
+    return addition if not math.isfinite(setpoint) else setpoint
+
+
+@register_jitable
+def input_valid(pos: Vec3, vel: Vec3, acc_meas: Vec3, sp_pos: Vec3, sp_vel: Vec3,
+                sp_acc: Vec3) -> bool:
+    """PositionControl::_inputValid: every axis has a position, velocity or acceleration
+    setpoint, x and y come in pairs, and every state a setpoint controls is finite (a velocity
+    setpoint needs the velocity and the acceleration, its D term)."""
+    fp0, fp1, fp2 = math.isfinite(sp_pos[0]), math.isfinite(sp_pos[1]), math.isfinite(sp_pos[2])
+    fv0, fv1, fv2 = math.isfinite(sp_vel[0]), math.isfinite(sp_vel[1]), math.isfinite(sp_vel[2])
+    fa0, fa1, fa2 = math.isfinite(sp_acc[0]), math.isfinite(sp_acc[1]), math.isfinite(sp_acc[2])
+    if not ((fp0 or fv0 or fa0) and (fp1 or fv1 or fa1) and (fp2 or fv2 or fa2)):
+        return False
+    if fp0 != fp1 or fv0 != fv1 or fa0 != fa1:
+        return False
+    for i, fp, fv in ((0, fp0, fv0), (1, fp1, fv1), (2, fp2, fv2)):
+        if fp and not math.isfinite(pos[i]):
+            return False
+        if fv and not (math.isfinite(vel[i]) and math.isfinite(acc_meas[i])):
+            return False
+    return True
+
+
 @njit_cached
 def position_control_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ
                           ):  # pragma: no cover - compiled
@@ -140,8 +175,8 @@ def position_attitude_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gai
     """``position_control_step`` and then its thrust at heading ``yaw_rad`` as an attitude
     (PX4 PositionControl::getAttitudeSetpoint: ControlMath::thrustToAttitude). Returns
     (attitude setpoint, collective thrust, velocity setpoint NED, acceleration setpoint NED)."""
-    thrust, vel_sp, acc_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
-                                               gains, integ)
+    thrust, vel_sp, acc_sp = _control_or_failsafe(dt_s, pos, vel, acc_meas, sp_pos, sp_vel,
+                                                  sp_acc, gains, integ)
     q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)
     return q, thrust_norm, vel_sp, acc_sp
 
@@ -171,12 +206,34 @@ def auto_position_attitude_step(traj, cfg, traj_inp, traj_out, dt_s, has_previou
                 traj[i, J] = traj[i, A] = traj[i, IJ] = traj[i, IA] = 0.0
                 traj[i, V] = traj[i, IV] = v
                 traj[i, X] = traj[i, IX] = x
-    thrust, vel_sp, acc_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
-                                               gains, integ)
+    thrust, vel_sp, acc_sp = _control_or_failsafe(dt_s, pos, vel, acc_meas, sp_pos, sp_vel,
+                                                  sp_acc, gains, integ)
     q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)
     if no_setpoint:
         integ[:] = 0.0
     return p_sp, v_sp, a_sp, q, thrust_norm, vel_sp, acc_sp
+
+
+@register_jitable
+def _control_or_failsafe(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ):
+    """``_position_control`` as MulticopterPositionControl runs it: when the update fails
+    (invalid setpoint or state, output not finite) it runs again on the failsafe setpoint
+    (generateFailsafeSetpoint): stop, zero velocity where the velocity is known. (PX4's blind
+    land and blind descent, for an unknown velocity, are not modelled: our estimate always has
+    one.)"""
+    thrust, vel_sp, acc_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
+                                               gains, integ)
+    if _all_finite(thrust) and _all_finite(acc_sp):
+        return thrust, vel_sp, acc_sp
+    fv = (0.0 if math.isfinite(vel[0]) and math.isfinite(vel[1]) else math.nan,
+          0.0 if math.isfinite(vel[0]) and math.isfinite(vel[1]) else math.nan,
+          0.0 if math.isfinite(vel[2]) else math.nan)
+    return _position_control(dt_s, pos, vel, acc_meas, NAN3, fv, NAN3, gains, integ)
+
+
+@register_jitable
+def _all_finite(v: Vec3) -> bool:
+    return math.isfinite(v[0]) and math.isfinite(v[1]) and math.isfinite(v[2])
 
 
 @register_jitable
@@ -185,16 +242,16 @@ def _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, i
      vel_max_up, vel_max_down, tilt_max, thrust_min, thrust_max, hover) = (
         gains[0], gains[1], gains[2], gains[3], gains[4], gains[5], gains[6], gains[7], gains[8],
         gains[9], gains[10], gains[11], gains[12], gains[13], gains[14])
-    # --- _positionControl: P on position + feed-forward, NaN axes stay velocity-only.
-    v0 = 0.0 if math.isnan(sp_vel[0]) else sp_vel[0]
-    v1 = 0.0 if math.isnan(sp_vel[1]) else sp_vel[1]
-    v2 = 0.0 if math.isnan(sp_vel[2]) else sp_vel[2]
-    if not math.isnan(sp_pos[0]):
-        v0 += pos_p_xy * (sp_pos[0] - pos[0])
-    if not math.isnan(sp_pos[1]):
-        v1 += pos_p_xy * (sp_pos[1] - pos[1])
-    if not math.isnan(sp_pos[2]):
-        v2 += pos_p_z * (sp_pos[2] - pos[2])
+    if not input_valid(pos, vel, acc_meas, sp_pos, sp_vel, sp_acc):
+        return NAN3, NAN3, NAN3  # PositionControl::update: nothing runs, the integrator holds
+    # --- _positionControl: P on position added to the velocity feed-forward (an axis with
+    # neither stays NaN: it is not velocity-controlled).
+    p0 = pos_p_xy * (sp_pos[0] - pos[0])
+    p1 = pos_p_xy * (sp_pos[1] - pos[1])
+    p2 = pos_p_z * (sp_pos[2] - pos[2])
+    v0 = add_if_not_nan(sp_vel[0], p0)
+    v1 = add_if_not_nan(sp_vel[1], p1)
+    v2 = add_if_not_nan(sp_vel[2], p2)
     vxy = math.hypot(v0, v1)
     if vxy > vel_max_xy:
         v0 *= vel_max_xy / vxy
@@ -203,14 +260,12 @@ def _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, i
     # asks for descent) and the lower bound wins, as in PX4.
     v2 = -vel_max_up if v2 < -vel_max_up else (vel_max_down if v2 > vel_max_down else v2)
 
-    # --- _velocityControl: PID -> acceleration setpoint.
+    # --- _velocityControl: PID -> acceleration setpoint, added to the feed-forward (an axis
+    # without a velocity setpoint gets the feed-forward alone).
     e0, e1, e2 = v0 - vel[0], v1 - vel[1], v2 - vel[2]
-    f0 = 0.0 if math.isnan(sp_acc[0]) else sp_acc[0]
-    f1 = 0.0 if math.isnan(sp_acc[1]) else sp_acc[1]
-    f2 = 0.0 if math.isnan(sp_acc[2]) else sp_acc[2]
-    a0 = e0 * vel_p_xy + integ[0] - acc_meas[0] * vel_d_xy + f0
-    a1 = e1 * vel_p_xy + integ[1] - acc_meas[1] * vel_d_xy + f1
-    a2 = e2 * vel_p_z + integ[2] - acc_meas[2] * vel_d_z + f2
+    a0 = add_if_not_nan(sp_acc[0], e0 * vel_p_xy + integ[0] - acc_meas[0] * vel_d_xy)
+    a1 = add_if_not_nan(sp_acc[1], e1 * vel_p_xy + integ[1] - acc_meas[1] * vel_d_xy)
+    a2 = add_if_not_nan(sp_acc[2], e2 * vel_p_z + integ[2] - acc_meas[2] * vel_d_z)
 
     # --- _accelerationControl: acceleration -> body z (tilt-limited) and collective thrust.
     bx, by, bz = -a0, -a1, GRAVITY_MPS2
