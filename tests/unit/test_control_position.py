@@ -144,3 +144,11 @@ def test_invalid_setpoint_fails_and_the_flight_path_stops():
     q, thrust, vel_sp, _ = ctrl.update_attitude(0.02, ZERO, (1.0, 0.0, 0.5), ZERO, sp, 0.0)
     assert vel_sp == (0.0, 0.0, 0.0)
     assert all(math.isfinite(c) for c in q) and 0.12 <= thrust <= 1.0
+
+
+def test_horizontal_speed_limit_keeps_the_position_term_first():
+    # PX4 ControlMath::constrainXY: the P term towards the position setpoint (4 m/s north) is
+    # kept whole, the feed-forward (4 m/s west) gets what is left of the 5 m/s.
+    sp = PositionSetpoint(position_ned_m=(4.0, 0.0, 0.0), velocity_ned_mps=(0.0, -4.0, 0.0))
+    out = make_control(MPC_XY_VEL_MAX=5.0, MPC_XY_P=1.0).update(0.02, ZERO, ZERO, ZERO, sp)
+    assert out.velocity_sp_ned_mps == pytest.approx((4.0, -3.0, 0.0))

@@ -419,6 +419,30 @@ def test_throttle_attitude_mapping():
     assert float_eq(-collective, -1.0)
 
 
+def test_constrain_xy_priorities():
+    """ControlMathTest.cpp, TEST(ControlMathTest, ConstrainXYPriorities): v0 has priority over
+    v1 when their sum is longer than the maximum."""
+    from vehicles.control.position_control import constrain_xy
+
+    limit = 5.0
+    # v0 already at the maximum
+    v0 = (limit, 0.0)
+    v1 = (v0[1], -v0[0])
+    r = constrain_xy(v0, v1, limit)
+    assert float_eq(r[0], limit) and float_eq(r[1], 0.0)
+    # v1 longer than the maximum but v0 zero
+    r = constrain_xy((0.0, 0.0), v1, limit)
+    assert float_eq(r[1], -limit) and float_eq(r[0], 0.0)
+    # within the maximum: the sum
+    v0, v1 = (.5, .5), (.5, -.5)
+    r = constrain_xy(v0, v1, limit)
+    assert float_eq(math.hypot(r[0] - (v0[0] + v1[0]), r[1] - (v0[1] + v1[1])), 0.0)
+    # both over the maximum and perpendicular
+    v0, v1 = (4.0, 0.0), (0.0, -4.0)
+    r = constrain_xy(v0, v1, limit)
+    assert float_eq(r[0], v0[0])
+    assert r[0] > 0.0
+    assert float_eq(r[1], -math.sqrt(limit * limit - v0[0] * v0[0]))
 
 
 def test_add_if_not_nan():

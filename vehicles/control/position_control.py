@@ -1,10 +1,10 @@
 """Pure library: position P + velocity PID -> normalized thrust vector (PX4 PositionControl).
 
 Follows PX4 ``src/modules/mc_pos_control/PositionControl/PositionControl.cpp`` (v1.14+):
-``_positionControl`` (P on position, velocity limits), ``_velocityControl`` (PID on velocity with
-vertical-priority thrust saturation and tracking anti-windup after Rundqwist 1990),
-``_accelerationControl`` (acceleration -> body z with tilt limit, collective thrust via the hover
-thrust), and ``ControlMath::limitTilt``.
+``_positionControl`` (P on position, velocity limits, ``ControlMath::constrainXY``),
+``_velocityControl`` (PID on velocity with vertical-priority thrust saturation and tracking
+anti-windup after Rundqwist 1990), ``_accelerationControl`` (acceleration -> body z with tilt
+limit, collective thrust via the hover thrust), and ``ControlMath::limitTilt``.
 
 Rules:
 - Frames: NED; thrust is normalized (1.0 = all rotors at full thrust), pointing where the body's
@@ -140,6 +140,30 @@ def add_if_not_nan(setpoint: float, addition: float) -> float:
 
 
 @register_jitable
+def constrain_xy(v0: tuple[float, float], v1: tuple[float, float],
+                 limit: float) -> tuple[float, float]:
+    """ControlMath::constrainXY: ``v0 + v1`` no longer than ``limit``, ``v0`` first: if ``v0``
+    alone reaches the limit it is shortened; else as much of ``v1``'s direction is added as
+    fits (the positive root of |v0 + s·u1| = limit)."""
+    sx, sy = v0[0] + v1[0], v0[1] + v1[1]
+    if math.hypot(sx, sy) <= limit:
+        return sx, sy
+    n0 = math.hypot(v0[0], v0[1])
+    if n0 >= limit or math.hypot(v1[0] - v0[0], v1[1] - v0[1]) < 0.001:
+        if n0 == 0.0:  # PX4 normalizes the zero vector to NaN
+            return math.nan, math.nan
+        return v0[0] / n0 * limit, v0[1] / n0 * limit
+    n1 = math.hypot(v1[0], v1[1])
+    if n0 < 0.001:
+        return v1[0] / n1 * limit, v1[1] / n1 * limit
+    u0, u1 = v1[0] / n1, v1[1] / n1
+    m = u0 * v0[0] + u1 * v0[1]
+    c = v0[0] * v0[0] + v0[1] * v0[1] - limit * limit
+    scale = -m + math.sqrt(m * m - c)
+    return v0[0] + u0 * scale, v0[1] + u1 * scale
+
+
+@register_jitable
 def input_valid(pos: Vec3, vel: Vec3, acc_meas: Vec3, sp_pos: Vec3, sp_vel: Vec3,
                 sp_acc: Vec3) -> bool:
     """PositionControl::_inputValid: every axis has a position, velocity or acceleration
@@ -252,10 +276,11 @@ def _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, i
     v0 = add_if_not_nan(sp_vel[0], p0)
     v1 = add_if_not_nan(sp_vel[1], p1)
     v2 = add_if_not_nan(sp_vel[2], p2)
-    vxy = math.hypot(v0, v1)
-    if vxy > vel_max_xy:
-        v0 *= vel_max_xy / vxy
-        v1 *= vel_max_xy / vxy
+    p0 = 0.0 if math.isnan(p0) else p0
+    p1 = 0.0 if math.isnan(p1) else p1
+    # The horizontal limit keeps the P term (towards the position setpoint) before the
+    # feed-forward.
+    v0, v1 = constrain_xy((p0, p1), (v0 - p0, v1 - p1), vel_max_xy)
     # math::constrain(v, -up, down): during the takeoff ramp ``up`` is negative (a limit that
     # asks for descent) and the lower bound wins, as in PX4.
     v2 = -vel_max_up if v2 < -vel_max_up else (vel_max_down if v2 > vel_max_down else v2)
