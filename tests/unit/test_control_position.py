@@ -152,3 +152,12 @@ def test_horizontal_speed_limit_keeps_the_position_term_first():
     sp = PositionSetpoint(position_ned_m=(4.0, 0.0, 0.0), velocity_ned_mps=(0.0, -4.0, 0.0))
     out = make_control(MPC_XY_VEL_MAX=5.0, MPC_XY_P=1.0).update(0.02, ZERO, ZERO, ZERO, sp)
     assert out.velocity_sp_ned_mps == pytest.approx((4.0, -3.0, 0.0))
+
+
+def test_minimum_thrust_is_never_zero():
+    # PX4 PositionControl::setThrustLimits: at least 10e-4, so that the attitude still comes
+    # from a thrust vector (mc_pos_control asks for 0 before takeoff).
+    ctrl = make_control()
+    ctrl.set_limits(3.0, 0.0, math.radians(45.0))
+    out = ctrl.update(0.02, ZERO, ZERO, ZERO, PositionSetpoint(acceleration_ned_mps2=(0, 0, 100.0)))
+    assert out.thrust_ned == pytest.approx((0.0, 0.0, -1e-3))

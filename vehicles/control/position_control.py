@@ -46,6 +46,10 @@ NO_THRUST_ACC: Vec3 = (0.0, 0.0, 100.0)
 # Where the smoothing restarts while the takeoff has not ramped (FlightTaskAuto::reActivate).
 REACTIVATE_VEL: Vec3 = (0.0, 0.0, 0.7)
 
+# PositionControl::setThrustLimits keeps the minimum thrust at least this, so that there is
+# always a thrust vector to take the attitude from (before takeoff mc_pos_control asks for 0).
+THRUST_MIN_FLOOR = 10e-4
+
 # PX4 MPC_THR_XY_MARG (v1.13+) is not in our parameter table: its default value.
 THRUST_XY_MARGIN = 0.3
 
@@ -340,6 +344,7 @@ class PositionControl:
     def __init__(self, gains: PositionControlGains) -> None:
         self.gains = gains
         self._gains = np.array(gains.vector())
+        self._gains[12] = max(gains.thrust_min, THRUST_MIN_FLOOR)
         self._vel_int = np.zeros(3)
 
     def reset_integral(self) -> None:
@@ -348,9 +353,10 @@ class PositionControl:
     def set_limits(self, speed_up_mps: float, thrust_min: float, tilt_max_rad: float) -> None:
         """This tick's upward speed limit, minimum thrust and tilt limit (PX4's
         setVelocityLimits / setThrustLimits / setTiltLimit, which mc_pos_control calls every
-        update; the takeoff ramp moves them)."""
+        update; the takeoff ramp moves them). The minimum thrust is never below
+        THRUST_MIN_FLOOR."""
         g = self._gains
-        g[9], g[12], g[11] = speed_up_mps, thrust_min, tilt_max_rad
+        g[9], g[12], g[11] = speed_up_mps, max(thrust_min, THRUST_MIN_FLOOR), tilt_max_rad
 
     @property
     def hover_thrust(self) -> float:
