@@ -74,7 +74,7 @@ def test_velocity_setpoint_is_limited():
 
 def test_nan_position_means_velocity_control():
     sp = PositionSetpoint(position_ned_m=(math.nan, math.nan, math.nan),
-                          velocity_ned_mps=(1.0, 0.0, math.nan))
+                          velocity_ned_mps=(1.0, 0.0, 0.0))
     out = make_control().update(0.02, (50.0, 50.0, -9.0), ZERO, ZERO, sp)
     assert out.velocity_sp_ned_mps == pytest.approx((1.0, 0.0, 0.0))
     assert out.thrust_ned[0] > 0.0
@@ -119,3 +119,45 @@ def test_trajectory_velocity_mode_for_nan_z():
         p, v, _ = traj.update(0.02, (0.0, 0.0, math.nan), LIMITS, vz_cmd_mps=0.7, current_z_m=-3.0)
     assert math.isnan(p[2])
     assert v[2] == pytest.approx(0.7)
+
+
+def test_axis_with_only_acceleration_is_not_velocity_controlled():
+    # PX4 (addIfNotNan): no position or velocity setpoint on an axis -> its acceleration
+    # feed-forward alone, whatever the velocity (no damping, the integrator untouched).
+    ctrl = make_control()
+    sp = PositionSetpoint(acceleration_ned_mps2=(0.0, 0.0, 100.0))
+    out = ctrl.update(0.02, ZERO, (3.0, -2.0, 1.0), (0.5, 0.5, 0.0), sp)
+    assert out.valid
+    assert out.thrust_ned[:2] == (0.0, 0.0)
+    assert out.thrust_ned[2] == pytest.approx(-0.12)  # MPC_THR_MIN
+    assert ctrl.velocity_integral == (0.0, 0.0, 0.0)
+
+
+def test_invalid_setpoint_fails_and_the_flight_path_stops():
+    # Nothing commanded vertically: PositionControl::update fails and leaves the integrator;
+    # mc_pos_control then flies its failsafe setpoint, zero velocity.
+    sp = PositionSetpoint(position_ned_m=(5.0, 5.0, math.nan))
+    ctrl = make_control()
+    out = ctrl.update(0.02, ZERO, (1.0, 0.0, 0.5), ZERO, sp)
+    assert not out.valid
+    assert ctrl.velocity_integral == (0.0, 0.0, 0.0)
+    q, thrust, vel_sp, _ = ctrl.update_attitude(0.02, ZERO, (1.0, 0.0, 0.5), ZERO, sp, 0.0)
+    assert vel_sp == (0.0, 0.0, 0.0)
+    assert all(math.isfinite(c) for c in q) and 0.12 <= thrust <= 1.0
+
+
+def test_horizontal_speed_limit_keeps_the_position_term_first():
+    # PX4 ControlMath::constrainXY: the P term towards the position setpoint (4 m/s north) is
+    # kept whole, the feed-forward (4 m/s west) gets what is left of the 5 m/s.
+    sp = PositionSetpoint(position_ned_m=(4.0, 0.0, 0.0), velocity_ned_mps=(0.0, -4.0, 0.0))
+    out = make_control(MPC_XY_VEL_MAX=5.0, MPC_XY_P=1.0).update(0.02, ZERO, ZERO, ZERO, sp)
+    assert out.velocity_sp_ned_mps == pytest.approx((4.0, -3.0, 0.0))
+
+
+def test_minimum_thrust_is_never_zero():
+    # PX4 PositionControl::setThrustLimits: at least 10e-4, so that the attitude still comes
+    # from a thrust vector (mc_pos_control asks for 0 before takeoff).
+    ctrl = make_control()
+    ctrl.set_limits(3.0, 0.0, math.radians(45.0))
+    out = ctrl.update(0.02, ZERO, ZERO, ZERO, PositionSetpoint(acceleration_ned_mps2=(0, 0, 100.0)))
+    assert out.thrust_ned == pytest.approx((0.0, 0.0, -1e-3))

@@ -1,16 +1,21 @@
 """Pure library: position P + velocity PID -> normalized thrust vector (PX4 PositionControl).
 
 Follows PX4 ``src/modules/mc_pos_control/PositionControl/PositionControl.cpp`` (v1.14+):
-``_positionControl`` (P on position, velocity limits), ``_velocityControl`` (PID on velocity with
-vertical-priority thrust saturation and tracking anti-windup after Rundqwist 1990),
-``_accelerationControl`` (acceleration -> body z with tilt limit, collective thrust via the hover
-thrust), and ``ControlMath::limitTilt``.
+``_positionControl`` (P on position, velocity limits, ``ControlMath::constrainXY``),
+``_velocityControl`` (PID on velocity with vertical-priority thrust saturation and tracking
+anti-windup after Rundqwist 1990), ``_accelerationControl`` (acceleration -> body z with tilt
+limit, collective thrust via the hover thrust), and ``ControlMath::limitTilt``.
 
 Rules:
 - Frames: NED; thrust is normalized (1.0 = all rotors at full thrust), pointing where the body's
   -z axis must point, so hovering level gives (0, 0, -hover_thrust).
-- NaN in a setpoint component means "not commanded" (PX4 convention): NaN position -> that axis is
-  velocity-controlled; NaN velocity feed-forward -> 0.
+- NaN in a setpoint component means "not commanded" (PX4 convention, ControlMath::addIfNotNan):
+  a position's P term is added to the velocity feed-forward; an axis with neither is not
+  velocity-controlled (its acceleration feed-forward alone: no velocity damping, no integral).
+  Every axis needs a position, velocity or acceleration and x, y come in pairs (``input_valid``,
+  PositionControl::_inputValid); otherwise ``update`` fails (``valid`` False) without touching
+  the integrator, and the flight path flies PX4's failsafe setpoint instead
+  (``_control_or_failsafe``, MulticopterPositionControl's).
 - The gains are PX4's physical gains (m/s per m, m/s² per m/s): the plant is physical, so no
   scaling is needed here. The hover thrust is MPC_THR_HOVER until PX4's hover thrust estimator
   gives one (vehicles/control/hover_thrust.py; ``update_hover_thrust``, as
@@ -40,6 +45,10 @@ NAN3: Vec3 = (math.nan, math.nan, math.nan)
 NO_THRUST_ACC: Vec3 = (0.0, 0.0, 100.0)
 # Where the smoothing restarts while the takeoff has not ramped (FlightTaskAuto::reActivate).
 REACTIVATE_VEL: Vec3 = (0.0, 0.0, 0.7)
+
+# PositionControl::setThrustLimits keeps the minimum thrust at least this, so that there is
+# always a thrust vector to take the attitude from (before takeoff mc_pos_control asks for 0).
+THRUST_MIN_FLOOR = 10e-4
 
 # PX4 MPC_THR_XY_MARG (v1.13+) is not in our parameter table: its default value.
 THRUST_XY_MARGIN = 0.3
@@ -108,6 +117,8 @@ class PositionControlOutput:
     thrust_ned: Vec3  # normalized thrust vector
     velocity_sp_ned_mps: Vec3  # the velocity setpoint the P loop produced
     yaw_rad: float
+    acceleration_sp_ned_mps2: Vec3 = NAN3  # the velocity PID's (PX4's _acc_sp)
+    valid: bool = True  # PositionControl::update's answer: the thrust can be flown
 
 
 @register_jitable
@@ -123,15 +134,67 @@ def limit_tilt(body_z: Vec3, tilt_max_rad: float) -> Vec3:
     return (s * rx, s * ry, math.cos(angle))
 
 
+@register_jitable
+def add_if_not_nan(setpoint: float, addition: float) -> float:
+    """ControlMath::addIfNotNan: the sum; a setpoint that is not finite takes the addition, an
+    addition that is not finite leaves the setpoint."""
+    if math.isfinite(setpoint) and math.isfinite(addition):
+        return setpoint + addition
+    return addition if not math.isfinite(setpoint) else setpoint
+
+
+@register_jitable
+def constrain_xy(v0: tuple[float, float], v1: tuple[float, float],
+                 limit: float) -> tuple[float, float]:
+    """ControlMath::constrainXY: ``v0 + v1`` no longer than ``limit``, ``v0`` first: if ``v0``
+    alone reaches the limit it is shortened; else as much of ``v1``'s direction is added as
+    fits (the positive root of |v0 + s·u1| = limit)."""
+    sx, sy = v0[0] + v1[0], v0[1] + v1[1]
+    if math.hypot(sx, sy) <= limit:
+        return sx, sy
+    n0 = math.hypot(v0[0], v0[1])
+    if n0 >= limit or math.hypot(v1[0] - v0[0], v1[1] - v0[1]) < 0.001:
+        if n0 == 0.0:  # PX4 normalizes the zero vector to NaN
+            return math.nan, math.nan
+        return v0[0] / n0 * limit, v0[1] / n0 * limit
+    n1 = math.hypot(v1[0], v1[1])
+    if n0 < 0.001:
+        return v1[0] / n1 * limit, v1[1] / n1 * limit
+    u0, u1 = v1[0] / n1, v1[1] / n1
+    m = u0 * v0[0] + u1 * v0[1]
+    c = v0[0] * v0[0] + v0[1] * v0[1] - limit * limit
+    scale = -m + math.sqrt(m * m - c)
+    return v0[0] + u0 * scale, v0[1] + u1 * scale
+
+
+@register_jitable
+def input_valid(pos: Vec3, vel: Vec3, acc_meas: Vec3, sp_pos: Vec3, sp_vel: Vec3,
+                sp_acc: Vec3) -> bool:
+    """PositionControl::_inputValid: every axis has a position, velocity or acceleration
+    setpoint, x and y come in pairs, and every state a setpoint controls is finite (a velocity
+    setpoint needs the velocity and the acceleration, its D term)."""
+    fp0, fp1, fp2 = math.isfinite(sp_pos[0]), math.isfinite(sp_pos[1]), math.isfinite(sp_pos[2])
+    fv0, fv1, fv2 = math.isfinite(sp_vel[0]), math.isfinite(sp_vel[1]), math.isfinite(sp_vel[2])
+    fa0, fa1, fa2 = math.isfinite(sp_acc[0]), math.isfinite(sp_acc[1]), math.isfinite(sp_acc[2])
+    if not ((fp0 or fv0 or fa0) and (fp1 or fv1 or fa1) and (fp2 or fv2 or fa2)):
+        return False
+    if fp0 != fp1 or fv0 != fv1 or fa0 != fa1:
+        return False
+    for i, fp, fv in ((0, fp0, fv0), (1, fp1, fv1), (2, fp2, fv2)):
+        if fp and not math.isfinite(pos[i]):
+            return False
+        if fv and not (math.isfinite(vel[i]) and math.isfinite(acc_meas[i])):
+            return False
+    return True
+
+
 @njit_cached
 def position_control_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ
                           ):  # pragma: no cover - compiled
     """One PositionControl update (module docstring), compiled. ``gains``: the 15 numbers of
     ``PositionControlGains.vector()``; ``integ``: the velocity integrator, updated in place.
-    Returns (normalized thrust NED, velocity setpoint NED)."""
-    thrust, vel_sp, _ = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
-                                          gains, integ)
-    return thrust, vel_sp
+    Returns (normalized thrust NED, velocity setpoint NED, acceleration setpoint NED)."""
+    return _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ)
 
 
 @njit_cached
@@ -140,8 +203,8 @@ def position_attitude_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gai
     """``position_control_step`` and then its thrust at heading ``yaw_rad`` as an attitude
     (PX4 PositionControl::getAttitudeSetpoint: ControlMath::thrustToAttitude). Returns
     (attitude setpoint, collective thrust, velocity setpoint NED, acceleration setpoint NED)."""
-    thrust, vel_sp, acc_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
-                                               gains, integ)
+    thrust, vel_sp, acc_sp = _control_or_failsafe(dt_s, pos, vel, acc_meas, sp_pos, sp_vel,
+                                                  sp_acc, gains, integ)
     q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)
     return q, thrust_norm, vel_sp, acc_sp
 
@@ -171,12 +234,34 @@ def auto_position_attitude_step(traj, cfg, traj_inp, traj_out, dt_s, has_previou
                 traj[i, J] = traj[i, A] = traj[i, IJ] = traj[i, IA] = 0.0
                 traj[i, V] = traj[i, IV] = v
                 traj[i, X] = traj[i, IX] = x
-    thrust, vel_sp, acc_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
-                                               gains, integ)
+    thrust, vel_sp, acc_sp = _control_or_failsafe(dt_s, pos, vel, acc_meas, sp_pos, sp_vel,
+                                                  sp_acc, gains, integ)
     q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)
     if no_setpoint:
         integ[:] = 0.0
     return p_sp, v_sp, a_sp, q, thrust_norm, vel_sp, acc_sp
+
+
+@register_jitable
+def _control_or_failsafe(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, integ):
+    """``_position_control`` as MulticopterPositionControl runs it: when the update fails
+    (invalid setpoint or state, output not finite) it runs again on the failsafe setpoint
+    (generateFailsafeSetpoint): stop, zero velocity where the velocity is known. (PX4's blind
+    land and blind descent, for an unknown velocity, are not modelled: our estimate always has
+    one.)"""
+    thrust, vel_sp, acc_sp = _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc,
+                                               gains, integ)
+    if _all_finite(thrust) and _all_finite(acc_sp):
+        return thrust, vel_sp, acc_sp
+    fv = (0.0 if math.isfinite(vel[0]) and math.isfinite(vel[1]) else math.nan,
+          0.0 if math.isfinite(vel[0]) and math.isfinite(vel[1]) else math.nan,
+          0.0 if math.isfinite(vel[2]) else math.nan)
+    return _position_control(dt_s, pos, vel, acc_meas, NAN3, fv, NAN3, gains, integ)
+
+
+@register_jitable
+def _all_finite(v: Vec3) -> bool:
+    return math.isfinite(v[0]) and math.isfinite(v[1]) and math.isfinite(v[2])
 
 
 @register_jitable
@@ -185,32 +270,31 @@ def _position_control(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gains, i
      vel_max_up, vel_max_down, tilt_max, thrust_min, thrust_max, hover) = (
         gains[0], gains[1], gains[2], gains[3], gains[4], gains[5], gains[6], gains[7], gains[8],
         gains[9], gains[10], gains[11], gains[12], gains[13], gains[14])
-    # --- _positionControl: P on position + feed-forward, NaN axes stay velocity-only.
-    v0 = 0.0 if math.isnan(sp_vel[0]) else sp_vel[0]
-    v1 = 0.0 if math.isnan(sp_vel[1]) else sp_vel[1]
-    v2 = 0.0 if math.isnan(sp_vel[2]) else sp_vel[2]
-    if not math.isnan(sp_pos[0]):
-        v0 += pos_p_xy * (sp_pos[0] - pos[0])
-    if not math.isnan(sp_pos[1]):
-        v1 += pos_p_xy * (sp_pos[1] - pos[1])
-    if not math.isnan(sp_pos[2]):
-        v2 += pos_p_z * (sp_pos[2] - pos[2])
-    vxy = math.hypot(v0, v1)
-    if vxy > vel_max_xy:
-        v0 *= vel_max_xy / vxy
-        v1 *= vel_max_xy / vxy
+    if not input_valid(pos, vel, acc_meas, sp_pos, sp_vel, sp_acc):
+        return NAN3, NAN3, NAN3  # PositionControl::update: nothing runs, the integrator holds
+    # --- _positionControl: P on position added to the velocity feed-forward (an axis with
+    # neither stays NaN: it is not velocity-controlled).
+    p0 = pos_p_xy * (sp_pos[0] - pos[0])
+    p1 = pos_p_xy * (sp_pos[1] - pos[1])
+    p2 = pos_p_z * (sp_pos[2] - pos[2])
+    v0 = add_if_not_nan(sp_vel[0], p0)
+    v1 = add_if_not_nan(sp_vel[1], p1)
+    v2 = add_if_not_nan(sp_vel[2], p2)
+    p0 = 0.0 if math.isnan(p0) else p0
+    p1 = 0.0 if math.isnan(p1) else p1
+    # The horizontal limit keeps the P term (towards the position setpoint) before the
+    # feed-forward.
+    v0, v1 = constrain_xy((p0, p1), (v0 - p0, v1 - p1), vel_max_xy)
     # math::constrain(v, -up, down): during the takeoff ramp ``up`` is negative (a limit that
     # asks for descent) and the lower bound wins, as in PX4.
     v2 = -vel_max_up if v2 < -vel_max_up else (vel_max_down if v2 > vel_max_down else v2)
 
-    # --- _velocityControl: PID -> acceleration setpoint.
+    # --- _velocityControl: PID -> acceleration setpoint, added to the feed-forward (an axis
+    # without a velocity setpoint gets the feed-forward alone).
     e0, e1, e2 = v0 - vel[0], v1 - vel[1], v2 - vel[2]
-    f0 = 0.0 if math.isnan(sp_acc[0]) else sp_acc[0]
-    f1 = 0.0 if math.isnan(sp_acc[1]) else sp_acc[1]
-    f2 = 0.0 if math.isnan(sp_acc[2]) else sp_acc[2]
-    a0 = e0 * vel_p_xy + integ[0] - acc_meas[0] * vel_d_xy + f0
-    a1 = e1 * vel_p_xy + integ[1] - acc_meas[1] * vel_d_xy + f1
-    a2 = e2 * vel_p_z + integ[2] - acc_meas[2] * vel_d_z + f2
+    a0 = add_if_not_nan(sp_acc[0], e0 * vel_p_xy + integ[0] - acc_meas[0] * vel_d_xy)
+    a1 = add_if_not_nan(sp_acc[1], e1 * vel_p_xy + integ[1] - acc_meas[1] * vel_d_xy)
+    a2 = add_if_not_nan(sp_acc[2], e2 * vel_p_z + integ[2] - acc_meas[2] * vel_d_z)
 
     # --- _accelerationControl: acceleration -> body z (tilt-limited) and collective thrust.
     bx, by, bz = -a0, -a1, GRAVITY_MPS2
@@ -260,6 +344,7 @@ class PositionControl:
     def __init__(self, gains: PositionControlGains) -> None:
         self.gains = gains
         self._gains = np.array(gains.vector())
+        self._gains[12] = max(gains.thrust_min, THRUST_MIN_FLOOR)
         self._vel_int = np.zeros(3)
 
     def reset_integral(self) -> None:
@@ -268,9 +353,10 @@ class PositionControl:
     def set_limits(self, speed_up_mps: float, thrust_min: float, tilt_max_rad: float) -> None:
         """This tick's upward speed limit, minimum thrust and tilt limit (PX4's
         setVelocityLimits / setThrustLimits / setTiltLimit, which mc_pos_control calls every
-        update; the takeoff ramp moves them)."""
+        update; the takeoff ramp moves them). The minimum thrust is never below
+        THRUST_MIN_FLOOR."""
         g = self._gains
-        g[9], g[12], g[11] = speed_up_mps, thrust_min, tilt_max_rad
+        g[9], g[12], g[11] = speed_up_mps, max(thrust_min, THRUST_MIN_FLOOR), tilt_max_rad
 
     @property
     def hover_thrust(self) -> float:
@@ -296,11 +382,14 @@ class PositionControl:
 
     def update(self, dt_s: float, position_ned_m: Vec3, velocity_ned_mps: Vec3,
                acceleration_ned_mps2: Vec3, sp: PositionSetpoint) -> PositionControlOutput:
-        thrust, vel_sp = position_control_step(
+        """PositionControl::update: ``valid`` is False when the thrust or the acceleration
+        setpoint is not finite."""
+        thrust, vel_sp, acc_sp = position_control_step(
             dt_s, _vec3(position_ned_m), _vec3(velocity_ned_mps), _vec3(acceleration_ned_mps2),
             _vec3(sp.position_ned_m), _vec3(sp.velocity_ned_mps), _vec3(sp.acceleration_ned_mps2),
             self._gains, self._vel_int)
-        return PositionControlOutput(thrust, vel_sp, sp.yaw_rad)
+        valid = all(math.isfinite(v) for v in (*thrust, *acc_sp))
+        return PositionControlOutput(thrust, vel_sp, sp.yaw_rad, acc_sp, valid)
 
     def update_attitude(self, dt_s: float, position_ned_m: Vec3, velocity_ned_mps: Vec3,
                         acceleration_ned_mps2: Vec3, sp: PositionSetpoint, yaw_rad: float
