@@ -26,6 +26,48 @@ import numpy as np
 from numba.extending import register_jitable
 
 
+def rotor_effectiveness(rotors) -> np.ndarray:
+    """ActuatorEffectivenessRotors::computeEffectivenessMatrix for rotors whose thrust points up
+    (axis (0, 0, -1) FRD, CA_ROTORn_CT 1): one (roll, pitch, yaw, thrust x, y, z) column per
+    rotor given as (CA_ROTORn_PX, _PY, _KM), moment = CT·(position × axis) − CT·KM·axis."""
+    effectiveness = np.zeros((6, len(rotors)))
+    for i, (px, py, km) in enumerate(rotors):
+        effectiveness[:, i] = (-py, px, km, 0.0, 0.0, -1.0)
+    return effectiveness
+
+
+def pseudo_inverse_mix(effectiveness: np.ndarray, normalize: bool = True) -> np.ndarray:
+    """ControlAllocationPseudoInverse::updatePseudoInverse: the allocation matrix (one row per
+    actuator, one column per axis: roll, pitch, yaw, thrust x, y, z) as the pseudo-inverse of
+    ``effectiveness`` (6 × actuators). ``normalize`` (a multicopter's normalize_rpy with the
+    scale updated): roll and pitch columns divided by the larger of sqrt(|column|² / (non-zero
+    entries / 2)), yaw by its largest entry, the thrust columns by the mean length of the
+    non-zero per-actuator thrust rows; a scale that is not positive leaves its columns alone.
+    Entries below 1e-3 become 0 either way."""
+    mix = np.linalg.pinv(np.asarray(effectiveness, dtype=float))
+    if normalize:
+        scales = []
+        for axis in (0, 1):
+            nonzero = int((np.abs(mix[:, axis]) > 1e-3).sum())
+            column = mix[:, axis]
+            scales.append(math.sqrt(float(column @ column) / (nonzero / 2.0)) if nonzero else 1.0)
+        rp_scale = max(scales)
+        # PX4's matrix has 16 actuator rows, the unused ones zero: the largest entry is >= 0
+        yaw_scale = float(mix[:, 2].max(initial=0.0))
+        thrust_rows = np.linalg.norm(mix[:, 3:6], axis=1)
+        nonzero_thrust = thrust_rows > np.finfo(np.float32).eps
+        thrust_scale = float(thrust_rows[nonzero_thrust].mean()) if nonzero_thrust.any() else 1.0
+        eps = np.finfo(np.float32).eps
+        if rp_scale > eps:
+            mix[:, 0:2] /= rp_scale
+        if yaw_scale > eps:
+            mix[:, 2] /= yaw_scale
+        if thrust_scale > eps:
+            mix[:, 3:6] /= thrust_scale
+    mix[np.abs(mix) < 1e-3] = 0.0
+    return mix
+
+
 class MixerOutput(NamedTuple):
     motor_u: tuple[float, ...]  # 0..1 commands, PX4 motor order
     saturation_positive: tuple[bool, bool, bool]
