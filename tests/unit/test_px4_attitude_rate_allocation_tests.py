@@ -56,7 +56,12 @@ import numpy as np
 import pytest
 
 from vehicles.control.attitude_control import AttitudeControl, AttitudeControlGains
-from vehicles.control.mixer import mix_into, pseudo_inverse_mix, rotor_effectiveness
+from vehicles.control.mixer import (
+    mix_into,
+    mixer_rows_with_effectiveness,
+    pseudo_inverse_mix,
+    rotor_effectiveness,
+)
 from vehicles.control.quat import Quat, Vec3, q_canonical, q_mul, q_normalized
 from vehicles.control.rate_control import RateControl, RateControlGains
 
@@ -202,7 +207,7 @@ def allocate(roll: float, pitch: float, yaw: float, thrust_z: float) -> np.ndarr
     """setup_quad_allocator + allocate() with MC_AIRMODE 0 (module docstring: the mapping)."""
     mix = pseudo_inverse_mix(rotor_effectiveness(QUAD_X), normalize=False)
     assert mix[:, 5] == pytest.approx([mix[0, 5]] * len(mix), abs=1e-9)  # a uniform column
-    rows = np.ascontiguousarray(mix[:, :3])
+    rows = mixer_rows_with_effectiveness(mix[:, 0], mix[:, 1], mix[:, 2])
     out = np.zeros(len(rows))
     mix_into(float(mix[0, 5]) * thrust_z, roll, pitch, yaw, rows, 0.0, out)
     return out
@@ -252,6 +257,20 @@ def test_ControlAllocationSequentialDesaturationTest_AirmodeDisabledThrustAndPit
     high = -thrust_z_total / 4 + pitch_sp / 4
     low = -thrust_z_total / 4 - pitch_sp / 4
     assert out == pytest.approx((high, low, high, low), abs=EXPECT_NEAR_TOL)
+
+
+def test_ControlAllocationSequentialDesaturationTest_AirmodeDisabledReducedThrustAndYaw():
+    """PX4 ControlAllocationSequentialDesaturationTest.cpp, TEST(..., AirmodeDisabledReduced-
+    ThrustAndYaw): 0.8 thrust per motor and yaw 1 (saturating): yaw may use 15 % above the top
+    (ControlAllocationSequentialDesaturation::MINIMUM_YAW_MARGIN, v1.15) and thrust is then
+    reduced by that margin: motors 1, 2 at 0.8 + 0.35 − 0.15, motors 3, 4 at 0.8 − 0.35 − 0.15
+    (0.35 = 1 + 0.15 − 0.8)."""
+    per_motor, margin = 0.8, 0.15
+    out = allocate(0.0, 0.0, 1.0, -per_motor * 4)
+    yaw_diff = 1.0 + margin - per_motor
+    high = per_motor + yaw_diff - margin
+    low = per_motor - yaw_diff - margin
+    assert out == pytest.approx((high, high, low, low), abs=EXPECT_NEAR_TOL)
 
 
 def test_ControlAllocationSequentialDesaturationTest_AirmodeDisabledReducedThrustAndPitch():
