@@ -31,8 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numpy as np
-
+from vehicles.control.mixer import pseudo_inverse_mix, rotor_effectiveness
 from vehicles.types import GRAVITY_MPS2
 
 
@@ -138,26 +137,13 @@ class Airframe:
     def mixer_rows(self) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]]:
         """Per-motor command change for unit normalized roll, pitch and yaw torque: PX4's
         multicopter allocation (control_allocator: ActuatorEffectivenessRotors' effectiveness
-        from ``allocation_rotors`` with thrust along -z, its pseudo-inverse, then
-        ControlAllocationPseudoInverse's normalization with normalize_rpy: roll and pitch
-        columns by the larger of sqrt(|col|² / (non-zero entries / 2)), yaw by its largest
-        entry; the thrust column becomes 1 per motor, so the collective thrust is the motor
-        command). Roll (right side down) raises the left motors, pitch (nose up) the front ones,
-        yaw the motors whose KM > 0 (counter-clockwise)."""
-        effectiveness = np.zeros((6, len(self.allocation_rotors)))
-        for i, (px, py, km) in enumerate(self.allocation_rotors):
-            # moment = CT (p × axis) - CT KM axis, thrust = CT axis, axis = (0, 0, -1), CT = 1
-            effectiveness[:, i] = (-py, px, km, 0.0, 0.0, -1.0)
-        mix = np.linalg.pinv(effectiveness)
-        nonzero = (np.abs(mix[:, :2]) > 1e-3).sum(axis=0)
-        rp_scale = max(math.sqrt(float(mix[:, axis] @ mix[:, axis]) / (nonzero[axis] / 2.0))
-                       for axis in (0, 1))
-        yaw_scale = float(mix[:, 2].max())
-        def column(values: np.ndarray) -> tuple[float, ...]:
-            # PX4 zeroes entries below 1e-3 after normalizing.
-            return tuple(0.0 if abs(v) < 1e-3 else float(v) for v in values)
-
-        return column(mix[:, 0] / rp_scale), column(mix[:, 1] / rp_scale), column(mix[:, 2] / yaw_scale)
-
+        from ``allocation_rotors`` with thrust along -z, then ControlAllocationPseudoInverse's
+        pseudo-inverse and normalization, see vehicles/control/mixer.py ``pseudo_inverse_mix``;
+        the thrust column becomes -1 per motor, so the collective thrust is the motor command).
+        Roll (right side down) raises the left motors, pitch (nose up) the front ones, yaw the
+        motors whose KM > 0 (counter-clockwise)."""
+        mix = pseudo_inverse_mix(rotor_effectiveness(self.allocation_rotors))
+        roll, pitch, yaw = (tuple(float(v) for v in mix[:, axis]) for axis in range(3))
+        return roll, pitch, yaw
 
 X500 = Airframe()

@@ -32,7 +32,7 @@ import numpy as np
 from vehicles.airframe import Airframe
 from vehicles.control.attitude_control import attitude_rates
 from vehicles.control.compiled import njit_cached
-from vehicles.control.mixer import mix_into
+from vehicles.control.mixer import mix_into, mixer_rows_with_effectiveness
 from vehicles.control.rate_control import STATE_SIZE, d_filter_alpha, rate_pid
 from vehicles.control.rotation import dcm
 
@@ -61,9 +61,10 @@ SP_Q, SP_YAWSPEED, SP_THRUST, SP_RATES, SP_SIZE = 0, 4, 5, 6, 9
 # Columns of ``InnerLoop.gains``: ``attitude_rates``' seven coefficients, then ``rate_pid``'s 15,
 # then THR_MDL_FAC (the motors' thrust model).
 G_ATT, G_RATE, G_THR_MDL_FAC, G_SIZE = 0, 7, 22, 23
-# Columns of ``InnerLoop.rotors`` (one row per rotor): the mixer's roll, pitch and yaw factors,
+# Columns of ``InnerLoop.rotors`` (one row per rotor): the mixer's six numbers (roll, pitch and
+# yaw factors, then the rotor's normalized effectiveness: mixer.mixer_rows_with_effectiveness),
 # the rotor's x and y (FRD, m), its reaction torque per newton of thrust (signed, m).
-R_MIX, R_X, R_Y, R_YAW_K, R_SIZE = 0, 3, 4, 5, 6
+R_MIX, R_X, R_Y, R_YAW_K, R_SIZE = 0, 6, 7, 8, 9
 # Numbers per body of a raw PyBullet state (``measure``): position, orientation xyzw, linear and
 # angular velocity, ENU.
 RAW_SIZE = 13
@@ -241,9 +242,9 @@ class InnerLoop:
         self.dt_s = dt_s
         self.idle_thrust_norm = idle_thrust_norm
         self.alpha = d_filter_alpha(dt_s)
-        roll, pitch, yaw = airframe.mixer_rows()
+        mixer = mixer_rows_with_effectiveness(*airframe.mixer_rows())
         self.rotors = np.array([
-            (roll[i], pitch[i], yaw[i], r.position_frd_m[0], r.position_frd_m[1],
+            (*mixer[i], r.position_frd_m[0], r.position_frd_m[1],
              r.yaw_sign * airframe.moment_constant_m) for i, r in enumerate(airframe.rotors)],
             dtype=float)
         self.plant = np.array([

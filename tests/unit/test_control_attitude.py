@@ -106,14 +106,36 @@ def test_mixer_geometry_signs():
     assert t[0] > t[2] and t[1] > t[3]
 
 
+def allocated_torque(motor_u) -> tuple[float, float, float]:
+    """The normalized (roll, pitch, yaw) torque the motor commands make (the mixer rows'
+    effectiveness · commands, as PX4's ControlAllocator computes it)."""
+    rows = mixer().rows
+    return tuple(float(sum(rows[i][3 + axis] * u for i, u in enumerate(motor_u)))
+                 for axis in range(3))
+
+
 def test_mixer_keeps_roll_pitch_over_yaw_when_saturated():
     out = mixer().mix(0.9, (0.3, 0.0, 1.0))
     t = out.motor_u
     assert all(0.0 <= x <= 1.0 for x in t)
-    # Roll difference between left and right survives in full (0.3 · 4 · 0.4377).
-    roll = X500.mixer_rows()[0]
-    assert (t[1] + t[2]) - (t[0] + t[3]) == pytest.approx(0.3 * sum(map(abs, roll)), abs=1e-9)
-    assert out.saturation_positive[2]
+    roll, pitch, yaw = allocated_torque(t)
+    # Roll survives in full; yaw keeps what MINIMUM_YAW_MARGIN gives it above the top motor (15 %
+    # of the range, then taken back from the thrust: the top motor ends at 1).
+    assert (roll, pitch) == pytest.approx((0.3, 0.0), abs=1e-9)
+    assert yaw == pytest.approx(0.15, abs=1e-9)
+    assert max(t) == pytest.approx(1.0)
+    assert out.saturation_positive == (False, False, True)
+    assert out.saturation_negative == (False, False, False)
+
+
+def test_mixer_flags_the_torque_the_clipped_outputs_miss():
+    """Saturation as MulticopterRateControl reads it from ControlAllocator's unallocated torque:
+    none while the torque is met, the sign of setpoint − allocated otherwise."""
+    assert mixer().mix(0.5, (0.1, -0.1, 0.05))[1:] == ((False,) * 3, (False,) * 3)
+    out = mixer().mix(0.5, (-2.0, 0.0, 0.0))
+    assert allocated_torque(out.motor_u)[0] > -2.0
+    assert out.saturation_negative == (True, False, False)
+    assert out.saturation_positive == (False, False, False)
 
 
 def test_njit_cached_compiles_without_a_cache_when_numba_has_nowhere_to_keep_it():

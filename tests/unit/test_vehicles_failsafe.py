@@ -362,13 +362,16 @@ def test_rtl_lands_at_closer_rally_point(sim):
 def test_a_motor_lost_in_flight_is_an_attitude_failure_that_denies_arming():
     """A motor off in flight (failure injection): the vehicle rolls past FD_FAIL_R for
     FD_FAIL_R_TTRI, the failure detector's roll failure; the failsafe warns (CBRK_FLIGHTTERM
-    set), and where it lies tilted, arming is denied ("Attitude failure detected")."""
+    set), and where it lies tilted, arming is denied ("Attitude failure detected"). How the
+    tumble from 2.5 m ends depends on the motor and on the mixer's saturation handling: with
+    PX4's sequential desaturation, losing motor 2 or 4 leaves the X500 upside down, 1 or 3
+    upright."""
     sim = make_sim(SYS_FAILURE_EN=1)
     try:
         v = sim.v
         take_off(sim)
         sim.run(3.0)
-        assert v.inject_failure(sim.t, 101, 1, 1) is CommandResult.ACCEPTED  # motor 1 off
+        assert v.inject_failure(sim.t, 101, 1, 2) is CommandResult.ACCEPTED  # motor 2 off
         fd = v._autopilot.failure_detector
         assert sim.run(6.0, until=lambda: fd.roll or fd.pitch)
         sim.run(0.2)

@@ -130,9 +130,7 @@ def attitude_rates(q: Quat, qd: Quat, p0: float, p1: float, p2: float, l0: float
     mz = q_mix[3]
     mz = -1.0 if mz < -1.0 else (1.0 if mz > 1.0 else mz)
     qd = q_mul(qd_red, (math.cos(yaw_w * math.acos(mw)), 0.0, 0.0, math.sin(yaw_w * math.asin(mz))))
-    ew, ex, ey, ez = q_mul((w, -x, -y, -z), qd)
-    if ew < 0.0:
-        ex, ey, ez = -ex, -ey, -ez
+    _, ex, ey, ez = q_canonical(q_mul((w, -x, -y, -z), qd))
     r0, r1, r2 = 2.0 * ex * p0, 2.0 * ey * p1, 2.0 * ez * p2
     if yawspeed != 0.0:  # + q⁻¹ · e_z · yawspeed: NED down in the body frame
         r0 += 2.0 * (x * z - w * y) * yawspeed

@@ -1,18 +1,29 @@
-"""Pure library: collective thrust + normalized torque -> motor commands (PX4 quad-X order).
+"""Pure library: collective thrust + normalized torque -> motor commands (PX4 quad-X order), and
+PX4's allocation matrix.
 
-Follows the idea of PX4 ``src/modules/control_allocator/ControlAllocation/
-ControlAllocationSequentialDesaturation.cpp`` with airmode disabled (``mixAirmodeDisabled``):
-roll/pitch first, thrust may only be *reduced* to make room at the top, roll/pitch are scaled down
-if a motor would go below zero, then yaw is added with whatever headroom is left. So roll and
-pitch always win over yaw.
+Follows PX4 v1.15 ``src/modules/control_allocator/ControlAllocation/
+ControlAllocationSequentialDesaturation.cpp`` with airmode disabled (MC_AIRMODE 0,
+``mixAirmodeDisabled`` and ``mixYaw``): thrust, roll and pitch are mixed; the thrust is only ever
+*reduced* to desaturate; then the roll, then the pitch setpoint is moved to desaturate; then yaw
+is added and desaturated against an upper limit raised by MINIMUM_YAW_MARGIN (15 %), which the
+thrust then gives back (reduced only). Each desaturation is PX4's ``desaturateActuators``: move
+along the axis' column by the sum of the most negative and most positive gain that unsaturates
+one output (``computeDesaturationGain``, outputs moving less than 0.2 along it left out), then by
+half the gain computed again. So roll and pitch win over yaw, and yaw keeps some authority at
+full thrust. ``rotor_effectiveness`` and ``pseudo_inverse_mix`` are ActuatorEffectivenessRotors'
+effectiveness and ControlAllocationPseudoInverse's normalized pseudo-inverse (the rows).
 
 Rules:
 - Input thrust is normalized collective thrust (0..1); torques are normalized (-1..1); the rows
-  (per-rotor thrust change per unit torque) come from the airframe geometry.
-- Output per motor: the command ``u`` in 0..1 (PX4's actuator_motors), linear in the allocated
-  thrust as PX4's with its default THR_MDL_FAC 0. The plant turns it into a rotor speed through
-  the ESC's range (vehicles/airframe.py), so thrust is quadratic in ``u``, as in PX4's gz SITL.
-- Also reports per-axis saturation so the rate integrator can stop winding up.
+  (per-rotor thrust change per unit torque, and the rotor's normalized effectiveness) come from
+  the airframe geometry.
+- Output per motor: the command ``u`` in 0..1 (PX4's actuator_motors, clipped to 0..1 as
+  ControlAllocator does, then at least the idle command), linear in the allocated thrust as
+  PX4's with its default THR_MDL_FAC 0. The plant turns it into a rotor speed through the ESC's
+  range (vehicles/airframe.py), so thrust is quadratic in ``u``, as in PX4's gz SITL.
+- Also reports per-axis saturation as MulticopterRateControl reads it from ControlAllocator's
+  unallocated torque (setpoint minus what the clipped outputs allocate), so the rate integrator
+  can stop winding up.
 - ``mix_into`` is the one source: ``Mixer`` calls it in Python, the compiled inner loop
   (vehicles/inner_loop.py) inlines it.
 """
@@ -26,79 +37,160 @@ import numpy as np
 from numba.extending import register_jitable
 
 
+def rotor_effectiveness(rotors) -> np.ndarray:
+    """ActuatorEffectivenessRotors::computeEffectivenessMatrix for rotors whose thrust points up
+    (axis (0, 0, -1) FRD, CA_ROTORn_CT 1): one (roll, pitch, yaw, thrust x, y, z) column per
+    rotor given as (CA_ROTORn_PX, _PY, _KM), moment = CT·(position × axis) − CT·KM·axis."""
+    effectiveness = np.zeros((6, len(rotors)))
+    for i, (px, py, km) in enumerate(rotors):
+        effectiveness[:, i] = (-py, px, km, 0.0, 0.0, -1.0)
+    return effectiveness
+
+
+def pseudo_inverse_mix(effectiveness: np.ndarray, normalize: bool = True) -> np.ndarray:
+    """ControlAllocationPseudoInverse::updatePseudoInverse: the allocation matrix (one row per
+    actuator, one column per axis: roll, pitch, yaw, thrust x, y, z) as the pseudo-inverse of
+    ``effectiveness`` (6 × actuators). ``normalize`` (a multicopter's normalize_rpy with the
+    scale updated): roll and pitch columns divided by the larger of sqrt(|column|² / (non-zero
+    entries / 2)), yaw by its largest entry, the thrust columns by the mean length of the
+    non-zero per-actuator thrust rows; a scale that is not positive leaves its columns alone.
+    Entries below 1e-3 become 0 either way."""
+    mix = np.linalg.pinv(np.asarray(effectiveness, dtype=float))
+    if normalize:
+        scales = []
+        for axis in (0, 1):
+            nonzero = int((np.abs(mix[:, axis]) > 1e-3).sum())
+            column = mix[:, axis]
+            scales.append(math.sqrt(float(column @ column) / (nonzero / 2.0)) if nonzero else 1.0)
+        rp_scale = max(scales)
+        # PX4's matrix has 16 actuator rows, the unused ones zero: the largest entry is >= 0
+        yaw_scale = float(mix[:, 2].max(initial=0.0))
+        thrust_rows = np.linalg.norm(mix[:, 3:6], axis=1)
+        nonzero_thrust = thrust_rows > np.finfo(np.float32).eps
+        thrust_scale = float(thrust_rows[nonzero_thrust].mean()) if nonzero_thrust.any() else 1.0
+        eps = np.finfo(np.float32).eps
+        if rp_scale > eps:
+            mix[:, 0:2] /= rp_scale
+        if yaw_scale > eps:
+            mix[:, 2] /= yaw_scale
+        if thrust_scale > eps:
+            mix[:, 3:6] /= thrust_scale
+    mix[np.abs(mix) < 1e-3] = 0.0
+    return mix
+
+
 class MixerOutput(NamedTuple):
     motor_u: tuple[float, ...]  # 0..1 commands, PX4 motor order
     saturation_positive: tuple[bool, bool, bool]
     saturation_negative: tuple[bool, bool, bool]
 
 
+def mixer_rows_with_effectiveness(roll, pitch, yaw) -> np.ndarray:
+    """The rows ``mix_into`` takes, one per rotor: its roll, pitch and yaw factors (the
+    normalized allocation columns), then the normalized roll, pitch and yaw effectiveness of the
+    rotor, which the allocation inverts: the first three rows of the pseudo-inverse of [roll,
+    pitch, yaw, thrust 1 per rotor] (PX4 ControlAllocation::getAllocatedControl uses the scaled
+    effectiveness; the same matrix up to the entries the normalization rounds to 0)."""
+    mix = np.column_stack([roll, pitch, yaw, np.ones(len(roll))]).astype(float)
+    return np.ascontiguousarray(np.hstack([mix[:, :3], np.linalg.pinv(mix)[:3].T]))
+
+
+# ControlAllocationSequentialDesaturation::MINIMUM_YAW_MARGIN: yaw may use this fraction of the
+# output range above the top, which the thrust then gives back.
+MINIMUM_YAW_MARGIN = 0.15
+# computeDesaturationGain leaves out actuators that move less than this along the vector.
+_WEAK_EFFECTIVENESS = 0.2
+_THRUST = -1  # ``rows`` column meaning the collective thrust (1 per motor)
+_FLT_EPSILON = 1.1920929e-07
+
+
+@register_jitable
+def _along(rows, i: int, col: int) -> float:
+    return 1.0 if col == _THRUST else rows[i][col]
+
+
+@register_jitable
+def _desaturation_gain(out, rows, col: int, top: float) -> float:
+    """computeDesaturationGain: the sum of the most negative and the most positive multiple of
+    column ``col`` that would bring one saturated output back into 0..``top``."""
+    k_min = 0.0
+    k_max = 0.0
+    for i in range(len(out)):
+        v = _along(rows, i, col)
+        if abs(v) < _WEAK_EFFECTIVENESS:
+            continue
+        if out[i] < 0.0:
+            k = -out[i] / v
+            k_min = min(k_min, k)
+            k_max = max(k_max, k)
+        if out[i] > top:
+            k = (top - out[i]) / v
+            k_min = min(k_min, k)
+            k_max = max(k_max, k)
+    return k_min + k_max
+
+
+@register_jitable
+def _desaturate(out, rows, col: int, top: float, reduce_only: bool) -> None:
+    """desaturateActuators: move ``out`` along column ``col`` by the desaturation gain, then by
+    half the gain computed again; ``reduce_only`` (the thrust with airmode disabled): nothing if
+    the first gain would add."""
+    gain = _desaturation_gain(out, rows, col, top)
+    if reduce_only and gain > 0.0:
+        return
+    for i in range(len(out)):
+        out[i] += gain * _along(rows, i, col)
+    half = 0.5 * _desaturation_gain(out, rows, col, top)
+    for i in range(len(out)):
+        out[i] += half * _along(rows, i, col)
+
+
 @register_jitable
 def mix_into(thrust: float, roll: float, pitch: float, yaw: float, rows, idle: float, out
              ) -> tuple[bool, bool, bool, bool, bool, bool]:
-    """Sequential desaturation (module docstring): normalized rotor thrusts into ``out``;
-    returns the saturation flags (roll+, pitch+, yaw+, roll−, pitch−, yaw−). ``rows``: one
-    (roll, pitch, yaw) row per rotor. Plain Python from Python, compiled into
-    vehicles/inner_loop.py."""
+    """PX4's mixAirmodeDisabled and mixYaw (module docstring): normalized rotor thrusts into
+    ``out``, at least ``idle``; returns the saturation flags (roll+, pitch+, yaw+, roll−,
+    pitch−, yaw−). ``rows``: ``mixer_rows_with_effectiveness``'s, one per rotor. Plain Python
+    from Python, compiled into vehicles/inner_loop.py."""
     n = len(rows)
     thrust = 0.0 if thrust < 0.0 else (1.0 if thrust > 1.0 else thrust)
-    high = -math.inf
-    low = math.inf
     for i in range(n):
-        r = roll * rows[i][0] + pitch * rows[i][1]
-        out[i] = r
-        if r > high:
-            high = r
-        if r < low:
-            low = r
-    sp0 = sp1 = sp2 = sn0 = sn1 = sn2 = False
-    over = thrust + high - 1.0
-    if over > 0.0:
-        thrust = max(thrust - over, 0.0)
-    if thrust + low < 0.0 or thrust + high > 1.0:
-        span_low = -low if low < 0.0 else 0.0
-        k = 1.0
-        if span_low > 0.0:
-            k = min(k, thrust / span_low)
-        if high > 0.0 and thrust + high > 1.0:
-            k = min(k, (1.0 - thrust) / high)
-        for i in range(n):
-            out[i] = out[i] * k
-        sp0, sp1 = roll > 0.0, pitch > 0.0
-        sn0, sn1 = roll < 0.0, pitch < 0.0
-    s = 1.0
-    if yaw != 0.0:
-        for i in range(n):
-            y = yaw * rows[i][2]
-            base = thrust + out[i]
-            if y > 1e-9:
-                room = 1.0 - base
-                r = (room if room > 0.0 else 0.0) / y
-                if r < s:
-                    s = r
-            elif y < -1e-9:
-                r = (base if base > 0.0 else 0.0) / -y
-                if r < s:
-                    s = r
-        if s < 1.0:
-            if yaw > 0.0:
-                sp2 = True
-            else:
-                sn2 = True
-    sy = s * yaw
+        out[i] = thrust + roll * rows[i][0] + pitch * rows[i][1]
+    _desaturate(out, rows, _THRUST, 1.0, True)
+    _desaturate(out, rows, 0, 1.0, False)
+    _desaturate(out, rows, 1, 1.0, False)
     for i in range(n):
-        t = thrust + out[i] + sy * rows[i][2]
-        out[i] = idle if t < idle else (1.0 if t > 1.0 else t)
-    return (sp0, sp1, sp2, sn0, sn1, sn2)
+        out[i] += yaw * rows[i][2]
+    _desaturate(out, rows, 2, 1.0 + MINIMUM_YAW_MARGIN, False)
+    _desaturate(out, rows, _THRUST, 1.0, True)
+    # ControlAllocator: the outputs clipped to 0..1, the torque they allocate (effectiveness ·
+    # outputs) and the unallocated torque (setpoint − allocated); MulticopterRateControl's
+    # saturation flags from it, none while the torque is met (|unallocated|² < 1e-6).
+    e_roll, e_pitch, e_yaw = roll, pitch, yaw
+    for i in range(n):
+        t = out[i]
+        t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+        e_roll -= rows[i][3] * t
+        e_pitch -= rows[i][4] * t
+        e_yaw -= rows[i][5] * t
+        out[i] = idle if t < idle else t
+    if e_roll * e_roll + e_pitch * e_pitch + e_yaw * e_yaw < 1e-6:
+        return (False, False, False, False, False, False)
+    return (e_roll > _FLT_EPSILON, e_pitch > _FLT_EPSILON, e_yaw > _FLT_EPSILON,
+            e_roll < -_FLT_EPSILON, e_pitch < -_FLT_EPSILON, e_yaw < -_FLT_EPSILON)
 
 
 class Mixer:
     def __init__(self, rows: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...]],
                  idle_thrust_norm: float = 0.0) -> None:
-        self.rows = np.array(rows, dtype=float).T.copy()  # one (roll, pitch, yaw) row per rotor
+        """``rows``: the roll, pitch and yaw columns (``Airframe.mixer_rows``)."""
+        self.rows = mixer_rows_with_effectiveness(*rows)
         self.idle_thrust_norm = idle_thrust_norm
 
     def mix(self, thrust: float, torque: tuple[float, float, float]) -> MixerOutput:
         out = np.zeros(len(self.rows))
         sat = mix_into(thrust, torque[0], torque[1], torque[2], self.rows, self.idle_thrust_norm,
                        out)
-        return MixerOutput(tuple(float(t) for t in out), sat[:3], sat[3:])
+        return MixerOutput(tuple(float(t) for t in out),
+                           (bool(sat[0]), bool(sat[1]), bool(sat[2])),
+                           (bool(sat[3]), bool(sat[4]), bool(sat[5])))

@@ -15,6 +15,8 @@ from numba.extending import register_jitable
 
 from vehicles.types import Quat, Vec3
 
+_FLT_EPSILON = 1.1920929e-07  # C's FLT_EPSILON, PX4's threshold for a zero element
+
 
 @register_jitable
 def q_mul(a: Quat, b: Quat) -> Quat:
@@ -41,8 +43,12 @@ def q_normalized(q: Quat) -> Quat:
 
 @register_jitable
 def q_canonical(q: Quat) -> Quat:
-    """The equivalent quaternion with w >= 0 (PX4 Quaternion::canonical)."""
-    return q if q[0] >= 0.0 else (-q[0], -q[1], -q[2], -q[3])
+    """The equivalent quaternion whose first element larger than FLT_EPSILON in size is positive
+    (PX4 Quaternion::canonical): w >= 0, and for a half turn (w ~ 0) x, then y, then z decide."""
+    for i in range(4):
+        if abs(q[i]) > _FLT_EPSILON:
+            return q if q[i] > 0.0 else (-q[0], -q[1], -q[2], -q[3])
+    return q
 
 
 @register_jitable
