@@ -93,7 +93,8 @@ class AutoTask(FlightTask):
         nav_sp = self.setpoint = self.navigator.update(t.nav_state, t.nav)
         wants_climb = (nav_sp.target_ned_m[2] < pos[2] - TAKEOFF_TRIGGER_M
                        if not math.isnan(nav_sp.target_ned_m[2]) else nav_sp.vz_cmd_mps < -0.1)
-        if not t.armed or nav_sp.idle or (st.land_detector.landed and not wants_climb):
+        if not t.armed or nav_sp.idle or (st.land_detector.landed and not wants_climb
+                                          and not st.taking_off):
             st.set_idle(t.meas)
             return
         if not st.flying or math.isnan(st.yaw_sp):
@@ -138,7 +139,7 @@ class OffboardTask(FlightTask):
             wants_climb = ((not math.isnan(p[2]) and p[2] < pos[2] - TAKEOFF_TRIGGER_M)
                            or (not math.isnan(v[2]) and v[2] < -0.1)
                            or (not math.isnan(a[2]) and a[2] < -0.1))
-            if st.land_detector.landed and not wants_climb:
+            if st.land_detector.landed and not wants_climb and not st.taking_off:
                 st.set_idle(meas)
                 return
             if oc.kind == "position":
@@ -278,7 +279,8 @@ class StickPositionTask(FlightTask):
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
         st.trajectory.reset(pos, vel)  # a switch to an auto mode brakes from the real state
         sticks = self.manual.current(t.now_s) if t.armed else CENTRED
-        if not t.armed or (st.land_detector.landed and not task.want_takeoff(sticks)):
+        if not t.armed or (st.land_detector.landed and not task.want_takeoff(sticks)
+                           and not st.taking_off):
             task.activate(pos, vel, t.yaw_rad)
             st.set_idle(meas)
             return

@@ -94,6 +94,12 @@ class PositionStage:
         return self.takeoff.update_state(self._armed, self.land_detector.landed, want_takeoff,
                                          self._now_s, skip)
 
+    @property
+    def taking_off(self) -> bool:
+        """The takeoff ramp runs (PX4 stays in rampup until the ramp ends, whatever the task
+        asks: a task on the ground keeps flying its setpoint meanwhile)."""
+        return self.takeoff.state is RAMPUP
+
     def set_idle(self, meas: Measurement) -> None:
         self._takeoff_state(False)
         self.idle = True

@@ -212,3 +212,22 @@ def test_a_second_stick_source_is_ignored_while_the_first_is_fresh(sim):
         sim.run(0.05)
     assert abs(sim.v.state.velocity_ned_mps[0]) < 0.3
     assert sim.v._autopilot.manual.source == "qgc"
+
+
+def test_once_the_takeoff_ramp_starts_it_runs_whatever_the_sticks_ask(sim):
+    """PX4's TakeoffHandling stays in rampup until the ramp ends and mc_pos_control keeps
+    controlling meanwhile: one tick of climb input starts the takeoff; centred sticks after it
+    do not idle the motors again (they did: the ramp only advanced on ticks asking to climb)."""
+    sim.run(1.2)
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    assert sim.v.arm(sim.t) is CommandResult.ACCEPTED
+    fly(sim, 1.5, CENTRED)  # spooled up, ready for takeoff
+    stage = sim.v.autopilot.stage
+    fly(sim, 0.05, Sticks(throttle=1.0))
+    assert stage.taking_off
+    idle, end = [], sim.t + 2.0
+    while sim.t < end:  # 2 s of centred sticks within the 3 s ramp
+        fly(sim, 0.05, CENTRED)
+        idle.append(stage.idle)
+    assert not any(idle) and stage.taking_off
