@@ -7,6 +7,13 @@ Rules:
   request's opcode in req_opcode; a NAK's data[0] is the error (data[1] errno for FailErrno).
   As PX4's _process_request: an error whose errno is EEXIST is sent as FileExists, a FailErrno
   with ENOENT as FileNotFound (one byte each), so a missing file is never FailErrno.
+- Requests to this system and its autopilot component (or 0) only. A request whose sequence
+  number comes just before the last reply's is a resend (the reply was lost): the last reply
+  goes out again, unexecuted, if its data was at most 4 bytes (PX4 keeps only those: the larger
+  ones are reads, safe to run again).
+- OpenFileRO / OpenFileWO / CreateFile answer the file's size before opening (4 bytes; 0 for a
+  new file): WO creates a missing file, CreateFile also empties an existing one. WriteFile
+  answers the count written (4 bytes); on a read-only session FailErrno EBADF.
 - One session at a time (PX4's single ``_session_info``): Open* while one is open →
   NoSessionsAvailable; Read/Write/Burst with another session id → InvalidSession.
 - ListDirectory at ``offset`` entries (readdir's, "." and ".." included): "F<name>\\t<size>" for a
@@ -27,7 +34,7 @@ from __future__ import annotations
 
 import math
 import struct
-from errno import EEXIST, ENOENT
+from errno import EBADF, EEXIST, ENOENT
 from typing import Any, Protocol
 
 from pymavlink.dialects.v20 import common as M
@@ -90,6 +97,9 @@ class FtpService:
         self._session: tuple[str, bool] | None = None  # (path, writable)
         self._burst: tuple[int, int, int, tuple[int, int]] | None = None  # seq, offset, chunk, to
         self.due_s = math.inf  # when ``handle_timer`` has work next (the burst); inf: none
+        # The last reply if its data was at most 4 bytes (MavlinkFTP's _last_reply): a request
+        # with the sequence number before its own is a resend, answered with it again.
+        self._last_reply: tuple[int, tuple[int, int], bytes] | None = None
 
     # --- wire ---------------------------------------------------------------------------------
     def _reply(self, to: tuple[int, int], seq: int, session: int, req: int, offset: int,
@@ -99,14 +109,25 @@ class FtpService:
             data = bytes((nak, errno)) if nak == ERR_FAIL_ERRNO else bytes((nak,))
         payload = HEADER.pack((seq + 1) & 0xFFFF, session, OP_NAK if nak is not None else OP_ACK,
                               len(data), req, int(burst_complete), 0, offset) + data
+        if len(data) <= 4:
+            self._last_reply = ((seq + 1) & 0xFFFF, to, payload)
+        self._send_payload(to, payload)
+
+    def _send_payload(self, to: tuple[int, int], payload: bytes) -> None:
         self.send(self.encoder.pack(M.MAVLink_file_transfer_protocol_message, 0, to[0], to[1],
                                     list(payload.ljust(251, b"\0"))))
 
     def on_file_transfer_protocol(self, msg: Any, now_s: float) -> None:
-        if msg.target_system not in (0, self.sysid):
+        if msg.target_system not in (0, self.sysid) or msg.target_component not in (
+                0, M.MAV_COMP_ID_AUTOPILOT1):
             return
         raw = bytes(msg.payload)
         seq, session, opcode, size, _req, _burst, _pad, offset = HEADER.unpack_from(raw)
+        last = self._last_reply
+        if size <= DATA_LEN and last is not None and (seq + 1) & 0xFFFF == last[0]:
+            self._send_payload(last[1], last[2])  # our answer was lost: the same again
+            return
+        self._last_reply = None
         data = raw[HEADER.size:HEADER.size + DATA_LEN]
         to = (msg.get_srcSystem(), msg.get_srcComponent())
 
@@ -163,12 +184,16 @@ class FtpService:
             root = self._need_root()
             if op == OP_OPEN_RO:
                 fsize = root.size(arg)
-                self._session = (arg, False)
-                ack(to, seq, 0, op, offset, struct.pack("<I", fsize))
-            else:
-                root.create(arg, exclusive=False) if op == OP_CREATE else root.size(arg)
-                self._session = (arg, True)
-                ack(to, seq, 0, op, offset)
+            else:  # O_CREAT (CreateFile also O_TRUNC): the size before, 0 for a new file
+                try:
+                    fsize = root.size(arg)
+                except FtpError:
+                    fsize = 0
+                    root.create(arg, exclusive=False)
+                if op == OP_CREATE and fsize:
+                    root.create(arg, exclusive=False)
+            self._session = (arg, op != OP_OPEN_RO)
+            ack(to, seq, 0, op, offset, struct.pack("<I", fsize))
         elif op == OP_READ:
             path, _ = self._need_session(session)
             chunk = self._need_root().read(path, offset, min(size or DATA_LEN, DATA_LEN))
@@ -181,10 +206,10 @@ class FtpService:
             self.due_s = now_s
         elif op == OP_WRITE:
             path, writable = self._need_session(session)
-            if not writable:
-                raise FtpError(ERR_FAIL)
+            if not writable:  # write(2) on an O_RDONLY descriptor
+                raise FtpError(ERR_FAIL_ERRNO, EBADF)
             self._need_root().write(path, offset, data[:size])
-            ack(to, seq, session, op, offset)
+            ack(to, seq, session, op, offset, struct.pack("<I", size))
         elif op == OP_REMOVE:
             self._need_root().remove(arg)
             ack(to, seq, session, op, offset)

@@ -116,3 +116,52 @@ def test_a_long_burst_ends_as_px4s_does(tmp_path):
         assert rest[-1][1] == ftp.OP_NAK and rest[-1][4] == bytes((ftp.ERR_EOF,))
         assert rest[-1][3] == len(content) and not any(r[5] for r in rest)
         assert b"".join(r[4] for r in first + rest[:-1]) == content
+
+
+def test_a_resent_request_gets_the_same_answer_and_is_not_run_again(tmp_path):
+    """MavlinkFTP keeps its last reply if its data is at most 4 bytes: a request numbered just
+    before it is a resend (the answer was lost) and gets it again. An OpenFileRO resent after
+    its ACK was lost must not find its own session taken."""
+    with Sim(log_dir=tmp_path) as sim:
+        sim.advance(1.0)
+        (tmp_path / "vehicle-1" / "a.txt").write_bytes(b"x" * 10)
+        f = Ftp(sim)
+        first = f.one(ftp.OP_OPEN_RO, b"/a.txt")
+        f.seq -= 1  # the same request again
+        assert f.one(ftp.OP_OPEN_RO, b"/a.txt") == first == (ftp.OP_ACK, struct.pack("<I", 10))
+        op, data = f.one(ftp.OP_READ, size=239)  # 10 bytes of data: not kept
+        f.seq -= 1
+        assert f.one(ftp.OP_READ, size=239) == (op, data)  # run again, same bytes
+        assert f.one(ftp.OP_TERMINATE)[0] == ftp.OP_ACK
+
+
+def test_open_for_writing_create_and_write_answer_as_px4(tmp_path):
+    with Sim(log_dir=tmp_path) as sim:
+        sim.advance(1.0)
+        root = tmp_path / "vehicle-1"
+        f = Ftp(sim)
+        # OpenFileWO creates a missing file (O_CREAT), its size before: 0
+        assert f.one(ftp.OP_OPEN_WO, b"/new.bin") == (ftp.OP_ACK, struct.pack("<I", 0))
+        assert f.one(ftp.OP_WRITE, b"abc", offset=0) == (ftp.OP_ACK, struct.pack("<I", 3))
+        assert f.one(ftp.OP_TERMINATE)[0] == ftp.OP_ACK
+        assert (root / "new.bin").read_bytes() == b"abc"
+        # CreateFile answers the size before and empties the file (O_TRUNC)
+        assert f.one(ftp.OP_CREATE, b"/new.bin") == (ftp.OP_ACK, struct.pack("<I", 3))
+        assert f.one(ftp.OP_TERMINATE)[0] == ftp.OP_ACK
+        assert (root / "new.bin").read_bytes() == b""
+        # writing on a read-only session: write(2)'s EBADF
+        f.one(ftp.OP_OPEN_RO, b"/new.bin")
+        assert f.one(ftp.OP_WRITE, b"z") == (ftp.OP_NAK, bytes((ftp.ERR_FAIL_ERRNO, 9)))
+
+
+def test_requests_to_another_component_are_ignored(tmp_path):
+    with Sim(log_dir=tmp_path) as sim:
+        sim.advance(1.0)
+        api = sim.api(0)
+        since = len(api.frames)
+        payload = ftp.HEADER.pack(1, 0, ftp.OP_LIST, 2, 0, 0, 0, 0) + b"/\0"
+        for component in (100, 0):  # a camera's, then the broadcast address
+            api.send(M.MAVLink_file_transfer_protocol_message(0, 1, component,
+                                                              list(payload.ljust(251, b"\0"))))
+            sim.advance(0.2)
+        assert len(api.messages("FILE_TRANSFER_PROTOCOL", since)) == 1

@@ -31,6 +31,10 @@ def fetch(f: Ftp, path: bytes) -> bytes:
             assert burst[-1][4] == bytes((ftp.ERR_EOF,))
             break
         assert burst[-1][5] == 1
+    # The next request numbered after the stream (as QGC does): one numbered just before the
+    # stream's last reply would be taken for a resend of the request it answered (PX4's
+    # _last_reply), and get that EOF again.
+    f.seq = burst[-1][0]
     assert f.one(ftp.OP_TERMINATE)[0] == ftp.OP_ACK
     assert len(got) == size
     return got
