@@ -159,8 +159,7 @@ class VehicleFiles:
     def create(self, path: str, exclusive: bool) -> None:
         self._read_only(path)
         p = self._path(path)
-        try:
-            p.parent.mkdir(parents=True, exist_ok=True)
+        try:  # open(2) with O_CREAT: a missing folder is ENOENT (FileNotFound), as PX4's
             with open(p, "xb" if exclusive else "wb"):
                 pass
         except FileExistsError:

@@ -149,6 +149,8 @@ def test_open_for_writing_create_and_write_answer_as_px4(tmp_path):
         assert f.one(ftp.OP_CREATE, b"/new.bin") == (ftp.OP_ACK, struct.pack("<I", 3))
         assert f.one(ftp.OP_TERMINATE)[0] == ftp.OP_ACK
         assert (root / "new.bin").read_bytes() == b""
+        # no folder is made on the way (open(2) with O_CREAT)
+        assert f.one(ftp.OP_CREATE, b"/nodir/x.bin") == (ftp.OP_NAK, bytes((ftp.ERR_FILE_NOT_FOUND,)))
         # writing on a read-only session: write(2)'s EBADF
         f.one(ftp.OP_OPEN_RO, b"/new.bin")
         assert f.one(ftp.OP_WRITE, b"z") == (ftp.OP_NAK, bytes((ftp.ERR_FAIL_ERRNO, 9)))
