@@ -103,6 +103,15 @@ def test_StickTiltXYTest_NormalRollPitchCases():
         assert matrix_eq(acc, expected), (stick, acc, expected)
 
 
+def test_StickTiltXYTest_90degreeCase():
+    """StickTiltXYTest.cpp, TEST(StickTiltXYTest, 90degreeCase): MPC_MAN_TILT_MAX 90° → zero
+    stick still gives zero, full stick at most 3 g sideways (not tan 90°)."""
+    task = _task({"MPC_MAN_TILT_MAX": 90.0})
+    assert matrix_eq(_tilt(task, (0.0, 0.0), 1.0), (0.0, 0.0))
+    acc = _tilt(task, (1.0, 0.0), 1.0)
+    assert matrix_eq(acc, (3.0 * ONE_G, 0.0)), acc
+
+
 # --- FunctionsTest.cpp ---------------------------------------------------------------------------
 def _check(fn, cases) -> None:
     for args, expected in cases:
