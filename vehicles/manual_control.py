@@ -240,13 +240,15 @@ class ManualAltitude:
         p = self.params
         self._yaw(sticks, yaw, dt)
         vz = self._vertical(sticks, pos, vel)
-        tau = float(p["MC_MAN_TILT_TAU"])
-        self._tilt = (_lowpass(self._tilt[0], sticks.pitch, dt, tau),
-                      _lowpass(self._tilt[1], sticks.roll, dt, tau))
-        x, y = _rotate(self._tilt[0], self._tilt[1], self.yaw_sp)
-        n = math.hypot(x, y)
+        # StickTiltXY: the stick limited to unit length, then filtered (MC_MAN_TILT_TAU), then
+        # turned into the heading frame.
+        sx, sy = sticks.pitch, sticks.roll
+        n = math.hypot(sx, sy)
         if n > 1.0:
-            x, y = x / n, y / n
+            sx, sy = sx / n, sy / n
+        tau = float(p["MC_MAN_TILT_TAU"])
+        self._tilt = (_lowpass(self._tilt[0], sx, dt, tau), _lowpass(self._tilt[1], sy, dt, tau))
+        x, y = _rotate(self._tilt[0], self._tilt[1], self.yaw_sp)
         a = _max_tilt_acceleration(float(p["MPC_MAN_TILT_MAX"]))
         # Horizontal: tilt only. The velocity setpoint is the measured velocity, so the
         # velocity loop adds nothing (PX4 leaves it NaN and skips that loop).
