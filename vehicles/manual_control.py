@@ -11,8 +11,8 @@ After PX4:
 - ``tasks/ManualAltitude``: vertical velocity from the throttle stick (MPC_Z_VEL_MAX_UP/DN), the
   altitude locked when the stick is centred and the vehicle has stopped (MPC_HOLD_MAX_Z), slower
   near the ground (MPC_LAND_ALT1/2, MPC_LAND_SPEED, MPC_TKO_SPEED), tilt from roll/pitch
-  (MPC_MAN_TILT_MAX, Altitude mode), yaw rate from the yaw stick (MPC_MAN_Y_MAX, MPC_MAN_Y_TAU);
-  take-off wanted above 65 % throttle.
+  (StickTiltXY: MPC_MAN_TILT_MAX, as at most 3 g sideways, Altitude mode), yaw rate from the
+  yaw stick (MPC_MAN_Y_MAX, MPC_MAN_Y_TAU); take-off wanted above 65 % throttle.
 - ``tasks/Utility/StickAccelerationXY.cpp`` (Position mode, MPC_POS_MODE 4, PX4's default since
   v1.13; older values run the same): sticks command horizontal acceleration (2 × MPC_ACC_HOR),
   jerk-limited (MPC_JERK_MAX), with a drag that caps the speed at MPC_VEL_MANUAL and brakes
@@ -105,6 +105,14 @@ def _lowpass(state: float, target: float, dt: float, tau: float) -> float:
 def _rotate(x: float, y: float, yaw: float) -> tuple[float, float]:
     c, s = math.cos(yaw), math.sin(yaw)
     return c * x - s * y, s * x + c * y
+
+
+def _max_tilt_acceleration(tilt_max_deg: float) -> float:
+    """StickTiltXY::updateParams: full stick's sideways acceleration, the tilt taken as at most
+    89° and the result kept within [0.02, 3] g (about 1° to 71°), so a MPC_MAN_TILT_MAX near or
+    at 90° cannot ask for a near-infinite (or, past 90°, reversed) acceleration."""
+    tilt = math.radians(_clamp(tilt_max_deg, 0.0, 89.0))
+    return _clamp(math.tan(tilt), 0.02, 3.0) * GRAVITY_MPS2
 
 
 # --- the input -------------------------------------------------------------------------------
@@ -232,14 +240,16 @@ class ManualAltitude:
         p = self.params
         self._yaw(sticks, yaw, dt)
         vz = self._vertical(sticks, pos, vel)
-        tau = float(p["MC_MAN_TILT_TAU"])
-        self._tilt = (_lowpass(self._tilt[0], sticks.pitch, dt, tau),
-                      _lowpass(self._tilt[1], sticks.roll, dt, tau))
-        x, y = _rotate(self._tilt[0], self._tilt[1], self.yaw_sp)
-        n = math.hypot(x, y)
+        # StickTiltXY: the stick limited to unit length, then filtered (MC_MAN_TILT_TAU), then
+        # turned into the heading frame.
+        sx, sy = sticks.pitch, sticks.roll
+        n = math.hypot(sx, sy)
         if n > 1.0:
-            x, y = x / n, y / n
-        a = math.tan(math.radians(float(p["MPC_MAN_TILT_MAX"]))) * GRAVITY_MPS2
+            sx, sy = sx / n, sy / n
+        tau = float(p["MC_MAN_TILT_TAU"])
+        self._tilt = (_lowpass(self._tilt[0], sx, dt, tau), _lowpass(self._tilt[1], sy, dt, tau))
+        x, y = _rotate(self._tilt[0], self._tilt[1], self.yaw_sp)
+        a = _max_tilt_acceleration(float(p["MPC_MAN_TILT_MAX"]))
         # Horizontal: tilt only. The velocity setpoint is the measured velocity, so the
         # velocity loop adds nothing (PX4 leaves it NaN and skips that loop).
         return PositionSetpoint((math.nan, math.nan, self.z_sp), (vel[0], vel[1], vz), self.yaw_sp,

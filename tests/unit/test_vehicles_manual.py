@@ -10,7 +10,14 @@ import pytest
 from tests.unit.test_vehicles_flight import Sim, take_off
 from vehicles.airframe import X500
 from vehicles.events import event_id
-from vehicles.manual_control import Sticks, deadzone, expo, superexpo, throttle_to_thrust
+from vehicles.manual_control import (
+    ManualAltitude,
+    Sticks,
+    deadzone,
+    expo,
+    superexpo,
+    throttle_to_thrust,
+)
 from vehicles.params import ParamStore
 from vehicles.types import CommandResult, NavState
 
@@ -43,6 +50,19 @@ def test_stick_math_is_px4s():
     assert throttle_to_thrust(0.0, p, 0.4) == pytest.approx(0.4)  # centred = hover
     assert throttle_to_thrust(-1.0, p, 0.4) == pytest.approx(float(p["MPC_MANTHR_MIN"]))
     assert throttle_to_thrust(1.0, p, 0.4) == pytest.approx(float(p["MPC_THR_MAX"]))
+
+
+def test_altitude_mode_limits_the_stick_before_filtering_the_tilt():
+    """StickTiltXY::generateAccelerationSetpoints: limitStickUnitLengthXY comes before the
+    MC_MAN_TILT_TAU filter, so a full diagonal stick starts from a filtered unit vector, not a
+    filtered (1, 1) that is only limited once it has grown past unit length."""
+    task = ManualAltitude(ParamStore({"MC_MAN_TILT_TAU": 1.0, "MPC_MAN_TILT_MAX": 45.0}))
+    task.activate((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0)
+    sp = task.update(1.0, Sticks(pitch=1.0, roll=1.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 0.0,
+                     (0.0, 0.0, 0.0))
+    half_of_unit = 0.5 / math.sqrt(2.0) * 9.80665  # alpha = dt / (tau + dt) = 0.5
+    assert sp.acceleration_ned_mps2[0] == pytest.approx(half_of_unit)
+    assert sp.acceleration_ned_mps2[1] == pytest.approx(half_of_unit)
 
 
 def test_position_mode_needs_sticks_and_then_flies_them(sim):
