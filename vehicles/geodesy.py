@@ -2,7 +2,9 @@
 
 PX4's ``lib/geo`` (MapProjection) maps the globe onto the local NED plane of the EKF origin with
 an azimuthal equidistant projection on a sphere of CONSTANTS_RADIUS_OF_EARTH; distances between
-two global points use the haversine (``get_distance_to_next_waypoint``). The simulator, the
+two global points use the haversine (``get_distance_to_next_waypoint``), bearings and points a
+heading and distance away follow the great circle (``get_bearing_to_next_waypoint``,
+``waypoint_from_heading_and_distance``, ``create_waypoint_from_line_and_dist``). The simulator, the
 MAVLink services, the CI kit and the examples all use these functions, so a waypoint uploaded in
 degrees lands where PX4 would put it.
 
@@ -16,6 +18,7 @@ import math
 from dataclasses import dataclass
 
 EARTH_RADIUS_M = 6371000.0  # PX4 CONSTANTS_RADIUS_OF_EARTH
+_FLT_EPSILON = 1.1920929e-07  # float32 machine epsilon (C FLT_EPSILON)
 
 
 def project(ref_lat_deg: float, ref_lon_deg: float, lat_deg: float, lon_deg: float
@@ -56,6 +59,41 @@ def distance_m(lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: floa
     d_lon = math.radians(lon2_deg) - math.radians(lon1_deg)
     a = math.sin(d_lat / 2) ** 2 + math.sin(d_lon / 2) ** 2 * math.cos(lat1) * math.cos(lat2)
     return EARTH_RADIUS_M * 2.0 * math.atan2(math.sqrt(a), math.sqrt(1.0 - a))
+
+
+def bearing_rad(lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: float) -> float:
+    """Initial great-circle bearing (rad, in [-pi, pi], 0 north, pi/2 east) from the first point to
+    the second (PX4 get_bearing_to_next_waypoint; PX4 takes atan2 in float32, this in double)."""
+    lat1, lat2 = math.radians(lat1_deg), math.radians(lat2_deg)
+    d_lon = math.radians(lon2_deg - lon1_deg)
+    cos_lat2 = math.cos(lat2)
+    return math.atan2(math.sin(d_lon) * cos_lat2,
+                      math.cos(lat1) * math.sin(lat2) - math.sin(lat1) * cos_lat2 * math.cos(d_lon))
+
+
+def waypoint_from_heading_and_distance(lat_deg: float, lon_deg: float, bearing: float, dist_m: float
+                                       ) -> tuple[float, float]:
+    """(lat, lon) in degrees reached by flying ``dist_m`` along the great circle leaving the start at
+    ``bearing`` (rad); a negative distance goes the other way (PX4
+    waypoint_from_heading_and_distance)."""
+    bearing %= 2.0 * math.pi
+    ratio = dist_m / EARTH_RADIUS_M
+    lat0 = math.radians(lat_deg)
+    sin_lat0, cos_lat0 = math.sin(lat0), math.cos(lat0)
+    lat = math.asin(sin_lat0 * math.cos(ratio) + cos_lat0 * math.sin(ratio) * math.cos(bearing))
+    lon = math.radians(lon_deg) + math.atan2(math.sin(bearing) * math.sin(ratio) * cos_lat0,
+                                             math.cos(ratio) - sin_lat0 * math.sin(lat))
+    return (math.degrees(lat), math.degrees(lon))
+
+
+def waypoint_from_line_and_dist(lat_a_deg: float, lon_a_deg: float, lat_b_deg: float,
+                                lon_b_deg: float, dist_m: float) -> tuple[float, float]:
+    """(lat, lon) in degrees ``dist_m`` from A along the line towards B (behind A when negative); A
+    itself when the distance is below float32 epsilon (PX4 create_waypoint_from_line_and_dist)."""
+    if abs(dist_m) < _FLT_EPSILON:
+        return (lat_a_deg, lon_a_deg)
+    return waypoint_from_heading_and_distance(
+        lat_a_deg, lon_a_deg, bearing_rad(lat_a_deg, lon_a_deg, lat_b_deg, lon_b_deg), dist_m)
 
 
 # The largest altitude (m) the MAVLink position messages carry: int32 millimetres
