@@ -10,14 +10,13 @@ test by test, with its inputs and verdicts, for a multicopter. Not reproduced, a
 older checker measured from home; both are at 0, 0 there).
 """
 
-import math
 
 import pytest
 
 from tests.unit.test_vehicles_flight import Sim
 from tests.unit.test_vehicles_mission import item, waypoints
 from vehicles.events import MIS_UNSUPPORTED_CMD, EventLog
-from vehicles.geodesy import EARTH_RADIUS_M
+from vehicles.geodesy import waypoint_from_heading_and_distance
 from vehicles.mission_feasibility import LAND, TAKEOFF, WAYPOINT, FeasibilityChecker, Item
 from vehicles.plan_types import MavCmd, MavFrame, PlanResult, PlanType
 from vehicles.status_log import StatusLog
@@ -27,8 +26,8 @@ WAYPOINT_ITEM = Item(WAYPOINT)
 
 
 def north_of(lat_deg: float, dist_m: float) -> float:
-    """waypoint_from_heading_and_distance at heading 0: the latitude ``dist_m`` further north."""
-    return lat_deg + math.degrees(dist_m / EARTH_RADIUS_M)
+    """The latitude ``dist_m`` north (PX4's test: waypoint_from_heading_and_distance, heading 0)."""
+    return waypoint_from_heading_and_distance(lat_deg, 0.0, 0.0, dist_m)[0]
 
 
 def checker(home=None, landed=True, position=None, **params):
