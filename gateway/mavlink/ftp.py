@@ -14,7 +14,8 @@ Rules:
 - OpenFileRO / OpenFileWO / CreateFile answer the file's size before opening (4 bytes; 0 for a
   new file): WO creates a missing file, CreateFile also empties an existing one. WriteFile
   answers the count written (4 bytes); on a read-only session FailErrno EBADF.
-- One session at a time (PX4's single ``_session_info``): Open* while one is open →
+- One session at a time (PX4's single ``_session_info``), closed after SESSION_IDLE_S without a
+  request (a client that went away mid-transfer leaves nothing open): Open* while one is open →
   NoSessionsAvailable; Read/Write/Burst with another session id → InvalidSession.
 - ListDirectory at ``offset`` entries (readdir's, "." and ".." included): "F<name>\\t<size>" for a
   file, "D<name>" for a directory, a bare "S" for anything else ("." and "..", a symlink), each
@@ -47,6 +48,7 @@ PERIOD_S = 0.01  # MavlinkReceiver::run calls MavlinkFTP::send() every 10 ms
 TX_BUDGET = 15000  # Mavlink::get_free_tx_buf() on a POSIX UDP link: 1500 * 10
 FRAME_LEN = 254 + 12  # MavlinkFTP::get_size(): FILE_TRANSFER_PROTOCOL + MAVLink 2 framing
 CHUNK = 35000  # bytes after which a wake-up's last packet has burst_complete
+SESSION_IDLE_S = 10.0  # MavlinkFTP::send(): a session without a request this long is closed
 
 (OP_NONE, OP_TERMINATE, OP_RESET, OP_LIST, OP_OPEN_RO, OP_READ, OP_CREATE, OP_WRITE, OP_REMOVE,
  OP_MKDIR, OP_RMDIR, OP_OPEN_WO, OP_TRUNCATE, OP_RENAME, OP_CRC32, OP_BURST) = range(16)
@@ -96,10 +98,12 @@ class FtpService:
         self.root: FileRoot | None = None  # attached by the shell
         self._session: tuple[str, bool] | None = None  # (path, writable)
         self._burst: tuple[int, int, int, tuple[int, int]] | None = None  # seq, offset, chunk, to
-        self.due_s = math.inf  # when ``handle_timer`` has work next (the burst); inf: none
+        self.due_s = math.inf  # when ``handle_timer`` has work next (the burst, or closing an
+        # idle session); inf: none
         # The last reply if its data was at most 4 bytes (MavlinkFTP's _last_reply): a request
         # with the sequence number before its own is a resend, answered with it again.
         self._last_reply: tuple[int, tuple[int, int], bytes] | None = None
+        self._active_s = 0.0  # when the last request came
 
     # --- wire ---------------------------------------------------------------------------------
     def _reply(self, to: tuple[int, int], seq: int, session: int, req: int, offset: int,
@@ -123,6 +127,7 @@ class FtpService:
             return
         raw = bytes(msg.payload)
         seq, session, opcode, size, _req, _burst, _pad, offset = HEADER.unpack_from(raw)
+        self._active_s = now_s
         last = self._last_reply
         if size <= DATA_LEN and last is not None and (seq + 1) & 0xFFFF == last[0]:
             self._send_payload(last[1], last[2])  # our answer was lost: the same again
@@ -146,6 +151,8 @@ class FtpService:
             self._dispatch(to, seq, session, opcode, size, offset, data, arg, now_s)
         except FtpError as exc:
             nak(exc.code, exc.errno)
+        if self._burst is None:
+            self.due_s = self._idle_due()
 
     def _need_root(self) -> FileRoot:
         if self.root is None:
@@ -238,12 +245,27 @@ class FtpService:
     def get_timer(self) -> float:
         return self.due_s
 
+    @property
+    def streaming(self) -> bool:
+        """A burst is being sent (PX4's stream_download)."""
+        return self._burst is not None
+
+    def _idle_due(self) -> float:
+        """When an open session is closed for want of requests (inf: none is open)."""
+        return self._active_s + SESSION_IDLE_S if self._session is not None else math.inf
+
     def handle_timer(self, now_s: float) -> None:
         """PX4's MavlinkFTP::send(): packets of up to DATA_LEN bytes while the UDP budget lasts
         (TX_BUDGET, FRAME_LEN each; the one that leaves less than two frames ends the wake-up,
         with burst_complete and the stream's end once more than CHUNK bytes went out); at the
         file's end, or on a read error, a NAK ends the stream."""
-        if self._burst is None or now_s < self.due_s:
+        if self._session is not None and now_s >= self._active_s + SESSION_IDLE_S:
+            self._session, self._burst, self.due_s, self._last_reply = None, None, math.inf, None
+            return
+        if self._burst is None:
+            self.due_s = self._idle_due()  # (a resent request was activity too)
+            return
+        if now_s < self.due_s:
             return
         seq, offset, chunk, to = self._burst
         if self._session is None or self.root is None:
@@ -257,7 +279,7 @@ class FtpService:
                 data = self.root.read(path, offset, DATA_LEN)
             except FtpError as exc:
                 self._reply(to, seq, 0, OP_BURST, offset, nak=exc.code, errno=exc.errno)
-                self._burst, self.due_s = None, math.inf
+                self._burst, self.due_s = None, self._idle_due()
                 return
             last = budget < 2 * FRAME_LEN
             complete = last and chunk + len(data) > CHUNK
@@ -267,6 +289,6 @@ class FtpService:
                 break
             budget -= FRAME_LEN
         if complete:
-            self._burst, self.due_s = None, math.inf
+            self._burst, self.due_s = None, self._idle_due()
         else:
             self._burst, self.due_s = (seq, offset, chunk, to), now_s + PERIOD_S

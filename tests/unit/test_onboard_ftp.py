@@ -167,3 +167,19 @@ def test_requests_to_another_component_are_ignored(tmp_path):
                                                               list(payload.ljust(251, b"\0"))))
             sim.advance(0.2)
         assert len(api.messages("FILE_TRANSFER_PROTOCOL", since)) == 1
+
+
+def test_a_session_left_open_is_closed_after_ten_seconds_without_requests(tmp_path):
+    """MavlinkFTP::send() closes a session that saw no request for 10 s: a client that went away
+    mid-download does not leave the next one with NoSessionsAvailable."""
+    with Sim(log_dir=tmp_path) as sim:
+        sim.advance(1.0)
+        (tmp_path / "vehicle-1" / "a.txt").write_bytes(b"x" * 10)
+        f = Ftp(sim)
+        assert f.one(ftp.OP_OPEN_RO, b"/a.txt")[0] == ftp.OP_ACK
+        sim.advance(5.0)
+        assert f.one(ftp.OP_OPEN_RO, b"/a.txt") == (ftp.OP_NAK, bytes((ftp.ERR_NO_SESSIONS,)))
+        sim.advance(9.0)  # 9.4 s after that request: still open
+        assert f.one(ftp.OP_READ, size=239)[0] == ftp.OP_ACK
+        sim.advance(10.5)
+        assert f.one(ftp.OP_OPEN_RO, b"/a.txt")[0] == ftp.OP_ACK
