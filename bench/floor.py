@@ -2,7 +2,9 @@
 
 N boxes on the daemon's spawn grid (5 m apart, so they never touch), each getting the two
 external-force calls a quadrotor needs per 4 ms step, in one DIRECT world; CPU seconds per
-simulated second per body.
+simulated second per body. ``reads=True`` adds the two calls that read a body's state back after
+each step (pose, velocity), as vehicles/physics.py makes them: every PyBullet call a vehicle
+costs.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from gateway.sim.simulation import PHYSICS_DT_S
 from vehicles.types import grid_spawn_ned_m
 
 
-def bare_pybullet_cpu_per_body_sim_s(n: int, sim_s: float) -> float:
+def bare_pybullet_cpu_per_body_sim_s(n: int, sim_s: float, reads: bool = False) -> float:
     """CPU seconds per simulated second per body, ``n`` bodies stepped for ``sim_s``."""
     cid = pybullet.connect(pybullet.DIRECT)
     try:
@@ -39,6 +41,10 @@ def bare_pybullet_cpu_per_body_sim_s(n: int, sim_s: float) -> float:
                 pybullet.applyExternalTorque(body, -1, (0, 0, 0), pybullet.WORLD_FRAME,
                                              physicsClientId=cid)
             pybullet.stepSimulation(physicsClientId=cid)
+            if reads:
+                for body in bodies:
+                    pybullet.getBasePositionAndOrientation(body, physicsClientId=cid)
+                    pybullet.getBaseVelocity(body, physicsClientId=cid)
         return (time.process_time() - t0) / (steps * PHYSICS_DT_S) / n
     finally:
         pybullet.disconnect(cid)
