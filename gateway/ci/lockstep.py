@@ -28,6 +28,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
 
+from gateway.ci.frame_store import FrameStore
 from gateway.ci.ulog_receiver import UlogReceiver
 from gateway.mavlink.modes import custom_mode_of
 from gateway.mavlink.session import LinkKind
@@ -92,21 +93,27 @@ class Client:
         self.mav.robust_parsing = True
         self.peer = ("lockstep", index, kind.name.lower())
         # Raw frames as they arrive: (time, msgid, frame). Decoded on demand, cached.
-        self.frames: list[tuple[float, int, bytes]] = []
+        self.frames = FrameStore(sim.history_s)
         self._decoded: dict[int, Any] = {}
+        self._decoded_floor = 0  # frames.first when the cache last dropped forgotten frames
         self._heartbeat: Ticker | None = None
         self.log_stream: UlogReceiver | None = None  # while streaming the ULog
 
     # --- receiving ----------------------------------------------------------------------------
     def _on_datagram(self, data: bytes, now: float) -> None:
+        frames = self.frames
         for frame in split_frames(data):
             msgid = frame_msgid(frame)
-            self.frames.append((now, msgid, frame))
+            i = frames.append(now, msgid, frame)
             if msgid == _ID_PING:
-                self._answer_ping(len(self.frames) - 1)
+                self._answer_ping(i)
             elif (msgid == _ID_LOGGING_DATA or msgid == _ID_LOGGING_DATA_ACKED) \
                     and self.log_stream is not None:
-                self._on_logging_data(len(self.frames) - 1, msgid == _ID_LOGGING_DATA_ACKED)
+                self._on_logging_data(i, msgid == _ID_LOGGING_DATA_ACKED)
+        decoded = self._decoded
+        if decoded and frames.first > self._decoded_floor:  # forgotten frames: decoded too
+            self._decoded = {i: m for i, m in decoded.items() if i >= frames.first}
+            self._decoded_floor = frames.first
 
     def _on_logging_data(self, i: int, acked: bool) -> None:
         msg = self._decode(i)
@@ -131,7 +138,7 @@ class Client:
         msg = self._decoded.get(i)
         if msg is None:
             self.mav.buf, self.mav.buf_index = bytearray(), 0
-            msgs = self.mav.parse_buffer(self.frames[i][2]) or []
+            msgs = self.mav.parse_buffer(self.frames.frame(i)) or []
             msg = msgs[0] if msgs else False
             self._decoded[i] = msg
         return msg
@@ -141,23 +148,21 @@ class Client:
         return [m for _, m in self.timed_messages(name, since)]
 
     def timed_messages(self, name: str | None = None, since: int = 0) -> list[tuple[float, Any]]:
-        msgid = None if name is None else _NAME_TO_ID[name]
+        frames = self.frames
+        indices = range(max(since, frames.first), len(frames)) if name is None \
+            else frames.find(frozenset((_NAME_TO_ID[name],)), since)
         out = []
-        for i in range(since, len(self.frames)):
-            t, mid, _ = self.frames[i]
-            if msgid is None or mid == msgid:
-                msg = self._decode(i)
-                if msg and msg.get_type() != "BAD_DATA":
-                    out.append((t, msg))
+        for i in indices:
+            msg = self._decode(i)
+            if msg and msg.get_type() != "BAD_DATA":
+                out.append((frames.time_s(i), msg))
         return out
 
     def last(self, name: str) -> Any | None:
-        msgid = _NAME_TO_ID[name]
-        for i in range(len(self.frames) - 1, -1, -1):
-            if self.frames[i][1] == msgid:
-                msg = self._decode(i)
-                if msg:
-                    return msg
+        for i in self.frames.last(_NAME_TO_ID[name]):
+            msg = self._decode(i)
+            if msg:
+                return msg
         return None
 
     def _wait_message(self, msgids: Iterable[int], match: Callable[[Any], bool],
@@ -168,14 +173,14 @@ class Client:
         found: list[Any] = []
 
         def check() -> bool:
-            while cursor[0] < len(self.frames):
-                i = cursor[0]
-                cursor[0] += 1
-                if self.frames[i][1] in ids:
-                    msg = self._decode(i)
-                    if msg and match(msg):
-                        found.append(msg)
-                        return True
+            frames = self.frames
+            for i in frames.find(ids, cursor[0]):
+                cursor[0] = i + 1
+                msg = self._decode(i)
+                if msg and match(msg):
+                    found.append(msg)
+                    return True
+            cursor[0] = len(frames)
             return False
 
         self.sim._run_events_until(check, self.sim.now + timeout_s)
@@ -321,14 +326,16 @@ class Sim:
                  log_dir: str | Path | None = None, boot_unix_s: float = LOCKSTEP_EPOCH_UNIX_S,
                  state_period_s: float = 0.1, heartbeat: bool = True,
                  physics_dt_s: float = PHYSICS_DT_S, extra_meta: dict | None = None,
-                 links: Iterable[LinkKind] = (LinkKind.API,)) -> None:
+                 links: Iterable[LinkKind] = (LinkKind.API,), history_s: float = math.inf) -> None:
         """Vehicles, network, home and parameters come from ``scenario`` (a path or a parsed
         Scenario) when given, then from the arguments. ``log_dir``: record flight logs there
         (gateway/sim/flightlog.py). ``heartbeat``: each vehicle's API client sends a GCS heartbeat
         every simulated second, as MAVSDK does. ``links``: the MAVLink links each vehicle runs.
         The default is the API link (PX4's onboard link on 14540+i, MAVSDK's); add
         ``LinkKind.GCS`` for QGC's link. A link nobody reads would cost as much time as the
-        physics, so lockstep runs leave it out unless asked."""
+        physics, so lockstep runs leave it out unless asked. ``history_s``: each client forgets the
+        frames it received more than that many simulated seconds ago, so a long or crowded run
+        keeps a bounded window (otherwise an API client keeps ~130 MB per vehicle-hour)."""
         if isinstance(scenario, (str, Path)):
             scenario = scenario_mod.load(scenario)
         sc = scenario or scenario_mod.Scenario(source="lockstep")
@@ -338,6 +345,7 @@ class Sim:
         self.flightlog: FlightLog | None = None
         self.log_dir = None if log_dir is None else Path(log_dir)
         self._closed = False
+        self.history_s = history_s
         tracer = None
         if log_dir is not None:
             self.flightlog = FlightLog(log_dir, boot_unix_s=boot_unix_s,
