@@ -3,9 +3,10 @@
 Source: PX4 mavlink_receiver.cpp handle_message_command_*, Commander::handle_command,
 AUTOPILOT_VERSION.hpp.
 Rules:
-- Only target_system ∈ {0, own} and target_component ∈ {0, 1} are handled; anything else is
-  silently ignored (no ACK). REQUEST_AUTOPILOT_CAPABILITIES / REQUEST_PROTOCOL_VERSION ignore the
-  component, as in PX4.
+- Only target_system = own and target_component ∈ {0, 1} are handled; anything else (system 0
+  too) is silently ignored (no ACK), as MavlinkReceiver::evaluate_target_ok does.
+  REQUEST_AUTOPILOT_CAPABILITIES / REQUEST_PROTOCOL_VERSION take system 0 and ignore the
+  component. Legacy SET_MODE goes to Commander, which takes system 0.
 - The ACK goes to the sender's sysid/compid, from compid 1, progress 0, result_param2 0.
 - A requested message is emitted before its ACK (same send buffer, in order).
 - COMMAND_INT x/y are degE7 (INT32_MAX = unset → NaN), z as-is (AMSL). The frame is ignored, as
@@ -212,8 +213,12 @@ class CommandService:
         self.dispatch(cmd, now_s)
 
     def _for_us(self, msg: M.MAVLink_message, command: int) -> bool:
-        comp_ok = msg.target_component in (0, 1) or command in ANY_COMPONENT_COMMANDS
-        if msg.target_system in (0, self.sysid) and comp_ok:
+        """MavlinkReceiver::evaluate_target_ok: this system (not 0) and this component or 0;
+        the capability requests take system 0 too and any component."""
+        if command in ANY_COMPONENT_COMMANDS:
+            if msg.target_system in (0, self.sysid):
+                return True
+        elif msg.target_system == self.sysid and msg.target_component in (0, 1):
             return True
         self.other_target()
         return False

@@ -323,10 +323,11 @@ def test_command_results(command, params, result):
 
 
 @pytest.mark.parametrize("target_system, target_component, answered", [
-    (0, 0, True), (1, 1, True), (0, 1, True), (1, 0, True), (2, 1, False), (1, 190, False),
+    (0, 0, False), (1, 1, True), (0, 1, False), (1, 0, True), (2, 1, False), (1, 190, False),
     (1, 100, False),
 ])
 def test_command_target_filtering(target_system, target_component, answered):
+    """MavlinkReceiver::evaluate_target_ok: this system exactly, this component or 0."""
     _, session, client = make()
     got = client.command_long(M.MAV_CMD_RUN_PREARM_CHECKS, target_system=target_system,
                               target_component=target_component)
