@@ -81,8 +81,6 @@ GIT_VERSION_BINARY = 0x3FCCF9453A2543FF
 FLIGHT_CUSTOM_VERSION = list((GIT_VERSION_BINARY & 0xFFFFFFFFFF000000).to_bytes(8, "little"))
 MIDDLEWARE_CUSTOM_VERSION = FLIGHT_CUSTOM_VERSION  # the same masked hash, no vendor version
 
-# Message ids QGC asks for that we do not serve: answering at once keeps its connect fast.
-REFUSED_MESSAGES = frozenset({435})  # AVAILABLE_MODES
 
 
 class MetadataFiles(Protocol):
@@ -398,7 +396,10 @@ class CommandService:
         return self.logging_command(cmd.command, (cmd.src_system, cmd.src_component), now_s)
 
     def _request_message(self, cmd: Command, now_s: float) -> int:
-        msg_id = _int_or(cmd.p(1), -1)
+        """MavlinkReceiver::handle_request_message_command: the id is (uint16_t)roundf(param1);
+        ACCEPTED once the message is sent, DENIED for anything else (a message without a
+        stream, such as AVAILABLE_MODES in v1.15, or one that cannot be sent yet)."""
+        msg_id = _c_int(_roundf(cmd.p(1))) & 0xFFFF
         if msg_id == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
             self.send(self.autopilot_version())
             return ACCEPTED
@@ -408,11 +409,9 @@ class CommandService:
             return self._send_interval(_int_or(cmd.p(2), -1))
         if msg_id in (MSG_ID_COMPONENT_METADATA, MSG_ID_COMPONENT_INFORMATION):
             return self._component_metadata(msg_id, now_s)
-        if msg_id in REFUSED_MESSAGES:
-            return UNSUPPORTED
         spec = STREAMS_BY_ID.get(msg_id)
         if spec is None:
-            return UNSUPPORTED
+            return DENIED
         frame = spec.builder(self.encoder, self.snapshot(now_s))
         if frame is None:
             return DENIED  # e.g. HOME_POSITION before home is set
@@ -430,7 +429,7 @@ class CommandService:
         CRC; its COMPONENT_INFORMATION (what older QGC asks) carries the same two."""
         meta = self.component_metadata
         if meta is None:
-            return UNSUPPORTED
+            return DENIED
         boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
         uri = meta.uri.encode()[:99]
         if msg_id == MSG_ID_COMPONENT_METADATA:
@@ -458,7 +457,12 @@ class CommandService:
         return ACCEPTED
 
     def _set_message_interval(self, cmd: Command, now_s: float) -> int:
-        ok = self.scheduler.set_interval(_int_or(cmd.p(1), -1), cmd.p(2), now_s)
+        """MavlinkReceiver::set_message_interval: the id is (int)(param1 + 0.5f); a finite
+        param3, param4 or param7 (response target) other than 0 fails, as do HEARTBEAT and a
+        message without a stream."""
+        if any(math.isfinite(v) and _c_int(v + 0.5) != 0 for v in (cmd.p(3), cmd.p(4), cmd.p(7))):
+            return FAILED
+        ok = self.scheduler.set_interval(_c_int(cmd.p(1) + 0.5), cmd.p(2), now_s)
         return ACCEPTED if ok else FAILED
 
     def _get_message_interval(self, cmd: Command, now_s: float) -> int:
@@ -482,6 +486,13 @@ class CommandService:
 
 def _finite_or_nan(value: float) -> float:
     return value if math.isfinite(value) else math.nan
+
+
+def _roundf(value: float) -> float:
+    """C's roundf: halves away from zero (Python's round() takes them to even)."""
+    if not math.isfinite(value):
+        return value
+    return math.copysign(math.floor(abs(value) + 0.5), value)
 
 
 def _c_int(value: float) -> int:

@@ -44,3 +44,41 @@ def test_capability_requests_take_any_system_and_component(command):
     for target in ((0, 0), (0, 100), (1, 100)):
         assert results(client.command_long(command, 1, target_system=target[0],
                                            target_component=target[1])) == [(command, 0)]
+
+
+@pytest.mark.parametrize("msg_id", [9999, 435, 65535, -1])
+def test_request_for_a_message_without_a_stream_is_denied(msg_id):
+    """MavlinkReceiver::handle_request_message_command answers ACCEPTED or DENIED, never
+    UNSUPPORTED: a message id without a stream (AVAILABLE_MODES in v1.15, an unknown id; -1 is
+    (uint16_t)roundf(-1) = 65535) is DENIED."""
+    _, _, client = make()
+    assert results(client.command_long(M.MAV_CMD_REQUEST_MESSAGE, msg_id)) == [(512, 2)]
+
+
+@pytest.mark.parametrize("p1, sent", [(NAN, "HEARTBEAT"), (30.4, "ATTITUDE"),
+                                      (65536 + 30, "ATTITUDE")])
+def test_request_message_takes_the_id_as_uint16_of_its_rounding(p1, sent):
+    """handle_message_command_both: message_id = (uint16_t)roundf(param1); NaN converts to 0
+    on x86 (HEARTBEAT), and the id wraps at 16 bits."""
+    _, _, client = make()
+    got = client.command_long(M.MAV_CMD_REQUEST_MESSAGE, p1)
+    assert [m.get_type() for m in got] == [sent, "COMMAND_ACK"] and acks(got)[0].result == 0
+
+
+@pytest.mark.parametrize("p3, p4, p7, result", [
+    (1, 0, 0, 4), (0, 1, 0, 4), (0, 0, 2, 4), (0.4, 0.4, 0.4, 0), (NAN, NAN, NAN, 0),
+    (math.inf, 0, 0, 0)])
+def test_set_message_interval_refuses_a_response_target(p3, p4, p7, result):
+    """MavlinkReceiver::set_message_interval: a finite param3, param4 or param7 (response
+    target) that is not 0 once rounded ((int)(x + 0.5f)) fails the request."""
+    _, session, client = make()
+    got = client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 30, 1e6, p3, p4, 0, 0, p7)
+    assert results(got) == [(511, result)]
+    assert (session.scheduler.interval_us(30) == 1_000_000) is (result == 0)
+
+
+def test_set_message_interval_rounds_the_id():
+    """(int)(param1 + 0.5f): 29.6 is ATTITUDE (30)."""
+    _, session, client = make()
+    assert results(client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 29.6, 5e5)) == [(511, 0)]
+    assert session.scheduler.interval_us(30) == 500_000
