@@ -1,14 +1,13 @@
 """Command protocol server: COMMAND_LONG / COMMAND_INT / legacy SET_MODE → vehicle → COMMAND_ACK.
 
-Source: PX4 mavlink_receiver.cpp handle_message_command_*, Commander::handle_command,
-AUTOPILOT_VERSION.hpp.
+Source: PX4 mavlink_receiver.cpp handle_message_command_*, Commander::handle_command; the
+requests the MAVLink module answers itself are in command_requests.py.
 Rules:
 - Only target_system = own and target_component ∈ {0, 1} are handled; anything else (system 0
   too) is silently ignored (no ACK), as MavlinkReceiver::evaluate_target_ok does.
   REQUEST_AUTOPILOT_CAPABILITIES / REQUEST_PROTOCOL_VERSION take system 0 and ignore the
   component. Legacy SET_MODE goes to Commander, which takes system 0.
 - The ACK goes to the sender's sysid/compid, from compid 1, progress 0, result_param2 0.
-- A requested message is emitted before its ACK (same send buffer, in order).
 - COMMAND_INT x/y are degE7 (INT32_MAX = unset → NaN), z as-is (AMSL). The frame is ignored, as
   PX4 ≤ 1.16 does: QGC sends 0, MAVSDK4 3, MAVSDK 5 — all work (PX4 main would reject ≠ 5).
 - Every command is answered at once (never IN_PROGRESS): unknown → UNSUPPORTED, and so is a
@@ -27,31 +26,17 @@ Rules:
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import (
-    COMPONENT_INFORMATION,
-    COMPONENT_METADATA,
-    CRC_EXTRA_COMPONENT_INFORMATION,
-    CRC_EXTRA_COMPONENT_METADATA,
-    CRC_EXTRA_PROTOCOL_VERSION,
-    MSG_ID_COMPONENT_INFORMATION,
-    MSG_ID_COMPONENT_METADATA,
-    MSG_ID_PROTOCOL_VERSION,
-    PROTOCOL_VERSION_PAYLOAD,
-)
-from gateway.mavlink.identity import px4_guid, uid
+from gateway.mavlink.command_requests import MessageRequests, MetadataFiles, c_int
 from gateway.mavlink.link import LinkContext, Say
 from gateway.mavlink.modes import decode_set_mode
 from gateway.mavlink.snapshot import Snapshot
-from gateway.mavlink.streams import STREAMS_BY_ID, Scheduler
-from gateway.mavlink.telemetry import home_position
+from gateway.mavlink.streams import Scheduler
 from vehicles.plan_types import PlanItem, PlanType
 from vehicles.types import CommandResult, GeoPoint, Severity
 
@@ -67,27 +52,6 @@ INT32_MAX = 2**31 - 1
 INT32_MAX_AS_FLOAT32 = 2147483648.0  # what INT32_MAX becomes in a float param
 REPOSITION_FLAGS_CHANGE_MODE = 1  # MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, the only flag PX4 takes
 SPEED_RESET = -1.0  # DO_CHANGE_SPEED: ≤ 0 → back to the cruise speed
-
-# AUTOPILOT_VERSION as PX4 SITL fills it (MAVLink FTP included: gateway/mavlink/ftp.py).
-CAPABILITIES = 59647
-FLIGHT_SW_VERSION = 0x010F00FF  # v1.15.0 release
-# PX4_GIT_VERSION_BINARY is the first 16 hex digits of the build's git commit as a uint64; ours is
-# a fixed one (the start of SHA-1("CORNET")). mavlink_main.cpp send_autopilot_capabilities keeps
-# its top 5 bytes, puts the vendor version (0 for a release build) in the low 3 and copies the
-# uint64 little-endian. MAVSDK's flight_sw_git_hash prints bytes 3..7 back to front in hex, and
-# (info_impl.cpp swap_and_translate_binary_to_str, its buffer one short) loses the last digit to
-# the terminating NUL, with PX4 as with us: "3fccf9453\0".
-GIT_VERSION_BINARY = 0x3FCCF9453A2543FF
-FLIGHT_CUSTOM_VERSION = list((GIT_VERSION_BINARY & 0xFFFFFFFFFF000000).to_bytes(8, "little"))
-MIDDLEWARE_CUSTOM_VERSION = FLIGHT_CUSTOM_VERSION  # the same masked hash, no vendor version
-
-
-
-class MetadataFiles(Protocol):
-    """What COMPONENT_METADATA points at (gateway/onboard/metadata.py serves it over FTP)."""
-
-    uri: str
-    general_crc: int
 
 ROI_COMMANDS = frozenset({
     M.MAV_CMD_DO_SET_ROI, M.MAV_CMD_DO_SET_ROI_LOCATION, M.MAV_CMD_DO_SET_ROI_NONE,
@@ -131,10 +95,8 @@ class CommandService:
         self.sysid = ctx.sysid
         self.other_target = ctx.other_target
         self.say = say
-        self.snapshot = snapshot
-        self.scheduler = scheduler
-        # Attached with the vehicle's FTP files; without them the request is UNSUPPORTED.
-        self.component_metadata: MetadataFiles | None = None
+        # The requests MAVLink answers itself (command_requests.py)
+        self.requests = req = MessageRequests(ctx, snapshot, scheduler)
         # LOGGING_START / LOGGING_STOP: the link's log stream (log_streaming.py), then the logger
         self.logging_command = logging_command
         self._handlers: dict[int, Callable[[Command, float], int | None]] = {
@@ -143,13 +105,13 @@ class CommandService:
             M.MAV_CMD_NAV_LAND: lambda c, t: self.vehicle.land(t),
             M.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda c, t: self.vehicle.return_to_launch(t),
             M.MAV_CMD_DO_SET_MODE: self._set_mode,
-            M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
-            M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._autopilot_capabilities,
-            M.MAV_CMD_REQUEST_PROTOCOL_VERSION: self._protocol_version,
-            M.MAV_CMD_GET_HOME_POSITION: self._home_position,
-            M.MAV_CMD_REQUEST_FLIGHT_INFORMATION: self._request_flight_information,
-            M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_message_interval,
-            M.MAV_CMD_GET_MESSAGE_INTERVAL: self._get_message_interval,
+            M.MAV_CMD_REQUEST_MESSAGE: lambda c, t: req.request_message(c.params, t),
+            M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: lambda c, t: req.autopilot_capabilities(),
+            M.MAV_CMD_REQUEST_PROTOCOL_VERSION: lambda c, t: req.protocol_version(),
+            M.MAV_CMD_GET_HOME_POSITION: lambda c, t: req.home_position(t),
+            M.MAV_CMD_REQUEST_FLIGHT_INFORMATION: lambda c, t: req.request_flight_information(t),
+            M.MAV_CMD_SET_MESSAGE_INTERVAL: lambda c, t: req.set_message_interval(c.params, t),
+            M.MAV_CMD_GET_MESSAGE_INTERVAL: lambda c, t: req.get_message_interval(c.params),
             M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibration,
             M.MAV_CMD_PREFLIGHT_STORAGE: self._storage,
             M.MAV_CMD_ACTUATOR_TEST: self._actuator_test,
@@ -173,6 +135,15 @@ class CommandService:
         }
         for cmd in ROI_COMMANDS:
             self._handlers[cmd] = lambda c, t: ACCEPTED
+
+    @property
+    def component_metadata(self) -> MetadataFiles | None:
+        """Attached with the vehicle's FTP files; without them the request is DENIED."""
+        return self.requests.component_metadata
+
+    @component_metadata.setter
+    def component_metadata(self, files: MetadataFiles | None) -> None:
+        self.requests.component_metadata = files
 
     # --- inbound ------------------------------------------------------------------------------
     def on_command_long(self, msg: M.MAVLink_command_long_message, now_s: float) -> None:
@@ -333,7 +304,7 @@ class CommandService:
         calibrate = self._vehicle("calibrate")
         if calibrate is None:
             return UNSUPPORTED
-        p = [_c_int(cmd.p(i)) for i in range(1, 8)]
+        p = [c_int(cmd.p(i)) for i in range(1, 8)]
         # In Commander's order; None: one PX4 starts that is not served here.
         for asked, kind in ((p[0] == 1, "gyro"), (3 in (p[0], p[4], p[6]), None),
                              (p[1] == 1, "mag"), (p[2] == 1, "baro"), (p[3] == 1, "radio"),
@@ -358,7 +329,7 @@ class CommandService:
         if test is None:
             return UNSUPPORTED
         value = cmd.p(1)
-        return test(now_s, _c_int(cmd.p(5) + 0.5), value if math.isfinite(value) else math.nan,
+        return test(now_s, c_int(cmd.p(5) + 0.5), value if math.isfinite(value) else math.nan,
                     cmd.p(2))
 
     def _motor_test(self, cmd: Command, now_s: float) -> int:
@@ -373,7 +344,7 @@ class CommandService:
             return UNSUPPORTED
         if not allowed():
             return DENIED
-        if _c_int(cmd.p(2) + 0.5) != 0 or _c_int(cmd.p(5) + 0.5) > 1:
+        if c_int(cmd.p(2) + 0.5) != 0 or c_int(cmd.p(5) + 0.5) > 1:
             return UNSUPPORTED
         return ACCEPTED
 
@@ -381,7 +352,7 @@ class CommandService:
         storage = self._vehicle("param_storage")
         if storage is None:
             return UNSUPPORTED
-        return storage(now_s, _c_int(cmd.p(1)))
+        return storage(now_s, c_int(cmd.p(1)))
 
     def _inject_failure(self, cmd: Command, now_s: float) -> int:
         inject = self._vehicle("inject_failure")
@@ -395,112 +366,9 @@ class CommandService:
             return UNSUPPORTED
         return self.logging_command(cmd.command, (cmd.src_system, cmd.src_component), now_s)
 
-    def _request_message(self, cmd: Command, now_s: float) -> int:
-        """MavlinkReceiver::handle_request_message_command: the id is (uint16_t)roundf(param1);
-        ACCEPTED once the message is sent, DENIED for anything else (a message without a
-        stream, such as AVAILABLE_MODES in v1.15, or one that cannot be sent yet)."""
-        msg_id = _c_int(_roundf(cmd.p(1))) & 0xFFFF
-        if msg_id == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
-            self.send(self.autopilot_version())
-            return ACCEPTED
-        if msg_id == MSG_ID_PROTOCOL_VERSION:
-            return self._protocol_version(cmd, now_s)
-        if msg_id == M.MAVLINK_MSG_ID_MESSAGE_INTERVAL:
-            return self._send_interval(_int_or(cmd.p(2), -1))
-        if msg_id in (MSG_ID_COMPONENT_METADATA, MSG_ID_COMPONENT_INFORMATION):
-            return self._component_metadata(msg_id, now_s)
-        spec = STREAMS_BY_ID.get(msg_id)
-        if spec is None:
-            return DENIED
-        frame = spec.builder(self.encoder, self.snapshot(now_s))
-        if frame is None:
-            return DENIED  # e.g. HOME_POSITION before home is set
-        self.send(frame)
-        return ACCEPTED
-
-    def _request_flight_information(self, cmd: Command, now_s: float) -> int:
-        """The deprecated request command: PX4's mavlink receiver answers it as REQUEST_MESSAGE
-        for FLIGHT_INFORMATION."""
-        as_request = (float(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION),) + (0.0,) * 6
-        return self._request_message(dataclasses.replace(cmd, params=as_request), now_s)
-
-    def _component_metadata(self, msg_id: int, now_s: float) -> int:
-        """PX4's COMPONENT_METADATA stream answers with the general metadata file's URI and
-        CRC; its COMPONENT_INFORMATION (what older QGC asks) carries the same two."""
-        meta = self.component_metadata
-        if meta is None:
-            return DENIED
-        boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
-        uri = meta.uri.encode()[:99]
-        if msg_id == MSG_ID_COMPONENT_METADATA:
-            payload = COMPONENT_METADATA.pack(boot_ms, meta.general_crc, uri)
-            self.send(self.encoder.frame(msg_id, CRC_EXTRA_COMPONENT_METADATA, payload))
-        else:
-            payload = COMPONENT_INFORMATION.pack(boot_ms, meta.general_crc, 0, uri, b"")
-            self.send(self.encoder.frame(msg_id, CRC_EXTRA_COMPONENT_INFORMATION, payload))
-        return ACCEPTED
-
-    def _autopilot_capabilities(self, cmd: Command, now_s: float) -> int:
-        self.send(self.autopilot_version())
-        return ACCEPTED
-
-    def _protocol_version(self, cmd: Command, now_s: float) -> int:
-        self.send(self.encoder.frame(MSG_ID_PROTOCOL_VERSION, CRC_EXTRA_PROTOCOL_VERSION,
-                                     PROTOCOL_VERSION_PAYLOAD))
-        return ACCEPTED
-
-    def _home_position(self, cmd: Command, now_s: float) -> int:
-        frame = home_position(self.encoder, self.snapshot(now_s))
-        if frame is None:
-            return DENIED
-        self.send(frame)
-        return ACCEPTED
-
-    def _set_message_interval(self, cmd: Command, now_s: float) -> int:
-        """MavlinkReceiver::set_message_interval: the id is (int)(param1 + 0.5f); a finite
-        param3, param4 or param7 (response target) other than 0 fails, as do HEARTBEAT and a
-        message without a stream."""
-        if any(math.isfinite(v) and _c_int(v + 0.5) != 0 for v in (cmd.p(3), cmd.p(4), cmd.p(7))):
-            return FAILED
-        ok = self.scheduler.set_interval(_c_int(cmd.p(1) + 0.5), cmd.p(2), now_s)
-        return ACCEPTED if ok else FAILED
-
-    def _get_message_interval(self, cmd: Command, now_s: float) -> int:
-        if not math.isfinite(cmd.p(1)):
-            return DENIED  # PX4 casts it to an int: no message id
-        return self._send_interval(int(cmd.p(1)))
-
-    def _send_interval(self, msg_id: int) -> int:
-        interval = self.scheduler.interval_us(msg_id)
-        self.send(self.encoder.pack(M.MAVLink_message_interval_message, msg_id & 0xFFFF,
-                                    interval))
-        return ACCEPTED
-
-    def autopilot_version(self) -> bytes:
-        return self.encoder.pack(
-            M.MAVLink_autopilot_version_message, CAPABILITIES, FLIGHT_SW_VERSION,
-            FLIGHT_SW_VERSION, 0, 0, FLIGHT_CUSTOM_VERSION, MIDDLEWARE_CUSTOM_VERSION, [0] * 8,
-            0, 0,
-            uid(self.sysid), px4_guid(self.sysid))
-
 
 def _finite_or_nan(value: float) -> float:
     return value if math.isfinite(value) else math.nan
-
-
-def _roundf(value: float) -> float:
-    """C's roundf: halves away from zero (Python's round() takes them to even)."""
-    if not math.isfinite(value):
-        return value
-    return math.copysign(math.floor(abs(value) + 0.5), value)
-
-
-def _c_int(value: float) -> int:
-    """C's ``(int)value`` as PX4 reads command parameters: truncation; NaN and infinities (whose
-    conversion C leaves undefined) give x86's INT_MIN."""
-    if math.isnan(value) or math.isinf(value) or abs(value) >= 2**31:
-        return -(2**31)
-    return int(value)
 
 
 def _int_or(value: float, default: int) -> int:
