@@ -179,6 +179,20 @@ def c_int(value: float) -> int:
     return int(value)
 
 
+def lroundf(value: float) -> int:
+    """C's lroundf to a 64-bit long: NaN, infinities and values out of range give x86's
+    LONG_MIN."""
+    if not math.isfinite(value) or abs(value) >= 2.0**63:
+        return -(2**63)
+    return int(roundf(value))
+
+
+def wrap_int(value: int, bits: int) -> int:
+    """A C integer narrowed to a signed ``bits``-bit one (two's complement)."""
+    half = 1 << (bits - 1)
+    return ((value + half) & ((1 << bits) - 1)) - half
+
+
 def _int_or(value: float, default: int) -> int:
     if math.isnan(value) or math.isinf(value):
         return default

@@ -32,7 +32,13 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.command_requests import MessageRequests, MetadataFiles, c_int
+from gateway.mavlink.command_requests import (
+    MessageRequests,
+    MetadataFiles,
+    c_int,
+    lroundf,
+    wrap_int,
+)
 from gateway.mavlink.link import LinkContext, Say
 from gateway.mavlink.modes import decode_set_mode
 from gateway.mavlink.snapshot import Snapshot
@@ -208,12 +214,20 @@ class CommandService:
 
     # --- handlers: return a MAV_RESULT, or None for "no ACK" -------------------------------
     def _arm_disarm(self, cmd: Command, now_s: float) -> int | None:
-        forced = _eq(cmd.p(2), FORCE_MAGIC)
-        if _eq(cmd.p(1), 1.0):
+        """Commander::handle_command: the action is static_cast<int8_t>(lroundf(param1)), forced
+        when static_cast<int>(lroundf(param2)) is 21196; another action gets a critical text and
+        its event, and no ACK."""
+        action = wrap_int(lroundf(cmd.p(1)), 8)
+        forced = wrap_int(lroundf(cmd.p(2)), 32) == FORCE_MAGIC
+        if action == 1:
             return self.vehicle.arm(now_s, forced=forced)
-        if _eq(cmd.p(1), 0.0):
+        if action == 0:
             return self.vehicle.disarm(now_s, forced=forced)
-        self.say(now_s, Severity.CRITICAL, "Unsupported ARM_DISARM param")
+        commander = getattr(self.vehicle, "commander", None)
+        if commander is not None:
+            commander.unsupported_arm_disarm(now_s, cmd.p(1))
+        else:
+            self.say(now_s, Severity.CRITICAL, f"Unsupported ARM_DISARM param: {cmd.p(1):.3f}")
         return None
 
     def _takeoff(self, cmd: Command, now_s: float) -> int:

@@ -82,3 +82,65 @@ def test_set_message_interval_rounds_the_id():
     _, session, client = make()
     assert results(client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 29.6, 5e5)) == [(511, 0)]
     assert session.scheduler.interval_us(30) == 500_000
+
+
+# --- COMPONENT_ARM_DISARM: Commander::handle_command ------------------------------------------
+
+@pytest.mark.parametrize("p1, call", [(0.6, "arm"), (1.4, "arm"), (257.0, "arm"), (0.4, "disarm"),
+                                      (-0.4, "disarm"), (NAN, "disarm"), (3e38, "disarm")])
+def test_arm_disarm_reads_param1_as_int8_of_lroundf(p1, call):
+    """arming_action = static_cast<int8_t>(lroundf(param1)): 0.6 and 257 arm, -0.4 disarms;
+    NaN and values beyond a long convert to LONG_MIN on x86, whose low byte is 0: disarm."""
+    vehicle, _, client = make()
+    vehicle.become_ready()
+    assert results(client.command_long(400, p1)) == [(400, 0)]
+    assert vehicle.calls[-1][0] == call
+
+
+@pytest.mark.parametrize("p2, forced", [(21196, True), (21196.4, True), (21195.6, True),
+                                        (21196.6, False), (NAN, False)])
+def test_forced_arm_disarm_is_lroundf_of_param2(p2, forced):
+    """forced = (static_cast<int>(lroundf(param2)) == 21196)."""
+    vehicle, _, client = make()
+    client.command_long(400, 0, p2)
+    assert vehicle.calls[-1] == ("disarm", 0.0, forced)
+
+
+@pytest.fixture(scope="module")
+def sim():
+    from gateway.testing import Sim
+
+    with Sim(1) as s:
+        assert s.run_until(lambda: s.status(0).position_valid, timeout_s=10)
+        yield s
+
+
+def answer(sim, command, *params, source_component=None):
+    """COMMAND_LONG from the API client (or another component of it): the ACK's result (None
+    without one), and the texts and events that came with it."""
+    api = sim.api(0)
+    cursor, latest = len(api.frames), sim.vehicles[0].events.latest
+    p = [float(x) for x in params] + [0.0] * (7 - len(params))
+    compid = api.mav.srcComponent
+    if source_component is not None:
+        api.mav.srcComponent = source_component
+    try:
+        api.send(api.mav.command_long_encode(1, 1, command, 0, *p))
+    finally:
+        api.mav.srcComponent = compid
+    sim.advance(0.5)
+    got = [m.result for m in api.messages("COMMAND_ACK", since=cursor) if m.command == command]
+    texts = [m.text for m in api.messages("STATUSTEXT", since=cursor)]
+    return (got[0] if got else None), texts, sim.vehicles[0].events.after(latest)
+
+
+def test_an_arm_action_neither_arm_nor_disarm_is_said_with_its_value(sim):
+    """Commander: "Unsupported ARM_DISARM param: %.3f\\t" (critical) and its event, no ACK."""
+    from vehicles.events import UNSUPPORTED_ARM_PARAM
+
+    result, texts, events = answer(sim, M.MAV_CMD_COMPONENT_ARM_DISARM, 2)
+    assert result is None
+    assert texts == ["Unsupported ARM_DISARM param: 2.000\t"]
+    assert [e.id for e in events] == [UNSUPPORTED_ARM_PARAM.id]
+    assert not sim.status(0).armed
+    assert sim.simulation.internal_errors == 0
