@@ -40,11 +40,11 @@ from gateway.mavlink.command_requests import (
     wrap_int,
 )
 from gateway.mavlink.link import LinkContext, Say
-from gateway.mavlink.modes import decode_set_mode
+from gateway.mavlink.modes import SetModeRefusal, decode_set_mode
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.streams import Scheduler
 from vehicles.plan_types import PlanItem, PlanType
-from vehicles.types import CommandResult, GeoPoint, Severity
+from vehicles.types import CommandResult, GeoPoint, NavState, Severity
 
 ACCEPTED = CommandResult.ACCEPTED
 TEMPORARILY_REJECTED = CommandResult.TEMPORARILY_REJECTED
@@ -53,6 +53,7 @@ UNSUPPORTED = CommandResult.UNSUPPORTED
 FAILED = CommandResult.FAILED
 CANCELLED = CommandResult.CANCELLED
 
+MAV_COMP_ID_MISSIONPLANNER = 190  # QGC, MAVSDK's default component
 FORCE_MAGIC = 21196  # COMPONENT_ARM_DISARM p2: forced arm/disarm (kill)
 INT32_MAX = 2**31 - 1
 INT32_MAX_AS_FLOAT32 = 2147483648.0  # what INT32_MAX becomes in a float param
@@ -63,6 +64,11 @@ ROI_COMMANDS = frozenset({
     M.MAV_CMD_DO_SET_ROI, M.MAV_CMD_DO_SET_ROI_LOCATION, M.MAV_CMD_DO_SET_ROI_NONE,
     M.MAV_CMD_NAV_ROI,
 })
+# Commander's printRejectMode when the command's mode switch is refused (TEMPORARILY_REJECTED)
+REJECT_SAYS_MODE: dict[int, NavState] = {
+    M.MAV_CMD_NAV_TAKEOFF: NavState.AUTO_TAKEOFF, M.MAV_CMD_NAV_LAND: NavState.AUTO_LAND,
+    M.MAV_CMD_NAV_RETURN_TO_LAUNCH: NavState.AUTO_RTL,
+    M.MAV_CMD_DO_REPOSITION: NavState.AUTO_LOITER, M.MAV_CMD_MISSION_START: NavState.AUTO_MISSION}
 ANY_COMPONENT_COMMANDS = frozenset({
     M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, M.MAV_CMD_REQUEST_PROTOCOL_VERSION,
 })
@@ -201,6 +207,11 @@ class CommandService:
     def dispatch(self, cmd: Command, now_s: float) -> None:
         handler = self._handlers.get(cmd.command)
         result = UNSUPPORTED if handler is None else handler(cmd, now_s)
+        mode = REJECT_SAYS_MODE.get(cmd.command)
+        if mode is not None and result == TEMPORARILY_REJECTED:
+            commander = getattr(self.vehicle, "commander", None)
+            if commander is not None:
+                commander.reject_mode(now_s, mode)
         if result is not None:
             self.ack(cmd, int(result))
         record = getattr(self.vehicle, "record_command", None)
@@ -235,14 +246,26 @@ class CommandService:
         return self.vehicle.takeoff(now_s, alt_amsl_m=_finite_or_nan(cmd.p(7)))
 
     def _set_mode(self, cmd: Command, now_s: float) -> int:
-        base, main, sub = cmd.p(1), cmd.p(2), cmd.p(3)
-        if not math.isfinite(base):
-            return DENIED
-        nav = decode_set_mode(int(base), _int_or(main, -1), _int_or(sub, 0))
+        """Commander reads p1..p3 as (uint8_t) casts; no mode asked for is ACCEPTED, changing
+        nothing; a refused switch is said (printRejectMode) only to QGC (component 190)."""
+        base, main, sub = (c_int(cmd.p(n)) & 0xFF for n in (1, 2, 3))
+        nav = decode_set_mode(base, main, sub)
         if nav is None:
-            self.say(now_s, Severity.CRITICAL, "Unsupported auto mode")
+            return ACCEPTED
+        commander = getattr(self.vehicle, "commander", None)
+        if nav is SetModeRefusal.UNSUPPORTED_AUTO:
+            if commander is not None:
+                commander.unsupported_auto_mode(now_s)
+            else:
+                self.say(now_s, Severity.CRITICAL, "Unsupported auto mode")
             return TEMPORARILY_REJECTED
-        return self.vehicle.set_nav_state(now_s, nav)
+        if nav is SetModeRefusal.NOT_AVAILABLE:
+            return TEMPORARILY_REJECTED
+        result = self.vehicle.set_nav_state(now_s, nav)
+        if (result == TEMPORARILY_REJECTED and cmd.src_component == MAV_COMP_ID_MISSIONPLANNER
+                and commander is not None):
+            commander.reject_mode(now_s, nav)
+        return result
 
     def _vehicle(self, name: str) -> Callable[..., int] | None:
         return getattr(self.vehicle, name, None)
@@ -299,7 +322,11 @@ class CommandService:
         items: tuple[PlanItem, ...] = plan(PlanType.MISSION)
         for item in items:
             if item.command == M.MAV_CMD_DO_LAND_START:
-                start(now_s, float(item.seq))  # the navigator ACKs before Commander decides
+                # The navigator ACKs before Commander decides on its MISSION_START.
+                if start(now_s, float(item.seq)) == TEMPORARILY_REJECTED:
+                    commander = getattr(self.vehicle, "commander", None)
+                    if commander is not None:
+                        commander.reject_mode(now_s, NavState.AUTO_MISSION)
                 return ACCEPTED
         return CANCELLED
 

@@ -115,9 +115,9 @@ def sim():
         yield s
 
 
-def answer(sim, command, *params, source_component=None):
+def answer(sim, command, *params, source_component=None, wait_s=0.5):
     """COMMAND_LONG from the API client (or another component of it): the ACK's result (None
-    without one), and the texts and events that came with it."""
+    without one), and the texts and events (but the health report's) that came with it."""
     api = sim.api(0)
     cursor, latest = len(api.frames), sim.vehicles[0].events.latest
     p = [float(x) for x in params] + [0.0] * (7 - len(params))
@@ -128,10 +128,14 @@ def answer(sim, command, *params, source_component=None):
         api.send(api.mav.command_long_encode(1, 1, command, 0, *p))
     finally:
         api.mav.srcComponent = compid
-    sim.advance(0.5)
+    sim.advance(wait_s)
     got = [m.result for m in api.messages("COMMAND_ACK", since=cursor) if m.command == command]
     texts = [m.text for m in api.messages("STATUSTEXT", since=cursor)]
-    return (got[0] if got else None), texts, sim.vehicles[0].events.after(latest)
+    from vehicles.events import DEFINITIONS
+
+    shown = {d.id for d in DEFINITIONS if d.group == "default"}  # not the health report's
+    events = [e for e in sim.vehicles[0].events.after(latest) if e.id in shown]
+    return (got[0] if got else None), texts, events
 
 
 def test_an_arm_action_neither_arm_nor_disarm_is_said_with_its_value(sim):
@@ -144,3 +148,98 @@ def test_an_arm_action_neither_arm_nor_disarm_is_said_with_its_value(sim):
     assert [e.id for e in events] == [UNSUPPORTED_ARM_PARAM.id]
     assert not sim.status(0).armed
     assert sim.simulation.internal_errors == 0
+
+
+# --- DO_SET_MODE: Commander::handle_command ---------------------------------------------------
+
+@pytest.mark.parametrize("p1, p2, p3, nav", [
+    (1, 3, 1, "POSCTL"),  # POSCTL's sub modes other than SLOW are Position (not Orbit)
+    (1, 3, 2, "POSITION_SLOW"),
+    (1, 1, 5, "MANUAL"), (1, 2, 9, "ALTCTL"), (1, 5, 3, "ACRO"), (1, 7, 4, "STAB"),
+    (1, 6, 7, "OFFBOARD"),  # the other main modes ignore the sub mode
+    (1, 4, 0, "AUTO_MISSION"), (1 | 128 | 32, 4, 3, "AUTO_LOITER"), (257, 4, 6, "AUTO_LAND"),
+    (4, 0, 0, "AUTO_MISSION"), (64 | 8, 0, 0, "POSCTL"), (64 | 16, 0, 0, "STAB"),
+    (64, 0, 0, "MANUAL"),  # without CUSTOM_MODE_ENABLED: the base mode flags
+])
+def test_set_mode_decodes_as_commander(p1, p2, p3, nav):
+    vehicle, _, client = make()
+    assert results(client.command_long(176, p1, p2, p3)) == [(176, 0)]
+    assert vehicle.calls[-1][0] == "set_nav_state" and vehicle.calls[-1][2].name == nav
+
+
+@pytest.mark.parametrize("p1, p2, p3", [
+    (1, 0, 0), (1, 8, 0), (1, 9, 0), (1, 10, 0), (1, 11, 0), (1, 200, 0),  # no such main mode
+    (0, 4, 3), (2, 4, 3), (128, 0, 0),  # no custom mode, no AUTO or MANUAL flag
+    (NAN, 4, 3), (math.inf, 4, 3), (3e38, 4, 3),  # (uint8_t) of these is 0 on x86
+    (1, NAN, 3),
+])
+def test_set_mode_without_a_mode_is_accepted_and_changes_nothing(p1, p2, p3):
+    """desired_nav_state stays NAVIGATION_STATE_MAX: no transition, and main_ret
+    TRANSITION_NOT_CHANGED answers ACCEPTED."""
+    vehicle, _, client = make()
+    assert results(client.command_long(176, p1, p2, p3)) == [(176, 0)]
+    assert vehicle.calls == [] and vehicle.nav_state.name == "AUTO_LOITER"
+
+
+@pytest.mark.parametrize("p3", [1, 7, 10, 19, 255, NAN, -1])
+def test_set_mode_with_an_unknown_auto_sub_mode_is_rejected(p3):
+    """AUTO with a sub mode Commander does not switch to: TEMPORARILY_REJECTED (NaN's
+    (uint8_t) is 0, which is Mission)."""
+    vehicle, _, client = make()
+    got = client.command_long(176, 1, 4, p3)
+    if math.isnan(p3):
+        assert results(got) == [(176, 0)] and vehicle.nav_state.name == "AUTO_MISSION"
+    else:
+        assert results(got) == [(176, 1)] and vehicle.calls == []
+
+
+def test_set_mode_to_an_unknown_auto_sub_mode_says_so(sim):
+    """"Unsupported auto mode\\t" (critical) and its event (error)."""
+    from vehicles.events import UNSUPPORTED_AUTO_MODE
+
+    result, texts, events = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 4, 1)
+    assert result == M.MAV_RESULT_TEMPORARILY_REJECTED
+    assert texts == ["Unsupported auto mode\t"]
+    assert [e.id for e in events] == [UNSUPPORTED_AUTO_MODE.id]
+
+
+# --- printRejectMode ----------------------------------------------------------------------------
+
+def test_a_refused_mode_switch_is_said_to_qgc_only(sim):
+    """DO_SET_MODE: Commander prints "Switching to <mode> is currently not available\\t" (and
+    its event, the mode's custom mode and navigation_mode_t) only for a command from component
+    190 (QGC); at most once a second."""
+    from vehicles.events import MODE_NOT_AVAILABLE
+
+    sim.advance(1.1)
+    result, texts, events = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 6, 0, source_component=191)
+    assert result == M.MAV_RESULT_TEMPORARILY_REJECTED and texts == [] and events == []
+    result, texts, events = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 6, 0)  # Offboard, no setpoints
+    assert result == M.MAV_RESULT_TEMPORARILY_REJECTED
+    assert texts == ["Switching to Offboard is currently not available\t"]
+    assert [(e.id, e.arguments) for e in events] == [
+        (MODE_NOT_AVAILABLE.id, (6 << 16).to_bytes(4, "little") + bytes([7]))]
+    result, texts, _ = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 4, 4)  # Mission: none uploaded
+    assert result == M.MAV_RESULT_TEMPORARILY_REJECTED and texts == []  # within the second
+    sim.advance(1.0)
+    _, texts, _ = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 4, 4)
+    assert texts == ["Switching to Mission is currently not available\t"]
+    assert sim.status(0).nav_state.name == "AUTO_LOITER"
+
+
+def test_commands_that_switch_modes_say_a_refusal_to_everyone():
+    """NAV_TAKEOFF, NAV_LAND, NAV_RETURN_TO_LAUNCH and DO_REPOSITION: printRejectMode whoever
+    sends them (here before the position estimate is valid, which each mode needs)."""
+    from gateway.testing import Sim
+
+    with Sim(1) as sim:
+        for command, params, name in (
+                (M.MAV_CMD_NAV_TAKEOFF, [NAN] * 7, "Takeoff"),
+                (M.MAV_CMD_NAV_LAND, [NAN] * 7, "Land"),
+                (M.MAV_CMD_NAV_RETURN_TO_LAUNCH, [], "Return"),
+                (M.MAV_CMD_DO_REPOSITION, [-1, 1, 0, NAN, NAN, NAN, NAN], "Hold")):
+            sim.vehicles[0].commander._reject_said_s = -math.inf  # one text each
+            result, texts, _ = answer(sim, command, *params, source_component=191, wait_s=0.1)
+            assert result == M.MAV_RESULT_TEMPORARILY_REJECTED
+            assert texts == [f"Switching to {name} is currently not available\t"]
+        assert sim.simulation.internal_errors == 0
