@@ -282,6 +282,10 @@ class Commander:
         if self.events is not None:
             self.events.send(now_s, UNSUPPORTED_ARM_PARAM, Log.ERROR, None, "f", param1)
 
+    def orbit_rejected(self, now_s: float) -> None:
+        """DO_ORBIT whose switch to Orbit was refused (a text without an event)."""
+        self._log.critical(now_s, "Orbit command rejected")
+
     def terminate(self, now_s: float) -> CommandResult:
         """DO_FLIGHTTERMINATION: only when armed; final until reboot."""
         if not self.armed:

@@ -88,10 +88,6 @@ class Command:
         return self.params[n - 1]
 
 
-def _eq(value: float, target: float) -> bool:
-    return not math.isnan(value) and abs(value - target) < 1e-3
-
-
 class CommandService:
     """Uses the vehicle, the encoder, send, sysid, other_target; ``say`` (STATUSTEXT on this
     link), ``snapshot(now_s)`` (what telemetry builders read, for REQUEST_MESSAGE) and the
@@ -128,8 +124,9 @@ class CommandService:
             M.MAV_CMD_PREFLIGHT_STORAGE: self._storage,
             M.MAV_CMD_ACTUATOR_TEST: self._actuator_test,
             M.MAV_CMD_DO_MOTOR_TEST: self._motor_test,
+            # Commander: (int)param1 0 does nothing (ACCEPTED); a reboot or shutdown is refused
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
-                lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
+                lambda c, t: ACCEPTED if c_int(c.p(1)) == 0 else DENIED,
             M.MAV_CMD_RUN_PREARM_CHECKS: self._run_prearm_checks,
             # Commander.cpp ACCEPTs it unchecked; the mixer's FunctionActuatorSet drives the
             # outputs mapped to "Peripheral via Actuator Set N", which a quadrotor has none of.
@@ -288,7 +285,11 @@ class CommandService:
             return UNSUPPORTED
         radius, speed, yaw_behaviour, lat, lon, alt = (_finite_or_nan(cmd.p(n))
                                                         for n in (1, 2, 3, 5, 6, 7))
-        return orbit(now_s, radius, speed, yaw_behaviour, lat, lon, alt)
+        result = orbit(now_s, radius, speed, yaw_behaviour, lat, lon, alt)
+        commander = getattr(self.vehicle, "commander", None)
+        if result == TEMPORARILY_REJECTED and commander is not None:
+            commander.orbit_rejected(now_s)  # Commander's text (no printRejectMode)
+        return result
 
     def _change_speed(self, cmd: Command, now_s: float) -> int:
         change_speed = self._vehicle("change_speed")
@@ -301,6 +302,8 @@ class CommandService:
         set_home = self._vehicle("set_home")
         if set_home is None:
             return UNSUPPORTED
+        if not int(self.vehicle.params.get("COM_HOME_EN", 1) or 0):
+            return DENIED  # Commander: home disabled, whatever the parameters
         if cmd.p(1) > 0.5:  # use the current position
             return set_home(now_s, None)
         lat, lon, alt = cmd.p(5), cmd.p(6), cmd.p(7)

@@ -243,3 +243,36 @@ def test_commands_that_switch_modes_say_a_refusal_to_everyone():
             assert result == M.MAV_RESULT_TEMPORARILY_REJECTED
             assert texts == [f"Switching to {name} is currently not available\t"]
         assert sim.simulation.internal_errors == 0
+
+
+# --- the others -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("p1", [1, 0])
+def test_set_home_with_home_disabled_is_denied(p1):
+    """Commander: DO_SET_HOME with COM_HOME_EN 0 is DENIED (not TEMPORARILY_REJECTED), before
+    anything else is looked at."""
+    vehicle, _, client = make()
+    vehicle.become_ready()
+    vehicle.params.set("COM_HOME_EN", 0)
+    assert results(client.command_long(179, p1, 0, 0, NAN, 47.4, 8.5, 500)) == [(179, 2)]
+    assert not [c for c in vehicle.calls if c[0] == "set_home"]
+
+
+@pytest.mark.parametrize("p1, result", [(0, 0), (0.5, 0), (-0.9, 0), (1, 2), (NAN, 2)])
+def test_reboot_reads_param1_as_an_int(p1, result):
+    """PREFLIGHT_REBOOT_SHUTDOWN: const int param1 = cmd.param1; 0 is ACCEPTED (nothing to
+    do)."""
+    _, _, client = make()
+    assert results(client.command_long(246, p1)) == [(246, result)]
+
+
+def test_a_refused_orbit_is_said():
+    """DO_ORBIT whose switch to Orbit is refused: TEMPORARILY_REJECTED and "Orbit command
+    rejected" (critical)."""
+    from gateway.testing import Sim
+
+    with Sim(1) as sim:  # no position estimate yet
+        result, texts, _ = answer(sim, M.MAV_CMD_DO_ORBIT, 10, 2, 0, NAN, NAN, NAN, NAN,
+                                  wait_s=0.1)
+        assert result == M.MAV_RESULT_TEMPORARILY_REJECTED
+        assert texts == ["Orbit command rejected"]
