@@ -247,8 +247,7 @@ class Autopilot:
             mission.set_current(int(first_seq))
         if (self.set_nav_state(now_s, NavState.AUTO_MISSION) is not CommandResult.ACCEPTED
                 or self.arm(now_s, here, reason=ArmReason.MISSION_START) is not CommandResult.ACCEPTED):
-            self.log.critical(now_s, "Mission start denied")
-            return CommandResult.TEMPORARILY_REJECTED
+            return CommandResult.TEMPORARILY_REJECTED  # Commander says printRejectMode's text
         return CommandResult.ACCEPTED
 
     def goto(self, now_s: float, here: Measurement, lat_deg: float, lon_deg: float,

@@ -32,9 +32,11 @@ Rules and invariants:
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
+from vehicles.custom_mode import custom_mode_of
 from vehicles.events import (
     ARM_DENIED,
     ARM_REASON_TEXT,
@@ -46,10 +48,15 @@ from vehicles.events import (
     GCS_LOST,
     GCS_REGAINED,
     LANDING_DETECTED,
+    MODE_NOT_AVAILABLE,
+    NAVIGATION_MODE,
+    NAVIGATION_MODE_UNKNOWN,
     RC_LOST,
     RC_OVERRIDE,
     RC_REGAINED,
     TAKEOFF_DETECTED,
+    UNSUPPORTED_ARM_PARAM,
+    UNSUPPORTED_AUTO_MODE,
     ArmReason,
     EventLog,
     Log,
@@ -63,6 +70,9 @@ if TYPE_CHECKING:
 
 # EKF2/GPS "ready" this long after boot (PX4 SITL needs a few seconds; EKF2_REQ_GPS_H is 0.5 s).
 POSITION_VALID_DELAY_S = 1.0
+
+# printRejectMode says it at most once in this long (Commander.cpp: elapsed > 1_s)
+REJECT_MODE_QUIET_S = 1.0
 
 # PX4 ends a mavlink_log text that it also sends as an event with a tab (QGC then shows the event).
 ARMING_DENIED_TEXT = ARM_DENIED.message + "\t"  # "Arming denied: Resolve system health failures first"
@@ -168,6 +178,7 @@ class Commander:
         self.health_failures: tuple[str, ...] = ()
         # failure_detector.py's verdict: failureDetectorCheck.cpp denies arming in every mode
         self.attitude_failure = False
+        self._reject_said_s = -math.inf  # printRejectMode's last text
 
     def _update_params(self) -> None:
         p = self._params
@@ -245,6 +256,35 @@ class Commander:
             self._log.info(now_s, event.message + "\t")
             self._log.event(now_s, event)
         return result
+
+    def reject_mode(self, now_s: float, target: NavState) -> None:
+        """Commander::printRejectMode, for a command whose mode switch was refused: "Switching
+        to <mode> is currently not available" (mode_util::nav_state_names) and its event (the
+        mode's custom mode and navigation_mode_t), at most once a second."""
+        if now_s - self._reject_said_s <= REJECT_MODE_QUIET_S:
+            return
+        self._reject_said_s = now_s
+        mode, _, name = NAVIGATION_MODE.get(target, (NAVIGATION_MODE_UNKNOWN, "", "Unknown"))
+        self._log.critical(now_s, f"Switching to {name} is currently not available\t")
+        if self.events is not None:
+            self.events.send(now_s, MODE_NOT_AVAILABLE, Log.CRITICAL, Log.INFO, "IB",
+                             custom_mode_of(target), mode)
+
+    def unsupported_auto_mode(self, now_s: float) -> None:
+        """DO_SET_MODE with an AUTO sub mode Commander does not know."""
+        self._log.critical(now_s, UNSUPPORTED_AUTO_MODE.message + "\t")
+        if self.events is not None:
+            self.events.send(now_s, UNSUPPORTED_AUTO_MODE, Log.ERROR)
+
+    def unsupported_arm_disarm(self, now_s: float, param1: float) -> None:
+        """COMPONENT_ARM_DISARM whose param1 rounds to neither arm nor disarm (no ACK)."""
+        self._log.critical(now_s, f"Unsupported ARM_DISARM param: {param1:.3f}\t")
+        if self.events is not None:
+            self.events.send(now_s, UNSUPPORTED_ARM_PARAM, Log.ERROR, None, "f", param1)
+
+    def orbit_rejected(self, now_s: float) -> None:
+        """DO_ORBIT whose switch to Orbit was refused (a text without an event)."""
+        self._log.critical(now_s, "Orbit command rejected")
 
     def terminate(self, now_s: float) -> CommandResult:
         """DO_FLIGHTTERMINATION: only when armed; final until reboot."""

@@ -20,6 +20,10 @@ import struct
 from collections import deque
 from dataclasses import dataclass
 
+from vehicles.types import NavState
+
+N = NavState
+
 INITIAL_SEQUENCE = 65535 - 10
 BUFFER_SIZE = 20  # EventBuffer's default capacity
 MAX_ARGUMENTS = 25  # libevents config.ini max_arguments_size
@@ -212,6 +216,17 @@ TAKEOFF_ALREADY_HIGHER = EventDef("navigator_takeoff_already_higher", "default",
 COMMANDER_RTL = EventDef("commander_rtl", "default", "Returning to launch")
 COMMANDER_LAND = EventDef("commander_landing_current_pos", "default",
                           "Landing at current position")
+# Commander::handle_command's refusals: printRejectMode (the user's mode as its PX4 custom mode,
+# then the mode as navigation_mode_t), an unknown AUTO sub mode, an ARM_DISARM param1 that is
+# neither arm nor disarm
+MODE_NOT_AVAILABLE = EventDef(
+    "commander_modeswitch_not_avail", "default",
+    "Switching to mode '{2}' is currently not possible",
+    (_MODE_ARG, ("px4::navigation_mode_t", "arg1")), type=_APPEND)
+UNSUPPORTED_AUTO_MODE = EventDef("commander_unsupported_auto_mode", "default",
+                                 "Unsupported auto mode")
+UNSUPPORTED_ARM_PARAM = EventDef("commander_unsupported_arm_disarm_param", "default",
+                                 "Unsupported ARM_DISARM param: {1:.3}", (("float", "arg0"),))
 # Commander's stick override (auto mode or Offboard, COM_RC_OVERRIDE), and the failsafe
 # framework's takeover when a failsafe acts
 RC_OVERRIDE = EventDef("commander_rc_override", "default", "Pilot took over using sticks")
@@ -271,7 +286,23 @@ DEFINITIONS: tuple[EventDef, ...] = (
     FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED, MISSION_EXECUTE,
     MISSION_FINISHED, MISSION_FINISHED_LOITER, RTL_RETURN_AT, RTL_LAND, RTL_COMPLETED_LOITER,
     TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, COMMANDER_RTL, COMMANDER_LAND,
-    *MISSION_FEASIBILITY)
+    MODE_NOT_AVAILABLE, UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, *MISSION_FEASIBILITY)
+
+
+# navigation_mode_t (events/enums.json): mode_util::navigation_mode's value of each navigation
+# state, with the enum's description, and mode_util::nav_state_names' name (what printRejectMode's
+# text says).
+NAVIGATION_MODE: dict[NavState, tuple[int, str, str]] = {
+    N.MANUAL: (0, "Manual", "Manual"), N.ALTCTL: (1, "Altitude control", "Altitude"),
+    N.POSCTL: (2, "Position control", "Position"), N.AUTO_MISSION: (3, "Mission", "Mission"),
+    N.AUTO_LOITER: (4, "Hold", "Hold"), N.AUTO_RTL: (5, "RTL", "Return"),
+    N.POSITION_SLOW: (9, "Position Slow", "Position Slow"), N.ACRO: (6, "Acro", "Acro"),
+    N.OFFBOARD: (7, "Offboard", "Offboard"), N.STAB: (8, "Stabilized", "Stabilized"),
+    N.AUTO_TAKEOFF: (10, "Takeoff", "Takeoff"), N.AUTO_LAND: (11, "Land", "Land"),
+    N.AUTO_FOLLOW_TARGET: (12, "Follow Target", "Follow Target"),
+    N.AUTO_PRECLAND: (13, "Precision Landing", "Precision Landing"),
+    N.ORBIT: (14, "Orbit", "Orbit")}
+NAVIGATION_MODE_UNKNOWN = 255  # "[Unknown]" (Descend, Termination)
 
 
 @dataclass(frozen=True)

@@ -120,6 +120,7 @@ class Vehicle:
         self._autopilot = Autopilot(params, airframe, origin, dt_s, boot_time_s,
                                     name=f"vehicle {index + 1}")
         self.commands = CommandJournal()  # what the logger records as vehicle_command(_ack)
+        self.commander = self._autopilot.commander  # its refusals' texts (gateway commands.py)
         self.events = EventLog(boot_time_s)  # what every link sends as EVENT (vehicles/events.py)
         self._health = HealthChecks(self.events, self._autopilot.commander.set_health)
         ap = self._autopilot

@@ -1,13 +1,13 @@
 """Command protocol server: COMMAND_LONG / COMMAND_INT / legacy SET_MODE → vehicle → COMMAND_ACK.
 
-Source: PX4 mavlink_receiver.cpp handle_message_command_*, Commander::handle_command,
-AUTOPILOT_VERSION.hpp.
+Source: PX4 mavlink_receiver.cpp handle_message_command_*, Commander::handle_command; the
+requests the MAVLink module answers itself are in command_requests.py.
 Rules:
-- Only target_system ∈ {0, own} and target_component ∈ {0, 1} are handled; anything else is
-  silently ignored (no ACK). REQUEST_AUTOPILOT_CAPABILITIES / REQUEST_PROTOCOL_VERSION ignore the
-  component, as in PX4.
+- Only target_system = own and target_component ∈ {0, 1} are handled; anything else (system 0
+  too) is silently ignored (no ACK), as MavlinkReceiver::evaluate_target_ok does.
+  REQUEST_AUTOPILOT_CAPABILITIES / REQUEST_PROTOCOL_VERSION take system 0 and ignore the
+  component. Legacy SET_MODE goes to Commander, which takes system 0.
 - The ACK goes to the sender's sysid/compid, from compid 1, progress 0, result_param2 0.
-- A requested message is emitted before its ACK (same send buffer, in order).
 - COMMAND_INT x/y are degE7 (INT32_MAX = unset → NaN), z as-is (AMSL). The frame is ignored, as
   PX4 ≤ 1.16 does: QGC sends 0, MAVSDK4 3, MAVSDK 5 — all work (PX4 main would reject ≠ 5).
 - Every command is answered at once (never IN_PROGRESS): unknown → UNSUPPORTED, and so is a
@@ -26,33 +26,25 @@ Rules:
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Protocol
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import (
-    COMPONENT_INFORMATION,
-    COMPONENT_METADATA,
-    CRC_EXTRA_COMPONENT_INFORMATION,
-    CRC_EXTRA_COMPONENT_METADATA,
-    CRC_EXTRA_PROTOCOL_VERSION,
-    MSG_ID_COMPONENT_INFORMATION,
-    MSG_ID_COMPONENT_METADATA,
-    MSG_ID_PROTOCOL_VERSION,
-    PROTOCOL_VERSION_PAYLOAD,
+from gateway.mavlink.command_requests import (
+    MessageRequests,
+    MetadataFiles,
+    c_int,
+    lroundf,
+    wrap_int,
 )
-from gateway.mavlink.identity import px4_guid, uid
 from gateway.mavlink.link import LinkContext, Say
-from gateway.mavlink.modes import decode_set_mode
+from gateway.mavlink.modes import SetModeRefusal, decode_set_mode
 from gateway.mavlink.snapshot import Snapshot
-from gateway.mavlink.streams import STREAMS_BY_ID, Scheduler
-from gateway.mavlink.telemetry import home_position
+from gateway.mavlink.streams import Scheduler
 from vehicles.plan_types import PlanItem, PlanType
-from vehicles.types import CommandResult, GeoPoint, Severity
+from vehicles.types import CommandResult, GeoPoint, NavState, Severity
 
 ACCEPTED = CommandResult.ACCEPTED
 TEMPORARILY_REJECTED = CommandResult.TEMPORARILY_REJECTED
@@ -61,39 +53,22 @@ UNSUPPORTED = CommandResult.UNSUPPORTED
 FAILED = CommandResult.FAILED
 CANCELLED = CommandResult.CANCELLED
 
+MAV_COMP_ID_MISSIONPLANNER = 190  # QGC, MAVSDK's default component
 FORCE_MAGIC = 21196  # COMPONENT_ARM_DISARM p2: forced arm/disarm (kill)
 INT32_MAX = 2**31 - 1
 INT32_MAX_AS_FLOAT32 = 2147483648.0  # what INT32_MAX becomes in a float param
 REPOSITION_FLAGS_CHANGE_MODE = 1  # MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, the only flag PX4 takes
 SPEED_RESET = -1.0  # DO_CHANGE_SPEED: ≤ 0 → back to the cruise speed
 
-# AUTOPILOT_VERSION as PX4 SITL fills it (MAVLink FTP included: gateway/mavlink/ftp.py).
-CAPABILITIES = 59647
-FLIGHT_SW_VERSION = 0x010F00FF  # v1.15.0 release
-# PX4_GIT_VERSION_BINARY is the first 16 hex digits of the build's git commit as a uint64; ours is
-# a fixed one (the start of SHA-1("CORNET")). mavlink_main.cpp send_autopilot_capabilities keeps
-# its top 5 bytes, puts the vendor version (0 for a release build) in the low 3 and copies the
-# uint64 little-endian. MAVSDK's flight_sw_git_hash prints bytes 3..7 back to front in hex, and
-# (info_impl.cpp swap_and_translate_binary_to_str, its buffer one short) loses the last digit to
-# the terminating NUL, with PX4 as with us: "3fccf9453\0".
-GIT_VERSION_BINARY = 0x3FCCF9453A2543FF
-FLIGHT_CUSTOM_VERSION = list((GIT_VERSION_BINARY & 0xFFFFFFFFFF000000).to_bytes(8, "little"))
-MIDDLEWARE_CUSTOM_VERSION = FLIGHT_CUSTOM_VERSION  # the same masked hash, no vendor version
-
-# Message ids QGC asks for that we do not serve: answering at once keeps its connect fast.
-REFUSED_MESSAGES = frozenset({435})  # AVAILABLE_MODES
-
-
-class MetadataFiles(Protocol):
-    """What COMPONENT_METADATA points at (gateway/onboard/metadata.py serves it over FTP)."""
-
-    uri: str
-    general_crc: int
-
 ROI_COMMANDS = frozenset({
     M.MAV_CMD_DO_SET_ROI, M.MAV_CMD_DO_SET_ROI_LOCATION, M.MAV_CMD_DO_SET_ROI_NONE,
     M.MAV_CMD_NAV_ROI,
 })
+# Commander's printRejectMode when the command's mode switch is refused (TEMPORARILY_REJECTED)
+REJECT_SAYS_MODE: dict[int, NavState] = {
+    M.MAV_CMD_NAV_TAKEOFF: NavState.AUTO_TAKEOFF, M.MAV_CMD_NAV_LAND: NavState.AUTO_LAND,
+    M.MAV_CMD_NAV_RETURN_TO_LAUNCH: NavState.AUTO_RTL,
+    M.MAV_CMD_DO_REPOSITION: NavState.AUTO_LOITER, M.MAV_CMD_MISSION_START: NavState.AUTO_MISSION}
 ANY_COMPONENT_COMMANDS = frozenset({
     M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, M.MAV_CMD_REQUEST_PROTOCOL_VERSION,
 })
@@ -113,10 +88,6 @@ class Command:
         return self.params[n - 1]
 
 
-def _eq(value: float, target: float) -> bool:
-    return not math.isnan(value) and abs(value - target) < 1e-3
-
-
 class CommandService:
     """Uses the vehicle, the encoder, send, sysid, other_target; ``say`` (STATUSTEXT on this
     link), ``snapshot(now_s)`` (what telemetry builders read, for REQUEST_MESSAGE) and the
@@ -132,10 +103,8 @@ class CommandService:
         self.sysid = ctx.sysid
         self.other_target = ctx.other_target
         self.say = say
-        self.snapshot = snapshot
-        self.scheduler = scheduler
-        # Attached with the vehicle's FTP files; without them the request is UNSUPPORTED.
-        self.component_metadata: MetadataFiles | None = None
+        # The requests MAVLink answers itself (command_requests.py)
+        self.requests = req = MessageRequests(ctx, snapshot, scheduler)
         # LOGGING_START / LOGGING_STOP: the link's log stream (log_streaming.py), then the logger
         self.logging_command = logging_command
         self._handlers: dict[int, Callable[[Command, float], int | None]] = {
@@ -144,19 +113,20 @@ class CommandService:
             M.MAV_CMD_NAV_LAND: lambda c, t: self.vehicle.land(t),
             M.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda c, t: self.vehicle.return_to_launch(t),
             M.MAV_CMD_DO_SET_MODE: self._set_mode,
-            M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
-            M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._autopilot_capabilities,
-            M.MAV_CMD_REQUEST_PROTOCOL_VERSION: self._protocol_version,
-            M.MAV_CMD_GET_HOME_POSITION: self._home_position,
-            M.MAV_CMD_REQUEST_FLIGHT_INFORMATION: self._request_flight_information,
-            M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_message_interval,
-            M.MAV_CMD_GET_MESSAGE_INTERVAL: self._get_message_interval,
+            M.MAV_CMD_REQUEST_MESSAGE: lambda c, t: req.request_message(c.params, t),
+            M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: lambda c, t: req.autopilot_capabilities(),
+            M.MAV_CMD_REQUEST_PROTOCOL_VERSION: lambda c, t: req.protocol_version(),
+            M.MAV_CMD_GET_HOME_POSITION: lambda c, t: req.home_position(t),
+            M.MAV_CMD_REQUEST_FLIGHT_INFORMATION: lambda c, t: req.request_flight_information(t),
+            M.MAV_CMD_SET_MESSAGE_INTERVAL: lambda c, t: req.set_message_interval(c.params, t),
+            M.MAV_CMD_GET_MESSAGE_INTERVAL: lambda c, t: req.get_message_interval(c.params),
             M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibration,
             M.MAV_CMD_PREFLIGHT_STORAGE: self._storage,
             M.MAV_CMD_ACTUATOR_TEST: self._actuator_test,
             M.MAV_CMD_DO_MOTOR_TEST: self._motor_test,
+            # Commander: (int)param1 0 does nothing (ACCEPTED); a reboot or shutdown is refused
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
-                lambda c, t: ACCEPTED if _eq(c.p(1), 0.0) else DENIED,
+                lambda c, t: ACCEPTED if c_int(c.p(1)) == 0 else DENIED,
             M.MAV_CMD_RUN_PREARM_CHECKS: self._run_prearm_checks,
             # Commander.cpp ACCEPTs it unchecked; the mixer's FunctionActuatorSet drives the
             # outputs mapped to "Peripheral via Actuator Set N", which a quadrotor has none of.
@@ -174,6 +144,15 @@ class CommandService:
         }
         for cmd in ROI_COMMANDS:
             self._handlers[cmd] = lambda c, t: ACCEPTED
+
+    @property
+    def component_metadata(self) -> MetadataFiles | None:
+        """Attached with the vehicle's FTP files; without them the request is DENIED."""
+        return self.requests.component_metadata
+
+    @component_metadata.setter
+    def component_metadata(self, files: MetadataFiles | None) -> None:
+        self.requests.component_metadata = files
 
     # --- inbound ------------------------------------------------------------------------------
     def on_command_long(self, msg: M.MAVLink_command_long_message, now_s: float) -> None:
@@ -212,8 +191,12 @@ class CommandService:
         self.dispatch(cmd, now_s)
 
     def _for_us(self, msg: M.MAVLink_message, command: int) -> bool:
-        comp_ok = msg.target_component in (0, 1) or command in ANY_COMPONENT_COMMANDS
-        if msg.target_system in (0, self.sysid) and comp_ok:
+        """MavlinkReceiver::evaluate_target_ok: this system (not 0) and this component or 0;
+        the capability requests take system 0 too and any component."""
+        if command in ANY_COMPONENT_COMMANDS:
+            if msg.target_system in (0, self.sysid):
+                return True
+        elif msg.target_system == self.sysid and msg.target_component in (0, 1):
             return True
         self.other_target()
         return False
@@ -221,6 +204,11 @@ class CommandService:
     def dispatch(self, cmd: Command, now_s: float) -> None:
         handler = self._handlers.get(cmd.command)
         result = UNSUPPORTED if handler is None else handler(cmd, now_s)
+        mode = REJECT_SAYS_MODE.get(cmd.command)
+        if mode is not None and result == TEMPORARILY_REJECTED:
+            commander = getattr(self.vehicle, "commander", None)
+            if commander is not None:
+                commander.reject_mode(now_s, mode)
         if result is not None:
             self.ack(cmd, int(result))
         record = getattr(self.vehicle, "record_command", None)
@@ -234,12 +222,20 @@ class CommandService:
 
     # --- handlers: return a MAV_RESULT, or None for "no ACK" -------------------------------
     def _arm_disarm(self, cmd: Command, now_s: float) -> int | None:
-        forced = _eq(cmd.p(2), FORCE_MAGIC)
-        if _eq(cmd.p(1), 1.0):
+        """Commander::handle_command: the action is static_cast<int8_t>(lroundf(param1)), forced
+        when static_cast<int>(lroundf(param2)) is 21196; another action gets a critical text and
+        its event, and no ACK."""
+        action = wrap_int(lroundf(cmd.p(1)), 8)
+        forced = wrap_int(lroundf(cmd.p(2)), 32) == FORCE_MAGIC
+        if action == 1:
             return self.vehicle.arm(now_s, forced=forced)
-        if _eq(cmd.p(1), 0.0):
+        if action == 0:
             return self.vehicle.disarm(now_s, forced=forced)
-        self.say(now_s, Severity.CRITICAL, "Unsupported ARM_DISARM param")
+        commander = getattr(self.vehicle, "commander", None)
+        if commander is not None:
+            commander.unsupported_arm_disarm(now_s, cmd.p(1))
+        else:
+            self.say(now_s, Severity.CRITICAL, f"Unsupported ARM_DISARM param: {cmd.p(1):.3f}")
         return None
 
     def _takeoff(self, cmd: Command, now_s: float) -> int:
@@ -247,14 +243,26 @@ class CommandService:
         return self.vehicle.takeoff(now_s, alt_amsl_m=_finite_or_nan(cmd.p(7)))
 
     def _set_mode(self, cmd: Command, now_s: float) -> int:
-        base, main, sub = cmd.p(1), cmd.p(2), cmd.p(3)
-        if not math.isfinite(base):
-            return DENIED
-        nav = decode_set_mode(int(base), _int_or(main, -1), _int_or(sub, 0))
+        """Commander reads p1..p3 as (uint8_t) casts; no mode asked for is ACCEPTED, changing
+        nothing; a refused switch is said (printRejectMode) only to QGC (component 190)."""
+        base, main, sub = (c_int(cmd.p(n)) & 0xFF for n in (1, 2, 3))
+        nav = decode_set_mode(base, main, sub)
         if nav is None:
-            self.say(now_s, Severity.CRITICAL, "Unsupported auto mode")
+            return ACCEPTED
+        commander = getattr(self.vehicle, "commander", None)
+        if nav is SetModeRefusal.UNSUPPORTED_AUTO:
+            if commander is not None:
+                commander.unsupported_auto_mode(now_s)
+            else:
+                self.say(now_s, Severity.CRITICAL, "Unsupported auto mode")
             return TEMPORARILY_REJECTED
-        return self.vehicle.set_nav_state(now_s, nav)
+        if nav is SetModeRefusal.NOT_AVAILABLE:
+            return TEMPORARILY_REJECTED
+        result = self.vehicle.set_nav_state(now_s, nav)
+        if (result == TEMPORARILY_REJECTED and cmd.src_component == MAV_COMP_ID_MISSIONPLANNER
+                and commander is not None):
+            commander.reject_mode(now_s, nav)
+        return result
 
     def _vehicle(self, name: str) -> Callable[..., int] | None:
         return getattr(self.vehicle, name, None)
@@ -277,7 +285,11 @@ class CommandService:
             return UNSUPPORTED
         radius, speed, yaw_behaviour, lat, lon, alt = (_finite_or_nan(cmd.p(n))
                                                         for n in (1, 2, 3, 5, 6, 7))
-        return orbit(now_s, radius, speed, yaw_behaviour, lat, lon, alt)
+        result = orbit(now_s, radius, speed, yaw_behaviour, lat, lon, alt)
+        commander = getattr(self.vehicle, "commander", None)
+        if result == TEMPORARILY_REJECTED and commander is not None:
+            commander.orbit_rejected(now_s)  # Commander's text (no printRejectMode)
+        return result
 
     def _change_speed(self, cmd: Command, now_s: float) -> int:
         change_speed = self._vehicle("change_speed")
@@ -290,6 +302,8 @@ class CommandService:
         set_home = self._vehicle("set_home")
         if set_home is None:
             return UNSUPPORTED
+        if not int(self.vehicle.params.get("COM_HOME_EN", 1) or 0):
+            return DENIED  # Commander: home disabled, whatever the parameters
         if cmd.p(1) > 0.5:  # use the current position
             return set_home(now_s, None)
         lat, lon, alt = cmd.p(5), cmd.p(6), cmd.p(7)
@@ -311,7 +325,11 @@ class CommandService:
         items: tuple[PlanItem, ...] = plan(PlanType.MISSION)
         for item in items:
             if item.command == M.MAV_CMD_DO_LAND_START:
-                start(now_s, float(item.seq))  # the navigator ACKs before Commander decides
+                # The navigator ACKs before Commander decides on its MISSION_START.
+                if start(now_s, float(item.seq)) == TEMPORARILY_REJECTED:
+                    commander = getattr(self.vehicle, "commander", None)
+                    if commander is not None:
+                        commander.reject_mode(now_s, NavState.AUTO_MISSION)
                 return ACCEPTED
         return CANCELLED
 
@@ -330,7 +348,7 @@ class CommandService:
         calibrate = self._vehicle("calibrate")
         if calibrate is None:
             return UNSUPPORTED
-        p = [_c_int(cmd.p(i)) for i in range(1, 8)]
+        p = [c_int(cmd.p(i)) for i in range(1, 8)]
         # In Commander's order; None: one PX4 starts that is not served here.
         for asked, kind in ((p[0] == 1, "gyro"), (3 in (p[0], p[4], p[6]), None),
                              (p[1] == 1, "mag"), (p[2] == 1, "baro"), (p[3] == 1, "radio"),
@@ -355,7 +373,7 @@ class CommandService:
         if test is None:
             return UNSUPPORTED
         value = cmd.p(1)
-        return test(now_s, _c_int(cmd.p(5) + 0.5), value if math.isfinite(value) else math.nan,
+        return test(now_s, c_int(cmd.p(5) + 0.5), value if math.isfinite(value) else math.nan,
                     cmd.p(2))
 
     def _motor_test(self, cmd: Command, now_s: float) -> int:
@@ -370,7 +388,7 @@ class CommandService:
             return UNSUPPORTED
         if not allowed():
             return DENIED
-        if _c_int(cmd.p(2) + 0.5) != 0 or _c_int(cmd.p(5) + 0.5) > 1:
+        if c_int(cmd.p(2) + 0.5) != 0 or c_int(cmd.p(5) + 0.5) > 1:
             return UNSUPPORTED
         return ACCEPTED
 
@@ -378,7 +396,7 @@ class CommandService:
         storage = self._vehicle("param_storage")
         if storage is None:
             return UNSUPPORTED
-        return storage(now_s, _c_int(cmd.p(1)))
+        return storage(now_s, c_int(cmd.p(1)))
 
     def _inject_failure(self, cmd: Command, now_s: float) -> int:
         inject = self._vehicle("inject_failure")
@@ -392,99 +410,9 @@ class CommandService:
             return UNSUPPORTED
         return self.logging_command(cmd.command, (cmd.src_system, cmd.src_component), now_s)
 
-    def _request_message(self, cmd: Command, now_s: float) -> int:
-        msg_id = _int_or(cmd.p(1), -1)
-        if msg_id == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
-            self.send(self.autopilot_version())
-            return ACCEPTED
-        if msg_id == MSG_ID_PROTOCOL_VERSION:
-            return self._protocol_version(cmd, now_s)
-        if msg_id == M.MAVLINK_MSG_ID_MESSAGE_INTERVAL:
-            return self._send_interval(_int_or(cmd.p(2), -1))
-        if msg_id in (MSG_ID_COMPONENT_METADATA, MSG_ID_COMPONENT_INFORMATION):
-            return self._component_metadata(msg_id, now_s)
-        if msg_id in REFUSED_MESSAGES:
-            return UNSUPPORTED
-        spec = STREAMS_BY_ID.get(msg_id)
-        if spec is None:
-            return UNSUPPORTED
-        frame = spec.builder(self.encoder, self.snapshot(now_s))
-        if frame is None:
-            return DENIED  # e.g. HOME_POSITION before home is set
-        self.send(frame)
-        return ACCEPTED
-
-    def _request_flight_information(self, cmd: Command, now_s: float) -> int:
-        """The deprecated request command: PX4's mavlink receiver answers it as REQUEST_MESSAGE
-        for FLIGHT_INFORMATION."""
-        as_request = (float(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION),) + (0.0,) * 6
-        return self._request_message(dataclasses.replace(cmd, params=as_request), now_s)
-
-    def _component_metadata(self, msg_id: int, now_s: float) -> int:
-        """PX4's COMPONENT_METADATA stream answers with the general metadata file's URI and
-        CRC; its COMPONENT_INFORMATION (what older QGC asks) carries the same two."""
-        meta = self.component_metadata
-        if meta is None:
-            return UNSUPPORTED
-        boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
-        uri = meta.uri.encode()[:99]
-        if msg_id == MSG_ID_COMPONENT_METADATA:
-            payload = COMPONENT_METADATA.pack(boot_ms, meta.general_crc, uri)
-            self.send(self.encoder.frame(msg_id, CRC_EXTRA_COMPONENT_METADATA, payload))
-        else:
-            payload = COMPONENT_INFORMATION.pack(boot_ms, meta.general_crc, 0, uri, b"")
-            self.send(self.encoder.frame(msg_id, CRC_EXTRA_COMPONENT_INFORMATION, payload))
-        return ACCEPTED
-
-    def _autopilot_capabilities(self, cmd: Command, now_s: float) -> int:
-        self.send(self.autopilot_version())
-        return ACCEPTED
-
-    def _protocol_version(self, cmd: Command, now_s: float) -> int:
-        self.send(self.encoder.frame(MSG_ID_PROTOCOL_VERSION, CRC_EXTRA_PROTOCOL_VERSION,
-                                     PROTOCOL_VERSION_PAYLOAD))
-        return ACCEPTED
-
-    def _home_position(self, cmd: Command, now_s: float) -> int:
-        frame = home_position(self.encoder, self.snapshot(now_s))
-        if frame is None:
-            return DENIED
-        self.send(frame)
-        return ACCEPTED
-
-    def _set_message_interval(self, cmd: Command, now_s: float) -> int:
-        ok = self.scheduler.set_interval(_int_or(cmd.p(1), -1), cmd.p(2), now_s)
-        return ACCEPTED if ok else FAILED
-
-    def _get_message_interval(self, cmd: Command, now_s: float) -> int:
-        if not math.isfinite(cmd.p(1)):
-            return DENIED  # PX4 casts it to an int: no message id
-        return self._send_interval(int(cmd.p(1)))
-
-    def _send_interval(self, msg_id: int) -> int:
-        interval = self.scheduler.interval_us(msg_id)
-        self.send(self.encoder.pack(M.MAVLink_message_interval_message, msg_id & 0xFFFF,
-                                    interval))
-        return ACCEPTED
-
-    def autopilot_version(self) -> bytes:
-        return self.encoder.pack(
-            M.MAVLink_autopilot_version_message, CAPABILITIES, FLIGHT_SW_VERSION,
-            FLIGHT_SW_VERSION, 0, 0, FLIGHT_CUSTOM_VERSION, MIDDLEWARE_CUSTOM_VERSION, [0] * 8,
-            0, 0,
-            uid(self.sysid), px4_guid(self.sysid))
-
 
 def _finite_or_nan(value: float) -> float:
     return value if math.isfinite(value) else math.nan
-
-
-def _c_int(value: float) -> int:
-    """C's ``(int)value`` as PX4 reads command parameters: truncation; NaN and infinities (whose
-    conversion C leaves undefined) give x86's INT_MIN."""
-    if math.isnan(value) or math.isinf(value) or abs(value) >= 2**31:
-        return -(2**31)
-    return int(value)
 
 
 def _int_or(value: float, default: int) -> int:

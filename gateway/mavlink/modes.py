@@ -4,11 +4,14 @@ Source: PX4 px4_custom_mode.h (vehicles/custom_mode.py), HEARTBEAT.hpp; Commande
 - ``custom_mode = (main << 16) | (sub << 24)``; bits 0–15 are zero.
 - ``base_mode`` = CUSTOM_MODE_ENABLED (1) plus the per-mode flags of the table, +SAFETY_ARMED (128)
   when armed. pymavlink's ``interpret_px4_mode`` relies on exactly these flags.
-- Every NavState has a row (a test proves it). DESCEND is displayed as AUTO.LAND, as PX4 does, so
-  the decode direction is the table minus DESCEND.
+- Every NavState has a row (a test proves it). DESCEND is displayed as AUTO.LAND, as PX4 does.
+- DO_SET_MODE decodes as Commander does (``decode_set_mode``), not as the table's inverse: it
+  ignores most sub modes, and main modes it does not know ask for no mode at all.
 """
 
 from __future__ import annotations
+
+import enum
 
 from vehicles.custom_mode import (  # noqa: F401 - the modes' names, for the gateway
     MAIN_SUB,
@@ -50,13 +53,6 @@ _BASE: dict[NavState, int] = {
 MODE_TABLE: dict[NavState, tuple[int, int, int]] = {
     nav: (main, sub, _BASE[nav]) for nav, (main, sub) in MAIN_SUB.items()}
 
-# (main, sub) → NavState for DO_SET_MODE. DESCEND is not selectable; AUTO sub 0 means Mission.
-_DECODE: dict[tuple[int, int], NavState] = {
-    (main, sub): nav for nav, (main, sub, _) in MODE_TABLE.items() if nav is not NavState.DESCEND
-}
-_DECODE[(MainMode.AUTO, 0)] = NavState.AUTO_MISSION
-
-
 def heartbeat_modes(nav: NavState, armed: bool) -> tuple[int, int]:
     """(base_mode, custom_mode) as PX4's HEARTBEAT stream sends them."""
     main, sub, base = MODE_TABLE[nav]
@@ -65,19 +61,43 @@ def heartbeat_modes(nav: NavState, armed: bool) -> tuple[int, int]:
     return base, (main << 16) | (sub << 24)
 
 
-def decode_custom(main: int, sub: int) -> NavState | None:
-    """PX4 custom main/sub → NavState, None if PX4 would reject it."""
-    return _DECODE.get((main, sub))
+# DO_SET_MODE's AUTO sub modes Commander switches to (the EXTERNALn ones are refused: no external
+# mode registers here); sub mode 0 is Mission.
+_AUTO_SUB: dict[int, NavState] = {
+    AutoSubMode.LOITER: NavState.AUTO_LOITER, AutoSubMode.MISSION: NavState.AUTO_MISSION,
+    AutoSubMode.RTL: NavState.AUTO_RTL, AutoSubMode.TAKEOFF: NavState.AUTO_TAKEOFF,
+    AutoSubMode.LAND: NavState.AUTO_LAND, AutoSubMode.FOLLOW_TARGET: NavState.AUTO_FOLLOW_TARGET,
+    AutoSubMode.PRECLAND: NavState.AUTO_PRECLAND, 0: NavState.AUTO_MISSION}
+# The main modes whose sub mode Commander ignores
+_MAIN: dict[int, NavState] = {
+    MainMode.MANUAL: NavState.MANUAL, MainMode.ALTCTL: NavState.ALTCTL,
+    MainMode.ACRO: NavState.ACRO, MainMode.STABILIZED: NavState.STAB,
+    MainMode.OFFBOARD: NavState.OFFBOARD}
+EXTERNAL_SUB_MODES = range(11, 19)  # PX4_CUSTOM_SUB_MODE_EXTERNAL1..8
 
 
-def decode_set_mode(base_mode: int, main: int, sub: int) -> NavState | None:
-    """DO_SET_MODE (p1 base, p2 main, p3 sub) / SET_MODE decode as PX4's commander does.
+class SetModeRefusal(enum.Enum):
+    UNSUPPORTED_AUTO = "unsupported auto mode"  # said, TEMPORARILY_REJECTED
+    NOT_AVAILABLE = "not available"  # an external mode: TEMPORARILY_REJECTED
 
-    With CUSTOM_MODE_ENABLED: main/sub. Without it, the legacy base-mode flags: AUTO → Mission,
-    MANUAL+GUIDED → Position, MANUAL+STABILIZE → Stabilized, MANUAL → Manual.
+
+def decode_set_mode(base_mode: int, main: int, sub: int) -> NavState | SetModeRefusal | None:
+    """DO_SET_MODE (p1 base, p2 main, p3 sub, each a uint8) / SET_MODE as Commander's
+    handle_command decodes them; None: no mode asked for (ACCEPTED, nothing changes).
+
+    With CUSTOM_MODE_ENABLED: MANUAL, ALTCTL, ACRO, STABILIZED and OFFBOARD whatever the sub mode;
+    POSCTL is Position Slow with sub mode SLOW, else Position (its ORBIT sub mode too); AUTO by
+    its sub mode; any other main mode is none. Without it, the legacy base-mode flags: AUTO →
+    Mission, MANUAL+GUIDED → Position, MANUAL+STABILIZE → Stabilized, MANUAL → Manual.
     """
     if base_mode & CUSTOM_MODE_ENABLED:
-        return decode_custom(main, sub)
+        if main == MainMode.POSCTL:
+            return NavState.POSITION_SLOW if sub == PosctlSubMode.SLOW else NavState.POSCTL
+        if main == MainMode.AUTO:
+            if sub in EXTERNAL_SUB_MODES:
+                return SetModeRefusal.NOT_AVAILABLE
+            return _AUTO_SUB.get(sub, SetModeRefusal.UNSUPPORTED_AUTO)
+        return _MAIN.get(main)
     if base_mode & AUTO_ENABLED:
         return NavState.AUTO_MISSION
     if base_mode & MANUAL_INPUT_ENABLED:

@@ -42,7 +42,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.commands import FLIGHT_SW_VERSION
+from gateway.mavlink.command_requests import FLIGHT_SW_VERSION
 from gateway.mavlink.vehicle_port import VehiclePort
 from gateway.onboard import metadata, ulog
 from gateway.onboard.logged_topics import (

@@ -26,7 +26,14 @@ import lzma
 from dataclasses import dataclass
 
 from gateway.mavlink.modes import custom_mode_of
-from vehicles.events import ARM_REASON_TEXT, COMPONENT_AUTOPILOT, DEFINITIONS, ArmReason
+from vehicles.events import (
+    ARM_REASON_TEXT,
+    COMPONENT_AUTOPILOT,
+    DEFINITIONS,
+    NAVIGATION_MODE,
+    NAVIGATION_MODE_UNKNOWN,
+    ArmReason,
+)
 from vehicles.failsafe import ACTION_TEXT, CAUSE_TEXT, Action, Cause
 from vehicles.health_checks import HEALTH_COMPONENTS, MODE_GROUPS
 from vehicles.params import VOLATILE, ParamInfo, ParamType, crc32part, param_table
@@ -79,8 +86,9 @@ def parameters_json(table: list[ParamInfo]) -> bytes:
 def events_json() -> bytes:
     """all_events.json as libevents reads it: the px4 namespace (component 1) with every event
     a vehicle here sends (vehicles/events.py DEFINITIONS, keyed by the 24-bit sub id), the two
-    enums the health report uses, those of the arming and failsafe events, the navigation mode
-    groups (a group's HEARTBEAT custom_mode) and the health_and_arming_check protocol."""
+    enums the health report uses, those of the arming, failsafe and mode-refusal events, the
+    navigation mode groups (a group's HEARTBEAT custom_mode) and the health_and_arming_check
+    protocol."""
     groups: dict[str, dict[str, dict[str, object]]] = {}
     for d in DEFINITIONS:
         event: dict[str, object] = {"name": d.name, "message": d.message}
@@ -100,6 +108,9 @@ def events_json() -> bytes:
     actions = {str(int(a)): {"name": a.name.lower(), "description": ACTION_TEXT[a]}
                for a in Action}
     causes = {str(int(c)): {"name": c.name.lower(), "description": CAUSE_TEXT[c]} for c in Cause}
+    nav_modes = {str(value): {"name": nav.name.lower(), "description": label}
+                 for nav, (value, label, _) in NAVIGATION_MODE.items()}
+    nav_modes[str(NAVIGATION_MODE_UNKNOWN)] = {"name": "unknown", "description": "[Unknown]"}
     px4 = {
         "namespace": "px4",
         "enums": {
@@ -114,7 +125,9 @@ def events_json() -> bytes:
             "failsafe_action_t": {"type": "uint8_t", "description": "failsafe action",
                                   "entries": actions},
             "failsafe_cause_t": {"type": "uint8_t", "description": "Cause for entering failsafe",
-                                 "entries": causes}},
+                                 "entries": causes},
+            "navigation_mode_t": {"type": "uint8_t", "description": "Flight mode",
+                                  "entries": nav_modes}},
         "event_groups": groups,
         "navigation_mode_groups": {"groups": {str(int(nav)): [custom_mode_of(nav)]
                                               for nav in MODE_GROUPS}},

@@ -392,12 +392,12 @@ def test_a_frame_accepted_on_one_vehicle_is_a_replay_on_every_other():
     for v in (v1, v2):
         v.become_ready()
     mav = pym(KEY, stamp(10.0))
-    # Broadcast target: both vehicles would act on it.
-    frame = M.MAVLink_command_long_message(0, 0, M.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0,
-                                           0, 0).pack(mav)
+    # Broadcast target (legacy SET_MODE to system 0, which Commander takes): both vehicles would
+    # act on it.
+    frame = M.MAVLink_set_mode_message(0, 1, 4 << 16 | 4 << 24).pack(mav)
     s1.receive_datagram(frame, 10.0)
     s2.receive_datagram(frame, 10.0)
-    assert [c[0] for c in v1.calls] == ["arm"] and v2.calls == []
+    assert [c[0] for c in v1.calls] == ["set_nav_state"] and v2.calls == []
     assert s2.stats.rx_replayed == 1
 
 

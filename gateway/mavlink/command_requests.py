@@ -1,0 +1,199 @@
+"""The commands PX4's MAVLink module answers itself, before Commander sees any command
+(mavlink_receiver.cpp handle_message_command_both): requests for a message and message intervals.
+
+Source: PX4 mavlink_receiver.cpp (handle_request_message_command, set_message_interval,
+get_message_interval), mavlink_main.cpp send_autopilot_capabilities, AUTOPILOT_VERSION.hpp.
+Rules:
+- A requested message goes out before its ACK (same send buffer, in order). The answer is
+  ACCEPTED once it is sent, DENIED otherwise (no stream for the id, or nothing to send yet):
+  never UNSUPPORTED.
+- Parameters are read as PX4's C casts read them (``c_int``: x86's conversions, NaN and
+  out-of-range values give INT_MIN).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Protocol
+
+from pymavlink.dialects.v20 import common as M
+
+from gateway.mavlink.codec import (
+    COMPONENT_INFORMATION,
+    COMPONENT_METADATA,
+    CRC_EXTRA_COMPONENT_INFORMATION,
+    CRC_EXTRA_COMPONENT_METADATA,
+    CRC_EXTRA_PROTOCOL_VERSION,
+    MSG_ID_COMPONENT_INFORMATION,
+    MSG_ID_COMPONENT_METADATA,
+    MSG_ID_PROTOCOL_VERSION,
+    PROTOCOL_VERSION_PAYLOAD,
+)
+from gateway.mavlink.identity import px4_guid, uid
+from gateway.mavlink.link import LinkContext
+from gateway.mavlink.snapshot import Snapshot
+from gateway.mavlink.streams import STREAMS_BY_ID, Scheduler
+from gateway.mavlink.telemetry import home_position
+from vehicles.types import CommandResult
+
+ACCEPTED = CommandResult.ACCEPTED
+DENIED = CommandResult.DENIED
+FAILED = CommandResult.FAILED
+
+Params = tuple[float, float, float, float, float, float, float]
+
+# AUTOPILOT_VERSION as PX4 SITL fills it (MAVLink FTP included: gateway/mavlink/ftp.py).
+CAPABILITIES = 59647
+FLIGHT_SW_VERSION = 0x010F00FF  # v1.15.0 release
+# PX4_GIT_VERSION_BINARY is the first 16 hex digits of the build's git commit as a uint64; ours is
+# a fixed one (the start of SHA-1("CORNET")). mavlink_main.cpp send_autopilot_capabilities keeps
+# its top 5 bytes, puts the vendor version (0 for a release build) in the low 3 and copies the
+# uint64 little-endian. MAVSDK's flight_sw_git_hash prints bytes 3..7 back to front in hex, and
+# (info_impl.cpp swap_and_translate_binary_to_str, its buffer one short) loses the last digit to
+# the terminating NUL, with PX4 as with us: "3fccf9453\0".
+GIT_VERSION_BINARY = 0x3FCCF9453A2543FF
+FLIGHT_CUSTOM_VERSION = list((GIT_VERSION_BINARY & 0xFFFFFFFFFF000000).to_bytes(8, "little"))
+MIDDLEWARE_CUSTOM_VERSION = FLIGHT_CUSTOM_VERSION  # the same masked hash, no vendor version
+
+
+class MetadataFiles(Protocol):
+    """What COMPONENT_METADATA points at (gateway/onboard/metadata.py serves it over FTP)."""
+
+    uri: str
+    general_crc: int
+
+
+class MessageRequests:
+    """Uses the encoder, send and sysid of the link, ``snapshot(now_s)`` (what telemetry
+    builders read) and the link's stream ``scheduler``. Each method returns a MAV_RESULT."""
+
+    def __init__(self, ctx: LinkContext, snapshot: Callable[[float], Snapshot],
+                 scheduler: Scheduler) -> None:
+        self.encoder = ctx.encoder
+        self.send = ctx.send
+        self.sysid = ctx.sysid
+        self.snapshot = snapshot
+        self.scheduler = scheduler
+        # Attached with the vehicle's FTP files; without them the request is DENIED.
+        self.component_metadata: MetadataFiles | None = None
+
+    def request_message(self, p: Params, now_s: float) -> int:
+        """REQUEST_MESSAGE: the id is (uint16_t)roundf(param1)."""
+        msg_id = c_int(roundf(p[0])) & 0xFFFF
+        if msg_id == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
+            return self.autopilot_capabilities()
+        if msg_id == MSG_ID_PROTOCOL_VERSION:
+            return self.protocol_version()
+        if msg_id == M.MAVLINK_MSG_ID_MESSAGE_INTERVAL:
+            return self._send_interval(_int_or(p[1], -1))
+        if msg_id in (MSG_ID_COMPONENT_METADATA, MSG_ID_COMPONENT_INFORMATION):
+            return self._component_metadata(msg_id, now_s)
+        spec = STREAMS_BY_ID.get(msg_id)
+        if spec is None:
+            return DENIED  # e.g. AVAILABLE_MODES, which PX4 v1.15 has no stream for
+        frame = spec.builder(self.encoder, self.snapshot(now_s))
+        if frame is None:
+            return DENIED  # e.g. HOME_POSITION before home is set
+        self.send(frame)
+        return ACCEPTED
+
+    def request_flight_information(self, now_s: float) -> int:
+        """The deprecated request command: PX4's mavlink receiver answers it as REQUEST_MESSAGE
+        for FLIGHT_INFORMATION."""
+        return self.request_message((float(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION),) + (0.0,) * 6,
+                                    now_s)
+
+    def _component_metadata(self, msg_id: int, now_s: float) -> int:
+        """PX4's COMPONENT_METADATA stream answers with the general metadata file's URI and
+        CRC; its COMPONENT_INFORMATION (what older QGC asks) carries the same two."""
+        meta = self.component_metadata
+        if meta is None:
+            return DENIED
+        boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
+        uri = meta.uri.encode()[:99]
+        if msg_id == MSG_ID_COMPONENT_METADATA:
+            payload = COMPONENT_METADATA.pack(boot_ms, meta.general_crc, uri)
+            self.send(self.encoder.frame(msg_id, CRC_EXTRA_COMPONENT_METADATA, payload))
+        else:
+            payload = COMPONENT_INFORMATION.pack(boot_ms, meta.general_crc, 0, uri, b"")
+            self.send(self.encoder.frame(msg_id, CRC_EXTRA_COMPONENT_INFORMATION, payload))
+        return ACCEPTED
+
+    def autopilot_capabilities(self) -> int:
+        self.send(self.autopilot_version())
+        return ACCEPTED
+
+    def protocol_version(self) -> int:
+        self.send(self.encoder.frame(MSG_ID_PROTOCOL_VERSION, CRC_EXTRA_PROTOCOL_VERSION,
+                                     PROTOCOL_VERSION_PAYLOAD))
+        return ACCEPTED
+
+    def home_position(self, now_s: float) -> int:
+        frame = home_position(self.encoder, self.snapshot(now_s))
+        if frame is None:
+            return DENIED
+        self.send(frame)
+        return ACCEPTED
+
+    def set_message_interval(self, p: Params, now_s: float) -> int:
+        """set_message_interval: the id is (int)(param1 + 0.5f); a finite param3, param4 or
+        param7 (response target) other than 0 fails, as do HEARTBEAT and a message without a
+        stream."""
+        if any(math.isfinite(v) and c_int(v + 0.5) != 0 for v in (p[2], p[3], p[6])):
+            return FAILED
+        ok = self.scheduler.set_interval(c_int(p[0] + 0.5), p[1], now_s)
+        return ACCEPTED if ok else FAILED
+
+    def get_message_interval(self, p: Params) -> int:
+        if not math.isfinite(p[0]):
+            return DENIED  # PX4 casts it to an int: no message id
+        return self._send_interval(int(p[0]))
+
+    def _send_interval(self, msg_id: int) -> int:
+        interval = self.scheduler.interval_us(msg_id)
+        self.send(self.encoder.pack(M.MAVLink_message_interval_message, msg_id & 0xFFFF,
+                                    interval))
+        return ACCEPTED
+
+    def autopilot_version(self) -> bytes:
+        return self.encoder.pack(
+            M.MAVLink_autopilot_version_message, CAPABILITIES, FLIGHT_SW_VERSION,
+            FLIGHT_SW_VERSION, 0, 0, FLIGHT_CUSTOM_VERSION, MIDDLEWARE_CUSTOM_VERSION, [0] * 8,
+            0, 0,
+            uid(self.sysid), px4_guid(self.sysid))
+
+
+def roundf(value: float) -> float:
+    """C's roundf: halves away from zero (Python's round() takes them to even)."""
+    if not math.isfinite(value):
+        return value
+    return math.copysign(math.floor(abs(value) + 0.5), value)
+
+
+def c_int(value: float) -> int:
+    """C's ``(int)value`` as PX4 reads command parameters: truncation; NaN, infinities and
+    values out of range (whose conversion C leaves undefined) give x86's INT_MIN."""
+    if math.isnan(value) or math.isinf(value) or abs(value) >= 2**31:
+        return -(2**31)
+    return int(value)
+
+
+def lroundf(value: float) -> int:
+    """C's lroundf to a 64-bit long: NaN, infinities and values out of range give x86's
+    LONG_MIN."""
+    if not math.isfinite(value) or abs(value) >= 2.0**63:
+        return -(2**63)
+    return int(roundf(value))
+
+
+def wrap_int(value: int, bits: int) -> int:
+    """A C integer narrowed to a signed ``bits``-bit one (two's complement)."""
+    half = 1 << (bits - 1)
+    return ((value + half) & ((1 << bits) - 1)) - half
+
+
+def _int_or(value: float, default: int) -> int:
+    if math.isnan(value) or math.isinf(value):
+        return default
+    return int(round(value))
