@@ -11,11 +11,11 @@ Rules:
 - vehicle_command and vehicle_command_ack are written for every command the vehicle's journal
   (vehicles/command_journal.py) recorded since the last tick, at the time it came.
 - A log holds the info fields (ver_sw, ver_sw_release, ver_hw, sys_name, sys_uuid,
-  time_ref_utc), every parameter and the defaults of those that differ from them (PX4's 'Q'
-  messages: the system's and the airframe's) at its
-  start, every parameter change ('P' in the data section), and every status text ('L'); a
-  sync message ('S') whenever 500 ms passed since the last (Logger::run), so that a reader can
-  find the next message after damage.
+  ver_data_format, time_ref_utc), every parameter and the defaults of those that differ from
+  them (PX4's 'Q' messages: the system's and the airframe's) at its start, every parameter
+  change ('P' in the data section), and every status text ('L'); a sync message ('S')
+  whenever 500 ms passed since the last (Logger::run), so that a reader can find the next
+  message after damage.
 - ``drain()`` hands the shell what to append to which file: (relative path, bytes, closed).
   Paths follow PX4: ``log/<YYYY-MM-DD>/<HH_MM_SS>.ulg`` (UTC) when the boot epoch is known,
   else ``log/sess<NNN>/log<NNN>.ulg``. Without storage (``file_backend=False``, a PX4 without
@@ -61,6 +61,7 @@ from vehicles.types import CommandResult, Severity
 VER_SW = "CORNET"
 VER_SW_RELEASE = FLIGHT_SW_VERSION  # px4_firmware_version(), as AUTOPILOT_VERSION has it
 VER_HW = "PX4_SITL"  # px4_board_name() of the SITL build
+VER_DATA_FORMAT = 2  # logger.cpp write_version, uint32
 SDLOG_OFF, SDLOG_ARMED, SDLOG_BOOT_TO_DISARM, SDLOG_BOOT_TO_SHUTDOWN, SDLOG_AUX1, \
     SDLOG_FIRST_ARM = -1, 0, 1, 2, 3, 4
 log = logging.getLogger(__name__)
@@ -190,7 +191,10 @@ class VehicleLogger:
         parts += [ulog.info("ver_sw", VER_SW), ulog.info("ver_sw_release", VER_SW_RELEASE, unsigned=True),
                   ulog.info("ver_hw", VER_HW), ulog.info("sys_name", "PX4"),
                   ulog.info("sys_uuid", f"CORNET{int(sysid or 1):04d}"),
-                  ulog.info("sys_mcu", "SITL"), ulog.info("sys_os_name", "Linux")]
+                  ulog.info("sys_mcu", "SITL"), ulog.info("sys_os_name", "Linux"),
+                  # Logger::write_version: 2 since lat/lon/alt are doubles (sensor_gps's
+                  # latitude_deg…); Flight Review reads vehicle_gps_position by it
+                  ulog.info("ver_data_format", VER_DATA_FORMAT, unsigned=True)]
         if self.boot_unix_s is not None:
             parts.append(ulog.info("time_ref_utc", 0))
         # Logger::write_events_file: the events metadata, so that Flight Review names the events.
