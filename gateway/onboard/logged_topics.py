@@ -6,7 +6,9 @@ PX4 1.15 (msg/*.msg) for the field names, and commander's ModeUtil/control_mode.
 vehicle_control_mode.
 Rules:
 - Each topic has a subset of PX4's fields, as CORNET has them; a field is never invented.
-- ``interval_s`` is logged_topics.cpp's (SITL profile). The logger samples at 50 Hz; topics
+- ``interval_s`` is logged_topics.cpp's (SITL build, default profile), the last add_topic of
+  a topic setting it (estimator_status: the SITL block's 0 after 200 ms; vehicle_magnetometer:
+  add_optional_topic_multi's 500 ms after 200 ms). The logger samples at 50 Hz; topics
   PX4 publishes at the sensors' rate have a ``step`` reader, and the logger writes one record
   per physics step (250 Hz) since its last sample, from the World's recent-steps ring, keeping
   the interval (sensor_combined and vehicle_attitude: every step; vehicle_angular_velocity and
@@ -352,7 +354,7 @@ TOPICS: tuple[Topic, ...] = (
           0.0, _land_detected, on_change=True),
     Topic("estimator_status", ((F, "vel_test_ratio"), (F, "pos_test_ratio"),
                                (F, "hgt_test_ratio"), (F, "mag_test_ratio"),
-                               (F, "pos_horiz_accuracy"), (F, "pos_vert_accuracy")), 0.2,
+                               (F, "pos_horiz_accuracy"), (F, "pos_vert_accuracy")), 0.0,
           _estimator_status),
     Topic("wind", ((F, "windspeed_north"), (F, "windspeed_east"), (F, "variance_north"),
                    (F, "variance_east")), 0.0, _wind),
@@ -386,7 +388,7 @@ TOPICS: tuple[Topic, ...] = (
                                (F, "baro_temp_celcius"), (F, "baro_pressure_pa"), (F, "rho")),
           0.2, _air_data),
     Topic("vehicle_magnetometer", ((U64, "timestamp_sample"), ("float[3]", "magnetometer_ga")),
-          0.2, _magnetometer),
+          0.5, _magnetometer),
     Topic("vehicle_attitude_groundtruth", (("float[4]", "q"),), 0.01, _attitude_truth,
           step=_attitude_truth_step),
     Topic("vehicle_angular_velocity_groundtruth", ((U64, "timestamp_sample"),
