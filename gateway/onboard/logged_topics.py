@@ -26,55 +26,37 @@ Rules:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any
 
-from gateway.mavlink.telemetry import isa_pressure_hpa, isa_temperature_c
+from gateway.onboard.logged_sensors import (
+    BATTERY_STATUS,
+    SENSOR_BARO,
+    SENSOR_COMBINED,
+    VEHICLE_AIR_DATA,
+    VEHICLE_GPS_POSITION,
+    VEHICLE_IMU_STATUS,
+    VEHICLE_MAGNETOMETER,
+)
+from gateway.onboard.topic import U64, B, D, F, Topic
 from vehicles.control.quat import q_yaw
 from vehicles.estimation import (
     E_ACCURACY,
     E_RATIOS,
     E_WIND,
     E_WIND_VAR,
-    R_ACC,
-    R_GYRO,
     R_Q,
     R_RATES,
     R_TRUE_Q,
     R_TRUE_RATES,
-    S_ACC,
-    S_BARO_DOWN,
-    S_GPS_POS,
-    S_GPS_VEL,
-    S_GYRO,
-    S_MAG,
 )
 from vehicles.types import NavState
 
+__all__ = ["TOPICS", "Topic"]
+
 ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # vehicle_status.arming_state (PX4 1.15)
-GPS_EPH_M, GPS_EPV_M, GPS_FIX_3D, GPS_SATELLITES = 0.9, 1.78, 3, 10  # sensor_gps_sim
 ACTUATOR_MOTORS = 12  # actuator_motors.control: NUM_CONTROLS
 NAN3 = (math.nan, math.nan, math.nan)
-AIR_GAS_CONST = 287.1  # PX4 CONSTANTS_AIR_GAS_CONST, J/(kg·K)
-ABSOLUTE_NULL_C = -273.15  # CONSTANTS_ABSOLUTE_NULL_CELSIUS
-
-Fields = Sequence[tuple[str, str]]
-
-
-@dataclass(frozen=True)
-class Topic:
-    name: str
-    fields: Fields  # after the leading "uint64_t timestamp"
-    interval_s: float  # logged_topics.cpp's interval (0: every tick)
-    read: Callable[[Any, int], Sequence[Any] | None]  # (vehicle, now µs) → the values, flat
-    on_change: bool = False  # log only when the values change (and at the start)
-    # (ring row, step time µs) → the values, for a topic logged at the sensors' rate
-    step: Callable[[Sequence[float], int], Sequence[Any]] | None = None
-
-
-def _sensors(v: Any) -> list[float]:
-    return v.sensors
 
 
 def _attitude(v: Any, now_us: int) -> tuple:
@@ -105,19 +87,6 @@ def _status(v: Any, now_us: int) -> tuple:
             bool(st.failsafe), int(mav_type if mav_type is not None else 2))
 
 
-def _sensor_combined(v: Any, now_us: int) -> tuple:
-    s = _sensors(v)
-    return (*s[S_GYRO:S_GYRO + 3], IMU_INTEGRAL_DT_US, 0, *s[S_ACC:S_ACC + 3],
-            IMU_INTEGRAL_DT_US)
-
-
-IMU_INTEGRAL_DT_US = 4000  # one physics step: the IMU sample's integration interval
-
-
-def _sensor_combined_step(r: Sequence[float], t_us: int) -> tuple:
-    return (*r[R_GYRO:R_GYRO + 3], IMU_INTEGRAL_DT_US, 0, *r[R_ACC:R_ACC + 3], IMU_INTEGRAL_DT_US)
-
-
 def _attitude_step(r: Sequence[float], t_us: int) -> Sequence[float]:
     return r[R_Q:R_Q + 4]
 
@@ -132,18 +101,6 @@ def _attitude_truth_step(r: Sequence[float], t_us: int) -> Sequence[float]:
 
 def _angular_velocity_truth_step(r: Sequence[float], t_us: int) -> tuple:
     return (t_us, *r[R_TRUE_RATES:R_TRUE_RATES + 3])
-
-
-def _gps(v: Any, now_us: int) -> tuple:
-    s = _sensors(v)
-    g = v.origin.offset_ned(s[S_GPS_POS], s[S_GPS_POS + 1], s[S_GPS_POS + 2])
-    return (g.lat_deg, g.lon_deg, g.alt_amsl_m, GPS_EPH_M, GPS_EPV_M, *s[S_GPS_VEL:S_GPS_VEL + 3],
-            GPS_FIX_3D, GPS_SATELLITES)
-
-
-def _battery(v: Any, now_us: int) -> tuple:
-    b = v.status.battery
-    return (b.voltage_v, b.current_a, b.consumed_mah, b.remaining)
 
 
 def _actuator_outputs(v: Any, now_us: int) -> tuple:
@@ -226,20 +183,6 @@ def _home(v: Any, now_us: int) -> tuple | None:
             True)
 
 
-def _air_data(v: Any, now_us: int) -> tuple:
-    s = _sensors(v)
-    alt = v.origin.alt_amsl_m - s[S_BARO_DOWN]
-    pressure_pa = isa_pressure_hpa(alt) * 100.0  # PX4's SITL barometer, as HIGHRES_IMU has it
-    temp_c = isa_temperature_c(alt)
-    return (now_us, alt, temp_c, pressure_pa,
-            pressure_pa / (AIR_GAS_CONST * (temp_c - ABSOLUTE_NULL_C)))
-
-
-def _magnetometer(v: Any, now_us: int) -> tuple:
-    s = _sensors(v)
-    return (now_us, *s[S_MAG:S_MAG + 3])
-
-
 _MANUAL = {NavState.MANUAL: 0b0000011, NavState.STAB: 0b0000011, NavState.ACRO: 0b0000001,
            NavState.ALTCTL: 0b0001111, NavState.POSCTL: 0b0111111,
            NavState.POSITION_SLOW: 0b0111111}
@@ -319,7 +262,6 @@ def _global_position_truth(v: Any, now_us: int) -> tuple:
     return (g.lat_deg, g.lon_deg, g.alt_amsl_m)
 
 
-F, D, B, U64 = "float", "double", "bool", "uint64_t"
 TOPICS: tuple[Topic, ...] = (
     Topic("vehicle_attitude", (("float[4]", "q"),), 0.0, _attitude, step=_attitude_step),
     Topic("vehicle_local_position", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"), (F, "vy"), (F, "vz"),
@@ -332,18 +274,9 @@ TOPICS: tuple[Topic, ...] = (
     Topic("vehicle_status", (("uint8_t", "arming_state"), ("uint8_t", "nav_state"),
                              (B, "failsafe"), ("uint8_t", "system_type")), 0.0, _status,
           on_change=True),
-    Topic("sensor_combined", (("float[3]", "gyro_rad"), ("uint32_t", "gyro_integral_dt"),
-                              ("int32_t", "accelerometer_timestamp_relative"),
-                              ("float[3]", "accelerometer_m_s2"),
-                              ("uint32_t", "accelerometer_integral_dt")), 0.0, _sensor_combined,
-          step=_sensor_combined_step),
-    Topic("vehicle_gps_position", ((D, "latitude_deg"), (D, "longitude_deg"),
-                                   (D, "altitude_msl_m"), (F, "eph"), (F, "epv"),
-                                   (F, "vel_n_m_s"), (F, "vel_e_m_s"), (F, "vel_d_m_s"),
-                                   ("uint8_t", "fix_type"), ("uint8_t", "satellites_used")),
-          0.1, _gps),
-    Topic("battery_status", ((F, "voltage_v"), (F, "current_a"), (F, "discharged_mah"),
-                             (F, "remaining")), 0.2, _battery),
+    SENSOR_COMBINED,
+    VEHICLE_GPS_POSITION,
+    BATTERY_STATUS,
     Topic("actuator_outputs", (("uint32_t", "noutputs"), ("float[16]", "output")), 0.1,
           _actuator_outputs),
     Topic("vehicle_local_position_setpoint", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"), (F, "vy"),
@@ -384,11 +317,8 @@ TOPICS: tuple[Topic, ...] = (
     Topic("manual_control_setpoint", ((U64, "timestamp_sample"), (B, "valid"), (F, "roll"),
                                       (F, "pitch"), (F, "yaw"), (F, "throttle"),
                                       (B, "sticks_moving")), 0.2, _manual_control),
-    Topic("vehicle_air_data", ((U64, "timestamp_sample"), (F, "baro_alt_meter"),
-                               (F, "baro_temp_celcius"), (F, "baro_pressure_pa"), (F, "rho")),
-          0.2, _air_data),
-    Topic("vehicle_magnetometer", ((U64, "timestamp_sample"), ("float[3]", "magnetometer_ga")),
-          0.5, _magnetometer),
+    VEHICLE_AIR_DATA,
+    VEHICLE_MAGNETOMETER,
     Topic("vehicle_attitude_groundtruth", (("float[4]", "q"),), 0.01, _attitude_truth,
           step=_attitude_truth_step),
     Topic("vehicle_angular_velocity_groundtruth", ((U64, "timestamp_sample"),
@@ -401,9 +331,9 @@ TOPICS: tuple[Topic, ...] = (
           _local_position_truth),
     Topic("vehicle_global_position_groundtruth", ((D, "lat"), (D, "lon"), (F, "alt")), 0.1,
           _global_position_truth),
+    SENSOR_BARO,
+    VEHICLE_IMU_STATUS,
 )
-
-
 
 
 # Topics logged at every message (logged_topics.cpp: no interval), from the vehicle's command

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import pyulog
+from pyulog.px4 import PX4ULog
 
 from gateway.onboard.logged_topics import TOPICS
 from gateway.testing import Sim
@@ -49,8 +51,60 @@ PX4_SITL_INTERVALS_MS = {
     "manual_control_setpoint": 200, "vehicle_air_data": 200, "vehicle_magnetometer": 500,
     "vehicle_attitude_groundtruth": 10, "vehicle_angular_velocity_groundtruth": 10,
     "vehicle_local_position_groundtruth": 20, "vehicle_global_position_groundtruth": 100,
+    "sensor_baro": 1000, "vehicle_imu_status": 1000,
 }
 
 
 def test_intervals_are_px4s_sitl_default_profile():
     assert {t.name: round(t.interval_s * 1000) for t in TOPICS} == PX4_SITL_INTERVALS_MS
+
+
+# What Flight Review's default plots of a multicopter log read (configured_plots.py, helper.py
+# ActuatorControls / get_flight_mode_changes, plotting.py plot_map, plotted_tables.py,
+# db_entry.py), topic by topic, for the plots CORNET's log can fill. An add_graph call with one
+# field missing draws none of its lines, so every field of a call is needed.
+FLIGHT_REVIEW_FIELDS = {
+    "vehicle_local_position": ["x", "y", "z", "vx", "vy", "vz", "xy_valid", "z_valid",
+                               "v_xy_valid", "v_z_valid", "ref_lat", "ref_lon"],
+    "vehicle_local_position_groundtruth": ["x", "y"],
+    "vehicle_gps_position": ["latitude_deg", "longitude_deg", "altitude_msl_m", "fix_type",
+                             "eph", "epv", "hdop", "vdop", "s_variance_m_s", "satellites_used",
+                             "noise_per_ms", "jamming_indicator", "time_utc_usec", "vel_m_s"],
+    "vehicle_air_data": ["baro_alt_meter"],
+    "vehicle_global_position": ["alt"],
+    "vehicle_attitude": ["roll", "pitch", "yaw"],
+    "vehicle_attitude_setpoint": ["roll_d", "pitch_d", "yaw_d", "yaw_sp_move_rate"],
+    "vehicle_attitude_groundtruth": ["roll", "pitch", "yaw"],
+    "vehicle_angular_velocity": ["xyz[0]", "xyz[1]", "xyz[2]"],
+    "vehicle_angular_velocity_groundtruth": ["xyz[0]", "xyz[1]", "xyz[2]"],
+    "vehicle_rates_setpoint": ["roll", "pitch", "yaw"],
+    "vehicle_thrust_setpoint": ["xyz[0]", "xyz[1]", "xyz[2]"],
+    "actuator_motors": [f"control[{i}]" for i in range(12)],
+    "sensor_combined": ["accelerometer_m_s2[0]", "accelerometer_m_s2[1]",
+                        "accelerometer_m_s2[2]", "gyro_rad[0]", "gyro_rad[1]", "gyro_rad[2]"],
+    "vehicle_imu_status": ["accel_vibration_metric"],
+    "vehicle_magnetometer": ["magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"],
+    "battery_status": ["voltage_v", "current_a", "discharged_mah", "remaining", "temperature"],
+    "sensor_baro": ["temperature"],
+    "event": ["id", "arguments[0]"],
+}
+def test_every_field_flight_reviews_plots_read_is_in_the_log(flight_log):
+    PX4ULog(flight_log).add_roll_pitch_yaw()  # as Flight Review's main.py does
+    missing = []
+    for topic, fields in FLIGHT_REVIEW_FIELDS.items():
+        data = flight_log.get_dataset(topic, 0).data  # instance 0, as Flight Review reads
+        missing += [f"{topic}.{f}" for f in fields if f not in data]
+    assert missing == []
+
+
+def test_gps_as_px4s_simulated_receiver_reports_it(flight_log):
+    """sensor_gps_sim: a 3D fix, eph 0.9, epv 1.78, hdop 0.7, vdop 1.1, s_variance 0.4 m/s,
+    no UTC time, no jamming; vel_m_s the ground speed."""
+    gps = flight_log.get_dataset("vehicle_gps_position").data
+    assert set(gps["fix_type"]) == {3} and set(gps["satellites_used"]) == {10}
+    for field, value in (("eph", 0.9), ("epv", 1.78), ("hdop", 0.7), ("vdop", 1.1),
+                         ("s_variance_m_s", 0.4)):
+        assert gps[field] == pytest.approx(value), field
+    assert not gps["time_utc_usec"].any() and not gps["noise_per_ms"].any()
+    assert gps["vel_m_s"] == pytest.approx(np.hypot(gps["vel_n_m_s"], gps["vel_e_m_s"]), abs=1e-4)
+    assert gps["altitude_ellipsoid_m"] == pytest.approx(gps["altitude_msl_m"])
