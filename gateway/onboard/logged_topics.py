@@ -55,6 +55,7 @@ from vehicles.types import NavState
 __all__ = ["TOPICS", "Topic"]
 
 ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # vehicle_status.arming_state (PX4 1.15)
+VEHICLE_TYPE_ROTARY_WING = 1  # vehicle_status.vehicle_type
 ACTUATOR_MOTORS = 12  # actuator_motors.control: NUM_CONTROLS
 NAN3 = (math.nan, math.nan, math.nan)
 
@@ -81,10 +82,27 @@ def _global_position(v: Any, now_us: int) -> tuple:
 
 
 def _status(v: Any, now_us: int) -> tuple:
+    """Commander's vehicle_status of a multicopter: the user's mode beside the one flown,
+    failsafe_and_user_took_over as Failsafe::userTakeoverActive, never a VTOL."""
     st = v.status
+    commander = v.autopilot.commander
     mav_type = v.params.get("MAV_TYPE", 2)
-    return (ARMING_STATE_ARMED if st.armed else ARMING_STATE_DISARMED, int(st.nav_state),
-            bool(st.failsafe), int(mav_type if mav_type is not None else 2))
+    return (ARMING_STATE_ARMED if st.armed else ARMING_STATE_DISARMED,
+            int(commander.user_nav_state), int(st.nav_state), VEHICLE_TYPE_ROTARY_WING,
+            bool(st.failsafe), commander.failsafe.user_takeover_active, commander.gcs_lost,
+            False, False, False, int(mav_type if mav_type is not None else 2))
+
+
+def _failsafe_flags(v: Any, now_us: int) -> tuple | None:
+    """Commander's failsafe_flags (the failsafe framework's inputs), those CORNET has; None
+    until the autopilot's first pass."""
+    flags = v.autopilot.commander.failsafe.flags
+    if flags is None:
+        return None
+    invalid = not v.status.position_valid  # the global position is the local one's (origin)
+    return (invalid, invalid, not v.autopilot.commander.mission_valid, flags.offboard_lost,
+            v.home is None, flags.manual_control_lost, flags.gcs_lost,
+            flags.battery_warning, flags.geofence_breached, flags.fd_critical_failure)
 
 
 def _attitude_step(r: Sequence[float], t_us: int) -> Sequence[float]:
@@ -271,9 +289,12 @@ TOPICS: tuple[Topic, ...] = (
                                      (F, "ref_alt"), (F, "eph"), (F, "epv")), 0.0, _local_position),
     Topic("vehicle_global_position", ((D, "lat"), (D, "lon"), (F, "alt"), (F, "eph"), (F, "epv")),
           0.0, _global_position),
-    Topic("vehicle_status", (("uint8_t", "arming_state"), ("uint8_t", "nav_state"),
-                             (B, "failsafe"), ("uint8_t", "system_type")), 0.0, _status,
-          on_change=True),
+    Topic("vehicle_status", (("uint8_t", "arming_state"), ("uint8_t", "nav_state_user_intention"),
+                             ("uint8_t", "nav_state"), ("uint8_t", "vehicle_type"),
+                             (B, "failsafe"), (B, "failsafe_and_user_took_over"),
+                             (B, "gcs_connection_lost"), (B, "is_vtol"),
+                             (B, "is_vtol_tailsitter"), (B, "in_transition_mode"),
+                             ("uint8_t", "system_type")), 0.0, _status, on_change=True),
     SENSOR_COMBINED,
     VEHICLE_GPS_POSITION,
     BATTERY_STATUS,
@@ -331,6 +352,12 @@ TOPICS: tuple[Topic, ...] = (
           _local_position_truth),
     Topic("vehicle_global_position_groundtruth", ((D, "lat"), (D, "lon"), (F, "alt")), 0.1,
           _global_position_truth),
+    Topic("failsafe_flags", tuple((B, name) for name in (
+        "local_position_invalid", "global_position_invalid", "auto_mission_missing",
+        "offboard_control_signal_lost", "home_position_invalid", "manual_control_signal_lost",
+        "gcs_connection_lost")) + (("uint8_t", "battery_warning"), (B, "geofence_breached"),
+                                   (B, "fd_critical_failure")), 0.0, _failsafe_flags,
+          on_change=True),
     SENSOR_BARO,
     VEHICLE_IMU_STATUS,
 )

@@ -51,7 +51,7 @@ PX4_SITL_INTERVALS_MS = {
     "manual_control_setpoint": 200, "vehicle_air_data": 200, "vehicle_magnetometer": 500,
     "vehicle_attitude_groundtruth": 10, "vehicle_angular_velocity_groundtruth": 10,
     "vehicle_local_position_groundtruth": 20, "vehicle_global_position_groundtruth": 100,
-    "sensor_baro": 1000, "vehicle_imu_status": 1000,
+    "failsafe_flags": 0, "sensor_baro": 1000, "vehicle_imu_status": 1000,
 }
 
 
@@ -86,6 +86,8 @@ FLIGHT_REVIEW_FIELDS = {
     "vehicle_magnetometer": ["magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"],
     "battery_status": ["voltage_v", "current_a", "discharged_mah", "remaining", "temperature"],
     "sensor_baro": ["temperature"],
+    "vehicle_status": ["nav_state", "is_vtol", "failsafe", "failsafe_and_user_took_over"],
+    "failsafe_flags": ["manual_control_signal_lost", "gcs_connection_lost"],
     "event": ["id", "arguments[0]"],
 }
 def test_every_field_flight_reviews_plots_read_is_in_the_log(flight_log):
@@ -108,3 +110,11 @@ def test_gps_as_px4s_simulated_receiver_reports_it(flight_log):
     assert not gps["time_utc_usec"].any() and not gps["noise_per_ms"].any()
     assert gps["vel_m_s"] == pytest.approx(np.hypot(gps["vel_n_m_s"], gps["vel_e_m_s"]), abs=1e-4)
     assert gps["altitude_ellipsoid_m"] == pytest.approx(gps["altitude_msl_m"])
+
+
+def test_vehicle_status_is_a_multicopters(flight_log):
+    status = flight_log.get_dataset("vehicle_status").data
+    assert set(status["vehicle_type"]) == {1} and not status["is_vtol"].any()
+    assert not status["failsafe_and_user_took_over"].any()
+    # the mode the user asked for: Takeoff, then Hold, then Land
+    assert {17, 4, 18} <= set(status["nav_state_user_intention"])
