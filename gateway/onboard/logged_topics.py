@@ -39,7 +39,7 @@ from gateway.onboard.logged_sensors import (
     VEHICLE_MAGNETOMETER,
 )
 from gateway.onboard.topic import U64, B, D, F, Topic
-from vehicles.control.quat import q_yaw
+from vehicles.control.quat import q_rotate, q_yaw
 from vehicles.estimation import (
     E_ACCURACY,
     E_RATIOS,
@@ -128,9 +128,15 @@ def _actuator_outputs(v: Any, now_us: int) -> tuple:
 
 
 def _setpoint(v: Any, now_us: int) -> tuple:
+    """mc_pos_control's output: the position setpoint, PositionControl's velocity and
+    acceleration setpoints and its thrust vector (NED: q_d's body z × the collective thrust),
+    the heading setpoint; NaN while no position control runs."""
     sp = v.position_setpoint_ned_m
-    pos = tuple(sp) if sp is not None else (math.nan,) * 3
-    return (*pos, math.nan, math.nan, math.nan)
+    pos = tuple(sp) if sp is not None else NAN3
+    t = v.targets
+    vel = t.velocity_ned_mps
+    thrust = q_rotate(t.attitude_q, (0.0, 0.0, -t.thrust_norm)) if pos[2] == pos[2] else NAN3
+    return (*pos, *vel, *t.acceleration_ned_mps2, *thrust, t.yaw_rad, t.yawspeed_radps)
 
 
 def _trajectory_setpoint(v: Any, now_us: int) -> tuple:
@@ -301,7 +307,9 @@ TOPICS: tuple[Topic, ...] = (
     Topic("actuator_outputs", (("uint32_t", "noutputs"), ("float[16]", "output")), 0.1,
           _actuator_outputs),
     Topic("vehicle_local_position_setpoint", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"), (F, "vy"),
-                                              (F, "vz")), 0.1, _setpoint),
+                                              (F, "vz"), ("float[3]", "acceleration"),
+                                              ("float[3]", "thrust"), (F, "yaw"),
+                                              (F, "yawspeed")), 0.1, _setpoint),
     Topic("trajectory_setpoint", (("float[3]", "position"), ("float[3]", "velocity")), 0.2,
           _trajectory_setpoint),
     Topic("vehicle_land_detected", ((B, "landed"), (B, "maybe_landed"), (B, "ground_contact")),

@@ -66,6 +66,7 @@ def test_intervals_are_px4s_sitl_default_profile():
 FLIGHT_REVIEW_FIELDS = {
     "vehicle_local_position": ["x", "y", "z", "vx", "vy", "vz", "xy_valid", "z_valid",
                                "v_xy_valid", "v_z_valid", "ref_lat", "ref_lon"],
+    "vehicle_local_position_setpoint": ["x", "y", "z", "vx", "vy", "vz"],
     "vehicle_local_position_groundtruth": ["x", "y"],
     "vehicle_gps_position": ["latitude_deg", "longitude_deg", "altitude_msl_m", "fix_type",
                              "eph", "epv", "hdop", "vdop", "s_variance_m_s", "satellites_used",
@@ -97,6 +98,18 @@ def test_every_field_flight_reviews_plots_read_is_in_the_log(flight_log):
         data = flight_log.get_dataset(topic, 0).data  # instance 0, as Flight Review reads
         missing += [f"{topic}.{f}" for f in fields if f not in data]
     assert missing == []
+
+
+def test_the_velocity_setpoint_is_the_position_controllers(flight_log):
+    """mc_pos_control publishes its velocity setpoint in vehicle_local_position_setpoint:
+    Flight Review's Velocity plot draws it beside the estimate."""
+    sp = flight_log.get_dataset("vehicle_local_position_setpoint").data
+    flying = np.isfinite(sp["z"])
+    controlled = np.isfinite(sp["vz"])  # not before the takeoff (PX4: an empty setpoint)
+    assert controlled.sum() > 0.8 * flying.sum() and not (controlled & ~flying).any()
+    assert sp["vz"][controlled].min() < -0.5 and sp["vz"][controlled].max() > 0.3  # up, down
+    # the thrust vector (NED) points up, the attitude setpoint's collective thrust
+    assert (sp["thrust[2]"][flying] <= 0.0).all() and sp["thrust[2]"][controlled].min() < -0.1
 
 
 def test_gps_as_px4s_simulated_receiver_reports_it(flight_log):
