@@ -150,8 +150,10 @@ def _land_detected(v: Any, now_us: int) -> tuple:
 
 
 def _estimator_status(v: Any, now_us: int) -> tuple:
+    """The innovation test ratios and accuracies; EKF2 1.15 leaves health_flags and
+    timeout_flags 0, and time_slip (IMU time missed) is 0 in lockstep."""
     e = v.estimator
-    return (*e[E_RATIOS:E_RATIOS + 4], e[E_ACCURACY], e[E_ACCURACY + 1])
+    return (*e[E_RATIOS:E_RATIOS + 4], e[E_ACCURACY], e[E_ACCURACY + 1], 0.0, 0, 0)
 
 
 def _wind(v: Any, now_us: int) -> tuple:
@@ -316,8 +318,9 @@ TOPICS: tuple[Topic, ...] = (
           0.0, _land_detected, on_change=True),
     Topic("estimator_status", ((F, "vel_test_ratio"), (F, "pos_test_ratio"),
                                (F, "hgt_test_ratio"), (F, "mag_test_ratio"),
-                               (F, "pos_horiz_accuracy"), (F, "pos_vert_accuracy")), 0.0,
-          _estimator_status),
+                               (F, "pos_horiz_accuracy"), (F, "pos_vert_accuracy"),
+                               (F, "time_slip"), ("uint8_t", "health_flags"),
+                               ("uint8_t", "timeout_flags")), 0.0, _estimator_status),
     Topic("wind", ((F, "windspeed_north"), (F, "windspeed_east"), (F, "variance_north"),
                    (F, "variance_east")), 0.0, _wind),
     Topic("vehicle_attitude_setpoint", ((F, "yaw_sp_move_rate"), ("float[4]", "q_d"),

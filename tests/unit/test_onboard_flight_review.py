@@ -87,6 +87,7 @@ FLIGHT_REVIEW_FIELDS = {
     "vehicle_magnetometer": ["magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"],
     "battery_status": ["voltage_v", "current_a", "discharged_mah", "remaining", "temperature"],
     "sensor_baro": ["temperature"],
+    "estimator_status": ["health_flags", "timeout_flags", "time_slip"],
     "vehicle_status": ["nav_state", "is_vtol", "failsafe", "failsafe_and_user_took_over"],
     "failsafe_flags": ["manual_control_signal_lost", "gcs_connection_lost"],
     "event": ["id", "arguments[0]"],
