@@ -263,8 +263,12 @@ def _manual_control(v: Any, now_us: int) -> tuple | None:
     now_s = now_us * 1e-6
     sticks = manual.current(now_s)
     valid = manual.fresh(now_s, float(v.params["COM_RC_LOSS_T"]))
-    return (now_us, valid, sticks.roll, sticks.pitch, sticks.yaw, sticks.throttle,
-            manual.moving)
+    # mavlink_receiver's MANUAL_CONTROL: flaps and aux1-6 0, the buttons passed on
+    return (now_us, valid, sticks.roll, sticks.pitch, sticks.yaw, sticks.throttle, 0.0,
+            *_AUX, manual.moving, sticks.buttons & 0xFFFF)
+
+
+_AUX = (0.0,) * 6
 
 
 def _attitude_truth(v: Any, now_us: int) -> tuple:
@@ -347,8 +351,10 @@ TOPICS: tuple[Topic, ...] = (
         "control_position_enabled", "control_altitude_enabled", "control_climb_rate_enabled",
         "control_termination_enabled")), 0.0, _control_mode, on_change=True),
     Topic("manual_control_setpoint", ((U64, "timestamp_sample"), (B, "valid"), (F, "roll"),
-                                      (F, "pitch"), (F, "yaw"), (F, "throttle"),
-                                      (B, "sticks_moving")), 0.2, _manual_control),
+                                      (F, "pitch"), (F, "yaw"), (F, "throttle"), (F, "flaps"),
+                                      *((F, f"aux{i}") for i in range(1, 7)),
+                                      (B, "sticks_moving"), ("uint16_t", "buttons")), 0.2,
+          _manual_control),
     VEHICLE_AIR_DATA,
     VEHICLE_MAGNETOMETER,
     Topic("vehicle_attitude_groundtruth", (("float[4]", "q"),), 0.01, _attitude_truth,

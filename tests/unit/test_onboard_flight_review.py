@@ -92,12 +92,21 @@ FLIGHT_REVIEW_FIELDS = {
     "failsafe_flags": ["manual_control_signal_lost", "gcs_connection_lost"],
     "event": ["id", "arguments[0]"],
 }
+# Published only once stick input came (the flight has none): checked on the format.
+FLIGHT_REVIEW_FORMAT_FIELDS = {
+    "manual_control_setpoint": ["roll", "pitch", "yaw", "throttle", "aux1", "aux2"],
+}
+
+
 def test_every_field_flight_reviews_plots_read_is_in_the_log(flight_log):
     PX4ULog(flight_log).add_roll_pitch_yaw()  # as Flight Review's main.py does
     missing = []
     for topic, fields in FLIGHT_REVIEW_FIELDS.items():
         data = flight_log.get_dataset(topic, 0).data  # instance 0, as Flight Review reads
         missing += [f"{topic}.{f}" for f in fields if f not in data]
+    for topic, fields in FLIGHT_REVIEW_FORMAT_FIELDS.items():
+        names = {name for _, _, name in flight_log.message_formats[topic].fields}
+        missing += [f"{topic}.{f}" for f in fields if f not in names]
     assert missing == []
 
 

@@ -286,7 +286,7 @@ def test_stick_input_is_logged_once_it_comes(tmp_path):
         sim.advance(2.0)
         api = sim.api(0)
         for _ in range(20):
-            api.send(M.MAVLink_manual_control_message(1, 300, -200, 500, 100, 0))
+            api.send(M.MAVLink_manual_control_message(1, 300, -200, 500, 100, 0b101))
             sim.advance(0.05)
         sim.advance(3.0)  # COM_RC_LOSS_T later: lost
     log = pyulog.ULog(str(sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))[0]))
@@ -294,3 +294,7 @@ def test_stick_input_is_logged_once_it_comes(tmp_path):
     assert sticks["timestamp"][0] >= 2_000_000
     assert sticks["valid"][0] == 1 and sticks["pitch"][0] == pytest.approx(0.3)
     assert sticks["valid"][-1] == 0 and sticks["pitch"][-1] == 0.0
+    # mavlink_receiver: the buttons passed on, flaps and aux channels 0 (Flight Review plots
+    # aux1 and aux2 with the sticks)
+    assert sticks["buttons"][0] == 0b101
+    assert not any(sticks[f"aux{i}"].any() for i in range(1, 7)) and not sticks["flaps"].any()
