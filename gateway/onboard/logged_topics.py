@@ -181,6 +181,16 @@ def _thrust_setpoint(v: Any, now_us: int) -> tuple:
     return (now_us, 0.0, 0.0, -t.thrust_norm)
 
 
+def _torque_setpoint(v: Any, now_us: int) -> tuple:
+    """mc_rate_control's output: the rate controller's normalized torque (FRD)."""
+    return (now_us, *v.targets.torque_sp)
+
+
+def _rate_ctrl_status(v: Any, now_us: int) -> tuple:
+    """mc_rate_control's rate_ctrl_status: the rate integrators."""
+    return v.targets.rate_integral
+
+
 def _actuator_motors(v: Any, now_us: int) -> tuple:
     """The allocator's normalized motor commands, from the ESC outputs (SIM_GZ_EC_MIN + control
     × (SIM_GZ_EC_MAX − SIM_GZ_EC_MIN)); 0 while disarmed; NaN past the vehicle's motors."""
@@ -377,6 +387,10 @@ TOPICS: tuple[Topic, ...] = (
           on_change=True),
     SENSOR_BARO,
     VEHICLE_IMU_STATUS,
+    Topic("vehicle_torque_setpoint", ((U64, "timestamp_sample"), ("float[3]", "xyz")), 0.02,
+          _torque_setpoint),
+    Topic("rate_ctrl_status", ((F, "rollspeed_integ"), (F, "pitchspeed_integ"),
+                               (F, "yawspeed_integ")), 0.2, _rate_ctrl_status),
 )
 
 

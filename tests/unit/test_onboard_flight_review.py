@@ -52,6 +52,7 @@ PX4_SITL_INTERVALS_MS = {
     "vehicle_attitude_groundtruth": 10, "vehicle_angular_velocity_groundtruth": 10,
     "vehicle_local_position_groundtruth": 20, "vehicle_global_position_groundtruth": 100,
     "failsafe_flags": 0, "sensor_baro": 1000, "vehicle_imu_status": 1000,
+    "vehicle_torque_setpoint": 20, "rate_ctrl_status": 200,
 }
 
 
@@ -80,6 +81,8 @@ FLIGHT_REVIEW_FIELDS = {
     "vehicle_angular_velocity_groundtruth": ["xyz[0]", "xyz[1]", "xyz[2]"],
     "vehicle_rates_setpoint": ["roll", "pitch", "yaw"],
     "vehicle_thrust_setpoint": ["xyz[0]", "xyz[1]", "xyz[2]"],
+    "vehicle_torque_setpoint": ["xyz[0]", "xyz[1]", "xyz[2]"],
+    "rate_ctrl_status": ["rollspeed_integ", "pitchspeed_integ", "yawspeed_integ"],
     "actuator_motors": [f"control[{i}]" for i in range(12)],
     "sensor_combined": ["accelerometer_m_s2[0]", "accelerometer_m_s2[1]",
                         "accelerometer_m_s2[2]", "gyro_rad[0]", "gyro_rad[1]", "gyro_rad[2]"],
@@ -141,3 +144,19 @@ def test_vehicle_status_is_a_multicopters(flight_log):
     assert not status["failsafe_and_user_took_over"].any()
     # the mode the user asked for: Takeoff, then Hold, then Land
     assert {17, 4, 18} <= set(status["nav_state_user_intention"])
+
+
+def test_torque_and_rate_integrators_are_the_rate_controllers(flight_log):
+    """vehicle_torque_setpoint (Flight Review's Actuator Controls plot and its FFT): the rate
+    controller's normalized torque while flying, 0 before arming; rate_ctrl_status: its
+    integrators, within MC_*R_INT_LIM."""
+    torque = flight_log.get_dataset("vehicle_torque_setpoint").data
+    xyz = np.array([torque[f"xyz[{i}]"] for i in range(3)])
+    assert np.abs(xyz).max() > 1e-3 and np.abs(xyz).max() <= 1.0
+    assert (xyz[:, 0] == 0.0).all()  # disarmed at the start of the log (SDLOG_MODE 1)
+    integ = flight_log.get_dataset("rate_ctrl_status").data
+    for axis, limit in (("roll", "MC_RR_INT_LIM"), ("pitch", "MC_PR_INT_LIM"),
+                        ("yaw", "MC_YR_INT_LIM")):
+        values = integ[f"{axis}speed_integ"]
+        assert np.abs(values).max() <= flight_log.initial_parameters[limit] + 1e-6
+    assert any(np.abs(integ[f"{a}speed_integ"]).max() > 0.0 for a in ("roll", "pitch", "yaw"))
