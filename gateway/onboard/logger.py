@@ -10,12 +10,12 @@ Rules:
 - The topics, with PX4's names, field names and intervals: logged_topics.py.
 - vehicle_command and vehicle_command_ack are written for every command the vehicle's journal
   (vehicles/command_journal.py) recorded since the last tick, at the time it came.
-- A log holds the info fields (ver_sw, ver_sw_release, ver_hw, sys_name, sys_uuid,
-  ver_data_format, time_ref_utc), every parameter and the defaults of those that differ from
-  them (PX4's 'Q' messages: the system's and the airframe's) at its start, every parameter
-  change ('P' in the data section), and every status text ('L'); a sync message ('S')
-  whenever 500 ms passed since the last (Logger::run), so that a reader can find the next
-  message after damage.
+- A log holds the info fields (ver_sw, ver_sw_release, ver_hw, sys_name, sys_uuid unless
+  SDLOG_UUID is 0, ver_data_format, time_ref_utc = SDLOG_UTC_OFFSET in s), every parameter
+  and the defaults of those that differ from them (PX4's 'Q' messages: the system's and the
+  airframe's) at its start, every parameter change ('P' in the data section), and every status
+  text ('L'); a sync message ('S') whenever 500 ms passed since the last (Logger::run), so
+  that a reader can find the next message after damage.
 - ``drain()`` hands the shell what to append to which file: (relative path, bytes, closed).
   Paths follow PX4: ``log/<YYYY-MM-DD>/<HH_MM_SS>.ulg`` (UTC) when the boot epoch is known,
   else ``log/sess<NNN>/log<NNN>.ulg``. Without storage (``file_backend=False``, a PX4 without
@@ -91,6 +91,11 @@ def _parameter_defaults(params: Any) -> list[bytes]:
         if value != system:
             out.append(ulog.parameter_default(info.name, system, is_int, ulog.DEFAULT_SYSTEM))
     return out
+
+
+def _int_param(params: Any, name: str, default: int) -> int:
+    value = params.get(name, default)
+    return default if value is None else int(value)
 
 
 class _Sample:
@@ -190,13 +195,14 @@ class VehicleLogger:
                   for name, fields in EVENT_TOPICS]
         parts += [ulog.info("ver_sw", VER_SW), ulog.info("ver_sw_release", VER_SW_RELEASE, unsigned=True),
                   ulog.info("ver_hw", VER_HW), ulog.info("sys_name", "PX4"),
-                  ulog.info("sys_uuid", f"CORNET{int(sysid or 1):04d}"),
                   ulog.info("sys_mcu", "SITL"), ulog.info("sys_os_name", "Linux"),
                   # Logger::write_version: 2 since lat/lon/alt are doubles (sensor_gps's
                   # latitude_deg…); Flight Review reads vehicle_gps_position by it
                   ulog.info("ver_data_format", VER_DATA_FORMAT, unsigned=True)]
-        if self.boot_unix_s is not None:
-            parts.append(ulog.info("time_ref_utc", 0))
+        if _int_param(v.params, "SDLOG_UUID", 1) == 1:
+            parts.append(ulog.info("sys_uuid", f"CORNET{int(sysid or 1):04d}"))
+        # the local time's offset from UTC in seconds, written whatever the clock
+        parts.append(ulog.info("time_ref_utc", _int_param(v.params, "SDLOG_UTC_OFFSET", 0) * 60))
         # Logger::write_events_file: the events metadata, so that Flight Review names the events.
         events_xz = metadata.shared().files["all_events.json.xz"]
         parts += ulog.info_multiple("metadata_events", events_xz)

@@ -34,6 +34,8 @@ def test_ver_data_format_2_so_gps_altitude_is_read_as_altitude_msl_m(flight_log)
     """logger.cpp write_version writes ver_data_format 2; without it Flight Review reads
     vehicle_gps_position.alt (the pre-1.14 int32 field) and the page fails."""
     assert flight_log.msg_info_dict["ver_data_format"] == 2
+    # write_version: time_ref_utc is SDLOG_UTC_OFFSET (0) in seconds; sys_uuid with SDLOG_UUID 1
+    assert flight_log.msg_info_dict["time_ref_utc"] == 0 and "sys_uuid" in flight_log.msg_info_dict
     gps = flight_log.get_dataset("vehicle_gps_position").data
     assert 400.0 < gps["altitude_msl_m"].mean() < 600.0
 
