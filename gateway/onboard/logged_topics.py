@@ -181,6 +181,17 @@ def _thrust_setpoint(v: Any, now_us: int) -> tuple:
     return (now_us, 0.0, 0.0, -t.thrust_norm)
 
 
+def _triplet(v: Any, now_us: int) -> tuple:
+    """The navigator's position_setpoint_triplet.current while position control flies to one
+    (global: lat, lon, alt AMSL, NaN without an altitude), else invalid (reset_triplets)."""
+    target = v.targets.global_target_ned_m
+    if target is None or target[0] != target[0] or target[1] != target[1]:
+        return (False, math.nan, math.nan, math.nan)
+    n, e, d = target
+    g = v.origin.offset_ned(n, e, 0.0 if d != d else d)
+    return (True, g.lat_deg, g.lon_deg, g.alt_amsl_m if d == d else math.nan)
+
+
 def _torque_setpoint(v: Any, now_us: int) -> tuple:
     """mc_rate_control's output: the rate controller's normalized torque (FRD)."""
     return (now_us, *v.targets.torque_sp)
@@ -391,7 +402,11 @@ TOPICS: tuple[Topic, ...] = (
           _torque_setpoint),
     Topic("rate_ctrl_status", ((F, "rollspeed_integ"), (F, "pitchspeed_integ"),
                                (F, "yawspeed_integ")), 0.2, _rate_ctrl_status),
+    Topic("position_setpoint_triplet", (("position_setpoint", "current"),), 0.2, _triplet,
+          on_change=True),
 )
+# The nested formats the topics use (PX4 writes each one's format beside the topics').
+NESTED_FORMATS = {"position_setpoint": ((B, "valid"), (D, "lat"), (D, "lon"), (F, "alt"))}
 
 
 # Topics logged at every message (logged_topics.cpp: no interval), from the vehicle's command

@@ -47,6 +47,7 @@ from gateway.mavlink.vehicle_port import VehiclePort
 from gateway.onboard import metadata, ulog
 from gateway.onboard.logged_topics import (
     EVENT_TOPICS,
+    NESTED_FORMATS,
     TOPICS,
     Topic,
     command_ack_values,
@@ -123,7 +124,7 @@ class VehicleLogger:
         self._scratch = bytearray()  # a sample for the stream alone
         self.boot_unix_s = boot_unix_s
         self.topics = tuple(topics)
-        self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields))
+        self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields), NESTED_FORMATS)
                          for t in self.topics]
         self._prefixes = [ulog.data_prefix(i, st.size) for i, st in enumerate(self._structs)]
         # vehicle_command and vehicle_command_ack: every record of the vehicle's command journal
@@ -189,6 +190,7 @@ class VehicleLogger:
         v = self.vehicle
         sysid = v.params.get("MAV_SYS_ID", 1)
         parts = [ulog.flag_bits(ulog.COMPAT_DEFAULT_PARAMETERS)]
+        parts += [ulog.format_message(name, fields) for name, fields in NESTED_FORMATS.items()]
         parts += [ulog.format_message(t.name, (("uint64_t", "timestamp"), *t.fields))
                   for t in self.topics]
         parts += [ulog.format_message(name, (("uint64_t", "timestamp"), *fields))

@@ -54,7 +54,7 @@ PX4_SITL_INTERVALS_MS = {
     "vehicle_attitude_groundtruth": 10, "vehicle_angular_velocity_groundtruth": 10,
     "vehicle_local_position_groundtruth": 20, "vehicle_global_position_groundtruth": 100,
     "failsafe_flags": 0, "sensor_baro": 1000, "vehicle_imu_status": 1000,
-    "vehicle_torque_setpoint": 20, "rate_ctrl_status": 200,
+    "vehicle_torque_setpoint": 20, "rate_ctrl_status": 200, "position_setpoint_triplet": 200,
 }
 
 
@@ -76,6 +76,7 @@ FLIGHT_REVIEW_FIELDS = {
                              "noise_per_ms", "jamming_indicator", "time_utc_usec", "vel_m_s"],
     "vehicle_air_data": ["baro_alt_meter"],
     "vehicle_global_position": ["alt"],
+    "position_setpoint_triplet": ["current.alt", "current.lat", "current.lon"],
     "vehicle_attitude": ["roll", "pitch", "yaw"],
     "vehicle_attitude_setpoint": ["roll_d", "pitch_d", "yaw_d", "yaw_sp_move_rate"],
     "vehicle_attitude_groundtruth": ["roll", "pitch", "yaw"],
@@ -162,3 +163,17 @@ def test_torque_and_rate_integrators_are_the_rate_controllers(flight_log):
         values = integ[f"{axis}speed_integ"]
         assert np.abs(values).max() <= flight_log.initial_parameters[limit] + 1e-6
     assert any(np.abs(integ[f"{a}speed_integ"]).max() > 0.0 for a in ("roll", "pitch", "yaw"))
+
+
+def test_the_navigators_setpoint_is_position_setpoint_triplet_current(flight_log):
+    """position_setpoint_triplet (nested position_setpoint formats, as PX4 writes them):
+    Flight Review's Altitude Estimate plot draws current.alt, its map current.lat/lon. The
+    takeoff's and Hold's setpoint is 2.5 m above home (MIS_TAKEOFF_ALT)."""
+    assert "position_setpoint" in flight_log.message_formats
+    triplet = flight_log.get_dataset("position_setpoint_triplet").data
+    valid = triplet["current.valid"] == 1
+    home_alt = flight_log.get_dataset("home_position").data["alt"][0]
+    assert valid.any() and np.isfinite(triplet["current.lat"][valid]).all()
+    assert (np.abs(triplet["current.alt"][valid] - home_alt - 2.5) < 0.1).any()
+    gps = flight_log.get_dataset("vehicle_gps_position").data
+    assert abs(triplet["current.lat"][valid][0] - gps["latitude_deg"][0]) < 1e-4

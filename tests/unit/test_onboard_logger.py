@@ -142,6 +142,10 @@ def test_writer_parts_follow_the_spec():
         b"t:uint64_t timestamp;float[3] v;"
     assert ulog.struct_of((("uint64_t", "timestamp"), ("float[3]", "v"), ("bool", "b"))).size == 21
     assert ulog.data_prefix(3, 5) + b"12345" == ulog.data(3, b"12345")
+    # a nested format's fields are packed in its place
+    nested = {"sp": (("bool", "valid"), ("double", "lat"))}
+    assert ulog.struct_of((("uint64_t", "timestamp"), ("sp", "current")), nested).format == "<Q?d"
+    assert ulog.struct_of((("sp[2]", "two"),), nested).size == 18
 
 
 def test_log_download_over_mavlink_as_px4s_log_handler(tmp_path):
