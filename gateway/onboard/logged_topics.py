@@ -3,9 +3,12 @@
 Source: PX4 src/modules/logger/logged_topics.cpp (add_default_topics, and the SITL block that
 adds the ground truth and logs the estimator's outputs at full rate), the uORB messages of
 PX4 1.15 (msg/*.msg) for the field names, and commander's ModeUtil/control_mode.cpp for
-vehicle_control_mode.
+vehicle_control_mode. The sensor topics are in logged_sensors.py.
 Rules:
-- Each topic has a subset of PX4's fields, as CORNET has them; a field is never invented.
+- Each topic has a subset of PX4's fields with PX4's names and types, as CORNET has them; a
+  field is never invented. A topic's ULog format and subscription carry its uORB topic name
+  (vehicle_gps_position, not its message sensor_gps: Logger::write_formats names a format by
+  o_name), instance 0; nested formats (position_setpoint) are in NESTED_FORMATS.
 - ``interval_s`` is logged_topics.cpp's (SITL build, default profile), the last add_topic of
   a topic setting it (estimator_status: the SITL block's 0 after 200 ms; vehicle_magnetometer:
   add_optional_topic_multi's 500 ms after 200 ms). The logger samples at 50 Hz; topics
