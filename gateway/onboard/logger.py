@@ -6,7 +6,8 @@ Rules:
 - ``tick(now)`` (the shell calls it at 50 Hz of simulated time) starts and stops logs as
   SDLOG_MODE says (-1 never; 0 from arming to disarming; 1 from boot to disarming, then as 0;
   2 from boot on; 4 from the first arming on; 3, AUX1, as 0) and samples each topic when its
-  interval has passed (0: every tick; topics marked on-change: when their values change).
+  interval has passed (0: every tick; topics marked on-change: looked at once per interval
+  and written when their values changed, as PX4's logger writes a topic updated since).
 - The topics, with PX4's names, field names and intervals: logged_topics.py.
 - vehicle_command and vehicle_command_ack are written for every command the vehicle's journal
   (vehicles/command_journal.py) recorded since the last tick, at the time it came.
@@ -410,6 +411,7 @@ class VehicleLogger:
                 if values is None:  # not published yet
                     continue
                 if topic.on_change and values == self._last[i] and not force:
+                    due[i] = now_s + topic.interval_s  # looked again after the interval
                     continue
                 record = self._structs[i].pack(us, *values)
             except Exception:  # a topic that cannot be read is missing, the log goes on

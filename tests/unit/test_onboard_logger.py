@@ -281,6 +281,29 @@ def test_a_topic_that_cannot_be_read_is_left_out_and_the_log_goes_on(tmp_path):
     assert len(log.get_dataset("vehicle_local_position").data["timestamp"]) == 5
 
 
+def test_an_on_change_topic_with_an_interval_is_looked_at_once_per_interval():
+    """position_setpoint_triplet (200 ms, written when it changed): read every 200 ms, not at
+    every 50 Hz tick."""
+    from gateway.onboard.logged_topics import Topic
+    from gateway.onboard.logger import VehicleLogger
+
+    reads = []
+
+    def steady(v, now_us):
+        reads.append(now_us)
+        return (1.0,)
+
+    with Sim() as sim:
+        sim.advance(1.0)
+        logger = VehicleLogger(sim.vehicles[0], None,
+                               (Topic("steady", (("float", "x"),), 0.2, steady, on_change=True),))
+        logger.on(1.0)
+        for k in range(1, 50):
+            logger.tick(1.0 + 0.02 * k)
+        (_path, data, _closed), = logger.close()
+    assert len(reads) == 5 and data.count(logger._prefixes[0]) == 1
+
+
 def test_stick_input_is_logged_once_it_comes(tmp_path):
     """manual_control_setpoint (200 ms): not in the log before any stick input, then the sticks
     the vehicle flies on, invalid (and centred) once the input is lost."""
