@@ -291,11 +291,17 @@ class Failsafe:
         self._quiet_version = -1
         self._notification_required = False  # a warning was added (checkFailsafe)
         self.events: EventLog | None = None  # events::send (notifyUser), where there are events
+        self.flags: FailsafeFlags | None = None  # the last update's (PX4's failsafe_flags topic)
 
     @property
     def in_failsafe(self) -> bool:
         """vehicle_status.failsafe: an action other than None/Warn is being taken."""
         return self.selected > Action.WARN
+
+    @property
+    def user_takeover_active(self) -> bool:
+        """vehicle_status.failsafe_and_user_took_over (FailsafeBase::userTakeoverActive)."""
+        return self._user_takeover
 
     def user_mode_changed(self) -> None:
         """The user asked for a mode: a takeover while in failsafe, clears mode-change actions."""
@@ -319,6 +325,7 @@ class Failsafe:
             self._battery_warning_at_arming = flags.battery_warning
         if self._battery_warning_at_arming != flags.battery_warning_at_arming:
             flags = replace(flags, battery_warning_at_arming=self._battery_warning_at_arming)
+        self.flags = flags
         if flags.armed != self._last_armed:
             self._remove(Clear.ON_DISARM)
             self._remove(Clear.ON_MODE_CHANGE_OR_DISARM)

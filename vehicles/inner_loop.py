@@ -33,7 +33,7 @@ from vehicles.airframe import Airframe
 from vehicles.control.attitude_control import attitude_rates
 from vehicles.control.compiled import njit_cached
 from vehicles.control.mixer import mix_into, mixer_rows_with_effectiveness
-from vehicles.control.rate_control import STATE_SIZE, d_filter_alpha, rate_pid
+from vehicles.control.rate_control import STATE_INTEGRAL, STATE_SIZE, d_filter_alpha, rate_pid
 from vehicles.control.rotation import dcm
 
 MODE_OFF = 0
@@ -52,9 +52,10 @@ M_POS, M_VEL, M_Q, M_RATES, M_ACCEL, M_SIZE = 0, 3, 6, 10, 13, 16
 # Columns of ``InnerLoop.forces``: force ENU (N), torque ENU (N m), 1.0 when there is anything
 # to apply (PyBullet clears external forces after every step).
 F_SIZE = 7
-# Columns of ``InnerLoop.commanded``: the rate setpoint FRD (rad/s), then one commanded rotor
-# speed (rad/s) per rotor.
-C_RATES_SP, C_OUTPUTS = 0, 3
+# Columns of ``InnerLoop.commanded``: the rate setpoint FRD (rad/s), the rate controller's
+# normalized torque and its integrator (PX4 vehicle_torque_setpoint, rate_ctrl_status), then one
+# commanded rotor speed (rad/s) per rotor.
+C_RATES_SP, C_TORQUE_SP, C_RATE_INT, C_OUTPUTS = 0, 3, 6, 9
 # Columns of ``InnerLoop.setpoint``: attitude q (w, x, y, z), heading rate (rad/s), collective
 # thrust (0..1), body rates FRD (rad/s; flown instead of the attitude when ``use_rates_sp``).
 SP_Q, SP_YAWSPEED, SP_THRUST, SP_RATES, SP_SIZE = 0, 4, 5, 6, 9
@@ -117,7 +118,8 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
     linear drag, idle thrust, the D term's filter coefficient, the step (s); ``wind``: the air's
     velocity (NED), which the drag acts against; ``motor_ok``: 0 for a rotor whose motor has
     failed (failure injection: it spins down). ``commanded`` (out): per row the rate controller's
-    setpoint (C_RATES_SP, PX4 vehicle_rates_setpoint; 0 when it does not run) and each rotor's
+    setpoint (C_RATES_SP, PX4 vehicle_rates_setpoint; 0 when it does not run), its torque and
+    integrator (C_TORQUE_SP, C_RATE_INT; 0 when it does not run) and each rotor's
     commanded speed (C_OUTPUTS, rad/s: PX4's actuator_outputs as the gz bridge's ESC outputs
     carry them, before the motor's lag and whatever failure injection did to the motor)."""
     w_max, k_motor, alpha_up, alpha_down, drag = plant[0], plant[1], plant[2], plant[3], plant[4]
@@ -130,7 +132,8 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
         est = estimated[v]
         q_est = (est[M_Q], est[M_Q + 1], est[M_Q + 2], est[M_Q + 3])
         out_cmd = commanded[v]
-        out_cmd[C_RATES_SP] = out_cmd[C_RATES_SP + 1] = out_cmd[C_RATES_SP + 2] = 0.0
+        for i in range(C_OUTPUTS):
+            out_cmd[i] = 0.0
         armed = mode[v] != MODE_OFF
         if not armed:
             for i in range(n_rotors):
@@ -159,6 +162,9 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
                                   landed[v], (s[0], s[1], s[2]), (s[3], s[4], s[5]), g[G_RATE:],
                                   rate_state[v])
                 flags = mix_into(c[SP_THRUST], torque[0], torque[1], torque[2], rotors, idle, u)
+                for i in range(3):
+                    out_cmd[C_TORQUE_SP + i] = torque[i]
+                    out_cmd[C_RATE_INT + i] = rate_state[v, STATE_INTEGRAL + i]
                 for i in range(6):
                     s[i] = flags[i]
             factor = gains[v, G_THR_MDL_FAC]

@@ -174,6 +174,10 @@ class Targets(NamedTuple):
     # has one (NED metres from the vehicle's origin; down NaN: no altitude), else None
     global_target_ned_m: tuple[float, float, float] | None
     outputs: tuple[float, ...]  # actuator_outputs: commanded rotor speeds (rad/s), 0 disarmed
+    # the rate controller's normalized torque (vehicle_torque_setpoint) and integrator
+    # (rate_ctrl_status *speed_integ), FRD; 0 while it does not run
+    torque_sp: tuple[float, ...] = (0.0, 0.0, 0.0)  # (roll, pitch, yaw)
+    rate_integral: tuple[float, ...] = (0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from vehicles.command_journal import CommandJournal
 from vehicles.control.quat import q_yaw
 from vehicles.events import ArmReason, EventLog
 from vehicles.health_checks import CheckInputs, HealthChecks, inputs_of
-from vehicles.inner_loop import InnerCommand
+from vehicles.inner_loop import C_OUTPUTS, C_RATE_INT, C_TORQUE_SP, InnerCommand
 from vehicles.manual_control import Sticks
 from vehicles.orbit import OrbitStatus
 from vehicles.params import ParamStore
@@ -250,8 +250,9 @@ class Vehicle:
         return Targets(st.tick_s, out.attitude_q, out.thrust_norm,
                        (commanded[0], commanded[1], commanded[2]), position_control, pos, vel,
                        acc, yaw, out.yawspeed_radps, target,
-                       tuple(commanded[3:]) if cmd.armed or ap.motor_test
-                       else (0.0,) * (len(commanded) - 3))
+                       tuple(commanded[C_OUTPUTS:]) if cmd.armed or ap.motor_test
+                       else (0.0,) * (len(commanded) - C_OUTPUTS),
+                       tuple(commanded[C_TORQUE_SP:C_RATE_INT]), tuple(commanded[C_RATE_INT:C_OUTPUTS]))
 
     @property
     def truth(self) -> Measurement:

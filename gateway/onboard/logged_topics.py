@@ -3,10 +3,15 @@
 Source: PX4 src/modules/logger/logged_topics.cpp (add_default_topics, and the SITL block that
 adds the ground truth and logs the estimator's outputs at full rate), the uORB messages of
 PX4 1.15 (msg/*.msg) for the field names, and commander's ModeUtil/control_mode.cpp for
-vehicle_control_mode.
+vehicle_control_mode. The sensor topics are in logged_sensors.py.
 Rules:
-- Each topic has a subset of PX4's fields, as CORNET has them; a field is never invented.
-- ``interval_s`` is logged_topics.cpp's (SITL profile). The logger samples at 50 Hz; topics
+- Each topic has a subset of PX4's fields with PX4's names and types, as CORNET has them; a
+  field is never invented. A topic's ULog format and subscription carry its uORB topic name
+  (vehicle_gps_position, not its message sensor_gps: Logger::write_formats names a format by
+  o_name), instance 0; nested formats (position_setpoint) are in NESTED_FORMATS.
+- ``interval_s`` is logged_topics.cpp's (SITL build, default profile), the last add_topic of
+  a topic setting it (estimator_status: the SITL block's 0 after 200 ms; vehicle_magnetometer:
+  add_optional_topic_multi's 500 ms after 200 ms). The logger samples at 50 Hz; topics
   PX4 publishes at the sensors' rate have a ``step`` reader, and the logger writes one record
   per physics step (250 Hz) since its last sample, from the World's recent-steps ring, keeping
   the interval (sensor_combined and vehicle_attitude: every step; vehicle_angular_velocity and
@@ -24,55 +29,38 @@ Rules:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Sequence
 from typing import Any
 
-from gateway.mavlink.telemetry import isa_pressure_hpa, isa_temperature_c
-from vehicles.control.quat import q_yaw
+from gateway.onboard.logged_sensors import (
+    BATTERY_STATUS,
+    SENSOR_BARO,
+    SENSOR_COMBINED,
+    VEHICLE_AIR_DATA,
+    VEHICLE_GPS_POSITION,
+    VEHICLE_IMU_STATUS,
+    VEHICLE_MAGNETOMETER,
+)
+from gateway.onboard.topic import U64, B, D, F, Topic
+from vehicles.control.quat import q_rotate, q_yaw
 from vehicles.estimation import (
     E_ACCURACY,
     E_RATIOS,
     E_WIND,
     E_WIND_VAR,
-    R_ACC,
-    R_GYRO,
     R_Q,
     R_RATES,
     R_TRUE_Q,
     R_TRUE_RATES,
-    S_ACC,
-    S_BARO_DOWN,
-    S_GPS_POS,
-    S_GPS_VEL,
-    S_GYRO,
-    S_MAG,
 )
 from vehicles.types import NavState
 
+__all__ = ["TOPICS", "Topic"]
+
 ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # vehicle_status.arming_state (PX4 1.15)
-GPS_EPH_M, GPS_EPV_M, GPS_FIX_3D, GPS_SATELLITES = 0.9, 1.78, 3, 10  # sensor_gps_sim
+VEHICLE_TYPE_ROTARY_WING = 1  # vehicle_status.vehicle_type
 ACTUATOR_MOTORS = 12  # actuator_motors.control: NUM_CONTROLS
 NAN3 = (math.nan, math.nan, math.nan)
-AIR_GAS_CONST = 287.1  # PX4 CONSTANTS_AIR_GAS_CONST, J/(kg·K)
-ABSOLUTE_NULL_C = -273.15  # CONSTANTS_ABSOLUTE_NULL_CELSIUS
-
-Fields = Sequence[tuple[str, str]]
-
-
-@dataclass(frozen=True)
-class Topic:
-    name: str
-    fields: Fields  # after the leading "uint64_t timestamp"
-    interval_s: float  # logged_topics.cpp's interval (0: every tick)
-    read: Callable[[Any, int], Sequence[Any] | None]  # (vehicle, now µs) → the values, flat
-    on_change: bool = False  # log only when the values change (and at the start)
-    # (ring row, step time µs) → the values, for a topic logged at the sensors' rate
-    step: Callable[[Sequence[float], int], Sequence[Any]] | None = None
-
-
-def _sensors(v: Any) -> list[float]:
-    return v.sensors
 
 
 def _attitude(v: Any, now_us: int) -> tuple:
@@ -97,23 +85,27 @@ def _global_position(v: Any, now_us: int) -> tuple:
 
 
 def _status(v: Any, now_us: int) -> tuple:
+    """Commander's vehicle_status of a multicopter: the user's mode beside the one flown,
+    failsafe_and_user_took_over as Failsafe::userTakeoverActive, never a VTOL."""
     st = v.status
+    commander = v.autopilot.commander
     mav_type = v.params.get("MAV_TYPE", 2)
-    return (ARMING_STATE_ARMED if st.armed else ARMING_STATE_DISARMED, int(st.nav_state),
-            bool(st.failsafe), int(mav_type if mav_type is not None else 2))
+    return (ARMING_STATE_ARMED if st.armed else ARMING_STATE_DISARMED,
+            int(commander.user_nav_state), int(st.nav_state), VEHICLE_TYPE_ROTARY_WING,
+            bool(st.failsafe), commander.failsafe.user_takeover_active, commander.gcs_lost,
+            False, False, False, int(mav_type if mav_type is not None else 2))
 
 
-def _sensor_combined(v: Any, now_us: int) -> tuple:
-    s = _sensors(v)
-    return (*s[S_GYRO:S_GYRO + 3], IMU_INTEGRAL_DT_US, 0, *s[S_ACC:S_ACC + 3],
-            IMU_INTEGRAL_DT_US)
-
-
-IMU_INTEGRAL_DT_US = 4000  # one physics step: the IMU sample's integration interval
-
-
-def _sensor_combined_step(r: Sequence[float], t_us: int) -> tuple:
-    return (*r[R_GYRO:R_GYRO + 3], IMU_INTEGRAL_DT_US, 0, *r[R_ACC:R_ACC + 3], IMU_INTEGRAL_DT_US)
+def _failsafe_flags(v: Any, now_us: int) -> tuple | None:
+    """Commander's failsafe_flags (the failsafe framework's inputs), those CORNET has; None
+    until the autopilot's first pass."""
+    flags = v.autopilot.commander.failsafe.flags
+    if flags is None:
+        return None
+    invalid = not v.status.position_valid  # the global position is the local one's (origin)
+    return (invalid, invalid, not v.autopilot.commander.mission_valid, flags.offboard_lost,
+            v.home is None, flags.manual_control_lost, flags.gcs_lost,
+            flags.battery_warning, flags.geofence_breached, flags.fd_critical_failure)
 
 
 def _attitude_step(r: Sequence[float], t_us: int) -> Sequence[float]:
@@ -132,18 +124,6 @@ def _angular_velocity_truth_step(r: Sequence[float], t_us: int) -> tuple:
     return (t_us, *r[R_TRUE_RATES:R_TRUE_RATES + 3])
 
 
-def _gps(v: Any, now_us: int) -> tuple:
-    s = _sensors(v)
-    g = v.origin.offset_ned(s[S_GPS_POS], s[S_GPS_POS + 1], s[S_GPS_POS + 2])
-    return (g.lat_deg, g.lon_deg, g.alt_amsl_m, GPS_EPH_M, GPS_EPV_M, *s[S_GPS_VEL:S_GPS_VEL + 3],
-            GPS_FIX_3D, GPS_SATELLITES)
-
-
-def _battery(v: Any, now_us: int) -> tuple:
-    b = v.status.battery
-    return (b.voltage_v, b.current_a, b.consumed_mah, b.remaining)
-
-
 def _actuator_outputs(v: Any, now_us: int) -> tuple:
     """The ESC outputs (the commanded rotor speeds, as SERVO_OUTPUT_RAW), unused ones 0."""
     outputs = v.targets.outputs[:16]
@@ -151,9 +131,15 @@ def _actuator_outputs(v: Any, now_us: int) -> tuple:
 
 
 def _setpoint(v: Any, now_us: int) -> tuple:
+    """mc_pos_control's output: the position setpoint, PositionControl's velocity and
+    acceleration setpoints and its thrust vector (NED: q_d's body z × the collective thrust),
+    the heading setpoint; NaN while no position control runs."""
     sp = v.position_setpoint_ned_m
-    pos = tuple(sp) if sp is not None else (math.nan,) * 3
-    return (*pos, math.nan, math.nan, math.nan)
+    pos = tuple(sp) if sp is not None else NAN3
+    t = v.targets
+    vel = t.velocity_ned_mps
+    thrust = q_rotate(t.attitude_q, (0.0, 0.0, -t.thrust_norm)) if pos[2] == pos[2] else NAN3
+    return (*pos, *vel, *t.acceleration_ned_mps2, *thrust, t.yaw_rad, t.yawspeed_radps)
 
 
 def _trajectory_setpoint(v: Any, now_us: int) -> tuple:
@@ -167,8 +153,10 @@ def _land_detected(v: Any, now_us: int) -> tuple:
 
 
 def _estimator_status(v: Any, now_us: int) -> tuple:
+    """The innovation test ratios and accuracies; EKF2 1.15 leaves health_flags and
+    timeout_flags 0, and time_slip (IMU time missed) is 0 in lockstep."""
     e = v.estimator
-    return (*e[E_RATIOS:E_RATIOS + 4], e[E_ACCURACY], e[E_ACCURACY + 1])
+    return (*e[E_RATIOS:E_RATIOS + 4], e[E_ACCURACY], e[E_ACCURACY + 1], 0.0, 0, 0)
 
 
 def _wind(v: Any, now_us: int) -> tuple:
@@ -194,6 +182,27 @@ def _angular_velocity(v: Any, now_us: int) -> tuple:
 def _thrust_setpoint(v: Any, now_us: int) -> tuple:
     t = v.targets
     return (now_us, 0.0, 0.0, -t.thrust_norm)
+
+
+def _triplet(v: Any, now_us: int) -> tuple:
+    """The navigator's position_setpoint_triplet.current while position control flies to one
+    (global: lat, lon, alt AMSL, NaN without an altitude), else invalid (reset_triplets)."""
+    target = v.targets.global_target_ned_m
+    if target is None or target[0] != target[0] or target[1] != target[1]:
+        return (False, math.nan, math.nan, math.nan)
+    n, e, d = target
+    g = v.origin.offset_ned(n, e, 0.0 if d != d else d)
+    return (True, g.lat_deg, g.lon_deg, g.alt_amsl_m if d == d else math.nan)
+
+
+def _torque_setpoint(v: Any, now_us: int) -> tuple:
+    """mc_rate_control's output: the rate controller's normalized torque (FRD)."""
+    return (now_us, *v.targets.torque_sp)
+
+
+def _rate_ctrl_status(v: Any, now_us: int) -> tuple:
+    """mc_rate_control's rate_ctrl_status: the rate integrators."""
+    return v.targets.rate_integral
 
 
 def _actuator_motors(v: Any, now_us: int) -> tuple:
@@ -222,20 +231,6 @@ def _home(v: Any, now_us: int) -> tuple | None:
     g = home.geo
     return (g.lat_deg, g.lon_deg, g.alt_amsl_m, *home.position_ned_m, home.yaw_rad, True, True,
             True)
-
-
-def _air_data(v: Any, now_us: int) -> tuple:
-    s = _sensors(v)
-    alt = v.origin.alt_amsl_m - s[S_BARO_DOWN]
-    pressure_pa = isa_pressure_hpa(alt) * 100.0  # PX4's SITL barometer, as HIGHRES_IMU has it
-    temp_c = isa_temperature_c(alt)
-    return (now_us, alt, temp_c, pressure_pa,
-            pressure_pa / (AIR_GAS_CONST * (temp_c - ABSOLUTE_NULL_C)))
-
-
-def _magnetometer(v: Any, now_us: int) -> tuple:
-    s = _sensors(v)
-    return (now_us, *s[S_MAG:S_MAG + 3])
 
 
 _MANUAL = {NavState.MANUAL: 0b0000011, NavState.STAB: 0b0000011, NavState.ACRO: 0b0000001,
@@ -292,8 +287,12 @@ def _manual_control(v: Any, now_us: int) -> tuple | None:
     now_s = now_us * 1e-6
     sticks = manual.current(now_s)
     valid = manual.fresh(now_s, float(v.params["COM_RC_LOSS_T"]))
-    return (now_us, valid, sticks.roll, sticks.pitch, sticks.yaw, sticks.throttle,
-            manual.moving)
+    # mavlink_receiver's MANUAL_CONTROL: flaps and aux1-6 0, the buttons passed on
+    return (now_us, valid, sticks.roll, sticks.pitch, sticks.yaw, sticks.throttle, 0.0,
+            *_AUX, manual.moving, sticks.buttons & 0xFFFF)
+
+
+_AUX = (0.0,) * 6
 
 
 def _attitude_truth(v: Any, now_us: int) -> tuple:
@@ -317,7 +316,6 @@ def _global_position_truth(v: Any, now_us: int) -> tuple:
     return (g.lat_deg, g.lon_deg, g.alt_amsl_m)
 
 
-F, D, B, U64 = "float", "double", "bool", "uint64_t"
 TOPICS: tuple[Topic, ...] = (
     Topic("vehicle_attitude", (("float[4]", "q"),), 0.0, _attitude, step=_attitude_step),
     Topic("vehicle_local_position", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"), (F, "vy"), (F, "vz"),
@@ -327,33 +325,30 @@ TOPICS: tuple[Topic, ...] = (
                                      (F, "ref_alt"), (F, "eph"), (F, "epv")), 0.0, _local_position),
     Topic("vehicle_global_position", ((D, "lat"), (D, "lon"), (F, "alt"), (F, "eph"), (F, "epv")),
           0.0, _global_position),
-    Topic("vehicle_status", (("uint8_t", "arming_state"), ("uint8_t", "nav_state"),
-                             (B, "failsafe"), ("uint8_t", "system_type")), 0.0, _status,
-          on_change=True),
-    Topic("sensor_combined", (("float[3]", "gyro_rad"), ("uint32_t", "gyro_integral_dt"),
-                              ("int32_t", "accelerometer_timestamp_relative"),
-                              ("float[3]", "accelerometer_m_s2"),
-                              ("uint32_t", "accelerometer_integral_dt")), 0.0, _sensor_combined,
-          step=_sensor_combined_step),
-    Topic("vehicle_gps_position", ((D, "latitude_deg"), (D, "longitude_deg"),
-                                   (D, "altitude_msl_m"), (F, "eph"), (F, "epv"),
-                                   (F, "vel_n_m_s"), (F, "vel_e_m_s"), (F, "vel_d_m_s"),
-                                   ("uint8_t", "fix_type"), ("uint8_t", "satellites_used")),
-          0.1, _gps),
-    Topic("battery_status", ((F, "voltage_v"), (F, "current_a"), (F, "discharged_mah"),
-                             (F, "remaining")), 0.2, _battery),
+    Topic("vehicle_status", (("uint8_t", "arming_state"), ("uint8_t", "nav_state_user_intention"),
+                             ("uint8_t", "nav_state"), ("uint8_t", "vehicle_type"),
+                             (B, "failsafe"), (B, "failsafe_and_user_took_over"),
+                             (B, "gcs_connection_lost"), (B, "is_vtol"),
+                             (B, "is_vtol_tailsitter"), (B, "in_transition_mode"),
+                             ("uint8_t", "system_type")), 0.0, _status, on_change=True),
+    SENSOR_COMBINED,
+    VEHICLE_GPS_POSITION,
+    BATTERY_STATUS,
     Topic("actuator_outputs", (("uint32_t", "noutputs"), ("float[16]", "output")), 0.1,
           _actuator_outputs),
     Topic("vehicle_local_position_setpoint", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"), (F, "vy"),
-                                              (F, "vz")), 0.1, _setpoint),
+                                              (F, "vz"), ("float[3]", "acceleration"),
+                                              ("float[3]", "thrust"), (F, "yaw"),
+                                              (F, "yawspeed")), 0.1, _setpoint),
     Topic("trajectory_setpoint", (("float[3]", "position"), ("float[3]", "velocity")), 0.2,
           _trajectory_setpoint),
     Topic("vehicle_land_detected", ((B, "landed"), (B, "maybe_landed"), (B, "ground_contact")),
           0.0, _land_detected, on_change=True),
     Topic("estimator_status", ((F, "vel_test_ratio"), (F, "pos_test_ratio"),
                                (F, "hgt_test_ratio"), (F, "mag_test_ratio"),
-                               (F, "pos_horiz_accuracy"), (F, "pos_vert_accuracy")), 0.2,
-          _estimator_status),
+                               (F, "pos_horiz_accuracy"), (F, "pos_vert_accuracy"),
+                               (F, "time_slip"), ("uint8_t", "health_flags"),
+                               ("uint8_t", "timeout_flags")), 0.0, _estimator_status),
     Topic("wind", ((F, "windspeed_north"), (F, "windspeed_east"), (F, "variance_north"),
                    (F, "variance_east")), 0.0, _wind),
     Topic("vehicle_attitude_setpoint", ((F, "yaw_sp_move_rate"), ("float[4]", "q_d"),
@@ -380,13 +375,12 @@ TOPICS: tuple[Topic, ...] = (
         "control_position_enabled", "control_altitude_enabled", "control_climb_rate_enabled",
         "control_termination_enabled")), 0.0, _control_mode, on_change=True),
     Topic("manual_control_setpoint", ((U64, "timestamp_sample"), (B, "valid"), (F, "roll"),
-                                      (F, "pitch"), (F, "yaw"), (F, "throttle"),
-                                      (B, "sticks_moving")), 0.2, _manual_control),
-    Topic("vehicle_air_data", ((U64, "timestamp_sample"), (F, "baro_alt_meter"),
-                               (F, "baro_temp_celcius"), (F, "baro_pressure_pa"), (F, "rho")),
-          0.2, _air_data),
-    Topic("vehicle_magnetometer", ((U64, "timestamp_sample"), ("float[3]", "magnetometer_ga")),
-          0.2, _magnetometer),
+                                      (F, "pitch"), (F, "yaw"), (F, "throttle"), (F, "flaps"),
+                                      *((F, f"aux{i}") for i in range(1, 7)),
+                                      (B, "sticks_moving"), ("uint16_t", "buttons")), 0.2,
+          _manual_control),
+    VEHICLE_AIR_DATA,
+    VEHICLE_MAGNETOMETER,
     Topic("vehicle_attitude_groundtruth", (("float[4]", "q"),), 0.01, _attitude_truth,
           step=_attitude_truth_step),
     Topic("vehicle_angular_velocity_groundtruth", ((U64, "timestamp_sample"),
@@ -399,9 +393,23 @@ TOPICS: tuple[Topic, ...] = (
           _local_position_truth),
     Topic("vehicle_global_position_groundtruth", ((D, "lat"), (D, "lon"), (F, "alt")), 0.1,
           _global_position_truth),
+    Topic("failsafe_flags", tuple((B, name) for name in (
+        "local_position_invalid", "global_position_invalid", "auto_mission_missing",
+        "offboard_control_signal_lost", "home_position_invalid", "manual_control_signal_lost",
+        "gcs_connection_lost")) + (("uint8_t", "battery_warning"), (B, "geofence_breached"),
+                                   (B, "fd_critical_failure")), 0.0, _failsafe_flags,
+          on_change=True),
+    SENSOR_BARO,
+    VEHICLE_IMU_STATUS,
+    Topic("vehicle_torque_setpoint", ((U64, "timestamp_sample"), ("float[3]", "xyz")), 0.02,
+          _torque_setpoint),
+    Topic("rate_ctrl_status", ((F, "rollspeed_integ"), (F, "pitchspeed_integ"),
+                               (F, "yawspeed_integ")), 0.2, _rate_ctrl_status),
+    Topic("position_setpoint_triplet", (("position_setpoint", "current"),), 0.2, _triplet,
+          on_change=True),
 )
-
-
+# The nested formats the topics use (PX4 writes each one's format beside the topics').
+NESTED_FORMATS = {"position_setpoint": ((B, "valid"), (D, "lat"), (D, "lon"), (F, "alt"))}
 
 
 # Topics logged at every message (logged_topics.cpp: no interval), from the vehicle's command

@@ -6,16 +6,17 @@ Rules:
 - ``tick(now)`` (the shell calls it at 50 Hz of simulated time) starts and stops logs as
   SDLOG_MODE says (-1 never; 0 from arming to disarming; 1 from boot to disarming, then as 0;
   2 from boot on; 4 from the first arming on; 3, AUX1, as 0) and samples each topic when its
-  interval has passed (0: every tick; topics marked on-change: when their values change).
+  interval has passed (0: every tick; topics marked on-change: looked at once per interval
+  and written when their values changed, as PX4's logger writes a topic updated since).
 - The topics, with PX4's names, field names and intervals: logged_topics.py.
 - vehicle_command and vehicle_command_ack are written for every command the vehicle's journal
   (vehicles/command_journal.py) recorded since the last tick, at the time it came.
-- A log holds the info fields (ver_sw, ver_sw_release, ver_hw, sys_name, sys_uuid,
-  time_ref_utc), every parameter and the defaults of those that differ from them (PX4's 'Q'
-  messages: the system's and the airframe's) at its
-  start, every parameter change ('P' in the data section), and every status text ('L'); a
-  sync message ('S') whenever 500 ms passed since the last (Logger::run), so that a reader can
-  find the next message after damage.
+- A log holds the info fields (ver_sw, ver_sw_release, ver_hw, sys_name, sys_uuid unless
+  SDLOG_UUID is 0, ver_data_format, time_ref_utc = SDLOG_UTC_OFFSET in s), every parameter
+  and the defaults of those that differ from them (PX4's 'Q' messages: the system's and the
+  airframe's) at its start, every parameter change ('P' in the data section), and every status
+  text ('L'); a sync message ('S') whenever 500 ms passed since the last (Logger::run), so
+  that a reader can find the next message after damage.
 - ``drain()`` hands the shell what to append to which file: (relative path, bytes, closed).
   Paths follow PX4: ``log/<YYYY-MM-DD>/<HH_MM_SS>.ulg`` (UTC) when the boot epoch is known,
   else ``log/sess<NNN>/log<NNN>.ulg``. Without storage (``file_backend=False``, a PX4 without
@@ -47,6 +48,7 @@ from gateway.mavlink.vehicle_port import VehiclePort
 from gateway.onboard import metadata, ulog
 from gateway.onboard.logged_topics import (
     EVENT_TOPICS,
+    NESTED_FORMATS,
     TOPICS,
     Topic,
     command_ack_values,
@@ -61,6 +63,7 @@ from vehicles.types import CommandResult, Severity
 VER_SW = "CORNET"
 VER_SW_RELEASE = FLIGHT_SW_VERSION  # px4_firmware_version(), as AUTOPILOT_VERSION has it
 VER_HW = "PX4_SITL"  # px4_board_name() of the SITL build
+VER_DATA_FORMAT = 2  # logger.cpp write_version, uint32
 SDLOG_OFF, SDLOG_ARMED, SDLOG_BOOT_TO_DISARM, SDLOG_BOOT_TO_SHUTDOWN, SDLOG_AUX1, \
     SDLOG_FIRST_ARM = -1, 0, 1, 2, 3, 4
 log = logging.getLogger(__name__)
@@ -92,6 +95,11 @@ def _parameter_defaults(params: Any) -> list[bytes]:
     return out
 
 
+def _int_param(params: Any, name: str, default: int) -> int:
+    value = params.get(name, default)
+    return default if value is None else int(value)
+
+
 class _Sample:
     """The vehicle as one sampling instant sees it: each property read once (``status``,
     ``estimator``, ``sensors`` build new objects on every read), shared by the topics."""
@@ -117,7 +125,7 @@ class VehicleLogger:
         self._scratch = bytearray()  # a sample for the stream alone
         self.boot_unix_s = boot_unix_s
         self.topics = tuple(topics)
-        self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields))
+        self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields), NESTED_FORMATS)
                          for t in self.topics]
         self._prefixes = [ulog.data_prefix(i, st.size) for i, st in enumerate(self._structs)]
         # vehicle_command and vehicle_command_ack: every record of the vehicle's command journal
@@ -183,16 +191,21 @@ class VehicleLogger:
         v = self.vehicle
         sysid = v.params.get("MAV_SYS_ID", 1)
         parts = [ulog.flag_bits(ulog.COMPAT_DEFAULT_PARAMETERS)]
+        parts += [ulog.format_message(name, fields) for name, fields in NESTED_FORMATS.items()]
         parts += [ulog.format_message(t.name, (("uint64_t", "timestamp"), *t.fields))
                   for t in self.topics]
         parts += [ulog.format_message(name, (("uint64_t", "timestamp"), *fields))
                   for name, fields in EVENT_TOPICS]
         parts += [ulog.info("ver_sw", VER_SW), ulog.info("ver_sw_release", VER_SW_RELEASE, unsigned=True),
                   ulog.info("ver_hw", VER_HW), ulog.info("sys_name", "PX4"),
-                  ulog.info("sys_uuid", f"CORNET{int(sysid or 1):04d}"),
-                  ulog.info("sys_mcu", "SITL"), ulog.info("sys_os_name", "Linux")]
-        if self.boot_unix_s is not None:
-            parts.append(ulog.info("time_ref_utc", 0))
+                  ulog.info("sys_mcu", "SITL"), ulog.info("sys_os_name", "Linux"),
+                  # Logger::write_version: 2 since lat/lon/alt are doubles (sensor_gps's
+                  # latitude_deg…); Flight Review reads vehicle_gps_position by it
+                  ulog.info("ver_data_format", VER_DATA_FORMAT, unsigned=True)]
+        if _int_param(v.params, "SDLOG_UUID", 1) == 1:
+            parts.append(ulog.info("sys_uuid", f"CORNET{int(sysid or 1):04d}"))
+        # the local time's offset from UTC in seconds, written whatever the clock
+        parts.append(ulog.info("time_ref_utc", _int_param(v.params, "SDLOG_UTC_OFFSET", 0) * 60))
         # Logger::write_events_file: the events metadata, so that Flight Review names the events.
         events_xz = metadata.shared().files["all_events.json.xz"]
         parts += ulog.info_multiple("metadata_events", events_xz)
@@ -398,6 +411,7 @@ class VehicleLogger:
                 if values is None:  # not published yet
                     continue
                 if topic.on_change and values == self._last[i] and not force:
+                    due[i] = now_s + topic.interval_s  # looked again after the interval
                     continue
                 record = self._structs[i].pack(us, *values)
             except Exception:  # a topic that cannot be read is missing, the log goes on

@@ -24,7 +24,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from gateway.onboard import mavlink_status
-from gateway.onboard.logged_topics import TOPICS, Topic
+from gateway.onboard.logged_topics import NESTED_FORMATS, TOPICS, Topic
 from gateway.onboard.mavlink_status import Instance
 from vehicles.faults import TYPES, UNITS
 from vehicles.params import ParamType
@@ -237,7 +237,11 @@ class Pxh:
         self.print(f"\nTOPIC: {topic.name}\n {topic.name}\n"
                    f"    timestamp: {us} (0.000000 seconds ago)\n")
         flat = iter(values)  # an array field's elements come one by one
-        for ftype, field in topic.fields:
+        # a nested format's fields as PX4's listener names them: current.lat
+        fields = [(t, f"{name}.{sub}") if ftype in NESTED_FORMATS else (ftype, name)
+                  for ftype, name in topic.fields
+                  for t, sub in NESTED_FORMATS.get(ftype, ((ftype, name),))]
+        for ftype, field in fields:
             _, _, size = ftype.partition("[")
             if size:
                 items = [next(flat) for _ in range(int(size[:-1]))]

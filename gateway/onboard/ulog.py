@@ -8,14 +8,17 @@ Rules:
   message is ``uint16 size, uint8 type, payload`` (little endian).
 - Formats are packed as declared: no implicit padding; the first field of every logged topic is
   ``uint64_t timestamp`` (µs).
-- Types: int8_t … uint64_t, float, double, bool, char, and arrays ``type[n]``.
+- Types: int8_t … uint64_t, float, double, bool, char, arrays ``type[n]``, and nested formats
+  (a field whose type is another format's name, as PX4's position_setpoint_triplet has
+  ``position_setpoint current``), whose fields are packed in its place.
 """
 
 from __future__ import annotations
 
 import struct
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
+Fields = Sequence[tuple[str, str]]  # (type, name) pairs
 MAGIC = b"ULog\x01\x12\x35"
 VERSION = 1
 SYNC_MAGIC = bytes((0x2F, 0x73, 0x13, 0x20, 0x25, 0x0C, 0xBB, 0x12))
@@ -46,18 +49,23 @@ def flag_bits(compat0: int = 0) -> bytes:
     return _message(b"B", bytes((compat0,)) + bytes(15) + struct.pack("<3Q", 0, 0, 0))
 
 
-def field_code(type_name: str) -> str:
-    """``float[3]`` → ``3f``."""
+def field_code(type_name: str, nested: Mapping[str, Fields] | None = None) -> str:
+    """``float[3]`` → ``3f``; a nested format's name (in ``nested``) → its fields' codes."""
     base, _, rest = type_name.partition("[")
+    if base not in CODES:
+        assert nested is not None, f"no format {base}"
+        return "".join(field_code(t, nested) for t, _ in nested[base]) * (
+            int(rest[:-1]) if rest else 1)
     code = CODES[base]
     return f"{int(rest[:-1])}{code}" if rest else code
 
 
-def struct_of(fields: Sequence[tuple[str, str]]) -> struct.Struct:
-    return struct.Struct("<" + "".join(field_code(t) for t, _ in fields))
+def struct_of(fields: Fields, nested: Mapping[str, Fields] | None = None) -> struct.Struct:
+    """The record of ``fields`` packed as declared, a nested format's fields in its place."""
+    return struct.Struct("<" + "".join(field_code(t, nested) for t, _ in fields))
 
 
-def format_message(name: str, fields: Sequence[tuple[str, str]]) -> bytes:
+def format_message(name: str, fields: Fields) -> bytes:
     """'F': ``name:type field;type field;…``."""
     text = name + ":" + "".join(f"{t} {n};" for t, n in fields)
     return _message(b"F", text.encode())

@@ -236,8 +236,11 @@ def test_a_streamed_flight_is_a_ulog_that_pyulog_reads(tmp_path, network):
     log = pyulog.ULog(str(path))
     # The reliable part always arrives whole, whatever the link loses.
     assert log.msg_info_dict["ver_hw"] == "PX4_SITL" and len(log.initial_parameters) > 600
-    assert {"vehicle_local_position", "vehicle_status", "sensor_combined"} <= \
-        {d.name for d in log.data_list}
+    names = {d.name for d in log.data_list}
+    assert {"vehicle_local_position", "sensor_combined"} <= names
+    # vehicle_status is written on change, twice here: unacknowledged LOGGING_DATA on a link
+    # that loses a fifth of its packets may lose both
+    assert network is not None or "vehicle_status" in names
     z = log.get_dataset("vehicle_local_position").data["z"]
     assert min(z) < -2.0
     if network is None:

@@ -142,6 +142,10 @@ def test_writer_parts_follow_the_spec():
         b"t:uint64_t timestamp;float[3] v;"
     assert ulog.struct_of((("uint64_t", "timestamp"), ("float[3]", "v"), ("bool", "b"))).size == 21
     assert ulog.data_prefix(3, 5) + b"12345" == ulog.data(3, b"12345")
+    # a nested format's fields are packed in its place
+    nested = {"sp": (("bool", "valid"), ("double", "lat"))}
+    assert ulog.struct_of((("uint64_t", "timestamp"), ("sp", "current")), nested).format == "<Q?d"
+    assert ulog.struct_of((("sp[2]", "two"),), nested).size == 18
 
 
 def test_log_download_over_mavlink_as_px4s_log_handler(tmp_path):
@@ -277,6 +281,29 @@ def test_a_topic_that_cannot_be_read_is_left_out_and_the_log_goes_on(tmp_path):
     assert len(log.get_dataset("vehicle_local_position").data["timestamp"]) == 5
 
 
+def test_an_on_change_topic_with_an_interval_is_looked_at_once_per_interval():
+    """position_setpoint_triplet (200 ms, written when it changed): read every 200 ms, not at
+    every 50 Hz tick."""
+    from gateway.onboard.logged_topics import Topic
+    from gateway.onboard.logger import VehicleLogger
+
+    reads = []
+
+    def steady(v, now_us):
+        reads.append(now_us)
+        return (1.0,)
+
+    with Sim() as sim:
+        sim.advance(1.0)
+        logger = VehicleLogger(sim.vehicles[0], None,
+                               (Topic("steady", (("float", "x"),), 0.2, steady, on_change=True),))
+        logger.on(1.0)
+        for k in range(1, 50):
+            logger.tick(1.0 + 0.02 * k)
+        (_path, data, _closed), = logger.close()
+    assert len(reads) == 5 and data.count(logger._prefixes[0]) == 1
+
+
 def test_stick_input_is_logged_once_it_comes(tmp_path):
     """manual_control_setpoint (200 ms): not in the log before any stick input, then the sticks
     the vehicle flies on, invalid (and centred) once the input is lost."""
@@ -286,7 +313,7 @@ def test_stick_input_is_logged_once_it_comes(tmp_path):
         sim.advance(2.0)
         api = sim.api(0)
         for _ in range(20):
-            api.send(M.MAVLink_manual_control_message(1, 300, -200, 500, 100, 0))
+            api.send(M.MAVLink_manual_control_message(1, 300, -200, 500, 100, 0b101))
             sim.advance(0.05)
         sim.advance(3.0)  # COM_RC_LOSS_T later: lost
     log = pyulog.ULog(str(sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))[0]))
@@ -294,3 +321,7 @@ def test_stick_input_is_logged_once_it_comes(tmp_path):
     assert sticks["timestamp"][0] >= 2_000_000
     assert sticks["valid"][0] == 1 and sticks["pitch"][0] == pytest.approx(0.3)
     assert sticks["valid"][-1] == 0 and sticks["pitch"][-1] == 0.0
+    # mavlink_receiver: the buttons passed on, flaps and aux channels 0 (Flight Review plots
+    # aux1 and aux2 with the sticks)
+    assert sticks["buttons"][0] == 0b101
+    assert not any(sticks[f"aux{i}"].any() for i in range(1, 7)) and not sticks["flaps"].any()

@@ -55,6 +55,9 @@ def test_prompt_echo_and_commands():
         listened = shell(sim, "listener vehicle_attitude\n")
         assert "TOPIC: vehicle_attitude" in listened and "    q: [" in listened
         assert "    thrust_body: [" in shell(sim, "listener vehicle_rates_setpoint\n")
+        # a nested format's fields by their dotted names
+        triplet = shell(sim, "listener position_setpoint_triplet\n")
+        assert "    current.valid: " in triplet and "    current.lat: 47.3977" in triplet
         sim.advance(6.0)
         assert "INFO  [commander] Preflight check: OK\n" in shell(sim, "commander check\n")
         shell(sim, "commander arm\n")

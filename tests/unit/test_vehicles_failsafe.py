@@ -421,7 +421,10 @@ def test_a_second_link_loss_after_a_takeover_triggers_again():
     fs = Failsafe(ParamStore({"NAV_DLL_ACT": 2, "COM_FAIL_ACT_T": 0.0}), StatusLog())
     hold = NavState.AUTO_LOITER
     assert fs.update(1.0, FailsafeFlags(True, hold, gcs_lost=True)) is Action.RTL
+    assert not fs.user_takeover_active and fs.flags.gcs_lost  # failsafe_flags, as logged
     fs.user_mode_changed()  # the user takes over while the link is still down
+    # vehicle_status.failsafe_and_user_took_over (userTakeoverActive)
+    assert fs.user_takeover_active
     assert fs.update(1.1, FailsafeFlags(True, hold, gcs_lost=True)) is Action.NONE
     assert fs.update(2.0, FailsafeFlags(True, hold)) is Action.NONE  # link back
     assert fs.update(9.0, FailsafeFlags(True, hold, gcs_lost=True)) is Action.RTL  # lost again

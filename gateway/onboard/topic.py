@@ -1,0 +1,28 @@
+"""One topic PX4's logger writes: its uORB name, the fields CORNET logs and how they are read.
+
+Rules (logged_topics.py says which topics and why): ``fields`` come after the leading
+``uint64_t timestamp``, each a (ULog type, PX4 field name) pair with PX4 1.15's name and type;
+``read(vehicle, now_us)`` returns their values flat (an array's elements one by one), or None
+while PX4 would not have published the topic; ``step`` (row of the recent-steps ring, the
+step's time µs) reads a topic PX4 publishes at the sensors' rate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+Fields = Sequence[tuple[str, str]]
+F, D, B, U64 = "float", "double", "bool", "uint64_t"  # ULog type names
+
+
+@dataclass(frozen=True)
+class Topic:
+    name: str
+    fields: Fields  # after the leading "uint64_t timestamp"
+    interval_s: float  # logged_topics.cpp's interval (0: every tick)
+    read: Callable[[Any, int], Sequence[Any] | None]  # (vehicle, now µs) → the values, flat
+    on_change: bool = False  # log only when the values change (and at the start)
+    # (ring row, step time µs) → the values, for a topic logged at the sensors' rate
+    step: Callable[[Sequence[float], int], Sequence[Any]] | None = None
