@@ -235,8 +235,7 @@ class Vehicle:
             position_control = nav is not NavState.OFFBOARD or st.flying
         pos = vel = acc = _NAN3
         if st.flying:
-            pos = st.trajectory.position_ned_m
-            vel, acc = st.vel_sp, st.acc_sp
+            pos, vel, acc = st.trajectory.position_ned_m, st.vel_sp, st.acc_sp
         yaw = st.yaw_sp
         if yaw != yaw:  # NaN: PX4 holds the present heading
             yaw = q_yaw(self.kinematics.attitude_q)
