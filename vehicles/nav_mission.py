@@ -8,6 +8,10 @@ acceptance radius = param2 or NAV_ACC_RAD, vertical NAV_MC_ALT_RAD, then the hol
 Rules and invariants:
 - ``current`` is the index of the item being executed; leaving Mission mode keeps it (pause),
   re-entering restarts that item. ``set_current`` and a new upload restart at that item.
+- As PX4's navigator runs no mode while disarmed, the mission is active only in Mission mode
+  and armed: arming in Mission mode activates it. A finished mission starts over only when the
+  vehicle was disarmed since it last ran (``checkMissionRestart``); otherwise re-activating it
+  loiters with "No valid mission available" until an index is set or a mission uploaded.
 - Items without a position are executed at once and count as reached (PX4 reports
   MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/servo items are accepted and skipped.
 - NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission.
@@ -24,6 +28,9 @@ from vehicles.events import (
     MISSION_EXECUTE,
     MISSION_FINISHED,
     MISSION_FINISHED_LOITER,
+    MISSION_NOT_VALID_LOITER,
+    MISSION_NOT_VALID_REFUSE,
+    Log,
 )
 from vehicles.mission_feasibility import MissionCheck
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
@@ -72,6 +79,9 @@ class Mission(NavMode):
         self._next: Vec3 | None = None
         self._came_from: Vec3 | None = None  # the waypoint just reached (the next previous)
         self._auto_takeoff = False
+        self._running = False  # active: in Mission mode and armed (PX4 isActive())
+        self._has_run = False  # PX4 _mission_has_been_activated
+        self.disarmed_while_inactive = False  # PX4 _system_disarmed_while_inactive
         plans.on_change(self._plan_changed)
         self._plan_changed(PlanType.MISSION)
 
@@ -97,6 +107,7 @@ class Mission(NavMode):
         items = self.items
         self.current = next((i for i, it in enumerate(items) if it.current), 0)
         self.finished = False
+        self._has_run = self._running  # onMissionUpdate: new items while inactive
         self.reached_seq = -1
         self._reached_any = False
         self._jumps_done.clear()
@@ -143,15 +154,45 @@ class Mission(NavMode):
 
     # --- NavMode hooks -------------------------------------------------------------------------
     def on_activation(self, ctx: NavContext) -> None:
-        if self.finished:  # a finished mission starts over
+        self._running = False
+        if ctx.armed:
+            self._activate(ctx)
+
+    def on_inactive(self, ctx: NavContext) -> None:
+        self._running = False
+
+    def _activate(self, ctx: NavContext) -> None:
+        """mission_base.cpp on_activation: checkMissionRestart, then update_mission's verdict."""
+        count = len(self.items)
+        if self.disarmed_while_inactive and self._has_run and count and self.current + 1 == count:
             self.current, self.finished = 0, False
             self._jumps_done.clear()
+            ctx.set_cruise_mps(math.nan)
+        self._running = self._has_run = True
+        self.disarmed_while_inactive = False
+        self._yaw = ctx.yaw_rad
+        if self.finished:
+            # The last item was done and nothing set a new one: PX4 finds no valid current
+            # item and keeps the end-of-mission loiter (idle on the ground).
+            self._phase = "done"
+            self._target = ctx.position_ned_m if ctx.landed else ctx.setpoint_ned_m
+            if ctx.landed:
+                ctx.log.critical(ctx.now_s, "No valid mission available, refusing takeoff\t")
+                ctx.log.event(ctx.now_s, MISSION_NOT_VALID_REFUSE, Log.ERROR, Log.DISABLED)
+            else:
+                ctx.log.critical(ctx.now_s, "No valid mission available, loitering\t")
+                ctx.log.event(ctx.now_s, MISSION_NOT_VALID_LOITER, Log.ERROR, Log.DISABLED)
+            return
         ctx.log.info(ctx.now_s, "Executing Mission\t")
         ctx.log.event(ctx.now_s, MISSION_EXECUTE)
         self._phase = "start"
-        self._yaw = ctx.yaw_rad
 
     def on_active(self, ctx: NavContext) -> NavSetpoint:
+        if not ctx.armed:  # PX4's navigator runs no mode while disarmed
+            self._running = False
+            self.disarmed_while_inactive = True
+        elif not self._running:
+            self._activate(ctx)  # armed in Mission mode
         if not ctx.armed or (ctx.landed and self.finished):
             self._phase = "start" if not self.finished else "done"
             self._target = ctx.position_ned_m

@@ -253,3 +253,46 @@ def test_changes_move_with_every_change_of_mission_progress_and_status_texts(sim
     watch()
     sim.run(5.0, until=watch)
     assert changed["progress"] >= 4 and changed["texts"] >= 2, changed
+
+
+def test_finished_mission_does_not_start_over_in_air(sim):
+    """PX4 mission_base.cpp: advance_mission past the last item leaves no valid current item;
+    on_activation's checkMissionRestart rewinds only when the vehicle was disarmed while the
+    mission was inactive, so Hold -> Mission in the air keeps loitering and update_mission says
+    "No valid mission available, loitering" (seen with MAVSDK-Python issue #683 on PX4 1.15)."""
+    v = sim.v
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, [(10.0, 0.0, 5.0), (10.0, 10.0, 5.0)]))
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(60.0, until=lambda: v.mission_status.state is MissionState.COMPLETE)
+    sim.run(3.0)
+    assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+    sim.run(2.0)
+    held = v.state.position_ned_m.copy()
+    assert v.set_nav_state(sim.t, NavState.AUTO_MISSION) is CommandResult.ACCEPTED
+    sim.run(5.0)
+    st = v.mission_status
+    assert st.state is MissionState.COMPLETE and st.current_seq == 1
+    assert math.dist(held, v.state.position_ned_m) < 1.0
+    assert sim.texts()[-1] == "No valid mission available, loitering\t"
+    # Setting an item (MISSION_SET_CURRENT) makes it valid again: the mission flies from there.
+    assert v.set_current_mission_item(sim.t, 0)
+    assert sim.run(30.0, until=lambda: v.mission_status.reached_seq == 0
+                   and v.mission_status.state is MissionState.ACTIVE)
+
+
+def test_arming_in_mission_mode_after_a_landed_mission_starts_it_over(sim):
+    """PX4 navigator_main.cpp runs no mode while disarmed, so arming in Mission mode activates
+    the mission; MissionBase::checkMissionRestart then rewinds a mission left at its last item
+    after a disarm (PX4's "Missions reset once the vehicle is disarmed")."""
+    v = sim.v
+    o = v.origin
+    v.set_plan(sim.t, PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, 5.0, 0.0, 5.0, o),
+                                         item(1, MavCmd.NAV_LAND, 5.0, 5.0, 0.0, o)])
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(60.0, until=lambda: not v.status.armed)
+    assert v.status.nav_state is NavState.AUTO_MISSION
+    sim.run(1.0)
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(20.0, until=lambda: v.mission_status.reached_seq == 0
+                   and v.mission_status.state is MissionState.ACTIVE)
+    assert sim.texts().count("Executing Mission\t") == 2
