@@ -51,6 +51,8 @@ GOTO_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.N
 TAKEOFF_COMMANDS = frozenset({MavCmd.NAV_TAKEOFF, 84})  # + NAV_VTOL_TAKEOFF
 LAND_COMMANDS = frozenset({MavCmd.NAV_LAND, 85})  # + NAV_VTOL_LAND
 DELAY_COMMANDS = frozenset({MavCmd.NAV_DELAY, MavCmd.CONDITION_DELAY})
+# MISSION_CURRENT.mission_mode is "active" in these (mavlink_mission.cpp update_mission_state).
+MISSION_MODE_STATES = frozenset({NavState.AUTO_MISSION, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND})
 # Below this horizontal distance the heading is no longer updated (avoids spinning on arrival).
 YAW_LOCK_DIST_M = 1.0
 
@@ -126,21 +128,25 @@ class Mission(NavMode):
         return True
 
     def status(self, nav_state: NavState) -> MissionStatus:
+        """MISSION_CURRENT's view (mavlink_mission.cpp update_mission_state): mission_mode is
+        active in Mission, Takeoff and Land; a mission the feasibility check rejected counts as
+        no mission."""
         count = len(self.items)
-        if count == 0:
+        p = self.plans
+        in_mission_mode = nav_state in MISSION_MODE_STATES
+        if count == 0 or self.check.rejected(p.plan_id(PlanType.MISSION)):
             state = MissionState.NO_MISSION
         elif self.finished:
             state = MissionState.COMPLETE
-        elif nav_state is NavState.AUTO_MISSION:
+        elif in_mission_mode:
             state = MissionState.ACTIVE
         elif self._reached_any:
             state = MissionState.PAUSED
         else:
             state = MissionState.NOT_STARTED
-        p = self.plans
         return MissionStatus(
             current_seq=min(self.current, max(count - 1, 0)), count=count, state=state,
-            in_mission_mode=nav_state is NavState.AUTO_MISSION, reached_seq=self.reached_seq,
+            in_mission_mode=in_mission_mode, reached_seq=self.reached_seq,
             reached_count=self.reached_count, mission_id=p.plan_id(PlanType.MISSION),
             fence_id=p.plan_id(PlanType.FENCE), rally_id=p.plan_id(PlanType.RALLY),
             reached_history=tuple(self._history))

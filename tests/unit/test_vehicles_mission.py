@@ -296,3 +296,25 @@ def test_arming_in_mission_mode_after_a_landed_mission_starts_it_over(sim):
     assert sim.run(20.0, until=lambda: v.mission_status.reached_seq == 0
                    and v.mission_status.state is MissionState.ACTIVE)
     assert sim.texts().count("Executing Mission\t") == 2
+
+
+def test_mission_current_mode_is_active_in_takeoff_and_land_and_infeasible_is_no_mission(sim):
+    """PX4 mavlink_mission.cpp update_mission_state: mission_mode ACTIVE in Mission, Takeoff and
+    Land (mission_state ACTIVE then), and NO_MISSION while mission_result.valid is false."""
+    v = sim.v
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, [(10.0, 0.0, 5.0)]))
+    sim.run(0.1)
+    assert v.mission_status.state is MissionState.NOT_STARTED
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+    assert v.takeoff(sim.t) is CommandResult.ACCEPTED
+    sim.run(0.1)
+    st = v.mission_status
+    assert v.status.nav_state is NavState.AUTO_TAKEOFF
+    assert st.in_mission_mode and st.state is MissionState.ACTIVE
+    assert sim.run(20.0, until=lambda: v.status.nav_state is NavState.AUTO_LOITER)
+    st = v.mission_status
+    assert not st.in_mission_mode and st.state is MissionState.NOT_STARTED
+    # A takeoff item not above home: FeasibilityChecker rejects the mission.
+    v.set_plan(sim.t, PlanType.MISSION, [item(0, MavCmd.NAV_TAKEOFF, alt=0.0, origin=v.origin)])
+    sim.run(0.1)
+    assert v.mission_status.state is MissionState.NO_MISSION
