@@ -6,7 +6,8 @@ frames and commands, MAV_MISSION_RESULT codes) and ``src/modules/navigator/geofe
 
 Rules and invariants:
 - One immutable tuple of ``PlanItem`` per ``PlanType``; ``set`` validates the whole list first and
-  replaces the stored one only when it is ACCEPTED (atomic, like PX4 switching dataman slots).
+  replaces the stored one only when it is ACCEPTED (atomic, like PX4 switching dataman slots)
+  and differs from it (``plan_id``); an identical plan changes nothing, observers included.
 - Positional items need a global frame (0, 3, 5, 6); items without a position also accept
   MAV_FRAME_MISSION (2). Anything else -> UNSUPPORTED_FRAME; unknown commands -> UNSUPPORTED.
 - ``plan_id`` is an opaque CRC32 of the items (0 when empty), as PX4's MISSION_ACK/CURRENT ids.
@@ -128,14 +129,16 @@ def _validate_fence_shape(items: Sequence[PlanItem]) -> PlanResult:
 
 
 def plan_crc32(items: Sequence[PlanItem]) -> int:
-    """Opaque id of a plan: CRC32 over the packed items (0 for an empty plan)."""
+    """Opaque id of a plan: CRC32 over the packed items (0 for an empty plan). Like PX4's
+    crc32_for_mission_item it covers what each item asks for (frame, command, autocontinue,
+    params, x/y/z), not its seq or ``current`` flag: the same plan sent again has the same id."""
     if not items:
         return 0
     crc = 0
     for it in items:
-        crc = zlib.crc32(struct.pack("<HHHBBffffiifB", it.seq, it.command, 0, it.frame,
-                                     it.current & 0xFF, it.param1, it.param2, it.param3,
-                                     it.param4, it.x, it.y, it.z, it.mission_type & 0xFF), crc)
+        crc = zlib.crc32(struct.pack("<BHBffffiif", it.frame, it.command, it.autocontinue & 0xFF,
+                                     it.param1, it.param2, it.param3, it.param4, it.x, it.y,
+                                     it.z), crc)
     return crc or 1
 
 
@@ -171,7 +174,10 @@ class PlanStore:
         plan_type = PlanType(plan_type)
         items = tuple(items)
         result = validate_plan(plan_type, items)
-        if result is PlanResult.ACCEPTED:
+        # mavlink_mission.cpp publishes a completed upload only when its CRC32 differs from the
+        # stored plan's: the same plan again is ACCEPTED and changes nothing (not the mission's
+        # current item, even if another item is flagged current).
+        if result is PlanResult.ACCEPTED and not (items and plan_crc32(items) == self._ids[plan_type]):
             self._plans[plan_type] = items
             self._ids[plan_type] = plan_crc32(items)
             for cb in self._observers:

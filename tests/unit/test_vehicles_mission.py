@@ -318,3 +318,26 @@ def test_mission_current_mode_is_active_in_takeoff_and_land_and_infeasible_is_no
     v.set_plan(sim.t, PlanType.MISSION, [item(0, MavCmd.NAV_TAKEOFF, alt=0.0, origin=v.origin)])
     sim.run(0.1)
     assert v.mission_status.state is MissionState.NO_MISSION
+
+
+def test_uploading_the_same_mission_again_changes_nothing(sim):
+    """PX4 mavlink_mission.cpp handle_mission_item_both: after the last item the mission is
+    published (update_active_mission) only if its CRC32 differs from the stored one's, and
+    crc32_for_mission_item leaves out seq and ``current``; so the same mission sent again
+    (MAVSDK flags item 0 current) keeps the mission flying where it is (PX4 PR #28775 describes
+    this as PX4's behaviour up to 2026)."""
+    v = sim.v
+    items = waypoints(v, [(20.0, 0.0, 5.0), (20.0, 20.0, 5.0), (0.0, 20.0, 5.0)])
+    assert v.set_plan(sim.t, PlanType.MISSION, items) is PlanResult.ACCEPTED
+    mission_id = v.plan_id(PlanType.MISSION)
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(40.0, until=lambda: v.mission_status.reached_seq == 0)
+    sim.run(1.0)
+    again = [it if it.seq else item(0, MavCmd.NAV_WAYPOINT, 20.0, 0.0, 5.0, v.origin, current=1)
+             for it in items]
+    assert v.set_plan(sim.t, PlanType.MISSION, again) is PlanResult.ACCEPTED
+    assert v.plan_id(PlanType.MISSION) == mission_id
+    st = v.mission_status
+    assert st.current_seq == 1 and st.state is MissionState.ACTIVE and st.reached_seq == 0
+    assert sim.run(30.0, until=lambda: v.mission_status.reached_seq == 1)
+    assert 0 not in v.mission_status.reached_history[1:]  # item 0 was not flown again
