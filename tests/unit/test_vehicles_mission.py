@@ -70,8 +70,19 @@ def test_item_with_current_flag_sets_start_index(sim):
 @pytest.mark.parametrize("plan_type,items,expected", [
     (PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, frame=1)], PlanResult.UNSUPPORTED_FRAME),
     (PlanType.MISSION, [item(0, MavCmd.DO_CHANGE_SPEED, frame=1)], PlanResult.UNSUPPORTED_FRAME),
+    # parse_mavlink_mission_item (mavlink_mission.cpp): the frame picks the branch, and each
+    # branch refuses the other branch's commands with UNSUPPORTED.
     (PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, frame=MavFrame.MISSION)],
-     PlanResult.UNSUPPORTED_FRAME),
+     PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, MavCmd.DO_CHANGE_SPEED, p2=3.0)], PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, MavCmd.NAV_RETURN_TO_LAUNCH, frame=MavFrame.GLOBAL_RELATIVE_ALT)],
+     PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, 400, p1=1.0)], PlanResult.ACCEPTED),  # ARM_DISARM: either branch
+    (PlanType.MISSION, [item(0, 201, p1=1.0, frame=MavFrame.MISSION)], PlanResult.ACCEPTED),
+    (PlanType.MISSION, [item(0, 201, p1=3.0, frame=MavFrame.MISSION)], PlanResult.INVALID_PARAM1),
+    (PlanType.MISSION, [item(0, 201, p1=1.0)], PlanResult.INVALID_PARAM1),
+    (PlanType.MISSION, [item(0, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3)],
+     PlanResult.ERROR),
     (PlanType.MISSION, [item(0, 12345)], PlanResult.UNSUPPORTED),
     (PlanType.MISSION, [item(1, MavCmd.NAV_WAYPOINT)], PlanResult.INVALID_SEQUENCE),
     (PlanType.MISSION, [item(0, MavCmd.DO_CHANGE_SPEED, frame=MavFrame.MISSION, p2=3.0),
