@@ -356,8 +356,8 @@ class Mission(NavMode):
             if dist < self._acc_rad and abs(z - tz) < alt_rad:
                 item = self.items[self.current]
                 if item.command == MavCmd.NAV_LOITER_UNLIM:
-                    if self.reached_seq != self.current:
-                        self._reached(self.current)
+                    # is_mission_item_reached_or_completed: never for LOITER_UNLIMITED, so no
+                    # MISSION_ITEM_REACHED either; only a new current item ends it.
                     return NavSetpoint(self._target, self._yaw, ctx.limits())
                 hold = item.param1 if item.command in (MavCmd.NAV_WAYPOINT,
                                                        MavCmd.NAV_LOITER_TIME) else 0.0

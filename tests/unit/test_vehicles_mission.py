@@ -352,3 +352,23 @@ def test_uploading_the_same_mission_again_changes_nothing(sim):
     assert st.current_seq == 1 and st.state is MissionState.ACTIVE and st.reached_seq == 0
     assert sim.run(30.0, until=lambda: v.mission_status.reached_seq == 1)
     assert 0 not in v.mission_status.reached_history[1:]  # item 0 was not flown again
+
+
+def test_loiter_unlimited_is_never_reached(sim):
+    """PX4 mission_block.cpp is_mission_item_reached_or_completed returns false for
+    NAV_CMD_LOITER_UNLIMITED: the vehicle holds there, no MISSION_ITEM_REACHED is sent for it and
+    the mission does not go on until another item is set current."""
+    v = sim.v
+    o = v.origin
+    v.set_plan(sim.t, PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, 10.0, 0.0, 5.0, o),
+                                         item(1, MavCmd.NAV_LOITER_UNLIM, 10.0, 10.0, 5.0, o),
+                                         item(2, MavCmd.NAV_WAYPOINT, 0.0, 10.0, 5.0, o)])
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(40.0, until=lambda: v.mission_status.reached_seq == 0)
+    sim.run(25.0)
+    p = v.state.position_ned_m
+    st = v.mission_status
+    assert math.hypot(p[0] - 10.0, p[1] - 10.0) < 1.0
+    assert st.current_seq == 1 and st.reached_history == (0,) and st.state is MissionState.ACTIVE
+    assert v.set_current_mission_item(sim.t, 2)
+    assert sim.run(20.0, until=lambda: v.mission_status.reached_seq == 2)
