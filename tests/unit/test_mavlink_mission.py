@@ -573,3 +573,20 @@ def test_lossy_upload_and_download(seed):
         link.step(mission.TIMEOUT_S + 0.1)
     assert back is not None and len(back) == len(items), f"seed {seed}"
     assert all(same(a, b) for a, b in zip(back, items)), f"seed {seed}"
+
+
+def test_float_item_in_an_int_frame_is_unsupported_frame():
+    """PX4 mavlink_mission.cpp parse_mavlink_mission_item takes MAV_FRAME_GLOBAL_INT and
+    GLOBAL_RELATIVE_ALT_INT only in int mode, and a legacy MISSION_ITEM puts it in float mode:
+    MAV_MISSION_UNSUPPORTED_FRAME, nothing stored."""
+    vehicle, session, client = make()
+    client.send(M.MAVLink_mission_count_message(1, 1, 1, 0))
+    got = client.send(M.MAVLink_mission_item_message(
+        1, 1, 0, 6, 16, 1, 1, 0.0, 0.0, 0.0, NAN, LAT * 1e-7, LON * 1e-7, 10.0, 0))
+    assert mission_acks(got) == [(2, 0)]
+    assert not [c for c in vehicle.calls if c[0] == "set_plan"]
+    assert session.mission.phase is mission.Phase.IDLE
+    got = client.send(M.MAVLink_mission_count_message(1, 1, 1, 0))  # the same in GLOBAL_RELATIVE_ALT
+    got = client.send(M.MAVLink_mission_item_message(
+        1, 1, 0, 3, 16, 1, 1, 0.0, 0.0, 0.0, NAN, LAT * 1e-7, LON * 1e-7, 10.0, 0))
+    assert mission_acks(got) == [(0, 0)]
