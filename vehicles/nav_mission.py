@@ -84,6 +84,7 @@ class Mission(NavMode):
         self._running = False  # active: in Mission mode and armed (PX4 isActive())
         self._has_run = False  # PX4 _mission_has_been_activated
         self.disarmed_while_inactive = False  # PX4 _system_disarmed_while_inactive
+        self._announce = False  # say "Executing Mission" at the next tick
         plans.on_change(self._plan_changed)
         self._plan_changed(PlanType.MISSION)
 
@@ -108,7 +109,7 @@ class Mission(NavMode):
             return
         items = self.items
         self.current = next((i for i, it in enumerate(items) if it.current), 0)
-        self.finished = False
+        self._revive()
         self._has_run = self._running  # onMissionUpdate: new items while inactive
         self.reached_seq = -1
         self._reached_any = False
@@ -123,9 +124,15 @@ class Mission(NavMode):
         if not 0 <= seq < len(self.items):
             return False
         self.current = seq
-        self.finished = False
+        self._revive()
         self._phase = "start"
         return True
+
+    def _revive(self) -> None:
+        """A new current item (set, or a new mission): a finished mission runs again, and when
+        that happens in Mission mode update_mission says "Executing Mission" once more."""
+        self._announce = self._running and self.finished
+        self.finished = False
 
     def status(self, nav_state: NavState) -> MissionStatus:
         """MISSION_CURRENT's view (mavlink_mission.cpp update_mission_state): mission_mode is
@@ -199,6 +206,10 @@ class Mission(NavMode):
             self.disarmed_while_inactive = True
         elif not self._running:
             self._activate(ctx)  # armed in Mission mode
+        elif self._announce:
+            ctx.log.info(ctx.now_s, "Executing Mission\t")
+            ctx.log.event(ctx.now_s, MISSION_EXECUTE)
+        self._announce = False
         if not ctx.armed or (ctx.landed and self.finished):
             self._phase = "start" if not self.finished else "done"
             self._target = ctx.position_ned_m

@@ -285,10 +285,12 @@ def test_finished_mission_does_not_start_over_in_air(sim):
     assert st.state is MissionState.COMPLETE and st.current_seq == 1
     assert math.dist(held, v.state.position_ned_m) < 1.0
     assert sim.texts()[-1] == "No valid mission available, loitering\t"
-    # Setting an item (MISSION_SET_CURRENT) makes it valid again: the mission flies from there.
+    # Setting an item (MISSION_SET_CURRENT) makes it valid again: the mission flies from there
+    # and update_mission, finding no mission running, says so.
     assert v.set_current_mission_item(sim.t, 0)
     assert sim.run(30.0, until=lambda: v.mission_status.reached_seq == 0
                    and v.mission_status.state is MissionState.ACTIVE)
+    assert "Executing Mission\t" in sim.texts()[-3:]
 
 
 def test_arming_in_mission_mode_after_a_landed_mission_starts_it_over(sim):
