@@ -245,6 +245,10 @@ class MissionCheck:
                                        (here.lat_deg, here.lon_deg) if here else None)
         return self.valid
 
+    def rejected(self, mission_id: int) -> bool:
+        """The check ran on the mission with this id and found it infeasible."""
+        return self._ids is not None and self._ids[0] == mission_id and not self.valid
+
 
 def check_mission(items: Sequence[PlanItem], now_s: float, log: StatusLog, params: Any,
                   geofence: Any, home: HomePosition, origin: GeoPoint, landed: bool,

@@ -8,6 +8,10 @@ acceptance radius = param2 or NAV_ACC_RAD, vertical NAV_MC_ALT_RAD, then the hol
 Rules and invariants:
 - ``current`` is the index of the item being executed; leaving Mission mode keeps it (pause),
   re-entering restarts that item. ``set_current`` and a new upload restart at that item.
+- As PX4's navigator runs no mode while disarmed, the mission is active only in Mission mode
+  and armed: arming in Mission mode activates it. A finished mission starts over only when the
+  vehicle was disarmed since it last ran (``checkMissionRestart``); otherwise re-activating it
+  loiters with "No valid mission available" until an index is set or a mission uploaded.
 - Items without a position are executed at once and count as reached (PX4 reports
   MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/servo items are accepted and skipped.
 - NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission.
@@ -24,6 +28,9 @@ from vehicles.events import (
     MISSION_EXECUTE,
     MISSION_FINISHED,
     MISSION_FINISHED_LOITER,
+    MISSION_NOT_VALID_LOITER,
+    MISSION_NOT_VALID_REFUSE,
+    Log,
 )
 from vehicles.mission_feasibility import MissionCheck
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
@@ -44,6 +51,8 @@ GOTO_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.N
 TAKEOFF_COMMANDS = frozenset({MavCmd.NAV_TAKEOFF, 84})  # + NAV_VTOL_TAKEOFF
 LAND_COMMANDS = frozenset({MavCmd.NAV_LAND, 85})  # + NAV_VTOL_LAND
 DELAY_COMMANDS = frozenset({MavCmd.NAV_DELAY, MavCmd.CONDITION_DELAY})
+# MISSION_CURRENT.mission_mode is "active" in these (mavlink_mission.cpp update_mission_state).
+MISSION_MODE_STATES = frozenset({NavState.AUTO_MISSION, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND})
 # Below this horizontal distance the heading is no longer updated (avoids spinning on arrival).
 YAW_LOCK_DIST_M = 1.0
 
@@ -72,6 +81,10 @@ class Mission(NavMode):
         self._next: Vec3 | None = None
         self._came_from: Vec3 | None = None  # the waypoint just reached (the next previous)
         self._auto_takeoff = False
+        self._running = False  # active: in Mission mode and armed (PX4 isActive())
+        self._has_run = False  # PX4 _mission_has_been_activated
+        self.disarmed_while_inactive = False  # PX4 _system_disarmed_while_inactive
+        self._announce = False  # say "Executing Mission" at the next tick
         plans.on_change(self._plan_changed)
         self._plan_changed(PlanType.MISSION)
 
@@ -96,7 +109,8 @@ class Mission(NavMode):
             return
         items = self.items
         self.current = next((i for i, it in enumerate(items) if it.current), 0)
-        self.finished = False
+        self._revive()
+        self._has_run = self._running  # onMissionUpdate: new items while inactive
         self.reached_seq = -1
         self._reached_any = False
         self._jumps_done.clear()
@@ -110,26 +124,36 @@ class Mission(NavMode):
         if not 0 <= seq < len(self.items):
             return False
         self.current = seq
-        self.finished = False
+        self._revive()
         self._phase = "start"
         return True
 
+    def _revive(self) -> None:
+        """A new current item (set, or a new mission): a finished mission runs again, and when
+        that happens in Mission mode update_mission says "Executing Mission" once more."""
+        self._announce = self._running and self.finished
+        self.finished = False
+
     def status(self, nav_state: NavState) -> MissionStatus:
+        """MISSION_CURRENT's view (mavlink_mission.cpp update_mission_state): mission_mode is
+        active in Mission, Takeoff and Land; a mission the feasibility check rejected counts as
+        no mission."""
         count = len(self.items)
-        if count == 0:
+        p = self.plans
+        in_mission_mode = nav_state in MISSION_MODE_STATES
+        if count == 0 or self.check.rejected(p.plan_id(PlanType.MISSION)):
             state = MissionState.NO_MISSION
         elif self.finished:
             state = MissionState.COMPLETE
-        elif nav_state is NavState.AUTO_MISSION:
+        elif in_mission_mode:
             state = MissionState.ACTIVE
         elif self._reached_any:
             state = MissionState.PAUSED
         else:
             state = MissionState.NOT_STARTED
-        p = self.plans
         return MissionStatus(
             current_seq=min(self.current, max(count - 1, 0)), count=count, state=state,
-            in_mission_mode=nav_state is NavState.AUTO_MISSION, reached_seq=self.reached_seq,
+            in_mission_mode=in_mission_mode, reached_seq=self.reached_seq,
             reached_count=self.reached_count, mission_id=p.plan_id(PlanType.MISSION),
             fence_id=p.plan_id(PlanType.FENCE), rally_id=p.plan_id(PlanType.RALLY),
             reached_history=tuple(self._history))
@@ -143,15 +167,49 @@ class Mission(NavMode):
 
     # --- NavMode hooks -------------------------------------------------------------------------
     def on_activation(self, ctx: NavContext) -> None:
-        if self.finished:  # a finished mission starts over
+        self._running = False
+        if ctx.armed:
+            self._activate(ctx)
+
+    def on_inactive(self, ctx: NavContext) -> None:
+        self._running = False
+
+    def _activate(self, ctx: NavContext) -> None:
+        """mission_base.cpp on_activation: checkMissionRestart, then update_mission's verdict."""
+        count = len(self.items)
+        if self.disarmed_while_inactive and self._has_run and count and self.current + 1 == count:
             self.current, self.finished = 0, False
             self._jumps_done.clear()
+            ctx.set_cruise_mps(math.nan)
+        self._running = self._has_run = True
+        self.disarmed_while_inactive = False
+        self._yaw = ctx.yaw_rad
+        if self.finished:
+            # The last item was done and nothing set a new one: PX4 finds no valid current
+            # item and keeps the end-of-mission loiter (idle on the ground).
+            self._phase = "done"
+            self._target = ctx.position_ned_m if ctx.landed else ctx.setpoint_ned_m
+            if ctx.landed:
+                ctx.log.critical(ctx.now_s, "No valid mission available, refusing takeoff\t")
+                ctx.log.event(ctx.now_s, MISSION_NOT_VALID_REFUSE, Log.ERROR, Log.DISABLED)
+            else:
+                ctx.log.critical(ctx.now_s, "No valid mission available, loitering\t")
+                ctx.log.event(ctx.now_s, MISSION_NOT_VALID_LOITER, Log.ERROR, Log.DISABLED)
+            return
         ctx.log.info(ctx.now_s, "Executing Mission\t")
         ctx.log.event(ctx.now_s, MISSION_EXECUTE)
         self._phase = "start"
-        self._yaw = ctx.yaw_rad
 
     def on_active(self, ctx: NavContext) -> NavSetpoint:
+        if not ctx.armed:  # PX4's navigator runs no mode while disarmed
+            self._running = False
+            self.disarmed_while_inactive = True
+        elif not self._running:
+            self._activate(ctx)  # armed in Mission mode
+        elif self._announce:
+            ctx.log.info(ctx.now_s, "Executing Mission\t")
+            ctx.log.event(ctx.now_s, MISSION_EXECUTE)
+        self._announce = False
         if not ctx.armed or (ctx.landed and self.finished):
             self._phase = "start" if not self.finished else "done"
             self._target = ctx.position_ned_m
@@ -309,8 +367,8 @@ class Mission(NavMode):
             if dist < self._acc_rad and abs(z - tz) < alt_rad:
                 item = self.items[self.current]
                 if item.command == MavCmd.NAV_LOITER_UNLIM:
-                    if self.reached_seq != self.current:
-                        self._reached(self.current)
+                    # is_mission_item_reached_or_completed: never for LOITER_UNLIMITED, so no
+                    # MISSION_ITEM_REACHED either; only a new current item ends it.
                     return NavSetpoint(self._target, self._yaw, ctx.limits())
                 hold = item.param1 if item.command in (MavCmd.NAV_WAYPOINT,
                                                        MavCmd.NAV_LOITER_TIME) else 0.0

@@ -66,6 +66,8 @@ class Navigator:
 
     def deactivate(self, ctx: NavContext) -> None:
         """The vehicle left the navigator's modes (Offboard, Termination)."""
+        if not ctx.armed:
+            self.mission.disarmed_while_inactive = True
         if self.active_state is not None:
             self.modes[self.active_state].on_inactive(ctx)
         self.active_state = None
@@ -75,6 +77,8 @@ class Navigator:
     def update(self, nav_state: NavState, ctx: NavContext) -> NavSetpoint:
         if nav_state not in self.modes:
             nav_state = NavState.AUTO_LOITER  # modes without a navigator part behave as Hold
+        if not ctx.armed:  # PX4 runs no mode then: the mission notes it in on_inactive
+            self.mission.disarmed_while_inactive = True
         if nav_state is not _HOLD:
             self.hold.hint = self.hold.reposition = None  # a hand-over target is stale now
             self.hold.hint_yaw = math.nan

@@ -6,9 +6,11 @@ frames and commands, MAV_MISSION_RESULT codes) and ``src/modules/navigator/geofe
 
 Rules and invariants:
 - One immutable tuple of ``PlanItem`` per ``PlanType``; ``set`` validates the whole list first and
-  replaces the stored one only when it is ACCEPTED (atomic, like PX4 switching dataman slots).
-- Positional items need a global frame (0, 3, 5, 6); items without a position also accept
-  MAV_FRAME_MISSION (2). Anything else -> UNSUPPORTED_FRAME; unknown commands -> UNSUPPORTED.
+  replaces the stored one only when it is ACCEPTED (atomic, like PX4 switching dataman slots)
+  and differs from it (``plan_id``); an identical plan changes nothing, observers included.
+- Mission items: positional commands need a global frame (0, 3, 5, 6), the others
+  MAV_FRAME_MISSION (2); a command in the other frame's branch, or unknown -> UNSUPPORTED; any
+  other frame -> UNSUPPORTED_FRAME (mavlink_mission.cpp parse_mavlink_mission_item).
 - ``plan_id`` is an opaque CRC32 of the items (0 when empty), as PX4's MISSION_ACK/CURRENT ids.
 - ``item_ned`` converts an item's position to the vehicle's local NED frame: relative-altitude
   frames are relative to home, the others AMSL.
@@ -48,6 +50,10 @@ NON_POSITIONAL_COMMANDS = frozenset({
     260, 400, 530, 532, 534,  # oblique survey, arm/disarm, camera mode / focus / source
     1000, 1001, 2000, 2001, 2003, 2500, 2501, 3000, 42600,  # gimbal, capture, transition, winch
 })
+# Taken in either branch (global frame or MAV_FRAME_MISSION): COMPONENT_ARM_DISARM,
+# DO_AUTOTUNE_ENABLE.
+BOTH_FRAMES_COMMANDS = frozenset({400, 212})
+ROI_COMMANDS = frozenset({80, 201})  # NAV_ROI, DO_SET_ROI: param1 is the MAV_ROI mode
 FENCE_COMMANDS = frozenset({MavCmd.NAV_FENCE_RETURN_POINT, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION,
                             MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
                             MavCmd.NAV_FENCE_CIRCLE_INCLUSION, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION})
@@ -87,21 +93,33 @@ def _validate_position(item: PlanItem, check_alt: bool = True) -> PlanResult:
 def _validate_item(plan_type: PlanType, item: PlanItem) -> PlanResult:
     cmd, frame = item.command, item.frame
     if plan_type is PlanType.MISSION:
-        if cmd in POSITIONAL_COMMANDS:
-            if frame not in GLOBAL_FRAMES:
-                return PlanResult.UNSUPPORTED_FRAME
-            return _validate_position(item)
-        if cmd in NON_POSITIONAL_COMMANDS:
-            # PX4 uses MAV_FRAME_MISSION; GCSes sometimes tag these with a global frame (harmless).
-            ok = frame == MavFrame.MISSION or frame in GLOBAL_FRAMES
-            return PlanResult.ACCEPTED if ok else PlanResult.UNSUPPORTED_FRAME
-        return PlanResult.UNSUPPORTED
+        # parse_mavlink_mission_item: the frame picks the branch, then the branch knows the
+        # command or answers UNSUPPORTED (so DO_CHANGE_SPEED in a global frame and a waypoint in
+        # MAV_FRAME_MISSION are refused); fence and rally items in a mission are MAV_MISSION_ERROR.
+        if frame in GLOBAL_FRAMES:
+            if cmd in FENCE_COMMANDS or cmd == MavCmd.NAV_RALLY_POINT:
+                return PlanResult.ERROR
+            if cmd in ROI_COMMANDS and _roi_mode(item) not in (0, 3):  # NONE, LOCATION
+                return PlanResult.INVALID_PARAM1
+            if cmd in POSITIONAL_COMMANDS:
+                return _validate_position(item)
+            return PlanResult.ACCEPTED if cmd in BOTH_FRAMES_COMMANDS else PlanResult.UNSUPPORTED
+        if frame == MavFrame.MISSION:
+            if cmd in ROI_COMMANDS:  # MAV_ROI NONE, WPNEXT, WPINDEX
+                return PlanResult.ACCEPTED if _roi_mode(item) in (0, 1, 2) else PlanResult.INVALID_PARAM1
+            ok = cmd in NON_POSITIONAL_COMMANDS
+            return PlanResult.ACCEPTED if ok else PlanResult.UNSUPPORTED
+        return PlanResult.UNSUPPORTED_FRAME
     allowed = FENCE_COMMANDS if plan_type is PlanType.FENCE else {MavCmd.NAV_RALLY_POINT}
     if cmd not in allowed:
         return PlanResult.UNSUPPORTED
     if frame not in GLOBAL_FRAMES:
         return PlanResult.UNSUPPORTED_FRAME
     return _validate_position(item, check_alt=plan_type is PlanType.RALLY)
+
+
+def _roi_mode(item: PlanItem) -> int:
+    return int(item.param1) if math.isfinite(item.param1) else -1
 
 
 def _validate_fence_shape(items: Sequence[PlanItem]) -> PlanResult:
@@ -128,14 +146,16 @@ def _validate_fence_shape(items: Sequence[PlanItem]) -> PlanResult:
 
 
 def plan_crc32(items: Sequence[PlanItem]) -> int:
-    """Opaque id of a plan: CRC32 over the packed items (0 for an empty plan)."""
+    """Opaque id of a plan: CRC32 over the packed items (0 for an empty plan). Like PX4's
+    crc32_for_mission_item it covers what each item asks for (frame, command, autocontinue,
+    params, x/y/z), not its seq or ``current`` flag: the same plan sent again has the same id."""
     if not items:
         return 0
     crc = 0
     for it in items:
-        crc = zlib.crc32(struct.pack("<HHHBBffffiifB", it.seq, it.command, 0, it.frame,
-                                     it.current & 0xFF, it.param1, it.param2, it.param3,
-                                     it.param4, it.x, it.y, it.z, it.mission_type & 0xFF), crc)
+        crc = zlib.crc32(struct.pack("<BHBffffiif", it.frame, it.command, it.autocontinue & 0xFF,
+                                     it.param1, it.param2, it.param3, it.param4, it.x, it.y,
+                                     it.z), crc)
     return crc or 1
 
 
@@ -171,7 +191,10 @@ class PlanStore:
         plan_type = PlanType(plan_type)
         items = tuple(items)
         result = validate_plan(plan_type, items)
-        if result is PlanResult.ACCEPTED:
+        # mavlink_mission.cpp publishes a completed upload only when its CRC32 differs from the
+        # stored plan's: the same plan again is ACCEPTED and changes nothing (not the mission's
+        # current item, even if another item is flagged current).
+        if result is PlanResult.ACCEPTED and not (items and plan_crc32(items) == self._ids[plan_type]):
             self._plans[plan_type] = items
             self._ids[plan_type] = plan_crc32(items)
             for cb in self._observers:

@@ -9,7 +9,8 @@ Rules and invariants:
   here; only the complete list goes to ``vehicle.set_plan`` and its PlanResult is the MISSION_ACK.
   So a lost, aborted or timed-out upload never leaves a half-written plan. The vehicle validates
   (frames, commands): an invalid item is reported when the list is complete, not at the item
-  (PX4 aborts at the bad item; the ACK code is the same).
+  (PX4 aborts at the bad item; the ACK code is the same). A float MISSION_ITEM in a *_INT frame
+  is UNSUPPORTED_FRAME, as PX4 takes those frames only in int mode.
 - The expected item is re-requested every RETRY_S; TIMEOUT_S without anything from the partner
   aborts the transfer with "Operation timeout". Out-of-sequence items are ignored (the retry
   re-requests). A repeat of the last item after completion is re-ACKed with the same result.
@@ -56,10 +57,12 @@ REACHED_REPEATS = 10  # MISSION_ITEM_REACHED repeats after the first one
 REPEAT_INTERVAL_S = 1.0
 MISSION_TYPE_ALL = 255
 MISSION_COMPONENTS = frozenset({0, 1, 190})  # autopilot, broadcast, MAV_COMP_ID_MISSIONPLANNER
+INT_FRAMES = frozenset({5, 6})  # MAV_FRAME_GLOBAL_INT, MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 
 # MAV_MISSION_RESULT codes this module produces itself (the vehicle's come as PlanResult).
 ACCEPTED = PlanResult.ACCEPTED
 ERROR = PlanResult.ERROR
+UNSUPPORTED_FRAME = PlanResult.UNSUPPORTED_FRAME
 UNSUPPORTED = PlanResult.UNSUPPORTED
 NO_SPACE = PlanResult.NO_SPACE
 OPERATION_CANCELLED = 15
@@ -100,6 +103,7 @@ class MissionService:
         self.seq = 0  # upload: next expected item; download: next item to be requested
         self.int_mode = True
         self._items: list[PlanItem] = []
+        self._refused: int | None = None  # the upload's verdict found at an item
         self._download: tuple[PlanItem, ...] = ()
         self._retry_at = math.inf
         self._timeout_at = math.inf
@@ -139,6 +143,7 @@ class MissionService:
             self.uploads.owner = None
         self.phase = Phase.IDLE
         self._items = []
+        self._refused = None
         self._download = ()
         self._retry_at = self._timeout_at = math.inf
 
@@ -191,7 +196,7 @@ class MissionService:
         self.phase = Phase.UPLOAD
         self.uploads.owner = self
         self.partner, self.mission_type, self.count, self.seq = src, int(ptype), msg.count, 0
-        self._items = []
+        self._items, self._refused = [], None
         self._heard(now_s)
         self._request(now_s)
 
@@ -226,15 +231,18 @@ class MissionService:
         self._heard(now_s)
         if msg.seq != self.seq:
             return  # a duplicate or a jump ahead: ignored, the retry timer re-requests
+        if not is_int and msg.frame in INT_FRAMES and self._refused is None:
+            # parse_mavlink_mission_item takes the *_INT frames only in int mode
+            self._refused = UNSUPPORTED_FRAME
         self._items.append(item)
         self.seq += 1
         if self.seq < self.count:
             self._request(now_s)
             return
-        items, ptype = tuple(self._items), PlanType(self.mission_type)
+        items, ptype, refused = tuple(self._items), PlanType(self.mission_type), self._refused
         self._idle()
         plans = cast(VehicleFeatures, self.vehicle)  # an upload starts only if it has set_plan
-        result = int(plans.set_plan(now_s, ptype, items))
+        result = int(plans.set_plan(now_s, ptype, items)) if refused is None else refused
         self._completed = (self.partner, self.mission_type, self.count - 1, result)
         self.ack(self.partner, result, self.mission_type)
 

@@ -7,7 +7,8 @@ Rules:
   in other frames its x/y are plain params and are rounded to integers (PX4 does the same
   when it answers such an item in int mode).
 - Download answers in the mode the client asks in: MISSION_REQUEST_INT → MISSION_ITEM_INT,
-  legacy MISSION_REQUEST → MISSION_ITEM (x/y back to degrees in global frames).
+  legacy MISSION_REQUEST → MISSION_ITEM (x/y back to degrees in global frames), each item as
+  PX4 formats what it stored (``download_form``: frame and params of positional items).
 - pymavlink 2.4.50's MISSION_ACK / MISSION_COUNT / MISSION_CURRENT have no opaque_id /
   mission_id extension fields, so the CRC32 plan ids are not put on the wire (PX4 ≥ 1.15 sends
   them; MAVSDK 3 and QGC work without).
@@ -21,10 +22,11 @@ from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Encoder
 from gateway.mavlink.vehicle_port import VehiclePort
-from vehicles.plan_types import MissionState, MissionStatus, PlanItem, PlanType
+from vehicles.plan_types import MavCmd, MissionState, MissionStatus, PlanItem, PlanType
 
 # Frames whose x/y are latitude/longitude (MAV_FRAME numbers).
 GLOBAL_FRAMES = frozenset({0, 3, 5, 6, 10, 11})
+RELATIVE_FRAMES = frozenset({3, 6})
 MISSION_TOTAL_NONE = 65535  # MISSION_CURRENT.total while no mission is stored
 MISSION_MODE_ACTIVE = 1  # MISSION_CURRENT.mission_mode: in Mission/Takeoff/Land
 MISSION_MODE_SUSPENDED = 2
@@ -56,11 +58,55 @@ def item_from_float(msg: M.MAVLink_mission_item_message) -> PlanItem:
                     y=_to_int(msg.y, scale), z=msg.z, mission_type=msg.mission_type)
 
 
+def _yaw_deg(deg: float) -> float:
+    """A yaw param as PX4 stores and returns it: wrap_2pi(radians(deg)) back in degrees."""
+    return math.degrees(math.radians(deg) % math.tau) if math.isfinite(deg) else deg
+
+
+def _flag(value: float) -> float:
+    return 1.0 if value > 0 else 0.0
+
+
+def download_form(item: PlanItem, mission_type: int, int_mode: bool
+                  ) -> tuple[int, float, float, float, float]:
+    """(frame, param1..4) of a stored item as PX4 sends it back (mavlink_mission.cpp
+    format_mavlink_mission_item from what parse_mavlink_mission_item kept): items without a
+    position keep their params; positional ones get the frame of their altitude reference in
+    the flavour asked for (relative: 6 or 3, absolute: 5 or 0; a fence point is always
+    absolute, as PX4 keeps no reference for it) and only the params PX4 stores, yaw wrapped to
+    [0, 360)."""
+    if item.frame not in GLOBAL_FRAMES:
+        return item.frame, item.param1, item.param2, item.param3, item.param4
+    relative = item.frame in RELATIVE_FRAMES and mission_type != int(PlanType.FENCE)
+    frame = (6 if int_mode else 3) if relative else (5 if int_mode else 0)
+    cmd, p1, p2, p3, p4 = item.command, item.param1, item.param2, item.param3, item.param4
+    if cmd == MavCmd.NAV_WAYPOINT:
+        return frame, p1, p2, 0.0, _yaw_deg(p4)
+    if cmd == MavCmd.NAV_LOITER_UNLIM:
+        return frame, 0.0, 0.0, p3, _yaw_deg(p4)
+    if cmd == MavCmd.NAV_LOITER_TIME:  # time, force heading, radius, exit on the tangent
+        return frame, p1, _flag(p2), p3, _flag(p4)
+    if cmd == MavCmd.NAV_LOITER_TO_ALT:
+        return frame, _flag(p1), p2, 0.0, _flag(p4)
+    if cmd == MavCmd.NAV_LAND:  # land_precision is a uint8_t
+        precision = float(int(p2) & 0xFF) if math.isfinite(p2) and p2 >= 0 else 0.0
+        return frame, 0.0, precision, 0.0, _yaw_deg(p4)
+    if cmd in (MavCmd.NAV_TAKEOFF, 84, 85):  # + VTOL takeoff / land
+        return frame, 0.0, 0.0, 0.0, _yaw_deg(p4)
+    if cmd in (MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION):
+        vertices = float(int(p1 + 0.5) & 0xFFFF) if math.isfinite(p1) else 0.0
+        return frame, vertices, 0.0, 0.0, 0.0
+    if cmd in (MavCmd.NAV_FENCE_CIRCLE_INCLUSION, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION):
+        return frame, p1, 0.0, 0.0, 0.0
+    return frame, 0.0, 0.0, 0.0, 0.0
+
+
 def pack_item(enc: Encoder, item: PlanItem, seq: int, mission_type: int, target: tuple[int, int],
               int_mode: bool) -> bytes:
     """MISSION_ITEM_INT (int_mode) or legacy MISSION_ITEM for one stored item."""
-    common = (target[0], target[1], seq, item.frame, item.command, item.current,
-              item.autocontinue, item.param1, item.param2, item.param3, item.param4)
+    frame, p1, p2, p3, p4 = download_form(item, mission_type, int_mode)
+    common = (target[0], target[1], seq, frame, item.command, item.current,
+              item.autocontinue, p1, p2, p3, p4)
     if int_mode:
         return enc.pack(M.MAVLink_mission_item_int_message, *common, item.x, item.y, item.z,
                         mission_type)

@@ -51,6 +51,13 @@ def rally_items() -> list[PlanItem]:
             for i in range(3)]
 
 
+def int_frames(items: list[PlanItem], plan_type: PlanType) -> list[PlanItem]:
+    """``items`` with the frames PX4 sends back to MISSION_REQUEST_INT: the int flavour of their
+    altitude reference, a fence point always absolute (format_mavlink_mission_item)."""
+    frames = {0: 5, 3: 5, 5: 5, 6: 5} if plan_type == PlanType.FENCE else {0: 5, 3: 6, 5: 5, 6: 6}
+    return [dataclasses.replace(it, frame=frames.get(it.frame, it.frame)) for it in items]
+
+
 def item_int_msg(item: PlanItem, target=(1, 1)) -> M.MAVLink_mission_item_int_message:
     return M.MAVLink_mission_item_int_message(
         *target, item.seq, item.frame, item.command, item.current, item.autocontinue,
@@ -138,8 +145,31 @@ def test_upload_download_round_trip(plan_type, items):
     assert len(vehicle.plans[plan_type]) == len(items)
     assert all(same(a, b) for a, b in zip(vehicle.plans[plan_type], items))
     back = download(client, int(plan_type))
-    assert len(back) == len(items) and all(same(a, b) for a, b in zip(back, items))
+    expected = int_frames(items, plan_type)
+    assert len(back) == len(items) and all(same(a, b) for a, b in zip(back, expected))
     assert session.mission.phase is mission.Phase.IDLE
+
+
+def test_download_gives_items_back_as_px4_stored_them():
+    """PX4 mavlink_mission.cpp parse_mavlink_mission_item keeps per command only some params
+    (a waypoint: hold time, acceptance radius, yaw as wrap_2pi(radians(param4)); a takeoff: yaw;
+    a timed loiter: time, force-heading and exit flags, radius) and the altitude reference, and
+    format_mavlink_mission_item sends that back: frame GLOBAL_RELATIVE_ALT_INT to
+    MISSION_REQUEST_INT, GLOBAL_RELATIVE_ALT to a legacy MISSION_REQUEST."""
+    vehicle, session, client = make()
+    items = [wp(0, cmd=22, frame=3, params=(15.0, 0.0, 0.0, NAN)),
+             wp(1, frame=3, params=(2.0, 3.0, 5.0, -90.0)),
+             wp(2, cmd=19, frame=6, params=(10.0, 0.5, 4.0, 30.0)),
+             PlanItem(3, 2, 178, 0, 1, 1.0, 10.0, -1.0, 0.0, 0, 0, NAN)]
+    assert mission_acks(upload(client, items)) == [(0, 0)]
+    back = download(client, 0)
+    assert [it.frame for it in back] == [6, 6, 6, 2]
+    assert [(it.param1, it.param2, it.param3) for it in back] == [
+        (0.0, 0.0, 0.0), (2.0, 3.0, 0.0), (10.0, 1.0, 4.0), (1.0, 10.0, -1.0)]
+    assert math.isnan(back[0].param4) and back[1].param4 == pytest.approx(270.0)
+    assert back[2].param4 == 1.0 and back[3].param4 == 0.0
+    legacy = download(client, 0, use_int=False)
+    assert [it.frame for it in legacy] == [3, 3, 3, 2]
 
 
 def test_mavsdk_upload_is_prompt_and_sets_current():
@@ -543,3 +573,20 @@ def test_lossy_upload_and_download(seed):
         link.step(mission.TIMEOUT_S + 0.1)
     assert back is not None and len(back) == len(items), f"seed {seed}"
     assert all(same(a, b) for a, b in zip(back, items)), f"seed {seed}"
+
+
+def test_float_item_in_an_int_frame_is_unsupported_frame():
+    """PX4 mavlink_mission.cpp parse_mavlink_mission_item takes MAV_FRAME_GLOBAL_INT and
+    GLOBAL_RELATIVE_ALT_INT only in int mode, and a legacy MISSION_ITEM puts it in float mode:
+    MAV_MISSION_UNSUPPORTED_FRAME, nothing stored."""
+    vehicle, session, client = make()
+    client.send(M.MAVLink_mission_count_message(1, 1, 1, 0))
+    got = client.send(M.MAVLink_mission_item_message(
+        1, 1, 0, 6, 16, 1, 1, 0.0, 0.0, 0.0, NAN, LAT * 1e-7, LON * 1e-7, 10.0, 0))
+    assert mission_acks(got) == [(2, 0)]
+    assert not [c for c in vehicle.calls if c[0] == "set_plan"]
+    assert session.mission.phase is mission.Phase.IDLE
+    got = client.send(M.MAVLink_mission_count_message(1, 1, 1, 0))  # the same in GLOBAL_RELATIVE_ALT
+    got = client.send(M.MAVLink_mission_item_message(
+        1, 1, 0, 3, 16, 1, 1, 0.0, 0.0, 0.0, NAN, LAT * 1e-7, LON * 1e-7, 10.0, 0))
+    assert mission_acks(got) == [(0, 0)]

@@ -15,6 +15,7 @@ from test_mavlink_support import Client, acks, of_type  # noqa: E402
 
 from gateway.mavlink.session import LinkKind, Session  # noqa: E402
 from vehicles.params import ParamStore  # noqa: E402
+from vehicles.plan_types import PlanType  # noqa: E402
 from vehicles.world import World  # noqa: E402
 
 
@@ -119,7 +120,7 @@ def test_mavsdk_offboard_position_over_mavlink():
 @pytest.mark.slow
 def test_plans_round_trip_and_goto_on_real_vehicle():
     """QGC-style fence/rally round trip through the real validator, then MAVSDK goto_location."""
-    from test_mavlink_mission import download, fence_items, rally_items, same, upload
+    from test_mavlink_mission import download, fence_items, int_frames, rally_items, same, upload
 
     world, vehicle, client = _real_world_with_plans()
     try:
@@ -127,7 +128,8 @@ def test_plans_round_trip_and_goto_on_real_vehicle():
             got = upload(client, items, mission_type)
             assert [m.type for m in of_type(got, "MISSION_ACK")] == [0]
             back = download(client, mission_type)
-            assert len(back) == len(items) and all(same(a, b) for a, b in zip(back, items))
+            expected = int_frames(items, PlanType(mission_type))
+            assert len(back) == len(items) and all(same(a, b) for a, b in zip(back, expected))
         bad = fence_items()[:2]  # a 4-vertex polygon cut to 2 vertices
         got = upload(client, bad, 1)
         assert [m.type for m in of_type(got, "MISSION_ACK")] != [0]

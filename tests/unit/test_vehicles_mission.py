@@ -70,8 +70,19 @@ def test_item_with_current_flag_sets_start_index(sim):
 @pytest.mark.parametrize("plan_type,items,expected", [
     (PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, frame=1)], PlanResult.UNSUPPORTED_FRAME),
     (PlanType.MISSION, [item(0, MavCmd.DO_CHANGE_SPEED, frame=1)], PlanResult.UNSUPPORTED_FRAME),
+    # parse_mavlink_mission_item (mavlink_mission.cpp): the frame picks the branch, and each
+    # branch refuses the other branch's commands with UNSUPPORTED.
     (PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, frame=MavFrame.MISSION)],
-     PlanResult.UNSUPPORTED_FRAME),
+     PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, MavCmd.DO_CHANGE_SPEED, p2=3.0)], PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, MavCmd.NAV_RETURN_TO_LAUNCH, frame=MavFrame.GLOBAL_RELATIVE_ALT)],
+     PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, 400, p1=1.0)], PlanResult.ACCEPTED),  # ARM_DISARM: either branch
+    (PlanType.MISSION, [item(0, 201, p1=1.0, frame=MavFrame.MISSION)], PlanResult.ACCEPTED),
+    (PlanType.MISSION, [item(0, 201, p1=3.0, frame=MavFrame.MISSION)], PlanResult.INVALID_PARAM1),
+    (PlanType.MISSION, [item(0, 201, p1=1.0)], PlanResult.INVALID_PARAM1),
+    (PlanType.MISSION, [item(0, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3)],
+     PlanResult.ERROR),
     (PlanType.MISSION, [item(0, 12345)], PlanResult.UNSUPPORTED),
     (PlanType.MISSION, [item(1, MavCmd.NAV_WAYPOINT)], PlanResult.INVALID_SEQUENCE),
     (PlanType.MISSION, [item(0, MavCmd.DO_CHANGE_SPEED, frame=MavFrame.MISSION, p2=3.0),
@@ -253,3 +264,113 @@ def test_changes_move_with_every_change_of_mission_progress_and_status_texts(sim
     watch()
     sim.run(5.0, until=watch)
     assert changed["progress"] >= 4 and changed["texts"] >= 2, changed
+
+
+def test_finished_mission_does_not_start_over_in_air(sim):
+    """PX4 mission_base.cpp: advance_mission past the last item leaves no valid current item;
+    on_activation's checkMissionRestart rewinds only when the vehicle was disarmed while the
+    mission was inactive, so Hold -> Mission in the air keeps loitering and update_mission says
+    "No valid mission available, loitering" (seen with MAVSDK-Python issue #683 on PX4 1.15)."""
+    v = sim.v
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, [(10.0, 0.0, 5.0), (10.0, 10.0, 5.0)]))
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(60.0, until=lambda: v.mission_status.state is MissionState.COMPLETE)
+    sim.run(3.0)
+    assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+    sim.run(2.0)
+    held = v.state.position_ned_m.copy()
+    assert v.set_nav_state(sim.t, NavState.AUTO_MISSION) is CommandResult.ACCEPTED
+    sim.run(5.0)
+    st = v.mission_status
+    assert st.state is MissionState.COMPLETE and st.current_seq == 1
+    assert math.dist(held, v.state.position_ned_m) < 1.0
+    assert sim.texts()[-1] == "No valid mission available, loitering\t"
+    # Setting an item (MISSION_SET_CURRENT) makes it valid again: the mission flies from there
+    # and update_mission, finding no mission running, says so.
+    assert v.set_current_mission_item(sim.t, 0)
+    assert sim.run(30.0, until=lambda: v.mission_status.reached_seq == 0
+                   and v.mission_status.state is MissionState.ACTIVE)
+    assert "Executing Mission\t" in sim.texts()[-3:]
+
+
+def test_arming_in_mission_mode_after_a_landed_mission_starts_it_over(sim):
+    """PX4 navigator_main.cpp runs no mode while disarmed, so arming in Mission mode activates
+    the mission; MissionBase::checkMissionRestart then rewinds a mission left at its last item
+    after a disarm (PX4's "Missions reset once the vehicle is disarmed")."""
+    v = sim.v
+    o = v.origin
+    v.set_plan(sim.t, PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, 5.0, 0.0, 5.0, o),
+                                         item(1, MavCmd.NAV_LAND, 5.0, 5.0, 0.0, o)])
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(60.0, until=lambda: not v.status.armed)
+    assert v.status.nav_state is NavState.AUTO_MISSION
+    sim.run(1.0)
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(20.0, until=lambda: v.mission_status.reached_seq == 0
+                   and v.mission_status.state is MissionState.ACTIVE)
+    assert sim.texts().count("Executing Mission\t") == 2
+
+
+def test_mission_current_mode_is_active_in_takeoff_and_land_and_infeasible_is_no_mission(sim):
+    """PX4 mavlink_mission.cpp update_mission_state: mission_mode ACTIVE in Mission, Takeoff and
+    Land (mission_state ACTIVE then), and NO_MISSION while mission_result.valid is false."""
+    v = sim.v
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, [(10.0, 0.0, 5.0)]))
+    sim.run(0.1)
+    assert v.mission_status.state is MissionState.NOT_STARTED
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+    assert v.takeoff(sim.t) is CommandResult.ACCEPTED
+    sim.run(0.1)
+    st = v.mission_status
+    assert v.status.nav_state is NavState.AUTO_TAKEOFF
+    assert st.in_mission_mode and st.state is MissionState.ACTIVE
+    assert sim.run(20.0, until=lambda: v.status.nav_state is NavState.AUTO_LOITER)
+    st = v.mission_status
+    assert not st.in_mission_mode and st.state is MissionState.NOT_STARTED
+    # A takeoff item not above home: FeasibilityChecker rejects the mission.
+    v.set_plan(sim.t, PlanType.MISSION, [item(0, MavCmd.NAV_TAKEOFF, alt=0.0, origin=v.origin)])
+    sim.run(0.1)
+    assert v.mission_status.state is MissionState.NO_MISSION
+
+
+def test_uploading_the_same_mission_again_changes_nothing(sim):
+    """PX4 mavlink_mission.cpp handle_mission_item_both: after the last item the mission is
+    published (update_active_mission) only if its CRC32 differs from the stored one's, and
+    crc32_for_mission_item leaves out seq and ``current``; so the same mission sent again
+    (MAVSDK flags item 0 current) keeps the mission flying where it is (PX4 PR #28775 describes
+    this as PX4's behaviour up to 2026)."""
+    v = sim.v
+    items = waypoints(v, [(20.0, 0.0, 5.0), (20.0, 20.0, 5.0), (0.0, 20.0, 5.0)])
+    assert v.set_plan(sim.t, PlanType.MISSION, items) is PlanResult.ACCEPTED
+    mission_id = v.plan_id(PlanType.MISSION)
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(40.0, until=lambda: v.mission_status.reached_seq == 0)
+    sim.run(1.0)
+    again = [it if it.seq else item(0, MavCmd.NAV_WAYPOINT, 20.0, 0.0, 5.0, v.origin, current=1)
+             for it in items]
+    assert v.set_plan(sim.t, PlanType.MISSION, again) is PlanResult.ACCEPTED
+    assert v.plan_id(PlanType.MISSION) == mission_id
+    st = v.mission_status
+    assert st.current_seq == 1 and st.state is MissionState.ACTIVE and st.reached_seq == 0
+    assert sim.run(30.0, until=lambda: v.mission_status.reached_seq == 1)
+    assert 0 not in v.mission_status.reached_history[1:]  # item 0 was not flown again
+
+
+def test_loiter_unlimited_is_never_reached(sim):
+    """PX4 mission_block.cpp is_mission_item_reached_or_completed returns false for
+    NAV_CMD_LOITER_UNLIMITED: the vehicle holds there, no MISSION_ITEM_REACHED is sent for it and
+    the mission does not go on until another item is set current."""
+    v = sim.v
+    o = v.origin
+    v.set_plan(sim.t, PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, 10.0, 0.0, 5.0, o),
+                                         item(1, MavCmd.NAV_LOITER_UNLIM, 10.0, 10.0, 5.0, o),
+                                         item(2, MavCmd.NAV_WAYPOINT, 0.0, 10.0, 5.0, o)])
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(40.0, until=lambda: v.mission_status.reached_seq == 0)
+    sim.run(25.0)
+    p = v.state.position_ned_m
+    st = v.mission_status
+    assert math.hypot(p[0] - 10.0, p[1] - 10.0) < 1.0
+    assert st.current_seq == 1 and st.reached_history == (0,) and st.state is MissionState.ACTIVE
+    assert v.set_current_mission_item(sim.t, 2)
+    assert sim.run(20.0, until=lambda: v.mission_status.reached_seq == 2)

@@ -1,0 +1,85 @@
+"""Mission behaviour through the wire in lockstep (gateway.testing.Sim, pymavlink client), as a
+MAVSDK / QGC / pymavlink user meets it on PX4 1.15."""
+
+import pytest
+from pymavlink.dialects.v20 import common as M
+
+from gateway.testing import Sim, mission_item
+from vehicles.plan_types import MavCmd, PlanResult
+from vehicles.types import PX4_SITL_HOME, NavState
+
+ACTIVE, COMPLETE = 3, 5  # MISSION_STATE
+MODE_ACTIVE, MODE_SUSPENDED = 1, 2  # MISSION_CURRENT.mission_mode
+
+
+def geo(n: float, e: float) -> tuple[float, float]:
+    g = PX4_SITL_HOME.offset_ned(n, e, 0.0)
+    return g.lat_deg, g.lon_deg
+
+
+@pytest.fixture
+def sim():
+    with Sim(1) as s:
+        assert s.run_until(lambda: s.status(0).position_valid, timeout_s=5)
+        yield s
+
+
+def test_finished_mission_reentered_then_set_current_and_the_same_upload(sim):
+    """mission_base.cpp: re-entering a mission finished in the air loiters with "No valid
+    mission available, loitering" (checkMissionRestart needs a disarm); MISSION_SET_CURRENT
+    (mavlink_mission.cpp update_active_mission) makes it fly again from that item; uploading the
+    same mission (same CRC32) leaves the current item alone."""
+    api = sim.api(0)
+    items = [mission_item(MavCmd.NAV_WAYPOINT, *geo(15, 0), 6.0),
+             mission_item(MavCmd.NAV_WAYPOINT, *geo(15, 15), 6.0)]
+    assert api.upload_mission(items) == PlanResult.ACCEPTED
+    assert api.arm() == 0 and api.start_mission() == 0
+
+    def state(st, mode):
+        m = api.last("MISSION_CURRENT")
+        return m is not None and (m.mission_state, m.mission_mode) == (st, mode)
+
+    assert sim.run_until(lambda: state(COMPLETE, MODE_ACTIVE), timeout_s=60)
+    assert api.set_mode(NavState.AUTO_LOITER) == 0
+    assert sim.run_until(lambda: state(COMPLETE, MODE_SUSPENDED), timeout_s=3)
+    mark = len(api.frames)
+    assert api.set_mode(NavState.AUTO_MISSION) == 0
+    sim.advance(3.0)
+    texts = [m.text for m in api.messages("STATUSTEXT", since=mark)]
+    assert "No valid mission available, loitering\t" in texts
+    assert state(COMPLETE, MODE_ACTIVE) and api.last("MISSION_CURRENT").seq == 1
+    mark = len(api.frames)
+    api.send(api.mav.mission_set_current_encode(api.target, 1, 0))
+    assert sim.run_until(lambda: 0 in [m.seq for m in api.messages("MISSION_ITEM_REACHED",
+                                                                   since=mark)], timeout_s=30)
+    assert state(ACTIVE, MODE_ACTIVE) and api.last("MISSION_CURRENT").seq == 1
+    assert api.upload_mission(items) == PlanResult.ACCEPTED  # the same again: nothing changes
+    sim.advance(1.5)
+    m = api.last("MISSION_CURRENT")
+    assert (m.seq, m.mission_state) == (1, ACTIVE)
+    assert sim.run_until(lambda: state(COMPLETE, MODE_ACTIVE), timeout_s=30)
+
+
+def test_float_item_in_int_frame_and_download_frames(sim):
+    """parse_mavlink_mission_item: *_INT frames only in int mode; format_mavlink_mission_item:
+    a waypoint sent in GLOBAL_RELATIVE_ALT comes back as GLOBAL_RELATIVE_ALT_INT, yaw wrapped."""
+    api = sim.api(0)
+    lat, lon = geo(10, 0)
+    it = mission_item(MavCmd.NAV_WAYPOINT, lat, lon, 5.0, frame=3, params=(0.0, 2.0, 4.0, -90.0))
+    assert api.upload_mission([it]) == PlanResult.ACCEPTED
+    mark = len(api.frames)
+    api.send(api.mav.mission_request_list_encode(api.target, 1, 0))
+    sim.advance(0.2)
+    api.send(api.mav.mission_request_int_encode(api.target, 1, 0, 0))
+    sim.advance(0.2)
+    back = api.messages("MISSION_ITEM_INT", since=mark)[-1]
+    assert (back.frame, back.param2, back.param3) == (6, 2.0, 0.0)
+    assert back.param4 == pytest.approx(270.0)
+    api.send(api.mav.mission_ack_encode(api.target, 1, 0, 0))
+    mark = len(api.frames)
+    api.send(api.mav.mission_count_encode(api.target, 1, 1, 0))
+    sim.advance(0.2)
+    api.send(api.mav.mission_item_encode(api.target, 1, 0, 6, 16, 1, 1, 0, 2, 0, 0, lat, lon, 5.0, 0))
+    sim.advance(0.2)
+    acks = api.messages("MISSION_ACK", since=mark)
+    assert [a.type for a in acks] == [M.MAV_MISSION_UNSUPPORTED_FRAME]
