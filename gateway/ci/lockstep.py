@@ -42,6 +42,7 @@ from gateway.sim.scenario import NetworkConfig
 from gateway.sim.simulation import PHYSICS_DT_S, Simulation, default_params
 from netsim.kernel import Ticker
 from vehicles.plan_types import PlanItem, PlanType
+from vehicles.plans import NON_POSITIONAL_COMMANDS
 from vehicles.types import PX4_SITL_HOME, GeoPoint, NavState, VehicleState, VehicleStatus
 
 __all__ = ["Client", "Sim", "mission_item", "LinkKind", "NetworkConfig", "PlanType", "NavState"]
@@ -60,6 +61,7 @@ POLL_S = 0.02  # run_until checks its predicate at the position-control rate
 # Fixed boot epoch of lockstep logs (2026-01-01T00:00:00Z): logs stay byte-identical run to run.
 LOCKSTEP_EPOCH_UNIX_S = 1_767_225_600.0
 GLOBAL_RELATIVE_ALT_INT = 6
+MAV_FRAME_MISSION = 2
 
 _ID_COMMAND_ACK = M.MAVLINK_MSG_ID_COMMAND_ACK
 _ID_PING = M.MAVLINK_MSG_ID_PING
@@ -72,9 +74,13 @@ _NAME_TO_ID = {cls.msgname: msgid for msgid, cls in M.mavlink_map.items()}
 
 def mission_item(command: int, lat_deg: float = 0.0, lon_deg: float = 0.0, alt_m: float = 0.0, *,
                  params: Sequence[float] = (0.0, 0.0, 0.0, math.nan),
-                 frame: int = GLOBAL_RELATIVE_ALT_INT,
+                 frame: int | None = None,
                  mission_type: PlanType = PlanType.MISSION) -> PlanItem:
-    """One plan item as MISSION_ITEM_INT carries it (seq is set at upload)."""
+    """One plan item as MISSION_ITEM_INT carries it (seq is set at upload). ``frame`` defaults
+    to QGC's choice: MAV_FRAME_MISSION for a command without a position (RTL, DO_JUMP,
+    DO_CHANGE_SPEED, ...: PX4 refuses those in a global frame), else GLOBAL_RELATIVE_ALT_INT."""
+    if frame is None:
+        frame = MAV_FRAME_MISSION if command in NON_POSITIONAL_COMMANDS else GLOBAL_RELATIVE_ALT_INT
     p = list(params) + [0.0] * (4 - len(params))
     return PlanItem(seq=0, frame=frame, command=command, current=0, autocontinue=1,
                     param1=p[0], param2=p[1], param3=p[2], param4=p[3],

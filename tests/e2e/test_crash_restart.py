@@ -111,7 +111,7 @@ def test_client_killed_and_restarted_mid_mission_picks_up_and_the_mission_finish
              (M.MAV_CMD_NAV_WAYPOINT, rel, *geo(15, 0), 5.0),
              (M.MAV_CMD_NAV_WAYPOINT, rel, *geo(15, 15), 5.0),
              (M.MAV_CMD_NAV_WAYPOINT, rel, *geo(0, 15), 5.0),
-             (M.MAV_CMD_NAV_RETURN_TO_LAUNCH, rel, 0.0, 0.0, 0.0)]
+             (M.MAV_CMD_NAV_RETURN_TO_LAUNCH, M.MAV_FRAME_MISSION, 0.0, 0.0, 0.0)]
     first = gcs(d.api_port(0))
     try:
         first.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
