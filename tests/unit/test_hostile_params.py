@@ -1,0 +1,54 @@
+"""PARAM_SET with values PX4 accepts but its modules never expect, sent in flight.
+
+PX4's param_set (src/lib/parameters/parameters.cpp) stores a value of the right type as given: no
+check against the metadata's min/max. The modules then compute with it in float arithmetic, where
+x/0 is inf and a double beyond float32 is inf. The vehicle flies on what PX4's algorithms make of
+it (PositionControl's failsafe setpoint for non-finite setpoints, the hover thrust estimator's
+rejected measurements, ...); nothing may raise, and no telemetry message may fail to build.
+"""
+
+from __future__ import annotations
+
+import pytest
+from pymavlink.dialects.v20 import common as M
+
+from gateway.testing import Sim, mission_item
+from vehicles.params import ParamType
+from vehicles.plan_types import MavCmd, PlanResult
+from vehicles.types import PX4_SITL_HOME
+
+
+def geo(n: float, e: float) -> tuple[float, float]:
+    g = PX4_SITL_HOME.offset_ned(n, e, 0.0)
+    return g.lat_deg, g.lon_deg
+
+
+def mission():
+    return ([mission_item(MavCmd.NAV_TAKEOFF, *geo(0, 0), 10.0)]
+            + [mission_item(MavCmd.NAV_WAYPOINT, *geo(n, e), 10.0) for n, e in ((30, 0), (30, 30))]
+            + [mission_item(MavCmd.NAV_RETURN_TO_LAUNCH)])
+
+
+@pytest.mark.parametrize("name, value", [
+    ("MPC_JERK_AUTO", 0.0),  # the trajectory's jerk limit divides (was ZeroDivisionError)
+    ("MPC_XY_VEL_P_ACC", 0.0),  # PositionControl's anti-windup gain 2 / P (was ZeroDivisionError)
+    ("HTE_ACC_GATE", 0.0),  # the hover thrust EKF's test ratio (was ZeroDivisionError)
+    ("MPC_XY_VEL_D_ACC", 3e38),  # setpoints beyond float32 in POSITION_TARGET_LOCAL_NED
+    ("MPC_Z_VEL_MAX_UP", -3e38),  # (both were counted handler errors every tick)
+    ("MPC_XY_VEL_MAX", -3e38),
+])
+def test_a_hostile_value_px4_stores_never_raises_in_flight(name, value):
+    with Sim(1) as sim:
+        api = sim.api(0)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        assert api.upload_mission(mission()) == PlanResult.ACCEPTED
+        assert api.arm() == 0 and api.start_mission() == 0
+        sim.advance(12.0)  # airborne, on the way to the first waypoint
+        cursor = len(api.frames)
+        api.send(M.MAVLink_param_set_message(1, 1, name.encode(), value, ParamType.REAL32))
+        sim.advance(20.0)
+        echo = [m for m in api.messages("PARAM_VALUE", since=cursor) if m.param_id == name]
+        assert echo and echo[0].param_value == pytest.approx(value)  # stored as given
+        positions = api.messages("GLOBAL_POSITION_INT", since=cursor)
+        assert len(positions) >= 20 * 10 * 0.8  # telemetry went on at its rate
+        assert sim.simulation.internal_errors == 0
