@@ -9,6 +9,8 @@ rejected measurements, ...); nothing may raise, and no telemetry message may fai
 
 from __future__ import annotations
 
+import struct
+
 import pytest
 from pymavlink.dialects.v20 import common as M
 
@@ -36,6 +38,10 @@ def mission():
     ("MPC_XY_VEL_D_ACC", 3e38),  # setpoints beyond float32 in POSITION_TARGET_LOCAL_NED
     ("MPC_Z_VEL_MAX_UP", -3e38),  # (both were counted handler errors every tick)
     ("MPC_XY_VEL_MAX", -3e38),
+    ("SIM_BAT_DRAIN", 0.0),  # the simulated battery's charge step dt / drain (ZeroDivisionError)
+    ("BAT1_V_CHARGED", 3e38),  # BATTERY_STATUS's cell voltages and charge (failed to build)
+    ("BAT1_V_EMPTY", -3e38),
+    ("BAT1_N_CELLS", 2**31 - 1),
 ])
 def test_a_hostile_value_px4_stores_never_raises_in_flight(name, value):
     with Sim(1) as sim:
@@ -45,10 +51,13 @@ def test_a_hostile_value_px4_stores_never_raises_in_flight(name, value):
         assert api.arm() == 0 and api.start_mission() == 0
         sim.advance(12.0)  # airborne, on the way to the first waypoint
         cursor = len(api.frames)
-        api.send(M.MAVLink_param_set_message(1, 1, name.encode(), value, ParamType.REAL32))
+        ptype = sim.vehicles[0].params.info(name).type
+        wire = struct.unpack("<f", struct.pack("<i", value))[0] if ptype is ParamType.INT32 \
+            else value
+        api.send(M.MAVLink_param_set_message(1, 1, name.encode(), wire, ptype))
         sim.advance(20.0)
         echo = [m for m in api.messages("PARAM_VALUE", since=cursor) if m.param_id == name]
-        assert echo and echo[0].param_value == pytest.approx(value)  # stored as given
+        assert echo and sim.vehicles[0].params[name] == pytest.approx(value)  # stored as given
         positions = api.messages("GLOBAL_POSITION_INT", since=cursor)
         assert len(positions) >= 20 * 10 * 0.8  # telemetry went on at its rate
         assert sim.simulation.internal_errors == 0
