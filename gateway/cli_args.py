@@ -11,6 +11,8 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gateway.ci.flags import path_arg as path_arg  # the same check for every path flag
+
 if TYPE_CHECKING:
     from vehicles.types import GeoPoint
 
@@ -229,16 +231,6 @@ def writable_file(parser: argparse.ArgumentParser, path: Path, flag: str) -> Non
         problem = "cannot be written (permission denied)"
     if problem is not None:
         parser.error(f"{flag} {path}: {problem}")
-
-
-def path_arg(flag: str):
-    """A path flag's type: an empty string (which pathlib reads as ".") is refused."""
-    def parse(text: str) -> Path:
-        if not text.strip():
-            raise argparse.ArgumentTypeError(f"{flag} needs a path, got an empty string")
-        return Path(text)
-
-    return parse
 
 
 def endpoint(flag: str):

@@ -6,8 +6,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from gateway.cli_args import path_arg
-
 DEFAULT_TOL_TRACK_M = 1.0  # gateway.ci.baseline.Tolerances
 DEFAULT_TOL_TIME_S = 2.0
 DEFAULT_TOL_LOSS = 0.02
@@ -26,6 +24,16 @@ def _number(flag: str, *, integer: bool = False, maximum: float | None = None):
             bounds = f"between 0 and {maximum:g}" if maximum is not None else ">= 0"
             raise argparse.ArgumentTypeError(f"{flag} must be {bounds}, got {text!r}")
         return value
+
+    return parse
+
+
+def path_arg(flag: str):
+    """A path flag's type: an empty string (which pathlib reads as ".") is refused."""
+    def parse(text: str) -> Path:
+        if not text.strip():
+            raise argparse.ArgumentTypeError(f"{flag} needs a path, got an empty string")
+        return Path(text)
 
     return parse
 
