@@ -252,7 +252,14 @@ _KEYS = st.sampled_from(["vehicles", "network", "logging", "count", "home", "air
                          "backend", "seed", "sync_period_s", "late_policy", "ns3", "link",
                          "model", "latency_s", "loss", "jitter_s", "topology", "up", "down",
                          "ap", "lat_deg", "lon_deg", "alt_amsl_m", "level", "hops", "channel",
-                         "outages", "MIS_TAKEOFF_ALT", "MAV_SYS_ID", "bogus"])
+                         "outages", "MIS_TAKEOFF_ALT", "MAV_SYS_ID", "bogus",
+                         # the tables added since, and the ns-3 backend's
+                         "daemon", "environment", "sensors", "faults", "commands", "bind",
+                         "port_offset", "speed", "state_dir", "zmq_pub", "web", "gcs",
+                         "wind_speed_mps", "noise", "at_s", "event", "vehicle", "nodes", "wifi",
+                         "propagation", "wired", "position", "kind", "exponent", "warmup_s",
+                         "timeout_s", "extra_radios", "radio", "tx_power_dbm", "spawn_ned_m",
+                         "param_files"])
 _DOCS = st.recursive(_SCALARS, lambda inner: st.one_of(
     st.dictionaries(_KEYS, inner, max_size=5), st.lists(inner, max_size=3)), max_leaves=20)
 
