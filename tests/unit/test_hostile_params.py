@@ -61,3 +61,34 @@ def test_a_hostile_value_px4_stores_never_raises_in_flight(name, value):
         positions = api.messages("GLOBAL_POSITION_INT", since=cursor)
         assert len(positions) >= 20 * 10 * 0.8  # telemetry went on at its rate
         assert sim.simulation.internal_errors == 0
+
+
+@pytest.mark.parametrize("name, value, corrected, then, text", [
+    ("MPC_XY_CRUISE", 15.0, "MPC_XY_CRUISE", 12.0,
+     "Cruise speed has been constrained by max speed"),
+    ("MPC_XY_VEL_MAX", 4.0, "MPC_XY_CRUISE", 4.0,
+     "Cruise speed has been constrained by max speed"),
+    ("MPC_TILTMAX_AIR", 10.0, "MPC_TILTMAX_LND", 10.0,
+     "Land tilt has been constrained by max tilt"),
+    ("MPC_Z_VEL_MAX_UP", 1.0, "MPC_Z_V_AUTO_UP", 1.0,
+     "Ascent speed has been constrained by max speed"),
+    ("MPC_THR_MAX", 0.5, "MPC_THR_HOVER", 0.5, "Hover thrust has been constrained by min/max"),
+])
+def test_the_position_controller_pulls_design_parameters_inside_their_limits(
+        name, value, corrected, then, text):
+    """MulticopterPositionControl::parameters_update: the set value is stored and echoed as
+    given; the parameter it now contradicts is committed to the limit (a PARAM_VALUE to every
+    client) and a critical text says so (with its event)."""
+    with Sim(1) as sim:
+        api = sim.api(0)
+        sim.advance(1.0)
+        cursor = len(api.frames)
+        api.send(M.MAVLink_param_set_message(1, 1, name.encode(), value, ParamType.REAL32))
+        sim.advance(0.5)
+        values = [(m.param_id, m.param_value) for m in api.messages("PARAM_VALUE", since=cursor)]
+        assert values[0] == (name, pytest.approx(value))
+        assert (corrected, pytest.approx(then)) in values
+        assert sim.vehicles[0].params[corrected] == pytest.approx(then)
+        texts = [m.text for m in api.messages("STATUSTEXT", since=cursor)]
+        assert any(t.startswith(text) for t in texts), texts
+        assert sim.simulation.internal_errors == 0
