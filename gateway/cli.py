@@ -14,15 +14,20 @@ from pathlib import Path
 from typing import Any
 
 from gateway.cli_args import LOG_LEVELS, env_home, env_speed, gcs_partner
+from gateway.cli_args import delay_ms as _delay_ms
 from gateway.cli_args import duration as _duration
+from gateway.cli_args import endpoint as _endpoint
 from gateway.cli_args import ipv4 as _ipv4
 from gateway.cli_args import list_scenarios as _list_scenarios
 from gateway.cli_args import non_negative as _non_negative
 from gateway.cli_args import parse_params as _parse_params
+from gateway.cli_args import path_arg as _path_arg
 from gateway.cli_args import probability as _probability
 from gateway.cli_args import speed as _speed
 from gateway.cli_args import vehicle_params as _vehicle_params
 from gateway.cli_args import version as _version
+from gateway.cli_args import writable_dir as _writable_dir
+from gateway.cli_args import writable_file as _writable_file
 from gateway.web.address import WebListenError, add_web_parser, listen_arg
 
 SIGNING_CREDENTIAL = "signing.key"  # $CREDENTIALS_DIRECTORY/signing.key: the unit's key
@@ -46,11 +51,11 @@ def build_parser() -> argparse.ArgumentParser:
         "talks to 14550) and 14580+i (API link, talks to 14540+i), like PX4 SITL; a scenario's "
         "extra radio r binds 18570+1000*r+i (talks to 14550 or its remote_port).",
     )
-    run.add_argument("--config", type=Path, default=None, metavar="FILE",
+    run.add_argument("--config", type=_path_arg("--config"), default=None, metavar="FILE",
                      help="the daemon's configuration file (TOML): a scenario file whose [daemon] "
                      "table sets what the flags below set (a flag given wins); SIGHUP re-reads its "
                      "network. Example: the shipped systemd/cornet.toml (`cornet scenarios` says where)")
-    run.add_argument("--scenario", type=Path, default=None, metavar="FILE|NAME",
+    run.add_argument("--scenario", type=_path_arg("--scenario"), default=None, metavar="FILE|NAME",
                      help="a scenario file (TOML: vehicles, network topology and models, sync "
                      "period, late policy), or a shipped scenario's name (`cornet scenarios` "
                      "lists them); see docs/scenarios.md. The same format as --config: give one "
@@ -64,9 +69,9 @@ def build_parser() -> argparse.ArgumentParser:
                      "with --param MAV_BROADCAST=1 they also broadcast while no ground station is connected")
     run.add_argument("--vehicles", type=int, default=None, metavar="N",
                      help="number of vehicles (default 1, or the scenario's)")
-    run.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=0.0,
+    run.add_argument("--latency-ms", type=_delay_ms("--latency-ms"), default=0.0,
                      metavar="X", help="one-way network latency in ms on every link (default 0)")
-    run.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=0.0,
+    run.add_argument("--jitter-ms", type=_delay_ms("--jitter-ms"), default=0.0,
                      metavar="Y", help="uniform jitter +-Y ms (default 0)")
     run.add_argument("--loss", type=_probability, default=0.0, metavar="P",
                      help="packet loss probability per datagram, 0..1 (default 0)")
@@ -88,23 +93,23 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar="K", help="shift every local and remote port by K (default 0)")
     run.add_argument("--log-level", choices=LOG_LEVELS, default=None, metavar="L",
                      help=f"one of {', '.join(LOG_LEVELS)} (default info, or the scenario's)")
-    run.add_argument("--state-dir", type=Path, default=None, metavar="DIR",
+    run.add_argument("--state-dir", type=_path_arg("--state-dir"), default=None, metavar="DIR",
                      help="keep what clients change in each vehicle's parameters, mission, geofence "
                      "and rally points in DIR/vehicle-<sysid>/ across restarts (default: not kept)")
     run.add_argument("--ignore-bad-state", action="store_true",
                      help="start a vehicle whose state file cannot be read with defaults (the "
                      "file is kept as NAME.unreadable); without it such a file stops the start")
-    run.add_argument("--zmq-pub", default=None, metavar="ENDPOINT",
+    run.add_argument("--zmq-pub", type=_endpoint("--zmq-pub"), default=None, metavar="ENDPOINT",
                      help="publish vehicle states, link statistics and packet events on a "
                      "ZeroMQ PUB socket, e.g. tcp://127.0.0.1:5556 (schema: docs/zmq.md)")
-    run.add_argument("--log-dir", type=Path, default=None, metavar="DIR",
+    run.add_argument("--log-dir", type=_path_arg("--log-dir"), default=None, metavar="DIR",
                      help="record every run in DIR/run-<date>-<time>/: a .tlog per vehicle link "
                      "(QGC/MAVProxy format), the vehicles' state (state.csv) and the packet trace; "
                      "flushed every simulated second; `cornet plot DIR` draws it")
-    run.add_argument("--packet-trace", type=Path, default=None, metavar="FILE",
+    run.add_argument("--packet-trace", type=_path_arg("--packet-trace"), default=None, metavar="FILE",
                      help="write the packet trace (one line per datagram event: time, send/drop/"
                      "recv, link, size, delay or drop reason) to FILE")
-    run.add_argument("--signing-key", type=Path, default=None, metavar="FILE",
+    run.add_argument("--signing-key", type=_path_arg("--signing-key"), default=None, metavar="FILE",
                      help="MAVLink 2 signing: every frame sent is signed and unsigned or badly "
                      "signed frames are refused (counted). FILE: 32 raw bytes, 64 hex digits, or a "
                      "passphrase (its SHA-256, as MAVProxy and QGC derive it)")
@@ -131,7 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
                            description="Validate a scenario file or the daemon's configuration "
                            "file (--config). Exit 0 and a summary if it is good; exit 2 and the "
                            "key that is wrong if not.")
-    check.add_argument("scenario", type=Path, metavar="FILE|NAME",
+    check.add_argument("scenario", type=_path_arg("FILE|NAME"), metavar="FILE|NAME",
                        help="the file, or a shipped scenario's name")
     sub.add_parser("scenarios", help="list the shipped scenarios (name and what it sets up)",
                    description="List the scenarios shipped with cornet: `--scenario NAME` and "
@@ -143,14 +148,14 @@ def build_parser() -> argparse.ArgumentParser:
                          "points) on one vehicle in lockstep on the simulated clock, through the "
                          "same MAVLink sessions as the daemon, and judge it: mission finished, "
                          "landed, geofence never breached, optional path deviation limit.")
-    fly.add_argument("plan", type=Path, metavar="PLAN",
+    fly.add_argument("plan", type=_path_arg("PLAN"), metavar="PLAN",
                      help="a QGroundControl .plan file, or a shipped plan's name (square, breach)")
-    fly.add_argument("--scenario", type=Path, default=None, metavar="FILE|NAME",
+    fly.add_argument("--scenario", type=_path_arg("--scenario"), default=None, metavar="FILE|NAME",
                      help="fly through a scenario's network, wind and faults (a file or a "
                      "shipped scenario's name)")
-    fly.add_argument("--latency-ms", type=_non_negative(float, "--latency-ms"), default=None,
+    fly.add_argument("--latency-ms", type=_delay_ms("--latency-ms"), default=None,
                      metavar="X", help="one-way network latency in ms on every link (default 0)")
-    fly.add_argument("--jitter-ms", type=_non_negative(float, "--jitter-ms"), default=None,
+    fly.add_argument("--jitter-ms", type=_delay_ms("--jitter-ms"), default=None,
                      metavar="Y", help="uniform jitter +-Y ms (default 0)")
     fly.add_argument("--loss", type=_probability, default=None, metavar="P",
                      help="packet loss probability per datagram, 0..1 (default 0)")
@@ -163,7 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar="S", help="simulated seconds before giving up (default 900)")
     fly.add_argument("--max-deviation", type=_non_negative(float, "--max-deviation"),
                      default=None, metavar="M", help="fail if the path deviates more (metres)")
-    fly.add_argument("--log-dir", type=Path, default=Path("logs"), metavar="DIR",
+    fly.add_argument("--log-dir", type=_path_arg("--log-dir"), default=Path("logs"), metavar="DIR",
                      help="record the flight (tlogs, state.csv, packet trace, ULog) in DIR "
                      "(default logs, replaced by every flight; `cornet plot DIR` draws it)")
     fly.add_argument("--no-log", action="store_true", help="do not record the flight")
@@ -174,15 +179,15 @@ def build_parser() -> argparse.ArgumentParser:
     add_web_parser(sub)
     plot = sub.add_parser("plot", help="draw a recorded run: track vs plan, altitude and speed, "
                           "link latency and loss (PNGs)")
-    plot.add_argument("log_dir", type=Path, metavar="LOGDIR",
+    plot.add_argument("log_dir", type=_path_arg("LOGDIR"), metavar="LOGDIR",
                       help="a run directory (it holds meta.json), or a directory of runs (the "
                       "newest is drawn); the PNGs are written into the run directory")
-    plot.add_argument("--plan", type=Path, default=None, metavar="FILE",
+    plot.add_argument("--plan", type=_path_arg("--plan"), default=None, metavar="FILE",
                       help="a .plan to draw as the planned track")
     for name, helptext in (("watch", "live table of vehicles and link quality from --zmq-pub"),
                            ("stats", "print every link's counters once, from --zmq-pub")):
         p = sub.add_parser(name, help=helptext, description=helptext)
-        p.add_argument("--zmq", default=None, metavar="ENDPOINT",
+        p.add_argument("--zmq", type=_endpoint("--zmq"), default=None, metavar="ENDPOINT",
                        help="the daemon's --zmq-pub endpoint (default tcp://127.0.0.1:5556)")
         if name == "watch":
             p.add_argument("--duration", type=_non_negative(float, "--duration"), default=None,
@@ -235,9 +240,13 @@ def main(argv: list[str] | None = None) -> int:
         from gateway.bus import watch
 
         endpoint = args.zmq or watch.DEFAULT_ENDPOINT
-        if args.command == "watch":
-            return watch.watch(endpoint, duration_s=args.duration)
-        return watch.stats(endpoint)
+        try:
+            if args.command == "watch":
+                return watch.watch(endpoint, duration_s=args.duration)
+            return watch.stats(endpoint)
+        except watch.zmq.ZMQError as exc:  # e.g. tcp://no-such-host:5556
+            print(f"cornet {args.command}: --zmq {endpoint}: {exc}", file=sys.stderr)
+            return 2
     parser.error(f"unknown command {args.command!r}")
     return 2
 
@@ -259,6 +268,9 @@ def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     for flag, path in (("--log-dir", log_dir), ("--save-baseline", args.save_baseline)):
         if path is not None:
             _writable_dir(parser, path, flag)
+    for flag, path in (("--junit-xml", args.junit_xml), ("--summary", args.summary)):
+        if path is not None:  # written after the flight: a bad one must not cost the flight
+            _writable_file(parser, path, flag)
     logging.basicConfig(level="WARNING", format="%(levelname)s %(name)s: %(message)s")
     overrides = {k: v for k, v in (("latency_ms", args.latency_ms), ("jitter_ms", args.jitter_ms),
                                    ("loss", args.loss), ("seed", args.seed),
@@ -272,16 +284,6 @@ def _fly(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
                         tolerances=Tolerances(args.tol_track_m, args.tol_time_s, args.tol_loss),
                         junit_xml=args.junit_xml, summary=args.summary, log_dir=log_dir,
                         progress=ProgressLine(sys.stderr))
-
-
-def _writable_dir(parser: argparse.ArgumentParser, path: Path, flag: str) -> None:
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-        probe = path / ".cornet-write-test"
-        probe.write_text("")
-        probe.unlink()
-    except OSError as exc:
-        parser.error(f"{flag} {path}: not a writable directory ({exc.strerror})")
 
 
 def _subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentParser:
@@ -417,9 +419,8 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: list[s
     for key in ("state_dir", "log_dir"):
         if settings[key] is not None:
             _writable_dir(parser, settings[key], where(key))
-    trace = settings["packet_trace"]
-    if trace is not None and not trace.parent.is_dir():
-        parser.error(f"{where('packet_trace')} {trace}: no directory {trace.parent}")
+    if settings["packet_trace"] is not None:
+        _writable_file(parser, settings["packet_trace"], where("packet_trace"))
     logging.basicConfig(
         level=log_level.upper(),
         format="%(asctime)s %(levelname)s %(name)s: %(message)s",
@@ -473,9 +474,10 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, argv: list[s
     except StateError as exc:
         print(f"cornet: {where('state_dir')}: {exc}", file=sys.stderr)
         return 2
-    except PortInUse as exc:
-        print(f"cornet: {exc}; is another cornet or PX4 SITL running? "
-              f"Stop it or choose another {where('port_offset')}.", file=sys.stderr)
+    except PortInUse as exc:  # in use, or --bind not an address of this machine
+        fix = (f"is another cornet or PX4 SITL running? Stop it or choose another "
+               f"{where('port_offset')}." if exc.in_use else f"choose another {where('bind')}.")
+        print(f"cornet: {exc}; {fix}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         return 0

@@ -7,7 +7,11 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import math
+import os
+from pathlib import Path
 from typing import TYPE_CHECKING
+
+from gateway.ci.flags import path_arg as path_arg  # the same check for every path flag
 
 if TYPE_CHECKING:
     from vehicles.types import GeoPoint
@@ -25,6 +29,22 @@ def non_negative(kind: type, what: str):
             raise argparse.ArgumentTypeError(f"{what} must be a number, got {text!r}") from None
         if not value >= 0:  # also NaN
             raise argparse.ArgumentTypeError(f"{what} must be >= 0, got {text!r}")
+        return value
+
+    return parse
+
+
+def delay_ms(what: str):
+    """``--latency-ms``/``--jitter-ms``: >= 0 and within the link models' longest delay."""
+    from netsim.models.base import MAX_DELAY_S
+
+    at_least_zero = non_negative(float, what)
+
+    def parse(text: str) -> float:
+        value = at_least_zero(text)
+        if value > MAX_DELAY_S * 1e3:
+            raise argparse.ArgumentTypeError(f"{what} must be at most {MAX_DELAY_S * 1e3:g} ms "
+                                             f"(the link models' longest delay), got {text!r}")
         return value
 
     return parse
@@ -186,3 +206,39 @@ def vehicle_params(from_file: dict[int, dict[str, float]], specs: list[str], veh
         out.setdefault(sysid, {}).update(values)
     return {sysid: kept for sysid, values in out.items()
             if (kept := {k: v for k, v in values.items() if k not in flag_params})}
+
+
+def writable_dir(parser: argparse.ArgumentParser, path: Path, flag: str) -> None:
+    """Exit 2 naming ``flag`` unless ``path`` is (or can be made) a directory we can write."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / ".cornet-write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        parser.error(f"{flag} {path}: not a writable directory ({exc.strerror})")
+
+
+def writable_file(parser: argparse.ArgumentParser, path: Path, flag: str) -> None:
+    """Exit 2 naming ``flag`` unless ``path`` can be a file we write: its directory exists and
+    is writable, and it is not itself a directory (checked before a run, not after it)."""
+    problem = None
+    if path.is_dir():
+        problem = "is a directory; give a file name"
+    elif not path.parent.is_dir():
+        problem = f"no directory {path.parent}"
+    elif not os.access(path.parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        problem = "cannot be written (permission denied)"
+    if problem is not None:
+        parser.error(f"{flag} {path}: {problem}")
+
+
+def endpoint(flag: str):
+    """A ZeroMQ endpoint flag's type (``tcp://127.0.0.1:5556``), as daemon.zmq_pub is checked."""
+    def parse(text: str) -> str:
+        if "://" not in text or not text.partition("://")[2]:
+            raise argparse.ArgumentTypeError(f"{flag} must be a ZeroMQ endpoint such as "
+                                             f"tcp://127.0.0.1:5556, got {text!r}")
+        return text
+
+    return parse

@@ -51,6 +51,7 @@ from vehicles.orbit import Orbit, OrbitStatus
 from vehicles.params import ParamStore
 from vehicles.plan_types import PlanType
 from vehicles.plans import PlanStore
+from vehicles.position_params import constrain_params
 from vehicles.position_stage import PositionStage
 from vehicles.status_log import StatusLog
 from vehicles.types import (
@@ -147,8 +148,7 @@ class Autopilot:
         """The parameters the 50 Hz part reads, re-read when one changes."""
         p = self.params
         self._params_version = p.version
-        self._of_loss_t_s = float(p["COM_OF_LOSS_T"])
-        self._rc_loss_t_s = float(p["COM_RC_LOSS_T"])
+        self._of_loss_t_s, self._rc_loss_t_s = float(p["COM_OF_LOSS_T"]), float(p["COM_RC_LOSS_T"])
         self._battery_thresholds = (float(p["BAT_LOW_THR"]), float(p["BAT_CRIT_THR"]),
                                     float(p["BAT_EMERGEN_THR"]))
         self._gf_action = int(p["GF_ACTION"])
@@ -212,6 +212,7 @@ class Autopilot:
     # --- missions, offboard, actions (README "the PX4 persona") ----------------------------------
     def _refresh_requirements(self, now_s: float) -> None:
         if self.params.version != self._params_version:
+            constrain_params(self.params, now_s, self.log, self.commander.events)  # mc_pos_control
             self._update_params()
         c = self.commander
         c.mission_valid = self.navigator.mission.check.update(now_s, self)

@@ -14,6 +14,8 @@ argument.
 
 from __future__ import annotations
 
+import math
+
 from vehicles.types import BatteryState
 
 # Not PX4 params: model constants for an X500-class 4S quad.
@@ -69,10 +71,15 @@ class BatterySim:
         self._current_a = AVIONICS_CURRENT_A + HOVER_CURRENT_A * ratio**1.5 if armed else 0.0
         self._consumed_mah += self._current_a * dt / 3.6
         if armed:
-            self._remaining -= dt / self._drain_s
+            # BatterySimulator::Run divides in float: SIM_BAT_DRAIN = 0 (PX4 stores it as given)
+            # makes the step inf (0/0: NaN) ...
+            drain = self._drain_s
+            self._remaining -= dt / drain if drain else math.inf if dt else math.nan
         else:
             self._remaining = 1.0
-        self._remaining = max(self._remaining, self._min_remaining)
+        # ... and math::max(a, b), (a > b) ? a : b, turns either into SIM_BAT_MIN_PCT.
+        r = self._remaining
+        self._remaining = r if r > self._min_remaining else self._min_remaining
 
     @property
     def remaining(self) -> float:

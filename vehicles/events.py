@@ -279,6 +279,24 @@ MISSION_FEASIBILITY = (
     MIS_TAKEOFF_NOT_FIRST, MIS_VTOL_ITEMS, MIS_FIRST_WP_TOO_FAR, MIS_WP_GATE_TOO_CLOSE,
     MIS_TAKEOFF_MISSING, MIS_LAND_MISSING, MIS_TAKEOFF_OR_LAND_MISSING, MIS_ADD_LAND_OR_RM_TAKEOFF,
     MIS_ADD_TAKEOFF_OR_RM_LAND, MIS_IN_AIR_LANDING_REQ, MIS_GEOFENCE_VIOLATION)
+# MulticopterPositionControl::parameters_update's corrections (vehicles/position_params.py)
+_F32 = (("float", "arg0"),)
+TILT_SET = EventDef("mc_pos_ctrl_tilt_set", "default",
+                    "Maximum tilt limit has been constrained to a safe value", _F32)
+LAND_TILT_SET = EventDef("mc_pos_ctrl_land_tilt_set", "default",
+                         "Land tilt limit has been constrained by maximum tilt", _F32)
+CRUISE_SET = EventDef("mc_pos_ctrl_cruise_set", "default",
+                      "Cruise speed has been constrained by maximum speed", _F32)
+MAN_VEL_SET = EventDef("mc_pos_ctrl_man_vel_set", "default",
+                       "Manual speed has been constrained by maximum speed", _F32)
+UP_VEL_SET = EventDef("mc_pos_ctrl_up_vel_set", "default",
+                      "Ascent speed has been constrained by max speed", _F32)
+DOWN_VEL_SET = EventDef("mc_pos_ctrl_down_vel_set", "default",
+                        "Descent speed has been constrained by max speed", _F32)
+HOVER_THRUST_SET = EventDef("mc_pos_ctrl_hover_thrust_set", "default",
+                            "Hover thrust has been constrained by min/max thrust", _F32)
+POSITION_PARAMS = (TILT_SET, LAND_TILT_SET, CRUISE_SET, MAN_VEL_SET, UP_VEL_SET, DOWN_VEL_SET,
+                   HOVER_THRUST_SET)
 DEFINITIONS: tuple[EventDef, ...] = (
     ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARMING_SUMMARY,
     HEALTH_SUMMARY,
@@ -291,7 +309,8 @@ DEFINITIONS: tuple[EventDef, ...] = (
     MISSION_FINISHED, MISSION_FINISHED_LOITER, MISSION_NOT_VALID_REFUSE, MISSION_NOT_VALID_LOITER,
     RTL_RETURN_AT, RTL_LAND, RTL_COMPLETED_LOITER,
     TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, COMMANDER_RTL, COMMANDER_LAND,
-    MODE_NOT_AVAILABLE, UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, *MISSION_FEASIBILITY)
+    MODE_NOT_AVAILABLE, UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, *MISSION_FEASIBILITY,
+    *POSITION_PARAMS)
 
 
 # navigation_mode_t (events/enums.json): mode_util::navigation_mode's value of each navigation

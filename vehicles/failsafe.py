@@ -383,14 +383,15 @@ class Failsafe:
         events, custom_mode = self.events, custom_mode_of(mode)
         if action is Action.HOLD and delayed is not Action.NONE:
             secs = int(self._delay_until - now_s + 0.5)
+            wire_secs = secs & 0xFFFF  # the event's (uint16_t)delay_s: COM_FAIL_ACT_T is as given
             if events is None:
                 pass
             elif cause is Cause.GENERIC:
                 events.send(now_s, FAILSAFE_GENERIC_HOLD, Log.CRITICAL, Log.WARNING, "IBH",
-                            custom_mode, int(delayed), secs)
+                            custom_mode, int(delayed), wire_secs)
             else:
                 events.send(now_s, FAILSAFE_HOLD, Log.CRITICAL, Log.WARNING, "IBHB", custom_mode,
-                            int(delayed), secs, int(cause))
+                            int(delayed), wire_secs, int(cause))
             self._log.critical(now_s, f"Failsafe activated, entering Hold for {secs} seconds\t")
             return
         if events is None:

@@ -172,6 +172,9 @@ def load_plan(path: str | Path) -> QgcPlan:
         raise PlanFileError(f"{path}: cannot read ({exc.strerror})") from None
     except json.JSONDecodeError as exc:
         raise PlanFileError(f"{path}: not valid JSON: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise PlanFileError(f"{path}: not UTF-8 text (byte {exc.start}); a .plan is JSON "
+                            "text") from None
     try:
         return parse_plan(doc, str(path))
     except PlanFileError as exc:

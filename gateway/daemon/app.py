@@ -18,6 +18,7 @@ import gc
 import ipaddress
 import logging
 import math
+import os
 import select
 import signal
 import sys
@@ -63,9 +64,12 @@ class MetricsPortError(OSError):
 
 
 class PortInUse(OSError):
-    def __init__(self, port: int, bind: str) -> None:
-        super().__init__(errno.EADDRINUSE, f"UDP port {bind}:{port} is already in use")
+    def __init__(self, port: int, bind: str, code: int = errno.EADDRINUSE) -> None:
+        what = "is already in use" if code == errno.EADDRINUSE else \
+            f"cannot be bound ({os.strerror(code)}: {bind} is not an address of this machine)"
+        super().__init__(code, f"UDP port {bind}:{port} {what}")
         self.port = port
+        self.in_use = code == errno.EADDRINUSE
 
     def __str__(self) -> str:
         return str(self.strerror)
@@ -216,8 +220,8 @@ class Daemon:
                 try:
                     endpoint.open(loop, (cfg.bind, ports.local))
                 except OSError as exc:
-                    if exc.errno == errno.EADDRINUSE:
-                        raise PortInUse(ports.local, cfg.bind) from exc
+                    if exc.errno in (errno.EADDRINUSE, errno.EADDRNOTAVAIL):
+                        raise PortInUse(ports.local, cfg.bind, exc.errno) from exc
                     raise
                 self.endpoints[(i, kind)] = endpoint
         except BaseException:

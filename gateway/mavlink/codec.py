@@ -140,6 +140,9 @@ def _as_bytes(v: bytes | str) -> bytes:
     return v.encode("utf-8", "replace") if isinstance(v, str) else v
 
 
+FLT_MAX = 3.4028234663852886e38
+
+
 class Packer:
     """The payload encoder of one message class; ``pack(args)`` takes the constructor's
     arguments as one tuple, all of them (``Encoder.pack`` fills omitted extensions)."""
@@ -203,7 +206,22 @@ class Encoder:
         defaults = p.defaults
         if len(args) < len(defaults):
             args = args + defaults[len(args):]
-        return self.frame(p.msg_id, p.crc_extra, p.pack(args))
+        try:
+            payload = p.pack(args)
+        except OverflowError:  # a float beyond float32: rare, so checked only when it happens
+            payload = p.pack(tuple(_as_float32(a) for a in args))
+        return self.frame(p.msg_id, p.crc_extra, payload)
+
+
+def _as_float32(value: Any) -> Any:
+    """``value`` as PX4's float fields hold it: a double beyond the float32 range is ±inf (what
+    a C double→float conversion and float32 arithmetic give), e.g. a velocity setpoint computed
+    with a gain of 3e38, which PX4 stores as given."""
+    if isinstance(value, float) and abs(value) > FLT_MAX:
+        return math.copysign(math.inf, value)
+    if isinstance(value, (list, tuple)):
+        return type(value)(_as_float32(v) for v in value)
+    return value
 
 
 @dataclass

@@ -145,7 +145,9 @@ class ParamService:
         self.send(self.param_value(index))
 
     def _for_us(self, msg: M.MAVLink_message) -> bool:
-        if msg.target_system in (0, self.sysid) and msg.target_component in (0, 1):
+        # mavlink_parameters.cpp: target_system must be ours (0 is not taken: a broadcast write
+        # would change every vehicle's parameter), the component ours or MAV_COMP_ID_ALL.
+        if msg.target_system == self.sysid and msg.target_component in (0, 1):
             return True
         self.other_target()
         return False

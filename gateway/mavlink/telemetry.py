@@ -204,15 +204,25 @@ def _charge_state(remaining: float, params: ParamStore) -> int:
     return MAV_BATTERY_CHARGE_STATE_OK
 
 
+def _c_int(value: float, low: int, high: int) -> int:
+    """A float as the flight controller's float→int conversion gives it (ARM's saturates, NaN
+    is 0): the battery values come from BAT1_* parameters PX4 stores as given."""
+    return 0 if value != value else int(round(min(max(value, low), high)))
+
+
 def battery_status(enc: Encoder, s: Snapshot) -> bytes:
     bat = s.status.battery
     cells = max(1, min(10, int(bat.cell_count)))
-    cell_mv = min(int(round(bat.voltage_v * 1000.0 / cells)), 65534)
-    voltages = [cell_mv] * cells + [UINT16_UNKNOWN] * (10 - cells)
+    cell_mv = bat.voltage_v * 1000.0 / cells
+    # A voltage out of the field's range is left unknown, as PX4's BATTERY_STATUS stream does
+    # ("We're out of spec").
+    cell = int(round(cell_mv)) if 0.0 <= cell_mv <= 65534.0 else UINT16_UNKNOWN
+    voltages = [cell] * cells + [UINT16_UNKNOWN] * (10 - cells)
     return enc.pack(M.MAVLink_battery_status_message, 0, MAV_BATTERY_FUNCTION_ALL,
                     MAV_BATTERY_TYPE_LIPO, INT16_MAX, voltages,
-                    int(round(bat.current_a * 100.0)), int(round(bat.consumed_mah)), -1,
-                    int(round(bat.remaining * 100.0)), 0,
+                    _c_int(bat.current_a * 100.0, -32768, 32767),
+                    _c_int(bat.consumed_mah, -2**31, 2**31 - 1), -1,
+                    _c_int(bat.remaining * 100.0, -128, 127), 0,
                     _charge_state(bat.remaining, s.vehicle.params), [0, 0, 0, 0], 0, 0)
 
 

@@ -31,6 +31,9 @@ class Drop(str, enum.Enum):
 MAX_DELAY_S = 60.0
 MAX_RATE_BPS = 1e12
 MAX_QUEUE = 10**9
+# Powers, losses and gains in dB(m): the models take 10^(x/10) of sums of them, which overflows a
+# float past ~3080 dB; a radio's real values are within a few hundred.
+MAX_DB = 300.0
 
 
 def check_delay(model: str, name: str, value: float) -> float:

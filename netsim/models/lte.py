@@ -101,7 +101,7 @@ from collections.abc import Sequence
 from statistics import NormalDist
 from typing import Any
 
-from netsim.models.base import Drop, check_delay, register_model
+from netsim.models.base import MAX_DB, Drop, check_delay, register_model
 from netsim.rng import UniformStream
 
 TTI_S = 0.001
@@ -201,7 +201,8 @@ class LteModel:
                             ("enb_noise_figure_db", enb_noise_figure_db),
                             ("ul_noise_rise_db", ul_noise_rise_db), ("ref_loss_db", ref_loss_db),
                             ("min_rsrp_dbm", min_rsrp_dbm), ("min_sinr_db", min_sinr_db)):
-            _check(name, _number(value), f"must be a finite number, got {value!r}")
+            _check(name, _number(value) and abs(value) <= MAX_DB,
+                   f"must be a number between -{MAX_DB:g} and {MAX_DB:g} dB, got {value!r}")
         _check("bandwidth_prbs", bandwidth_prbs in LTE_PRBS and isinstance(bandwidth_prbs, int),
                f"must be one of {', '.join(map(str, LTE_PRBS))}, got {bandwidth_prbs!r}")
         for name, value in (("dl_prbs", dl_prbs), ("ul_prbs", ul_prbs)):

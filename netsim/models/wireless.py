@@ -49,7 +49,7 @@ import math
 from statistics import NormalDist
 from typing import Any
 
-from netsim.models.base import Drop, register_model
+from netsim.models.base import MAX_DB, Drop, register_model
 from netsim.rng import UniformStream
 
 # 802.11n HT, 20 MHz, one spatial stream, 800 ns guard interval (IEEE 802.11-2012 Table 20-30).
@@ -96,7 +96,8 @@ class WirelessModel:
                  cw_min: int = 15, cw_max: int = 1023) -> None:
         _check("path_loss_exponent", 1.0 <= path_loss_exponent <= 8.0, "must be in [1, 8]")
         _check("ref_distance_m", ref_distance_m > 0, "must be > 0")
-        _check("shadowing_sigma_db", shadowing_sigma_db >= 0, "must be >= 0")
+        _check("shadowing_sigma_db", 0 <= shadowing_sigma_db <= 30,
+               f"must be in [0, 30] dB, got {shadowing_sigma_db!r}")
         _check("mcs", isinstance(mcs, int) and mcs in MCS_TABLE, "must be an integer 0..7")
         _check("retry_limit", isinstance(retry_limit, int) and 0 <= retry_limit <= 64,
                "must be an integer in [0, 64]")
@@ -111,8 +112,9 @@ class WirelessModel:
         for name, value in (("tx_power_dbm", tx_power_dbm), ("noise_floor_dbm", noise_floor_dbm),
                             ("ref_loss_db", ref_loss_db),
                             ("rx_sensitivity_dbm", rx_sensitivity_dbm)):
-            _check(name, isinstance(value, (int, float)) and math.isfinite(value),
-                   "must be a finite number")
+            _check(name, isinstance(value, (int, float)) and math.isfinite(value)
+                   and abs(value) <= MAX_DB, f"must be a number between -{MAX_DB:g} and "
+                   f"{MAX_DB:g} dB, got {value!r}")
         if mobility is None:
             raise ValueError("wireless: needs positions (a mobility), it is a positional model")
         self._rng = rng

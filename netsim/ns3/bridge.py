@@ -58,12 +58,11 @@ from netsim.backend import Vec3
 from netsim.kernel import PRIORITY_NETWORK, Kernel
 from netsim.link import Deliver, LinkStats, Tracer
 from netsim.models import Drop
-from netsim.ns3.cells import Cells, check_lte_config
+from netsim.ns3.cells import Cells
 from netsim.ns3.engine import BINARY, PROTOCOL_VERSION, EngineProcess, Ns3Error, node_kind
-
-# Where they were first imported from (gateway/cli.py, tests, benches):
-from netsim.ns3.engine import Ns3BuildMissing as Ns3BuildMissing
+from netsim.ns3.engine import Ns3BuildMissing as Ns3BuildMissing  # re-exported (cli, tests)
 from netsim.ns3.engine import build_missing_message as build_missing_message
+from netsim.ns3.schema import check_tables
 
 log = logging.getLogger("netsim.ns3")
 
@@ -99,7 +98,7 @@ def check_config(config: Mapping[str, Any]) -> None:
         raise ValueError(f"routing: must be one of {', '.join(ROUTINGS)}, not {routing!r}")
     if routing != "none" and config.get("topology", "adhoc") != "adhoc":
         raise ValueError(f"routing: {routing!r} needs topology = \"adhoc\"")
-    check_lte_config(config)
+    check_tables(config)  # and the lte keys
 
 
 @dataclass

@@ -128,3 +128,13 @@ def test_without_the_estimator_the_controllers_keep_mpc_thr_hover():
         assert ap.position_control.hover_thrust == pytest.approx(0.7)
     finally:
         sim.close()
+
+
+def test_a_zero_gate_rejects_every_measurement_as_px4s_float_arithmetic_does():
+    """HTE_ACC_GATE = 0 (PX4 stores it as given): computeInnovTestRatio divides by zero, which
+    in float gives inf (NaN for a zero innovation) and isTestRatioPassing fails: the estimate
+    stays where it was, nothing raises."""
+    run = Run()
+    run.ekf.gate_size = 0.0
+    ekf = run(0.72, 0.72, 1.0)
+    assert ekf.hover_thr == 0.5

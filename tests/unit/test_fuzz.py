@@ -11,6 +11,7 @@ from __future__ import annotations
 import itertools
 import math
 import struct
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -251,7 +252,14 @@ _KEYS = st.sampled_from(["vehicles", "network", "logging", "count", "home", "air
                          "backend", "seed", "sync_period_s", "late_policy", "ns3", "link",
                          "model", "latency_s", "loss", "jitter_s", "topology", "up", "down",
                          "ap", "lat_deg", "lon_deg", "alt_amsl_m", "level", "hops", "channel",
-                         "outages", "MIS_TAKEOFF_ALT", "MAV_SYS_ID", "bogus"])
+                         "outages", "MIS_TAKEOFF_ALT", "MAV_SYS_ID", "bogus",
+                         # the tables added since, and the ns-3 backend's
+                         "daemon", "environment", "sensors", "faults", "commands", "bind",
+                         "port_offset", "speed", "state_dir", "zmq_pub", "web", "gcs",
+                         "wind_speed_mps", "noise", "at_s", "event", "vehicle", "nodes", "wifi",
+                         "propagation", "wired", "position", "kind", "exponent", "warmup_s",
+                         "timeout_s", "extra_radios", "radio", "tx_power_dbm", "spawn_ned_m",
+                         "param_files"])
 _DOCS = st.recursive(_SCALARS, lambda inner: st.one_of(
     st.dictionaries(_KEYS, inner, max_size=5), st.lists(inner, max_size=3)), max_leaves=20)
 
@@ -379,3 +387,67 @@ def test_a_takeoff_to_a_non_finite_altitude_takes_the_default(alt_m):
         target = sim.vehicles[0].targets.global_target_ned_m
         assert target is not None and target[2] == pytest.approx(-2.5, abs=0.05)  # MIS_TAKEOFF_ALT
         assert all(math.isfinite(t.alt) for t in api.messages("POSITION_TARGET_GLOBAL_INT", since))
+
+
+# --- every shipped scenario, one value or table at a time made hostile ----------------------
+_HOSTILE_VALUES = [math.nan, math.inf, -math.inf, -1, 1e308, -1e308, "", True, {}, [1.0] * 5]
+
+
+def _shipped_docs() -> list[tuple[str, dict]]:
+    import tomllib
+
+    root = Path(__file__).resolve().parents[2]
+    paths = sorted((root / "scenarios").glob("*.toml")) + [root / "systemd" / "cornet.toml"]
+    return [(p.name, tomllib.loads(p.read_text())) for p in paths]
+
+
+def _places(doc, path=()):
+    """(path, value) of every table, list and value of a TOML document."""
+    yield path, doc
+    items = doc.items() if isinstance(doc, dict) else enumerate(doc) \
+        if isinstance(doc, list) else ()
+    for key, value in items:
+        yield from _places(value, (*path, key))
+
+
+def _with(doc: dict, path: tuple, change) -> dict:
+    import copy
+
+    out = copy.deepcopy(doc)
+    inner = out
+    for key in path[:-1]:
+        inner = inner[key]
+    change(inner, path[-1])
+    return out
+
+
+@pytest.mark.parametrize("name, doc", _shipped_docs())
+def test_each_value_of_a_shipped_scenario_made_hostile_is_refused_by_key_or_taken(name, doc):
+    """Found this way: network.ns3.nodes = nan raised AttributeError, and wireless/lte dB values
+    of 1e308 passed the loader and overflowed when the first packet crossed (or at load)."""
+    for path, _ in _places(doc):
+        if not path:
+            continue
+        for bad in _HOSTILE_VALUES:
+            def put(inner, key, bad=bad):
+                inner[key] = bad
+            try:
+                parse(_with(doc, path, put), name, base_dir=Path("/nonexistent"))
+            except ScenarioError as exc:
+                assert str(exc)
+
+
+@pytest.mark.parametrize("name, doc", _shipped_docs())
+def test_an_unknown_key_in_any_table_of_a_shipped_scenario_is_named(name, doc):
+    """A typo is reported, never ignored: the ns-3 tables (nodes, wifi, propagation) took any."""
+    import copy
+
+    for path, table in _places(doc):
+        if isinstance(table, dict):
+            changed = copy.deepcopy(doc)
+            inner = changed
+            for key in path:
+                inner = inner[key]
+            inner["bogus_key"] = 1
+            with pytest.raises(ScenarioError, match="bogus_key"):
+                parse(changed, name, base_dir=Path("/nonexistent"))

@@ -146,3 +146,13 @@ def test_other_sysid_frames_are_counted_not_handled():
     vehicle, session, client = make()
     got = client.command_long(M.MAV_CMD_COMPONENT_ARM_DISARM, 1, target_system=7)
     assert got == [] and session.stats.rx_other_target == 1 and vehicle.calls == []
+
+
+def test_a_float_beyond_float32_is_sent_as_infinity_as_a_c_float_holds_it():
+    """A setpoint computed from a parameter PX4 stores as given (a gain of 3e38) can exceed
+    float32: PX4's float fields hold ±inf there; struct.pack would raise OverflowError."""
+    enc = codec.Encoder(1, 1)
+    frame = enc.pack(M.MAVLink_position_target_local_ned_message, 1, 1, 0, 1e39, -1e39, 2.0,
+                     0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    msg = M.MAVLink(None).decode(bytearray(frame))
+    assert (msg.x, msg.y, msg.z) == (float("inf"), float("-inf"), 2.0)

@@ -49,7 +49,7 @@ def test_second_list_restarts_without_hash():
     vehicle, session, client = make()
     client.send(M.MAVLink_param_request_list_message(1, 1))
     client.run_until(0.05)
-    got = client.send(M.MAVLink_param_request_list_message(0, 0))
+    got = client.send(M.MAVLink_param_request_list_message(1, 0))  # component 0: all
     assert of_type(got, "PARAM_VALUE") == []
     values = of_type(client.run_until(2.0), "PARAM_VALUE")
     assert [m.param_index for m in values] == list(range(vehicle.params.count))
@@ -234,3 +234,18 @@ def test_qgc_cache_matches_the_hash_across_flights_and_bookkeeping_is_not_broadc
         assert struct.unpack("<I", raw_value(api.messages("PARAM_VALUE")[-1]))[0] == hash_before
         params.set("MPC_XY_CRUISE", 7.0)
         assert params.hash32() != hash_before
+
+
+def test_param_messages_to_system_0_are_not_for_the_autopilot():
+    """mavlink_parameters.cpp takes PARAM_SET, PARAM_REQUEST_READ and PARAM_REQUEST_LIST only
+    when target_system is its own (component its own or 0): a PARAM_SET to system 0 must not
+    change the parameter of every vehicle on the network."""
+    vehicle, session, client = make()
+    before = vehicle.params["MPC_XY_VEL_MAX"]
+    got = client.send(M.MAVLink_param_set_message(0, 1, b"MPC_XY_VEL_MAX", 3.0,
+                                                  M.MAV_PARAM_TYPE_REAL32))
+    got += client.send(M.MAVLink_param_request_read_message(0, 1, b"MPC_XY_VEL_MAX", -1))
+    got += client.send(M.MAVLink_param_request_list_message(0, 0))
+    got += client.run_until(1.0)
+    assert vehicle.params["MPC_XY_VEL_MAX"] == before
+    assert of_type(got, "PARAM_VALUE") == [] and of_type(got, "PARAM_ERROR") == []

@@ -294,3 +294,21 @@ def test_same_seed_same_trace(name):
     assert _trace(name, 5) == _trace(name, 5)
     if name in ("burst", "wireless"):  # the random ones
         assert _trace(name, 5) != _trace(name, 6)
+
+
+@pytest.mark.parametrize("model, key, value", [
+    ("wireless", "tx_power_dbm", 1e308), ("wireless", "ref_loss_db", -1e308),
+    ("wireless", "noise_floor_dbm", 1e308), ("wireless", "shadowing_sigma_db", 1e308),
+    ("wireless", "shadowing_sigma_db", math.inf),
+    ("lte", "enb_tx_power_dbm", 1e308), ("lte", "ue_noise_figure_db", 1e308),
+    ("lte", "ref_loss_db", -1e308),
+])
+def test_a_radio_level_a_float_cannot_hold_is_refused_naming_it(model, key, value):
+    """10^(x/10) of such a level overflowed: when the first packet crossed (wireless) or when
+    the model was built (lte), an OverflowError instead of the scenario's key."""
+    params = {key: value}
+    if model == "lte":
+        params["cells_ned_m"] = [[0.0, 0.0, -30.0]]
+    mobility = Mobility({"a": (0.0, 0.0, 0.0), "b": (50.0, 0.0, 0.0)})
+    with pytest.raises(ValueError, match=key):
+        make_model(model, params, seed=0, stream_name="x", mobility=mobility, src="a", dst="b")

@@ -457,3 +457,19 @@ def test_rtl_return_altitude_follows_px4s_cone(distance, cone, expected):
     30, RTL_MIN_DIST 10, NAV_ACC_RAD 2)."""
     from vehicles.nav_rtl import return_height_m
     assert return_height_m(distance, 30.0, cone, 10.0, 2.0) == pytest.approx(expected, abs=1e-3)
+
+
+@pytest.mark.parametrize("delay_s", [70_000.0, 3e38])
+def test_a_hold_delay_beyond_the_events_field_is_cast_as_px4_casts_it(delay_s):
+    """PX4 stores COM_FAIL_ACT_T as given (no range check in param_set); notifyUser sends the
+    delay as (uint16_t)delay_s, so a huge one wraps in the event and the text says it whole."""
+    log, events = StatusLog(), EventLog()
+    fs = Failsafe(ParamStore({"NAV_DLL_ACT": 2}), log)
+    fs.events = events
+    fs._params.set("COM_FAIL_ACT_T", delay_s)
+    base = dict(armed=True, user_nav_state=NavState.AUTO_MISSION, manual_control_lost=False)
+    fs.update(0.0, FailsafeFlags(**base))
+    assert fs.update(1.0, FailsafeFlags(**base, gcs_lost=True)) is Action.HOLD
+    secs = int(float(fs._params["COM_FAIL_ACT_T"]) + 0.5)
+    assert _told(events)[0][3][2] == secs & 0xFFFF
+    assert log.after(0)[-1].text == f"Failsafe activated, entering Hold for {secs} seconds\t"

@@ -18,11 +18,15 @@ import functools
 import hashlib
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from numba import njit
 
 UNCACHED: list[str] = []
+# Float division as in PX4's C++: x/0 is ±inf and 0/0 NaN, never an exception. A parameter PX4
+# stores as given (MPC_JERK_AUTO = 0, MPC_XY_VEL_P_ACC = 0) then makes a setpoint non-finite and
+# the controllers take PX4's path for that (PositionControl's failsafe setpoint), as PX4 does.
+ERROR_MODEL: Literal["numpy"] = "numpy"
 _SOURCES = Path(__file__).resolve().parents[1]  # the vehicles package
 
 
@@ -38,10 +42,10 @@ def sources_digest() -> str:
 
 def njit_cached(fn: Any) -> Any:
     try:
-        dispatcher = njit(cache=True)(fn)
+        dispatcher = njit(cache=True, error_model=ERROR_MODEL)(fn)
     except RuntimeError:  # numba: "cannot cache function …: no locator available"
         UNCACHED.append(fn.__qualname__)
-        return njit(fn)
+        return njit(error_model=ERROR_MODEL)(fn)
     _drop_if_stale(dispatcher, fn)
     return dispatcher
 

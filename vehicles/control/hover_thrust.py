@@ -82,7 +82,10 @@ class ZeroOrderHoverThrustEkf:
         innov_var = max(h * self.state_var * h + r, r)
         innov = acc_z - self._predicted_acc_z(thrust)
         k = self.state_var * h / innov_var
-        test_ratio = innov * innov / (self.gate_size * self.gate_size * innov_var)
+        # computeInnovTestRatio in float arithmetic: HTE_ACC_GATE = 0 (PX4 stores it as given)
+        # makes the ratio inf (0/0: NaN), so every measurement is rejected, not a fault.
+        gate = self.gate_size * self.gate_size * innov_var
+        test_ratio = innov * innov / gate if gate != 0.0 else math.inf if innov else math.nan
         residual = innov
         if test_ratio < 1.0:
             self.hover_thr = _clamp(self.hover_thr + k * innov, self.hover_thr_min,
