@@ -25,6 +25,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
+from vehicles.cnum import c_int
 from vehicles.custom_mode import custom_mode_of
 from vehicles.events import (
     FAILSAFE_CRIT_BAT,
@@ -382,7 +383,8 @@ class Failsafe:
         text (which only says that a failsafe began)."""
         events, custom_mode = self.events, custom_mode_of(mode)
         if action is Action.HOLD and delayed is not Action.NONE:
-            secs = int(self._delay_until - now_s + 0.5)
+            left_s = self._delay_until - now_s + 0.5
+            secs = int(left_s) if math.isfinite(left_s) else c_int(left_s)  # inf: saturated
             wire_secs = secs & 0xFFFF  # the event's (uint16_t)delay_s: COM_FAIL_ACT_T is as given
             if events is None:
                 pass

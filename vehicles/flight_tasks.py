@@ -22,6 +22,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from vehicles.cnum import wrap_remainder
 from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
 from vehicles.control.hover_thrust import HoverThrustEstimator
 from vehicles.control.position_control import PositionSetpoint
@@ -106,8 +107,10 @@ class AutoTask(FlightTask):
                 self._params_version = p.version
                 self._yawrate_max_radps = math.radians(float(p["MPC_YAWRAUTO_MAX"]))
             step = self._yawrate_max_radps * t.dt_s
+            # FlightTaskAuto::_limitYawRate: a non-finite MPC_YAWRAUTO_MAX makes the step
+            # infinite and matrix::wrap_pi of it NaN (the next tick starts from the yaw again)
             err = math.remainder(nav_sp.yaw_rad - st.yaw_sp, math.tau)
-            st.yaw_sp = math.remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
+            st.yaw_sp = wrap_remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
         # The trajectory towards the triplet, then position control on it at the slewed
         # heading (one compiled call).
         st.apply_auto(t.dt_s, t.meas, nav_sp.target_ned_m, nav_sp.limits, nav_sp.vz_cmd_mps,

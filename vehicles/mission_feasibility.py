@@ -31,6 +31,7 @@ from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 from vehicles import events as ev
+from vehicles.cnum import c_int
 from vehicles.events import Log
 from vehicles.geodesy import distance_m
 from vehicles.plan_types import PlanItem, PlanType
@@ -177,8 +178,9 @@ class FeasibilityChecker:
         dist = distance_m(item.lat_deg, item.lon_deg, *self._position)
         if dist < limit:
             return True
-        return self._reject(f"First waypoint too far away: {int(dist)}m, {int(limit)} max\t",
-                            ev.MIS_FIRST_WP_TOO_FAR, Log.INFO, "II", int(dist), int(limit))
+        return self._reject(f"First waypoint too far away: {c_int(dist)}m, {c_int(limit)} max\t",
+                            ev.MIS_FIRST_WP_TOO_FAR, Log.INFO, "II", c_int(dist),
+                            c_int(limit, 0, 2**32 - 1))
 
     def _gate_apart(self, item: Item) -> bool:
         """checkDistancesBetweenWaypoints: a gate on top of its neighbouring waypoint."""

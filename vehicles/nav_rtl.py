@@ -19,6 +19,7 @@ from __future__ import annotations
 import enum
 import math
 
+from vehicles.cnum import c_ceil
 from vehicles.events import RTL_COMPLETED_LOITER, RTL_LAND, RTL_RETURN_AT, Log
 from vehicles.nav_core import Land, NavContext, NavMode, NavSetpoint
 from vehicles.plan_types import MavCmd, PlanType
@@ -91,9 +92,9 @@ class Return(NavMode):
         if not ctx.landed:
             # rtl_direct.cpp: the return altitude AMSL, and above the destination
             home = ctx.home
-            amsl = math.ceil((home.geo.alt_amsl_m + home.position_ned_m[2] if home else 0.0)
-                             - self.return_z - 1e-6)
-            above = math.ceil(dz - self.return_z - 1e-6)
+            amsl = c_ceil((home.geo.alt_amsl_m + home.position_ned_m[2] if home else 0.0)
+                          - self.return_z - 1e-6)
+            above = c_ceil(dz - self.return_z - 1e-6)
             ctx.log.info(ctx.now_s, f"RTL: start return at {amsl} m ({above} m above destination)\t")
             ctx.log.event(ctx.now_s, RTL_RETURN_AT, Log.INFO, None, "ii", amsl, above)
 

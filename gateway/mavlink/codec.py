@@ -71,6 +71,13 @@ def c_int(value: float, lo: int, hi: int) -> int:
     return max(lo, min(hi, math.trunc(value)))
 
 
+def sat_round(value: float, lo: int, hi: int) -> int:
+    """``value`` rounded into an integer field as the flight controller's float→int conversion
+    leaves it: ARM's saturates, NaN is 0 (battery values come from BAT1_* parameters, which PX4
+    stores as given, NaN and ±inf too)."""
+    return 0 if value != value else int(round(min(max(value, lo), hi)))
+
+
 def i16(value: float) -> int:
     return c_int(value, INT16_MIN, INT16_MAX)
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from pymavlink.dialects.v20 import common as mavlink2
 
-from gateway.mavlink.codec import Encoder
+from gateway.mavlink.codec import Encoder, sat_round
 from gateway.mavlink.modes import heartbeat_modes
 from vehicles.estimation import F_ACC, F_BARO, F_GPS_OFF, F_GYRO, F_MAG
 from vehicles.types import VehicleStatus
@@ -97,9 +97,9 @@ def build_heartbeat(enc: Encoder, status: VehicleStatus, mav_type: int) -> bytes
 def build_sys_status(enc: Encoder, status: VehicleStatus) -> bytes:
     present, enabled, health = sensor_bits(status)
     bat = status.battery
-    voltage_mv = min(max(int(round(bat.voltage_v * 1000.0)), 0), 65534)
-    current_ca = min(max(int(round(bat.current_a * 100.0)), -1), 32767)
-    remaining = min(max(int(round(bat.remaining * 100.0)), 0), 100)
+    voltage_mv = sat_round(bat.voltage_v * 1000.0, 0, 65534)
+    current_ca = sat_round(bat.current_a * 100.0, -1, 32767)
+    remaining = sat_round(bat.remaining * 100.0, 0, 100)
     return enc.pack(mavlink2.MAVLink_sys_status_message, present, enabled, health,
                     0, voltage_mv, current_ca, remaining, 0, 0, 0, 0, 0, 0)
 

@@ -18,7 +18,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder, packer_of
+from gateway.mavlink.codec import Encoder, packer_of, sat_round
 from gateway.mavlink.heartbeat import build_extended_sys_state, build_heartbeat, build_sys_status
 from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
 from gateway.mavlink.snapshot import Snapshot
@@ -204,10 +204,7 @@ def _charge_state(remaining: float, params: ParamStore) -> int:
     return MAV_BATTERY_CHARGE_STATE_OK
 
 
-def _c_int(value: float, low: int, high: int) -> int:
-    """A float as the flight controller's float→int conversion gives it (ARM's saturates, NaN
-    is 0): the battery values come from BAT1_* parameters PX4 stores as given."""
-    return 0 if value != value else int(round(min(max(value, low), high)))
+
 
 
 def battery_status(enc: Encoder, s: Snapshot) -> bytes:
@@ -220,9 +217,9 @@ def battery_status(enc: Encoder, s: Snapshot) -> bytes:
     voltages = [cell] * cells + [UINT16_UNKNOWN] * (10 - cells)
     return enc.pack(M.MAVLink_battery_status_message, 0, MAV_BATTERY_FUNCTION_ALL,
                     MAV_BATTERY_TYPE_LIPO, INT16_MAX, voltages,
-                    _c_int(bat.current_a * 100.0, -32768, 32767),
-                    _c_int(bat.consumed_mah, -2**31, 2**31 - 1), -1,
-                    _c_int(bat.remaining * 100.0, -128, 127), 0,
+                    sat_round(bat.current_a * 100.0, -32768, 32767),
+                    sat_round(bat.consumed_mah, -2**31, 2**31 - 1), -1,
+                    sat_round(bat.remaining * 100.0, -128, 127), 0,
                     _charge_state(bat.remaining, s.vehicle.params), [0, 0, 0, 0], 0, 0)
 
 
