@@ -7,11 +7,15 @@ Invariants:
   ``param_find`` table is.
 - Names come from ``data/px4_params.csv`` (PX4 metadata; see tools/make_param_table.py). A name that
   is not there does not exist: ``set`` refuses it.
+- A change is what PX4's param_set_internal calls one (``px4_changed``: for a FLOAT a step of
+  more than FLT_EPSILON, so nothing to or from NaN is a change). The value is stored either way.
 - Observers registered with ``on_change`` are called after every successful change, so the
-  gateway can broadcast PARAM_VALUE and the autopilot can re-read what it caches. A change
-  made with ``notify=False`` is PX4's ``commit_no_notification`` (no parameter_update: no
-  PARAM_VALUE, no logger entry); only observers registered with ``quiet=True`` (the storage,
-  which PX4's autosave still writes) see it.
+  gateway can broadcast PARAM_VALUE and the autopilot can re-read what it caches. A value stored
+  that is no change bumps no ``version`` and reaches only ``on_stored`` observers (the storage,
+  which PX4 writes with the next autosave). A change made with ``notify=False`` is PX4's
+  ``commit_no_notification`` (no parameter_update: no PARAM_VALUE, no logger entry); only
+  observers registered with ``quiet=True`` (the storage, which PX4's autosave still writes) see
+  it.
 - ``VOLATILE``: the parameters PX4's metadata marks ``@volatile`` (the autopilot's own
   bookkeeping); ``hash32`` leaves them out, as PX4's param_hash_check does.
 - ``version`` counts the changes: a module that keeps values derived from parameters re-reads
@@ -51,16 +55,34 @@ class ParamInfo:
     description: str
 
 
+FLT_EPSILON = 1.1920929e-07
+
+
+def px4_changed(ptype: ParamType, old: int | float, new: int | float) -> bool:
+    """PX4's param_set_internal test for a change: INT32 ``old != new``, FLOAT
+    ``fabsf(old - new) > FLT_EPSILON``. A NaN on either side is no change (every comparison
+    with NaN is false), nor is inf → inf (inf − inf is NaN)."""
+    if ptype is ParamType.INT32:
+        return old != new
+    return abs(old - new) > FLT_EPSILON
+
+
+def _same(a: int | float, b: int | float) -> bool:
+    """The same stored value (NaN is NaN)."""
+    return a == b or (a != a and b != b)
+
+
 def _f32(value: float) -> float:
     return struct.unpack("<f", struct.pack("<f", float(value)))[0]
 
 
 def _coerce(ptype: ParamType, value: float) -> int | float:
-    """``value`` as the parameter's type; ValueError for what the type cannot hold (NaN, ±inf,
-    beyond float32 or int32, a fraction for an INT32)."""
-    if not math.isfinite(value):
-        raise ValueError(f"{value!r} is not a finite number")
+    """``value`` as the parameter's type; ValueError for what the type cannot hold (NaN or ±inf
+    for an INT32, beyond float32 or int32, a fraction for an INT32). A REAL32 holds NaN and ±inf:
+    PX4's param_set stores the float32 it is given (src/lib/parameters/parameters.cpp)."""
     if ptype is ParamType.INT32:
+        if not math.isfinite(value):
+            raise ValueError(f"{value!r} is not an INT32")
         ivalue = int(value)
         if ivalue != value or not -(2**31) <= ivalue < 2**31:
             raise ValueError(f"{value!r} is not an INT32")
@@ -142,6 +164,7 @@ class ParamStore:
             self._by_name = {i.name: v for i, v in zip(self._infos, self._values)}
         self._observers: list[Callable[[str, int | float], None]] = []
         self._quiet_observers: list[Callable[[str, int | float], None]] = []
+        self._stored_observers: list[Callable[[str, int | float], None]] = []
         self.version = 0
         self.derived: dict[object, object] = {}
         self._set_defaults: dict[str, int | float] = {}  # ``set_default``'s, over the table's
@@ -185,18 +208,32 @@ class ParamStore:
     def set(self, name: str, value: float, notify: bool = True) -> bool:
         """Set a value, coerced to the parameter's type. False if the name does not exist.
         ``notify=False``: PX4's commit_no_notification (module rules)."""
+        return self._set(name, value, notify)
+
+    def _set(self, name: str, value: float, notify: bool, reset: bool = False) -> bool:
         i = self._index.get(name)
         if i is None:
             return False
-        new = _coerce(self._infos[i].type, value)
-        if new != self._values[i]:
-            self._values[i] = new
-            self._by_name[name] = new
+        info = self._infos[i]
+        new = _coerce(info.type, value)
+        old = self._values[i]
+        if px4_changed(info.type, old, new) or (reset and not _same(old, new)):
+            self._store(i, name, new)
             self.version += 1
             self.derived.clear()
             for observer in list(self._observers if notify else self._quiet_observers):
                 observer(name, new)
+        elif not _same(old, new):
+            # PX4 stores it all the same, but as no change: no parameter_update (modules keep
+            # what they read), no autosave (the next one writes it), nothing to other links.
+            self._store(i, name, new)
+            for observer in list(self._stored_observers):
+                observer(name, new)
         return True
+
+    def _store(self, i: int, name: str, value: int | float) -> None:
+        self._values[i] = value
+        self._by_name[name] = value
 
     def set_default(self, name: str, value: float) -> bool:
         """PX4's ``param set-default`` (an airframe's or the launch's values, e.g. the instance's
@@ -214,7 +251,8 @@ class ParamStore:
         back to its default (observers see each change)."""
         for info in self._infos:
             if selected(info.name):
-                self.set(info.name, self.default_of(info.name))
+                # param_reset drops the user value and notifies whatever the comparison says
+                self._set(info.name, self.default_of(info.name), True, reset=True)
 
     def on_change(self, observer: Callable[[str, int | float], None], quiet: bool = False
                   ) -> None:
@@ -223,6 +261,11 @@ class ParamStore:
         self._observers.append(observer)
         if quiet:
             self._quiet_observers.append(observer)
+
+    def on_stored(self, observer: Callable[[str, int | float], None]) -> None:
+        """``observer(name, value)`` after a value was stored that PX4 counts as no change
+        (``px4_changed``: a NaN on either side, inf → inf, a step within FLT_EPSILON)."""
+        self._stored_observers.append(observer)
 
     def changed_from_default(self) -> dict[str, int | float]:
         return {

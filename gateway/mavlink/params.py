@@ -11,6 +11,8 @@ Rules and invariants:
   starving telemetry. A LIST during a running list restarts at 0 without the hash.
 - PARAM_SET success: echo on this link; every *other* change (other links, the autopilot) arrives
   through the store's on_change observer and is sent here too. Our own set is not echoed twice.
+  A REAL32 NaN or ±inf is stored and echoed as PX4 does; a store PX4 counts as no change (to or
+  from NaN) reaches the other links only in their next list or read.
 - Errors answer PARAM_ERROR (345, PX4 ≥ 1.17); PX4 ≤ 1.16 would stay silent.
 """
 
@@ -135,11 +137,12 @@ class ParamService:
             value: float = float_bits_to_int32_raw(msg)
         else:
             value = msg.param_value
+        # mavlink_parameters.cpp: param_set, then send_param whatever it did. A float32 is
+        # stored as given (NaN and ±inf too); to or from NaN it is no change (no
+        # parameter_update), so only this echo carries it, not the other links.
         self._own_set = name
         try:
             self.store.set(name, value)
-        except ValueError:
-            pass  # non-finite float etc.: PX4 would store it; we echo the unchanged value
         finally:
             self._own_set = None
         self.send(self.param_value(index))

@@ -1,5 +1,6 @@
 """Parameter protocol: complete paced list, bytewise INT32, read, set echo + broadcast, errors."""
 
+import math
 import struct
 
 from pymavlink.dialects.v20 import common as M
@@ -249,3 +250,42 @@ def test_param_messages_to_system_0_are_not_for_the_autopilot():
     got += client.run_until(1.0)
     assert vehicle.params["MPC_XY_VEL_MAX"] == before
     assert of_type(got, "PARAM_VALUE") == [] and of_type(got, "PARAM_ERROR") == []
+
+
+def test_param_set_non_finite_real32_is_stored_and_echoed_as_px4():
+    """parameters.cpp param_set_internal stores the float as given; the change test is
+    fabsf(old - new) > FLT_EPSILON, false to or from NaN (and inf -> inf): no parameter_update,
+    so only the PARAM_SET's own echo (mavlink_parameters.cpp send_param) carries it."""
+    vehicle = FakeVehicle()
+    store = vehicle.params
+    api, gcs = Session(vehicle, LinkKind.API), Session(vehicle, LinkKind.GCS)
+    c_api, c_gcs = Client(api), Client(gcs, 255, 190)
+    nan, inf = float("nan"), float("inf")
+
+    def set_alt(value: float) -> float:
+        (echo,) = c_api.send(M.MAVLink_param_set_message(1, 1, b"RTL_RETURN_ALT", value, 9))
+        assert echo.param_id == "RTL_RETURN_ALT"
+        return echo.param_value
+
+    version = store.version
+    assert math.isnan(set_alt(nan)) and math.isnan(store["RTL_RETURN_ALT"])
+    assert c_gcs.drain() == [] and store.version == version  # no change: no parameter_update
+    assert set_alt(inf) == inf and c_gcs.drain() == []  # NaN -> inf: still no change
+    assert set_alt(-inf) == -inf  # inf -> -inf: a change, broadcast
+    assert [(m.param_id, m.param_value) for m in c_gcs.drain()] == [("RTL_RETURN_ALT", -inf)]
+    assert store.version == version + 1
+    assert set_alt(-inf) == -inf and c_gcs.drain() == []  # -inf -> -inf: inf - inf is NaN
+    assert set_alt(30.0) == 30.0 and len(c_gcs.drain()) == 1  # -inf -> 30: a change
+    assert set_alt(nan) != set_alt(30.0)  # NaN -> 30: stored, no change
+    assert store["RTL_RETURN_ALT"] == 30.0 and c_gcs.drain() == []
+    # a step within FLT_EPSILON (absolute: one float32 step at 0.5) is stored, no change either
+    assert set_alt(0.5) == 0.5 and len(c_gcs.drain()) == 1
+    next_up = struct.unpack("<f", struct.pack("<i", struct.unpack("<i", struct.pack("<f", 0.5))[0]
+                                              + 1))[0]
+    assert set_alt(next_up) == next_up and c_gcs.drain() == []
+    # param_reset notifies whatever the comparison says
+    set_alt(nan)
+    store.reset(lambda name: name == "RTL_RETURN_ALT")
+    assert [m.param_id for m in c_gcs.drain()] == ["RTL_RETURN_ALT"]
+    assert store["RTL_RETURN_ALT"] == store.default_of("RTL_RETURN_ALT")
+    # an INT32 has no NaN: its four bytes are an int (see the bytewise test above)
