@@ -169,6 +169,7 @@ class Daemon:
             self._vehicle_states[sysid] = kept
             # From now on what clients set, and what PX4 saves without notification.
             store.on_change(kept.on_param, quiet=True)
+            store.on_stored(kept.on_param_stored)  # written with the next save, as PX4 does
         return store
 
     def _restore_plans(self) -> None:

@@ -8,6 +8,9 @@ the daemon's own frames), saved once per simulated second while it changes and a
 file per process: a daemon with ``--shards`` keeps one per shard.
 
 Rules and invariants:
+- Parameter values are JSON numbers; a REAL32 NaN or ±inf (PX4 stores them) is the string
+  "NaN", "Infinity" or "-Infinity" (``NON_FINITE``), so the file stays strict JSON and loads back
+  the same value. A value PX4 stores as no change (to or from NaN) is written with the next save.
 - Only what a client (or the vehicle itself) changed after boot is kept: never ``--param``
   values, never the speed-scaled link-loss time-outs, never MAV_SYS_ID (the instance decides, as
   PX4's rcS does). A value set back to its default is still kept: the client chose it.
@@ -47,6 +50,7 @@ WRITE_DELAY_S = 0.2  # wall seconds a change waits for others before the file is
 CLOSE_TIMEOUT_S = 4.0  # SIGTERM must still stop the daemon within 5 s
 PLAN_KEYS = {PlanType.MISSION: "mission", PlanType.FENCE: "fence", PlanType.RALLY: "rally"}
 UNREADABLE_SUFFIX = ".unreadable"
+NON_FINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
 
 
 class StateError(Exception):
@@ -124,10 +128,10 @@ def load(state_dir: Path, sysid: int, ignore_unreadable: bool = False) -> Saved:
         for name, value in values.items():
             if name in INSTANCE_PARAMS:
                 continue
-            if not isinstance(value, (int, float)) or isinstance(value, bool) \
-                    or not math.isfinite(value):
-                log.warning("%s: %s = %r is not a finite number; keeping the default", path,
-                            name, value)
+            value = NON_FINITE.get(value, value) if isinstance(value, str) else value
+            if not isinstance(value, (int, float)) or isinstance(value, bool):
+                log.warning("%s: %s = %r is not a number; keeping the default", path, name,
+                            value)
                 continue
             saved.params[str(name)] = value
     path = plans_path(state_dir, sysid)
@@ -236,8 +240,14 @@ class VehicleState:
             return
         self.params[name] = value
         snapshot = dict(self.params)
-        self._writer.submit(self._params_path, lambda: _dump({"params": dict(sorted(
-            snapshot.items()))}))
+        self._writer.submit(self._params_path, lambda: _dump({"params": {
+            k: _param_json(v) for k, v in sorted(snapshot.items())}}))
+
+    def on_param_stored(self, name: str, value: float) -> None:
+        """A value PX4 stores as no change (param_set_internal: to or from NaN): no autosave of
+        its own; the next save writes it with the rest."""
+        if name not in INSTANCE_PARAMS:
+            self.params[name] = value
 
     def on_plan(self, plan_type: PlanType, items: tuple[PlanItem, ...]) -> None:
         if plan_type not in PLAN_KEYS:
@@ -284,6 +294,12 @@ class SigningKeeper:
         if self.state.changed:
             doc = {"key": self._key, **self.state.to_doc()}
             self._writer.submit(self._path, lambda: _dump(doc))
+
+
+def _param_json(value: float) -> float | str:
+    if math.isfinite(value):
+        return value
+    return "NaN" if math.isnan(value) else "Infinity" if value > 0 else "-Infinity"
 
 
 def _dump(doc: dict[str, Any]) -> str:

@@ -219,3 +219,42 @@ def test_an_unreadable_signing_state_stops_the_start(tmp_path):
     d = signed_boot(tmp_path, key, ignore=True)
     assert (tmp_path / "signing-1.json.unreadable").exists()
     d.close()
+
+
+def test_non_finite_values_round_trip_as_strict_json(tmp_path):
+    """PX4 stores a REAL32 NaN or ±inf and its autosave exports it; the file stays strict JSON
+    and the next boot has the same values. A NaN is stored as no change (no autosave of its
+    own): it is written with the next save."""
+    d = boot(tmp_path)
+    params = d.sim.vehicles[0].params
+    params.set("MPC_XY_CRUISE", math.inf)
+    params.set("MIS_TAKEOFF_ALT", -math.inf)
+    params.set("RTL_RETURN_ALT", math.nan)
+    params.set("NAV_DLL_ACT", 2)  # the next save
+    written(d)
+    text = state.params_path(tmp_path, 1).read_text()
+    doc = json.loads(text, parse_constant=lambda c: pytest.fail(f"bare {c} in {text}"))
+    assert doc["params"] == {"MIS_TAKEOFF_ALT": "-Infinity", "MPC_XY_CRUISE": "Infinity",
+                             "NAV_DLL_ACT": 2, "RTL_RETURN_ALT": "NaN"}
+    d2 = boot(tmp_path)
+    p = d2.sim.vehicles[0].params
+    assert p["MPC_XY_CRUISE"] == math.inf and p["MIS_TAKEOFF_ALT"] == -math.inf
+    assert math.isnan(p["RTL_RETURN_ALT"]) and p["NAV_DLL_ACT"] == 2
+    written(d2)
+
+
+def test_non_finite_spellings_in_a_file(tmp_path):
+    """Bare NaN/Infinity tokens (what Python's json writes) load too; an INT32 cannot hold
+    them, nor can any parameter hold another string: the default is kept."""
+    path = state.params_path(tmp_path, 1)
+    path.parent.mkdir(parents=True)
+    path.write_text('{"version": 1, "params": {"MPC_XY_CRUISE": Infinity, "MIS_TAKEOFF_ALT": NaN,'
+                    ' "NAV_DLL_ACT": "NaN", "RTL_RETURN_ALT": "nan", "MPC_Z_P": "Infinity"}}')
+    d = boot(tmp_path)
+    p = d.sim.vehicles[0].params
+    defaults = ParamStore()
+    assert p["MPC_XY_CRUISE"] == math.inf and math.isnan(p["MIS_TAKEOFF_ALT"])
+    assert p["MPC_Z_P"] == math.inf
+    assert p["NAV_DLL_ACT"] == defaults["NAV_DLL_ACT"]
+    assert p["RTL_RETURN_ALT"] == defaults["RTL_RETURN_ALT"]
+    written(d)
