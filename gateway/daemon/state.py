@@ -9,8 +9,9 @@ file per process: a daemon with ``--shards`` keeps one per shard.
 
 Rules and invariants:
 - Parameter values are JSON numbers; a REAL32 NaN or ±inf (PX4 stores them) is the string
-  "NaN", "Infinity" or "-Infinity" (``NON_FINITE``), so the file stays strict JSON and loads back
-  the same value. A value PX4 stores as no change (to or from NaN) is written with the next save.
+  "NaN", "Infinity" or "-Infinity" (``NON_FINITE``; a NaN with other float32 bits
+  ``NaN(0x<bits>)``), so the file stays strict JSON and loads back the same value (and hash).
+  A value PX4 stores as no change (to or from NaN) is written with the next save.
 - Only what a client (or the vehicle itself) changed after boot is kept: never ``--param``
   values, never the speed-scaled link-loss time-outs, never MAV_SYS_ID (the instance decides, as
   PX4's rcS does). A value set back to its default is still kept: the client chose it.
@@ -30,6 +31,8 @@ import json
 import logging
 import math
 import os
+import re
+import struct
 import threading
 from collections.abc import Callable, Mapping
 from dataclasses import astuple, dataclass, field
@@ -51,6 +54,7 @@ CLOSE_TIMEOUT_S = 4.0  # SIGTERM must still stop the daemon within 5 s
 PLAN_KEYS = {PlanType.MISSION: "mission", PlanType.FENCE: "fence", PlanType.RALLY: "rally"}
 UNREADABLE_SUFFIX = ".unreadable"
 NON_FINITE = {"NaN": math.nan, "Infinity": math.inf, "-Infinity": -math.inf}
+_NAN_BITS = 0x7FC00000  # the float32 NaN that "NaN" stands for
 
 
 class StateError(Exception):
@@ -128,7 +132,7 @@ def load(state_dir: Path, sysid: int, ignore_unreadable: bool = False) -> Saved:
         for name, value in values.items():
             if name in INSTANCE_PARAMS:
                 continue
-            value = NON_FINITE.get(value, value) if isinstance(value, str) else value
+            value = _param_value(value) if isinstance(value, str) else value
             if not isinstance(value, (int, float)) or isinstance(value, bool):
                 log.warning("%s: %s = %r is not a number; keeping the default", path, name,
                             value)
@@ -299,7 +303,23 @@ class SigningKeeper:
 def _param_json(value: float) -> float | str:
     if math.isfinite(value):
         return value
-    return "NaN" if math.isnan(value) else "Infinity" if value > 0 else "-Infinity"
+    if math.isnan(value):  # another NaN than the usual one keeps its float32 bits
+        bits = struct.unpack("<I", struct.pack("<f", value))[0]
+        return "NaN" if bits == _NAN_BITS else f"NaN(0x{bits:08x})"
+    return "Infinity" if value > 0 else "-Infinity"
+
+
+def _param_value(text: str) -> float | str:
+    """A parameter value written as a string: NON_FINITE or ``NaN(0x<float32 bits>)``; else the
+    string itself (not a number)."""
+    if text in NON_FINITE:
+        return NON_FINITE[text]
+    m = re.fullmatch(r"NaN\(0x([0-9a-f]{8})\)", text)
+    if m:
+        value = struct.unpack("<f", struct.pack("<I", int(m.group(1), 16)))[0]
+        if math.isnan(value):
+            return value
+    return text
 
 
 def _dump(doc: dict[str, Any]) -> str:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import struct
 from dataclasses import astuple, replace
 
 import pytest
@@ -230,16 +231,21 @@ def test_non_finite_values_round_trip_as_strict_json(tmp_path):
     params.set("MPC_XY_CRUISE", math.inf)
     params.set("MIS_TAKEOFF_ALT", -math.inf)
     params.set("RTL_RETURN_ALT", math.nan)
+    minus_nan = struct.unpack("<f", struct.pack("<I", 0xFFC00001))[0]
+    params.set("MPC_Z_P", minus_nan)
     params.set("NAV_DLL_ACT", 2)  # the next save
     written(d)
     text = state.params_path(tmp_path, 1).read_text()
     doc = json.loads(text, parse_constant=lambda c: pytest.fail(f"bare {c} in {text}"))
     assert doc["params"] == {"MIS_TAKEOFF_ALT": "-Infinity", "MPC_XY_CRUISE": "Infinity",
-                             "NAV_DLL_ACT": 2, "RTL_RETURN_ALT": "NaN"}
+                             "MPC_Z_P": "NaN(0xffc00001)", "NAV_DLL_ACT": 2,
+                             "RTL_RETURN_ALT": "NaN"}
     d2 = boot(tmp_path)
     p = d2.sim.vehicles[0].params
     assert p["MPC_XY_CRUISE"] == math.inf and p["MIS_TAKEOFF_ALT"] == -math.inf
     assert math.isnan(p["RTL_RETURN_ALT"]) and p["NAV_DLL_ACT"] == 2
+    assert struct.pack("<f", p["MPC_Z_P"]) == struct.pack("<I", 0xFFC00001)
+    assert p.hash32() == params.hash32()  # QGC's cache still matches
     written(d2)
 
 
