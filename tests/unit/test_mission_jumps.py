@@ -7,7 +7,7 @@ from gateway.testing import Sim, mission_item
 from vehicles.plan_types import MavCmd, PlanResult
 from vehicles.types import PX4_SITL_HOME
 
-COMPLETE = 5  # MISSION_STATE
+ACTIVE, COMPLETE = 3, 5  # MISSION_STATE
 READ_FAILED = "Waypoint could not be read.\t"
 
 
@@ -72,6 +72,8 @@ def test_exhausted_jump_at_the_end_finishes_at_the_last_flown_item(sim):
 
     mark = len(api.frames)
     api.send(api.mav.mission_set_current_encode(api.target, 1, 0))
+    assert sim.run_until(lambda: api.last("MISSION_CURRENT").mission_state == ACTIVE,
+                         timeout_s=3)
     reached, _current, texts = fly(sim, None, mark)
     # (after the 1 Hz repeats of item 1's MISSION_ITEM_REACHED) the jump's count stayed used up
     assert dedup(reached)[dedup(reached).index(0):] == [0, 1]
