@@ -10,8 +10,9 @@ Rules and invariants:
   not have: "Waypoint could not be read." (critical, event mission_failed_to_read_wp), and
   there is no next item. A jump to an index outside the mission has no next item either, said
   only on PX4's console ("Do Jump mission index is out of bounds.").
-- ``jumps_done`` maps a DO_JUMP's index to the jumps taken (PX4 writes the count back into the
-  stored item).
+- ``jumps_done`` (JumpCounts) maps a DO_JUMP's index to the jumps taken (PX4 writes the count
+  back into the stored item) and keeps, across resets, how many were counted and the last one
+  (report_do_jump_mission_changed).
 """
 
 from __future__ import annotations
@@ -31,8 +32,23 @@ POSITION_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_UNLIM,
                                MavCmd.NAV_TAKEOFF, MavCmd.NAV_LAND, 84, 85})
 
 
+class JumpCounts(dict[int, int]):
+    """Jumps taken per DO_JUMP index; ``reports`` (never reset) and ``last`` say which jump was
+    counted last."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.reports = 0
+        self.last = -1
+
+    def take(self, index: int) -> None:
+        self[index] = self.get(index, 0) + 1
+        self.reports += 1
+        self.last = index
+
+
 def non_jump_index(log: StatusLog, now_s: float, items: Sequence[PlanItem], index: int,
-                   jumps_done: dict[int, int], write_jumps: bool) -> int | None:
+                   jumps_done: JumpCounts, write_jumps: bool) -> int | None:
     """getNonJumpItem: the first item from ``index`` on that is not a DO_JUMP, following the
     jumps with repeats left; None when there is none."""
     count = len(items)
@@ -53,7 +69,7 @@ def non_jump_index(log: StatusLog, now_s: float, items: Sequence[PlanItem], inde
         done = jumps_done.get(index, 0)
         if repeats < 0 or done < repeats:
             if write_jumps:
-                jumps_done[index] = done + 1
+                jumps_done.take(index)
             index = target
         else:
             index += 1
@@ -61,7 +77,7 @@ def non_jump_index(log: StatusLog, now_s: float, items: Sequence[PlanItem], inde
 
 
 def look_ahead(log: StatusLog, now_s: float, items: Sequence[PlanItem], start: int,
-               jumps_done: dict[int, int]) -> list[int]:
+               jumps_done: JumpCounts) -> list[int]:
     """getNextPositionItems(start, NEXT_POSITION_ITEMS), as setActiveMissionItems runs it for
     each new current item (``start`` = current + 1): the next position items, jumps followed
     but not counted. Its reads are what matter (the failed read past an exhausted last jump).

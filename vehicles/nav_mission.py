@@ -37,7 +37,7 @@ from vehicles.events import (
     Log,
 )
 from vehicles.mission_feasibility import MissionCheck
-from vehicles.mission_jumps import look_ahead, non_jump_index
+from vehicles.mission_jumps import JumpCounts, look_ahead, non_jump_index
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
 from vehicles.plan_types import (
     REACHED_HISTORY,
@@ -75,7 +75,7 @@ class Mission(NavMode):
         self.reached_count = 0
         self._history: deque[int] = deque(maxlen=REACHED_HISTORY)
         self._reached_any = False
-        self._jumps_done: dict[int, int] = {}
+        self._jumps_done = JumpCounts()
         self._phase = "start"  # start | takeoff | goto | wait | approach | land | done
         self._target: Vec3 = (0.0, 0.0, 0.0)
         self._yaw = 0.0
@@ -161,7 +161,8 @@ class Mission(NavMode):
             in_mission_mode=in_mission_mode, reached_seq=self.reached_seq,
             reached_count=self.reached_count, mission_id=p.plan_id(PlanType.MISSION),
             fence_id=p.plan_id(PlanType.FENCE), rally_id=p.plan_id(PlanType.RALLY),
-            reached_history=tuple(self._history))
+            reached_history=tuple(self._history), jump_seq=self._jumps_done.last,
+            jump_count=self._jumps_done.reports)
 
     def _reached(self, seq: int) -> None:
         self.reached_seq = seq

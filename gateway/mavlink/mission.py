@@ -31,7 +31,9 @@ Rules and invariants:
   MISSION_SET_CURRENT sets it without sending, so its MISSION_CURRENT comes with the 1 Hz stream
   (telemetry.py). MISSION_ITEM_REACHED goes out when ``reached_count`` changes, then
   REACHED_REPEATS more times at 1 Hz (PX4: "send the reached message another 10 times"), until
-  a MISSION_COUNT on the link starts a new upload ("Reset last reached waypoint").
+  a MISSION_COUNT on the link starts a new upload ("Reset last reached waypoint"). After a
+  DO_JUMP is taken the link sends that item, unasked, to its last transfer partner when idle
+  (PX4: "Send a mission item again if the remaining DO_JUMPs has changed").
 """
 
 from __future__ import annotations
@@ -54,7 +56,7 @@ from gateway.mavlink.mission_items import (
     plan_type_of,
 )
 from gateway.mavlink.vehicle_port import VehicleFeatures
-from vehicles.plan_types import PlanItem, PlanResult, PlanType
+from vehicles.plan_types import MissionStatus, PlanItem, PlanResult, PlanType
 from vehicles.plans import CAPACITY  # one source: what the vehicle can store
 from vehicles.types import Changes, Severity
 
@@ -122,6 +124,7 @@ class MissionService:
         if uploads.current_seq is None:
             uploads.current_seq = st.current_seq
         self._last_reached_count = st.reached_count
+        self._last_jump_count = st.jump_count
         self._last_progress: object = None  # vehicle.mission_progress at the last full poll
         # The vehicle's generations (None: it has none, progress is read at every wake-up) and
         # the one of mission_progress when it was last read (-1: never).
@@ -194,6 +197,7 @@ class MissionService:
         if self._other_upload_active(now_s):
             self.ack(src, ERROR, msg.mission_type)
             return
+        self.partner = src  # the transfer partner, whatever the upload then becomes
         self._repeats_left, self._repeat_at = 0, math.inf  # a new mission starts
         ptype = plan_type_of(msg.mission_type)
         if msg.count > (CAPACITY[ptype] if ptype is not None else 0):
@@ -372,6 +376,18 @@ class MissionService:
         # MISSION_CURRENT comes with the stream (MAVSDK retries the set until it sees it)
         self.uploads.current_seq = mission_status_of(self.vehicle).current_seq
 
+    def _send_jump_item(self, st: MissionStatus) -> None:
+        """The DO_JUMP just taken, as a download would give it, to the last transfer partner
+        (0/0 before any transfer on this link), unless a transfer is under way."""
+        plan = getattr(self.vehicle, "plan", None)
+        items = tuple(plan(PlanType.MISSION)) if plan is not None else ()
+        if self.phase is not Phase.IDLE or not 0 <= st.jump_seq < min(st.count, len(items)):
+            return
+        item = dataclasses.replace(items[st.jump_seq],
+                                   current=int(st.jump_seq == self.uploads.current_seq))
+        self.send(pack_item(self.encoder, item, st.jump_seq, int(PlanType.MISSION), self.partner,
+                            self.int_mode))
+
     # --- timers -------------------------------------------------------------------------------
     def get_timer(self) -> float:
         return min(self._retry_at, self._timeout_at, self._repeat_at)
@@ -410,6 +426,9 @@ class MissionService:
                 self.send(pack_item_reached(enc, st.reached_seq))
                 self._repeats_left = REACHED_REPEATS
                 self._repeat_at = now_s + REPEAT_INTERVAL_S
+        if st.jump_count != self._last_jump_count:
+            self._last_jump_count = st.jump_count
+            self._send_jump_item(st)
         if self._repeats_left > 0 and now_s >= self._repeat_at:
             self.send(pack_item_reached(enc, self._reached_seq))
             self._repeats_left -= 1

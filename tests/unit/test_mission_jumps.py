@@ -52,12 +52,19 @@ def fly(sim, items, mark=0, timeout_s=90.0):
     return reached, current, texts
 
 
+def jump_items(api, mark=0):
+    """The DO_JUMP items the vehicle sent unasked (mavlink_mission.cpp send: after each jump)."""
+    return [(m.seq, m.command, m.param1, m.param2, m.target_system, m.target_component)
+            for m in api.messages("MISSION_ITEM_INT", since=mark)]
+
+
 def dedup(seqs):
     return [s for i, s in enumerate(seqs) if i == 0 or seqs[i - 1] != s]
 
 
 def test_exhausted_jump_at_the_end_finishes_at_the_last_flown_item(sim):
-    """[WP, WP, DO_JUMP 0 x1]: the jump is taken once and never current nor reached; then
+    """[WP, WP, DO_JUMP 0 x1]: the jump is taken once, never current nor reached (the link
+    sends its item instead); then
     stepping past it reads the item after the last ("Waypoint could not be read.", once per
     look-ahead of the two items flown again and once moving on) and the mission finishes at
     item 1, without resetting the jump: a restart at item 0 does not jump again."""
@@ -69,6 +76,9 @@ def test_exhausted_jump_at_the_end_finishes_at_the_last_flown_item(sim):
     assert texts.index(READ_FAILED) < texts.index("Mission finished, loitering\t")
     m = api.last("MISSION_CURRENT")
     assert (m.seq, m.total, m.mission_state) == (1, 3, COMPLETE)
+    # the jump taken: its item, as uploaded, to the client that uploaded the mission
+    me = (api.mav.srcSystem, api.mav.srcComponent)
+    assert jump_items(api) == [(2, MavCmd.DO_JUMP, 0.0, 1.0, *me)]
 
     mark = len(api.frames)
     api.send(api.mav.mission_set_current_encode(api.target, 1, 0))
@@ -78,6 +88,7 @@ def test_exhausted_jump_at_the_end_finishes_at_the_last_flown_item(sim):
     # (after the 1 Hz repeats of item 1's MISSION_ITEM_REACHED) the jump's count stayed used up
     assert dedup(reached)[dedup(reached).index(0):] == [0, 1]
     assert texts.count(READ_FAILED) == 3  # at 0's and 1's look-ahead, and moving on from 1
+    assert jump_items(api, mark) == []
 
 
 def test_jump_outside_the_mission_finishes_it(sim):
@@ -95,6 +106,8 @@ def test_jump_outside_the_mission_finishes_it(sim):
 def test_jump_in_the_middle_repeats_and_reports_only_flown_items(sim):
     """[WP, WP, DO_JUMP 0 x1, WP]: after the repeat the exhausted jump is stepped over to item
     3, the last: the mission completes there and nothing reads past the end."""
+    api = sim.api(0)
     reached, current, texts = fly(sim, [WP0, WP1, jump(0, 1), WP2])
     assert dedup(reached) == [0, 1, 0, 1, 3]
+    assert [i[0] for i in jump_items(api)] == [2]
     assert 2 not in current and READ_FAILED not in texts
