@@ -29,6 +29,7 @@ from collections import deque
 
 from vehicles.events import (
     COMMANDER_RTL,
+    MISSION_CLIMB,
     MISSION_EXECUTE,
     MISSION_FINISHED,
     MISSION_FINISHED_LOITER,
@@ -309,14 +310,14 @@ class Mission(NavMode):
         return True
 
     def _takeoff_alt(self, ctx: NavContext) -> float:
-        """Auto takeoff: max(MIS_TAKEOFF_ALT, the next positional item's altitude above home)."""
-        alt = float(ctx.params["MIS_TAKEOFF_ALT"])
+        """Auto takeoff (mission_base.cpp checkClimbRequired, v1.15): the next position item's
+        altitude above home, with no MIS_TAKEOFF_ALT floor. Without a position item ahead PX4
+        does not climb; here the climb then goes to MIS_TAKEOFF_ALT."""
         home_z = ctx.home.position_ned_m[2] if ctx.home else 0.0
         for item in self.items[self.current:]:
             if item.command in GOTO_COMMANDS or item.command in TAKEOFF_COMMANDS:
-                alt = max(alt, home_z - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2])
-                break
-        return alt
+                return home_z - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2]
+        return float(ctx.params["MIS_TAKEOFF_ALT"])
 
     def _begin_takeoff(self, ctx: NavContext, alt_above_home_m: float, auto: bool) -> bool:
         """Start a vertical climb; False when already higher (nothing to do)."""
@@ -325,8 +326,9 @@ class Mission(NavMode):
         target_z = home_z - alt_above_home_m
         if not ctx.landed and target_z >= z - float(ctx.params["NAV_MC_ALT_RAD"]):
             return False
-        if ctx.landed:
-            ctx.log.info(ctx.now_s, f"Climb to {alt_above_home_m:.1f} meters above home")
+        if ctx.landed:  # mission.cpp handleTakeoff: the climb work item
+            ctx.log.info(ctx.now_s, f"Climb to {alt_above_home_m:.1f} meters above home\t")
+            ctx.log.event(ctx.now_s, MISSION_CLIMB, Log.INFO, None, "f", alt_above_home_m)
         self._target = (x, y, target_z)
         self._fixed_yaw = ctx.yaw_rad
         self._auto_takeoff = auto

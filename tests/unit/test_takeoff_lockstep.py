@@ -1,11 +1,13 @@
-"""Takeoff mode through the wire in lockstep (gateway.testing.Sim), as PX4 1.15's navigator
-takeoff.cpp set_takeoff_position chooses the altitude: MAV_CMD_NAV_TAKEOFF param7 (AMSL) as
-given, else MIS_TAKEOFF_ALT above the *current* altitude; never down."""
+"""Takeoff altitudes through the wire in lockstep (gateway.testing.Sim), as PX4 1.15's
+navigator chooses them: Takeoff mode (takeoff.cpp set_takeoff_position) MAV_CMD_NAV_TAKEOFF
+param7 (AMSL) as given, else MIS_TAKEOFF_ALT above the *current* altitude, never down; a
+mission started on the ground climbs to its first position item (checkClimbRequired)."""
 
 import pytest
 
-from gateway.testing import Sim
-from vehicles.types import NavState
+from gateway.testing import Sim, mission_item
+from vehicles.plan_types import MavCmd, PlanResult
+from vehicles.types import PX4_SITL_HOME, NavState
 
 ALREADY_HIGHER = "Already higher than takeoff altitude\t"
 
@@ -54,3 +56,24 @@ def test_requested_altitude_is_taken_as_given_and_never_below_the_vehicle(sim):
     sim.advance(3.0)
     assert height(sim) == pytest.approx(1.5, abs=0.3)
     assert ALREADY_HIGHER in texts(api, mark)
+
+
+def test_mission_climb_goes_to_the_first_waypoint_altitude_without_a_floor(sim):
+    """mission_base.cpp checkClimbRequired (1.15): started on the ground, a mission climbs to its
+    next position item's altitude ("Climb to %.1f meters above home", tab, event), not to at
+    least MIS_TAKEOFF_ALT as older PX4 did."""
+    api = sim.api(0)
+    g = PX4_SITL_HOME.offset_ned(20.0, 0.0, 0.0)
+    items = [mission_item(MavCmd.NAV_WAYPOINT, g.lat_deg, g.lon_deg, 1.6)]
+    assert api.upload_mission(items) == PlanResult.ACCEPTED
+    assert api.arm() == 0 and api.start_mission() == 0
+    top = 0.0
+
+    def arrived():
+        nonlocal top
+        top = max(top, height(sim))
+        return sim.state(0).position_ned_m[0] > 19.0
+
+    assert sim.run_until(arrived, timeout_s=40)
+    assert top < 1.8, top  # the climb to MIS_TAKEOFF_ALT (2.5) topped out near 2.0
+    assert "Climb to 1.6 meters above home\t" in texts(api)
