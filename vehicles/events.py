@@ -206,6 +206,11 @@ MISSION_NOT_VALID_REFUSE = EventDef("mission_not_valid_refuse", "default",
                                     "No valid mission available, refusing takeoff")
 MISSION_NOT_VALID_LOITER = EventDef("mission_not_valid_loiter", "default",
                                     "No valid mission available, loitering")
+MISSION_CLIMB = EventDef("mission_climb_before_start", "default", "Climb to {1:.1m_v} above home",
+                         (("float", "arg0"),))
+MISSION_READ_FAILED = EventDef("mission_failed_to_read_wp", "default",
+                               "Waypoint {1} could not be read from storage",
+                               (("uint16_t", "arg0"),))
 RTL_RETURN_AT = EventDef("vrtl_return_at", "default",
                          "RTL: start return at {1m_v} ({2m_v} above destination)",
                          (("int32_t", "arg0"), ("int32_t", "arg1")))
@@ -307,7 +312,7 @@ DEFINITIONS: tuple[EventDef, ...] = (
     FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER, RC_OVERRIDE,
     FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED, MISSION_EXECUTE,
     MISSION_FINISHED, MISSION_FINISHED_LOITER, MISSION_NOT_VALID_REFUSE, MISSION_NOT_VALID_LOITER,
-    RTL_RETURN_AT, RTL_LAND, RTL_COMPLETED_LOITER,
+    MISSION_READ_FAILED, MISSION_CLIMB, RTL_RETURN_AT, RTL_LAND, RTL_COMPLETED_LOITER,
     TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, COMMANDER_RTL, COMMANDER_LAND,
     MODE_NOT_AVAILABLE, UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, *MISSION_FEASIBILITY,
     *POSITION_PARAMS)

@@ -200,24 +200,18 @@ class Takeoff(NavMode):
         self.yaw = 0.0
 
     def on_activation(self, ctx: NavContext) -> None:
-        p = ctx.params
         x, y, z = ctx.position_ned_m
-        # PX4 navigator/takeoff.cpp: the takeoff altitude is MIS_TAKEOFF_ALT above *home* (not
-        # above the current position, so a repeated takeoff command does not climb further); a
-        # requested altitude below that minimum is raised to it.
-        alt = float(p["MIS_TAKEOFF_ALT"])
-        home_z = ctx.home.position_ned_m[2] if ctx.home is not None else z
-        min_z = home_z - alt
+        # PX4 navigator takeoff.cpp set_takeoff_position (v1.15): the requested altitude as
+        # given, else MIS_TAKEOFF_ALT above the *current* altitude (not home: a takeoff command
+        # in the air climbs on); never down.
         if math.isnan(self.requested_alt_amsl_m):
+            alt = float(ctx.params["MIS_TAKEOFF_ALT"])
             ctx.log.info(ctx.now_s, f"Using default takeoff altitude: {alt:.1f} m\t")
             ctx.log.event(ctx.now_s, TAKEOFF_DEFAULT_ALT, Log.INFO, Log.INFO, "f", alt)
-            target_z = min_z
+            target_z = z - alt
         else:
             target_z = self.origin_alt_amsl_m - self.requested_alt_amsl_m
-            if target_z > min_z:
-                ctx.log.info(ctx.now_s, f"Using minimum takeoff altitude: {alt:.1f} m")
-                target_z = min_z
-        if not ctx.landed and target_z > z:
+        if target_z > z:
             ctx.log.critical(ctx.now_s, "Already higher than takeoff altitude\t")
             ctx.log.event(ctx.now_s, TAKEOFF_ALREADY_HIGHER, Log.ERROR, Log.INFO)
             target_z = z

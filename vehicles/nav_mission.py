@@ -15,6 +15,10 @@ Rules and invariants:
 - Items without a position are executed at once and count as reached (PX4 reports
   MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/servo items are accepted and skipped.
 - NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission.
+- Moving on from an item is goToNextItem: DO_JUMPs on the way are resolved at once
+  (mission_jumps.py), so a DO_JUMP is never the current item nor reported reached. Without a
+  next item (past the last item, a jump outside the mission, an exhausted jump at the end) the
+  mission finishes at the item flown last; only a finish at the last item resets the jumps.
 - Yaw: param4 (deg) when given, else the travel direction (MPC_YAW_MODE 0).
 """
 
@@ -25,6 +29,7 @@ from collections import deque
 
 from vehicles.events import (
     COMMANDER_RTL,
+    MISSION_CLIMB,
     MISSION_EXECUTE,
     MISSION_FINISHED,
     MISSION_FINISHED_LOITER,
@@ -33,6 +38,7 @@ from vehicles.events import (
     Log,
 )
 from vehicles.mission_feasibility import MissionCheck
+from vehicles.mission_jumps import JumpCounts, look_ahead, non_jump_index
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
 from vehicles.plan_types import (
     REACHED_HISTORY,
@@ -70,7 +76,7 @@ class Mission(NavMode):
         self.reached_count = 0
         self._history: deque[int] = deque(maxlen=REACHED_HISTORY)
         self._reached_any = False
-        self._jumps_done: dict[int, int] = {}
+        self._jumps_done = JumpCounts()
         self._phase = "start"  # start | takeoff | goto | wait | approach | land | done
         self._target: Vec3 = (0.0, 0.0, 0.0)
         self._yaw = 0.0
@@ -156,7 +162,8 @@ class Mission(NavMode):
             in_mission_mode=in_mission_mode, reached_seq=self.reached_seq,
             reached_count=self.reached_count, mission_id=p.plan_id(PlanType.MISSION),
             fence_id=p.plan_id(PlanType.FENCE), rally_id=p.plan_id(PlanType.RALLY),
-            reached_history=tuple(self._history))
+            reached_history=tuple(self._history), jump_seq=self._jumps_done.last,
+            jump_count=self._jumps_done.reports)
 
     def _reached(self, seq: int) -> None:
         self.reached_seq = seq
@@ -231,6 +238,15 @@ class Mission(NavMode):
                 return
             item = items[self.current]
             cmd = item.command
+            if cmd == MavCmd.DO_JUMP:  # the mission starts (or was set) on a DO_JUMP
+                index = non_jump_index(ctx.log, ctx.now_s, self.items, self.current,
+                                       self._jumps_done, write_jumps=True)
+                if index is None:
+                    self._finish(ctx)
+                    return
+                self.current = index
+                continue
+            look_ahead(ctx.log, ctx.now_s, items, self.current + 1, self._jumps_done)
             if cmd in GOTO_COMMANDS:
                 self._begin_goto(ctx, item)
                 return
@@ -240,7 +256,8 @@ class Mission(NavMode):
                 if self._begin_takeoff(ctx, home_z - item_z, auto=False):
                     return
                 self._reached(self.current)  # already higher: the takeoff item is done
-                self.current += 1
+                if not self._next_item(ctx):
+                    return
                 continue
             if cmd in LAND_COMMANDS:
                 n, e, _ = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
@@ -263,15 +280,13 @@ class Mission(NavMode):
                 ctx.log.event(ctx.now_s, COMMANDER_RTL)
                 ctx.switch_to(NavState.AUTO_RTL, None)
                 return
-            if cmd == MavCmd.DO_JUMP:
-                self._do_jump(item)
-                continue
             if cmd == MavCmd.DO_CHANGE_SPEED:
                 self._change_speed(ctx, item)
             # Everything else (camera, gimbal, ROI, servo, DO_SET_HOME, DO_LAND_START, ...) is
             # accepted and skipped.
             self._reached(self.current)
-            self.current += 1
+            if not self._next_item(ctx):
+                return
         self._finish(ctx)
 
     def _change_speed(self, ctx: NavContext, item: PlanItem) -> None:
@@ -279,24 +294,30 @@ class Mission(NavMode):
         if int(item.param1) in (0, 1):
             ctx.set_cruise_mps(item.param2 if item.param2 > 0 else math.nan)
 
-    def _do_jump(self, item: PlanItem) -> None:
-        target, repeats = int(item.param1), int(item.param2)
-        done = self._jumps_done.get(item.seq, 0)
-        if 0 <= target < len(self.items) and (repeats < 0 or done < repeats):
-            self._jumps_done[item.seq] = done + 1
-            self.current = target
-        else:
-            self.current += 1
+    def _next_item(self, ctx: NavContext) -> bool:
+        """advance_mission / goToNextItem: the item after the current one, jumps resolved (and
+        counted); without one the mission finishes where it is (False)."""
+        count = len(self.items)
+        nxt = self.current + 1
+        index = non_jump_index(ctx.log, ctx.now_s, self.items, nxt, self._jumps_done,
+                               write_jumps=True) if nxt < count else None
+        if index is None:
+            if nxt == count:  # completed: "Reset jump counter if the mission was completed"
+                self._jumps_done.clear()
+            self._finish(ctx)
+            return False
+        self.current = index
+        return True
 
     def _takeoff_alt(self, ctx: NavContext) -> float:
-        """Auto takeoff: max(MIS_TAKEOFF_ALT, the next positional item's altitude above home)."""
-        alt = float(ctx.params["MIS_TAKEOFF_ALT"])
+        """Auto takeoff (mission_base.cpp checkClimbRequired, v1.15): the next position item's
+        altitude above home, with no MIS_TAKEOFF_ALT floor. Without a position item ahead PX4
+        does not climb; here the climb then goes to MIS_TAKEOFF_ALT."""
         home_z = ctx.home.position_ned_m[2] if ctx.home else 0.0
         for item in self.items[self.current:]:
             if item.command in GOTO_COMMANDS or item.command in TAKEOFF_COMMANDS:
-                alt = max(alt, home_z - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2])
-                break
-        return alt
+                return home_z - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2]
+        return float(ctx.params["MIS_TAKEOFF_ALT"])
 
     def _begin_takeoff(self, ctx: NavContext, alt_above_home_m: float, auto: bool) -> bool:
         """Start a vertical climb; False when already higher (nothing to do)."""
@@ -305,8 +326,9 @@ class Mission(NavMode):
         target_z = home_z - alt_above_home_m
         if not ctx.landed and target_z >= z - float(ctx.params["NAV_MC_ALT_RAD"]):
             return False
-        if ctx.landed:
-            ctx.log.info(ctx.now_s, f"Climb to {alt_above_home_m:.1f} meters above home")
+        if ctx.landed:  # mission.cpp handleTakeoff: the climb work item
+            ctx.log.info(ctx.now_s, f"Climb to {alt_above_home_m:.1f} meters above home\t")
+            ctx.log.event(ctx.now_s, MISSION_CLIMB, Log.INFO, None, "f", alt_above_home_m)
         self._target = (x, y, target_z)
         self._fixed_yaw = ctx.yaw_rad
         self._auto_takeoff = auto
@@ -352,7 +374,8 @@ class Mission(NavMode):
             if not ctx.landed and abs(z - tz) < alt_rad:
                 if not self._auto_takeoff:
                     self._reached(self.current)
-                    self.current += 1
+                    if not self._next_item(ctx):
+                        return self._hold(ctx)
                 self._phase = "start"
                 self._start_item(ctx)
                 return self._run_phase(ctx) if self._phase != "done" else self._hold(ctx)
@@ -394,8 +417,8 @@ class Mission(NavMode):
         # land
         if ctx.landed:
             self._reached(self.current)
-            self.current += 1
-            self._start_item(ctx)
+            if self._next_item(ctx):
+                self._start_item(ctx)
             return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
         speed = land_speed_mps(p, -z)
         return NavSetpoint((tx, ty, math.nan), self._yaw, ctx.limits(speed_down_mps=speed),
@@ -404,7 +427,8 @@ class Mission(NavMode):
     def _advance(self, ctx: NavContext) -> NavSetpoint:
         self._came_from = self._target
         self._reached(self.current)
-        self.current += 1
+        if not self._next_item(ctx):
+            return self._hold(ctx)
         self._phase = "start"
         self._start_item(ctx)
         if self._phase in ("goto", "approach", "wait", "takeoff"):
@@ -417,7 +441,6 @@ class Mission(NavMode):
     def _finish(self, ctx: NavContext) -> None:
         self.finished = True
         self._phase = "done"
-        self.current = max(len(self.items) - 1, 0)
         if ctx.landed:
             ctx.log.info(ctx.now_s, "Mission finished, landed\t")
             ctx.log.event(ctx.now_s, MISSION_FINISHED)

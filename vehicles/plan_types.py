@@ -142,6 +142,11 @@ class MissionStatus:
     # in one tick (a waypoint followed by DO_* items): a reader that saw reached_count k takes the
     # last (reached_count - k) entries as the new MISSION_ITEM_REACHED events.
     reached_history: tuple[int, ...] = ()
+    # The DO_JUMP taken last and how many jumps were taken so far (moves with each): PX4's
+    # mission_result item_do_jump_changed / item_changed_index, which mavlink answers with that
+    # item (mavlink_mission.cpp send).
+    jump_seq: int = -1
+    jump_count: int = 0
 
 
 REACHED_HISTORY = 32

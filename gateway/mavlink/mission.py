@@ -20,11 +20,20 @@ Rules and invariants:
   → MISSION_ITEM_INT / MISSION_ITEM → client MISSION_ACK. The list is snapshotted at
   REQUEST_LIST, so a concurrent upload elsewhere cannot mix two plans into one download.
   An empty plan answers COUNT 0 and stays idle. The client drives retries (PX4 never resends).
-- MISSION_CURRENT goes out at once on this link after MISSION_SET_CURRENT, and on every link
-  whenever ``vehicle.mission_status.current_seq`` changes (checked at the wake-ups after the
-  vehicle's ``changes.mission_progress`` moved, or at each one without it); the 1 Hz
-  stream is in telemetry.py. MISSION_ITEM_REACHED goes out when ``reached_count`` changes, then
-  REACHED_REPEATS more times at 1 Hz (PX4: "send the reached message another 10 times").
+- A mission_type other than mission, fence, rally (and all for CLEAR_ALL) is no plan PX4 has:
+  its item count and capacity are 0 (current_max_item_count / current_item_count), so
+  MISSION_COUNT gets NO_SPACE (ACCEPTED for count 0, nothing cleared), MISSION_REQUEST_LIST a
+  COUNT 0, MISSION_CLEAR_ALL ACCEPTED, each with that mission_type.
+- MISSION_CURRENT goes out when ``vehicle.mission_status.current_seq`` differs from the
+  vehicle's last sent one (checked at the wake-ups after the vehicle's
+  ``changes.mission_progress`` moved, or at each one without it). That one is shared by the
+  vehicle's links (PX4's static ``_current_seq``): the first link to see a change sends it, and
+  MISSION_SET_CURRENT sets it without sending, so its MISSION_CURRENT comes with the 1 Hz stream
+  (telemetry.py). MISSION_ITEM_REACHED goes out when ``reached_count`` changes, then
+  REACHED_REPEATS more times at 1 Hz (PX4: "send the reached message another 10 times"), until
+  a MISSION_COUNT on the link starts a new upload ("Reset last reached waypoint"). After a
+  DO_JUMP is taken the link sends that item, unasked, to its last transfer partner when idle
+  (PX4: "Send a mission item again if the remaining DO_JUMPs has changed").
 """
 
 from __future__ import annotations
@@ -47,7 +56,7 @@ from gateway.mavlink.mission_items import (
     plan_type_of,
 )
 from gateway.mavlink.vehicle_port import VehicleFeatures
-from vehicles.plan_types import PlanItem, PlanResult, PlanType
+from vehicles.plan_types import MissionStatus, PlanItem, PlanResult, PlanType
 from vehicles.plans import CAPACITY  # one source: what the vehicle can store
 from vehicles.types import Changes, Severity
 
@@ -71,10 +80,12 @@ OPERATION_CANCELLED = 15
 class UploadLock:
     """Which link is uploading a plan to one vehicle (PX4: MavlinkMissionManager's static
     ``_transfer_in_progress``). One per vehicle, shared by the MissionService of each of its
-    links: an upload on one link refuses another until it ends or times out."""
+    links: an upload on one link refuses another until it ends or times out. It also holds the
+    static ``_current_seq``: the current item last sent or set (None: not yet read)."""
 
     def __init__(self) -> None:
         self.owner: MissionService | None = None
+        self.current_seq: int | None = None
 
 
 class Phase(enum.Enum):
@@ -110,8 +121,10 @@ class MissionService:
         # (partner, mission_type, last seq, result) of the last completed upload, for re-ACKs
         self._completed: tuple[tuple[int, int], int, int, int] | None = None
         st = mission_status_of(self.vehicle)
-        self._last_current = st.current_seq
+        if uploads.current_seq is None:
+            uploads.current_seq = st.current_seq
         self._last_reached_count = st.reached_count
+        self._last_jump_count = st.jump_count
         self._last_progress: object = None  # vehicle.mission_progress at the last full poll
         # The vehicle's generations (None: it has none, progress is read at every wake-up) and
         # the one of mission_progress when it was last read (-1: never).
@@ -178,21 +191,25 @@ class MissionService:
             self._text(now_s, "WPM: IGN MISSION_COUNT: Busy")
             self.ack(src, ERROR, msg.mission_type)
             return
-        ptype = plan_type_of(msg.mission_type)
-        if ptype is None or not hasattr(self.vehicle, "set_plan"):
+        if not hasattr(self.vehicle, "set_plan"):
             self.ack(src, UNSUPPORTED, msg.mission_type)
             return
         if self._other_upload_active(now_s):
             self.ack(src, ERROR, msg.mission_type)
             return
-        if msg.count > CAPACITY[ptype]:
+        self.partner = src  # the transfer partner, whatever the upload then becomes
+        self._repeats_left, self._repeat_at = 0, math.inf  # a new mission starts
+        ptype = plan_type_of(msg.mission_type)
+        if msg.count > (CAPACITY[ptype] if ptype is not None else 0):
             self.ack(src, NO_SPACE, msg.mission_type)
             return
         self._completed = None
         plans = cast(VehicleFeatures, self.vehicle)  # it stores plans (set_plan checked above)
-        if msg.count == 0:
-            self.ack(src, plans.clear_plan(now_s, ptype), msg.mission_type)
+        if msg.count == 0:  # an unknown type: "mission type %u not handled", and ACCEPTED
+            result = plans.clear_plan(now_s, ptype) if ptype is not None else ACCEPTED
+            self.ack(src, result, msg.mission_type)
             return
+        assert ptype is not None  # its capacity is 0
         self.phase = Phase.UPLOAD
         self.uploads.owner = self
         self.partner, self.mission_type, self.count, self.seq = src, int(ptype), msg.count, 0
@@ -259,19 +276,17 @@ class MissionService:
             self._text(now_s, "Mission download request ignored, already active", Severity.INFO)
             return
         ptype = plan_type_of(msg.mission_type)
-        if ptype is None:
-            self.ack(src, UNSUPPORTED, msg.mission_type)
-            return
         self._idle()
         plan = getattr(self.vehicle, "plan", None)
-        items = tuple(plan(ptype)) if plan is not None else ()
-        self.partner, self.mission_type, self.count, self.seq = src, int(ptype), len(items), 0
+        items = tuple(plan(ptype)) if plan is not None and ptype is not None else ()
+        mission_type = msg.mission_type & 0xFF
+        self.partner, self.mission_type, self.count, self.seq = src, mission_type, len(items), 0
         if items:
             self.phase = Phase.DOWNLOAD
             self._download = items
             self._heard(now_s)
         self.send(self.encoder.pack(M.MAVLink_mission_count_message, src[0], src[1],
-                                    len(items), int(ptype)))
+                                    len(items), mission_type))
 
     def on_request_int(self, msg: M.MAVLink_mission_request_int_message, now_s: float) -> None:
         self._on_request(msg, True, now_s)
@@ -336,10 +351,10 @@ class MissionService:
             return
         if msg.mission_type == MISSION_TYPE_ALL:
             types = list(PlanType)
-        else:
+        else:  # an unknown type clears nothing: "mission type %u not handled", and ACCEPTED
             ptype = plan_type_of(msg.mission_type)
             types = [] if ptype is None else [ptype]
-        if not types or not hasattr(self.vehicle, "clear_plan"):
+        if not hasattr(self.vehicle, "clear_plan"):
             self.ack(src, UNSUPPORTED, msg.mission_type)
             return
         self._completed = None
@@ -357,9 +372,21 @@ class MissionService:
         if setter is None or not setter(now_s, msg.seq):
             self._text(now_s, "WPM: WP CURR CMD: Not in list")
             return
-        st = mission_status_of(self.vehicle)
-        self._last_current = st.current_seq
-        self.send(pack_mission_current(self.encoder, st))  # MAVSDK waits for exactly this
+        # update_active_mission sets the static _current_seq and sends nothing: the new item's
+        # MISSION_CURRENT comes with the stream (MAVSDK retries the set until it sees it)
+        self.uploads.current_seq = mission_status_of(self.vehicle).current_seq
+
+    def _send_jump_item(self, st: MissionStatus) -> None:
+        """The DO_JUMP just taken, as a download would give it, to the last transfer partner
+        (0/0 before any transfer on this link), unless a transfer is under way."""
+        plan = getattr(self.vehicle, "plan", None)
+        items = tuple(plan(PlanType.MISSION)) if plan is not None else ()
+        if self.phase is not Phase.IDLE or not 0 <= st.jump_seq < min(st.count, len(items)):
+            return
+        item = dataclasses.replace(items[st.jump_seq],
+                                   current=int(st.jump_seq == self.uploads.current_seq))
+        self.send(pack_item(self.encoder, item, st.jump_seq, int(PlanType.MISSION), self.partner,
+                            self.int_mode))
 
     # --- timers -------------------------------------------------------------------------------
     def get_timer(self) -> float:
@@ -388,8 +415,8 @@ class MissionService:
             self._last_progress = progress
         st = mission_status_of(self.vehicle)
         enc = self.encoder
-        if st.current_seq != self._last_current:
-            self._last_current = st.current_seq
+        if st.current_seq != self.uploads.current_seq:
+            self.uploads.current_seq = st.current_seq
             if 0 <= st.current_seq < st.count:
                 self.send(pack_mission_current(enc, st))
         if st.reached_count != self._last_reached_count:
@@ -399,6 +426,9 @@ class MissionService:
                 self.send(pack_item_reached(enc, st.reached_seq))
                 self._repeats_left = REACHED_REPEATS
                 self._repeat_at = now_s + REPEAT_INTERVAL_S
+        if st.jump_count != self._last_jump_count:
+            self._last_jump_count = st.jump_count
+            self._send_jump_item(st)
         if self._repeats_left > 0 and now_s >= self._repeat_at:
             self.send(pack_item_reached(enc, self._reached_seq))
             self._repeats_left -= 1

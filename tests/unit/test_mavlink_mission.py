@@ -229,7 +229,8 @@ def test_count_zero_clears_and_clear_all():
 @pytest.mark.parametrize("mission_type, count, result", [
     (0, mission.CAPACITY[PlanType.MISSION] + 1, 4),
     (1, 65, 4), (2, 33, 4), (1, 64, None), (2, 32, None),
-    (7, 3, 3),  # unknown mission type → UNSUPPORTED
+    # another type has no capacity (current_max_item_count 0): NO_SPACE, count 0 ACCEPTED
+    (7, 3, 4), (7, 0, 0), (255, 2, 4), (255, 0, 0),
 ])
 def test_counts_and_capacity(mission_type, count, result):
     _, session, client = make()
@@ -241,10 +242,21 @@ def test_counts_and_capacity(mission_type, count, result):
         assert session.mission.phase is mission.Phase.IDLE
 
 
-def test_unknown_type_download_and_clear():
-    _, _, client = make()
-    assert mission_acks(client.send(M.MAVLink_mission_request_list_message(1, 1, 9))) == [(3, 9)]
-    assert mission_acks(client.send(M.MAVLink_mission_clear_all_message(1, 1, 9))) == [(3, 9)]
+def test_unknown_type_counts_nothing_downloads_empty_and_clears_nothing():
+    """mavlink_mission.cpp: a type other than 0/1/2 (255 only for CLEAR_ALL) has item count 0
+    ("mission type %u not handled" on PX4's console): MISSION_COUNT 0 and CLEAR_ALL are
+    ACCEPTED and change nothing, REQUEST_LIST answers COUNT 0, each with that type."""
+    vehicle, session, client = make()
+    upload(client, mavsdk_mission())
+    for msg in (M.MAVLink_mission_count_message(1, 1, 0, 9),
+                M.MAVLink_mission_count_message(1, 1, 0, 255),
+                M.MAVLink_mission_clear_all_message(1, 1, 9)):
+        got = client.send(msg)
+        assert mission_acks(got) == [(0, msg.mission_type)]
+    assert len(vehicle.plans[PlanType.MISSION]) == 7
+    got = client.send(M.MAVLink_mission_request_list_message(1, 1, 9))
+    assert [(m.get_type(), m.count, m.mission_type) for m in got] == [("MISSION_COUNT", 0, 9)]
+    assert session.mission.phase is mission.Phase.IDLE
 
 
 @pytest.mark.parametrize("target, answered", [
@@ -387,22 +399,32 @@ def test_stale_upload_owner_does_not_block_forever():
 
 # --- set current / MISSION_CURRENT / MISSION_ITEM_REACHED -------------------------------------
 
-def test_set_current_answers_with_mission_current():
-    vehicle, session, client = make()
+def test_set_current_is_answered_by_the_stream_only():
+    """handle_mission_set_current → update_active_mission: the static _current_seq takes the
+    new item at once and nothing is sent; MISSION_CURRENT with it comes with the 1 Hz stream,
+    on every link."""
+    vehicle = FakeVehicle()
+    uploads = UploadLock()
+    s1 = Session(vehicle, LinkKind.API, uploads=uploads)
+    s2 = Session(vehicle, LinkKind.GCS, uploads=uploads)
+    client, other = Client(s1), Client(s2, sysid=255, compid=190)
     client.heartbeat()
     got = client.send(M.MAVLink_mission_set_current_message(1, 1, 0))
     assert of_type(got, "MISSION_CURRENT") == []
     assert [t.text for t in of_type(client.run_until(0.1), "STATUSTEXT")] == [
         "WPM: WP CURR CMD: Not in list"]
     upload(client, mavsdk_mission())
+    other.run_until(client.now_s)
     got = client.send(M.MAVLink_mission_set_current_message(1, 1, 4))
-    assert [(m.get_type(), m.seq, m.total) for m in got] == [("MISSION_CURRENT", 4, 7)]
-    assert vehicle.current_seq == 4
-    got = of_type(client.run_until(client.now_s + 0.5), "MISSION_CURRENT")
-    assert len(got) <= 1 and all(m.seq == 4 for m in got)  # at most the 1 Hz copy
+    assert of_type(got, "MISSION_CURRENT") == [] and vehicle.current_seq == 4
+    for c in (client, other):
+        t0 = c.now_s
+        got = of_type(c.run_until(t0 + 1.05), "MISSION_CURRENT")
+        assert [m.seq for m in got] == [4]  # the stream's copy, nothing sooner
+        assert c.now_s - t0 > 0.0
 
 
-def test_mission_current_stream_and_change_on_every_link():
+def test_mission_current_stream_and_change_sent_once_for_the_vehicle():
     vehicle = FakeVehicle()
     uploads = UploadLock()  # the vehicle's, shared by its links (as the Simulation wires it)
     s1 = Session(vehicle, LinkKind.API, uploads=uploads)
@@ -414,10 +436,13 @@ def test_mission_current_stream_and_change_on_every_link():
     c2.run_until(0.9)
     vehicle.nav_state = NavState.AUTO_MISSION
     vehicle.current_seq = 2  # the navigator moved on
-    for c in (c1, c2):
-        got = of_type(c.run_until(1.0), "MISSION_CURRENT")
-        assert [(m.seq, m.total, m.mission_state, m.mission_mode) for m in got] == [
-            (2, 7, 3, 1)]
+    got = of_type(c1.run_until(0.95), "MISSION_CURRENT")
+    assert [(m.seq, m.total, m.mission_state, m.mission_mode) for m in got] == [(2, 7, 3, 1)]
+    # the static _current_seq: the first link to see the change sends it, the others have it
+    # from their 1 Hz stream
+    assert of_type(c2.run_until(0.95), "MISSION_CURRENT") == []
+    got = of_type(c2.run_until(2.0), "MISSION_CURRENT")
+    assert got and all(m.seq == 2 for m in got)
     mc = of_type(c1.run_until(10.0), "MISSION_CURRENT")
     assert 8 <= len(mc) <= 10  # 1 Hz
 
@@ -440,6 +465,21 @@ def test_item_reached_then_ten_repeats():
     got = client.run_until(22.5)
     assert [m.seq for m in of_type(got, "MISSION_ITEM_REACHED")] == [6, 6, 6]
     assert of_type(got, "MISSION_CURRENT")[-1].mission_state == 5
+
+
+@pytest.mark.parametrize("count", [2, 0, 10_000])
+def test_a_new_upload_stops_the_reached_repeats(count):
+    """handle_mission_count: "Reset last reached waypoint when new mission starts", whatever the
+    upload then becomes."""
+    vehicle, session, client = make()
+    upload(client, mavsdk_mission())
+    client.run_until(0.5)
+    vehicle.nav_state = NavState.AUTO_MISSION
+    vehicle.reach(0)
+    got = client.run_until(2.6)
+    assert [m.seq for m in of_type(got, "MISSION_ITEM_REACHED")] == [0, 0, 0]
+    client.send(M.MAVLink_mission_count_message(1, 1, count, 0))
+    assert of_type(client.run_until(8.0), "MISSION_ITEM_REACHED") == []
 
 
 # --- lossy network ------------------------------------------------------------------------------

@@ -159,7 +159,7 @@ def test_square_mission_from_the_ground_with_rtl(sim):
         assert h == pytest.approx(alt, abs=1.0), (i, h)
     texts = sim.texts()
     assert "Executing Mission\t" in texts
-    assert "Climb to 12.0 meters above home" in texts
+    assert "Climb to 12.0 meters above home\t" in texts
     assert "Returning to launch\t" in texts and "Disarmed by landing\t" in texts
     p = v.state.position_ned_m
     assert math.hypot(p[0], p[1]) < 2.0

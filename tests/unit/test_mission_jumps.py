@@ -1,0 +1,113 @@
+"""DO_JUMP through the wire in lockstep (gateway.testing.Sim), as PX4 1.15 flies it
+(navigator mission_base.cpp goToNextItem / getNonJumpItem, mission.cpp setActiveMissionItems)."""
+
+import pytest
+
+from gateway.testing import Sim, mission_item
+from vehicles.plan_types import MavCmd, PlanResult
+from vehicles.types import PX4_SITL_HOME
+
+ACTIVE, COMPLETE = 3, 5  # MISSION_STATE
+READ_FAILED = "Waypoint could not be read.\t"
+
+
+def geo(n: float, e: float) -> tuple[float, float]:
+    g = PX4_SITL_HOME.offset_ned(n, e, 0.0)
+    return g.lat_deg, g.lon_deg
+
+
+def jump(target: float, repeats: float):
+    return mission_item(MavCmd.DO_JUMP, params=(target, repeats, 0.0, 0.0))
+
+
+WP0 = mission_item(MavCmd.NAV_WAYPOINT, *geo(12, 0), 6.0)
+WP1 = mission_item(MavCmd.NAV_WAYPOINT, *geo(12, 12), 6.0)
+WP2 = mission_item(MavCmd.NAV_WAYPOINT, *geo(0, 12), 6.0)
+
+
+@pytest.fixture
+def sim():
+    with Sim(1) as s:
+        assert s.run_until(lambda: s.status(0).position_valid, timeout_s=5)
+        yield s
+
+
+def fly(sim, items, mark=0, timeout_s=90.0):
+    """Upload (when ``items``), start, and fly until MISSION_CURRENT says complete; the
+    MISSION_ITEM_REACHED seqs, the MISSION_CURRENT seqs and the texts from ``mark`` on."""
+    api = sim.api(0)
+    if items:
+        assert api.upload_mission(items) == PlanResult.ACCEPTED
+        assert api.arm() == 0 and api.start_mission() == 0
+
+    def complete():
+        m = api.last("MISSION_CURRENT")
+        return m is not None and m.mission_state == COMPLETE
+
+    assert sim.run_until(complete, timeout_s=timeout_s)
+    sim.advance(2.5)  # the 1 Hz MISSION_CURRENT stream after the finish
+    reached = [m.seq for m in api.messages("MISSION_ITEM_REACHED", since=mark)]
+    current = [m.seq for m in api.messages("MISSION_CURRENT", since=mark)]
+    texts = [m.text for m in api.messages("STATUSTEXT", since=mark)]
+    return reached, current, texts
+
+
+def jump_items(api, mark=0):
+    """The DO_JUMP items the vehicle sent unasked (mavlink_mission.cpp send: after each jump)."""
+    return [(m.seq, m.command, m.param1, m.param2, m.target_system, m.target_component)
+            for m in api.messages("MISSION_ITEM_INT", since=mark)]
+
+
+def dedup(seqs):
+    return [s for i, s in enumerate(seqs) if i == 0 or seqs[i - 1] != s]
+
+
+def test_exhausted_jump_at_the_end_finishes_at_the_last_flown_item(sim):
+    """[WP, WP, DO_JUMP 0 x1]: the jump is taken once, never current nor reached (the link
+    sends its item instead); then
+    stepping past it reads the item after the last ("Waypoint could not be read.", once per
+    look-ahead of the two items flown again and once moving on) and the mission finishes at
+    item 1, without resetting the jump: a restart at item 0 does not jump again."""
+    api = sim.api(0)
+    reached, current, texts = fly(sim, [WP0, WP1, jump(0, 1)])
+    assert dedup(reached) == [0, 1, 0, 1]
+    assert 2 not in current and dedup(current)[-4:] == [0, 1, 0, 1]
+    assert texts.count(READ_FAILED) == 3
+    assert texts.index(READ_FAILED) < texts.index("Mission finished, loitering\t")
+    m = api.last("MISSION_CURRENT")
+    assert (m.seq, m.total, m.mission_state) == (1, 3, COMPLETE)
+    # the jump taken: its item, as uploaded, to the client that uploaded the mission
+    me = (api.mav.srcSystem, api.mav.srcComponent)
+    assert jump_items(api) == [(2, MavCmd.DO_JUMP, 0.0, 1.0, *me)]
+
+    mark = len(api.frames)
+    api.send(api.mav.mission_set_current_encode(api.target, 1, 0))
+    assert sim.run_until(lambda: api.last("MISSION_CURRENT").mission_state == ACTIVE,
+                         timeout_s=3)
+    reached, _current, texts = fly(sim, None, mark)
+    # (after the 1 Hz repeats of item 1's MISSION_ITEM_REACHED) the jump's count stayed used up
+    assert dedup(reached)[dedup(reached).index(0):] == [0, 1]
+    assert texts.count(READ_FAILED) == 3  # at 0's and 1's look-ahead, and moving on from 1
+    assert jump_items(api, mark) == []
+
+
+def test_jump_outside_the_mission_finishes_it(sim):
+    """[WP, DO_JUMP 7 x2, WP]: a jump to an index outside the mission has no next item: the
+    mission finishes at item 0 (PX4 says "Do Jump mission index is out of bounds." only on its
+    console) and item 2 is never flown."""
+    api = sim.api(0)
+    reached, current, texts = fly(sim, [WP0, jump(7, 2), WP2])
+    assert dedup(reached) == [0] and set(current) == {0}
+    assert "Mission finished, loitering\t" in texts and READ_FAILED not in texts
+    m = api.last("MISSION_CURRENT")
+    assert (m.seq, m.mission_state) == (0, COMPLETE)
+
+
+def test_jump_in_the_middle_repeats_and_reports_only_flown_items(sim):
+    """[WP, WP, DO_JUMP 0 x1, WP]: after the repeat the exhausted jump is stepped over to item
+    3, the last: the mission completes there and nothing reads past the end."""
+    api = sim.api(0)
+    reached, current, texts = fly(sim, [WP0, WP1, jump(0, 1), WP2])
+    assert dedup(reached) == [0, 1, 0, 1, 3]
+    assert [i[0] for i in jump_items(api)] == [2]
+    assert 2 not in current and READ_FAILED not in texts

@@ -1,0 +1,101 @@
+"""DO_JUMP resolution of the mission (PX4 ``src/modules/navigator/mission_base.cpp``
+getNonJumpItem / getNextPositionItems, v1.15).
+
+Rules and invariants:
+- A DO_JUMP (param1 target index, param2 repeats; mission_item_s keeps both as uint16) is
+  taken while its count is below its repeats; taking it counts once when ``write_jumps`` (the
+  mission moving on), never when only looking ahead. Negative repeats here never run out.
+- Only the index a resolution starts from is checked against the mission. Stepping past an
+  exhausted DO_JUMP that is the last item reads the item after the last, which the dataman does
+  not have: "Waypoint could not be read." (critical, event mission_failed_to_read_wp), and
+  there is no next item. A jump to an index outside the mission has no next item either, said
+  only on PX4's console ("Do Jump mission index is out of bounds.").
+- ``jumps_done`` (JumpCounts) maps a DO_JUMP's index to the jumps taken (PX4 writes the count
+  back into the stored item) and keeps, across resets, how many were counted and the last one
+  (report_do_jump_mission_changed).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from vehicles.events import MISSION_READ_FAILED, Log
+from vehicles.plan_types import MavCmd, PlanItem
+from vehicles.status_log import StatusLog
+
+MAX_JUMP_ITERATION = 10  # mission_base.h: jumps one resolution follows at most
+NEXT_POSITION_ITEMS = 2  # mission.cpp setActiveMissionItems: the position items looked ahead
+# MissionBlock::item_contains_position (multicopter and VTOL commands)
+POSITION_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_UNLIM,
+                               MavCmd.NAV_LOITER_TIME, MavCmd.NAV_LOITER_TO_ALT,
+                               MavCmd.NAV_TAKEOFF, MavCmd.NAV_LAND, 84, 85})
+
+
+class JumpCounts(dict[int, int]):
+    """Jumps taken per DO_JUMP index; ``reports`` (never reset) and ``last`` say which jump was
+    counted last."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.reports = 0
+        self.last = -1
+
+    def take(self, index: int) -> None:
+        self[index] = self.get(index, 0) + 1
+        self.reports += 1
+        self.last = index
+
+
+def non_jump_index(log: StatusLog, now_s: float, items: Sequence[PlanItem], index: int,
+                   jumps_done: JumpCounts, write_jumps: bool) -> int | None:
+    """getNonJumpItem: the first item from ``index`` on that is not a DO_JUMP, following the
+    jumps with repeats left; None when there is none."""
+    count = len(items)
+    if not 0 <= index < count:
+        return None
+    for _ in range(MAX_JUMP_ITERATION):
+        if index >= count:
+            log.critical(now_s, "Waypoint could not be read.\t")
+            log.event(now_s, MISSION_READ_FAILED, Log.ERROR, None, "H", index)
+            return None
+        item = items[index]
+        if item.command != MavCmd.DO_JUMP:
+            return index
+        target = int(item.param1) if math.isfinite(item.param1) else -1
+        repeats = int(item.param2) if math.isfinite(item.param2) else 0
+        if not 0 <= target < count:
+            return None
+        done = jumps_done.get(index, 0)
+        if repeats < 0 or done < repeats:
+            if write_jumps:
+                jumps_done.take(index)
+            index = target
+        else:
+            index += 1
+    return index  # MAX_JUMP_ITERATION jumps in a row: PX4 stops where it got to
+
+
+def look_ahead(log: StatusLog, now_s: float, items: Sequence[PlanItem], start: int,
+               jumps_done: JumpCounts) -> list[int]:
+    """getNextPositionItems(start, NEXT_POSITION_ITEMS), as setActiveMissionItems runs it for
+    each new current item (``start`` = current + 1): the next position items, jumps followed
+    but not counted. Its reads are what matter (the failed read past an exhausted last jump).
+    PX4 loops for ever on a jump back to items without a position; this stops after one pass
+    over the mission."""
+    found: list[int] = []
+    index = start
+    steps = len(items) + 1
+    for _ in range(NEXT_POSITION_ITEMS):
+        while True:
+            if index >= len(items) or steps == 0:
+                return found
+            steps -= 1
+            item_index = non_jump_index(log, now_s, items, index, jumps_done, write_jumps=False)
+            if item_index is None:
+                return found
+            index = item_index + 1
+            if items[item_index].command in POSITION_COMMANDS:
+                found.append(item_index)
+                break
+    return found
