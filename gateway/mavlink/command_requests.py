@@ -146,9 +146,9 @@ class MessageRequests:
         return ACCEPTED if ok else FAILED
 
     def get_message_interval(self, p: Params) -> int:
-        if not math.isfinite(p[0]):
-            return DENIED  # PX4 casts it to an int: no message id
-        return self._send_interval(int(p[0]))
+        """MavlinkReceiver: ``get_message_interval((int)(param1 + 0.5f))``, always ACCEPTED; an
+        id no stream has (NaN: INT_MIN, message_id 0 on the wire) is answered with interval 0."""
+        return self._send_interval(c_int(p[0] + 0.5))
 
     def _send_interval(self, msg_id: int) -> int:
         interval = self.scheduler.interval_us(msg_id)

@@ -107,10 +107,15 @@ def test_the_vehicle_still_flies_after_all_of_it(sim):
 
 
 @pytest.mark.parametrize("value", [math.inf, -math.inf, math.nan])
-def test_a_non_finite_message_interval_id_is_denied(sim, value):
-    """Found by bench/fuzz_campaign.py: PX4 casts this param to an integer; here it is refused
-    instead of raising."""
+def test_a_non_finite_message_interval_id_is_answered_as_px4_does(sim, value):
+    """Found by bench/fuzz_campaign.py. MavlinkReceiver casts param1 with (int)(param1 + 0.5f),
+    which is INT_MIN on x86 for NaN and ±inf: no stream has that id, so PX4 answers ACCEPTED and
+    MESSAGE_INTERVAL(message_id 0 as uint16, interval 0)."""
     errors = sim.simulation.internal_errors
-    assert sim.api(0).command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, value) == M.MAV_RESULT_DENIED
+    api = sim.api(0)
+    since = len(api.frames)
+    assert api.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, value) == M.MAV_RESULT_ACCEPTED
+    (reply,) = api.messages("MESSAGE_INTERVAL", since=since)
+    assert (reply.message_id, reply.interval_us) == (0, 0)
     assert telemetry_flows(sim)
     assert sim.simulation.internal_errors == errors
