@@ -165,7 +165,7 @@ class Autopilot:
         """``here``: the vehicle's latest measurement (arming sets home there if positioned)."""
         was_armed = self.commander.armed
         if not was_armed and self.calibration.busy:
-            self.log.critical(now_s, "Arming denied: calibrating")
+            self.commander.deny_arming_calibrating(now_s)
             return CommandResult.TEMPORARILY_REJECTED
         self._refresh_requirements(now_s)
         result = self.commander.arm(now_s, forced, reason)

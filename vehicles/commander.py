@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING
 from vehicles.custom_mode import custom_mode_of
 from vehicles.events import (
     ARM_DENIED,
+    ARM_DENIED_CALIBRATING,
     ARM_REASON_TEXT,
     ARMED_BY,
     COMMANDER_LAND,
@@ -303,6 +304,12 @@ class Commander:
                 self.events.send(now_s, GCS_REGAINED, Log.INFO)
         self.gcs_lost = False
         self._gcs_seen_s = now_s
+
+    def deny_arming_calibrating(self, now_s: float) -> None:
+        """Commander::arm while a calibration runs: its text (with PX4's tab) and event."""
+        self._log.critical(now_s, ARM_DENIED_CALIBRATING.message + "\t")
+        if self.events is not None:
+            self.events.send(now_s, ARM_DENIED_CALIBRATING, Log.CRITICAL, Log.INFO)
 
     def arm(self, now_s: float, forced: bool = False,
             reason: ArmReason = ArmReason.COMMAND_EXTERNAL) -> CommandResult:

@@ -127,6 +127,8 @@ TAKEOFF_DETECTED = EventDef("commander_takeoff_detected", "default", "Takeoff de
 LANDING_DETECTED = EventDef("commander_landing_detected", "default", "Landing detected")
 ARM_DENIED = EventDef("commander_arm_denied_resolve_failures", "default",
                       "Arming denied: Resolve system health failures first")
+ARM_DENIED_CALIBRATING = EventDef("commander_arm_denied_calibrating", "default",
+                                  "Arming denied: calibrating")
 ARMING_SUMMARY = EventDef(
     "commander_arming_check_summary", "arming_check", "Arming check summary event",
     (("uint8_t", "chunk_idx"), (HEALTH, "error"), (HEALTH, "warning"),
@@ -303,7 +305,8 @@ HOVER_THRUST_SET = EventDef("mc_pos_ctrl_hover_thrust_set", "default",
 POSITION_PARAMS = (TILT_SET, LAND_TILT_SET, CRUISE_SET, MAN_VEL_SET, UP_VEL_SET, DOWN_VEL_SET,
                    HOVER_THRUST_SET)
 DEFINITIONS: tuple[EventDef, ...] = (
-    ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARMING_SUMMARY,
+    ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARM_DENIED_CALIBRATING,
+    ARMING_SUMMARY,
     HEALTH_SUMMARY,
     CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_OFFBOARD, CHECK_HOME,
     CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF, CHECK_ACCEL_NO_DATA, CHECK_BARO_NO_DATA,

@@ -10,6 +10,7 @@ from pymavlink.dialects.v20 import common as M
 
 from gateway.ci.lockstep import CLIENT_SYSID
 from gateway.testing import Sim
+from vehicles.events import ARM_DENIED_CALIBRATING
 
 CAL = M.MAV_CMD_PREFLIGHT_CALIBRATION
 ACCEL = (0, 0, 0, 0, 1, 0, 0)
@@ -56,11 +57,15 @@ def test_accelerometer_calibration_measures_the_side_it_rests_on_then_times_out(
         sim.advance(1.0)
         api = sim.api(0)
         assert api.command_long(CAL, *ACCEL) == 0
+        events = sim.vehicles[0].events
+        before = events.latest
         assert api.arm() == 1
+        # Commander::arm's event comes with the text (whose tab tells an events GCS to hide it)
+        assert ARM_DENIED_CALIBRATING.id in [e.id for e in events.after(before)]
         sim.advance(35.0)
         said = texts(api)
         lines = [text for _, text in said]
-        assert lines[:3] == ["[cal] calibration started: 2 accel", "Arming denied: calibrating",
+        assert lines[:3] == ["[cal] calibration started: 2 accel", "Arming denied: calibrating\t",
                              "[cal] pending: back front left right up down"]
         assert lines.count("[cal] down orientation detected") == 2
         result = next(text for text in lines if text.startswith("[cal] down side result: "))
