@@ -14,7 +14,16 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from gateway.mavlink.telemetry import isa_pressure_hpa, isa_temperature_c
+from gateway.mavlink.telemetry import (
+    GPS_EPH_CM,
+    GPS_EPV_CM,
+    GPS_FIX_TYPE_3D,
+    GPS_H_ACC_MM,
+    GPS_V_ACC_MM,
+    isa_pressure_hpa,
+    isa_temperature_c,
+)
+from gateway.mavlink.telemetry import GPS_SATELLITES as GPS_SATELLITES_USED
 from gateway.onboard.topic import U64, B, D, F, Topic
 from vehicles.estimation import (
     R_ACC,
@@ -28,10 +37,11 @@ from vehicles.estimation import (
     S_VIB,
 )
 
-# sensor_gps_sim with a fix: fix_type, eph, epv, hdop, vdop, s_variance_m_s, c_variance_rad
-GPS_FIX_3D, GPS_EPH_M, GPS_EPV_M, GPS_HDOP, GPS_VDOP, GPS_S_VARIANCE, GPS_C_VARIANCE = (
-    3, 0.9, 1.78, 0.7, 1.1, 0.4, 0.1)
-GPS_SATELLITES = 10  # SIM_GPS_USED
+# sensor_gps_sim with a fix, in uORB's units: the GPS_RAW_INT constants of the same simulator
+GPS_FIX_3D, GPS_SATELLITES = GPS_FIX_TYPE_3D, GPS_SATELLITES_USED
+GPS_EPH_M, GPS_EPV_M = GPS_H_ACC_MM / 1000.0, GPS_V_ACC_MM / 1000.0
+GPS_HDOP, GPS_VDOP = GPS_EPH_CM / 100.0, GPS_EPV_CM / 100.0  # GPS_RAW_INT eph/epv are DOP x 100
+GPS_S_VARIANCE, GPS_C_VARIANCE = 0.4, 0.1  # s_variance_m_s, c_variance_rad
 AIR_GAS_CONST = 287.1  # PX4 CONSTANTS_AIR_GAS_CONST, J/(kg·K)
 ABSOLUTE_NULL_C = -273.15  # CONSTANTS_ABSOLUTE_NULL_CELSIUS
 IMU_INTEGRAL_DT_US = 4000  # one physics step: the IMU sample's integration interval
