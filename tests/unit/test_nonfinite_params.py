@@ -17,11 +17,11 @@ import struct
 
 import pytest
 from pymavlink.dialects.v20 import common as M
+from test_hostile_params import geo
 
 from gateway.testing import Sim, mission_item
 from vehicles.params import ParamStore, ParamType
 from vehicles.plan_types import MavCmd, PlanResult
-from vehicles.types import PX4_SITL_HOME
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 FORCE_DISARM = 21196  # MAV_CMD_COMPONENT_ARM_DISARM param2: disarm even in the air
@@ -49,11 +49,6 @@ def test_the_list_covers_the_known_consumers():
     for name in ("RTL_RETURN_ALT", "MPC_YAWRAUTO_MAX", "BAT1_V_EMPTY", "SIM_BAT_MIN_PCT",
                  "MPC_THR_MIN", "MC_ROLLRATE_P", "MIS_TAKEOFF_ALT"):
         assert name in NAMES
-
-
-def geo(n: float, e: float) -> tuple[float, float]:
-    g = PX4_SITL_HOME.offset_ned(n, e, 0.0)
-    return g.lat_deg, g.lon_deg
 
 
 def mission():
