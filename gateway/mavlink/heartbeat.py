@@ -22,6 +22,11 @@ from vehicles.types import VehicleStatus
 MAV_AUTOPILOT_PX4 = 12
 MAV_TYPE_QUADROTOR = 2
 MAVLINK_VERSION = 3
+# load_mon's cpuload (LoadMon.cpp, Linux): load is the PX4 process's CPU time over the elapsed
+# time, ram_usage the host's used RAM fraction (/proc/meminfo, as free(1)). Neither has a
+# simulated counterpart, so both are constants, of a lockstep SITL on a desktop host; SYS_STATUS
+# sends load x 1000 (SYS_STATUS.hpp) and the logger logs the same topic.
+CPULOAD_LOAD, CPULOAD_RAM_USAGE = 0.2, 0.35
 
 # MAV_STATE
 MAV_STATE_UNINIT = 0
@@ -101,7 +106,8 @@ def build_sys_status(enc: Encoder, status: VehicleStatus) -> bytes:
     current_ca = sat_round(bat.current_a * 100.0, -1, 32767)
     remaining = sat_round(bat.remaining * 100.0, 0, 100)
     return enc.pack(mavlink2.MAVLink_sys_status_message, present, enabled, health,
-                    0, voltage_mv, current_ca, remaining, 0, 0, 0, 0, 0, 0)
+                    int(CPULOAD_LOAD * 1000.0), voltage_mv, current_ca, remaining, 0, 0, 0,
+                    0, 0, 0)
 
 
 def build_extended_sys_state(enc: Encoder, status: VehicleStatus) -> bytes:

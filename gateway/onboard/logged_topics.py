@@ -17,7 +17,8 @@ Rules:
   the interval (sensor_combined and vehicle_attitude: every step; vehicle_angular_velocity and
   the attitude ground truth: every 10 ms). For the others an interval under 20 ms means "every
   tick". ``on_change`` topics (PX4: no interval, published on change) are logged when their
-  values change.
+  values change. A topic logged at every update that its module publishes at a fixed rate
+  has that ``period_s`` (cpuload: load_mon's 500 ms).
 - ``read(vehicle, now_us)`` returns the field values in order, an array field's elements one by
   one (flat, as the record is packed), or None while PX4 would not have published the topic yet
   (home_position before home is set). A ``timestamp_sample`` is
@@ -32,6 +33,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+from gateway.mavlink.heartbeat import CPULOAD_LOAD, CPULOAD_RAM_USAGE
 from gateway.onboard.logged_sensors import (
     BATTERY_STATUS,
     SENSOR_BARO,
@@ -61,6 +63,7 @@ ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # vehicle_status.arming_state 
 VEHICLE_TYPE_ROTARY_WING = 1  # vehicle_status.vehicle_type
 ACTUATOR_MOTORS = 12  # actuator_motors.control: NUM_CONTROLS
 NAN3 = (math.nan, math.nan, math.nan)
+LOAD_MON_PERIOD_S = 0.5  # LoadMon::start: ScheduleOnInterval(500_ms)
 
 
 def _attitude(v: Any, now_us: int) -> tuple:
@@ -295,6 +298,14 @@ def _manual_control(v: Any, now_us: int) -> tuple | None:
 _AUX = (0.0,) * 6
 
 
+def _cpuload(v: Any, now_us: int) -> tuple | None:
+    """load_mon's cpuload (heartbeat.py has the values); none before its second run, the
+    first only taking the times."""
+    if now_us < LOAD_MON_PERIOD_S * 1e6:
+        return None
+    return (CPULOAD_LOAD, CPULOAD_RAM_USAGE)
+
+
 def _attitude_truth(v: Any, now_us: int) -> tuple:
     return v.truth.attitude_q
 
@@ -407,6 +418,8 @@ TOPICS: tuple[Topic, ...] = (
                                (F, "yawspeed_integ")), 0.2, _rate_ctrl_status),
     Topic("position_setpoint_triplet", (("position_setpoint", "current"),), 0.2, _triplet,
           on_change=True),
+    Topic("cpuload", ((F, "load"), (F, "ram_usage")), 0.0, _cpuload,
+          period_s=LOAD_MON_PERIOD_S),
 )
 # The nested formats the topics use (PX4 writes each one's format beside the topics').
 NESTED_FORMATS = {"position_setpoint": ((B, "valid"), (D, "lat"), (D, "lon"), (F, "alt"))}

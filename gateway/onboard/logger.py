@@ -404,14 +404,15 @@ class VehicleLogger:
         due, soon = self._due, now_s + 1e-9
         stepped = self._sample_steps(view, force, buf)
         for i, topic in enumerate(self.topics):
-            if i in stepped or (not force and soon < due[i]):
+            # a topic published at a fixed rate has no record but its publications
+            if i in stepped or ((not force or topic.period_s) and soon < due[i]):
                 continue
             try:
                 values = topic.read(view, us)
                 if values is None:  # not published yet
                     continue
                 if topic.on_change and values == self._last[i] and not force:
-                    due[i] = now_s + topic.interval_s  # looked again after the interval
+                    due[i] = now_s + topic.every_s  # looked again after the interval
                     continue
                 record = self._structs[i].pack(us, *values)
             except Exception:  # a topic that cannot be read is missing, the log goes on
@@ -420,7 +421,7 @@ class VehicleLogger:
                     log.exception("logger: topic %s could not be sampled", topic.name)
                 continue
             self._last[i] = values
-            due[i] = now_s + topic.interval_s
+            due[i] = now_s + topic.every_s
             buf += self._prefixes[i]  # ulog.data(i, payload), in two appends
             buf += record
         if now_s - self._last_sync_s > SYNC_PERIOD_S:

@@ -26,3 +26,11 @@ class Topic:
     on_change: bool = False  # log only when the values change (and at the start)
     # (ring row, step time µs) → the values, for a topic logged at the sensors' rate
     step: Callable[[Sequence[float], int], Sequence[Any]] | None = None
+    # the publisher's period, for a topic logged at every update (no interval) that its module
+    # publishes at a fixed rate (load_mon's cpuload: 500 ms)
+    period_s: float = 0.0
+
+    @property
+    def every_s(self) -> float:
+        """How often a record is written: the logger's interval or the publisher's period."""
+        return max(self.interval_s, self.period_s)

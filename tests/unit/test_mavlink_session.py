@@ -132,6 +132,7 @@ def test_sys_status_health_bits():
     assert ss.onboard_control_sensors_enabled == 0x1320482F
     assert all(_mavsdk_health(ss).values())
     assert ss.voltage_battery == 16200 and ss.battery_remaining == 90
+    assert ss.load == 200  # SYS_STATUS.hpp: cpuload.load (0.2) x 1000
 
 
 def _counts(kind, seconds=10.0):

@@ -55,6 +55,7 @@ PX4_SITL_INTERVALS_MS = {
     "vehicle_local_position_groundtruth": 20, "vehicle_global_position_groundtruth": 100,
     "failsafe_flags": 0, "sensor_baro": 1000, "vehicle_imu_status": 1000,
     "vehicle_torque_setpoint": 20, "rate_ctrl_status": 200, "position_setpoint_triplet": 200,
+    "cpuload": 0,
 }
 
 
@@ -97,6 +98,7 @@ FLIGHT_REVIEW_FIELDS = {
     "vehicle_status": ["nav_state", "is_vtol", "failsafe", "failsafe_and_user_took_over"],
     "failsafe_flags": ["manual_control_signal_lost", "gcs_connection_lost"],
     "event": ["id", "arguments[0]"],
+    "cpuload": ["load", "ram_usage"],  # the CPU & RAM plot
 }
 # Published only once stick input came (the flight has none): checked on the format.
 FLIGHT_REVIEW_FORMAT_FIELDS = {
@@ -177,3 +179,16 @@ def test_the_navigators_setpoint_is_position_setpoint_triplet_current(flight_log
     assert (np.abs(triplet["current.alt"][valid] - home_alt - 2.5) < 0.1).any()
     gps = flight_log.get_dataset("vehicle_gps_position").data
     assert abs(triplet["current.lat"][valid][0] - gps["latitude_deg"][0]) < 1e-4
+
+
+def test_cpuload_is_load_mons_every_500_ms(flight_log):
+    """load_mon publishes cpuload every 500 ms (the logger has no interval for it), the values
+    SYS_STATUS's load is sent from."""
+    from gateway.mavlink.heartbeat import CPULOAD_LOAD, CPULOAD_RAM_USAGE
+
+    cpuload = flight_log.get_dataset("cpuload").data
+    gaps = np.diff(cpuload["timestamp"])
+    assert len(gaps) > 10 and gaps.min() >= 480_000 and gaps.max() <= 520_000
+    assert cpuload["load"] == pytest.approx(CPULOAD_LOAD)
+    assert cpuload["ram_usage"] == pytest.approx(CPULOAD_RAM_USAGE)
+    assert 0.0 < CPULOAD_LOAD < 1.0 and 0.0 < CPULOAD_RAM_USAGE < 1.0
