@@ -27,6 +27,7 @@ from vehicles.estimation import (
     E_RATIOS,
     E_WIND,
     E_WIND_VAR,
+    F_GPS_OFF,
     S_ACC,
     S_BARO_DOWN,
     S_GPS_POS,
@@ -154,8 +155,31 @@ def global_position_int(s: Snapshot) -> tuple:
             _cdeg(s.euler[2]))
 
 
+GPS_NO_GPS_INTERVAL_US = 1_000_000  # GPS_RAW_INT.hpp kNoGpsSendInterval
+GPS_FIX_TYPE_NO_GPS = 0
+UINT8_UNKNOWN = 255
+
+
+def gps_raw_int(enc: Encoder, s: Snapshot) -> bytes | None:
+    """GPS_RAW_INT.hpp: each GPS sample; with the GPS off (failure injection: the simulated
+    receiver stops publishing) nothing, then once the last was sent over 1 s ago a NO_GPS
+    message (fix 0, the unknowns at their maxima, the rest 0) at most every second."""
+    link = s.link
+    if not s.status.extra.get("sensor_failures", 0) & F_GPS_OFF:
+        if link is not None:
+            link.gps_sent_us = s.time_usec
+        return _gps_fix(enc, s)
+    if link is None or link.gps_sent_us == 0 or \
+            s.time_usec <= link.gps_sent_us + GPS_NO_GPS_INTERVAL_US:
+        return None
+    link.gps_sent_us = s.time_usec
+    return enc.pack(M.MAVLink_gps_raw_int_message, 0, GPS_FIX_TYPE_NO_GPS, 0, 0, 0,
+                    UINT16_UNKNOWN, UINT16_UNKNOWN, UINT16_UNKNOWN, UINT16_UNKNOWN,
+                    UINT8_UNKNOWN, 0, 0, 0, 0, 0)
+
+
 @_shared(M.MAVLink_gps_raw_int_message)
-def gps_raw_int(s: Snapshot) -> tuple:
+def _gps_fix(s: Snapshot) -> tuple:
     """The latest GPS fix (vehicles/estimation.py: noisy, EKF2_GPS_DELAY old)."""
     sensed = s.sample.sensors
     if sensed is None:

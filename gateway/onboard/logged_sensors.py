@@ -26,6 +26,7 @@ from gateway.mavlink.telemetry import (
 from gateway.mavlink.telemetry import GPS_SATELLITES as GPS_SATELLITES_USED
 from gateway.onboard.topic import U64, B, D, F, Topic
 from vehicles.estimation import (
+    F_GPS_OFF,
     R_ACC,
     R_GYRO,
     S_ACC,
@@ -57,9 +58,13 @@ def _sensor_combined_step(r: Sequence[float], t_us: int) -> tuple:
     return (*r[R_GYRO:R_GYRO + 3], IMU_INTEGRAL_DT_US, 0, *r[R_ACC:R_ACC + 3], IMU_INTEGRAL_DT_US)
 
 
-def _gps(v: Any, now_us: int) -> tuple:
+def _gps(v: Any, now_us: int) -> tuple | None:
     """sensor_gps_sim's sample: the simulated receiver's position and velocity, its constants
-    for the rest (altitude_ellipsoid_m = altitude_msl_m, time_utc_usec 0, heading NaN)."""
+    for the rest (altitude_ellipsoid_m = altitude_msl_m, time_utc_usec 0, heading NaN). None
+    while the GPS is off (failure injection): the receiver publishes nothing, so the topic
+    stops updating and the logger writes no record, as GPS_RAW_INT stops."""
+    if v.status.extra.get("sensor_failures", 0) & F_GPS_OFF:
+        return None
     s = v.sensors
     g = v.origin.offset_ned(s[S_GPS_POS], s[S_GPS_POS + 1], s[S_GPS_POS + 2])
     vn, ve, vd = s[S_GPS_VEL:S_GPS_VEL + 3]

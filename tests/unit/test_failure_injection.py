@@ -307,3 +307,39 @@ def test_loss_burst_and_latency_step_in_the_fault_timeline():
     with pytest.raises(scenario_mod.ScenarioError, match=r"faults\[0\].latency_ms: only for"):
         scenario_mod.parse({"faults": [{"at_s": 1.0, "link": "v1", "event": "loss", "loss": 0.1,
                                         "latency_ms": 5.0, "duration_s": 1.0}]})
+
+
+def test_gps_off_the_log_and_gps_raw_int_show_no_fix(tmp_path):
+    """sensor_gps stops publishing while the GPS is off: the logger writes no
+    vehicle_gps_position record, and GPS_RAW_INT.hpp sends nothing, then a NO_GPS message
+    (fix 0, unknowns at their maxima) once the last went out over 1 s ago, at most every
+    second; fixes come again with the GPS."""
+    import numpy as np
+    import pyulog
+
+    with Sim(log_dir=tmp_path) as sim:
+        hover(sim, 2.5)
+        api = sim.api(0)
+        t_off = sim.now
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OFF, 0) == 0
+        sim.advance(3.55)
+        t_on = sim.now
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OK, 0) == 0
+        sim.advance(1.0)
+        assert api.land() == 0
+        assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
+        sim.advance(0.5)
+        gps_raw = api.timed_messages("GPS_RAW_INT")
+    during = [(t, m) for t, m in gps_raw if t_off + 0.3 < t < t_on]
+    no_gps = [(t, m) for t, m in during if m.fix_type == 0]
+    assert len(during) == len(no_gps) and len(no_gps) in (2, 3)
+    assert all(m.eph == m.epv == m.vel == m.cog == 65535 and m.satellites_visible == 255
+               and m.lat == m.lon == 0 for _, m in no_gps)
+    times = [t for t, _ in no_gps]
+    assert times[0] - t_off > 1.0 and min(np.diff(times)) > 1.0
+    assert any(m.fix_type == 3 for t, m in gps_raw if t > t_on + 0.3)
+    (path,) = sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))
+    gps = pyulog.ULog(str(path)).get_dataset("vehicle_gps_position").data
+    t_s = gps["timestamp"] / 1e6
+    assert not ((t_s > t_off + 0.1) & (t_s < t_on - 0.1)).any()  # no record while off
+    assert (t_s > t_on + 0.1).any() and set(gps["fix_type"]) == {3}
