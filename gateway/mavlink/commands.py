@@ -122,8 +122,10 @@ class CommandService:
             M.MAV_CMD_GET_MESSAGE_INTERVAL: lambda c, t: req.get_message_interval(c.params),
             M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibration,
             M.MAV_CMD_PREFLIGHT_STORAGE: self._storage,
+            # MAV_CMD_DO_MOTOR_TEST has no handler: PX4 1.14 removed Commander's
+            # handle_command_motor_test (and test_motor) for MAV_CMD_ACTUATOR_TEST, so 1.15's
+            # handle_command answers it UNSUPPORTED in its default case, armed or not.
             M.MAV_CMD_ACTUATOR_TEST: self._actuator_test,
-            M.MAV_CMD_DO_MOTOR_TEST: self._motor_test,
             # Commander: (int)param1 0 does nothing (ACCEPTED); a reboot or shutdown is refused
             M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
                 lambda c, t: ACCEPTED if c_int(c.p(1)) == 0 else DENIED,
@@ -375,22 +377,6 @@ class CommandService:
         value = cmd.p(1)
         return test(now_s, c_int(cmd.p(5) + 0.5), value if math.isfinite(value) else math.nan,
                     cmd.p(2))
-
-    def _motor_test(self, cmd: Command, now_s: float) -> int:
-        """MAV_CMD_DO_MOTOR_TEST (QGC's older Motors page) as Commander's
-        handle_command_motor_test: armed or COM_MOT_TEST_EN != 1 DENIED; a throttle type other
-        than percent (param2 0) or more than one motor (param5) UNSUPPORTED; else ACCEPTED. The
-        command becomes a test_motor message, which PX4's output modules no longer read (their
-        actuator test takes actuator_test, MAV_CMD_ACTUATOR_TEST's): the motors stay still, as
-        in PX4 SITL."""
-        allowed = self._vehicle("motor_test_allowed")
-        if allowed is None:
-            return UNSUPPORTED
-        if not allowed():
-            return DENIED
-        if c_int(cmd.p(2) + 0.5) != 0 or c_int(cmd.p(5) + 0.5) > 1:
-            return UNSUPPORTED
-        return ACCEPTED
 
     def _storage(self, cmd: Command, now_s: float) -> int | None:
         storage = self._vehicle("param_storage")

@@ -56,24 +56,23 @@ def test_actuator_test_is_denied_armed_or_disabled():
         assert api.command_long(TEST, 0.5, 1.0, 0, 0, 1) == 2
 
 
-def test_do_motor_test_is_answered_as_commanders_but_spins_nothing():
-    """MAV_CMD_DO_MOTOR_TEST (QGC's older Motors page), Commander's handle_command_motor_test:
-    param1 motor (1-based), param2 throttle type (0 percent), param3 throttle, param4 timeout,
-    param5 motor count. It publishes test_motor, which PX4's output modules no longer read, so
-    the motors stay still."""
+def test_do_motor_test_is_unsupported_as_in_px4_1_15():
+    """MAV_CMD_DO_MOTOR_TEST (QGC's older Motors page): PX4 1.14 removed Commander's
+    handle_command_motor_test with the test_motor topic (ACTUATOR_TEST replaced it), so
+    Commander::handle_command answers it UNSUPPORTED (its default case) whatever the arming
+    state, COM_MOT_TEST_EN or params; nothing spins."""
     motor_test = M.MAV_CMD_DO_MOTOR_TEST
     with Sim() as sim:
         sim.advance(1.0)
         api, vehicle = sim.api(0), sim.vehicles[0]
-        assert api.command_long(motor_test, 1, 0, 50, 2, 0) == 0  # ACCEPTED
-        assert api.command_long(motor_test, 1, 0, 50, 2, 1) == 0
+        for params in ((1, 0, 50, 2, 0), (1, 0, 50, 2, 1), (1, 1, 1500, 2, 0),
+                       (1, 0, 50, 2, 4)):
+            assert api.command_long(motor_test, *params) == 3  # UNSUPPORTED
         sim.advance(0.5)
         assert speeds_of(vehicle) == (0.0, 0.0, 0.0, 0.0)
-        assert api.command_long(motor_test, 1, 1, 1500, 2, 0) == 3  # PWM: UNSUPPORTED
-        assert api.command_long(motor_test, 1, 0, 50, 2, 4) == 3  # four motors: UNSUPPORTED
         assert vehicle.params.set("COM_MOT_TEST_EN", 0)
-        assert api.command_long(motor_test, 1, 0, 50, 2, 0) == 2  # DENIED
+        assert api.command_long(motor_test, 1, 0, 50, 2, 0) == 3
         assert vehicle.params.set("COM_MOT_TEST_EN", 1)
         sim.advance(6.0)
         assert api.arm() == 0
-        assert api.command_long(motor_test, 1, 0, 50, 2, 0) == 2  # armed: DENIED
+        assert api.command_long(motor_test, 1, 0, 50, 2, 0) == 3
