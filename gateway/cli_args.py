@@ -210,25 +210,43 @@ def vehicle_params(from_file: dict[int, dict[str, float]], specs: list[str], veh
 
 def writable_dir(parser: argparse.ArgumentParser, path: Path, flag: str) -> None:
     """Exit 2 naming ``flag`` unless ``path`` is (or can be made) a directory we can write."""
+    if path.exists() and not path.is_dir():
+        parser.error(f"{flag} {path}: is a file, not a directory; give a directory")
     try:
         path.mkdir(parents=True, exist_ok=True)
         probe = path / ".cornet-write-test"
         probe.write_text("")
         probe.unlink()
     except OSError as exc:
-        parser.error(f"{flag} {path}: not a writable directory ({exc.strerror})")
+        parser.error(f"{flag} {path}: not a writable directory ({exc.strerror}); give a "
+                     "directory you can write")
 
 
 def writable_file(parser: argparse.ArgumentParser, path: Path, flag: str) -> None:
-    """Exit 2 naming ``flag`` unless ``path`` can be a file we write: its directory exists and
-    is writable, and it is not itself a directory (checked before a run, not after it)."""
+    """Exit 2 naming ``flag`` unless ``path`` can be a file we write: not a directory, in a
+    directory that exists, and open for appending takes a write (checked before a run, not
+    after it). The probe writes nothing; a file it had to create is removed again."""
     problem = None
     if path.is_dir():
         problem = "is a directory; give a file name"
     elif not path.parent.is_dir():
         problem = f"no directory {path.parent}"
-    elif not os.access(path.parent, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
-        problem = "cannot be written (permission denied)"
+    else:
+        existed = path.exists()
+        try:
+            # Non-blocking: a FIFO nobody reads fails (ENXIO) rather than hanging the start.
+            fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NONBLOCK, 0o644)
+            try:
+                # An empty write reaches the file's driver: /proc/version (EIO) and /dev/full
+                # (ENOSPC) open for root and fail only here, as the first trace line would.
+                os.write(fd, b"")
+            finally:
+                os.close(fd)
+        except OSError as exc:
+            problem = f"cannot be written ({exc.strerror}); give a file you can write"
+        finally:
+            if not existed and path.exists():
+                path.unlink(missing_ok=True)
     if problem is not None:
         parser.error(f"{flag} {path}: {problem}")
 

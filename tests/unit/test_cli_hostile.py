@@ -59,6 +59,15 @@ def garbage(tmp_path):
     (["run", "--packet-trace", "/"], "--packet-trace"),
     (["fly", "square", "--no-log", "--junit-xml", "/"], "--junit-xml"),
     (["fly", "square", "--no-log", "--summary", "/proc/no-such-dir/s.md"], "--summary"),
+    # a path that opens but takes no write (even for root): refused at the start, not at the
+    # first datagram; a file given as a directory
+    (["run", "--packet-trace", "/proc/version", "--duration", "0.5", "--speed", "max"],
+     "--packet-trace"),
+    (["run", "--packet-trace", "/dev/full", "--duration", "0.5", "--speed", "max"],
+     "--packet-trace"),
+    (["fly", "square", "--no-log", "--junit-xml", "/dev/full"], "--junit-xml"),
+    (["run", "--log-dir", "/proc/version"], "--log-dir"),
+    (["run", "--state-dir", "/proc"], "--state-dir"),
 ])
 def test_a_hostile_flag_exits_2_naming_it(argv, flag, capsys):
     rc, err = outcome(argv, capsys)
@@ -80,3 +89,25 @@ def test_a_bind_address_of_another_machine_names_bind(capsys):
                       capsys)
     assert rc == 2 and "Traceback" not in err
     assert "--bind" in err.strip().splitlines()[-1]
+
+
+@pytest.mark.parametrize("argv, says", [
+    (["run", "--packet-trace", "/proc/version"], "; give a file you can write"),
+    (["run", "--log-dir", "/proc/version"], "is a file, not a directory; give a directory"),
+])
+def test_the_refusal_says_what_to_fix(argv, says, capsys):
+    rc, err = outcome(argv + ["--duration", "0.5", "--speed", "max"], capsys)
+    assert rc == 2 and says in err.strip().splitlines()[-1], err
+
+
+def test_the_write_probe_leaves_files_as_they_were(tmp_path):
+    import argparse
+
+    from gateway.cli_args import writable_file
+
+    parser = argparse.ArgumentParser()
+    kept = tmp_path / "kept.txt"
+    kept.write_text("old trace\n")
+    writable_file(parser, kept, "--packet-trace")
+    writable_file(parser, tmp_path / "new.txt", "--packet-trace")
+    assert kept.read_text() == "old trace\n" and not (tmp_path / "new.txt").exists()
