@@ -79,14 +79,16 @@ class MessageRequests:
         self.component_metadata: MetadataFiles | None = None
 
     def request_message(self, p: Params, now_s: float) -> int:
-        """REQUEST_MESSAGE: the id is (uint16_t)roundf(param1)."""
+        """REQUEST_MESSAGE: the id is (uint16_t)roundf(param1); for MESSAGE_INTERVAL param2 is
+        the id asked about, cast as GET_MESSAGE_INTERVAL casts its param1."""
         msg_id = c_int(roundf(p[0])) & 0xFFFF
         if msg_id == M.MAVLINK_MSG_ID_AUTOPILOT_VERSION:
             return self.autopilot_capabilities()
         if msg_id == MSG_ID_PROTOCOL_VERSION:
             return self.protocol_version()
         if msg_id == M.MAVLINK_MSG_ID_MESSAGE_INTERVAL:
-            return self._send_interval(_int_or(p[1], -1))
+            # the asked id as GET_MESSAGE_INTERVAL's, (int)(param2 + 0.5f): INT_MIN for NaN
+            return self._send_interval(c_int(p[1] + 0.5))
         if msg_id in (MSG_ID_COMPONENT_METADATA, MSG_ID_COMPONENT_INFORMATION):
             return self._component_metadata(msg_id, now_s)
         spec = STREAMS_BY_ID.get(msg_id)
@@ -192,8 +194,3 @@ def wrap_int(value: int, bits: int) -> int:
     half = 1 << (bits - 1)
     return ((value + half) & ((1 << bits) - 1)) - half
 
-
-def _int_or(value: float, default: int) -> int:
-    if math.isnan(value) or math.isinf(value):
-        return default
-    return int(round(value))

@@ -119,3 +119,17 @@ def test_a_non_finite_message_interval_id_is_answered_as_px4_does(sim, value):
     assert (reply.message_id, reply.interval_us) == (0, 0)
     assert telemetry_flows(sim)
     assert sim.simulation.internal_errors == errors
+
+
+@pytest.mark.parametrize("value, message_id", [(math.nan, 0), (math.inf, 0), (30.5, 31),
+                                               (31.4, 31)])
+def test_request_message_interval_casts_param2_as_c_does(sim, value, message_id):
+    """REQUEST_MESSAGE(MESSAGE_INTERVAL) asks about the id in param2, cast as
+    GET_MESSAGE_INTERVAL's (int)(param + 0.5f): NaN and inf give x86's INT_MIN (message_id 0
+    on the wire, no such stream: interval 0), and halves go up, not to even."""
+    api = sim.api(0)
+    since = len(api.frames)
+    assert api.command_long(M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_MESSAGE_INTERVAL,
+                            value) == M.MAV_RESULT_ACCEPTED
+    (reply,) = api.messages("MESSAGE_INTERVAL", since=since)
+    assert reply.message_id == message_id
