@@ -45,6 +45,7 @@ GPS_EPH_CM = 70
 GPS_EPV_CM = 110
 GPS_H_ACC_MM = 900
 GPS_V_ACC_MM = 1780
+GPS_VEL_ACC_MM = 400  # s_variance_m_s 0.4 x 1000
 UINT16_UNKNOWN = 65535
 INT16_MAX = 32767
 
@@ -189,12 +190,14 @@ def _gps_fix(s: Snapshot) -> tuple:
         g = s.vehicle.origin.offset_ned(sensed[S_GPS_POS], sensed[S_GPS_POS + 1],
                                         sensed[S_GPS_POS + 2])
         vn, ve = sensed[S_GPS_VEL], sensed[S_GPS_VEL + 1]
-    speed = math.hypot(vn, ve)
-    cog = _cdeg(math.atan2(ve, vn)) if speed > 0.1 else UINT16_UNKNOWN
+    # GPS_RAW_INT.hpp converts as C does (truncating); cog of every sample, however slow:
+    # sensor_gps_sim's course is atan2 of its noisy velocity, so at rest it wanders.
+    speed_cm = min(int(math.hypot(vn, ve) * 100.0), UINT16_UNKNOWN)
+    cog = int(math.degrees(math.atan2(ve, vn)) % 360.0 * 100.0) % 36000
     alt_mm = int(round(g.alt_amsl_m * 1000.0))
     return (s.time_usec, GPS_FIX_TYPE_3D, _deg_e7(g.lat_deg), _deg_e7(g.lon_deg), alt_mm,
-            GPS_EPH_CM, GPS_EPV_CM, int(round(speed * 100.0)), cog, GPS_SATELLITES, alt_mm,
-            GPS_H_ACC_MM, GPS_V_ACC_MM, 0, 0, 0)
+            GPS_EPH_CM, GPS_EPV_CM, speed_cm, cog, GPS_SATELLITES, alt_mm,
+            GPS_H_ACC_MM, GPS_V_ACC_MM, GPS_VEL_ACC_MM, 0, 0)
 
 
 def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:

@@ -20,6 +20,7 @@ from gateway.mavlink.telemetry import (
     GPS_FIX_TYPE_3D,
     GPS_H_ACC_MM,
     GPS_V_ACC_MM,
+    GPS_VEL_ACC_MM,
     isa_pressure_hpa,
     isa_temperature_c,
 )
@@ -42,7 +43,7 @@ from vehicles.estimation import (
 GPS_FIX_3D, GPS_SATELLITES = GPS_FIX_TYPE_3D, GPS_SATELLITES_USED
 GPS_EPH_M, GPS_EPV_M = GPS_H_ACC_MM / 1000.0, GPS_V_ACC_MM / 1000.0
 GPS_HDOP, GPS_VDOP = GPS_EPH_CM / 100.0, GPS_EPV_CM / 100.0  # GPS_RAW_INT eph/epv are DOP x 100
-GPS_S_VARIANCE, GPS_C_VARIANCE = 0.4, 0.1  # s_variance_m_s, c_variance_rad
+GPS_S_VARIANCE, GPS_C_VARIANCE = GPS_VEL_ACC_MM / 1000.0, 0.1  # s_variance_m_s, c_variance_rad
 AIR_GAS_CONST = 287.1  # PX4 CONSTANTS_AIR_GAS_CONST, J/(kg·K)
 ABSOLUTE_NULL_C = -273.15  # CONSTANTS_ABSOLUTE_NULL_CELSIUS
 IMU_INTEGRAL_DT_US = 4000  # one physics step: the IMU sample's integration interval

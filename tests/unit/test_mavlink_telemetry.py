@@ -203,3 +203,20 @@ def test_highres_imu_odometry_and_pressure_at_rest_and_yawed():
     assert (odo.frame_id, odo.child_frame_id) == (1, 12) and math.isnan(odo.pose_covariance[0])
     sp = [m for m in msgs if m.get_type() == "SCALED_PRESSURE"][-1]
     assert sp.press_abs == pytest.approx(imu.abs_pressure, rel=1e-6)
+
+
+def test_gps_raw_int_carries_the_sim_receivers_course_and_speed_accuracy_at_rest():
+    """GPS_RAW_INT.hpp: cog is degrees(wrap_2pi(cog_rad)) x 100 of every sample, with no
+    speed threshold (sensor_gps_sim's cog_rad is atan2 of its noisy velocity, so it wanders at
+    rest); vel is the speed x 100 and vel_acc s_variance_m_s x 1000 (the receiver's 0.4 m/s),
+    each converted to an integer as C converts a float: truncated."""
+    from gateway.testing import Sim
+
+    with Sim(1) as sim:
+        sim.advance(3.0)
+        gps = sim.api().messages("GPS_RAW_INT")
+    assert len(gps) > 10
+    assert all(m.vel_acc == 400 for m in gps)
+    assert all(0 <= m.cog < 36000 for m in gps)
+    assert len({m.cog for m in gps}) > len(gps) // 2  # at rest: the noise's direction
+    assert all(m.vel < 100 for m in gps)  # truncated cm/s of a noisy rest
