@@ -2,9 +2,11 @@
 getNonJumpItem / getNextPositionItems, v1.15).
 
 Rules and invariants:
-- A DO_JUMP (param1 target index, param2 repeats; mission_item_s keeps both as uint16) is
-  taken while its count is below its repeats; taking it counts once when ``write_jumps`` (the
-  mission moving on), never when only looking ahead. Negative repeats here never run out.
+- A DO_JUMP (param1 target index, param2 repeats) is taken while its count is below its
+  repeats; taking it counts once when ``write_jumps`` (the mission moving on), never when only
+  looking ahead. mavlink_mission.cpp stores param1 in mission_item_s's int16_t
+  do_jump_mission_index and param2 in its uint16_t do_jump_repeat_count (``jump_target`` /
+  ``jump_repeats``), and a download sends those back: -1 repeats are 65535.
 - Only the index a resolution starts from is checked against the mission. Stepping past an
   exhausted DO_JUMP that is the last item reads the item after the last, which the dataman does
   not have: "Waypoint could not be read." (critical, event mission_failed_to_read_wp), and
@@ -30,6 +32,25 @@ NEXT_POSITION_ITEMS = 2  # mission.cpp setActiveMissionItems: the position items
 POSITION_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_UNLIM,
                                MavCmd.NAV_LOITER_TIME, MavCmd.NAV_LOITER_TO_ALT,
                                MavCmd.NAV_TAKEOFF, MavCmd.NAV_LAND, 84, 85})
+
+
+def _low16(value: float) -> int:
+    """The low 16 bits of a float converted to a C 16-bit integer on x86-64 SITL: the
+    conversion goes through an int32 (cvttss2si), which gives INT32_MIN for NaN, ±inf and
+    values outside int32."""
+    i = math.trunc(value) if math.isfinite(value) and -(2**31) < value < 2**31 else -(2**31)
+    return i & 0xFFFF
+
+
+def jump_target(item: PlanItem) -> int:
+    """do_jump_mission_index: param1 as an int16_t."""
+    low = _low16(item.param1)
+    return low - 0x10000 if low >= 0x8000 else low
+
+
+def jump_repeats(item: PlanItem) -> int:
+    """do_jump_repeat_count: param2 as a uint16_t (-1 → 65535)."""
+    return _low16(item.param2)
 
 
 class JumpCounts(dict[int, int]):
@@ -62,12 +83,10 @@ def non_jump_index(log: StatusLog, now_s: float, items: Sequence[PlanItem], inde
         item = items[index]
         if item.command != MavCmd.DO_JUMP:
             return index
-        target = int(item.param1) if math.isfinite(item.param1) else -1
-        repeats = int(item.param2) if math.isfinite(item.param2) else 0
+        target = jump_target(item)
         if not 0 <= target < count:
             return None
-        done = jumps_done.get(index, 0)
-        if repeats < 0 or done < repeats:
+        if jumps_done.get(index, 0) < jump_repeats(item):
             if write_jumps:
                 jumps_done.take(index)
             index = target

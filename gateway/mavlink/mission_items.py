@@ -22,6 +22,7 @@ from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Encoder
 from gateway.mavlink.vehicle_port import VehiclePort
+from vehicles.mission_jumps import jump_repeats, jump_target
 from vehicles.plan_types import MavCmd, MissionState, MissionStatus, PlanItem, PlanType
 
 # Frames whose x/y are latitude/longitude (MAV_FRAME numbers).
@@ -74,7 +75,10 @@ def download_form(item: PlanItem, mission_type: int, int_mode: bool
     position keep their params; positional ones get the frame of their altitude reference in
     the flavour asked for (relative: 6 or 3, absolute: 5 or 0; a fence point is always
     absolute, as PX4 keeps no reference for it) and only the params PX4 stores, yaw wrapped to
-    [0, 360)."""
+    [0, 360). A DO_JUMP's index and repeats come back as the int16 / uint16 PX4 keeps."""
+    if item.command == MavCmd.DO_JUMP and item.frame not in GLOBAL_FRAMES:  # int16 / uint16
+        return item.frame, float(jump_target(item)), float(jump_repeats(item)), item.param3, \
+            item.param4
     if item.frame not in GLOBAL_FRAMES:
         return item.frame, item.param1, item.param2, item.param3, item.param4
     relative = item.frame in RELATIVE_FRAMES and mission_type != int(PlanType.FENCE)

@@ -1,6 +1,7 @@
 """DO_JUMP through the wire in lockstep (gateway.testing.Sim), as PX4 1.15 flies it
 (navigator mission_base.cpp goToNextItem / getNonJumpItem, mission.cpp setActiveMissionItems)."""
 
+import numpy as np
 import pytest
 
 from gateway.testing import Sim, mission_item
@@ -20,6 +21,7 @@ def jump(target: float, repeats: float):
     return mission_item(MavCmd.DO_JUMP, params=(target, repeats, 0.0, 0.0))
 
 
+NAN = float("nan")
 WP0 = mission_item(MavCmd.NAV_WAYPOINT, *geo(12, 0), 6.0)
 WP1 = mission_item(MavCmd.NAV_WAYPOINT, *geo(12, 12), 6.0)
 WP2 = mission_item(MavCmd.NAV_WAYPOINT, *geo(0, 12), 6.0)
@@ -111,3 +113,33 @@ def test_jump_in_the_middle_repeats_and_reports_only_flown_items(sim):
     assert dedup(reached) == [0, 1, 0, 1, 3]
     assert [i[0] for i in jump_items(api)] == [2]
     assert 2 not in current and READ_FAILED not in texts
+
+
+def download_jump(sim, seq):
+    """param1, param2 of item ``seq`` as a download gives it back (MISSION_ITEM_INT)."""
+    api = sim.api(0)
+    mark = len(api.frames)
+    api.send(api.mav.mission_request_list_encode(api.target, 1, 0))
+    sim.advance(0.1)
+    for i in range(seq + 1):  # in order, as PX4 requires
+        api.send(api.mav.mission_request_int_encode(api.target, 1, i, 0))
+        sim.advance(0.1)
+    api.send(api.mav.mission_ack_encode(api.target, 1, 0, 0))
+    back = api.messages("MISSION_ITEM_INT", since=mark)[-1]
+    assert (back.seq, back.command) == (seq, MavCmd.DO_JUMP)
+    return back.param1, back.param2
+
+
+def test_jump_index_and_repeats_are_stored_as_int16_and_uint16(sim):
+    """mavlink_mission.cpp parse_mavlink_mission_item keeps DO_JUMP's param1 in an int16_t and
+    param2 in a uint16_t (navigation.h mission_item_s), and format_mavlink_mission_item sends
+    those back. On x86-64 SITL the float goes through an int32 and keeps its low 16 bits: -1
+    repeats are 65535 (as good as for ever), 65537 repeats are 1, index 65536 is item 0."""
+    api = sim.api(0)
+    assert api.upload_mission([WP0, WP1, jump(0, -1.0)]) == PlanResult.ACCEPTED
+    assert download_jump(sim, 2) == (0.0, 65535.0)
+    mark = len(api.frames)
+    reached, _current, _texts = fly(sim, [WP0, WP1, jump(65536.0, 65537.0), WP2], mark)
+    assert dedup(reached) == [0, 1, 0, 1, 3]
+    assert [i[:4] for i in jump_items(api, mark)] == [(2, MavCmd.DO_JUMP, 0.0, 1.0)]
+    assert download_jump(sim, 2) == (0.0, 1.0)
