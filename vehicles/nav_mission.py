@@ -13,7 +13,8 @@ Rules and invariants:
   vehicle was disarmed since it last ran (``checkMissionRestart``); otherwise re-activating it
   loiters with "No valid mission available" until an index is set or a mission uploaded.
 - Items without a position are executed at once and count as reached (PX4 reports
-  MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/servo items are accepted and skipped.
+  MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/actuator items are accepted and
+  skipped.
 - NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission.
 - Moving on from an item is goToNextItem: DO_JUMPs on the way are resolved at once
   (mission_jumps.py), so a DO_JUMP is never the current item nor reported reached. Without a
@@ -282,7 +283,7 @@ class Mission(NavMode):
                 return
             if cmd == MavCmd.DO_CHANGE_SPEED:
                 self._change_speed(ctx, item)
-            # Everything else (camera, gimbal, ROI, servo, DO_SET_HOME, DO_LAND_START, ...) is
+            # Everything else (camera, gimbal, ROI, actuator, DO_SET_HOME, DO_LAND_START, ...) is
             # accepted and skipped.
             self._reached(self.current)
             if not self._next_item(ctx):

@@ -40,12 +40,12 @@ POSITIONAL_COMMANDS = frozenset({
     84, 85,  # VTOL takeoff / land
     4501,  # CONDITION_GATE
 })
-# Mission commands without a position (MAV_FRAME_MISSION branch), plus CONDITION_YAW and
-# DO_SET_SERVO which the navigator accepts and skips.
+# Mission commands without a position (MAV_FRAME_MISSION branch). Not among them: CONDITION_YAW
+# (115), DO_SET_SERVO (183), DO_SET_ROI_SYSID (198): PX4 answers those MAV_MISSION_UNSUPPORTED.
 NON_POSITIONAL_COMMANDS = frozenset({
-    20, 93, 112, 114, 115,  # RTL, NAV_DELAY, CONDITION_DELAY / DISTANCE / YAW
-    177, 178, 179, 183, 187, 189,  # DO_JUMP, CHANGE_SPEED, SET_HOME, SET_SERVO, SET_ACTUATOR, LAND_START
-    196, 197, 198,  # ROI wpnext offset / none / sysid
+    20, 93, 112, 114,  # RTL, NAV_DELAY, CONDITION_DELAY / DISTANCE
+    177, 178, 179, 187, 189,  # DO_JUMP, CHANGE_SPEED, SET_HOME, SET_ACTUATOR, LAND_START
+    196, 197,  # ROI wpnext offset / none
     200, 203, 204, 205, 206, 211, 212, 214,  # camera / mount / gripper / autotune / trigger interval
     260, 400, 530, 532, 534,  # oblique survey, arm/disarm, camera mode / focus / source
     1000, 1001, 2000, 2001, 2003, 2500, 2501, 3000, 42600,  # gimbal, capture, transition, winch

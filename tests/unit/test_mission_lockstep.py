@@ -1,6 +1,9 @@
 """Mission behaviour through the wire in lockstep (gateway.testing.Sim, pymavlink client), as a
 MAVSDK / QGC / pymavlink user meets it on PX4 1.15."""
 
+import dataclasses
+import math
+
 import pytest
 from pymavlink.dialects.v20 import common as M
 
@@ -83,3 +86,15 @@ def test_float_item_in_int_frame_and_download_frames(sim):
     sim.advance(0.2)
     acks = api.messages("MISSION_ACK", since=mark)
     assert [a.type for a in acks] == [M.MAV_MISSION_UNSUPPORTED_FRAME]
+
+
+def test_set_servo_item_is_refused_at_upload(sim):
+    """PX4 1.15 parse_mavlink_mission_item has no MAV_CMD_DO_SET_SERVO (183) in its
+    MAV_FRAME_MISSION branch: the upload ends with MAV_MISSION_UNSUPPORTED and the stored
+    mission is kept."""
+    api = sim.api(0)
+    wp = mission_item(MavCmd.NAV_WAYPOINT, *geo(10, 0), 6.0)
+    assert api.upload_mission([wp]) == PlanResult.ACCEPTED
+    servo = mission_item(183, params=(5.0, 1500.0, 0.0, 0.0), frame=2)
+    assert api.upload_mission([wp, servo]) == M.MAV_MISSION_UNSUPPORTED
+    assert len(sim.vehicles[0].plan(0)) == 1
