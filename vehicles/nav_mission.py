@@ -75,6 +75,7 @@ class Mission(NavMode):
         self.finished = False
         self.reached_seq = -1
         self.reached_count = 0
+        self.reached_resets = 0  # PX4 writes seq_reached = -1 (MissionStatus.reached_resets)
         self._history: deque[int] = deque(maxlen=REACHED_HISTORY)
         self._reached_any = False
         self._jumps_done = JumpCounts()
@@ -119,6 +120,7 @@ class Mission(NavMode):
         self._revive()
         self._has_run = self._running  # onMissionUpdate: new items while inactive
         self.reached_seq = -1
+        self.reached_resets += 1
         self._reached_any = False
         self._jumps_done.clear()
         self._phase = "start"
@@ -133,6 +135,7 @@ class Mission(NavMode):
         self.current = seq
         self._revive()
         self._phase = "start"
+        self.reached_resets += self._running  # onMissionUpdate → update_mission while active
         return True
 
     def _revive(self) -> None:
@@ -164,7 +167,7 @@ class Mission(NavMode):
             reached_count=self.reached_count, mission_id=p.plan_id(PlanType.MISSION),
             fence_id=p.plan_id(PlanType.FENCE), rally_id=p.plan_id(PlanType.RALLY),
             reached_history=tuple(self._history), jump_seq=self._jumps_done.last,
-            jump_count=self._jumps_done.reports)
+            jump_count=self._jumps_done.reports, reached_resets=self.reached_resets)
 
     def _reached(self, seq: int) -> None:
         self.reached_seq = seq
@@ -191,6 +194,8 @@ class Mission(NavMode):
             ctx.set_cruise_mps(math.nan)
         self._running = self._has_run = True
         self.disarmed_while_inactive = False
+        self.reached_resets += 1  # check_mission_valid(true) and update_mission
+        self._changes.mission_progress += 1
         self._yaw = ctx.yaw_rad
         if self.finished:
             # The last item was done and nothing set a new one: PX4 finds no valid current

@@ -134,7 +134,7 @@ class MissionStatus:
     state: MissionState
     in_mission_mode: bool  # mission_mode 1 (in Mission/Takeoff/Land) vs 2 (suspended)
     reached_seq: int  # last MISSION_ITEM_REACHED seq, -1 if none
-    reached_count: int  # increments on every reach event (so a repeat of the same seq shows)
+    reached_count: int  # increments on every reach event (a repeat of the same seq too)
     mission_id: int  # CRC32 opaque ids
     fence_id: int
     rally_id: int
@@ -147,6 +147,10 @@ class MissionStatus:
     # item (mavlink_mission.cpp send).
     jump_seq: int = -1
     jump_count: int = 0
+    # Moves each time PX4's navigator puts mission_result.seq_reached back to -1 (activation, a
+    # new current item while active, a new mission): the next reach is news even for the same
+    # seq, as mavlink_mission.cpp sends MISSION_ITEM_REACHED only when seq_reached changes.
+    reached_resets: int = 0
 
 
 REACHED_HISTORY = 32

@@ -29,9 +29,12 @@ Rules and invariants:
   ``changes.mission_progress`` moved, or at each one without it). That one is shared by the
   vehicle's links (PX4's static ``_current_seq``): the first link to see a change sends it, and
   MISSION_SET_CURRENT sets it without sending, so its MISSION_CURRENT comes with the 1 Hz stream
-  (telemetry.py). MISSION_ITEM_REACHED goes out when ``reached_count`` changes, then
-  REACHED_REPEATS more times at 1 Hz (PX4: "send the reached message another 10 times"), until
-  a MISSION_COUNT on the link starts a new upload ("Reset last reached waypoint"). After a
+  (telemetry.py). MISSION_ITEM_REACHED goes out when a reach (``reached_count`` moved) is of
+  another seq than the link sent last (PX4 sends it when mission_result.seq_reached changes: a
+  DO_JUMP loop reaching the same item again is no news), then REACHED_REPEATS more times at
+  1 Hz (PX4: "send the reached message another 10 times"), until the navigator puts
+  seq_reached back to -1 (``reached_resets`` moved) or a MISSION_COUNT on the link starts a new
+  upload ("Reset last reached waypoint"). After a
   DO_JUMP is taken the link sends that item, unasked, to its last transfer partner when idle
   (PX4: "Send a mission item again if the remaining DO_JUMPs has changed").
 """
@@ -124,6 +127,7 @@ class MissionService:
         if uploads.current_seq is None:
             uploads.current_seq = st.current_seq
         self._last_reached_count = st.reached_count
+        self._last_reached_resets = st.reached_resets
         self._last_jump_count = st.jump_count
         self._last_progress: object = None  # vehicle.mission_progress at the last full poll
         # The vehicle's generations (None: it has none, progress is read at every wake-up) and
@@ -198,7 +202,7 @@ class MissionService:
             self.ack(src, ERROR, msg.mission_type)
             return
         self.partner = src  # the transfer partner, whatever the upload then becomes
-        self._repeats_left, self._repeat_at = 0, math.inf  # a new mission starts
+        self._reached_seq, self._repeats_left, self._repeat_at = -1, 0, math.inf  # a new mission
         ptype = plan_type_of(msg.mission_type)
         if msg.count > (CAPACITY[ptype] if ptype is not None else 0):
             self.ack(src, NO_SPACE, msg.mission_type)
@@ -419,9 +423,12 @@ class MissionService:
             self.uploads.current_seq = st.current_seq
             if 0 <= st.current_seq < st.count:
                 self.send(pack_mission_current(enc, st))
+        if st.reached_resets != self._last_reached_resets:  # seq_reached went back to -1
+            self._last_reached_resets = st.reached_resets
+            self._reached_seq, self._repeats_left, self._repeat_at = -1, 0, math.inf
         if st.reached_count != self._last_reached_count:
             self._last_reached_count = st.reached_count
-            if st.reached_seq >= 0 and st.count > 0:
+            if st.reached_seq != self._reached_seq and st.reached_seq >= 0 and st.count > 0:
                 self._reached_seq = st.reached_seq
                 self.send(pack_item_reached(enc, st.reached_seq))
                 self._repeats_left = REACHED_REPEATS

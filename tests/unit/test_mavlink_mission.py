@@ -467,6 +467,24 @@ def test_item_reached_then_ten_repeats():
     assert of_type(got, "MISSION_CURRENT")[-1].mission_state == 5
 
 
+def test_the_same_item_reached_again_is_sent_only_after_a_reset():
+    """send: MISSION_ITEM_REACHED only when seq_reached changes; the navigator's seq_reached = -1
+    (activation, new current item) stops the repeats and makes the next reach news again."""
+    vehicle, session, client = make()
+    upload(client, mavsdk_mission())
+    client.run_until(0.5)
+    vehicle.nav_state = NavState.AUTO_MISSION
+    vehicle.reach(2)
+    assert [m.seq for m in of_type(client.run_until(0.6), "MISSION_ITEM_REACHED")] == [2]
+    vehicle.reach(2)  # a DO_JUMP back to item 2: no news, only the 1 Hz repeat
+    assert of_type(client.run_until(1.2), "MISSION_ITEM_REACHED") == []
+    assert [m.seq for m in of_type(client.run_until(1.6), "MISSION_ITEM_REACHED")] == [2]
+    vehicle.reached_resets += 1  # e.g. paused and resumed
+    assert of_type(client.run_until(5.0), "MISSION_ITEM_REACHED") == []
+    vehicle.reach(2)
+    assert [m.seq for m in of_type(client.run_until(5.1), "MISSION_ITEM_REACHED")] == [2]
+
+
 @pytest.mark.parametrize("count", [2, 0, 10_000])
 def test_a_new_upload_stops_the_reached_repeats(count):
     """handle_mission_count: "Reset last reached waypoint when new mission starts", whatever the

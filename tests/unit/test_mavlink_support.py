@@ -67,6 +67,7 @@ class FakeVehicle:
         self.current_seq = 0
         self.reached_seq = -1
         self.reached_count = 0
+        self.reached_resets = 0
         self.mission_finished = False
         self.setpoints: list[tuple[float, OffboardSetpoint]] = []
         self.orbit_status: OrbitStatus | None = None
@@ -244,7 +245,8 @@ class FakeVehicle:
             state = MissionState.PAUSED if self.reached_seq >= 0 else MissionState.NOT_STARTED
         return MissionStatus(self.current_seq, count, state, in_mission, self.reached_seq,
                              self.reached_count, self.plan_id(PlanType.MISSION),
-                             self.plan_id(PlanType.FENCE), self.plan_id(PlanType.RALLY))
+                             self.plan_id(PlanType.FENCE), self.plan_id(PlanType.RALLY),
+                             reached_resets=self.reached_resets)
 
     def reach(self, seq: int) -> None:
         """Test helper: the navigator reached item ``seq`` and moved on."""

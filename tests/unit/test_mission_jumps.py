@@ -143,3 +143,18 @@ def test_jump_index_and_repeats_are_stored_as_int16_and_uint16(sim):
     assert dedup(reached) == [0, 1, 0, 1, 3]
     assert [i[:4] for i in jump_items(api, mark)] == [(2, MavCmd.DO_JUMP, 0.0, 1.0)]
     assert download_jump(sim, 2) == (0.0, 1.0)
+
+
+def test_reached_is_sent_only_when_the_reached_item_changes(sim):
+    """mavlink_mission.cpp send: MISSION_ITEM_REACHED goes out when mission_result.seq_reached
+    changes. [WP, WP holding 0.5 s, DO_JUMP 1 x2]: item 1 is reached three times in a row, half
+    a second apart; the jump back to it changes nothing, so it is sent once (then its 10
+    repeats at 1 Hz)."""
+    api = sim.api(0)
+    hold = mission_item(MavCmd.NAV_WAYPOINT, *geo(12, 12), 6.0, params=(0.5, 0.0, 0.0, NAN))
+    reached, _current, _texts = fly(sim, [WP0, hold, jump(1, 2)])
+    times = [t for t, m in api.timed_messages("MISSION_ITEM_REACHED") if m.seq == 1]
+    assert dedup(reached) == [0, 1]
+    # the first one and its repeats at >= 1 s intervals, no extra sends for the second and
+    # third reach of item 1
+    assert all(b - a > 0.9 for a, b in zip(times, times[1:]))
