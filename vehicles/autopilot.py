@@ -245,7 +245,7 @@ class Autopilot:
         if not (math.isfinite(first_seq) and -1 <= first_seq < len(mission.items)):
             return CommandResult.DENIED
         if first_seq >= 0:
-            mission.set_current(int(first_seq))
+            mission.set_current(int(first_seq), resolve_jump=True)  # goToItem
         if (self.set_nav_state(now_s, NavState.AUTO_MISSION) is not CommandResult.ACCEPTED
                 or self.arm(now_s, here, reason=ArmReason.MISSION_START) is not CommandResult.ACCEPTED):
             return CommandResult.TEMPORARILY_REJECTED  # Commander says printRejectMode's text

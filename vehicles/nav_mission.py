@@ -16,10 +16,14 @@ Rules and invariants:
   MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/actuator items are accepted and
   skipped.
 - NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission.
-- Moving on from an item is goToNextItem: DO_JUMPs on the way are resolved at once
-  (mission_jumps.py), so a DO_JUMP is never the current item nor reported reached. Without a
-  next item (past the last item, a jump outside the mission, an exhausted jump at the end) the
-  mission finishes at the item flown last; only a finish at the last item resets the jumps.
+- Moving on from an item is goToNextItem, and MISSION_START with an index is goToItem: DO_JUMPs
+  on the way are resolved at once (mission_jumps.py). Without a next item (past the last item, a
+  jump outside the mission, an exhausted jump at the end) the mission finishes at the item flown
+  last; only a finish at the last item resets the jumps.
+- An index set as it is (MISSION_SET_CURRENT, an upload's current item, the restart at 0) is
+  loaded as it is (loadCurrentMissionItem): a DO_JUMP there becomes the current item. It has no
+  position setpoint (the vehicle holds, or stays on the ground) and is never reached, as PX4
+  measures it as a waypoint at its unset position (0°, 0°); only a new current item ends it.
 - Yaw: param4 (deg) when given, else the travel direction (MPC_YAW_MODE 0).
 """
 
@@ -79,7 +83,8 @@ class Mission(NavMode):
         self._history: deque[int] = deque(maxlen=REACHED_HISTORY)
         self._reached_any = False
         self._jumps_done = JumpCounts()
-        self._phase = "start"  # start | takeoff | goto | wait | approach | land | done
+        self._phase = "start"  # start | takeoff | goto | wait | approach | land | jump | done
+        self._resolve_jump = False  # the current index came from goToItem (MISSION_START)
         self._target: Vec3 = (0.0, 0.0, 0.0)
         self._yaw = 0.0
         self._fixed_yaw = math.nan
@@ -124,15 +129,19 @@ class Mission(NavMode):
         self._reached_any = False
         self._jumps_done.clear()
         self._phase = "start"
+        self._resolve_jump = False
 
     def valid(self) -> bool:
         """Items stored and found feasible (mission_feasibility.py: ``check``)."""
         return len(self.items) > 0 and self.check.valid
 
-    def set_current(self, seq: int) -> bool:
+    def set_current(self, seq: int, resolve_jump: bool = False) -> bool:
+        """A new current item: as it is (MISSION_SET_CURRENT), or with a DO_JUMP there resolved
+        when the item starts (``resolve_jump``: MISSION_START's goToItem)."""
         if not 0 <= seq < len(self.items):
             return False
         self.current = seq
+        self._resolve_jump = resolve_jump
         self._revive()
         self._phase = "start"
         self.reached_resets += self._running  # onMissionUpdate → update_mission while active
@@ -229,8 +238,8 @@ class Mission(NavMode):
             return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
         if self._phase == "start":
             self._start_item(ctx)
-        if self._phase == "done":
-            return NavSetpoint(self._target, self._yaw, ctx.limits())
+        if self._phase in ("done", "jump"):
+            return NavSetpoint(self._target, self._yaw, ctx.limits(), idle=ctx.landed)
         if ctx.landed and self._phase not in ("takeoff", "land"):
             self._begin_takeoff(ctx, self._takeoff_alt(ctx), auto=True)
         return self._run_phase(ctx)
@@ -238,13 +247,19 @@ class Mission(NavMode):
     # --- item handling ------------------------------------------------------------------------
     def _start_item(self, ctx: NavContext) -> None:
         items = self.items
+        resolve, self._resolve_jump = self._resolve_jump, False
         for _ in range(len(items) + 1):  # bounded: DO_JUMP loops cannot hang a tick
             if self.current >= len(items):
                 self._finish(ctx)
                 return
             item = items[self.current]
             cmd = item.command
-            if cmd == MavCmd.DO_JUMP:  # the mission starts (or was set) on a DO_JUMP
+            if cmd == MavCmd.DO_JUMP and not resolve:  # loaded as it is
+                look_ahead(ctx.log, ctx.now_s, items, self.current + 1, self._jumps_done)
+                self._target = ctx.position_ned_m if ctx.landed else ctx.stopping_point_ned_m
+                self._phase = "jump"
+                return
+            if cmd == MavCmd.DO_JUMP:  # MISSION_START on a DO_JUMP: goToItem resolves it
                 index = non_jump_index(ctx.log, ctx.now_s, self.items, self.current,
                                        self._jumps_done, write_jumps=True)
                 if index is None:

@@ -158,3 +158,34 @@ def test_reached_is_sent_only_when_the_reached_item_changes(sim):
     # the first one and its repeats at >= 1 s intervals, no extra sends for the second and
     # third reach of item 1
     assert all(b - a > 0.9 for a, b in zip(times, times[1:]))
+
+
+def test_set_current_onto_a_jump_makes_the_jump_the_current_item(sim):
+    """MISSION_SET_CURRENT (mavlink_mission.cpp update_active_mission) puts the new index into
+    the mission topic as it is; the navigator loads that item without resolving it
+    (MissionBase::loadCurrentMissionItem): the DO_JUMP is the current item, has no position
+    setpoint (the vehicle holds where it is) and is never reached, and no jump is counted.
+    MISSION_START with the same index resolves the jump instead."""
+    api = sim.api(0)
+    assert api.upload_mission([WP0, WP1, jump(0, 3), WP2]) == PlanResult.ACCEPTED
+    assert api.arm() == 0 and api.start_mission() == 0
+    assert sim.run_until(lambda: 0 in [m.seq for m in api.messages("MISSION_ITEM_REACHED")],
+                         timeout_s=40)
+    mark = len(api.frames)
+    api.send(api.mav.mission_set_current_encode(api.target, 1, 2))
+    sim.advance(8.0)
+    current = [m.seq for m in api.messages("MISSION_CURRENT", since=mark)]
+    assert current and set(current[1:]) == {2}
+    assert api.last("MISSION_CURRENT").mission_state == ACTIVE
+    assert [m.seq for m in api.messages("MISSION_ITEM_REACHED", since=mark)
+            if m.seq != 0] == []
+    assert jump_items(api, mark) == []
+    assert float(np.linalg.norm(sim.state(0).velocity_ned_mps)) < 0.3  # holding, not flying on
+    # MISSION_START with that index is navigator_main.cpp's set_current_mission_index: goToItem
+    # resolves the jump (and counts it)
+    mark = len(api.frames)
+    assert api.command_long(300, 2, 0) == 0
+    assert sim.run_until(lambda: jump_items(api, mark), timeout_s=3)
+    assert [i[0] for i in jump_items(api, mark)] == [2]
+    assert sim.run_until(lambda: 0 in [m.seq for m in api.messages("MISSION_ITEM_REACHED",
+                                                                   since=mark)], timeout_s=20)
