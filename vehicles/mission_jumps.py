@@ -96,16 +96,16 @@ def non_jump_index(log: StatusLog, now_s: float, items: Sequence[PlanItem], inde
 
 
 def look_ahead(log: StatusLog, now_s: float, items: Sequence[PlanItem], start: int,
-               jumps_done: JumpCounts) -> list[int]:
-    """getNextPositionItems(start, NEXT_POSITION_ITEMS), as setActiveMissionItems runs it for
-    each new current item (``start`` = current + 1): the next position items, jumps followed
+               jumps_done: JumpCounts, max_items: int = NEXT_POSITION_ITEMS) -> list[int]:
+    """getNextPositionItems(start, max_items), as setActiveMissionItems runs it for each new
+    current item (``start`` = current + 1): the next position items, jumps followed
     but not counted. Its reads are what matter (the failed read past an exhausted last jump).
     PX4 loops for ever on a jump back to items without a position; this stops after one pass
     over the mission."""
     found: list[int] = []
     index = start
     steps = len(items) + 1
-    for _ in range(NEXT_POSITION_ITEMS):
+    for _ in range(max_items):
         while True:
             if index >= len(items) or steps == 0:
                 return found

@@ -13,8 +13,10 @@ Rules and invariants:
   vehicle was disarmed since it last ran (``checkMissionRestart``); otherwise re-activating it
   loiters with "No valid mission available" until an index is set or a mission uploaded.
 - Items without a position are executed at once and count as reached (PX4 reports
-  MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/actuator items are accepted and
-  skipped.
+  MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/actuator items are skipped.
+- A takeoff item (Mission::handleTakeoff) is a waypoint to its position, after a climb in place
+  (a work item, not reported) on the ground. In the air such a climb ("Climb to") comes before
+  any position item only when activated NAV_MC_ALT_RAD below the next one (checkClimbRequired).
 - NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission.
 - Moving on from an item is goToNextItem, and MISSION_START with an index is goToItem: DO_JUMPs
   on the way are resolved at once (mission_jumps.py). Without a next item (past the last item, a
@@ -93,7 +95,8 @@ class Mission(NavMode):
         self._previous: Vec3 | None = None  # the triplet around a goto (PX4 position_setpoint)
         self._next: Vec3 | None = None
         self._came_from: Vec3 | None = None  # the waypoint just reached (the next previous)
-        self._auto_takeoff = False
+        self._climb_z: float | None = None  # checkClimbRequired: climb in place first (air)
+        self._climb_in_air = False  # the climb is PX4's LOITER_TO_ALT work item, not a takeoff
         self._running = False  # active: in Mission mode and armed (PX4 isActive())
         self._has_run = False  # PX4 _mission_has_been_activated
         self.disarmed_while_inactive = False  # PX4 _system_disarmed_while_inactive
@@ -221,6 +224,7 @@ class Mission(NavMode):
         ctx.log.info(ctx.now_s, "Executing Mission\t")
         ctx.log.event(ctx.now_s, MISSION_EXECUTE)
         self._phase = "start"
+        self._check_climb(ctx)
 
     def on_active(self, ctx: NavContext) -> NavSetpoint:
         if not ctx.armed:  # PX4's navigator runs no mode while disarmed
@@ -241,7 +245,7 @@ class Mission(NavMode):
         if self._phase in ("done", "jump"):
             return NavSetpoint(self._target, self._yaw, ctx.limits(), idle=ctx.landed)
         if ctx.landed and self._phase not in ("takeoff", "land"):
-            self._begin_takeoff(ctx, self._takeoff_alt(ctx), auto=True)
+            self._begin_takeoff(ctx, self._takeoff_alt(ctx))
         return self._run_phase(ctx)
 
     # --- item handling ------------------------------------------------------------------------
@@ -268,18 +272,18 @@ class Mission(NavMode):
                 self.current = index
                 continue
             look_ahead(ctx.log, ctx.now_s, items, self.current + 1, self._jumps_done)
-            if cmd in GOTO_COMMANDS:
+            positional = cmd in GOTO_COMMANDS or cmd in TAKEOFF_COMMANDS or cmd in LAND_COMMANDS
+            if positional and self._climb_z is not None and not ctx.landed:
+                self._climb_in_place(ctx, self._climb_z)  # handleTakeoff's climb work item
+                return
+            # handleTakeoff: a takeoff item on the ground is first the climb work item (not
+            # reported); in the air, and after that climb, it is a waypoint to its position.
+            if cmd in TAKEOFF_COMMANDS and ctx.landed and self._begin_takeoff(
+                    ctx, self._home_z(ctx) - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2]):
+                return
+            if cmd in GOTO_COMMANDS or cmd in TAKEOFF_COMMANDS:
                 self._begin_goto(ctx, item)
                 return
-            if cmd in TAKEOFF_COMMANDS:
-                home_z = ctx.home.position_ned_m[2] if ctx.home else 0.0
-                item_z = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2]
-                if self._begin_takeoff(ctx, home_z - item_z, auto=False):
-                    return
-                self._reached(self.current)  # already higher: the takeoff item is done
-                if not self._next_item(ctx):
-                    return
-                continue
             if cmd in LAND_COMMANDS:
                 n, e, _ = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
                 # mission.cpp: fly to the landing point at the current altitude, then descend.
@@ -334,17 +338,41 @@ class Mission(NavMode):
         """Auto takeoff (mission_base.cpp checkClimbRequired, v1.15): the next position item's
         altitude above home, with no MIS_TAKEOFF_ALT floor. Without a position item ahead PX4
         does not climb; here the climb then goes to MIS_TAKEOFF_ALT."""
-        home_z = ctx.home.position_ned_m[2] if ctx.home else 0.0
+        home_z = self._home_z(ctx)
         for item in self.items[self.current:]:
             if item.command in GOTO_COMMANDS or item.command in TAKEOFF_COMMANDS:
                 return home_z - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2]
         return float(ctx.params["MIS_TAKEOFF_ALT"])
 
-    def _begin_takeoff(self, ctx: NavContext, alt_above_home_m: float, auto: bool) -> bool:
-        """Start a vertical climb; False when already higher (nothing to do)."""
+    @staticmethod
+    def _home_z(ctx: NavContext) -> float:
+        return ctx.home.position_ned_m[2] if ctx.home else 0.0
+
+    def _check_climb(self, ctx: NavContext) -> None:
+        """checkClimbRequired on activation: in the air, a climb in place comes first when the
+        next position item is more than NAV_MC_ALT_RAD above (on the ground the takeoff does)."""
+        self._climb_z = None
+        found = look_ahead(ctx.log, ctx.now_s, self.items, self.current, self._jumps_done, 1)
+        if ctx.landed or not found:
+            return
+        z = item_ned(self.items[found[0]], ctx.origin, ctx.home_alt_amsl_m)[2]
+        if ctx.position_ned_m[2] - z > float(ctx.params["NAV_MC_ALT_RAD"]):
+            self._climb_z = z
+
+    def _climb_in_place(self, ctx: NavContext, z: float) -> None:
+        """handleTakeoff in the air: "Climb to", then a LOITER_TO_ALT above the vehicle."""
+        alt_above_home_m = self._home_z(ctx) - z
+        ctx.log.info(ctx.now_s, f"Climb to {alt_above_home_m:.1f} meters above home\t")
+        ctx.log.event(ctx.now_s, MISSION_CLIMB, Log.INFO, None, "f", alt_above_home_m)
+        x, y, _ = ctx.position_ned_m
+        self._target, self._climb_z = (x, y, z), None
+        self._fixed_yaw = ctx.yaw_rad
+        self._phase, self._climb_in_air = "takeoff", True
+
+    def _begin_takeoff(self, ctx: NavContext, alt_above_home_m: float) -> bool:
+        """Start a vertical climb (a work item: not reported); False when already higher."""
         x, y, z = ctx.position_ned_m
-        home_z = ctx.home.position_ned_m[2] if ctx.home else 0.0
-        target_z = home_z - alt_above_home_m
+        target_z = self._home_z(ctx) - alt_above_home_m
         if not ctx.landed and target_z >= z - float(ctx.params["NAV_MC_ALT_RAD"]):
             return False
         if ctx.landed:  # mission.cpp handleTakeoff: the climb work item
@@ -352,8 +380,7 @@ class Mission(NavMode):
             ctx.log.event(ctx.now_s, MISSION_CLIMB, Log.INFO, None, "f", alt_above_home_m)
         self._target = (x, y, target_z)
         self._fixed_yaw = ctx.yaw_rad
-        self._auto_takeoff = auto
-        self._phase = "takeoff"
+        self._phase, self._climb_in_air = "takeoff", False
         return True
 
     def _begin_goto(self, ctx: NavContext, item: PlanItem) -> None:
@@ -368,10 +395,11 @@ class Mission(NavMode):
         self._phase = "goto"
 
     def _fly_through_next(self, ctx: NavContext, item: PlanItem) -> Vec3 | None:
-        """The next waypoint when ``item`` is flown through (a NAV_WAYPOINT without hold time
-        whose next position item is another waypoint): PX4's navigator then publishes it as the
+        """The next waypoint when ``item`` (a NAV_WAYPOINT without hold time, or a takeoff flown
+        as one) is flown through to a next waypoint: PX4's navigator then publishes it as the
         triplet's next and the corner is planned (mission_block.cpp, FlightTaskAuto)."""
-        if item.command != MavCmd.NAV_WAYPOINT or item.param1 > 0:
+        if item.command == MavCmd.NAV_WAYPOINT and item.param1 > 0 or \
+                item.command not in (MavCmd.NAV_WAYPOINT, MavCmd.NAV_TAKEOFF):
             return None
         for later in self.items[self.current + 1:]:
             if later.command in GOTO_COMMANDS:
@@ -391,15 +419,15 @@ class Mission(NavMode):
         x, y, z = ctx.position_ned_m
         tx, ty, tz = self._target
         alt_rad = float(p["NAV_MC_ALT_RAD"])
+        if self._phase in ("done", "jump"):
+            return self._hold(ctx)
         if self._phase == "takeoff":
             if not ctx.landed and abs(z - tz) < alt_rad:
-                if not self._auto_takeoff:
-                    self._reached(self.current)
-                    if not self._next_item(ctx):
-                        return self._hold(ctx)
                 self._phase = "start"
                 self._start_item(ctx)
-                return self._run_phase(ctx) if self._phase != "done" else self._hold(ctx)
+                return self._run_phase(ctx)
+            if self._climb_in_air:
+                return NavSetpoint(self._target, self._fixed_yaw, ctx.limits())
             limits = ctx.limits(speed_up_mps=float(p["MPC_TKO_SPEED"]))
             return NavSetpoint(self._target, self._fixed_yaw, limits, taking_off=True)
         if self._phase == "goto":

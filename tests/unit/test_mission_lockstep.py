@@ -98,3 +98,40 @@ def test_set_servo_item_is_refused_at_upload(sim):
     servo = mission_item(183, params=(5.0, 1500.0, 0.0, 0.0), frame=2)
     assert api.upload_mission([wp, servo]) == M.MAV_MISSION_UNSUPPORTED
     assert len(sim.vehicles[0].plan(0)) == 1
+
+
+def test_takeoff_item_in_the_air_is_flown_as_a_waypoint(sim):
+    """Mission::handleTakeoff (multicopter): started in the air below the takeoff item, the
+    mission first climbs in place (checkClimbRequired: "Climb to 10.0 meters above home"),
+    then the takeoff item is flown as a waypoint to its own position; started above it, no
+    climb: straight to the takeoff item's position and altitude, reached only there."""
+    api = sim.api(0)
+    assert api.arm() == 0 and api.takeoff() == 0  # MIS_TAKEOFF_ALT 2.5 m, then Hold
+    assert sim.run_until(lambda: -sim.state(0).position_ned_m[2] > 2.3, timeout_s=20)
+    sim.advance(3.0)
+    takeoff = mission_item(MavCmd.NAV_TAKEOFF, *geo(15, 0), 10.0)
+    items = [takeoff, mission_item(MavCmd.NAV_WAYPOINT, *geo(15, 10), 10.0)]
+    assert api.upload_mission(items) == PlanResult.ACCEPTED
+    mark = len(api.frames)
+    assert api.start_mission() == 0
+
+    def reached(seq, since):
+        return seq in [m.seq for m in api.messages("MISSION_ITEM_REACHED", since=since)]
+
+    assert sim.run_until(lambda: reached(0, mark), timeout_s=40)
+    n, e, d = sim.state(0).position_ned_m
+    assert math.hypot(n - 15, e) < 2.5 and abs(-d - 10) < 1.0
+    texts = [m.text for m in api.messages("STATUSTEXT", since=mark)]
+    assert "Climb to 10.0 meters above home\t" in texts
+    assert sim.run_until(lambda: reached(1, mark), timeout_s=40)
+    # above the takeoff item: a new mission starts with it, flown down to it as a waypoint
+    low = [mission_item(MavCmd.NAV_TAKEOFF, *geo(0, 10), 5.0),
+           mission_item(MavCmd.NAV_WAYPOINT, *geo(0, 0), 5.0)]
+    low[0] = dataclasses.replace(low[0], current=1)
+    assert api.upload_mission(low) == PlanResult.ACCEPTED
+    mark = len(api.frames)
+    assert sim.run_until(lambda: reached(0, mark), timeout_s=40)
+    n, e, d = sim.state(0).position_ned_m
+    assert math.hypot(n, e - 10) < 2.5 and abs(-d - 5) < 1.0
+    texts = [m.text for m in api.messages("STATUSTEXT", since=mark)]
+    assert not any(t.startswith("Climb to") for t in texts)
