@@ -19,7 +19,9 @@ Rules and invariants:
 - Download: MISSION_REQUEST_LIST → MISSION_COUNT → the client requests each seq (INT or legacy)
   → MISSION_ITEM_INT / MISSION_ITEM → client MISSION_ACK. The list is snapshotted at
   REQUEST_LIST, so a concurrent upload elsewhere cannot mix two plans into one download.
-  An empty plan answers COUNT 0 and stays idle. The client drives retries (PX4 never resends).
+  An empty plan answers COUNT 0 and is a transfer like any other: busy (a MISSION_COUNT gets
+  "WPM: IGN MISSION_COUNT: Busy") until the client's MISSION_ACK, a new REQUEST_LIST, or
+  "Operation timeout". The client drives retries (PX4 never resends).
 - A mission_type other than mission, fence, rally (and all for CLEAR_ALL) is no plan PX4 has:
   its item count and capacity are 0 (current_max_item_count / current_item_count), so
   MISSION_COUNT gets NO_SPACE (ACCEPTED for count 0, nothing cleared), MISSION_REQUEST_LIST a
@@ -181,8 +183,6 @@ class MissionService:
         if not self._for_us(msg):
             return
         src = (msg.get_srcSystem(), msg.get_srcComponent())
-        if self.phase is Phase.DOWNLOAD and self.seq >= self.count:
-            self._idle()  # every item was sent and only the client's ACK got lost
         if self.phase is Phase.UPLOAD:
             self._heard(now_s)
             if self.seq == 0 and src == self.partner:
@@ -285,10 +285,9 @@ class MissionService:
         items = tuple(plan(ptype)) if plan is not None and ptype is not None else ()
         mission_type = msg.mission_type & 0xFF
         self.partner, self.mission_type, self.count, self.seq = src, mission_type, len(items), 0
-        if items:
-            self.phase = Phase.DOWNLOAD
-            self._download = items
-            self._heard(now_s)
+        self.phase = Phase.DOWNLOAD  # SENDLIST until the ACK, even for an empty plan
+        self._download = items
+        self._heard(now_s)
         self.send(self.encoder.pack(M.MAVLink_mission_count_message, src[0], src[1],
                                     len(items), mission_type))
 

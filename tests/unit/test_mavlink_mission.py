@@ -223,7 +223,34 @@ def test_count_zero_clears_and_clear_all():
         got = client.send(M.MAVLink_mission_request_list_message(1, 190, t))
         assert [(m.get_type(), m.count, m.mission_type) for m in got] == [
             ("MISSION_COUNT", 0, t)]
+    # handle_mission_request_list: even an empty list is a transfer (SENDLIST) until the ACK
+    assert session.mission.phase is mission.Phase.DOWNLOAD
+    client.send(M.MAVLink_mission_ack_message(1, 190, 0, 2))
     assert session.mission.phase is mission.Phase.IDLE
+
+
+def test_unacked_empty_download_times_out_and_blocks_an_upload_until_then():
+    """handle_mission_request_list answers an empty plan with MISSION_COUNT 0 and stays in
+    SENDLIST: without the client's MISSION_ACK an upload meanwhile gets "WPM: IGN MISSION_COUNT:
+    Busy" and MISSION_ERROR, and the transfer ends after MAVLINK_MISSION_PROTOCOL_TIMEOUT_DEFAULT
+    with "Operation timeout". A new MISSION_REQUEST_LIST finds it complete and starts over."""
+    vehicle, session, client = make()
+    client.heartbeat()
+    got = client.send(M.MAVLink_mission_request_list_message(1, 1, 0))
+    assert [(m.get_type(), m.count) for m in got] == [("MISSION_COUNT", 0)]
+    got = client.send(M.MAVLink_mission_count_message(1, 1, 1, 0))
+    assert mission_acks(got) == [(1, 0)]
+    assert [t.text for t in of_type(client.run_until(0.1), "STATUSTEXT")] == [
+        "WPM: IGN MISSION_COUNT: Busy"]
+    got = client.send(M.MAVLink_mission_request_list_message(1, 1, 0))  # starts over
+    assert [(m.get_type(), m.count) for m in got] == [("MISSION_COUNT", 0)]
+    got = client.run_until(client.now_s + 4.5)
+    assert of_type(got, "STATUSTEXT") == []
+    client.heartbeat()
+    got = client.run_until(client.now_s + 1.0)
+    assert [t.text for t in of_type(got, "STATUSTEXT")] == ["Operation timeout"]
+    assert session.mission.phase is mission.Phase.IDLE
+    upload(client, mavsdk_mission())  # idle again: uploads go through
 
 
 @pytest.mark.parametrize("mission_type, count, result", [
@@ -256,6 +283,8 @@ def test_unknown_type_counts_nothing_downloads_empty_and_clears_nothing():
     assert len(vehicle.plans[PlanType.MISSION]) == 7
     got = client.send(M.MAVLink_mission_request_list_message(1, 1, 9))
     assert [(m.get_type(), m.count, m.mission_type) for m in got] == [("MISSION_COUNT", 0, 9)]
+    assert session.mission.phase is mission.Phase.DOWNLOAD  # SENDLIST until the client's ACK
+    client.send(M.MAVLink_mission_ack_message(1, 1, 0, 9))
     assert session.mission.phase is mission.Phase.IDLE
 
 
