@@ -8,7 +8,7 @@ Rules:
 - Each topic has a subset of PX4's fields with PX4's names and types, as CORNET has them; a
   field is never invented. A topic's ULog format and subscription carry its uORB topic name
   (vehicle_gps_position, not its message sensor_gps: Logger::write_formats names a format by
-  o_name), instance 0; nested formats (position_setpoint) are in NESTED_FORMATS.
+  o_name), instance 0; nested formats (position_setpoint, esc_report) are in NESTED_FORMATS.
 - ``interval_s`` is logged_topics.cpp's (SITL build, default profile), the last add_topic of
   a topic setting it (estimator_status: the SITL block's 0 after 200 ms; vehicle_magnetometer:
   add_optional_topic_multi's 500 ms after 200 ms). The logger samples at 50 Hz; topics
@@ -306,6 +306,24 @@ def _cpuload(v: Any, now_us: int) -> tuple | None:
     return (CPULOAD_LOAD, CPULOAD_RAM_USAGE)
 
 
+ESC_REPORTS = 8  # esc_status_s::CONNECTED_ESC_MAX
+
+
+def _esc_status(v: Any, now_us: int) -> tuple:
+    """gz_bridge's GZMixingInterfaceESC::motorSpeedCallback: one report per commanded rotor
+    speed, its value (an integer, the mixer's output) as esc_rpm, every ESC online, armed while
+    its command is above 0; the reports beyond the motors zero."""
+    outputs = v.targets.outputs[:ESC_REPORTS]
+    armed = 0
+    reports: list[int] = []
+    for i, out in enumerate(outputs):
+        if out > 0:
+            armed |= 1 << i
+        reports += (now_us, int(out))
+    reports += (0, 0) * (ESC_REPORTS - len(outputs))
+    return (len(outputs), (1 << len(outputs)) - 1, armed, *reports)
+
+
 def _attitude_truth(v: Any, now_us: int) -> tuple:
     return v.truth.attitude_q
 
@@ -420,9 +438,13 @@ TOPICS: tuple[Topic, ...] = (
           on_change=True),
     Topic("cpuload", ((F, "load"), (F, "ram_usage")), 0.0, _cpuload,
           period_s=LOAD_MON_PERIOD_S),
+    Topic("esc_status", (("uint8_t", "esc_count"), ("uint8_t", "esc_online_flags"),
+                         ("uint8_t", "esc_armed_flags"), (f"esc_report[{ESC_REPORTS}]", "esc")),
+          0.25, _esc_status),
 )
 # The nested formats the topics use (PX4 writes each one's format beside the topics').
-NESTED_FORMATS = {"position_setpoint": ((B, "valid"), (D, "lat"), (D, "lon"), (F, "alt"))}
+NESTED_FORMATS = {"position_setpoint": ((B, "valid"), (D, "lat"), (D, "lon"), (F, "alt")),
+                  "esc_report": ((U64, "timestamp"), ("int32_t", "esc_rpm"))}
 
 
 # Topics logged at every message (logged_topics.cpp: no interval), from the vehicle's command

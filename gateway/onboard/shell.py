@@ -19,13 +19,14 @@ Rules:
 from __future__ import annotations
 
 import fnmatch
-import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from gateway.onboard import mavlink_status
+from gateway.onboard.listener import print_message
 from gateway.onboard.logged_topics import NESTED_FORMATS, TOPICS, Topic
 from gateway.onboard.mavlink_status import Instance
+from gateway.onboard.topic import U64
 from vehicles.faults import TYPES, UNITS
 from vehicles.params import ParamType
 from vehicles.types import CommandResult, NavState
@@ -38,14 +39,6 @@ MODES = {"manual": NavState.MANUAL, "altctl": NavState.ALTCTL, "posctl": NavStat
          "auto:rtl": NavState.AUTO_RTL, "auto:takeoff": NavState.AUTO_TAKEOFF,
          "auto:land": NavState.AUTO_LAND, "auto:precland": NavState.AUTO_PRECLAND,
          "acro": NavState.ACRO, "offboard": NavState.OFFBOARD, "stabilized": NavState.STAB}
-
-
-def _value(v: Any) -> str:
-    if isinstance(v, float):
-        return f"{v:.5f}" if math.isfinite(v) else str(v).lower()
-    if isinstance(v, (tuple, list)):
-        return "[" + ", ".join(_value(x) for x in v) + "]"
-    return str(v)
 
 
 class Pxh:
@@ -235,19 +228,8 @@ class Pxh:
             self.print("never published\n")
             return 0
         self.print(f"\nTOPIC: {topic.name}\n {topic.name}\n"
-                   f"    timestamp: {us} (0.000000 seconds ago)\n")
-        flat = iter(values)  # an array field's elements come one by one
-        # a nested format's fields as PX4's listener names them: current.lat
-        fields = [(t, f"{name}.{sub}") if ftype in NESTED_FORMATS else (ftype, name)
-                  for ftype, name in topic.fields
-                  for t, sub in NESTED_FORMATS.get(ftype, ((ftype, name),))]
-        for ftype, field in fields:
-            _, _, size = ftype.partition("[")
-            if size:
-                items = [next(flat) for _ in range(int(size[:-1]))]
-                self.print(f"    {field}: {_value(items)}\n")
-            else:
-                self.print(f"    {field}: {_value(next(flat))}\n")
+                   + print_message(((U64, "timestamp"), *topic.fields), iter((us, *values)),
+                                   us, NESTED_FORMATS))
         return 0
 
     def _logger(self, args: list[str], now_s: float) -> int:

@@ -55,7 +55,7 @@ PX4_SITL_INTERVALS_MS = {
     "vehicle_local_position_groundtruth": 20, "vehicle_global_position_groundtruth": 100,
     "failsafe_flags": 0, "sensor_baro": 1000, "vehicle_imu_status": 1000,
     "vehicle_torque_setpoint": 20, "rate_ctrl_status": 200, "position_setpoint_triplet": 200,
-    "cpuload": 0,
+    "cpuload": 0, "esc_status": 250,
 }
 
 
@@ -192,3 +192,16 @@ def test_cpuload_is_load_mons_every_500_ms(flight_log):
     assert cpuload["load"] == pytest.approx(CPULOAD_LOAD)
     assert cpuload["ram_usage"] == pytest.approx(CPULOAD_RAM_USAGE)
     assert 0.0 < CPULOAD_LOAD < 1.0 and 0.0 < CPULOAD_RAM_USAGE < 1.0
+
+
+def test_esc_status_is_the_gz_bridges_report_of_the_commanded_rotor_speeds(flight_log):
+    """GZMixingInterfaceESC publishes esc_status for every motor command (logged every 250 ms):
+    four ESCs online, esc_rpm the mixer's output, armed while that is above 0."""
+    esc = flight_log.get_dataset("esc_status").data
+    motors = flight_log.get_dataset("actuator_outputs").data
+    assert (esc["esc_count"] == 4).all() and (esc["esc_online_flags"] == 0b1111).all()
+    flying = esc["esc_armed_flags"] == 0b1111
+    assert flying.any() and (esc["esc_armed_flags"][:3] == 0).all()  # disarmed at the start
+    rpm = esc["esc[0].esc_rpm"][flying]
+    assert rpm.min() > 0 and rpm.max() <= motors["output[0]"].max()
+    assert (esc["esc[4].esc_rpm"] == 0).all() and (esc["esc[0].timestamp"] == esc["timestamp"]).all()

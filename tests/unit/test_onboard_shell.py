@@ -55,9 +55,15 @@ def test_prompt_echo_and_commands():
         listened = shell(sim, "listener vehicle_attitude\n")
         assert "TOPIC: vehicle_attitude" in listened and "    q: [" in listened
         assert "    thrust_body: [" in shell(sim, "listener vehicle_rates_setpoint\n")
-        # a nested format's fields by their dotted names
+        # a nested message as orb_print_message_internal prints it: its name and type, then
+        # its fields
         triplet = shell(sim, "listener position_setpoint_triplet\n")
-        assert "    current.valid: " in triplet and "    current.lat: 47.3977" in triplet
+        assert "  current (position_setpoint):\n    valid: " in triplet
+        assert "    lat: 47.3977" in triplet
+        esc = shell(sim, "listener esc_status\n")
+        assert "    esc_online_flags: 15 (0b1111)\n" in esc
+        assert "  esc[0] (esc_report):\n" in esc and "  esc[7] (esc_report):\n" in esc
+        assert "(Roll: " in listened  # q with its Euler angles
         sim.advance(6.0)
         assert "INFO  [commander] Preflight check: OK\n" in shell(sim, "commander check\n")
         shell(sim, "commander arm\n")
