@@ -40,25 +40,28 @@ POSITIONAL_COMMANDS = frozenset({
     84, 85,  # VTOL takeoff / land
     4501,  # CONDITION_GATE
 })
-# Mission commands without a position (MAV_FRAME_MISSION branch). Not among them: CONDITION_YAW
-# (115), DO_SET_SERVO (183), DO_SET_ROI_SYSID (198): PX4 answers those MAV_MISSION_UNSUPPORTED.
+# Mission commands without a position (MAV_FRAME_MISSION branch). Not among them (PX4 1.15
+# answers MAV_MISSION_UNSUPPORTED): CONDITION_YAW (115), DO_SET_SERVO (183), DO_SET_ROI_SYSID
+# (198), DO_AUTOTUNE_ENABLE (212), COMPONENT_ARM_DISARM (400), SET_CAMERA_ZOOM (531),
+# SET_CAMERA_SOURCE (534).
 NON_POSITIONAL_COMMANDS = frozenset({
     20, 93, 112, 114,  # RTL, NAV_DELAY, CONDITION_DELAY / DISTANCE
     177, 178, 179, 187, 189,  # DO_JUMP, CHANGE_SPEED, SET_HOME, SET_ACTUATOR, LAND_START
     196, 197,  # ROI wpnext offset / none
-    200, 203, 204, 205, 206, 211, 212, 214,  # camera / mount / gripper / autotune / trigger interval
-    260, 400, 530, 532, 534,  # oblique survey, arm/disarm, camera mode / focus / source
+    200, 203, 204, 205, 206, 211, 214,  # camera / mount / gripper / trigger interval
+    260, 530, 532,  # oblique survey, camera mode / focus
     1000, 1001, 2000, 2001, 2003, 2500, 2501, 3000, 42600,  # gimbal, capture, transition, winch
 })
-# Taken in either branch (global frame or MAV_FRAME_MISSION): COMPONENT_ARM_DISARM,
-# DO_AUTOTUNE_ENABLE.
-BOTH_FRAMES_COMMANDS = frozenset({400, 212})
 ROI_COMMANDS = frozenset({80, 201})  # NAV_ROI, DO_SET_ROI: param1 is the MAV_ROI mode
 FENCE_COMMANDS = frozenset({MavCmd.NAV_FENCE_RETURN_POINT, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION,
                             MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
                             MavCmd.NAV_FENCE_CIRCLE_INCLUSION, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION})
 POLYGON_COMMANDS = frozenset({MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION,
                               MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION})
+# handle_mission_item_both's check of a mission item ("hardening against wrong client
+# implementations"): these parse, but a mission refuses them with MAV_MISSION_ERROR. Not
+# NAV_FENCE_RETURN_POINT: a mission stores it (and its feasibility check refuses it).
+MISSION_HARDENING = (FENCE_COMMANDS - {MavCmd.NAV_FENCE_RETURN_POINT}) | {MavCmd.NAV_RALLY_POINT}
 
 # PX4 dataman capacities (the mission one is large in SITL); the gateway refuses bigger
 # uploads with MAV_MISSION_NO_SPACE before any item is transferred.
@@ -97,24 +100,26 @@ def _validate_item(plan_type: PlanType, item: PlanItem) -> PlanResult:
         # command or answers UNSUPPORTED (so DO_CHANGE_SPEED in a global frame and a waypoint in
         # MAV_FRAME_MISSION are refused); fence and rally items in a mission are MAV_MISSION_ERROR.
         if frame in GLOBAL_FRAMES:
-            if cmd in FENCE_COMMANDS or cmd == MavCmd.NAV_RALLY_POINT:
+            if cmd in MISSION_HARDENING:
                 return PlanResult.ERROR
             if cmd in ROI_COMMANDS and _roi_mode(item) not in (0, 3):  # NONE, LOCATION
                 return PlanResult.INVALID_PARAM1
-            if cmd in POSITIONAL_COMMANDS:
+            if cmd in POSITIONAL_COMMANDS or cmd == MavCmd.NAV_FENCE_RETURN_POINT:
                 return _validate_position(item)
-            return PlanResult.ACCEPTED if cmd in BOTH_FRAMES_COMMANDS else PlanResult.UNSUPPORTED
+            return PlanResult.UNSUPPORTED
         if frame == MavFrame.MISSION:
             if cmd in ROI_COMMANDS:  # MAV_ROI NONE, WPNEXT, WPINDEX
                 return PlanResult.ACCEPTED if _roi_mode(item) in (0, 1, 2) else PlanResult.INVALID_PARAM1
             ok = cmd in NON_POSITIONAL_COMMANDS
             return PlanResult.ACCEPTED if ok else PlanResult.UNSUPPORTED
         return PlanResult.UNSUPPORTED_FRAME
+    # The parser's frame test comes first: any other frame is UNSUPPORTED_FRAME, and the fence
+    # and rally commands are not in its MAV_FRAME_MISSION branch (UNSUPPORTED).
+    if frame not in GLOBAL_FRAMES:
+        return PlanResult.UNSUPPORTED if frame == MavFrame.MISSION else PlanResult.UNSUPPORTED_FRAME
     allowed = FENCE_COMMANDS if plan_type is PlanType.FENCE else {MavCmd.NAV_RALLY_POINT}
     if cmd not in allowed:
         return PlanResult.UNSUPPORTED
-    if frame not in GLOBAL_FRAMES:
-        return PlanResult.UNSUPPORTED_FRAME
     return _validate_position(item, check_alt=plan_type is PlanType.RALLY)
 
 

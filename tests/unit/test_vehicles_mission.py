@@ -77,7 +77,18 @@ def test_item_with_current_flag_sets_start_index(sim):
     (PlanType.MISSION, [item(0, MavCmd.DO_CHANGE_SPEED, p2=3.0)], PlanResult.UNSUPPORTED),
     (PlanType.MISSION, [item(0, MavCmd.NAV_RETURN_TO_LAUNCH, frame=MavFrame.GLOBAL_RELATIVE_ALT)],
      PlanResult.UNSUPPORTED),
-    (PlanType.MISSION, [item(0, 400, p1=1.0)], PlanResult.ACCEPTED),  # ARM_DISARM: either branch
+    # Commands PX4 1.15's parser does not know, in either branch: COMPONENT_ARM_DISARM,
+    # DO_AUTOTUNE_ENABLE, SET_CAMERA_SOURCE, SET_CAMERA_ZOOM.
+    (PlanType.MISSION, [item(0, 400, p1=1.0)], PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, 400, p1=1.0, frame=MavFrame.MISSION)], PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, 212, p1=1.0)], PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, 212, p1=1.0, frame=MavFrame.MISSION)], PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, 534, frame=MavFrame.MISSION)], PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, 531, frame=MavFrame.MISSION)], PlanResult.UNSUPPORTED),
+    (PlanType.MISSION, [item(0, 532, frame=MavFrame.MISSION)], PlanResult.ACCEPTED),
+    # a fence return point parses and a mission stores it (the feasibility check refuses it)
+    (PlanType.MISSION, [item(0, MavCmd.NAV_FENCE_RETURN_POINT)], PlanResult.ACCEPTED),
+    (PlanType.MISSION, [item(0, MavCmd.NAV_RALLY_POINT)], PlanResult.ERROR),
     (PlanType.MISSION, [item(0, 201, p1=1.0, frame=MavFrame.MISSION)], PlanResult.ACCEPTED),
     (PlanType.MISSION, [item(0, 201, p1=3.0, frame=MavFrame.MISSION)], PlanResult.INVALID_PARAM1),
     (PlanType.MISSION, [item(0, 201, p1=1.0)], PlanResult.INVALID_PARAM1),
@@ -105,8 +116,10 @@ def test_item_with_current_flag_sets_start_index(sim):
     (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION, p1=30.0)], PlanResult.ACCEPTED),
     (PlanType.FENCE, [item(0, MavCmd.NAV_WAYPOINT)], PlanResult.UNSUPPORTED),
     (PlanType.RALLY, [item(0, MavCmd.NAV_RALLY_POINT)], PlanResult.ACCEPTED),
+    # the parser's frame test first: not a MAV_FRAME_MISSION command, then an unknown frame
     (PlanType.RALLY, [item(0, MavCmd.NAV_RALLY_POINT, frame=MavFrame.MISSION)],
-     PlanResult.UNSUPPORTED_FRAME),
+     PlanResult.UNSUPPORTED),
+    (PlanType.FENCE, [item(0, MavCmd.NAV_WAYPOINT, frame=1)], PlanResult.UNSUPPORTED_FRAME),
     (PlanType.RALLY, [item(i, MavCmd.NAV_RALLY_POINT) for i in range(33)], PlanResult.NO_SPACE),
 ])
 def test_plan_validation(plan_type, items, expected):
