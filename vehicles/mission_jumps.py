@@ -32,6 +32,11 @@ NEXT_POSITION_ITEMS = 2  # mission.cpp setActiveMissionItems: the position items
 POSITION_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_UNLIM,
                                MavCmd.NAV_LOITER_TIME, MavCmd.NAV_LOITER_TO_ALT,
                                MavCmd.NAV_TAKEOFF, MavCmd.NAV_LAND, 84, 85})
+# fly_through_next: the items a waypoint is flown through to, and those that end the search
+FLOWN_THROUGH_TO = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.NAV_LOITER_UNLIM,
+                              MavCmd.NAV_LOITER_TO_ALT})
+ENDS_FLY_THROUGH = frozenset({MavCmd.NAV_TAKEOFF, 84, MavCmd.NAV_LAND, 85, MavCmd.NAV_DELAY,
+                              MavCmd.CONDITION_DELAY, MavCmd.NAV_RETURN_TO_LAUNCH, MavCmd.DO_JUMP})
 
 
 def _low16(value: float) -> int:
@@ -118,3 +123,20 @@ def look_ahead(log: StatusLog, now_s: float, items: Sequence[PlanItem], start: i
                 found.append(item_index)
                 break
     return found
+
+
+def fly_through_next(items: Sequence[PlanItem], current: int) -> int | None:
+    """The index of the next waypoint when the current item (a NAV_WAYPOINT without hold time,
+    or a takeoff flown as one) is flown through to one: PX4's navigator then publishes it as
+    the triplet's next and the corner is planned (mission_block.cpp, FlightTaskAuto)."""
+    item = items[current]
+    if item.command == MavCmd.NAV_WAYPOINT and item.param1 > 0 or \
+            item.command not in (MavCmd.NAV_WAYPOINT, MavCmd.NAV_TAKEOFF):
+        return None
+    for index in range(current + 1, len(items)):
+        cmd = items[index].command
+        if cmd in FLOWN_THROUGH_TO:
+            return index
+        if cmd in ENDS_FLY_THROUGH:
+            return None
+    return None

@@ -7,7 +7,9 @@ acceptance radius = param2 or NAV_ACC_RAD, vertical NAV_MC_ALT_RAD, then the hol
 
 Rules and invariants:
 - ``current`` is the index of the item being executed; leaving Mission mode keeps it (pause),
-  re-entering restarts that item. ``set_current`` and a new upload restart at that item.
+  re-entering restarts that item. ``set_current`` and a new upload restart at their item; the
+  current index set again changes nothing. An upload with no item flagged current keeps the
+  index (clamped to the new mission), one with several takes the last.
 - As PX4's navigator runs no mode while disarmed, the mission is active only in Mission mode
   and armed: arming in Mission mode activates it. A finished mission starts over only when the
   vehicle was disarmed since it last ran (``checkMissionRestart``); otherwise re-activating it
@@ -45,7 +47,7 @@ from vehicles.events import (
     Log,
 )
 from vehicles.mission_feasibility import MissionCheck
-from vehicles.mission_jumps import JumpCounts, look_ahead, non_jump_index
+from vehicles.mission_jumps import JumpCounts, fly_through_next, look_ahead, non_jump_index
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
 from vehicles.plan_types import (
     REACHED_HISTORY,
@@ -123,8 +125,12 @@ class Mission(NavMode):
     def _plan_changed(self, plan_type: PlanType) -> None:
         if plan_type is not PlanType.MISSION:
             return
-        items = self.items
-        self.current = next((i for i, it in enumerate(items) if it.current), 0)
+        # The upload's current item is the last one flagged (mavlink_mission.cpp
+        # _transfer_current_seq); without one it is -1 and updateMavlinkMission keeps the
+        # previous index, clamped to the new mission. A clear publishes 0.
+        flagged = [i for i, it in enumerate(self.items) if it.current]
+        count = len(self.items)
+        self.current = flagged[-1] if flagged else max(0, min(self._current, count - 1))
         self._revive()
         self._has_run = self._running  # onMissionUpdate: new items while inactive
         self.reached_seq = -1
@@ -143,6 +149,8 @@ class Mission(NavMode):
         when the item starts (``resolve_jump``: MISSION_START's goToItem)."""
         if not 0 <= seq < len(self.items):
             return False
+        if seq == self._current:  # set_current_mission_index / checkMissionDataChanged: no news
+            return True
         self.current = seq
         self._resolve_jump = resolve_jump
         self._revive()
@@ -389,26 +397,12 @@ class Mission(NavMode):
         self._target = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
         acc = item.param2 if item.command == MavCmd.NAV_WAYPOINT else 0.0
         self._acc_rad = acc if acc > 0 else float(ctx.params["NAV_ACC_RAD"])
-        self._next = self._fly_through_next(ctx, item)
+        later = fly_through_next(self.items, self.current)  # the triplet's next, if any
+        self._next = None if later is None else item_ned(self.items[later], ctx.origin,
+                                                         ctx.home_alt_amsl_m)
         yaw = item.param4 if item.command in (MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME) else math.nan
         self._fixed_yaw = math.radians(yaw) if math.isfinite(yaw) else math.nan
         self._phase = "goto"
-
-    def _fly_through_next(self, ctx: NavContext, item: PlanItem) -> Vec3 | None:
-        """The next waypoint when ``item`` (a NAV_WAYPOINT without hold time, or a takeoff flown
-        as one) is flown through to a next waypoint: PX4's navigator then publishes it as the
-        triplet's next and the corner is planned (mission_block.cpp, FlightTaskAuto)."""
-        if item.command == MavCmd.NAV_WAYPOINT and item.param1 > 0 or \
-                item.command not in (MavCmd.NAV_WAYPOINT, MavCmd.NAV_TAKEOFF):
-            return None
-        for later in self.items[self.current + 1:]:
-            if later.command in GOTO_COMMANDS:
-                return item_ned(later, ctx.origin, ctx.home_alt_amsl_m)
-            if later.command in TAKEOFF_COMMANDS or later.command in LAND_COMMANDS or \
-                    later.command in DELAY_COMMANDS or later.command in (
-                        MavCmd.NAV_RETURN_TO_LAUNCH, MavCmd.DO_JUMP):
-                return None
-        return None
 
     def _goto_setpoint(self, ctx: NavContext) -> NavSetpoint:
         return NavSetpoint(self._target, self._yaw, ctx.limits(), previous_ned_m=self._previous,

@@ -165,7 +165,8 @@ def test_set_current_onto_a_jump_makes_the_jump_the_current_item(sim):
     the mission topic as it is; the navigator loads that item without resolving it
     (MissionBase::loadCurrentMissionItem): the DO_JUMP is the current item, has no position
     setpoint (the vehicle holds where it is) and is never reached, and no jump is counted.
-    MISSION_START with the same index resolves the jump instead."""
+    MISSION_START with the index already current changes nothing (set_current_mission_index
+    returns at once); from another current item it resolves the jump (goToItem)."""
     api = sim.api(0)
     assert api.upload_mission([WP0, WP1, jump(0, 3), WP2]) == PlanResult.ACCEPTED
     assert api.arm() == 0 and api.start_mission() == 0
@@ -181,9 +182,15 @@ def test_set_current_onto_a_jump_makes_the_jump_the_current_item(sim):
             if m.seq != 0] == []
     assert jump_items(api, mark) == []
     assert float(np.linalg.norm(sim.state(0).velocity_ned_mps)) < 0.3  # holding, not flying on
-    # MISSION_START with that index is navigator_main.cpp's set_current_mission_index: goToItem
-    # resolves the jump (and counts it)
+    # MISSION_START with that index is navigator_main.cpp's set_current_mission_index: the
+    # current index already, so nothing happens
     mark = len(api.frames)
+    assert api.command_long(300, 2, 0) == 0
+    sim.advance(3.0)
+    assert jump_items(api, mark) == [] and api.last("MISSION_CURRENT").seq == 2
+    assert float(np.linalg.norm(sim.state(0).velocity_ned_mps)) < 0.3
+    # from another current item, goToItem resolves the jump (and counts it)
+    api.send(api.mav.mission_set_current_encode(api.target, 1, 3))
     assert api.command_long(300, 2, 0) == 0
     assert sim.run_until(lambda: jump_items(api, mark), timeout_s=3)
     assert [i[0] for i in jump_items(api, mark)] == [2]

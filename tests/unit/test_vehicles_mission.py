@@ -387,3 +387,51 @@ def test_loiter_unlimited_is_never_reached(sim):
     assert st.current_seq == 1 and st.reached_history == (0,) and st.state is MissionState.ACTIVE
     assert v.set_current_mission_item(sim.t, 2)
     assert sim.run(20.0, until=lambda: v.mission_status.reached_seq == 2)
+
+
+def test_upload_without_a_current_item_keeps_the_index_clamped(sim):
+    """mavlink_mission.cpp (1.15.2): an upload's current item is the last one flagged current
+    (_transfer_current_seq), else -1; MissionBase::updateMavlinkMission then keeps the previous
+    index, constrained to [0, count - 1]. A clear publishes index 0."""
+    v = sim.v
+    line = [(10.0 * k, 0.0, 10.0) for k in range(1, 7)]
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, line))
+    assert v.set_current_mission_item(sim.t, 4)
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, [(n, 5.0, a) for n, _, a in line]))
+    assert v.mission_status.current_seq == 4
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, SQUARE[:3]))
+    assert v.mission_status.current_seq == 2
+    flagged = [item(i, MavCmd.NAV_WAYPOINT, n, e, alt, v.origin, current=int(i in (0, 1)))
+               for i, (n, e, alt) in enumerate(SQUARE)]
+    v.set_plan(sim.t, PlanType.MISSION, flagged)
+    assert v.mission_status.current_seq == 1
+    v.clear_plan(sim.t, PlanType.MISSION)
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, line))
+    assert v.mission_status.current_seq == 0
+
+
+def test_mission_start_or_set_current_at_the_current_item_changes_nothing(sim):
+    """Mission::set_current_mission_index returns at once when the index is the current one
+    (MISSION_START's param1, navigator_main.cpp), and a MISSION_SET_CURRENT of it is no
+    mission data change (checkMissionDataChanged): the item is not restarted, a finished
+    mission stays finished."""
+    v = sim.v
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, [(10.0, 0.0, 5.0), (10.0, 10.0, 5.0)]))
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(40.0, until=lambda: v.mission_status.reached_seq == 0)
+    resets = v.mission_status.reached_resets
+    assert v.start_mission(sim.t, 1) is CommandResult.ACCEPTED
+    assert v.set_current_mission_item(sim.t, 1)
+    assert v.mission_status.reached_resets == resets  # update_mission did not run again
+    assert sim.run(40.0, until=lambda: v.mission_status.state is MissionState.COMPLETE)
+    st = v.mission_status
+    executing = sim.texts().count("Executing Mission\t")
+    assert v.start_mission(sim.t, 1) is CommandResult.ACCEPTED
+    assert v.set_current_mission_item(sim.t, 1)
+    sim.run(5.0)
+    assert v.mission_status.state is MissionState.COMPLETE
+    assert v.mission_status.reached_count == st.reached_count
+    assert sim.texts().count("Executing Mission\t") == executing
+    assert v.start_mission(sim.t, 0) is CommandResult.ACCEPTED  # another item: flown again
+    assert sim.run(30.0, until=lambda: v.mission_status.reached_count > st.reached_count)
+
