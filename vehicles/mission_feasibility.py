@@ -21,13 +21,14 @@ Rules:
   waypoint, MIS_TKO_LAND_REQ is not met, or a positional item is outside the geofence.
 - ``MissionCheck`` caches the verdict: it runs the check when the mission, the fence or home
   changed since the last run (PX4 does not run it again for a parameter change), and not before
-  home is set (the mission is not valid until then).
+  home is set (the mission is not valid until then). Each run resets the reached item
+  (check_mission_valid: seq_reached = -1), which ``on_run`` reports.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
 from vehicles import events as ev
@@ -225,8 +226,11 @@ class MissionCheck:
     """The navigator's verdict on the stored mission (module rules), kept until the mission,
     the fence or home changes."""
 
-    def __init__(self) -> None:
+    def __init__(self, on_run: Callable[[], None] | None = None) -> None:
+        """``on_run``: told each time the check runs (check_mission_valid also puts the
+        mission result's seq_reached back to -1)."""
         self.valid = False
+        self._on_run = on_run
         self._ids: tuple[int, int] | None = None
         self._home: HomePosition | None = None  # each new home is a new object (PX4's count)
 
@@ -245,6 +249,8 @@ class MissionCheck:
             self.valid = check_mission(plans.get(PlanType.MISSION), now_s, ap.log, ap.params,
                                        ap.geofence, home, ap.origin, ap.land_detector.landed,
                                        (here.lat_deg, here.lon_deg) if here else None)
+            if self._on_run is not None:
+                self._on_run()
         return self.valid
 
     def rejected(self, mission_id: int) -> bool:

@@ -77,7 +77,7 @@ class Mission(NavMode):
         """``changes``: the vehicle's generations (``mission_progress`` moves with ``current``,
         the item count and ``reached_count``)."""
         self.plans = plans
-        self.check = MissionCheck()  # PX4's feasibility verdict on the stored items
+        self.check = MissionCheck(self._reset_reached)  # PX4's feasibility verdict
         self._changes = changes if changes is not None else Changes()
         self._current = 0
         self.finished = False
@@ -189,6 +189,11 @@ class Mission(NavMode):
             reached_history=tuple(self._history), jump_seq=self._jumps_done.last,
             jump_count=self._jumps_done.reports, reached_resets=self.reached_resets)
 
+    def _reset_reached(self) -> None:
+        """The navigator puts mission_result.seq_reached back to -1 (MissionStatus)."""
+        self.reached_resets += 1
+        self._changes.mission_progress += 1
+
     def _reached(self, seq: int) -> None:
         self.reached_seq = seq
         self.reached_count += 1
@@ -214,8 +219,7 @@ class Mission(NavMode):
             ctx.set_cruise_mps(math.nan)
         self._running = self._has_run = True
         self.disarmed_while_inactive = False
-        self.reached_resets += 1  # check_mission_valid(true) and update_mission
-        self._changes.mission_progress += 1
+        self._reset_reached()  # check_mission_valid(true) and update_mission
         self._yaw = ctx.yaw_rad
         if self.finished:
             # The last item was done and nothing set a new one: PX4 finds no valid current

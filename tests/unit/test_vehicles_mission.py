@@ -435,3 +435,19 @@ def test_mission_start_or_set_current_at_the_current_item_changes_nothing(sim):
     assert v.start_mission(sim.t, 0) is CommandResult.ACCEPTED  # another item: flown again
     assert sim.run(30.0, until=lambda: v.mission_status.reached_count > st.reached_count)
 
+
+def test_a_fence_change_runs_the_check_again_and_resets_the_reached_item(sim):
+    """MissionBase::updateMavlinkMission: a new geofence id → _mission_checked = false →
+    check_mission_valid, which puts mission_result.seq_reached back to -1."""
+    v = sim.v
+    o = v.origin
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, [(10.0, 0.0, 5.0), (40.0, 0.0, 5.0)]))
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(40.0, until=lambda: v.mission_status.reached_seq == 0)
+    resets = v.mission_status.reached_resets
+    fence = [item(0, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, origin=o, p1=500.0,
+                  mission_type=PlanType.FENCE)]
+    assert v.set_plan(sim.t, PlanType.FENCE, fence) is PlanResult.ACCEPTED
+    sim.run(0.1)
+    assert v.mission_status.reached_resets > resets
+    assert v.mission_status.state is MissionState.ACTIVE  # still feasible, still flying
