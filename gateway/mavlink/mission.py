@@ -35,10 +35,11 @@ Rules and invariants:
   another seq than the link sent last (PX4 sends it when mission_result.seq_reached changes: a
   DO_JUMP loop reaching the same item again is no news), then REACHED_REPEATS more times at
   1 Hz (PX4: "send the reached message another 10 times"), until the navigator puts
-  seq_reached back to -1 (``reached_resets`` moved) or a MISSION_COUNT on the link starts a new
-  upload ("Reset last reached waypoint"). After a
-  DO_JUMP is taken the link sends that item, unasked, to its last transfer partner when idle
-  (PX4: "Send a mission item again if the remaining DO_JUMPs has changed").
+  seq_reached back to -1 (``reached_resets`` moved: a new mission does, once stored). PX4 1.15's
+  handle_mission_count does not reset the last reached item (newer PX4 does): a MISSION_COUNT
+  alone leaves the repeats running. After a DO_JUMP is taken the link sends that item, unasked,
+  to its last transfer partner when idle (PX4: "Send a mission item again if the remaining
+  DO_JUMPs has changed").
 """
 
 from __future__ import annotations
@@ -202,7 +203,6 @@ class MissionService:
             self.ack(src, ERROR, msg.mission_type)
             return
         self.partner = src  # the transfer partner, whatever the upload then becomes
-        self._reached_seq, self._repeats_left, self._repeat_at = -1, 0, math.inf  # a new mission
         ptype = plan_type_of(msg.mission_type)
         if msg.count > (CAPACITY[ptype] if ptype is not None else 0):
             self.ack(src, NO_SPACE, msg.mission_type)

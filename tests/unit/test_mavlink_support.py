@@ -208,9 +208,12 @@ class FakeVehicle:
                 i.mission_type != plan_type for i in items):
             return PlanResult.INVALID_SEQUENCE
         self.plans[plan_type] = items
-        if plan_type is PlanType.MISSION:
-            self.current_seq = next((i.seq for i in items if i.current), 0)
+        if plan_type is PlanType.MISSION:  # as the navigator takes a new mission (nav_mission)
+            flagged = [i.seq for i in items if i.current]
+            self.current_seq = flagged[-1] if flagged else max(0, min(self.current_seq,
+                                                                      len(items) - 1))
             self.reached_seq, self.mission_finished = -1, False
+            self.reached_resets += 1
         return PlanResult.ACCEPTED
 
     def clear_plan(self, now_s: float, plan_type: PlanType) -> PlanResult:
@@ -218,6 +221,7 @@ class FakeVehicle:
         self.plans[plan_type] = ()
         if plan_type is PlanType.MISSION:
             self.current_seq = 0
+            self.reached_resets += 1
         return PlanResult.ACCEPTED
 
     def plan_id(self, plan_type: PlanType) -> int:
