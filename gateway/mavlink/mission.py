@@ -40,6 +40,12 @@ Rules and invariants:
   alone leaves the repeats running. After a DO_JUMP is taken the link sends that item, unasked,
   to its last transfer partner when idle (PX4: "Send a mission item again if the remaining
   DO_JUMPs has changed").
+- Every MISSION_ACK goes to the link's transfer partner with the link's mission type (PX4's
+  send_mission_ack(_transfer_partner_sysid, _transfer_partner_compid, ...) with _mission_type),
+  not to the sender: a busy refusal to the partner of the transfer under way, a CLEAR_ALL's ACK
+  and a COUNT 0 or NO_SPACE answer to the last partner (0/0 before any transfer), as only an
+  upload or download that starts takes its sender as the partner. A MISSION_COUNT or
+  CLEAR_ALL sets the mission type before its answer; a busy or locked-out one does not.
 """
 
 from __future__ import annotations
@@ -124,8 +130,8 @@ class MissionService:
         self._download: tuple[PlanItem, ...] = ()
         self._retry_at = math.inf
         self._timeout_at = math.inf
-        # (partner, mission_type, last seq, result) of the last completed upload, for re-ACKs
-        self._completed: tuple[tuple[int, int], int, int, int] | None = None
+        # (mission_type, last seq, result) of the last completed upload, for re-ACKs
+        self._completed: tuple[int, int, int] | None = None
         st = mission_status_of(self.vehicle)
         if uploads.current_seq is None:
             uploads.current_seq = st.current_seq
@@ -151,9 +157,10 @@ class MissionService:
     def _text(self, now_s: float, text: str, severity: Severity = Severity.CRITICAL) -> None:
         self.say(now_s, severity, text)
 
-    def ack(self, to: tuple[int, int], result: int, mission_type: int) -> None:
-        self.send(self.encoder.pack(M.MAVLink_mission_ack_message, to[0], to[1], int(result),
-                                    mission_type & 0xFF))
+    def ack(self, result: int) -> None:
+        """send_mission_ack: to the transfer partner, with the link's mission type."""
+        self.send(self.encoder.pack(M.MAVLink_mission_ack_message, self.partner[0],
+                                    self.partner[1], int(result), self.mission_type & 0xFF))
 
     def _heard(self, now_s: float) -> None:
         self._timeout_at = now_s + TIMEOUT_S
@@ -186,32 +193,31 @@ class MissionService:
         src = (msg.get_srcSystem(), msg.get_srcComponent())
         if self.phase is Phase.UPLOAD:
             self._heard(now_s)
-            if self.seq == 0 and src == self.partner:
-                self._request(now_s)  # our first request was lost: the client repeats COUNT
+            if self.seq == 0:  # our first request was lost: a COUNT (from anyone) re-requests
+                self._request(now_s)
             else:
                 self._text(now_s, "WPM: REJ. CMD: Busy")
-                self.ack(src, ERROR, msg.mission_type)
+                self.ack(ERROR)
             return
         if self.phase is Phase.DOWNLOAD:
             self._text(now_s, "WPM: IGN MISSION_COUNT: Busy")
-            self.ack(src, ERROR, msg.mission_type)
+            self.ack(ERROR)
             return
         if not hasattr(self.vehicle, "set_plan"):
-            self.ack(src, UNSUPPORTED, msg.mission_type)
+            self.ack(UNSUPPORTED)
             return
         if self._other_upload_active(now_s):
-            self.ack(src, ERROR, msg.mission_type)
+            self.ack(ERROR)
             return
-        self.partner = src  # the transfer partner, whatever the upload then becomes
+        self.mission_type = msg.mission_type  # the partner stays until an upload starts
         ptype = plan_type_of(msg.mission_type)
         if msg.count > (CAPACITY[ptype] if ptype is not None else 0):
-            self.ack(src, NO_SPACE, msg.mission_type)
+            self.ack(NO_SPACE)
             return
         self._completed = None
         plans = cast(VehicleFeatures, self.vehicle)  # it stores plans (set_plan checked above)
         if msg.count == 0:  # an unknown type: "mission type %u not handled", and ACCEPTED
-            result = plans.clear_plan(now_s, ptype) if ptype is not None else ACCEPTED
-            self.ack(src, result, msg.mission_type)
+            self.ack(plans.clear_plan(now_s, ptype) if ptype is not None else ACCEPTED)
             return
         assert ptype is not None  # its capacity is 0
         self.phase = Phase.UPLOAD
@@ -230,26 +236,23 @@ class MissionService:
     def _on_item(self, msg: Any, item: PlanItem, is_int: bool, now_s: float) -> None:
         if not self._for_us(msg):
             return
-        src = (msg.get_srcSystem(), msg.get_srcComponent())
         self.int_mode = is_int  # PX4 follows the client's item flavour from here on
         if msg.mission_type != self.mission_type:
-            self.ack(src, ERROR, msg.mission_type)
+            self.ack(ERROR)
             return
         if self.phase is Phase.IDLE:
             done = self._completed
-            if done is not None and done[:3] == (src, msg.mission_type, msg.seq):
-                self.ack(src, done[3], msg.mission_type)  # our final ACK was lost
+            if done is not None and done[:2] == (msg.mission_type, msg.seq):
+                self.ack(done[2])  # our final ACK was lost
             else:
                 self._text(now_s, "IGN MISSION_ITEM: No transfer")
-                self.ack(src, ERROR, msg.mission_type)
+                self.ack(ERROR)
             return
         if self.phase is Phase.DOWNLOAD:
             self._text(now_s, "IGN MISSION_ITEM: Busy")
-            self.ack(src, ERROR, msg.mission_type)
+            self.ack(ERROR)
             return
-        if src != self.partner:
-            return
-        self._heard(now_s)
+        self._heard(now_s)  # (handle_mission_item_both takes the item from any sender)
         if msg.seq != self.seq:
             return  # a duplicate or a jump ahead: ignored, the retry timer re-requests
         if not is_int and msg.frame in INT_FRAMES and self._refused is None:
@@ -264,8 +267,8 @@ class MissionService:
         self._idle()
         plans = cast(VehicleFeatures, self.vehicle)  # an upload starts only if it has set_plan
         result = int(plans.set_plan(now_s, ptype, items)) if refused is None else refused
-        self._completed = (self.partner, self.mission_type, self.count - 1, result)
-        self.ack(self.partner, result, self.mission_type)
+        self._completed = (self.mission_type, self.count - 1, result)
+        self.ack(result)
 
     # --- download -----------------------------------------------------------------------------
     def on_request_list(self, msg: M.MAVLink_mission_request_list_message, now_s: float) -> None:
@@ -316,9 +319,8 @@ class MissionService:
         if msg.seq == self.seq and self.seq < self.count:
             self.seq += 1
         elif msg.seq != self.seq - 1:  # neither the next item nor a repeat of the last one
-            mission_type = self.mission_type
             self._idle()
-            self.ack(src, ERROR, mission_type)
+            self.ack(ERROR)
             self._text(now_s, "WPM: REJ. CMD: Req. WP was unexpected")
             return
         item = self._download[msg.seq]
@@ -348,22 +350,22 @@ class MissionService:
     def on_clear_all(self, msg: M.MAVLink_mission_clear_all_message, now_s: float) -> None:
         if not self._for_us(msg):
             return
-        src = (msg.get_srcSystem(), msg.get_srcComponent())
         if self.phase is not Phase.IDLE:
             self._text(now_s, "WPM: IGN CLEAR CMD: Busy")
             return
+        self.mission_type = msg.mission_type  # "needed for the returned ack"; to the partner
         if msg.mission_type == MISSION_TYPE_ALL:
             types = list(PlanType)
         else:  # an unknown type clears nothing: "mission type %u not handled", and ACCEPTED
             ptype = plan_type_of(msg.mission_type)
             types = [] if ptype is None else [ptype]
         if not hasattr(self.vehicle, "clear_plan"):
-            self.ack(src, UNSUPPORTED, msg.mission_type)
+            self.ack(UNSUPPORTED)
             return
         self._completed = None
         results = [int(self.vehicle.clear_plan(now_s, t)) for t in types]
         failed = [r for r in results if r != ACCEPTED]
-        self.ack(src, failed[0] if failed else ACCEPTED, msg.mission_type)
+        self.ack(failed[0] if failed else ACCEPTED)
 
     def on_set_current(self, msg: M.MAVLink_mission_set_current_message, now_s: float) -> None:
         if not self._for_us(msg):
@@ -388,6 +390,7 @@ class MissionService:
             return
         item = dataclasses.replace(items[st.jump_seq],
                                    current=int(st.jump_seq == self.uploads.current_seq))
+        self.mission_type = int(PlanType.MISSION)  # as send() sets _mission_type for it
         self.send(pack_item(self.encoder, item, st.jump_seq, int(PlanType.MISSION), self.partner,
                             self.int_mode))
 

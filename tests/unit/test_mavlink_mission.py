@@ -330,19 +330,57 @@ def test_vehicle_rejection_is_the_ack():
     assert mission_acks(got) == [(2, 2)] and vehicle.plans[PlanType.RALLY] == ()
 
 
-def test_item_of_wrong_type_or_from_other_partner():
+def acks_to(msgs):
+    """(type, mission_type, target) of each MISSION_ACK."""
+    return [(m.type, m.mission_type, (m.target_system, m.target_component))
+            for m in of_type(msgs, "MISSION_ACK")]
+
+
+def test_item_of_wrong_type_and_items_from_anyone():
+    """handle_mission_item_both: an item of another mission type is answered ERROR (with the
+    transfer's type, to the partner); the item expected is taken from any sender; a COUNT in the
+    middle of the upload is "WPM: REJ. CMD: Busy" and ERROR to the partner, not the sender."""
     vehicle, session, client = make()
     items = fence_items()
     client.send(M.MAVLink_mission_count_message(1, 1, len(items), 1))
     got = client.send(item_int_msg(wp(0)))  # mission_type 0 during a fence upload
-    assert mission_acks(got) == [(1, 0)]
+    assert acks_to(got) == [(1, 1, (245, 190))]
     other = Client(session, sysid=255, compid=190)
-    assert other.send(item_int_msg(items[0])) == []
-    got = other.send(M.MAVLink_mission_count_message(1, 1, 2, 0))  # busy here
-    assert mission_acks(got) == [(1, 0)]
-    assert session.mission.phase is mission.Phase.UPLOAD and session.mission.seq == 0
-    got = upload(client, items, 1)
-    assert mission_acks(got) == [(0, 1)]
+    got = other.send(item_int_msg(items[0]))
+    assert [(m.get_type(), m.seq, m.target_system) for m in got] == [
+        ("MISSION_REQUEST_INT", 1, 245)]
+    got = other.send(M.MAVLink_mission_count_message(1, 1, 2, 0))
+    assert acks_to(got) == [(1, 1, (245, 190))]
+    assert session.mission.phase is mission.Phase.UPLOAD and session.mission.seq == 1
+    for it in items[1:]:
+        got = client.send(item_int_msg(it))
+    assert acks_to(got) == [(0, 1, (245, 190))]
+    assert vehicle.plans[PlanType.FENCE] == tuple(items)
+
+
+def test_acks_go_to_the_transfer_partner():
+    """send_mission_ack always targets _transfer_partner_sysid/compid with _mission_type: only
+    an upload (COUNT > 0) or a download that starts takes the sender as the partner, so a
+    CLEAR_ALL, a COUNT 0 or a NO_SPACE answer goes to the last partner (0/0 before any), and a
+    busy refusal to the partner of the transfer under way."""
+    vehicle, session, client = make()
+    gcs = Client(session, sysid=255, compid=190)
+    got = gcs.send(M.MAVLink_mission_clear_all_message(1, 1, 0))
+    assert acks_to(got) == [(0, 0, (0, 0))]
+    got = gcs.send(M.MAVLink_mission_count_message(1, 1, 0, 1))
+    assert acks_to(got) == [(0, 1, (0, 0))]
+    upload(client, rally_items(), 2)  # the API client is the partner now
+    got = gcs.send(M.MAVLink_mission_count_message(1, 1, 10_000, 0))
+    assert acks_to(got) == [(4, 0, (245, 190))]
+    got = gcs.send(M.MAVLink_mission_clear_all_message(1, 1, 1))
+    assert acks_to(got) == [(0, 1, (245, 190))]
+    got = gcs.send(item_int_msg(wp(0, mission_type=1)))  # no transfer
+    assert acks_to(got) == [(1, 1, (245, 190))]
+    gcs.send(M.MAVLink_mission_request_list_message(1, 1, 2))  # the GCS downloads
+    got = client.send(M.MAVLink_mission_count_message(1, 1, 3, 0))
+    assert acks_to(got) == [(1, 2, (255, 190))]  # "WPM: IGN MISSION_COUNT: Busy"
+    got = client.send(item_int_msg(wp(0, mission_type=2)))
+    assert acks_to(got) == [(1, 2, (255, 190))]  # "IGN MISSION_ITEM: Busy"
 
 
 def test_retry_and_timeout_on_virtual_time():
@@ -403,8 +441,9 @@ def test_concurrent_upload_on_another_link_is_refused():
     items = mavsdk_mission()
     c1.send(M.MAVLink_mission_count_message(1, 1, len(items), 0))
     c1.send(item_int_msg(items[0]))
+    # _transfer_in_progress: ERROR to this link's last partner (none yet) with its last type
     got = c2.send(M.MAVLink_mission_count_message(1, 1, 3, 2))
-    assert mission_acks(got) == [(1, 2)]
+    assert acks_to(got) == [(1, 0, (0, 0))]
     assert download(c2, 0) == []  # downloads on the other link still work (old, empty plan)
     for it in items[1:]:
         got = c1.send(item_int_msg(it))
