@@ -19,10 +19,12 @@ Rules:
   landed, a takeoff is not above home or comes after a positional item, it holds VTOL items,
   its first positional item is MIS_DIST_1WP or farther from the vehicle, a gate sits on a
   waypoint, MIS_TKO_LAND_REQ is not met, or a positional item is outside the geofence.
-- ``MissionCheck`` caches the verdict: it runs the check when the mission, the fence or home
-  changed since the last run (PX4 does not run it again for a parameter change), and not before
-  home is set (the mission is not valid until then). Each run resets the reached item
-  (check_mission_valid: seq_reached = -1), which ``on_run`` reports.
+- ``MissionCheck`` caches the verdict: it runs the check once home is set (the mission is not
+  valid until then), then again when the mission or the fence changed (MissionBase's
+  onMissionUpdate / _mission_checked) and on each Mission activation (``force``:
+  Mission::on_activation). A new home alone, or a parameter change, does not run it in PX4
+  1.15 (check_mission_valid compares the home counter only when one of those calls it). Each
+  run resets the reached item (check_mission_valid: seq_reached = -1), reported to ``on_run``.
 """
 
 from __future__ import annotations
@@ -224,15 +226,19 @@ class FeasibilityChecker:
 
 class MissionCheck:
     """The navigator's verdict on the stored mission (module rules), kept until the mission,
-    the fence or home changes."""
+    the fence changes or Mission mode is activated."""
 
     def __init__(self, on_run: Callable[[], None] | None = None) -> None:
         """``on_run``: told each time the check runs (check_mission_valid also puts the
         mission result's seq_reached back to -1)."""
         self.valid = False
         self._on_run = on_run
-        self._ids: tuple[int, int] | None = None
-        self._home: HomePosition | None = None  # each new home is a new object (PX4's count)
+        self._ids: tuple[int, int] | None = None  # (mission, fence) ids checked; None: never
+        self._forced = False
+
+    def force(self) -> None:
+        """Mission::on_activation's check_mission_valid(true): run again at the next update."""
+        self._forced = True
 
     def update(self, now_s: float, ap: Any) -> bool:
         """Run the check when due; returns the verdict. ``ap``: the vehicle's Autopilot (its
@@ -242,8 +248,8 @@ class MissionCheck:
             return self.valid
         plans = ap.plans
         ids = (plans.plan_id(PlanType.MISSION), plans.plan_id(PlanType.FENCE))
-        if ids != self._ids or home is not self._home:
-            self._ids, self._home = ids, home
+        if ids != self._ids or self._forced:
+            self._ids, self._forced = ids, False
             last = ap.last_meas
             here = ap.origin.offset_ned(*last.position_ned_m) if last is not None else None
             self.valid = check_mission(plans.get(PlanType.MISSION), now_s, ap.log, ap.params,

@@ -219,7 +219,8 @@ class Mission(NavMode):
             ctx.set_cruise_mps(math.nan)
         self._running = self._has_run = True
         self.disarmed_while_inactive = False
-        self._reset_reached()  # check_mission_valid(true) and update_mission
+        self.check.force()  # Mission::on_activation: check_mission_valid(true)
+        self._reset_reached()  # update_mission
         self._yaw = ctx.yaw_rad
         if self.finished:
             # The last item was done and nothing set a new one: PX4 finds no valid current

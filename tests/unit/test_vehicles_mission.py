@@ -451,3 +451,25 @@ def test_a_fence_change_runs_the_check_again_and_resets_the_reached_item(sim):
     sim.run(0.1)
     assert v.mission_status.reached_resets > resets
     assert v.mission_status.state is MissionState.ACTIVE  # still feasible, still flying
+
+
+def test_a_new_home_alone_does_not_run_the_check_but_activation_does(sim):
+    """check_mission_valid runs on a new mission or geofence (MissionBase) and, forced, on each
+    Mission::on_activation; a new home or a parameter change alone does not run it (1.15.2)."""
+    v = sim.v
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, [(30.0, 0.0, 5.0), (30.0, 30.0, 5.0)]))
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(40.0, until=lambda: v.mission_status.reached_seq == 0)
+    resets = v.mission_status.reached_resets
+    assert v.set_home(sim.t) is CommandResult.ACCEPTED
+    sim.run(0.5)
+    assert v.mission_status.reached_resets == resets
+    assert sim.run(20.0, until=lambda: v.state.position_ned_m[1] > 20.0)
+    assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+    v.params.set("MIS_DIST_1WP", 10.0)  # the first waypoint is more than 20 m away now
+    sim.run(0.5)
+    assert "First waypoint too far away" not in "".join(sim.texts())
+    v.set_nav_state(sim.t, NavState.AUTO_MISSION)
+    sim.run(0.5)
+    assert any(t.startswith("First waypoint too far away") for t in sim.texts())
+    assert v.status.nav_state is not NavState.AUTO_MISSION
