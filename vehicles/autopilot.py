@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 
+from vehicles import reposition
 from vehicles.actuator_test import ActuatorTest
 from vehicles.airframe import Airframe
 from vehicles.auto_trajectory import AutoTrajectory
@@ -252,30 +253,11 @@ class Autopilot:
         return CommandResult.ACCEPTED
 
     def goto(self, now_s: float, here: Measurement, lat_deg: float, lon_deg: float,
-             alt_amsl_m: float, yaw_rad: float = math.nan, speed_mps: float = math.nan
-             ) -> CommandResult:
-        """DO_REPOSITION: Hold at a global target (navigator.cpp handle reposition); NaN keeps
-        the present position (``here``) on that axis."""
-        if not self.commander.position_valid:
-            return CommandResult.TEMPORARILY_REJECTED
-        n, e, d = here.position_ned_m
-        if not (math.isnan(lat_deg) or math.isnan(lon_deg)):
-            n, e, _ = self.origin.ned_of(GeoPoint(lat_deg, lon_deg, self.origin.alt_amsl_m))
-        if not math.isnan(alt_amsl_m):
-            d = self.origin.alt_amsl_m - alt_amsl_m
-        if self.geofence.enabled and self.geofence.check(
-                (n, e, d), self.home.position_ned_m if self.home else None) is not None:
-            self.log.critical(now_s, "Reposition is outside geofence")
-            return CommandResult.DENIED
-        result = self.set_nav_state(now_s, NavState.AUTO_LOITER)
-        if result is CommandResult.ACCEPTED:
-            if speed_mps > 0:
-                self.navigator.set_cruise_mps(speed_mps)
-            if self.commander.armed:  # the navigator acts only when armed
-                self.navigator.hold.reposition = (n, e, d)
-                self.navigator.hold.hint_yaw = yaw_rad
-                self.navigator.reactivate()
-        return result
+             alt_amsl_m: float, yaw_rad: float = math.nan, speed_mps: float = math.nan,
+             what: str = "Reposition") -> CommandResult:
+        """DO_REPOSITION / DO_CHANGE_ALTITUDE (vehicles/reposition.py)."""
+        return reposition.goto(self, now_s, here, lat_deg, lon_deg, alt_amsl_m, yaw_rad,
+                               speed_mps, what)
 
     def orbit(self, now_s: float, radius_m: float, speed_mps: float, yaw_behaviour: float,
               lat_deg: float, lon_deg: float, alt_amsl_m: float) -> CommandResult:

@@ -222,6 +222,11 @@ TAKEOFF_DEFAULT_ALT = EventDef("navigator_takeoff_default_alt", "default",
                                "Using default takeoff altitude: {1:.2m}", (("float", "arg0"),))
 TAKEOFF_ALREADY_HIGHER = EventDef("navigator_takeoff_already_higher", "default",
                                   "Already higher than takeoff altitude (not descending)")
+# navigator_main.cpp: a DO_REPOSITION / DO_CHANGE_ALTITUDE target outside the geofence
+REPOSITION_OUTSIDE_FENCE = EventDef("navigator_reposition_outside_geofence", "default",
+                                    "Reposition is outside geofence")
+CHANGE_ALT_OUTSIDE_FENCE = EventDef("navigator_change_altitude_outside_geofence", "default",
+                                    "Altitude change is outside geofence")
 # Commander's answers to NAV_RETURN_TO_LAUNCH and NAV_LAND (a mission's Return item sends the
 # former too)
 COMMANDER_RTL = EventDef("commander_rtl", "default", "Returning to launch")
@@ -316,9 +321,9 @@ DEFINITIONS: tuple[EventDef, ...] = (
     FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED, MISSION_EXECUTE,
     MISSION_FINISHED, MISSION_FINISHED_LOITER, MISSION_NOT_VALID_REFUSE, MISSION_NOT_VALID_LOITER,
     MISSION_READ_FAILED, MISSION_CLIMB, RTL_RETURN_AT, RTL_LAND, RTL_COMPLETED_LOITER,
-    TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, COMMANDER_RTL, COMMANDER_LAND,
-    MODE_NOT_AVAILABLE, UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, *MISSION_FEASIBILITY,
-    *POSITION_PARAMS)
+    TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, REPOSITION_OUTSIDE_FENCE,
+    CHANGE_ALT_OUTSIDE_FENCE, COMMANDER_RTL, COMMANDER_LAND, MODE_NOT_AVAILABLE,
+    UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, *MISSION_FEASIBILITY, *POSITION_PARAMS)
 
 
 # navigation_mode_t (events/enums.json): mode_util::navigation_mode's value of each navigation

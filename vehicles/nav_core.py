@@ -85,6 +85,14 @@ class NavContext:
             return float(self.params["MPC_XY_CRUISE"])
         return min(self.cruise_mps, float(self.params["MPC_XY_VEL_MAX"]))
 
+    def limits_at(self, cruise_mps: float) -> TrajectoryLimits:
+        """Auto-mode limits at a setpoint's own cruising speed (NaN: MPC_XY_CRUISE), at most
+        MPC_XY_VEL_MAX (FlightTaskAuto)."""
+        p = self.params
+        if math.isnan(cruise_mps):
+            return self.limits(float(p["MPC_XY_CRUISE"]))
+        return self.limits(min(cruise_mps, float(p["MPC_XY_VEL_MAX"])))
+
     def limits(self, speed_xy_mps: float | None = None, speed_up_mps: float | None = None,
                speed_down_mps: float | None = None) -> TrajectoryLimits:
         """Auto-mode limits at the current cruise speed."""
@@ -157,7 +165,9 @@ class Hold(NavMode):
     A reposition (DO_REPOSITION, ``reposition``) is flown to even from the ground: loiter.cpp
     ``reposition()`` asks only that the vehicle be armed, and the auto task takes off towards a
     target above it. Without one, on the ground Hold idles the motors and follows the vehicle;
-    disarming forgets the reposition (PX4 resets its loiter position)."""
+    disarming forgets the reposition (PX4 resets its loiter position). A reposition is flown at
+    its own speed (``reposition_speed_mps``, NaN: MPC_XY_CRUISE; vehicles/reposition.py), Hold
+    otherwise at the navigator's cruising speed."""
 
     def __init__(self) -> None:
         self.target: Vec3 = (0.0, 0.0, 0.0)
@@ -165,12 +175,16 @@ class Hold(NavMode):
         self.hint: Vec3 | None = None
         self.hint_yaw = math.nan
         self.reposition: Vec3 | None = None  # taken at the next activation
+        self.reposition_speed_mps = math.nan  # taken with it
+        self.speed_mps: float | None = None  # the setpoint's own; None: the navigator's
         self._repositioned = False
 
     def on_activation(self, ctx: NavContext) -> None:
         self._repositioned = self.reposition is not None
+        self.speed_mps = None
         if self.reposition is not None:
             self.target = self.reposition
+            self.speed_mps = self.reposition_speed_mps
         elif self.hint is not None and not ctx.landed:
             self.target = self.hint
         elif ctx.landed:
@@ -180,7 +194,7 @@ class Hold(NavMode):
         keep_yaw = math.isnan(self.hint_yaw) or (ctx.landed and not self._repositioned)
         self.yaw = ctx.yaw_rad if keep_yaw else self.hint_yaw
         self.hint = self.reposition = None
-        self.hint_yaw = math.nan
+        self.hint_yaw = self.reposition_speed_mps = math.nan
 
     def on_active(self, ctx: NavContext) -> NavSetpoint:
         if not ctx.armed:
@@ -189,7 +203,8 @@ class Hold(NavMode):
             # On the ground Hold keeps the motors idle and follows the vehicle.
             self.target = ctx.position_ned_m
             return NavSetpoint(self.target, ctx.yaw_rad, ctx.limits(), idle=True)
-        return NavSetpoint(self.target, self.yaw, ctx.limits())
+        limits = ctx.limits() if self.speed_mps is None else ctx.limits_at(self.speed_mps)
+        return NavSetpoint(self.target, self.yaw, limits)
 
 
 class Takeoff(NavMode):

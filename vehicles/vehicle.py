@@ -373,9 +373,10 @@ class Vehicle:
 
     # --- actions ------------------------------------------------------------------------------
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
-             yaw_rad: float = math.nan, speed_mps: float = math.nan) -> CommandResult:
+             yaw_rad: float = math.nan, speed_mps: float = math.nan, what: str = "Reposition"
+             ) -> CommandResult:
         return self._autopilot.goto(now_s, self._measurement(), lat_deg, lon_deg, alt_amsl_m,
-                                    yaw_rad, speed_mps)
+                                    yaw_rad, speed_mps, what)
 
     def orbit(self, now_s: float, radius_m: float = math.nan, speed_mps: float = math.nan,
               yaw_behaviour: float = math.nan, lat_deg: float = math.nan,
@@ -400,8 +401,7 @@ class Vehicle:
     def set_home(self, now_s: float, geo: GeoPoint | None = None) -> CommandResult:
         return self._autopilot.set_home(now_s, self._measurement(), geo)
 
-    def inject_failure(self, now_s: float, unit: int, failure_type: int, instance: int
-                       ) -> CommandResult:
+    def inject_failure(self, now_s: float, unit: int, failure_type: int, instance: int) -> CommandResult:
         """MAV_CMD_INJECT_FAILURE as PX4 SITL: DENIED unless SYS_FAILURE_EN, then
         ``apply_failure``."""
         if int(self.params.get("SYS_FAILURE_EN", 0) or 0) != 1:

@@ -122,7 +122,7 @@ class VehicleFeatures(Protocol):
 
     # actions
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
-             yaw_rad: float = ..., speed_mps: float = ...) -> CommandResult: ...
+             yaw_rad: float = ..., speed_mps: float = ..., what: str = ...) -> CommandResult: ...
 
     def orbit(self, now_s: float, radius_m: float = ..., speed_mps: float = ...,
               yaw_behaviour: float = ..., lat_deg: float = ..., lon_deg: float = ...,

@@ -269,7 +269,8 @@ class FakeVehicle:
         self.setpoints.append((now_s, sp))
 
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
-             yaw_rad: float = math.nan, speed_mps: float = math.nan) -> CommandResult:
+             yaw_rad: float = math.nan, speed_mps: float = math.nan,
+             what: str = "Reposition") -> CommandResult:
         self.calls.append(("goto", now_s, lat_deg, lon_deg, alt_amsl_m, yaw_rad, speed_mps))
         self.nav_state = NavState.AUTO_LOITER
         return CommandResult.ACCEPTED
