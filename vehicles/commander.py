@@ -287,6 +287,10 @@ class Commander:
         """DO_ORBIT whose switch to Orbit was refused (a text without an event)."""
         self._log.critical(now_s, "Orbit command rejected")
 
+    def figure_eight_rejected(self, now_s: float) -> None:
+        """DO_FIGUREEIGHT on a multicopter: a text without an event (and no ACK)."""
+        self._log.critical(now_s, "Figure 8 command only available for fixed wing and vtol vehicles.")
+
     def terminate(self, now_s: float) -> CommandResult:
         """DO_FLIGHTTERMINATION: only when armed; final until reboot."""
         if not self.armed:

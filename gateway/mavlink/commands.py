@@ -1,19 +1,23 @@
 """Command protocol server: COMMAND_LONG / COMMAND_INT / legacy SET_MODE → vehicle → COMMAND_ACK.
 
-Source: PX4 mavlink_receiver.cpp handle_message_command_*, Commander::handle_command; the
-requests the MAVLink module answers itself are in command_requests.py.
+Source: PX4 v1.15.2 mavlink_receiver.cpp handle_message_command_*, Commander::handle_command,
+navigator_main.cpp; the requests the MAVLink module answers itself are in command_requests.py,
+who answers what in command_table.py.
 Rules:
-- Only target_system = own and target_component ∈ {0, 1} are handled; anything else (system 0
-  too) is silently ignored (no ACK), as MavlinkReceiver::evaluate_target_ok does.
-  REQUEST_AUTOPILOT_CAPABILITIES / REQUEST_PROTOCOL_VERSION take system 0 and ignore the
-  component. Legacy SET_MODE goes to Commander, which takes system 0.
+- Only target_system = own and target_component ∈ {0, 1} are handled
+  (MavlinkReceiver::evaluate_target_ok); REQUEST_AUTOPILOT_CAPABILITIES /
+  REQUEST_PROTOCOL_VERSION take system 0 too and ignore the component. Any other target (system
+  0 too) is answered FAILED, unless that component was heard on another link of the vehicle
+  (PX4 forwards it there, no ACK). Legacy SET_MODE goes to Commander, which takes system 0.
 - The ACK goes to the sender's sysid/compid, from compid 1, progress 0, result_param2 0.
 - COMMAND_INT x/y are degE7 (INT32_MAX = unset → NaN), z as-is (AMSL). The frame is ignored, as
   PX4 ≤ 1.16 does: QGC sends 0, MAVSDK4 3, MAVSDK 5 — all work (PX4 main would reject ≠ 5).
 - Every command is answered at once (never IN_PROGRESS): unknown → UNSUPPORTED, and so is a
-  contract command the vehicle object does not implement (yet). Except those a module answers
-  later, on its own (vehicles/command_journal.py): a calibration's cancel, and LOGGING_START /
-  LOGGING_STOP, which the logger answers once the link has them (log_streaming.py).
+  contract command the vehicle object does not implement (yet). Except those PX4 leaves
+  unanswered (command_table.UNANSWERED, DO_FIGURE_EIGHT on a multicopter) and those a module
+  answers later, on its own (vehicles/command_journal.py): a calibration's cancel, and
+  LOGGING_START / LOGGING_STOP, which the logger answers once the link has them
+  (log_streaming.py).
 - DO_ORBIT (multicopter): switch to Orbit and hand it the parameters; TEMPORARILY_REJECTED
   when the mode cannot run (no position estimate).
 - DO_LAND_START (navigator_main.cpp): MISSION_START from the mission's DO_LAND_START marker,
@@ -22,6 +26,7 @@ Rules:
 - DO_REPOSITION: p2 must be exactly MAV_DO_REPOSITION_FLAGS_CHANGE_MODE (PX4 Commander:
   uint32(p2) != 1 → UNSUPPORTED); p1 ≤ 0/NaN = default speed; p4 yaw rad; NaN lat/lon/alt = keep
   (QGC's pause sends all of them NaN → brake and hold). z is AMSL whatever the frame (≤ 1.16).
+  DO_CHANGE_ALTITUDE: Hold, and p1 the new altitude (AMSL, the frame in p2 is not read).
 """
 
 from __future__ import annotations
@@ -37,7 +42,19 @@ from gateway.mavlink.command_requests import (
     MetadataFiles,
     c_int,
     lroundf,
+    roundf,
     wrap_int,
+)
+from gateway.mavlink.command_table import (
+    DO_GO_AROUND,
+    FIGURE_EIGHT,
+    MAVLINK_ANSWERS,
+    ROI_COMMANDS,
+    STANDARD_MODE_LAND,
+    STANDARD_MODE_MISSION,
+    STANDARD_MODE_RETURN_HOME,
+    STANDARD_MODE_TAKEOFF,
+    UNANSWERED,
 )
 from gateway.mavlink.link import LinkContext, Say
 from gateway.mavlink.modes import SetModeRefusal, decode_set_mode
@@ -56,19 +73,20 @@ CANCELLED = CommandResult.CANCELLED
 MAV_COMP_ID_MISSIONPLANNER = 190  # QGC, MAVSDK's default component
 FORCE_MAGIC = 21196  # COMPONENT_ARM_DISARM p2: forced arm/disarm (kill)
 INT32_MAX = 2**31 - 1
-INT32_MAX_AS_FLOAT32 = 2147483648.0  # what INT32_MAX becomes in a float param
+# (float)INT32_MAX and its float neighbours, nextafterf towards 0 and towards infinity
+INT32_MAX_AS_FLOAT32 = (2147483520.0, 2147483648.0, 2147483904.0)
 REPOSITION_FLAGS_CHANGE_MODE = 1  # MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, the only flag PX4 takes
 SPEED_RESET = -1.0  # DO_CHANGE_SPEED: ≤ 0 → back to the cruise speed
 
-ROI_COMMANDS = frozenset({
-    M.MAV_CMD_DO_SET_ROI, M.MAV_CMD_DO_SET_ROI_LOCATION, M.MAV_CMD_DO_SET_ROI_NONE,
-    M.MAV_CMD_NAV_ROI,
-})
 # Commander's printRejectMode when the command's mode switch is refused (TEMPORARILY_REJECTED)
 REJECT_SAYS_MODE: dict[int, NavState] = {
     M.MAV_CMD_NAV_TAKEOFF: NavState.AUTO_TAKEOFF, M.MAV_CMD_NAV_LAND: NavState.AUTO_LAND,
     M.MAV_CMD_NAV_RETURN_TO_LAUNCH: NavState.AUTO_RTL,
-    M.MAV_CMD_DO_REPOSITION: NavState.AUTO_LOITER, M.MAV_CMD_MISSION_START: NavState.AUTO_MISSION}
+    M.MAV_CMD_DO_REPOSITION: NavState.AUTO_LOITER, M.MAV_CMD_MISSION_START: NavState.AUTO_MISSION,
+    M.MAV_CMD_DO_CHANGE_ALTITUDE: NavState.AUTO_LOITER}
+STANDARD_MODES = {STANDARD_MODE_RETURN_HOME: NavState.AUTO_RTL,
+                  STANDARD_MODE_MISSION: NavState.AUTO_MISSION,
+                  STANDARD_MODE_LAND: NavState.AUTO_LAND, STANDARD_MODE_TAKEOFF: NavState.AUTO_TAKEOFF}
 ANY_COMPONENT_COMMANDS = frozenset({
     M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, M.MAV_CMD_REQUEST_PROTOCOL_VERSION,
 })
@@ -90,14 +108,18 @@ class Command:
 
 class CommandService:
     """Uses the vehicle, the encoder, send, sysid, other_target; ``say`` (STATUSTEXT on this
-    link), ``snapshot(now_s)`` (what telemetry builders read, for REQUEST_MESSAGE) and the
-    link's stream ``scheduler`` (SET/GET_MESSAGE_INTERVAL)."""
+    link), ``snapshot(now_s)`` (what telemetry builders read, for REQUEST_MESSAGE), the
+    link's stream ``scheduler`` (SET/GET_MESSAGE_INTERVAL) and ``seen_elsewhere(system,
+    component)``: whether another link of the vehicle heard that component (a command for it
+    is forwarded there, not refused)."""
 
     def __init__(self, ctx: LinkContext, say: Say, snapshot: Callable[[float], Snapshot],
                  scheduler: Scheduler, *,
                  logging_command: Callable[[int, tuple[int, int], float], int | None]
-                 | None = None) -> None:
+                 | None = None,
+                 seen_elsewhere: Callable[[int, int], bool] | None = None) -> None:
         self.vehicle = ctx.vehicle
+        self.seen_elsewhere = seen_elsewhere
         self.encoder = ctx.encoder
         self.send = ctx.send
         self.sysid = ctx.sysid
@@ -143,9 +165,17 @@ class CommandService:
             M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
             M.MAV_CMD_LOGGING_START: self._logging,
             M.MAV_CMD_LOGGING_STOP: self._logging,
+            M.MAV_CMD_DO_CHANGE_ALTITUDE: self._change_altitude,
+            M.MAV_CMD_DO_SET_STANDARD_MODE: self._set_standard_mode,
+            FIGURE_EIGHT: self._figure_eight,
+            # navigator_main.cpp: ACCEPTED at once (the position controller flies a go-around
+            # of a fixed-wing landing; a multicopter has none)
+            DO_GO_AROUND: lambda c, t: ACCEPTED,
         }
-        for cmd in ROI_COMMANDS:
+        for cmd in ROI_COMMANDS:  # the navigator publishes the ROI and ACCEPTs
             self._handlers[cmd] = lambda c, t: ACCEPTED
+        for cmd in UNANSWERED:
+            self._handlers[cmd] = lambda c, t: None
 
     @property
     def component_metadata(self) -> MetadataFiles | None:
@@ -161,22 +191,26 @@ class CommandService:
         cmd = Command(msg.command, (msg.param1, msg.param2, msg.param3, msg.param4, msg.param5,
                                     msg.param6, msg.param7), msg.get_srcSystem(),
                       msg.get_srcComponent())
-        if not self._for_us(msg, cmd.command):
+        # handle_message_command_long, before the target is looked at: param5 and param6 both
+        # within one float step of INT32_MAX look like a COMMAND_INT sent as COMMAND_LONG.
+        if _near_int32_max(msg.param5) and _near_int32_max(msg.param6):
+            self.ack(cmd, DENIED)
             return
-        if msg.param5 == INT32_MAX_AS_FLOAT32 and msg.param6 == INT32_MAX_AS_FLOAT32:
-            self.ack(cmd, DENIED)  # looks like a COMMAND_INT sent as COMMAND_LONG
-            return
-        self.dispatch(cmd, now_s)
+        if self._for_us(msg, cmd.command):
+            self.dispatch(cmd, now_s)
 
     def on_command_int(self, msg: M.MAVLink_command_int_message, now_s: float) -> None:
-        if not self._for_us(msg, msg.command):
-            return
         src = (msg.get_srcSystem(), msg.get_srcComponent())
-        if msg.x == 0x7FF80000 and msg.y == 0x7FF80000:
+        if msg.x == 0x7FF80000 and msg.y == 0x7FF80000:  # a NaN sent as int, whatever the target
             self.ack(Command(msg.command, (math.nan,) * 7, *src, True), DENIED)
             return
-        lat = math.nan if msg.x == INT32_MAX else msg.x * 1e-7
-        lon = math.nan if msg.y == INT32_MAX else msg.y * 1e-7
+        if not self._for_us(msg, msg.command):
+            return
+        # handle_message_command_int: x and y both INT32_MAX leave the position unset (NaN);
+        # otherwise both are degE7, INT32_MAX included.
+        unset = msg.x == INT32_MAX and msg.y == INT32_MAX
+        lat = math.nan if unset else msg.x * 1e-7
+        lon = math.nan if unset else msg.y * 1e-7
         cmd = Command(msg.command, (msg.param1, msg.param2, msg.param3, msg.param4, lat, lon,
                                     msg.z), *src, True)
         self.dispatch(cmd, now_s)
@@ -194,16 +228,24 @@ class CommandService:
 
     def _for_us(self, msg: M.MAVLink_message, command: int) -> bool:
         """MavlinkReceiver::evaluate_target_ok: this system (not 0) and this component or 0;
-        the capability requests take system 0 too and any component."""
+        the capability requests take system 0 too and any component. Another target is
+        answered FAILED unless it was heard on another link (forwarded: no ACK)."""
         if command in ANY_COMPONENT_COMMANDS:
             if msg.target_system in (0, self.sysid):
                 return True
         elif msg.target_system == self.sysid and msg.target_component in (0, 1):
             return True
         self.other_target()
+        seen = self.seen_elsewhere
+        if seen is None or not seen(msg.target_system, msg.target_component):
+            self.send(self.encoder.pack(M.MAVLink_command_ack_message, command, int(FAILED), 0,
+                                        0, msg.get_srcSystem(), msg.get_srcComponent()))
         return False
 
     def dispatch(self, cmd: Command, now_s: float) -> None:
+        if (cmd.command not in MAVLINK_ANSWERS and cmd.src_system == self.sysid
+                and cmd.src_component == self.encoder.compid):
+            return  # handle_message_command_both: "ignoring CMD with same SYS/COMP ID"
         handler = self._handlers.get(cmd.command)
         result = UNSUPPORTED if handler is None else handler(cmd, now_s)
         mode = REJECT_SAYS_MODE.get(cmd.command)
@@ -313,6 +355,31 @@ class CommandService:
             return DENIED
         return set_home(now_s, GeoPoint(lat, lon, alt))
 
+    def _change_altitude(self, cmd: Command, now_s: float) -> int:
+        """DO_CHANGE_ALTITUDE: Commander switches to Hold; the navigator, armed, holds at p1
+        (AMSL; NaN keeps the altitude; the frame in p2 is not read) where the vehicle brakes,
+        or says "Altitude change is outside geofence"."""
+        goto = self._vehicle("goto")
+        if goto is None:
+            return UNSUPPORTED
+        return goto(now_s, math.nan, math.nan, _finite_or_nan(cmd.p(1)), what="Altitude change")
+
+    def _set_standard_mode(self, cmd: Command, now_s: float) -> int:
+        """Commander: (mode_util::StandardMode)roundf(param1), an 8-bit enum, through
+        getNavStateFromStandardMode: return home, mission, land and takeoff; another is FAILED.
+        A refused switch is TEMPORARILY_REJECTED, without printRejectMode's text."""
+        nav = STANDARD_MODES.get(c_int(roundf(cmd.p(1))) & 0xFF)
+        if nav is None:
+            return FAILED
+        return self.vehicle.set_nav_state(now_s, nav)
+
+    def _figure_eight(self, cmd: Command, now_s: float) -> None:
+        """Commander, on a multicopter: a critical text and no ACK at all."""
+        commander = getattr(self.vehicle, "commander", None)
+        if commander is not None:
+            commander.figure_eight_rejected(now_s)
+        return None
+
     def _mission_start(self, cmd: Command, now_s: float) -> int:
         start = self._vehicle("start_mission")
         if start is None:
@@ -395,6 +462,10 @@ class CommandService:
         if self.logging_command is None:
             return UNSUPPORTED
         return self.logging_command(cmd.command, (cmd.src_system, cmd.src_component), now_s)
+
+
+def _near_int32_max(value: float) -> bool:
+    return INT32_MAX_AS_FLOAT32[0] <= value <= INT32_MAX_AS_FLOAT32[-1]
 
 
 def _finite_or_nan(value: float) -> float:

@@ -11,8 +11,10 @@ The asyncio shell drives it exactly like aioquic's QuicConnection:
 Rules and invariants:
 - Time is simulated seconds since boot (time_boot_ms = now_s·1000); no wall clock, no I/O here.
 - Identity: sysid = vehicle.params['MAV_SYS_ID'], compid 1; MAVLink 2 out, one seq per link.
-- Inbound frames addressed to another system are dropped and counted (``rx_other_target``);
-  messages nobody handles are counted (``rx_unhandled``).
+- Inbound frames addressed to another system are dropped and counted (``rx_other_target``),
+  but for commands, which PX4 answers FAILED (commands.py); messages nobody handles are counted
+  (``rx_unhandled``). Every frame's sender is noted in ``seen`` (command_table.SeenComponents),
+  shared by the sessions of one vehicle's links.
 - ``peer`` is the client this link answers (PX4 replies to the address it last heard from,
   mavlink_main.cpp in UDP mode): the opaque address passed with the last datagram that held a
   valid frame for this vehicle, so garbage and traffic for other systems or components (dropped
@@ -42,6 +44,7 @@ from typing import Any
 from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Decoder, Encoder
+from gateway.mavlink.command_table import SeenComponents
 from gateway.mavlink.commands import CommandService
 from gateway.mavlink.event_messages import REQUEST_EVENT
 from gateway.mavlink.events import EventsService
@@ -70,15 +73,19 @@ ERROR_LOG_INTERVAL_S = 10.0  # a failing service logs at most once per this (sim
 MAV_TYPE_GCS = 6
 MAV_TYPE_ONBOARD_CONTROLLER = 18
 SIGNING_LINK_ID = {LinkKind.GCS: 0, LinkKind.API: 1}
+# Handled whatever their target_system: PX4 answers a command for another target FAILED.
+_COMMANDS = frozenset({M.MAVLINK_MSG_ID_COMMAND_LONG, M.MAVLINK_MSG_ID_COMMAND_INT})
 
 
 class Session:
     def __init__(self, vehicle: VehiclePort, kind: LinkKind, now_s: float = 0.0, *,
                  boot_unix_s: float | None = None, signing: SigningConfig | None = None,
-                 uploads: UploadLock | None = None, signing_link_id: int | None = None) -> None:
+                 uploads: UploadLock | None = None, signing_link_id: int | None = None,
+                 seen: SeenComponents | None = None) -> None:
         """``uploads``: the vehicle's plan-upload lock, shared by the sessions of its links (a
-        session of its own when None). ``signing_link_id``: the link id this link signs with
-        (default: by kind, as below; a vehicle's extra MAVLink instances number on from 2)."""
+        session of its own when None); ``seen`` likewise, the components its links heard.
+        ``signing_link_id``: the link id this link signs with (default: by kind, as below; a
+        vehicle's extra MAVLink instances number on from 2)."""
         self.vehicle = vehicle
         self.kind = kind
         self.sysid = int(vehicle.params["MAV_SYS_ID"])
@@ -114,8 +121,11 @@ class Session:
         self.events = EventsService(ctx)
         say = self.statustext.local
         self.log_streaming = LogStreamingService(ctx, say)  # its ``topic`` too
-        self.commands = CommandService(ctx, say, self.snapshot, self.scheduler,
-                                       logging_command=self.log_streaming.on_command)
+        self.seen = seen if seen is not None else SeenComponents()
+        self.commands = CommandService(
+            ctx, say, self.snapshot, self.scheduler, logging_command=self.log_streaming.on_command,
+            seen_elsewhere=lambda system, component: self.seen.seen_elsewhere(self, system,
+                                                                              component))
         self.params = ParamService(ctx)
         self.ping = PingService(ctx)
         self.mission = MissionService(ctx, say, uploads if uploads is not None else UploadLock())
@@ -183,8 +193,9 @@ class Session:
         heard = False
         try:
             for msg in self._decoder.feed(data, now_s):
+                self.seen.heard(self, msg.get_srcSystem(), msg.get_srcComponent())
                 target = getattr(msg, "target_system", 0)
-                if target not in (0, self.sysid):
+                if target not in (0, self.sysid) and msg.get_msgId() not in _COMMANDS:
                     self.stats.rx_other_target += 1
                     continue
                 self._addressed = True

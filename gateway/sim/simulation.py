@@ -26,6 +26,7 @@ import logging
 import math
 from collections.abc import Callable, Sequence
 
+from gateway.mavlink.command_table import SeenComponents
 from gateway.mavlink.mission import UploadLock
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import SigningConfig
@@ -216,14 +217,16 @@ class Simulation:
             # derives from one kinematics sample (snapshot.SampleCache).
             samples = SampleCache()
             uploads = UploadLock()  # one plan upload at a time, whichever link it comes on
+            seen = SeenComponents()  # what each link heard (a command for it is forwarded)
             wake = VehicleWake(self.kernel)  # and one timer event for all its links
             for kind in self.link_kinds:
-                session = Session(vehicle, kind, now_s=0.0, signing=signing, uploads=uploads)
+                session = Session(vehicle, kind, now_s=0.0, signing=signing, uploads=uploads,
+                                  seen=seen)
                 session.samples = samples
                 self.links[(i, kind)] = VehicleLink(self, i, kind, session, wake)
             for radio in self.radios:  # PX4's extra instances: Normal mode, GCS streams
                 session = Session(vehicle, LinkKind.GCS, now_s=0.0, signing=signing,
-                                  uploads=uploads, signing_link_id=1 + radio.number)
+                                  uploads=uploads, signing_link_id=1 + radio.number, seen=seen)
                 session.samples = samples
                 self.links[(i, radio.name)] = VehicleLink(self, i, radio.name, session, wake)
         self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,

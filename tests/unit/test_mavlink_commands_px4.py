@@ -7,7 +7,10 @@ import math
 
 import pytest
 from pymavlink.dialects.v20 import common as M
-from test_mavlink_support import acks, make
+from test_mavlink_support import Client, FakeVehicle, acks, make
+
+from gateway.mavlink.command_table import SeenComponents
+from gateway.mavlink.session import LinkKind, Session
 
 NAN = math.nan
 INT32_MAX = 2**31 - 1
@@ -20,19 +23,83 @@ def results(msgs):
 @pytest.mark.parametrize("command", [M.MAV_CMD_COMPONENT_ARM_DISARM, M.MAV_CMD_REQUEST_MESSAGE,
                                      M.MAV_CMD_DO_SET_MODE, 31000])
 @pytest.mark.parametrize("how", ["long", "int"])
-def test_a_command_to_system_0_is_ignored(command, how):
+@pytest.mark.parametrize("target", [(0, 0), (0, 1), (2, 1), (1, 100), (1, 190)])
+def test_a_command_for_another_target_is_answered_failed(command, how, target):
     """MavlinkReceiver::evaluate_target_ok: a command is taken only when its target_system is
-    this system's id (and target_component this component or 0); broadcast (system 0) is
-    ignored without an ACK, however it is sent."""
-    vehicle, _, client = make()
+    this system's id and target_component this component or 0; handle_message_command_both
+    answers any other target (broadcast system 0 too) FAILED when no other MAVLink instance has
+    heard that component, and does nothing with it."""
+    vehicle, session, client = make()
     vehicle.become_ready()
     if how == "long":
-        got = client.command_long(command, 1, 4, 3, target_system=0, target_component=0)
+        got = client.command_long(command, 1, 4, 3, target_system=target[0],
+                                  target_component=target[1])
     else:
-        got = client.send(M.MAVLink_command_int_message(0, 0, 0, command, 0, 0, 1, 4, 3, 0,
+        got = client.send(M.MAVLink_command_int_message(*target, 0, command, 0, 0, 1, 4, 3, 0,
                                                         INT32_MAX, INT32_MAX, NAN))
-    assert results(got) == []
+    assert results(got) == [(command, 4)]
+    assert [(a.target_system, a.target_component) for a in acks(got)] == [(245, 190)]
     assert not vehicle.armed and vehicle.nav_state.name == "AUTO_LOITER"
+    assert session.stats.rx_other_target == 1
+
+
+def test_a_command_for_a_component_heard_on_another_link_is_left_to_it():
+    """PX4 SITL's GCS and onboard links forward (-f): a command for a component another link
+    has heard (Mavlink::component_was_seen) is forwarded there and not answered; broadcast
+    system 0 counts as heard once the other link heard anyone."""
+    vehicle = FakeVehicle()
+    seen = SeenComponents()
+    api = Session(vehicle, LinkKind.API, seen=seen)
+    gcs = Session(vehicle, LinkKind.GCS, seen=seen)
+    c_api, c_gcs = Client(api), Client(gcs, 255, 190)
+    assert results(c_api.command_long(M.MAV_CMD_DO_SET_MODE, 1, 4, 3, target_system=1,
+                                      target_component=100)) == [(176, 4)]
+    assert results(c_api.command_long(M.MAV_CMD_DO_SET_MODE, 1, 4, 3, target_system=0,
+                                      target_component=0)) == [(176, 4)]
+    c_gcs.send(M.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3))  # QGC (255, 190) on the GCS link
+    for target in ((255, 190), (255, 0), (0, 0), (0, 1)):
+        assert results(c_api.command_long(M.MAV_CMD_DO_SET_MODE, 1, 4, 3,
+                                          target_system=target[0],
+                                          target_component=target[1])) == [], target
+    assert results(c_api.command_long(M.MAV_CMD_DO_SET_MODE, 1, 4, 3, target_system=255,
+                                      target_component=1)) == [(176, 4)]
+    assert not acks(c_gcs.drain())
+
+
+@pytest.mark.parametrize("command, answered", [(M.MAV_CMD_DO_SET_MODE, False),
+                                               (M.MAV_CMD_COMPONENT_ARM_DISARM, False),
+                                               (M.MAV_CMD_REQUEST_MESSAGE, True),
+                                               (M.MAV_CMD_GET_MESSAGE_INTERVAL, True)])
+def test_a_command_from_the_autopilots_own_ids_is_dropped(command, answered):
+    """handle_message_command_both: a command it passes on that comes from its own system and
+    component ("ignoring CMD with same SYS/COMP") is dropped unanswered; the ones the MAVLink
+    module answers itself are answered whoever sent them."""
+    vehicle = FakeVehicle()
+    client = Client(Session(vehicle, LinkKind.API), 1, 1)
+    got = client.command_long(command, 1, 4, 3)
+    assert bool(acks(got)) is answered
+    assert not vehicle.armed
+
+
+@pytest.mark.parametrize("p5, p6, denied", [
+    (2147483648.0, 2147483648.0, True), (2147483520.0, 2147483904.0, True),
+    (2147483648.0, 0.0, False), (2147483392.0, 2147483648.0, False)])
+def test_command_long_with_int32_max_position_is_denied_whatever_its_target(p5, p6, denied):
+    """handle_message_command_long, before the target is looked at: param5 and param6 both
+    within nextafterf of (float)INT32_MAX look like a COMMAND_INT sent as COMMAND_LONG, DENIED."""
+    _, _, client = make()
+    got = client.command_long(M.MAV_CMD_DO_SET_MODE, 1, 4, 3, 0, p5, p6, target_system=2)
+    assert results(got) == [(176, 2 if denied else 4)]
+
+
+def test_command_int_position_is_unset_only_when_x_and_y_both_are_int32_max():
+    """handle_message_command_int: x = y = INT32_MAX leave lat/lon NaN; one of them alone is
+    read as degE7 like any value."""
+    vehicle, _, client = make()
+    client.send(M.MAVLink_command_int_message(1, 1, 5, 192, 0, 0, NAN, 1, 0, NAN, INT32_MAX,
+                                              85460000, 500.0))
+    _, _, lat, lon, alt, _, _ = vehicle.calls[-1]
+    assert (lat, lon, alt) == pytest.approx((214.7483647, 8.546, 500.0))
 
 
 @pytest.mark.parametrize("command", [M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,

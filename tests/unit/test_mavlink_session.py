@@ -324,7 +324,6 @@ def test_command_int_takeoff_and_frames():
     (M.MAV_CMD_DO_SET_ROI_LOCATION, (0, 0, 0, 0, 47.4, 8.5, 500), 0),
     (M.MAV_CMD_DO_SET_ROI_NONE, (), 0),
     (M.MAV_CMD_GET_HOME_POSITION, (), 2),
-    (M.MAV_CMD_DO_DIGICAM_CONTROL, (), 3),
     (31999, (), 3),
     (M.MAV_CMD_NAV_TAKEOFF, (0, 0, 0, 0, 2147483648.0, 2147483648.0, 0), 2),  # INT32_MAX p5/p6
 ])
@@ -335,16 +334,16 @@ def test_command_results(command, params, result):
         (command, result, 245, 190)]
 
 
-@pytest.mark.parametrize("target_system, target_component, answered", [
-    (0, 0, False), (1, 1, True), (0, 1, False), (1, 0, True), (2, 1, False), (1, 190, False),
-    (1, 100, False),
+@pytest.mark.parametrize("target_system, target_component, result", [
+    (0, 0, 4), (1, 1, 0), (0, 1, 4), (1, 0, 0), (2, 1, 4), (1, 190, 4), (1, 100, 4),
 ])
-def test_command_target_filtering(target_system, target_component, answered):
-    """MavlinkReceiver::evaluate_target_ok: this system exactly, this component or 0."""
+def test_command_target_filtering(target_system, target_component, result):
+    """MavlinkReceiver::evaluate_target_ok: this system exactly, this component or 0; any other
+    target is answered FAILED (no other link heard it to forward it to)."""
     _, session, client = make()
     got = client.command_long(M.MAV_CMD_RUN_PREARM_CHECKS, target_system=target_system,
                               target_component=target_component)
-    assert bool(acks(got)) is answered
+    assert [a.result for a in acks(got)] == [result]
 
 
 def test_capabilities_request_ignores_component():
