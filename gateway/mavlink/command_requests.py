@@ -1,12 +1,15 @@
 """The commands PX4's MAVLink module answers itself, before Commander sees any command
 (mavlink_receiver.cpp handle_message_command_both): requests for a message and message intervals.
 
-Source: PX4 mavlink_receiver.cpp (handle_request_message_command, set_message_interval,
-get_message_interval), mavlink_main.cpp send_autopilot_capabilities, AUTOPILOT_VERSION.hpp.
+Source: PX4 v1.15.2 mavlink_receiver.cpp (handle_message_command_both,
+handle_request_message_command, set_message_interval, get_message_interval), mavlink_main.cpp
+send_autopilot_capabilities, streams/AUTOPILOT_VERSION.hpp, STORAGE_INFORMATION.hpp.
 Rules:
 - A requested message goes out before its ACK (same send buffer, in order). The answer is
-  ACCEPTED once it is sent, DENIED otherwise (no stream for the id, or nothing to send yet):
-  never UNSUPPORTED.
+  ACCEPTED once it is sent, DENIED otherwise (no stream for the id — MESSAGE_INTERVAL has none
+  in v1.15 —, or nothing to send yet): never UNSUPPORTED.
+- SET_MESSAGE_INTERVAL and GET_MESSAGE_INTERVAL take the id as (int)roundf(param1); the
+  former reads param3 as a link data rate (taken when above 0) and nothing else.
 - Parameters are read as PX4's C casts read them (``c_int``: x86's conversions, NaN and
   out-of-range values give INT_MIN).
 """
@@ -42,6 +45,10 @@ DENIED = CommandResult.DENIED
 FAILED = CommandResult.FAILED
 
 Params = tuple[float, float, float, float, float, float, float]
+
+# STORAGE_INFORMATION of the storage directory's file system (MiB): a host's in PX4 SITL
+STORAGE_TOTAL_MIB = 102400.0
+STORAGE_FREE_MIB = 51200.0
 
 # AUTOPILOT_VERSION as PX4 SITL fills it (MAVLink FTP included: gateway/mavlink/ftp.py).
 CAPABILITIES = 59647
@@ -86,9 +93,8 @@ class MessageRequests:
             return self.autopilot_capabilities()
         if msg_id == MSG_ID_PROTOCOL_VERSION:
             return self.protocol_version()
-        if msg_id == M.MAVLINK_MSG_ID_MESSAGE_INTERVAL:
-            # the asked id as GET_MESSAGE_INTERVAL's, (int)(param2 + 0.5f): INT_MIN for NaN
-            return self._send_interval(c_int(p[1] + 0.5))
+        if msg_id == M.MAVLINK_MSG_ID_STORAGE_INFORMATION:
+            return self.storage_information(p[1], now_s)
         if msg_id in (MSG_ID_COMPONENT_METADATA, MSG_ID_COMPONENT_INFORMATION):
             return self._component_metadata(msg_id, now_s)
         spec = STREAMS_BY_ID.get(msg_id)
@@ -105,6 +111,19 @@ class MessageRequests:
         for FLIGHT_INFORMATION."""
         return self.request_message((float(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION),) + (0.0,) * 6,
                                     now_s)
+
+    def storage_information(self, storage_id: float, now_s: float) -> int:
+        """STORAGE_INFORMATION.hpp: storage (int)roundf(param2) 0 (all) or 1 is the file system
+        holding PX4's storage directory, as statfs tells (SITL: the host's disk; here a fixed
+        STORAGE_TOTAL_MIB with STORAGE_FREE_MIB free), status 2 (available, formatted); another
+        id is DENIED. MAV_CMD_REQUEST_STORAGE_INFORMATION asks for storage 0."""
+        if c_int(roundf(storage_id)) not in (0, 1):
+            return DENIED
+        used = STORAGE_TOTAL_MIB - STORAGE_FREE_MIB
+        self.send(self.encoder.pack(M.MAVLink_storage_information_message,
+                                    int(now_s * 1000.0) & 0xFFFFFFFF, 1, 1, 2,
+                                    STORAGE_TOTAL_MIB, used, STORAGE_FREE_MIB, 0.0, 0.0, 0, b"", 0))
+        return ACCEPTED
 
     def _component_metadata(self, msg_id: int, now_s: float) -> int:
         """PX4's COMPONENT_METADATA stream answers with the general metadata file's URI and
@@ -139,18 +158,17 @@ class MessageRequests:
         return ACCEPTED
 
     def set_message_interval(self, p: Params, now_s: float) -> int:
-        """set_message_interval: the id is (int)(param1 + 0.5f); a finite param3, param4 or
-        param7 (response target) other than 0 fails, as do HEARTBEAT and a message without a
-        stream."""
-        if any(math.isfinite(v) and c_int(v + 0.5) != 0 for v in (p[2], p[3], p[6])):
-            return FAILED
-        ok = self.scheduler.set_interval(c_int(p[0] + 0.5), p[1], now_s)
+        """set_message_interval((int)roundf(param1), param2, param3): HEARTBEAT and a message
+        without a stream fail. Param3 > 0 would set the link's data rate, which here stays
+        DATARATE_B_S (PX4's stream rates only bend to it when a link is full); param4 to
+        param7 are not read (PX4 main fails a response target, v1.15 does not)."""
+        ok = self.scheduler.set_interval(c_int(roundf(p[0])), p[1], now_s)
         return ACCEPTED if ok else FAILED
 
     def get_message_interval(self, p: Params) -> int:
-        """MavlinkReceiver: ``get_message_interval((int)(param1 + 0.5f))``, always ACCEPTED; an
+        """MavlinkReceiver: ``get_message_interval((int)roundf(param1))``, always ACCEPTED; an
         id no stream has (NaN: INT_MIN, message_id 0 on the wire) is answered with interval 0."""
-        return self._send_interval(c_int(p[0] + 0.5))
+        return self._send_interval(c_int(roundf(p[0])))
 
     def _send_interval(self, msg_id: int) -> int:
         interval = self.scheduler.interval_us(msg_id)

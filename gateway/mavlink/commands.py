@@ -140,6 +140,7 @@ class CommandService:
             M.MAV_CMD_REQUEST_PROTOCOL_VERSION: lambda c, t: req.protocol_version(),
             M.MAV_CMD_GET_HOME_POSITION: lambda c, t: req.home_position(t),
             M.MAV_CMD_REQUEST_FLIGHT_INFORMATION: lambda c, t: req.request_flight_information(t),
+            M.MAV_CMD_REQUEST_STORAGE_INFORMATION: lambda c, t: req.storage_information(0.0, t),
             M.MAV_CMD_SET_MESSAGE_INTERVAL: lambda c, t: req.set_message_interval(c.params, t),
             M.MAV_CMD_GET_MESSAGE_INTERVAL: lambda c, t: req.get_message_interval(c.params),
             M.MAV_CMD_PREFLIGHT_CALIBRATION: self._calibration,

@@ -132,20 +132,59 @@ def test_request_message_takes_the_id_as_uint16_of_its_rounding(p1, sent):
     assert [m.get_type() for m in got] == [sent, "COMMAND_ACK"] and acks(got)[0].result == 0
 
 
-@pytest.mark.parametrize("p3, p4, p7, result", [
-    (1, 0, 0, 4), (0, 1, 0, 4), (0, 0, 2, 4), (0.4, 0.4, 0.4, 0), (NAN, NAN, NAN, 0),
-    (math.inf, 0, 0, 0)])
-def test_set_message_interval_refuses_a_response_target(p3, p4, p7, result):
-    """MavlinkReceiver::set_message_interval: a finite param3, param4 or param7 (response
-    target) that is not 0 once rounded ((int)(x + 0.5f)) fails the request."""
+@pytest.mark.parametrize("p3, p4, p7", [
+    (1, 0, 0), (0, 1, 0), (0, 0, 2), (0.4, 0.4, 0.4), (NAN, NAN, NAN), (math.inf, 0, 0)])
+def test_set_message_interval_reads_no_response_target(p3, p4, p7):
+    """v1.15.2 MavlinkReceiver: set_message_interval((int)roundf(param1), param2, param3):
+    param3 is a data rate, param4 to param7 are not read (PX4 main fails a response target;
+    v1.15 does not)."""
     _, session, client = make()
     got = client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 30, 1e6, p3, p4, 0, 0, p7)
-    assert results(got) == [(511, result)]
-    assert (session.scheduler.interval_us(30) == 1_000_000) is (result == 0)
+    assert results(got) == [(511, 0)]
+    assert session.scheduler.interval_us(30) == 1_000_000
+
+
+@pytest.mark.parametrize("p1, message_id, interval", [(-0.6, 65535, 0), (-0.4, 0, 1_000_000),
+                                                      (29.5, 30, 20_000)])
+def test_get_message_interval_rounds_the_id_with_roundf(p1, message_id, interval):
+    """get_message_interval((int)roundf(param1)): -0.6 is -1 (no stream: interval 0, sent as
+    uint16 65535), not (int)(-0.6 + 0.5f) = 0 (HEARTBEAT)."""
+    _, _, client = make(LinkKind.GCS)
+    got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, p1)
+    (reply,) = [m for m in got if m.get_type() == "MESSAGE_INTERVAL"]
+    assert (reply.message_id, reply.interval_us) == (message_id, interval)
+    assert results(got) == [(510, 0)]
+
+
+def test_request_message_for_message_interval_is_denied():
+    """v1.15.2 has no MESSAGE_INTERVAL stream: REQUEST_MESSAGE(244) is DENIED, nothing sent."""
+    _, _, client = make()
+    got = client.command_long(M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_MESSAGE_INTERVAL, 30)
+    assert [m.get_type() for m in got] == ["COMMAND_ACK"] and results(got) == [(512, 2)]
+
+
+@pytest.mark.parametrize("command, p1, p2, answered", [
+    (M.MAV_CMD_REQUEST_STORAGE_INFORMATION, 0, 0, True),
+    (M.MAV_CMD_REQUEST_STORAGE_INFORMATION, 1, 5, True),
+    (M.MAV_CMD_REQUEST_MESSAGE, 261, 0, True), (M.MAV_CMD_REQUEST_MESSAGE, 261, 1.4, True),
+    (M.MAV_CMD_REQUEST_MESSAGE, 261, 2, False)])
+def test_storage_information_as_its_stream_answers(command, p1, p2, answered):
+    """handle_message_command_both answers REQUEST_STORAGE_INFORMATION as a request for
+    STORAGE_INFORMATION with param2 0; the stream answers storage (int)roundf(param2) 0 or 1
+    (one storage, available and formatted) and refuses another id (DENIED)."""
+    _, _, client = make()
+    got = client.command_long(command, p1, p2)
+    infos = [m for m in got if m.get_type() == "STORAGE_INFORMATION"]
+    assert results(got) == [(command, 0 if answered else 2)]
+    assert [(m.storage_id, m.storage_count, m.status) for m in infos] == \
+        ([(1, 1, 2)] if answered else [])
+    if answered:
+        m = infos[0]
+        assert m.used_capacity + m.available_capacity == pytest.approx(m.total_capacity)
 
 
 def test_set_message_interval_rounds_the_id():
-    """(int)(param1 + 0.5f): 29.6 is ATTITUDE (30)."""
+    """(int)roundf(param1): 29.6 is ATTITUDE (30)."""
     _, session, client = make()
     assert results(client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 29.6, 5e5)) == [(511, 0)]
     assert session.scheduler.interval_us(30) == 500_000
