@@ -21,6 +21,7 @@ from typing import Protocol
 import numpy as np
 
 from vehicles import estimation as est
+from vehicles import failure_injection
 from vehicles.airframe import Airframe
 from vehicles.autopilot import POSITION_CONTROL_DIVIDER, Autopilot
 from vehicles.command_journal import CommandJournal
@@ -47,20 +48,6 @@ from vehicles.types import (
     VehicleStatus,
 )
 
-# MAV_CMD_INJECT_FAILURE: FAILURE_UNIT and FAILURE_TYPE values this vehicle knows.
-(FAILURE_UNIT_SENSOR_GYRO, FAILURE_UNIT_SENSOR_ACCEL, FAILURE_UNIT_SENSOR_MAG,
- FAILURE_UNIT_SENSOR_BARO, FAILURE_UNIT_SENSOR_GPS) = range(5)
-FAILURE_UNIT_SENSOR_AIRSPEED = 8
-FAILURE_UNIT_SYSTEM_BATTERY, FAILURE_UNIT_SYSTEM_MOTOR = 100, 101
-FAILURE_TYPE_OK, FAILURE_TYPE_OFF, FAILURE_TYPE_STUCK = 0, 1, 2
-# Sensor units → (the bits that fail when off, when stuck); every bit clears with ok.
-SENSOR_FAILURES = {
-    FAILURE_UNIT_SENSOR_GYRO: (est.F_GYRO_OFF, est.F_GYRO_STUCK),
-    FAILURE_UNIT_SENSOR_ACCEL: (est.F_ACC_OFF, est.F_ACC_STUCK),
-    FAILURE_UNIT_SENSOR_MAG: (est.F_MAG_OFF, est.F_MAG_STUCK),
-    FAILURE_UNIT_SENSOR_BARO: (est.F_BARO_OFF, est.F_BARO_STUCK),
-    FAILURE_UNIT_SENSOR_GPS: (est.F_GPS_OFF, 0),  # PX4 SITL's GPS has no stuck
-}
 # vehicle_control_mode: the navigation states without flag_multicopter_position_control_enabled,
 # and those with it but without flag_control_position_enabled (no horizontal position).
 _NO_POSITION_CONTROL = frozenset({NavState.MANUAL, NavState.STAB, NavState.ACRO,
@@ -401,51 +388,23 @@ class Vehicle:
     def set_home(self, now_s: float, geo: GeoPoint | None = None) -> CommandResult:
         return self._autopilot.set_home(now_s, self._measurement(), geo)
 
-    def inject_failure(self, now_s: float, unit: int, failure_type: int, instance: int) -> CommandResult:
-        """MAV_CMD_INJECT_FAILURE as PX4 SITL: DENIED unless SYS_FAILURE_EN, then
-        ``apply_failure``."""
-        if int(self.params.get("SYS_FAILURE_EN", 0) or 0) != 1:
-            return CommandResult.DENIED
-        return self.apply_failure(unit, failure_type, instance)
+    def inject_failure(self, now_s: float, unit: int, failure_type: int, instance: int
+                       ) -> CommandResult | None:
+        """A vehicle_command INJECT_FAILURE (vehicles/failure_injection.py): the answer of the
+        module that takes the unit, which it also ACKs to every link (system 0, component 0);
+        None when no module takes it. (The MAVLink module's SYS_FAILURE_EN gate is not here.)"""
+        result = failure_injection.answer(unit, failure_type, instance)
+        if result is not None:
+            if result is CommandResult.ACCEPTED:
+                self.apply_failure(unit, failure_type, instance)
+            self.commands.onboard_ack(now_s, failure_injection.MAV_CMD_INJECT_FAILURE,
+                                      int(result), (0, 0))
+        return result
 
-    def apply_failure(self, unit: int, failure_type: int, instance: int) -> CommandResult:
-        """A failure as PX4 SITL's simulator, battery simulator and motor failure handling take
-        it: gyro and accel (instance 0 = all, 1..3) and mag and baro off (no more samples) or
-        stuck (the last sample repeated) or ok; the GPS off or ok; the battery (instance 0) off
-        (empty-cell voltage) or ok; a motor (instance = its number from 1, 0 = all) off or ok;
-        the airspeed sensor off or ok (accepted: a multicopter has none). Other units and types
-        UNSUPPORTED."""
-        ok, off = failure_type == FAILURE_TYPE_OK, failure_type == FAILURE_TYPE_OFF
-        if unit in SENSOR_FAILURES:
-            off_bits, stuck_bits = SENSOR_FAILURES[unit]
-            bits = off_bits if off else stuck_bits if failure_type == FAILURE_TYPE_STUCK else 0
-            if not (ok or bits):
-                return CommandResult.UNSUPPORTED
-            if unit in (FAILURE_UNIT_SENSOR_GYRO, FAILURE_UNIT_SENSOR_ACCEL) and instance > 1:
-                return CommandResult.ACCEPTED  # PX4 takes 2..3 (no such IMU here: no effect)
-            if unit == FAILURE_UNIT_SENSOR_GPS and instance not in (0, 1):
-                return CommandResult.DENIED  # one GPS here
-            self._world.set_sensor_failed(self._row, off_bits | stuck_bits, False)
-            if bits:
-                self._world.set_sensor_failed(self._row, bits, True)
-            return CommandResult.ACCEPTED
-        if not (ok or off):
-            return CommandResult.UNSUPPORTED
-        if unit == FAILURE_UNIT_SENSOR_AIRSPEED:
-            return CommandResult.ACCEPTED  # PX4's simulator takes it; a multicopter has none
-        if unit == FAILURE_UNIT_SYSTEM_BATTERY:
-            if instance != 0:  # the battery simulator supports instance 0 only
-                return CommandResult.UNSUPPORTED
-            self._autopilot.battery.force_empty = off
-            return CommandResult.ACCEPTED
-        if unit == FAILURE_UNIT_SYSTEM_MOTOR:
-            rotors = self.airframe.rotor_count
-            if not 0 <= instance <= rotors:
-                return CommandResult.DENIED
-            for motor in range(rotors) if instance == 0 else (instance - 1,):
-                self._world.set_motor_off(self._row, motor, off)
-            return CommandResult.ACCEPTED
-        return CommandResult.UNSUPPORTED
+    def apply_failure(self, unit: int, failure_type: int, instance: int) -> None:
+        """A failure's effect (vehicles/failure_injection.py), also for the fault timeline."""
+        failure_injection.apply(_FailureTarget(self), self.airframe.rotor_count, unit,
+                                failure_type, instance)
 
     def calibrate(self, now_s: float, kind: str, source: tuple[int, int] = (0, 0)
                   ) -> CommandResult | None:
@@ -498,3 +457,21 @@ class Vehicle:
 
     def on_gcs_heartbeat(self, now_s: float) -> None:
         self._autopilot.commander.on_gcs_heartbeat(now_s)
+
+
+class _FailureTarget:
+    """What a failure acts on (failure_injection.Target): this vehicle's row in the World."""
+
+    def __init__(self, vehicle: Vehicle) -> None:
+        self._world, self._row = vehicle._world, vehicle._row
+        self._battery = vehicle._autopilot.battery
+
+    def set_sensor_failed(self, bits: int, failed: bool) -> None:
+        if bits:
+            self._world.set_sensor_failed(self._row, bits, failed)
+
+    def set_motor_off(self, motor: int, off: bool) -> None:
+        self._world.set_motor_off(self._row, motor, off)
+
+    def set_battery_empty(self, empty: bool) -> None:
+        self._battery.force_empty = empty

@@ -452,12 +452,19 @@ class CommandService:
             return UNSUPPORTED
         return storage(now_s, c_int(cmd.p(1)))
 
-    def _inject_failure(self, cmd: Command, now_s: float) -> int:
+    def _inject_failure(self, cmd: Command, now_s: float) -> int | None:
+        """handle_message_command_both: DENIED without SYS_FAILURE_EN; else passed on, and the
+        module that takes the unit ACKs it later to every link (vehicles/failure_injection.py),
+        none if no module does. The modules read static_cast<int>(param + 0.5f): NaN is
+        INT_MIN, a unit nobody takes."""
         inject = self._vehicle("inject_failure")
         if inject is None:
             return UNSUPPORTED
-        unit, kind, instance = (_int_or(cmd.p(i), -1) for i in (1, 2, 3))
-        return inject(now_s, unit, kind, instance)
+        if int(self.vehicle.params.get("SYS_FAILURE_EN", 0) or 0) != 1:
+            return DENIED
+        unit, kind, instance = (c_int(cmd.p(i) + 0.5) for i in (1, 2, 3))
+        inject(now_s, unit, kind, instance)
+        return None
 
     def _logging(self, cmd: Command, now_s: float) -> int | None:
         if self.logging_command is None:
@@ -471,10 +478,3 @@ def _near_int32_max(value: float) -> bool:
 
 def _finite_or_nan(value: float) -> float:
     return value if math.isfinite(value) else math.nan
-
-
-def _int_or(value: float, default: int) -> int:
-    if math.isnan(value) or math.isinf(value):
-        return default
-    return int(round(value))
-

@@ -11,10 +11,13 @@ from pathlib import Path
 import pytest
 from pymavlink.dialects.v20 import common as M
 
+from gateway.mavlink.link import LinkKind
 from gateway.testing import Sim
+from vehicles import failure_injection as fi
 from vehicles.types import NavState
 
 GPS, OFF, OK = 4, 1, 0
+NAN = math.nan
 
 
 def hover(sim: Sim, alt_m: float = 10.0) -> None:
@@ -95,16 +98,19 @@ def test_a_sensor_off_denies_arming_with_its_preflight_text():
 
 @pytest.mark.parametrize("params, unit, kind, result", [
     ({"SYS_FAILURE_EN": 0}, GPS, OFF, 2),  # DENIED: failure injection disabled
-    ({}, 100, 2, 3),  # the battery stuck: UNSUPPORTED (off and ok only, as PX4's simulator)
+    ({}, 100, 2, None),  # the battery stuck: BatterySimulator takes only ok and off, no ACK
     ({}, GPS, 2, 3),  # GPS stuck: UNSUPPORTED
     ({}, 3, 3, 3),  # baro garbage: UNSUPPORTED
-    ({}, 6, OFF, 3),  # VIO: not simulated, UNSUPPORTED
+    ({}, 6, OFF, 0),  # VIO: SimulatorMavlink ACCEPTs it (none here to fail)
     ({}, 8, OFF, 0),  # airspeed: ACCEPTED as PX4 SITL does, no sensor on a multicopter
+    ({}, 8, 4, 0),  # airspeed wrong (pitot blockage): ACCEPTED
+    ({}, 5, OFF, None),  # optical flow: no SITL module takes it, no ACK
 ])
 def test_refusals_and_the_units_without_effect(params, unit, kind, result):
     with Sim(params=params) as sim:
         sim.advance(1.0)
-        assert sim.api(0).command_long(M.MAV_CMD_INJECT_FAILURE, unit, kind, 0) == result
+        assert sim.api(0).command_long(M.MAV_CMD_INJECT_FAILURE, unit, kind, 0,
+                                       retries=0) == result
         sim.advance(7.0)
         assert sim.status(0).position_valid
 
@@ -180,7 +186,8 @@ def test_a_motor_off_is_lost_thrust_and_the_vehicle_comes_down():
         assert speeds[0] < 0.2 * max(speeds)
         sim.advance(1.5)
         assert sim.vehicles[0].truth.position_ned_m[2] > -9.0  # falling
-        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 101, OFF, 9) == 2  # no motor 9
+        # FailureInjector takes off for any instance (a motor 9 changes nothing)
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, 101, OFF, 9) == 0
 
 
 def health(sim: Sim) -> int:
@@ -343,3 +350,68 @@ def test_gps_off_the_log_and_gps_raw_int_show_no_fix(tmp_path):
     t_s = gps["timestamp"] / 1e6
     assert not ((t_s > t_off + 0.1) & (t_s < t_on - 0.1)).any()  # no record while off
     assert (t_s > t_on + 0.1).any() and set(gps["fix_type"]) == {3}
+
+
+@pytest.mark.parametrize("unit, kind, instance, result", [
+    (NAN, OFF, 0, None),  # static_cast<int>(NaN + 0.5f): INT_MIN, a unit nobody takes
+    (31, OFF, 0, None),
+    (101, OK, NAN, 3),  # motors ok: instance INT_MIN is out of range
+    (101, OFF, NAN, 0),  # motors off: any instance
+    (101, OK, 8, 0), (101, OK, 9, 3),  # up to CONNECTED_ESC_MAX
+    (101, 4, 1, 0),  # motor wrong (an ESC report)
+    (101, 2, 1, 3),  # motor stuck
+    (GPS, OFF, 3, 0),  # SimulatorMavlink ignores the GPS instance
+    (100, OFF, NAN, 3),  # the battery: instance 0 only
+    (0.6, OFF, -0.7, 0),  # (int)(0.6 + 0.5f) = 1 (accel), (int)(-0.7 + 0.5f) = 0 (all)
+])
+def test_the_modules_answers_and_casts(unit, kind, instance, result):
+    """The simulator, battery simulator and FailureInjector read static_cast<int>(param +
+    0.5f) and ACK only the units they take."""
+    with Sim() as sim:
+        sim.advance(1.0)
+        assert sim.api(0).command_long(M.MAV_CMD_INJECT_FAILURE, unit, kind, instance,
+                                       retries=0) == result
+
+
+def test_the_modules_ack_goes_to_everyone_on_every_link():
+    """A module's vehicle_command_ack has target system and component 0, and every MAVLink
+    instance that heard anyone sends it: the GCS link sees the API client's ACK too."""
+    with Sim(links=(LinkKind.API, LinkKind.GCS)) as sim:
+        sim.advance(1.0)
+        api, gcs = sim.api(0), sim.gcs(0)
+        gcs.heartbeat()
+        since = len(gcs.frames)
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OFF, 0) == 0
+        (ack,) = api.messages("COMMAND_ACK")[-1:]
+        assert (ack.target_system, ack.target_component) == (0, 0)
+        sim.advance(0.1)
+        assert [(a.command, a.result, a.target_system) for a in
+                gcs.messages("COMMAND_ACK", since)] == [(420, 0, 0)]
+
+
+class Recorder:
+    def __init__(self):
+        self.calls = []
+
+    def set_sensor_failed(self, bits, failed):
+        self.calls.append(("sensor", bits, failed))
+
+    def set_motor_off(self, motor, off):
+        self.calls.append(("motor", motor, off))
+
+    def set_battery_empty(self, empty):
+        self.calls.append(("battery", empty))
+
+
+def test_a_baros_ok_unblocks_it_but_leaves_it_stuck():
+    """SimulatorMavlink: baro stuck sets _baro_stuck, ok clears only _baro_blocked; off blocks
+    without unsticking. Gyro, accel and mag ok clear both; other IMUs than ours change nothing."""
+    t = Recorder()
+    fi.apply(t, 4, fi.FAILURE_UNIT_SENSOR_BARO, fi.FAILURE_TYPE_OK, 0)
+    fi.apply(t, 4, fi.FAILURE_UNIT_SENSOR_BARO, fi.FAILURE_TYPE_OFF, 0)
+    fi.apply(t, 4, fi.FAILURE_UNIT_SENSOR_MAG, fi.FAILURE_TYPE_OK, 0)
+    fi.apply(t, 4, fi.FAILURE_UNIT_SENSOR_MAG, fi.FAILURE_TYPE_OFF, 2)
+    off_b, stuck_b = fi.SENSOR_FAILURES[fi.FAILURE_UNIT_SENSOR_BARO]
+    off_m, stuck_m = fi.SENSOR_FAILURES[fi.FAILURE_UNIT_SENSOR_MAG]
+    assert t.calls == [("sensor", off_b, False), ("sensor", off_b, True),
+                       ("sensor", off_m | stuck_m, False)]
