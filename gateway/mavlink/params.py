@@ -1,19 +1,24 @@
 """Parameter protocol server over the vehicle's ParamStore.
 
-Source: PX4 mavlink_parameters.cpp; MAVSDK mavlink_parameter_client.cpp; QGC
+Source: PX4 v1.15.2 mavlink_parameters.cpp (MavlinkParametersManager), mavlink_receiver.cpp
+(run: the manager's send() every 10 ms); MAVSDK mavlink_parameter_client.cpp; QGC
 ParameterManager.cc.
 Rules and invariants:
 - Every PARAM_VALUE carries param_count = store.count and its dense param_index.
 - INT32 values travel BYTEWISE: the int's four bytes sit in the float field. We pack the int
   directly (never through a Python float) so signalling-NaN bit patterns survive.
 - PARAM_REQUEST_LIST: `_HASH_CHECK` first (type UINT32, index 65535, value = hash bytes), then
-  every index 0..N−1, PARAM_BURST per PARAM_TICK_S so a ~700-param list takes ≈0.4 s without
-  starving telemetry. A LIST during a running list restarts at 0 without the hash.
+  every index 0..N−1: PARAM_BURST messages (the hash counts as one) per PARAM_TICK_S, as the
+  receiver thread calls send() over UDP. A LIST during a running list restarts at 0 without
+  the hash. A PARAM_SET of `_HASH_CHECK` (QGC: its cache matches) stops the list when
+  MAV_HASH_CHK_EN is set, and is not answered.
 - PARAM_SET success: echo on this link; every *other* change (other links, the autopilot) arrives
   through the store's on_change observer and is sent here too. Our own set is not echoed twice.
   A REAL32 NaN or ±inf is stored and echoed as PX4 does; a store PX4 counts as no change (to or
   from NaN) reaches the other links only in their next list or read.
-- Errors answer PARAM_ERROR (345, PX4 ≥ 1.17); PX4 ≤ 1.16 would stay silent.
+- What PX4 v1.15 refuses it leaves unanswered: PARAM_SET of an unknown name, or with a type
+  other than the parameter's (INT32 / REAL32); a read of an unknown name or of an index out of
+  range. (PARAM_ERROR came with PX4 1.17.)
 """
 
 from __future__ import annotations
@@ -30,22 +35,15 @@ from vehicles.params import ParamType
 HASH_CHECK_NAME = "_HASH_CHECK"
 HASH_CHECK_INDEX = 65535  # index −1 as uint16
 MAV_PARAM_TYPE_UINT32 = 5
-PARAM_BURST = 16  # PARAM_VALUEs per tick of a list transfer
-PARAM_TICK_S = 0.01
+PARAM_BURST = 20  # send(): max_num_to_send over UDP
+PARAM_TICK_S = 0.01  # MavlinkReceiver::run calls send() when 10 ms have passed
 PARAM_ID_LEN = 16
-
-# MAV_PARAM_ERROR (common.xml 2025; pymavlink 2.4.50 only knows 0..5)
-PARAM_ERROR_DOES_NOT_EXIST = 1
-PARAM_ERROR_READ_ONLY = 5
-PARAM_ERROR_TYPE_UNSUPPORTED = 6
-PARAM_ERROR_TYPE_MISMATCH = 7
 
 # PARAM_VALUE wire layout: param_value(4 bytes), param_count u16, param_index u16, id[16], type u8
 _PV_INT = struct.Struct("<iHH16sB")
 _PV_FLOAT = struct.Struct("<fHH16sB")
 _PV_UINT = struct.Struct("<IHH16sB")
 _PV = M.MAVLink_param_value_message
-_PE_STRUCT = struct.Struct("<hBB16sB")  # PARAM_ERROR: index, target sys, target comp, id, error
 
 
 def float_bits_to_int32(value: float) -> int:
@@ -62,6 +60,7 @@ class ParamService:
         self.other_target = ctx.other_target
         self.store = ctx.vehicle.params
         self._list_next: int | None = None  # next index of a running list transfer
+        self._burst_used = 0  # of the next burst: the hash, sent on the request
         # When ``handle_timer`` has work next (the list transfer's next burst); inf: none.
         self.due_s = math.inf
         self._own_set: str | None = None  # name being set by this link (echo sent explicitly)
@@ -82,7 +81,8 @@ class ParamService:
         if self._list_next is None or now_s < self.due_s:
             return
         count = self.store.count
-        end = min(self._list_next + PARAM_BURST, count)
+        end = min(self._list_next + PARAM_BURST - self._burst_used, count)
+        self._burst_used = 0
         for i in range(self._list_next, end):
             self.send(self.param_value(i))
         if end >= count:
@@ -96,6 +96,7 @@ class ParamService:
             return
         if self._list_next is None:
             self.send(self.hash_check())
+            self._burst_used = 1
         self._list_next, self.due_s = 0, now_s
 
     def on_request_read(self, msg: M.MAVLink_param_request_read_message, now_s: float) -> None:
@@ -107,32 +108,23 @@ class ParamService:
                 self.send(self.hash_check())
             elif name in self.store:
                 self.send(self.param_value(self.store.index_of(name)))
-            else:
-                self._error(msg, name, -1, PARAM_ERROR_DOES_NOT_EXIST)
         elif msg.param_index < self.store.count:
             self.send(self.param_value(msg.param_index))
-        else:
-            self._error(msg, "", msg.param_index, PARAM_ERROR_DOES_NOT_EXIST)
 
     def on_set(self, msg: M.MAVLink_param_set_message, now_s: float) -> None:
         if not self._for_us(msg):
             return
         name = msg.param_id
         if name == HASH_CHECK_NAME:
-            # QGC: its cache matches, stop streaming the list.
-            self._list_next, self.due_s = None, math.inf
-            self._error(msg, name, -1, PARAM_ERROR_READ_ONLY)
+            # QGC: its cache matches, stop streaming the list (if hash checks are on).
+            if int(self.store.get("MAV_HASH_CHK_EN", 1) or 0):
+                self._list_next, self.due_s = None, math.inf
             return
         if name not in self.store:
-            self._error(msg, name, -1, PARAM_ERROR_DOES_NOT_EXIST)
-            return
+            return  # PX4_ERR("unknown param") on the console only
         index = self.store.index_of(name)
-        if msg.param_type not in (ParamType.INT32, ParamType.REAL32):
-            self._error(msg, name, index, PARAM_ERROR_TYPE_UNSUPPORTED)
-            return
         if msg.param_type != self.store.info(index).type:
-            self._error(msg, name, index, PARAM_ERROR_TYPE_MISMATCH)
-            return
+            return  # "param types mismatch": INT32 for INT32, REAL32 for REAL32, else silent
         if msg.param_type == ParamType.INT32:
             value: float = float_bits_to_int32_raw(msg)
         else:
@@ -174,12 +166,6 @@ class ParamService:
         payload = _PV_UINT.pack(self.store.hash32(), self.store.count, HASH_CHECK_INDEX,
                                 HASH_CHECK_NAME.encode(), MAV_PARAM_TYPE_UINT32)
         return self.encoder.frame(_PV.id, _PV.crc_extra, payload)
-
-    def _error(self, msg: M.MAVLink_message, name: str, index: int, error: int) -> None:
-        payload = _PE_STRUCT.pack(index, msg.get_srcSystem(), msg.get_srcComponent(),
-                                  name.encode("ascii", "replace")[:PARAM_ID_LEN], error)
-        cls = M.MAVLink_param_error_message
-        self.send(self.encoder.frame(cls.id, cls.crc_extra, payload))
 
 
 def float_bits_to_int32_raw(msg: M.MAVLink_param_set_message) -> int:

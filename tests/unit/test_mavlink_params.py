@@ -3,6 +3,7 @@
 import math
 import struct
 
+import pytest
 from pymavlink.dialects.v20 import common as M
 from test_mavlink_support import Client, FakeVehicle, make, of_type
 
@@ -72,13 +73,13 @@ def test_param_read_by_name_index_and_hash():
     assert (m.param_type, struct.unpack("<i", raw_value(m))[0]) == (6, 1)
 
 
-def test_param_read_unknown_gives_param_error():
+@pytest.mark.parametrize("name, index", [(b"NO_SUCH_PARAM", -1), (b"", 30000),
+                                         (b"MIS_TAKEOFF_ALT", 30000), (b"", 2000)])
+def test_param_read_unknown_is_not_answered(name, index):
+    """v1.15.2 mavlink_parameters.cpp: send_param(PARAM_INVALID) sends nothing (an index >= 0
+    is looked up by index alone, whatever the name). PARAM_ERROR is PX4 1.17's."""
     _, _, client = make()
-    (m,) = client.send(M.MAVLink_param_request_read_message(1, 1, b"NO_SUCH_PARAM", -1))
-    assert (m.get_type(), m.param_id, m.error, m.target_system, m.target_component) == (
-        "PARAM_ERROR", "NO_SUCH_PARAM", 1, 245, 190)
-    (m,) = client.send(M.MAVLink_param_request_read_message(1, 1, b"", 30000))
-    assert m.get_type() == "PARAM_ERROR" and m.param_index == 30000
+    assert client.send(M.MAVLink_param_request_read_message(1, 1, name, index)) == []
 
 
 def _int_as_float(value: int) -> float:
@@ -128,18 +129,45 @@ def test_param_set_negative_int_bytewise_is_exact():
         assert raw_value(echo) == raw
 
 
-def test_param_set_errors():
+@pytest.mark.parametrize("name, ptype", [(b"NO_SUCH_PARAM", 9), (b"MIS_TAKEOFF_ALT", 6),
+                                         (b"MIS_TAKEOFF_ALT", 4), (b"NAV_DLL_ACT", 9),
+                                         (b"_HASH_CHECK", 5)])
+def test_param_set_refusals_are_not_answered(name, ptype):
+    """v1.15.2 mavlink_parameters.cpp: an unknown name ("unknown param") or a type other than
+    the parameter's INT32 / REAL32 ("param types mismatch") only print on the console; a set of
+    _HASH_CHECK is not answered either. Nothing changes."""
     vehicle, _, client = make()
-    (m,) = client.send(M.MAVLink_param_set_message(1, 1, b"NO_SUCH_PARAM", 1.0, 9))
-    assert (m.get_type(), m.error) == ("PARAM_ERROR", 1)
-    (m,) = client.send(M.MAVLink_param_set_message(1, 1, b"MIS_TAKEOFF_ALT", 1.0, 6))
-    assert (m.get_type(), m.error) == ("PARAM_ERROR", 7)  # TYPE_MISMATCH
-    (m,) = client.send(M.MAVLink_param_set_message(1, 1, b"MIS_TAKEOFF_ALT", 1.0, 4))
-    assert (m.get_type(), m.error) == ("PARAM_ERROR", 6)  # TYPE_UNSUPPORTED
-    (m,) = client.send(M.MAVLink_param_set_message(1, 1, b"_HASH_CHECK", 1.0, 5))
-    assert (m.get_type(), m.error) == ("PARAM_ERROR", 5)  # READ_ONLY
-    assert vehicle.params["MIS_TAKEOFF_ALT"] == 2.5
+    before = dict((info.name, value) for info, value in vehicle.params.items())
+    assert client.send(M.MAVLink_param_set_message(1, 1, name, 1.0, ptype)) == []
     assert client.send(M.MAVLink_param_set_message(9, 1, b"MIS_TAKEOFF_ALT", 1.0, 9)) == []
+    assert dict((info.name, value) for info, value in vehicle.params.items()) == before
+
+
+def test_param_list_paces_twenty_per_ten_ms_the_hash_counting():
+    """MavlinkReceiver::run calls MavlinkParametersManager::send() once 10 ms have passed; over
+    UDP it sends up to 20 (max_num_to_send) a call, the _HASH_CHECK being the first."""
+    vehicle, _, client = make()
+    got = client.send(M.MAVLink_param_request_list_message(1, 1))
+    got += client.run_until(0.005)
+    values = of_type(got, "PARAM_VALUE")
+    assert len(values) == 20 and values[0].param_id == "_HASH_CHECK"
+    assert len(of_type(client.run_until(0.015), "PARAM_VALUE")) == 20
+    assert len(of_type(client.run_until(0.025), "PARAM_VALUE")) == 20
+
+
+@pytest.mark.parametrize("hash_check_enabled, stops", [(1, True), (0, False)])
+def test_hash_check_set_stops_the_list_only_with_mav_hash_chk_en(hash_check_enabled, stops):
+    """PARAM_SET _HASH_CHECK (QGC's cache matches): _send_all_index = -1 only when
+    _mavlink->hash_check_enabled() (MAV_HASH_CHK_EN); not answered."""
+    vehicle, _, client = make()
+    vehicle.params.set("MAV_HASH_CHK_EN", hash_check_enabled)
+    client.send(M.MAVLink_param_request_list_message(1, 1))
+    client.run_until(0.005)
+    assert client.send(M.MAVLink_param_set_message(1, 1, b"_HASH_CHECK", 0.0, 5)) == []
+    rest = of_type(client.run_until(2.0), "PARAM_VALUE")
+    assert (rest == []) is stops
+    if not stops:
+        assert rest[-1].param_index == vehicle.params.count - 1
 
 
 def test_preflight_storage_resets_as_px4s_commander_worker():
