@@ -288,9 +288,10 @@ class Autopilot:
         self.navigator.set_cruise_mps(speed_mps)
         return CommandResult.ACCEPTED
 
-    def set_home(self, now_s: float, here: Measurement, geo: GeoPoint | None = None
-                 ) -> CommandResult:
-        """DO_SET_HOME: at ``geo``, or where the vehicle is (``here``) when None."""
+    def set_home(self, now_s: float, here: Measurement, geo: GeoPoint | None = None,
+                 yaw_rad: float = math.nan) -> CommandResult:
+        """DO_SET_HOME: at ``geo`` facing ``yaw_rad`` (NaN: none, as HomePosition::setManually
+        takes it), or where the vehicle is (``here``) when None."""
         if not int(self.params["COM_HOME_EN"]) or not self.commander.position_valid:
             return CommandResult.TEMPORARILY_REJECTED
         if geo is None:
@@ -300,8 +301,7 @@ class Autopilot:
         # (HOME_POSITION would overflow).
         if position_fault(geo.lat_deg, geo.lon_deg, geo.alt_amsl_m) is not None:
             return CommandResult.DENIED
-        yaw = self.home.yaw_rad if self.home else 0.0
-        self.home = HomePosition(geo, self.origin.ned_of(geo), yaw)
+        self.home = HomePosition(geo, self.origin.ned_of(geo), yaw_rad)  # setManually: as given
         return CommandResult.ACCEPTED
 
     def terminate(self, now_s: float) -> CommandResult:

@@ -385,8 +385,9 @@ class Vehicle:
     def change_speed(self, now_s: float, speed_mps: float) -> CommandResult:
         return self._autopilot.change_speed(now_s, speed_mps)
 
-    def set_home(self, now_s: float, geo: GeoPoint | None = None) -> CommandResult:
-        return self._autopilot.set_home(now_s, self._measurement(), geo)
+    def set_home(self, now_s: float, geo: GeoPoint | None = None, yaw_rad: float = math.nan
+                 ) -> CommandResult:
+        return self._autopilot.set_home(now_s, self._measurement(), geo, yaw_rad)
 
     def inject_failure(self, now_s: float, unit: int, failure_type: int, instance: int
                        ) -> CommandResult | None:

@@ -354,7 +354,9 @@ class CommandService:
         lat, lon, alt = cmd.p(5), cmd.p(6), cmd.p(7)
         if not all(math.isfinite(v) for v in (lat, lon, alt)):
             return DENIED
-        return set_home(now_s, GeoPoint(lat, lon, alt))
+        # Commander: yaw = wrap_2pi(radians(param4)), NaN when that is not finite
+        yaw = math.radians(cmd.p(4)) % (2.0 * math.pi) if math.isfinite(cmd.p(4)) else math.nan
+        return set_home(now_s, GeoPoint(lat, lon, alt), yaw_rad=yaw)
 
     def _change_altitude(self, cmd: Command, now_s: float) -> int:
         """DO_CHANGE_ALTITUDE: Commander switches to Hold; the navigator, armed, holds at p1

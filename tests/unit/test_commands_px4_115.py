@@ -169,3 +169,19 @@ def test_reposition_speed_is_the_setpoints_own(world):
     world.run(1.0)
     assert nav.hold.speed_mps == 8.0
     assert world.run(10.0, until=lambda: math.hypot(*v.state.velocity_ned_mps[:2]) > 5.0)
+
+
+@pytest.mark.parametrize("p4, yaw", [(90.0, math.pi / 2), (-90.0, 1.5 * math.pi), (NAN, NAN)])
+def test_set_home_takes_its_yaw_from_param4(p4, yaw):
+    """Commander: DO_SET_HOME with a position hands HomePosition::setManually
+    wrap_2pi(radians(param4)), NaN when that is not finite (QGC sends NaN); HOME_POSITION's q
+    is that yaw's."""
+    with Sim() as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        api = sim.api(0)
+        assert api.command_long(M.MAV_CMD_DO_SET_HOME, 0, 0, 0, p4, 47.3979, 8.5461, 490.0) == 0
+        assert sim.status(0).home.yaw_rad == pytest.approx(yaw, nan_ok=True)
+        since = len(api.frames)
+        assert api.command_long(M.MAV_CMD_REQUEST_MESSAGE, 242) == 0
+        (home,) = api.messages("HOME_POSITION", since)
+        assert home.q[3] == pytest.approx(math.sin(yaw / 2), abs=1e-6, nan_ok=True)

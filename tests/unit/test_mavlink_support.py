@@ -286,7 +286,8 @@ class FakeVehicle:
         self.calls.append(("change_speed", now_s, speed_mps))
         return CommandResult.ACCEPTED
 
-    def set_home(self, now_s: float, geo: GeoPoint | None) -> CommandResult:
+    def set_home(self, now_s: float, geo: GeoPoint | None, yaw_rad: float = math.nan
+                 ) -> CommandResult:
         self.calls.append(("set_home", now_s, geo))
         geo = self.global_position if geo is None else geo
         self.home = HomePosition(geo, self.origin.ned_of(geo), 0.0)
