@@ -419,6 +419,8 @@ class Vehicle:
             return cal.start_radio(now_s, armed)
         if kind == "esc":
             return cal.start_esc(now_s, armed)
+        if kind == "temperature":  # Commander leaves it to a module SITL does not run: no ACK
+            return CommandResult.TEMPORARILY_REJECTED if armed or cal.kind is not None else None
         return cal.start(now_s, kind, armed)
 
     def motor_test_allowed(self) -> bool:

@@ -416,13 +416,15 @@ class CommandService:
         magnetometer (param2 1), barometer (param3 1), radio (param4 1), accelerometer
         (param5 1), level horizon (param5 2), quick accelerometer (param5 4), ESCs (param7 1);
         param4 0 otherwise ends a radio calibration or cancels a running one (QGC's and MAVSDK's
-        cancel: every parameter 0). Not served: radio trim, airspeed, temperature."""
+        cancel: every parameter 0). Temperature (3 in param1, 5 or 7) Commander leaves to the
+        temperature_compensation module, which SITL does not start: no ACK (disarmed and idle).
+        Not served: radio trim, airspeed (TEMPORARILY_REJECTED)."""
         calibrate = self._vehicle("calibrate")
         if calibrate is None:
             return UNSUPPORTED
         p = [c_int(cmd.p(i)) for i in range(1, 8)]
         # In Commander's order; None: one PX4 starts that is not served here.
-        for asked, kind in ((p[0] == 1, "gyro"), (3 in (p[0], p[4], p[6]), None),
+        for asked, kind in ((p[0] == 1, "gyro"), (3 in (p[0], p[4], p[6]), "temperature"),
                              (p[1] == 1, "mag"), (p[2] == 1, "baro"), (p[3] == 1, "radio"),
                              (p[3] == 2, None), (p[4] == 1, "accel"), (p[4] == 2, "level"),
                              (p[4] == 4, "accel_quick"), (p[5] in (1, 2), None), (p[6] == 1, "esc"),

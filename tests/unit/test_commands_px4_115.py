@@ -185,3 +185,18 @@ def test_set_home_takes_its_yaw_from_param4(p4, yaw):
         assert api.command_long(M.MAV_CMD_REQUEST_MESSAGE, 242) == 0
         (home,) = api.messages("HOME_POSITION", since)
         assert home.q[3] == pytest.approx(math.sin(yaw / 2), abs=1e-6, nan_ok=True)
+
+
+@pytest.mark.parametrize("params", [(3, 0, 0, 0, 0, 0, 0), (0, 0, 0, 0, 3, 0, 0),
+                                    (0, 0, 0, 0, 0, 0, 3)])
+def test_temperature_calibration_is_left_unanswered(params):
+    """Commander::handle_command, PREFLIGHT_CALIBRATION: temperature (3 in param1, param5 or
+    param7) breaks out without an ACK for the temperature_compensation module, which SITL does
+    not start; armed it is TEMPORARILY_REJECTED first."""
+    with Sim() as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        api = sim.api(0)
+        cal = M.MAV_CMD_PREFLIGHT_CALIBRATION
+        assert api.command_long(cal, *params, retries=0) is None
+        assert api.arm() == 0
+        assert api.command_long(cal, *params, retries=0) == 1
