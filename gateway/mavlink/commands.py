@@ -76,7 +76,8 @@ INT32_MAX = 2**31 - 1
 # (float)INT32_MAX and its float neighbours, nextafterf towards 0 and towards infinity
 INT32_MAX_AS_FLOAT32 = (2147483520.0, 2147483648.0, 2147483904.0)
 REPOSITION_FLAGS_CHANGE_MODE = 1  # MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, the only flag PX4 takes
-SPEED_RESET = -1.0  # DO_CHANGE_SPEED: ≤ 0 → back to the cruise speed
+SPEED_RESET = -1.0  # DO_CHANGE_SPEED: ≤ FLT_EPSILON → back to the cruise speed
+FLT_EPSILON = 1.1920929e-07
 
 # Commander's printRejectMode when the command's mode switch is refused (TEMPORARILY_REJECTED)
 REJECT_SAYS_MODE: dict[int, NavState] = {
@@ -340,7 +341,9 @@ class CommandService:
         change_speed = self._vehicle("change_speed")
         if change_speed is None:
             return UNSUPPORTED
-        speed = cmd.p(2) if math.isfinite(cmd.p(2)) else SPEED_RESET
+        # navigator_main.cpp: param2 > FLT_EPSILON is the cruising speed (+inf too: the speed
+        # limit then), anything else (NaN, 0, tiny) resets it; the speed type is not read.
+        speed = cmd.p(2) if cmd.p(2) > FLT_EPSILON else SPEED_RESET
         return change_speed(now_s, speed)
 
     def _set_home(self, cmd: Command, now_s: float) -> int:

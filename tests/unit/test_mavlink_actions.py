@@ -78,6 +78,10 @@ def test_change_speed():
     assert vehicle.calls[-1] == ("change_speed", 0.0, 7.5)
     client.command_long(178, 1, NAN, -1, 0)
     assert vehicle.calls[-1] == ("change_speed", 0.0, -1.0)  # non-finite → back to cruise
+    client.command_long(178, 1, 1e-8, -1, 0)  # navigator_main.cpp: not above FLT_EPSILON
+    assert vehicle.calls[-1] == ("change_speed", 0.0, -1.0)
+    client.command_long(178, 1, math.inf, -1, 0)  # above it: the speed limit applies
+    assert vehicle.calls[-1] == ("change_speed", 0.0, math.inf)
 
 
 def test_set_home():
