@@ -12,8 +12,11 @@ Rules and invariants:
   receiver thread calls send() over UDP. A LIST during a running list restarts at 0 without
   the hash. A PARAM_SET of `_HASH_CHECK` (QGC: its cache matches) stops the list when
   MAV_HASH_CHK_EN is set, and is not answered.
-- PARAM_SET success: echo on this link; every *other* change (other links, the autopilot) arrives
-  through the store's on_change observer and is sent here too. Our own set is not echoed twice.
+- PARAM_SET success: echo on this link (send_param). Every change (this link's, other links',
+  the autopilot's) arrives through the store's on_change observer and is sent on every link, as
+  each MAVLink instance's send_untransmitted sends a changed, not yet saved parameter: the link
+  that set it gets it twice, echo first. (PX4 sends that copy 5–15 ms later, and every
+  parameter changed since the last autosave with it; autosave waits 300 ms, and for disarm.)
   A REAL32 NaN or ±inf is stored and echoed as PX4 does; a store PX4 counts as no change (to or
   from NaN) reaches the other links only in their next list or read.
 - What PX4 v1.15 refuses it leaves unanswered: PARAM_SET of an unknown name, or with a type
@@ -64,6 +67,7 @@ class ParamService:
         # When ``handle_timer`` has work next (the list transfer's next burst); inf: none.
         self.due_s = math.inf
         self._own_set: str | None = None  # name being set by this link (echo sent explicitly)
+        self._own_changed = False  # and that set changed it
         ref = weakref.ref(self)
 
         def observer(name: str, value: int | float) -> None:
@@ -131,13 +135,16 @@ class ParamService:
             value = msg.param_value
         # mavlink_parameters.cpp: param_set, then send_param whatever it did. A float32 is
         # stored as given (NaN and ±inf too); to or from NaN it is no change (no
-        # parameter_update), so only this echo carries it, not the other links.
-        self._own_set = name
+        # parameter_update), so only this echo carries it, not the other links. A change is
+        # sent again after the echo, as on every link (send_untransmitted).
+        self._own_set, self._own_changed = name, False
         try:
             self.store.set(name, value)
         finally:
             self._own_set = None
         self.send(self.param_value(index))
+        if self._own_changed:
+            self.send(self.param_value(index))
 
     def _for_us(self, msg: M.MAVLink_message) -> bool:
         # mavlink_parameters.cpp: target_system must be ours (0 is not taken: a broadcast write
@@ -148,7 +155,9 @@ class ParamService:
         return False
 
     def _on_change(self, name: str) -> None:
-        if name != self._own_set:
+        if name == self._own_set:
+            self._own_changed = True  # sent after the echo
+        else:
             self.send(self.param_value(self.store.index_of(name)))
 
     # --- outbound -----------------------------------------------------------------------------

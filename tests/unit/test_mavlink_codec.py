@@ -143,9 +143,14 @@ def test_garbage_never_raises_and_is_counted():
 
 
 def test_other_sysid_frames_are_counted_not_handled():
+    """A command for system 7 is answered FAILED (mavlink_receiver.cpp) but not carried out;
+    other messages for it are dropped."""
     vehicle, session, client = make()
     got = client.command_long(M.MAV_CMD_COMPONENT_ARM_DISARM, 1, target_system=7)
-    assert got == [] and session.stats.rx_other_target == 1 and vehicle.calls == []
+    assert [(m.get_type(), m.result) for m in got] == [("COMMAND_ACK", 4)]
+    assert session.stats.rx_other_target == 1 and vehicle.calls == []
+    got = client.send(M.MAVLink_param_set_message(7, 1, b"MIS_TAKEOFF_ALT", 1.0, 9))
+    assert got == [] and session.stats.rx_other_target == 2
 
 
 def test_a_float_beyond_float32_is_sent_as_infinity_as_a_c_float_holds_it():

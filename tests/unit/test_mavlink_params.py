@@ -92,15 +92,16 @@ def test_param_set_echo_and_broadcast_to_other_links():
     gcs = Session(vehicle, LinkKind.GCS)
     c_api, c_gcs = Client(api), Client(gcs, 255, 190)
     got = c_api.send(M.MAVLink_param_set_message(1, 1, b"MIS_TAKEOFF_ALT", 10.0, 9))
+    # the echo (send_param), then the change every link sends (send_untransmitted)
     assert [(m.param_id, m.param_value, m.param_type) for m in got] == [
-        ("MIS_TAKEOFF_ALT", 10.0, 9)]
+        ("MIS_TAKEOFF_ALT", 10.0, 9)] * 2
     assert vehicle.params["MIS_TAKEOFF_ALT"] == 10.0
     (b,) = c_gcs.drain()
     assert (b.param_id, b.param_value, b.param_count) == ("MIS_TAKEOFF_ALT", 10.0,
                                                           vehicle.params.count)
     # INT32 set bytewise; the echo carries the same bytes
     got = c_gcs.send(M.MAVLink_param_set_message(1, 1, b"NAV_DLL_ACT", _int_as_float(2), 6))
-    assert [struct.unpack("<i", raw_value(m))[0] for m in got] == [2]
+    assert [struct.unpack("<i", raw_value(m))[0] for m in got] == [2, 2]
     assert vehicle.params["NAV_DLL_ACT"] == 2
     assert [m.param_id for m in c_api.drain()] == ["NAV_DLL_ACT"]
     # a change made by the autopilot itself reaches every link
@@ -124,7 +125,7 @@ def test_param_set_negative_int_bytewise_is_exact():
         mav = M.MAVLink(None, 245, 190)
         frame = msg._pack(mav, msg.crc_extra, payload)
         session.receive_datagram(frame, 0.0)
-        (echo,) = client.drain()
+        echo = client.drain()[0]
         assert vehicle.params[name] == value
         assert raw_value(echo) == raw
 
@@ -291,8 +292,11 @@ def test_param_set_non_finite_real32_is_stored_and_echoed_as_px4():
     nan, inf = float("nan"), float("inf")
 
     def set_alt(value: float) -> float:
-        (echo,) = c_api.send(M.MAVLink_param_set_message(1, 1, b"RTL_RETURN_ALT", value, 9))
+        version = store.version
+        echo, *again = c_api.send(M.MAVLink_param_set_message(1, 1, b"RTL_RETURN_ALT", value, 9))
         assert echo.param_id == "RTL_RETURN_ALT"
+        # a change is sent again after the echo, as on every link; no change: the echo alone
+        assert len(again) == (store.version != version)
         return echo.param_value
 
     version = store.version
