@@ -7,6 +7,9 @@ Rules:
 - The navigator takes the target only while armed (disarmed, the vehicle just switches). A target
   outside the geofence, while GF_ACTION is neither None nor Warning, is dropped with the
   navigator's critical text and event: the command stays ACCEPTED and the vehicle holds.
+- Without a position: the current setpoint's (a mission's waypoint, Hold's target) when only
+  the altitude or the yaw is given, where the vehicle is when nothing is (pause) or for an
+  altitude change (PX4: its braking point).
 - The target's horizontal speed is the command's when above 0; else MPC_XY_CRUISE when the
   vehicle enters Hold with it, the navigator's cruising speed when it holds already. It is the
   reposition setpoint's own: the cruising speed DO_CHANGE_SPEED or a mission set is unchanged.
@@ -19,6 +22,7 @@ from typing import Protocol
 
 from vehicles.commander import Commander
 from vehicles.events import CHANGE_ALT_OUTSIDE_FENCE, REPOSITION_OUTSIDE_FENCE, Log
+from vehicles.flight_tasks import Tasks
 from vehicles.geofence import Geofence
 from vehicles.navigator import Navigator
 from vehicles.params import ParamStore
@@ -43,6 +47,8 @@ class Autopilot(Protocol):
     def home(self) -> HomePosition | None: ...
     @property
     def log(self) -> StatusLog: ...
+    @property
+    def tasks(self) -> Tasks: ...
     def set_nav_state(self, now_s: float, nav_state: NavState) -> CommandResult: ...
 
 GF_ACTION_NONE = 0
@@ -64,6 +70,12 @@ def goto(ap: Autopilot, now_s: float, here: Measurement, lat_deg: float, lon_deg
     n, e, d = here.position_ned_m
     if not (math.isnan(lat_deg) or math.isnan(lon_deg)):
         n, e, _ = ap.origin.ned_of(GeoPoint(lat_deg, lon_deg, ap.origin.alt_amsl_m))
+    elif what == "Reposition" and not (math.isnan(alt_amsl_m) and math.isnan(yaw_rad)):
+        # "Position is not changing, thus we keep the setpoint": the current setpoint's (a
+        # mission's waypoint, Hold's target), else where the vehicle is
+        sp = ap.tasks.auto.setpoint
+        if sp is not None and math.isfinite(sp.target_ned_m[0]) and math.isfinite(sp.target_ned_m[1]):
+            n, e = sp.target_ned_m[0], sp.target_ned_m[1]
     if not math.isnan(alt_amsl_m):
         d = ap.origin.alt_amsl_m - alt_amsl_m
     gf_action = int(ap.params["GF_ACTION"])

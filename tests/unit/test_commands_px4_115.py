@@ -200,3 +200,20 @@ def test_temperature_calibration_is_left_unanswered(params):
         assert api.command_long(cal, *params, retries=0) is None
         assert api.arm() == 0
         assert api.command_long(cal, *params, retries=0) == 1
+
+
+def test_reposition_of_the_altitude_alone_keeps_the_setpoints_position(world):
+    """navigator_main.cpp: DO_REPOSITION with only p7 (QGC's "change altitude") keeps the
+    current setpoint's lat/lon ("Position is not changing, thus we keep the setpoint"): a
+    vehicle on its way to a reposition target goes on there, at the new altitude."""
+    v = world.v
+    take_off(world)
+    target = v.origin.offset_ned(30.0, 0.0, -2.5)
+    assert v.goto(world.t, target.lat_deg, target.lon_deg, target.alt_amsl_m) \
+        is CommandResult.ACCEPTED
+    world.run(2.0)
+    assert 1.0 < v.state.position_ned_m[0] < 20.0  # on its way
+    assert v.goto(world.t, NAN, NAN, v.origin.alt_amsl_m + 6.0) is CommandResult.ACCEPTED
+    world.run(20.0)
+    assert v.state.position_ned_m[0] == pytest.approx(30.0, abs=0.5)
+    assert v.state.position_ned_m[2] == pytest.approx(-6.0, abs=0.3)
