@@ -226,7 +226,7 @@ class CommandService:
         cmd = Command(M.MAV_CMD_DO_SET_MODE, (float(msg.base_mode), float(main), float(sub), 0.0,
                                               0.0, 0.0, 0.0), msg.get_srcSystem(),
                       msg.get_srcComponent())
-        self.dispatch(cmd, now_s)
+        self.dispatch(cmd, now_s, legacy=True)
 
     def _for_us(self, msg: M.MAVLink_message, command: int) -> bool:
         """MavlinkReceiver::evaluate_target_ok: this system (not 0) and this component or 0;
@@ -244,8 +244,9 @@ class CommandService:
                                         0, msg.get_srcSystem(), msg.get_srcComponent()))
         return False
 
-    def dispatch(self, cmd: Command, now_s: float) -> None:
-        if (cmd.command not in MAVLINK_ANSWERS and cmd.src_system == self.sysid
+    def dispatch(self, cmd: Command, now_s: float, legacy: bool = False) -> None:
+        """``legacy``: a SET_MODE, which handle_message_set_mode passes on from anyone."""
+        if (not legacy and cmd.command not in MAVLINK_ANSWERS and cmd.src_system == self.sysid
                 and cmd.src_component == self.encoder.compid):
             return  # handle_message_command_both: "ignoring CMD with same SYS/COMP ID"
         handler = self._handlers.get(cmd.command)

@@ -79,6 +79,9 @@ def test_a_command_from_the_autopilots_own_ids_is_dropped(command, answered):
     got = client.command_long(command, 1, 4, 3)
     assert bool(acks(got)) is answered
     assert not vehicle.armed
+    # handle_message_set_mode passes a legacy SET_MODE on from anyone: Commander answers it
+    got = client.send(M.MAVLink_set_mode_message(1, 1, (4 << 16) | (3 << 24)))
+    assert results(got) == [(176, 0)]
 
 
 @pytest.mark.parametrize("p5, p6, denied", [
