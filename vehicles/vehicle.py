@@ -199,7 +199,7 @@ class Vehicle:
             {"thrust_norm": ap.thrust_norm,
              "estimator_ok": max(world.estimator_ratios(row)) <= 1.0,
              "rotor_speed_radps": world.rotor_speeds(row),
-             "manual_control": c.manual_control_state,
+             "manual_control": c.manual_control_state, "user_nav_state": c.user_nav_state,
              "sensor_failures": world.sensor_failures(row),
              "armed_at_s": c.armed_at_s, "takeoff_at_s": c.takeoff_at_s})
 

@@ -71,11 +71,20 @@ def c_int(value: float, lo: int, hi: int) -> int:
     return max(lo, min(hi, math.trunc(value)))
 
 
-def sat_round(value: float, lo: int, hi: int) -> int:
-    """``value`` rounded into an integer field as the flight controller's float→int conversion
-    leaves it: ARM's saturates, NaN is 0 (battery values come from BAT1_* parameters, which PX4
-    stores as given, NaN and ±inf too)."""
-    return 0 if value != value else int(round(min(max(value, lo), hi)))
+_F32 = struct.Struct("<f")
+_f32_pack, _f32_unpack = _F32.pack, _F32.unpack
+
+
+def f32_mul(value: float, factor: float) -> float:
+    """``value * factor`` as PX4 computes it on a float field: both in float32, the product
+    rounded to float32. A C conversion of the product to an integer then sees what PX4 sees
+    (0.9f * 100.f is 90, where the double product 90.00000000000001 would ceil to 91)."""
+    if not math.isfinite(value) or abs(value) > FLT_MAX:
+        return value * factor
+    try:
+        return _f32_unpack(_f32_pack(_f32_unpack(_f32_pack(value))[0] * factor))[0]
+    except OverflowError:  # beyond float32 once multiplied: inf, as float32 arithmetic gives
+        return math.copysign(math.inf, value * factor)
 
 
 def i16(value: float) -> int:

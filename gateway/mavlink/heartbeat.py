@@ -1,23 +1,36 @@
-"""HEARTBEAT, SYS_STATUS and EXTENDED_SYS_STATE from the commander's VehicleStatus.
+"""HEARTBEAT, SYS_STATUS, EXTENDED_SYS_STATE and CURRENT_MODE from the commander's VehicleStatus.
 
-Source: PX4 streams HEARTBEAT.hpp and SYS_STATUS.hpp; MAVSDK's health rules.
+Source: PX4 v1.15 streams HEARTBEAT.hpp, SYS_STATUS.hpp, CURRENT_MODE.hpp; MAVSDK's health rules.
 - HEARTBEAT: type = MAV_TYPE param, autopilot PX4 (12), mavlink_version 3, modes from modes.py.
-- system_status: UNINIT until the position estimate is valid, STANDBY disarmed, ACTIVE armed,
-  CRITICAL armed in failsafe, FLIGHT_TERMINATION once terminated. PX4 never sends BOOT.
-- SYS_STATUS bits, and why (MAVSDK telemetry_impl.cpp):
-  is_global_position_ok = GPS (32) in present AND health → GPS health follows position_valid;
-  is_armable = PREARM_CHECK in health; QGC "Ready To Fly" additionally needs PREARM in enabled.
-  Gyro/accel/mag present+healthy → MAVSDK calibration flags true.
+- system_status: FLIGHT_TERMINATION once terminated, else CRITICAL armed in failsafe, ACTIVE
+  armed; disarmed STANDBY while pre_flight_checks_pass (canArm in the current mode, our
+  prearm_ok), else UNINIT. PX4 never sends BOOT.
+- SYS_STATUS bits come from the commander's health_report, one MAV_SYS_STATUS bit per health
+  component (fillOutComponent): present if the check found it, healthy unless an arming check or
+  health check flagged it (error or warning; an absent component is healthy), enabled if present
+  or unhealthy. PREARM_CHECK is only ever a health bit (canArm in the current mode). Bits without
+  a component (attitude, position control, logging ...) are never set, and
+  MAV_SYS_STATUS_EXTENSION_USED is not either, though the extended fields carry the parachute
+  (RECOVERY_SYSTEM): healthy, absent.
+  Why MAVSDK cares (telemetry_impl.cpp): is_global_position_ok = GPS (32) present, enabled AND
+  healthy → GPS health follows position_valid; is_armable = PREARM_CHECK in health; RC_RECEIVER
+  present → rc_status available. Without stick input the manual-control mode requirement
+  ("No manual control input", modeCheck.cpp) flags remote_control: unhealthy, so enabled.
+- SYS_STATUS battery: the filtered voltage (mV) and current (cA) converted as C does
+  (truncating), remaining ceilf'd to a percent.
 """
 
 from __future__ import annotations
 
-from pymavlink.dialects.v20 import common as mavlink2
+import math
 
-from gateway.mavlink.codec import Encoder, sat_round
+from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import development
+
+from gateway.mavlink.codec import Encoder, c_int, f32_mul
 from gateway.mavlink.modes import heartbeat_modes
 from vehicles.estimation import F_ACC, F_BARO, F_GPS_OFF, F_GYRO, F_MAG
-from vehicles.types import VehicleStatus
+from vehicles.types import NavState, VehicleStatus
 
 MAV_AUTOPILOT_PX4 = 12
 MAV_TYPE_QUADROTOR = 2
@@ -35,21 +48,29 @@ MAV_STATE_ACTIVE = 4
 MAV_STATE_CRITICAL = 5
 MAV_STATE_FLIGHT_TERMINATION = 8
 
-# MAV_SYS_STATUS_SENSOR bits used below
+# MAV_SYS_STATUS_SENSOR bits of SYS_STATUS.hpp's health components
 SENSOR_3D_GYRO, SENSOR_3D_ACCEL, SENSOR_3D_MAG, SENSOR_ABSOLUTE_PRESSURE = 0x1, 0x2, 0x4, 0x8
+SENSOR_DIFFERENTIAL_PRESSURE = 0x10
 SENSOR_GPS = 0x20
-SENSOR_XY_POSITION_CONTROL = 0x4000  # PX4 maps its local position estimate here
-SENSOR_RC_RECEIVER = 0x10000  # PX4's remote_control health component (joystick or RC)
-SENSOR_AHRS = 0x200000  # PX4 reports the estimator's health here
+SENSOR_MOTOR_OUTPUTS = 0x8000  # motors_escs
+SENSOR_RC_RECEIVER = 0x10000  # remote_control (joystick or RC)
+SENSOR_AHRS = 0x200000  # local_position_estimate
+SENSOR_BATTERY = 0x2000000
 SENSOR_PREARM_CHECK = 0x10000000
-
-# Healthy PX4 SITL: gyro|accel|mag|baro|gps|att_stab|xy_pos|ahrs|logging|battery.
-SENSORS_PRESENT = 0x0320482F
-# All mapped bits healthy (absent components still report healthy in PX4), without PREARM.
-SENSORS_HEALTH = 0x0321C83F
-POSITION_SENSORS = SENSOR_GPS | SENSOR_XY_POSITION_CONTROL
+SENSOR_OBSTACLE_AVOIDANCE = 0x20000000  # avoidance
+# Every bit SYS_STATUS.hpp fills from a health component.
+SENSORS_MAPPED = (SENSOR_3D_GYRO | SENSOR_3D_ACCEL | SENSOR_3D_MAG | SENSOR_ABSOLUTE_PRESSURE
+                  | SENSOR_DIFFERENTIAL_PRESSURE | SENSOR_GPS | SENSOR_MOTOR_OUTPUTS
+                  | SENSOR_RC_RECEIVER | SENSOR_AHRS | SENSOR_BATTERY | SENSOR_OBSTACLE_AVOIDANCE)
+# The components PX4 SITL's checks find: gyro, accel, mag, baro, GPS, estimator, battery.
+SENSORS_PRESENT = (SENSOR_3D_GYRO | SENSOR_3D_ACCEL | SENSOR_3D_MAG | SENSOR_ABSOLUTE_PRESSURE
+                   | SENSOR_GPS | SENSOR_AHRS | SENSOR_BATTERY)  # 0x0220002F
+# MAV_SYS_STATUS_SENSOR_EXTENDED: the parachute component, absent and so healthy.
+SENSOR_EXT_RECOVERY_SYSTEM = 0x1
 
 MAV_VTOL_STATE_UNDEFINED = 0
+LITHIUM_BATTERY_RECOGNITION_V = 2.1
+MSG_ID_CURRENT_MODE = development.MAVLINK_MSG_ID_CURRENT_MODE
 
 # A failed sensor (off or stuck) → its SYS_STATUS health bit, as PX4's sensor checks report a
 # sensor that times out or stops changing.
@@ -57,21 +78,26 @@ FAILED_SENSOR_BITS = ((F_GPS_OFF, SENSOR_GPS), (F_BARO, SENSOR_ABSOLUTE_PRESSURE
                       (F_MAG, SENSOR_3D_MAG), (F_GYRO, SENSOR_3D_GYRO), (F_ACC, SENSOR_3D_ACCEL))
 
 
+def battery_connected(voltage_v: float) -> bool:
+    """lib/battery Battery::updateBatteryStatus: a filtered voltage under
+    LITHIUM_BATTERY_RECOGNITION_VOLTAGE means no battery (the simulator says connected)."""
+    return not voltage_v < LITHIUM_BATTERY_RECOGNITION_V  # NaN: connected, as in PX4
+
+
 def system_status(status: VehicleStatus) -> int:
     if status.terminated:
         return MAV_STATE_FLIGHT_TERMINATION
     if status.armed:
         return MAV_STATE_CRITICAL if status.failsafe else MAV_STATE_ACTIVE
-    return MAV_STATE_STANDBY if status.position_valid else MAV_STATE_UNINIT
+    return MAV_STATE_STANDBY if status.prearm_ok else MAV_STATE_UNINIT
 
 
 def sensor_bits(status: VehicleStatus) -> tuple[int, int, int]:
     """(present, enabled, health) of SYS_STATUS."""
     present = SENSORS_PRESENT
-    enabled = SENSORS_PRESENT
-    health = SENSORS_HEALTH
+    health = SENSORS_MAPPED
     if not status.position_valid:
-        health &= ~POSITION_SENSORS
+        health &= ~SENSOR_GPS
     if not status.extra.get("estimator_ok", True):  # an innovation test failing
         health &= ~SENSOR_AHRS
     failed = status.extra.get("sensor_failures", 0)
@@ -79,17 +105,13 @@ def sensor_bits(status: VehicleStatus) -> tuple[int, int, int]:
         for bits, sensor in FAILED_SENSOR_BITS:
             if failed & bits:
                 health &= ~sensor
+    if status.extra.get("manual_control") == "present":  # sticks (MANUAL_CONTROL) are there
+        present |= SENSOR_RC_RECEIVER
+    else:  # never there, or lost: "No manual control input" (a warning) flags the component
+        health &= ~SENSOR_RC_RECEIVER
+    enabled = present | (SENSORS_MAPPED & ~health)  # present, or required but unhealthy
     if status.prearm_ok:
         health |= SENSOR_PREARM_CHECK
-        enabled |= SENSOR_PREARM_CHECK
-    sticks = status.extra.get("manual_control")
-    if sticks == "present":  # a joystick (MANUAL_CONTROL) is there: MAVSDK rc_status available
-        present |= SENSOR_RC_RECEIVER
-        enabled |= SENSOR_RC_RECEIVER
-    elif sticks == "lost":  # it was there and is gone: PX4 reports the component unhealthy
-        present |= SENSOR_RC_RECEIVER
-        enabled |= SENSOR_RC_RECEIVER
-        health &= ~SENSOR_RC_RECEIVER
     return present, enabled, health
 
 
@@ -102,14 +124,38 @@ def build_heartbeat(enc: Encoder, status: VehicleStatus, mav_type: int) -> bytes
 def build_sys_status(enc: Encoder, status: VehicleStatus) -> bytes:
     present, enabled, health = sensor_bits(status)
     bat = status.battery
-    voltage_mv = sat_round(bat.voltage_v * 1000.0, 0, 65534)
-    current_ca = sat_round(bat.current_a * 100.0, -1, 32767)
-    remaining = sat_round(bat.remaining * 100.0, 0, 100)
+    if battery_connected(bat.voltage_v):
+        voltage_mv = c_int(f32_mul(bat.voltage_v, 1000.0), 0, 65535)
+        current_ca = c_int(f32_mul(bat.current_a, 100.0), -32768, 32767)
+        pct = f32_mul(bat.remaining, 100.0)
+        remaining = c_int(math.ceil(pct), -128, 127) if math.isfinite(pct) else 0
+    else:
+        voltage_mv, current_ca, remaining = 65535, -1, -1
     return enc.pack(mavlink2.MAVLink_sys_status_message, present, enabled, health,
                     int(CPULOAD_LOAD * 1000.0), voltage_mv, current_ca, remaining, 0, 0, 0,
-                    0, 0, 0)
+                    0, 0, 0, 0, 0, SENSOR_EXT_RECOVERY_SYSTEM)
 
 
 def build_extended_sys_state(enc: Encoder, status: VehicleStatus) -> bytes:
     return enc.pack(mavlink2.MAVLink_extended_sys_state_message, MAV_VTOL_STATE_UNDEFINED,
                     int(status.landed_state))
+
+
+# lib/modes/standard_modes.hpp getStandardModeFromNavState: the only navigation states that map to
+# a MAV_STANDARD_MODE (PX4's StandardMode numbers, those of its MAVLink definitions; pymavlink
+# 2.4.50's development dialect numbers them differently); every other is NON_STANDARD (0).
+STANDARD_MODE_RETURN_HOME, STANDARD_MODE_MISSION, STANDARD_MODE_LAND, STANDARD_MODE_TAKEOFF = (
+    5, 7, 8, 9)
+STANDARD_MODES: dict[NavState, int] = {
+    NavState.AUTO_RTL: STANDARD_MODE_RETURN_HOME, NavState.AUTO_MISSION: STANDARD_MODE_MISSION,
+    NavState.AUTO_LAND: STANDARD_MODE_LAND, NavState.AUTO_TAKEOFF: STANDARD_MODE_TAKEOFF}
+
+
+def build_current_mode(enc: Encoder, status: VehicleStatus) -> bytes:
+    """CURRENT_MODE.hpp (development dialect, which PX4 SITL builds with): the standard mode of
+    nav_state, its custom mode, and the custom mode of the user's intention
+    (nav_state_user_intention: what the user selected, whatever a failsafe flies)."""
+    nav = status.nav_state
+    user = status.extra.get("user_nav_state", nav)
+    return enc.pack(development.MAVLink_current_mode_message, STANDARD_MODES.get(nav, 0),
+                    heartbeat_modes(nav, False)[1], heartbeat_modes(user, False)[1])

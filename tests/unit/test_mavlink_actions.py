@@ -199,6 +199,6 @@ def test_qgc_initial_connect_is_answered_at_once():
         got = client.send(M.MAVLink_mission_request_list_message(1, 190, mission_type))
         assert [(m.get_type(), m.count) for m in got] == [("MISSION_COUNT", 0)]
     ss = of_type(client.run_until(1.0), "SYS_STATUS")[-1]
-    prearm = 0x10000000  # "Ready To Fly" in QGC without events
-    assert ss.onboard_control_sensors_enabled & prearm
+    prearm = 0x10000000  # PX4 v1.15 SYS_STATUS.hpp: a health bit only (canArm), never enabled
+    assert not ss.onboard_control_sensors_enabled & prearm
     assert ss.onboard_control_sensors_health & prearm

@@ -96,7 +96,9 @@ def test_system_status_progression():
         return hb[-1].system_status if hb else state()
 
     assert state() == 0
-    vehicle.position_valid = True
+    vehicle.position_valid = True  # HEARTBEAT.hpp: STANDBY needs pre_flight_checks_pass (canArm)
+    assert state() == 0
+    vehicle.prearm_ok = True
     assert state() == 3
     vehicle.armed = True
     assert state() == 4
@@ -121,22 +123,29 @@ def _mavsdk_health(ss):
 
 def test_sys_status_health_bits():
     vehicle, session, client = make()
+    # SYS_STATUS.hpp fillOutComponent: gyro, accel, mag, baro, GPS, estimator (AHRS), battery
+    # present; every mapped component healthy unless flagged (no GPS fix yet; no stick input:
+    # remote_control); enabled = present or unhealthy; PREARM_CHECK only ever in health.
     ss = of_type(client.run_until(0.001), "SYS_STATUS")[0]
-    assert ss.onboard_control_sensors_present == 0x0320482F
-    assert ss.onboard_control_sensors_enabled == 0x0320482F
+    assert ss.onboard_control_sensors_present == 0x0220002F
+    assert ss.onboard_control_sensors_health == 0x2220801F
+    assert ss.onboard_control_sensors_enabled == 0x0221002F
     assert _mavsdk_health(ss) == {"global": False, "armable": False, "gyro": True, "accel": True,
                                   "mag": True}
     vehicle.become_ready()
     ss = of_type(client.run_until(1.001), "SYS_STATUS")[-1]
-    assert ss.onboard_control_sensors_health == 0x1321C83F
-    assert ss.onboard_control_sensors_enabled == 0x1320482F
+    assert ss.onboard_control_sensors_health == 0x3220803F
+    assert ss.onboard_control_sensors_enabled == 0x0221002F
     assert all(_mavsdk_health(ss).values())
+    # the parachute component (extended RECOVERY_SYSTEM): healthy, absent; EXTENSION_USED unset
+    assert (ss.onboard_control_sensors_present_extended, ss.onboard_control_sensors_enabled_extended,
+            ss.onboard_control_sensors_health_extended) == (0, 0, 1)
     assert ss.voltage_battery == 16200 and ss.battery_remaining == 90
     assert ss.load == 200  # SYS_STATUS.hpp: cpuload.load (0.2) x 1000
 
 
 def _counts(kind, seconds=10.0):
-    vehicle, session, client = make(kind)
+    vehicle, session, client = make(kind, boot_unix_s=1.7e9)
     vehicle.become_ready()
     msgs = client.run_until(seconds)
     counts = {}
@@ -153,8 +162,7 @@ def _counts(kind, seconds=10.0):
                     "GLOBAL_POSITION_INT": 50, "GPS_RAW_INT": 5, "HOME_POSITION": 0.5,
                     "VFR_HUD": 4, "ALTITUDE": 1, "BATTERY_STATUS": 0.5, "MISSION_CURRENT": 1,
                     "SCALED_PRESSURE": 1, "ESTIMATOR_STATUS": 0.5, "VIBRATION": 0.1,
-                    "WIND_COV": 0.5, "PING": 0.1, "GPS_GLOBAL_ORIGIN": 0.1,
-                    "UTM_GLOBAL_POSITION": 0.5}),
+                    "PING": 0.1, "GPS_GLOBAL_ORIGIN": 0.1, "CURRENT_MODE": 0.5}),
     (LinkKind.API, {"HEARTBEAT": 1, "SYS_STATUS": 5, "EXTENDED_SYS_STATE": 5, "ATTITUDE": 100,
                     "ATTITUDE_QUATERNION": 50, "LOCAL_POSITION_NED": 30,
                     "ATTITUDE_TARGET": 10, "POSITION_TARGET_LOCAL_NED": 10,
@@ -163,7 +171,7 @@ def _counts(kind, seconds=10.0):
                     "VFR_HUD": 10, "ALTITUDE": 10, "BATTERY_STATUS": 0.5, "SYSTEM_TIME": 1,
                     "MISSION_CURRENT": 1, "HIGHRES_IMU": 50, "ODOMETRY": 30,
                     "SCALED_PRESSURE": 1, "ESTIMATOR_STATUS": 1, "VIBRATION": 0.5,
-                    "WIND_COV": 10, "TIMESYNC": 10, "PING": 1, "UTM_GLOBAL_POSITION": 1,
+                    "TIMESYNC": 10, "PING": 1, "CURRENT_MODE": 0.5,
                     "GPS_GLOBAL_ORIGIN": 0.1}),  # once: it is sent again only if it moves
 ], ids=["gcs", "api"])
 def test_stream_rates(kind, expected):
@@ -241,7 +249,7 @@ def test_uid_differs_per_sysid():
 
 
 def test_message_interval_commands():
-    vehicle, session, client = make(LinkKind.GCS)
+    vehicle, session, client = make(LinkKind.GCS, boot_unix_s=1.7e9)
     got = client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, 32, 200_000)  # LPN 5 Hz
     assert acks(got)[0].result == 0
     got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, 32)

@@ -12,6 +12,7 @@ import zlib
 
 import numpy as np
 from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import development
 
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import SigningConfig
@@ -314,7 +315,7 @@ class Client:
         self.session = session
         self.mav = M.MAVLink(None, sysid, compid)
         self.mav.robust_parsing = True
-        self.rx = M.MAVLink(None, 0, 0)
+        self.rx = development.MAVLink(None, 0, 0)  # PX4 SITL's dialect: CURRENT_MODE too
         self.received: list[M.MAVLink_message] = []
         self.datagrams: list[bytes] = []
         self.now_s = 0.0
@@ -344,7 +345,7 @@ class Client:
             assert len(d) <= 1400
             self.datagrams.append(d)
             got.extend(self.rx.parse_buffer(d) or [])
-        assert not any(isinstance(m, M.MAVLink_bad_data) for m in got), got
+        assert not any(isinstance(m, development.MAVLink_bad_data) for m in got), got
         self.received.extend(got)
         return got
 
@@ -379,8 +380,8 @@ def of_type(msgs: list[M.MAVLink_message], name: str) -> list[M.MAVLink_message]
     return [m for m in msgs if m.get_type() == name]
 
 
-def make(kind: LinkKind = LinkKind.API, sysid: int = 1,
-         signing: SigningConfig | None = None) -> tuple[FakeVehicle, Session, Client]:
+def make(kind: LinkKind = LinkKind.API, sysid: int = 1, signing: SigningConfig | None = None,
+         boot_unix_s: float | None = None) -> tuple[FakeVehicle, Session, Client]:
     vehicle = FakeVehicle(sysid)
-    session = Session(vehicle, kind, now_s=0.0, signing=signing)
+    session = Session(vehicle, kind, now_s=0.0, signing=signing, boot_unix_s=boot_unix_s)
     return vehicle, session, Client(session)

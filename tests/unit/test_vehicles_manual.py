@@ -206,19 +206,22 @@ def test_arming_in_position_mode_without_sticks_is_denied(sim):
 
 
 def test_sys_status_reports_the_joystick(sim):
-    """SYS_STATUS RC_RECEIVER: absent without sticks, present and healthy with them, unhealthy
-    once they are lost (MAVSDK's rc_status, QGC's RC indicator)."""
+    """SYS_STATUS RC_RECEIVER (MAVSDK's rc_status, QGC's RC indicator): present and healthy
+    with sticks; without them, never there or lost, absent (rcAndDataLinkCheck sets it present
+    only while valid) and unhealthy, so enabled ("No manual control input", modeCheck)."""
     from gateway.mavlink.heartbeat import SENSOR_RC_RECEIVER, sensor_bits
 
     sim.run(1.2)
-    present, _, health = sensor_bits(sim.v.status)
-    assert not present & SENSOR_RC_RECEIVER
+    present, enabled, health = sensor_bits(sim.v.status)
+    assert not present & SENSOR_RC_RECEIVER and not health & SENSOR_RC_RECEIVER
+    assert enabled & SENSOR_RC_RECEIVER
     fly(sim, 0.5, CENTRED)
     present, enabled, health = sensor_bits(sim.v.status)
     assert present & enabled & health & SENSOR_RC_RECEIVER
     sim.run(1.0)
     present, enabled, health = sensor_bits(sim.v.status)
-    assert present & enabled & SENSOR_RC_RECEIVER and not health & SENSOR_RC_RECEIVER
+    assert not present & SENSOR_RC_RECEIVER and not health & SENSOR_RC_RECEIVER
+    assert enabled & SENSOR_RC_RECEIVER
 
 
 def test_a_second_stick_source_is_ignored_while_the_first_is_fresh(sim):
