@@ -90,7 +90,7 @@ class Session:
         self.kind = kind
         self.sysid = int(vehicle.params["MAV_SYS_ID"])
         self.compid = COMPONENT_ID
-        self.boot_unix_s = boot_unix_s  # SYSTEM_TIME.time_unix_usec = 0 when None
+        self.boot_unix_s = boot_unix_s  # no Unix time when None: no SYSTEM_TIME
         self.stats = SessionStats()
         self.signing = signing
         signer = verifier = None

@@ -18,8 +18,14 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder, packer_of, sat_round
-from gateway.mavlink.heartbeat import build_extended_sys_state, build_heartbeat, build_sys_status
+from gateway.mavlink.codec import Encoder, c_int, f32_mul, packer_of
+from gateway.mavlink.heartbeat import (
+    battery_connected,
+    build_current_mode,
+    build_extended_sys_state,
+    build_heartbeat,
+    build_sys_status,
+)
 from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
 from gateway.mavlink.snapshot import Snapshot
 from vehicles.estimation import (
@@ -66,8 +72,12 @@ def _deg_e7(deg: float) -> int:
     return int(round(deg * 1e7))
 
 
-def _cdeg(rad: float) -> int:
-    return int(round(math.degrees(rad) % 360.0 * 100.0)) % 36000
+TWO_PI = 2.0 * math.pi
+
+
+def _heading_deg(rad: float) -> float:
+    """math::degrees(matrix::wrap_2pi(heading)): [0, 360) degrees, for C to truncate."""
+    return math.degrees(rad % TWO_PI)
 
 
 def heartbeat(enc: Encoder, s: Snapshot) -> bytes:
@@ -80,6 +90,10 @@ def sys_status(enc: Encoder, s: Snapshot) -> bytes:
 
 def extended_sys_state(enc: Encoder, s: Snapshot) -> bytes:
     return build_extended_sys_state(enc, s.status)
+
+
+def current_mode(enc: Encoder, s: Snapshot) -> bytes:
+    return build_current_mode(enc, s.status)
 
 
 def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None = None,
@@ -148,12 +162,14 @@ def local_position_ned(s: Snapshot) -> tuple:
 
 @_shared(M.MAVLink_global_position_int_message, key=_home_alt_m)  # relative_alt: from home
 def global_position_int(s: Snapshot) -> tuple:
+    """GLOBAL_POSITION_INT.hpp: every field a C conversion of the estimate (truncating), the
+    heading wrapped to [0, 360) degrees; relative_alt above home (above the origin without)."""
     g = s.geo
     vx, vy, vz = s.kin.velocity_ned_mps
-    return (s.time_boot_ms, _deg_e7(g.lat_deg), _deg_e7(g.lon_deg),
-            int(round(g.alt_amsl_m * 1000.0)), int(round((g.alt_amsl_m - s.home_alt_m) * 1000.0)),
-            int(round(vx * 100.0)), int(round(vy * 100.0)), int(round(vz * 100.0)),
-            _cdeg(s.euler[2]))
+    alt = g.alt_amsl_m
+    return (s.time_boot_ms, int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), int(alt * 1000.0),
+            int((alt - s.home_alt_m) * 1000.0), int(vx * 100.0), int(vy * 100.0),
+            int(vz * 100.0), int(_heading_deg(s.euler[2]) * 100.0))
 
 
 GPS_NO_GPS_INTERVAL_US = 1_000_000  # GPS_RAW_INT.hpp kNoGpsSendInterval
@@ -201,12 +217,14 @@ def _gps_fix(s: Snapshot) -> tuple:
 
 
 def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:
+    """VFR_HUD.hpp: airspeed is airspeed_validated's, which nothing publishes on a multicopter
+    (airspeed_selector starts only for fixed wings and VTOLs): 0. The heading and the throttle
+    (|thrust setpoint| in percent while armed) are truncated as C converts them."""
     vn, ve, vd = s.kin.velocity_ned_mps
-    speed = math.hypot(vn, ve)
-    # PX4: the collective thrust setpoint in percent while armed (vehicle_thrust_setpoint).
     throttle = s.status.extra.get("thrust_norm", 0.0) if s.status.armed else 0.0
-    return enc.pack(M.MAVLink_vfr_hud_message, speed, speed, _cdeg(s.euler[2]) // 100,
-                    int(round(max(0.0, min(1.0, throttle)) * 100.0)), s.geo.alt_amsl_m, -vd)
+    return enc.pack(M.MAVLink_vfr_hud_message, 0.0, math.hypot(vn, ve),
+                    int(_heading_deg(s.euler[2])), c_int(abs(throttle) * 100.0, 0, 0xFFFF),
+                    s.geo.alt_amsl_m, -vd)
 
 
 @_shared(M.MAVLink_altitude_message, key=_home_alt_m)  # altitude_relative: from home
@@ -222,31 +240,58 @@ def _param(params: ParamStore, name: str, default: float) -> float:
 
 
 def _charge_state(remaining: float, params: ParamStore) -> int:
-    if remaining <= _param(params, "BAT_EMERGEN_THR", 0.05):
+    """lib/battery Battery::determineWarning: strictly below a threshold (both float32)."""
+    remaining = f32_mul(remaining, 1.0)
+    if remaining < _param(params, "BAT_EMERGEN_THR", 0.05):
         return MAV_BATTERY_CHARGE_STATE_EMERGENCY
-    if remaining <= _param(params, "BAT_CRIT_THR", 0.07):
+    if remaining < _param(params, "BAT_CRIT_THR", 0.07):
         return MAV_BATTERY_CHARGE_STATE_CRITICAL
-    if remaining <= _param(params, "BAT_LOW_THR", 0.15):
+    if remaining < _param(params, "BAT_LOW_THR", 0.15):
         return MAV_BATTERY_CHARGE_STATE_LOW
     return MAV_BATTERY_CHARGE_STATE_OK
 
 
+BATTERY_CELL_SLOTS = 10
+UINT16_CHUNK_MV = 65534  # UINT16_MAX - 1
+_VOLTAGES_UNKNOWN = [UINT16_UNKNOWN] * BATTERY_CELL_SLOTS
 
+
+def battery_voltages(voltage_v: float) -> list[int]:
+    """BATTERY_STATUS.hpp voltages[] for a battery whose cell voltages are unknown (lib/battery
+    never fills voltage_cell_v): the total in the first field, split into 65534 mV chunks
+    when it does not fit, the rest unknown; out of spec (over 655 V) all unknown."""
+    mv = f32_mul(voltage_v, 1000.0)
+    out = list(_VOLTAGES_UNKNOWN)
+    if not math.isfinite(mv):
+        out[0] = 0  # a NaN voltage converts to 0, as on ARM
+        return out
+    fields = c_int(mv, -(2**31), 2**31 - 1) // UINT16_CHUNK_MV + 1  # C: toward zero
+    if mv < 0:
+        fields = 1
+    if fields <= BATTERY_CELL_SLOTS:
+        for i in range(fields - 1):
+            out[i] = UINT16_CHUNK_MV
+        out[fields - 1] = c_int(mv - UINT16_CHUNK_MV * (fields - 1), 0, UINT16_UNKNOWN)
+    return out
 
 
 def battery_status(enc: Encoder, s: Snapshot) -> bytes:
+    """BATTERY_STATUS.hpp from lib/battery's battery_status (the simulator's one battery, id
+    1 → 0): C conversions (truncating; remaining roundf), no temperature, no time remaining
+    (BAT1_CAPACITY unset), and -1 / unknown everywhere when no battery is recognised."""
     bat = s.status.battery
-    cells = max(1, min(10, int(bat.cell_count)))
-    cell_mv = bat.voltage_v * 1000.0 / cells
-    # A voltage out of the field's range is left unknown, as PX4's BATTERY_STATUS stream does
-    # ("We're out of spec").
-    cell = int(round(cell_mv)) if 0.0 <= cell_mv <= 65534.0 else UINT16_UNKNOWN
-    voltages = [cell] * cells + [UINT16_UNKNOWN] * (10 - cells)
+    if not battery_connected(bat.voltage_v):
+        return enc.pack(M.MAVLink_battery_status_message, 0, MAV_BATTERY_FUNCTION_ALL,
+                        MAV_BATTERY_TYPE_LIPO, INT16_MAX, _VOLTAGES_UNKNOWN, -1, -1, -1, -1, 0,
+                        _charge_state(bat.remaining, s.vehicle.params), [0, 0, 0, 0], 0, 0)
+    pct = f32_mul(bat.remaining, 100.0)
+    # roundf: halves away from zero
+    remaining = c_int(math.copysign(math.floor(abs(pct) + 0.5), pct), -128, 127) \
+        if math.isfinite(pct) else 0
     return enc.pack(M.MAVLink_battery_status_message, 0, MAV_BATTERY_FUNCTION_ALL,
-                    MAV_BATTERY_TYPE_LIPO, INT16_MAX, voltages,
-                    sat_round(bat.current_a * 100.0, -32768, 32767),
-                    sat_round(bat.consumed_mah, -2**31, 2**31 - 1), -1,
-                    sat_round(bat.remaining * 100.0, -128, 127), 0,
+                    MAV_BATTERY_TYPE_LIPO, INT16_MAX, battery_voltages(bat.voltage_v),
+                    c_int(f32_mul(bat.current_a, 100.0), -32768, 32767),
+                    c_int(bat.consumed_mah, -(2**31), 2**31 - 1), -1, remaining, 0,
                     _charge_state(bat.remaining, s.vehicle.params), [0, 0, 0, 0], 0, 0)
 
 
@@ -256,13 +301,23 @@ def home_position(enc: Encoder, s: Snapshot) -> bytes | None:
         return None
     x, y, z = home.position_ned_m
     q = [math.cos(home.yaw_rad / 2.0), 0.0, 0.0, math.sin(home.yaw_rad / 2.0)]
-    return enc.pack(M.MAVLink_home_position_message, _deg_e7(home.geo.lat_deg),
-                    _deg_e7(home.geo.lon_deg), int(round(home.geo.alt_amsl_m * 1000.0)),
+    # HOME_POSITION.hpp: lat/lon/alt converted as C does (truncating)
+    return enc.pack(M.MAVLink_home_position_message, int(home.geo.lat_deg * 1e7),
+                    int(home.geo.lon_deg * 1e7), int(f32_mul(home.geo.alt_amsl_m, 1000.0)),
                     float(x), float(y), float(z), q, 0.0, 0.0, 0.0, s.time_usec)
 
 
-def system_time(enc: Encoder, s: Snapshot) -> bytes:
-    unix_us = 0 if s.boot_unix_s is None else int((s.boot_unix_s + s.now_s) * 1e6)
+SYSTEM_TIME_VALID_US = 978307200000000  # SYSTEM_TIME.hpp: 2001-01-01, else "definitely wrong"
+
+
+def system_time(enc: Encoder, s: Snapshot) -> bytes | None:
+    """SYSTEM_TIME.hpp: sent only while the real-time clock is past 2001 (without a boot epoch
+    CORNET has no Unix time: nothing)."""
+    if s.boot_unix_s is None:
+        return None
+    unix_us = int((s.boot_unix_s + s.now_s) * 1e6)
+    if unix_us <= SYSTEM_TIME_VALID_US:
+        return None
     return enc.pack(M.MAVLink_system_time_message, unix_us, s.time_boot_ms)
 
 
@@ -278,9 +333,7 @@ G = 9.80665
 MAG_NED_GAUSS = (0.2145, 0.0112, 0.4296)
 HIGHRES_IMU_FIELDS = 0x1BFF  # acc, gyro, mag, abs pressure, pressure alt, temperature
 MAV_FRAME_LOCAL_NED = 1
-MAV_FRAME_BODY_FRD = 12
-MAV_ESTIMATOR_TYPE_NAIVE = 1
-COVARIANCE_UNKNOWN = (math.nan,) + (0.0,) * 20  # first element NaN: unknown
+MAV_ESTIMATOR_TYPE_AUTOPILOT = 8
 
 
 def isa_pressure_hpa(alt_amsl_m: float) -> float:
@@ -324,23 +377,41 @@ def imu_sample(s: Snapshot) -> tuple[float, ...]:
 
 @_shared(M.MAVLink_highres_imu_message)
 def highres_imu(s: Snapshot) -> tuple:
-    """The IMU's specific force and rates (body FRD), the magnetometer, the barometer."""
+    """The IMU's specific force and rates (body FRD), the magnetometer, the barometer.
+    HIGHRES_IMU.hpp puts vehicle_air_data's baro_pressure_pa into abs_pressure as it is: Pa,
+    though the message documents hPa."""
     fx, fy, fz, p, q, r, mx, my, mz = imu_sample(s)
     alt = baro_alt_m(s)
-    return (s.time_usec, fx, fy, fz, p, q, r, mx, my, mz, isa_pressure_hpa(alt), 0.0, alt,
-            isa_temperature_c(alt), HIGHRES_IMU_FIELDS, 0)
+    return (s.time_usec, fx, fy, fz, p, q, r, mx, my, mz, isa_pressure_hpa(alt) * 100.0, 0.0,
+            alt, isa_temperature_c(alt), HIGHRES_IMU_FIELDS, 0)
+
+
+def _odometry_covariances(s: Snapshot) -> tuple[list[float], list[float]]:
+    """ODOMETRY.hpp's pose and velocity covariances: NaN but for the diagonal, which holds EKF2's
+    variances. The position's follow the estimate's accuracies (get_ekf_lpos_accuracy: eph is
+    sqrt(var_x + var_y), epv sqrt(var_z)); the orientation's and the velocity's are not modelled
+    here and stay NaN (unknown)."""
+    pose = [math.nan] * 21
+    e = s.sample.estimator
+    if e is not None:
+        eph, epv = e[E_ACCURACY], e[E_ACCURACY + 1]
+        pose[0] = pose[6] = eph * eph / 2.0
+        pose[11] = epv * epv
+    return pose, [math.nan] * 21
 
 
 @_shared(M.MAVLink_odometry_message)
 def odometry(s: Snapshot) -> tuple:
-    """PX4's ODOMETRY stream: local NED pose, velocity and rates in the body frame (FRD)."""
+    """ODOMETRY.hpp from EKF2's vehicle_odometry (EKF2::PublishOdometry): position and velocity
+    both in the local NED frame (pose_frame and velocity_frame NED, so child_frame_id
+    LOCAL_NED), body rates, estimator type AUTOPILOT, quality 0 (EKF2 never sets it)."""
     kin = s.kin
     x, y, z = kin.position_ned_m
-    vx, vy, vz = to_body(kin.attitude_q, kin.velocity_ned_mps)
+    vx, vy, vz = kin.velocity_ned_mps
     p, q, r = kin.rates_frd_radps
-    return (s.time_usec, MAV_FRAME_LOCAL_NED, MAV_FRAME_BODY_FRD, x, y, z, kin.attitude_q,
-            vx, vy, vz, p, q, r, COVARIANCE_UNKNOWN, COVARIANCE_UNKNOWN, 0,
-            MAV_ESTIMATOR_TYPE_NAIVE, 100)
+    pose, vel = _odometry_covariances(s)
+    return (s.time_usec, MAV_FRAME_LOCAL_NED, MAV_FRAME_LOCAL_NED, x, y, z, kin.attitude_q,
+            vx, vy, vz, p, q, r, pose, vel, 0, MAV_ESTIMATOR_TYPE_AUTOPILOT, 0)
 
 
 def scaled_pressure(enc: Encoder, s: Snapshot) -> bytes:
@@ -380,9 +451,12 @@ def vibration(enc: Encoder, s: Snapshot) -> bytes | None:
 
 def wind_cov(enc: Encoder, s: Snapshot) -> bytes | None:
     """The estimated wind (NED, horizontal; from the drag while flying) and the variability of
-    the raw wind samples behind it."""
+    the raw wind samples behind it. EKF2 publishes wind (and WIND_COV.hpp sends) only while its
+    wind states are active (EKF2::PublishWindEstimate, get_wind_status): for a multicopter only
+    with drag fusion, EKF2_DRAG_CTRL, which is off by default and which CORNET's parameter set
+    does not have, so nothing is sent."""
     e = s.sample.estimator
-    if e is None:
+    if e is None or not s.vehicle.params.get("EKF2_DRAG_CTRL", 0):
         return None
     return enc.pack(M.MAVLink_wind_cov_message, s.time_usec, e[E_WIND], e[E_WIND + 1], 0.0,
                     e[E_WIND_VAR], 0.0, s.geo.alt_amsl_m, 0.0, 0.0)
@@ -396,5 +470,5 @@ def orbit_execution_status(enc: Encoder, s: Snapshot) -> bytes | None:
         return None
     g = s.vehicle.origin.offset_ned(st.center_ne_m[0], st.center_ne_m[1], st.down_m)
     return enc.pack(M.MAVLink_orbit_execution_status_message, s.time_usec, st.radius_m,
-                    MAV_FRAME_GLOBAL, _deg_e7(g.lat_deg), _deg_e7(g.lon_deg), g.alt_amsl_m)
+                    MAV_FRAME_GLOBAL, int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), g.alt_amsl_m)
 

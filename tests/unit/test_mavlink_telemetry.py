@@ -13,6 +13,7 @@ from test_mavlink_support import FakeVehicle, make
 from gateway.mavlink import streams
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.streams import NEVER, STREAMS, STREAMS_BY_ID, Scheduler
+from gateway.testing import Sim
 from vehicles.types import GeoPoint, HomePosition, Kinematics
 
 
@@ -23,7 +24,8 @@ class ReferenceScheduler:
         self.kind = kind
         start = int(round(now_s * 1e6))
         self.interval = {s.msg_id: streams._interval_us(s.default_hz(kind)) for s in STREAMS}
-        self.next = {i: start if iv else NEVER for i, iv in self.interval.items()}
+        self.next = {i: start if iv and not STREAMS_BY_ID[i].silent else NEVER
+                     for i, iv in self.interval.items()}
         self.requested = dict(self.interval)  # what MESSAGE_INTERVAL reports
 
     def set_interval(self, msg_id: int, interval_us: float, now_s: float) -> bool:
@@ -41,7 +43,7 @@ class ReferenceScheduler:
         if 0 < iv < streams.MAVLINK_MIN_INTERVAL_US:  # one send per MAVLink loop at most
             iv = streams.MAVLINK_MIN_INTERVAL_US
         self.interval[msg_id] = iv
-        self.next[msg_id] = int(round(now_s * 1e6)) if iv else NEVER
+        self.next[msg_id] = int(round(now_s * 1e6)) if iv and not spec.silent else NEVER
         return True
 
     def due(self, now_s: float) -> list[int]:
@@ -92,7 +94,8 @@ def test_grouped_scheduler_matches_the_per_stream_reference(kind, seed):
 
 def test_streams_due_together_go_out_in_table_order():
     sched = Scheduler(LinkKind.GCS, 0.0)
-    assert [s.msg_id for s in sched.due(0.0)] == [s.msg_id for s in STREAMS if s.gcs_hz > 0]
+    assert [s.msg_id for s in sched.due(0.0)] == [s.msg_id for s in STREAMS
+                                                  if s.gcs_hz > 0 and not s.silent]
     for spec in STREAMS:
         sched.set_interval(spec.msg_id, -1, 0.0)  # refused for HEARTBEAT (fixed rate)
     assert sched.next_us == 1_000_000
@@ -183,8 +186,8 @@ def test_vfr_hud_throttle_is_the_thrust_setpoint_while_armed():
 
 
 def test_highres_imu_odometry_and_pressure_at_rest_and_yawed():
-    """PX4's sensor streams: specific force and field in the body frame, body-frame odometry
-    velocity, ISA pressure at the altitude."""
+    """PX4's sensor streams: specific force and field in the body frame, ISA pressure at the
+    altitude (HIGHRES_IMU.hpp: in Pa, SCALED_PRESSURE.hpp: in hPa), odometry in local NED."""
     vehicle, session, client = make(LinkKind.API)
     vehicle.become_ready()
     vehicle.move_to(3.0, -4.0, -10.0, yaw_rad=math.pi / 2)  # facing east
@@ -196,13 +199,38 @@ def test_highres_imu_odometry_and_pressure_at_rest_and_yawed():
     assert imu.ymag == pytest.approx(-0.2145, abs=1e-3) and imu.zmag == pytest.approx(0.4296)
     alt = vehicle.origin.alt_amsl_m + 10.0
     assert imu.pressure_alt == pytest.approx(alt, abs=1e-3)
-    assert imu.abs_pressure == pytest.approx(1013.25 * (1 - 2.25577e-5 * alt) ** 5.25588, rel=1e-6)
-    odo = [m for m in msgs if m.get_type() == "ODOMETRY"][-1]
-    assert (odo.x, odo.y, odo.z) == pytest.approx((3.0, -4.0, -10.0))
-    assert (odo.vx, odo.vy, odo.vz) == pytest.approx((2.0, 0.0, 0.0), abs=1e-6)  # forward
-    assert (odo.frame_id, odo.child_frame_id) == (1, 12) and math.isnan(odo.pose_covariance[0])
+    hpa = 1013.25 * (1 - 2.25577e-5 * alt) ** 5.25588
+    assert imu.abs_pressure == pytest.approx(hpa * 100.0, rel=1e-6)  # baro_pressure_pa as is
     sp = [m for m in msgs if m.get_type() == "SCALED_PRESSURE"][-1]
-    assert sp.press_abs == pytest.approx(imu.abs_pressure, rel=1e-6)
+    assert sp.press_abs == pytest.approx(hpa, rel=1e-6)
+
+
+def test_odometry_is_ekf2s_vehicle_odometry_in_local_ned():
+    """ODOMETRY.hpp of EKF2's vehicle_odometry: velocity in NED (child_frame_id LOCAL_NED, not
+    the body frame), estimator type AUTOPILOT, quality 0, covariances NaN off the diagonal."""
+    vehicle, session, client = make(LinkKind.API)
+    vehicle.become_ready()
+    vehicle.move_to(3.0, -4.0, -10.0, yaw_rad=math.pi / 2)  # facing east, flying east
+    vehicle.state = dataclasses.replace(vehicle.state, velocity_ned_mps=np.array([0.0, 2.0, 0.0]))
+    odo = [m for m in client.run_until(0.2) if m.get_type() == "ODOMETRY"][-1]
+    assert (odo.x, odo.y, odo.z) == pytest.approx((3.0, -4.0, -10.0))
+    assert (odo.vx, odo.vy, odo.vz) == pytest.approx((0.0, 2.0, 0.0), abs=1e-6)
+    assert (odo.frame_id, odo.child_frame_id) == (M.MAV_FRAME_LOCAL_NED, M.MAV_FRAME_LOCAL_NED)
+    assert (odo.estimator_type, odo.quality) == (M.MAV_ESTIMATOR_TYPE_AUTOPILOT, 0)
+    diag = (0, 6, 11)  # x, y, z; orientation (15, 18, 20) and velocity are not modelled: NaN
+    assert all(math.isnan(c) != (i in diag) for i, c in enumerate(odo.pose_covariance))
+    assert all(math.isnan(c) for c in odo.velocity_covariance)
+
+
+def test_odometry_position_variances_follow_the_estimates_accuracy():
+    with Sim(1) as sim:
+        sim.advance(3.0)
+        odo = sim.api().messages("ODOMETRY")[-1]
+        est = sim.api().messages("ESTIMATOR_STATUS")[-1]
+    # get_ekf_lpos_accuracy: eph = sqrt(var_x + var_y), epv = sqrt(var_z)
+    assert odo.pose_covariance[0] + odo.pose_covariance[6] == pytest.approx(
+        est.pos_horiz_accuracy ** 2, rel=0.5)
+    assert odo.pose_covariance[11] == pytest.approx(est.pos_vert_accuracy ** 2, rel=0.5)
 
 
 def test_gps_raw_int_carries_the_sim_receivers_course_and_speed_accuracy_at_rest():
