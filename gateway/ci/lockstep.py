@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import development
 
 from gateway.ci.frame_store import FrameStore
 from gateway.ci.ulog_receiver import UlogReceiver
@@ -69,7 +70,7 @@ _ID_LOGGING_DATA = M.MAVLINK_MSG_ID_LOGGING_DATA
 _ID_LOGGING_DATA_ACKED = M.MAVLINK_MSG_ID_LOGGING_DATA_ACKED
 _MISSION_REPLY_IDS = (M.MAVLINK_MSG_ID_MISSION_REQUEST_INT, M.MAVLINK_MSG_ID_MISSION_REQUEST,
                       M.MAVLINK_MSG_ID_MISSION_ACK)
-_NAME_TO_ID = {cls.msgname: msgid for msgid, cls in M.mavlink_map.items()}
+_NAME_TO_ID = {cls.msgname: msgid for msgid, cls in development.mavlink_map.items()}
 
 
 def mission_item(command: int, lat_deg: float = 0.0, lon_deg: float = 0.0, alt_m: float = 0.0, *,
@@ -95,7 +96,8 @@ class Client:
                  compid: int = CLIENT_COMPID) -> None:
         self.sim, self.index, self.kind = sim, index, kind
         self.target = int(sim.vehicles[index].params["MAV_SYS_ID"])
-        self.mav = M.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+        # PX4 SITL's dialect (development: common and CURRENT_MODE)
+        self.mav = development.MAVLink(None, srcSystem=sysid, srcComponent=compid)
         self.mav.robust_parsing = True
         self.peer = ("lockstep", index, kind.name.lower())
         # Raw frames as they arrive: (time, msgid, frame). Decoded on demand, cached.

@@ -10,6 +10,11 @@ Rules:
   rate is fixed. Messages PX4 has no stream for (RAW_IMU, ACTUATOR_CONTROL_TARGET: not in
   mavlink_messages.cpp streams_list) have no entry, so their request FAILS as in PX4.
 - Due streams come out in table order, so a wake-up's frames are always in the same order.
+- A ``silent`` stream is one PX4 configures (MESSAGE_INTERVAL reports its rate) whose uORB topic
+  nothing publishes in this simulation, so its send() never sends (RC_CHANNELS: no RC input;
+  DISTANCE_SENSOR: no range finder): it is never scheduled.
+- Absent on purpose: UTM_GLOBAL_POSITION is not a default stream since PX4 v1.15 (only on
+  request); WIND_COV is a default stream but EKF2 publishes no wind without drag fusion.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as M
 
+from gateway.mavlink.heartbeat import MSG_ID_CURRENT_MODE
 from gateway.mavlink.link import LinkKind
 from gateway.mavlink.telemetry import (
     Builder,
@@ -26,6 +32,7 @@ from gateway.mavlink.telemetry import (
     attitude,
     attitude_quaternion,
     battery_status,
+    current_mode,
     estimator_status,
     extended_sys_state,
     global_position_int,
@@ -68,6 +75,7 @@ class StreamSpec:
     builder: Builder
     gcs_hz: float  # PX4 "normal" mode with the SITL px4-rc.mavlink overrides
     api_hz: float  # PX4 "onboard" mode
+    silent: bool = False  # its topic is never published here: never scheduled
 
     def default_hz(self, kind: LinkKind) -> float:
         return self.gcs_hz if kind is LinkKind.GCS else self.api_hz
@@ -78,6 +86,8 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_TIMESYNC, timesync, 0.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_SYS_STATUS, sys_status, 1.0, 5.0),
     StreamSpec(M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, extended_sys_state, 1.0, 5.0),
+    # development dialect (PX4 SITL's): on every vehicle_status, which commander publishes ≥ 2 Hz
+    StreamSpec(MSG_ID_CURRENT_MODE, current_mode, 0.5, 0.5),
     StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE, attitude, 50.0, 100.0),
     StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION, attitude_quaternion, 50.0, 50.0),
     StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE_TARGET, attitude_target, 50.0, 10.0),
@@ -102,13 +112,15 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_VIBRATION, vibration, 0.1, 0.5),
     StreamSpec(M.MAVLINK_MSG_ID_WIND_COV, wind_cov, 0.5, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_PING, ping, 0.1, 1.0),
-    StreamSpec(M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, gps_global_origin, 0.1, 1.0),
-    # PX4 ≤ 1.15 (this firmware's version) streams it; 1.16 dropped it.
-    StreamSpec(M.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION, utm_global_position, 0.5, 1.0),
+    StreamSpec(M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, gps_global_origin, 1.0, 1.0),
+    # Default streams whose topic nothing publishes here (px4-rc.mavlink sets RC_CHANNELS to 20 Hz
+    # on the GCS link).
+    StreamSpec(M.MAVLINK_MSG_ID_RC_CHANNELS, rc_channels, 20.0, 20.0, silent=True),
+    StreamSpec(M.MAVLINK_MSG_ID_DISTANCE_SENSOR, distance_sensor, 0.5, 10.0, silent=True),
     # Not streamed by default; PX4 SITL sends them once asked (MAVSDK's telemetry.set_rate_*).
+    # UTM_GLOBAL_POSITION left the default streams in v1.15 (PX4 #21663).
+    StreamSpec(M.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION, utm_global_position, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_SCALED_IMU, scaled_imu, 0.0, 0.0),
-    StreamSpec(M.MAVLINK_MSG_ID_RC_CHANNELS, rc_channels, 0.0, 0.0),
-    StreamSpec(M.MAVLINK_MSG_ID_DISTANCE_SENSOR, distance_sensor, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_HIL_STATE_QUATERNION, hil_state_quaternion, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, actuator_output_status, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION, flight_information, 0.0, 0.0),
@@ -151,7 +163,7 @@ class Scheduler:
         for spec in STREAMS:
             iv = _interval_us(spec.default_hz(kind))
             self._interval_us[spec.msg_id] = iv
-            nexts[spec.msg_id] = start if iv else NEVER
+            nexts[spec.msg_id] = start if iv and not spec.silent else NEVER
         self._group(nexts)
 
     def _group(self, next_us: dict[int, int]) -> None:
@@ -205,7 +217,7 @@ class Scheduler:
         if 0 < iv < MAVLINK_MIN_INTERVAL_US:
             iv = MAVLINK_MIN_INTERVAL_US
         self._interval_us[msg_id] = iv
-        nexts[msg_id] = int(round(now_s * 1e6)) if iv else NEVER
+        nexts[msg_id] = int(round(now_s * 1e6)) if iv and not spec.silent else NEVER
         self._group(nexts)
         return True
 

@@ -119,10 +119,10 @@ _UTM_AUTO = frozenset({NavState.AUTO_FOLLOW_TARGET, NavState.AUTO_LAND, NavState
 
 
 def utm_global_position(enc: Encoder, s: Snapshot) -> bytes | None:
-    """UTM_GLOBAL_POSITION.hpp (PX4 ≤ 1.15, at a constant rate while vehicle_global_position
-    is published: once the estimator has a position). The GPS altitude is the ellipsoid's, as
-    in GPS_RAW_INT; no range finder, so no relative altitude; the velocity accuracy is not
-    modelled (0)."""
+    """UTM_GLOBAL_POSITION.hpp (a default stream up to PX4 v1.14; in v1.15 only once a client
+    asks for it), sent while vehicle_global_position is published: once the estimator has a
+    position. The GPS altitude is the ellipsoid's, as in GPS_RAW_INT; no range finder, so no
+    relative altitude; the velocity accuracy is not modelled (0)."""
     status = s.status
     if not status.position_valid:
         return None

@@ -18,7 +18,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from pymavlink.dialects.v20 import common as M
+from pymavlink.dialects.v20 import development as M  # common's messages and CURRENT_MODE
 
 from gateway.mavlink.link import DATARATE_B_S, LinkKind
 from gateway.mavlink.log_streaming import MAX_RATE_FACTOR

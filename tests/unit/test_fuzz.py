@@ -353,6 +353,9 @@ def test_a_reposition_to_a_hostile_altitude_never_stops_a_stream(alt_m):
 
     with Sim(1) as sim:
         api = sim.api(0)
+        # no default stream in PX4 v1.15: asked for, at 1 Hz
+        assert api.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL,
+                                M.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION, 1e6) == 0
         assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
         assert api.arm() == 0 and api.takeoff() == 0
         assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=20)
@@ -363,7 +366,7 @@ def test_a_reposition_to_a_hostile_altitude_never_stops_a_stream(alt_m):
         sim.run_until(lambda: False, timeout_s=3)
         assert sim.simulation.internal_errors == 0
         utm = api.messages("UTM_GLOBAL_POSITION", since)
-        assert len(utm) >= 2  # PX4 ≤ 1.15 sends it at 1 Hz on the API link
+        assert len(utm) >= 2
         assert utm[-1].next_alt == (2**31 - 1 if alt_m > 0 else -(2**31))
         alt = api.messages("POSITION_TARGET_GLOBAL_INT", since)[-1].alt
         assert math.isfinite(alt) and alt == pytest.approx(alt_m, rel=1e-6)

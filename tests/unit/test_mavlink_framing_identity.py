@@ -13,6 +13,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import common as M
+from pymavlink.dialects.v20 import development as D
 
 from gateway.mavlink.codec import Encoder
 from gateway.mavlink.signing import MAVLINK_EPOCH_UNIX_S, Signer, SigningClock, SigningKey
@@ -30,7 +31,8 @@ INT_RANGES = {
     "uint8_t_mavlink_version": (0, 255),
 }
 
-CLASSES = sorted(M.mavlink_map.values(), key=lambda cls: cls.id)
+# and CURRENT_MODE, which PX4 SITL streams from its development dialect
+CLASSES = sorted([*M.mavlink_map.values(), D.MAVLink_current_mode_message], key=lambda cls: cls.id)
 STREAMED_IDS = {spec.msg_id for spec in STREAMS}
 
 

@@ -13,8 +13,6 @@ from gateway.mavlink.session import LinkKind
 ACCEPTED, FAILED = 0, 4
 REQUESTED = {  # MAVSDK call -> message
     "set_rate_scaled_imu": M.MAVLINK_MSG_ID_SCALED_IMU,
-    "set_rate_rc_status": M.MAVLINK_MSG_ID_RC_CHANNELS,
-    "set_rate_distance_sensor": M.MAVLINK_MSG_ID_DISTANCE_SENSOR,
     "set_rate_ground_truth": M.MAVLINK_MSG_ID_HIL_STATE_QUATERNION,
     "set_rate_actuator_output_status": M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS,
 }
@@ -35,6 +33,26 @@ def test_set_message_interval_is_accepted_and_off_by_default(kind, msg_id):
     assert _enable(client, msg_id, 20.0) == ACCEPTED
     got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id)
     assert got[0].interval_us == 50_000
+
+
+@pytest.mark.parametrize("kind, msg_id, default_us", [
+    (LinkKind.GCS, M.MAVLINK_MSG_ID_RC_CHANNELS, 50_000),  # normal 5 Hz, px4-rc.mavlink 20
+    (LinkKind.API, M.MAVLINK_MSG_ID_RC_CHANNELS, 50_000),
+    (LinkKind.GCS, M.MAVLINK_MSG_ID_DISTANCE_SENSOR, 2_000_000),
+    (LinkKind.API, M.MAVLINK_MSG_ID_DISTANCE_SENSOR, 100_000),
+], ids=["rc-gcs", "rc-api", "distance-gcs", "distance-api"])
+def test_default_streams_without_data_report_px4s_rate_and_send_nothing(kind, msg_id,
+                                                                         default_us):
+    """configure_streams_to_default sets RC_CHANNELS and DISTANCE_SENSOR on both links, but
+    SITL has no RC input and no range finder: MESSAGE_INTERVAL tells the rate, nothing comes,
+    also when a client sets one (MAVSDK's set_rate_rc_status, set_rate_distance_sensor)."""
+    vehicle, session, client = make(kind)
+    vehicle.become_ready()
+    got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id)
+    assert got[0].interval_us == default_us
+    assert _enable(client, msg_id, 10.0) == ACCEPTED
+    assert client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id)[0].interval_us == 100_000
+    assert [m for m in client.run_until(2.0) if m.get_msgId() == msg_id] == []
 
 
 @pytest.mark.parametrize("msg_id", [27, 140])  # RAW_IMU, ACTUATOR_CONTROL_TARGET

@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from pymavlink.dialects.v20 import common as M
+from pymavlink.dialects.v20 import development as M  # common and CURRENT_MODE
 
 from gateway.mavlink.streams import STREAMS
 
