@@ -30,6 +30,7 @@ from gateway.mavlink.mission_items import mission_status_of, pack_mission_curren
 from gateway.mavlink.snapshot import Snapshot
 from vehicles.estimation import (
     E_ACCURACY,
+    E_GPS_AGE,
     E_RATIOS,
     E_WIND,
     E_WIND_VAR,
@@ -211,7 +212,10 @@ def _gps_fix(s: Snapshot) -> tuple:
     speed_cm = min(int(math.hypot(vn, ve) * 100.0), UINT16_UNKNOWN)
     cog = int(math.degrees(math.atan2(ve, vn)) % 360.0 * 100.0) % 36000
     alt_mm = int(round(g.alt_amsl_m * 1000.0))
-    return (s.time_usec, GPS_FIX_TYPE_3D, _deg_e7(g.lat_deg), _deg_e7(g.lon_deg), alt_mm,
+    # time_usec is the fix's sensor_gps timestamp (when the receiver published it), not now.
+    e = s.sample.estimator
+    fix_us = s.time_usec if e is None else max(0, s.time_usec - int(round(e[E_GPS_AGE] * 1e6)))
+    return (fix_us, GPS_FIX_TYPE_3D, _deg_e7(g.lat_deg), _deg_e7(g.lon_deg), alt_mm,
             GPS_EPH_CM, GPS_EPV_CM, speed_cm, cog, GPS_SATELLITES, alt_mm,
             GPS_H_ACC_MM, GPS_V_ACC_MM, GPS_VEL_ACC_MM, 0, 0)
 
@@ -229,9 +233,12 @@ def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:
 
 @_shared(M.MAVLink_altitude_message, key=_home_alt_m)  # altitude_relative: from home
 def altitude(s: Snapshot) -> tuple:
+    """ALTITUDE.hpp: altitude_monotonic is the barometric altitude (vehicle_air_data
+    baro_alt_meter), the others the estimate's; no range finder, so terrain and bottom
+    clearance NaN."""
     amsl = s.geo.alt_amsl_m
     local = -s.kin.position_ned_m[2]
-    return (s.time_usec, amsl, amsl, local, amsl - s.home_alt_m, math.nan, math.nan)
+    return (s.time_usec, baro_alt_m(s), amsl, local, amsl - s.home_alt_m, math.nan, math.nan)
 
 
 def _param(params: ParamStore, name: str, default: float) -> float:

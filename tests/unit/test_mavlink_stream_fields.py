@@ -177,3 +177,36 @@ def test_gcs_link_reports_pxs_rates_for_streams_without_data():
     vehicle, session, client = make(LinkKind.GCS)
     got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN)
     assert got[0].interval_us == 1_000_000
+
+
+class OffsetSensorsVehicle(FakeVehicle):
+    """A FakeVehicle whose barometer reads 2 m high and whose last GPS fix is 20 ms old."""
+
+    @property
+    def sensors(self) -> list[float]:
+        from vehicles import estimation as est
+        s = super().sensors
+        s[est.S_BARO_DOWN] -= 2.0
+        return s
+
+    @property
+    def estimator(self) -> list[float]:
+        from vehicles import estimation as est
+        e = super().estimator
+        e[est.E_GPS_AGE] = 0.02
+        return e
+
+
+def test_gps_raw_int_time_is_the_fixs_and_altitude_monotonic_the_barometers():
+    """GPS_RAW_INT.hpp: time_usec = sensor_gps.timestamp (the fix's); ALTITUDE.hpp:
+    altitude_monotonic = vehicle_air_data.baro_alt_meter, altitude_amsl the estimate's."""
+    vehicle = OffsetSensorsVehicle()
+    vehicle.become_ready()
+    vehicle.move_to(0.0, 0.0, -10.0)
+    _, client = _session(vehicle)
+    msgs = client.run_until(0.5)
+    gps, alt = of_type(msgs, "GPS_RAW_INT")[-1], of_type(msgs, "ALTITUDE")[-1]
+    assert gps.time_usec == alt.time_usec - 20_000  # both at 10 Hz; the fix is 20 ms old
+    assert alt.altitude_amsl == pytest.approx(vehicle.origin.alt_amsl_m + 10.0)
+    assert alt.altitude_monotonic == pytest.approx(vehicle.origin.alt_amsl_m + 12.0)
+    assert math.isnan(alt.altitude_terrain) and math.isnan(alt.bottom_clearance)
