@@ -173,7 +173,7 @@ class Autopilot:
         if result is CommandResult.ACCEPTED and not was_armed:
             self.motor_test.clear()
             if self.commander.position_valid:  # Stabilized and the like arm without a position
-                self._set_home(here)
+                self._set_home(here, now_s)
         return result
 
     def takeoff(self, now_s: float, alt_amsl_m: float = math.nan) -> CommandResult:
@@ -295,13 +295,13 @@ class Autopilot:
         if not int(self.params["COM_HOME_EN"]) or not self.commander.position_valid:
             return CommandResult.TEMPORARILY_REJECTED
         if geo is None:
-            self._set_home(here)
+            self._set_home(here, now_s)
             return CommandResult.ACCEPTED
         # PX4 denies non-finite coordinates; a point no position message can carry is denied too
         # (HOME_POSITION would overflow).
         if position_fault(geo.lat_deg, geo.lon_deg, geo.alt_amsl_m) is not None:
             return CommandResult.DENIED
-        self.home = HomePosition(geo, self.origin.ned_of(geo), yaw_rad)  # setManually: as given
+        self.home = HomePosition(geo, self.origin.ned_of(geo), yaw_rad, now_s)  # setManually
         return CommandResult.ACCEPTED
 
     def terminate(self, now_s: float) -> CommandResult:
@@ -324,9 +324,9 @@ class Autopilot:
     def thrust_norm(self) -> float:
         return self.stage.thrust
 
-    def _set_home(self, here: Measurement) -> None:
+    def _set_home(self, here: Measurement, now_s: float) -> None:
         n, e, d = here.position_ned_m
-        self.home = HomePosition(self.origin.offset_ned(n, e, d), (n, e, d), q_yaw(here.attitude_q))
+        self.home = HomePosition(self.origin.offset_ned(n, e, d), (n, e, d), q_yaw(here.attitude_q), now_s)
 
     # --- the loop ----------------------------------------------------------------------------
     def step(self, meas: Measurement, now_s: float) -> InnerCommand:
@@ -442,7 +442,7 @@ class Autopilot:
         if not cmd.mission_valid and cmd.nav_state is NavState.AUTO_MISSION:
             cmd.switch_by_vehicle(NavState.AUTO_LOITER)  # mission cleared under our feet
         if cmd.update(now_s, ld.landed, self._failsafe_flags(now_s, pos)):
-            self._set_home(meas)
+            self._set_home(meas, now_s)
         self.battery.update(now_s, cmd.armed, st.thrust if cmd.armed else 0.0)
         if was_armed and not cmd.armed:
             ld.update(now_s, False, meas.velocity_ned_mps, 0.0, 0.0, hover)

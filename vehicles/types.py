@@ -185,6 +185,7 @@ class HomePosition:
     geo: GeoPoint
     position_ned_m: tuple[float, float, float]
     yaw_rad: float
+    time_s: float = 0.0  # when it was set (home_position's timestamp)
 
 
 @dataclass(frozen=True)

@@ -311,7 +311,7 @@ def home_position(enc: Encoder, s: Snapshot) -> bytes | None:
     # HOME_POSITION.hpp: lat/lon/alt converted as C does (truncating)
     return enc.pack(M.MAVLink_home_position_message, int(home.geo.lat_deg * 1e7),
                     int(home.geo.lon_deg * 1e7), int(f32_mul(home.geo.alt_amsl_m, 1000.0)),
-                    float(x), float(y), float(z), q, 0.0, 0.0, 0.0, s.time_usec)
+                    float(x), float(y), float(z), q, 0.0, 0.0, 0.0, int(home.time_s * 1e6))
 
 
 SYSTEM_TIME_VALID_US = 978307200000000  # SYSTEM_TIME.hpp: 2001-01-01, else "definitely wrong"

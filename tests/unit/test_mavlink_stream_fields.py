@@ -210,3 +210,18 @@ def test_gps_raw_int_time_is_the_fixs_and_altitude_monotonic_the_barometers():
     assert alt.altitude_amsl == pytest.approx(vehicle.origin.alt_amsl_m + 10.0)
     assert alt.altitude_monotonic == pytest.approx(vehicle.origin.alt_amsl_m + 12.0)
     assert math.isnan(alt.altitude_terrain) and math.isnan(alt.bottom_clearance)
+
+
+def test_home_position_time_is_when_home_was_set():
+    """HOME_POSITION.hpp: time_usec = home_position.timestamp, the moment home was set (at the
+    first position fix, then at each arming), not the sending instant."""
+    with Sim(1) as sim:
+        api = sim.api()
+        assert sim.run_until(lambda: sim.status().home is not None, timeout_s=10)
+        set_us = int(sim.status().home.time_s * 1e6)
+        sim.advance(5.0)
+        homes = api.messages("HOME_POSITION")
+        assert len(homes) >= 2 and {h.time_usec for h in homes} == {set_us}
+        assert api.arm() == 0
+        sim.advance(2.5)
+        assert api.last("HOME_POSITION").time_usec > set_us  # set again on arming
