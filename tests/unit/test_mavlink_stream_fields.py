@@ -218,10 +218,12 @@ def test_home_position_time_is_when_home_was_set():
     with Sim(1) as sim:
         api = sim.api()
         assert sim.run_until(lambda: sim.status().home is not None, timeout_s=10)
-        set_us = int(sim.status().home.time_s * 1e6)
+        set_at_s = sim.now
         sim.advance(5.0)
         homes = api.messages("HOME_POSITION")
+        set_us = homes[0].time_usec
         assert len(homes) >= 2 and {h.time_usec for h in homes} == {set_us}
+        assert set_us <= set_at_s * 1e6
         assert api.arm() == 0
         sim.advance(2.5)
         assert api.last("HOME_POSITION").time_usec > set_us  # set again on arming
