@@ -96,8 +96,9 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, global_position_int, 50.0, 50.0),
     StreamSpec(M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT, position_target_global_int, 1.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, servo_output_raw, 50.0, 10.0),
-    # Onboard sends GPS_RAW_INT on every GPS update; PX4's simulated GPS runs at 10 Hz.
-    StreamSpec(M.MAVLINK_MSG_ID_GPS_RAW_INT, gps_raw_int, 5.0, 10.0),
+    # Onboard sends GPS_RAW_INT on every sensor_gps update: SITL's sensor_gps_sim publishes at
+    # 8 Hz (SensorGpsSim ScheduleOnInterval 125 ms; gz's navsat only feeds the ground truth).
+    StreamSpec(M.MAVLINK_MSG_ID_GPS_RAW_INT, gps_raw_int, 5.0, 8.0),
     StreamSpec(M.MAVLINK_MSG_ID_HOME_POSITION, home_position, 0.5, 0.5),
     StreamSpec(M.MAVLINK_MSG_ID_VFR_HUD, vfr_hud, 4.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_ALTITUDE, altitude, 1.0, 10.0),

@@ -167,7 +167,7 @@ def _counts(kind, seconds=10.0):
                     "ATTITUDE_QUATERNION": 50, "LOCAL_POSITION_NED": 30,
                     "ATTITUDE_TARGET": 10, "POSITION_TARGET_LOCAL_NED": 10,
                     "SERVO_OUTPUT_RAW": 10,
-                    "GLOBAL_POSITION_INT": 50, "GPS_RAW_INT": 10, "HOME_POSITION": 0.5,
+                    "GLOBAL_POSITION_INT": 50, "GPS_RAW_INT": 8, "HOME_POSITION": 0.5,
                     "VFR_HUD": 10, "ALTITUDE": 10, "BATTERY_STATUS": 0.5, "SYSTEM_TIME": 1,
                     "MISSION_CURRENT": 1, "HIGHRES_IMU": 50, "ODOMETRY": 30,
                     "SCALED_PRESSURE": 1, "ESTIMATOR_STATUS": 1, "VIBRATION": 0.5,
