@@ -162,7 +162,8 @@ def _counts(kind, seconds=10.0):
                     "GLOBAL_POSITION_INT": 50, "GPS_RAW_INT": 5, "HOME_POSITION": 0.5,
                     "VFR_HUD": 4, "ALTITUDE": 1, "BATTERY_STATUS": 0.5, "MISSION_CURRENT": 1,
                     "SCALED_PRESSURE": 1, "ESTIMATOR_STATUS": 0.5, "VIBRATION": 0.1,
-                    "PING": 0.1, "GPS_GLOBAL_ORIGIN": 0.1, "CURRENT_MODE": 0.5}),
+                    "PING": 0.1, "GPS_GLOBAL_ORIGIN": 0.1, "CURRENT_MODE": 0.5,
+                    "OPEN_DRONE_ID_LOCATION": 1, "OPEN_DRONE_ID_SYSTEM": 1}),
     (LinkKind.API, {"HEARTBEAT": 1, "SYS_STATUS": 5, "EXTENDED_SYS_STATE": 5, "ATTITUDE": 100,
                     "ATTITUDE_QUATERNION": 50, "LOCAL_POSITION_NED": 30,
                     "ATTITUDE_TARGET": 10, "POSITION_TARGET_LOCAL_NED": 10,
@@ -172,6 +173,7 @@ def _counts(kind, seconds=10.0):
                     "MISSION_CURRENT": 1, "HIGHRES_IMU": 50, "ODOMETRY": 30,
                     "SCALED_PRESSURE": 1, "ESTIMATOR_STATUS": 1, "VIBRATION": 0.5,
                     "TIMESYNC": 10, "PING": 1, "CURRENT_MODE": 0.5,
+                    "OPEN_DRONE_ID_LOCATION": 1, "OPEN_DRONE_ID_SYSTEM": 1,
                     "GPS_GLOBAL_ORIGIN": 0.1}),  # once: it is sent again only if it moves
 ], ids=["gcs", "api"])
 def test_stream_rates(kind, expected):

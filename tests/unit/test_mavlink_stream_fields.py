@@ -228,3 +228,49 @@ def test_home_position_time_is_when_home_was_set():
         assert api.arm() == 0
         sim.advance(2.5)
         assert api.last("HOME_POSITION").time_usec > set_us  # set again on arming
+
+
+def test_open_drone_id_location_and_system_as_px4_fills_them():
+    """OPEN_DRONE_ID_LOCATION.hpp / OPEN_DRONE_ID_SYSTEM.hpp at 1 Hz on both links, from
+    sensor_gps_sim's fix (eph 0.9 m: 1 m class, epv 1.78 m: 3 m, s_variance 0.4 m/s: 1 m/s; no
+    UTC time), the barometer, home and the land detector."""
+    vehicle = FakeVehicle()
+    vehicle.become_ready()
+    vehicle.move_to(0.0, 0.0, -10.0)
+    vehicle.landed_state = vehicle.landed_state.IN_AIR
+    vehicle.state = dataclasses.replace(vehicle.state,
+                                        velocity_ned_mps=np.array([-1.0, -1.0, 0.555]))
+    for kind in LinkKind:
+        _, client = _session(vehicle, kind)
+        msgs = client.run_until(2.5)
+        loc, sys_ = of_type(msgs, "OPEN_DRONE_ID_LOCATION"), of_type(msgs, "OPEN_DRONE_ID_SYSTEM")
+        assert len(loc) == len(sys_) == 3
+    loc, sys_ = loc[-1], sys_[-1]
+    assert loc.status == M.MAV_ODID_STATUS_AIRBORNE
+    assert loc.direction == 22500  # south-west, whole degrees
+    assert (loc.speed_horizontal, loc.speed_vertical) == (141, -56)  # truncated; roundf
+    assert (loc.horizontal_accuracy, loc.vertical_accuracy, loc.speed_accuracy) == (
+        M.MAV_ODID_HOR_ACC_1_METER, M.MAV_ODID_VER_ACC_3_METER,
+        M.MAV_ODID_SPEED_ACC_1_METERS_PER_SECOND)
+    assert loc.altitude_geodetic == 498.0 and loc.height == pytest.approx(10.0)
+    assert loc.altitude_barometric == pytest.approx(498.0)
+    assert loc.barometer_accuracy == M.MAV_ODID_VER_ACC_150_METER
+    assert (loc.timestamp, loc.timestamp_accuracy) == (65535.0, 0)  # no UTC time in SITL
+    assert (sys_.operator_latitude, sys_.operator_longitude) == (
+        int(vehicle.origin.lat_deg * 1e7), int(vehicle.origin.lon_deg * 1e7))
+    assert (sys_.area_count, sys_.area_radius, sys_.area_ceiling, sys_.area_floor) == (
+        1, 0, -1000.0, -1000.0)
+    assert sys_.operator_altitude_geo == pytest.approx(488.0)
+    assert sys_.timestamp == 2748666496  # (uint32_t)(0 / 1e6 - 1546300800) on x86-64
+    vehicle.failsafe = vehicle.armed = True
+    _, client = _session(vehicle)
+    assert of_type(client.run_until(0.001), "OPEN_DRONE_ID_LOCATION")[0].status == \
+        M.MAV_ODID_STATUS_EMERGENCY
+
+
+def test_open_drone_id_system_waits_for_home():
+    _, client = _session(FakeVehicle())
+    msgs = client.run_until(2.0)
+    assert of_type(msgs, "OPEN_DRONE_ID_SYSTEM") == []
+    loc = of_type(msgs, "OPEN_DRONE_ID_LOCATION")[-1]
+    assert loc.height == -1000.0 and loc.status == M.MAV_ODID_STATUS_GROUND
