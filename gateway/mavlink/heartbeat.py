@@ -62,7 +62,8 @@ SENSOR_OBSTACLE_AVOIDANCE = 0x20000000  # avoidance
 SENSORS_MAPPED = (SENSOR_3D_GYRO | SENSOR_3D_ACCEL | SENSOR_3D_MAG | SENSOR_ABSOLUTE_PRESSURE
                   | SENSOR_DIFFERENTIAL_PRESSURE | SENSOR_GPS | SENSOR_MOTOR_OUTPUTS
                   | SENSOR_RC_RECEIVER | SENSOR_AHRS | SENSOR_BATTERY | SENSOR_OBSTACLE_AVOIDANCE)
-# The components PX4 SITL's checks find: gyro, accel, mag, baro, GPS, estimator, battery.
+# The components PX4 SITL's checks find: gyro, accel, mag, baro, GPS (once fused), estimator,
+# battery.
 SENSORS_PRESENT = (SENSOR_3D_GYRO | SENSOR_3D_ACCEL | SENSOR_3D_MAG | SENSOR_ABSOLUTE_PRESSURE
                    | SENSOR_GPS | SENSOR_AHRS | SENSOR_BATTERY)  # 0x0220002F
 # MAV_SYS_STATUS_SENSOR_EXTENDED: the parachute component, absent and so healthy.
@@ -97,6 +98,9 @@ def sensor_bits(status: VehicleStatus) -> tuple[int, int, int]:
     present = SENSORS_PRESENT
     health = SENSORS_MAPPED
     if not status.position_valid:
+        # estimatorCheck sets gps present only while EKF2 fuses it (CS_GPS); its checks fail
+        # until the fix is good enough
+        present &= ~SENSOR_GPS
         health &= ~SENSOR_GPS
     if not status.extra.get("estimator_ok", True):  # an innovation test failing
         health &= ~SENSOR_AHRS

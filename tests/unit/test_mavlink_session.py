@@ -123,17 +123,19 @@ def _mavsdk_health(ss):
 
 def test_sys_status_health_bits():
     vehicle, session, client = make()
-    # SYS_STATUS.hpp fillOutComponent: gyro, accel, mag, baro, GPS, estimator (AHRS), battery
-    # present; every mapped component healthy unless flagged (no GPS fix yet; no stick input:
-    # remote_control); enabled = present or unhealthy; PREARM_CHECK only ever in health.
+    # SYS_STATUS.hpp fillOutComponent: gyro, accel, mag, baro, estimator (AHRS), battery and,
+    # once EKF2 fuses it, GPS present; every mapped component healthy unless flagged (no GPS fix
+    # yet; no stick input: remote_control); enabled = present or unhealthy; PREARM_CHECK only
+    # ever in health.
     ss = of_type(client.run_until(0.001), "SYS_STATUS")[0]
-    assert ss.onboard_control_sensors_present == 0x0220002F
+    assert ss.onboard_control_sensors_present == 0x0220000F
     assert ss.onboard_control_sensors_health == 0x2220801F
     assert ss.onboard_control_sensors_enabled == 0x0221002F
     assert _mavsdk_health(ss) == {"global": False, "armable": False, "gyro": True, "accel": True,
                                   "mag": True}
     vehicle.become_ready()
     ss = of_type(client.run_until(1.001), "SYS_STATUS")[-1]
+    assert ss.onboard_control_sensors_present == 0x0220002F
     assert ss.onboard_control_sensors_health == 0x3220803F
     assert ss.onboard_control_sensors_enabled == 0x0221002F
     assert all(_mavsdk_health(ss).values())
