@@ -393,7 +393,10 @@ def highres_imu(s: Snapshot) -> tuple:
             alt, isa_temperature_c(alt), HIGHRES_IMU_FIELDS, 0)
 
 
-def _odometry_covariances(s: Snapshot) -> tuple[list[float], list[float]]:
+COVARIANCE_UNKNOWN = (math.nan,) * 21
+
+
+def _odometry_covariances(s: Snapshot) -> tuple[list[float], tuple[float, ...]]:
     """ODOMETRY.hpp's pose and velocity covariances: NaN but for the diagonal, which holds EKF2's
     variances. The position's follow the estimate's accuracies (get_ekf_lpos_accuracy: eph is
     sqrt(var_x + var_y), epv sqrt(var_z)); the orientation's and the velocity's are not modelled
@@ -404,7 +407,7 @@ def _odometry_covariances(s: Snapshot) -> tuple[list[float], list[float]]:
         eph, epv = e[E_ACCURACY], e[E_ACCURACY + 1]
         pose[0] = pose[6] = eph * eph / 2.0
         pose[11] = epv * epv
-    return pose, [math.nan] * 21
+    return pose, COVARIANCE_UNKNOWN
 
 
 @_shared(M.MAVLink_odometry_message)
