@@ -3,7 +3,8 @@ REQUEST_EVENT 412, RESPONSE_EVENT_ERROR 413), which pymavlink 2.4.50's common di
 
 Each is made as mavgen makes a message class (wire order by field size, CRC_EXTRA from the
 definition; tests/unit/test_events.py recomputes it) and registered in the common dialect's
-``mavlink_map``, so that pymavlink's parser decodes them with their CRC checked, and the encoder
+``mavlink_map`` (and the development dialect's, which PX4 SITL builds with), so that pymavlink's
+parser decodes them with their CRC checked, and the encoder
 (codec.py) packs them like any other message. Importing this module registers them.
 """
 
@@ -13,6 +14,7 @@ import struct
 from typing import Any
 
 from pymavlink.dialects.v20 import common as M
+from pymavlink.dialects.v20 import development
 
 _SIZE = {"uint32_t": 4, "uint16_t": 2, "uint8_t": 1}
 _CODE = {"uint32_t": "I", "uint16_t": "H", "uint8_t": "B"}
@@ -51,6 +53,7 @@ def _message(msg_id: int, name: str, crc_extra: int, fields: tuple[Field, ...]
         "array_lengths": arrays, "crc_extra": crc_extra, "unpacker": unpacker,
         "instance_field": None, "instance_offset": -1, "__init__": __init__, "pack": pack})
     M.mavlink_map.setdefault(msg_id, cls)
+    development.mavlink_map.setdefault(msg_id, M.mavlink_map[msg_id])  # PX4 SITL's dialect
     return M.mavlink_map[msg_id]
 
 

@@ -219,7 +219,11 @@ def _stream_flight(network=None, log_dir=None):
     with Sim(1, network, log_dir=log_dir) as sim:
         api = sim.api(0)
         assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
-        assert api.start_log_stream() == CommandResult.ACCEPTED
+        started = api.start_log_stream()
+        # A lossy link may lose the ACK. The stream runs anyway, and the logger answers the
+        # retries (TEMPORARILY_REJECTED) only once the reliable header is through: while a
+        # packet waits for its ack, LogWriterMavlink blocks PX4's logger thread.
+        assert started == CommandResult.ACCEPTED or (network is not None and started is None)
         assert api.arm() == 0 and api.takeoff() == 0
         sim.advance(8.0)
         receiver = api.log_stream
