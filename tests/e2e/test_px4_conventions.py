@@ -194,7 +194,11 @@ def test_the_configuration_file_sets_the_gcs_address(tmp_path):
     config = tmp_path / "cornet.toml"
     config.write_text('[daemon]\ngcs = "127.0.0.2"\n')
     conn = listen("127.0.0.2", port)
-    d = start_daemon("--config", str(config), port_offset=offset)
+    try:
+        d = start_daemon("--config", str(config), port_offset=offset)
+    except BaseException:
+        conn.close()  # not left to the garbage collector, in another test's time
+        raise
     try:
         assert set(heartbeats_by_sysid(conn, {1})) == {1}, d.log_tail()
     finally:

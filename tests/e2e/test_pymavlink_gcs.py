@@ -44,9 +44,15 @@ def test_gcs_sees_all_vehicles_reads_every_param_and_sets_one(daemon_factory):
                 echo = msg
                 break
         assert echo is not None and echo.param_value == pytest.approx(6.0)
+        # PX4 sends a changed parameter again on every link once it is set (the copy of the
+        # unsaved value, after the echo): vehicle 2's may come before vehicle 1's answer.
         conn.mav.param_request_read_send(1, 1, b"MIS_TAKEOFF_ALT", -1)
-        msg = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=5,
-                              condition="PARAM_VALUE.param_id=='MIS_TAKEOFF_ALT'")
+        deadline = time.monotonic() + 5
+        msg = None
+        while msg is None and time.monotonic() < deadline:
+            got = conn.recv_match(type="PARAM_VALUE", blocking=True, timeout=0.5)
+            if got is not None and got.get_srcSystem() == 1 and got.param_id == "MIS_TAKEOFF_ALT":
+                msg = got
         assert msg is not None and msg.param_value == pytest.approx(2.5)  # vehicle 1 unchanged
     finally:
         conn.close()
