@@ -11,7 +11,17 @@ Rules:
   tan(angle) above it, at least 2 × NAV_ACC_RAD), and within NAV_ACC_RAD to twice its distance.
   It never descends to return: at least the current altitude.
 - RTL_LAND_DELAY < 0 loiters over the destination for ever ("RTL: completed, loitering").
-- Phases advance on the vehicle's measured position (NAV_MC_ALT_RAD vertically).
+- Phases advance as rtl_direct.cpp's mission items are reached (mission_block.cpp
+  ``is_mission_item_reached_or_completed``, multicopter): within NAV_ACC_RAD horizontally and
+  NAV_MC_ALT_RAD vertically (the climb and the descent, loiter-to-altitude items, only
+  vertically), and, where the item has a heading, within MIS_YAW_ERR of it. The heading is the
+  current one while climbing, towards the destination on the way (the destination's, home's yaw,
+  when the return starts closer than RTL_MIN_DIST), home's yaw from the descent on.
+- Activated on the ground (armed and landed) Return stays idle there (rtl_direct.cpp
+  ``getActivationLandState``: IDLE "for safety reasons"), but still says where it would return.
+- Rally points count only farther than 10 m from home, and only when more than 2 m closer than
+  the best destination so far (rtl.cpp MAX_DIST_FROM_HOME_FOR_LAND_APPROACHES,
+  MIN_DIST_THRESHOLD).
 """
 
 from __future__ import annotations
@@ -26,8 +36,14 @@ from vehicles.plan_types import MavCmd, PlanType
 from vehicles.plans import PlanStore, item_ned
 from vehicles.types import Vec3
 
+# rtl.cpp: rally points this close to home are not destinations; a destination has to be this
+# much closer than the best one so far.
+RALLY_MIN_DIST_FROM_HOME_M = 10.0
+MIN_DIST_THRESHOLD_M = 2.0
+
 
 class RtlPhase(enum.Enum):
+    IDLE = "idle"
     CLIMB = "climb"
     RETURN = "return"
     DESCEND = "descend"
@@ -43,12 +59,15 @@ def rtl_destination(ctx: NavContext, plans: PlanStore | None) -> Vec3:
         return best
     x, y = ctx.position_ned_m[0], ctx.position_ned_m[1]
     best_d = math.hypot(best[0] - x, best[1] - y)
+    hx, hy = best[0], best[1]
     for item in plans.get(PlanType.RALLY):
         if item.command != MavCmd.NAV_RALLY_POINT:
             continue
         p = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
+        if math.hypot(p[0] - hx, p[1] - hy) <= RALLY_MIN_DIST_FROM_HOME_M:
+            continue
         d = math.hypot(p[0] - x, p[1] - y)
-        if d < best_d:
+        if d + MIN_DIST_THRESHOLD_M < best_d:
             best, best_d = p, d
     return best
 
@@ -68,6 +87,10 @@ def return_height_m(distance_m: float, return_alt_m: float, cone_deg: float, min
     return max(height, 2.0 * acc_rad_m)
 
 
+def _yaw_error_rad(a: float, b: float) -> float:
+    return abs((a - b + math.pi) % (2.0 * math.pi) - math.pi)
+
+
 class Return(NavMode):
     def __init__(self, plans: PlanStore | None = None) -> None:
         self.plans = plans
@@ -75,12 +98,15 @@ class Return(NavMode):
         self.dest: Vec3 = (0.0, 0.0, 0.0)
         self.return_z = 0.0
         self.yaw = 0.0
-        self._loiter_since = 0.0
+        self._fixed_yaw = math.nan  # the present item's heading (NaN: towards the destination)
+        self._loiter_since: float | None = None
         self._land = Land()
 
     def on_activation(self, ctx: NavContext) -> None:
         p = ctx.params
         self.yaw = ctx.yaw_rad
+        self._fixed_yaw = ctx.yaw_rad  # the climb keeps the heading
+        self._loiter_since = None
         self.dest = rtl_destination(ctx, self.plans)
         x, y, z = ctx.position_ned_m
         dz = self.dest[2]
@@ -88,9 +114,15 @@ class Return(NavMode):
                                 float(p["RTL_RETURN_ALT"]), float(p["RTL_CONE_ANG"]),
                                 float(p["RTL_MIN_DIST"]), float(p["NAV_ACC_RAD"]))
         self.return_z = min(dz - above, z)  # never descend to return
-        self.phase = RtlPhase.LAND if ctx.landed else RtlPhase.CLIMB
-        if not ctx.landed:
-            # rtl_direct.cpp: the return altitude AMSL, and above the destination
+        # rtl_direct.cpp getActivationLandState: landed -> IDLE, below -> climb, else return
+        if ctx.landed:
+            self.phase = RtlPhase.IDLE
+        elif z > self.return_z:
+            self.phase = RtlPhase.CLIMB
+        else:
+            self._start_return(ctx)
+        if ctx.armed:  # PX4 runs no navigator mode while disarmed
+            # rtl_direct.cpp on_activation: the return altitude AMSL, and above the destination
             home = ctx.home
             amsl = c_ceil((home.geo.alt_amsl_m + home.position_ned_m[2] if home else 0.0)
                           - self.return_z - 1e-6)
@@ -98,40 +130,75 @@ class Return(NavMode):
             ctx.log.info(ctx.now_s, f"RTL: start return at {amsl} m ({above} m above destination)\t")
             ctx.log.event(ctx.now_s, RTL_RETURN_AT, Log.INFO, None, "ii", amsl, above)
 
+    def _home_yaw(self, ctx: NavContext) -> float:
+        """The destination's heading: home's yaw, also over a rally point (rtl.cpp)."""
+        return ctx.home.yaw_rad if ctx.home is not None else self.yaw
+
+    def _start_return(self, ctx: NavContext) -> None:
+        self.phase = RtlPhase.RETURN
+        # rtl_direct.cpp MOVE_TO_LOITER: the destination's heading if it is closer than
+        # RTL_MIN_DIST (WV_EN 0), else none (the flight task faces the destination).
+        x, y, _ = ctx.position_ned_m
+        close = math.hypot(x - self.dest[0], y - self.dest[1]) < float(ctx.params["RTL_MIN_DIST"])
+        self._fixed_yaw = self._home_yaw(ctx) if close else math.nan
+
+    def _yaw_reached(self, ctx: NavContext) -> bool:
+        """mission_block.cpp: an item with a heading is reached only within MIS_YAW_ERR of it
+        (no MIS_YAW_TMT timeout here: RTL's items do not force the heading)."""
+        if math.isnan(self._fixed_yaw):
+            return True
+        err = _yaw_error_rad(self._fixed_yaw, ctx.yaw_rad)
+        return err < math.radians(float(ctx.params["MIS_YAW_ERR"])) \
+            or float(ctx.params["MIS_YAW_TMT"]) > 0.0
+
     def on_active(self, ctx: NavContext) -> NavSetpoint:
         p = ctx.params
         hx, hy, hz = self.dest
         x, y, z = ctx.position_ned_m
         alt_rad = float(p["NAV_MC_ALT_RAD"])
+        acc_rad = float(p["NAV_ACC_RAD"])
+        dist_xy = math.hypot(x - hx, y - hy)
+        if self.phase is RtlPhase.IDLE:
+            return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
         if self.phase is RtlPhase.CLIMB:
-            if abs(z - self.return_z) < alt_rad or z < self.return_z:
-                self.phase = RtlPhase.RETURN
+            if abs(z - self.return_z) <= alt_rad and self._yaw_reached(ctx):
+                self._start_return(ctx)
             else:
                 return NavSetpoint((x, y, self.return_z), self.yaw, ctx.limits())
         if self.phase is RtlPhase.RETURN:
-            if math.hypot(x - hx, y - hy) < 0.5 and math.hypot(*ctx.velocity_ned_mps[:2]) < 0.5:
+            if dist_xy <= acc_rad and abs(z - self.return_z) <= alt_rad and self._yaw_reached(ctx):
                 self.phase = RtlPhase.DESCEND
+                self._fixed_yaw = self.yaw = self._home_yaw(ctx)
             else:
-                if math.hypot(x - hx, y - hy) > 2.0:
+                if not math.isnan(self._fixed_yaw):
+                    self.yaw = self._fixed_yaw
+                elif dist_xy > 2.0:
                     self.yaw = math.atan2(hy - y, hx - x)  # MPC_YAW_MODE 0: face the way home
                 return NavSetpoint((hx, hy, self.return_z), self.yaw, ctx.limits())
         descend_z = max(hz - float(p["RTL_DESCEND_ALT"]), self.return_z)
         if self.phase is RtlPhase.DESCEND:
-            if abs(z - descend_z) < alt_rad or z > descend_z:
+            # a loiter-to-altitude item: reached on the altitude (and the heading) alone
+            if abs(z - descend_z) <= alt_rad and self._yaw_reached(ctx):
                 self.phase = RtlPhase.LOITER
-                self._loiter_since = ctx.now_s
                 if float(p["RTL_LAND_DELAY"]) < 0:
                     ctx.log.info(ctx.now_s, "RTL: completed, loitering\t")
                     ctx.log.event(ctx.now_s, RTL_COMPLETED_LOITER)
             else:
                 return NavSetpoint((hx, hy, descend_z), self.yaw, ctx.limits())
         if self.phase is RtlPhase.LOITER:
+            # setLoiterHoldMissionItem: loiter unlimited for RTL_LAND_DELAY < 0, else the delay
+            # counts from reaching the loiter point (no heading to reach)
             delay = float(p["RTL_LAND_DELAY"])
-            if delay < 0 or ctx.now_s - self._loiter_since < delay:
+            if (self._loiter_since is None and dist_xy <= acc_rad
+                    and abs(z - descend_z) <= alt_rad):
+                self._loiter_since = ctx.now_s
+            if (delay < 0 or self._loiter_since is None
+                    or ctx.now_s - self._loiter_since < delay):
                 return NavSetpoint((hx, hy, descend_z), self.yaw, ctx.limits())
             self.phase = RtlPhase.LAND
             ctx.log.info(ctx.now_s, "RTL: land at destination\t")
             ctx.log.event(ctx.now_s, RTL_LAND)
             self._land.on_activation(ctx)
             self._land.target_xy = (hx, hy)
+            self._land.yaw = self.yaw
         return self._land.on_active(ctx)
