@@ -239,9 +239,15 @@ class Takeoff(NavMode):
         limits = auto_limits(p, speed_up_mps=float(p["MPC_TKO_SPEED"]))
         if not ctx.armed:
             return NavSetpoint(self.target, self.yaw, limits, idle=True)
-        # navigator takeoff.cpp: done once the altitude is within NAV_MC_ALT_RAD; Hold then keeps
-        # the takeoff point as its target (the setpoint closes the rest).
-        reached = abs(ctx.position_ned_m[2] - self.target[2]) < float(p["NAV_MC_ALT_RAD"])
+        # mission_block.cpp is_mission_item_reached_or_completed (multicopter takeoff): in the
+        # air and above the takeoff altitude less NAV_MC_ALT_RAD, or less half the takeoff
+        # altitude above home when that is below NAV_MC_ALT_RAD; Hold then keeps the takeoff
+        # point as its target (the setpoint closes the rest).
+        rad = float(p["NAV_MC_ALT_RAD"])
+        above_home = (ctx.home.position_ned_m[2] if ctx.home is not None else 0.0) - self.target[2]
+        if 0.0 < above_home < rad:
+            rad = above_home / 2.0
+        reached = ctx.position_ned_m[2] < self.target[2] + rad
         if not ctx.landed and reached:
             # COM_TAKEOFF_ACT = 0: hold at the takeoff point.
             ctx.switch_to(NavState.AUTO_LOITER, self.target)
