@@ -111,6 +111,15 @@ class AutoTask(FlightTask):
             # infinite and matrix::wrap_pi of it NaN (the next tick starts from the yaw again)
             err = math.remainder(nav_sp.yaw_rad - st.yaw_sp, math.tau)
             st.yaw_sp = wrap_remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
+        if (t.nav_state is NavState.AUTO_TAKEOFF or nav_sp.taking_off) \
+                and nav_sp.target_ned_m[2] < pos[2]:
+            # FlightTaskAuto::_updateTrajConstraints: climbing to a takeoff setpoint closer to
+            # the ground than MPC_LAND_ALT1 the trajectory's altitude stays at the vehicle's
+            # (it does not run ahead while the takeoff ramp spools up)
+            home = t.nav.home
+            height = (home.position_ned_m[2] if home is not None else 0.0) - pos[2]
+            if height < float(self.params["MPC_LAND_ALT1"]):
+                st.trajectory.smoothing.force_set_position_z(pos[2])
         # The trajectory towards the triplet, then position control on it at the slewed
         # heading (one compiled call).
         st.apply_auto(t.dt_s, t.meas, nav_sp.target_ned_m, nav_sp.limits, nav_sp.vz_cmd_mps,

@@ -112,12 +112,14 @@ _LIMITS_KEPT = 64
 
 
 def auto_limits(params, speed_xy_mps: float | None = None, speed_up_mps: float | None = None,
-                speed_down_mps: float | None = None) -> TrajectoryLimits:
+                speed_down_mps: float | None = None,
+                acc_up_mps2: float | None = None) -> TrajectoryLimits:
     """The auto modes' limits from the parameters, with the speeds given (not None) in place of
-    MPC_XY_CRUISE, MPC_Z_V_AUTO_UP and MPC_Z_V_AUTO_DN. Kept in ``params.derived`` (emptied on
-    any parameter change): the navigator asks every 50 Hz tick, and the trajectory
-    (auto_trajectory.py) skips its set-up while the same limits come back."""
-    key = ("auto_limits", speed_xy_mps, speed_up_mps, speed_down_mps)
+    MPC_XY_CRUISE, MPC_Z_V_AUTO_UP and MPC_Z_V_AUTO_DN (and the climb acceleration in place of
+    MPC_ACC_UP_MAX). Kept in ``params.derived`` (emptied on any parameter change): the navigator
+    asks every 50 Hz tick, and the trajectory (auto_trajectory.py) skips its set-up while the
+    same limits come back."""
+    key = ("auto_limits", speed_xy_mps, speed_up_mps, speed_down_mps, acc_up_mps2)
     derived = params.derived
     limits = derived.get(key)
     if limits is None:
@@ -128,7 +130,7 @@ def auto_limits(params, speed_xy_mps: float | None = None, speed_up_mps: float |
             speed_down_mps=(float(p["MPC_Z_V_AUTO_DN"]) if speed_down_mps is None
                             else speed_down_mps),
             acc_xy_mps2=float(p["MPC_ACC_HOR"]),
-            acc_up_mps2=float(p["MPC_ACC_UP_MAX"]),
+            acc_up_mps2=float(p["MPC_ACC_UP_MAX"]) if acc_up_mps2 is None else acc_up_mps2,
             acc_down_mps2=float(p["MPC_ACC_DOWN_MAX"]),
         )
         if len(derived) >= _LIMITS_KEPT:
@@ -146,6 +148,20 @@ def land_speed_mps(params, height_m: float) -> float:
     if height_m <= alt2:
         return slow
     return slow + (fast - slow) * (height_m - alt2) / (alt1 - alt2)
+
+
+def takeoff_limits(params, ctx: NavContext) -> TrajectoryLimits:
+    """FlightTaskAuto::_updateTrajConstraints for a takeoff setpoint: closer to the ground than
+    MPC_LAND_ALT1 (height above home) it climbs at MPC_TKO_SPEED, accelerating at most at
+    MPC_TKO_SPEED / MPC_TKO_RAMP_T (emulating the motor ramp); above, as any climb."""
+    home_z = ctx.home.position_ned_m[2] if ctx.home is not None else 0.0
+    if home_z - ctx.position_ned_m[2] >= float(params["MPC_LAND_ALT1"]):
+        return auto_limits(params)
+    tko = float(params["MPC_TKO_SPEED"])
+    ramp_s = float(params["MPC_TKO_RAMP_T"])
+    acc = float(params["MPC_ACC_UP_MAX"])
+    return auto_limits(params, speed_up_mps=tko,
+                       acc_up_mps2=min(acc, tko / ramp_s) if ramp_s > 0.0 else acc)
 
 
 class NavMode:
@@ -236,7 +252,7 @@ class Takeoff(NavMode):
 
     def on_active(self, ctx: NavContext) -> NavSetpoint:
         p = ctx.params
-        limits = auto_limits(p, speed_up_mps=float(p["MPC_TKO_SPEED"]))
+        limits = takeoff_limits(p, ctx)
         if not ctx.armed:
             return NavSetpoint(self.target, self.yaw, limits, idle=True)
         # mission_block.cpp is_mission_item_reached_or_completed (multicopter takeoff): in the

@@ -146,8 +146,9 @@ class PositionStage:
         step = TILT_LIMIT_SLEW_RADPS * dt
         self._tilt_limit += min(max(tilt - self._tilt_limit, -step), step)
         up_max = g.vel_max_up_mps
-        wanted_up = speed_up_mps if math.isfinite(speed_up_mps) and speed_up_mps <= up_max \
-            else up_max
+        # updateRamp ramps towards the task's constraint, the result is clipped at
+        # MPC_Z_VEL_MAX_UP afterwards (mc_pos_control setVelocityLimits)
+        wanted_up = speed_up_mps if math.isfinite(speed_up_mps) else up_max
         up = min(self.takeoff.update_ramp(dt, wanted_up), up_max)
         pc.set_limits(up, g.thrust_min if flying else 0.0, self._tilt_limit)
         # PX4 re-activates the flight task (FlightTaskAuto::reActivate) until the ramp starts:
@@ -185,7 +186,12 @@ class PositionStage:
         (position_control.auto_position_attitude_step)."""
         traj, pc = self.trajectory, self.position_control
         traj.set_up(lim)
-        no_setpoint, reactivate = self._limits(dt, lim.speed_up_mps)
+        # FlightTaskAuto::_updateTrajConstraints: the controller's climb constraint is at least
+        # MPC_Z_VEL_MAX_UP (the default) and 1.2 x MPC_Z_V_AUTO_UP, whatever the trajectory's
+        # own climb speed (MPC_TKO_SPEED in a takeoff): the takeoff ramp runs towards it.
+        p = self.params
+        speed_up = max(pc.gains.vel_max_up_mps, 1.2 * float(p["MPC_Z_V_AUTO_UP"]))
+        no_setpoint, reactivate = self._limits(dt, speed_up)
         s = traj.smoothing
         s.set_auto_input(meas.position_ned_m, previous_ned_m, target_ned_m, next_ned_m, None)
         yaw_sp = yaw if no_setpoint or math.isnan(self.yaw_sp) else self.yaw_sp

@@ -330,6 +330,11 @@ class PositionSmoothing:
                                   (0.0, a[1], v[1], x[1], 0.0, a[1], v[1], x[1]),
                                   (0.0, a[2], v[2], x[2], 0.0, a[2], v[2], x[2])]
 
+    def force_set_position_z(self, z: float) -> None:
+        """PX4 forceSetPosition({NAN, NAN, z}): VelocitySmoothing::setCurrentPosition on z."""
+        self.axes[2, X] = z
+        self.axes[2, IX] = z
+
     @property
     def position(self) -> Vec3:
         x, y, z = self.axes[:, X].tolist()
