@@ -196,26 +196,32 @@ def gps_raw_int(enc: Encoder, s: Snapshot) -> bytes | None:
                     UINT8_UNKNOWN, 0, 0, 0, 0, 0)
 
 
-@_shared(M.MAVLink_gps_raw_int_message)
-def _gps_fix(s: Snapshot) -> tuple:
-    """The latest GPS fix (vehicles/estimation.py: noisy, EKF2_GPS_DELAY old)."""
+def gps_fix(s: Snapshot) -> tuple[float, float, float, float, float, float]:
+    """The latest GPS fix (vehicles/estimation.py: noisy, EKF2_GPS_DELAY old): (lat, lon, alt
+    AMSL, vn, ve, vd), as GPS_RAW_INT and the Open Drone ID messages report it."""
     sensed = s.sample.sensors
     if sensed is None:
         g = s.geo
-        vn, ve, _ = s.kin.velocity_ned_mps
+        vn, ve, vd = s.kin.velocity_ned_mps
     else:
         g = s.vehicle.origin.offset_ned(sensed[S_GPS_POS], sensed[S_GPS_POS + 1],
                                         sensed[S_GPS_POS + 2])
-        vn, ve = sensed[S_GPS_VEL], sensed[S_GPS_VEL + 1]
+        vn, ve, vd = sensed[S_GPS_VEL], sensed[S_GPS_VEL + 1], sensed[S_GPS_VEL + 2]
+    return g.lat_deg, g.lon_deg, g.alt_amsl_m, vn, ve, vd
+
+
+@_shared(M.MAVLink_gps_raw_int_message)
+def _gps_fix(s: Snapshot) -> tuple:
+    lat_deg, lon_deg, alt_amsl_m, vn, ve, _ = gps_fix(s)
     # GPS_RAW_INT.hpp converts as C does (truncating); cog of every sample, however slow:
     # sensor_gps_sim's course is atan2 of its noisy velocity, so at rest it wanders.
     speed_cm = min(int(math.hypot(vn, ve) * 100.0), UINT16_UNKNOWN)
     cog = int(math.degrees(math.atan2(ve, vn)) % 360.0 * 100.0) % 36000
-    alt_mm = int(round(g.alt_amsl_m * 1000.0))
+    alt_mm = int(round(alt_amsl_m * 1000.0))
     # time_usec is the fix's sensor_gps timestamp (when the receiver published it), not now.
     e = s.sample.estimator
     fix_us = s.time_usec if e is None else max(0, s.time_usec - int(round(e[E_GPS_AGE] * 1e6)))
-    return (fix_us, GPS_FIX_TYPE_3D, _deg_e7(g.lat_deg), _deg_e7(g.lon_deg), alt_mm,
+    return (fix_us, GPS_FIX_TYPE_3D, _deg_e7(lat_deg), _deg_e7(lon_deg), alt_mm,
             GPS_EPH_CM, GPS_EPV_CM, speed_cm, cog, GPS_SATELLITES, alt_mm,
             GPS_H_ACC_MM, GPS_V_ACC_MM, GPS_VEL_ACC_MM, 0, 0)
 

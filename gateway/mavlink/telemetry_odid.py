@@ -23,8 +23,14 @@ from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Encoder
 from gateway.mavlink.snapshot import Snapshot
-from gateway.mavlink.telemetry import GPS_H_ACC_MM, GPS_V_ACC_MM, GPS_VEL_ACC_MM, baro_alt_m
-from vehicles.estimation import E_GPS_AGE, F_GPS_OFF, S_GPS_POS, S_GPS_VEL
+from gateway.mavlink.telemetry import (
+    GPS_H_ACC_MM,
+    GPS_V_ACC_MM,
+    GPS_VEL_ACC_MM,
+    baro_alt_m,
+    gps_fix,
+)
+from vehicles.estimation import E_GPS_AGE, F_GPS_OFF
 from vehicles.types import LandedState
 
 GPS_FRESH_S = 10.0  # hrt_elapsed_time(&vehicle_gps_position.timestamp) < 10_s
@@ -74,19 +80,6 @@ SPEED_ACC = _speed_accuracy(GPS_VEL_ACC_MM / 1000.0)
 def _roundf(x: float) -> float:
     """C's roundf: halves away from zero."""
     return math.copysign(math.floor(abs(x) + 0.5), x)
-
-
-def gps_fix(s: Snapshot) -> tuple[float, float, float, float, float, float]:
-    """The latest fix: (lat, lon, alt AMSL, vn, ve, vd), as GPS_RAW_INT reports it."""
-    sensed = s.sample.sensors
-    if sensed is None:
-        g = s.geo
-        vn, ve, vd = s.kin.velocity_ned_mps
-    else:
-        g = s.vehicle.origin.offset_ned(sensed[S_GPS_POS], sensed[S_GPS_POS + 1],
-                                        sensed[S_GPS_POS + 2])
-        vn, ve, vd = sensed[S_GPS_VEL], sensed[S_GPS_VEL + 1], sensed[S_GPS_VEL + 2]
-    return g.lat_deg, g.lon_deg, g.alt_amsl_m, vn, ve, vd
 
 
 def open_drone_id_location(enc: Encoder, s: Snapshot) -> bytes:
