@@ -134,16 +134,21 @@ async def again_on_timeout(transfer, attempts: int = 10):
     the last item, only waits for it (5 × 0.5 s) and never repeats the item, so a lost final ACK
     fails the upload (p ≈ 0.2 per attempt); a transfer step also fails after 5 retries in a row.
     A script for lossy links asks again (after a time-out MAVSDK may still be winding the old
-    transfer down: BUSY, so wait a moment); ten attempts all failing has p ≈ 1e-7."""
+    transfer down: BUSY, so wait a moment); ten attempts all failing has p ≈ 1e-7.
+    The other way round, when MAVSDK's final MISSION_ACK of a download is lost, PX4 stays in the
+    download until its 5 s protocol time-out ("Operation timeout") and refuses a new upload with
+    MAV_MISSION_ERROR ("WPM: IGN MISSION_COUNT: Busy"), which MAVSDK reports as PROTOCOL_ERROR:
+    that one waits the vehicle's time-out out."""
     from mavsdk.mission import MissionError
 
     for attempt in range(attempts):
         try:
             return await transfer()
         except MissionError as exc:
-            if not ("TIMEOUT" in str(exc) or "BUSY" in str(exc)) or attempt == attempts - 1:
+            retry = any(r in str(exc) for r in ("TIMEOUT", "BUSY", "PROTOCOL_ERROR"))
+            if not retry or attempt == attempts - 1:
                 raise
-            await asyncio.sleep(1.0)
+            await asyncio.sleep(5.5 if "PROTOCOL_ERROR" in str(exc) else 1.0)
 
 
 @pytest.mark.asyncio
