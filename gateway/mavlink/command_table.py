@@ -78,11 +78,11 @@ class SeenComponents:
         self._by_link: dict[object, set[tuple[int, int]]] = {}
 
     def heard(self, link: object, system: int, component: int) -> None:
+        """Every valid frame's sender (at most 256 x 256 pairs per link, whatever a flood sends)."""
         seen = self._by_link.get(link)
         if seen is None:
             seen = self._by_link[link] = set()
-        if (system, component) not in seen:
-            seen.add((system, component))
+        seen.add((system, component))
 
     def seen_elsewhere(self, link: object, system: int, component: int) -> bool:
         """MavlinkReceiver::component_was_seen on every link but ``link``: system 0 matches any
