@@ -53,6 +53,8 @@ from gateway.mavlink.telemetry import (
 )
 from gateway.mavlink.telemetry_control import (
     attitude_target,
+    esc_info,
+    esc_status,
     position_target_global_int,
     position_target_local_ned,
     servo_output_raw,
@@ -68,6 +70,7 @@ from gateway.mavlink.telemetry_requested import (
     rc_channels,
     scaled_imu,
 )
+from gateway.mavlink.wip_dialect import ESC_INFO, ESC_STATUS
 
 
 @dataclass(frozen=True)
@@ -97,6 +100,10 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_GLOBAL_POSITION_INT, global_position_int, 50.0, 50.0),
     StreamSpec(M.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT, position_target_global_int, 1.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, servo_output_raw, 50.0, 10.0),
+    # On esc_status, which the gz bridge publishes with every motor-speed message (common.xml's
+    # work-in-progress messages, which PX4 builds with: wip_dialect.py).
+    StreamSpec(ESC_INFO.id, esc_info, 1.0, 10.0),
+    StreamSpec(ESC_STATUS.id, esc_status, 1.0, 10.0),
     # Onboard sends GPS_RAW_INT on every sensor_gps update: SITL's sensor_gps_sim publishes at
     # 8 Hz (SensorGpsSim ScheduleOnInterval 125 ms; gz's navsat only feeds the ground truth).
     StreamSpec(M.MAVLINK_MSG_ID_GPS_RAW_INT, gps_raw_int, 5.0, 8.0),

@@ -1,7 +1,7 @@
 """What the controllers aim for and what the motors are told: ATTITUDE_TARGET,
-POSITION_TARGET_LOCAL_NED, POSITION_TARGET_GLOBAL_INT and SERVO_OUTPUT_RAW (port 0), from the
-vehicle's ``targets`` (vehicles/types.py Targets); and UTM_GLOBAL_POSITION, where the vehicle is
-and where it goes next.
+POSITION_TARGET_LOCAL_NED, POSITION_TARGET_GLOBAL_INT, SERVO_OUTPUT_RAW (port 0), ESC_INFO and
+ESC_STATUS, from the vehicle's ``targets`` (vehicles/types.py Targets); and UTM_GLOBAL_POSITION,
+where the vehicle is and where it goes next.
 
 Source: PX4's stream classes src/modules/mavlink/streams/<MESSAGE>.hpp, streamed by default
 (mavlink_main.cpp configure_streams_to_default, and px4-rc.mavlink's SITL overrides for the GCS
@@ -32,9 +32,11 @@ from pymavlink.dialects.v20 import common as M
 from gateway.mavlink.codec import Encoder, i32
 from gateway.mavlink.identity import px4_guid
 from gateway.mavlink.snapshot import Snapshot
+from gateway.mavlink.wip_dialect import ESC_INFO, ESC_STATUS
 from vehicles.estimation import E_ACCURACY
 from vehicles.types import LandedState, NavState
 
+ESC_REPORTS = 8  # esc_status_s::CONNECTED_ESC_MAX
 NO_THRUST_ACCEL = (0.0, 0.0, 100.0)  # mc_pos_control: not taken off yet
 NAN3 = (math.nan, math.nan, math.nan)
 
@@ -155,3 +157,28 @@ def utm_global_position(enc: Encoder, s: Snapshot) -> bytes | None:
                     int(vn * 100.0), int(ve * 100.0), int(vd * 100.0),
                     min(int(h_acc * 1000.0), 0xFFFF), min(int(v_acc * 1000.0), 0xFFFF), 0,
                     next_lat, next_lon, next_alt, 0, state, flags)
+
+
+def esc_info(enc: Encoder, s: Snapshot) -> bytes | None:
+    """ESC_INFO.hpp on esc_status, which the gz bridge (GZMixingInterfaceESC::
+    motorSpeedCallback) publishes at every motor-speed message: its count of ESCs, all online,
+    PPM connection, no counter, failures, errors or temperature. PX4 fills each batch of four
+    from the first four reports (its loop indexes ``esc[esc_index]``); the quad has one batch."""
+    sp = s.targets
+    if sp is None:
+        return None
+    n = min(len(sp.outputs), ESC_REPORTS)
+    return enc.pack(ESC_INFO, 0, s.time_usec, 0, n, 0, (1 << n) - 1, (0,) * 4, (0,) * 4,
+                    (0,) * 4)
+
+
+def esc_status(enc: Encoder, s: Snapshot) -> bytes | None:
+    """ESC_STATUS.hpp on the same esc_status: each report's esc_rpm, which the gz bridge sets to
+    the motor's commanded value (the mixer output, SIM_GZ_EC_MAX 1000: rad/s) converted to
+    int32 as C converts; no voltage or current."""
+    sp = s.targets
+    if sp is None:
+        return None
+    rpm = [int(v) for v in sp.outputs[:4]]
+    rpm += [0] * (4 - len(rpm))
+    return enc.pack(ESC_STATUS, 0, s.time_usec, rpm, (0.0,) * 4, (0.0,) * 4)

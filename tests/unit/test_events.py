@@ -13,6 +13,7 @@ from pymavlink.generator.mavcrc import x25crc
 from gateway.ci.lockstep import CLIENT_SYSID
 from gateway.mavlink import event_messages as EM
 from gateway.mavlink.session import LinkKind
+from gateway.mavlink.wip_dialect import ESC_INFO, ESC_STATUS
 from gateway.onboard.metadata import events_json
 from gateway.testing import Sim
 from vehicles.events import DEFINITIONS, INITIAL_SEQUENCE, EventLog, Log, event_id
@@ -41,7 +42,7 @@ def test_event_ids_are_px4s():
 
 
 @pytest.mark.parametrize("cls", [EM.EVENT, EM.CURRENT_EVENT_SEQUENCE, EM.REQUEST_EVENT,
-                                 EM.RESPONSE_EVENT_ERROR])
+                                 EM.RESPONSE_EVENT_ERROR, ESC_INFO, ESC_STATUS])
 def test_message_definitions_have_mavgens_crc_extra(cls):
     """CRC_EXTRA as mavgen computes it from the definition (name, then the wire-ordered fields'
     types and names, array lengths); a frame round-trips through pymavlink's own parser."""
@@ -53,7 +54,8 @@ def test_message_definitions_have_mavgens_crc_extra(cls):
         if cls.array_lengths[i]:
             crc.accumulate([cls.array_lengths[i]])
     assert cls.crc_extra == (crc.crc & 0xFF) ^ (crc.crc >> 8)
-    values = [list(range(40)) if n == "arguments" else k + 1
+    lengths = dict(zip(cls.ordered_fieldnames, cls.array_lengths))
+    values = [list(range(lengths[n])) if lengths[n] else k + 1
               for k, n in enumerate(cls.fieldnames)]
     frame = cls(*values).pack(M.MAVLink(None, 1, 1))
     (decoded,) = M.MAVLink(None, 0, 0).parse_buffer(frame)

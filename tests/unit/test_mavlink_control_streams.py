@@ -101,6 +101,29 @@ def test_actuator_output_status_is_the_same_command_as_servo_output_raw():
             raw.servo1_raw, raw.servo2_raw, raw.servo3_raw, raw.servo4_raw]
 
 
+def test_esc_reports_are_the_gz_bridges_esc_status():
+    """ESC_INFO.hpp / ESC_STATUS.hpp on the gz bridge's esc_status: one batch of four, all
+    online, PPM, no failures or temperature; esc_rpm the commanded rotor speed as
+    SERVO_OUTPUT_RAW has it. 1 Hz on the GCS link, 10 Hz onboard; the frames carry mavgen's
+    CRC_EXTRA (251, 10), so pymavlink's parser checked them."""
+    with Sim(1, links=(LinkKind.API, LinkKind.GCS)) as sim:
+        api, gcs = sim.api(0), sim.gcs(0)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=5)
+        assert api.arm() == 0 and api.takeoff() == 0
+        t0, n_api, n_gcs = sim.now, len(api.messages("ESC_STATUS")), len(gcs.messages("ESC_INFO"))
+        sim.advance(8.0)
+        assert len(api.messages("ESC_STATUS")) - n_api == pytest.approx(10 * (sim.now - t0), abs=1)
+        assert len(gcs.messages("ESC_INFO")) - n_gcs == pytest.approx(sim.now - t0, abs=1)
+        info, status, raw = api.last("ESC_INFO"), api.last("ESC_STATUS"), api.last("SERVO_OUTPUT_RAW")
+        assert (info.index, info.counter, info.count, info.connection_type, info.info) == (
+            0, 0, 4, 0, 0b1111)
+        assert list(info.failure_flags) == list(info.error_count) == list(info.temperature) == [0] * 4
+        assert status.time_usec == info.time_usec == raw.time_usec
+        assert list(status.rpm) == [raw.servo1_raw, raw.servo2_raw, raw.servo3_raw, raw.servo4_raw]
+        assert min(status.rpm) > 150 and list(status.voltage) == list(status.current) == [0.0] * 4
+        assert (type(info).crc_extra, type(status).crc_extra) == (251, 10)
+
+
 def test_timesync_ping_and_origin(flight):
     api, gcs = flight["api"], flight["gcs"]
     ts = api.timed_messages("TIMESYNC")
