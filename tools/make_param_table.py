@@ -52,7 +52,7 @@ KEEP_NAMES = {"THR_MDL_FAC"}
 
 # Current PX4 defaults and SITL / multicopter overrides (PX4's parameter files and rcS scripts).
 OVERRIDES = {
-    "SYS_AUTOSTART": "10016",  # none_iris: a quad with no external simulator
+    "SYS_AUTOSTART": "4001",  # gz_x500: PX4 SITL's default quad with the gz bridge
     "MAV_PROTO_VER": "2",
     "MAV_TYPE": "2",
     "COM_OF_LOSS_T": "1.0",
@@ -135,6 +135,19 @@ ADDED = {
                    "Vertical velocity threshold for sensitivity reduction"),
     "HTE_THR_RANGE": ("FLOAT", "0.2", "normalized_thrust", "Hover Thrust Estimator",
                       "Max deviation from MPC_THR_HOVER"),
+    # land_detector_params_mc.c (v1.15)
+    "LNDMC_TRIG_TIME": ("FLOAT", "1.0", "s", "Land Detector",
+                        "Multicopter land detection trigger time"),
+    # navigator/rtl_params.c (v1.15): RtlTimeEstimator's safety margin
+    "RTL_TIME_FACTOR": ("FLOAT", "1.1", "", "Return To Land",
+                        "RTL time estimate safety margin factor"),
+    "RTL_TIME_MARGIN": ("INT32", "100", "s", "Return To Land",
+                        "RTL time estimate safety margin offset"),
+}
+
+# In the old metadata table but gone from PX4 v1.15 (param_find fails, as a client's get does).
+REMOVED = {
+    "LNDMC_ALT_MAX",  # not in v1.15's land_detector_params_mc.c
 }
 
 FIELDS = ["name", "type", "default", "min", "max", "unit", "group", "short_desc"]
@@ -145,7 +158,7 @@ def main(src: str, dst: str) -> None:
     with open(src, newline="") as f:
         for row in csv.DictReader(f):
             if (row["group"] not in KEEP_GROUPS and row["name"] not in KEEP_NAMES) or \
-                    row["type"] not in ("INT32", "FLOAT"):
+                    row["type"] not in ("INT32", "FLOAT") or row["name"] in REMOVED:
                 continue
             row["default"] = OVERRIDES.get(row["name"], row["default"])
             rows.append({k: row[k] for k in FIELDS})

@@ -13,6 +13,7 @@ take the C result.
 from __future__ import annotations
 
 import math
+import struct
 
 INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
 
@@ -43,3 +44,11 @@ def wrap_remainder(value: float, period: float) -> float:
     """``math.remainder(value, period)``; NaN where it would raise (value ±inf), as
     matrix::wrap gives NaN for an infinite angle (inf − range·inf)."""
     return math.remainder(value, period) if math.isfinite(value) else math.nan
+
+
+def f32(value: float) -> float:
+    """``value`` rounded to float32, as a C float holds it (beyond its range: ±inf)."""
+    try:
+        return struct.unpack("<f", struct.pack("<f", value))[0]
+    except OverflowError:
+        return math.copysign(math.inf, value)

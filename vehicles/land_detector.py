@@ -28,9 +28,9 @@ from __future__ import annotations
 
 import math
 
+from vehicles.cnum import f32
 from vehicles.types import GRAVITY_MPS2, Measurement
 
-TRIGGER_TIME_S = 1.0  # LNDMC_TRIG_TIME's default (not in our parameter set)
 FREEFALL_TRIGGER_S = 0.3  # MulticopterLandDetector.h FREEFALL_TRIGGER_TIME_US
 FREEFALL_ACC_MPS2 = 2.0  # _get_freefall_state: specific force below this
 HTE_TIMEOUT_S = 1.0  # the hover-thrust estimate counts as valid this long after its last valid one
@@ -70,11 +70,11 @@ class LandDetector:
         self._z_vel_max = self._xy_vel_max = self._rot_max_rad = 0.0
         self._thr_min = self._man_thr_min = 0.0
         self._use_hte = False
-        stage_s = TRIGGER_TIME_S / 3.0
         self._freefall = _Hysteresis(False, FREEFALL_TRIGGER_S)
-        self._contact = _Hysteresis(True, stage_s)
-        self._maybe = _Hysteresis(True, stage_s)
-        self._landed = _Hysteresis(True, stage_s)
+        # Each stage LNDMC_TRIG_TIME / 3 (set with the parameters, _set_hysteresis_factor(1))
+        self._contact = _Hysteresis(True, 0.0)
+        self._maybe = _Hysteresis(True, 0.0)
+        self._landed = _Hysteresis(True, 0.0)
         self.landed = self.ground_contact = self.maybe_landed = True
         self.freefall = False
         self.in_descend = False
@@ -95,6 +95,11 @@ class LandDetector:
         self._thr_min = float(p["MPC_THR_MIN"])
         self._man_thr_min = float(p["MPC_MANTHR_MIN"])
         self._use_hte = int(p["MPC_USE_HTE"]) == 1
+        # _set_hysteresis_factor(1): LNDMC_TRIG_TIME * 1_s / 3 in float, as whole µs; NaN or
+        # a negative time converts to a huge hrt_abstime on x86: never
+        stage_us = f32(f32(float(p["LNDMC_TRIG_TIME"]) * 1e6) / 3.0)
+        stage_s = int(stage_us) * 1e-6 if 0.0 <= stage_us < math.inf else math.inf
+        self._contact.delay_s = self._maybe.delay_s = self._landed.delay_s = stage_s
 
     def update(self, now_s: float, armed: bool, meas: Measurement, velocity_sp_z_mps: float,
                thrust_norm: float, hover_thrust: float, hover_valid: bool = False) -> None:

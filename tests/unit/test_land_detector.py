@@ -56,6 +56,23 @@ def test_the_landing_takes_three_stages_of_a_third_of_a_second():
     assert landed - maybe == pytest.approx(1 / 3, abs=DT + 1e-9)
 
 
+@pytest.mark.parametrize("trig_s, stage_s", [(3.0, 1.0), (0.3, 0.1)])
+def test_lndmc_trig_time_sets_the_three_stages(trig_s, stage_s):
+    """_set_hysteresis_factor(1): each stage LNDMC_TRIG_TIME / 3."""
+    r = Run(LNDMC_TRIG_TIME=trig_s)
+    r.in_air()
+    contact = r.step(5.0, 0.12, until=lambda ld: ld.ground_contact)
+    landed = r.step(5.0, 0.12, until=lambda ld: ld.landed)
+    assert landed - contact == pytest.approx(2 * stage_s, abs=DT + 1e-9)
+
+
+def test_a_nan_trigger_time_never_lands():
+    """NaN converts to a huge hysteresis time (x86): ground contact is never confirmed."""
+    r = Run(LNDMC_TRIG_TIME=math.nan)
+    r.in_air()
+    assert r.step(5.0, 0.12, until=lambda ld: ld.ground_contact) is None and not r.ld.landed
+
+
 @pytest.mark.parametrize("vz_sp, contact", [
     (0.30, True),  # >= 1.1 x LNDMC_Z_VEL_MAX (0.275 m/s) down: a commanded descent
     (0.25, False),
