@@ -457,6 +457,7 @@ class Autopilot:
                          auto.setpoint.limits if auto.setpoint else auto_limits(self.params),
                          self.origin, self._switch_by_vehicle, self.navigator.cruise_mps,
                          self.navigator.set_cruise_mps)
+        self.navigator.publish_rtl_estimate(ctx, cmd.position_valid)
         state = cmd.nav_state
         entered = state is not self._prev_nav_state
         self._prev_nav_state = state

@@ -28,8 +28,9 @@ from __future__ import annotations
 
 import enum
 import math
+from typing import NamedTuple
 
-from vehicles.cnum import c_ceil
+from vehicles.cnum import c_ceil, f32
 from vehicles.events import RTL_COMPLETED_LOITER, RTL_LAND, RTL_RETURN_AT, Log
 from vehicles.nav_core import Land, NavContext, NavMode, NavSetpoint
 from vehicles.plan_types import MavCmd, PlanType
@@ -40,6 +41,18 @@ from vehicles.types import Vec3
 # much closer than the best one so far.
 RALLY_MIN_DIST_FROM_HOME_M = 10.0
 MIN_DIST_THRESHOLD_M = 2.0
+
+
+class RtlTimeEstimate(NamedTuple):
+    """rtl_time_estimate: RtlTimeEstimator::getEstimate (safe = RTL_TIME_FACTOR × time +
+    RTL_TIME_MARGIN, both 0 while not ``valid``)."""
+
+    valid: bool
+    time_estimate_s: float
+    safe_time_estimate_s: float
+
+
+NO_ESTIMATE = RtlTimeEstimate(False, 0.0, 0.0)
 
 
 class RtlPhase(enum.Enum):
@@ -202,3 +215,59 @@ class Return(NavMode):
             self._land.target_xy = (hx, hy)
             self._land.yaw = self.yaw
         return self._land.on_active(ctx)
+
+
+FLT_EPSILON = 1.1920929e-07
+
+
+def _div(a: float, b: float) -> float:
+    """C's float division: by zero ±inf (0/0 NaN)."""
+    if b == 0.0:
+        return math.nan if a == 0.0 or math.isnan(a) else math.copysign(math.inf, a) * \
+            math.copysign(1.0, b)
+    return a / b
+
+
+def _vert_s(p, up_m: float) -> float:
+    """calcVertTimeEstimate: a climb at MPC_Z_V_AUTO_UP, a descent at MPC_Z_V_AUTO_DN."""
+    rate = float(p["MPC_Z_V_AUTO_UP"] if up_m > FLT_EPSILON else p["MPC_Z_V_AUTO_DN"])
+    return _div(abs(up_m), rate) if abs(up_m) > FLT_EPSILON else 0.0
+
+
+def rtl_time_estimate(p, start: RtlPhase, pos: Vec3, dest: Vec3, return_z: float
+                      ) -> RtlTimeEstimate:
+    """RtlDirect::calc_rtl_time_estimate from the phase a return would start in (or is in):
+    each phase from there on adds its time, as its switch falls through (NED here: ``return_z``
+    is _rtl_alt, the loiter altitude the lower of the destination + RTL_DESCEND_ALT and it).
+    The horizontal legs at MPC_XY_CRUISE, the climb at MPC_Z_V_AUTO_UP, the descent to the
+    loiter altitude at MPC_Z_V_AUTO_DN, RTL_LAND_DELAY (< 0: loiter for ever, no landing), the
+    landing at MPC_LAND_SPEED. Idle (landed) has no estimate."""
+    if start is RtlPhase.IDLE:
+        return NO_ESTIMATE
+    x, y, z = pos
+    hx, hy, hz = dest
+    loiter_z = max(hz - float(p["RTL_DESCEND_ALT"]), return_z)
+    t = 0.0
+    land = True
+    if start is RtlPhase.CLIMB and z > return_z:  # below the return altitude
+        t += _vert_s(p, z - return_z)
+    if start in (RtlPhase.CLIMB, RtlPhase.RETURN):  # MOVE_TO_LOITER: from here
+        dist = math.hypot(hx - x, hy - y)
+        if dist > FLT_EPSILON:
+            t += _div(dist, float(p["MPC_XY_CRUISE"]))
+    if start in (RtlPhase.CLIMB, RtlPhase.RETURN, RtlPhase.DESCEND):  # LOITER_DOWN
+        t += _vert_s(p, (z if start is RtlPhase.DESCEND else return_z) - loiter_z)
+    if start is not RtlPhase.LAND:  # LOITER_HOLD, then MOVE_TO_LAND (no approach: 0 m)
+        delay = float(p["RTL_LAND_DELAY"])
+        if delay > FLT_EPSILON:
+            t += delay
+        land = not delay < -FLT_EPSILON
+    if land:  # LAND, from the loiter altitude or from here
+        down = (z if start is RtlPhase.LAND else loiter_z) - hz
+        if down < -FLT_EPSILON:
+            t += _div(-down, float(p["MPC_LAND_SPEED"]))
+    t = f32(t)
+    if not math.isfinite(t):
+        return NO_ESTIMATE
+    return RtlTimeEstimate(True, t, f32(f32(float(p["RTL_TIME_FACTOR"])) * t
+                                       + float(p["RTL_TIME_MARGIN"])))

@@ -30,7 +30,15 @@ from vehicles.nav_core import (  # noqa: F401  (re-exported: the autopilot and t
     land_speed_mps,
 )
 from vehicles.nav_mission import Mission
-from vehicles.nav_rtl import Return, RtlPhase  # noqa: F401
+from vehicles.nav_rtl import (  # noqa: F401
+    NO_ESTIMATE,
+    Return,
+    RtlPhase,
+    RtlTimeEstimate,
+    return_height_m,
+    rtl_destination,
+    rtl_time_estimate,
+)
 from vehicles.plans import PlanStore
 from vehicles.types import Changes, NavState
 
@@ -56,6 +64,11 @@ class Navigator:
         self.active_state: NavState | None = None
         self.cruise_mps = math.nan  # NaN = MPC_XY_CRUISE
         self._reactivate = False
+        # rtl_time_estimate as RTL publishes it, and how many times it has (a stream sends it
+        # once per publication)
+        self.rtl_estimate: RtlTimeEstimate = NO_ESTIMATE
+        self.rtl_estimate_seq = 0
+        self._rtl_checked_s: float | None = None
 
     def reactivate(self) -> None:
         """Run on_activation again at the next tick (e.g. a new takeoff command while in Takeoff)."""
@@ -89,3 +102,34 @@ class Navigator:
             self._reactivate = False
             self.modes[nav_state].on_activation(ctx)
         return self.modes[nav_state].on_active(ctx)
+
+    def publish_rtl_estimate(self, ctx: NavContext, position_valid: bool) -> None:
+        """RTL::on_inactive / on_active: more than 2 s after the last time (the first, 2 s after
+        boot), the destination is chosen again and the time a return would take from here is
+        published (RTL::publishRemainingTimeEstimate: none without home or a global position).
+        While returning, from the return's own phase, destination and altitude; else from
+        getActivationLandState's phase (landed: idle, below the return altitude: the climb,
+        else the return leg). (PX4's navigator runs at 20 Hz, so its period is ~2.05 s; here
+        the first 50 Hz tick after 2 s.)"""
+        if self._rtl_checked_s is None:
+            self._rtl_checked_s = ctx.now_s
+        if ctx.now_s - self._rtl_checked_s <= 2.0:
+            return
+        self._rtl_checked_s = ctx.now_s
+        self.rtl_estimate_seq += 1
+        if ctx.home is None or not position_valid:
+            self.rtl_estimate = NO_ESTIMATE
+            return
+        rtl, p = self.rtl, ctx.params
+        pos = ctx.position_ned_m
+        if self.active_state is NavState.AUTO_RTL and ctx.armed:
+            start, dest, return_z = rtl.phase, rtl.dest, rtl.return_z
+        else:
+            dest = rtl_destination(ctx, self.plans)
+            above = return_height_m(math.hypot(pos[0] - dest[0], pos[1] - dest[1]),
+                                    float(p["RTL_RETURN_ALT"]), float(p["RTL_CONE_ANG"]),
+                                    float(p["RTL_MIN_DIST"]), float(p["NAV_ACC_RAD"]))
+            return_z = min(dest[2] - above, pos[2])
+            start = RtlPhase.IDLE if ctx.landed else \
+                RtlPhase.CLIMB if pos[2] > return_z else RtlPhase.RETURN
+        self.rtl_estimate = rtl_time_estimate(p, start, pos, dest, return_z)

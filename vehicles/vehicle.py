@@ -30,6 +30,7 @@ from vehicles.events import ArmReason, EventLog
 from vehicles.health_checks import CheckInputs, HealthChecks, inputs_of
 from vehicles.inner_loop import C_OUTPUTS, C_RATE_INT, C_TORQUE_SP, InnerCommand
 from vehicles.manual_control import Sticks
+from vehicles.nav_rtl import RtlTimeEstimate
 from vehicles.orbit import OrbitStatus
 from vehicles.params import ParamStore
 from vehicles.plan_types import MissionStatus, OffboardSetpoint, PlanItem, PlanResult, PlanType
@@ -169,6 +170,12 @@ class Vehicle:
     @property
     def autopilot(self) -> Autopilot:
         return self._autopilot
+
+    @property
+    def rtl_time_estimate(self) -> tuple[int, RtlTimeEstimate]:
+        """RTL's last rtl_time_estimate, and how many times it was published."""
+        nav = self._autopilot.navigator
+        return nav.rtl_estimate_seq, nav.rtl_estimate
 
     @property
     def state(self) -> VehicleState:

@@ -82,13 +82,14 @@ class Sample:
 class LinkTelemetry:
     """What one link remembers of the streams it sent (the fields of PX4's stream objects)."""
 
-    __slots__ = ("ping_seq", "origin_sent", "origin_time_us", "gps_sent_us")
+    __slots__ = ("ping_seq", "origin_sent", "origin_time_us", "gps_sent_us", "rtl_estimate_seq")
 
     def __init__(self) -> None:
         self.ping_seq = 0
         self.gps_sent_us = 0  # GPS_RAW_INT's _last_send_ts (0: nothing sent yet)
         self.origin_sent: tuple[float, float, float] | None = None  # (lat, lon, alt) last sent
         self.origin_time_us = 0  # when the origin became global (0: not yet)
+        self.rtl_estimate_seq = 0  # the last rtl_time_estimate publication sent
 
 
 class SampleCache:

@@ -60,7 +60,12 @@ from gateway.mavlink.telemetry_control import (
     servo_output_raw,
     utm_global_position,
 )
-from gateway.mavlink.telemetry_link import gps_global_origin, ping, timesync
+from gateway.mavlink.telemetry_link import (
+    gps_global_origin,
+    ping,
+    time_estimate_to_target,
+    timesync,
+)
 from gateway.mavlink.telemetry_odid import open_drone_id_location, open_drone_id_system
 from gateway.mavlink.telemetry_requested import (
     actuator_output_status,
@@ -70,7 +75,7 @@ from gateway.mavlink.telemetry_requested import (
     rc_channels,
     scaled_imu,
 )
-from gateway.mavlink.wip_dialect import ESC_INFO, ESC_STATUS
+from gateway.mavlink.wip_dialect import ESC_INFO, ESC_STATUS, TIME_ESTIMATE_TO_TARGET
 
 
 @dataclass(frozen=True)
@@ -124,6 +129,7 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN, gps_global_origin, 1.0, 1.0),
     StreamSpec(M.MAVLINK_MSG_ID_OPEN_DRONE_ID_LOCATION, open_drone_id_location, 1.0, 1.0),
     StreamSpec(M.MAVLINK_MSG_ID_OPEN_DRONE_ID_SYSTEM, open_drone_id_system, 1.0, 1.0),
+    StreamSpec(TIME_ESTIMATE_TO_TARGET.id, time_estimate_to_target, 1.0, 1.0),
     # Default streams whose topic nothing publishes here (px4-rc.mavlink sets RC_CHANNELS to 20 Hz
     # on the GCS link).
     StreamSpec(M.MAVLINK_MSG_ID_RC_CHANNELS, rc_channels, 20.0, 20.0, silent=True),

@@ -1,6 +1,7 @@
 """Streams that belong to a link rather than to its vehicle alone: TIMESYNC and PING (PX4 asks
-its peer, on the link's own clock and sequence) and GPS_GLOBAL_ORIGIN (sent once per link, then
-on change), with the little each link remembers for them (snapshot.LinkTelemetry).
+its peer, on the link's own clock and sequence), GPS_GLOBAL_ORIGIN (sent once per link, then
+on change) and TIME_ESTIMATE_TO_TARGET (once per publication), with the little each link
+remembers for them (snapshot.LinkTelemetry).
 
 Source: PX4's stream classes src/modules/mavlink/streams/TIMESYNC.hpp, PING.hpp and
 GPS_GLOBAL_ORIGIN.hpp; rates from mavlink_main.cpp configure_streams_to_default (TIMESYNC 10 Hz
@@ -22,6 +23,8 @@ from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Encoder
 from gateway.mavlink.snapshot import Snapshot
+from gateway.mavlink.wip_dialect import TIME_ESTIMATE_TO_TARGET
+from vehicles.cnum import c_int
 
 LLA_MIN_DIFF_DEG = 1e-7
 ALT_MIN_DIFF_M = 0.001
@@ -60,3 +63,23 @@ def gps_global_origin(enc: Encoder, s: Snapshot) -> bytes | None:
         link.origin_sent = (lat, lon, alt)
     return enc.pack(M.MAVLink_gps_global_origin_message, int(round(lat * 1e7)),
                     int(round(lon * 1e7)), int(round(alt * 1e3)), time_us)
+
+
+def time_estimate_to_target(enc: Encoder, s: Snapshot) -> bytes | None:
+    """TIME_ESTIMATE_TO_TARGET.hpp: on each rtl_time_estimate RTL publishes (every ~2 s, so at
+    1 Hz every other wake-up sends), safe_return its safe_time_estimate as int32 (0 while not
+    valid, e.g. landed); the other four -1 (not supported in PX4). A request sends only a
+    publication the link has not sent yet, as the stream's send() does."""
+    published = getattr(s.vehicle, "rtl_time_estimate", None)
+    if published is None:
+        return None
+    seq, estimate = published
+    link = s.link
+    if link is not None:
+        if seq == link.rtl_estimate_seq:
+            return None
+        link.rtl_estimate_seq = seq
+    elif seq == 0:
+        return None
+    return enc.pack(TIME_ESTIMATE_TO_TARGET, c_int(estimate.safe_time_estimate_s), -1, -1, -1,
+                    -1)

@@ -1,13 +1,13 @@
 """Messages of MAVLink's common.xml that pymavlink 2.4.50's generated dialects lack (common.xml
 marks them work in progress, which pymavlink leaves out) but PX4 builds with and sends: the
-events protocol (event_messages.py) and the ESC reports ESC_INFO (290) and ESC_STATUS (291),
-which PX4 SITL with the gz bridge streams by default.
+events protocol (event_messages.py), the ESC reports ESC_INFO (290) and ESC_STATUS (291), which
+PX4 SITL with the gz bridge streams by default, and TIME_ESTIMATE_TO_TARGET (380).
 
 ``define_message`` makes a class as mavgen makes one (wire order by field size, stable; the
 CRC_EXTRA given is mavgen's, tests recompute it from the definition) and registers it in the
 common dialect's ``mavlink_map`` and the development dialect's (PX4 SITL's), so that pymavlink's
 parser decodes it with its CRC checked and the encoder (codec.py) packs it like any other
-message. Importing this module registers the ESC messages.
+message. Importing this module registers the ESC and time-estimate messages.
 """
 
 from __future__ import annotations
@@ -71,3 +71,6 @@ ESC_INFO = define_message(290, "ESC_INFO", 251, (
 ESC_STATUS = define_message(291, "ESC_STATUS", 10, (
     (U8, "index", 0), (U64, "time_usec", 0), (I32, "rpm", 4), (F32, "voltage", 4),
     (F32, "current", 4)))
+TIME_ESTIMATE_TO_TARGET = define_message(380, "TIME_ESTIMATE_TO_TARGET", 232, (
+    (I32, "safe_return", 0), (I32, "land", 0), (I32, "mission_next_item", 0),
+    (I32, "mission_end", 0), (I32, "commanded_action", 0)))
