@@ -3,11 +3,13 @@
 
 Source: PX4 v1.15.2 mavlink_receiver.cpp (handle_message_command_both,
 handle_request_message_command, set_message_interval, get_message_interval), mavlink_main.cpp
-send_autopilot_capabilities, streams/AUTOPILOT_VERSION.hpp, STORAGE_INFORMATION.hpp.
+send_autopilot_capabilities, streams/AUTOPILOT_VERSION.hpp, STORAGE_INFORMATION.hpp,
+AVAILABLE_MODES.hpp (gateway/mavlink/available_modes.py).
 Rules:
-- A requested message goes out before its ACK (same send buffer, in order). The answer is
-  ACCEPTED once it is sent, DENIED otherwise (no stream for the id — MESSAGE_INTERVAL has none
-  in v1.15 —, or nothing to send yet): never UNSUPPORTED.
+- A requested message goes out before its ACK (same send buffer, in order). The answer is what
+  the stream's request_message returns: ACCEPTED once it is sent, DENIED otherwise (no stream
+  for the id — MESSAGE_INTERVAL and AVAILABLE_MODES_MONITOR have none in v1.15 —, or nothing to
+  send yet): never UNSUPPORTED.
 - SET_MESSAGE_INTERVAL and GET_MESSAGE_INTERVAL take the id as (int)roundf(param1); the
   former reads param3 as a link data rate (taken when above 0) and nothing else.
 - Parameters are read as PX4's C casts read them (``c_int``: x86's conversions, NaN and
@@ -22,6 +24,7 @@ from typing import Protocol
 
 from pymavlink.dialects.v20 import common as M
 
+from gateway.mavlink.available_modes import MSG_ID_AVAILABLE_MODES, available_modes
 from gateway.mavlink.codec import (
     COMPONENT_INFORMATION,
     COMPONENT_METADATA,
@@ -97,9 +100,11 @@ class MessageRequests:
             return self.storage_information(p[1], now_s)
         if msg_id in (MSG_ID_COMPONENT_METADATA, MSG_ID_COMPONENT_INFORMATION):
             return self._component_metadata(msg_id, now_s)
+        if msg_id == MSG_ID_AVAILABLE_MODES:
+            return self.available_modes(p[1])
         spec = STREAMS_BY_ID.get(msg_id)
         if spec is None:
-            return DENIED  # e.g. AVAILABLE_MODES, which PX4 v1.15 has no stream for
+            return DENIED  # e.g. AVAILABLE_MODES_MONITOR, which no PX4 stream has as its id
         frame = spec.builder(self.encoder, self.snapshot(now_s))
         if frame is None:
             return DENIED  # e.g. HOME_POSITION before home is set
@@ -123,6 +128,16 @@ class MessageRequests:
         self.send(self.encoder.pack(M.MAVLink_storage_information_message,
                                     int(now_s * 1000.0) & 0xFFFFFFFF, 1, 1, 2,
                                     STORAGE_TOTAL_MIB, used, STORAGE_FREE_MIB, 0.0, 0.0, 0, b"", 0))
+        return ACCEPTED
+
+    def available_modes(self, param2: float) -> int:
+        """AVAILABLE_MODES.hpp request_message: ``int mode_index = roundf(param2)``; 0 is every
+        mode, one frame each, before the ACK."""
+        frames = available_modes(self.encoder, c_int(roundf(param2)))
+        if frames is None:
+            return DENIED
+        for frame in frames:
+            self.send(frame)
         return ACCEPTED
 
     def _component_metadata(self, msg_id: int, now_s: float) -> int:

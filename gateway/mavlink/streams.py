@@ -12,7 +12,8 @@ Rules:
 - Due streams come out in table order, so a wake-up's frames are always in the same order.
 - A ``silent`` stream is one PX4 configures (MESSAGE_INTERVAL reports its rate) whose uORB topic
   nothing publishes in this simulation, so its send() never sends (RC_CHANNELS: no RC input;
-  DISTANCE_SENSOR: no range finder): it is never scheduled.
+  DISTANCE_SENSOR: no range finder; AVAILABLE_MODES, whose send() waits for a change of the mode
+  list): it is never scheduled.
 - Absent on purpose: UTM_GLOBAL_POSITION is not a default stream since PX4 v1.15 (only on
   request); WIND_COV is a default stream but EKF2 publishes no wind without drag fusion.
 """
@@ -24,6 +25,7 @@ from dataclasses import dataclass
 
 from pymavlink.dialects.v20 import common as M
 
+from gateway.mavlink.available_modes import MSG_ID_AVAILABLE_MODES, available_modes_monitor
 from gateway.mavlink.heartbeat import MSG_ID_CURRENT_MODE
 from gateway.mavlink.link import LinkKind
 from gateway.mavlink.telemetry import (
@@ -95,7 +97,10 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_TIMESYNC, timesync, 0.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_SYS_STATUS, sys_status, 1.0, 5.0),
     StreamSpec(M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE, extended_sys_state, 1.0, 5.0),
-    # development dialect (PX4 SITL's): on every vehicle_status, which commander publishes ≥ 2 Hz
+    # development dialect (PX4 SITL's). AVAILABLE_MODES answers requests; its stream would send
+    # AVAILABLE_MODES_MONITOR after the mode list changed, which it never does here.
+    StreamSpec(MSG_ID_AVAILABLE_MODES, available_modes_monitor, 0.3, 0.3, silent=True),
+    # On every vehicle_status, which commander publishes ≥ 2 Hz
     StreamSpec(MSG_ID_CURRENT_MODE, current_mode, 0.5, 0.5),
     StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE, attitude, 50.0, 100.0),
     StreamSpec(M.MAVLINK_MSG_ID_ATTITUDE_QUATERNION, attitude_quaternion, 50.0, 50.0),

@@ -193,8 +193,11 @@ def test_qgc_initial_connect_is_answered_at_once():
     assert caps & M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT
     assert caps & M.MAV_PROTOCOL_CAPABILITY_FTP  # served (gateway/mavlink/ftp.py), as PX4
     assert results(client.command_long(512, 300)) == [(512, 0)]
-    for msg_id in (435, 397, 395):  # AVAILABLE_MODES, COMPONENT_METADATA / _INFORMATION
+    for msg_id in (397, 395):  # COMPONENT_METADATA / _INFORMATION without the FTP files
         assert results(client.command_long(512, msg_id)) == [(512, 2)]  # at once, as PX4
+    got = client.command_long(512, 435)  # AVAILABLE_MODES: every mode, then the ACK
+    assert [m.get_type() for m in got] == ["AVAILABLE_MODES"] * 25 + ["COMMAND_ACK"]
+    assert results(got) == [(512, 0)]
     for mission_type in (0, 1, 2):
         got = client.send(M.MAVLink_mission_request_list_message(1, 190, mission_type))
         assert [(m.get_type(), m.count) for m in got] == [("MISSION_COUNT", 0)]

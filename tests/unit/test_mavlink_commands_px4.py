@@ -116,11 +116,12 @@ def test_capability_requests_take_any_system_and_component(command):
                                            target_component=target[1])) == [(command, 0)]
 
 
-@pytest.mark.parametrize("msg_id", [9999, 435, 65535, -1])
+@pytest.mark.parametrize("msg_id", [9999, 437, 65535, -1])
 def test_request_for_a_message_without_a_stream_is_denied(msg_id):
     """MavlinkReceiver::handle_request_message_command answers ACCEPTED or DENIED, never
-    UNSUPPORTED: a message id without a stream (AVAILABLE_MODES in v1.15, an unknown id; -1 is
-    (uint16_t)roundf(-1) = 65535) is DENIED."""
+    UNSUPPORTED: a message id without a stream (AVAILABLE_MODES_MONITOR, which only the
+    AVAILABLE_MODES stream sends, an unknown id; -1 is (uint16_t)roundf(-1) = 65535) is
+    DENIED."""
     _, _, client = make()
     assert results(client.command_long(M.MAV_CMD_REQUEST_MESSAGE, msg_id)) == [(512, 2)]
 

@@ -31,8 +31,11 @@ INT_RANGES = {
     "uint8_t_mavlink_version": (0, 255),
 }
 
-# and CURRENT_MODE, which PX4 SITL streams from its development dialect
-CLASSES = sorted([*M.mavlink_map.values(), D.MAVLink_current_mode_message], key=lambda cls: cls.id)
+# and CURRENT_MODE, AVAILABLE_MODES (and its stream's AVAILABLE_MODES_MONITOR), which PX4 SITL
+# sends from its development dialect
+CLASSES = sorted([*M.mavlink_map.values(), D.MAVLink_current_mode_message,
+                  D.MAVLink_available_modes_message, D.MAVLink_available_modes_monitor_message],
+                 key=lambda cls: cls.id)
 STREAMED_IDS = {spec.msg_id for spec in STREAMS}
 
 

@@ -226,7 +226,7 @@ def test_request_message_emits_message_before_ack():
     payload = raw[10:10 + raw[1]].ljust(22, b"\0")  # MAVLink 2 trims trailing zeros
     assert payload[:6] == bytes([200, 0, 100, 0, 200, 0])  # version 200, min 100, max 200
     assert acks(got)[0].result == 0
-    for msg_id in (397, 395, 435, 9999):
+    for msg_id in (397, 395, 437, 9999):
         assert [a.result for a in acks(client.command_long(M.MAV_CMD_REQUEST_MESSAGE, msg_id))] == [2]
     got = client.command_long(M.MAV_CMD_REQUEST_MESSAGE, 30)  # any streamed message
     assert [m.get_type() for m in got] == ["ATTITUDE", "COMMAND_ACK"]

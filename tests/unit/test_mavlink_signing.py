@@ -25,12 +25,11 @@ from gateway.mavlink.signing import (
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.streams import STREAMS
 from gateway.mavlink.telemetry import wind_cov
-from gateway.mavlink.telemetry_requested import distance_sensor, rc_channels
 from vehicles.orbit import OrbitStatus
 
 # Streams that send from the fake vehicle (RC_CHANNELS and DISTANCE_SENSOR never do in SITL).
 # (WIND_COV: EKF2 has no wind without drag fusion)
-SENDING_STREAMS = [s for s in STREAMS if s.builder not in (rc_channels, distance_sensor, wind_cov)]
+SENDING_STREAMS = [s for s in STREAMS if not s.silent and s.builder is not wind_cov]
 KEY = SigningKey(bytes(range(32)))
 OTHER_KEY = SigningKey(bytes(range(1, 33)))
 EPOCH_UNIX_S = 1_750_000_000.0  # wall-clock time at simulated t = 0
