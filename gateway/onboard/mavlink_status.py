@@ -104,8 +104,10 @@ def _streams(inst: Instance) -> str:
         cls = M.mavlink_map[spec.msg_id]
         rate = 1e6 / interval
         rate_str = f"{rate:6.2f} ({rate:.3f})"
-        lines.append(f"\t{cls.msgname:<30}{rate_str:<16} "
-                     f"{cls.unpacker.size + NON_PAYLOAD_BYTES:3d}\n")
+        # A stream whose get_size() is 0 (no topic advertised; AVAILABLE_MODES before a change
+        # of the mode list): no size printed
+        size = "" if spec.silent else f" {cls.unpacker.size + NON_PAYLOAD_BYTES:3d}"
+        lines.append(f"\t{cls.msgname:<30}{rate_str:<16}{size}\n")
     return "".join(lines)
 
 

@@ -149,6 +149,9 @@ def test_mavlink_status_streams_and_stream_rates():
         assert tx > 10_000  # the API link's ~400 messages a second
         streams = shell(sim, "mavlink status streams\n").split("\ninstance #1:\n")[1]
         assert "\tATTITUDE                      100.00 (100.000)  40\n" in streams
+        # get_size() 0: no size (no range finder advertised; the mode list never changed)
+        assert "\tDISTANCE_SENSOR                10.00 (10.000) \n" in streams
+        assert "\tAVAILABLE_MODES                 0.30 (0.300)  \n" in streams
         assert shell(sim, "mavlink stream -u 14580 -s ATTITUDE -r 5\n").endswith("pxh> ")
         assert sim.simulation.links[(0, LinkKind.API)].session.scheduler.interval_us(
             M.MAVLINK_MSG_ID_ATTITUDE) == 200_000
