@@ -16,6 +16,7 @@ from pymavlink.dialects.v20 import development
 
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import SigningConfig
+from vehicles.nav_rtl import RtlTimeEstimate
 from vehicles.orbit import OrbitStatus
 from vehicles.params import ParamStore
 from vehicles.plan_types import (
@@ -154,6 +155,8 @@ class FakeVehicle:
         self.position_valid = True
         self.prearm_ok = True
         self.home = HomePosition(self.origin, (0.0, 0.0, 0.0), 0.0)
+        # RTL has published one estimate (navigator.py): TIME_ESTIMATE_TO_TARGET sends it once
+        self.rtl_time_estimate = (1, RtlTimeEstimate(True, 12.5, 113.75))
 
     def arm(self, now_s: float, forced: bool = False, internal: bool = False) -> CommandResult:
         self.calls.append(("arm", now_s, forced))
