@@ -153,15 +153,28 @@ def land_speed_mps(params, height_m: float) -> float:
 def takeoff_limits(params, ctx: NavContext) -> TrajectoryLimits:
     """FlightTaskAuto::_updateTrajConstraints for a takeoff setpoint: closer to the ground than
     MPC_LAND_ALT1 (height above home) it climbs at MPC_TKO_SPEED, accelerating at most at
-    MPC_TKO_SPEED / MPC_TKO_RAMP_T (emulating the motor ramp); above, as any climb."""
+    MPC_TKO_SPEED / MPC_TKO_RAMP_T (emulating the motor ramp); above, as any climb. Horizontally
+    at the navigator's cruising speed (mission_item_to_position_setpoint's cruising_speed)."""
     home_z = ctx.home.position_ned_m[2] if ctx.home is not None else 0.0
     if home_z - ctx.position_ned_m[2] >= float(params["MPC_LAND_ALT1"]):
-        return auto_limits(params)
+        return ctx.limits()
     tko = float(params["MPC_TKO_SPEED"])
     ramp_s = float(params["MPC_TKO_RAMP_T"])
     acc = float(params["MPC_ACC_UP_MAX"])
-    return auto_limits(params, speed_up_mps=tko,
+    return auto_limits(params, ctx.speed_xy_mps, speed_up_mps=tko,
                        acc_up_mps2=min(acc, tko / ramp_s) if ramp_s > 0.0 else acc)
+
+
+def takeoff_reached(ctx: NavContext, target_z: float) -> bool:
+    """mission_block.cpp is_mission_item_reached_or_completed for a multicopter NAV_CMD_TAKEOFF
+    (Takeoff mode and a mission's takeoff alike; the caller asks that it be in the air): above
+    the takeoff altitude less NAV_MC_ALT_RAD, or less half the takeoff altitude above home when
+    that is below NAV_MC_ALT_RAD. Altitude only, and without a yaw setpoint no heading test."""
+    rad = float(ctx.params["NAV_MC_ALT_RAD"])
+    above_home = (ctx.home.position_ned_m[2] if ctx.home is not None else 0.0) - target_z
+    if 0.0 < above_home < rad:
+        rad = above_home / 2.0
+    return ctx.position_ned_m[2] < target_z + rad
 
 
 class NavMode:
@@ -251,20 +264,12 @@ class Takeoff(NavMode):
         self.requested_alt_amsl_m = math.nan
 
     def on_active(self, ctx: NavContext) -> NavSetpoint:
-        p = ctx.params
-        limits = takeoff_limits(p, ctx)
+        limits = takeoff_limits(ctx.params, ctx)
         if not ctx.armed:
             return NavSetpoint(self.target, self.yaw, limits, idle=True)
-        # mission_block.cpp is_mission_item_reached_or_completed (multicopter takeoff): in the
-        # air and above the takeoff altitude less NAV_MC_ALT_RAD, or less half the takeoff
-        # altitude above home when that is below NAV_MC_ALT_RAD; Hold then keeps the takeoff
-        # point as its target (the setpoint closes the rest).
-        rad = float(p["NAV_MC_ALT_RAD"])
-        above_home = (ctx.home.position_ned_m[2] if ctx.home is not None else 0.0) - self.target[2]
-        if 0.0 < above_home < rad:
-            rad = above_home / 2.0
-        reached = ctx.position_ned_m[2] < self.target[2] + rad
-        if not ctx.landed and reached:
+        # takeoff.cpp: done once is_mission_item_reached_or_completed accepts the takeoff (in
+        # the air); Hold then keeps the takeoff point as its target (the setpoint closes the rest).
+        if not ctx.landed and takeoff_reached(ctx, self.target[2]):
             # COM_TAKEOFF_ACT = 0: hold at the takeoff point.
             ctx.switch_to(NavState.AUTO_LOITER, self.target)
         return NavSetpoint(self.target, self.yaw, limits)

@@ -16,9 +16,10 @@ Rules and invariants:
   loiters with "No valid mission available" until an index is set or a mission uploaded.
 - Items without a position are executed at once and count as reached (PX4 reports
   MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/actuator items are skipped.
-- A takeoff item (Mission::handleTakeoff) is a waypoint to its position, after a climb in place
-  (a work item, not reported) on the ground. In the air such a climb ("Climb to") comes before
-  any position item only when activated NAV_MC_ALT_RAD below the next one (checkClimbRequired).
+- Activated more than NAV_MC_ALT_RAD below its next position item, the mission first climbs
+  in place to its altitude (checkClimbRequired, handleTakeoff): a takeoff on the ground, a
+  LOITER_TO_ALT in the air, not reported (mission_climb.py). A takeoff item is a waypoint to
+  its own position (after that climb).
 - NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission.
 - Moving on from an item is goToNextItem, and MISSION_START with an index is goToItem: DO_JUMPs
   on the way are resolved at once (mission_jumps.py). Without a next item (past the last item, a
@@ -38,7 +39,6 @@ from collections import deque
 
 from vehicles.events import (
     COMMANDER_RTL,
-    MISSION_CLIMB,
     MISSION_EXECUTE,
     MISSION_FINISHED,
     MISSION_FINISHED_LOITER,
@@ -46,6 +46,7 @@ from vehicles.events import (
     MISSION_NOT_VALID_REFUSE,
     Log,
 )
+from vehicles.mission_climb import MissionClimb
 from vehicles.mission_feasibility import MissionCheck
 from vehicles.mission_jumps import JumpCounts, fly_through_next, look_ahead, non_jump_index
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
@@ -97,8 +98,7 @@ class Mission(NavMode):
         self._previous: Vec3 | None = None  # the triplet around a goto (PX4 position_setpoint)
         self._next: Vec3 | None = None
         self._came_from: Vec3 | None = None  # the waypoint just reached (the next previous)
-        self._climb_z: float | None = None  # checkClimbRequired: climb in place first (air)
-        self._climb_in_air = False  # the climb is PX4's LOITER_TO_ALT work item, not a takeoff
+        self._climb = MissionClimb()  # the climb work item before the first position item
         self._running = False  # active: in Mission mode and armed (PX4 isActive())
         self._has_run = False  # PX4 _mission_has_been_activated
         self.disarmed_while_inactive = False  # PX4 _system_disarmed_while_inactive
@@ -237,7 +237,7 @@ class Mission(NavMode):
         ctx.log.info(ctx.now_s, "Executing Mission\t")
         ctx.log.event(ctx.now_s, MISSION_EXECUTE)
         self._phase = "start"
-        self._check_climb(ctx)
+        self._climb.check(ctx, self.items, self.current, self._jumps_done)
 
     def on_active(self, ctx: NavContext) -> NavSetpoint:
         if not ctx.armed:  # PX4's navigator runs no mode while disarmed
@@ -257,8 +257,6 @@ class Mission(NavMode):
             self._start_item(ctx)
         if self._phase in ("done", "jump"):
             return NavSetpoint(self._target, self._yaw, ctx.limits(), idle=ctx.landed)
-        if ctx.landed and self._phase not in ("takeoff", "land"):
-            self._begin_takeoff(ctx, self._takeoff_alt(ctx))
         return self._run_phase(ctx)
 
     # --- item handling ------------------------------------------------------------------------
@@ -286,13 +284,9 @@ class Mission(NavMode):
                 continue
             look_ahead(ctx.log, ctx.now_s, items, self.current + 1, self._jumps_done)
             positional = cmd in GOTO_COMMANDS or cmd in TAKEOFF_COMMANDS or cmd in LAND_COMMANDS
-            if positional and self._climb_z is not None and not ctx.landed:
-                self._climb_in_place(ctx, self._climb_z)  # handleTakeoff's climb work item
-                return
-            # handleTakeoff: a takeoff item on the ground is first the climb work item (not
-            # reported); in the air, and after that climb, it is a waypoint to its position.
-            if cmd in TAKEOFF_COMMANDS and ctx.landed and self._begin_takeoff(
-                    ctx, self._home_z(ctx) - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2]):
+            if positional and self._climb.start(ctx):  # handleTakeoff's climb work item
+                self._target, self._yaw = self._climb.target, self._climb.yaw_rad
+                self._phase = "takeoff"
                 return
             if cmd in GOTO_COMMANDS or cmd in TAKEOFF_COMMANDS:
                 self._begin_goto(ctx, item)
@@ -347,55 +341,6 @@ class Mission(NavMode):
         self.current = index
         return True
 
-    def _takeoff_alt(self, ctx: NavContext) -> float:
-        """Auto takeoff (mission_base.cpp checkClimbRequired, v1.15): the next position item's
-        altitude above home, with no MIS_TAKEOFF_ALT floor. Without a position item ahead PX4
-        does not climb; here the climb then goes to MIS_TAKEOFF_ALT."""
-        home_z = self._home_z(ctx)
-        for item in self.items[self.current:]:
-            if item.command in GOTO_COMMANDS or item.command in TAKEOFF_COMMANDS:
-                return home_z - item_ned(item, ctx.origin, ctx.home_alt_amsl_m)[2]
-        return float(ctx.params["MIS_TAKEOFF_ALT"])
-
-    @staticmethod
-    def _home_z(ctx: NavContext) -> float:
-        return ctx.home.position_ned_m[2] if ctx.home else 0.0
-
-    def _check_climb(self, ctx: NavContext) -> None:
-        """checkClimbRequired on activation: in the air, a climb in place comes first when the
-        next position item is more than NAV_MC_ALT_RAD above (on the ground the takeoff does)."""
-        self._climb_z = None
-        found = look_ahead(ctx.log, ctx.now_s, self.items, self.current, self._jumps_done, 1)
-        if ctx.landed or not found:
-            return
-        z = item_ned(self.items[found[0]], ctx.origin, ctx.home_alt_amsl_m)[2]
-        if ctx.position_ned_m[2] - z > float(ctx.params["NAV_MC_ALT_RAD"]):
-            self._climb_z = z
-
-    def _climb_in_place(self, ctx: NavContext, z: float) -> None:
-        """handleTakeoff in the air: "Climb to", then a LOITER_TO_ALT above the vehicle."""
-        alt_above_home_m = self._home_z(ctx) - z
-        ctx.log.info(ctx.now_s, f"Climb to {alt_above_home_m:.1f} meters above home\t")
-        ctx.log.event(ctx.now_s, MISSION_CLIMB, Log.INFO, None, "f", alt_above_home_m)
-        x, y, _ = ctx.position_ned_m
-        self._target, self._climb_z = (x, y, z), None
-        self._fixed_yaw = ctx.yaw_rad
-        self._phase, self._climb_in_air = "takeoff", True
-
-    def _begin_takeoff(self, ctx: NavContext, alt_above_home_m: float) -> bool:
-        """Start a vertical climb (a work item: not reported); False when already higher."""
-        x, y, z = ctx.position_ned_m
-        target_z = self._home_z(ctx) - alt_above_home_m
-        if not ctx.landed and target_z >= z - float(ctx.params["NAV_MC_ALT_RAD"]):
-            return False
-        if ctx.landed:  # mission.cpp handleTakeoff: the climb work item
-            ctx.log.info(ctx.now_s, f"Climb to {alt_above_home_m:.1f} meters above home\t")
-            ctx.log.event(ctx.now_s, MISSION_CLIMB, Log.INFO, None, "f", alt_above_home_m)
-        self._target = (x, y, target_z)
-        self._fixed_yaw = ctx.yaw_rad
-        self._phase, self._climb_in_air = "takeoff", False
-        return True
-
     def _begin_goto(self, ctx: NavContext, item: PlanItem) -> None:
         self._previous = self._came_from if self._came_from is not None else ctx.setpoint_ned_m
         self._came_from = None
@@ -421,21 +366,20 @@ class Mission(NavMode):
         if self._phase in ("done", "jump"):
             return self._hold(ctx)
         if self._phase == "takeoff":
-            if not ctx.landed and abs(z - tz) < alt_rad:
-                self._phase = "start"
-                self._start_item(ctx)
-                return self._run_phase(ctx)
-            if self._climb_in_air:
-                return NavSetpoint(self._target, self._fixed_yaw, ctx.limits())
-            limits = ctx.limits(speed_up_mps=float(p["MPC_TKO_SPEED"]))
-            return NavSetpoint(self._target, self._fixed_yaw, limits, taking_off=True)
+            climb = self._climb.setpoint(ctx)
+            if climb is not None:
+                return climb
+            # accepted: the item it preceded comes, the climb's setpoint as its previous
+            self._came_from, self._phase = self._target, "start"
+            self._start_item(ctx)
+            return self._run_phase(ctx)
         if self._phase == "goto":
             dist = math.hypot(tx - x, ty - y)
             if math.isnan(self._fixed_yaw) and dist > YAW_LOCK_DIST_M:
                 self._yaw = math.atan2(ty - y, tx - x)
             elif not math.isnan(self._fixed_yaw):
                 self._yaw = self._fixed_yaw
-            if dist < self._acc_rad and abs(z - tz) < alt_rad:
+            if not ctx.landed and dist < self._acc_rad and abs(z - tz) < alt_rad:
                 item = self.items[self.current]
                 if item.command == MavCmd.NAV_LOITER_UNLIM:
                     # is_mission_item_reached_or_completed: never for LOITER_UNLIMITED, so no
