@@ -29,7 +29,8 @@ Rules and invariants:
   loaded as it is (loadCurrentMissionItem): a DO_JUMP there becomes the current item. It has no
   position setpoint (the vehicle holds, or stays on the ground) and is never reached, as PX4
   measures it as a waypoint at its unset position (0°, 0°); only a new current item ends it.
-- Yaw: param4 (deg) when given, else the travel direction (MPC_YAW_MODE 0).
+- Yaw: param4 (deg) when given, else towards the target while it is farther than the acceptance
+  radius, held closer (MPC_YAW_MODE 0).
 """
 
 from __future__ import annotations
@@ -69,7 +70,7 @@ LAND_COMMANDS = frozenset({MavCmd.NAV_LAND, 85})  # + NAV_VTOL_LAND
 DELAY_COMMANDS = frozenset({MavCmd.NAV_DELAY, MavCmd.CONDITION_DELAY})
 # MISSION_CURRENT.mission_mode is "active" in these (mavlink_mission.cpp update_mission_state).
 MISSION_MODE_STATES = frozenset({NavState.AUTO_MISSION, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND})
-# Below this horizontal distance the heading is no longer updated (avoids spinning on arrival).
+# Below this horizontal distance a landing approach no longer updates the heading.
 YAW_LOCK_DIST_M = 1.0
 
 
@@ -375,7 +376,9 @@ class Mission(NavMode):
             return self._run_phase(ctx)
         if self._phase == "goto":
             dist = math.hypot(tx - x, ty - y)
-            if math.isnan(self._fixed_yaw) and dist > YAW_LOCK_DIST_M:
+            # FlightTaskAuto::_set_heading_from_mode: towards the target while it is farther
+            # than the setpoint's acceptance radius, else held
+            if math.isnan(self._fixed_yaw) and dist > self._acc_rad:
                 self._yaw = math.atan2(ty - y, tx - x)
             elif not math.isnan(self._fixed_yaw):
                 self._yaw = self._fixed_yaw

@@ -133,3 +133,37 @@ def test_a_delay_first_waits_on_the_ground_then_climbs(sim):
     assert height(sim) < 0.2  # still on the ground
     assert sim.run_until(lambda: 1 in reached_seqs(api), timeout_s=40)
     assert "Climb to 8.0 meters above home\t" in texts(api)
+
+
+def test_heading_is_held_within_the_acceptance_radius_of_a_waypoint_without_yaw(sim):
+    """FlightTaskAuto::_set_heading_from_mode (MPC_YAW_MODE 0) for a setpoint without a yaw
+    (a waypoint whose param4 is NaN, a takeoff item flown as a waypoint): the heading turns
+    towards the target only while it is farther than the setpoint's acceptance radius
+    (NAV_ACC_RAD, 2 m), otherwise it is held. Descending to a waypoint 1.5 m to the side the
+    vehicle keeps its heading."""
+    api = sim.api(0)
+    origin_amsl = sim.vehicles[0].origin.alt_amsl_m
+    assert api.arm() == 0 and api.takeoff(origin_amsl + 8.0) == 0
+    assert sim.run_until(lambda: height(sim) > 7.5, timeout_s=30)
+    sim.advance(2.0)
+    n, e, _ = sim.state(0).position_ned_m
+    g = PX4_SITL_HOME.offset_ned(n, e + 1.5, 0.0)
+    items = [mission_item(MavCmd.NAV_WAYPOINT, g.lat_deg, g.lon_deg, 2.0)]
+    assert api.upload_mission(items) == PlanResult.ACCEPTED
+    start_yaw = yaw_of(sim)
+    assert api.start_mission() == 0
+    turned = 0.0
+
+    def reached():
+        nonlocal turned
+        turned = max(turned, abs(math.remainder(yaw_of(sim) - start_yaw, math.tau)))
+        return 0 in reached_seqs(api)
+
+    assert sim.run_until(reached, timeout_s=30)
+    assert height(sim) < 3.0
+    assert turned < math.radians(5.0)
+
+
+def yaw_of(sim) -> float:
+    w, x, y, z = sim.state(0).attitude_q
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
