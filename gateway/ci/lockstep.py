@@ -196,8 +196,11 @@ class Client:
 
     # --- sending ------------------------------------------------------------------------------
     def send(self, msg: Any) -> None:
-        """Send a pymavlink message (e.g. ``client.mav.heartbeat_encode(...)``) now."""
-        self.send_bytes(msg.pack(self.mav))
+        """Send a pymavlink message (e.g. ``client.mav.heartbeat_encode(...)``) now, with the
+        client's next sequence number (as pymavlink's ``send`` counts them)."""
+        mav = self.mav
+        self.send_bytes(msg.pack(mav))
+        mav.seq = (mav.seq + 1) % 256
 
     def send_bytes(self, datagram: bytes) -> None:
         self.sim._inject(self.index, self.kind, datagram, self.peer)

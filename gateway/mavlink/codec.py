@@ -240,6 +240,9 @@ def _as_float32(value: Any) -> Any:
     return value
 
 
+MAX_REMOTE_COMPONENTS = 16  # MavlinkReceiver's sender table
+
+
 @dataclass
 class DecodeStats:
     rx_datagrams: int = 0
@@ -249,6 +252,7 @@ class DecodeStats:
     rx_unknown: int = 0  # well-framed but message id not in common.xml
     rx_bad_datagrams: int = 0  # datagrams with anything unusable in them (malformed or unknown)
     rx_lost: int = 0  # frames missing from a sender's sequence numbers (MavlinkReceiver's count)
+    rx_counted: int = 0  # frames MavlinkReceiver::update_rx_stats counts (its first 16 senders)
     # signing on (a Verifier), see signing.py. Dropped after decoding, not in rx_frames:
     rx_unsigned: int = 0  # unsigned or MAVLink 1, not on the accept-unsigned list
     rx_bad_signature: int = 0  # signature does not match the key (or no room for a new stream)
@@ -290,12 +294,19 @@ class Decoder:
                 else:
                     st.rx_frames += 1
                     out.append(m)
-                    # MavlinkReceiver's loss count: the sequence gap per sender
+                    # MavlinkReceiver::update_rx_stats: per sender (the first 16 only) the gap
+                    # to the expected sequence number, one short across the wrap (+255)
                     sender, seq = (m.get_srcSystem(), m.get_srcComponent()), m.get_seq()
-                    last = self._seqs.get(sender)
+                    seqs = self._seqs
+                    last = seqs.get(sender)
                     if last is not None:
-                        st.rx_lost += (seq - last - 1) & 0xFF
-                    self._seqs[sender] = seq
+                        expected = (last + 1) & 0xFF
+                        st.rx_lost += seq + 255 - expected if seq < expected else seq - expected
+                        st.rx_counted += 1
+                        seqs[sender] = seq
+                    elif len(seqs) < MAX_REMOTE_COMPONENTS:
+                        st.rx_counted += 1
+                        seqs[sender] = seq
             if mav.buf_len() > 0:
                 st.rx_malformed += 1
                 self._log(now_s, "truncated frame: %d bytes left", mav.buf_len())

@@ -50,6 +50,7 @@ from gateway.mavlink.event_messages import REQUEST_EVENT
 from gateway.mavlink.events import EventsService
 from gateway.mavlink.ftp import FtpService
 from gateway.mavlink.link import LinkContext, LinkKind, SessionStats
+from gateway.mavlink.link_status import TelemetryStatus
 from gateway.mavlink.log_handler import LogHandlerService
 from gateway.mavlink.log_streaming import LogStreamingService
 from gateway.mavlink.manual import ManualControlService
@@ -114,7 +115,8 @@ class Session:
         # What telemetry derives from one kinematics sample; the shell may give the sessions of
         # one vehicle the same cache (they sample it at the same instants).
         self.samples = SampleCache()
-        self.link_telemetry = LinkTelemetry()
+        self.tstatus = TelemetryStatus(self.stats)
+        self.link_telemetry = LinkTelemetry(self.tstatus)
         ctx = LinkContext(vehicle, kind, self.sysid, self.encoder, self.stats, self.send,
                           self._other_target)
         self.statustext = StatusTextService(ctx, self._text_listener_present)
@@ -237,6 +239,7 @@ class Session:
     def handle_timer(self, now_s: float) -> None:
         enc = self.encoder
         enc.now_s = now_s
+        self.tstatus.update(now_s)
         due = self.scheduler.due(now_s)
         if due:
             snap = Snapshot(self.vehicle, now_s, self.boot_unix_s, self.samples,

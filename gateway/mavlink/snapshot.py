@@ -82,9 +82,13 @@ class Sample:
 class LinkTelemetry:
     """What one link remembers of the streams it sent (the fields of PX4's stream objects)."""
 
-    __slots__ = ("ping_seq", "origin_sent", "origin_time_us", "gps_sent_us", "rtl_estimate_seq")
+    __slots__ = ("ping_seq", "origin_sent", "origin_time_us", "gps_sent_us", "rtl_estimate_seq",
+                 "tstatus")
 
-    def __init__(self) -> None:
+    def __init__(self, tstatus: Any = None) -> None:
+        """``tstatus``: the link's telemetry_status (link_status.TelemetryStatus; None: none,
+        as for a one-off build)."""
+        self.tstatus = tstatus
         self.ping_seq = 0
         self.gps_sent_us = 0  # GPS_RAW_INT's _last_send_ts (0: nothing sent yet)
         self.origin_sent: tuple[float, float, float] | None = None  # (lat, lon, alt) last sent

@@ -28,6 +28,7 @@ from pymavlink.dialects.v20 import common as M
 from gateway.mavlink.available_modes import MSG_ID_AVAILABLE_MODES, available_modes_monitor
 from gateway.mavlink.heartbeat import MSG_ID_CURRENT_MODE
 from gateway.mavlink.link import LinkKind
+from gateway.mavlink.link_status import link_node_status
 from gateway.mavlink.telemetry import (
     Builder,
     altitude,
@@ -77,7 +78,12 @@ from gateway.mavlink.telemetry_requested import (
     rc_channels,
     scaled_imu,
 )
-from gateway.mavlink.wip_dialect import ESC_INFO, ESC_STATUS, TIME_ESTIMATE_TO_TARGET
+from gateway.mavlink.wip_dialect import (
+    ESC_INFO,
+    ESC_STATUS,
+    LINK_NODE_STATUS,
+    TIME_ESTIMATE_TO_TARGET,
+)
 
 
 @dataclass(frozen=True)
@@ -135,6 +141,7 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_OPEN_DRONE_ID_LOCATION, open_drone_id_location, 1.0, 1.0),
     StreamSpec(M.MAVLINK_MSG_ID_OPEN_DRONE_ID_SYSTEM, open_drone_id_system, 1.0, 1.0),
     StreamSpec(TIME_ESTIMATE_TO_TARGET.id, time_estimate_to_target, 1.0, 1.0),
+    StreamSpec(LINK_NODE_STATUS.id, link_node_status, 1.0, 1.0),
     # Default streams whose topic nothing publishes here (px4-rc.mavlink sets RC_CHANNELS to 20 Hz
     # on the GCS link).
     StreamSpec(M.MAVLINK_MSG_ID_RC_CHANNELS, rc_channels, 20.0, 20.0, silent=True),

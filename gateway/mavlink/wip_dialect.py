@@ -1,13 +1,14 @@
 """Messages of MAVLink's common.xml that pymavlink 2.4.50's generated dialects lack (common.xml
 marks them work in progress, which pymavlink leaves out) but PX4 builds with and sends: the
 events protocol (event_messages.py), the ESC reports ESC_INFO (290) and ESC_STATUS (291), which
-PX4 SITL with the gz bridge streams by default, and TIME_ESTIMATE_TO_TARGET (380).
+PX4 SITL with the gz bridge streams by default, TIME_ESTIMATE_TO_TARGET (380) and
+LINK_NODE_STATUS (8).
 
 ``define_message`` makes a class as mavgen makes one (wire order by field size, stable; the
 CRC_EXTRA given is mavgen's, tests recompute it from the definition) and registers it in the
 common dialect's ``mavlink_map`` and the development dialect's (PX4 SITL's), so that pymavlink's
 parser decodes it with its CRC checked and the encoder (codec.py) packs it like any other
-message. Importing this module registers the ESC and time-estimate messages.
+message. Importing this module registers the messages below.
 """
 
 from __future__ import annotations
@@ -74,3 +75,8 @@ ESC_STATUS = define_message(291, "ESC_STATUS", 10, (
 TIME_ESTIMATE_TO_TARGET = define_message(380, "TIME_ESTIMATE_TO_TARGET", 232, (
     (I32, "safe_return", 0), (I32, "land", 0), (I32, "mission_next_item", 0),
     (I32, "mission_end", 0), (I32, "commanded_action", 0)))
+LINK_NODE_STATUS = define_message(8, "LINK_NODE_STATUS", 117, (
+    (U64, "timestamp", 0), (U8, "tx_buf", 0), (U8, "rx_buf", 0), (U32, "tx_rate", 0),
+    (U32, "rx_rate", 0), (U16, "rx_parse_err", 0), (U16, "tx_overflows", 0),
+    (U16, "rx_overflows", 0), (U32, "messages_sent", 0), (U32, "messages_received", 0),
+    (U32, "messages_lost", 0)))

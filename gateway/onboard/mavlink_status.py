@@ -6,16 +6,18 @@ Rules:
 - Instance k is the vehicle's k-th link (PX4 SITL's GCS link, then the API link, then extra
   radios). ``transport()`` gives its UDP ports and whether it broadcasts; None where there are
   no sockets (the lockstep simulation), and then no transport lines are printed.
-- Rates are averages since the previous ``status`` of that pxh (since the link started the
-  first time); the stream rate multiplier is 1 (SITL's 4 MB/s never throttles).
-- rx loss: sequence gaps per sender (lost / (received + lost)), as MavlinkReceiver counts them.
+- Rates are telemetry_status's: bytes over the link's last window of more than 1 s
+  (gateway/mavlink/link_status.py); the stream rate multiplier is 1 (SITL's 4 MB/s never
+  throttles).
+- rx loss: rx_message_lost_rate, MavlinkReceiver's sequence gaps over the messages it counted
+  (lost / received: its first 16 senders).
 """
 
 from __future__ import annotations
 
 import ipaddress
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from pymavlink.dialects.v20 import development as M  # common's messages and CURRENT_MODE
@@ -23,6 +25,7 @@ from pymavlink.dialects.v20 import development as M  # common's messages and CUR
 from gateway.mavlink.link import DATARATE_B_S, LinkKind
 from gateway.mavlink.log_streaming import MAX_RATE_FACTOR
 from gateway.mavlink.streams import STREAMS
+from vehicles.cnum import f32
 
 NON_PAYLOAD_BYTES = 12  # MAVLINK_NUM_NON_PAYLOAD_BYTES (MAVLink 2, unsigned)
 USAGE = ("\n### Description\nThis module implements the MAVLink protocol, which can be used on a "
@@ -41,7 +44,6 @@ Transport = Callable[[], "tuple[int, int, bool] | None"]  # (local port, remote 
 class Instance:
     session: Any  # gateway.mavlink.session.Session
     transport: Transport
-    _last: tuple[float, int, int] = field(default=(0.0, 0, 0))  # (time, tx bytes, rx bytes)
 
 
 def status(instances: Sequence[Instance], now_s: float, streams: bool) -> str:
@@ -55,18 +57,21 @@ def status(instances: Sequence[Instance], now_s: float, streams: bool) -> str:
 def _status(k: int, inst: Instance, now_s: float) -> str:
     s = inst.session
     st = s.stats
-    t0, tx0, rx0 = inst._last
-    dt = max(now_s - t0, 1e-9)
-    tx, rx = (st.tx_bytes - tx0) / dt, (st.rx_bytes - rx0) / dt
-    inst._last = (now_s, st.tx_bytes, st.rx_bytes)
-    seen = st.rx_frames + st.rx_lost
-    loss = 100.0 * st.rx_lost / seen if seen else 0.0
+    tx, rx = s.tstatus.tx_rate_avg, s.tstatus.rx_rate_avg
+    # rx_message_lost_rate = lost / received, set at each read: 0 before any, and 0/0 (x86's
+    # -nan) while nothing parsed
+    if not st.rx_datagrams:
+        loss_text = "0.0"
+    elif not st.rx_counted:
+        loss_text = "-nan"
+    else:
+        loss_text = f"{100.0 * f32(st.rx_lost / st.rx_counted):.1f}"
     lines = ["\tGCS heartbeat valid\n"] if s.gcs_present(now_s) else []
     lines += [f"\tmavlink chan: #{k}\n", "\ttype:\t\tGENERIC LINK OR RADIO\n",
               "\tflow control: OFF\n", "\trates:\n", f"\t  tx: {tx:.1f} B/s\n",
               "\t  txerr: 0.0 B/s\n", "\t  tx rate mult: 1.000\n",
               f"\t  tx rate max: {DATARATE_B_S} B/s\n", f"\t  rx: {rx:.1f} B/s\n",
-              f"\t  rx loss: {loss:.1f}%\n", "\tFTP enabled: YES, TX enabled: YES\n",
+              f"\t  rx loss: {loss_text}%\n", "\tFTP enabled: YES, TX enabled: YES\n",
               f"\tmode: {'Onboard' if s.kind is LinkKind.API else 'Normal'}\n",
               "\tMAVLink version: 2\n"]
     transport = inst.transport()

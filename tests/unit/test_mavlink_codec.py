@@ -15,8 +15,10 @@ from gateway.mavlink.codec import (
     DecodeStats,
     Encoder,
 )
+from gateway.mavlink.link import SessionStats
+from gateway.mavlink.link_status import TelemetryStatus
 from gateway.mavlink.session import LinkKind
-from gateway.mavlink.snapshot import Snapshot
+from gateway.mavlink.snapshot import LinkTelemetry, Snapshot
 from gateway.mavlink.streams import STREAMS
 from gateway.mavlink.telemetry import wind_cov
 from vehicles.orbit import OrbitStatus
@@ -60,7 +62,7 @@ def test_fast_encoder_matches_pymavlink_pack(spec):
     vehicle.position_setpoint_ned_m = (3.5, -4.0, -10.0)
     vehicle.global_target_ned_m = (12.5, -3.0, -10.5)
     vehicle.motor_outputs = (512.5, 530.0, 498.25, 505.0)
-    snap = Snapshot(vehicle, 12.345, 1.7e9)
+    snap = Snapshot(vehicle, 12.345, 1.7e9, link=LinkTelemetry(TelemetryStatus(SessionStats())))
     enc = Encoder(3, 1)
     enc.seq = 77
     frame = spec.builder(enc, snap)

@@ -166,7 +166,8 @@ def _counts(kind, seconds=10.0):
                     "SCALED_PRESSURE": 1, "ESTIMATOR_STATUS": 0.5, "VIBRATION": 0.1,
                     "PING": 0.1, "GPS_GLOBAL_ORIGIN": 0.1, "CURRENT_MODE": 0.5,
                     "OPEN_DRONE_ID_LOCATION": 1, "OPEN_DRONE_ID_SYSTEM": 1,
-                    "TIME_ESTIMATE_TO_TARGET": 0.1}),  # once: one publication
+                    "TIME_ESTIMATE_TO_TARGET": 0.1,  # once: one publication
+                    "LINK_NODE_STATUS": 1}),
     (LinkKind.API, {"HEARTBEAT": 1, "SYS_STATUS": 5, "EXTENDED_SYS_STATE": 5, "ATTITUDE": 100,
                     "ATTITUDE_QUATERNION": 50, "LOCAL_POSITION_NED": 30,
                     "ATTITUDE_TARGET": 10, "POSITION_TARGET_LOCAL_NED": 10,
@@ -178,7 +179,7 @@ def _counts(kind, seconds=10.0):
                     "TIMESYNC": 10, "PING": 1, "CURRENT_MODE": 0.5,
                     "OPEN_DRONE_ID_LOCATION": 1, "OPEN_DRONE_ID_SYSTEM": 1,
                     "GPS_GLOBAL_ORIGIN": 0.1,  # once: it is sent again only if it moves
-                    "TIME_ESTIMATE_TO_TARGET": 0.1}),
+                    "TIME_ESTIMATE_TO_TARGET": 0.1, "LINK_NODE_STATUS": 1}),
 ], ids=["gcs", "api"])
 def test_stream_rates(kind, expected):
     counts = _counts(kind)

@@ -9,6 +9,8 @@ from pymavlink.dialects.v20 import development
 from test_mavlink_support import FakeVehicle, acks, make
 
 from gateway.mavlink.codec import Decoder, DecodeStats, Encoder
+from gateway.mavlink.link import SessionStats
+from gateway.mavlink.link_status import TelemetryStatus
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import (
     ACCEPT_UNSIGNED,
@@ -22,7 +24,7 @@ from gateway.mavlink.signing import (
     Verdict,
     Verifier,
 )
-from gateway.mavlink.snapshot import Snapshot
+from gateway.mavlink.snapshot import LinkTelemetry, Snapshot
 from gateway.mavlink.streams import STREAMS
 from gateway.mavlink.telemetry import wind_cov
 from vehicles.orbit import OrbitStatus
@@ -118,7 +120,7 @@ def test_signed_frames_are_byte_identical_to_pymavlink(spec):
     vehicle.move_to(3.0, -4.0, -10.0)
     vehicle.orbit_status = OrbitStatus(-20.0, (5.0, 6.0), -12.0)
     vehicle.global_target_ned_m = (12.5, -3.0, -10.5)
-    snap = Snapshot(vehicle, 12.345, 1.7e9)
+    snap = Snapshot(vehicle, 12.345, 1.7e9, link=LinkTelemetry(TelemetryStatus(SessionStats())))
     enc = Encoder(3, 1, Signer(KEY, 1, SigningClock(EPOCH_UNIX_S)))
     enc.seq, enc.now_s = 77, 12.345
     frame = spec.builder(enc, snap)
