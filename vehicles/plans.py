@@ -2,15 +2,19 @@
 
 After PX4 ``src/modules/mavlink/mavlink_mission.cpp`` (``parse_mavlink_mission_item``: accepted
 frames and commands, MAV_MISSION_RESULT codes) and ``src/modules/navigator/geofence.cpp``
-(polygon vertex groups, circles).
+(what a fence plan's items mean once stored).
 
 Rules and invariants:
 - One immutable tuple of ``PlanItem`` per ``PlanType``; ``set`` validates the whole list first and
   replaces the stored one only when it is ACCEPTED (atomic, like PX4 switching dataman slots)
   and differs from it (``plan_id``); an identical plan changes nothing, observers included.
-- Mission items: positional commands need a global frame (0, 3, 5, 6), the others
+- Items of every plan type go through the one parser (mavlink_mission.cpp
+  parse_mavlink_mission_item): positional commands need a global frame (0, 3, 5, 6), the others
   MAV_FRAME_MISSION (2); a command in the other frame's branch, or unknown -> UNSUPPORTED; any
-  other frame -> UNSUPPORTED_FRAME (mavlink_mission.cpp parse_mavlink_mission_item).
+  other frame -> UNSUPPORTED_FRAME. Then the plan type's check (handle_mission_item_both):
+  a mission refuses fence and rally commands, a fence polygon vertices with fewer than 3
+  vertices (MAV_MISSION_ERROR); nothing else is checked at upload (a fence's vertex groups
+  and circle radii are only read when it loads, geofence.py).
 - ``plan_id`` is an opaque CRC32 of the items (0 when empty), as PX4's MISSION_ACK/CURRENT ids.
 - ``item_ned`` converts an item's position to the vehicle's local NED frame: relative-altitude
   frames are relative to home, the others AMSL.
@@ -25,6 +29,7 @@ import struct
 import zlib
 from collections.abc import Callable, Sequence
 
+from vehicles.cnum import f32
 from vehicles.geodesy import position_fault
 from vehicles.plan_types import MavCmd, MavFrame, PlanItem, PlanResult, PlanType
 from vehicles.types import GeoPoint
@@ -74,11 +79,9 @@ def validate_plan(plan_type: PlanType, items: Sequence[PlanItem]) -> PlanResult:
     for i, item in enumerate(items):
         if item.seq != i:
             return PlanResult.INVALID_SEQUENCE
-        result = _validate_item(plan_type, item)
+        result = validate_item(plan_type, item)
         if result is not PlanResult.ACCEPTED:
             return result
-    if plan_type is PlanType.FENCE:
-        return _validate_fence_shape(items)
     return PlanResult.ACCEPTED
 
 
@@ -93,61 +96,58 @@ def _validate_position(item: PlanItem, check_alt: bool = True) -> PlanResult:
     return PlanResult.ACCEPTED if fault is None else _FAULT_RESULT[fault]
 
 
-def _validate_item(plan_type: PlanType, item: PlanItem) -> PlanResult:
+def vertex_count(param1: float) -> int:
+    """A polygon vertex's count as PX4 keeps it: ``(uint16_t)(param1 + 0.5f)``
+    (parse_mavlink_mission_item), the conversion x86 SITL does (through int32: NaN, ±inf and
+    values beyond int32 give 0x80000000, whose low 16 bits are 0)."""
+    v = f32(f32(param1) + 0.5)
+    if not math.isfinite(v) or abs(v) >= 2**31:
+        return 0
+    return math.trunc(v) & 0xFFFF
+
+
+def validate_item(plan_type: PlanType, item: PlanItem) -> PlanResult:
+    """One uploaded item's verdict, as handle_mission_item_both gives it at that item: first
+    parse_mavlink_mission_item (the same parser for every plan type), then the plan type's own
+    check (MAV_MISSION_ERROR: a fence or rally command in a mission, a fence polygon vertex
+    with fewer than 3 vertices). A fence or rally plan stores whatever parses: a waypoint in a
+    fence is "unhandled" when the fence loads (geofence.py), one in a rally plan is no rally
+    point for RTL (nav_rtl.py). Positions outside the globe are refused as the parser's
+    INVALID_PARAM5_X/6_Y/7 (a fence point's altitude is unused, so not checked)."""
+    result = _parse(item)
+    if result is not PlanResult.ACCEPTED:
+        return result
+    if plan_type is PlanType.MISSION and item.command in MISSION_HARDENING:
+        return PlanResult.ERROR
+    if (plan_type is PlanType.FENCE and item.command in POLYGON_COMMANDS
+            and vertex_count(item.param1) < 3):
+        return PlanResult.ERROR  # "Fence: too few vertices" (console only)
+    if item.frame in GLOBAL_FRAMES:  # last: only what PX4 would store is refused here
+        return _validate_position(item, check_alt=plan_type is not PlanType.FENCE)
+    return PlanResult.ACCEPTED
+
+
+def _parse(item: PlanItem) -> PlanResult:
+    """parse_mavlink_mission_item: the frame picks the branch (global 0/3/5/6, or
+    MAV_FRAME_MISSION), then the branch knows the command or answers UNSUPPORTED (so
+    DO_CHANGE_SPEED in a global frame and a waypoint or rally point in MAV_FRAME_MISSION are
+    refused); any other frame is UNSUPPORTED_FRAME. (The *_INT frames only in int mode: the
+    gateway refuses them in a float MISSION_ITEM.)"""
     cmd, frame = item.command, item.frame
-    if plan_type is PlanType.MISSION:
-        # parse_mavlink_mission_item: the frame picks the branch, then the branch knows the
-        # command or answers UNSUPPORTED (so DO_CHANGE_SPEED in a global frame and a waypoint in
-        # MAV_FRAME_MISSION are refused); fence and rally items in a mission are MAV_MISSION_ERROR.
-        if frame in GLOBAL_FRAMES:
-            if cmd in MISSION_HARDENING:
-                return PlanResult.ERROR
-            if cmd in ROI_COMMANDS and _roi_mode(item) not in (0, 3):  # NONE, LOCATION
-                return PlanResult.INVALID_PARAM1
-            if cmd in POSITIONAL_COMMANDS or cmd == MavCmd.NAV_FENCE_RETURN_POINT:
-                return _validate_position(item)
-            return PlanResult.UNSUPPORTED
-        if frame == MavFrame.MISSION:
-            if cmd in ROI_COMMANDS:  # MAV_ROI NONE, WPNEXT, WPINDEX
-                return PlanResult.ACCEPTED if _roi_mode(item) in (0, 1, 2) else PlanResult.INVALID_PARAM1
-            ok = cmd in NON_POSITIONAL_COMMANDS
-            return PlanResult.ACCEPTED if ok else PlanResult.UNSUPPORTED
-        return PlanResult.UNSUPPORTED_FRAME
-    # The parser's frame test comes first: any other frame is UNSUPPORTED_FRAME, and the fence
-    # and rally commands are not in its MAV_FRAME_MISSION branch (UNSUPPORTED).
-    if frame not in GLOBAL_FRAMES:
-        return PlanResult.UNSUPPORTED if frame == MavFrame.MISSION else PlanResult.UNSUPPORTED_FRAME
-    allowed = FENCE_COMMANDS if plan_type is PlanType.FENCE else {MavCmd.NAV_RALLY_POINT}
-    if cmd not in allowed:
-        return PlanResult.UNSUPPORTED
-    return _validate_position(item, check_alt=plan_type is PlanType.RALLY)
+    if frame in GLOBAL_FRAMES:
+        if cmd in ROI_COMMANDS and _roi_mode(item) not in (0, 3):  # NONE, LOCATION
+            return PlanResult.INVALID_PARAM1
+        ok = cmd in POSITIONAL_COMMANDS or cmd in FENCE_COMMANDS or cmd == MavCmd.NAV_RALLY_POINT
+        return PlanResult.ACCEPTED if ok else PlanResult.UNSUPPORTED
+    if frame == MavFrame.MISSION:
+        if cmd in ROI_COMMANDS:  # MAV_ROI NONE, WPNEXT, WPINDEX
+            return PlanResult.ACCEPTED if _roi_mode(item) in (0, 1, 2) else PlanResult.INVALID_PARAM1
+        return PlanResult.ACCEPTED if cmd in NON_POSITIONAL_COMMANDS else PlanResult.UNSUPPORTED
+    return PlanResult.UNSUPPORTED_FRAME
 
 
 def _roi_mode(item: PlanItem) -> int:
     return int(item.param1) if math.isfinite(item.param1) else -1
-
-
-def _validate_fence_shape(items: Sequence[PlanItem]) -> PlanResult:
-    """A polygon is p1 consecutive vertices of one kind, p1 >= 3; a circle needs a finite
-    radius. PX4 takes any circle at upload; one that does not contain home is dropped when the
-    fence loads (geofence.py)."""
-    i = 0
-    while i < len(items):
-        item = items[i]
-        if item.command in POLYGON_COMMANDS:
-            n = int(item.param1) if math.isfinite(item.param1) else 0
-            if n < 3 or i + n > len(items):
-                return PlanResult.INVALID_PARAM1
-            group = items[i:i + n]
-            if any(g.command != item.command or int(g.param1) != n for g in group):
-                return PlanResult.INVALID_PARAM1
-            i += n
-            continue
-        if item.command in (MavCmd.NAV_FENCE_CIRCLE_INCLUSION, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION):
-            if not math.isfinite(item.param1):
-                return PlanResult.INVALID_PARAM1
-        i += 1
-    return PlanResult.ACCEPTED
 
 
 def plan_crc32(items: Sequence[PlanItem]) -> int:

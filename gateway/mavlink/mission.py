@@ -7,13 +7,16 @@ Rules and invariants:
 - Upload: MISSION_COUNT → MISSION_REQUEST_INT seq 0.. (legacy MISSION_REQUEST after the client
   answers MISSION_ACK UNSUPPORTED, or once it sends float MISSION_ITEMs) → items are buffered
   here; only the complete list goes to ``vehicle.set_plan`` and its PlanResult is the MISSION_ACK.
-  So a lost, aborted or timed-out upload never leaves a half-written plan. The vehicle validates
-  (frames, commands): an invalid item is reported when the list is complete, not at the item
-  (PX4 aborts at the bad item; the ACK code is the same). A float MISSION_ITEM in a *_INT frame
-  is UNSUPPORTED_FRAME, as PX4 takes those frames only in int mode.
+  So a lost, aborted or timed-out upload never leaves a half-written plan. Each item is checked
+  when it arrives (plans.validate_item, PX4's parse_mavlink_mission_item and the plan type's
+  check): a refused item ends the transfer with its MAV_MISSION_RESULT, after the text
+  "IGN MISSION_ITEM: Invalid item" when the parser refused it. A float MISSION_ITEM in a *_INT
+  frame is UNSUPPORTED_FRAME, as PX4 takes those frames only in int mode.
 - The expected item is re-requested every RETRY_S; TIMEOUT_S without anything from the partner
   aborts the transfer with "Operation timeout". Out-of-sequence items are ignored (the retry
-  re-requests). A repeat of the last item after completion is re-ACKed with the same result.
+  re-requests). Outside a transfer an item whose seq is just before where the last transfer's
+  sequence stopped is taken for a repeat whose ACK was lost and ACCEPTED (PX4 checks nothing
+  else), any other gets "IGN MISSION_ITEM: No transfer" and ERROR.
 - One upload per vehicle at a time across all links (PX4's static _transfer_in_progress): a
   MISSION_COUNT while another link uploads → MISSION_ACK ERROR.
 - Download: MISSION_REQUEST_LIST → MISSION_COUNT → the client requests each seq (INT or legacy)
@@ -69,7 +72,7 @@ from gateway.mavlink.mission_items import (
 )
 from gateway.mavlink.vehicle_port import VehicleFeatures
 from vehicles.plan_types import MissionStatus, PlanItem, PlanResult, PlanType
-from vehicles.plans import CAPACITY  # one source: what the vehicle can store
+from vehicles.plans import CAPACITY, validate_item  # one source: what the vehicle stores
 from vehicles.types import Changes, Severity
 
 RETRY_S = 0.25  # MAVLINK_MISSION_RETRY_TIMEOUT_DEFAULT: re-request the expected item
@@ -126,12 +129,9 @@ class MissionService:
         self.seq = 0  # upload: next expected item; download: next item to be requested
         self.int_mode = True
         self._items: list[PlanItem] = []
-        self._refused: int | None = None  # the upload's verdict found at an item
         self._download: tuple[PlanItem, ...] = ()
         self._retry_at = math.inf
         self._timeout_at = math.inf
-        # (mission_type, last seq, result) of the last completed upload, for re-ACKs
-        self._completed: tuple[int, int, int] | None = None
         st = mission_status_of(self.vehicle)
         if uploads.current_seq is None:
             uploads.current_seq = st.current_seq
@@ -170,7 +170,6 @@ class MissionService:
             self.uploads.owner = None
         self.phase = Phase.IDLE
         self._items = []
-        self._refused = None
         self._download = ()
         self._retry_at = self._timeout_at = math.inf
 
@@ -214,7 +213,6 @@ class MissionService:
         if msg.count > (CAPACITY[ptype] if ptype is not None else 0):
             self.ack(NO_SPACE)
             return
-        self._completed = None
         plans = cast(VehicleFeatures, self.vehicle)  # it stores plans (set_plan checked above)
         if msg.count == 0:  # an unknown type: "mission type %u not handled", and ACCEPTED
             self.ack(plans.clear_plan(now_s, ptype) if ptype is not None else ACCEPTED)
@@ -223,7 +221,7 @@ class MissionService:
         self.phase = Phase.UPLOAD
         self.uploads.owner = self
         self.partner, self.mission_type, self.count, self.seq = src, int(ptype), msg.count, 0
-        self._items, self._refused = [], None
+        self._items = []
         self._heard(now_s)
         self._request(now_s)
 
@@ -241,9 +239,11 @@ class MissionService:
             self.ack(ERROR)
             return
         if self.phase is Phase.IDLE:
-            done = self._completed
-            if done is not None and done[:2] == (msg.mission_type, msg.seq):
-                self.ack(done[2])  # our final ACK was lost
+            # "Assume this is a duplicate" of the last item of a finished upload whose ACK was
+            # lost: PX4 tests only that the transfer's sequence stopped right after this seq, so
+            # this is ACCEPTED also after a download, or before the item an upload failed at.
+            if self.seq == msg.seq + 1:
+                self.ack(ACCEPTED)
             else:
                 self._text(now_s, "IGN MISSION_ITEM: No transfer")
                 self.ack(ERROR)
@@ -255,20 +255,27 @@ class MissionService:
         self._heard(now_s)  # (handle_mission_item_both takes the item from any sender)
         if msg.seq != self.seq:
             return  # a duplicate or a jump ahead: ignored, the retry timer re-requests
-        if not is_int and msg.frame in INT_FRAMES and self._refused is None:
-            # parse_mavlink_mission_item takes the *_INT frames only in int mode
-            self._refused = UNSUPPORTED_FRAME
+        ptype = PlanType(self.mission_type)
+        # parse_mavlink_mission_item takes the *_INT frames only in int mode
+        verdict = UNSUPPORTED_FRAME if not is_int and msg.frame in INT_FRAMES else \
+            validate_item(ptype, item)
+        if verdict is not ACCEPTED:
+            # The transfer ends at this item. A parser refusal comes with PX4's text; the plan
+            # type's own check (MAV_MISSION_ERROR) with none.
+            if verdict is not ERROR:
+                self._text(now_s, "IGN MISSION_ITEM: Invalid item")
+            self.ack(verdict)
+            self._idle()
+            return
         self._items.append(item)
         self.seq += 1
         if self.seq < self.count:
             self._request(now_s)
             return
-        items, ptype, refused = tuple(self._items), PlanType(self.mission_type), self._refused
+        items = tuple(self._items)
         self._idle()
         plans = cast(VehicleFeatures, self.vehicle)  # an upload starts only if it has set_plan
-        result = int(plans.set_plan(now_s, ptype, items)) if refused is None else refused
-        self._completed = (self.mission_type, self.count - 1, result)
-        self.ack(result)
+        self.ack(int(plans.set_plan(now_s, ptype, items)))
 
     # --- download -----------------------------------------------------------------------------
     def on_request_list(self, msg: M.MAVLink_mission_request_list_message, now_s: float) -> None:
@@ -323,10 +330,10 @@ class MissionService:
             self.ack(ERROR)
             self._text(now_s, "WPM: REJ. CMD: Req. WP was unexpected")
             return
-        item = self._download[msg.seq]
-        if self.mission_type == PlanType.MISSION:  # PX4 marks the current item on download
-            current = int(msg.seq == mission_status_of(self.vehicle).current_seq)
-            item = dataclasses.replace(item, current=current)
+        # send_mission_item marks the mission's current seq as current, in a fence or rally
+        # download too
+        current = int(msg.seq == mission_status_of(self.vehicle).current_seq)
+        item = dataclasses.replace(self._download[msg.seq], current=current)
         self.send(pack_item(self.encoder, item, msg.seq, self.mission_type, src, self.int_mode))
 
     def on_ack(self, msg: M.MAVLink_mission_ack_message, now_s: float) -> None:
@@ -362,7 +369,6 @@ class MissionService:
         if not hasattr(self.vehicle, "clear_plan"):
             self.ack(UNSUPPORTED)
             return
-        self._completed = None
         results = [int(self.vehicle.clear_plan(now_s, t)) for t in types]
         failed = [r for r in results if r != ACCEPTED]
         self.ack(failed[0] if failed else ACCEPTED)

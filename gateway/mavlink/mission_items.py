@@ -16,6 +16,7 @@ Rules:
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 from pymavlink.dialects.v20 import common as M
@@ -24,6 +25,7 @@ from gateway.mavlink.codec import Encoder
 from gateway.mavlink.vehicle_port import VehiclePort
 from vehicles.mission_jumps import jump_repeats, jump_target
 from vehicles.plan_types import MavCmd, MissionState, MissionStatus, PlanItem, PlanType
+from vehicles.plans import vertex_count
 
 # Frames whose x/y are latitude/longitude (MAV_FRAME numbers).
 GLOBAL_FRAMES = frozenset({0, 3, 5, 6, 10, 11})
@@ -98,16 +100,30 @@ def download_form(item: PlanItem, mission_type: int, int_mode: bool
     if cmd in (MavCmd.NAV_TAKEOFF, 84, 85):  # + VTOL takeoff / land
         return frame, 0.0, 0.0, 0.0, _yaw_deg(p4)
     if cmd in (MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION):
-        vertices = float(int(p1 + 0.5) & 0xFFFF) if math.isfinite(p1) else 0.0
-        return frame, vertices, 0.0, 0.0, 0.0
+        return frame, float(vertex_count(p1)), 0.0, 0.0, 0.0
     if cmd in (MavCmd.NAV_FENCE_CIRCLE_INCLUSION, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION):
         return frame, p1, 0.0, 0.0, 0.0
     return frame, 0.0, 0.0, 0.0, 0.0
 
 
+def fence_point(item: PlanItem) -> PlanItem:
+    """A fence plan's item as PX4 reads it back (send_mission_item): dataman keeps a
+    mission_fence_point_s (command, frame, lat/lon, alt and either the vertex count or a float
+    sharing its place with mission_item_s's first param), so autocontinue comes back 0 and
+    param2..4 as 0; a MAV_FRAME_MISSION item keeps param1 (a DO_JUMP not even that) and z, its
+    x/y were never stored."""
+    if item.frame in GLOBAL_FRAMES:
+        return dataclasses.replace(item, autocontinue=0, param2=0.0, param3=0.0, param4=0.0)
+    p1 = 0.0 if item.command == MavCmd.DO_JUMP else item.param1
+    return dataclasses.replace(item, autocontinue=0, param1=p1, param2=0.0, param3=0.0,
+                               param4=0.0, x=0, y=0)
+
+
 def pack_item(enc: Encoder, item: PlanItem, seq: int, mission_type: int, target: tuple[int, int],
               int_mode: bool) -> bytes:
     """MISSION_ITEM_INT (int_mode) or legacy MISSION_ITEM for one stored item."""
+    if mission_type == PlanType.FENCE:
+        item = fence_point(item)
     frame, p1, p2, p3, p4 = download_form(item, mission_type, int_mode)
     common = (target[0], target[1], seq, frame, item.command, item.current,
               item.autocontinue, p1, p2, p3, p4)

@@ -51,11 +51,17 @@ def rally_items() -> list[PlanItem]:
             for i in range(3)]
 
 
-def int_frames(items: list[PlanItem], plan_type: PlanType) -> list[PlanItem]:
-    """``items`` with the frames PX4 sends back to MISSION_REQUEST_INT: the int flavour of their
-    altitude reference, a fence point always absolute (format_mavlink_mission_item)."""
-    frames = {0: 5, 3: 5, 5: 5, 6: 5} if plan_type == PlanType.FENCE else {0: 5, 3: 6, 5: 5, 6: 6}
-    return [dataclasses.replace(it, frame=frames.get(it.frame, it.frame)) for it in items]
+def int_frames(items: list[PlanItem], plan_type: PlanType, current_seq: int = 0
+               ) -> list[PlanItem]:
+    """``items`` as PX4 sends them back to MISSION_REQUEST_INT: the int flavour of their
+    altitude reference, a fence point always absolute and with autocontinue 0 (a
+    mission_fence_point_s keeps neither), and, whatever the plan type, ``current`` on the
+    mission's current seq (send_mission_item)."""
+    fence = plan_type == PlanType.FENCE
+    frames = {0: 5, 3: 5, 5: 5, 6: 5} if fence else {0: 5, 3: 6, 5: 5, 6: 6}
+    return [dataclasses.replace(it, frame=frames.get(it.frame, it.frame),
+                                current=int(it.seq == current_seq),
+                                autocontinue=0 if fence else it.autocontinue) for it in items]
 
 
 def item_int_msg(item: PlanItem, target=(1, 1)) -> M.MAVLink_mission_item_int_message:
@@ -204,7 +210,8 @@ def test_legacy_float_client():
     stored = vehicle.plans[PlanType.RALLY]
     assert len(stored) == 3 and all(same(a, b, xy_tol=50) for a, b in zip(stored, items))
     back = download(client, 2, use_int=False)
-    assert all(same(a, b, xy_tol=50) for a, b in zip(back, stored))
+    expected = [dataclasses.replace(it, current=int(it.seq == 0)) for it in stored]
+    assert all(same(a, b, xy_tol=50) for a, b in zip(back, expected))
 
 
 def test_count_zero_clears_and_clear_all():
@@ -722,3 +729,94 @@ def test_float_item_in_an_int_frame_is_unsupported_frame():
     got = client.send(M.MAVLink_mission_item_message(
         1, 1, 0, 3, 16, 1, 1, 0.0, 0.0, 0.0, NAN, LAT * 1e-7, LON * 1e-7, 10.0, 0))
     assert mission_acks(got) == [(0, 0)]
+
+
+# --- per-item verdicts, fence and rally items (PX4 1.15 handle_mission_item_both) ------------
+
+def texts_of(msgs, client=None):
+    """The STATUSTEXTs in ``msgs`` and, given the client, those the 20 Hz stream sends next."""
+    more = client.run_until(client.now_s + 0.1) if client is not None else []
+    return [t.text for t in of_type(list(msgs) + more, "STATUSTEXT")]
+
+
+def test_a_refused_item_ends_the_upload_at_that_item():
+    """parse_mavlink_mission_item's refusal is ACKed at the item, after "IGN MISSION_ITEM:
+    Invalid item", and the transfer is over: no further request, the old plan stays."""
+    vehicle, session, client = make()
+    client.heartbeat()
+    upload(client, mavsdk_mission())
+    items = mavsdk_mission()
+    items[1] = PlanItem(1, 2, 12345, 0, 1, 0, 0, 0, 0, 0, 0, 0.0)  # unknown command
+    client.send(M.MAVLink_mission_count_message(1, 1, len(items), 0))
+    client.send(item_int_msg(items[0]))
+    got = client.send(item_int_msg(items[1]))
+    assert mission_acks(got) == [(3, 0)]  # MAV_MISSION_UNSUPPORTED
+    assert texts_of(got, client) == ["IGN MISSION_ITEM: Invalid item"]
+    assert not of_type(got, "MISSION_REQUEST_INT")
+    assert session.mission.phase is mission.Phase.IDLE
+    assert all(same(a, b) for a, b in zip(vehicle.plans[PlanType.MISSION], mavsdk_mission(),
+                                          strict=True))
+
+
+def test_fence_vertex_count_below_three_is_error_at_the_item_without_text():
+    """The fence's own check ("Fence: too few vertices", console only): MAV_MISSION_ERROR at
+    that vertex, no STATUSTEXT. Only each vertex's own (uint16_t)(param1 + 0.5f) counts."""
+    vehicle, session, client = make()
+    client.heartbeat()
+    items = fence_items()
+    items[2] = dataclasses.replace(items[2], param1=2.4)
+    client.send(M.MAVLink_mission_count_message(1, 1, len(items), 1))
+    client.send(item_int_msg(items[0]))
+    client.send(item_int_msg(items[1]))
+    got = client.send(item_int_msg(items[2]))
+    assert mission_acks(got) == [(1, 1)] and texts_of(got, client) == []
+    assert not of_type(got, "MISSION_REQUEST_INT") and vehicle.plans[PlanType.FENCE] == ()
+    # A 4-vertex polygon cut to 2 items, a NaN circle and a waypoint are all stored.
+    odd = fence_items()[:2] + [
+        PlanItem(2, 0, 5003, 0, 1, NAN, 0, 0, 0, LAT, LON, 0.0, 1),
+        PlanItem(3, 6, 16, 0, 1, 1.5, 3.0, 0, 45.0, LAT, LON, 10.0, 1)]
+    got = upload(client, odd, 1)
+    assert mission_acks(got) == [(0, 1)]
+    assert all(same(a, b) for a, b in zip(vehicle.plans[PlanType.FENCE], odd, strict=True))
+
+
+def test_after_a_refused_item_the_item_before_it_is_acked_accepted():
+    """Outside a transfer PX4 answers an item with seq == _transfer_seq - 1 ACCEPTED ("assume
+    this is a duplicate"), also when the transfer stopped at a refused item; another seq is
+    "IGN MISSION_ITEM: No transfer" and ERROR."""
+    vehicle, session, client = make()
+    client.heartbeat()
+    items = rally_items()
+    bad = PlanItem(1, 2, 5100, 0, 1, 0, 0, 0, 0, 0, 0, 0.0, 2)  # rally point in frame 2
+    client.send(M.MAVLink_mission_count_message(1, 1, len(items), 2))
+    client.send(item_int_msg(items[0]))
+    got = client.send(item_int_msg(bad))
+    assert mission_acks(got) == [(3, 2)]
+    assert texts_of(got, client) == ["IGN MISSION_ITEM: Invalid item"]
+    got = client.send(item_int_msg(items[0]))
+    assert mission_acks(got) == [(0, 2)] and texts_of(got, client) == []
+    got = client.send(item_int_msg(bad))
+    assert mission_acks(got) == [(1, 2)]
+    assert texts_of(got, client) == ["IGN MISSION_ITEM: No transfer"]
+    assert vehicle.plans[PlanType.RALLY] == ()
+
+
+def test_fence_download_gives_back_what_a_fence_point_keeps():
+    """send_mission_item reads a mission_fence_point_s back: autocontinue 0, a global frame
+    always absolute, only param1 where the command has one (a waypoint's hold time shares its
+    place with the circle radius), a MAV_FRAME_MISSION item's param1 and z but no x/y; and the
+    mission's current seq is flagged current in a fence or rally download too."""
+    vehicle, session, client = make()
+    items = [PlanItem(0, 6, 16, 0, 1, 1.5, 3.0, 0.5, 45.0, LAT, LON, 10.0, 1),
+             PlanItem(1, 3, 5003, 1, 1, 25.0, 7.0, 0, 0, LAT, LON, 3.0, 1),
+             PlanItem(2, 2, 178, 0, 1, 1.0, 10.0, -1.0, 0.0, 11, 12, 7.0, 1),
+             PlanItem(3, 2, 177, 0, 1, 1.0, 2.0, 0.0, 0.0, 0, 0, 0.0, 1)]
+    assert mission_acks(upload(client, items, 1)) == [(0, 1)]
+    back = download(client, 1)
+    assert back == [
+        PlanItem(0, 5, 16, 1, 0, 1.5, 0.0, 0.0, 0.0, LAT, LON, 10.0, 1),
+        PlanItem(1, 5, 5003, 0, 0, 25.0, 0.0, 0.0, 0.0, LAT, LON, 3.0, 1),
+        PlanItem(2, 2, 178, 0, 0, 1.0, 0.0, 0.0, 0.0, 0, 0, 7.0, 1),
+        PlanItem(3, 2, 177, 0, 0, 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0, 1)]
+    assert mission_acks(upload(client, rally_items(), 2)) == [(0, 2)]
+    assert [it.current for it in download(client, 2)] == [1, 0, 0]

@@ -4,6 +4,7 @@ MAVSDK takeoff_and_land in miniature: wait for health via SYS_STATUS/HOME_POSITI
 off with COMMAND_LONG exactly as MAVSDK sends them, watch LOCAL_POSITION_NED climb, land.
 """
 
+import dataclasses
 import math
 
 import pytest
@@ -130,9 +131,9 @@ def test_plans_round_trip_and_goto_on_real_vehicle():
             back = download(client, mission_type)
             expected = int_frames(items, PlanType(mission_type))
             assert len(back) == len(items) and all(same(a, b) for a, b in zip(back, expected))
-        bad = fence_items()[:2]  # a 4-vertex polygon cut to 2 vertices
+        bad = [dataclasses.replace(it, param1=2.0) for it in fence_items()[:2]]  # 2 vertices
         got = upload(client, bad, 1)
-        assert [m.type for m in of_type(got, "MISSION_ACK")] != [0]
+        assert [m.type for m in of_type(got, "MISSION_ACK")] == [1]  # MAV_MISSION_ERROR
         assert len(download(client, 1)) == len(fence_items())  # old fence kept
         got = client.send(M.MAVLink_mission_clear_all_message(1, 1, 1))  # the goto is inside
         assert [m.type for m in of_type(got, "MISSION_ACK")] == [0]  # its exclusion circle

@@ -101,20 +101,42 @@ def test_item_with_current_flag_sets_start_index(sim):
                         item(3, MavCmd.NAV_WAYPOINT)], PlanResult.ACCEPTED),
     (PlanType.FENCE, [item(i, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3) for i in range(3)],
      PlanResult.ACCEPTED),
+    # handle_mission_item_both checks only each vertex's own count, (uint16_t)(param1 + 0.5f)
+    # >= 3 (else MAV_MISSION_ERROR): a polygon cut short, vertices of mixed kinds or counts
+    # are stored and only make sense (or not) when the fence loads (geofence.cpp).
     (PlanType.FENCE, [item(i, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3) for i in range(2)],
-     PlanResult.INVALID_PARAM1),
+     PlanResult.ACCEPTED),
     (PlanType.FENCE, [item(i, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=2) for i in range(2)],
-     PlanResult.INVALID_PARAM1),
+     PlanResult.ERROR),
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=2.5)],
+     PlanResult.ACCEPTED),  # rounds to 3
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=2.4)],
+     PlanResult.ERROR),
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION, p1=NAN)],
+     PlanResult.ERROR),  # NaN converts to 0
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION, p1=65539.0)],
+     PlanResult.ACCEPTED),  # uint16: 3
     (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3),
                       item(1, MavCmd.NAV_FENCE_POLYGON_VERTEX_EXCLUSION, p1=3),
-                      item(2, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=3)],
-     PlanResult.INVALID_PARAM1),
-    # PX4 takes a zero circle at upload (MAVSDK's geofence example sends one) and drops it
-    # when the fence loads if it does not contain home.
+                      item(2, MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION, p1=4)],
+     PlanResult.ACCEPTED),
+    # PX4 takes any circle radius at upload (MAVSDK's geofence example sends a zero circle);
+    # one that does not contain home is dropped when the fence loads.
     (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, p1=0.0)], PlanResult.ACCEPTED),
-    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, p1=NAN)], PlanResult.INVALID_PARAM1),
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, p1=NAN)], PlanResult.ACCEPTED),
+    (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION, p1=-30.0)], PlanResult.ACCEPTED),
     (PlanType.FENCE, [item(0, MavCmd.NAV_FENCE_CIRCLE_EXCLUSION, p1=30.0)], PlanResult.ACCEPTED),
-    (PlanType.FENCE, [item(0, MavCmd.NAV_WAYPOINT)], PlanResult.UNSUPPORTED),
+    # A fence or rally plan stores whatever the parser takes, mission commands included ...
+    (PlanType.FENCE, [item(0, MavCmd.NAV_WAYPOINT)], PlanResult.ACCEPTED),
+    (PlanType.FENCE, [item(0, MavCmd.DO_CHANGE_SPEED, frame=MavFrame.MISSION)],
+     PlanResult.ACCEPTED),
+    (PlanType.RALLY, [item(0, MavCmd.NAV_LOITER_TO_ALT)], PlanResult.ACCEPTED),
+    (PlanType.RALLY, [item(0, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, p1=5.0)], PlanResult.ACCEPTED),
+    (PlanType.RALLY, [item(0, MavCmd.DO_JUMP, frame=MavFrame.MISSION)], PlanResult.ACCEPTED),
+    # ... and refuses what it refuses, as in a mission
+    (PlanType.FENCE, [item(0, MavCmd.DO_CHANGE_SPEED)], PlanResult.UNSUPPORTED),
+    (PlanType.RALLY, [item(0, 201, p1=1.0)], PlanResult.INVALID_PARAM1),
+    (PlanType.RALLY, [item(0, 12345)], PlanResult.UNSUPPORTED),
     (PlanType.RALLY, [item(0, MavCmd.NAV_RALLY_POINT)], PlanResult.ACCEPTED),
     # the parser's frame test first: not a MAV_FRAME_MISSION command, then an unknown frame
     (PlanType.RALLY, [item(0, MavCmd.NAV_RALLY_POINT, frame=MavFrame.MISSION)],
