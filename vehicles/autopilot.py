@@ -136,8 +136,8 @@ class Autopilot:
             if not self.land_detector.landed and self.last_meas is not None:
                 n, e, _ = self.last_meas.position_ned_m
                 here = (n, e)
-            for text in self.geofence.load(self.plans.get(PlanType.FENCE), self.origin, home, here):
-                self.log.critical(self.time_s, text)
+            self.geofence.load(self.plans.get(PlanType.FENCE), self.origin, home, here, self.log,
+                               self.time_s)
         if plan_type is PlanType.MISSION:
             self.navigator.cruise_mps = math.nan  # a new mission starts at cruise speed
 

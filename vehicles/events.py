@@ -218,6 +218,13 @@ RTL_RETURN_AT = EventDef("vrtl_return_at", "default",
                          (("int32_t", "arg0"), ("int32_t", "arg1")))
 RTL_LAND = EventDef("rtl_land_at_destination", "default", "RTL: land at destination")
 RTL_COMPLETED_LOITER = EventDef("rtl_completed_loiter", "default", "RTL: completed, loitering")
+RTL_UNSUPPORTED_FRAME = EventDef("rtl_unsupported_mav_frame", "default",
+                                 "RTL: unsupported MAV_FRAME ({1})", (("uint8_t", "arg0"),))
+# geofence.cpp _updateFence: an area dropped at load
+GF_INVALID_HOME = EventDef("navigator_geofence_invalid_against_home", "default",
+                           "Geofence invalid, doesn't contain Home position")
+GF_INVALID_POSITION = EventDef("navigator_geofence_invalid_against_cur_pos", "default",
+                               "Geofence invalid, doesn't contain current vehicle position")
 TAKEOFF_DEFAULT_ALT = EventDef("navigator_takeoff_default_alt", "default",
                                "Using default takeoff altitude: {1:.2m}", (("float", "arg0"),))
 TAKEOFF_ALREADY_HIGHER = EventDef("navigator_takeoff_already_higher", "default",
@@ -321,6 +328,7 @@ DEFINITIONS: tuple[EventDef, ...] = (
     FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED, MISSION_EXECUTE,
     MISSION_FINISHED, MISSION_FINISHED_LOITER, MISSION_NOT_VALID_REFUSE, MISSION_NOT_VALID_LOITER,
     MISSION_READ_FAILED, MISSION_CLIMB, RTL_RETURN_AT, RTL_LAND, RTL_COMPLETED_LOITER,
+    RTL_UNSUPPORTED_FRAME, GF_INVALID_HOME, GF_INVALID_POSITION,
     TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, REPOSITION_OUTSIDE_FENCE,
     CHANGE_ALT_OUTSIDE_FENCE, COMMANDER_RTL, COMMANDER_LAND, MODE_NOT_AVAILABLE,
     UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, *MISSION_FEASIBILITY, *POSITION_PARAMS)

@@ -36,6 +36,7 @@ from gateway.ci.lockstep import Sim, mission_item
 from gateway.daemon.progress import ProgressLine
 from gateway.data import plan_path
 from gateway.sim.scenario import NetworkConfig, Scenario
+from vehicles.geodesy import reproject
 from vehicles.geofence import build_areas
 from vehicles.plan_types import MavCmd, MavFrame, PlanItem, PlanResult, PlanType
 from vehicles.plans import GLOBAL_FRAMES, item_ned
@@ -361,7 +362,7 @@ def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
     n0, e0, d0 = (float(x) for x in sim.state(0).position_ned_m)
     start = (n0, e0, d0)
     path = planned_path(plan.mission, origin, start)
-    areas = build_areas(plan.fence, origin)
+    areas = [area for _, area in build_areas(plan.fence, origin)]
     res.fence_areas = len(areas)
     inclusions = [a for a in areas if a.inclusion]
     exclusions = [a for a in areas if not a.inclusion]
@@ -379,8 +380,9 @@ def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
             res.track.append((round(now, 3), n, e, d))
         tick[0] += 1
         if areas and status.armed and res.geofence_breach is None:
-            inside = (not inclusions or any(a.contains(n, e) for a in inclusions)) and \
-                not any(a.contains(n, e) for a in exclusions)
+            lat, lon = reproject(origin.lat_deg, origin.lon_deg, n, e)
+            inside = (not inclusions or any(a.contains(n, e, lat, lon) for a in inclusions)) \
+                and not any(a.contains(n, e, lat, lon) for a in exclusions)
             if not inside:
                 res.geofence_breach = (f"at t={now:.1f} s, {round(n, 1) + 0.0:.1f} m N "
                                        f"{round(e, 1) + 0.0:.1f} m E of the vehicle's origin")

@@ -19,7 +19,7 @@ from vehicles.failsafe import (
     FailsafeFlags,
 )
 from vehicles.params import ParamStore
-from vehicles.plan_types import MavCmd, PlanItem, PlanResult, PlanType
+from vehicles.plan_types import MavCmd, MavFrame, PlanItem, PlanResult, PlanType
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, NavState
 
@@ -352,7 +352,7 @@ def test_geofence_circle_violation_holds(sim):
 def test_rtl_lands_at_closer_rally_point(sim):
     v = sim.v
     rally = [item(0, MavCmd.NAV_RALLY_POINT, 30.0, 10.0, 0.0, v.origin,
-                  mission_type=PlanType.RALLY)]
+                  frame=MavFrame.GLOBAL_RELATIVE_ALT, mission_type=PlanType.RALLY)]
     assert v.set_plan(sim.t, PlanType.RALLY, rally) is PlanResult.ACCEPTED
     take_off(sim)
     g = v.origin.offset_ned(35.0, 10.0, -5.0)
@@ -447,7 +447,7 @@ def test_fence_areas_that_exclude_home_are_dropped_at_load(sim):
     zero = PlanItem(4, 6, MavCmd.NAV_FENCE_CIRCLE_INCLUSION, 0, 1, 0.0, 0.0, 0.0, math.nan, 0, 0,
                     0.0, PlanType.FENCE)
     assert v.set_plan(sim.t, PlanType.FENCE, poly + [zero]) is PlanResult.ACCEPTED
-    assert sim.texts()[-1] == "Geofence invalid, doesn't contain Home position"
+    assert sim.texts()[-1] == "Geofence invalid, doesn't contain Home position\t"
     assert len(v.autopilot.geofence.areas) == 1 and v.autopilot.geofence.areas[0].polygon
 
 
