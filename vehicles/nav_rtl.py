@@ -21,7 +21,7 @@ Rules:
   ``getActivationLandState``: IDLE "for safety reasons"), but still says where it would return.
 - Rally points count only farther than 10 m from home, and only when more than 2 m closer than
   the best destination so far (rtl.cpp MAX_DIST_FROM_HOME_FOR_LAND_APPROACHES,
-  MIN_DIST_THRESHOLD).
+  MIN_DIST_THRESHOLD); only those in frame 0 or 3 give a position (``rtl_destination``).
 """
 
 from __future__ import annotations
@@ -31,9 +31,15 @@ import math
 from typing import NamedTuple
 
 from vehicles.cnum import c_ceil, f32
-from vehicles.events import RTL_COMPLETED_LOITER, RTL_LAND, RTL_RETURN_AT, Log
+from vehicles.events import (
+    RTL_COMPLETED_LOITER,
+    RTL_LAND,
+    RTL_RETURN_AT,
+    RTL_UNSUPPORTED_FRAME,
+    Log,
+)
 from vehicles.nav_core import Land, NavContext, NavMode, NavSetpoint
-from vehicles.plan_types import MavCmd, PlanType
+from vehicles.plan_types import MavCmd, MavFrame, PlanType
 from vehicles.plans import PlanStore, item_ned
 from vehicles.types import Vec3
 
@@ -41,6 +47,9 @@ from vehicles.types import Vec3
 # much closer than the best one so far.
 RALLY_MIN_DIST_FROM_HOME_M = 10.0
 MIN_DIST_THRESHOLD_M = 2.0
+# setSafepointAsDestination: the rally point frames RTL can use (MAV_FRAME_GLOBAL,
+# MAV_FRAME_GLOBAL_RELATIVE_ALT)
+SAFE_POINT_FRAMES = frozenset({MavFrame.GLOBAL, MavFrame.GLOBAL_RELATIVE_ALT})
 
 
 class RtlTimeEstimate(NamedTuple):
@@ -64,12 +73,27 @@ class RtlPhase(enum.Enum):
     LAND = "land"
 
 
-def rtl_destination(ctx: NavContext, plans: PlanStore | None) -> Vec3:
-    """Home or the horizontally closest rally point (rtl.cpp findRtlDestination, RTL_TYPE 0)."""
-    assert ctx.home is not None  # the autopilot refuses RTL without home
-    best = ctx.home.position_ned_m
+def rtl_destination(ctx: NavContext, plans: PlanStore | None, warn: bool = True) -> Vec3:
+    """Home or the horizontally closest rally point (rtl.cpp findRtlDestination, RTL_TYPE 0).
+
+    setSafepointAsDestination knows only MAV_FRAME_GLOBAL (0) and GLOBAL_RELATIVE_ALT (3): for
+    each rally point of another frame (a MISSION_ITEM_INT client's 5 or 6: the upload keeps
+    the frame as sent) that counts, PX4 sends "RTL: unsupported MAV_FRAME" every time it picks
+    a destination (here too: on activation and with each 2 s estimate) and leaves the point's
+    position unset; the point still competes on its distance. Where such a point wins, PX4
+    flies to whatever that unset position holds (undefined): here the destination found so far
+    stays (home, or an earlier rally point) and no later point can beat the winner's distance.
+    Without home PX4's home is at latitude/longitude 0, far from every point: only the texts
+    matter then (the result is the vehicle's position). ``warn`` False: no texts (PX4 runs no
+    mode while disarmed)."""
     if plans is None or ctx.origin is None:
-        return best
+        return ctx.home.position_ned_m if ctx.home is not None else ctx.position_ned_m
+    if ctx.home is None:
+        for item in plans.get(PlanType.RALLY):
+            if warn and item.command == MavCmd.NAV_RALLY_POINT:
+                _unsupported_frame(ctx, item.frame)
+        return ctx.position_ned_m
+    best = ctx.home.position_ned_m
     x, y = ctx.position_ned_m[0], ctx.position_ned_m[1]
     best_d = math.hypot(best[0] - x, best[1] - y)
     hx, hy = best[0], best[1]
@@ -79,10 +103,21 @@ def rtl_destination(ctx: NavContext, plans: PlanStore | None) -> Vec3:
         p = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
         if math.hypot(p[0] - hx, p[1] - hy) <= RALLY_MIN_DIST_FROM_HOME_M:
             continue
+        usable = item.frame in SAFE_POINT_FRAMES
+        if warn:
+            _unsupported_frame(ctx, item.frame)
         d = math.hypot(p[0] - x, p[1] - y)
         if d + MIN_DIST_THRESHOLD_M < best_d:
-            best, best_d = p, d
+            best_d = d
+            if usable:
+                best = p
     return best
+
+
+def _unsupported_frame(ctx: NavContext, frame: int) -> None:
+    if frame not in SAFE_POINT_FRAMES:
+        ctx.log.critical(ctx.now_s, "RTL: unsupported MAV_FRAME\t")
+        ctx.log.event(ctx.now_s, RTL_UNSUPPORTED_FRAME, Log.ERROR, None, "B", frame & 0xFF)
 
 
 def return_height_m(distance_m: float, return_alt_m: float, cone_deg: float, min_dist_m: float,
@@ -120,7 +155,7 @@ class Return(NavMode):
         self.yaw = ctx.yaw_rad
         self._fixed_yaw = ctx.yaw_rad  # the climb keeps the heading
         self._loiter_since = None
-        self.dest = rtl_destination(ctx, self.plans)
+        self.dest = rtl_destination(ctx, self.plans, warn=ctx.armed)
         x, y, z = ctx.position_ned_m
         dz = self.dest[2]
         above = return_height_m(math.hypot(x - self.dest[0], y - self.dest[1]),

@@ -105,7 +105,8 @@ class Navigator:
 
     def publish_rtl_estimate(self, ctx: NavContext, position_valid: bool) -> None:
         """RTL::on_inactive / on_active: more than 2 s after the last time (the first, 2 s after
-        boot), the destination is chosen again and the time a return would take from here is
+        boot), the destination is chosen again (on_inactive only: with its "RTL: unsupported
+        MAV_FRAME" texts, with or without home) and the time a return would take from here is
         published (RTL::publishRemainingTimeEstimate: none without home or a global position).
         While returning, from the return's own phase, destination and altitude; else from
         getActivationLandState's phase (landed: idle, below the return altitude: the climb,
@@ -117,15 +118,17 @@ class Navigator:
             return
         self._rtl_checked_s = ctx.now_s
         self.rtl_estimate_seq += 1
+        returning = self.active_state is NavState.AUTO_RTL and ctx.armed
+        if not returning:  # on_inactive's setRtlTypeAndDestination, whatever the estimate
+            dest = rtl_destination(ctx, self.plans)
         if ctx.home is None or not position_valid:
             self.rtl_estimate = NO_ESTIMATE
             return
         rtl, p = self.rtl, ctx.params
         pos = ctx.position_ned_m
-        if self.active_state is NavState.AUTO_RTL and ctx.armed:
+        if returning:
             start, dest, return_z = rtl.phase, rtl.dest, rtl.return_z
         else:
-            dest = rtl_destination(ctx, self.plans)
             above = return_height_m(math.hypot(pos[0] - dest[0], pos[1] - dest[1]),
                                     float(p["RTL_RETURN_ALT"]), float(p["RTL_CONE_ANG"]),
                                     float(p["RTL_MIN_DIST"]), float(p["NAV_ACC_RAD"]))

@@ -10,24 +10,27 @@ import pytest
 from tests.unit.test_vehicles_flight import Sim, take_off
 from tests.unit.test_vehicles_mission import item
 from vehicles.nav_rtl import RtlPhase, rtl_destination
-from vehicles.plan_types import MavCmd, PlanType
+from vehicles.plan_types import MavCmd, MavFrame, PlanType
 from vehicles.plans import PlanStore
+from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, GeoPoint, HomePosition, NavState
 
 ORIGIN = GeoPoint(47.397742, 8.545594, 488.0)
 
 
-def _ctx(position_ned_m):
-    home = HomePosition(ORIGIN, (0.0, 0.0, 0.0), 0.0)
-    return SimpleNamespace(home=home, origin=ORIGIN, position_ned_m=position_ned_m,
-                           home_alt_amsl_m=ORIGIN.alt_amsl_m)
+def _ctx(position_ned_m, home=True):
+    home_pos = HomePosition(ORIGIN, (0.0, 0.0, 0.0), 0.0) if home else None
+    return SimpleNamespace(home=home_pos, origin=ORIGIN, position_ned_m=position_ned_m,
+                           home_alt_amsl_m=ORIGIN.alt_amsl_m, log=StatusLog(), now_s=0.0)
 
 
-def _rally(*points_ne):
+def _rally(*points_ne, frames=None):
+    """Rally points in MAV_FRAME_GLOBAL_RELATIVE_ALT (QGC's), or the given frames."""
+    frames = frames or [MavFrame.GLOBAL_RELATIVE_ALT] * len(points_ne)
     plans = PlanStore()
-    plans.set(PlanType.RALLY, [item(i, MavCmd.NAV_RALLY_POINT, n, e, 0.0, ORIGIN,
+    plans.set(PlanType.RALLY, [item(i, MavCmd.NAV_RALLY_POINT, n, e, 0.0, ORIGIN, frame=f,
                                     mission_type=PlanType.RALLY)
-                               for i, (n, e) in enumerate(points_ne)])
+                               for i, ((n, e), f) in enumerate(zip(points_ne, frames))])
     return plans
 
 
@@ -43,6 +46,66 @@ def _rally(*points_ne):
 def test_rally_point_choice_follows_find_rtl_destination(rally_ne, at_ned, expected_ne):
     dest = rtl_destination(_ctx(at_ned), _rally(rally_ne))
     assert dest[:2] == pytest.approx(expected_ne, abs=0.05)
+
+
+UNSUPPORTED = "RTL: unsupported MAV_FRAME\t"
+G, REL, G_INT, REL_INT = (MavFrame.GLOBAL, MavFrame.GLOBAL_RELATIVE_ALT, MavFrame.GLOBAL_INT,
+                          MavFrame.GLOBAL_RELATIVE_ALT_INT)
+
+
+@pytest.mark.parametrize("points, frames, expected_ne, texts", [
+    # setSafepointAsDestination knows frames 0 and 3 only
+    ([(30.0, 0.0)], [G], (30.0, 0.0), 0),
+    ([(30.0, 0.0)], [REL_INT], (0.0, 0.0), 1),
+    ([(30.0, 0.0)], [G_INT], (0.0, 0.0), 1),
+    # a point of another frame still wins on distance: the usable one behind it cannot beat it
+    ([(30.0, 0.0), (28.0, 0.0)], [REL_INT, REL], (0.0, 0.0), 1),
+    ([(28.0, 0.0), (30.0, 0.0)], [REL, REL_INT], (28.0, 0.0), 1),
+    # every counted point is warned about, chosen or not; one within 10 m of home is not counted
+    ([(30.0, 0.0), (-40.0, 0.0), (5.0, 0.0)], [REL, G_INT, REL_INT], (30.0, 0.0), 1),
+    ([(30.0, 0.0), (-40.0, 0.0)], [REL_INT, G_INT], (0.0, 0.0), 2),
+])
+def test_rally_points_in_frames_rtl_cannot_use(points, frames, expected_ne, texts):
+    """rtl.cpp findRtlDestination / setSafepointAsDestination (v1.15): a rally point stored in
+    MAV_FRAME_GLOBAL_INT / GLOBAL_RELATIVE_ALT_INT (a MISSION_ITEM_INT client's frames) gets
+    "RTL: unsupported MAV_FRAME" each time the destination is chosen, and gives no position."""
+    ctx = _ctx((30.0, 0.0, -10.0))
+    dest = rtl_destination(ctx, _rally(*points, frames=frames))
+    assert dest[:2] == pytest.approx(expected_ne, abs=0.05)
+    assert [t.text for t in ctx.log.after(0)] == [UNSUPPORTED] * texts
+    ctx = _ctx((30.0, 0.0, -10.0))
+    rtl_destination(ctx, _rally(*points, frames=frames), warn=False)
+    assert ctx.log.after(0) == []
+    ctx = _ctx((30.0, 0.0, -10.0), home=False)  # PX4's home at 0°/0°: every point counts
+    rtl_destination(ctx, _rally(*points, frames=frames))
+    assert len(ctx.log.after(0)) == sum(f not in (G, REL) for f in frames)
+
+
+def test_unsupported_rally_frame_text_every_two_seconds_and_return_home():
+    """On the vehicle: RTL picks its destination every 2 s while not returning (on_inactive,
+    disarmed included) and on activation, each time with the text; the return goes home."""
+    sim = Sim()
+    try:
+        v = sim.v
+        sim.run(1.2)
+        rally = [item(0, MavCmd.NAV_RALLY_POINT, 25.0, 0.0, 0.0, v.origin, frame=REL_INT,
+                      mission_type=PlanType.RALLY)]
+        assert v.set_plan(sim.t, PlanType.RALLY, rally) == 0
+        t0 = sim.t
+        sim.run(6.0)
+        assert sim.texts().count(UNSUPPORTED) == 3  # ~2.05 s apart
+        take_off(sim)
+        v.reposition(sim.t, (22.0, 0.0, -5.0))
+        sim.run(10.0)
+        before = sim.texts().count(UNSUPPORTED)
+        assert before >= 3 + int((sim.t - t0 - 6.0) / 2.1)
+        assert v.return_to_launch(sim.t) is CommandResult.ACCEPTED
+        sim.run(0.1)
+        assert sim.texts().count(UNSUPPORTED) == before + 1  # on_activation
+        assert sim.run(90.0, until=lambda: not v.status.armed)
+        assert math.hypot(*v.state.position_ned_m[:2]) < 1.5  # home, not the rally point
+    finally:
+        sim.close()
 
 
 def test_return_on_the_ground_stays_idle_but_says_where_it_would_return():
