@@ -155,7 +155,9 @@ class MissionService:
         return False
 
     def _text(self, now_s: float, text: str, severity: Severity = Severity.CRITICAL) -> None:
-        self.say(now_s, severity, text)
+        """send_statustext_critical / _info: every MavlinkMissionManager text ends in "\t"
+        (each is also an event in PX4)."""
+        self.say(now_s, severity, text + "\t")
 
     def ack(self, result: int) -> None:
         """send_mission_ack: to the transfer partner, with the link's mission type."""

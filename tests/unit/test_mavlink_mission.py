@@ -248,14 +248,14 @@ def test_unacked_empty_download_times_out_and_blocks_an_upload_until_then():
     got = client.send(M.MAVLink_mission_count_message(1, 1, 1, 0))
     assert mission_acks(got) == [(1, 0)]
     assert [t.text for t in of_type(client.run_until(0.1), "STATUSTEXT")] == [
-        "WPM: IGN MISSION_COUNT: Busy"]
+        "WPM: IGN MISSION_COUNT: Busy\t"]
     got = client.send(M.MAVLink_mission_request_list_message(1, 1, 0))  # starts over
     assert [(m.get_type(), m.count) for m in got] == [("MISSION_COUNT", 0)]
     got = client.run_until(client.now_s + 4.5)
     assert of_type(got, "STATUSTEXT") == []
     client.heartbeat()
     got = client.run_until(client.now_s + 1.0)
-    assert [t.text for t in of_type(got, "STATUSTEXT")] == ["Operation timeout"]
+    assert [t.text for t in of_type(got, "STATUSTEXT")] == ["Operation timeout\t"]
     assert session.mission.phase is mission.Phase.IDLE
     upload(client, mavsdk_mission())  # idle again: uploads go through
 
@@ -404,7 +404,7 @@ def test_retry_and_timeout_on_virtual_time():
     assert all(r.seq == 1 for r in reqs)
     assert len(reqs) == int(mission.TIMEOUT_S / mission.RETRY_S) - 1
     texts = [t.text for t in of_type(got, "STATUSTEXT")]
-    assert texts == ["Operation timeout"]
+    assert texts == ["Operation timeout\t"]
     assert session.mission.phase is mission.Phase.IDLE
     assert vehicle.plans[PlanType.MISSION] == () and not [
         c for c in vehicle.calls if c[0] == "set_plan"]
@@ -426,12 +426,12 @@ def test_download_errors_and_timeout():
     got = client.send(M.MAVLink_mission_request_int_message(1, 1, 5, 0))  # skipping ahead
     assert mission_acks(got) == [(1, 0)] and session.mission.phase is mission.Phase.IDLE
     assert [t.text for t in of_type(client.run_until(0.1), "STATUSTEXT")] == [
-        "WPM: REJ. CMD: Req. WP was unexpected"]
+        "WPM: REJ. CMD: Req. WP was unexpected\t"]
     client.send(M.MAVLink_mission_request_list_message(1, 1, 0))
     client.run_until(client.now_s + 4.0)  # the client went away
     client.heartbeat()
     got = client.run_until(client.now_s + 1.5)
-    assert [t.text for t in of_type(got, "STATUSTEXT")] == ["Operation timeout"]
+    assert [t.text for t in of_type(got, "STATUSTEXT")] == ["Operation timeout\t"]
     assert session.mission.phase is mission.Phase.IDLE
     # upload while downloading on the same link → ERROR (PX4 "IGN MISSION_COUNT: Busy")
     client.send(M.MAVLink_mission_request_list_message(1, 1, 0))
@@ -487,7 +487,7 @@ def test_set_current_is_answered_by_the_stream_only():
     got = client.send(M.MAVLink_mission_set_current_message(1, 1, 0))
     assert of_type(got, "MISSION_CURRENT") == []
     assert [t.text for t in of_type(client.run_until(0.1), "STATUSTEXT")] == [
-        "WPM: WP CURR CMD: Not in list"]
+        "WPM: WP CURR CMD: Not in list\t"]
     upload(client, mavsdk_mission())
     other.run_until(client.now_s)
     got = client.send(M.MAVLink_mission_set_current_message(1, 1, 4))
@@ -751,7 +751,7 @@ def test_a_refused_item_ends_the_upload_at_that_item():
     client.send(item_int_msg(items[0]))
     got = client.send(item_int_msg(items[1]))
     assert mission_acks(got) == [(3, 0)]  # MAV_MISSION_UNSUPPORTED
-    assert texts_of(got, client) == ["IGN MISSION_ITEM: Invalid item"]
+    assert texts_of(got, client) == ["IGN MISSION_ITEM: Invalid item\t"]
     assert not of_type(got, "MISSION_REQUEST_INT")
     assert session.mission.phase is mission.Phase.IDLE
     assert all(same(a, b) for a, b in zip(vehicle.plans[PlanType.MISSION], mavsdk_mission(),
@@ -792,12 +792,12 @@ def test_after_a_refused_item_the_item_before_it_is_acked_accepted():
     client.send(item_int_msg(items[0]))
     got = client.send(item_int_msg(bad))
     assert mission_acks(got) == [(3, 2)]
-    assert texts_of(got, client) == ["IGN MISSION_ITEM: Invalid item"]
+    assert texts_of(got, client) == ["IGN MISSION_ITEM: Invalid item\t"]
     got = client.send(item_int_msg(items[0]))
     assert mission_acks(got) == [(0, 2)] and texts_of(got, client) == []
     got = client.send(item_int_msg(bad))
     assert mission_acks(got) == [(1, 2)]
-    assert texts_of(got, client) == ["IGN MISSION_ITEM: No transfer"]
+    assert texts_of(got, client) == ["IGN MISSION_ITEM: No transfer\t"]
     assert vehicle.plans[PlanType.RALLY] == ()
 
 
