@@ -128,7 +128,8 @@ def test_land_start_jumps_to_the_missions_landing_sequence_or_is_cancelled():
     assert len(vehicle.calls) == n and not vehicle.armed
     items = mavsdk_mission()[:-1]
     items.append(PlanItem(len(items), 2, 189, 0, 1, 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0))
-    items.append(PlanItem(len(items), 2, 21, 0, 1, NAN, NAN, NAN, NAN, 0, 0, NAN))
+    items.append(PlanItem(len(items), 6, 21, 0, 1, NAN, NAN, NAN, NAN, items[0].x, items[0].y,
+                          0.0))  # NAV_LAND has a position (frame 2 is MAV_MISSION_UNSUPPORTED)
     upload(client, items)
     assert results(client.command_long(189, 0, 0, 0, 0, 0, 0, 0)) == [(189, 0)]
     assert vehicle.calls[-1] == ("start_mission", 0.0, len(items) - 2)
