@@ -135,3 +135,27 @@ def test_takeoff_item_in_the_air_is_flown_as_a_waypoint(sim):
     assert math.hypot(n, e - 10) < 2.5 and abs(-d - 5) < 1.0
     texts = [m.text for m in api.messages("STATUSTEXT", since=mark)]
     assert not any(t.startswith("Climb to") for t in texts)
+
+
+def test_rally_points_and_fences_as_px4_takes_them(sim):
+    """A MISSION_ITEM_INT client's rally point in frame 6 (mavlink_mission.cpp stores the frame
+    as sent) is accepted, and RTL (rtl.cpp setSafepointAsDestination, frames 0 and 3 only)
+    answers "RTL: unsupported MAV_FRAME" every 2 s; QGC's frame 3 does not. A fence PX4 takes
+    (a NaN inclusion circle) is dropped at load with its text."""
+    api = sim.api(0)
+    mark = len(api.frames)
+    rally6 = [mission_item(MavCmd.NAV_RALLY_POINT, *geo(30, 0), 10.0, params=(0, 0, 0, 0),
+                           mission_type=2)]
+    assert rally6[0].frame == 6 and api.upload_rally(rally6) == PlanResult.ACCEPTED
+    sim.advance(4.5)
+    texts = [m.text for m in api.messages("STATUSTEXT", since=mark)]
+    assert texts.count("RTL: unsupported MAV_FRAME\t") == 2
+    rally3 = [dataclasses.replace(rally6[0], frame=3)]
+    assert api.upload_rally(rally3) == PlanResult.ACCEPTED
+    mark = len(api.frames)
+    circle = [mission_item(MavCmd.NAV_FENCE_CIRCLE_INCLUSION, *geo(0, 0), 0.0,
+                           params=(math.nan, 0, 0, 0), frame=0, mission_type=1)]
+    assert api.upload_fence(circle) == PlanResult.ACCEPTED
+    sim.advance(4.5)
+    texts = [m.text for m in api.messages("STATUSTEXT", since=mark)]
+    assert texts == ["Geofence invalid, doesn't contain Home position\t"]
