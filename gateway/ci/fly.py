@@ -9,7 +9,8 @@ Pass criteria (every one must hold):
 - the mission finished: MISSION_CURRENT said COMPLETE, or every item was reported reached;
 - the vehicle landed and disarmed;
 - no geofence breach: every position sampled at GEOFENCE_SAMPLE_S is checked against the plan's
-  own fence (vehicles.geofence geometry), whatever GF_ACTION the vehicle has;
+  own fence (vehicles.geofence geometry) as PX4 checks it: every area must allow it (inside each
+  inclusion area, outside each exclusion area), whatever GF_ACTION the vehicle has;
 - optional: the largest distance from the planned path while in Mission mode is below a limit.
 
 The planned path is the polyline start → takeoff altitude above it → each positional item (a
@@ -364,8 +365,6 @@ def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
     path = planned_path(plan.mission, origin, start)
     areas = [area for _, area in build_areas(plan.fence, origin)]
     res.fence_areas = len(areas)
-    inclusions = [a for a in areas if a.inclusion]
-    exclusions = [a for a in areas if not a.inclusion]
 
     tick = [0]
 
@@ -381,9 +380,9 @@ def _fly(sim: Sim, plan: QgcPlan, res: FlyResult, time_limit_s: float,
         tick[0] += 1
         if areas and status.armed and res.geofence_breach is None:
             lat, lon = reproject(origin.lat_deg, origin.lon_deg, n, e)
-            inside = (not inclusions or any(a.contains(n, e, lat, lon) for a in inclusions)) \
-                and not any(a.contains(n, e, lat, lon) for a in exclusions)
-            if not inside:
+            # geofence.cpp isInsidePolygonOrCircle: every area must allow the point (inside
+            # each inclusion, outside each exclusion)
+            if not all(a.allows(n, e, lat, lon) for a in areas):
                 res.geofence_breach = (f"at t={now:.1f} s, {round(n, 1) + 0.0:.1f} m N "
                                        f"{round(e, 1) + 0.0:.1f} m E of the vehicle's origin")
         if status.nav_state in JUDGED_MODES and status.armed and \
