@@ -57,8 +57,10 @@ def lockstep_runs(tmp_path_factory):
                 fly_square(sim)
                 wall = time.perf_counter() - t0
                 reached = {m.seq for m in sim.api(0).messages("MISSION_ITEM_REACHED")}
+                last_reached = sim.vehicles[0].mission_status.reached_seq
                 out[(label, k)] = {"dir": run_dir, "sim_s": sim.now, "wall_s": wall,
-                                   "reached": reached, "plan": sim.vehicles[0].plan(PlanType.MISSION),
+                                   "reached": reached, "last_reached": last_reached,
+                                   "plan": sim.vehicles[0].plan(PlanType.MISSION),
                                    "landed": sim.status(0).landed_state.name}
     return out
 
@@ -85,7 +87,10 @@ def test_lossy_link_really_lost_and_the_mission_still_flew(lockstep_runs):
     run = lockstep_runs[("lossy", 1)]
     trace = (run["dir"] / "packets.trace").read_text()
     assert " drop v1/api/up " in trace and " drop v1/api/down " in trace
-    assert run["reached"] == set(range(6)) and run["landed"] == "ON_GROUND"
+    # The vehicle reached every item; its client heard most of the MISSION_ITEM_REACHEDs (PX4
+    # sends each once: a lossy link may lose one).
+    assert run["last_reached"] == 5 and run["landed"] == "ON_GROUND"
+    assert run["reached"] <= set(range(6)) and len(run["reached"]) >= 4
     sent = [(it.command, it.x, it.y, it.z) for it in square_mission()]
     assert [(it.command, it.x, it.y, it.z) for it in run["plan"]] == sent
     assert digests(run["dir"]) != digests(lockstep_runs[("ideal", 1)]["dir"])
