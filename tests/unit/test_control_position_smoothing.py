@@ -5,12 +5,16 @@ from __future__ import annotations
 
 import math
 
+import numba
 import pytest
 
 from vehicles.control.position_smoothing import (
+    DynamicLimits,
     PositionSmoothing,
+    _unit2,
     max_speed_from_distance,
     max_speed_in_waypoint,
+    start_xy_speed,
 )
 
 MAX_JERK, MAX_ACCELERATION = 4.0, 3.0
@@ -70,15 +74,17 @@ def test_reaches_target(feedback):
 
 
 def test_reaches_target_initial_velocity():
+    """PX4 v1.15's reachesTargetInitialVelocity: with a next waypoint 72 m lower the corner is
+    not flown (the altitude does not stay the same), so the setpoint stops exactly at the
+    target, within 2000 iterations, from an initial feed-forward velocity."""
     s, position = smoothing(), (0.0, 0.0, 0.0)
-    waypoints = ((0.0, 0.0, 0.0), TARGET, TARGET)
+    waypoints = ((0.0, 0.0, 0.0), TARGET, (8.0, 12.0, 80.0))
     ff = (1.0, 0.1, 0.3)
-    for _ in range(20000):
+    for _ in range(2000):
         out = s.generate(position, waypoints, ff, 0.02)
         position, ff = out.position, (0.0, 0.0, 0.0)
         assert within_limits(out)
-        if math.hypot(position[0] - TARGET[0], position[1] - TARGET[1]) < 10.0 \
-                and abs(position[2] - TARGET[2]) < 0.8:
+        if equal(position, TARGET):
             break
     else:
         pytest.fail("took too long to converge")
@@ -115,3 +121,64 @@ def test_a_corner_is_planned_inside_and_slower():
     near = [v for p, v in speeds if math.dist(p[:2], corner[:2]) < 3.0]
     assert outside <= 0.2 and max(v for _, v in speeds) <= CRUISE_SPEED + 1e-6
     assert min(near) < 0.8 * CRUISE_SPEED
+
+
+# --- computeStartXYSpeedFromWaypoints (TrajectoryConstraints.hpp, PX4 v1.15) ----------------------
+LIMITS = DynamicLimits(z_accept_rad=0.8, xy_accept_rad=2.0, max_acc_xy=3.0, max_jerk=4.0,
+                       max_speed_xy=5.0, max_acc_xy_radius_scale=0.5)
+
+
+def test_start_speed_plans_the_corner_on_level_legs():
+    """A level 90 degree corner 20 m ahead: braking to the corner speed sqrt(0.5 * 3 * 2 *
+    tan(pi/4)) = sqrt(3) from the speed the distance allows (capped at cruise)."""
+    corner_speed = math.sqrt(0.5 * 3.0 * 2.0 * math.tan(math.pi / 4.0))
+    start, target, nxt = (0.0, 0.0, -10.0), (20.0, 0.0, -10.0), (20.0, 20.0, -10.0)
+    assert start_xy_speed(target, nxt, nxt, 0.0, LIMITS) == 5.0
+    near = (19.0, 0.0, -10.0)
+    assert start_xy_speed(near, target, nxt, 5.0, LIMITS) == pytest.approx(
+        max_speed_from_distance(4.0, 3.0, 1.0, corner_speed))
+    assert start_xy_speed(start, target, nxt, 5.0, LIMITS) == 5.0
+    # at the corner itself the speed is the corner's (computeMaxSpeedFromDistance: fmaxf)
+    assert start_xy_speed(target, target, nxt, 5.0, LIMITS) == pytest.approx(corner_speed)
+
+
+@pytest.mark.parametrize("start_z, next_z", [
+    (-5.0, -10.0),    # still 5 m below the target's altitude: not reached
+    (-9.1, -10.0),    # 0.9 m off: outside NAV_MC_ALT_RAD (0.8)
+    (-10.0, -15.0),   # the next leg climbs
+    (-10.0, -9.1),    # the next leg descends by more than the radius
+    (math.nan, -10.0),  # no altitude (vertical speed control): never reached
+])
+def test_start_speed_plans_a_stop_unless_level(start_z, next_z):
+    """PX4 v1.15 plans a corner speed only with the altitude reached and the next leg at it;
+    otherwise the speed brakes to a stop at the target."""
+    near, target, nxt = (19.0, 0.0, start_z), (20.0, 0.0, -10.0), (20.0, 20.0, next_z)
+    assert start_xy_speed(near, target, nxt, 5.0, LIMITS) == pytest.approx(
+        max_speed_from_distance(4.0, 3.0, 1.0, 0.0))
+    assert start_xy_speed((20.0, 0.0, start_z), target, nxt, 5.0, LIMITS) == 0.0
+
+
+def test_start_speed_altitude_within_the_radius_is_reached():
+    near, target, nxt = (19.0, 0.0, -9.3), (20.0, 0.0, -10.0), (20.0, 20.0, -10.7)
+    assert start_xy_speed(near, target, nxt, 5.0, LIMITS) > \
+        max_speed_from_distance(4.0, 3.0, 1.0, 0.0)
+
+
+@numba.njit
+def _compiled_cos(ax: float, ay: float, bx: float, by: float) -> float:
+    ux, uy = _unit2(ax, ay)
+    wx, wy = _unit2(bx, by)
+    return ux * wx + uy * wy
+
+
+def test_start_speed_reversal_past_acos_domain_is_not_a_stop():
+    """An exact reversal whose dot product rounds past 1: acosf gives NaN, math::constrain keeps
+    it and math::min(NaN, exit_speed) drops it, so PX4 plans the exit speed (not 0)."""
+    d = 0.7  # (0.7, 0.7) and (7.7, 7.7) normalize to a dot product of 1 + 2e-16
+    start, target, nxt = (0.0, 0.0, 0.0), (d, d, 0.0), (-10 * d, -10 * d, 0.0)
+    if _compiled_cos(d, d, 11 * d, 11 * d) <= 1.0:
+        pytest.skip("this platform rounds the dot product into acos's domain")
+    assert start_xy_speed(start, target, nxt, 1.5, LIMITS) == pytest.approx(
+        max_speed_from_distance(4.0, 3.0, math.hypot(d, d), 1.5))
+    # inside the domain the reversal is alpha = 0: a stop
+    assert start_xy_speed(start, target, (d, -10 * d, 0.0), 1.5, LIMITS) < 1.5

@@ -47,18 +47,34 @@ from vehicles.control.velocity_smoothing import (
 from vehicles.types import Vec3
 
 _EPS = 1.1920929e-07  # FLT_EPSILON
+_UNIT_EPS = 1e-5  # matrix::Vector::unit_or_zero's default
 _NAN3: Vec3 = (math.nan, math.nan, math.nan)
 
 
 # --- TrajMath.hpp -----------------------------------------------------------------------------
 @register_jitable
+def _min(a: float, b: float) -> float:
+    """PX4's math::min: ``a < b ? a : b`` (a NaN ``a`` gives ``b``, a NaN ``b`` gives NaN)."""
+    return a if a < b else b
+
+
+@register_jitable
+def _fmax(a: float, b: float) -> float:
+    """C's fmaxf: the larger, a NaN argument ignored."""
+    if math.isnan(a):
+        return b
+    return a if a > b or math.isnan(b) else b
+
+
+@register_jitable
 def max_speed_from_distance(jerk: float, accel: float, braking_distance: float,
                             final_speed: float) -> float:
-    """The speed from which the vehicle can still brake to ``final_speed`` within the distance
-    (constant deceleration after a 2·accel/jerk delay)."""
+    """computeMaxSpeedFromDistance: the speed from which the vehicle can still brake to
+    ``final_speed`` within the distance (constant deceleration after a 2·accel/jerk delay),
+    never below ``final_speed`` (the conservative ramp time does not slow it down further)."""
     b = 4.0 * accel * accel / jerk
     c = -2.0 * accel * braking_distance - final_speed * final_speed
-    return 0.5 * (-b + math.sqrt(b * b - 4.0 * c))
+    return _fmax(0.5 * (-b + math.sqrt(b * b - 4.0 * c)), final_speed)
 
 
 @register_jitable
@@ -87,34 +103,48 @@ def _sgn(x: float) -> float:
 @register_jitable
 def _unit2(x: float, y: float) -> tuple[float, float]:
     n = math.hypot(x, y)
-    return (x / n, y / n) if n > _EPS else (0.0, 0.0)
+    return (x / n, y / n) if n > _UNIT_EPS else (0.0, 0.0)
 
 
 @register_jitable
-def _start_xy_speed(sx: float, sy: float, tx: float, ty: float, nx: float, ny: float,
-                    exit_speed: float, xy_accept_rad: float, max_acc_xy: float, max_jerk: float,
+def _start_xy_speed(sx: float, sy: float, sz: float, tx: float, ty: float, tz: float,
+                    nx: float, ny: float, nz: float, exit_speed: float, z_accept_rad: float,
+                    xy_accept_rad: float, max_acc_xy: float, max_jerk: float,
                     max_speed_xy: float, radius_scale: float) -> float:
+    """PX4 v1.15's computeStartXYSpeedFromWaypoints. A corner speed is planned only when the
+    next waypoint is elsewhere, outside the acceptance radius, the altitude is reached (start
+    within NAV_MC_ALT_RAD of the target's) and the next leg stays at it; otherwise the speed
+    plans a stop at the target. A NaN altitude is neither reached nor kept (PX4's comparisons
+    are false). The corner's angle is acosf of the unit vectors' dot product unclamped: past ±1
+    it is NaN, which math::constrain passes on and math::min then drops."""
     d_next = math.hypot(tx - nx, ty - ny)
+    target_next_different = d_next > 0.001
+    waypoint_overlap = d_next < xy_accept_rad
+    has_reached_altitude = abs(tz - sz) < z_accept_rad
+    altitude_stays_same = abs(nz - tz) < z_accept_rad
     speed_at_target = 0.0
-    if d_next > 0.001 and not d_next < xy_accept_rad:
+    if target_next_different and not waypoint_overlap and has_reached_altitude \
+            and altitude_stays_same:
         ux, uy = _unit2(tx - sx, ty - sy)
         wx, wy = _unit2(tx - nx, ty - ny)
-        alpha = math.acos(mn(mx(ux * wx + uy * wy, -1.0), 1.0))
-        alpha = mn(mx(alpha, 0.0), math.pi - _EPS)
-        turn = max_speed_in_waypoint(alpha, radius_scale * max_acc_xy, xy_accept_rad)
-        speed_at_target = mn(mn(turn, exit_speed), max_speed_xy)
+        cos_alpha = ux * wx + uy * wy
+        alpha = math.acos(cos_alpha) if -1.0 <= cos_alpha <= 1.0 else math.nan
+        safe_alpha = 0.0 if alpha < 0.0 else (math.pi - _EPS if alpha > math.pi - _EPS
+                                              else alpha)
+        turn = max_speed_in_waypoint(safe_alpha, radius_scale * max_acc_xy, xy_accept_rad)
+        speed_at_target = _min(_min(turn, exit_speed), max_speed_xy)
     distance = math.hypot(sx - tx, sy - ty)
-    return mn(max_speed_xy, max_speed_from_distance(max_jerk, max_acc_xy, distance,
-                                                     speed_at_target))
+    return _min(max_speed_xy, max_speed_from_distance(max_jerk, max_acc_xy, distance,
+                                                      speed_at_target))
 
 
 def start_xy_speed(start: Vec3, target: Vec3, next_target: Vec3, exit_speed: float,
                    cfg: DynamicLimits) -> float:
     """computeStartXYSpeedFromWaypoints: the speed at ``start`` that reaches ``target`` at the
     speed the corner towards ``next_target`` allows."""
-    return _start_xy_speed(start[0], start[1], target[0], target[1], next_target[0],
-                           next_target[1], exit_speed, cfg.xy_accept_rad, cfg.max_acc_xy,
-                           cfg.max_jerk, cfg.max_speed_xy, cfg.max_acc_xy_radius_scale)
+    return _start_xy_speed(*start, *target, *next_target, exit_speed, cfg.z_accept_rad,
+                           cfg.xy_accept_rad, cfg.max_acc_xy, cfg.max_jerk, cfg.max_speed_xy,
+                           cfg.max_acc_xy_radius_scale)
 
 
 def xy_speed_from_waypoints(waypoints: list[Vec3], cfg: DynamicLimits) -> float:
@@ -157,11 +187,14 @@ def _is_turning(traj, cfg, tx: float, ty: float) -> bool:
 @register_jitable
 def _max_xy_speed(traj, cfg, inp) -> float:
     """computeXYSpeedFromWaypoints over (here, target, next)."""
-    tx, ty, nx, ny = inp[P_TARGET], inp[P_TARGET + 1], inp[P_NEXT], inp[P_NEXT + 1]
+    tx, ty, tz = inp[P_TARGET], inp[P_TARGET + 1], inp[P_TARGET + 2]
+    nx, ny, nz = inp[P_NEXT], inp[P_NEXT + 1], inp[P_NEXT + 2]
     acc, jerk, cruise, rad, gain = traj[0, AMAX], traj[0, JMAX], cfg[CRUISE], cfg[TRAD], cfg[GAIN]
-    speed = _start_xy_speed(tx, ty, nx, ny, nx, ny, 0.0, rad, acc, jerk, cruise, gain)
-    return _start_xy_speed(traj[0, X], traj[1, X], tx, ty, nx, ny, speed, rad, acc, jerk,
-                           cruise, gain)
+    vrad = cfg[VRAD]
+    speed = _start_xy_speed(tx, ty, tz, nx, ny, nz, nx, ny, nz, 0.0, vrad, rad, acc, jerk,
+                            cruise, gain)
+    return _start_xy_speed(traj[0, X], traj[1, X], traj[2, X], tx, ty, tz, nx, ny, nz, speed,
+                           vrad, rad, acc, jerk, cruise, gain)
 
 
 @register_jitable
@@ -188,7 +221,7 @@ def _l1_point(traj, cfg, inp) -> tuple[float, float, float]:
     a0, a1, a2 = inp[P_PREV], inp[P_PREV + 1], inp[P_PREV + 2]
     d0, d1, d2 = inp[P_TARGET] - a0, inp[P_TARGET + 1] - a1, inp[P_TARGET + 2] - a2
     n = math.sqrt(d0 ** 2 + d1 ** 2 + d2 ** 2)
-    u0, u1, u2 = (d0 / n, d1 / n, d2 / n) if n > _EPS else (0.0, 0.0, 0.0)
+    u0, u1, u2 = (d0 / n, d1 / n, d2 / n) if n > _UNIT_EPS else (0.0, 0.0, 0.0)
     along = (p0 - a0) * u0 + (p1 - a1) * u1 + (p2 - a2) * u2
     c0, c1, c2 = a0 + u0 * along, a1 + u1 * along, a2 + u2 * along
     cross = math.sqrt((c0 - p0) ** 2 + (c1 - p1) ** 2 + (c2 - p2) ** 2)
