@@ -90,6 +90,33 @@ def test_reaches_target_initial_velocity():
         pytest.fail("took too long to converge")
 
 
+def close(a, b) -> bool:
+    """Equal to PX4's float32 values (to ~5 digits: float64 here)."""
+    return a == pytest.approx(b, rel=1e-4, abs=5e-5)
+
+
+@pytest.mark.parametrize("next_z, checks", [
+    # level: the corner speed sqrt(MPC_XY_TRAJ_P * acc * radius * tan(45 deg)) = sqrt(3)
+    (-10.0, [(100, 4.006558, 4.652774), (200, 13.44236, 3.74765), (289, 18.01846, 1.732051)]),
+    # the next leg climbs 5 m: a stop planned at the corner
+    (-15.0, [(100, 4.006558, 4.652774), (200, 13.3096, 3.597427), (300, 17.9572, 1.2987)]),
+])
+def test_matches_px4_v115_into_a_corner(next_z, checks):
+    """Towards a 90 degree corner 20 m ahead (2 m acceptance radius, PositionSmoothingTest.cpp's
+    other settings): (iteration, north position, north speed) as PX4 v1.15.2's own
+    PositionSmoothing / VelocitySmoothing library gives them, run with these inputs."""
+    s = smoothing()
+    s.target_acceptance_radius = 2.0
+    s.reset((0.0,) * 3, (0.0,) * 3, (0.0, 0.0, -10.0))
+    waypoints = ((0.0, 0.0, -10.0), (20.0, 0.0, -10.0), (20.0, 20.0, next_z))
+    position, want = (0.0, 0.0, -10.0), dict((c[0], c[1:]) for c in checks)
+    for i in range(max(want) + 1):
+        out = s.generate(position, waypoints, (0.0,) * 3, 0.02)
+        position = out.position
+        if i in want:
+            assert close((position[0], out.velocity[0]), want[i]), i
+
+
 def test_traj_math():
     """TrajMath: braking from the speed it gives takes the whole distance; a straight line
     (alpha = pi) allows any speed, a reversal (alpha = 0) none."""
