@@ -47,13 +47,11 @@ def test_qgc_connect_sequence_rates_and_guided_flight(daemon_factory):
             assert version is not None
             assert version.capabilities & M.MAV_PROTOCOL_CAPABILITY_MISSION_INT
             assert version.capabilities & M.MAV_PROTOCOL_CAPABILITY_FTP  # as PX4 SITL
-            # What QGC asks next: the component metadata (then fetched over FTP) as PX4 SITL
-            # answers it; AVAILABLE_MODES denied at once (PX4 1.15 has no stream for it).
-            for msg_id in (397, 395):
+            # What QGC asks next, as PX4 SITL answers it: the component metadata (then fetched
+            # over FTP) and AVAILABLE_MODES (param2 0: every mode, then the ACK).
+            for msg_id in (397, 395, 435):
                 ack = command(conn, sysid, M.MAV_CMD_REQUEST_MESSAGE, msg_id)
                 assert ack.result == M.MAV_RESULT_ACCEPTED
-            ack = command(conn, sysid, M.MAV_CMD_REQUEST_MESSAGE, 435)
-            assert ack.result == M.MAV_RESULT_DENIED
             count, got = read_all_params(conn, sysid)
             assert count >= 100 and sorted(got) == list(range(count))
             for mission_type in (0, 1, 2):
