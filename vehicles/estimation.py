@@ -10,30 +10,39 @@ Sensors (what PX4 SITL with Gazebo's x500 sees):
   σ 0.01 Pa / (ρ₀ g) with ISA sea-level density).
 - Magnetometer at 50 Hz: the Earth's field rotated into the body frame plus white noise
   σ (0.02, 0.02, 0.03) gauss (PX4 src/modules/simulation/sensor_mag_sim).
-- GPS at 30 Hz (``navsat_sensor``) with the Gauss-Markov position and velocity noise that PX4's
-  gz bridge adds (src/modules/simulation/gz_bridge/GZBridge.hpp: position amplitude 0.8 m,
-  random walk 0.01, Markov coefficient 0.95; velocity amplitude 0.05 m/s, density 0.2,
-  coefficient 0.85; vertical ×1.5 and ×1.2), each fix describing the vehicle EKF2_GPS_DELAY
-  (110 ms) before it arrives.
+- GPS at 8 Hz as PX4 v1.15's SITL for gz_x500 has it: the airframe (4001_gz_x500) sets
+  SENS_EN_GPSSIM, so sensor_gps comes from src/modules/simulation/sensor_gps_sim (the gz bridge's
+  navSatCallback only publishes the ground truth, vehicle_global_position_groundtruth, at the
+  ``navsat_sensor``'s 30 Hz). SensorGpsSim::Run, every 125 ms (ScheduleOnInterval), takes the
+  latest ground truth (position: the last 30 Hz navsat sample; velocity: the local position
+  ground truth, every physics step) and adds white Gaussian noise: σ 0.2 m north and east, 0.5 m
+  in altitude, (0.06, 0.077, 0.158) m/s in velocity (noiseGauss3f). It adds no delay: the fix
+  describes the vehicle when it was taken (at most one navsat period earlier), while EKF2 fuses
+  it as EKF2_GPS_DELAY (110 ms) plus half its 10 ms filter period older than its publication
+  (EstimatorInterface::setGpsData on sensor_gps.timestamp): PX4 SITL's mismatch, kept here.
+  Its reported accuracies are constants (GPS_EPH_M, GPS_EPV_M, GPS_S_VARIANCE_MPS, the DOPs,
+  SIM_GPS_USED satellites) with a 3D fix.
 - Failure injection (``set_failed``, PX4 SITL's simulator: a sensor that is off publishes
   nothing, one that is stuck repeats its last sample): a GPS that is off gives no fixes, and the
   estimator dead-reckons on the IMU and counts the age of its last fix (E_GPS_AGE), which the
   vehicle compares with EKF2_NOAID_TOUT; gyro, accelerometer, barometer and magnetometer off or
   stuck keep their last sample (the estimator and the controllers fly on it, as PX4's would on
   a frozen IMU), and the estimator fuses only what arrives and passes its gate.
-- ``noise`` scales every noise and bias (1 = the models above, 0 = exact sensors); the GPS delay
-  stays. Every draw comes from the vehicle's own seeded stream (``NoiseBlocks``), so the same
-  seed gives the same noise whatever else runs, and lockstep runs repeat exactly.
+- ``noise`` scales every noise and bias (1 = the models above, 0 = exact sensors); the GPS's
+  sampling (8 Hz of the 30 Hz ground truth) and EKF2's delay stay. Every draw comes from the
+  vehicle's own seeded stream (``NoiseBlocks``), so the same seed gives the same noise whatever
+  else runs, and lockstep runs repeat exactly.
 
 Estimator (a compact stand-in for EKF2 with PX4's sensor fusion choices: IMU prediction, GPS
-position and velocity delayed by EKF2_GPS_DELAY, barometric height, magnetometer heading):
+position and velocity fused EKF2_GPS_DELAY late, barometric height, magnetometer heading):
 - Attitude: the gyro (less its estimated bias) integrated every step; tilt corrected towards
   the specific force the GPS velocity implies (so accelerating flight does not tilt it), heading
   towards the magnetometer, bias learned from both (a complementary filter).
 - Position and velocity: the IMU's specific force rotated by the estimated attitude, integrated
-  every step; GPS innovations are formed against the estimate of EKF2_GPS_DELAY ago (a ring of
-  past estimates) and the correction is applied to the present and the ring; height and a
-  vertical accelerometer bias follow the barometer. A barometer sample whose test ratio is over
+  every step; GPS innovations are formed against the estimate of EKF2_GPS_DELAY (and half
+  EKF2's filter period) before the fix arrived (a ring of past estimates) and the correction
+  is applied to the present and the ring; height and a vertical accelerometer bias follow the
+  barometer. A barometer sample whose test ratio is over
   1 (EKF2_BARO_GATE) is rejected, as a magnetometer heading over EKF2_MAG_GATE is; with no
   barometer fused for BARO_TIMEOUT_S the height follows the GPS instead (EKF2's fallback to
   GNSS height).
@@ -73,10 +82,16 @@ BARO_NOISE_PA = 0.01
 AIR_DENSITY_KGM3 = 1.225
 BARO_NOISE_M = BARO_NOISE_PA / (AIR_DENSITY_KGM3 * GRAVITY_MPS2)
 MAG_NOISE_GAUSS = (0.02, 0.02, 0.03)
-GPS_RATE_HZ = 30.0
-GPS_POS_AMPLITUDE_M, GPS_POS_WALK, GPS_POS_MARKOV = 0.8, 0.01, 0.95
-GPS_VEL_AMPLITUDE_MPS, GPS_VEL_DENSITY, GPS_VEL_MARKOV = 0.05, 0.2, 0.85
+GPS_RATE_HZ = 8.0  # SensorGpsSim: ScheduleOnInterval(125_ms)
+NAVSAT_RATE_HZ = 30.0  # the ground truth it reads: navsat_sensor's update_rate
+GPS_POS_NOISE_M = (0.2, 0.2, 0.5)  # north, east, down (latitude, longitude, altitude)
+GPS_VEL_NOISE_MPS = (0.06, 0.077, 0.158)  # noiseGauss3f on the NED velocity
+# What SensorGpsSim reports with a fix (SIM_GPS_USED ≥ 4): sensor_gps eph, epv, s_variance_m_s,
+# hdop, vdop, satellites_used (SIM_GPS_USED's default).
+GPS_EPH_M, GPS_EPV_M, GPS_S_VARIANCE_MPS = 0.9, 1.78, 0.4
+GPS_HDOP, GPS_VDOP, GPS_SATELLITES_USED = 0.7, 1.1, 10
 GPS_DELAY_S = 0.11  # EKF2_GPS_DELAY default (ms in the parameter)
+EKF2_FILTER_PERIOD_S = 0.01  # setGpsData also takes off half of it (_dt_ekf_avg / 2)
 # The Earth's field at PX4's SITL home (Zurich), gauss NED: 48 µT, inclination 63.5°,
 # declination 3° east (WMM; sensor_mag_sim uses the same model at the home position).
 MAG_NED_GAUSS = (0.2145, 0.0112, 0.4296)
@@ -105,8 +120,8 @@ R_GYRO, R_ACC, R_Q, R_RATES, R_TRUE_Q, R_TRUE_RATES, R_SIZE = 0, 3, 6, 10, 13, 1
 # Columns of ``sensed`` (the latest sample of each sensor; NED positions from the spawn point).
 S_GYRO, S_ACC, S_MAG, S_BARO_DOWN, S_GPS_POS, S_GPS_VEL, S_VIB, S_PREV, S_SIZE = (
     0, 3, 6, 9, 10, 13, 16, 19, 25)
-# Columns of the sensors' own state: gyro bias, accel bias, GPS position and velocity noise.
-B_GYRO, B_ACC, B_GPS_POS, B_GPS_VEL, B_SIZE = 0, 3, 6, 9, 12
+# Columns of the sensors' own state: gyro bias, accel bias.
+B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 # Columns of the estimator's state.
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
  E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_BARO_AGE, E_SIZE) = (
@@ -134,11 +149,13 @@ def _gm(dt_s: float, tau_s: float, sigma: float) -> tuple[float, float]:
 
 
 @njit_cached
-def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_i, bias, sensed,
-          consts, failed):  # pragma: no cover - compiled
+def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, navsat_age, hist, hist_i, bias,
+          sensed, consts, failed):  # pragma: no cover - compiled
     """Every vehicle's sensors after a physics step (module rules). ``hist``: the ring of true
-    positions and velocities (slot ``hist_i`` is written now); ``consts``: gyro and accel bias
-    decay and drive, gyro and accel noise, baro and mag noise, the Earth's field (NED)."""
+    positions and velocities (slot ``hist_i`` is written now); ``navsat_age``: the physics steps
+    since the last navsat sample (the ground truth a GPS fix takes its position from);
+    ``consts``: gyro and accel bias decay and drive, gyro and accel noise, baro and mag noise,
+    the Earth's field (NED)."""
     g_decay, g_drive, a_decay, a_drive = consts[0], consts[1], consts[2], consts[3]
     g_noise, a_noise, baro_noise = consts[4], consts[5], consts[6]
     for v in range(len(measured)):
@@ -189,16 +206,12 @@ def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, delay, hist, hist_
             out[S_MAG + 1] = r01 * mn + r11 * me + r21 * md + consts[8] * scale * n[14]
             out[S_MAG + 2] = r02 * mn + r12 * me + r22 * md + consts[9] * scale * n[15]
         if gps_due and not f & F_GPS_OFF:
-            old = hist[v, (hist_i - delay[v]) % len(hist[v])]
+            # SensorGpsSim::Run: the navsat ground truth's position, the current velocity, each
+            # with white noise; no delay.
+            truth = hist[v, (hist_i - navsat_age) % len(hist[v])]
             for i in range(3):
-                up = 1.5 if i == 2 else 1.0
-                uv = 1.2 if i == 2 else 1.0
-                b[B_GPS_POS + i] = (0.95 * b[B_GPS_POS + i]
-                                    + 0.01 * 0.8 * up * scale * n[16 + i])
-                b[B_GPS_VEL + i] = (0.85 * b[B_GPS_VEL + i]
-                                    + 0.2 * 0.05 * uv * scale * n[19 + i])
-                out[S_GPS_POS + i] = old[i] + b[B_GPS_POS + i]
-                out[S_GPS_VEL + i] = old[3 + i] + b[B_GPS_VEL + i]
+                out[S_GPS_POS + i] = truth[i] + GPS_POS_NOISE_M[i] * scale * n[16 + i]
+                out[S_GPS_VEL + i] = m[M_VEL + i] + GPS_VEL_NOISE_MPS[i] * scale * n[19 + i]
 
 
 @njit_cached
@@ -210,7 +223,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
     g = 9.80665
     mn, me = consts[0], consts[1]  # the heading needs the horizontal field only
     mass_over_drag = consts[3]
-    dt_gps = 1.0 / 30.0
+    dt_gps = 1.0 / GPS_RATE_HZ
     dt_baro = 1.0 / 50.0
     a_ref = dt_gps / (0.3 + dt_gps)
     a_f = dt_s / (0.3 + dt_s)
@@ -391,7 +404,7 @@ class Estimation:
         self.est = np.zeros((0, E_SIZE))  # the estimator's state (E_*)
         self.hist = np.zeros((0, HISTORY, 6))  # true positions and velocities, a ring
         self.ehist = np.zeros((0, HISTORY, 6))  # estimated positions and velocities, a ring
-        self.delay = np.zeros(0, np.int64)  # EKF2_GPS_DELAY in physics steps
+        self.delay = np.zeros(0, np.int64)  # how late EKF2 takes a fix to be, physics steps
         self.failed = np.zeros(0, np.int64)  # failure injection: F_* bits per row
 
     def set_failed(self, row: int, bits: int, on: bool) -> None:
@@ -410,7 +423,9 @@ class Estimation:
         k = len(self.est)
         self._resize(k + 1)
         self.noise.add(index)
-        self.delay[k] = max(0, min(HISTORY - 1, int(round(gps_delay_s / self.dt_s))))
+        # EKF2 fuses a fix as taken EKF2_GPS_DELAY and half its filter period before it arrived.
+        late_s = gps_delay_s + EKF2_FILTER_PERIOD_S / 2.0
+        self.delay[k] = max(0, min(HISTORY - 1, int(round(late_s / self.dt_s))))
         e = self.est[k]
         e[E_Q:E_Q + 4] = truth[M_Q:M_Q + 4]
         e[E_POS:E_POS + 3] = truth[M_POS:M_POS + 3]

@@ -45,6 +45,7 @@ from vehicles.estimation import (
     E_RATIOS,
     GPS_RATE_HZ,
     HISTORY,
+    NAVSAT_RATE_HZ,
     R_ACC,
     R_GYRO,
     R_Q,
@@ -95,6 +96,15 @@ _FACING_NORTH_XYZW = (0.0, 0.0, _SQRT_HALF, _SQRT_HALF)
 
 
 @njit_cached
+def navsat_steps_ago(t_s, dt_s):  # pragma: no cover - compiled
+    """Steps since the one that took the last navsat sample before ``t_s`` (a sample is due in
+    the first step ending at or after each multiple of its period, as ``gps_due``'s rule)."""
+    tick_s = math.floor(t_s * NAVSAT_RATE_HZ + 1e-9) / NAVSAT_RATE_HZ
+    tick_step = math.ceil(tick_s / dt_s - 1e-6)
+    return max(0, min(HISTORY - 1, int(round(t_s / dt_s)) - tick_step))
+
+
+@njit_cached
 def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, estimated, mode,
                   landed, recent, dt_s, scale, noise, delay, hist, bias, sensed, sense_consts,
                   failed, est, ehist, est_consts):  # pragma: no cover - compiled
@@ -105,11 +115,13 @@ def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, est
     step's slot of the history rings (``recent`` too) and column of the noise block."""
     n = len(measured)
     measure(raw.reshape((n, RAW_SIZE)), spawn_enu, meas_dt_s, measured)
-    # Whether a barometer/magnetometer sample and a GPS fix fall within this step.
+    # Whether a barometer/magnetometer sample and a GPS fix fall within this step, and how many
+    # steps ago the last navsat sample (the GPS's ground truth) fell.
     baro_due = int(t_s * BARO_RATE_HZ + 1e-9) != int((t_s - dt_s) * BARO_RATE_HZ + 1e-9)
     gps_due = int(t_s * GPS_RATE_HZ + 1e-9) != int((t_s - dt_s) * GPS_RATE_HZ + 1e-9)
-    sense(measured, noise, noise_j, dt_s, scale, baro_due, gps_due, delay, hist, hist_i, bias,
-          sensed, sense_consts, failed)
+    navsat_age = navsat_steps_ago(t_s, dt_s)
+    sense(measured, noise, noise_j, dt_s, scale, baro_due, gps_due, navsat_age, hist, hist_i,
+          bias, sensed, sense_consts, failed)
     flying = np.empty(n, np.bool_)  # the rows whose drag tells the wind
     for v in range(n):
         flying[v] = mode[v] == MODE_FLY and not landed[v]

@@ -35,6 +35,12 @@ from vehicles.estimation import (
     E_WIND,
     E_WIND_VAR,
     F_GPS_OFF,
+    GPS_EPH_M,
+    GPS_EPV_M,
+    GPS_HDOP,
+    GPS_S_VARIANCE_MPS,
+    GPS_SATELLITES_USED,
+    GPS_VDOP,
     S_ACC,
     S_BARO_DOWN,
     S_GPS_POS,
@@ -45,14 +51,16 @@ from vehicles.estimation import (
 )
 from vehicles.params import ParamStore
 
-# GPS_RAW_INT constants of PX4's SITL GPS (sensor_gps_sim / gz bridge).
+# GPS_RAW_INT constants of PX4's SITL GPS (sensor_gps_sim's fix, vehicles/estimation.py):
+# GPS_RAW_INT.hpp sends eph/epv as hdop/vdop x 100, h_acc/v_acc/vel_acc as eph/epv/s_variance
+# x 1000 (mm), each through float (whole numbers for sensor_gps_sim's values).
 GPS_FIX_TYPE_3D = 3
-GPS_SATELLITES = 10
-GPS_EPH_CM = 70
-GPS_EPV_CM = 110
-GPS_H_ACC_MM = 900
-GPS_V_ACC_MM = 1780
-GPS_VEL_ACC_MM = 400  # s_variance_m_s 0.4 x 1000
+GPS_SATELLITES = GPS_SATELLITES_USED
+GPS_EPH_CM = round(GPS_HDOP * 100.0)
+GPS_EPV_CM = round(GPS_VDOP * 100.0)
+GPS_H_ACC_MM = round(GPS_EPH_M * 1000.0)
+GPS_V_ACC_MM = round(GPS_EPV_M * 1000.0)
+GPS_VEL_ACC_MM = round(GPS_S_VARIANCE_MPS * 1000.0)
 UINT16_UNKNOWN = 65535
 INT16_MAX = 32767
 
@@ -197,7 +205,7 @@ def gps_raw_int(enc: Encoder, s: Snapshot) -> bytes | None:
 
 
 def gps_fix(s: Snapshot) -> tuple[float, float, float, float, float, float]:
-    """The latest GPS fix (vehicles/estimation.py: noisy, EKF2_GPS_DELAY old): (lat, lon, alt
+    """The latest GPS fix (vehicles/estimation.py: sensor_gps_sim's, noisy): (lat, lon, alt
     AMSL, vn, ve, vd), as GPS_RAW_INT and the Open Drone ID messages report it."""
     sensed = s.sample.sensors
     if sensed is None:

@@ -15,19 +15,19 @@ from collections.abc import Sequence
 from typing import Any
 
 from gateway.mavlink.telemetry import (
-    GPS_EPH_CM,
-    GPS_EPV_CM,
     GPS_FIX_TYPE_3D,
-    GPS_H_ACC_MM,
-    GPS_V_ACC_MM,
-    GPS_VEL_ACC_MM,
     isa_pressure_hpa,
     isa_temperature_c,
 )
-from gateway.mavlink.telemetry import GPS_SATELLITES as GPS_SATELLITES_USED
 from gateway.onboard.topic import U64, B, D, F, Topic
 from vehicles.estimation import (
     F_GPS_OFF,
+    GPS_EPH_M,
+    GPS_EPV_M,
+    GPS_HDOP,
+    GPS_S_VARIANCE_MPS,
+    GPS_SATELLITES_USED,
+    GPS_VDOP,
     R_ACC,
     R_GYRO,
     S_ACC,
@@ -39,11 +39,9 @@ from vehicles.estimation import (
     S_VIB,
 )
 
-# sensor_gps_sim with a fix, in uORB's units: the GPS_RAW_INT constants of the same simulator
-GPS_FIX_3D, GPS_SATELLITES = GPS_FIX_TYPE_3D, GPS_SATELLITES_USED
-GPS_EPH_M, GPS_EPV_M = GPS_H_ACC_MM / 1000.0, GPS_V_ACC_MM / 1000.0
-GPS_HDOP, GPS_VDOP = GPS_EPH_CM / 100.0, GPS_EPV_CM / 100.0  # GPS_RAW_INT eph/epv are DOP x 100
-GPS_S_VARIANCE, GPS_C_VARIANCE = GPS_VEL_ACC_MM / 1000.0, 0.1  # s_variance_m_s, c_variance_rad
+# sensor_gps_sim with a fix, in uORB's units (vehicles/estimation.py)
+GPS_FIX_3D = GPS_FIX_TYPE_3D
+GPS_S_VARIANCE, GPS_C_VARIANCE = GPS_S_VARIANCE_MPS, 0.1  # s_variance_m_s, c_variance_rad
 AIR_GAS_CONST = 287.1  # PX4 CONSTANTS_AIR_GAS_CONST, J/(kg·K)
 ABSOLUTE_NULL_C = -273.15  # CONSTANTS_ABSOLUTE_NULL_CELSIUS
 IMU_INTEGRAL_DT_US = 4000  # one physics step: the IMU sample's integration interval
@@ -71,7 +69,7 @@ def _gps(v: Any, now_us: int) -> tuple | None:
     vn, ve, vd = s[S_GPS_VEL:S_GPS_VEL + 3]
     return (now_us, g.lat_deg, g.lon_deg, g.alt_amsl_m, g.alt_amsl_m, GPS_S_VARIANCE,
             GPS_C_VARIANCE, GPS_FIX_3D, GPS_EPH_M, GPS_EPV_M, GPS_HDOP, GPS_VDOP, 0, 0,
-            math.hypot(vn, ve), vn, ve, vd, math.atan2(ve, vn), True, 0, GPS_SATELLITES,
+            math.hypot(vn, ve), vn, ve, vd, math.atan2(ve, vn), True, 0, GPS_SATELLITES_USED,
             math.nan, math.nan)
 
 

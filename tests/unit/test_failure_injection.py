@@ -36,7 +36,9 @@ def test_gps_off_in_hold_descends_lands_and_disarms():
         assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OFF, 0) == 0
         assert sim.run_until(lambda: not sim.status(0).position_valid, timeout_s=10)
         lost_after = sim.now - t0
-        assert 5.0 - 1e-9 <= lost_after < 5.5  # EKF2_NOAID_TOUT (simulated time is a float sum)
+        # EKF2_NOAID_TOUT after the last fix, which came at most one GPS period (sensor_gps_sim:
+        # 125 ms) before the failure (simulated time is a float sum).
+        assert 5.0 - 0.125 - 1e-9 <= lost_after < 5.5
         assert sim.run_until(lambda: sim.status(0).nav_state is NavState.DESCEND, timeout_s=1)
         assert sim.status(0).failsafe
         # Down at about MPC_LAND_SPEED (0.7 m/s) from 10 m, then disarmed after landing.
