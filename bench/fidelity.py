@@ -13,7 +13,7 @@ figure printed beside what PX4's own algorithms give for the same inputs, with p
 - a 30 m goto: overshoot (PX4's smoothing arrives without overshoot: 0 m);
 - hover with the sensors of PX4's Gazebo x500 (vehicles/estimation.py; seeded): the IMU's noise
   (measured less true) and whole signal beside the models' σ, the position estimate's σ beside
-  the σ of the gz bridge's GPS noise process, the estimate's error; then hover in a 5 m/s wind:
+  the σ of sensor_gps_sim's white position noise, the estimate's error; then hover in a 5 m/s wind:
   the greatest drift and the wind the estimator reports (WIND_COV).
 
 The takeoff, square and goto figures fly exact sensors (a scenario's ``[sensors] noise = 0``),
@@ -204,11 +204,10 @@ def fly_hover(seconds: float = 20.0) -> dict[str, tuple]:
 
 
 def gps_noise_sigma_m() -> float:
-    """Stationary σ of the gz bridge's horizontal GPS position noise (a Gauss-Markov process)."""
+    """σ of sensor_gps_sim's horizontal position noise (white, per fix)."""
     from vehicles import estimation as est
 
-    drive = est.GPS_POS_WALK * est.GPS_POS_AMPLITUDE_M
-    return drive / math.sqrt(1.0 - est.GPS_POS_MARKOV ** 2)
+    return est.GPS_POS_NOISE_M[0]
 
 
 def plot(out_dir: Path, takeoff_trace, square_track, square_corners) -> None:
