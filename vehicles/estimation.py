@@ -7,7 +7,9 @@ Sensors (what PX4 SITL with Gazebo's x500 sees):
   dynamic bias of σ 0.006 m/s² and correlation time 300 s. The accelerometer measures the
   specific force (acceleration minus gravity) in the body frame.
 - Barometer at 50 Hz (``air_pressure_sensor``: pressure noise σ 0.01 Pa, as height
-  σ 0.01 Pa / (ρ₀ g) with ISA sea-level density).
+  σ 0.01 Pa / (ρ₀ g) with ISA sea-level density), which PX4 v1.15's gz bridge publishes as
+  sensor_baro (barometerCallback; 4001_gz_x500 sets SENS_EN_BAROSIM 0); the telemetry turns the
+  height into gz-sensors' pressure (gateway/mavlink/telemetry.py ``baro_sample``).
 - Magnetometer at 50 Hz: the Earth's field rotated into the body frame plus white noise
   σ (0.02, 0.02, 0.03) gauss (PX4 src/modules/simulation/sensor_mag_sim).
 - GPS at 8 Hz as PX4 v1.15's SITL for gz_x500 has it: the airframe (4001_gz_x500) sets

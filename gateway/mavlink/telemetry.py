@@ -28,6 +28,7 @@ from gateway.mavlink.heartbeat import (
 )
 from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
 from gateway.mavlink.snapshot import Snapshot
+from gateway.mavlink.telemetry_baro import baro_alt_m, baro_sample
 from vehicles.estimation import (
     E_ACCURACY,
     E_GPS_AGE,
@@ -42,7 +43,6 @@ from vehicles.estimation import (
     GPS_SATELLITES_USED,
     GPS_VDOP,
     S_ACC,
-    S_BARO_DOWN,
     S_GPS_POS,
     S_GPS_VEL,
     S_GYRO,
@@ -357,15 +357,6 @@ MAV_FRAME_LOCAL_NED = 1
 MAV_ESTIMATOR_TYPE_AUTOPILOT = 8
 
 
-def isa_pressure_hpa(alt_amsl_m: float) -> float:
-    """International Standard Atmosphere static pressure (PX4's baro simulation)."""
-    return 1013.25 * (1.0 - 2.25577e-5 * alt_amsl_m) ** 5.25588
-
-
-def isa_temperature_c(alt_amsl_m: float) -> float:
-    return 15.0 - 0.0065 * alt_amsl_m
-
-
 def to_body(q: tuple[float, float, float, float], v: tuple[float, float, float]
              ) -> tuple[float, float, float]:
     """NED vector ``v`` in the body frame of attitude ``q`` (FRD → NED): Rᵀ v."""
@@ -374,13 +365,6 @@ def to_body(q: tuple[float, float, float, float], v: tuple[float, float, float]
     return ((1 - 2 * (y * y + z * z)) * a + 2 * (x * y + w * z) * b + 2 * (x * z - w * y) * c,
             2 * (x * y - w * z) * a + (1 - 2 * (x * x + z * z)) * b + 2 * (y * z + w * x) * c,
             2 * (x * z + w * y) * a + 2 * (y * z - w * x) * b + (1 - 2 * (x * x + y * y)) * c)
-
-
-def baro_alt_m(s: Snapshot) -> float:
-    sensed = s.sample.sensors
-    if sensed is None:
-        return s.geo.alt_amsl_m
-    return s.vehicle.origin.alt_amsl_m - sensed[S_BARO_DOWN]
 
 
 def imu_sample(s: Snapshot) -> tuple[float, ...]:
@@ -400,11 +384,12 @@ def imu_sample(s: Snapshot) -> tuple[float, ...]:
 def highres_imu(s: Snapshot) -> tuple:
     """The IMU's specific force and rates (body FRD), the magnetometer, the barometer.
     HIGHRES_IMU.hpp puts vehicle_air_data's baro_pressure_pa into abs_pressure as it is: Pa,
-    though the message documents hPa."""
+    though the message documents hPa; pressure_alt is its baro_alt_meter, temperature its
+    baro_temp_celcius (the gz bridge's 288.15)."""
     fx, fy, fz, p, q, r, mx, my, mz = imu_sample(s)
-    alt = baro_alt_m(s)
-    return (s.time_usec, fx, fy, fz, p, q, r, mx, my, mz, isa_pressure_hpa(alt) * 100.0, 0.0,
-            alt, isa_temperature_c(alt), HIGHRES_IMU_FIELDS, 0)
+    pressure_pa, alt_m, temp_c = baro_sample(s)
+    return (s.time_usec, fx, fy, fz, p, q, r, mx, my, mz, pressure_pa, 0.0, alt_m, temp_c,
+            HIGHRES_IMU_FIELDS, 0)
 
 
 COVARIANCE_UNKNOWN = (math.nan,) * 21
@@ -439,9 +424,11 @@ def odometry(s: Snapshot) -> tuple:
 
 
 def scaled_pressure(enc: Encoder, s: Snapshot) -> bytes:
-    alt = baro_alt_m(s)
-    return enc.pack(M.MAVLink_scaled_pressure_message, s.time_boot_ms, isa_pressure_hpa(alt), 0.0,
-                    int(round(isa_temperature_c(alt) * 100.0)), 0)
+    """SCALED_PRESSURE.hpp from sensor_baro: the pressure in hPa, roundf(temperature x 100) (the
+    gz bridge's 288.15: 28815); no differential pressure sensor."""
+    pressure_pa, _, temp_c = baro_sample(s)
+    return enc.pack(M.MAVLink_scaled_pressure_message, s.time_boot_ms, pressure_pa * 0.01, 0.0,
+                    int(round(temp_c * 100.0)), 0)
 
 
 # ESTIMATOR_STATUS flags of a healthy EKF2 with GPS: attitude, horizontal and vertical velocity,

@@ -17,18 +17,11 @@ Rules:
 
 from __future__ import annotations
 
-import math
-
 from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Encoder, i16, i32
 from gateway.mavlink.snapshot import Snapshot
-from gateway.mavlink.telemetry import (
-    G,
-    baro_alt_m,
-    imu_sample,
-    isa_temperature_c,
-)
+from gateway.mavlink.telemetry import G, imu_sample
 
 # actuator_outputs.noutputs: MixingOutput publishes all of its channels (MixingOutput::
 # MAX_ACTUATORS, the gz bridge's ESC output module), the unassigned ones at their disarmed 0.
@@ -37,11 +30,11 @@ ACTUATOR_OUTPUTS = 16
 
 def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
     """SCALED_IMU.hpp: the IMU (vehicle_imu, IMU_INTEG_RATE 250 Hz in SITL, so it has a new
-    sample at any requested rate) in mG and mrad/s, the magnetometer in mgauss, the sensor
-    temperature in c°C (0 is sent as 1). The same samples as HIGHRES_IMU."""
+    sample at any requested rate) in mG and mrad/s, the magnetometer in mgauss; the temperature
+    is the IMU's, else the magnetometer's, when finite: the gz bridge's accelerometer and gyro
+    and sensor_mag_sim publish NaN, so it stays 0. The same samples as HIGHRES_IMU."""
     fx, fy, fz, p, q, r, mx, my, mz = imu_sample(s)
-    centi_c = isa_temperature_c(baro_alt_m(s)) * 100.0
-    temperature = i16(math.copysign(math.floor(abs(centi_c) + 0.5), centi_c)) or 1  # roundf
+    temperature = 0
     return enc.pack(M.MAVLink_scaled_imu_message, s.time_boot_ms,
                     i16(fx * 1000.0 / G), i16(fy * 1000.0 / G), i16(fz * 1000.0 / G),
                     i16(p * 1000.0), i16(q * 1000.0), i16(r * 1000.0),

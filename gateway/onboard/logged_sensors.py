@@ -14,11 +14,8 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from gateway.mavlink.telemetry import (
-    GPS_FIX_TYPE_3D,
-    isa_pressure_hpa,
-    isa_temperature_c,
-)
+from gateway.mavlink.telemetry import GPS_FIX_TYPE_3D
+from gateway.mavlink.telemetry_baro import GZ_BARO_TEMPERATURE_C, gz_pressure_pa, pressure_altitude_m
 from gateway.onboard.topic import U64, B, D, F, Topic
 from vehicles.estimation import (
     F_GPS_OFF,
@@ -79,10 +76,10 @@ def _battery(v: Any, now_us: int) -> tuple:
 
 
 def _baro(v: Any) -> tuple[float, float, float]:
-    """(altitude AMSL m, temperature °C, pressure Pa) of the simulated barometer (ISA, as PX4's
-    SITL barometer and HIGHRES_IMU have it)."""
-    alt = v.origin.alt_amsl_m - v.sensors[S_BARO_DOWN]
-    return alt, isa_temperature_c(alt), isa_pressure_hpa(alt) * 100.0
+    """(baro_alt_meter m, temperature °C, pressure Pa) of the simulated barometer, as the gz
+    bridge publishes it and vehicle_air_data derives it (telemetry.baro_sample)."""
+    pressure_pa = gz_pressure_pa(v.origin.alt_amsl_m - v.sensors[S_BARO_DOWN])
+    return pressure_altitude_m(pressure_pa), GZ_BARO_TEMPERATURE_C, pressure_pa
 
 
 def _air_data(v: Any, now_us: int) -> tuple:

@@ -186,8 +186,9 @@ def test_vfr_hud_throttle_is_the_thrust_setpoint_while_armed():
 
 
 def test_highres_imu_odometry_and_pressure_at_rest_and_yawed():
-    """PX4's sensor streams: specific force and field in the body frame, ISA pressure at the
-    altitude (HIGHRES_IMU.hpp: in Pa, SCALED_PRESSURE.hpp: in hPa), odometry in local NED."""
+    """PX4's sensor streams: specific force and field in the body frame, the gz barometer's
+    pressure at the altitude (HIGHRES_IMU.hpp: in Pa, SCALED_PRESSURE.hpp: in hPa), odometry in
+    local NED."""
     vehicle, session, client = make(LinkKind.API)
     vehicle.become_ready()
     vehicle.move_to(3.0, -4.0, -10.0, yaw_rad=math.pi / 2)  # facing east
@@ -197,12 +198,19 @@ def test_highres_imu_odometry_and_pressure_at_rest_and_yawed():
     assert (imu.xacc, imu.yacc, imu.zacc) == pytest.approx((0.0, 0.0, -9.80665), abs=1e-4)
     # North-pointing field seen from a nose pointing east: to the left (−y).
     assert imu.ymag == pytest.approx(-0.2145, abs=1e-3) and imu.zmag == pytest.approx(0.4296)
+    # gz-sensors' air pressure (standard atmosphere at the geopotential height), the gz
+    # bridge's constant 288.15 as °C, PX4's getAltitudeFromPressure at SENS_BARO_QNH.
     alt = vehicle.origin.alt_amsl_m + 10.0
-    assert imu.pressure_alt == pytest.approx(alt, abs=1e-3)
-    hpa = 1013.25 * (1 - 2.25577e-5 * alt) ** 5.25588
-    assert imu.abs_pressure == pytest.approx(hpa * 100.0, rel=1e-6)  # baro_pressure_pa as is
+    geo = 6356766.0 * alt / (6356766.0 + alt)
+    pa = 101325.0 * (1.0 - 0.0065 * geo / 288.15) ** (9.80665 * 28.9644 / (8314.32 * 0.0065))
+    assert imu.abs_pressure == pytest.approx(pa, rel=1e-6)  # baro_pressure_pa as is
+    assert imu.pressure_alt == pytest.approx(
+        ((pa / 101325.0) ** (0.0065 * 287.1 / 9.80665) * 288.15 - 288.15) / -0.0065, abs=1e-3)
+    assert imu.pressure_alt == pytest.approx(alt, abs=0.2)
+    assert imu.temperature == pytest.approx(288.15)
     sp = [m for m in msgs if m.get_type() == "SCALED_PRESSURE"][-1]
-    assert sp.press_abs == pytest.approx(hpa, rel=1e-6)
+    assert sp.press_abs == pytest.approx(pa / 100.0, rel=1e-6)
+    assert sp.temperature == 28815
 
 
 def test_odometry_is_ekf2s_vehicle_odometry_in_local_ned():

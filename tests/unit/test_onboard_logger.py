@@ -110,7 +110,10 @@ def test_the_log_has_what_px4s_log_analysis_reads(tmp_path):
     assert list(acks["command"]) == sent and set(acks["result"]) == {0}
     assert acks["target_system"][0] == CLIENT_SYSID  # the client that sent it
     air = data("vehicle_air_data")
-    assert 90_000 < air["baro_pressure_pa"][0] < 101_325 and 1.0 < air["rho"][0] < 1.3
+    assert 90_000 < air["baro_pressure_pa"][0] < 101_325
+    # getDensityFromPressureAndTemp takes the gz bridge's 288.15 (kelvin) as °C: ~0.59 kg/m³.
+    assert air["baro_temp_celcius"][0] == pytest.approx(288.15)
+    assert air["rho"][0] == pytest.approx(air["baro_pressure_pa"][0] / (287.1 * 561.3), rel=1e-5)
     # The events, named by the events metadata the log carries (pyulog's PX4Events, as Flight
     # Review shows them), from the arming on.
     from pyulog.px4_events import PX4Events
