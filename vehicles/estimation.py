@@ -23,7 +23,8 @@ Sensors (what PX4 SITL with Gazebo's x500 sees):
   it as EKF2_GPS_DELAY (110 ms) plus half its 10 ms filter period older than its publication
   (EstimatorInterface::setGpsData on sensor_gps.timestamp): PX4 SITL's mismatch, kept here.
   Its reported accuracies are constants (GPS_EPH_M, GPS_EPV_M, GPS_S_VARIANCE_MPS, the DOPs,
-  SIM_GPS_USED satellites) with a 3D fix.
+  SIM_GPS_USED satellites) with a 3D fix. It publishes only when both ground truths updated
+  since its last run, which at 30 Hz and every physics step they always have here.
 - Failure injection (``set_failed``, PX4 SITL's simulator: a sensor that is off publishes
   nothing, one that is stuck repeats its last sample): a GPS that is off gives no fixes, and the
   estimator dead-reckons on the IMU and counts the age of its last fix (E_GPS_AGE), which the
@@ -51,7 +52,8 @@ position and velocity fused EKF2_GPS_DELAY late, barometric height, magnetometer
 - Wind: with the vehicle flying, the horizontal specific force in the body frame is the drag of
   the air, so the air's velocity follows (EKF2's drag fusion principle), low-passed.
 - Health: the innovation test ratios (innovation² / (gate σ)², with EKF2's noise parameters and
-  gates, as estimator_status reports them) and
+  gates — for the GPS the receiver's eph and s_variance where larger, as EKF2 fuses them — as
+  estimator_status reports them) and
   accuracies that ESTIMATOR_STATUS reports; PX4's vibration metrics (vehicle_imu) for VIBRATION.
 
 The estimate (``estimated``) has the columns of the inner loop's ``measured`` (inner_loop.M_*):
@@ -101,6 +103,11 @@ MAG_NED_GAUSS = (0.2145, 0.0112, 0.4296)
 # EKF2's measurement noise parameters and innovation gates (defaults), for the test ratios.
 EKF2_GPS_P_NOISE, EKF2_GPS_V_NOISE, EKF2_BARO_NOISE, EKF2_MAG_NOISE = 0.5, 0.3, 3.5, 0.05
 EKF2_GPS_P_GATE, EKF2_GPS_V_GATE, EKF2_BARO_GATE, EKF2_MAG_GATE = 5.0, 5.0, 5.0, 3.0
+# The GPS observation noise EKF2 fuses with (Ekf::updateGnssPos, updateGnssVel): the receiver's
+# eph and s_variance_m_s where larger than EKF2_GPS_P_NOISE and EKF2_GPS_V_NOISE (the vertical
+# velocity's 1.5 times that).
+GPS_OBS_POS_M = max(GPS_EPH_M, EKF2_GPS_P_NOISE)
+GPS_OBS_VEL_MPS = max(GPS_S_VARIANCE_MPS, EKF2_GPS_V_NOISE)
 
 BARO_TIMEOUT_S = 0.2  # EKF2's BARO_MAX_INTERVAL: no barometer for this long → GNSS height
 
@@ -304,9 +311,9 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
             e[E_HAVE_GPS] = 1.0
             for i in range(3):
                 e[E_GPS_VEL_PREV + i] = s[S_GPS_VEL + i]
-            e[E_RATIOS] = (ev0 * ev0 + ev1 * ev1 + ev2 * ev2) / (
-                EKF2_GPS_V_GATE * EKF2_GPS_V_NOISE) ** 2
-            e[E_RATIOS + 1] = (ep0 * ep0 + ep1 * ep1) / (EKF2_GPS_P_GATE * EKF2_GPS_P_NOISE) ** 2
+            e[E_RATIOS] = (ev0 * ev0 + ev1 * ev1 + ev2 * ev2 / 2.25) / (
+                EKF2_GPS_V_GATE * GPS_OBS_VEL_MPS) ** 2
+            e[E_RATIOS + 1] = (ep0 * ep0 + ep1 * ep1) / (EKF2_GPS_P_GATE * GPS_OBS_POS_M) ** 2
             e[E_ACCURACY] = math.sqrt(e[E_ACCURACY] ** 2
                                       + a_acc_gps * (ep0 * ep0 + ep1 * ep1 - e[E_ACCURACY] ** 2))
             if e[E_BARO_AGE] > BARO_TIMEOUT_S:
