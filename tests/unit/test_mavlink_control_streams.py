@@ -154,10 +154,11 @@ def test_utm_global_position_tells_where_the_vehicle_is_and_goes(flight):
     assert utm.next_lat and utm.next_alt >= int(PX4_SITL_HOME.alt_amsl_m * 1000)
     assert bytes(utm.uas_id[:8]) == uid(1).to_bytes(8, "little") and not any(utm.uas_id[8:])
     first = gcs.messages("UTM_GLOBAL_POSITION")[0]
-    # Disarmed in Hold: flight state unknown; the next waypoint is where Hold keeps it.
+    # Disarmed in Hold: flight state unknown; the next waypoint is where Hold keeps it (the
+    # estimate of home, within the GPS noise's few cm)
     assert first.flight_state == 1 and first.flags & 128
-    assert abs(first.next_lat - PX4_SITL_HOME.lat_deg * 1e7) < 5
-    assert abs(first.next_lon - PX4_SITL_HOME.lon_deg * 1e7) < 5
+    assert abs(first.next_lat - PX4_SITL_HOME.lat_deg * 1e7) < 20
+    assert abs(first.next_lon - PX4_SITL_HOME.lon_deg * 1e7) < 20
 
 
 def test_clients_answer_the_vehicles_pings_as_mavsdk_and_qgc_do(flight):
