@@ -34,6 +34,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from gateway.mavlink.heartbeat import CPULOAD_LOAD, CPULOAD_RAM_USAGE
+from gateway.onboard.logged_commander import ACTUATOR_ARMED, RTL_TIME_ESTIMATE
 from gateway.onboard.logged_sensors import (
     BATTERY_STATUS,
     SENSOR_BARO,
@@ -441,6 +442,8 @@ TOPICS: tuple[Topic, ...] = (
     Topic("esc_status", (("uint8_t", "esc_count"), ("uint8_t", "esc_online_flags"),
                          ("uint8_t", "esc_armed_flags"), (f"esc_report[{ESC_REPORTS}]", "esc")),
           0.25, _esc_status),
+    ACTUATOR_ARMED,
+    RTL_TIME_ESTIMATE,
 )
 # The nested formats the topics use (PX4 writes each one's format beside the topics').
 NESTED_FORMATS = {"position_setpoint": ((B, "valid"), (D, "lat"), (D, "lon"), (F, "alt")),

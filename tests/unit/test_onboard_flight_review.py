@@ -55,7 +55,7 @@ PX4_SITL_INTERVALS_MS = {
     "vehicle_local_position_groundtruth": 20, "vehicle_global_position_groundtruth": 100,
     "failsafe_flags": 0, "sensor_baro": 1000, "vehicle_imu_status": 1000,
     "vehicle_torque_setpoint": 20, "rate_ctrl_status": 200, "position_setpoint_triplet": 200,
-    "cpuload": 0, "esc_status": 250,
+    "cpuload": 0, "esc_status": 250, "actuator_armed": 0, "rtl_time_estimate": 1000,
 }
 
 
@@ -205,3 +205,24 @@ def test_esc_status_is_the_gz_bridges_report_of_the_commanded_rotor_speeds(fligh
     rpm = esc["esc[0].esc_rpm"][flying]
     assert rpm.min() > 0 and rpm.max() <= motors["output[0]"].max()
     assert (esc["esc[4].esc_rpm"] == 0).all() and (esc["esc[0].timestamp"] == esc["timestamp"]).all()
+
+
+def test_actuator_armed_and_rtl_time_estimate_are_logged(tmp_path):
+    """Commander's actuator_armed (on change: ready_to_arm with the checks, armed, never
+    prearmed without a safety button) and RTL's rtl_time_estimate (every ~2 s, as published)."""
+    import pyulog
+
+    from gateway.ci.lockstep import Sim
+
+    with Sim(1, log_dir=tmp_path) as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=5)
+        assert sim.api(0).arm() == 0 and sim.api(0).takeoff() == 0
+        sim.advance(10.0)
+    (path,) = tmp_path.rglob("*.ulg")
+    log = pyulog.ULog(str(path))
+    armed = log.get_dataset("actuator_armed").data
+    assert list(armed["armed"])[-1] == 1 and not any(armed["prearmed"])
+    assert list(armed["ready_to_arm"])[-1] == 1 and not any(armed["lockdown"])
+    rtl = log.get_dataset("rtl_time_estimate").data
+    gaps = set((rtl["timestamp"][1:] - rtl["timestamp"][:-1]).tolist())
+    assert gaps == {2_000_000} and rtl["safe_time_estimate"][-1] > 100.0
