@@ -41,6 +41,9 @@ INCLUSION_COMMANDS = frozenset({MavCmd.NAV_FENCE_POLYGON_VERTEX_INCLUSION,
                                 MavCmd.NAV_FENCE_CIRCLE_INCLUSION})
 
 
+FLT_EPSILON = 1.1920929e-07
+
+
 @dataclass(frozen=True)
 class FenceArea:
     inclusion: bool
@@ -175,8 +178,8 @@ class Geofence:
         p = self._params
         if p.version != self._params_version:  # (asked every 50 Hz tick)
             self._params_version = p.version
-            self._max_dist_set = (float(p["GF_MAX_HOR_DIST"]) > 0
-                                  or float(p["GF_MAX_VER_DIST"]) > 0)
+            self._max_dist_set = (float(p["GF_MAX_HOR_DIST"]) > FLT_EPSILON
+                                  or float(p["GF_MAX_VER_DIST"]) > FLT_EPSILON)
         return self._max_dist_set
 
     def inside_areas(self, n: float, e: float) -> bool:
@@ -192,11 +195,13 @@ class Geofence:
         p = self._params
         if home_ned_m is not None:
             max_ver, max_hor = float(p["GF_MAX_VER_DIST"]), float(p["GF_MAX_HOR_DIST"])
+            # isBelowMaxAltitude / isCloserThanMaxDistToHome: on from FLT_EPSILON, inside only
+            # strictly below the limit
             dz = home_ned_m[2] - d
-            if max_ver > 0 and dz > max_ver:
+            if max_ver > FLT_EPSILON and not dz < max_ver:
                 return f"Geofence exceeded max vertical distance by {dz - max_ver:.1f} m"
             dxy = math.hypot(n - home_ned_m[0], e - home_ned_m[1])
-            if max_hor > 0 and dxy > max_hor:
+            if max_hor > FLT_EPSILON and not dxy < max_hor:
                 return f"Geofence exceeded max horizontal distance by {dxy - max_hor:.1f} m"
         if not self.inside_areas(n, e):
             return "Geofence violation"

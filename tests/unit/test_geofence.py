@@ -125,3 +125,16 @@ def test_other_commands_are_skipped_but_can_be_vertices():
     gf, texts = load(specs, home=(50.0, 50.0))
     assert texts == [] and len(gf.areas) == 1
     assert allowed(gf, 0.0, 0.0) and allowed(gf, 30.0, 0.0) and not allowed(gf, -30.0, 0.0)
+
+
+@pytest.mark.parametrize("limit, distance, breached", [
+    (10.0, 9.99, False),
+    (10.0, 10.0, True),  # isCloserThanMaxDistToHome: inside only below the limit
+    (1e-8, 50.0, False),  # on only above FLT_EPSILON
+    (math.nan, 50.0, False),
+])
+def test_max_distances_from_home_as_px4_compares_them(limit, distance, breached):
+    gf = Geofence(ParamStore({"GF_MAX_HOR_DIST": limit, "GF_MAX_VER_DIST": limit}))
+    home = (0.0, 0.0, 0.0)
+    assert (gf.check((distance, 0.0, -1e-9), home) is not None) is breached
+    assert (gf.check((0.0, 0.0, -distance), home) is not None) is breached
