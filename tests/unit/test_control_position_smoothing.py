@@ -90,9 +90,88 @@ def test_reaches_target_initial_velocity():
         pytest.fail("took too long to converge")
 
 
+# PX4 v1.15.2's PositionSmoothing (PositionSmoothing.cpp, VelocitySmoothing.cpp, float) run with
+# PositionSmoothingTest.cpp's settings: (iteration, position, velocity, acceleration) towards
+# TARGET from rest, the vehicle where the setpoint is (float32 against float64: to ~5 digits;
+# by iteration 400 the float32 jerk switching differs in the acceleration's 4th digit).
+PX4_TOWARDS_TARGET = [
+    (50, (0.5416713, 0.6562499, 0.3957816), (1.344831, 1.875, 0.9028123),
+     (1.710599, 3.0, 1.037315)),
+    (200, (8.129448, 11.48012, 5.431105), (2.078219, 2.913727, 1.407327),
+     (-0.9202663, -1.180233, -0.6083184)),
+    (400, (11.66164, 16.52862, 7.777025), (0.2256607, 0.3138437, 0.1486046), None),
+]
+
+
 def close(a, b) -> bool:
     """Equal to PX4's float32 values (to ~5 digits: float64 here)."""
     return a == pytest.approx(b, rel=1e-4, abs=5e-5)
+
+
+def test_matches_px4_v115_towards_a_3d_target():
+    """One straight 3-D direction at the xy and z speeds' combined norm (v1.15
+    _generateVelocitySetpoint), not xy and z planned apart."""
+    s, position, checks = smoothing(), (0.0, 0.0, 0.0), dict((c[0], c) for c in PX4_TOWARDS_TARGET)
+    for i in range(401):
+        out = s.generate(position, ((0.0, 0.0, 0.0), TARGET, TARGET), (0.0,) * 3, 0.02)
+        position = out.position
+        if i in checks:
+            _, pos, vel, acc = checks[i]
+            assert close(out.position, pos) and close(out.velocity, vel), i
+            assert acc is None or close(out.acceleration, acc), i  # by 400 jerk switches apart
+
+
+def test_matches_px4_v115_time_stretch_on_all_axes():
+    """A vehicle that stays at the start: _generateTrajectory's time stretch, from the
+    horizontal lag (MPC_XY_ERR_MAX 2 m), slows all three axes alike (PX4 v1.15.2's values);
+    the setpoint settles ~2 m ahead instead of running away, z with it."""
+    s = smoothing()
+    want = {50: ((0.4250171, 0.4962116, 0.3169948), (1.187226, 1.59856, 0.8072284)),
+            100: ((1.009793, 1.335358, 0.7052532), (1.84667, 2.755044, 1.207109)),
+            300: ((1.190453, 1.606845, 0.8229895), (2.007059, 3.035263, 1.304366))}
+    for i in range(301):
+        out = s.generate((0.0, 0.0, 0.0), ((0.0, 0.0, 0.0), TARGET, TARGET), (0.0,) * 3, 0.02)
+        if i in want:
+            assert close(out.position, want[i][0]) and close(out.velocity, want[i][1]), i
+
+
+def test_matches_px4_v115_towards_an_altitude_only():
+    """A target with only an altitude (xy NaN): the z speed brakes to a stop there, the xy
+    feed-forward is flown as it is (PX4 v1.15.2's values)."""
+    s, position = smoothing(), (0.0, 0.0, 0.0)
+    target = (math.nan, math.nan, -6.0)
+    want = {50: ((0.1394063, 0.0, -0.656064), (0.2931395, 0.0, -1.866457), -2.748053),
+            100: ((0.5741431, 0.0, -3.22515), (0.5033102, 0.0, -2.605047), -1.600261),
+            200: ((1.575089, 0.0, -5.42887), (0.5, 0.0, -0.3820569), -0.3706193)}
+    for i in range(201):
+        out = s.generate(position, (target,) * 3, (0.5, 0.0, math.nan), 0.02,
+                         single_waypoint=True)
+        position = out.position
+        if i in want:
+            pos, vel, vz = want[i]
+            assert close(out.position, pos) and close(out.velocity, vel), i
+            assert close(out.unsmoothed_velocity, (0.5, 0.0, vz)), i
+
+
+@pytest.mark.parametrize("distance, unsmoothed", [
+    (10.0, (4.6241436, 0.0, -0.277448624)), (30.0, (5.0, 0.0, -0.1)),
+    (100.0, (5.0, 0.0, -0.03))])
+def test_matches_px4_v115_towards_a_waypoint_just_above_the_ground(distance, unsmoothed):
+    """Landed, reset as FlightTaskAuto::reActivate leaves it (0.7 m/s down), towards a waypoint
+    0.6 m up and ``distance`` ahead with a level next leg: the 3-D direction's xy part is held
+    to the xy speed (at most the 5 m/s cruise), so the climb is at most 5 x 0.6 / distance, never
+    past FlightTaskAuto's takeoff trigger of -0.3 m/s (PX4 v1.15.2's values)."""
+    s = smoothing()
+    s.target_acceptance_radius = 2.0
+    s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.7), (0.0, 0.0, 0.0))
+    target = (distance, 0.0, -0.6)
+    out = s.generate((0.0, 0.0, 0.0), ((0.0, 0.0, 0.0), target, (distance, 10.0, -0.6)),
+                     (math.nan,) * 3, 0.02)
+    assert close(out.unsmoothed_velocity, unsmoothed)
+    # the same plan without advancing the trajectory (the auto task's takeoff trigger)
+    s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.7), (0.0, 0.0, 0.0))
+    assert close(s.unsmoothed_velocity_auto((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), target,
+                                            (distance, 10.0, -0.6), 2.0), unsmoothed)
 
 
 @pytest.mark.parametrize("next_z, checks", [
@@ -115,6 +194,19 @@ def test_matches_px4_v115_into_a_corner(next_z, checks):
         position = out.position
         if i in want:
             assert close((position[0], out.velocity[0]), want[i]), i
+
+
+def test_matches_px4_v115_on_a_climbing_leg():
+    """A leg climbing 10 m over 30 m: both axes on the straight line (PX4 v1.15.2's values)."""
+    s = smoothing()
+    s.target_acceptance_radius = 2.0
+    waypoints = ((0.0, 0.0, 0.0), (30.0, 0.0, -10.0), (30.0, 30.0, -10.0))
+    position = (0.0, 0.0, 0.0)
+    for _ in range(101):
+        out = s.generate(position, waypoints, (0.0,) * 3, 0.02)
+        position = out.position
+    assert close(out.position, (4.006558, 0.0, -1.359336))
+    assert close(out.velocity, (4.652774, 0.0, -1.424794))
 
 
 def test_traj_math():

@@ -1,16 +1,18 @@
-"""Pure library: PX4's position smoothing (src/lib/motion_planning/PositionSmoothing, with the
-speed planning of TrajectoryConstraints.hpp and TrajMath.hpp).
+"""Pure library: PX4 v1.15's position smoothing (src/lib/motion_planning/PositionSmoothing, with
+the speed planning of TrajectoryConstraints.hpp and TrajMath.hpp).
 
 From the vehicle's position and three waypoints (previous, target, next) it plans an unsmoothed
 velocity setpoint — towards the target, or, while turning, towards an L1 point on the previous →
-target line; at a speed the jerk and acceleration limits allow so as to arrive at the speed the
-corner to the next waypoint permits (a circle through the acceptance radius with centripetal
-acceleration MPC_XY_TRAJ_P × MPC_ACC_HOR) — and smooths it per axis with VelocitySmoothing (jerk
-limited, the three axes time-synchronized). Integration time is stretched while the vehicle lags
-behind the trajectory (MPC_XY_ERR_MAX horizontally; vertically when a vertical error limit is
-set), so the setpoint does not run away from a vehicle that cannot follow.
+target line, in one straight 3-D direction; horizontally at a speed the jerk and acceleration
+limits allow so as to arrive at the speed the corner to the next waypoint permits (a circle
+through the acceptance radius with centripetal acceleration MPC_XY_TRAJ_P × MPC_ACC_HOR, only
+with the altitude reached and the next leg level; else a stop), vertically so as to stop at the
+target's altitude — and smooths it per axis with VelocitySmoothing (jerk limited, the three axes
+time-synchronized). Integration time is stretched while the vehicle lags horizontally behind the
+trajectory (MPC_XY_ERR_MAX), on all three axes, so the setpoint does not run away from a vehicle
+that cannot follow.
 
-Written from PX4's algorithm; PX4's unit tests (PositionSmoothingTest.cpp) are reproduced in
+Written from PX4 v1.15's algorithm; its unit tests (PositionSmoothingTest.cpp) are reproduced in
 tests/unit/test_control_position_smoothing.py. Vectors are NED tuples; time is an argument.
 """
 
@@ -170,7 +172,7 @@ class SmoothedSetpoints:
 # --- the compiled step --------------------------------------------------------------------------
 # ``cfg``: the planner's settings and memory. ``inp``: the vehicle's position, then the previous,
 # target and next waypoints, then the feed-forward velocity (3 floats each).
-HERR, VERR, VRAD, CRUISE, GAIN, TRAD, SPEED_PREV = range(7)
+HERR, VRAD, CRUISE, GAIN, TRAD, SPEED_PREV = range(6)
 P_POS, P_PREV, P_TARGET, P_NEXT, P_FF = 0, 3, 6, 9, 12
 
 
@@ -198,21 +200,11 @@ def _max_xy_speed(traj, cfg, inp) -> float:
 
 
 @register_jitable
-def _max_z_speed(traj, cfg, inp) -> float:
-    sx, sy, sz = traj[0, X], traj[1, X], traj[2, X]
-    tx, ty, tz = inp[P_TARGET], inp[P_TARGET + 1], inp[P_TARGET + 2]
-    nx, ny, nz = inp[P_NEXT], inp[P_NEXT + 1], inp[P_NEXT + 2]
-    arrival = 0.0
-    if abs(tz - nz) > 0.001:
-        s0, g0, n0 = math.hypot(sx, sy), math.hypot(tx, ty), math.hypot(nx, ny)
-        ux, uy = _unit2(g0 - s0, tz - sz)
-        wx, wy = _unit2(g0 - n0, tz - nz)
-        alpha = math.acos(mn(mx(ux * wx + uy * wy, -1.0), 1.0))
-        alpha = mn(mx(alpha, 0.0), math.pi - _EPS)
-        arrival = mn(max_speed_in_waypoint(alpha, traj[2, AMAX], cfg[VRAD]), traj[2, VMAX])
-    distance = abs(tz - sz)
-    return mn(traj[2, VMAX], max_speed_from_distance(traj[2, JMAX], traj[2, AMAX], distance,
-                                                     arrival))
+def _max_z_speed(traj, inp) -> float:
+    """_getMaxZSpeed (v1.15): braking to a stop at the target's altitude."""
+    distance = abs(inp[P_TARGET + 2] - traj[2, X])
+    return _min(traj[2, VMAX], max_speed_from_distance(traj[2, JMAX], traj[2, AMAX], distance,
+                                                       0.0))
 
 
 @register_jitable
@@ -236,9 +228,25 @@ def _added(out: float, v: float) -> float:
 
 
 @register_jitable
+def _clamp_to_norm(v0: float, v1: float, v2: float, norm: float, max_norm: float, z: bool
+                   ) -> tuple[float, float, float]:
+    """TrajectoryConstraints.hpp clampToXYNorm / clampToZNorm (accuracy 0.5): the whole vector
+    scaled down to ``max_norm`` on its xy (``z`` False) or z norm ``norm``; when both are below
+    0.5 only that part is scaled."""
+    scale = max_norm / norm if norm > _EPS else 1.0
+    if scale < 1.0:
+        if max_norm < 0.5 and norm < 0.5:
+            return (v0, v1, v2 * scale) if z else (v0 * scale, v1 * scale, v2)
+        return v0 * scale, v1 * scale, v2 * scale
+    return v0, v1, v2
+
+
+@register_jitable
 def _velocity_setpoint(traj, cfg, inp, single_waypoint: bool) -> tuple[float, float, float]:
-    """The unsmoothed velocity setpoint (_generateVelocitySetpoint): the feed-forward plus the
-    planned velocity on the axes the target gives."""
+    """The unsmoothed velocity setpoint (v1.15 _generateVelocitySetpoint): the feed-forward plus,
+    with a 3-D target, one straight direction towards the crossing point at the xy and z speeds'
+    combined norm, clamped to each; with an xy target only, the xy speed; with a z target only,
+    the z speed."""
     tx, ty, tz = inp[P_TARGET], inp[P_TARGET + 1], inp[P_TARGET + 2]
     xy_valid = math.isfinite(tx) and math.isfinite(ty)
     z_valid = math.isfinite(tz)
@@ -247,19 +255,28 @@ def _velocity_setpoint(traj, cfg, inp, single_waypoint: bool) -> tuple[float, fl
     if xy_valid:
         cx, cy, cz = tx, ty, tz
         turning = _is_turning(traj, cfg, tx, ty)
-        if not single_waypoint and turning:
+        if not single_waypoint and turning:  # _getCrossingPoint
             cx, cy, cz = _l1_point(traj, cfg, inp)
         xy_speed = _max_xy_speed(traj, cfg, inp)
         if (not single_waypoint or not z_valid) and turning:
-            xy_speed = mn(cfg[SPEED_PREV], xy_speed)  # hold the speed in a turn
+            xy_speed = _min(cfg[SPEED_PREV], xy_speed)  # hold the speed in a turn
         else:
             cfg[SPEED_PREV] = xy_speed
-        ux, uy = _unit2(cx - px, cy - py)
-        o0, o1 = _added(o0, ux * xy_speed), _added(o1, uy * xy_speed)
         if z_valid:
-            o2 = _added(o2, _sgn(cz - pz) * _max_z_speed(traj, cfg, inp))
+            z_speed = _max_z_speed(traj, inp)
+            d0, d1, d2 = cx - px, cy - py, cz - pz
+            n = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            speed = math.sqrt(xy_speed * xy_speed + z_speed * z_speed)
+            v0, v1, v2 = ((d0 / n * speed, d1 / n * speed, d2 / n * speed) if n > _UNIT_EPS
+                          else (0.0, 0.0, 0.0))
+            v0, v1, v2 = _clamp_to_norm(v0, v1, v2, math.hypot(v0, v1), xy_speed, False)
+            v0, v1, v2 = _clamp_to_norm(v0, v1, v2, abs(v2), z_speed, True)
+            o0, o1, o2 = _added(o0, v0), _added(o1, v1), _added(o2, v2)
+        else:
+            ux, uy = _unit2(cx - px, cy - py)
+            o0, o1 = _added(o0, ux * xy_speed), _added(o1, uy * xy_speed)
     elif z_valid:
-        o2 = _added(o2, _sgn(tz - pz) * _max_z_speed(traj, cfg, inp))
+        o2 = _added(o2, _sgn(tz - pz) * _max_z_speed(traj, inp))
     return (o0, o1, o2)
 
 
@@ -276,34 +293,26 @@ def generate_step(traj, cfg, inp, dt_s, force_zero_velocity, single_waypoint, ou
     if not (math.isfinite(vel_sp[0]) and math.isfinite(vel_sp[1]) and math.isfinite(vel_sp[2])):
         out[:4, :] = math.nan
         return
-    px, py, pz = traj[0, X], traj[1, X], traj[2, X]
-    vx, vy, vz = traj[0, V], traj[1, V], traj[2, V]
+    px, py = traj[0, X], traj[1, X]
+    vx, vy = traj[0, V], traj[1, V]
     ex, ey = px - inp[P_POS], py - inp[P_POS + 1]
-    stretch_xy = 1.0
+    # _generateTrajectory (v1.15): one time stretch, from the horizontal lag, for all 3 axes
+    stretch = 1.0
     if cfg[HERR] > _EPS and ex * vx + ey * vy >= 0.0:  # behind the trajectory
-        stretch_xy = 1.0 - mn(mx(math.hypot(ex, ey) / cfg[HERR], 0.0), 1.0)
-    stretch_z = 1.0
-    ez = pz - inp[P_POS + 2]
-    if cfg[VERR] > _EPS and ez * vz >= 0.0:
-        stretch_z = 1.0 - mn(mx(abs(ez) / cfg[VERR], 0.0), 1.0)
-    vs_update_traj(traj[0], dt_s, stretch_xy)
-    vs_update_traj(traj[1], dt_s, stretch_xy)
-    vs_update_traj(traj[2], dt_s, stretch_z)
+        stretch = 1.0 - mn(mx(math.hypot(ex, ey) / cfg[HERR], 0.0), 1.0)
+    for i in range(3):
+        vs_update_traj(traj[i], dt_s, stretch)
     for i in range(3):
         out[0, i], out[1, i], out[2, i], out[3, i] = traj[i, J], traj[i, A], traj[i, V], traj[i, X]
         vs_update_durations(traj[i], vel_sp[i])
     vs_time_synchronization(traj)
 
 
-@njit_cached
-def generate_auto_step(traj, cfg, inp, dt_s, has_position, has_previous, has_next,
-                       acceptance_radius, vz_cmd, current_z, out):  # pragma: no cover - compiled
-    """``generate_step`` with the waypoints as FlightTaskAuto hands them (``generate_auto``):
-    ``inp`` as ``generate_step`` takes it, the rows whose ``has_*`` is False to be filled here
-    (position and previous waypoint: where the setpoint is; next: the target). A NaN target z
-    is vertical speed control: the triplet's altitude is left out, ``vz_cmd`` is the vertical
-    feed-forward and the setpoint's altitude then follows ``current_z``. Returns (position,
-    velocity, acceleration); with nothing to plan the setpoint holds still where it was."""
+@register_jitable
+def _complete_auto_input(traj, cfg, inp, has_position, has_previous, has_next,
+                         acceptance_radius, vz_cmd) -> bool:
+    """``inp``'s rows whose ``has_*`` is False filled as ``generate_auto_step`` takes them, the
+    acceptance radius set; True for vertical speed control (a NaN target z)."""
     hx, hy, hz = traj[0, X], traj[1, X], traj[2, X]
     cfg[TRAD] = acceptance_radius
     if not has_position:
@@ -317,6 +326,31 @@ def generate_auto_step(traj, cfg, inp, dt_s, has_position, has_previous, has_nex
     if vertical_speed:
         inp[P_PREV + 2] = inp[P_NEXT + 2] = math.nan
         inp[P_FF + 2] = vz_cmd
+    return vertical_speed
+
+
+@njit_cached
+def auto_unsmoothed_velocity(traj, cfg, inp, has_position, has_previous, has_next,
+                             acceptance_radius, vz_cmd):  # pragma: no cover - compiled
+    """The unsmoothed velocity setpoint ``generate_auto_step`` would plan now (the trajectory
+    not advanced): what FlightTaskAuto's takeoff trigger judges."""
+    _complete_auto_input(traj, cfg, inp, has_position, has_previous, has_next,
+                         acceptance_radius, vz_cmd)
+    return _velocity_setpoint(traj, cfg, inp, not has_next)
+
+
+@njit_cached
+def generate_auto_step(traj, cfg, inp, dt_s, has_position, has_previous, has_next,
+                       acceptance_radius, vz_cmd, current_z, out):  # pragma: no cover - compiled
+    """``generate_step`` with the waypoints as FlightTaskAuto hands them (``generate_auto``):
+    ``inp`` as ``generate_step`` takes it, the rows whose ``has_*`` is False to be filled here
+    (position and previous waypoint: where the setpoint is; next: the target). A NaN target z
+    is vertical speed control: the triplet's altitude is left out, ``vz_cmd`` is the vertical
+    feed-forward and the setpoint's altitude then follows ``current_z``. Returns (position,
+    velocity, acceleration); with nothing to plan the setpoint holds still where it was."""
+    hx, hy, hz = traj[0, X], traj[1, X], traj[2, X]
+    vertical_speed = _complete_auto_input(traj, cfg, inp, has_position, has_previous, has_next,
+                                          acceptance_radius, vz_cmd)
     generate_step(traj, cfg, inp, dt_s, False, not has_next, out)
     px, py, pz = out[3, 0], out[3, 1], out[3, 2]
     if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)):
@@ -332,7 +366,6 @@ def generate_auto_step(traj, cfg, inp, dt_s, has_position, has_previous, has_nex
 
 class PositionSmoothing:
     max_allowed_horizontal_error = array_field("cfg", HERR)
-    max_allowed_vertical_error = array_field("cfg", VERR)
     vertical_acceptance_radius = array_field("cfg", VRAD)
     cruise_speed = array_field("cfg", CRUISE)
     horizontal_trajectory_gain = array_field("cfg", GAIN)
@@ -340,7 +373,7 @@ class PositionSmoothing:
 
     def __init__(self) -> None:
         self.axes = new_axes(3)
-        self.cfg = np.zeros(7)
+        self.cfg = np.zeros(6)
         self.trajectory = [VelocitySmoothing(row=self.axes[i]) for i in range(3)]
         self.inp = np.zeros(15)  # the compiled step's input (P_POS …) and output rows
         self.out = np.zeros((5, 3))
@@ -412,6 +445,17 @@ class PositionSmoothing:
                                   float(acceptance_radius), float(vz_cmd), float(current_z),
                                   self.out)
 
+    def unsmoothed_velocity_auto(self, position: Vec3, previous: Vec3 | None, target: Vec3,
+                                 next_: Vec3 | None, acceptance_radius: float,
+                                 vz_cmd: float = 0.0) -> Vec3:
+        """The unsmoothed velocity setpoint ``generate_auto`` would plan now, the trajectory
+        not advanced (``auto_unsmoothed_velocity``)."""
+        self.set_auto_input(position, previous, target, next_, None)
+        v0, v1, v2 = auto_unsmoothed_velocity(self.axes, self.cfg, self.inp, True,
+                                              previous is not None, next_ is not None,
+                                              float(acceptance_radius), float(vz_cmd))
+        return (v0, v1, v2)
+
     def set_auto_input(self, position: Vec3 | None, previous: Vec3 | None, target: Vec3,
                        next_: Vec3 | None, feedforward: Vec3 | None) -> None:
         """``inp`` for ``generate_auto_step`` (None: a row it fills itself, or no feed-forward)."""
@@ -425,6 +469,7 @@ def compile_now() -> None:
     """Compile ``generate_step`` (or load it from numba's cache) now, not in the first flight."""
     PositionSmoothing().generate((0.0,) * 3, ((0.0,) * 3,) * 3, (0.0,) * 3, 0.02)
     PositionSmoothing().generate_auto(None, None, (0.0,) * 3, None, None, 0.02, 0.0)
+    PositionSmoothing().unsmoothed_velocity_auto((0.0,) * 3, None, (0.0,) * 3, None, 0.0)
 
 
 def ideal_track(s: PositionSmoothing, waypoints: list[Vec3], acceptance_radius_m: float,
