@@ -20,7 +20,6 @@ import math
 
 from vehicles.control.position_smoothing import PositionSmoothing
 from vehicles.control.trajectory import TrajectoryLimits
-from vehicles.control.velocity_smoothing import V
 from vehicles.params import ParamStore
 from vehicles.types import Vec3
 
@@ -74,7 +73,9 @@ class AutoTrajectory:
         p, s = self._params, self.smoothing
         if p.version != self._params_version:
             self._update_params()
-        going_up = s.axes.item(2, V) < 0.0
+        # FlightTaskAuto::_updateTrajConstraints: the vertical limits are the climb's while the
+        # last unsmoothed velocity setpoint climbs (0 before the first: the descent's)
+        going_up = s.out.item(4, 2) < 0.0
         set_up = self._set_up
         if (set_up is None or lim is not set_up[0] or going_up != set_up[1]
                 or self._params_version != set_up[2]):
