@@ -25,7 +25,7 @@ from typing import NamedTuple
 from vehicles.cnum import wrap_remainder
 from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
 from vehicles.control.hover_thrust import HoverThrustEstimator
-from vehicles.control.position_control import PositionSetpoint
+from vehicles.control.position_control import REACTIVATE_VEL, PositionSetpoint
 from vehicles.follow_target import FollowTarget
 from vehicles.manual_control import (
     CENTRED,
@@ -44,8 +44,11 @@ from vehicles.params import ParamStore
 from vehicles.position_stage import PositionStage
 from vehicles.types import Measurement, NavState, Vec3
 
-# The navigator must ask for this much climb before a landed vehicle spools up.
+# The offboard setpoint must ask for this much climb before a landed vehicle spools up.
 TAKEOFF_TRIGGER_M = 0.2
+# FlightTaskAuto::update: an auto task wants a takeoff when its unsmoothed velocity setpoint
+# climbs faster than this (NED, m/s).
+TAKEOFF_TRIGGER_VZ_MPS = -0.3
 
 
 class TaskInput(NamedTuple):
@@ -92,15 +95,35 @@ class AutoTask(FlightTask):
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
         nav_sp = self.setpoint = self.navigator.update(t.nav_state, t.nav)
-        wants_climb = (nav_sp.target_ned_m[2] < pos[2] - TAKEOFF_TRIGGER_M
-                       if not math.isnan(nav_sp.target_ned_m[2]) else nav_sp.vz_cmd_mps < -0.1)
-        if not t.armed or nav_sp.idle or (st.land_detector.landed and not wants_climb
-                                          and not st.taking_off):
-            st.set_idle(t.meas)
+        if not t.armed or nav_sp.idle:
+            self._idle(t)
             return
+        traj = st.trajectory
+        traj.set_up(nav_sp.limits)
+        if (t.nav_state is NavState.AUTO_TAKEOFF or nav_sp.taking_off) \
+                and nav_sp.target_ned_m[2] < pos[2]:
+            # FlightTaskAuto::_updateTrajConstraints: climbing to a takeoff setpoint closer to
+            # the ground than MPC_LAND_ALT1 the trajectory's altitude stays at the vehicle's
+            # (it does not run ahead while the takeoff ramp spools up)
+            home = t.nav.home
+            height = (home.position_ned_m[2] if home is not None else 0.0) - pos[2]
+            if height < float(self.params["MPC_LAND_ALT1"]):
+                traj.smoothing.force_set_position_z(pos[2])
+        landed = st.land_detector.landed and not st.taking_off
+        if landed:
+            # FlightTaskAuto::update: the task wants a takeoff when its unsmoothed velocity
+            # setpoint climbs faster than 0.3 m/s (_want_takeoff, its _checkTakeoff); planned
+            # from where FlightTaskAuto::reActivate left the smoothing (see ``_idle``).
+            vz = traj.smoothing.unsmoothed_velocity_auto(
+                pos, nav_sp.previous_ned_m, nav_sp.target_ned_m, nav_sp.next_ned_m,
+                traj.acceptance_radius(nav_sp.acceptance_radius_m), nav_sp.vz_cmd_mps)[2]
+            if not vz < TAKEOFF_TRIGGER_VZ_MPS:
+                self._idle(t)
+                return
         if not st.flying or math.isnan(st.yaw_sp):
             st.yaw_sp = t.yaw_rad
-        st.start_flying(t.meas)
+        # On the ground the smoothing is where reActivate left it, not restarted from the state.
+        st.start_flying(t.meas, reset_trajectory=not landed)
         if not math.isnan(nav_sp.yaw_rad):
             p = self.params
             if p.version != self._params_version:
@@ -111,20 +134,21 @@ class AutoTask(FlightTask):
             # infinite and matrix::wrap_pi of it NaN (the next tick starts from the yaw again)
             err = math.remainder(nav_sp.yaw_rad - st.yaw_sp, math.tau)
             st.yaw_sp = wrap_remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
-        if (t.nav_state is NavState.AUTO_TAKEOFF or nav_sp.taking_off) \
-                and nav_sp.target_ned_m[2] < pos[2]:
-            # FlightTaskAuto::_updateTrajConstraints: climbing to a takeoff setpoint closer to
-            # the ground than MPC_LAND_ALT1 the trajectory's altitude stays at the vehicle's
-            # (it does not run ahead while the takeoff ramp spools up)
-            home = t.nav.home
-            height = (home.position_ned_m[2] if home is not None else 0.0) - pos[2]
-            if height < float(self.params["MPC_LAND_ALT1"]):
-                st.trajectory.smoothing.force_set_position_z(pos[2])
         # The trajectory towards the triplet, then position control on it at the slewed
         # heading (one compiled call).
         st.apply_auto(t.dt_s, t.meas, nav_sp.target_ned_m, nav_sp.limits, nav_sp.vz_cmd_mps,
                       nav_sp.previous_ned_m, nav_sp.next_ned_m, nav_sp.acceptance_radius_m,
                       t.yaw_rad)
+
+    def _idle(self, t: TaskInput) -> None:
+        """No takeoff (disarmed, the navigator idles, or landed without a climb to fly): the
+        motors idle. PX4 runs the task on and re-activates it after every update until the
+        takeoff ramps (FlightModeManager: FlightTaskAuto::reActivate), which restarts the
+        smoothing at the vehicle at rest but for a 0.7 m/s descent: the next tick plans from
+        there."""
+        st = self.stage
+        st.set_idle(t.meas)
+        st.trajectory.smoothing.reset((0.0, 0.0, 0.0), REACTIVATE_VEL, t.meas.position_ned_m)
 
 
 class OffboardTask(FlightTask):

@@ -111,10 +111,10 @@ class PositionStage:
         self.reset_rates = True
         self.attitude = AttitudeSetpoint(meas.attitude_q, 0.0)
 
-    def start_flying(self, meas: Measurement) -> None:
+    def start_flying(self, meas: Measurement, reset_trajectory: bool = True) -> None:
         """The position controller takes over (the trajectory starts from the state if it was
-        not running)."""
-        if not self.flying:
+        not running, unless ``reset_trajectory`` is False)."""
+        if not self.flying and reset_trajectory:
             self.trajectory.reset(meas.position_ned_m, meas.velocity_ned_mps)
         self.idle = False
         self.flying = True
@@ -134,6 +134,9 @@ class PositionStage:
         controller: (no setpoint, restart the trajectory) for ``apply``. ``speed_up_mps``: the
         task's climb speed (the takeoff ramp's end; MPC_Z_VEL_MAX_UP when NaN or above it)."""
         pc = self.position_control
+        # FlightModeManager re-activates the task on the takeoff state mc_pos_control last
+        # published, the one before this tick's update
+        reactivate = self.takeoff.state < RAMPUP
         state = self._takeoff_state(True)
         flying = state >= FLIGHT
         no_setpoint = state < RAMPUP or (flying and self.land_detector.ground_contact)
@@ -151,10 +154,11 @@ class PositionStage:
         wanted_up = speed_up_mps if math.isfinite(speed_up_mps) else up_max
         up = min(self.takeoff.update_ramp(dt, wanted_up), up_max)
         pc.set_limits(up, g.thrust_min if flying else 0.0, self._tilt_limit)
-        # PX4 re-activates the flight task (FlightTaskAuto::reActivate) until the ramp starts:
-        # the smoothing restarts at the vehicle at rest but for a 0.7 m/s descent, so that once
-        # the ramp starts the climb setpoint first has to turn round instead of running far ahead.
-        return no_setpoint, state < RAMPUP
+        # PX4 re-activates the flight task (FlightTaskAuto::reActivate) after its update until
+        # the ramp starts: the smoothing restarts at the vehicle at rest but for a 0.7 m/s
+        # descent, so that once the ramp starts the climb setpoint first has to turn round
+        # instead of running far ahead.
+        return no_setpoint, reactivate
 
     def apply(self, dt: float, meas: Measurement, sp: PositionSetpoint, yaw: float,
               yawspeed: float = 0.0, speed_up_mps: float = math.nan) -> None:
@@ -164,11 +168,11 @@ class PositionStage:
         pc = self.position_control
         task_vz = sp.velocity_ned_mps[2]  # the land detector judges the task's setpoint (PX4)
         no_setpoint, reactivate = self._limits(dt, speed_up_mps)
+        if reactivate:
+            self.trajectory.reset(meas.position_ned_m, REACTIVATE_VEL)
         if no_setpoint:
             sp = PositionSetpoint(_NAN3, _NAN3, sp.yaw_rad, NO_THRUST_ACC)
             pc.reset_integral()
-            if reactivate:
-                self.trajectory.reset(meas.position_ned_m, REACTIVATE_VEL)
         yaw_sp = yaw if no_setpoint or math.isnan(sp.yaw_rad) else sp.yaw_rad
         q, thrust, vel_sp, acc_sp = pc.update_attitude(
             dt, meas.position_ned_m, meas.velocity_ned_mps, meas.accel_ned_mps2, sp, yaw_sp)

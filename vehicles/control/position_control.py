@@ -217,23 +217,24 @@ def auto_position_attitude_step(traj, cfg, traj_inp, traj_out, dt_s, has_previou
     ``generate_auto_step`` on ``traj``; the vehicle's position is ``traj_inp``'s first row and
     the vertical-speed altitude follows it), then ``position_attitude_step`` on its setpoint.
     ``no_setpoint`` (the takeoff has not ramped, or ground contact): position control gets no
-    setpoint and its integrator is held at zero; ``reactivate``: the trajectory then restarts at
-    the vehicle at rest but for a 0.7 m/s descent (position_stage.py). Returns (trajectory
+    setpoint and its integrator is held at zero; ``reactivate`` (the takeoff had not ramped): the
+    trajectory then restarts at the vehicle at rest but for a 0.7 m/s descent
+    (position_stage.py). Returns (trajectory
     position, velocity, acceleration, attitude, collective thrust, velocity setpoint,
     acceleration setpoint)."""
     pos = (traj_inp[0], traj_inp[1], traj_inp[2])
     p_sp, v_sp, a_sp = generate_auto_step(traj, cfg, traj_inp, dt_s, True, has_previous,
                                           has_next, acceptance_radius, vz_cmd, pos[2], traj_out)
     sp_pos, sp_vel, sp_acc = p_sp, v_sp, a_sp
+    if reactivate:  # PositionSmoothing.reset((0, 0, 0), REACTIVATE_VEL, pos)
+        for i, x, v in ((0, pos[0], REACTIVATE_VEL[0]), (1, pos[1], REACTIVATE_VEL[1]),
+                        (2, pos[2], REACTIVATE_VEL[2])):
+            traj[i, J] = traj[i, A] = traj[i, IJ] = traj[i, IA] = 0.0
+            traj[i, V] = traj[i, IV] = v
+            traj[i, X] = traj[i, IX] = x
     if no_setpoint:
         sp_pos, sp_vel, sp_acc = NAN3, NAN3, NO_THRUST_ACC
         integ[:] = 0.0
-        if reactivate:  # PositionSmoothing.reset((0, 0, 0), REACTIVATE_VEL, pos)
-            for i, x, v in ((0, pos[0], REACTIVATE_VEL[0]), (1, pos[1], REACTIVATE_VEL[1]),
-                            (2, pos[2], REACTIVATE_VEL[2])):
-                traj[i, J] = traj[i, A] = traj[i, IJ] = traj[i, IA] = 0.0
-                traj[i, V] = traj[i, IV] = v
-                traj[i, X] = traj[i, IX] = x
     thrust, vel_sp, acc_sp = _control_or_failsafe(dt_s, pos, vel, acc_meas, sp_pos, sp_vel,
                                                   sp_acc, gains, integ)
     q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)

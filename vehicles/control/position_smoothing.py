@@ -331,12 +331,14 @@ def _complete_auto_input(traj, cfg, inp, has_position, has_previous, has_next,
 
 @njit_cached
 def auto_unsmoothed_velocity(traj, cfg, inp, has_position, has_previous, has_next,
-                             acceptance_radius, vz_cmd):  # pragma: no cover - compiled
+                             acceptance_radius, vz_cmd, out):  # pragma: no cover - compiled
     """The unsmoothed velocity setpoint ``generate_auto_step`` would plan now (the trajectory
-    not advanced): what FlightTaskAuto's takeoff trigger judges."""
+    not advanced), also kept in ``out``'s row 4: what FlightTaskAuto's takeoff trigger judges."""
     _complete_auto_input(traj, cfg, inp, has_position, has_previous, has_next,
                          acceptance_radius, vz_cmd)
-    return _velocity_setpoint(traj, cfg, inp, not has_next)
+    vel_sp = _velocity_setpoint(traj, cfg, inp, not has_next)
+    out[4, 0], out[4, 1], out[4, 2] = vel_sp
+    return vel_sp
 
 
 @njit_cached
@@ -449,11 +451,12 @@ class PositionSmoothing:
                                  next_: Vec3 | None, acceptance_radius: float,
                                  vz_cmd: float = 0.0) -> Vec3:
         """The unsmoothed velocity setpoint ``generate_auto`` would plan now, the trajectory
-        not advanced (``auto_unsmoothed_velocity``)."""
+        not advanced (``auto_unsmoothed_velocity``; the last one, as ``generate``'s)."""
         self.set_auto_input(position, previous, target, next_, None)
         v0, v1, v2 = auto_unsmoothed_velocity(self.axes, self.cfg, self.inp, True,
                                               previous is not None, next_ is not None,
-                                              float(acceptance_radius), float(vz_cmd))
+                                              float(acceptance_radius), float(vz_cmd),
+                                              self.out)
         return (v0, v1, v2)
 
     def set_auto_input(self, position: Vec3 | None, previous: Vec3 | None, target: Vec3,
