@@ -10,7 +10,10 @@ import pytest
 
 from tests.unit.test_vehicles_flight import Sim, take_off
 from tests.unit.test_vehicles_mission import waypoints
+from vehicles.auto_trajectory import AutoTrajectory
 from vehicles.control.position_smoothing import PositionSmoothing, ideal_track
+from vehicles.nav_core import auto_limits
+from vehicles.params import ParamStore
 from vehicles.plan_types import PlanType
 from vehicles.types import CommandResult
 
@@ -91,3 +94,20 @@ def fly_goto(distance_m: float = 30.0, seconds: float = 30.0) -> tuple[float, fl
 def test_goto_creeps_in_without_overshoot():
     overshoot, error = fly_goto()
     assert overshoot <= 0.2 and error < 0.1
+
+
+def test_vertical_limits_follow_the_unsmoothed_climb():
+    """FlightTaskAuto::_updateTrajConstraints picks the climb's vertical limits while the last
+    unsmoothed velocity setpoint climbs, whatever the smoothed velocity does: reset as
+    FlightTaskAuto::reActivate leaves it on the ground (0.7 m/s down) and aimed 15 m up, the
+    setpoint turns round at the takeoff's MPC_TKO_SPEED / MPC_TKO_RAMP_T (0.5 m/s^2), not at
+    MPC_ACC_DOWN_MAX (3 m/s^2, which would have it at 0.24 m/s down by then)."""
+    params = ParamStore()
+    traj = AutoTrajectory(params)
+    lim = auto_limits(params, speed_up_mps=1.5, acc_up_mps2=0.5)
+    traj.smoothing.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.7), (0.0, 0.0, 0.0))
+    traj.update(0.02, (0.0, 0.0, -15.0), lim, position_ned_m=(0.0, 0.0, 0.0))
+    assert traj.smoothing.out[4, 2] < 0.0  # the unsmoothed setpoint climbs
+    for _ in range(24):  # half a second
+        traj.update(0.02, (0.0, 0.0, -15.0), lim, position_ned_m=traj.position_ned_m)
+    assert traj.velocity_ned_mps[2] > 0.45  # still descending: turning round at 0.5 m/s^2
