@@ -10,8 +10,8 @@ FlightTaskAuto sets it up (_updateTrajConstraints), behind the interface the fli
   acceptance radius. A NaN target altitude is a vertical speed (``vz_cmd``, landing): the position
   setpoint's z is then NaN and the position controller flies the velocity.
 - ``previous`` and ``next`` make the triplet PX4's navigator publishes: a fly-through waypoint
-  with a next one is passed at the corner speed, inside the corner; without them the target is
-  a single waypoint, approached without overshoot.
+  with a next one is passed at the corner speed, inside the corner; without a next one the
+  target is arrived at (next = target: still three waypoints, as FlightTaskAuto hands them).
 """
 
 from __future__ import annotations
@@ -106,8 +106,8 @@ class AutoTrajectory:
         ``feedforward_ned_mps``: the target's own velocity (a moving target: Follow Me)."""
         self.set_up(lim)
         # The triplet as FlightTaskAuto completes it: the setpoint's own position for a missing
-        # vehicle position or previous waypoint, the target for a missing next one (a single
-        # waypoint); with a NaN target z only xy is planned and z follows the vehicle.
+        # vehicle position or previous waypoint, the target for a missing next one; with a NaN
+        # target z only xy is planned and z follows the vehicle.
         return self.smoothing.generate_auto(position_ned_m, previous_ned_m, target_ned_m,
                                             next_ned_m, feedforward_ned_mps, dt_s,
                                             self.acceptance_radius(acceptance_radius_m),

@@ -209,6 +209,37 @@ def test_matches_px4_v115_on_a_climbing_leg():
     assert close(out.velocity, (4.652774, 0.0, -1.424794))
 
 
+def test_matches_px4_v115_round_the_corner_to_the_last_waypoint():
+    """FlightTaskAuto always hands the smoothing three waypoints (next = target when there is
+    none), never the single-waypoint form: turning towards a mission's last waypoint after a
+    corner it flies the L1 point on the previous -> target line at the held speed. The corner
+    of test_matches_px4_v115_into_a_corner, the navigator switching at 2 m, then (iterations
+    after the switch, position, velocity) as PX4 v1.15.2 gives them."""
+    s = smoothing()
+    s.target_acceptance_radius = 2.0
+    s.reset((0.0,) * 3, (0.0,) * 3, (0.0, 0.0, -10.0))
+    w0, w3, w4 = (0.0, 0.0, -10.0), (20.0, 0.0, -10.0), (20.0, 20.0, -10.0)
+    want = {25: ((18.81324, 0.073728, -10.0), (1.31601, 0.4608001, 0.0)),
+            50: ((19.2746, 0.5809618, -10.0), (0.5017593, 1.499852, 0.0)),
+            100: ((19.48421, 2.989766, -10.0), (0.1550779, 3.735444, 0.0)),
+            300: ((19.93417, 17.58886, -10.0), (0.04155701, 1.512787, 0.0))}
+    position, switched = w0, None
+    for i in range(600):
+        if switched is None:
+            out = s.generate(position, (w0, w3, w4), (math.nan,) * 3, 0.02)
+            position = out.position
+            if math.dist(position[:2], w3[:2]) < 2.0:
+                switched = i
+            continue
+        position, velocity, _ = s.generate_auto(position, w3, w4, None, None, 0.02, 2.0)
+        if i - switched in want:
+            assert close(position, want[i - switched][0]), i - switched
+            # by 300 the float32 run's small cross-track speed is 1e-3 m/s apart
+            assert velocity == pytest.approx(want[i - switched][1], rel=1e-4, abs=1e-3), \
+                i - switched
+    assert switched == 289
+
+
 def test_traj_math():
     """TrajMath: braking from the speed it gives takes the whole distance; a straight line
     (alpha = pi) allows any speed, a reversal (alpha = 0) none."""

@@ -336,7 +336,7 @@ def auto_unsmoothed_velocity(traj, cfg, inp, has_position, has_previous, has_nex
     not advanced), also kept in ``out``'s row 4: what FlightTaskAuto's takeoff trigger judges."""
     _complete_auto_input(traj, cfg, inp, has_position, has_previous, has_next,
                          acceptance_radius, vz_cmd)
-    vel_sp = _velocity_setpoint(traj, cfg, inp, not has_next)
+    vel_sp = _velocity_setpoint(traj, cfg, inp, False)
     out[4, 0], out[4, 1], out[4, 2] = vel_sp
     return vel_sp
 
@@ -353,7 +353,7 @@ def generate_auto_step(traj, cfg, inp, dt_s, has_position, has_previous, has_nex
     hx, hy, hz = traj[0, X], traj[1, X], traj[2, X]
     vertical_speed = _complete_auto_input(traj, cfg, inp, has_position, has_previous, has_next,
                                           acceptance_radius, vz_cmd)
-    generate_step(traj, cfg, inp, dt_s, False, not has_next, out)
+    generate_step(traj, cfg, inp, dt_s, False, False, out)
     px, py, pz = out[3, 0], out[3, 1], out[3, 2]
     if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)):
         for i, x in ((0, hx), (1, hy), (2, hz)):  # PositionSmoothing.reset at rest
@@ -438,7 +438,8 @@ class PositionSmoothing:
                       ) -> tuple[Vec3, Vec3, Vec3]:
         """One update as FlightTaskAuto runs it (``generate_auto_step``, one compiled call):
         None stands for the vehicle's position and the previous waypoint as where the setpoint
-        is, for the next waypoint as the target (a single waypoint then) and for no feed-forward;
+        is, for the next waypoint as the target (never the single-waypoint form: FlightTaskAuto
+        always hands over three) and for no feed-forward;
         ``target_acceptance_radius`` is set to ``acceptance_radius``. Returns (position,
         velocity, acceleration)."""
         self.set_auto_input(position, previous, target, next_, feedforward)
@@ -479,15 +480,16 @@ def ideal_track(s: PositionSmoothing, waypoints: list[Vec3], acceptance_radius_m
                 dt_s: float, max_steps: int = 40000) -> list[tuple[Vec3, float]]:
     """``s`` tracked perfectly along ``waypoints`` (the first is where it starts, at rest), the
     target moving on once within ``acceptance_radius_m`` horizontally, as PX4's navigator
-    moves on; the last is a single waypoint, arrived at. Returns (position, horizontal speed) per
-    step: PX4's own trajectory for that flight plan, the reference a flown track is held to."""
+    moves on; the last is arrived at (next = target, as FlightTaskAuto hands it). Returns
+    (position, horizontal speed) per step: PX4's own trajectory for that flight plan, the
+    reference a flown track is held to."""
     s.reset((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), waypoints[0])
     i, pos, track = 1, waypoints[0], []
     for _ in range(max_steps):
         last = i + 1 >= len(waypoints)
         target = waypoints[i]
         out = s.generate(pos, (waypoints[i - 1], target, target if last else waypoints[i + 1]),
-                         _NAN3, dt_s, single_waypoint=last)
+                         _NAN3, dt_s)
         pos = out.position
         track.append((pos, math.hypot(out.velocity[0], out.velocity[1])))
         if not last and math.hypot(pos[0] - target[0], pos[1] - target[1]) < acceptance_radius_m:
