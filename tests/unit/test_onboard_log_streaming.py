@@ -227,7 +227,7 @@ def _stream_flight(network=None, log_dir=None):
         assert api.arm() == 0 and api.takeoff() == 0
         # The reliable header (~155 acknowledged packets, one at a time) takes ~8.5 s through
         # a link that loses a fifth of them each way: the flight goes on well past that.
-        sim.advance(8.0 if network is None else 14.0)
+        sim.advance(10.0 if network is None else 14.0)  # up past 2 m (the takeoff ~9 s)
         receiver = api.log_stream
         result, data = api.stop_log_stream()
         return result, data, receiver, sim
