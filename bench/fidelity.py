@@ -76,6 +76,13 @@ def px4_takeoff_time(p) -> float:
                          float(p["MPC_Z_VEL_P_ACC"]))
     s = smoothing(p)
     s.set_max_velocity((5.0, 5.0, float(p["MPC_TKO_SPEED"])))
+    # FlightTaskAuto::_updateTrajConstraints, a takeoff below MPC_LAND_ALT1 climbing: at most
+    # MPC_TKO_SPEED / MPC_TKO_RAMP_T, and the altitude setpoint held at the vehicle's
+    # (forceSetPosition) while the velocity turns round from reActivate's descent
+    acc = float(p["MPC_ACC_HOR"])
+    s.set_max_acceleration((acc, acc, min(float(p["MPC_ACC_UP_MAX"]), float(p["MPC_TKO_SPEED"])
+                                          / float(p["MPC_TKO_RAMP_T"]))))
+    land_alt1 = float(p["MPC_LAND_ALT1"])
     alt = float(p["MIS_TAKEOFF_ALT"])
     z = vz = t = 0.0
     landed = True
@@ -88,6 +95,8 @@ def px4_takeoff_time(p) -> float:
             sp = PositionSetpoint(acceleration_ned_mps2=(0.0, 0.0, 100.0))
             pc.reset_integral()
         else:
+            if z < land_alt1:
+                s.force_set_position_z(-z)
             out = s.generate((0.0, 0.0, -z), target, (math.nan,) * 3, DT, single_waypoint=True)
             sp = PositionSetpoint(out.position, out.velocity, 0.0, (0.0, 0.0, math.nan))
         up = min(tk.update_ramp(DT, float(p["MPC_TKO_SPEED"])), gains.vel_max_up_mps)
