@@ -135,6 +135,25 @@ def return_height_m(distance_m: float, return_alt_m: float, cone_deg: float, min
     return max(height, 2.0 * acc_rad_m)
 
 
+def return_z_m(ctx: NavContext, dest: Vec3) -> float:
+    """_rtl_alt as NED z: ``return_height_m`` above ``dest`` from where the vehicle is, never
+    below it (rtl.cpp: never descend to return)."""
+    x, y, z = ctx.position_ned_m
+    p = ctx.params
+    above = return_height_m(math.hypot(x - dest[0], y - dest[1]), float(p["RTL_RETURN_ALT"]),
+                            float(p["RTL_CONE_ANG"]), float(p["RTL_MIN_DIST"]),
+                            float(p["NAV_ACC_RAD"]))
+    return min(dest[2] - above, z)
+
+
+def activation_phase(landed: bool, z: float, return_z: float) -> RtlPhase:
+    """rtl_direct.cpp getActivationLandState: landed -> idle, below the return altitude -> the
+    climb, else the return leg."""
+    if landed:
+        return RtlPhase.IDLE
+    return RtlPhase.CLIMB if z > return_z else RtlPhase.RETURN
+
+
 def _yaw_error_rad(a: float, b: float) -> float:
     return abs((a - b + math.pi) % (2.0 * math.pi) - math.pi)
 
@@ -151,23 +170,15 @@ class Return(NavMode):
         self._land = Land()
 
     def on_activation(self, ctx: NavContext) -> None:
-        p = ctx.params
         self.yaw = ctx.yaw_rad
         self._fixed_yaw = ctx.yaw_rad  # the climb keeps the heading
         self._loiter_since = None
         self.dest = rtl_destination(ctx, self.plans, warn=ctx.armed)
-        x, y, z = ctx.position_ned_m
+        z = ctx.position_ned_m[2]
         dz = self.dest[2]
-        above = return_height_m(math.hypot(x - self.dest[0], y - self.dest[1]),
-                                float(p["RTL_RETURN_ALT"]), float(p["RTL_CONE_ANG"]),
-                                float(p["RTL_MIN_DIST"]), float(p["NAV_ACC_RAD"]))
-        self.return_z = min(dz - above, z)  # never descend to return
-        # rtl_direct.cpp getActivationLandState: landed -> IDLE, below -> climb, else return
-        if ctx.landed:
-            self.phase = RtlPhase.IDLE
-        elif z > self.return_z:
-            self.phase = RtlPhase.CLIMB
-        else:
+        self.return_z = return_z_m(ctx, self.dest)
+        self.phase = activation_phase(ctx.landed, z, self.return_z)
+        if self.phase is RtlPhase.RETURN:
             self._start_return(ctx)
         if ctx.armed:  # PX4 runs no navigator mode while disarmed
             # rtl_direct.cpp on_activation: the return altitude AMSL, and above the destination

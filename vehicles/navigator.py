@@ -35,7 +35,9 @@ from vehicles.nav_rtl import (  # noqa: F401
     Return,
     RtlPhase,
     RtlTimeEstimate,
+    activation_phase,
     return_height_m,
+    return_z_m,
     rtl_destination,
     rtl_time_estimate,
 )
@@ -124,15 +126,10 @@ class Navigator:
         if ctx.home is None or not position_valid:
             self.rtl_estimate = NO_ESTIMATE
             return
-        rtl, p = self.rtl, ctx.params
-        pos = ctx.position_ned_m
+        rtl, pos = self.rtl, ctx.position_ned_m
         if returning:
             start, dest, return_z = rtl.phase, rtl.dest, rtl.return_z
         else:
-            above = return_height_m(math.hypot(pos[0] - dest[0], pos[1] - dest[1]),
-                                    float(p["RTL_RETURN_ALT"]), float(p["RTL_CONE_ANG"]),
-                                    float(p["RTL_MIN_DIST"]), float(p["NAV_ACC_RAD"]))
-            return_z = min(dest[2] - above, pos[2])
-            start = RtlPhase.IDLE if ctx.landed else \
-                RtlPhase.CLIMB if pos[2] > return_z else RtlPhase.RETURN
-        self.rtl_estimate = rtl_time_estimate(p, start, pos, dest, return_z)
+            return_z = return_z_m(ctx, dest)
+            start = activation_phase(ctx.landed, pos[2], return_z)
+        self.rtl_estimate = rtl_time_estimate(ctx.params, start, pos, dest, return_z)
