@@ -4,8 +4,9 @@ figure printed beside what PX4's own algorithms give for the same inputs, with p
 
 - takeoff to MIS_TAKEOFF_ALT: time to 90 % of the altitude after the command (given at arming);
   PX4's profile is MPC_SPOOLUP_TIME at idle, then the MPC_TKO_RAMP_T ramp (TakeoffHandling),
-  then the climb at MPC_TKO_SPEED into PositionSmoothing's approach; the reference runs those
-  and PositionControl (PX4's gains, MPC_THR_HOVER) on a point mass with instant motors;
+  then the climb at MPC_TKO_SPEED, and from NAV_MC_ALT_RAD below the altitude Loiter's approach
+  (PositionSmoothing); the reference runs those and PositionControl (PX4's gains,
+  MPC_THR_HOVER) on a point mass with the x500's thrust curve and instant motors;
 - fly-through squares with 50 m sides, 90° and 150° corners: the greatest distance outside the
   polygon at a corner, the lowest speed near each corner (PositionSmoothing alone, perfectly
   tracked, on the same waypoints and NAV_ACC_RAD is PX4's figure) and the greatest leg speed
@@ -59,9 +60,12 @@ def smoothing(p) -> PositionSmoothing:
 
 # --- PX4's figures from its algorithms ----------------------------------------------------------
 def px4_takeoff_time(p) -> float:
-    """PX4's algorithms (TakeoffHandling, PositionSmoothing, PositionControl with PX4's gains) on
-    a point mass with instant motors that rests on the ground until the thrust lifts it: the
-    time to 90 % of MIS_TAKEOFF_ALT after the command, given at arming."""
+    """PX4's algorithms (TakeoffHandling, PositionSmoothing, PositionControl with PX4's gains
+    and MPC_THR_HOVER) on a point mass with the x500's mass and static thrust curve and instant
+    motors, resting on the ground until the thrust lifts it, Takeoff handing over to Loiter at
+    NAV_MC_ALT_RAD below the altitude: the time to 90 % of MIS_TAKEOFF_ALT after the command,
+    given at arming. No hover-thrust estimator: the controller keeps MPC_THR_HOVER."""
+    from vehicles.airframe import X500
     from vehicles.control.position_control import (
         PositionControl,
         PositionControlGains,
@@ -79,13 +83,13 @@ def px4_takeoff_time(p) -> float:
     # FlightTaskAuto::_updateTrajConstraints, a takeoff below MPC_LAND_ALT1 climbing: at most
     # MPC_TKO_SPEED / MPC_TKO_RAMP_T, and the altitude setpoint held at the vehicle's
     # (forceSetPosition) while the velocity turns round from reActivate's descent
-    acc = float(p["MPC_ACC_HOR"])
-    s.set_max_acceleration((acc, acc, min(float(p["MPC_ACC_UP_MAX"]), float(p["MPC_TKO_SPEED"])
+    acc_hor = float(p["MPC_ACC_HOR"])
+    s.set_max_acceleration((acc_hor, acc_hor, min(float(p["MPC_ACC_UP_MAX"]), float(p["MPC_TKO_SPEED"])
                                           / float(p["MPC_TKO_RAMP_T"]))))
     land_alt1 = float(p["MPC_LAND_ALT1"])
     alt = float(p["MIS_TAKEOFF_ALT"])
     z = vz = t = 0.0
-    landed = True
+    landed, loiter = True, False
     tilt_lnd = math.radians(float(p["MPC_TILTMAX_LND"]))
     while t < 60.0:
         state = tk.update_state(True, landed, True, t)
@@ -95,17 +99,27 @@ def px4_takeoff_time(p) -> float:
             sp = PositionSetpoint(acceleration_ned_mps2=(0.0, 0.0, 100.0))
             pc.reset_integral()
         else:
-            if z < land_alt1:
+            # takeoff.cpp: the takeoff is complete NAV_MC_ALT_RAD below its altitude; Loiter
+            # then holds the takeoff point, a waypoint of another type: FlightTaskAuto's climb
+            # constraints become MPC_Z_V_AUTO_UP / MPC_ACC_UP_MAX, no forceSetPosition
+            loiter = loiter or z > alt - float(p["NAV_MC_ALT_RAD"])
+            if loiter:
+                s.set_max_velocity((5.0, 5.0, float(p["MPC_Z_V_AUTO_UP"])))
+                s.set_max_acceleration((acc_hor, acc_hor, float(p["MPC_ACC_UP_MAX"])))
+            elif z < land_alt1:
                 s.force_set_position_z(-z)
             out = s.generate((0.0, 0.0, -z), target, (math.nan,) * 3, DT, single_waypoint=True)
             sp = PositionSetpoint(out.position, out.velocity, 0.0, (0.0, 0.0, math.nan))
-        up = min(tk.update_ramp(DT, float(p["MPC_TKO_SPEED"])), gains.vel_max_up_mps)
+        # the controller's climb constraint: at least MPC_Z_VEL_MAX_UP and 1.2 x MPC_Z_V_AUTO_UP
+        # (FlightTaskAuto::_updateTrajConstraints), the ramp clipped at MPC_Z_VEL_MAX_UP
+        speed_up = max(gains.vel_max_up_mps, 1.2 * float(p["MPC_Z_V_AUTO_UP"]))
+        up = min(tk.update_ramp(DT, speed_up), gains.vel_max_up_mps)
         pc.set_limits(up, gains.thrust_min if state >= 4 else 0.0, tilt_lnd)
         thrust = -pc.update(DT, (0.0, 0.0, -z), (0.0, 0.0, -vz), (0.0, 0.0, 0.0), sp).thrust_ned[2]
-        acc = thrust / hover * GRAVITY_MPS2 - GRAVITY_MPS2
-        if landed and acc <= 0.0:
-            acc, vz = 0.0, 0.0
+        acc = X500.rotor_count * X500.rotor_thrust_n(thrust) / X500.mass_kg - GRAVITY_MPS2
         vz += acc * DT
+        if z <= 0.0 and vz <= 0.0:  # the ground holds the vehicle up
+            vz = 0.0
         z = max(0.0, z + vz * DT)
         # The land detector: in the air once the thrust is no longer minimal.
         thr_min = float(p["MPC_THR_MIN"])
