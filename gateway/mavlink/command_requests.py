@@ -55,7 +55,7 @@ STORAGE_FREE_MIB = 51200.0
 
 # AUTOPILOT_VERSION as PX4 SITL fills it (MAVLink FTP included: gateway/mavlink/ftp.py).
 CAPABILITIES = 59647
-FLIGHT_SW_VERSION = 0x010F00FF  # v1.15.0 release
+FLIGHT_SW_VERSION = 0x010F02FF  # v1.15.2 release
 # PX4_GIT_VERSION_BINARY is the first 16 hex digits of the build's git commit as a uint64; ours is
 # a fixed one (the start of SHA-1("CORNET")). mavlink_main.cpp send_autopilot_capabilities keeps
 # its top 5 bytes, puts the vendor version (0 for a release build) in the low 3 and copies the

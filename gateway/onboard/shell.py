@@ -31,7 +31,7 @@ from vehicles.faults import TYPES, UNITS
 from vehicles.params import ParamType
 from vehicles.types import CommandResult, NavState
 
-VERSION = "1.15.0 0 (17760511)"  # what AUTOPILOT_VERSION says (v1.15.0 release)
+VERSION = "1.15.2 0 (17761023)"  # what AUTOPILOT_VERSION says (v1.15.2 release)
 PROMPT = "pxh> "
 MAX_LINE = 4096
 MODES = {"manual": NavState.MANUAL, "altctl": NavState.ALTCTL, "posctl": NavState.POSCTL,

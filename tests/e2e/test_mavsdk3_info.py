@@ -1,5 +1,5 @@
 """MAVSDK-Python 3.x's info plugin reads AUTOPILOT_VERSION as it reads PX4 SITL's: version
-1.15.0, a hex git hash (from 5 bytes of flight_custom_version), vendor version 0.0.0."""
+1.15.2, a hex git hash (from 5 bytes of flight_custom_version), vendor version 0.0.0."""
 
 import pytest
 
@@ -16,7 +16,7 @@ async def test_info_version_shows_a_hex_git_hash():
         async with connected(d.api_port(), healthy=False) as drone:
             version = await drone.info.get_version()
             assert (version.flight_sw_major, version.flight_sw_minor,
-                    version.flight_sw_patch) == (1, 15, 0), version
+                    version.flight_sw_patch) == (1, 15, 2), version
             # Bytes 3..7 of flight_custom_version back to front ("3fccf9453a"); MAVSDK's
             # buffer is one short, so its last digit is the NUL (so it is with PX4 SITL too).
             assert version.flight_sw_git_hash == "3fccf9453\0", version

@@ -217,7 +217,7 @@ def test_request_message_emits_message_before_ack():
     assert [m.get_type() for m in got] == ["AUTOPILOT_VERSION", "COMMAND_ACK"]
     av, ack = got
     assert av.capabilities == 59647 and av.capabilities & 32 and av.capabilities & 4 and av.capabilities & 16
-    assert av.flight_sw_version == 0x010F00FF
+    assert av.flight_sw_version == 0x010F02FF
     assert (ack.command, ack.result, ack.target_system, ack.target_component) == (512, 0, 245, 190)
     assert ack.get_srcSystem() == 1 and ack.get_srcComponent() == 1
     got = client.command_long(M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1, target_component=0)

@@ -73,7 +73,7 @@ def test_the_log_has_what_px4s_log_analysis_reads(tmp_path):
     estimator, home, the control mode, and SITL's ground truth beside the estimate; the
     firmware version as flight review reads it."""
     log = pyulog.ULog(str(fly(tmp_path)[0]))
-    assert log.get_version_info_str() == "v1.15.0"
+    assert log.get_version_info_str() == "v1.15.2"
     assert log.msg_info_dict["ver_hw"] == "PX4_SITL"
 
     def data(topic: str) -> dict:
