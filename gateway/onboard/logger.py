@@ -8,7 +8,9 @@ Rules:
   2 from boot on; 4 from the first arming on; 3, AUX1, as 0) and samples each topic when its
   interval has passed (0: every tick; topics marked on-change: looked at once per interval
   and written when their values changed, as PX4's logger writes a topic updated since).
-- The topics, with PX4's names, field names and intervals: logged_topics.py.
+- The topics, with PX4's names, field names and intervals: logged_topics.py. ``links``: the
+  vehicle's MAVLink sessions, PX4's mavlink instances in order, whose telemetry_status the
+  logger writes (logged_status.py; the shell sets them, as the links live in the gateway).
 - vehicle_command and vehicle_command_ack are written for every command the vehicle's journal
   (vehicles/command_journal.py) recorded since the last tick, at the time it came.
 - A log holds the info fields (ver_sw, ver_sw_release, ver_hw, sys_name, sys_uuid unless
@@ -104,8 +106,10 @@ class _Sample:
     """The vehicle as one sampling instant sees it: each property read once (``status``,
     ``estimator``, ``sensors`` build new objects on every read), shared by the topics."""
 
-    def __init__(self, vehicle: Any) -> None:
-        self._vehicle = vehicle
+    def __init__(self, logger: VehicleLogger) -> None:
+        self._vehicle = logger.vehicle
+        self.mavlink_links = logger.links  # the MAVLink instances' sessions (module rules)
+        self.memo = logger.memo  # what a topic keeps of its last sample (mission_result)
 
     def __getattr__(self, name: str) -> Any:
         value = getattr(self._vehicle, name)
@@ -125,6 +129,8 @@ class VehicleLogger:
         self._scratch = bytearray()  # a sample for the stream alone
         self.boot_unix_s = boot_unix_s
         self.topics = tuple(topics)
+        self.links: Sequence[Any] = ()  # the vehicle's MAVLink sessions (module rules)
+        self.memo: dict[str, Any] = {}
         self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields), NESTED_FORMATS)
                          for t in self.topics]
         self._prefixes = [ulog.data_prefix(i, st.size) for i, st in enumerate(self._structs)]
@@ -192,8 +198,9 @@ class VehicleLogger:
         sysid = v.params.get("MAV_SYS_ID", 1)
         parts = [ulog.flag_bits(ulog.COMPAT_DEFAULT_PARAMETERS)]
         parts += [ulog.format_message(name, fields) for name, fields in NESTED_FORMATS.items()]
-        parts += [ulog.format_message(t.name, (("uint64_t", "timestamp"), *t.fields))
-                  for t in self.topics]
+        formats = {t.name: t.fields for t in self.topics}  # one per topic, its instances share it
+        parts += [ulog.format_message(name, (("uint64_t", "timestamp"), *fields))
+                  for name, fields in formats.items()]
         parts += [ulog.format_message(name, (("uint64_t", "timestamp"), *fields))
                   for name, fields in EVENT_TOPICS]
         parts += [ulog.info("ver_sw", VER_SW), ulog.info("ver_sw_release", VER_SW_RELEASE, unsigned=True),
@@ -213,7 +220,7 @@ class VehicleLogger:
         for param, value in v.params.items():
             parts.append(ulog.parameter(param.name, value, param.type is ParamType.INT32))
         parts += _parameter_defaults(v.params)
-        parts += [ulog.add_logged(i, t.name) for i, t in enumerate(self.topics)]
+        parts += [ulog.add_logged(i, t.name, t.multi_id) for i, t in enumerate(self.topics)]
         parts += [ulog.add_logged(len(self.topics) + k, name)
                   for k, (name, _) in enumerate(EVENT_TOPICS)]
         parts.append(ulog.sync())
@@ -307,11 +314,11 @@ class VehicleLogger:
                 return
         if not self.file_backend:
             if writer.started:
-                self._sample(now_s, False, _Sample(self.vehicle))
+                self._sample(now_s, False, _Sample(self))
             return
         mode = self.vehicle.params.get("SDLOG_MODE", SDLOG_ARMED)
         mode = SDLOG_ARMED if mode is None else int(mode)
-        view = _Sample(self.vehicle)
+        view = _Sample(self)
         armed = view.status.armed
         boot = not self._booted
         self._booted = True
@@ -335,7 +342,7 @@ class VehicleLogger:
         self.override = True
         if self._path is None and self.file_backend:
             self._start(now_s)
-            self._sample(now_s, False, _Sample(self.vehicle))
+            self._sample(now_s, False, _Sample(self))
 
     def off(self, now_s: float) -> None:
         """set_arm_override(false): logging follows SDLOG_MODE again, so an unarmed vehicle's
@@ -344,7 +351,7 @@ class VehicleLogger:
         mode = self.vehicle.params.get("SDLOG_MODE", SDLOG_ARMED)
         if (self._path is not None and not self.vehicle.status.armed
                 and mode != SDLOG_BOOT_TO_SHUTDOWN):
-            self._sample(now_s, True, _Sample(self.vehicle))
+            self._sample(now_s, True, _Sample(self))
             self._stop()
 
     def status(self, now_s: float) -> list[str]:

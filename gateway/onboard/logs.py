@@ -51,6 +51,8 @@ class Logs:
                     link.session.logs.store = LogFiles(self, sysid)
                 link.session.log_streaming.topic = self.loggers[sysid].stream
                 self._links.setdefault(sysid, []).append(link)
+        for sysid, links in self._links.items():  # PX4's mavlink instances: telemetry_status
+            self.loggers[sysid].links = tuple(link.session for link in links)
         sim.every(TICK_S, self._tick)
         sim.every(FLUSH_S, lambda now: self.flush())
 

@@ -4,7 +4,8 @@ Rules (logged_topics.py says which topics and why): ``fields`` come after the le
 ``uint64_t timestamp``, each a (ULog type, PX4 field name) pair with PX4 1.15's name and type;
 ``read(vehicle, now_us)`` returns their values flat (an array's elements one by one), or None
 while PX4 would not have published the topic; ``step`` (row of the recent-steps ring, the
-step's time µs) reads a topic PX4 publishes at the sensors' rate.
+step's time µs) reads a topic PX4 publishes at the sensors' rate. A topic PX4 logs with
+add_topic_multi has one Topic per instance (``multi_id``), sharing its format.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ class Topic:
     # the publisher's period, for a topic logged at every update (no interval) that its module
     # publishes at a fixed rate (load_mon's cpuload: 500 ms)
     period_s: float = 0.0
+    multi_id: int = 0  # the uORB instance (add_topic_multi), its subscription's multi_id
 
     @property
     def every_s(self) -> float:

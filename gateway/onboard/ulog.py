@@ -7,7 +7,9 @@ Rules:
   (subscriptions 'A', data 'D', logged strings 'L', parameter changes 'P', sync 'S'). Every
   message is ``uint16 size, uint8 type, payload`` (little endian).
 - Formats are packed as declared: no implicit padding; the first field of every logged topic is
-  ``uint64_t timestamp`` (µs).
+  ``uint64_t timestamp`` (µs). A format may end in PX4's generated ``uint8_t[n] _paddingK``
+  fields (the struct's alignment to 8 bytes): the format names them but a record leaves them
+  out, as PX4's logger writes a topic's o_size_no_padding bytes (pyulog accepts both).
 - Types: int8_t … uint64_t, float, double, bool, char, arrays ``type[n]``, and nested formats
   (a field whose type is another format's name, as PX4's position_setpoint_triplet has
   ``position_setpoint current``), whose fields are packed in its place.
@@ -61,8 +63,12 @@ def field_code(type_name: str, nested: Mapping[str, Fields] | None = None) -> st
 
 
 def struct_of(fields: Fields, nested: Mapping[str, Fields] | None = None) -> struct.Struct:
-    """The record of ``fields`` packed as declared, a nested format's fields in its place."""
-    return struct.Struct("<" + "".join(field_code(t, nested) for t, _ in fields))
+    """The record of ``fields`` packed as declared, a nested format's fields in its place, the
+    trailing padding left out (module rules)."""
+    end = len(fields)
+    while end and fields[end - 1][1].startswith("_padding"):
+        end -= 1
+    return struct.Struct("<" + "".join(field_code(t, nested) for t, _ in fields[:end]))
 
 
 def format_message(name: str, fields: Fields) -> bytes:
