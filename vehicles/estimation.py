@@ -122,8 +122,11 @@ F_MAG = F_MAG_OFF | F_MAG_STUCK
 HISTORY = 64  # steps of past states kept: delays up to 63 physics steps (252 ms at 250 Hz)
 # The World's recent-steps ring (physics.py): per row and physics step, what PX4's logger records
 # at the sensors' rate while it runs at 50 Hz: the IMU samples (sensor_combined), the estimated
-# attitude and rates (vehicle_attitude, vehicle_angular_velocity), the true ones (*_groundtruth).
-R_GYRO, R_ACC, R_Q, R_RATES, R_TRUE_Q, R_TRUE_RATES, R_SIZE = 0, 3, 6, 10, 13, 17, 20
+# attitude and rates (vehicle_attitude, vehicle_angular_velocity), the true ones (*_groundtruth),
+# and the sensors module's vehicle_acceleration (vehicle_acceleration.py: R_ACC_LP, from its input
+# R_ACC_IN, the bias-corrected accelerometer sample, kept for the filter's next steps).
+R_GYRO, R_ACC, R_Q, R_RATES, R_TRUE_Q, R_TRUE_RATES, R_ACC_IN, R_ACC_LP, R_SIZE = (
+    0, 3, 6, 10, 13, 17, 20, 23, 26)
 
 
 # Columns of ``sensed`` (the latest sample of each sensor; NED positions from the spawn point).
@@ -415,22 +418,27 @@ class Estimation:
         self.ehist = np.zeros((0, HISTORY, 6))  # estimated positions and velocities, a ring
         self.delay = np.zeros(0, np.int64)  # how late EKF2 takes a fix to be, physics steps
         self.failed = np.zeros(0, np.int64)  # failure injection: F_* bits per row
+        self.acc_lp = np.zeros((0, 5))  # each row's vehicle_acceleration filter (lowpass2p)
 
     def set_failed(self, row: int, bits: int, on: bool) -> None:
         """Failure injection: the row's sensors of ``bits`` (F_*) fail (``on``) or work again."""
         self.failed[row] = (self.failed[row] | bits) if on else (self.failed[row] & ~bits)
 
     def _resize(self, n: int) -> None:
-        self.sensed, self.bias, self.est, self.hist, self.ehist, self.delay, self.failed = (
-            with_rows(a, n) for a in (self.sensed, self.bias, self.est, self.hist, self.ehist,
-                                      self.delay, self.failed))
+        (self.sensed, self.bias, self.est, self.hist, self.ehist, self.delay, self.failed,
+         self.acc_lp) = (with_rows(a, n) for a in (self.sensed, self.bias, self.est, self.hist,
+                                                   self.ehist, self.delay, self.failed,
+                                                   self.acc_lp))
 
     def add(self, index: int, truth: np.ndarray, estimated: np.ndarray,
-            gps_delay_s: float = GPS_DELAY_S) -> None:
+            gps_delay_s: float = GPS_DELAY_S,
+            accel_lp: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 0.0)) -> None:
         """A row for vehicle ``index`` whose true state is ``truth`` (a row of ``measured``):
-        its estimate starts converged there (``estimated`` is that row of the estimate)."""
+        its estimate starts converged there (``estimated`` is that row of the estimate);
+        ``accel_lp``: its vehicle_acceleration filter (vehicle_acceleration.lowpass2p)."""
         k = len(self.est)
         self._resize(k + 1)
+        self.acc_lp[k] = accel_lp
         self.noise.add(index)
         # EKF2 fuses a fix as taken EKF2_GPS_DELAY and half its filter period before it arrived.
         late_s = gps_delay_s + EKF2_FILTER_PERIOD_S / 2.0
@@ -452,7 +460,7 @@ class Estimation:
         takes it (physics.py): valid until the next ``add``."""
         return (float(self.config.noise), self.noise.block, self.delay, self.hist, self.bias,
                 self.sensed, self.sense_consts, self.failed, self.est, self.ehist,
-                self.est_consts)
+                self.est_consts, self.acc_lp)
 
     def begin_step(self) -> tuple[int, int]:
         """The ring slot that this step's samples go to and the column of this step's draws in

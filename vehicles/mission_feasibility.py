@@ -235,6 +235,14 @@ class MissionCheck:
         self._on_run = on_run
         self._ids: tuple[int, int] | None = None  # (mission, fence) ids checked; None: never
         self._forced = False
+        self._home: object = None  # the home last seen, and how often it changed (PX4's
+        self._home_updates = 0  # home_position update_count, as far as these updates see it)
+        self.home_counter = 0  # mission_result.home_position_counter: the count at the last run
+
+    @property
+    def checked_ids(self) -> tuple[int, int] | None:
+        """The (mission, fence) ids the check last ran on; None before its first run."""
+        return self._ids
 
     def force(self) -> None:
         """Mission::on_activation's check_mission_valid(true): run again at the next update."""
@@ -244,12 +252,16 @@ class MissionCheck:
         """Run the check when due; returns the verdict. ``ap``: the vehicle's Autopilot (its
         log, params, plans, geofence, home, origin, land detector and last measurement)."""
         home = ap.home
+        if home is not self._home:  # HomePosition is replaced at each update
+            self._home = home
+            self._home_updates += 1
         if home is None:  # canRunMissionFeasibility: not before home is set
             return self.valid
         plans = ap.plans
         ids = (plans.plan_id(PlanType.MISSION), plans.plan_id(PlanType.FENCE))
         if ids != self._ids or self._forced:
             self._ids, self._forced = ids, False
+            self.home_counter = self._home_updates
             last = ap.last_meas
             here = ap.origin.offset_ned(*last.position_ned_m) if last is not None else None
             self.valid = check_mission(plans.get(PlanType.MISSION), now_s, ap.log, ap.params,

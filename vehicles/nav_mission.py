@@ -86,6 +86,7 @@ class Mission(NavMode):
         self.reached_seq = -1
         self.reached_count = 0
         self.reached_resets = 0  # PX4 writes seq_reached = -1 (MissionStatus.reached_resets)
+        self.seq_reached = -1  # mission_result.seq_reached: the last reached, -1 since a reset
         self._history: deque[int] = deque(maxlen=REACHED_HISTORY)
         self._reached_any = False
         self._jumps_done = JumpCounts()
@@ -134,12 +135,21 @@ class Mission(NavMode):
         self.current = flagged[-1] if flagged else max(0, min(self._current, count - 1))
         self._revive()
         self._has_run = self._running  # onMissionUpdate: new items while inactive
-        self.reached_seq = -1
+        self.reached_seq = self.seq_reached = -1
         self.reached_resets += 1
         self._reached_any = False
         self._jumps_done.clear()
         self._phase = "start"
         self._resolve_jump = False
+
+    @property
+    def last_jump(self) -> tuple[int, int]:
+        """(the DO_JUMP counted last or -1, how many jumps were counted so far)."""
+        return self._jumps_done.last, self._jumps_done.reports
+
+    def jumps_taken(self, index: int) -> int:
+        """The jumps the DO_JUMP at ``index`` has taken (do_jump_current_count)."""
+        return self._jumps_done.get(index, 0)
 
     def valid(self) -> bool:
         """Items stored and found feasible (mission_feasibility.py: ``check``)."""
@@ -157,6 +167,8 @@ class Mission(NavMode):
         self._revive()
         self._phase = "start"
         self.reached_resets += self._running  # onMissionUpdate → update_mission while active
+        if self._running:
+            self.seq_reached = -1
         return True
 
     def _revive(self) -> None:
@@ -193,10 +205,11 @@ class Mission(NavMode):
     def _reset_reached(self) -> None:
         """The navigator puts mission_result.seq_reached back to -1 (MissionStatus)."""
         self.reached_resets += 1
+        self.seq_reached = -1
         self._changes.mission_progress += 1
 
     def _reached(self, seq: int) -> None:
-        self.reached_seq = seq
+        self.reached_seq = self.seq_reached = seq
         self.reached_count += 1
         self._changes.mission_progress += 1
         self._history.append(seq)

@@ -47,6 +47,8 @@ from vehicles.estimation import (
     HISTORY,
     NAVSAT_RATE_HZ,
     R_ACC,
+    R_ACC_IN,
+    R_ACC_LP,
     R_GYRO,
     R_Q,
     R_RATES,
@@ -83,6 +85,7 @@ from vehicles.types import (
     grid_spawn_ned_m,
 )
 from vehicles.vehicle import Vehicle
+from vehicles.vehicle_acceleration import IMU_ACCEL_CUTOFF_HZ, lowpass2p, lowpass_accel
 from vehicles.wind import Wind
 
 pb = import_quietly("pybullet")
@@ -107,7 +110,7 @@ def navsat_steps_ago(t_s, dt_s):  # pragma: no cover - compiled
 @njit_cached
 def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, estimated, mode,
                   landed, recent, dt_s, scale, noise, delay, hist, bias, sensed, sense_consts,
-                  failed, est, ehist, est_consts):  # pragma: no cover - compiled
+                  failed, est, ehist, est_consts, acc_lp):  # pragma: no cover - compiled
     """Everything compiled that follows PyBullet's step, for every row, in one call: ``raw``
     (RAW_SIZE numbers per body, flat) into the true state, then the sensors and the estimate
     (estimation.py). ``meas_dt_s``: the time since the last measurement (the acceleration's
@@ -137,6 +140,7 @@ def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, est
         for i in range(4):
             r[R_Q + i] = e[M_Q + i]
             r[R_TRUE_Q + i] = m[M_Q + i]
+    lowpass_accel(recent, hist_i, sensed, est, acc_lp)
 
 
 def _create_body(client: int, airframe: Airframe, spawn_enu_m: tuple[float, float, float]) -> int:
@@ -221,9 +225,14 @@ class World:
         row = self.inner.add(spawn, self._read(body_id))
         store = params if params is not None else ParamStore()
         self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row],
-                            float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3)
+                            float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3,
+                            # IMU_ACCEL_CUTOFF read once: a later change is not followed
+                            lowpass2p(1.0 / self.dt_s, float(
+                                store.get("IMU_ACCEL_CUTOFF", IMU_ACCEL_CUTOFF_HZ) or 0.0)))
         self._truth_rows = self._after_args = None
         self.recent = np.concatenate([self.recent, np.zeros((1, HISTORY, R_SIZE))])
+        # VehicleAcceleration resets its filter to the first sample: at rest, -g along z (FRD)
+        self.recent[-1, :, R_ACC_IN + 2] = self.recent[-1, :, R_ACC_LP + 2] = -GRAVITY_MPS2
         origin = self.home.offset_ned(north, east, 0.0)
         vehicle = Vehicle(index, store, self.airframe,
                           origin, self.dt_s, boot_time_s=self.time_s, world=self, row=row)

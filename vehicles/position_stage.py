@@ -95,6 +95,11 @@ class PositionStage:
                                          self._now_s, skip)
 
     @property
+    def tilt_limit_rad(self) -> float:
+        """mc_pos_control's slewed tilt limit (takeoff_status.tilt_limit)."""
+        return self._tilt_limit
+
+    @property
     def taking_off(self) -> bool:
         """The takeoff ramp runs (PX4 stays in rampup until the ramp ends, whatever the task
         asks: a task on the ground keeps flying its setpoint meanwhile)."""
