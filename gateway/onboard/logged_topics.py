@@ -3,7 +3,8 @@
 Source: PX4 src/modules/logger/logged_topics.cpp (add_default_topics, and the SITL block that
 adds the ground truth and logs the estimator's outputs at full rate), the uORB messages of
 PX4 1.15 (msg/*.msg) for the field names, and commander's ModeUtil/control_mode.cpp for
-vehicle_control_mode. The sensor topics are in logged_sensors.py.
+vehicle_control_mode. The sensor topics are in logged_sensors.py, the status topics (takeoff,
+failure detector, mission result, MAVLink links) in logged_status.py.
 Rules:
 - Each topic has a subset of PX4's fields with PX4's names and types, as CORNET has them; a
   field is never invented. A topic's ULog format and subscription carry its uORB topic name
@@ -44,6 +45,7 @@ from gateway.onboard.logged_sensors import (
     VEHICLE_IMU_STATUS,
     VEHICLE_MAGNETOMETER,
 )
+from gateway.onboard.logged_status import STATUS_TOPICS
 from gateway.onboard.topic import U64, B, D, F, Topic
 from vehicles.control.quat import q_rotate, q_yaw
 from vehicles.estimation import (
@@ -444,6 +446,7 @@ TOPICS: tuple[Topic, ...] = (
           0.25, _esc_status),
     ACTUATOR_ARMED,
     RTL_TIME_ESTIMATE,
+    *STATUS_TOPICS,
 )
 # The nested formats the topics use (PX4 writes each one's format beside the topics').
 NESTED_FORMATS = {"position_setpoint": ((B, "valid"), (D, "lat"), (D, "lon"), (F, "alt")),

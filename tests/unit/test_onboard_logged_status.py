@@ -1,0 +1,167 @@
+"""The status topics of the flight log (gateway/onboard/logged_status.py) read with pyulog:
+takeoff_status, vehicle_acceleration, failure_detector_status, mission_result and
+telemetry_status, with PX4 1.15's generated formats and logged_topics.cpp's rates."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import pyulog
+
+from gateway.ci.lockstep import Sim, mission_item
+from gateway.mavlink.session import LinkKind
+from gateway.onboard import ulog
+from vehicles.plan_types import MavCmd, PlanResult
+from vehicles.types import PX4_SITL_HOME
+from vehicles.vehicle_acceleration import lowpass2p
+
+# PX4 1.15's ULog formats (px_generate_uorb_topic_helper: by type size, then the padding)
+FORMATS = {
+    "takeoff_status": ["timestamp", "tilt_limit", "takeoff_state", "_padding0"],
+    "vehicle_acceleration": ["timestamp", "timestamp_sample", "xyz", "_padding0"],
+    "failure_detector_status": [
+        "timestamp", "imbalanced_prop_metric", "motor_failure_mask", "fd_roll", "fd_pitch",
+        "fd_alt", "fd_ext", "fd_arm_escs", "fd_battery", "fd_imbalanced_prop", "fd_motor",
+        "_padding0"],
+    "mission_result": [
+        "timestamp", "mission_id", "geofence_id", "home_position_counter", "seq_reached",
+        "seq_current", "seq_total", "item_changed_index", "item_do_jump_remaining", "valid",
+        "warning", "finished", "failure", "item_do_jump_changed", "execution_mode",
+        "_padding0"],
+}
+
+
+def _log(log_dir: Path) -> pyulog.ULog:
+    return pyulog.ULog(str(sorted((log_dir / "vehicle-1" / "log").rglob("*.ulg"))[0]))
+
+
+@pytest.fixture(scope="module")
+def takeoff_log(tmp_path_factory) -> pyulog.ULog:
+    """Boot, takeoff, hover, land (SDLOG_MODE 1: from boot), on PX4 SITL's two links."""
+    log_dir = tmp_path_factory.mktemp("takeoff")
+    with Sim(log_dir=log_dir, links=(LinkKind.GCS, LinkKind.API)) as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        api = sim.api(0)
+        assert api.arm() == 0 and api.takeoff() == 0
+        assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=30)
+        sim.advance(2.0)
+        assert api.land() == 0
+        assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
+        sim.advance(1.0)
+    return _log(log_dir)
+
+
+def test_formats_are_px4s_generated_ones_and_records_leave_the_end_padding_out(takeoff_log):
+    formats = takeoff_log.message_formats
+    for name, fields in FORMATS.items():
+        assert [f for _, _, f in formats[name].fields] == fields, name
+    assert formats["takeoff_status"].fields[-1] == ("uint8_t", 3, "_padding0")
+    telemetry = [f for _, _, f in formats["telemetry_status"].fields]
+    assert telemetry[:4] == ["timestamp", "data_rate", "rate_multiplier", "tx_rate_avg"]
+    assert telemetry[13:16] == ["rx_message_lost_rate", "type", "mode"]
+    assert telemetry[-1] == "_padding0" and len(telemetry) == 41
+    # a record is the struct without its trailing padding (o_size_no_padding)
+    st = ulog.struct_of((("uint64_t", "timestamp"), ("float", "tilt_limit"),
+                         ("uint8_t", "takeoff_state"), ("uint8_t[3]", "_padding0")))
+    assert st.size == 13
+
+
+def test_takeoff_status_follows_the_takeoff_state_machine_to_flight(takeoff_log):
+    data = takeoff_log.get_dataset("takeoff_status").data
+    states = list(data["takeoff_state"])
+    assert states[0] == 1  # TAKEOFF_STATE_DISARMED
+    assert 5 in states and states.index(5) > states.index(2)  # spoolup, then flight
+    assert states[-1] == 1  # disarmed after landing
+    first_flight = states.index(5)
+    assert list(data["takeoff_state"][:first_flight + 1]) == sorted(states[:first_flight + 1])
+    tilt = data["tilt_limit"]
+    land, air = math.radians(12.0), math.radians(45.0)  # MPC_TILTMAX_LND, MPC_TILTMAX_AIR
+    assert tilt[0] == pytest.approx(land, abs=1e-6) and tilt.max() == pytest.approx(air, abs=1e-6)
+    # logged at most once a second (logged_topics.cpp: 1000 ms)
+    assert np.diff(data["timestamp"]).min() >= 1_000_000
+
+
+def test_vehicle_acceleration_is_the_filtered_imu_at_its_interval(takeoff_log):
+    acc = takeoff_log.get_dataset("vehicle_acceleration").data
+    t = acc["timestamp"]
+    assert (acc["timestamp_sample"] == t).all()
+    # 50 ms on 4 ms samples: every 13th step, as uORB's interval keeps it (the log's last
+    # sample, at disarming, writes every step since the one before)
+    assert np.median(np.diff(t)) == 52_000 and np.diff(t[:-20]).min() >= 50_000
+    assert abs(np.median(acc["xyz[2]"]) + 9.80665) < 0.05  # -g along z (FRD) at rest and hover
+    # PX4's LowPassFilter2p (direct form II) over sensor_combined's samples at every step
+    imu = takeoff_log.get_dataset("sensor_combined").data
+    b0, b1, b2, a1, a2 = lowpass2p(250.0, 30.0)
+    x = imu["accelerometer_m_s2[0]"].astype(float)
+    d1 = d2 = x[0] / (1 + a1 + a2)
+    out = np.empty_like(x)
+    for k, sample in enumerate(x):
+        d0 = sample - d1 * a1 - d2 * a2
+        out[k] = d0 * b0 + d1 * b1 + d2 * b2
+        d1, d2 = d0, d1
+    at = np.searchsorted(imu["timestamp"], t[100:])
+    assert (imu["timestamp"][at] == t[100:]).all()
+    assert np.allclose(acc["xyz[0]"][100:], out[at], atol=1e-4)
+    assert not np.allclose(acc["xyz[0]"][100:], x[at], atol=1e-4)  # not the raw samples
+
+
+def test_failure_detector_status_with_vehicle_status_every_500_ms(takeoff_log):
+    fd = takeoff_log.get_dataset("failure_detector_status").data
+    assert np.median(np.diff(fd["timestamp"])) == 500_000
+    for flag in ("fd_roll", "fd_pitch", "fd_motor", "fd_arm_escs"):
+        assert not fd[flag].any(), flag
+    assert (fd["motor_failure_mask"] == 0).all()
+
+
+def test_telemetry_status_per_mavlink_instance_every_second(takeoff_log):
+    by_instance = {d.multi_id: d.data for d in takeoff_log.data_list
+                   if d.name == "telemetry_status"}
+    assert set(by_instance) == {0, 1}  # the GCS link, then the API link, as PX4 SITL starts them
+    gcs, api = by_instance[0], by_instance[1]
+    assert list(gcs["mode"][:1]) == [0] and list(api["mode"][:1]) == [2]  # normal, onboard
+    for data in (gcs, api):
+        assert np.median(np.diff(data["timestamp"])) == 1_000_000
+        assert (np.diff(data["tx_message_count"].astype(np.int64)) > 0).all()
+        assert data["tx_rate_avg"][-1] > 1000.0 and data["rx_message_count"][-1] > 0
+        assert (data["data_rate"] == 4e6).all() and data["mavlink_v2"].all()
+        assert data["streams"][-1] > 10
+    # the API client (MAVSDK) sends GCS heartbeats; the GCS link's client here sends none
+    assert api["heartbeat_type_gcs"][-1] == 1 and not gcs["heartbeat_type_gcs"].any()
+
+
+def geo(n: float, e: float) -> tuple[float, float]:
+    g = PX4_SITL_HOME.offset_ned(n, e, 0.0)
+    return g.lat_deg, g.lon_deg
+
+
+def test_mission_result_advances_with_the_mission(tmp_path):
+    """Takeoff, a waypoint, a DO_JUMP back to it once, land: seq_reached and seq_current move
+    along, the jump is reported once, the mission finishes."""
+    items = [mission_item(MavCmd.NAV_TAKEOFF, *geo(0, 0), 5.0),
+             mission_item(MavCmd.NAV_WAYPOINT, *geo(8, 0), 5.0),
+             mission_item(MavCmd.DO_JUMP, params=(1, 1, 0, 0)),
+             mission_item(MavCmd.NAV_LAND, *geo(0, 0), 0.0)]
+    with Sim(log_dir=tmp_path) as sim:
+        api = sim.api(0)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        assert api.upload_mission(items) == PlanResult.ACCEPTED
+        assert api.arm() == 0 and api.start_mission() == 0
+        assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=120)
+        sim.advance(1.0)
+        mission_id = sim.vehicles[0].mission_status.mission_id
+    result = _log(tmp_path).get_dataset("mission_result").data
+    assert result["valid"][-1] and not result["warning"][-1] and result["finished"][-1]
+    assert (result["seq_total"][-5:] == 4).all() and result["mission_id"][-1] == mission_id
+    assert result["home_position_counter"][-1] >= 1
+    reached = [int(s) for s in result["seq_reached"] if s >= 0]
+    assert reached[0] == 0 and reached == sorted(reached) and reached[-1] == 3
+    current = [int(s) for s in result["seq_current"]]
+    assert 1 in current and current[-1] == 3 and current == sorted(current)
+    jumps = result["item_do_jump_changed"] == 1
+    assert jumps.sum() == 1
+    assert result["item_changed_index"][jumps][0] == 2
+    assert result["item_do_jump_remaining"][jumps][0] == 0
+    assert not result["failure"].any() and (result["execution_mode"] == 0).all()
