@@ -10,7 +10,8 @@ Rules:
   (gateway/mavlink/link_status.py); the stream rate multiplier is 1 (SITL's 4 MB/s never
   throttles).
 - rx loss: rx_message_lost_rate, MavlinkReceiver's sequence gaps over the messages it counted
-  (lost / received: its first 16 senders).
+  (lost / received: its first 16 senders), printed as display_status prints it: the fraction
+  itself before the % sign (0.1% for one message in ten lost).
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ def _status(k: int, inst: Instance, now_s: float) -> str:
     elif not st.rx_counted:
         loss_text = "-nan"
     else:
-        loss_text = f"{100.0 * f32(st.rx_lost / st.rx_counted):.1f}"
+        loss_text = f"{f32(st.rx_lost / st.rx_counted):.1f}"
     lines = ["\tGCS heartbeat valid\n"] if s.gcs_present(now_s) else []
     lines += [f"\tmavlink chan: #{k}\n", "\ttype:\t\tGENERIC LINK OR RADIO\n",
               "\tflow control: OFF\n", "\trates:\n", f"\t  tx: {tx:.1f} B/s\n",
