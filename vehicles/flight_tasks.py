@@ -92,6 +92,14 @@ class AutoTask(FlightTask):
         self._params_version = -1  # MPC_YAWRAUTO_MAX, read when first needed
         self._yawrate_max_radps = 0.0
 
+    def activate(self, t: TaskInput) -> None:
+        # FlightTaskAuto::activate, when another task flew the last tick (all the navigator's
+        # states share this one task, as PX4's share FlightTaskAuto: from one to another it is
+        # not activated again): no emergency braking. (Its smoothing reset from the state is
+        # done by the other tasks, which keep the trajectory at the vehicle.)
+        if self.setpoint is None:
+            self.stage.trajectory.emergency_braking = False
+
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
         nav_sp = self.setpoint = self.navigator.update(t.nav_state, t.nav)
@@ -99,9 +107,13 @@ class AutoTask(FlightTask):
             self._idle(t)
             return
         traj = st.trajectory
+        # FlightTaskAuto::update: _checkEmergencyBraking on the smoothing's velocity before this
+        # tick's (the autopilot has restarted the trajectory from the state if it was not flying
+        # under it); while braking the velocity setpoint is zero (force_zero_velocity_setpoint)
+        braking = traj.check_emergency_braking()
         traj.set_up(nav_sp.limits)
         if (t.nav_state is NavState.AUTO_TAKEOFF or nav_sp.taking_off) \
-                and nav_sp.target_ned_m[2] < pos[2]:
+                and nav_sp.target_ned_m[2] < pos[2] and not braking:
             # FlightTaskAuto::_updateTrajConstraints: climbing to a takeoff setpoint closer to
             # the ground than MPC_LAND_ALT1 the trajectory's altitude stays at the vehicle's
             # (it does not run ahead while the takeoff ramp spools up)
@@ -113,8 +125,9 @@ class AutoTask(FlightTask):
         if landed:
             # FlightTaskAuto::update: the task wants a takeoff when its unsmoothed velocity
             # setpoint climbs faster than 0.3 m/s (_want_takeoff, its _checkTakeoff); planned
-            # from where FlightTaskAuto::reActivate left the smoothing (see ``_idle``).
-            vz = traj.smoothing.unsmoothed_velocity_auto(
+            # from where FlightTaskAuto::reActivate left the smoothing (see ``_idle``); zero
+            # while braking.
+            vz = 0.0 if braking else traj.smoothing.unsmoothed_velocity_auto(
                 pos, nav_sp.previous_ned_m, nav_sp.target_ned_m, nav_sp.next_ned_m,
                 traj.acceptance_radius(nav_sp.acceptance_radius_m), nav_sp.vz_cmd_mps)[2]
             if not vz < TAKEOFF_TRIGGER_VZ_MPS:
@@ -144,11 +157,12 @@ class AutoTask(FlightTask):
         """No takeoff (disarmed, the navigator idles, or landed without a climb to fly): the
         motors idle. PX4 runs the task on and re-activates it after every update until the
         takeoff ramps (FlightModeManager: FlightTaskAuto::reActivate), which restarts the
-        smoothing at the vehicle at rest but for a 0.7 m/s descent: the next tick plans from
-        there."""
+        smoothing at the vehicle at rest but for a 0.7 m/s descent (and ends an emergency
+        braking, as activate does): the next tick plans from there."""
         st = self.stage
         st.set_idle(t.meas)
         st.trajectory.smoothing.reset((0.0, 0.0, 0.0), REACTIVATE_VEL, t.meas.position_ned_m)
+        st.trajectory.emergency_braking = False
 
 
 class OffboardTask(FlightTask):

@@ -134,10 +134,12 @@ class PositionStage:
         self.start_flying(meas)
         return True
 
-    def _limits(self, dt: float, speed_up_mps: float) -> tuple[bool, bool]:
+    def _limits(self, dt: float, speed_up_mps: float, speed_down_mps: float = math.nan
+                ) -> tuple[bool, bool]:
         """The takeoff state, tilt limit and climb-speed ramp of this tick, set on the position
         controller: (no setpoint, restart the trajectory) for ``apply``. ``speed_up_mps``: the
-        task's climb speed (the takeoff ramp's end; MPC_Z_VEL_MAX_UP when NaN or above it)."""
+        task's climb speed (the takeoff ramp's end; MPC_Z_VEL_MAX_UP when NaN or above it);
+        ``speed_down_mps``: its descent speed (MPC_Z_VEL_MAX_DN when NaN)."""
         pc = self.position_control
         # FlightModeManager re-activates the task on the takeoff state mc_pos_control last
         # published, the one before this tick's update
@@ -158,7 +160,7 @@ class PositionStage:
         # MPC_Z_VEL_MAX_UP afterwards (mc_pos_control setVelocityLimits)
         wanted_up = speed_up_mps if math.isfinite(speed_up_mps) else up_max
         up = min(self.takeoff.update_ramp(dt, wanted_up), up_max)
-        pc.set_limits(up, g.thrust_min if flying else 0.0, self._tilt_limit)
+        pc.set_limits(up, g.thrust_min if flying else 0.0, self._tilt_limit, speed_down_mps)
         # PX4 re-activates the flight task (FlightTaskAuto::reActivate) after its update until
         # the ramp starts: the smoothing restarts at the vehicle at rest but for a 0.7 m/s
         # descent, so that once the ramp starts the climb setpoint first has to turn round
@@ -197,17 +199,21 @@ class PositionStage:
         traj.set_up(lim)
         # FlightTaskAuto::_updateTrajConstraints: the controller's climb constraint is at least
         # MPC_Z_VEL_MAX_UP (the default) and 1.2 x MPC_Z_V_AUTO_UP, whatever the trajectory's
-        # own climb speed (MPC_TKO_SPEED in a takeoff): the takeoff ramp runs towards it.
-        p = self.params
-        speed_up = max(pc.gains.vel_max_up_mps, 1.2 * float(p["MPC_Z_V_AUTO_UP"]))
-        no_setpoint, reactivate = self._limits(dt, speed_up)
+        # own climb speed (MPC_TKO_SPEED in a takeoff): the takeoff ramp runs towards it; the
+        # descent's at least MPC_Z_VEL_MAX_DN and 1.2 x MPC_Z_V_AUTO_DN; both raised to the
+        # smoothing's vertical speed while it brakes in an emergency.
+        speed_up, speed_down = traj.controller_speed_limits()
+        no_setpoint, reactivate = self._limits(dt, speed_up, speed_down)
+        braking = traj.emergency_braking
         s = traj.smoothing
         s.set_auto_input(meas.position_ned_m, previous_ned_m, target_ned_m, next_ned_m, None)
         yaw_sp = yaw if no_setpoint or math.isnan(self.yaw_sp) else self.yaw_sp
         _, v_sp, _, q, thrust, vel_sp, acc_sp = pc.update_attitude_auto(
             s, dt, previous_ned_m is not None, next_ned_m is not None,
             traj.acceptance_radius(acceptance_radius_m), vz_cmd_mps, meas.velocity_ned_mps,
-            meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate)
+            meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate, braking)
+        if reactivate:  # FlightTaskAuto::reActivate → activate: no emergency braking
+            traj.emergency_braking = False
         self._output(v_sp[2], q, thrust, vel_sp, acc_sp, 0.0)
 
     def _output(self, task_vz: float, q: Quat, thrust: float, vel_sp: Vec3, acc_sp: Vec3,

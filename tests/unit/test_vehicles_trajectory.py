@@ -111,3 +111,65 @@ def test_vertical_limits_follow_the_unsmoothed_climb():
     for _ in range(24):  # half a second
         traj.update(0.02, (0.0, 0.0, -15.0), lim, position_ned_m=traj.position_ned_m)
     assert traj.velocity_ned_mps[2] > 0.45  # still descending: turning round at 0.5 m/s^2
+
+
+def test_emergency_braking_starts_beyond_the_maximum_speeds_and_ends_at_rest():
+    """FlightTaskAuto::_checkEmergencyBraking: on the smoothing's velocity, beyond 1.3 x
+    MPC_Z_VEL_MAX_DN (1.5) down, 1.3 x MPC_Z_VEL_MAX_UP (3) up or 1.3 x MPC_XY_VEL_MAX (12)
+    horizontally; it holds until the smoothing has stopped (|vz| < 0.01, |vxy| <= 0.01). While
+    it brakes the controller's vertical limits are raised to the smoothing's vertical speed
+    (_updateTrajConstraints), else at least 1.2 x MPC_Z_V_AUTO_UP / MPC_Z_V_AUTO_DN."""
+    params = ParamStore()
+    traj = AutoTrajectory(params)
+    assert traj.controller_speed_limits() == pytest.approx((3.6, 1.8))
+    for vel, brakes in [((0.0, 0.0, 1.94), False), ((0.0, 0.0, 1.96), True),
+                        ((0.0, 0.0, -3.89), False), ((0.0, 0.0, -3.91), True),
+                        ((11.1, 11.1, 0.0), True), ((11.0, 11.0, 0.0), False)]:
+        traj.emergency_braking = False
+        traj.smoothing.reset((0.0, 0.0, 0.0), vel, (0.0, 0.0, 0.0))
+        assert traj.check_emergency_braking() is brakes, vel
+    traj.smoothing.reset((0.0, 0.0, 0.0), (0.0, 0.0, 5.0), (0.0, 0.0, 0.0))
+    assert traj.check_emergency_braking()
+    assert traj.controller_speed_limits() == pytest.approx((5.0, 5.0))
+    for vel, brakes in [((0.0, 0.0, 1.0), True), ((0.0, 0.0, 0.0099), False)]:
+        traj.smoothing.reset((0.0, 0.0, 0.0), vel, (0.0, 0.0, 0.0))
+        assert traj.check_emergency_braking() is brakes, vel
+    traj.emergency_braking = True
+    traj.smoothing.reset((0.0, 0.0, 0.0), (0.0, 0.011, 0.0), (0.0, 0.0, 0.0))
+    assert traj.check_emergency_braking()
+
+
+def test_hold_entered_falling_fast_brakes_at_one_g():
+    """Hold entered while the vehicle falls at about 3.4 m/s (Offboard at low thrust), beyond
+    1.3 x MPC_Z_VEL_MAX_DN: FlightTaskAuto brakes the setpoint at 1 g with 1 g/s of jerk and no
+    velocity setpoint, so it stops after 2 sqrt(v0 / g) and v0 sqrt(v0 / g) metres (the
+    descent's own MPC_ACC_DOWN_MAX 3 m/s^2 and MPC_JERK_AUTO 4 m/s^3 would take 1.5 s and
+    3.3 m), and the controller lets the vehicle follow it (its descent limit raised to the
+    setpoint's speed)."""
+    from tests.unit.test_vehicles_offboard import start_offboard, stream
+    from vehicles.plan_types import OffboardSetpoint
+    from vehicles.types import NavState
+
+    sim = Sim()
+    try:
+        v = sim.v
+        take_off(sim)
+        up = OffboardSetpoint(position_ned_m=(0.0, 0.0, -30.0), yaw_rad=0.0)
+        start_offboard(sim, up)
+        stream(sim, up, 20.0)
+        fall = OffboardSetpoint(attitude_q=(1.0, 0.0, 0.0, 0.0), thrust=0.2)
+        assert stream(sim, fall, 5.0, until=lambda: v.state.velocity_ned_mps[2] > 3.0)
+        v0, z0 = float(v.state.velocity_ned_mps[2]), float(v.state.position_ned_m[2])
+        assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+        t0, setpoints, lowest = sim.t, [], -math.inf
+        for _ in range(200):  # 4 s
+            sim.run(0.02)
+            setpoints.append((sim.t - t0, v.position_setpoint_ned_m[2] - z0))
+            lowest = max(lowest, float(v.state.position_ned_m[2]) - z0)
+        t_stop, below = max(setpoints, key=lambda s: s[1])
+        v_max = v0 + 0.2  # the speed the setpoint starts from, at the next tick
+        assert t_stop <= 2.0 * math.sqrt(v_max / 9.80665) + 0.04
+        assert below <= v_max * math.sqrt(v_max / 9.80665) + 0.15
+        assert lowest <= below + 0.1
+    finally:
+        sim.close()

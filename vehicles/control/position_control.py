@@ -212,19 +212,22 @@ def position_attitude_step(dt_s, pos, vel, acc_meas, sp_pos, sp_vel, sp_acc, gai
 @njit_cached
 def auto_position_attitude_step(traj, cfg, traj_inp, traj_out, dt_s, has_previous, has_next,
                                 acceptance_radius, vz_cmd, vel, acc_meas, gains, integ, yaw_rad,
-                                no_setpoint, reactivate):  # pragma: no cover - compiled
+                                no_setpoint, reactivate, force_zero
+                                ):  # pragma: no cover - compiled
     """An auto mode's tick in one call: the smoothed trajectory (position_smoothing
     ``generate_auto_step`` on ``traj``; the vehicle's position is ``traj_inp``'s first row and
     the vertical-speed altitude follows it), then ``position_attitude_step`` on its setpoint.
     ``no_setpoint`` (the takeoff has not ramped, or ground contact): position control gets no
     setpoint and its integrator is held at zero; ``reactivate`` (the takeoff had not ramped): the
     trajectory then restarts at the vehicle at rest but for a 0.7 m/s descent
-    (position_stage.py). Returns (trajectory
+    (position_stage.py); ``force_zero``: the trajectory's velocity setpoint is zero
+    (FlightTaskAuto's force_zero_velocity_setpoint: emergency braking). Returns (trajectory
     position, velocity, acceleration, attitude, collective thrust, velocity setpoint,
     acceleration setpoint)."""
     pos = (traj_inp[0], traj_inp[1], traj_inp[2])
     p_sp, v_sp, a_sp = generate_auto_step(traj, cfg, traj_inp, dt_s, True, has_previous,
-                                          has_next, acceptance_radius, vz_cmd, pos[2], traj_out)
+                                          has_next, acceptance_radius, vz_cmd, pos[2], traj_out,
+                                          force_zero)
     sp_pos, sp_vel, sp_acc = p_sp, v_sp, a_sp
     if reactivate:  # PositionSmoothing.reset((0, 0, 0), REACTIVATE_VEL, pos)
         for i, x, v in ((0, pos[0], REACTIVATE_VEL[0]), (1, pos[1], REACTIVATE_VEL[1]),
@@ -351,13 +354,17 @@ class PositionControl:
     def reset_integral(self) -> None:
         self._vel_int[:] = 0.0
 
-    def set_limits(self, speed_up_mps: float, thrust_min: float, tilt_max_rad: float) -> None:
-        """This tick's upward speed limit, minimum thrust and tilt limit (PX4's
-        setVelocityLimits / setThrustLimits / setTiltLimit, which mc_pos_control calls every
-        update; the takeoff ramp moves them). The minimum thrust is never below
+    def set_limits(self, speed_up_mps: float, thrust_min: float, tilt_max_rad: float,
+                   speed_down_mps: float = math.nan) -> None:
+        """This tick's upward speed limit, minimum thrust, tilt limit and downward speed limit
+        (PX4's setVelocityLimits / setThrustLimits / setTiltLimit, which mc_pos_control calls
+        every update; the takeoff ramp moves them; the down limit is the task's constraint,
+        MPC_Z_VEL_MAX_DN when NaN, never below 0). The minimum thrust is never below
         THRUST_MIN_FLOOR."""
         g = self._gains
         g[9], g[12], g[11] = speed_up_mps, max(thrust_min, THRUST_MIN_FLOOR), tilt_max_rad
+        down = speed_down_mps if math.isfinite(speed_down_mps) else self.gains.vel_max_down_mps
+        g[10] = max(down, 0.0)
 
     @property
     def hover_thrust(self) -> float:
@@ -407,17 +414,18 @@ class PositionControl:
                              has_previous: bool, has_next: bool, acceptance_radius_m: float,
                              vz_cmd_mps: float, velocity_ned_mps: Vec3,
                              acceleration_ned_mps2: Vec3, yaw_rad: float, no_setpoint: bool,
-                             reactivate: bool
+                             reactivate: bool, force_zero_velocity: bool = False
                              ) -> tuple[Vec3, Vec3, Vec3, Quat, float, Vec3, Vec3]:
         """``smoothing.generate_auto`` (its input set with ``set_auto_input``, the vehicle's
         position first) and ``update_attitude`` on its setpoint in one compiled call
         (``auto_position_attitude_step``): (trajectory position, velocity, acceleration,
-        attitude, collective thrust, velocity setpoint, acceleration setpoint)."""
+        attitude, collective thrust, velocity setpoint, acceleration setpoint);
+        ``force_zero_velocity``: the trajectory plans a zero velocity (emergency braking)."""
         return auto_position_attitude_step(
             smoothing.axes, smoothing.cfg, smoothing.inp, smoothing.out, float(dt_s),
             has_previous, has_next, float(acceptance_radius_m), float(vz_cmd_mps),
             _vec3(velocity_ned_mps), _vec3(acceleration_ned_mps2), self._gains, self._vel_int,
-            float(yaw_rad), no_setpoint, reactivate)
+            float(yaw_rad), no_setpoint, reactivate, force_zero_velocity)
 
 
 def compile_now() -> None:

@@ -343,17 +343,18 @@ def auto_unsmoothed_velocity(traj, cfg, inp, has_position, has_previous, has_nex
 
 @njit_cached
 def generate_auto_step(traj, cfg, inp, dt_s, has_position, has_previous, has_next,
-                       acceptance_radius, vz_cmd, current_z, out):  # pragma: no cover - compiled
-    """``generate_step`` with the waypoints as FlightTaskAuto hands them (``generate_auto``):
-    ``inp`` as ``generate_step`` takes it, the rows whose ``has_*`` is False to be filled here
-    (position and previous waypoint: where the setpoint is; next: the target). A NaN target z
-    is vertical speed control: the triplet's altitude is left out, ``vz_cmd`` is the vertical
-    feed-forward and the setpoint's altitude then follows ``current_z``. Returns (position,
-    velocity, acceleration); with nothing to plan the setpoint holds still where it was."""
+                       acceptance_radius, vz_cmd, current_z, out, force_zero):  # pragma: no cover - compiled
+    """``generate_step`` with the waypoints as FlightTaskAuto hands them (``generate_auto``;
+    ``force_zero``: its force_zero_velocity_setpoint): ``inp`` as ``generate_step`` takes it, the
+    rows whose ``has_*`` is False to be filled here (position and previous waypoint: where the
+    setpoint is; next: the target). A NaN target z is vertical speed control: the triplet's
+    altitude is left out, ``vz_cmd`` is the vertical feed-forward and the setpoint's altitude
+    then follows ``current_z``. Returns (position, velocity, acceleration); with nothing to plan
+    the setpoint holds still where it was."""
     hx, hy, hz = traj[0, X], traj[1, X], traj[2, X]
     vertical_speed = _complete_auto_input(traj, cfg, inp, has_position, has_previous, has_next,
                                           acceptance_radius, vz_cmd)
-    generate_step(traj, cfg, inp, dt_s, False, False, out)
+    generate_step(traj, cfg, inp, dt_s, force_zero, False, out)
     px, py, pz = out[3, 0], out[3, 1], out[3, 2]
     if not (math.isfinite(px) and math.isfinite(py) and math.isfinite(pz)):
         for i, x in ((0, hx), (1, hy), (2, hz)):  # PositionSmoothing.reset at rest
@@ -439,14 +440,13 @@ class PositionSmoothing:
         """One update as FlightTaskAuto runs it (``generate_auto_step``, one compiled call):
         None stands for the vehicle's position and the previous waypoint as where the setpoint
         is, for the next waypoint as the target (never the single-waypoint form: FlightTaskAuto
-        always hands over three) and for no feed-forward;
-        ``target_acceptance_radius`` is set to ``acceptance_radius``. Returns (position,
-        velocity, acceleration)."""
+        always hands over three) and for no feed-forward; ``target_acceptance_radius`` is set to
+        ``acceptance_radius``. Returns (position, velocity, acceleration)."""
         self.set_auto_input(position, previous, target, next_, feedforward)
         return generate_auto_step(self.axes, self.cfg, self.inp, float(dt_s),
                                   position is not None, previous is not None, next_ is not None,
                                   float(acceptance_radius), float(vz_cmd), float(current_z),
-                                  self.out)
+                                  self.out, False)
 
     def unsmoothed_velocity_auto(self, position: Vec3, previous: Vec3 | None, target: Vec3,
                                  next_: Vec3 | None, acceptance_radius: float,
