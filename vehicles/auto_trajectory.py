@@ -153,6 +153,8 @@ class AutoTrajectory:
 
     def acceptance_radius(self, acceptance_radius_m: float) -> float:
         """The target's acceptance radius: the navigator's, NAV_ACC_RAD when not finite."""
+        if self._params.version != self._params_version:
+            self._update_params()
         return acceptance_radius_m if math.isfinite(acceptance_radius_m) else self._acc_rad
 
     def update(self, dt_s: float, target_ned_m: Vec3, lim: TrajectoryLimits,

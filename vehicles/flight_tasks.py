@@ -22,6 +22,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from vehicles.auto_waypoints import AutoWaypoints
 from vehicles.cnum import wrap_remainder
 from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
 from vehicles.control.hover_thrust import HoverThrustEstimator
@@ -91,6 +92,7 @@ class AutoTask(FlightTask):
         self.setpoint: NavSetpoint | None = None  # the navigator's last (None outside auto)
         self._params_version = -1  # MPC_YAWRAUTO_MAX, read when first needed
         self._yawrate_max_radps = 0.0
+        self.waypoints = AutoWaypoints()  # what the smoothing flies (FlightTaskAuto's own)
 
     def activate(self, t: TaskInput) -> None:
         # FlightTaskAuto::activate, when another task flew the last tick (all the navigator's
@@ -99,14 +101,19 @@ class AutoTask(FlightTask):
         # done by the other tasks, which keep the trajectory at the vehicle.)
         if self.setpoint is None:
             self.stage.trajectory.emergency_braking = False
+            self.waypoints = AutoWaypoints()
 
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
         nav_sp = self.setpoint = self.navigator.update(t.nav_state, t.nav)
+        traj = st.trajectory
+        # FlightTaskAuto::_evaluateTriplets (every update): the waypoints flown, from the triplet
+        prev_wp, target, next_wp = self.waypoints.update(
+            pos, nav_sp.target_ned_m, nav_sp.previous_ned_m, nav_sp.next_ned_m,
+            traj.acceptance_radius(nav_sp.acceptance_radius_m))
         if not t.armed or nav_sp.idle:
             self._idle(t)
             return
-        traj = st.trajectory
         # FlightTaskAuto::update: _checkEmergencyBraking on the smoothing's velocity before this
         # tick's (the autopilot has restarted the trajectory from the state if it was not flying
         # under it); while braking the velocity setpoint is zero (force_zero_velocity_setpoint)
@@ -128,8 +135,8 @@ class AutoTask(FlightTask):
             # from where FlightTaskAuto::reActivate left the smoothing (see ``_idle``); zero
             # while braking.
             vz = 0.0 if braking else traj.smoothing.unsmoothed_velocity_auto(
-                pos, nav_sp.previous_ned_m, nav_sp.target_ned_m, nav_sp.next_ned_m,
-                traj.acceptance_radius(nav_sp.acceptance_radius_m), nav_sp.vz_cmd_mps)[2]
+                pos, prev_wp, target, next_wp, self.waypoints.acceptance_radius_m,
+                nav_sp.vz_cmd_mps)[2]
             if not vz < TAKEOFF_TRIGGER_VZ_MPS:
                 self._idle(t)
                 return
@@ -149,9 +156,8 @@ class AutoTask(FlightTask):
             st.yaw_sp = wrap_remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
         # The trajectory towards the triplet, then position control on it at the slewed
         # heading (one compiled call).
-        st.apply_auto(t.dt_s, t.meas, nav_sp.target_ned_m, nav_sp.limits, nav_sp.vz_cmd_mps,
-                      nav_sp.previous_ned_m, nav_sp.next_ned_m, nav_sp.acceptance_radius_m,
-                      t.yaw_rad)
+        st.apply_auto(t.dt_s, t.meas, target, nav_sp.limits, nav_sp.vz_cmd_mps, prev_wp,
+                      next_wp, self.waypoints.acceptance_radius_m, t.yaw_rad)
 
     def _idle(self, t: TaskInput) -> None:
         """No takeoff (disarmed, the navigator idles, or landed without a climb to fly): the

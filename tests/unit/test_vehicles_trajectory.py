@@ -173,3 +173,37 @@ def test_hold_entered_falling_fast_brakes_at_one_g():
         assert lowest <= below + 0.1
     finally:
         sim.close()
+
+
+def test_a_goto_across_the_flight_path_flies_back_onto_its_line():
+    """A reposition east commanded while flying north at 5 m/s (PX4 v1.15 FlightTaskAuto): the
+    triplet's missing previous waypoint is where the vehicle was when it came
+    (_evaluateTriplets), and once the braking carries the vehicle more than the acceptance
+    radius off that line it flies to the line's closest point first (_getCurrentState offtrack,
+    _updateInternalWaypoints), then along the line: 10 m east of the start it is within 1 m
+    of the line, where heading straight from the braking point left it 5.6 m off."""
+    sim = Sim()
+    try:
+        v = sim.v
+        take_off(sim)
+        alt = v.origin.alt_amsl_m + 10.0
+
+        def goto(north, east):
+            g = v.origin.offset_ned(north, east, 0.0)
+            assert v.goto(sim.t, g.lat_deg, g.lon_deg, alt) is CommandResult.ACCEPTED
+
+        goto(100.0, 0.0)
+        assert sim.run(60.0, until=lambda: v.state.position_ned_m[0] > 30.0)
+        assert v.state.velocity_ned_mps[0] > 4.5
+        line_n = float(v.state.position_ned_m[0])
+        goto(line_n, 60.0)
+        track = []
+        for _ in range(int(40.0 / 0.02)):
+            sim.run(0.02)
+            track.append((float(v.state.position_ned_m[0]) - line_n,
+                          float(v.state.position_ned_m[1])))
+        for east, within in [(10.0, 1.0), (30.0, 0.5)]:
+            assert abs(next(n for n, e in track if e >= east)) < within, east
+        assert abs(track[-1][0]) < 0.1 and track[-1][1] == pytest.approx(60.0, abs=0.1)
+    finally:
+        sim.close()
