@@ -207,3 +207,33 @@ def test_a_goto_across_the_flight_path_flies_back_onto_its_line():
         assert abs(track[-1][0]) < 0.1 and track[-1][1] == pytest.approx(60.0, abs=0.1)
     finally:
         sim.close()
+
+
+def test_auto_waypoints_follow_flight_task_auto_states():
+    """FlightTaskAuto::_getCurrentState / _updateInternalWaypoints on a line from (0, 0) to
+    (10, 0), acceptance radius 2 m; a missing previous waypoint is the vehicle's position when
+    the triplet came, and an unchanged triplet keeps it."""
+    from vehicles.auto_waypoints import NONE, OFFTRACK, PREVIOUS_INFRONT, TARGET_BEHIND, AutoWaypoints
+
+    wp, target, nowhere = AutoWaypoints(), (10.0, 0.0, -5.0), (0.0, 0.0, -5.0)
+    assert wp.update((0.0, 1.0, -5.0), target, None, None, 2.0) == (
+        (0.0, 1.0, -5.0), target, target)
+    assert wp.state == NONE
+    assert wp.update((5.0, 1.5, -5.0), target, None, None, 2.0)[0] == (0.0, 1.0, -5.0)
+    # off the track: the closest point first (at the target's altitude), the target next
+    prev, tgt, nxt = wp.update((5.0, 4.0, -5.0), target, None, None, 2.0)
+    assert wp.state == OFFTRACK and prev == (5.0, 4.0, -5.0) and nxt == target
+    ux, uy = 10.0 / math.hypot(10.0, 1.0), -1.0 / math.hypot(10.0, 1.0)  # (0, 1) -> (10, 0)
+    along = 5.0 * ux + 3.0 * uy
+    assert tgt == pytest.approx((along * ux, 1.0 + along * uy, -5.0))
+    assert wp.update((11.0, 1.0, -5.0), target, None, None, 2.0) == (
+        (11.0, 1.0, -5.0), target, target)
+    assert wp.state == TARGET_BEHIND
+    wp = AutoWaypoints()
+    prev, tgt, nxt = wp.update((-3.0, 0.0, -5.0), target, nowhere, None, 2.0)
+    assert wp.state == PREVIOUS_INFRONT and (prev, tgt, nxt) == ((-3.0, 0.0, -5.0), nowhere, target)
+    # a landing's NaN altitude is no change and stays NaN
+    wp = AutoWaypoints()
+    land = (10.0, 0.0, math.nan)
+    wp.update((0.0, 0.0, -5.0), land, None, None, 2.0)
+    assert wp.update((1.0, 0.0, -4.0), land, None, None, 2.0)[0] == (0.0, 0.0, -5.0)
