@@ -79,6 +79,24 @@ class NavContext:
     def stopping_point_ned_m(self) -> Vec3:
         return self.trajectory.stopping_point(self.stop_limits)
 
+    @functools.cached_property
+    def braking_stop_ned_m(self) -> Vec3:
+        """Navigator::calculate_breaking_stop, where Loiter holds a multicopter: the vehicle's
+        position moved along its course by computeBrakingDistanceFromVelocity (MPC_JERK_AUTO,
+        MPC_ACC_HOR, an acceleration delay of 0.6 x MPC_JERK_AUTO) on its horizontal speed, at
+        its present altitude (setLoiterItemFromCurrentPositionWithBreaking). The vehicle's state,
+        not the setpoint's: a vehicle lagging its setpoint overshoots and flies back."""
+        x, y, z = self.position_ned_m
+        vx, vy = self.velocity_ned_mps[0], self.velocity_ned_mps[1]
+        speed = math.hypot(vx, vy)
+        p = self.params
+        acc = float(p["MPC_ACC_HOR"])
+        if not speed > 0.0 or not acc > 0.0:
+            return (x, y, z)
+        # v (v / 2a + accel_delay_max / jerk), accel_delay_max = 0.6 x MPC_JERK_AUTO
+        distance = speed * (speed / (2.0 * acc) + 0.6)
+        return (x + vx / speed * distance, y + vy / speed * distance, z)
+
     @property
     def speed_xy_mps(self) -> float:
         if math.isnan(self.cruise_mps):
@@ -218,8 +236,8 @@ class Hold(NavMode):
             self.target = self.hint
         elif ctx.landed:
             self.target = ctx.position_ned_m
-        else:
-            self.target = ctx.stopping_point_ned_m
+        else:  # Loiter::set_loiter_position, a rotary wing
+            self.target = ctx.braking_stop_ned_m
         keep_yaw = math.isnan(self.hint_yaw) or (ctx.landed and not self._repositioned)
         self.yaw = ctx.yaw_rad if keep_yaw else self.hint_yaw
         self.hint = self.reposition = None
@@ -281,7 +299,9 @@ class Land(NavMode):
         self.yaw = 0.0
 
     def on_activation(self, ctx: NavContext) -> None:
-        sp = ctx.position_ned_m if ctx.landed else ctx.stopping_point_ned_m
+        # MissionBlock::set_land_item: where the vehicle is (no braking distance: a vehicle
+        # commanded to land at speed brakes and flies back there)
+        sp = ctx.position_ned_m
         self.target_xy = (sp[0], sp[1])
         self.yaw = ctx.yaw_rad
 

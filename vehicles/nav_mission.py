@@ -97,6 +97,7 @@ class Mission(NavMode):
         self._fixed_yaw = math.nan
         self._wait_until = 0.0
         self._acc_rad = 2.0
+        self._loiter_target: Vec3 | None = None  # a loiter item's setpoint, while it is the target
         self._previous: Vec3 | None = None  # the triplet around a goto (PX4 position_setpoint)
         self._next: Vec3 | None = None
         self._came_from: Vec3 | None = None  # the waypoint just reached (the next previous)
@@ -359,6 +360,8 @@ class Mission(NavMode):
         self._previous = self._came_from if self._came_from is not None else ctx.setpoint_ned_m
         self._came_from = None
         self._target = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
+        # mission_item_to_position_setpoint: the loiter items' setpoints are SETPOINT_TYPE_LOITER
+        self._loiter_target = self._target if item.command != MavCmd.NAV_WAYPOINT else None
         acc = item.param2 if item.command == MavCmd.NAV_WAYPOINT else 0.0
         self._acc_rad = acc if acc > 0 else float(ctx.params["NAV_ACC_RAD"])
         later = fly_through_next(self.items, self.current)  # the triplet's next, if any
@@ -456,4 +459,7 @@ class Mission(NavMode):
         else:
             ctx.log.info(ctx.now_s, "Mission finished, loitering\t")
             ctx.log.event(ctx.now_s, MISSION_FINISHED_LOITER)
-            self._target = ctx.stopping_point_ned_m
+            # MissionBase::setEndOfMissionItems: a loiter item's setpoint is kept, else the
+            # vehicle loiters where it is (setLoiterItemFromCurrentPosition)
+            if self._loiter_target is None or self._loiter_target != self._target:
+                self._target = ctx.position_ned_m

@@ -15,7 +15,7 @@ from vehicles.control.position_smoothing import PositionSmoothing, ideal_track
 from vehicles.nav_core import auto_limits
 from vehicles.params import ParamStore
 from vehicles.plan_types import PlanType
-from vehicles.types import CommandResult
+from vehicles.types import CommandResult, NavState
 
 SIDE_M, ALT_M, CRUISE = 50.0, 10.0, 5.0
 CORNERS = [(SIDE_M, 0.0), (SIDE_M, SIDE_M), (0.0, SIDE_M)]
@@ -237,3 +237,54 @@ def test_auto_waypoints_follow_flight_task_auto_states():
     land = (10.0, 0.0, math.nan)
     wp.update((0.0, 0.0, -5.0), land, None, None, 2.0)
     assert wp.update((1.0, 0.0, -4.0), land, None, None, 2.0)[0] == (0.0, 0.0, -5.0)
+
+
+def _cruise_north(sim, v) -> None:
+    """A mission to a waypoint 100 m north at 10 m, flown until at MPC_XY_CRUISE past 30 m."""
+    sim.run(1.2)
+    v.set_plan(sim.t, PlanType.MISSION, waypoints(v, [(100.0, 0.0, 10.0)]))
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(90.0, until=lambda: v.state.position_ned_m[0] > 30.0)
+
+
+def test_hold_at_cruise_stops_at_the_navigators_braking_point():
+    """Loiter::set_loiter_position for a multicopter (setLoiterItemFromCurrentPositionWithBreaking,
+    Navigator::calculate_breaking_stop): the vehicle's position moved along its course by
+    v (v / (2 MPC_ACC_HOR) + 0.6) (computeBrakingDistanceFromVelocity), at its altitude."""
+    sim = Sim()
+    try:
+        v = sim.v
+        _cruise_north(sim, v)
+        n0, _, d0 = (float(x) for x in v.state.position_ned_m)
+        speed = float(v.state.velocity_ned_mps[0])
+        assert speed > 4.5
+        assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+        assert sim.run(20.0, until=lambda: math.hypot(*v.state.velocity_ned_mps) < 0.02)
+        stop = n0 + speed * (speed / (2.0 * float(v.params["MPC_ACC_HOR"])) + 0.6)
+        n, e, d = (float(x) for x in v.state.position_ned_m)
+        assert n == pytest.approx(stop, abs=0.3) and abs(e) < 0.1
+        assert d == pytest.approx(d0, abs=0.1)
+    finally:
+        sim.close()
+
+
+def test_land_at_speed_comes_down_where_it_was_commanded():
+    """Land::on_activation (MissionBlock::set_land_item): the landing point is the vehicle's
+    position when Land was commanded, no braking distance: a vehicle commanded to land at
+    cruise brakes past it and flies back."""
+    sim = Sim()
+    try:
+        v = sim.v
+        _cruise_north(sim, v)
+        n0 = float(v.state.position_ned_m[0])
+        assert v.land(sim.t) is CommandResult.ACCEPTED
+        ahead = 0.0
+        for _ in range(int(60.0 / 0.1)):
+            sim.run(0.1)
+            ahead = max(ahead, float(v.state.position_ned_m[0]) - n0)
+            if not v.status.armed:
+                break
+        assert not v.status.armed and ahead > 3.0
+        assert float(v.state.position_ned_m[0]) == pytest.approx(n0, abs=0.5)
+    finally:
+        sim.close()
