@@ -61,7 +61,9 @@ def test_requested_altitude_is_taken_as_given_and_never_below_the_vehicle(sim):
 def test_mission_climb_goes_to_the_first_waypoint_altitude_without_a_floor(sim):
     """mission_base.cpp checkClimbRequired (1.15): started on the ground, a mission climbs to its
     next position item's altitude ("Climb to %.1f meters above home", tab, event), not to at
-    least MIS_TAKEOFF_ALT as older PX4 did."""
+    least MIS_TAKEOFF_ALT as older PX4 did. The waypoint is the last item: reached within
+    NAV_ACC_RAD, the mission ends loitering where the vehicle is then (MissionBase::
+    setEndOfMissionItems, setLoiterItemFromCurrentPosition; PX4 v1.16 loiters at the waypoint)."""
     api = sim.api(0)
     g = PX4_SITL_HOME.offset_ned(20.0, 0.0, 0.0)
     items = [mission_item(MavCmd.NAV_WAYPOINT, g.lat_deg, g.lon_deg, 1.6)]
@@ -72,8 +74,10 @@ def test_mission_climb_goes_to_the_first_waypoint_altitude_without_a_floor(sim):
     def arrived():
         nonlocal top
         top = max(top, height(sim))
-        return sim.state(0).position_ned_m[0] > 19.0
+        return sim.state(0).position_ned_m[0] > 17.5
 
     assert sim.run_until(arrived, timeout_s=40)
+    sim.run_until(lambda: False, timeout_s=8.0)
+    assert 17.5 < sim.state(0).position_ned_m[0] < 19.0
     assert top < 1.8, top  # the climb to MIS_TAKEOFF_ALT (2.5) topped out near 2.0
     assert "Climb to 1.6 meters above home\t" in texts(api)
