@@ -22,6 +22,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from vehicles.auto_heading import AutoHeading
 from vehicles.auto_waypoints import AutoWaypoints
 from vehicles.cnum import wrap_remainder
 from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
@@ -93,6 +94,7 @@ class AutoTask(FlightTask):
         self._params_version = -1  # MPC_YAWRAUTO_MAX, read when first needed
         self._yawrate_max_radps = 0.0
         self.waypoints = AutoWaypoints()  # what the smoothing flies (FlightTaskAuto's own)
+        self.heading = AutoHeading()  # the heading when the navigator gives none
 
     def activate(self, t: TaskInput) -> None:
         # FlightTaskAuto::activate, when another task flew the last tick (all the navigator's
@@ -102,6 +104,7 @@ class AutoTask(FlightTask):
         if self.setpoint is None:
             self.stage.trajectory.emergency_braking = False
             self.waypoints = AutoWaypoints()
+            self.heading = AutoHeading()
 
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
@@ -144,7 +147,11 @@ class AutoTask(FlightTask):
             st.yaw_sp = t.yaw_rad
         # On the ground the smoothing is where reActivate left it, not restarted from the state.
         st.start_flying(t.meas, reset_trajectory=not landed)
-        if not math.isnan(nav_sp.yaw_rad):
+        yaw_sp = nav_sp.yaw_rad
+        if math.isnan(yaw_sp):  # FlightTaskAuto::_set_heading_from_mode (auto_heading.py)
+            yaw_sp = self.heading.setpoint(pos, target, self.waypoints.acceptance_radius_m,
+                                           t.yaw_rad, st.yaw_sp)
+        if not math.isnan(yaw_sp):
             p = self.params
             if p.version != self._params_version:
                 self._params_version = p.version
@@ -152,7 +159,7 @@ class AutoTask(FlightTask):
             step = self._yawrate_max_radps * t.dt_s
             # FlightTaskAuto::_limitYawRate: a non-finite MPC_YAWRAUTO_MAX makes the step
             # infinite and matrix::wrap_pi of it NaN (the next tick starts from the yaw again)
-            err = math.remainder(nav_sp.yaw_rad - st.yaw_sp, math.tau)
+            err = math.remainder(yaw_sp - st.yaw_sp, math.tau)
             st.yaw_sp = wrap_remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
         # The trajectory towards the triplet, then position control on it at the slewed
         # heading (one compiled call).

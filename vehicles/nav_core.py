@@ -238,8 +238,14 @@ class Hold(NavMode):
             self.target = ctx.position_ned_m
         else:  # Loiter::set_loiter_position, a rotary wing
             self.target = ctx.braking_stop_ned_m
-        keep_yaw = math.isnan(self.hint_yaw) or (ctx.landed and not self._repositioned)
-        self.yaw = ctx.yaw_rad if keep_yaw else self.hint_yaw
+        # The heading: a reposition's own; none (NaN: the auto task turns towards the target
+        # while it is farther than the acceptance radius, auto_heading.py) for a reposition
+        # without one and for a hold at the braking point (setLoiterItemCommonFields); the
+        # vehicle's for a hand-over (the takeoff's point) and on the ground.
+        if self._repositioned or (self.hint is None and not ctx.landed):
+            self.yaw = self.hint_yaw
+        else:
+            self.yaw = ctx.yaw_rad
         self.hint = self.reposition = None
         self.hint_yaw = self.reposition_speed_mps = math.nan
 

@@ -288,3 +288,40 @@ def test_land_at_speed_comes_down_where_it_was_commanded():
         assert float(v.state.position_ned_m[0]) == pytest.approx(n0, abs=0.5)
     finally:
         sim.close()
+
+
+def test_a_goto_without_a_heading_turns_towards_its_target():
+    """DO_REPOSITION with param4 NaN (QGC's "go to location"): the navigator gives no yaw and
+    FlightTaskAuto::_set_heading_from_mode (MPC_YAW_MODE 0) turns the vehicle towards the target
+    at MPC_YAWRAUTO_MAX while it is farther than the acceptance radius, then keeps the heading."""
+    sim = Sim()
+    try:
+        v = sim.v
+        take_off(sim)
+        g = v.origin.offset_ned(0.0, 30.0, 0.0)
+        assert v.goto(sim.t, g.lat_deg, g.lon_deg, v.origin.alt_amsl_m + 2.5) is \
+            CommandResult.ACCEPTED
+        sim.run(1.0)  # 45 deg/s
+        assert math.degrees(v.state.euler_rad()[2]) == pytest.approx(26.6, abs=5.0)
+        sim.run(3.0)
+        assert math.degrees(v.state.euler_rad()[2]) == pytest.approx(90.0, abs=3.0)
+        assert sim.run(30.0, until=lambda: abs(v.state.position_ned_m[1] - 30.0) < 0.05)
+        assert math.degrees(v.state.euler_rad()[2]) == pytest.approx(90.0, abs=1.0)
+    finally:
+        sim.close()
+
+
+def test_auto_heading_points_at_the_target_and_locks_within_the_radius():
+    from vehicles.auto_heading import AutoHeading, heading_from_vector
+
+    assert heading_from_vector(0.0, 1.0) == pytest.approx(math.pi / 2)
+    assert heading_from_vector(-1.0, -1.0) == pytest.approx(-3 * math.pi / 4)
+    assert heading_from_vector(-1.0, 0.0) == 0.0  # sign(0) * acos(-1): PX4's quirk
+    assert math.isnan(heading_from_vector(1e-4, 0.0))
+    h = AutoHeading()
+    # within the radius, unlocked: the vehicle's yaw, then locked at the last setpoint
+    assert h.setpoint((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 2.0, 0.3, 0.1) == 0.3 and h.locked
+    assert h.setpoint((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 2.0, 0.3, 0.2) == 0.2
+    assert h.setpoint((0.0, 0.0, 0.0), (0.0, 5.0, 0.0), 2.0, 0.3, 0.2) == pytest.approx(math.pi / 2)
+    assert math.isnan(h.setpoint((0.0, 0.0, 0.0), (math.nan, 5.0, 0.0), 2.0, 0.3, 0.2))
+    assert not h.locked
