@@ -46,6 +46,7 @@ class NavSetpoint(NamedTuple):
     previous_ned_m: Vec3 | None = None
     next_ned_m: Vec3 | None = None
     acceptance_radius_m: float = math.nan
+    loiter: bool = False  # a loiter setpoint (SETPOINT_TYPE_LOITER: Hold's, a loiter item's)
 
 
 @dataclass
@@ -238,14 +239,11 @@ class Hold(NavMode):
             self.target = ctx.position_ned_m
         else:  # Loiter::set_loiter_position, a rotary wing
             self.target = ctx.braking_stop_ned_m
-        # The heading: a reposition's own; none (NaN: the auto task turns towards the target
-        # while it is farther than the acceptance radius, auto_heading.py) for a reposition
-        # without one and for a hold at the braking point (setLoiterItemCommonFields); the
-        # vehicle's for a hand-over (the takeoff's point) and on the ground.
-        if self._repositioned or (self.hint is None and not ctx.landed):
-            self.yaw = self.hint_yaw
-        else:
-            self.yaw = ctx.yaw_rad
+        # The heading: a reposition's or a handed-over setpoint's own; none (NaN: the auto task
+        # turns towards the target while it is farther than the acceptance radius,
+        # auto_heading.py) without one and at the braking point (setLoiterItemCommonFields);
+        # the vehicle's on the ground.
+        self.yaw = ctx.yaw_rad if ctx.landed and not self._repositioned else self.hint_yaw
         self.hint = self.reposition = None
         self.hint_yaw = self.reposition_speed_mps = math.nan
 
@@ -257,7 +255,7 @@ class Hold(NavMode):
             self.target = ctx.position_ned_m
             return NavSetpoint(self.target, ctx.yaw_rad, ctx.limits(), idle=True)
         limits = ctx.limits() if self.speed_mps is None else ctx.limits_at(self.speed_mps)
-        return NavSetpoint(self.target, self.yaw, limits)
+        return NavSetpoint(self.target, self.yaw, limits, loiter=True)
 
 
 class Takeoff(NavMode):

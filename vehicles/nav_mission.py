@@ -271,7 +271,7 @@ class Mission(NavMode):
         if self._phase == "start":
             self._start_item(ctx)
         if self._phase in ("done", "jump"):
-            return NavSetpoint(self._target, self._yaw, ctx.limits(), idle=ctx.landed)
+            return self._hold(ctx)
         return self._run_phase(ctx)
 
     # --- item handling ------------------------------------------------------------------------
@@ -373,7 +373,8 @@ class Mission(NavMode):
 
     def _goto_setpoint(self, ctx: NavContext) -> NavSetpoint:
         return NavSetpoint(self._target, self._yaw, ctx.limits(), previous_ned_m=self._previous,
-                           next_ned_m=self._next, acceptance_radius_m=self._acc_rad)
+                           next_ned_m=self._next, acceptance_radius_m=self._acc_rad,
+                           loiter=self._loiter_target is self._target)
 
     def _run_phase(self, ctx: NavContext) -> NavSetpoint:
         p = ctx.params
@@ -403,7 +404,7 @@ class Mission(NavMode):
                 if item.command == MavCmd.NAV_LOITER_UNLIM:
                     # is_mission_item_reached_or_completed: never for LOITER_UNLIMITED, so no
                     # MISSION_ITEM_REACHED either; only a new current item ends it.
-                    return NavSetpoint(self._target, self._yaw, ctx.limits())
+                    return NavSetpoint(self._target, self._yaw, ctx.limits(), loiter=True)
                 hold = item.param1 if item.command in (MavCmd.NAV_WAYPOINT,
                                                        MavCmd.NAV_LOITER_TIME) else 0.0
                 if hold > 0:
@@ -417,7 +418,8 @@ class Mission(NavMode):
         if self._phase == "wait":
             if ctx.now_s >= self._wait_until:
                 return self._advance(ctx)
-            return NavSetpoint(self._target, self._yaw, ctx.limits())
+            return NavSetpoint(self._target, self._yaw, ctx.limits(),
+                               loiter=self._loiter_target is self._target)
         if self._phase == "approach":
             if math.hypot(tx - x, ty - y) < float(p["NAV_ACC_RAD"]) / 2 or ctx.landed:
                 self._phase = "land"
@@ -447,7 +449,9 @@ class Mission(NavMode):
         return self._hold(ctx)
 
     def _hold(self, ctx: NavContext) -> NavSetpoint:
-        return NavSetpoint(self._target, self._yaw, ctx.limits(), idle=ctx.landed)
+        # the end of the mission is a loiter item (setEndOfMissionItems)
+        return NavSetpoint(self._target, self._yaw, ctx.limits(), idle=ctx.landed,
+                           loiter=self.finished)
 
     def _finish(self, ctx: NavContext) -> None:
         self.finished = True

@@ -64,6 +64,7 @@ class Navigator:
             NavState.AUTO_MISSION: self.mission,
         }
         self.active_state: NavState | None = None
+        self._last: NavSetpoint | None = None  # the last tick's setpoint (PX4's current one)
         self.cruise_mps = math.nan  # NaN = MPC_XY_CRUISE
         self._reactivate = False
         # rtl_time_estimate as RTL publishes it, and how many times it has (a stream sends it
@@ -86,6 +87,7 @@ class Navigator:
         if self.active_state is not None:
             self.modes[self.active_state].on_inactive(ctx)
         self.active_state = None
+        self._last = None  # reset_triplets: nothing is running
         self.hold.hint = self.hold.reposition = None  # a hand-over target is stale now
         self.hold.hint_yaw = math.nan
 
@@ -100,10 +102,27 @@ class Navigator:
         if nav_state != self.active_state or self._reactivate:
             if self.active_state is not None:
                 self.modes[self.active_state].on_inactive(ctx)
+                if nav_state is _HOLD:
+                    self._loiter_on(ctx)
             self.active_state = nav_state
             self._reactivate = False
             self.modes[nav_state].on_activation(ctx)
-        return self.modes[nav_state].on_active(ctx)
+        sp = self._last = self.modes[nav_state].on_active(ctx)
+        return sp
+
+    def _loiter_on(self, ctx: NavContext) -> None:
+        """Loiter::set_loiter_position: a vehicle on a loiter setpoint (a loiter item's, the end
+        of a mission, Hold's own) within its loiter radius (NAV_LOITER_RAD) and the acceptance
+        radius holds that setpoint, its heading too (setLoiterItemFromCurrentPositionSetpoint),
+        instead of braking where it is."""
+        hold, last = self.hold, self._last
+        if hold.reposition is not None or hold.hint is not None or last is None \
+                or not last.loiter or last.idle or ctx.landed:
+            return
+        (tx, ty, _), (x, y, _) = last.target_ned_m, ctx.position_ned_m
+        p = ctx.params
+        if math.hypot(tx - x, ty - y) <= float(p["NAV_ACC_RAD"]) + float(p["NAV_LOITER_RAD"]):
+            hold.hint, hold.hint_yaw = last.target_ned_m, last.yaw_rad
 
     def publish_rtl_estimate(self, ctx: NavContext, position_valid: bool) -> None:
         """RTL::on_inactive / on_active: more than 2 s after the last time (the first, 2 s after

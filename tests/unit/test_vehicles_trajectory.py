@@ -325,3 +325,36 @@ def test_auto_heading_points_at_the_target_and_locks_within_the_radius():
     assert h.setpoint((0.0, 0.0, 0.0), (0.0, 5.0, 0.0), 2.0, 0.3, 0.2) == pytest.approx(math.pi / 2)
     assert math.isnan(h.setpoint((0.0, 0.0, 0.0), (math.nan, 5.0, 0.0), 2.0, 0.3, 0.2))
     assert not h.locked
+
+
+@pytest.mark.parametrize("loiter_item", [True, False])
+def test_hold_on_the_way_to_a_loiter_item_keeps_flying_to_it(loiter_item):
+    """Loiter::set_loiter_position: when the current setpoint is a loiter setpoint (a
+    LOITER_TIME item's) within NAV_LOITER_RAD + NAV_ACC_RAD, Hold keeps it
+    (setLoiterItemFromCurrentPositionSetpoint) rather than braking where the vehicle is; a
+    waypoint's is a position setpoint and Hold brakes."""
+    from tests.unit.test_vehicles_mission import item
+    from vehicles.plan_types import MavCmd
+
+    cmd = MavCmd.NAV_LOITER_TIME if loiter_item else MavCmd.NAV_WAYPOINT
+    sim = Sim()
+    try:
+        v = sim.v
+        sim.run(1.2)
+        v.set_plan(sim.t, PlanType.MISSION, [
+            item(0, MavCmd.NAV_WAYPOINT, 10.0, 0.0, 10.0, v.origin),
+            item(1, cmd, 70.0, 0.0, 10.0, v.origin, p1=5.0)])
+        assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+        assert sim.run(90.0, until=lambda: v.state.position_ned_m[0] > 35.0)
+        n0, speed = float(v.state.position_ned_m[0]), float(v.state.velocity_ned_mps[0])
+        assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+        sim.run(2.0)
+        assert sim.run(30.0, until=lambda: math.hypot(*v.state.velocity_ned_mps) < 0.02)
+        n = float(v.state.position_ned_m[0])
+        if loiter_item:
+            assert n == pytest.approx(70.0, abs=0.2)
+        else:
+            stop = n0 + speed * (speed / (2.0 * float(v.params["MPC_ACC_HOR"])) + 0.6)
+            assert n == pytest.approx(stop, abs=0.3)
+    finally:
+        sim.close()
