@@ -51,6 +51,8 @@ TAKEOFF_TRIGGER_M = 0.2
 # FlightTaskAuto::update: an auto task wants a takeoff when its unsmoothed velocity setpoint
 # climbs faster than this (NED, m/s).
 TAKEOFF_TRIGGER_VZ_MPS = -0.3
+YAWSPEED_FILTER_TAU_S = 0.2  # FlightTaskAuto::_limitYawRate's _yawspeed_filter
+FLT_EPSILON = 1.1920929e-07
 
 
 class TaskInput(NamedTuple):
@@ -95,6 +97,7 @@ class AutoTask(FlightTask):
         self._yawrate_max_radps = 0.0
         self.waypoints = AutoWaypoints()  # what the smoothing flies (FlightTaskAuto's own)
         self.heading = AutoHeading()  # the heading when the navigator gives none
+        self._yawspeed_ff = 0.0  # FlightTaskAuto's _yawspeed_filter
 
     def activate(self, t: TaskInput) -> None:
         # FlightTaskAuto::activate, when another task flew the last tick (all the navigator's
@@ -105,6 +108,7 @@ class AutoTask(FlightTask):
             self.stage.trajectory.emergency_braking = False
             self.waypoints = AutoWaypoints()
             self.heading = AutoHeading()
+            self._yawspeed_ff = 0.0
 
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
@@ -151,20 +155,31 @@ class AutoTask(FlightTask):
         if math.isnan(yaw_sp):  # FlightTaskAuto::_set_heading_from_mode (auto_heading.py)
             yaw_sp = self.heading.setpoint(pos, target, self.waypoints.acceptance_radius_m,
                                            t.yaw_rad, st.yaw_sp)
+        yawspeed = 0.0
         if not math.isnan(yaw_sp):
             p = self.params
             if p.version != self._params_version:
                 self._params_version = p.version
                 self._yawrate_max_radps = math.radians(float(p["MPC_YAWRAUTO_MAX"]))
-            step = self._yawrate_max_radps * t.dt_s
+            rate_max = self._yawrate_max_radps
+            step = rate_max * t.dt_s
             # FlightTaskAuto::_limitYawRate: a non-finite MPC_YAWRAUTO_MAX makes the step
             # infinite and matrix::wrap_pi of it NaN (the next tick starts from the yaw again)
             err = math.remainder(yaw_sp - st.yaw_sp, math.tau)
-            st.yaw_sp = wrap_remainder(st.yaw_sp + min(max(err, -step), step), math.tau)
+            dyaw = min(max(err, -step), step)
+            st.yaw_sp = wrap_remainder(st.yaw_sp + dyaw, math.tau)
+            # ... and the heading rate fed forward: the step's rate through an AlphaFilter of
+            # 0.2 s time constant, within MPC_YAWRAUTO_MAX
+            if t.dt_s > FLT_EPSILON:
+                f = self._yawspeed_ff
+                f += t.dt_s / (YAWSPEED_FILTER_TAU_S + t.dt_s) * (dyaw / t.dt_s - f)
+                self._yawspeed_ff = f
+                yawspeed = min(max(f, -rate_max), rate_max)
         # The trajectory towards the triplet, then position control on it at the slewed
         # heading (one compiled call).
         st.apply_auto(t.dt_s, t.meas, target, nav_sp.limits, nav_sp.vz_cmd_mps, prev_wp,
-                      next_wp, self.waypoints.acceptance_radius_m, t.yaw_rad)
+                      next_wp, self.waypoints.acceptance_radius_m, t.yaw_rad,
+                      yawspeed if math.isfinite(yawspeed) else 0.0)
 
     def _idle(self, t: TaskInput) -> None:
         """No takeoff (disarmed, the navigator idles, or landed without a climb to fly): the

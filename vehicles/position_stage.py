@@ -190,7 +190,8 @@ class PositionStage:
 
     def apply_auto(self, dt: float, meas: Measurement, target_ned_m: Vec3,
                    lim: TrajectoryLimits, vz_cmd_mps: float, previous_ned_m: Vec3 | None,
-                   next_ned_m: Vec3 | None, acceptance_radius_m: float, yaw: float) -> None:
+                   next_ned_m: Vec3 | None, acceptance_radius_m: float, yaw: float,
+                   yawspeed: float = 0.0) -> None:
         """The auto tasks' ``trajectory.update`` towards the navigator's triplet (the vehicle's
         position for the lag stretch and the vertical-speed altitude) and then ``apply`` on its
         setpoint at the heading ``yaw_sp`` and the limits' climb speed, in one compiled call
@@ -214,7 +215,8 @@ class PositionStage:
             meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate, braking)
         if reactivate:  # FlightTaskAuto::reActivate → activate: no emergency braking
             traj.emergency_braking = False
-        self._output(v_sp[2], q, thrust, vel_sp, acc_sp, 0.0)
+        # the heading rate feed-forward (FlightTaskAuto::_limitYawRate), none on the ground
+        self._output(v_sp[2], q, thrust, vel_sp, acc_sp, 0.0 if no_setpoint else yawspeed)
 
     def _output(self, task_vz: float, q: Quat, thrust: float, vel_sp: Vec3, acc_sp: Vec3,
                 yawspeed: float) -> None:
