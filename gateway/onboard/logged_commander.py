@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from gateway.onboard.topic import B, F, Topic
+from gateway.onboard.topic import COMMANDER_REPUBLISH_S, B, F, Topic
 from vehicles.types import NavState
 
 PREARM_ALWAYS = 2  # COM_PREARM_MODE PrearmedMode::ALWAYS
@@ -41,7 +41,8 @@ def _rtl_time_estimate(v: Any, now_us: int) -> tuple | None:
 
 ACTUATOR_ARMED = Topic("actuator_armed", tuple((B, name) for name in (
     "armed", "prearmed", "ready_to_arm", "lockdown", "manual_lockdown", "force_failsafe",
-    "in_esc_calibration_mode")), 0.0, _actuator_armed, on_change=True)
+    "in_esc_calibration_mode")), 0.0, _actuator_armed, on_change=True,
+    republish_s=COMMANDER_REPUBLISH_S)
 RTL_TIME_ESTIMATE = Topic("rtl_time_estimate", ((B, "valid"), (F, "time_estimate"),
                                                 (F, "safe_time_estimate")), 1.0,
                           _rtl_time_estimate, period_s=RTL_ESTIMATE_PERIOD_S)

@@ -24,7 +24,7 @@ from typing import Any
 
 from gateway.mavlink.link import DATARATE_B_S, LinkKind
 from gateway.mavlink.streams import STREAMS
-from gateway.onboard.topic import U64, B, F, Topic
+from gateway.onboard.topic import COMMANDER_REPUBLISH_S, U64, B, F, Topic
 from vehicles.cnum import f32
 from vehicles.estimation import R_ACC_LP
 from vehicles.mission_jumps import jump_repeats
@@ -32,7 +32,6 @@ from vehicles.mission_jumps import jump_repeats
 U8, U16, U32 = "uint8_t", "uint16_t", "uint32_t"
 # takeoff_status_s::TAKEOFF_STATE_DISARMED is 1 (0: uninitialized), CORNET's TakeoffState 0
 TAKEOFF_STATE_DISARMED = 1
-COMMANDER_STATUS_PERIOD_S = 0.5  # Commander::run: vehicle_status and failure_detector_status
 TELEMETRY_INSTANCES = 4  # add_optional_topic_multi("telemetry_status", 1000, 4)
 LINK_TYPE_GENERIC = 0  # telemetry_status_s (UDP)
 MAVLINK_MODE_NORMAL, MAVLINK_MODE_ONBOARD = 0, 2  # Mavlink::MAVLINK_MODE
@@ -147,7 +146,7 @@ FAILURE_DETECTOR_STATUS = Topic(
                                     "roll", "pitch", "alt", "ext", "arm_escs", "battery",
                                     "imbalanced_prop", "motor")),
                                 ("uint8_t[2]", "_padding0")), 0.1, _failure_detector,
-    period_s=COMMANDER_STATUS_PERIOD_S)
+    on_change=True, republish_s=COMMANDER_REPUBLISH_S)
 MISSION_RESULT = Topic(
     "mission_result", ((U32, "mission_id"), (U32, "geofence_id"), (U32, "home_position_counter"),
                        ("int32_t", "seq_reached"), (U16, "seq_current"), (U16, "seq_total"),

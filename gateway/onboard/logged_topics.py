@@ -46,7 +46,7 @@ from gateway.onboard.logged_sensors import (
     VEHICLE_MAGNETOMETER,
 )
 from gateway.onboard.logged_status import STATUS_TOPICS
-from gateway.onboard.topic import U64, B, D, F, Topic
+from gateway.onboard.topic import COMMANDER_REPUBLISH_S, U64, B, D, F, Topic
 from vehicles.control.quat import q_rotate, q_yaw
 from vehicles.estimation import (
     E_ACCURACY,
@@ -362,7 +362,8 @@ TOPICS: tuple[Topic, ...] = (
                              (B, "failsafe"), (B, "failsafe_and_user_took_over"),
                              (B, "gcs_connection_lost"), (B, "is_vtol"),
                              (B, "is_vtol_tailsitter"), (B, "in_transition_mode"),
-                             ("uint8_t", "system_type")), 0.0, _status, on_change=True),
+                             ("uint8_t", "system_type")), 0.0, _status, on_change=True,
+          republish_s=COMMANDER_REPUBLISH_S),
     SENSOR_COMBINED,
     VEHICLE_GPS_POSITION,
     BATTERY_STATUS,
@@ -405,7 +406,8 @@ TOPICS: tuple[Topic, ...] = (
         "control_auto_enabled", "control_offboard_enabled", "control_rates_enabled",
         "control_attitude_enabled", "control_acceleration_enabled", "control_velocity_enabled",
         "control_position_enabled", "control_altitude_enabled", "control_climb_rate_enabled",
-        "control_termination_enabled")), 0.0, _control_mode, on_change=True),
+        "control_termination_enabled")), 0.0, _control_mode, on_change=True,
+          republish_s=COMMANDER_REPUBLISH_S),
     Topic("manual_control_setpoint", ((U64, "timestamp_sample"), (B, "valid"), (F, "roll"),
                                       (F, "pitch"), (F, "yaw"), (F, "throttle"), (F, "flaps"),
                                       *((F, f"aux{i}") for i in range(1, 7)),

@@ -148,6 +148,7 @@ class VehicleLogger:
         self._out: list[tuple[str, bytes, bool]] = []
         self._due = [0.0] * len(self.topics)
         self._last: list[Sequence[Any] | None] = [None] * len(self.topics)
+        self._written_s = [-math.inf] * len(self.topics)  # when each was last written
         self._stepped = [i for i, t in enumerate(self.topics) if t.step is not None]
         self._stepped_set = frozenset(self._stepped)
         self._step_s: list[float | None] = [None] * len(self.topics)  # last step logged
@@ -241,6 +242,7 @@ class VehicleLogger:
         """Nothing was logging: every topic is sampled at once, texts and commands from now."""
         self._due = [now_s] * len(self.topics)
         self._last = [None] * len(self.topics)
+        self._written_s = [-math.inf] * len(self.topics)
         self._step_s = [None] * len(self.topics)
         self._param_changes.clear()
         self._text_seq = max((t.seq for t in self._texts(0)), default=self._text_seq)
@@ -418,7 +420,8 @@ class VehicleLogger:
                 values = topic.read(view, us)
                 if values is None:  # not published yet
                     continue
-                if topic.on_change and values == self._last[i] and not force:
+                if topic.on_change and values == self._last[i] and not force and not (
+                        topic.republish_s and soon >= self._written_s[i] + topic.republish_s):
                     due[i] = now_s + topic.every_s  # looked again after the interval
                     continue
                 record = self._structs[i].pack(us, *values)
@@ -428,6 +431,7 @@ class VehicleLogger:
                     log.exception("logger: topic %s could not be sampled", topic.name)
                 continue
             self._last[i] = values
+            self._written_s[i] = now_s
             due[i] = now_s + topic.every_s
             buf += self._prefixes[i]  # ulog.data(i, payload), in two appends
             buf += record

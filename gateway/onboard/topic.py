@@ -18,6 +18,11 @@ Fields = Sequence[tuple[str, str]]
 F, D, B, U64 = "float", "double", "bool", "uint64_t"  # ULog type names
 
 
+# Commander::run publishes actuator_armed, vehicle_control_mode, vehicle_status and
+# failure_detector_status on every change and 500 ms after the last publication
+COMMANDER_REPUBLISH_S = 0.5
+
+
 @dataclass(frozen=True)
 class Topic:
     name: str
@@ -31,6 +36,10 @@ class Topic:
     # publishes at a fixed rate (load_mon's cpuload: 500 ms)
     period_s: float = 0.0
     multi_id: int = 0  # the uORB instance (add_topic_multi), its subscription's multi_id
+    # an ``on_change`` topic its module also publishes this long after its last publication
+    # (Commander's vehicle_status, actuator_armed, vehicle_control_mode, failure_detector_status:
+    # 500 ms): logged then too, unchanged
+    republish_s: float = 0.0
 
     @property
     def every_s(self) -> float:

@@ -116,6 +116,22 @@ def test_failure_detector_status_with_vehicle_status_every_500_ms(takeoff_log):
     assert (fd["motor_failure_mask"] == 0).all()
 
 
+def test_commander_topics_every_500_ms_and_at_once_on_change(takeoff_log):
+    """Commander::run publishes actuator_armed, vehicle_control_mode and vehicle_status 500 ms
+    after its last publication and at once when they change: so they are logged (no logger
+    interval)."""
+    for name in ("vehicle_status", "actuator_armed", "vehicle_control_mode"):
+        data = takeoff_log.get_dataset(name).data
+        gaps = np.diff(data["timestamp"])
+        assert np.median(gaps) == pytest.approx(500_000, abs=20_000), name
+        assert gaps.max() <= 520_000, name
+    status = takeoff_log.get_dataset("vehicle_status").data
+    armed = np.flatnonzero(np.diff(status["arming_state"].astype(int)) != 0)
+    assert len(armed) == 2  # armed, then disarmed after the landing
+    # the changes are logged at the tick they happen, not at the next 500 ms
+    assert (np.diff(status["timestamp"])[armed] < 500_000).all()
+
+
 def test_telemetry_status_per_mavlink_instance_every_second(takeoff_log):
     by_instance = {d.multi_id: d.data for d in takeoff_log.data_list
                    if d.name == "telemetry_status"}
