@@ -29,8 +29,8 @@ Rules and invariants:
   loaded as it is (loadCurrentMissionItem): a DO_JUMP there becomes the current item. It has no
   position setpoint (the vehicle holds, or stays on the ground) and is never reached, as PX4
   measures it as a waypoint at its unset position (0°, 0°); only a new current item ends it.
-- Yaw: param4 (deg) when given, else towards the target while it is farther than the acceptance
-  radius, held closer (MPC_YAW_MODE 0).
+- Yaw: param4 (deg) when given, else none: the auto task turns towards its target while that is
+  farther than the acceptance radius and holds the heading closer (MPC_YAW_MODE 0).
 """
 
 from __future__ import annotations
@@ -393,12 +393,10 @@ class Mission(NavMode):
             return self._run_phase(ctx)
         if self._phase == "goto":
             dist = math.hypot(tx - x, ty - y)
-            # FlightTaskAuto::_set_heading_from_mode: towards the target while it is farther
-            # than the setpoint's acceptance radius, else held
-            if math.isnan(self._fixed_yaw) and dist > self._acc_rad:
-                self._yaw = math.atan2(ty - y, tx - x)
-            elif not math.isnan(self._fixed_yaw):
-                self._yaw = self._fixed_yaw
+            # mission.cpp: no heading of its own without param4 ("FlightTaskAuto handles yaw
+            # directly": towards its target while farther than the acceptance radius, else
+            # held; auto_heading.py)
+            self._yaw = self._fixed_yaw
             if not ctx.landed and dist < self._acc_rad and abs(z - tz) < alt_rad:
                 item = self.items[self.current]
                 if item.command == MavCmd.NAV_LOITER_UNLIM:
