@@ -24,7 +24,6 @@ from typing import NamedTuple
 
 from vehicles.auto_heading import AutoHeading
 from vehicles.auto_waypoints import AutoWaypoints
-from vehicles.cnum import wrap_remainder
 from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
 from vehicles.control.hover_thrust import HoverThrustEstimator
 from vehicles.control.position_control import REACTIVATE_VEL, PositionSetpoint
@@ -51,8 +50,6 @@ TAKEOFF_TRIGGER_M = 0.2
 # FlightTaskAuto::update: an auto task wants a takeoff when its unsmoothed velocity setpoint
 # climbs faster than this (NED, m/s).
 TAKEOFF_TRIGGER_VZ_MPS = -0.3
-YAWSPEED_FILTER_TAU_S = 0.2  # FlightTaskAuto::_limitYawRate's _yawspeed_filter
-FLT_EPSILON = 1.1920929e-07
 
 
 class TaskInput(NamedTuple):
@@ -97,7 +94,8 @@ class AutoTask(FlightTask):
         self._yawrate_max_radps = 0.0
         self.waypoints = AutoWaypoints()  # what the smoothing flies (FlightTaskAuto's own)
         self.heading = AutoHeading()  # the heading when the navigator gives none
-        self._yawspeed_ff = 0.0  # FlightTaskAuto's _yawspeed_filter
+        self._yaw_mode = 0
+        self._yaw_err_rad = 0.0
 
     def activate(self, t: TaskInput) -> None:
         # FlightTaskAuto::activate, when another task flew the last tick (all the navigator's
@@ -108,12 +106,17 @@ class AutoTask(FlightTask):
             self.stage.trajectory.emergency_braking = False
             self.waypoints = AutoWaypoints()
             self.heading = AutoHeading()
-            self._yawspeed_ff = 0.0
 
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
         nav_sp = self.setpoint = self.navigator.update(t.nav_state, t.nav)
         traj = st.trajectory
+        p = self.params
+        if p.version != self._params_version:
+            self._params_version = p.version
+            self._yawrate_max_radps = math.radians(float(p["MPC_YAWRAUTO_MAX"]))
+            self._yaw_mode = int(p["MPC_YAW_MODE"])
+            self._yaw_err_rad = math.radians(float(p["MIS_YAW_ERR"]))
         # FlightTaskAuto::_evaluateTriplets (every update): the waypoints flown, from the triplet
         prev_wp, target, next_wp = self.waypoints.update(
             pos, nav_sp.target_ned_m, nav_sp.previous_ned_m, nav_sp.next_ned_m,
@@ -141,7 +144,8 @@ class AutoTask(FlightTask):
             # setpoint climbs faster than 0.3 m/s (_want_takeoff, its _checkTakeoff); planned
             # from where FlightTaskAuto::reActivate left the smoothing (see ``_idle``); zero
             # while braking.
-            vz = 0.0 if braking else traj.smoothing.unsmoothed_velocity_auto(
+            vz = 0.0 if braking or (self._yaw_mode == 4 and not self.heading.aligned) \
+                else traj.smoothing.unsmoothed_velocity_auto(
                 pos, prev_wp, target, next_wp, self.waypoints.acceptance_radius_m,
                 nav_sp.vz_cmd_mps)[2]
             if not vz < TAKEOFF_TRIGGER_VZ_MPS:
@@ -151,35 +155,22 @@ class AutoTask(FlightTask):
             st.yaw_sp = t.yaw_rad
         # On the ground the smoothing is where reActivate left it, not restarted from the state.
         st.start_flying(t.meas, reset_trajectory=not landed)
+        heading = self.heading
+        # MPC_YAW_MODE 4 waits for the heading its last tick left unaligned (_yaw_sp_aligned)
+        wait = self._yaw_mode == 4 and not heading.aligned
         yaw_sp = nav_sp.yaw_rad
         if math.isnan(yaw_sp):  # FlightTaskAuto::_set_heading_from_mode (auto_heading.py)
-            yaw_sp = self.heading.setpoint(pos, target, self.waypoints.acceptance_radius_m,
-                                           t.yaw_rad, st.yaw_sp)
-        yawspeed = 0.0
-        if not math.isnan(yaw_sp):
-            p = self.params
-            if p.version != self._params_version:
-                self._params_version = p.version
-                self._yawrate_max_radps = math.radians(float(p["MPC_YAWRAUTO_MAX"]))
-            rate_max = self._yawrate_max_radps
-            step = rate_max * t.dt_s
-            # FlightTaskAuto::_limitYawRate: a non-finite MPC_YAWRAUTO_MAX makes the step
-            # infinite and matrix::wrap_pi of it NaN (the next tick starts from the yaw again)
-            err = math.remainder(yaw_sp - st.yaw_sp, math.tau)
-            dyaw = min(max(err, -step), step)
-            st.yaw_sp = wrap_remainder(st.yaw_sp + dyaw, math.tau)
-            # ... and the heading rate fed forward: the step's rate through an AlphaFilter of
-            # 0.2 s time constant, within MPC_YAWRAUTO_MAX
-            if t.dt_s > FLT_EPSILON:
-                f = self._yawspeed_ff
-                f += t.dt_s / (YAWSPEED_FILTER_TAU_S + t.dt_s) * (dyaw / t.dt_s - f)
-                self._yawspeed_ff = f
-                yawspeed = min(max(f, -rate_max), rate_max)
+            home = t.nav.home
+            yaw_sp = heading.setpoint(
+                self._yaw_mode, pos, target, home.position_ned_m if home is not None else None,
+                self.waypoints.acceptance_radius_m, t.yaw_rad, st.yaw_sp,
+                traj.smoothing.velocity)
+        st.yaw_sp, yawspeed = heading.limit(yaw_sp, st.yaw_sp, t.dt_s, self._yawrate_max_radps,
+                                            self._yaw_err_rad)
         # The trajectory towards the triplet, then position control on it at the slewed
         # heading (one compiled call).
         st.apply_auto(t.dt_s, t.meas, target, nav_sp.limits, nav_sp.vz_cmd_mps, prev_wp,
-                      next_wp, self.waypoints.acceptance_radius_m, t.yaw_rad,
-                      yawspeed if math.isfinite(yawspeed) else 0.0)
+                      next_wp, self.waypoints.acceptance_radius_m, t.yaw_rad, yawspeed, wait)
 
     def _idle(self, t: TaskInput) -> None:
         """No takeoff (disarmed, the navigator idles, or landed without a climb to fly): the

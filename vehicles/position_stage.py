@@ -191,11 +191,12 @@ class PositionStage:
     def apply_auto(self, dt: float, meas: Measurement, target_ned_m: Vec3,
                    lim: TrajectoryLimits, vz_cmd_mps: float, previous_ned_m: Vec3 | None,
                    next_ned_m: Vec3 | None, acceptance_radius_m: float, yaw: float,
-                   yawspeed: float = 0.0) -> None:
+                   yawspeed: float = 0.0, hold: bool = False) -> None:
         """The auto tasks' ``trajectory.update`` towards the navigator's triplet (the vehicle's
         position for the lag stretch and the vertical-speed altitude) and then ``apply`` on its
         setpoint at the heading ``yaw_sp`` and the limits' climb speed, in one compiled call
-        (position_control.auto_position_attitude_step)."""
+        (position_control.auto_position_attitude_step). ``hold``: a zero velocity setpoint
+        (force_zero_velocity_setpoint: MPC_YAW_MODE 4 waiting for the heading)."""
         traj, pc = self.trajectory, self.position_control
         traj.set_up(lim)
         # FlightTaskAuto::_updateTrajConstraints: the controller's climb constraint is at least
@@ -212,7 +213,7 @@ class PositionStage:
         _, v_sp, _, q, thrust, vel_sp, acc_sp = pc.update_attitude_auto(
             s, dt, previous_ned_m is not None, next_ned_m is not None,
             traj.acceptance_radius(acceptance_radius_m), vz_cmd_mps, meas.velocity_ned_mps,
-            meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate, braking)
+            meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate, braking or hold)
         if reactivate:  # FlightTaskAuto::reActivate → activate: no emergency braking
             traj.emergency_braking = False
         # the heading rate feed-forward (FlightTaskAuto::_limitYawRate), none on the ground

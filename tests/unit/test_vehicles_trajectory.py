@@ -318,13 +318,50 @@ def test_auto_heading_points_at_the_target_and_locks_within_the_radius():
     assert heading_from_vector(-1.0, -1.0) == pytest.approx(-3 * math.pi / 4)
     assert heading_from_vector(-1.0, 0.0) == 0.0  # sign(0) * acos(-1): PX4's quirk
     assert math.isnan(heading_from_vector(1e-4, 0.0))
+    o, still = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     h = AutoHeading()
     # within the radius, unlocked: the vehicle's yaw, then locked at the last setpoint
-    assert h.setpoint((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 2.0, 0.3, 0.1) == 0.3 and h.locked
-    assert h.setpoint((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), 2.0, 0.3, 0.2) == 0.2
-    assert h.setpoint((0.0, 0.0, 0.0), (0.0, 5.0, 0.0), 2.0, 0.3, 0.2) == pytest.approx(math.pi / 2)
-    assert math.isnan(h.setpoint((0.0, 0.0, 0.0), (math.nan, 5.0, 0.0), 2.0, 0.3, 0.2))
-    assert not h.locked
+    assert h.setpoint(0, o, (1.0, 0.0, 0.0), None, 2.0, 0.3, 0.1, still) == 0.3 and h.locked
+    assert h.setpoint(0, o, (1.0, 0.0, 0.0), None, 2.0, 0.3, 0.2, still) == 0.2
+    assert h.setpoint(0, o, (0.0, 5.0, 0.0), None, 2.0, 0.3, 0.2, still) == \
+        pytest.approx(math.pi / 2)
+    # MPC_YAW_MODE 1 / 2: towards / away from home; 3: along the velocity setpoint
+    home = (0.0, -10.0, 0.0)
+    assert h.setpoint(1, o, (9.0, 0.0, 0.0), home, 2.0, 0.3, 0.2, still) == \
+        pytest.approx(-math.pi / 2)
+    assert h.setpoint(2, o, (9.0, 0.0, 0.0), home, 2.0, 0.3, 0.2, still) == \
+        pytest.approx(math.pi / 2)
+    assert h.setpoint(3, o, (9.0, 0.0, 0.0), home, 2.0, 0.3, 0.2, (-1.0, -1.0, 0.0)) == \
+        pytest.approx(-3 * math.pi / 4) and not h.locked
+    assert h.setpoint(3, o, (1.0, 0.0, 0.0), home, 2.0, 0.3, 0.2, (-1.0, -1.0, 0.0)) == 0.2
+    # _limitYawRate: slewed at the rate, fed forward, aligned within MIS_YAW_ERR unsaturated
+    sp, rate = h.limit(1.0, 0.0, 0.02, math.radians(45.0), math.radians(12.0))
+    assert sp == pytest.approx(math.radians(0.9)) and 0.0 < rate < math.radians(45.0)
+    assert not h.aligned
+    for _ in range(200):
+        sp, rate = h.limit(1.0, sp, 0.02, math.radians(45.0), math.radians(12.0))
+    assert sp == pytest.approx(1.0) and h.aligned and abs(rate) < 1e-3
+
+
+def test_yaw_mode_4_turns_first_then_goes():
+    """MPC_YAW_MODE 4: FlightTaskAuto holds the trajectory (force_zero_velocity_setpoint) until
+    the heading setpoint is within MIS_YAW_ERR of the way to the target and no longer turning
+    at MPC_YAWRAUTO_MAX: a goto 30 m east from facing north starts ~2 s later, facing east."""
+    sim = Sim(MPC_YAW_MODE=4)
+    try:
+        v = sim.v
+        take_off(sim)
+        e0 = float(v.state.position_ned_m[1])
+        g = v.origin.offset_ned(0.0, 30.0, 0.0)
+        assert v.goto(sim.t, g.lat_deg, g.lon_deg, v.origin.alt_amsl_m + 2.5) is \
+            CommandResult.ACCEPTED
+        sim.run(1.5)  # turning at 45 deg/s: not moving yet
+        assert abs(float(v.state.position_ned_m[1]) - e0) < 0.1
+        assert sim.run(5.0, until=lambda: v.state.position_ned_m[1] - e0 > 0.5)
+        assert math.degrees(v.state.euler_rad()[2]) == pytest.approx(90.0, abs=12.0)
+        assert sim.run(30.0, until=lambda: abs(v.state.position_ned_m[1] - 30.0) < 0.1)
+    finally:
+        sim.close()
 
 
 @pytest.mark.parametrize("loiter_item", [True, False])
