@@ -15,8 +15,9 @@ Rules:
   ``is_mission_item_reached_or_completed``, multicopter): within NAV_ACC_RAD horizontally and
   NAV_MC_ALT_RAD vertically (the climb and the descent, loiter-to-altitude items, only
   vertically), and, where the item has a heading, within MIS_YAW_ERR of it. The heading is the
-  current one while climbing, towards the destination on the way (the destination's, home's yaw,
-  when the return starts closer than RTL_MIN_DIST), home's yaw from the descent on.
+  current one while climbing, none on the way (the auto task's MPC_YAW_MODE heading: towards the
+  destination with mode 0; the destination's, home's yaw, when the return starts closer than
+  RTL_MIN_DIST), home's yaw from the descent on.
 - Activated on the ground (armed and landed) Return stays idle there (rtl_direct.cpp
   ``getActivationLandState``: IDLE "for safety reasons"), but still says where it would return.
 - Rally points count only farther than 10 m from home, and only when more than 2 m closer than
@@ -231,9 +232,10 @@ class Return(NavMode):
             else:
                 if not math.isnan(self._fixed_yaw):
                     self.yaw = self._fixed_yaw
-                elif dist_xy > 2.0:
-                    self.yaw = math.atan2(hy - y, hx - x)  # MPC_YAW_MODE 0: face the way home
-                return NavSetpoint((hx, hy, self.return_z), self.yaw, ctx.limits())
+                    return NavSetpoint((hx, hy, self.return_z), self.yaw, ctx.limits())
+                # rtl_direct.cpp: no heading of its own on the way; the auto task's (MPC_YAW_MODE
+                # 0: it faces the destination while farther than the acceptance radius)
+                return NavSetpoint((hx, hy, self.return_z), math.nan, ctx.limits())
         descend_z = max(hz - float(p["RTL_DESCEND_ALT"]), self.return_z)
         if self.phase is RtlPhase.DESCEND:
             # a loiter-to-altitude item: reached on the altitude (and the heading) alone

@@ -395,3 +395,23 @@ def test_hold_on_the_way_to_a_loiter_item_keeps_flying_to_it(loiter_item):
             assert n == pytest.approx(stop, abs=0.3)
     finally:
         sim.close()
+
+
+def test_return_heading_is_the_auto_tasks():
+    """rtl_direct.cpp gives no heading on the way back: FlightTaskAuto's MPC_YAW_MODE does (2:
+    away from home, so the vehicle returns backwards)."""
+    sim = Sim()
+    try:
+        v = sim.v
+        take_off(sim)
+        g = v.origin.offset_ned(0.0, 40.0, 0.0)
+        assert v.goto(sim.t, g.lat_deg, g.lon_deg, v.origin.alt_amsl_m + 2.5) is \
+            CommandResult.ACCEPTED
+        assert sim.run(40.0, until=lambda: abs(v.state.position_ned_m[1] - 40.0) < 0.1)
+        v.params.set("MPC_YAW_MODE", 2)
+        assert v.set_nav_state(sim.t, NavState.AUTO_RTL) is CommandResult.ACCEPTED
+        assert sim.run(60.0, until=lambda: v.state.position_ned_m[1] < 20.0)
+        assert v.state.velocity_ned_mps[1] < -1.0  # flying west, home-wards
+        assert math.degrees(v.state.euler_rad()[2]) == pytest.approx(90.0, abs=5.0)  # facing east
+    finally:
+        sim.close()
