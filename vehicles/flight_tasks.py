@@ -128,6 +128,9 @@ class AutoTask(FlightTask):
         # tick's (the autopilot has restarted the trajectory from the state if it was not flying
         # under it); while braking the velocity setpoint is zero (force_zero_velocity_setpoint)
         braking = traj.check_emergency_braking()
+        # MPC_YAW_MODE 4 waits for the heading its last tick left unaligned (_yaw_sp_aligned):
+        # a zero velocity setpoint as while braking (force_zero_velocity_setpoint)
+        wait = self._yaw_mode == 4 and not self.heading.aligned
         traj.set_up(nav_sp.limits)
         if (t.nav_state is NavState.AUTO_TAKEOFF or nav_sp.taking_off) \
                 and nav_sp.target_ned_m[2] < pos[2] and not braking:
@@ -144,8 +147,7 @@ class AutoTask(FlightTask):
             # setpoint climbs faster than 0.3 m/s (_want_takeoff, its _checkTakeoff); planned
             # from where FlightTaskAuto::reActivate left the smoothing (see ``_idle``); zero
             # while braking.
-            vz = 0.0 if braking or (self._yaw_mode == 4 and not self.heading.aligned) \
-                else traj.smoothing.unsmoothed_velocity_auto(
+            vz = 0.0 if braking or wait else traj.smoothing.unsmoothed_velocity_auto(
                 pos, prev_wp, target, next_wp, self.waypoints.acceptance_radius_m,
                 nav_sp.vz_cmd_mps)[2]
             if not vz < TAKEOFF_TRIGGER_VZ_MPS:
@@ -156,8 +158,6 @@ class AutoTask(FlightTask):
         # On the ground the smoothing is where reActivate left it, not restarted from the state.
         st.start_flying(t.meas, reset_trajectory=not landed)
         heading = self.heading
-        # MPC_YAW_MODE 4 waits for the heading its last tick left unaligned (_yaw_sp_aligned)
-        wait = self._yaw_mode == 4 and not heading.aligned
         yaw_sp = nav_sp.yaw_rad
         if math.isnan(yaw_sp):  # FlightTaskAuto::_set_heading_from_mode (auto_heading.py)
             home = t.nav.home

@@ -14,18 +14,24 @@ from gateway.onboard.logged_topics import TOPICS
 from gateway.testing import Sim
 
 
+def takeoff_hover_land(sim: Sim) -> None:
+    """Boot, takeoff, 2 s of hover, land and disarm, then 1 s on the ground (a short flight
+    log from boot, SDLOG_MODE 1)."""
+    assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+    api = sim.api(0)
+    assert api.arm() == 0 and api.takeoff() == 0
+    assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=30)
+    sim.advance(2.0)
+    assert api.land() == 0
+    assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
+    sim.advance(1.0)
+
+
 @pytest.fixture(scope="module")
 def flight_log(tmp_path_factory) -> pyulog.ULog:
     log_dir: Path = tmp_path_factory.mktemp("flight-review")
     with Sim(log_dir=log_dir) as sim:
-        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
-        api = sim.api(0)
-        assert api.arm() == 0 and api.takeoff() == 0
-        assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=30)
-        sim.advance(2.0)
-        assert api.land() == 0
-        assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
-        sim.advance(1.0)
+        takeoff_hover_land(sim)
     (path,) = sorted((log_dir / "vehicle-1" / "log").rglob("*.ulg"))
     return pyulog.ULog(str(path))
 

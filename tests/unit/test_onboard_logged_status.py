@@ -14,6 +14,7 @@ import pyulog
 from gateway.ci.lockstep import Sim, mission_item
 from gateway.mavlink.session import LinkKind
 from gateway.onboard import ulog
+from tests.unit.test_onboard_flight_review import takeoff_hover_land
 from vehicles.plan_types import MavCmd, PlanResult
 from vehicles.types import PX4_SITL_HOME
 from vehicles.vehicle_acceleration import lowpass2p
@@ -43,14 +44,7 @@ def takeoff_log(tmp_path_factory) -> pyulog.ULog:
     """Boot, takeoff, hover, land (SDLOG_MODE 1: from boot), on PX4 SITL's two links."""
     log_dir = tmp_path_factory.mktemp("takeoff")
     with Sim(log_dir=log_dir, links=(LinkKind.GCS, LinkKind.API)) as sim:
-        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
-        api = sim.api(0)
-        assert api.arm() == 0 and api.takeoff() == 0
-        assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=30)
-        sim.advance(2.0)
-        assert api.land() == 0
-        assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
-        sim.advance(1.0)
+        takeoff_hover_land(sim)
     return _log(log_dir)
 
 

@@ -290,6 +290,13 @@ def test_land_at_speed_comes_down_where_it_was_commanded():
         sim.close()
 
 
+def goto_east(sim, v, east_m: float) -> None:
+    """DO_REPOSITION ``east_m`` east of the origin at 2.5 m, no heading (param4 NaN)."""
+    g = v.origin.offset_ned(0.0, east_m, 0.0)
+    assert v.goto(sim.t, g.lat_deg, g.lon_deg, v.origin.alt_amsl_m + 2.5) is \
+        CommandResult.ACCEPTED
+
+
 def test_a_goto_without_a_heading_turns_towards_its_target():
     """DO_REPOSITION with param4 NaN (QGC's "go to location"): the navigator gives no yaw and
     FlightTaskAuto::_set_heading_from_mode (MPC_YAW_MODE 0) turns the vehicle towards the target
@@ -298,9 +305,7 @@ def test_a_goto_without_a_heading_turns_towards_its_target():
     try:
         v = sim.v
         take_off(sim)
-        g = v.origin.offset_ned(0.0, 30.0, 0.0)
-        assert v.goto(sim.t, g.lat_deg, g.lon_deg, v.origin.alt_amsl_m + 2.5) is \
-            CommandResult.ACCEPTED
+        goto_east(sim, v, 30.0)
         sim.run(1.0)  # the setpoint slews at 45 deg/s, its rate fed forward (_limitYawRate)
         assert math.degrees(v.state.euler_rad()[2]) == pytest.approx(45.0, abs=4.0)
         sim.run(3.0)
@@ -352,9 +357,7 @@ def test_yaw_mode_4_turns_first_then_goes():
         v = sim.v
         take_off(sim)
         e0 = float(v.state.position_ned_m[1])
-        g = v.origin.offset_ned(0.0, 30.0, 0.0)
-        assert v.goto(sim.t, g.lat_deg, g.lon_deg, v.origin.alt_amsl_m + 2.5) is \
-            CommandResult.ACCEPTED
+        goto_east(sim, v, 30.0)
         sim.run(1.5)  # turning at 45 deg/s: not moving yet
         assert abs(float(v.state.position_ned_m[1]) - e0) < 0.1
         assert sim.run(5.0, until=lambda: v.state.position_ned_m[1] - e0 > 0.5)
@@ -404,9 +407,7 @@ def test_return_heading_is_the_auto_tasks():
     try:
         v = sim.v
         take_off(sim)
-        g = v.origin.offset_ned(0.0, 40.0, 0.0)
-        assert v.goto(sim.t, g.lat_deg, g.lon_deg, v.origin.alt_amsl_m + 2.5) is \
-            CommandResult.ACCEPTED
+        goto_east(sim, v, 40.0)
         assert sim.run(40.0, until=lambda: abs(v.state.position_ned_m[1] - 40.0) < 0.1)
         v.params.set("MPC_YAW_MODE", 2)
         assert v.set_nav_state(sim.t, NavState.AUTO_RTL) is CommandResult.ACCEPTED
