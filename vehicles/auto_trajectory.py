@@ -41,7 +41,6 @@ class AutoTrajectory:
         self._params = params
         self.smoothing = PositionSmoothing()
         self.smoothing.max_allowed_horizontal_error = XY_ERR_MAX_M
-        self._acc: Vec3 = (0.0, 0.0, 0.0)
         self._params_version = -1  # the parameters below are read at the first update
         self._jerk = self._traj_p = self._alt_rad = self._acc_rad = 0.0
         self._xy_vel_max = self._z_vel_max_dn = self._z_vel_max_up = 0.0
@@ -66,9 +65,10 @@ class AutoTrajectory:
         self._z_v_auto_dn = float(p["MPC_Z_V_AUTO_DN"])
         self._z_v_auto_up = float(p["MPC_Z_V_AUTO_UP"])
 
-    def reset(self, position_ned_m: Vec3, velocity_ned_mps: Vec3) -> None:
-        self.smoothing.reset((0.0, 0.0, 0.0), velocity_ned_mps, position_ned_m)
-        self._acc = (0.0, 0.0, 0.0)
+    def reset(self, position_ned_m: Vec3, velocity_ned_mps: Vec3,
+              acceleration_ned_mps2: Vec3 = (0.0, 0.0, 0.0)) -> None:
+        """Restart the smoothing at this state (PositionSmoothing::reset)."""
+        self.smoothing.reset(acceleration_ned_mps2, velocity_ned_mps, position_ned_m)
 
     @property
     def position_ned_m(self) -> Vec3:

@@ -10,7 +10,8 @@ Rules and invariants:
 - ``make_tasks`` returns the table: one entry per ``NavState``, nothing else decides what flies
   (the completeness test checks every state has one).
 - A task is activated when its state is entered (``activate``), then updated every 50 Hz tick
-  (``update``); both get the tick's ``TaskInput``. Tasks write only through the PositionStage.
+  (``update``); both get the tick's ``TaskInput``. Tasks write only through the PositionStage,
+  whose ``task_setpoint`` is the last trajectory setpoint, what the auto task starts from.
 - Tasks that are not the navigator's tell the autopilot so (``uses_navigator``): it then
   deactivates the navigator, as PX4's navigator goes inactive outside the auto modes.
 - Lost stick input reads as centred sticks; disarmed tasks idle the motors.
@@ -50,6 +51,14 @@ TAKEOFF_TRIGGER_M = 0.2
 # FlightTaskAuto::update: an auto task wants a takeoff when its unsmoothed velocity setpoint
 # climbs faster than this (NED, m/s).
 TAKEOFF_TRIGGER_VZ_MPS = -0.3
+_ZERO3: Vec3 = (0.0, 0.0, 0.0)
+
+
+def _finite_or(v: Vec3, fallback: Vec3) -> Vec3:
+    """``v`` with each component that is not finite taken from ``fallback``."""
+    return (v[0] if math.isfinite(v[0]) else fallback[0],
+            v[1] if math.isfinite(v[1]) else fallback[1],
+            v[2] if math.isfinite(v[2]) else fallback[2])
 
 
 class TaskInput(NamedTuple):
@@ -98,14 +107,28 @@ class AutoTask(FlightTask):
         self._yaw_err_rad = 0.0
 
     def activate(self, t: TaskInput) -> None:
-        # FlightTaskAuto::activate, when another task flew the last tick (all the navigator's
-        # states share this one task, as PX4's share FlightTaskAuto: from one to another it is
-        # not activated again): no emergency braking. (Its smoothing reset from the state is
-        # done by the other tasks, which keep the trajectory at the vehicle.)
-        if self.setpoint is None:
-            self.stage.trajectory.emergency_braking = False
-            self.waypoints = AutoWaypoints()
-            self.heading = AutoHeading()
+        # FlightTaskAuto::activate, when another task flew the last tick: all the navigator's
+        # states share this one task, as PX4's share FlightTaskAuto, and from one to another
+        # FlightModeManager::switchTask does not activate it again (the smoothing flies on).
+        if self.setpoint is not None:
+            return
+        st, meas = self.stage, t.meas
+        st.trajectory.emergency_braking = False
+        self.waypoints = AutoWaypoints()
+        self.heading = AutoHeading()
+        # The smoothing restarts from the trajectory setpoint the last task published
+        # (switchTask hands it over: PX4's empty one where no task ran), each component that is
+        # not finite from the vehicle's position and velocity and a zero acceleration; the
+        # heading slews on from its yaw setpoint, else from the vehicle's (_yaw_sp_prev).
+        last = st.task_setpoint
+        if last is None:
+            st.trajectory.reset(meas.position_ned_m, meas.velocity_ned_mps)
+            st.yaw_sp = t.yaw_rad
+            return
+        st.trajectory.reset(_finite_or(last.position_ned_m, meas.position_ned_m),
+                            _finite_or(last.velocity_ned_mps, meas.velocity_ned_mps),
+                            _finite_or(last.acceleration_ned_mps2, _ZERO3))
+        st.yaw_sp = last.yaw_rad if math.isfinite(last.yaw_rad) else t.yaw_rad
 
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
@@ -197,7 +220,9 @@ class OffboardTask(FlightTask):
     def update(self, t: TaskInput) -> None:
         st, meas = self.stage, t.meas
         pos = meas.position_ned_m
-        st.trajectory.reset(pos, meas.velocity_ned_mps)  # leaving offboard brakes from the state
+        # the shared trajectory follows the state (Orbit's and Follow Me's approaches start
+        # there; the auto task from PX4's empty setpoint, the state too)
+        st.trajectory.reset(pos, meas.velocity_ned_mps)
         oc = self.offboard.command(t.now_s, t.yaw_rad) if not t.terminated else None
         if oc is None or not t.armed:
             st.set_idle(meas)
@@ -216,6 +241,9 @@ class OffboardTask(FlightTask):
                 yawspeed = (sp.yaw_rate_radps if math.isnan(sp.yaw_rad)
                             and not math.isnan(sp.yaw_rate_radps) else 0.0)
                 st.apply(t.dt_s, meas, PositionSetpoint(p, v, oc.yaw_rad, a), t.yaw_rad, yawspeed)
+                # no flight task runs in Offboard (FlightModeManager: FlightTaskIndex::None):
+                # the next task gets the empty setpoint
+                st.task_setpoint = None
                 return
             pc = st.position_control
             acc: Vec3 = (0.0 if math.isnan(a[0]) else a[0], 0.0 if math.isnan(a[1]) else a[1],
@@ -346,7 +374,9 @@ class StickPositionTask(FlightTask):
     def update(self, t: TaskInput) -> None:
         st, meas, task = self.stage, t.meas, self.task
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
-        st.trajectory.reset(pos, vel)  # a switch to an auto mode brakes from the real state
+        # the shared trajectory follows the state (Orbit's and Follow Me's approaches start
+        # there; the auto task starts from this task's setpoint, ``task_setpoint``)
+        st.trajectory.reset(pos, vel)
         sticks = self.manual.current(t.now_s) if t.armed else CENTRED
         if not t.armed or (st.land_detector.landed and not task.want_takeoff(sticks)
                            and not st.taking_off):
@@ -356,6 +386,11 @@ class StickPositionTask(FlightTask):
         st.idle, st.flying = False, True
         sp = task.update(t.dt_s, sticks, pos, vel, t.yaw_rad, st.vel_sp)
         st.apply(t.dt_s, meas, sp, t.yaw_rad, task.yawspeed)
+        if not isinstance(task, ManualPosition):
+            # FlightTaskManualAltitude has no horizontal velocity setpoint (the measured one
+            # here only keeps the velocity loop out): the next task takes the vehicle's
+            st.task_setpoint = sp._replace(
+                velocity_ned_mps=(math.nan, math.nan, sp.velocity_ned_mps[2]))
 
 
 class StickAttitudeTask(FlightTask):

@@ -8,8 +8,12 @@ Rules and invariants:
   autopilot turns what it holds (``attitude``, ``rates``, ``reset_rates``) into the inner loop's
   command.
 - ``trajectory`` (the jerk-limited setpoint generator the auto tasks share) restarts from the
-  measured state whenever the vehicle is not flying under it, so a switch brakes from the real
-  state.
+  measured state whenever the vehicle is not flying under it; the auto task restarts it from
+  ``task_setpoint`` when it takes over from another task (FlightTaskAuto::activate).
+- ``task_setpoint``: the trajectory setpoint the running task published last (PX4's
+  FlightTask::getTrajectorySetpoint), what FlightModeManager::switchTask hands the next task's
+  ``activate``; None (PX4's empty setpoint) where PX4 runs no flight task (Offboard,
+  Stabilized, Acro, Manual, Termination) and while the motors idle.
 - Takeoff as PX4's mc_pos_control does it (control/takeoff.py): after arming the motors idle for
   MPC_SPOOLUP_TIME; until a task wants to take off and the ramp starts the controller gets no
   setpoint (zero thrust, integrators held); then the upward speed limit ramps over MPC_TKO_RAMP_T;
@@ -69,6 +73,8 @@ class PositionStage:
         # vehicle_local_position_setpoint thrust[2]); NaN when it did not run this tick.
         self.thrust_z_ned = math.nan
         self.yaw_sp = math.nan  # the auto tasks' slewed heading setpoint
+        # The running task's last trajectory setpoint (None: PX4's empty one), see the rules.
+        self.task_setpoint: PositionSetpoint | None = None
 
     def set_gains(self, gains: PositionControlGains) -> None:
         """New parameters: PX4 rebuilds the controller (its integrator starts at zero)."""
@@ -112,6 +118,10 @@ class PositionStage:
         self.thrust = 0.0
         self.vel_sp_z = 0.0
         self.yaw_sp = math.nan
+        # On the ground FlightModeManager re-activates the task every tick (reActivate), which
+        # leaves the setpoints at the state or NaN but for a zero vertical velocity: as good as
+        # none for the next task (the vehicle is at rest).
+        self.task_setpoint = None
         self.position_control.reset_integral()
         self.reset_rates = True
         self.attitude = AttitudeSetpoint(meas.attitude_q, 0.0)
@@ -173,6 +183,7 @@ class PositionStage:
         thrust vector → attitude (PX4 thrustToAttitude). ``speed_up_mps``: the task's climb
         speed (the takeoff ramp's end; MPC_Z_VEL_MAX_UP when NaN or above it)."""
         pc = self.position_control
+        self.task_setpoint = sp
         task_vz = sp.velocity_ned_mps[2]  # the land detector judges the task's setpoint (PX4)
         no_setpoint, reactivate = self._limits(dt, speed_up_mps)
         if reactivate:
@@ -210,12 +221,16 @@ class PositionStage:
         s = traj.smoothing
         s.set_auto_input(meas.position_ned_m, previous_ned_m, target_ned_m, next_ned_m, None)
         yaw_sp = yaw if no_setpoint or math.isnan(self.yaw_sp) else self.yaw_sp
-        _, v_sp, _, q, thrust, vel_sp, acc_sp = pc.update_attitude_auto(
+        p_sp, v_sp, a_sp, q, thrust, vel_sp, acc_sp = pc.update_attitude_auto(
             s, dt, previous_ned_m is not None, next_ned_m is not None,
             traj.acceptance_radius(acceptance_radius_m), vz_cmd_mps, meas.velocity_ned_mps,
             meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate, braking or hold)
-        if reactivate:  # FlightTaskAuto::reActivate → activate: no emergency braking
+        self.task_setpoint = PositionSetpoint(p_sp, v_sp, self.yaw_sp, a_sp)
+        if reactivate:
+            # FlightTaskAuto::reActivate → activate with no last setpoint: no emergency braking,
+            # the setpoints are the state's
             traj.emergency_braking = False
+            self.task_setpoint = None
         # the heading rate feed-forward (FlightTaskAuto::_limitYawRate), none on the ground
         self._output(v_sp[2], q, thrust, vel_sp, acc_sp, 0.0 if no_setpoint else yawspeed)
 
@@ -240,6 +255,7 @@ class PositionStage:
         self._takeoff_state(False, skip=True)
         self.idle = False
         self.flying = flying
+        self.task_setpoint = None  # PX4 runs no flight task in these modes
         self.vel_sp_z = math.nan
         self.attitude = attitude
         self.rates = rates
