@@ -26,9 +26,15 @@ Rules and invariants:
   jump outside the mission, an exhausted jump at the end) the mission finishes at the item flown
   last; only a finish at the last item resets the jumps.
 - An index set as it is (MISSION_SET_CURRENT, an upload's current item, the restart at 0) is
-  loaded as it is (loadCurrentMissionItem): a DO_JUMP there becomes the current item. It has no
-  position setpoint (the vehicle holds, or stays on the ground) and is never reached, as PX4
-  measures it as a waypoint at its unset position (0°, 0°); only a new current item ends it.
+  loaded as it is (loadCurrentMissionItem): a DO_JUMP there becomes the current item. It is never
+  reached, as PX4 measures it as a waypoint at its unset position (0°, 0°); only a new current
+  item ends it.
+- Items without a position (NAV_DELAY, a DO_JUMP loaded as it is) leave PX4's position setpoint
+  triplet as it was (mission.cpp setActiveMissionItems): the vehicle flies on to the last item's
+  setpoint. The triplet is reset on activation and on a new current index or mission while
+  active (navigator_main.cpp, set_current_mission_index, onMissionUpdate); without one
+  FlightTaskAuto holds at the vehicle's position (_kept_setpoint). A hold time (param1) keeps the
+  waypoint's own triplet.
 - Yaw: param4 (deg) when given, else none: the auto task turns towards its target while that is
   farther than the acceptance radius and holds the heading closer (MPC_YAW_MODE 0).
 """
@@ -90,7 +96,7 @@ class Mission(NavMode):
         self._history: deque[int] = deque(maxlen=REACHED_HISTORY)
         self._reached_any = False
         self._jumps_done = JumpCounts()
-        self._phase = "start"  # start | takeoff | goto | wait | approach | land | jump | done
+        self._phase = "start"  # start | takeoff | goto | wait | delay | approach | land | jump | done
         self._resolve_jump = False  # the current index came from goToItem (MISSION_START)
         self._target: Vec3 = (0.0, 0.0, 0.0)
         self._yaw = 0.0
@@ -101,6 +107,8 @@ class Mission(NavMode):
         self._previous: Vec3 | None = None  # the triplet around a goto (PX4 position_setpoint)
         self._next: Vec3 | None = None
         self._came_from: Vec3 | None = None  # the waypoint just reached (the next previous)
+        # PX4's position setpoint triplet as the mission last set it; None: reset
+        self._triplet: NavSetpoint | None = None
         self._climb = MissionClimb()  # the climb work item before the first position item
         self._running = False  # active: in Mission mode and armed (PX4 isActive())
         self._has_run = False  # PX4 _mission_has_been_activated
@@ -142,6 +150,7 @@ class Mission(NavMode):
         self._jumps_done.clear()
         self._phase = "start"
         self._resolve_jump = False
+        self._triplet = None  # onMissionUpdate: reset_triplets
 
     @property
     def last_jump(self) -> tuple[int, int]:
@@ -167,6 +176,7 @@ class Mission(NavMode):
         self._resolve_jump = resolve_jump
         self._revive()
         self._phase = "start"
+        self._triplet = None  # set_current_mission_index: reset_triplets
         self.reached_resets += self._running  # onMissionUpdate → update_mission while active
         if self._running:
             self.seq_reached = -1
@@ -234,6 +244,7 @@ class Mission(NavMode):
             ctx.set_cruise_mps(math.nan)
         self._running = self._has_run = True
         self.disarmed_while_inactive = False
+        self._triplet = None  # navigator_main.cpp: a new navigation mode resets the triplet
         self.check.force()  # Mission::on_activation: check_mission_valid(true)
         self._reset_reached()  # update_mission
         self._yaw = ctx.yaw_rad
@@ -270,9 +281,10 @@ class Mission(NavMode):
             return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
         if self._phase == "start":
             self._start_item(ctx)
-        if self._phase in ("done", "jump"):
-            return self._hold(ctx)
-        return self._run_phase(ctx)
+        sp = self._run_phase(ctx)
+        if self._phase not in ("delay", "jump"):
+            self._triplet = sp
+        return sp
 
     # --- item handling ------------------------------------------------------------------------
     def _start_item(self, ctx: NavContext) -> None:
@@ -286,8 +298,7 @@ class Mission(NavMode):
             cmd = item.command
             if cmd == MavCmd.DO_JUMP and not resolve:  # loaded as it is
                 look_ahead(ctx.log, ctx.now_s, items, self.current + 1, self._jumps_done)
-                self._target = ctx.position_ned_m if ctx.landed else ctx.stopping_point_ned_m
-                self._phase = "jump"
+                self._phase = "jump"  # no setpoint of its own (_kept_setpoint)
                 return
             if cmd == MavCmd.DO_JUMP:  # MISSION_START on a DO_JUMP: goToItem resolves it
                 index = non_jump_index(ctx.log, ctx.now_s, self.items, self.current,
@@ -313,10 +324,10 @@ class Mission(NavMode):
                 self._phase = "approach"
                 return
             if cmd in DELAY_COMMANDS and item.param1 > 0:
-                self._target = ctx.position_ned_m if ctx.landed else ctx.stopping_point_ned_m
+                # no setpoint of its own (_kept_setpoint); the delay runs from now
+                # (is_mission_item_reached_or_completed: NAV_CMD_DELAY is "reached" at once)
                 self._wait_until = ctx.now_s + item.param1
-                self._fixed_yaw = math.nan
-                self._phase = "wait"
+                self._phase = "delay"
                 return
             if cmd == MavCmd.NAV_RETURN_TO_LAUNCH:
                 self._reached(self.current)
@@ -370,6 +381,8 @@ class Mission(NavMode):
         yaw = item.param4 if item.command in (MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME) else math.nan
         self._fixed_yaw = math.radians(yaw) if math.isfinite(yaw) else math.nan
         self._phase = "goto"
+        self._yaw = self._fixed_yaw
+        self._triplet = self._goto_setpoint(ctx)  # set now, before this tick's reached check
 
     def _goto_setpoint(self, ctx: NavContext) -> NavSetpoint:
         return NavSetpoint(self._target, self._yaw, ctx.limits(), previous_ned_m=self._previous,
@@ -381,8 +394,10 @@ class Mission(NavMode):
         x, y, z = ctx.position_ned_m
         tx, ty, tz = self._target
         alt_rad = float(p["NAV_MC_ALT_RAD"])
-        if self._phase in ("done", "jump"):
+        if self._phase == "done":
             return self._hold(ctx)
+        if self._phase == "jump":
+            return self._kept_setpoint(ctx)
         if self._phase == "takeoff":
             climb = self._climb.setpoint(ctx)
             if climb is not None:
@@ -413,11 +428,11 @@ class Mission(NavMode):
                     return self._advance(ctx)
             else:
                 return self._goto_setpoint(ctx)
-        if self._phase == "wait":
+        if self._phase in ("wait", "delay"):
             if ctx.now_s >= self._wait_until:
                 return self._advance(ctx)
-            return NavSetpoint(self._target, self._yaw, ctx.limits(),
-                               loiter=self._loiter_target is self._target)
+            # the waypoint's hold time: its own triplet, unchanged while the time runs
+            return self._goto_setpoint(ctx) if self._phase == "wait" else self._kept_setpoint(ctx)
         if self._phase == "approach":
             if math.hypot(tx - x, ty - y) < float(p["NAV_ACC_RAD"]) / 2 or ctx.landed:
                 self._phase = "land"
@@ -442,9 +457,25 @@ class Mission(NavMode):
             return self._hold(ctx)
         self._phase = "start"
         self._start_item(ctx)
-        if self._phase in ("goto", "approach", "wait", "takeoff"):
+        if self._phase in ("goto", "approach", "wait", "delay", "takeoff", "jump"):
             return self._run_phase(ctx)
         return self._hold(ctx)
+
+    def _kept_setpoint(self, ctx: NavContext) -> NavSetpoint:
+        """An item without a position (NAV_DELAY, a DO_JUMP loaded as it is): the triplet the
+        mission set last, as it was (mission.cpp setActiveMissionItems sets none: the vehicle
+        flies on to it; a landing's descent speed follows the height, as FlightTaskAuto's
+        does). Reset (None) or on the ground: FlightTaskAuto::_evaluateTriplets without a valid
+        current setpoint, its waypoints at the vehicle's position and its heading at the
+        vehicle's yaw, every update (no loiter setpoint for Hold to keep: it is not valid)."""
+        sp = self._triplet
+        if sp is None or ctx.landed:
+            self._target, self._loiter_target = ctx.position_ned_m, None
+            return NavSetpoint(self._target, ctx.yaw_rad, ctx.limits(), idle=ctx.landed)
+        if sp.landing:
+            speed = land_speed_mps(ctx.params, -ctx.position_ned_m[2])
+            return sp._replace(limits=ctx.limits(speed_down_mps=speed), vz_cmd_mps=speed)
+        return sp
 
     def _hold(self, ctx: NavContext) -> NavSetpoint:
         # the end of the mission is a loiter item (setEndOfMissionItems)
