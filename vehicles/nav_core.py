@@ -47,6 +47,9 @@ class NavSetpoint(NamedTuple):
     next_ned_m: Vec3 | None = None
     acceptance_radius_m: float = math.nan
     loiter: bool = False  # a loiter setpoint (SETPOINT_TYPE_LOITER: Hold's, a loiter item's)
+    # its loiter radius (position_setpoint_s loiter_radius: a loiter item's own; NaN:
+    # NAV_LOITER_RAD, mission_item_to_position_setpoint's default)
+    loiter_radius_m: float = math.nan
 
 
 @dataclass

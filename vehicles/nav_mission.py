@@ -65,7 +65,7 @@ from vehicles.plan_types import (
     PlanItem,
     PlanType,
 )
-from vehicles.plans import PlanStore, item_ned
+from vehicles.plans import PlanStore, item_loiter_radius_m, item_ned
 from vehicles.types import Changes, NavState, Vec3
 
 # Items that move the vehicle (the rest is executed instantly).
@@ -104,11 +104,11 @@ class Mission(NavMode):
         self._wait_until = 0.0
         self._acc_rad = 2.0
         self._loiter_target: Vec3 | None = None  # a loiter item's setpoint, while it is the target
+        self._loiter_radius = math.nan  # its loiter radius (NaN: NAV_LOITER_RAD)
         self._previous: Vec3 | None = None  # the triplet around a goto (PX4 position_setpoint)
         self._next: Vec3 | None = None
         self._came_from: Vec3 | None = None  # the waypoint just reached (the next previous)
-        # PX4's position setpoint triplet as the mission last set it; None: reset
-        self._triplet: NavSetpoint | None = None
+        self._triplet: NavSetpoint | None = None  # PX4's triplet as set last; None: reset
         self._climb = MissionClimb()  # the climb work item before the first position item
         self._running = False  # active: in Mission mode and armed (PX4 isActive())
         self._has_run = False  # PX4 _mission_has_been_activated
@@ -324,8 +324,7 @@ class Mission(NavMode):
                 self._phase = "approach"
                 return
             if cmd in DELAY_COMMANDS and item.param1 > 0:
-                # no setpoint of its own (_kept_setpoint); the delay runs from now
-                # (is_mission_item_reached_or_completed: NAV_CMD_DELAY is "reached" at once)
+                # no setpoint of its own (_kept_setpoint); NAV_CMD_DELAY is "reached" at once
                 self._wait_until = ctx.now_s + item.param1
                 self._phase = "delay"
                 return
@@ -373,6 +372,7 @@ class Mission(NavMode):
         self._target = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
         # mission_item_to_position_setpoint: the loiter items' setpoints are SETPOINT_TYPE_LOITER
         self._loiter_target = self._target if item.command != MavCmd.NAV_WAYPOINT else None
+        self._loiter_radius = item_loiter_radius_m(item)
         acc = item.param2 if item.command == MavCmd.NAV_WAYPOINT else 0.0
         self._acc_rad = acc if acc > 0 else float(ctx.params["NAV_ACC_RAD"])
         later = fly_through_next(self.items, self.current)  # the triplet's next, if any
@@ -387,7 +387,8 @@ class Mission(NavMode):
     def _goto_setpoint(self, ctx: NavContext) -> NavSetpoint:
         return NavSetpoint(self._target, self._yaw, ctx.limits(), previous_ned_m=self._previous,
                            next_ned_m=self._next, acceptance_radius_m=self._acc_rad,
-                           loiter=self._loiter_target is self._target)
+                           loiter=self._loiter_target is self._target,
+                           loiter_radius_m=self._loiter_radius)
 
     def _run_phase(self, ctx: NavContext) -> NavSetpoint:
         p = ctx.params
@@ -417,7 +418,8 @@ class Mission(NavMode):
                 if item.command == MavCmd.NAV_LOITER_UNLIM:
                     # is_mission_item_reached_or_completed: never for LOITER_UNLIMITED, so no
                     # MISSION_ITEM_REACHED either; only a new current item ends it.
-                    return NavSetpoint(self._target, self._yaw, ctx.limits(), loiter=True)
+                    return NavSetpoint(self._target, self._yaw, ctx.limits(), loiter=True,
+                                       loiter_radius_m=self._loiter_radius)
                 hold = item.param1 if item.command in (MavCmd.NAV_WAYPOINT,
                                                        MavCmd.NAV_LOITER_TIME) else 0.0
                 if hold > 0:
@@ -462,12 +464,10 @@ class Mission(NavMode):
         return self._hold(ctx)
 
     def _kept_setpoint(self, ctx: NavContext) -> NavSetpoint:
-        """An item without a position (NAV_DELAY, a DO_JUMP loaded as it is): the triplet the
-        mission set last, as it was (mission.cpp setActiveMissionItems sets none: the vehicle
-        flies on to it; a landing's descent speed follows the height, as FlightTaskAuto's
-        does). Reset (None) or on the ground: FlightTaskAuto::_evaluateTriplets without a valid
-        current setpoint, its waypoints at the vehicle's position and its heading at the
-        vehicle's yaw, every update (no loiter setpoint for Hold to keep: it is not valid)."""
+        """An item without a position (NAV_DELAY, a DO_JUMP loaded as it is): the triplet set
+        last, as it was (setActiveMissionItems sets none; a landing's descent speed follows the
+        height). Reset or on the ground: FlightTaskAuto::_evaluateTriplets without a valid
+        setpoint, at the vehicle's position and yaw every update (not a loiter setpoint)."""
         sp = self._triplet
         if sp is None or ctx.landed:
             self._target, self._loiter_target = ctx.position_ned_m, None
@@ -479,8 +479,10 @@ class Mission(NavMode):
 
     def _hold(self, ctx: NavContext) -> NavSetpoint:
         # the end of the mission is a loiter item (setEndOfMissionItems)
+        kept = self._loiter_target is self._target  # setLoiterItemFromCurrentPositionSetpoint
         return NavSetpoint(self._target, self._yaw, ctx.limits(), idle=ctx.landed,
-                           loiter=self.finished)
+                           loiter=self.finished,
+                           loiter_radius_m=self._loiter_radius if kept else math.nan)
 
     def _finish(self, ctx: NavContext) -> None:
         self.finished = True

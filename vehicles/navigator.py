@@ -112,16 +112,20 @@ class Navigator:
 
     def _loiter_on(self, ctx: NavContext) -> None:
         """Loiter::set_loiter_position: a vehicle on a loiter setpoint (a loiter item's, the end
-        of a mission, Hold's own) within its loiter radius (NAV_LOITER_RAD) and the acceptance
-        radius holds that setpoint, its heading too (setLoiterItemFromCurrentPositionSetpoint),
-        instead of braking where it is."""
+        of a mission, Hold's own) within NAV_ACC_RAD (get_acceptance_radius) plus that
+        setpoint's own loiter radius (a loiter item's param, else NAV_LOITER_RAD) holds that
+        setpoint, its heading too (setLoiterItemFromCurrentPositionSetpoint), instead of braking
+        where it is."""
         hold, last = self.hold, self._last
         if hold.reposition is not None or hold.hint is not None or last is None \
                 or not last.loiter or last.idle or ctx.landed:
             return
         (tx, ty, _), (x, y, _) = last.target_ned_m, ctx.position_ned_m
         p = ctx.params
-        if math.hypot(tx - x, ty - y) <= float(p["NAV_ACC_RAD"]) + float(p["NAV_LOITER_RAD"]):
+        radius = last.loiter_radius_m
+        if not math.isfinite(radius):
+            radius = float(p["NAV_LOITER_RAD"])
+        if math.hypot(tx - x, ty - y) <= float(p["NAV_ACC_RAD"]) + radius:
             hold.hint, hold.hint_yaw = last.target_ned_m, last.yaw_rad
 
     def publish_rtl_estimate(self, ctx: NavContext, position_valid: bool) -> None:

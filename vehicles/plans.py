@@ -37,6 +37,7 @@ from vehicles.types import GeoPoint
 GLOBAL_FRAMES = frozenset({MavFrame.GLOBAL, MavFrame.GLOBAL_RELATIVE_ALT, MavFrame.GLOBAL_INT,
                            MavFrame.GLOBAL_RELATIVE_ALT_INT})
 RELATIVE_FRAMES = frozenset({MavFrame.GLOBAL_RELATIVE_ALT, MavFrame.GLOBAL_RELATIVE_ALT_INT})
+NAV_EPSILON_POSITION_M = 0.001  # navigation.h: anything smaller is zero
 
 # Mission commands PX4 accepts with a position (mavlink_mission.cpp, global-frame branch).
 POSITIONAL_COMMANDS = frozenset({
@@ -172,6 +173,14 @@ def item_geo(item: PlanItem, home_alt_amsl_m: float) -> GeoPoint:
 def item_ned(item: PlanItem, origin: GeoPoint, home_alt_amsl_m: float) -> tuple[float, float, float]:
     """The item's position in the local NED frame of ``origin``."""
     return origin.ned_of(item_geo(item, home_alt_amsl_m))
+
+
+def item_loiter_radius_m(item: PlanItem) -> float:
+    """The loiter radius of the item's position setpoint, NaN for NAV_LOITER_RAD: param2 of a
+    LOITER_TO_ALT, param3 of the others (mavlink_mission.cpp), its size, none when about zero
+    (mission_item_to_position_setpoint, NAV_EPSILON_POSITION)."""
+    radius = abs(item.param2 if item.command == MavCmd.NAV_LOITER_TO_ALT else item.param3)
+    return radius if radius > NAV_EPSILON_POSITION_M else math.nan
 
 
 class PlanStore:

@@ -370,7 +370,8 @@ def test_yaw_mode_4_turns_first_then_goes():
 @pytest.mark.parametrize("loiter_item", [True, False])
 def test_hold_on_the_way_to_a_loiter_item_keeps_flying_to_it(loiter_item):
     """Loiter::set_loiter_position: when the current setpoint is a loiter setpoint (a
-    LOITER_TIME item's) within NAV_LOITER_RAD + NAV_ACC_RAD, Hold keeps it
+    LOITER_TIME item's, without a radius of its own: NAV_LOITER_RAD) within its loiter radius
+    + NAV_ACC_RAD, Hold keeps it
     (setLoiterItemFromCurrentPositionSetpoint) rather than braking where the vehicle is; a
     waypoint's is a position setpoint and Hold brakes."""
     from tests.unit.test_vehicles_mission import item
@@ -396,6 +397,36 @@ def test_hold_on_the_way_to_a_loiter_item_keeps_flying_to_it(loiter_item):
         else:
             stop = n0 + speed * (speed / (2.0 * float(v.params["MPC_ACC_HOR"])) + 0.6)
             assert n == pytest.approx(stop, abs=0.3)
+    finally:
+        sim.close()
+
+
+def test_hold_keeps_a_loiter_item_only_within_its_own_loiter_radius():
+    """Loiter::set_loiter_position measures the vehicle against NAV_ACC_RAD plus the current
+    setpoint's own loiter_radius: a LOITER_TIME item's param3 (mavlink_mission.cpp) when not
+    about zero (mission_item_to_position_setpoint), not NAV_LOITER_RAD. 35 m short of an item
+    with a 5 m radius the vehicle is not on it: Hold brakes."""
+    import dataclasses
+
+    from tests.unit.test_vehicles_mission import item
+    from vehicles.plan_types import MavCmd
+
+    sim = Sim()
+    try:
+        v = sim.v
+        sim.run(1.2)
+        loiter = dataclasses.replace(item(1, MavCmd.NAV_LOITER_TIME, 70.0, 0.0, 10.0, v.origin,
+                                          p1=5.0), param3=5.0)
+        v.set_plan(sim.t, PlanType.MISSION, [
+            item(0, MavCmd.NAV_WAYPOINT, 10.0, 0.0, 10.0, v.origin), loiter])
+        assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+        assert sim.run(90.0, until=lambda: v.state.position_ned_m[0] > 35.0)
+        n0, speed = float(v.state.position_ned_m[0]), float(v.state.velocity_ned_mps[0])
+        assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+        sim.run(2.0)
+        assert sim.run(30.0, until=lambda: math.hypot(*v.state.velocity_ned_mps) < 0.02)
+        stop = n0 + speed * (speed / (2.0 * float(v.params["MPC_ACC_HOR"])) + 0.6)
+        assert float(v.state.position_ned_m[0]) == pytest.approx(stop, abs=0.3)
     finally:
         sim.close()
 
