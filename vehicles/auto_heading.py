@@ -13,8 +13,9 @@ Rules and invariants:
   across the auto modes); a new auto task (``AutoHeading()``) starts unlocked.
 - MPC_YAW_MODE 0 and 4 point at the target, 1 at home, 2 away from home (without a home the
   vector is zero: the heading locks); 3 (or another value) gives none, and then the heading
-  follows the smoothing's velocity setpoint (faster than 0.1 m/s, more than 2 m from the target;
-  the last tick's setpoint here, PX4's this tick's), else stays.
+  follows the smoothing's velocity setpoint (faster than 0.1 m/s, more than 2 m from the target:
+  this tick's, the auto task asks after the smoothing as FlightTaskAuto::update does), else
+  stays.
 - MPC_YAW_MODE 4 holds the trajectory (zero velocity setpoint) while the last tick's slewed
   heading is more than MIS_YAW_ERR from its target or turning at the full rate.
 """
@@ -49,6 +50,12 @@ class AutoHeading:
         self.locked = False  # FlightTaskAuto's _yaw_lock
         self.aligned = True  # _yaw_sp_aligned, of the last tick
         self._yawspeed_ff = 0.0  # _yawspeed_filter's state
+
+    @staticmethod
+    def along_trajectory(mode: int) -> bool:
+        """The mode gives no vector (3, or another value): the heading follows the trajectory's
+        velocity setpoint (_set_heading_from_mode leaves it to _generateHeadingAlongTraj)."""
+        return mode not in (0, 1, 2, 4)
 
     def setpoint(self, mode: int, position_ned_m: Vec3, target_ned_m: Vec3,
                  home_ned_m: Vec3 | None, acceptance_radius_m: float, yaw_rad: float,

@@ -182,18 +182,32 @@ class AutoTask(FlightTask):
         st.start_flying(t.meas, reset_trajectory=not landed)
         heading = self.heading
         yaw_sp = nav_sp.yaw_rad
+        home = t.nav.home
+        home_ned = home.position_ned_m if home is not None else None
+        acc_rad = self.waypoints.acceptance_radius_m
+        if math.isnan(yaw_sp) and heading.along_trajectory(self._yaw_mode):
+            # FlightTaskAuto::update: _generateHeadingAlongTraj on this tick's smoothed
+            # velocity setpoint, after the smoothing and before position control
+            last_sp = st.yaw_sp
+
+            def along(velocity_sp: Vec3) -> tuple[float, float]:
+                sp = heading.setpoint(self._yaw_mode, pos, target, home_ned, acc_rad, t.yaw_rad,
+                                      last_sp, velocity_sp)
+                return heading.limit(sp, last_sp, t.dt_s, self._yawrate_max_radps,
+                                     self._yaw_err_rad)
+
+            st.apply_auto(t.dt_s, t.meas, target, nav_sp.limits, nav_sp.vz_cmd_mps, prev_wp,
+                          next_wp, acc_rad, t.yaw_rad, hold=wait, heading_of=along)
+            return
         if math.isnan(yaw_sp):  # FlightTaskAuto::_set_heading_from_mode (auto_heading.py)
-            home = t.nav.home
-            yaw_sp = heading.setpoint(
-                self._yaw_mode, pos, target, home.position_ned_m if home is not None else None,
-                self.waypoints.acceptance_radius_m, t.yaw_rad, st.yaw_sp,
-                traj.smoothing.velocity)
+            yaw_sp = heading.setpoint(self._yaw_mode, pos, target, home_ned, acc_rad, t.yaw_rad,
+                                      st.yaw_sp, traj.smoothing.velocity)
         st.yaw_sp, yawspeed = heading.limit(yaw_sp, st.yaw_sp, t.dt_s, self._yawrate_max_radps,
                                             self._yaw_err_rad)
         # The trajectory towards the triplet, then position control on it at the slewed
         # heading (one compiled call).
         st.apply_auto(t.dt_s, t.meas, target, nav_sp.limits, nav_sp.vz_cmd_mps, prev_wp,
-                      next_wp, self.waypoints.acceptance_radius_m, t.yaw_rad, yawspeed, wait)
+                      next_wp, acc_rad, t.yaw_rad, yawspeed, wait)
 
     def _idle(self, t: TaskInput) -> None:
         """No takeoff (disarmed, the navigator idles, or landed without a climb to fly): the

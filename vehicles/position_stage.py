@@ -27,6 +27,7 @@ Rules and invariants:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 from vehicles.auto_trajectory import AutoTrajectory
 from vehicles.control.attitude_control import AttitudeSetpoint
@@ -202,12 +203,16 @@ class PositionStage:
     def apply_auto(self, dt: float, meas: Measurement, target_ned_m: Vec3,
                    lim: TrajectoryLimits, vz_cmd_mps: float, previous_ned_m: Vec3 | None,
                    next_ned_m: Vec3 | None, acceptance_radius_m: float, yaw: float,
-                   yawspeed: float = 0.0, hold: bool = False) -> None:
+                   yawspeed: float = 0.0, hold: bool = False,
+                   heading_of: Callable[[Vec3], tuple[float, float]] | None = None) -> None:
         """The auto tasks' ``trajectory.update`` towards the navigator's triplet (the vehicle's
         position for the lag stretch and the vertical-speed altitude) and then ``apply`` on its
         setpoint at the heading ``yaw_sp`` and the limits' climb speed, in one compiled call
         (position_control.auto_position_attitude_step). ``hold``: a zero velocity setpoint
-        (force_zero_velocity_setpoint: MPC_YAW_MODE 4 waiting for the heading)."""
+        (force_zero_velocity_setpoint: MPC_YAW_MODE 4 waiting for the heading). ``heading_of``:
+        the heading comes from this tick's trajectory (FlightTaskAuto::update computes
+        _generateHeadingAlongTraj after the smoothing): given the velocity setpoint it returns
+        (``yaw_sp``, ``yawspeed``), between the trajectory and position control (two calls)."""
         traj, pc = self.trajectory, self.position_control
         traj.set_up(lim)
         # FlightTaskAuto::_updateTrajConstraints: the controller's climb constraint is at least
@@ -220,11 +225,23 @@ class PositionStage:
         braking = traj.emergency_braking
         s = traj.smoothing
         s.set_auto_input(meas.position_ned_m, previous_ned_m, target_ned_m, next_ned_m, None)
-        yaw_sp = yaw if no_setpoint or math.isnan(self.yaw_sp) else self.yaw_sp
-        p_sp, v_sp, a_sp, q, thrust, vel_sp, acc_sp = pc.update_attitude_auto(
-            s, dt, previous_ned_m is not None, next_ned_m is not None,
-            traj.acceptance_radius(acceptance_radius_m), vz_cmd_mps, meas.velocity_ned_mps,
-            meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate, braking or hold)
+        if heading_of is not None:
+            smoothed = pc.trajectory_auto(s, dt, previous_ned_m is not None,
+                                          next_ned_m is not None,
+                                          traj.acceptance_radius(acceptance_radius_m),
+                                          vz_cmd_mps, braking or hold)
+            p_sp, v_sp, a_sp = smoothed
+            self.yaw_sp, yawspeed = heading_of(v_sp)
+            yaw_sp = yaw if no_setpoint or math.isnan(self.yaw_sp) else self.yaw_sp
+            q, thrust, vel_sp, acc_sp = pc.attitude_auto(
+                s, dt, smoothed, meas.velocity_ned_mps, meas.accel_ned_mps2, yaw_sp,
+                no_setpoint, reactivate)
+        else:
+            yaw_sp = yaw if no_setpoint or math.isnan(self.yaw_sp) else self.yaw_sp
+            p_sp, v_sp, a_sp, q, thrust, vel_sp, acc_sp = pc.update_attitude_auto(
+                s, dt, previous_ned_m is not None, next_ned_m is not None,
+                traj.acceptance_radius(acceptance_radius_m), vz_cmd_mps, meas.velocity_ned_mps,
+                meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate, braking or hold)
         self.task_setpoint = PositionSetpoint(p_sp, v_sp, self.yaw_sp, a_sp)
         if reactivate:
             # FlightTaskAuto::reActivate → activate with no last setpoint: no emergency braking,

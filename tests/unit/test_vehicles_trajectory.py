@@ -348,6 +348,35 @@ def test_auto_heading_points_at_the_target_and_locks_within_the_radius():
     assert sp == pytest.approx(1.0) and h.aligned and abs(rate) < 1e-3
 
 
+def test_yaw_mode_3_heads_along_this_ticks_velocity_setpoint():
+    """MPC_YAW_MODE 3: FlightTaskAuto::update runs _generateHeadingAlongTraj after the position
+    smoothing, on the velocity setpoint it has just generated: at a yaw rate limit that does not
+    bind, every tick's heading setpoint is the direction of that tick's smoothed velocity."""
+    from vehicles.auto_heading import heading_from_vector
+
+    sim = Sim(MPC_YAW_MODE=3, MPC_YAWRAUTO_MAX=360.0)
+    try:
+        v = sim.v
+        take_off(sim)
+        goto_east(sim, v, 30.0)
+        sim.run(2.0)
+        g = v.origin.offset_ned(20.0, 30.0, 0.0)  # turns north-east while flying east
+        assert v.goto(sim.t, g.lat_deg, g.lon_deg, v.origin.alt_amsl_m + 2.5) is \
+            CommandResult.ACCEPTED
+        stage, checked, turned = v.autopilot.stage, 0, []
+        for _ in range(1500):  # 6 s of physics steps, the 50 Hz tick among them
+            sim.run(sim.world.dt_s)
+            vel = stage.trajectory.smoothing.velocity
+            if math.hypot(vel[0], vel[1]) > 0.5:
+                along = heading_from_vector(vel[0], vel[1])
+                assert abs(math.remainder(stage.yaw_sp - along, math.tau)) < 1e-6
+                checked += 1
+                turned.append(along)
+        assert checked > 1000 and max(turned) - min(turned) > 0.5  # through the turn
+    finally:
+        sim.close()
+
+
 def test_yaw_mode_4_turns_first_then_goes():
     """MPC_YAW_MODE 4: FlightTaskAuto holds the trajectory (force_zero_velocity_setpoint) until
     the heading setpoint is within MIS_YAW_ERR of the way to the target and no longer turning

@@ -228,6 +228,25 @@ def auto_position_attitude_step(traj, cfg, traj_inp, traj_out, dt_s, has_previou
     p_sp, v_sp, a_sp = generate_auto_step(traj, cfg, traj_inp, dt_s, True, has_previous,
                                           has_next, acceptance_radius, vz_cmd, pos[2], traj_out,
                                           force_zero)
+    q, thrust_norm, vel_sp, acc_sp = _auto_attitude(traj, dt_s, pos, p_sp, v_sp, a_sp, vel,
+                                                    acc_meas, gains, integ, yaw_rad, no_setpoint,
+                                                    reactivate)
+    return p_sp, v_sp, a_sp, q, thrust_norm, vel_sp, acc_sp
+
+
+@njit_cached
+def auto_attitude_step(traj, dt_s, pos, p_sp, v_sp, a_sp, vel, acc_meas, gains, integ, yaw_rad,
+                       no_setpoint, reactivate):  # pragma: no cover - compiled
+    """``auto_position_attitude_step``'s part after the trajectory, on the trajectory's
+    setpoint (``p_sp``, ``v_sp``, ``a_sp``) the vehicle at ``pos``: (attitude, collective
+    thrust, velocity setpoint, acceleration setpoint)."""
+    return _auto_attitude(traj, dt_s, pos, p_sp, v_sp, a_sp, vel, acc_meas, gains, integ,
+                          yaw_rad, no_setpoint, reactivate)
+
+
+@register_jitable
+def _auto_attitude(traj, dt_s, pos, p_sp, v_sp, a_sp, vel, acc_meas, gains, integ, yaw_rad,
+                   no_setpoint, reactivate):
     sp_pos, sp_vel, sp_acc = p_sp, v_sp, a_sp
     if reactivate:  # PositionSmoothing.reset((0, 0, 0), REACTIVATE_VEL, pos)
         for i, x, v in ((0, pos[0], REACTIVATE_VEL[0]), (1, pos[1], REACTIVATE_VEL[1]),
@@ -243,7 +262,7 @@ def auto_position_attitude_step(traj, cfg, traj_inp, traj_out, dt_s, has_previou
     q, thrust_norm = thrust_to_attitude_q(thrust, yaw_rad)
     if no_setpoint:
         integ[:] = 0.0
-    return p_sp, v_sp, a_sp, q, thrust_norm, vel_sp, acc_sp
+    return q, thrust_norm, vel_sp, acc_sp
 
 
 @register_jitable
@@ -427,6 +446,32 @@ class PositionControl:
             _vec3(velocity_ned_mps), _vec3(acceleration_ned_mps2), self._gains, self._vel_int,
             float(yaw_rad), no_setpoint, reactivate, force_zero_velocity)
 
+    def trajectory_auto(self, smoothing: PositionSmoothing, dt_s: float, has_previous: bool,
+                        has_next: bool, acceptance_radius_m: float, vz_cmd_mps: float,
+                        force_zero_velocity: bool = False) -> tuple[Vec3, Vec3, Vec3]:
+        """``update_attitude_auto`` in two calls, this the first: the trajectory (position,
+        velocity, acceleration), the vehicle's position ``smoothing.inp``'s first row."""
+        inp = smoothing.inp
+        return generate_auto_step(smoothing.axes, smoothing.cfg, inp, float(dt_s), True,
+                                  has_previous, has_next, float(acceptance_radius_m),
+                                  float(vz_cmd_mps), float(inp[2]), smoothing.out,
+                                  force_zero_velocity)
+
+    def attitude_auto(self, smoothing: PositionSmoothing, dt_s: float,
+                      trajectory: tuple[Vec3, Vec3, Vec3], velocity_ned_mps: Vec3,
+                      acceleration_ned_mps2: Vec3, yaw_rad: float, no_setpoint: bool,
+                      reactivate: bool) -> tuple[Quat, float, Vec3, Vec3]:
+        """The second: position control on ``trajectory_auto``'s setpoint at heading
+        ``yaw_rad`` (``auto_attitude_step``): (attitude, collective thrust, velocity setpoint,
+        acceleration setpoint)."""
+        inp = smoothing.inp
+        p_sp, v_sp, a_sp = trajectory
+        return auto_attitude_step(
+            smoothing.axes, float(dt_s), (float(inp[0]), float(inp[1]), float(inp[2])),
+            _vec3(p_sp), _vec3(v_sp), _vec3(a_sp), _vec3(velocity_ned_mps),
+            _vec3(acceleration_ned_mps2), self._gains, self._vel_int, float(yaw_rad),
+            no_setpoint, reactivate)
+
 
 def compile_now() -> None:
     """Compile ``position_control_step`` (or load it from numba's cache) now, not in the middle
@@ -435,8 +480,10 @@ def compile_now() -> None:
     position_control_step(0.02, z, z, z, z, z, z, np.ones(15), np.zeros(3))
     position_attitude_step(0.02, z, z, z, z, z, z, np.ones(15), np.zeros(3), 0.0)
     s = PositionSmoothing()
-    PositionControl(PositionControlGains(*np.ones(15).tolist())).update_attitude_auto(
-        s, 0.02, False, False, 1.0, 0.0, z, z, 0.0, False, False)
+    pc = PositionControl(PositionControlGains(*np.ones(15).tolist()))
+    pc.update_attitude_auto(s, 0.02, False, False, 1.0, 0.0, z, z, 0.0, False, False)
+    pc.attitude_auto(s, 0.02, pc.trajectory_auto(s, 0.02, False, False, 1.0, 0.0), z, z, 0.0,
+                     False, False)
 
 
 def _vec3(v) -> Vec3:
