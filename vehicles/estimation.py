@@ -419,6 +419,7 @@ class Estimation:
         self.delay = np.zeros(0, np.int64)  # how late EKF2 takes a fix to be, physics steps
         self.failed = np.zeros(0, np.int64)  # failure injection: F_* bits per row
         self.acc_lp = np.zeros((0, 5))  # each row's vehicle_acceleration filter (lowpass2p)
+        self.acc_lp_reset = np.zeros(0, np.int64)  # the steps left of its reset
 
     def set_failed(self, row: int, bits: int, on: bool) -> None:
         """Failure injection: the row's sensors of ``bits`` (F_*) fail (``on``) or work again."""
@@ -426,9 +427,9 @@ class Estimation:
 
     def _resize(self, n: int) -> None:
         (self.sensed, self.bias, self.est, self.hist, self.ehist, self.delay, self.failed,
-         self.acc_lp) = (with_rows(a, n) for a in (self.sensed, self.bias, self.est, self.hist,
-                                                   self.ehist, self.delay, self.failed,
-                                                   self.acc_lp))
+         self.acc_lp, self.acc_lp_reset) = (
+            with_rows(a, n) for a in (self.sensed, self.bias, self.est, self.hist, self.ehist,
+                                      self.delay, self.failed, self.acc_lp, self.acc_lp_reset))
 
     def add(self, index: int, truth: np.ndarray, estimated: np.ndarray,
             gps_delay_s: float = GPS_DELAY_S,
@@ -460,7 +461,7 @@ class Estimation:
         takes it (physics.py): valid until the next ``add``."""
         return (float(self.config.noise), self.noise.block, self.delay, self.hist, self.bias,
                 self.sensed, self.sense_consts, self.failed, self.est, self.ehist,
-                self.est_consts, self.acc_lp)
+                self.est_consts, self.acc_lp, self.acc_lp_reset)
 
     def begin_step(self) -> tuple[int, int]:
         """The ring slot that this step's samples go to and the column of this step's draws in

@@ -85,7 +85,14 @@ from vehicles.types import (
     grid_spawn_ned_m,
 )
 from vehicles.vehicle import Vehicle
-from vehicles.vehicle_acceleration import IMU_ACCEL_CUTOFF_HZ, lowpass2p, lowpass_accel
+from vehicles.vehicle_acceleration import (
+    IMU_ACCEL_CUTOFF_HZ,
+    RESET_STEPS,
+    cutoff_update,
+    filter_cutoff_hz,
+    lowpass2p,
+    lowpass_accel,
+)
 from vehicles.wind import Wind
 
 pb = import_quietly("pybullet")
@@ -110,7 +117,8 @@ def navsat_steps_ago(t_s, dt_s):  # pragma: no cover - compiled
 @njit_cached
 def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, estimated, mode,
                   landed, recent, dt_s, scale, noise, delay, hist, bias, sensed, sense_consts,
-                  failed, est, ehist, est_consts, acc_lp):  # pragma: no cover - compiled
+                  failed, est, ehist, est_consts, acc_lp, acc_lp_reset
+                  ):  # pragma: no cover - compiled
     """Everything compiled that follows PyBullet's step, for every row, in one call: ``raw``
     (RAW_SIZE numbers per body, flat) into the true state, then the sensors and the estimate
     (estimation.py). ``meas_dt_s``: the time since the last measurement (the acceleration's
@@ -140,7 +148,11 @@ def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, est
         for i in range(4):
             r[R_Q + i] = e[M_Q + i]
             r[R_TRUE_Q + i] = m[M_Q + i]
-    lowpass_accel(recent, hist_i, sensed, est, acc_lp)
+    lowpass_accel(recent, hist_i, sensed, est, acc_lp, acc_lp_reset)
+
+
+def _accel_cutoff_param(params: ParamStore) -> float:
+    return float(params.get("IMU_ACCEL_CUTOFF", IMU_ACCEL_CUTOFF_HZ) or 0.0)
 
 
 def _create_body(client: int, airframe: Airframe, spawn_enu_m: tuple[float, float, float]) -> int:
@@ -205,6 +217,8 @@ class World:
         self._vehicles: list[Vehicle] = []
         self._body_ids: list[int] = []
         self._com_enu: list[tuple[float, float, float]] = []  # where forces are applied
+        # each row's vehicle_acceleration filter: (parameter version seen, its cutoff in Hz)
+        self._acc_filter: list[tuple[int, float]] = []
         self._truth_rows: list[list[float]] | None = None  # ``inner.measured`` as lists
         self._closed = False
 
@@ -224,11 +238,12 @@ class World:
         body_id = _create_body(self.client_id, self.airframe, spawn)
         row = self.inner.add(spawn, self._read(body_id))
         store = params if params is not None else ParamStore()
+        cutoff = _accel_cutoff_param(store)
         self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row],
                             float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3,
-                            # IMU_ACCEL_CUTOFF read once: a later change is not followed
-                            lowpass2p(1.0 / self.dt_s, float(
-                                store.get("IMU_ACCEL_CUTOFF", IMU_ACCEL_CUTOFF_HZ) or 0.0)))
+                            lowpass2p(1.0 / self.dt_s, cutoff))
+        # followed at every parameter change (_accel_params_changed)
+        self._acc_filter.append((store.version, filter_cutoff_hz(1.0 / self.dt_s, cutoff)))
         self._truth_rows = self._after_args = None
         self.recent = np.concatenate([self.recent, np.zeros((1, HISTORY, R_SIZE))])
         # VehicleAcceleration resets its filter to the first sample: at rest, -g along z (FRD)
@@ -318,7 +333,10 @@ class World:
         if self.wind is not None:
             inner.wind[:] = self.wind.step(self.dt_s)
         load = inner.load
+        acc_filter = self._acc_filter
         for k, vehicle in enumerate(self._vehicles):
+            if vehicle.params.version != acc_filter[k][0]:
+                self._accel_params_changed(k, vehicle.params)
             command = vehicle.step(now_s)
             if command is not None:
                 load(k, command)
@@ -348,6 +366,19 @@ class World:
         self._truth_rows = None
         self.time_s = t
         self.steps += 1
+
+    def _accel_params_changed(self, row: int, params: ParamStore) -> None:
+        """VehicleAcceleration::ParametersUpdate → CheckAndUpdateFilters before row ``row``'s
+        next sample: IMU_ACCEL_CUTOFF more than 0.1 Hz from the filter's cutoff sets the filter
+        anew (lowpass2p) and resets it to the last corrected sample."""
+        sample_hz, param_hz = 1.0 / self.dt_s, _accel_cutoff_param(params)
+        cutoff = self._acc_filter[row][1]
+        new = cutoff_update(sample_hz, cutoff, param_hz)
+        if new is not None:
+            cutoff = new
+            self.estimation.acc_lp[row] = lowpass2p(sample_hz, param_hz)
+            self.estimation.acc_lp_reset[row] = RESET_STEPS
+        self._acc_filter[row] = (params.version, cutoff)
 
     def _after_physics(self, raw: np.ndarray, meas_dt_s: float, t_s: float) -> None:
         args = self._after_args
