@@ -46,6 +46,7 @@ from vehicles.geofence import Geofence
 from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF, MODE_TEST, InnerCommand
 from vehicles.land_detector import LandDetector
 from vehicles.manual_control import ManualControl, Sticks
+from vehicles.nav_roi import Params7
 from vehicles.navigator import NavContext, Navigator, auto_limits
 from vehicles.offboard import Offboard
 from vehicles.orbit import Orbit, OrbitStatus
@@ -286,6 +287,10 @@ class Autopilot:
 
     def change_speed(self, now_s: float, speed_mps: float) -> CommandResult:
         self.navigator.set_cruise_mps(speed_mps)
+        return CommandResult.ACCEPTED
+
+    def set_roi(self, now_s: float, command: int, params: Params7) -> CommandResult:
+        self.navigator.set_roi(command, params)
         return CommandResult.ACCEPTED
 
     def set_home(self, now_s: float, here: Measurement, geo: GeoPoint | None = None,

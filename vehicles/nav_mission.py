@@ -15,7 +15,9 @@ Rules and invariants:
   vehicle was disarmed since it last ran (``checkMissionRestart``); otherwise re-activating it
   loiters with "No valid mission available" until an index is set or a mission uploaded.
 - Items without a position are executed at once and count as reached (PX4 reports
-  MISSION_ITEM_REACHED for them too); camera/gimbal/ROI/actuator items are skipped.
+  MISSION_ITEM_REACHED for them too); camera/gimbal/actuator items are skipped. ROI items set
+  the ROI as its commands do, and the heading points at it (nav_roi.py); activating the mission,
+  a new mission or current item while it runs forget it (update_mission's reset_vroi).
 - Activated more than NAV_MC_ALT_RAD below its next position item, the mission first climbs
   in place to its altitude (checkClimbRequired, handleTakeoff): a takeoff on the ground, a
   LOITER_TO_ALT in the air, not reported (mission_climb.py). A takeoff item is a waypoint to
@@ -57,6 +59,7 @@ from vehicles.mission_climb import MissionClimb
 from vehicles.mission_feasibility import MissionCheck
 from vehicles.mission_jumps import JumpCounts, fly_through_next, look_ahead, non_jump_index
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
+from vehicles.nav_roi import ROI_COMMANDS, Roi, RoiHeading, command_of_item
 from vehicles.plan_types import (
     REACHED_HISTORY,
     MavCmd,
@@ -81,10 +84,14 @@ YAW_LOCK_DIST_M = 1.0
 
 
 class Mission(NavMode):
-    def __init__(self, plans: PlanStore, changes: Changes | None = None) -> None:
+    def __init__(self, plans: PlanStore, changes: Changes | None = None,
+                 roi: Roi | None = None) -> None:
         """``changes``: the vehicle's generations (``mission_progress`` moves with ``current``,
-        the item count and ``reached_count``)."""
+        the item count and ``reached_count``); ``roi``: the navigator's."""
         self.plans = plans
+        self.roi = roi if roi is not None else Roi()
+        self._roi_heading = RoiHeading(self.roi)
+        self._sp_yaw = math.nan  # the last setpoint's heading (PX4's current.yaw)
         self.check = MissionCheck(self._reset_reached)  # PX4's feasibility verdict
         self._changes = changes if changes is not None else Changes()
         self._current = 0
@@ -144,6 +151,8 @@ class Mission(NavMode):
         self.current = flagged[-1] if flagged else max(0, min(self._current, count - 1))
         self._revive()
         self._has_run = self._running  # onMissionUpdate: new items while inactive
+        if self._running:  # onMissionUpdate → update_mission
+            self.roi.reset()
         self.reached_seq = self.seq_reached = -1
         self.reached_resets += 1
         self._reached_any = False
@@ -180,6 +189,7 @@ class Mission(NavMode):
         self.reached_resets += self._running  # onMissionUpdate → update_mission while active
         if self._running:
             self.seq_reached = -1
+            self.roi.reset()
         return True
 
     def _revive(self) -> None:
@@ -246,7 +256,8 @@ class Mission(NavMode):
         self.disarmed_while_inactive = False
         self._triplet = None  # navigator_main.cpp: a new navigation mode resets the triplet
         self.check.force()  # Mission::on_activation: check_mission_valid(true)
-        self._reset_reached()  # update_mission
+        self._reset_reached()  # update_mission, which forgets the ROI
+        self.roi.reset()
         self._yaw = ctx.yaw_rad
         if self.finished:
             # The last item was done and nothing set a new one: PX4 finds no valid current
@@ -266,6 +277,21 @@ class Mission(NavMode):
         self._climb.check(ctx, self.items, self.current, self._jumps_done)
 
     def on_active(self, ctx: NavContext) -> NavSetpoint:
+        sp = self._roi_heading.apply(ctx, self._on_active(ctx), self._roi_item())
+        self._sp_yaw = sp.yaw_rad
+        return sp
+
+    def _roi_item(self) -> bool:
+        """MissionBase::on_active: no heading_sp_update on a takeoff (the climb from the ground,
+        a VTOL takeoff) or a landing (but on its approach: a waypoint work item)."""
+        phase = self._phase
+        if phase == "takeoff":
+            return not self._climb.takeoff
+        if phase == "goto":
+            return self.items[self.current].command != 84  # NAV_VTOL_TAKEOFF
+        return phase != "land"
+
+    def _on_active(self, ctx: NavContext) -> NavSetpoint:
         if not ctx.armed:  # PX4's navigator runs no mode while disarmed
             self._running = False
             self.disarmed_while_inactive = True
@@ -290,6 +316,7 @@ class Mission(NavMode):
     def _start_item(self, ctx: NavContext) -> None:
         items = self.items
         resolve, self._resolve_jump = self._resolve_jump, False
+        self._roi_heading.new_item()
         for _ in range(len(items) + 1):  # bounded: DO_JUMP loops cannot hang a tick
             if self.current >= len(items):
                 self._finish(ctx)
@@ -339,7 +366,9 @@ class Mission(NavMode):
                 return
             if cmd == MavCmd.DO_CHANGE_SPEED:
                 self._change_speed(ctx, item)
-            # Everything else (camera, gimbal, ROI, actuator, DO_SET_HOME, DO_LAND_START, ...) is
+            if cmd in ROI_COMMANDS:  # issue_command: the navigator takes it as the command
+                self.roi.command(*command_of_item(item, ctx.home_alt_amsl_m))
+            # Everything else (camera, gimbal, actuator, DO_SET_HOME, DO_LAND_START, ...) is
             # accepted and skipped.
             self._reached(self.current)
             if not self._next_item(ctx):
@@ -438,6 +467,7 @@ class Mission(NavMode):
         if self._phase == "approach":
             if math.hypot(tx - x, ty - y) < float(p["NAV_ACC_RAD"]) / 2 or ctx.landed:
                 self._phase = "land"
+                self._roi_heading.new_item()  # the land item after its approach work item
             else:
                 if math.hypot(tx - x, ty - y) > YAW_LOCK_DIST_M:
                     self._yaw = math.atan2(ty - y, tx - x)
@@ -498,3 +528,5 @@ class Mission(NavMode):
             # vehicle loiters where it is (setLoiterItemFromCurrentPosition)
             if self._loiter_target is None or self._loiter_target != self._target:
                 self._target = ctx.position_ned_m
+            else:  # setLoiterItemFromCurrentPositionSetpoint: the setpoint's heading too
+                self._yaw = self._sp_yaw

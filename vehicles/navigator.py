@@ -2,7 +2,8 @@
 
 After PX4 ``src/modules/navigator`` (navigator_main.cpp: one NavigatorMode per nav_state, hooks
 ``on_activation`` / ``on_active`` / ``on_inactive``; the cruising speed set by DO_CHANGE_SPEED /
-DO_REPOSITION is navigator state shared by all modes).
+DO_REPOSITION and the region of interest set by the ROI commands, ``_vroi``, are navigator state
+shared by all modes; only Mission reads the ROI, nav_roi.py).
 
 Rules and invariants:
 - One ``NavMode`` object per NavState it serves, registered in ``Navigator.modes`` (Hold, Takeoff,
@@ -30,6 +31,7 @@ from vehicles.nav_core import (  # noqa: F401  (re-exported: the autopilot and t
     land_speed_mps,
 )
 from vehicles.nav_mission import Mission
+from vehicles.nav_roi import Params7, Roi
 from vehicles.nav_rtl import (  # noqa: F401
     NO_ESTIMATE,
     Return,
@@ -54,7 +56,8 @@ class Navigator:
         self.plans = plans if plans is not None else PlanStore()
         self.hold = Hold()
         self.takeoff = Takeoff()
-        self.mission = Mission(self.plans, changes)
+        self.roi = Roi()
+        self.mission = Mission(self.plans, changes, self.roi)
         self.rtl = Return(self.plans)
         self.modes: dict[NavState, NavMode] = {
             NavState.AUTO_LOITER: self.hold,
@@ -79,6 +82,11 @@ class Navigator:
 
     def set_cruise_mps(self, speed_mps: float) -> None:
         self.cruise_mps = speed_mps if speed_mps > 0 else math.nan
+
+    def set_roi(self, command: int, params: Params7) -> None:
+        """DO_SET_ROI, NAV_ROI, DO_SET_ROI_LOCATION, DO_SET_ROI_WPNEXT_OFFSET, DO_SET_ROI_NONE
+        (navigator_main.cpp): the command replaces the ROI, in any mode."""
+        self.roi.command(command, params)
 
     def deactivate(self, ctx: NavContext) -> None:
         """The vehicle left the navigator's modes (Offboard, Termination)."""

@@ -30,6 +30,7 @@ from vehicles.events import ArmReason, EventLog
 from vehicles.health_checks import CheckInputs, HealthChecks, inputs_of
 from vehicles.inner_loop import C_OUTPUTS, C_RATE_INT, C_TORQUE_SP, InnerCommand
 from vehicles.manual_control import Sticks
+from vehicles.nav_roi import Params7
 from vehicles.nav_rtl import RtlTimeEstimate
 from vehicles.orbit import OrbitStatus
 from vehicles.params import ParamStore
@@ -391,6 +392,10 @@ class Vehicle:
 
     def change_speed(self, now_s: float, speed_mps: float) -> CommandResult:
         return self._autopilot.change_speed(now_s, speed_mps)
+
+    def set_roi(self, now_s: float, command: int, params: Params7) -> CommandResult:
+        """A ROI command (DO_SET_ROI*, NAV_ROI) for the navigator (nav_roi.py)."""
+        return self._autopilot.set_roi(now_s, command, params)
 
     def set_home(self, now_s: float, geo: GeoPoint | None = None, yaw_rad: float = math.nan
                  ) -> CommandResult:
