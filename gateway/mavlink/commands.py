@@ -175,7 +175,7 @@ class CommandService:
             DO_GO_AROUND: lambda c, t: ACCEPTED,
         }
         for cmd in ROI_COMMANDS:  # the navigator publishes the ROI and ACCEPTs
-            self._handlers[cmd] = lambda c, t: ACCEPTED
+            self._handlers[cmd] = self._set_roi
         for cmd in UNANSWERED:
             self._handlers[cmd] = lambda c, t: None
 
@@ -346,6 +346,14 @@ class CommandService:
         # limit then), anything else (NaN, 0, tiny) resets it; the speed type is not read.
         speed = cmd.p(2) if cmd.p(2) > FLT_EPSILON else SPEED_RESET
         return change_speed(now_s, speed)
+
+    def _set_roi(self, cmd: Command, now_s: float) -> int:
+        """navigator_main.cpp: the ROI commands replace the navigator's ROI and are ACCEPTED,
+        whatever their parameters (a vehicle without a navigator ACCEPTs them too)."""
+        set_roi = self._vehicle("set_roi")
+        if set_roi is not None:
+            set_roi(now_s, cmd.command, cmd.params)
+        return ACCEPTED
 
     def _set_home(self, cmd: Command, now_s: float) -> int:
         set_home = self._vehicle("set_home")

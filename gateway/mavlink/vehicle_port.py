@@ -133,6 +133,10 @@ class VehicleFeatures(Protocol):
 
     def change_speed(self, now_s: float, speed_mps: float) -> CommandResult: ...
 
+    def set_roi(self, now_s: float, command: int,
+                params: tuple[float, float, float, float, float, float, float]
+                ) -> CommandResult: ...  # DO_SET_ROI*, NAV_ROI: the navigator's ROI
+
     def set_home(self, now_s: float, geo: GeoPoint | None = None,
                  yaw_rad: float = ...) -> CommandResult: ...
 

@@ -45,6 +45,23 @@ def test_the_navigator_accepts_go_around_and_every_roi_command(command):
     assert results(client.command_long(command, 0, 0, 0, 0, 1, 2, 3)) == [(command, 0)]
 
 
+def test_roi_commands_reach_the_navigator_with_their_params():
+    """navigator_main.cpp replaces its _vroi from the command: COMMAND_LONG as sent, COMMAND_INT
+    with x/y in degrees (vehicles/nav_roi.py reads them)."""
+    vehicle, _, client = make()
+    loc = M.MAV_CMD_DO_SET_ROI_LOCATION
+    assert results(client.command_long(loc, 0, 0, 0, 0, 47.4, 8.5, 500.0)) == [(loc, 0)]
+    assert vehicle.calls[-1] == ("set_roi", loc, pytest.approx((0, 0, 0, 0, 47.4, 8.5, 500.0)))
+    got = client.send(M.MAVLink_command_int_message(1, 1, 0, loc, 0, 0, 0, 0, 0, 0,
+                                                    473977420, 85455940, 490.0))
+    assert results(got) == [(loc, 0)]
+    assert vehicle.calls[-1] == ("set_roi", loc,
+                                 pytest.approx((0, 0, 0, 0, 47.397742, 8.545594, 490.0)))
+    assert results(client.command_long(M.MAV_CMD_DO_SET_ROI_NONE)) == [
+        (M.MAV_CMD_DO_SET_ROI_NONE, 0)]
+    assert vehicle.calls[-1][:2] == ("set_roi", M.MAV_CMD_DO_SET_ROI_NONE)
+
+
 @pytest.mark.parametrize("command", [M.MAV_CMD_IMAGE_START_CAPTURE, M.MAV_CMD_DO_MOTOR_TEST,
                                      M.MAV_CMD_DO_SET_SERVO, 31000])
 def test_commands_commander_does_not_know_are_unsupported(command):

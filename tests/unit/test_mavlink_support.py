@@ -290,6 +290,10 @@ class FakeVehicle:
         self.calls.append(("change_speed", now_s, speed_mps))
         return CommandResult.ACCEPTED
 
+    def set_roi(self, now_s: float, command: int, params: tuple[float, ...]) -> CommandResult:
+        self.calls.append(("set_roi", command, params))
+        return CommandResult.ACCEPTED
+
     def set_home(self, now_s: float, geo: GeoPoint | None, yaw_rad: float = math.nan
                  ) -> CommandResult:
         self.calls.append(("set_home", now_s, geo))
