@@ -44,7 +44,6 @@ Rules and invariants:
 from __future__ import annotations
 
 import math
-from collections import deque
 
 from vehicles.events import (
     COMMANDER_RTL,
@@ -58,12 +57,11 @@ from vehicles.events import (
 from vehicles.mission_climb import MissionClimb
 from vehicles.mission_feasibility import MissionCheck
 from vehicles.mission_jumps import JumpCounts, fly_through_next, look_ahead, non_jump_index
+from vehicles.mission_progress import MissionProgress
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
 from vehicles.nav_roi import ROI_COMMANDS, Roi, RoiHeading, command_of_item
 from vehicles.plan_types import (
-    REACHED_HISTORY,
     MavCmd,
-    MissionState,
     MissionStatus,
     PlanItem,
     PlanType,
@@ -77,8 +75,6 @@ GOTO_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.N
 TAKEOFF_COMMANDS = frozenset({MavCmd.NAV_TAKEOFF, 84})  # + NAV_VTOL_TAKEOFF
 LAND_COMMANDS = frozenset({MavCmd.NAV_LAND, 85})  # + NAV_VTOL_LAND
 DELAY_COMMANDS = frozenset({MavCmd.NAV_DELAY, MavCmd.CONDITION_DELAY})
-# MISSION_CURRENT.mission_mode is "active" in these (mavlink_mission.cpp update_mission_state).
-MISSION_MODE_STATES = frozenset({NavState.AUTO_MISSION, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND})
 # Below this horizontal distance a landing approach no longer updates the heading.
 YAW_LOCK_DIST_M = 1.0
 
@@ -92,16 +88,11 @@ class Mission(NavMode):
         self.roi = roi if roi is not None else Roi()
         self._roi_heading = RoiHeading(self.roi)
         self._sp_yaw = math.nan  # the last setpoint's heading (PX4's current.yaw)
-        self.check = MissionCheck(self._reset_reached)  # PX4's feasibility verdict
         self._changes = changes if changes is not None else Changes()
+        self.progress = MissionProgress(self._changes)  # items reached, MISSION_CURRENT's view
+        self.check = MissionCheck(self.progress.reset)  # PX4's feasibility verdict
         self._current = 0
         self.finished = False
-        self.reached_seq = -1
-        self.reached_count = 0
-        self.reached_resets = 0  # PX4 writes seq_reached = -1 (MissionStatus.reached_resets)
-        self.seq_reached = -1  # mission_result.seq_reached: the last reached, -1 since a reset
-        self._history: deque[int] = deque(maxlen=REACHED_HISTORY)
-        self._reached_any = False
         self._jumps_done = JumpCounts()
         self._phase = "start"  # start | takeoff | goto | wait | delay | approach | land | jump | done
         self._resolve_jump = False  # the current index came from goToItem (MISSION_START)
@@ -153,9 +144,7 @@ class Mission(NavMode):
         self._has_run = self._running  # onMissionUpdate: new items while inactive
         if self._running:  # onMissionUpdate → update_mission
             self.roi.reset()
-        self.reached_seq = self.seq_reached = -1
-        self.reached_resets += 1
-        self._reached_any = False
+        self.progress.new_mission()
         self._jumps_done.clear()
         self._phase = "start"
         self._resolve_jump = False
@@ -186,9 +175,9 @@ class Mission(NavMode):
         self._revive()
         self._phase = "start"
         self._triplet = None  # set_current_mission_index: reset_triplets
-        self.reached_resets += self._running  # onMissionUpdate → update_mission while active
-        if self._running:
-            self.seq_reached = -1
+        self.progress.reached_resets += self._running  # onMissionUpdate → update_mission
+        if self._running:  # while active
+            self.progress.seq_reached = -1
             self.roi.reset()
         return True
 
@@ -199,42 +188,10 @@ class Mission(NavMode):
         self.finished = False
 
     def status(self, nav_state: NavState) -> MissionStatus:
-        """MISSION_CURRENT's view (mavlink_mission.cpp update_mission_state): mission_mode is
-        active in Mission, Takeoff and Land; a mission the feasibility check rejected counts as
-        no mission."""
-        count = len(self.items)
-        p = self.plans
-        in_mission_mode = nav_state in MISSION_MODE_STATES
-        if count == 0 or self.check.rejected(p.plan_id(PlanType.MISSION)):
-            state = MissionState.NO_MISSION
-        elif self.finished:
-            state = MissionState.COMPLETE
-        elif in_mission_mode:
-            state = MissionState.ACTIVE
-        elif self._reached_any:
-            state = MissionState.PAUSED
-        else:
-            state = MissionState.NOT_STARTED
-        return MissionStatus(
-            current_seq=min(self.current, max(count - 1, 0)), count=count, state=state,
-            in_mission_mode=in_mission_mode, reached_seq=self.reached_seq,
-            reached_count=self.reached_count, mission_id=p.plan_id(PlanType.MISSION),
-            fence_id=p.plan_id(PlanType.FENCE), rally_id=p.plan_id(PlanType.RALLY),
-            reached_history=tuple(self._history), jump_seq=self._jumps_done.last,
-            jump_count=self._jumps_done.reports, reached_resets=self.reached_resets)
-
-    def _reset_reached(self) -> None:
-        """The navigator puts mission_result.seq_reached back to -1 (MissionStatus)."""
-        self.reached_resets += 1
-        self.seq_reached = -1
-        self._changes.mission_progress += 1
-
-    def _reached(self, seq: int) -> None:
-        self.reached_seq = self.seq_reached = seq
-        self.reached_count += 1
-        self._changes.mission_progress += 1
-        self._history.append(seq)
-        self._reached_any = True
+        """MISSION_CURRENT's view (mission_progress.py)."""
+        return self.progress.status(
+            self.plans, nav_state, len(self.items), self.current, self.finished,
+            self.check.rejected(self.plans.plan_id(PlanType.MISSION)), self.last_jump)
 
     # --- NavMode hooks -------------------------------------------------------------------------
     def on_activation(self, ctx: NavContext) -> None:
@@ -256,7 +213,7 @@ class Mission(NavMode):
         self.disarmed_while_inactive = False
         self._triplet = None  # navigator_main.cpp: a new navigation mode resets the triplet
         self.check.force()  # Mission::on_activation: check_mission_valid(true)
-        self._reset_reached()  # update_mission, which forgets the ROI
+        self.progress.reset()  # update_mission, which forgets the ROI
         self.roi.reset()
         self._yaw = ctx.yaw_rad
         if self.finished:
@@ -356,7 +313,7 @@ class Mission(NavMode):
                 self._phase = "delay"
                 return
             if cmd == MavCmd.NAV_RETURN_TO_LAUNCH:
-                self._reached(self.current)
+                self.progress.reached(self.current)
                 self.finished = True
                 self._phase = "done"
                 # PX4's mission sends NAV_RETURN_TO_LAUNCH: Commander's answer
@@ -370,7 +327,7 @@ class Mission(NavMode):
                 self.roi.command(*command_of_item(item, ctx.home_alt_amsl_m))
             # Everything else (camera, gimbal, actuator, DO_SET_HOME, DO_LAND_START, ...) is
             # accepted and skipped.
-            self._reached(self.current)
+            self.progress.reached(self.current)
             if not self._next_item(ctx):
                 return
         self._finish(ctx)
@@ -474,7 +431,7 @@ class Mission(NavMode):
                 return NavSetpoint(self._target, self._yaw, ctx.limits())
         # land
         if ctx.landed:
-            self._reached(self.current)
+            self.progress.reached(self.current)
             if self._next_item(ctx):
                 self._start_item(ctx)
             return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
@@ -484,7 +441,7 @@ class Mission(NavMode):
 
     def _advance(self, ctx: NavContext) -> NavSetpoint:
         self._came_from = self._target
-        self._reached(self.current)
+        self.progress.reached(self.current)
         if not self._next_item(ctx):
             return self._hold(ctx)
         self._phase = "start"

@@ -351,7 +351,7 @@ class Vehicle:
         ``mission_status.current_seq`` or ``.reached_count`` does (and then so does
         ``changes.mission_progress``)."""
         m = self._autopilot.navigator.mission
-        return (m.current, len(m.items), m.reached_count)
+        return (m.current, len(m.items), m.progress.reached_count)
 
     def start_mission(self, now_s: float, first_seq: float = -1) -> CommandResult:
         return self._autopilot.start_mission(now_s, self._measurement(), first_seq)

@@ -92,7 +92,7 @@ def _mission_result(v: Any, now_us: int) -> tuple | None:
         remaining = max(0, jump_repeats(items[last]) - mission.jumps_taken(last))
     # checkMissionFeasible's warning: the checks ran (home known, items stored) and failed
     warning = count > 0 and v.home is not None and not valid
-    return (ids[0] & 0xFFFFFFFF, ids[1] & 0xFFFFFFFF, check.home_counter, mission.seq_reached,
+    return (ids[0] & 0xFFFFFFFF, ids[1] & 0xFFFFFFFF, check.home_counter, mission.progress.seq_reached,
             max(0, mission.current), count, index, remaining, valid, warning,
             mission.finished, False, changed, 0)
 
