@@ -239,6 +239,49 @@ def test_auto_waypoints_follow_flight_task_auto_states():
     assert wp.update((1.0, 0.0, -4.0), land, None, None, 2.0)[0] == (0.0, 0.0, -5.0)
 
 
+
+def test_hold_point_passed_close_by_is_flown_away_from_down_the_short_line():
+    """PX4 v1.15.2 in Hold's worst case: Hold's target at (0, 0) on a track from (0, -3.5) (no
+    previous waypoint: the vehicle's position when the triplet came), passed 0.13 m to its side,
+    so FlightTaskAuto's previous waypoint becomes that point (target_behind) and the line to the
+    target runs across the track. PositionSmoothing::_getL1Point puts its point on that line
+    past the target without bound, and _isTurning (beyond the acceptance radius, not heading at
+    the target) keeps the speed at _max_speed_previous, planned last inside the 2 m radius
+    (computeMaxSpeedFromDistance, ~1.17 m/s): perfectly tracked from 1.5 m past the target,
+    moving away at 1.5 m/s, the trajectory flies on down the line for 6.66 s until it leaves
+    the target_behind half-plane, then offtrack brings it back. The numbers are PX4's own
+    PositionSmoothing.cpp / VelocitySmoothing.cpp (compiled from v1.15.2) under the transcribed
+    _getCurrentState / _updateInternalWaypoints, with FlightTaskAuto's constraints."""
+    from vehicles.auto_waypoints import NONE, OFFTRACK, TARGET_BEHIND, AutoWaypoints
+
+    s = PositionSmoothing()
+    s.set_max_jerk(4.0)
+    s.set_max_acceleration((3.0, 3.0, 3.0))
+    s.set_max_velocity((12.0, 12.0, 1.5))
+    s.max_allowed_horizontal_error, s.vertical_acceptance_radius = 2.0, 0.8
+    s.cruise_speed, s.horizontal_trajectory_gain, s.target_acceptance_radius = 5.0, 0.5, 2.0
+    wp, hold = AutoWaypoints(), (0.0, 0.0, -10.0)
+    wp.update((0.0, -3.5, -10.0), hold, None, None, 2.0)
+    assert wp.state == NONE
+    assert wp.update((0.13, 0.001, -10.0), hold, None, None, 2.0)[0] == (0.13, 0.001, -10.0)
+    assert wp.state == TARGET_BEHIND
+    s.reset((0.0, 0.0, 0.0), (-1.5, 0.0, 0.0), (-1.5, 0.3, -10.0))
+    pos, track = s.position, []
+    for _ in range(1501):
+        waypoints_ = wp.update(pos, hold, None, None, 2.0)
+        out = s.generate(pos, waypoints_, (math.nan,) * 3, 0.02)
+        pos = out.position
+        track.append((wp.state, pos, out.velocity))
+    away = next(i for i, (state, _, _) in enumerate(track) if state != TARGET_BEHIND)
+    assert away == 333 and track[away][0] == OFFTRACK
+    assert track[away][1][:2] == pytest.approx((-9.3628, -0.0010), abs=2e-3)
+    assert track[250][2][0] == pytest.approx(-1.1700, abs=1e-3)  # 5 s: still flying away
+    assert max(math.hypot(p[0], p[1]) for _, p, _ in track) == pytest.approx(9.96, abs=0.01)
+    assert track[500][1][0] == pytest.approx(-2.8396, abs=2e-3)  # 10 s: on its way back
+    assert track[750][0] == NONE and math.hypot(*track[750][1][:2]) == pytest.approx(0.0875,
+                                                                                     abs=2e-3)
+    assert math.hypot(*track[-1][1][:2]) < 1e-3
+
 def _cruise_north(sim, v) -> None:
     """A mission to a waypoint 100 m north at 10 m, flown until at MPC_XY_CRUISE past 30 m."""
     sim.run(1.2)
