@@ -245,8 +245,10 @@ class PositionStage:
         self.task_setpoint = PositionSetpoint(p_sp, v_sp, self.yaw_sp, a_sp)
         if reactivate:
             # FlightTaskAuto::reActivate → activate with no last setpoint: no emergency braking,
-            # the setpoints are the state's
+            # the setpoints are the state's and the heading slews on from the vehicle's
+            # (_yaw_sp_prev = _yaw), not from this tick's slewed setpoint
             traj.emergency_braking = False
+            self.yaw_sp = yaw
             self.task_setpoint = None
         # the heading rate feed-forward (FlightTaskAuto::_limitYawRate), none on the ground
         self._output(v_sp[2], q, thrust, vel_sp, acc_sp, 0.0 if no_setpoint else yawspeed)

@@ -8,6 +8,8 @@ FlightTaskAuto::activate / reActivate:
 - FlightTaskAuto::activate resets _position_smoothing from that setpoint's position, velocity
   and acceleration, each non-finite component from the vehicle's position and velocity, or
   zero acceleration; the heading slews on from its yaw (_yaw_sp_prev), else the vehicle's.
+- Until the takeoff ramps FlightModeManager re-activates the task after every update
+  (FlightTaskAuto::reActivate: activate with the empty setpoint but for the vertical velocity).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from tests.unit.test_vehicles_flight import Sim, take_off
 from tests.unit.test_vehicles_manual import fly
 from vehicles.airframe import X500
 from vehicles.autopilot import Autopilot
+from vehicles.control.takeoff import RAMPUP
 from vehicles.control.velocity_smoothing import A, V, X
 from vehicles.flight_tasks import TaskInput
 from vehicles.manual_control import Sticks
@@ -175,3 +178,29 @@ def test_auto_after_offboard_starts_from_the_vehicle():
     assert axes[:, A].tolist() == [0.0, 0.0, 0.0]
     assert st.yaw_sp == 0.3
 
+
+
+def test_heading_setpoint_follows_the_vehicle_on_the_ground_until_the_takeoff_ramps(sim):
+    """Armed with a goto 30 m east at 10 m: during MPC_SPOOLUP_TIME the task wants to take off
+    but is re-activated after every update, and activate's _yaw_sp_prev is then the vehicle's
+    heading; the turn towards the target (MPC_YAW_MODE 0, at MPC_YAWRAUTO_MAX 45 deg/s) starts
+    from the vehicle's heading when the ramp starts, not a second of slewing ahead of it."""
+    sim.run(1.2)
+    v = sim.v
+    st = v._autopilot.stage
+    g = v.origin.offset_ned(0.0, 30.0, -10.0)
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+    assert v.goto(sim.t, g.lat_deg, g.lon_deg, g.alt_amsl_m) is CommandResult.ACCEPTED
+    spooling = 0
+    for _ in range(1000):
+        sim.run(0.004)
+        if st.takeoff.state >= RAMPUP:
+            break
+        spooling += 1
+        assert st.yaw_sp == pytest.approx(v.state.euler_rad()[2], abs=1e-3)
+    assert spooling > 200  # 1 s of 4 ms physics steps
+    # the ramp's first tick re-activated too (the state published before it was not RAMPUP)
+    assert st.yaw_sp == pytest.approx(v.state.euler_rad()[2], abs=1e-3)
+    sim.run(1.0)  # then it slews from there: 50 ticks of 0.9 deg
+    assert math.remainder(st.yaw_sp - v.state.euler_rad()[2], math.tau) == pytest.approx(
+        math.radians(45.0), abs=math.radians(3.0))

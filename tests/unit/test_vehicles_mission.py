@@ -236,11 +236,19 @@ def test_pause_with_hold_resume_and_set_current(sim):
     assert sim.run(40.0, until=lambda: v.mission_status.reached_seq == 0)
     sim.run(2.0)
     assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED  # pause
-    sim.run(4.0)
-    # braked: paused while still speeding up it passes Hold's stopping point, and FlightTaskAuto
-    # then flies back from where it passed (_getCurrentState target_behind) and onto the track
-    # when off it (offtrack): some 15 s in all
-    assert sim.run(20.0, until=lambda: math.hypot(*v.state.velocity_ned_mps) < 0.05)
+    sim.run(0.1)
+    hold = v._autopilot.tasks.auto.setpoint.target_ned_m  # Navigator::calculate_breaking_stop
+    # Paused while still speeding up it passes Hold's stopping point, and FlightTaskAuto then
+    # flies to it from where it passed (_getCurrentState target_behind, that point the previous
+    # waypoint). The vehicle passes within a few decimetres of it, so that line's direction is
+    # chance: along it PositionSmoothing's L1 point lies past the target without bound and, the
+    # trajectory turning, the speed is held at the last one planned inside the acceptance
+    # radius (~1.2 m/s): the vehicle can fly away down that line until it leaves target_behind,
+    # then back (offtrack), as PX4 v1.15.2 does (tests/unit/test_vehicles_trajectory.py).
+    def settled():
+        p, vel = v.state.position_ned_m, v.state.velocity_ned_mps
+        return math.hypot(p[0] - hold[0], p[1] - hold[1]) < 0.3 and math.hypot(*vel) < 0.05
+    assert sim.run(45.0, until=settled)
     st = v.mission_status
     assert st.state is MissionState.PAUSED and st.current_seq == 1 and not st.in_mission_mode
     held = v.state.position_ned_m.copy()
