@@ -47,7 +47,7 @@ from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF, MODE_TEST, InnerC
 from vehicles.land_detector import LandDetector
 from vehicles.manual_control import ManualControl, Sticks
 from vehicles.nav_roi import Params7
-from vehicles.navigator import NavContext, Navigator, auto_limits
+from vehicles.navigator import NavContext, Navigator
 from vehicles.offboard import Offboard
 from vehicles.orbit import Orbit, OrbitStatus
 from vehicles.params import ParamStore
@@ -455,13 +455,11 @@ class Autopilot:
         if not st.flying:
             st.trajectory.reset(pos, vel)
         auto = self.tasks.auto
-        # (The trajectory does not move before the navigator has run: where its setpoint is and
-        # the stopping point can wait until a mode asks for them.)
+        # (The trajectory does not move before the navigator has run: where its setpoint is can
+        # wait until a mode asks for it.)
         ctx = NavContext(now_s, self.params, self.log, cmd.armed, ld.landed, pos, vel, yaw,
-                         self.home, st.trajectory,
-                         auto.setpoint.limits if auto.setpoint else auto_limits(self.params),
-                         self.origin, self._switch_by_vehicle, self.navigator.cruise_mps,
-                         self.navigator.set_cruise_mps)
+                         self.home, st.trajectory, self.origin, self._switch_by_vehicle,
+                         self.navigator.cruise_mps, self.navigator.set_cruise_mps)
         self.navigator.publish_rtl_estimate(ctx, cmd.position_valid)
         state = cmd.nav_state
         entered = state is not self._prev_nav_state

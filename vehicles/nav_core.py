@@ -65,11 +65,9 @@ class NavContext:
     velocity_ned_mps: Vec3
     yaw_rad: float
     home: HomePosition | None
-    # The trajectory carrot: where it is now (``setpoint_ned_m``) and where it comes to rest if
-    # it brakes now within ``stop_limits`` (``stopping_point_ned_m``), read when a mode asks,
-    # which few ticks do.
+    # The trajectory carrot: where it is now (``setpoint_ned_m``), read when a mode asks, which
+    # few ticks do.
     trajectory: AutoTrajectory
-    stop_limits: TrajectoryLimits
     origin: GeoPoint  # EKF origin: lat/lon of plan items -> local NED
     switch_to: Callable[[NavState, Vec3 | None], None] = field(default=lambda s, p: None)
     cruise_mps: float = math.nan  # NaN = MPC_XY_CRUISE
@@ -78,10 +76,6 @@ class NavContext:
     @property
     def setpoint_ned_m(self) -> Vec3:
         return self.trajectory.position_ned_m
-
-    @functools.cached_property
-    def stopping_point_ned_m(self) -> Vec3:
-        return self.trajectory.stopping_point(self.stop_limits)
 
     @functools.cached_property
     def braking_stop_ned_m(self) -> Vec3:
