@@ -106,13 +106,15 @@ def command_of_item(item: PlanItem, home_alt_amsl_m: float) -> tuple[int, Params
 
 class Roi:
     """The navigator's ``_vroi`` (``current``): set by commands and mission items, reset by
-    the mission (Navigator::reset_vroi)."""
+    the mission (Navigator::reset_vroi). ``published``: the vehicle_roi the navigator published
+    last (None: never), at each command; a reset publishes nothing."""
 
     def __init__(self) -> None:
         self.current = NO_ROI
+        self.published: VehicleRoi | None = None
 
     def command(self, command: int, params: Params7) -> None:
-        self.current = roi_of_command(command, params)
+        self.current = self.published = roi_of_command(command, params)
 
     def reset(self) -> None:
         self.current = NO_ROI

@@ -1,14 +1,15 @@
 """Status topics PX4's logger writes (logged_topics.py has the rules): takeoff_status,
-vehicle_acceleration, failure_detector_status, mission_result and telemetry_status.
+vehicle_acceleration, failure_detector_status, mission_result, vehicle_roi and telemetry_status.
 
 Source: PX4 1.15 msg/TakeoffStatus.msg, VehicleAcceleration.msg, FailureDetectorStatus.msg,
-MissionResult.msg, TelemetryStatus.msg; logged_topics.cpp (takeoff_status at 1 s,
-vehicle_acceleration at 50 ms, failure_detector_status at 100 ms, mission_result at every
-publication, telemetry_status at 1 s for each of up to 4 instances); the publishers:
+MissionResult.msg, VehicleRoi.msg, TelemetryStatus.msg; logged_topics.cpp (takeoff_status at
+1 s, vehicle_acceleration at 50 ms, failure_detector_status at 100 ms, mission_result at every
+publication, vehicle_roi at 1 s, telemetry_status at 1 s for each of up to 4 instances); the
+publishers:
 MulticopterPositionControl::Run (takeoff_status when the takeoff state or the tilt limit
 changes), VehicleAcceleration::Run (every accelerometer sample), Commander::run (failure_detector
 _status with vehicle_status: every 500 ms), Navigator::publish_mission_result (when the result
-changed), Mavlink::task_main (telemetry_status every second).
+changed; vehicle_roi at each ROI command), Mavlink::task_main (telemetry_status every second).
 Rules:
 - Unlike the topics CORNET logs a subset of, these carry every field of their message, in the
   order and with the padding of PX4's generated ULog format (px_generate_uorb_topic_helper:
@@ -24,7 +25,7 @@ from typing import Any
 
 from gateway.mavlink.link import DATARATE_B_S, LinkKind
 from gateway.mavlink.streams import STREAMS
-from gateway.onboard.topic import COMMANDER_REPUBLISH_S, U64, B, F, Topic
+from gateway.onboard.topic import COMMANDER_REPUBLISH_S, U64, B, D, F, Topic
 from vehicles.cnum import f32
 from vehicles.estimation import R_ACC_LP
 from vehicles.mission_jumps import jump_repeats
@@ -97,6 +98,17 @@ def _mission_result(v: Any, now_us: int) -> tuple | None:
             mission.finished, False, changed, 0)
 
 
+def _vehicle_roi(v: Any, now_us: int) -> tuple | None:
+    """The navigator's last vehicle_roi publication (one per ROI command or mission item; none
+    before the first). Navigator::reset_vroi publishes nothing, so a mission's reset leaves the
+    last one logged."""
+    roi = v.autopilot.navigator.roi.published
+    if roi is None:
+        return None
+    return (roi.lat_deg, roi.lon_deg, f32(roi.alt_amsl_m), f32(roi.roll_offset_rad),
+            f32(roi.pitch_offset_rad), f32(roi.yaw_offset_rad), roi.mode)
+
+
 def _telemetry_status(instance: int):
     def read(v: Any, now_us: int) -> tuple | None:
         """One mavlink instance's telemetry_status (link_status.py has the rates; mavlink
@@ -154,6 +166,12 @@ MISSION_RESULT = Topic(
                        (B, "valid"), (B, "warning"), (B, "finished"), (B, "failure"),
                        (B, "item_do_jump_changed"), (U8, "execution_mode"),
                        ("uint8_t[2]", "_padding0")), 0.0, _mission_result, on_change=True)
+# VehicleRoi.msg, logged at 1 s; navigator publishes it at each ROI command. A repeat of the
+# ROI logged last is not written again (PX4 writes it once more, with the new timestamp).
+VEHICLE_ROI = Topic("vehicle_roi", ((D, "lat"), (D, "lon"), (F, "alt"), (F, "roll_offset"),
+                                    (F, "pitch_offset"), (F, "yaw_offset"), (U8, "mode"),
+                                    ("uint8_t[7]", "_padding0")), 1.0, _vehicle_roi,
+                    on_change=True)
 _TELEMETRY_FIELDS = (
     (F, "data_rate"), (F, "rate_multiplier"), (F, "tx_rate_avg"), (F, "tx_error_rate_avg"),
     (U32, "tx_message_count"), (U32, "tx_buffer_overruns"), (F, "rx_rate_avg"),
@@ -172,4 +190,4 @@ _TELEMETRY_FIELDS = (
 TELEMETRY_STATUS = tuple(Topic("telemetry_status", _TELEMETRY_FIELDS, 1.0, _telemetry_status(k),
                                multi_id=k) for k in range(TELEMETRY_INSTANCES))
 STATUS_TOPICS = (TAKEOFF_STATUS, VEHICLE_ACCELERATION, FAILURE_DETECTOR_STATUS, MISSION_RESULT,
-                 *TELEMETRY_STATUS)
+                 VEHICLE_ROI, *TELEMETRY_STATUS)

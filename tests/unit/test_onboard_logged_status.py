@@ -175,3 +175,33 @@ def test_mission_result_advances_with_the_mission(tmp_path):
     assert result["item_changed_index"][jumps][0] == 2
     assert result["item_do_jump_remaining"][jumps][0] == 0
     assert not result["failure"].any() and (result["execution_mode"] == 0).all()
+
+
+def test_vehicle_roi_is_logged_from_the_mission_item_that_sets_it(tmp_path, takeoff_log):
+    """A mission's DO_SET_ROI_LOCATION (relative altitude) publishes vehicle_roi as the command
+    does (issue_command): mode LOCATION, the item's position, its altitude above home's. The
+    mission's own reset (update_mission) publishes nothing; a flight without a ROI has none."""
+    assert "vehicle_roi" not in {d.name for d in takeoff_log.data_list}
+    lat, lon = geo(10, 10)
+    items = [mission_item(MavCmd.NAV_TAKEOFF, *geo(0, 0), 5.0),
+             mission_item(195, lat, lon, 2.0),  # DO_SET_ROI_LOCATION
+             mission_item(MavCmd.NAV_WAYPOINT, *geo(8, 0), 5.0),
+             mission_item(MavCmd.NAV_LAND, *geo(0, 0), 0.0)]
+    with Sim(log_dir=tmp_path) as sim:
+        api = sim.api(0)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        assert api.upload_mission(items) == PlanResult.ACCEPTED
+        assert api.arm() == 0 and api.start_mission() == 0
+        assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=120)
+        sim.advance(1.0)
+    log = _log(tmp_path)
+    assert [f for _, _, f in log.message_formats["vehicle_roi"].fields] == [
+        "timestamp", "lat", "lon", "alt", "roll_offset", "pitch_offset", "yaw_offset", "mode",
+        "_padding0"]
+    roi = log.get_dataset("vehicle_roi").data
+    # one publication: its record, and the same again in the log's last sample
+    assert (roi["mode"] == 3).all() and len(set(roi["lat"])) == len(set(roi["alt"])) == 1
+    assert roi["lat"][0] == pytest.approx(lat, abs=1e-7)
+    assert roi["lon"][0] == pytest.approx(lon, abs=1e-7)
+    assert roi["alt"][0] == pytest.approx(PX4_SITL_HOME.alt_amsl_m + 2.0, abs=0.01)
+    assert not roi["yaw_offset"].any()
