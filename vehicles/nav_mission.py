@@ -37,8 +37,9 @@ Rules and invariants:
   active (navigator_main.cpp, set_current_mission_index, onMissionUpdate); without one
   FlightTaskAuto holds at the vehicle's position (_kept_setpoint). A hold time (param1) keeps the
   waypoint's own triplet.
-- Yaw: param4 (deg) when given, else none: the auto task turns towards its target while that is
-  farther than the acceptance radius and holds the heading closer (MPC_YAW_MODE 0).
+- Yaw: the item's (mission_heading.py; none: the auto task turns towards its target while that
+  is farther than the acceptance radius and holds the heading closer, MPC_YAW_MODE 0). A position
+  item with a yaw (or a ROI's) is reached only once the heading is too, within its hold time.
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ from vehicles.events import (
 )
 from vehicles.mission_climb import MissionClimb
 from vehicles.mission_feasibility import MissionCheck
+from vehicles.mission_heading import ItemReached, forces_heading, item_yaw_rad, time_inside_s
 from vehicles.mission_jumps import JumpCounts, fly_through_next, look_ahead, non_jump_index
 from vehicles.mission_progress import MissionProgress
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
@@ -94,7 +96,8 @@ class Mission(NavMode):
         self._current = 0
         self.finished = False
         self._jumps_done = JumpCounts()
-        self._phase = "start"  # start | takeoff | goto | wait | delay | approach | land | jump | done
+        self._phase = "start"  # start | takeoff | goto | delay | approach | land | jump | done
+        self._reached = ItemReached()  # the current position item's reached flags
         self._resolve_jump = False  # the current index came from goToItem (MISSION_START)
         self._target: Vec3 = (0.0, 0.0, 0.0)
         self._yaw = 0.0
@@ -274,6 +277,7 @@ class Mission(NavMode):
         items = self.items
         resolve, self._resolve_jump = self._resolve_jump, False
         self._roi_heading.new_item()
+        self._reached.reset()
         for _ in range(len(items) + 1):  # bounded: DO_JUMP loops cannot hang a tick
             if self.current >= len(items):
                 self._finish(ctx)
@@ -305,6 +309,7 @@ class Mission(NavMode):
                 n, e, _ = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
                 # mission.cpp: fly to the landing point at the current altitude, then descend.
                 self._target = (n, e, ctx.position_ned_m[2])
+                self._fixed_yaw = item_yaw_rad(item)  # the move's waypoint keeps param4
                 self._phase = "approach"
                 return
             if cmd in DELAY_COMMANDS and item.param1 > 0:
@@ -364,8 +369,7 @@ class Mission(NavMode):
         later = fly_through_next(self.items, self.current)  # the triplet's next, if any
         self._next = None if later is None else item_ned(self.items[later], ctx.origin,
                                                          ctx.home_alt_amsl_m)
-        yaw = item.param4 if item.command in (MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME) else math.nan
-        self._fixed_yaw = math.radians(yaw) if math.isfinite(yaw) else math.nan
+        self._fixed_yaw = item_yaw_rad(item)
         self._phase = "goto"
         self._yaw = self._fixed_yaw
         self._triplet = self._goto_setpoint(ctx)  # set now, before this tick's reached check
@@ -395,38 +399,34 @@ class Mission(NavMode):
             return self._run_phase(ctx)
         if self._phase == "goto":
             dist = math.hypot(tx - x, ty - y)
-            # mission.cpp: no heading of its own without param4 ("FlightTaskAuto handles yaw
-            # directly": towards its target while farther than the acceptance radius, else
-            # held; auto_heading.py)
+            # without a yaw of its own "FlightTaskAuto handles yaw directly" (mission.cpp): towards
+            # its target while farther than the acceptance radius, else held (auto_heading.py)
             self._yaw = self._fixed_yaw
-            if not ctx.landed and dist < self._acc_rad and abs(z - tz) < alt_rad:
-                item = self.items[self.current]
-                if item.command == MavCmd.NAV_LOITER_UNLIM:
-                    # is_mission_item_reached_or_completed: never for LOITER_UNLIMITED, so no
-                    # MISSION_ITEM_REACHED either; only a new current item ends it.
-                    return NavSetpoint(self._target, self._yaw, ctx.limits(), loiter=True,
-                                       loiter_radius_m=self._loiter_radius)
-                hold = item.param1 if item.command in (MavCmd.NAV_WAYPOINT,
-                                                       MavCmd.NAV_LOITER_TIME) else 0.0
-                if hold > 0:
-                    self._wait_until = ctx.now_s + hold
-                    self._phase = "wait"
-                    self._fixed_yaw = self._yaw
-                else:
-                    return self._advance(ctx)
-            else:
-                return self._goto_setpoint(ctx)
-        if self._phase in ("wait", "delay"):
+            at = not ctx.landed and dist < self._acc_rad and abs(z - tz) < alt_rad
+            item = self.items[self.current]
+            if at and item.command == MavCmd.NAV_LOITER_UNLIM:
+                # is_mission_item_reached_or_completed: never for LOITER_UNLIMITED, so no
+                # MISSION_ITEM_REACHED either; only a new current item ends it.
+                return NavSetpoint(self._target, self._yaw, ctx.limits(), loiter=True,
+                                   loiter_radius_m=self._loiter_radius)
+            # position, then yaw, then the hold time (its own triplet, unchanged meanwhile)
+            if self._reached.update(ctx.now_s, at, self._item_yaw(), ctx.yaw_rad, p,
+                                    forces_heading(item), time_inside_s(item)):
+                return self._advance(ctx)
+            return self._goto_setpoint(ctx)
+        if self._phase == "delay":
             if ctx.now_s >= self._wait_until:
                 return self._advance(ctx)
-            # the waypoint's hold time: its own triplet, unchanged while the time runs
-            return self._goto_setpoint(ctx) if self._phase == "wait" else self._kept_setpoint(ctx)
+            return self._kept_setpoint(ctx)
         if self._phase == "approach":
-            if math.hypot(tx - x, ty - y) < float(p["NAV_ACC_RAD"]) / 2 or ctx.landed:
+            near = math.hypot(tx - x, ty - y) < float(p["NAV_ACC_RAD"]) / 2
+            if ctx.landed or self._reached.update(ctx.now_s, near, self._item_yaw(), ctx.yaw_rad, p):
                 self._phase = "land"
                 self._roi_heading.new_item()  # the land item after its approach work item
             else:
-                if math.hypot(tx - x, ty - y) > YAW_LOCK_DIST_M:
+                if not math.isnan(self._fixed_yaw):
+                    self._yaw = self._fixed_yaw
+                elif math.hypot(tx - x, ty - y) > YAW_LOCK_DIST_M:
                     self._yaw = math.atan2(ty - y, tx - x)
                 return NavSetpoint(self._target, self._yaw, ctx.limits())
         # land
@@ -446,9 +446,14 @@ class Mission(NavMode):
             return self._hold(ctx)
         self._phase = "start"
         self._start_item(ctx)
-        if self._phase in ("goto", "approach", "wait", "delay", "takeoff", "jump"):
+        if self._phase in ("goto", "approach", "delay", "takeoff", "jump"):
             return self._run_phase(ctx)
         return self._hold(ctx)
+
+    def _item_yaw(self) -> float:
+        """The yaw the item is measured against: a ROI's heading written into it, else its own."""
+        roi = self._roi_heading.yaw_rad
+        return self._fixed_yaw if math.isnan(roi) else roi
 
     def _kept_setpoint(self, ctx: NavContext) -> NavSetpoint:
         """An item without a position (NAV_DELAY, a DO_JUMP loaded as it is): the triplet set
