@@ -1,5 +1,6 @@
 """DO_JUMP resolution of the mission (PX4 ``src/modules/navigator/mission_base.cpp``
-getNonJumpItem / getNextPositionItems, v1.15).
+getNonJumpItem / getNextPositionItems, v1.15) and the triplet's next item (mission.cpp
+setActiveMissionItems).
 
 Rules and invariants:
 - A DO_JUMP (param1 target index, param2 repeats) is taken while its count is below its
@@ -12,6 +13,12 @@ Rules and invariants:
   not have: "Waypoint could not be read." (critical, event mission_failed_to_read_wp), and
   there is no next item. A jump to an index outside the mission has no next item either, said
   only on PX4's console ("Do Jump mission index is out of bounds.").
+- The triplet's next (``triplet_next``) is the first position item after the current one as
+  getNextPositionItems finds it: items without a position (NAV_DELAY, ROI, speed, camera, ...)
+  are skipped, DO_JUMPs followed without counting, and a takeoff or landing counts. There is
+  none when the current item does not autocontinue or a multicopter brakes for its hold time
+  (brake_for_hold: get_time_inside), e.g. a waypoint, a NAV_DELAY, a waypoint: the second is
+  the next of the first, whose corner is then planned towards it.
 - ``jumps_done`` (JumpCounts) maps a DO_JUMP's index to the jumps taken (PX4 writes the count
   back into the stored item) and keeps, across resets, how many were counted and the last one
   (report_do_jump_mission_changed).
@@ -23,6 +30,7 @@ import math
 from collections.abc import Sequence
 
 from vehicles.events import MISSION_READ_FAILED, Log
+from vehicles.mission_heading import FLT_EPSILON, time_inside_s
 from vehicles.plan_types import MavCmd, PlanItem
 from vehicles.status_log import StatusLog
 
@@ -32,11 +40,6 @@ NEXT_POSITION_ITEMS = 2  # mission.cpp setActiveMissionItems: the position items
 POSITION_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_UNLIM,
                                MavCmd.NAV_LOITER_TIME, MavCmd.NAV_LOITER_TO_ALT,
                                MavCmd.NAV_TAKEOFF, MavCmd.NAV_LAND, 84, 85})
-# fly_through_next: the items a waypoint is flown through to, and those that end the search
-FLOWN_THROUGH_TO = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.NAV_LOITER_UNLIM,
-                              MavCmd.NAV_LOITER_TO_ALT})
-ENDS_FLY_THROUGH = frozenset({MavCmd.NAV_TAKEOFF, 84, MavCmd.NAV_LAND, 85, MavCmd.NAV_DELAY,
-                              MavCmd.CONDITION_DELAY, MavCmd.NAV_RETURN_TO_LAUNCH, MavCmd.DO_JUMP})
 
 
 def _low16(value: float) -> int:
@@ -125,18 +128,11 @@ def look_ahead(log: StatusLog, now_s: float, items: Sequence[PlanItem], start: i
     return found
 
 
-def fly_through_next(items: Sequence[PlanItem], current: int) -> int | None:
-    """The index of the next waypoint when the current item (a NAV_WAYPOINT without hold time,
-    or a takeoff flown as one) is flown through to one: PX4's navigator then publishes it as
-    the triplet's next and the corner is planned (mission_block.cpp, FlightTaskAuto)."""
+def triplet_next(items: Sequence[PlanItem], current: int, ahead: Sequence[int]) -> int | None:
+    """The index of the triplet's next item for the current position item, ``ahead`` being
+    look_ahead's from the item after it: PX4's navigator publishes it and FlightTaskAuto plans
+    the corner at the current item towards it."""
     item = items[current]
-    if item.command == MavCmd.NAV_WAYPOINT and item.param1 > 0 or \
-            item.command not in (MavCmd.NAV_WAYPOINT, MavCmd.NAV_TAKEOFF):
+    if not item.autocontinue or time_inside_s(item) > FLT_EPSILON or not ahead:
         return None
-    for index in range(current + 1, len(items)):
-        cmd = items[index].command
-        if cmd in FLOWN_THROUGH_TO:
-            return index
-        if cmd in ENDS_FLY_THROUGH:
-            return None
-    return None
+    return ahead[0]

@@ -58,7 +58,7 @@ from vehicles.events import (
 from vehicles.mission_climb import MissionClimb
 from vehicles.mission_feasibility import MissionCheck
 from vehicles.mission_heading import ItemReached, forces_heading, item_yaw_rad, time_inside_s
-from vehicles.mission_jumps import JumpCounts, fly_through_next, look_ahead, non_jump_index
+from vehicles.mission_jumps import JumpCounts, look_ahead, non_jump_index, triplet_next
 from vehicles.mission_progress import MissionProgress
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
 from vehicles.nav_roi import ROI_COMMANDS, Roi, RoiHeading, command_of_item
@@ -77,6 +77,7 @@ GOTO_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.N
 TAKEOFF_COMMANDS = frozenset({MavCmd.NAV_TAKEOFF, 84})  # + NAV_VTOL_TAKEOFF
 LAND_COMMANDS = frozenset({MavCmd.NAV_LAND, 85})  # + NAV_VTOL_LAND
 DELAY_COMMANDS = frozenset({MavCmd.NAV_DELAY, MavCmd.CONDITION_DELAY})
+LOITER_COMMANDS = GOTO_COMMANDS - {MavCmd.NAV_WAYPOINT}  # SETPOINT_TYPE_LOITER
 # Below this horizontal distance a landing approach no longer updates the heading.
 YAW_LOCK_DIST_M = 1.0
 
@@ -296,14 +297,14 @@ class Mission(NavMode):
                     return
                 self.current = index
                 continue
-            look_ahead(ctx.log, ctx.now_s, items, self.current + 1, self._jumps_done)
+            ahead = look_ahead(ctx.log, ctx.now_s, items, self.current + 1, self._jumps_done)
             positional = cmd in GOTO_COMMANDS or cmd in TAKEOFF_COMMANDS or cmd in LAND_COMMANDS
             if positional and self._climb.start(ctx):  # handleTakeoff's climb work item
                 self._target, self._yaw = self._climb.target, self._climb.yaw_rad
                 self._phase = "takeoff"
                 return
             if cmd in GOTO_COMMANDS or cmd in TAKEOFF_COMMANDS:
-                self._begin_goto(ctx, item)
+                self._begin_goto(ctx, item, triplet_next(items, self.current, ahead))
                 return
             if cmd in LAND_COMMANDS:
                 n, e, _ = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
@@ -357,7 +358,7 @@ class Mission(NavMode):
         self.current = index
         return True
 
-    def _begin_goto(self, ctx: NavContext, item: PlanItem) -> None:
+    def _begin_goto(self, ctx: NavContext, item: PlanItem, later: int | None) -> None:
         self._previous = self._came_from if self._came_from is not None else ctx.setpoint_ned_m
         self._came_from = None
         self._target = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
@@ -366,9 +367,13 @@ class Mission(NavMode):
         self._loiter_radius = item_loiter_radius_m(item)
         acc = item.param2 if item.command == MavCmd.NAV_WAYPOINT else 0.0
         self._acc_rad = acc if acc > 0 else float(ctx.params["NAV_ACC_RAD"])
-        later = fly_through_next(self.items, self.current)  # the triplet's next, if any
-        self._next = None if later is None else item_ned(self.items[later], ctx.origin,
-                                                         ctx.home_alt_amsl_m)
+        nxt = None  # the triplet's next (setActiveMissionItems)
+        if later is not None:
+            nxt = item_ned(self.items[later], ctx.origin, ctx.home_alt_amsl_m)
+            if self.items[later].command == MavCmd.NAV_LOITER_TO_ALT:  # at the vehicle's altitude
+                nxt = (nxt[0], nxt[1], ctx.position_ned_m[2])
+        # FlightTaskAuto::_evaluateTriplets plans no corner at a loiter setpoint (it ignores next)
+        self._next = None if item.command in LOITER_COMMANDS else nxt
         self._fixed_yaw = item_yaw_rad(item)
         self._phase = "goto"
         self._yaw = self._fixed_yaw
