@@ -30,8 +30,9 @@ Rules and invariants:
 - An index set as it is (MISSION_SET_CURRENT, an upload's current item, the restart at 0) is
   loaded as it is (loadCurrentMissionItem): a DO_JUMP there becomes the current item. It is never
   reached, as PX4 measures it as a waypoint at its unset position (0°, 0°); only a new current
-  item ends it.
-- Items without a position (NAV_DELAY, a DO_JUMP loaded as it is) leave PX4's position setpoint
+  item ends it. So is a CONDITION_DELAY (which the feasibility check rejects): get_time_inside
+  counts NAV_DELAY's param1 only.
+- Items without a position (NAV_DELAY, such a DO_JUMP) leave PX4's position setpoint
   triplet as it was (mission.cpp setActiveMissionItems): the vehicle flies on to the last item's
   setpoint. The triplet is reset on activation and on a new current index or mission while
   active (navigator_main.cpp, set_current_mission_index, onMissionUpdate); without one
@@ -76,7 +77,6 @@ GOTO_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.N
                            MavCmd.NAV_LOITER_TO_ALT})
 TAKEOFF_COMMANDS = frozenset({MavCmd.NAV_TAKEOFF, 84})  # + NAV_VTOL_TAKEOFF
 LAND_COMMANDS = frozenset({MavCmd.NAV_LAND, 85})  # + NAV_VTOL_LAND
-DELAY_COMMANDS = frozenset({MavCmd.NAV_DELAY, MavCmd.CONDITION_DELAY})
 LOITER_COMMANDS = GOTO_COMMANDS - {MavCmd.NAV_WAYPOINT}  # SETPOINT_TYPE_LOITER
 # Below this horizontal distance a landing approach no longer updates the heading.
 YAW_LOCK_DIST_M = 1.0
@@ -285,7 +285,7 @@ class Mission(NavMode):
                 return
             item = items[self.current]
             cmd = item.command
-            if cmd == MavCmd.DO_JUMP and not resolve:  # loaded as it is
+            if cmd == MavCmd.DO_JUMP and not resolve or cmd == MavCmd.CONDITION_DELAY:  # never reached
                 look_ahead(ctx.log, ctx.now_s, items, self.current + 1, self._jumps_done)
                 self._phase = "jump"  # no setpoint of its own (_kept_setpoint)
                 return
@@ -313,7 +313,7 @@ class Mission(NavMode):
                 self._fixed_yaw = item_yaw_rad(item)  # the move's waypoint keeps param4
                 self._phase = "approach"
                 return
-            if cmd in DELAY_COMMANDS and item.param1 > 0:
+            if cmd == MavCmd.NAV_DELAY and item.param1 > 0:
                 # no setpoint of its own (_kept_setpoint); NAV_CMD_DELAY is "reached" at once
                 self._wait_until = ctx.now_s + item.param1
                 self._phase = "delay"

@@ -93,3 +93,25 @@ def test_delay_first_after_activation_holds_at_the_vehicles_position(sim):
         # the vehicle's estimate at that tick: within what the vehicle drifts in one tick
         assert math.dist(sp.target_ned_m, v.state.position_ned_m) < 0.05
     assert len(set(targets)) == 3  # follows the vehicle, not a point fixed at the start
+
+
+def test_condition_delay_is_never_reached_and_keeps_the_triplet(sim, monkeypatch):
+    """CONDITION_DELAY (112): the feasibility check rejects it; flown anyway (the check made to
+    pass here), it is no delay: get_time_inside counts only NAV_DELAY, and
+    is_mission_item_reached_or_completed measures it as a waypoint at its unset position, so it
+    is never reached. Without a position it keeps the triplet set last."""
+    from vehicles import mission_feasibility
+
+    monkeypatch.setattr(mission_feasibility, "SUPPORTED", mission_feasibility.SUPPORTED | {112})
+    v = sim.v
+    sim.run(1.2)
+    o = v.origin
+    items = [item(0, MavCmd.NAV_WAYPOINT, 20.0, 0.0, 6.0, o),
+             item(1, MavCmd.CONDITION_DELAY, frame=MavFrame.MISSION, p1=2.0),
+             item(2, MavCmd.NAV_WAYPOINT, 20.0, 20.0, 6.0, o)]
+    assert v.set_plan(sim.t, PlanType.MISSION, items) is PlanResult.ACCEPTED
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(40.0, until=lambda: v.mission_status.current_seq == 1)
+    wp0 = setpoint(v)
+    assert not sim.run(8.0, until=lambda: v.mission_status.current_seq != 1)
+    assert setpoint(v) is wp0 and v.mission_status.reached_seq == 0
