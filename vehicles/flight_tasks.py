@@ -28,6 +28,7 @@ from vehicles.auto_waypoints import AutoWaypoints
 from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitude
 from vehicles.control.hover_thrust import HoverThrustEstimator
 from vehicles.control.position_control import REACTIVATE_VEL, PositionSetpoint
+from vehicles.control.takeoff import RAMPUP
 from vehicles.follow_target import FollowTarget
 from vehicles.manual_control import (
     CENTRED,
@@ -362,7 +363,10 @@ class OrbitTask(FlightTask):
             self.pending = None
         if not st.take_off_or_idle(t.meas, t.armed):
             return
-        sp = orbit.update(t.dt_s, self.manual.current(t.now_s), pos, vel, t.yaw_rad, st.vel_sp)
+        home = t.nav.home
+        sp = orbit.update(t.dt_s, self.manual.current(t.now_s), pos, vel, t.yaw_rad, st.vel_sp,
+                          st.task_setpoint,
+                          home.position_ned_m[2] if home is not None else math.nan)
         if sp is None:
             p_sp, v_sp, a_sp = st.trajectory.update(t.dt_s, orbit.approach_target(pos),
                                                     auto_limits(self.params), 0.0, pos[2])
@@ -373,8 +377,9 @@ class OrbitTask(FlightTask):
 
 
 class StickPositionTask(FlightTask):
-    """Altitude and Position modes (FlightTaskManualAltitude / ManualPosition): the sticks drive
-    velocity setpoints; on the ground the motors idle until the sticks ask for a takeoff."""
+    """Altitude and Position modes (FlightTaskManualAltitudeSmoothVel / ManualAcceleration): the
+    sticks drive velocity setpoints; on the ground the motors idle until the sticks ask for a
+    takeoff."""
 
     def __init__(self, stage: PositionStage, params: ParamStore, manual: ManualControl,
                  task: ManualAltitude | ManualPosition) -> None:
@@ -392,14 +397,25 @@ class StickPositionTask(FlightTask):
         # there; the auto task starts from this task's setpoint, ``task_setpoint``)
         st.trajectory.reset(pos, vel)
         sticks = self.manual.current(t.now_s) if t.armed else CENTRED
+        home = t.nav.home
+        home_z = home.position_ned_m[2] if home is not None else math.nan
+        # FlightModeManager::generateTrajectorySetpoint: the task runs, then is re-activated
+        # while the takeoff state mc_pos_control last published is below the ramp
+        # (FlightTask::reActivate: its vertical velocity setpoint kept)
+        reactivate = st.takeoff.state < RAMPUP
         if not t.armed or (st.land_detector.landed and not task.want_takeoff(sticks)
                            and not st.taking_off):
-            task.activate(pos, vel, t.yaw_rad)
+            task.update(t.dt_s, sticks, pos, vel, t.yaw_rad, st.vel_sp, home_z)
+            task.reactivate(pos, vel, t.yaw_rad)
             st.set_idle(meas)
             return
         st.idle, st.flying = False, True
-        sp = task.update(t.dt_s, sticks, pos, vel, t.yaw_rad, st.vel_sp)
+        sp = task.update(t.dt_s, sticks, pos, vel, t.yaw_rad, st.vel_sp, home_z)
         st.apply(t.dt_s, meas, sp, t.yaw_rad, task.yawspeed)
+        if reactivate:
+            task.reactivate(pos, vel, t.yaw_rad)
+            st.task_setpoint = None  # as after set_idle: the vehicle's state
+            return
         if not isinstance(task, ManualPosition):
             # FlightTaskManualAltitude has no horizontal velocity setpoint (the measured one
             # here only keeps the velocity loop out): the next task takes the vehicle's

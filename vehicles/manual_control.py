@@ -8,9 +8,11 @@ After PX4:
   take over an auto mode or Offboard (COM_RC_OVERRIDE, autopilot.py).
 - ``flight_mode_manager/tasks/Utility/Sticks.cpp``: expo + deadzone (MPC_*_EXPO, MPC_HOLD_DZ);
   lost input reads as centred sticks.
-- ``tasks/ManualAltitude``: vertical velocity from the throttle stick (MPC_Z_VEL_MAX_UP/DN), the
-  altitude locked when the stick is centred and the vehicle has stopped (MPC_HOLD_MAX_Z), slower
-  near the ground (MPC_LAND_ALT1/2, MPC_LAND_SPEED, MPC_TKO_SPEED), tilt from roll/pitch
+- ``tasks/ManualAltitudeSmoothVel`` (Altitude mode, and the vertical of Position mode with the
+  default MPC_POS_MODE 4): vertical velocity from the throttle stick (MPC_Z_VEL_MAX_UP/DN),
+  slower near the ground (MPC_LAND_ALT1/2, MPC_LAND_SPEED, MPC_TKO_SPEED), jerk-limited
+  (ManualVelocitySmoothingZ: MPC_JERK_MAX, MPC_ACC_UP_MAX/MPC_ACC_DOWN_MAX), the altitude locked
+  where the smoothed trajectory stops once the stick is centred; tilt from roll/pitch
   (StickTiltXY: MPC_MAN_TILT_MAX, as at most 3 g sideways, Altitude mode), yaw rate from the
   yaw stick (MPC_MAN_Y_MAX, MPC_MAN_Y_TAU); take-off wanted above 65 % throttle.
 - ``tasks/Utility/StickAccelerationXY.cpp`` (Position mode, MPC_POS_MODE 4, PX4's default since
@@ -32,6 +34,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from vehicles.control.manual_velocity_smoothing_z import ManualVelocitySmoothingZ
 from vehicles.control.position_control import PositionSetpoint
 from vehicles.types import GRAVITY_MPS2, Vec3
 
@@ -180,20 +183,55 @@ class ManualControl:
 
 # --- Altitude and Position -------------------------------------------------------------------
 class ManualAltitude:
-    """FlightTaskManualAltitude (+ StickYaw): one instance per vehicle, ``activate`` on entry."""
+    """FlightTaskManualAltitudeSmoothVel (FlightTaskManualAltitude + ManualVelocitySmoothingZ, and
+    StickYaw): one instance per vehicle. ``activate`` when the mode is entered (PX4 builds a new
+    task object and activates it with the last task's setpoint), ``reactivate`` after every tick
+    on the ground (FlightTask::reActivate until the takeoff ramp starts)."""
 
     def __init__(self, params) -> None:
         self.params = params
-        self.z_sp = math.nan
+        self.z_sp = math.nan  # the altitude lock (ManualVelocitySmoothingZ's), NaN when not held
         self.yaw_sp = math.nan
         self._yawspeed = 0.0
         self._tilt = (0.0, 0.0)
+        self.smoothing = ManualVelocitySmoothingZ()
+        self._vz_sp = 0.0  # the last vertical velocity setpoint (what reActivate keeps)
+        self._params_version = -1
+        self._z_limits: tuple[float, ...] = (0.0,) * 11
 
-    def activate(self, pos: Vec3, vel: Vec3, yaw: float) -> None:
-        self.z_sp = pos[2]
-        self.yaw_sp = yaw
+    def activate(self, pos: Vec3, vel: Vec3, yaw: float,
+                 last: PositionSetpoint | None = None) -> None:
+        """The mode is entered (FlightModeManager::switchTask: a new task object, then
+        ``activate(last_setpoint)``; None: PX4's empty setpoint, the vehicle's state)."""
         self._yawspeed = 0.0
         self._tilt = (0.0, 0.0)
+        self._activate(pos, vel, yaw, last)
+
+    def reactivate(self, pos: Vec3, vel: Vec3, yaw: float) -> None:
+        """FlightTask::reActivate: activate again on an empty setpoint but for the vertical
+        velocity setpoint, kept so that the stick can descend on the ground (the filters run
+        on)."""
+        self._activate(pos, vel, yaw,
+                       PositionSetpoint(velocity_ned_mps=(math.nan, math.nan, self._vz_sp)))
+
+    def _activate(self, pos: Vec3, vel: Vec3, yaw: float, last: PositionSetpoint | None) -> None:
+        self.yaw_sp = yaw
+        self._vz_sp = 0.0
+        self.reset_smoothing(pos, vel, last)
+
+    def reset_smoothing(self, pos: Vec3, vel: Vec3, last: PositionSetpoint | None) -> None:
+        """FlightTaskManualAltitudeSmoothVel::activate (and FlightTaskOrbit on reaching its
+        circle): the vertical smoothing restarts, unlocked, from the last setpoint's altitude,
+        vertical velocity and acceleration, each that is not finite from the vehicle's altitude
+        and vertical velocity and a zero acceleration."""
+        z = vz = az = math.nan
+        if last is not None:
+            z, vz, az = (last.position_ned_m[2], last.velocity_ned_mps[2],
+                         last.acceleration_ned_mps2[2])
+        self.smoothing.reset(az if math.isfinite(az) else 0.0,
+                             vz if math.isfinite(vz) else vel[2],
+                             z if math.isfinite(z) else pos[2])
+        self.z_sp = math.nan
 
     @property
     def yawspeed(self) -> float:
@@ -214,32 +252,50 @@ class ManualAltitude:
         elif math.isnan(self.yaw_sp):
             self.yaw_sp = yaw  # hold the heading once the stick is released
 
-    def _vertical(self, sticks: Sticks, pos: Vec3, vel: Vec3) -> float:
-        """Vertical velocity setpoint and the altitude lock (``z_sp``, NaN while climbing)."""
+    def _limits(self) -> tuple[float, ...]:
         p = self.params
-        stick_z = -sticks.throttle  # down +, as PX4's positions(2)
-        z_expo = expo_deadzone(stick_z, float(p["MPC_Z_MAN_EXPO"]), float(p["MPC_HOLD_DZ"]))
-        vel_max = float(p["MPC_Z_VEL_MAX_DN"]) if stick_z > 0.0 else float(p["MPC_Z_VEL_MAX_UP"])
-        vz = vel_max * z_expo
-        brake = abs(z_expo) <= EPS
-        hold_max = float(p["MPC_HOLD_MAX_Z"])
-        stopped = hold_max < EPS or abs(vel[2]) < hold_max
-        if brake and stopped and math.isnan(self.z_sp):
-            self.z_sp = pos[2]
-        elif not brake:
-            self.z_sp = math.nan
-        # _respectGroundSlowdown: the ground is the origin's altitude (the spawn point).
-        dist = max(-pos[2], 0.0)
-        alt2, alt1 = float(p["MPC_LAND_ALT2"]), float(p["MPC_LAND_ALT1"])
-        down = gradual(dist, alt2, alt1, float(p["MPC_LAND_SPEED"]), float(p["MPC_Z_VEL_MAX_DN"]))
-        up = gradual(dist, alt2, alt1, float(p["MPC_TKO_SPEED"]), float(p["MPC_Z_VEL_MAX_UP"]))
-        return _clamp(vz, -up, down)
+        if p.version != self._params_version:
+            self._params_version = p.version
+            self._z_limits = tuple(float(p[n]) for n in (
+                "MPC_Z_MAN_EXPO", "MPC_HOLD_DZ", "MPC_Z_VEL_MAX_UP", "MPC_Z_VEL_MAX_DN",
+                "MPC_LAND_ALT1", "MPC_LAND_ALT2", "MPC_LAND_SPEED", "MPC_TKO_SPEED",
+                "MPC_JERK_MAX", "MPC_ACC_UP_MAX", "MPC_ACC_DOWN_MAX"))
+        return self._z_limits
+
+    def _vertical(self, dt: float, sticks: Sticks, pos: Vec3, vel_sp_feedback_z: float,
+                  home_z: float) -> tuple[float, float]:
+        """The smoothed vertical velocity and acceleration setpoints; ``z_sp`` the altitude
+        lock (NaN while the stick or the trajectory moves)."""
+        (z_expo_e, dz, up_max, dn_max, alt1, alt2, land_speed, tko_speed, jerk, acc_up,
+         acc_dn) = self._limits()
+        # FlightTaskManualAltitude::_scaleSticks: the throttle stick (down +, as PX4's
+        # positions(2)) scaled by the speed of its direction
+        stick_z = -sticks.throttle
+        target = (dn_max if stick_z > 0.0 else up_max) * expo_deadzone(stick_z, z_expo_e, dz)
+        # _respectGroundSlowdown: the height above home (the local origin without one)
+        dist = -(pos[2] - home_z) if math.isfinite(home_z) else -pos[2]
+        down = gradual(dist, alt2, alt1, land_speed, dn_max)
+        up = gradual(dist, alt2, alt1, tko_speed, up_max)
+        target = _clamp(target, -up, down)
+        # FlightTaskManualAltitudeSmoothVel::_updateSetpoints: the target through
+        # ManualVelocitySmoothingZ; its lock replaces FlightTaskManualAltitude's (no distance
+        # sensor here, so no terrain hold: MPC_HOLD_MAX_Z plays no part)
+        s = self.smoothing
+        s.set_limits(jerk, acc_up, acc_dn, up_max, dn_max)
+        s.vel_sp_feedback = vel_sp_feedback_z
+        s.position_estimate = pos[2]
+        s.update(dt, target)
+        self.z_sp = s.position_locked
+        self._vz_sp = s.v
+        return s.v, s.a
 
     def update(self, dt: float, sticks: Sticks, pos: Vec3, vel: Vec3, yaw: float,
-               vel_sp_feedback: Vec3) -> PositionSetpoint:
+               vel_sp_feedback: Vec3, home_z: float = math.nan) -> PositionSetpoint:
+        """``vel_sp_feedback``: the velocity controller's last input; ``home_z``: the home's
+        altitude (NED) when there is one."""
         p = self.params
         self._yaw(sticks, yaw, dt)
-        vz = self._vertical(sticks, pos, vel)
+        vz, az = self._vertical(dt, sticks, pos, vel_sp_feedback[2], home_z)
         # StickTiltXY: the stick limited to unit length, then filtered (MC_MAN_TILT_TAU), then
         # turned into the heading frame.
         sx, sy = sticks.pitch, sticks.roll
@@ -252,8 +308,8 @@ class ManualAltitude:
         a = _max_tilt_acceleration(float(p["MPC_MAN_TILT_MAX"]))
         # Horizontal: tilt only. The velocity setpoint is the measured velocity, so the
         # velocity loop adds nothing (PX4 leaves it NaN and skips that loop).
-        return PositionSetpoint((math.nan, math.nan, self.z_sp), (vel[0], vel[1], vz), self.yaw_sp,
-                                (x * a, y * a, math.nan))
+        return PositionSetpoint((math.nan, math.nan, self.z_sp), (vel[0], vel[1], vz),
+                                self.yaw_sp, (x * a, y * a, az))
 
 
 class ManualPosition(ManualAltitude):
@@ -266,18 +322,19 @@ class ManualPosition(ManualAltitude):
         self._acc_xy = (0.0, 0.0)
         self._brake_boost = 1.0
 
-    def activate(self, pos: Vec3, vel: Vec3, yaw: float) -> None:
-        super().activate(pos, vel, yaw)
+    def activate(self, pos: Vec3, vel: Vec3, yaw: float,
+                 last: PositionSetpoint | None = None) -> None:
+        super().activate(pos, vel, yaw, last)
         self._pos_xy = (math.nan, math.nan)
         self._vel_xy = (vel[0], vel[1])
         self._acc_xy = (0.0, 0.0)
         self._brake_boost = 1.0
 
     def update(self, dt: float, sticks: Sticks, pos: Vec3, vel: Vec3, yaw: float,
-               vel_sp_feedback: Vec3) -> PositionSetpoint:
+               vel_sp_feedback: Vec3, home_z: float = math.nan) -> PositionSetpoint:
         p = self.params
         self._yaw(sticks, yaw, dt)
-        vz = self._vertical(sticks, pos, vel)
+        vz, az = self._vertical(dt, sticks, pos, vel_sp_feedback[2], home_z)
         dz = float(p["MPC_HOLD_DZ"])
         e = float(p["MPC_XY_MAN_EXPO"])
         sx, sy = expo_deadzone(sticks.pitch, e, dz), expo_deadzone(sticks.roll, e, dz)
@@ -328,7 +385,7 @@ class ManualPosition(ManualAltitude):
                 vx, vy = vel_sp_feedback[0], vel_sp_feedback[1]
         self._vel_xy = (vx, vy)
         return PositionSetpoint((self._pos_xy[0], self._pos_xy[1], self.z_sp), (vx, vy, vz),
-                                self.yaw_sp, (ax, ay, math.nan))
+                                self.yaw_sp, (ax, ay, az))
 
 
 # --- Stabilized and Acro ---------------------------------------------------------------------

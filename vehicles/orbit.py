@@ -101,7 +101,6 @@ class Orbit:
             n, e = center_ne
         if math.isfinite(center_down):
             d = center_down
-            self._altitude.z_sp = d
         self.center = (n, e, d)
         self.approaching = not self.on_circle(pos)
 
@@ -118,11 +117,12 @@ class Orbit:
         return (pos[0] + dn * k, pos[1] + de * k, self.center[2])
 
     def update(self, dt: float, sticks: Sticks, pos: Vec3, vel: Vec3, yaw: float,
-               vel_sp_feedback: Vec3) -> PositionSetpoint | None:
+               vel_sp_feedback: Vec3, last: PositionSetpoint | None = None,
+               home_z: float = math.nan) -> PositionSetpoint | None:
         """Setpoints on the circle, or None while approaching it (then fly ``approach_target``
-        with nose to the centre: ``yaw_setpoint``)."""
+        with nose to the centre: ``yaw_setpoint``). ``last``: the task's last setpoint (the
+        approach's when it reaches the circle); ``home_z``: the home's altitude, if any."""
         p = self.params
-        alt = self._altitude.update(dt, sticks, pos, vel, yaw, vel_sp_feedback)
         # Sticks trim the circle: pitch the radius, roll the speed (FlightTaskOrbit::update).
         dz = float(p["MPC_HOLD_DZ"])
         e = float(p["MPC_XY_MAN_EXPO"])
@@ -134,6 +134,10 @@ class Orbit:
                 self.velocity - trim_v * dt * (VELOCITY_MAX / 4.0))
         dn, de = pos[0] - self.center[0], pos[1] - self.center[1]
         if self.on_circle(pos):
+            if self.approaching:
+                # FlightTaskOrbit::update: on reaching the circle the altitude's smoothing
+                # restarts from the approach's last setpoint (``last``)
+                self._altitude.reset_smoothing(pos, vel, last)
             self.approaching = False
         elif not self.approaching:
             self.approaching = True
@@ -142,6 +146,8 @@ class Orbit:
         if self.approaching:
             self._slew(math.atan2(-de, -dn), step, yaw)
             return None
+        # FlightTaskManualAltitudeSmoothVel::update, on the circle only
+        alt = self._altitude.update(dt, sticks, pos, vel, yaw, vel_sp_feedback, home_z)
         dist = math.hypot(dn, de)
         un, ue = (dn / dist, de / dist) if dist > 1e-6 else (0.0, 0.0)
         v = self.velocity
@@ -168,7 +174,7 @@ class Orbit:
         if not math.isnan(down):
             self.center = (self.center[0], self.center[1], down)
         return PositionSetpoint((math.nan, math.nan, down), (vn, ve, alt.velocity_ned_mps[2]),
-                                self._yaw_sp, (-un * a, -ue * a, math.nan))
+                                self._yaw_sp, (-un * a, -ue * a, alt.acceleration_ned_mps2[2]))
 
     def _slew(self, target: float, step: float, yaw: float) -> None:
         if math.isnan(self._yaw_sp):
