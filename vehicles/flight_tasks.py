@@ -11,7 +11,8 @@ Rules and invariants:
   (the completeness test checks every state has one).
 - A task is activated when its state is entered (``activate``), then updated every 50 Hz tick
   (``update``); both get the tick's ``TaskInput``. Tasks write only through the PositionStage,
-  whose ``task_setpoint`` is the last trajectory setpoint, what the auto task starts from.
+  whose ``task_setpoint`` is the last trajectory setpoint, what the auto and stick tasks start
+  from.
 - Tasks that are not the navigator's tell the autopilot so (``uses_navigator``): it then
   deactivates the navigator, as PX4's navigator goes inactive outside the auto modes.
 - Lost stick input reads as centred sticks; disarmed tasks idle the motors.
@@ -388,7 +389,10 @@ class StickPositionTask(FlightTask):
         self.task = task
 
     def activate(self, t: TaskInput) -> None:
-        self.task.activate(t.meas.position_ned_m, t.meas.velocity_ned_mps, t.yaw_rad)
+        # from the trajectory setpoint the last task published (switchTask hands it over;
+        # FlightTaskManualAltitudeSmoothVel / ManualAcceleration::activate)
+        self.task.activate(t.meas.position_ned_m, t.meas.velocity_ned_mps, t.yaw_rad,
+                           self.stage.task_setpoint)
 
     def update(self, t: TaskInput) -> None:
         st, meas, task = self.stage, t.meas, self.task

@@ -325,10 +325,26 @@ class ManualPosition(ManualAltitude):
     def activate(self, pos: Vec3, vel: Vec3, yaw: float,
                  last: PositionSetpoint | None = None) -> None:
         super().activate(pos, vel, yaw, last)
-        self._pos_xy = (math.nan, math.nan)
-        self._vel_xy = (vel[0], vel[1])
-        self._acc_xy = (0.0, 0.0)
+        # a new StickAccelerationXY (at rest, no brake boost), then
+        # FlightTaskManualAcceleration::activate: no position lock; the velocity from the last
+        # setpoint's when both components are finite, else the vehicle's; the acceleration
+        # (the jerk limit's slew rates) from the last setpoint's when finite
         self._brake_boost = 1.0
+        self._pos_xy = (math.nan, math.nan)
+        v = last.velocity_ned_mps if last is not None else (math.nan,) * 3
+        if not (math.isfinite(v[0]) and math.isfinite(v[1])):
+            v = vel
+        self._vel_xy = (v[0], v[1]) if math.isfinite(v[0]) and math.isfinite(v[1]) else (0.0, 0.0)
+        a = last.acceleration_ned_mps2 if last is not None else (math.nan,) * 3
+        self._acc_xy = (a[0], a[1]) if math.isfinite(a[0]) and math.isfinite(a[1]) else (0.0, 0.0)
+
+    def reactivate(self, pos: Vec3, vel: Vec3, yaw: float) -> None:
+        """FlightTask::reActivate → FlightTaskManualAcceleration::activate on an empty setpoint:
+        no position lock, the vehicle's velocity; the slew rates and the brake boost run on."""
+        super().reactivate(pos, vel, yaw)
+        self._pos_xy = (math.nan, math.nan)
+        if math.isfinite(vel[0]) and math.isfinite(vel[1]):
+            self._vel_xy = (vel[0], vel[1])
 
     def update(self, dt: float, sticks: Sticks, pos: Vec3, vel: Vec3, yaw: float,
                vel_sp_feedback: Vec3, home_z: float = math.nan) -> PositionSetpoint:

@@ -12,8 +12,9 @@ Rules and invariants:
   ``task_setpoint`` when it takes over from another task (FlightTaskAuto::activate).
 - ``task_setpoint``: the trajectory setpoint the running task published last (PX4's
   FlightTask::getTrajectorySetpoint), what FlightModeManager::switchTask hands the next task's
-  ``activate``; None (PX4's empty setpoint) where PX4 runs no flight task (Offboard,
-  Stabilized, Acro, Manual, Termination) and while the motors idle.
+  ``activate`` (the auto task's, Altitude's and Position's); None (PX4's empty setpoint) where
+  PX4 runs no flight task (Offboard, Stabilized, Acro, Manual, Termination) and while the
+  motors idle.
 - Takeoff as PX4's mc_pos_control does it (control/takeoff.py): after arming the motors idle for
   MPC_SPOOLUP_TIME; until a task wants to take off and the ramp starts the controller gets no
   setpoint (zero thrust, integrators held); then the upward speed limit ramps over MPC_TKO_RAMP_T;
