@@ -16,9 +16,9 @@ After PX4:
   (StickTiltXY: MPC_MAN_TILT_MAX, as at most 3 g sideways, Altitude mode), yaw rate from the
   yaw stick (MPC_MAN_Y_MAX, MPC_MAN_Y_TAU); take-off wanted above 65 % throttle.
 - ``tasks/Utility/StickAccelerationXY.cpp`` (Position mode, MPC_POS_MODE 4, PX4's default since
-  v1.13; older values run the same): sticks command horizontal acceleration (2 × MPC_ACC_HOR),
-  jerk-limited (MPC_JERK_MAX), with a drag that caps the speed at MPC_VEL_MANUAL and brakes
-  harder with centred sticks; the position is locked once the velocity setpoint is zero.
+  v1.13; older values run the same): sticks command horizontal acceleration (2 × MPC_ACC_HOR)
+  less a drag that caps the speed at MPC_VEL_MANUAL and brakes harder with centred sticks, the
+  sum jerk-limited (MPC_JERK_MAX); the position is locked once the velocity setpoint is zero.
 - ``mc_att_control`` (Stabilized, and Manual on a multicopter): roll/pitch sticks → tilt up to
   MPC_MAN_TILT_MAX, yaw stick → heading rate, throttle → thrust through MPC_THR_CURVE (0: the
   centred stick is hover thrust).
@@ -39,6 +39,7 @@ from vehicles.control.position_control import PositionSetpoint
 from vehicles.types import GRAVITY_MPS2, Vec3
 
 EPS = 1.1920929e-07  # FLT_EPSILON
+UNIT_EPS = 1e-5  # matrix::Vector::unit_or_zero's
 TAKEOFF_THROTTLE = 0.3  # FlightTaskManualAltitude::_checkTakeoff: above 65 % of the stick
 STICK_RATE_TAU_S = 0.1  # MovingDiff's filter
 BRAKE_BOOST_TAU_S = 0.8
@@ -91,6 +92,11 @@ def gradual(value: float, x_low: float, x_high: float, y_low: float, y_high: flo
     if value >= x_high:
         return y_high
     return y_low + (y_high - y_low) * (value - x_low) / (x_high - x_low)
+
+
+def _sign(value: float) -> float:
+    """matrix::sign: 0 at 0."""
+    return 1.0 if value > 0.0 else -1.0 if value < 0.0 else 0.0
 
 
 def _sqrt_linear(value: float) -> float:
@@ -319,7 +325,8 @@ class ManualPosition(ManualAltitude):
         super().__init__(params)
         self._pos_xy = (math.nan, math.nan)
         self._vel_xy = (0.0, 0.0)
-        self._acc_xy = (0.0, 0.0)
+        self._acc_xy = (0.0, 0.0)  # the jerk limit's slew rates
+        self._acc_prev = (0.0, 0.0)  # the last acceleration setpoint
         self._brake_boost = 1.0
 
     def activate(self, pos: Vec3, vel: Vec3, yaw: float,
@@ -330,6 +337,7 @@ class ManualPosition(ManualAltitude):
         # setpoint's when both components are finite, else the vehicle's; the acceleration
         # (the jerk limit's slew rates) from the last setpoint's when finite
         self._brake_boost = 1.0
+        self._acc_prev = (0.0, 0.0)
         self._pos_xy = (math.nan, math.nan)
         v = last.velocity_ned_mps if last is not None else (math.nan,) * 3
         if not (math.isfinite(v[0]) and math.isfinite(v[1])):
@@ -361,33 +369,46 @@ class ManualPosition(ManualAltitude):
         acc_scale = 2.0 * float(p["MPC_ACC_HOR"])  # drag halves the average acceleration
         vel_scale = float(p["MPC_VEL_MANUAL"])
         ax, ay = sx * acc_scale, sy * acc_scale
-        # Jerk limit: a slew rate per axis, scaled so that both axes arrive together.
-        px_, py_ = self._acc_xy
-        dx, dy = ax - px_, ay - py_
-        dn = math.hypot(dx, dy)
-        jerk = float(p["MPC_JERK_MAX"])
-        if dn > 0.0:
-            lim_x, lim_y = abs(dx) / dn * jerk * dt, abs(dy) / dn * jerk * dt
-            ax = px_ + _clamp(dx, -lim_x, lim_x)
-            ay = py_ + _clamp(dy, -lim_y, lim_y)
-        # Drag: caps the speed at MPC_VEL_MANUAL; stronger with centred sticks (brake boost).
+        # calculateDrag: caps the speed at MPC_VEL_MANUAL; with centred sticks the brake boost
+        # (filtered, 0.8 s) raises it and blends in a square-root drag below 1 m/s, so that
+        # small speeds end (brake_scale: 0 at boost 1, 1 at boost 2).
         centred = sx * sx + sy * sy < EPS
         boost_target = max(2.0, math.sqrt(vel_scale)) if centred else 1.0
         self._brake_boost = _lowpass(self._brake_boost, boost_target, dt, BRAKE_BOOST_TAU_S)
         coeff = acc_scale / vel_scale * self._brake_boost
         vx, vy = self._vel_xy
         vn = math.hypot(vx, vy)
-        k = coeff * _sqrt_linear(vn) / vn if vn > 0.0 else 0.0
+        brake_scale = gradual(self._brake_boost, 1.0, 2.0, 0.0, 1.0)
+        k = coeff * ((brake_scale * _sqrt_linear(vn) / vn if vn > UNIT_EPS else 0.0)
+                     + (1.0 - brake_scale))
         drag_x, drag_y = k * vx, k * vy
-        if ax * ax + ay * ay < EPS and vn * vn < (drag_x ** 2 + drag_y ** 2) * dt * dt:
+        # no drag that would turn the velocity round (oscillation about 0): without an
+        # acceleration, or with one that changed sign, a velocity the drag would overshoot
+        # stops
+        qx, qy = self._acc_prev
+        if (ax * ax + ay * ay < EPS or _sign(qx) != _sign(ax) or _sign(qy) != _sign(ay)) \
+                and vn * vn < (drag_x ** 2 + drag_y ** 2) * dt * dt:
             drag_x = drag_y = 0.0
             vx = vy = 0.0
-        self._acc_xy = (ax, ay)  # the jerk limit's memory is the commanded acceleration
         ax, ay = ax - drag_x, ay - drag_y
+        # applyJerkLimit: one slew rate per axis (its value the last jerk-limited acceleration),
+        # each limited to MPC_JERK_MAX times its share of the change from the last output, so
+        # that both axes arrive together
+        dx, dy = ax - qx, ay - qy
+        dn = math.hypot(dx, dy)
+        jerk = float(p["MPC_JERK_MAX"])
+        jx, jy = ((abs(dx) / dn * jerk * dt, abs(dy) / dn * jerk * dt) if dn > UNIT_EPS
+                  else (0.0, 0.0))
+        sx_, sy_ = self._acc_xy
+        ax = sx_ + _clamp(ax - sx_, -jx, jx)
+        ay = sy_ + _clamp(ay - sy_, -jy, jy)
+        self._acc_xy = (ax, ay)
+        # applyTiltLimit
         tilt = math.tan(math.radians(float(p["MPC_TILTMAX_AIR"]))) * GRAVITY_MPS2
         an = math.hypot(ax, ay)
         if an > tilt:
             ax, ay = ax * tilt / an, ay * tilt / an
+        self._acc_prev = (ax, ay)
         vx, vy = vx + ax * dt, vy + ay * dt
         # Lock the position once stopped; release it (from the controller's own velocity
         # setpoint, so nothing jumps) when the sticks move again.
