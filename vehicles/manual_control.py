@@ -242,21 +242,24 @@ class ManualAltitude:
     @property
     def yawspeed(self) -> float:
         """The heading rate the yaw stick asks for (rad/s), fed forward to attitude control."""
-        return self._yawspeed if abs(self._yawspeed) > 1e-3 else 0.0
+        return self._yawspeed
 
     def want_takeoff(self, sticks: Sticks) -> bool:
         return sticks.throttle > TAKEOFF_THROTTLE
 
     def _yaw(self, sticks: Sticks, yaw: float, dt: float) -> None:
+        """StickYaw::generateYawSetpoint (no unaided heading here: no yaw correction): the
+        filtered rate (MPC_MAN_Y_TAU) of the stick's share of MPC_MAN_Y_MAX; while it is not
+        zero there is no heading setpoint (NaN: the rate alone turns the vehicle), once it is
+        the heading locks where the vehicle points (updateYawLock)."""
         p = self.params
         target = (expo_deadzone(sticks.yaw, float(p["MPC_YAW_EXPO"]), float(p["MPC_HOLD_DZ"]))
                   * math.radians(float(p["MPC_MAN_Y_MAX"])))
         self._yawspeed = _lowpass(self._yawspeed, target, dt, float(p["MPC_MAN_Y_TAU"]))
-        if abs(self._yawspeed) > 1e-3:
-            base = self.yaw_sp if not math.isnan(self.yaw_sp) else yaw
-            self.yaw_sp = math.remainder(base + self._yawspeed * dt, math.tau)
+        if abs(self._yawspeed) > EPS:
+            self.yaw_sp = math.nan
         elif math.isnan(self.yaw_sp):
-            self.yaw_sp = yaw  # hold the heading once the stick is released
+            self.yaw_sp = yaw
 
     def _limits(self) -> tuple[float, ...]:
         p = self.params
@@ -310,7 +313,9 @@ class ManualAltitude:
             sx, sy = sx / n, sy / n
         tau = float(p["MC_MAN_TILT_TAU"])
         self._tilt = (_lowpass(self._tilt[0], sx, dt, tau), _lowpass(self._tilt[1], sy, dt, tau))
-        x, y = _rotate(self._tilt[0], self._tilt[1], self.yaw_sp)
+        # (Sticks::rotateIntoHeadingFrameXY: the heading setpoint, else the vehicle's heading)
+        x, y = _rotate(self._tilt[0], self._tilt[1],
+                       self.yaw_sp if not math.isnan(self.yaw_sp) else yaw)
         a = _max_tilt_acceleration(float(p["MPC_MAN_TILT_MAX"]))
         # Horizontal: tilt only. The velocity setpoint is the measured velocity, so the
         # velocity loop adds nothing (PX4 leaves it NaN and skips that loop).

@@ -1,6 +1,6 @@
 """Position mode's horizontal (MPC_POS_MODE 4): PX4's StickAccelerationXY::generateSetpoints
-(src/modules/flight_mode_manager/tasks/Utility/StickAccelerationXY.cpp, v1.15.2), which has no
-unit test in PX4. The facts of its source checked here:
+(src/modules/flight_mode_manager/tasks/Utility/StickAccelerationXY.cpp, v1.15.2), and the yaw
+stick (StickYaw.cpp); neither has a unit test in PX4. The facts of their source checked here:
 
 - the stick (expo, deadzone, unit length) times 2 × MPC_ACC_HOR, minus a drag of
   2 × MPC_ACC_HOR / MPC_VEL_MANUAL times the velocity setpoint: with the stick held the drag is
@@ -11,7 +11,8 @@ unit test in PX4. The facts of its source checked here:
   by at most MPC_JERK_MAX × dt per tick, though the brake boost raises the drag meanwhile;
 - centred, the brake boost (towards max(2, √MPC_VEL_MANUAL), 0.8 s) blends in a square-root
   drag below 1 m/s, and a velocity the drag would overshoot stops: the vehicle comes to rest
-  and the position locks.
+  and the position locks;
+- StickYaw: no heading setpoint while the filtered rate is not zero, then the vehicle's.
 """
 
 from __future__ import annotations
@@ -72,3 +73,26 @@ def test_centred_the_vehicle_comes_to_rest_and_the_position_locks():
     i = stopped[0]
     assert math.isfinite(sps[i].position_ned_m[0])  # locked where the vehicle is
     assert all(sp.velocity_ned_mps[0] >= 0.0 for sp in sps)  # never turned round
+
+
+# --- StickYaw --------------------------------------------------------------------------------
+def test_the_yaw_stick_turns_by_rate_and_the_heading_locks_where_the_vehicle_points():
+    """StickYaw::generateYawSetpoint / updateYawLock: while the filtered rate (MPC_MAN_Y_TAU) is
+    not zero (above FLT_EPSILON) there is no heading setpoint, only the rate; once it is, the
+    heading locks at the vehicle's heading of that tick (not at an integrated setpoint)."""
+    task, p = _task()
+    fb = (0.0, 0.0, 0.0)
+    sp = task.update(DT, Sticks(yaw=1.0), POS, fb, 0.3, fb)
+    assert math.isnan(sp.yaw_rad) and task.yawspeed > 0.0
+    for _ in range(50):
+        sp = task.update(DT, Sticks(yaw=1.0), POS, fb, 0.3, fb)
+    assert task.yawspeed == pytest.approx(math.radians(float(p["MPC_MAN_Y_MAX"])), rel=1e-4)
+    yaws = []
+    for i in range(200):
+        sp = task.update(DT, Sticks(), POS, fb, 1.0 + 0.001 * i, fb)
+        yaws.append(sp.yaw_rad)
+    locked = [i for i, y in enumerate(yaws) if math.isfinite(y)]
+    # the filter (alpha = 0.02 / 0.1) takes about 70 ticks to fall below FLT_EPSILON
+    assert 60 < locked[0] < 80
+    assert yaws[locked[0]] == pytest.approx(1.0 + 0.001 * locked[0])
+    assert yaws[-1] == yaws[locked[0]] and task.yawspeed < 1.2e-7

@@ -128,7 +128,7 @@ def test_hold_after_yawing_in_position_mode_keeps_position_modes_heading(sim):
     sim.v.manual_control(sim.t, CENTRED)
     assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
     yaw0 = sim.v.state.euler_rad()[2]
-    fly(sim, 2.0, Sticks(yaw=1.0))
+    fly(sim, 1.0, Sticks(yaw=1.0))  # about 150°: MPC_MAN_Y_MAX (2 s would wrap round)
     fly(sim, 2.0, CENTRED)
     yaw1 = sim.v.state.euler_rad()[2]
     assert abs(math.remainder(yaw1 - yaw0, math.tau)) > 1.0
