@@ -2,7 +2,8 @@
 
 Rules and invariants (SimPy's core in miniature):
 - ``now`` only moves forward, and only inside ``step``/``run``: it becomes the time of the event
-  being processed. Nothing here reads a wall clock.
+  being processed. Nothing here reads a wall clock. It is a plain attribute, read at every event
+  and datagram (a property would cost a call each time): only the kernel writes it.
 - Events are ordered by (time, priority, seq). ``seq`` is a global insertion counter, so events
   at the same time and priority run in the order they were scheduled: runs are deterministic.
 - Lower priority values run first. Physics uses ``PRIORITY_PHYSICS`` so that, at equal times,
@@ -63,22 +64,18 @@ class Kernel:
     """Discrete-event scheduler over simulated seconds."""
 
     def __init__(self, start_s: float = 0.0) -> None:
-        self._now = float(start_s)
+        self.now = float(start_s)
         self._heap: list[tuple[float, int, int, Event]] = []
         self._seq = 0
         self.events_processed = 0
         self.horizon = math.inf
         self.on_horizon: Callable[[float], Any] | None = None
 
-    @property
-    def now(self) -> float:
-        return self._now
-
     def schedule(self, time_s: float, callback: Callable[..., Any], *args: Any,
                  priority: int = PRIORITY_DEFAULT) -> Event:
         """Run ``callback(*args)`` at simulated time ``time_s``."""
-        if not time_s >= self._now:  # also rejects NaN
-            raise SchedulingError(f"cannot schedule at {time_s!r}, now is {self._now!r}")
+        if not time_s >= self.now:  # also rejects NaN
+            raise SchedulingError(f"cannot schedule at {time_s!r}, now is {self.now!r}")
         seq = self._seq
         event = Event(time_s, priority, seq, callback, args)
         self._seq = seq + 1
@@ -89,8 +86,8 @@ class Kernel:
         """Schedule ``event``, which has run, again at ``time_s`` with the same callback and
         arguments, as ``schedule`` would a new one (a fresh ``seq``): for a timer that re-arms
         itself from its own callback, without making a new Event every time."""
-        if not time_s >= self._now:  # also rejects NaN
-            raise SchedulingError(f"cannot schedule at {time_s!r}, now is {self._now!r}")
+        if not time_s >= self.now:  # also rejects NaN
+            raise SchedulingError(f"cannot schedule at {time_s!r}, now is {self.now!r}")
         seq = self._seq
         event.time = time_s
         event.seq = seq
@@ -100,7 +97,7 @@ class Kernel:
 
     def call_later(self, delay_s: float, callback: Callable[..., Any], *args: Any,
                    priority: int = PRIORITY_DEFAULT) -> Event:
-        return self.schedule(self._now + delay_s, callback, *args, priority=priority)
+        return self.schedule(self.now + delay_s, callback, *args, priority=priority)
 
     def peek_key(self) -> tuple[float, int]:
         """(time, priority) of the next live event, or (+inf, 0) if there is none."""
@@ -134,7 +131,31 @@ class Kernel:
                 self._cross(entry[0])
                 continue
             heapq.heappop(heap)
-            self._now = event.time
+            self.now = event.time
+            self.events_processed += 1
+            event.callback(*event.args)
+            return True
+        return False
+
+    def step_until(self, until: float, priority: int | None = None) -> bool:
+        """Process the next live event if ``run(until, priority)`` would: False (nothing run)
+        when it lies beyond them. A caller that runs events one at a time up to a target (the
+        daemon's pacer) asks and steps in one call."""
+        heap = self._heap
+        while heap:
+            entry = heap[0]
+            event = entry[3]
+            if event.cancelled:
+                heapq.heappop(heap)
+                continue
+            t = entry[0]
+            if t > until or (t == until and priority is not None and entry[1] > priority):
+                return False
+            if t > self.horizon:
+                self._cross(t)
+                continue
+            heapq.heappop(heap)
+            self.now = t
             self.events_processed += 1
             event.callback(*event.args)
             return True
@@ -148,8 +169,8 @@ class Kernel:
             while self.step():
                 pass
             return
-        if until < self._now:
-            raise SchedulingError(f"cannot run until {until!r}, now is {self._now!r}")
+        if until < self.now:
+            raise SchedulingError(f"cannot run until {until!r}, now is {self.now!r}")
         heap = self._heap
         pop = heapq.heappop
         while True:
@@ -171,10 +192,10 @@ class Kernel:
                 self._cross(t)
                 continue
             pop(heap)
-            self._now = t
+            self.now = t
             self.events_processed += 1
             event.callback(*event.args)
-        self._now = until
+        self.now = until
 
     def __len__(self) -> int:
         return sum(1 for e in self._heap if not e[3].cancelled)
@@ -200,11 +221,19 @@ class Ticker:
         self._event: Event | None = kernel.schedule(self._start, self._fire, priority=priority)
 
     def _fire(self) -> None:
-        now = self._kernel.now
-        self._n += 1
-        self._event = self._kernel.schedule(
-            self._start + self._n * self.period_s, self._fire, priority=self._priority
-        )
+        kernel = self._kernel
+        now = kernel.now
+        self._n = n = self._n + 1
+        t = self._start + n * self.period_s
+        # ``kernel.reschedule(self._event, t)`` inlined (it runs at every physics step): the
+        # event has just run, so it is out of the heap, and ``t`` is past ``now``.
+        event = self._event
+        assert event is not None  # a cancelled ticker's event never fires
+        seq = kernel._seq
+        event.time = t
+        event.seq = seq
+        kernel._seq = seq + 1
+        heapq.heappush(kernel._heap, (t, self._priority, seq, event))
         self._callback(now)
 
     @property

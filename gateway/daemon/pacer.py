@@ -163,16 +163,18 @@ class Pacer:
         kernel, clock, pending = self.kernel, self._clock, self._input_pending
         t = clock()
         check_at, slice_end = t + POLL_EVERY_S, t + YIELD_EVERY_S
+        bound = self._bound(target)  # the horizon moves only while this yields (set_horizon)
         while True:
-            if self._beyond(target):
+            # The next event unless it lies beyond ``target`` (``_beyond``), in one call.
+            if not kernel.step_until(target, bound):
                 if target > kernel.now:
                     kernel.run(until=target, priority=self._bound(target))
                 return
-            kernel.step()
             t = clock()
             if t >= check_at:
                 if t >= slice_end or pending():
                     await asyncio.sleep(0)  # arrivals may run the kernel further meanwhile
+                    bound = self._bound(target)
                     t = clock()
                     slice_end = t + YIELD_EVERY_S
                 check_at = t + POLL_EVERY_S
