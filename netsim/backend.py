@@ -37,6 +37,7 @@ class NetLink(Protocol):
 
     name: str
     stats: LinkStats
+    deliver: Deliver  # where a delivered packet goes; may be replaced at any time
 
     def send(self, packet: bytes, meta: Any = None) -> None: ...
 

@@ -2,7 +2,8 @@
 
 Rules and invariants:
 - The link never looks inside a packet; ``meta`` rides along untouched (the gateway uses it for
-  the UDP peer address) and is handed to ``deliver`` with the packet.
+  the UDP peer address) and is handed to ``deliver`` with the packet. ``deliver`` may be
+  replaced at any time (the gateway points it straight at a link's client).
 - Each packet is sent at ``kernel.now``; the model decides a delay or a drop.
 - Per-packet delays are independent, as with netem: with jitter larger than the gap between
   packets they may arrive out of order, and the mean latency is the configured one. ``fifo=True``
@@ -14,10 +15,12 @@ Rules and invariants:
 
 from __future__ import annotations
 
+import math
 from bisect import bisect_left
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from operator import itemgetter
 from typing import Any
 
 from netsim.kernel import PRIORITY_NETWORK, Kernel
@@ -97,7 +100,7 @@ class Link:
         self.fifo = fifo
         self.tracer = tracer
         self.stats = LinkStats()
-        self._deliver = deliver
+        self.deliver = deliver
         self._last_arrival_s = float("-inf")
         if isinstance(model, IdealModel):
             # An instance attribute shadows the method: an ideal link (the daemon's default
@@ -118,7 +121,7 @@ class Link:
             now = self.kernel.now
             tracer("send", self.name, now, size, "0.000000")
             tracer("recv", self.name, now, size, "")
-        self._deliver(packet, meta)
+        self.deliver(packet, meta)
 
     def send(self, packet: bytes, meta: Any = None) -> None:
         now = self.kernel.now
@@ -147,7 +150,7 @@ class Link:
             if tracer is not None:
                 tracer("send", self.name, now, size, f"{arrival - now:.6f}")
                 tracer("recv", self.name, now, size, "")
-            self._deliver(packet, meta)
+            self.deliver(packet, meta)
             return
         if tracer is not None:
             tracer("send", self.name, now, size, f"{arrival - now:.6f}")
@@ -160,7 +163,7 @@ class Link:
         stats.record_delivery(self.kernel.now - sent_at, len(packet))
         if self.tracer is not None:
             self.tracer("recv", self.name, self.kernel.now, len(packet), "")
-        self._deliver(packet, meta)
+        self.deliver(packet, meta)
 
 
 class TraceWriter:
@@ -191,28 +194,42 @@ class InstantSortedTrace:
         self._group = group
         self._groups: dict[str, int] = {}  # ``group`` of each link name seen (a run has few)
         self._time = ""
+        self._time_s = math.nan  # the float ``_time`` was printed from (an instant has many)
         self._held: list[tuple[int, str]] = []
-        self.lines = 0
+        self._last_group = -math.inf  # of the last line held; a smaller one next: sort at flush
+        self._sorted = True
+        self._written = 0  # lines written so far (``lines`` adds those held)
+
+    @property
+    def lines(self) -> int:
+        return self._written + len(self._held)
 
     def __call__(self, event: str, link: str, time_s: float, size: int, detail: str) -> None:
-        stamp = f"{time_s:.9f}"  # one instant: one printed time (floats that print alike)
-        if stamp != self._time:
-            self.flush()
-            self._time = stamp
+        if time_s != self._time_s:  # printed once per float, not once per line
+            self._time_s = time_s
+            stamp = f"{time_s:.9f}"  # one instant: one printed time (floats that print alike)
+            if stamp != self._time:
+                self.flush()
+                self._time = stamp
         group = self._groups.get(link)
         if group is None:
             group = self._groups[link] = self._group(link)
-        self._held.append((group, f"{stamp} {event} {link} {size} {detail}\n"))
-        self.lines += 1
+        if group < self._last_group:
+            self._sorted = False
+        self._last_group = group
+        self._held.append((group, f"{self._time} {event} {link} {size} {detail}\n"))
 
     def flush(self) -> None:
         """Write the held lines (the file's own flush stays the caller's)."""
         held = self._held
         if held:
-            if len(held) > 1:
-                held.sort(key=lambda item: item[0])
-            self._out.write("".join(line for _, line in held))
+            if not self._sorted:
+                held.sort(key=itemgetter(0))  # stable: a group's lines keep their order
+                self._sorted = True
+            self._out.write("".join([line for _, line in held]))
+            self._written += len(held)
             held.clear()
+            self._last_group = -math.inf
 
 
 def fan_out(tracers: Sequence[Tracer]) -> Tracer | None:

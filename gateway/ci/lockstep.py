@@ -37,7 +37,7 @@ from gateway.onboard.files import attach_ftp
 from gateway.onboard.logs import Logs
 from gateway.onboard.shell import attach_shells
 from gateway.sim import scenario as scenario_mod
-from gateway.sim.flightlog import FlightLog, frame_msgid, split_frames
+from gateway.sim.flightlog import DOWN, MAGIC_V2, UP, FlightLog, frame_msgid, split_frames
 from gateway.sim.radios import LinkTag
 from gateway.sim.scenario import NetworkConfig
 from gateway.sim.simulation import PHYSICS_DT_S, Simulation, default_params
@@ -106,11 +106,27 @@ class Client:
         self._decoded_floor = 0  # frames.first when the cache last dropped forgotten frames
         self._heartbeat: Ticker | None = None
         self.log_stream: UlogReceiver | None = None  # while streaming the ULog
+        self._kernel = sim.simulation.kernel
+        flightlog = sim.flightlog
+        self._record_up = None if flightlog is None else flightlog.recorder(UP, index, kind)
+        self._record_down = None if flightlog is None else flightlog.recorder(DOWN, index, kind)
+        sim.simulation.links[(index, kind)].on_downlink = self._on_downlink
 
     # --- receiving ----------------------------------------------------------------------------
-    def _on_datagram(self, data: bytes, now: float) -> None:
+    def _on_downlink(self, data: bytes, peer: object) -> None:
+        """A datagram the link's downlink delivered (its ``VehicleLink.on_downlink``): into the
+        flight log, then its frames into the store, answered at once where MAVSDK answers."""
+        now = self._kernel.now
+        n = len(data)
+        if n > 2 and data[0] == MAGIC_V2 and n == 12 + data[1] + (13 if data[2] & 1 else 0):
+            split: Sequence[bytes] = (data,)  # split_frames' case of PX4's datagrams, inlined
+        else:
+            split = split_frames(data)
+        record = self._record_down
+        if record is not None:
+            record(split, now)
         frames = self.frames
-        for frame in split_frames(data):
+        for frame in split:
             msgid = frame_msgid(frame)
             i = frames.append(now, msgid, frame)
             if msgid == _ID_PING:
@@ -203,7 +219,9 @@ class Client:
         mav.seq = (mav.seq + 1) % 256
 
     def send_bytes(self, datagram: bytes) -> None:
-        self.sim._inject(self.index, self.kind, datagram, self.peer)
+        if self._record_up is not None:
+            self._record_up(split_frames(datagram), self._kernel.now)
+        self.sim.simulation.inject(self.index, self.kind, datagram, self.peer)
 
     def heartbeat(self) -> None:
         self.send(self.mav.heartbeat_encode(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0,
@@ -382,25 +400,13 @@ class Sim:
                    lambda sysid: [run_dir / f"vehicle-{sysid}"] if run_dir is not None else [])
         self.clients: dict[tuple[int, LinkTag], Client] = {
             (i, kind): Client(self, i, kind) for i in range(n)
-            for kind in self.simulation.link_kinds}
-        self.simulation.on_downlink = self._on_downlink
+            for kind in self.simulation.link_kinds}  # each takes its link's datagrams
         if heartbeat:
             for i in range(n):
                 kind = LinkKind.API if LinkKind.API in self.simulation.link_kinds else LinkKind.GCS
                 self.client(i, kind).start_heartbeat()
 
     # --- plumbing -----------------------------------------------------------------------------
-    def _inject(self, index: int, kind: LinkKind, datagram: bytes, peer: object) -> None:
-        if self.flightlog is not None:
-            self.flightlog.record_datagram("up", index, kind, datagram, self.now)
-        self.simulation.inject(index, kind, datagram, peer)
-
-    def _on_downlink(self, index: int, kind: LinkTag, datagram: bytes, peer: object) -> None:
-        now = self.simulation.kernel.now
-        if self.flightlog is not None:
-            self.flightlog.record_datagram("down", index, kind, datagram, now)
-        self.clients[(index, kind)]._on_datagram(datagram, now)
-
     def _run_events_until(self, done: Callable[[], bool], deadline: float) -> bool:
         """Process events one by one until ``done()`` or the next event is past ``deadline``
         (then time stops at ``deadline``)."""

@@ -44,7 +44,7 @@ from gateway.mavlink.signing import SigningConfig, SigningState
 from gateway.onboard.files import attach_ftp
 from gateway.onboard.logs import Logs
 from gateway.onboard.shell import attach_shells
-from gateway.sim.flightlog import FlightLog, link_vehicle, new_run_dir, part_name
+from gateway.sim.flightlog import FlightLog, link_vehicle, new_run_dir, part_name, split_frames
 from gateway.sim.radios import LinkTag, tag_name
 from gateway.sim.scenario import ScenarioError
 from gateway.sim.simulation import Simulation
@@ -142,7 +142,6 @@ class Daemon:
         self.pacer = Pacer(self.sim.kernel, speed=config.speed, end_s=config.duration)
         self.endpoints: dict[tuple[int, LinkTag], UdpEndpoint] = {}
         self._waiting: select.epoll | None = None  # every endpoint's socket, once open
-        self.sim.on_downlink = self._send
 
     def _params_for(self, index: int) -> ParamStore:
         """Boot one vehicle's parameters: PX4's defaults, the saved values, the speed-scaled
@@ -179,13 +178,23 @@ class Daemon:
             if kept is not None:
                 state.restore_plans(vehicle, kept)
 
-    def _send(self, index: int, kind: LinkTag, datagram: bytes, peer: object) -> None:
-        endpoint = self.endpoints[(index, kind)]
-        gcs = endpoint.broadcast is not None and \
-            self.sim.links[(index, kind)].session.gcs_present(self.sim.now)
-        endpoint.send(datagram, peer, gcs)  # type: ignore[arg-type]
-        if self.flightlog is not None:
-            self.flightlog.record_datagram("down", index, kind, datagram, self.sim.now)
+    def _route(self, index: int, kind: LinkTag, endpoint: UdpEndpoint
+               ) -> Callable[[bytes, object], None]:
+        """Where the downlink of link (index, kind) delivers: its endpoint, then the flight log.
+        Without broadcast and log that is ``endpoint.send`` itself (the path of every datagram
+        of every vehicle)."""
+        record = None if self.flightlog is None else self.flightlog.recorder("down", index, kind)
+        if endpoint.broadcast is None and record is None:
+            return endpoint.send  # type: ignore[return-value]  # peer: the address it heard
+        session, kernel = self.sim.links[(index, kind)].session, self.sim.kernel
+
+        def send(datagram: bytes, peer: object) -> None:
+            endpoint.send(datagram, peer,  # type: ignore[arg-type]
+                          endpoint.broadcast is not None and session.gcs_present(kernel.now))
+            if record is not None:
+                record(split_frames(datagram), kernel.now)
+
+        return send
 
     def _transport(self, index: int, tag: LinkTag) -> tuple[int, int, bool] | None:
         """``mavlink status``'s view of a link's UDP port (None before it is open)."""
@@ -225,6 +234,7 @@ class Daemon:
                         raise PortInUse(ports.local, cfg.bind, exc.errno) from exc
                     raise
                 self.endpoints[(i, kind)] = endpoint
+                self.sim.links[(i, kind)].on_downlink = self._route(i, kind, endpoint)
         except BaseException:
             self.close()
             raise

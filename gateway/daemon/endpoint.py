@@ -149,7 +149,13 @@ class UdpEndpoint:
         sock = self.sock
         if sock is None:
             return
-        self._send_to(sock, data, peer or self.default_peer)
+        try:  # ``_send_to`` inlined: every datagram of every vehicle comes this way
+            sock.sendto(data, peer or self.default_peer)
+            self.stats.tx_datagrams += 1
+        except (BlockingIOError, InterruptedError):
+            self.stats.tx_dropped += 1
+        except OSError:
+            self.stats.tx_errors += 1
         if self.broadcast is not None and (peer is None or not gcs_connected):
             # PX4 (mavlink_main.cpp, send_finish): a normal-mode link with MAV_BROADCAST = 1
             # sends to the network's broadcast address too until a client is heard, and again

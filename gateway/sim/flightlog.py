@@ -42,7 +42,7 @@ import logging
 import math
 import os
 import struct
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
@@ -186,6 +186,8 @@ class FlightLog:
         self._trace_file = open(self.dir / part_name(TRACE_FILE, part), "w", encoding="ascii", newline="\n")
         self.tracer = InstantSortedTrace(self._trace_file, link_vehicle)
         self._tlogs: dict[tuple[int, LinkTag], BinaryIO] = {}
+        self._recorders: dict[tuple[str, int, LinkTag],
+                              Callable[[Sequence[bytes], float], None]] = {}
         self._state_file: io.TextIOWrapper | None = None
         self._state_csv: Any = None  # a csv.writer (the type csv does not export)
         self._sim: Simulation | None = None
@@ -237,15 +239,34 @@ class FlightLog:
     def record_datagram(self, direction: str, index: int, kind: LinkTag, datagram: bytes,
                         t: float) -> None:
         """A datagram the client sent (``"up"``) or received (``"down"``) at simulated ``t``."""
-        if self.closed:
-            return
-        f = self._tlog(index, kind)
-        stamp = _TLOG_STAMP.pack(self._boot_us + int(round(t * 1e6)))
-        frames = split_frames(datagram)
-        for frame in frames:
-            f.write(stamp)
-            f.write(frame)
-        self.frames[direction] += len(frames)
+        key = (direction, index, kind)
+        record = self._recorders.get(key)
+        if record is None:
+            record = self._recorders[key] = self.recorder(direction, index, kind)
+        record(split_frames(datagram), t)
+
+    def recorder(self, direction: str, index: int, kind: LinkTag
+                 ) -> Callable[[Sequence[bytes], float], None]:
+        """``record_datagram`` bound to one link and direction, for those who record every
+        datagram of a link: ``record(frames, t)``, with the datagram's ``split_frames``."""
+        write = self._tlog(index, kind).write
+        boot_us = self._boot_us
+        stamp_of = _TLOG_STAMP.pack
+        counts = self.frames
+        last_t, stamp = math.nan, b""  # the frames of one instant share their stamp
+
+        def record(frames: Sequence[bytes], t: float) -> None:
+            nonlocal last_t, stamp
+            if self.closed:
+                return
+            if t != last_t:
+                last_t, stamp = t, stamp_of(boot_us + round(t * 1e6))
+            for frame in frames:
+                write(stamp)
+                write(frame)
+            counts[direction] += len(frames)
+
+        return record
 
     def record_frame(self, direction: str, index: int, kind: LinkTag, frame: bytes,
                      t: float) -> None:
@@ -253,7 +274,7 @@ class FlightLog:
         if self.closed:
             return
         f = self._tlog(index, kind)
-        f.write(_TLOG_STAMP.pack(self._boot_us + int(round(t * 1e6))))
+        f.write(_TLOG_STAMP.pack(self._boot_us + round(t * 1e6)))
         f.write(frame)
         self.frames[direction] += 1
 

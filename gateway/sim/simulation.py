@@ -25,6 +25,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable, Sequence
+from functools import partial
 
 from gateway.mavlink.command_table import SeenComponents
 from gateway.mavlink.mission import UploadLock
@@ -54,6 +55,12 @@ __all__ = ["PHYSICS_DT_S", "Ports", "Simulation", "VehicleLink", "px4_ports"]
 # (vehicle index, link tag, datagram, peer): peer is the opaque address of the client the
 # link last heard a valid MAVLink frame from, or None before that (then: PX4's preset remote).
 DownlinkHandler = Callable[[int, LinkTag, bytes, object], None]
+# One link's: (datagram, peer).
+LinkDownlinkHandler = Callable[[bytes, object], None]
+
+
+def _nowhere(packet: bytes, peer: object) -> None:
+    """The downlink's end while nobody takes its datagrams."""
 
 
 class VehicleLink:
@@ -75,8 +82,9 @@ class VehicleLink:
         self._nodes = (client_node, vehicle_node)  # the uplink's (src, dst)
         self.uplink = sim.backend.make_link(f"{self.name}/up", client_node, vehicle_node,
                                             self._on_uplink_delivered)
+        self._on_downlink: LinkDownlinkHandler | None = None
         self.downlink = sim.backend.make_link(f"{self.name}/down", vehicle_node, client_node,
-                                              self._on_downlink_delivered)
+                                              _nowhere)
         self.deadline_s = math.inf  # when the session wants ``handle_timer`` next
         self.wake = wake
         wake.links.append(self)
@@ -88,7 +96,7 @@ class VehicleLink:
         client, vehicle = self._nodes
         uplink = backend.make_link(self.uplink.name, client, vehicle, self._on_uplink_delivered)
         downlink = backend.make_link(self.downlink.name, vehicle, client,
-                                     self._on_downlink_delivered)
+                                     self.downlink.deliver)
         uplink.stats, downlink.stats = self.uplink.stats, self.downlink.stats
         self.uplink, self.downlink = uplink, downlink
 
@@ -108,10 +116,18 @@ class VehicleLink:
         self.service()
 
     # --- downlink: vehicle → client -------------------------------------------------------------
-    def _on_downlink_delivered(self, packet: bytes, peer: object) -> None:
-        handler = self.sim.on_downlink
-        if handler is not None:
-            handler(self.index, self.tag, packet, peer)
+    @property
+    def on_downlink(self) -> LinkDownlinkHandler | None:
+        """Where this link's downlink delivers ``(datagram, peer)`` (None: nowhere): the
+        simulation's ``on_downlink`` bound to this link, or a client's own handler. It is the
+        downlink's ``deliver`` itself, so a delivery costs no call in between (every datagram
+        of every vehicle goes this way)."""
+        return self._on_downlink
+
+    @on_downlink.setter
+    def on_downlink(self, handler: LinkDownlinkHandler | None) -> None:
+        self._on_downlink = handler
+        self.downlink.deliver = _nowhere if handler is None else handler
 
     def timer_failed(self) -> None:
         self.sim.session_failed(self.name, "in a session timer")
@@ -196,7 +212,7 @@ class Simulation:
         self.world = World(dt_s=physics_dt_s, home=home, wind=air, sensors=sensors,
                            rng_for=lambda i: named_generator(seed, f"sensors/v{i + 1}"),
                            spawn_ned_m=spawn_ned_m)
-        self.on_downlink: DownlinkHandler | None = None
+        self._on_downlink: DownlinkHandler | None = None
         self._outer_errors = 0  # failures that escaped a session (its own are in its stats)
         self._next_error_log_s = -math.inf
         self.vehicles = []
@@ -247,6 +263,7 @@ class Simulation:
         # CORNET: the physics clock is the reference; mobility reaches the network once per
         # sync period (scheduled after the physics step of the same instant).
         self._spawn_ned = [self.world.spawn_offset_ned_m(i) for i in self.indices]
+        self._nodes = [f"v{i + 1}" for i in self.indices]  # each vehicle's network node
         self._mobility = Ticker(self.kernel, self.backend.sync_period_s, self._push_mobility,
                                 priority=PRIORITY_PHYSICS)
         start = getattr(self.backend, "start", None)
@@ -256,6 +273,18 @@ class Simulation:
             link.flush(self.kernel.now)
         for link in self.links.values():
             link.wake.arm()
+
+    @property
+    def on_downlink(self) -> DownlinkHandler | None:
+        """Where every link's delivered datagrams go: ``handler(index, tag, datagram, peer)``
+        (None: nowhere). Setting it sets each link's ``VehicleLink.on_downlink``."""
+        return self._on_downlink
+
+    @on_downlink.setter
+    def on_downlink(self, handler: DownlinkHandler | None) -> None:
+        self._on_downlink = handler
+        for link in self.links.values():
+            link.on_downlink = None if handler is None else partial(handler, link.index, link.tag)
 
     def _fault(self, k: int, fault: Fault) -> None:
         if not fault.on_network:  # network events are the topology's outage windows
@@ -295,10 +324,9 @@ class Simulation:
     def vehicle_positions_ned_m(self) -> dict[str, tuple[float, float, float]]:
         """Every vehicle's position in the world frame (NED from the world's home), by node."""
         out = {}
-        for k, vehicle in enumerate(self.vehicles):
+        for node, vehicle, (n0, e0) in zip(self._nodes, self.vehicles, self._spawn_ned):
             n, e, d = vehicle.truth.position_ned_m  # where its radio really is
-            n0, e0 = self._spawn_ned[k]
-            out[f"v{self.indices[k] + 1}"] = (n0 + n, e0 + e, d)
+            out[node] = (n0 + n, e0 + e, d)
         return out
 
     def ground_nodes(self) -> list[dict]:

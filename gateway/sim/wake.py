@@ -82,8 +82,11 @@ class VehicleWake:
                         session.handle_timer(now)
                     except Exception:
                         link.timer_failed()
-                    for datagram in session.datagrams_to_send(now):
-                        link.downlink.send(datagram, session.peer)
+                    datagrams = session.datagrams_to_send(now)
+                    if datagrams:
+                        send = link.downlink.send
+                        for datagram in datagrams:
+                            send(datagram, session.peer)  # read each time: a reply may set it
                     deadline = session.get_timer()
                     link.deadline_s = math.inf if deadline is None else deadline
         finally:  # re-armed even if a link raised: its vehicle's other links go on
