@@ -107,6 +107,18 @@ class Link:
             # network) skips the model, which never delays or drops.
             self.send = self._send_ideal  # type: ignore[method-assign]
 
+    @property
+    def tracer(self) -> Tracer | None:
+        return self._tracer
+
+    @tracer.setter
+    def tracer(self, tracer: Tracer | None) -> None:
+        self._tracer = tracer
+        # A tracer that writes a packet sent and delivered in one instant in one call (an
+        # ideal link's every packet): ``instant(link, time_s, size)`` (InstantSortedTrace).
+        self._trace_instant: Callable[[str, float, int], None] | None = \
+            getattr(tracer, "instant", None)
+
     def _send_ideal(self, packet: bytes, meta: Any = None) -> None:
         """``send`` through an ideal model: delivered at once, counted as ``send`` counts it."""
         size = len(packet)
@@ -116,11 +128,14 @@ class Link:
         stats.delivered += 1
         stats.bytes_delivered += size
         stats.latency_histogram[0] += 1
-        tracer = self.tracer
+        tracer = self._tracer
         if tracer is not None:
-            now = self.kernel.now
-            tracer("send", self.name, now, size, "0.000000")
-            tracer("recv", self.name, now, size, "")
+            if self._trace_instant is not None:
+                self._trace_instant(self.name, self.kernel.now, size)
+            else:
+                now = self.kernel.now
+                tracer("send", self.name, now, size, "0.000000")
+                tracer("recv", self.name, now, size, "")
         self.deliver(packet, meta)
 
     def send(self, packet: bytes, meta: Any = None) -> None:
@@ -130,7 +145,7 @@ class Link:
         stats.sent += 1
         stats.bytes_sent += size
         verdict = self.model.transit(size, now)
-        tracer = self.tracer
+        tracer = self._tracer
         if verdict.__class__ is not float and isinstance(verdict, Drop):
             stats.dropped[verdict.value] += 1
             if tracer is not None:
@@ -161,8 +176,8 @@ class Link:
         stats = self.stats
         stats.in_flight -= 1
         stats.record_delivery(self.kernel.now - sent_at, len(packet))
-        if self.tracer is not None:
-            self.tracer("recv", self.name, self.kernel.now, len(packet), "")
+        if self._tracer is not None:
+            self._tracer("recv", self.name, self.kernel.now, len(packet), "")
         self.deliver(packet, meta)
 
 
@@ -198,13 +213,28 @@ class InstantSortedTrace:
         self._held: list[tuple[int, str]] = []
         self._last_group = -math.inf  # of the last line held; a smaller one next: sort at flush
         self._sorted = True
-        self._written = 0  # lines written so far (``lines`` adds those held)
+        self._written = 0  # entries written so far
+        self._pairs = 0  # entries of two lines (``instant``), held or written
 
     @property
     def lines(self) -> int:
-        return self._written + len(self._held)
+        return self._written + len(self._held) + self._pairs
 
     def __call__(self, event: str, link: str, time_s: float, size: int, detail: str) -> None:
+        group = self._group_at(link, time_s)
+        self._held.append((group, f"{self._time} {event} {link} {size} {detail}\n"))
+
+    def instant(self, link: str, time_s: float, size: int) -> None:
+        """``send`` with no delay, then ``recv``, of one packet (what an ideal link traces), as
+        one held entry: the two lines stay together whatever the sort does."""
+        group = self._group_at(link, time_s)
+        t = self._time
+        self._held.append((group, f"{t} send {link} {size} 0.000000\n{t} recv {link} {size} \n"))
+        self._pairs += 1
+
+    def _group_at(self, link: str, time_s: float) -> int:
+        """Move to the instant of ``time_s`` (writing the last one's lines if it is a new one);
+        the group of a line of ``link`` (noting whether the instant's lines are still sorted)."""
         if time_s != self._time_s:  # printed once per float, not once per line
             self._time_s = time_s
             stamp = f"{time_s:.9f}"  # one instant: one printed time (floats that print alike)
@@ -217,7 +247,7 @@ class InstantSortedTrace:
         if group < self._last_group:
             self._sorted = False
         self._last_group = group
-        self._held.append((group, f"{self._time} {event} {link} {size} {detail}\n"))
+        return group
 
     def flush(self) -> None:
         """Write the held lines (the file's own flush stays the caller's)."""

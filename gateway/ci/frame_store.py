@@ -35,7 +35,8 @@ class FrameStore:
         self._data = bytearray()  # the kept frames, back to back
         self._first = 0  # absolute index of the oldest kept frame
         self._byte0 = 0  # absolute offset of self._data[0]
-        self._forget_at = math.inf  # the oldest frame's time + 1.5 history_s: then forget
+        # The oldest frame's time + 1.5 history_s: then forget (-inf: set at the first frame).
+        self._forget_at = -math.inf
 
     def append(self, time_s: float, msgid: int, frame: bytes) -> int:
         """Keep one frame; returns its index."""
@@ -47,8 +48,6 @@ class FrameStore:
         self._end.append(self._byte0 + len(data))
         if time_s > self._forget_at:  # forget in batches, not frame by frame
             self._forget_before(time_s - self.history_s)
-        elif len(times) == 1:
-            self._forget_at = time_s + 1.5 * self.history_s
         return self._first + len(times) - 1
 
     def _forget_before(self, t_s: float) -> None:
@@ -56,7 +55,8 @@ class FrameStore:
         k = 0
         while k < len(times) and times[k] < t_s:
             k += 1
-        if not k:
+        if not k:  # nothing yet (the first frame): when to look next
+            self._forget_at = times[0] + 1.5 * self.history_s
             return
         cut = self._end[k - 1] - self._byte0
         del self._data[:cut]

@@ -37,7 +37,7 @@ from gateway.onboard.files import attach_ftp
 from gateway.onboard.logs import Logs
 from gateway.onboard.shell import attach_shells
 from gateway.sim import scenario as scenario_mod
-from gateway.sim.flightlog import DOWN, MAGIC_V2, UP, FlightLog, frame_msgid, split_frames
+from gateway.sim.flightlog import DOWN, MAGIC_V2, UP, FlightLog, split_frames
 from gateway.sim.radios import LinkTag
 from gateway.sim.scenario import NetworkConfig
 from gateway.sim.simulation import PHYSICS_DT_S, Simulation, default_params
@@ -127,7 +127,8 @@ class Client:
             record(split, now)
         frames = self.frames
         for frame in split:
-            msgid = frame_msgid(frame)
+            # frame_msgid inlined
+            msgid = frame[7] | frame[8] << 8 | frame[9] << 16 if frame[0] == MAGIC_V2 else frame[5]
             i = frames.append(now, msgid, frame)
             if msgid == _ID_PING:
                 self._answer_ping(i)
