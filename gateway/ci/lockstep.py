@@ -411,12 +411,11 @@ class Sim:
     def _run_events_until(self, done: Callable[[], bool], deadline: float) -> bool:
         """Process events one by one until ``done()`` or the next event is past ``deadline``
         (then time stops at ``deadline``)."""
-        kernel = self.simulation.kernel
+        step_until = self.simulation.kernel.step_until
         while not done():
-            if kernel.peek() > deadline:
-                kernel.run(until=deadline)
+            if not step_until(deadline):  # the next event is past it
+                self.simulation.kernel.run(until=deadline)
                 return done()
-            kernel.step()
         return True
 
     # --- the API ------------------------------------------------------------------------------
