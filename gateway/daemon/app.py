@@ -178,11 +178,9 @@ class Daemon:
             if kept is not None:
                 state.restore_plans(vehicle, kept)
 
-    def _route(self, index: int, kind: LinkTag, endpoint: UdpEndpoint
-               ) -> Callable[[bytes, object], None]:
-        """Where the downlink of link (index, kind) delivers: its endpoint, then the flight log.
-        Without broadcast and log that is ``endpoint.send`` itself (the path of every datagram
-        of every vehicle)."""
+    def _route(self, index: int, kind: LinkTag, endpoint: UdpEndpoint) -> Callable[[bytes, object], None]:
+        """Where link (index, kind)'s downlink delivers: its endpoint, then the flight log; without
+        broadcast and log, ``endpoint.send`` itself (the path of every datagram of every vehicle)."""
         record = None if self.flightlog is None else self.flightlog.recorder("down", index, kind)
         if endpoint.broadcast is None and record is None:
             return endpoint.send  # type: ignore[return-value]  # peer: the address it heard
@@ -205,11 +203,13 @@ class Daemon:
         return ports.local, ports.remote, endpoint.broadcast is not None
 
     def _receiver(self, index: int, kind: LinkTag):
+        link = self.sim.links[(index, kind)]  # its uplink is ``sim.inject``'s, without lookup
+        record = None if self.flightlog is None else self.flightlog.recorder("up", index, kind)
         def on_datagram(data: bytes, addr: tuple[str, int]) -> None:
             self.pacer.sync_arrival()  # stamp it with its arrival time, never behind a burst
-            if self.flightlog is not None:
-                self.flightlog.record_datagram("up", index, kind, data, self.sim.now)
-            self.sim.inject(index, kind, data, addr)
+            if record is not None:
+                record(split_frames(data), self.sim.now)
+            link.uplink.send(data, addr)
             # What the network delivers at once (an ideal link) is handled now, as PX4 answers
             # at once: a reply does not wait for the pacer's next wake-up.
             self.pacer.run_due()
