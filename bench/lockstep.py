@@ -47,7 +47,7 @@ def main() -> None:
     groups = {"physics+autopilot (World.step)": ("physics.py", "step"),
               "sessions: telemetry/timers (VehicleWake._fire)": ("wake.py", "_fire"),
               "uplink delivery → session": ("simulation.py", "_on_uplink_delivered"),
-              "downlink delivery → client": ("simulation.py", "_on_downlink_delivered")}
+              "downlink delivery → client": ("lockstep.py", "_on_downlink")}
     stats = pstats.Stats(prof)
     total = stats.total_tt
     for name, key in groups.items():
