@@ -27,6 +27,7 @@ import math
 import struct
 from collections.abc import Callable
 from dataclasses import dataclass
+from operator import itemgetter
 from typing import Any
 
 # fastcrc (a pymavlink dependency, and what pymavlink itself uses) computes the X.25 CRC.
@@ -123,21 +124,40 @@ def _build_packer(cls: type[mavlink2.MAVLink_message]) -> tuple[Callable[..., by
     """Compile ``args (constructor order) -> payload bytes`` for one message class.
 
     pymavlink orders wire fields by type size (``ordered_fieldnames``); ``array_lengths`` is in
-    wire order. Char arrays are ``Ns`` (one bytes value), other arrays are flattened.
+    wire order. Char arrays are ``Ns`` (one bytes value), other arrays are flattened. Each run
+    of plain fields is reordered by one ``itemgetter`` call (all of them: ``*a`` when the wire
+    order is the constructor's), not field by field.
     """
     names = list(cls.fieldnames)
-    parts = []
-    defaults: list[Any] = []
+    parts: list[str] = []
+    run: list[int] = []  # constructor positions of the plain fields in a row, in wire order
+    env: dict[str, Any] = {"_s": cls.unpacker.pack, "_b": _as_bytes}
+
+    def end_run() -> None:
+        if len(run) == 1:
+            parts.append(f"a[{run[0]}]")
+        elif run:
+            name = f"_g{len(env)}"
+            env[name] = itemgetter(*run)
+            parts.append(f"*{name}(a)")
+        run.clear()
+
     for wire_pos, fname in enumerate(cls.ordered_fieldnames):
         i = names.index(fname)
         n = cls.array_lengths[wire_pos]
-        is_char = cls.fieldtypes[i] == "char"
-        if n and not is_char:
-            parts.append(f"*a[{i}]")
-        elif is_char:
+        if cls.fieldtypes[i] == "char":
+            end_run()
             parts.append(f"_b(a[{i}])")
+        elif n:
+            end_run()
+            parts.append(f"*a[{i}]")
         else:
-            parts.append(f"a[{i}]")
+            run.append(i)
+    if run == list(range(len(names))):  # no arrays, wire order = constructor order
+        parts.append("*a")
+    else:
+        end_run()
+    defaults: list[Any] = []
     for i, fname in enumerate(names):
         wire_pos = list(cls.ordered_fieldnames).index(fname)
         n = cls.array_lengths[wire_pos]
@@ -148,7 +168,7 @@ def _build_packer(cls: type[mavlink2.MAVLink_message]) -> tuple[Callable[..., by
         else:
             defaults.append(0)
     src = f"lambda a: _s({', '.join(parts)})"
-    fn = eval(src, {"_s": cls.unpacker.pack, "_b": _as_bytes})  # noqa: S307 - our own template
+    fn = eval(src, env)  # noqa: S307 - our own template
     return fn, tuple(defaults)
 
 
