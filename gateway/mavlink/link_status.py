@@ -24,17 +24,19 @@ from vehicles.cnum import f32
 class TelemetryStatus:
     """telemetry_status's rates for one link, over its session's byte counts."""
 
-    __slots__ = ("stats", "tx_rate_avg", "rx_rate_avg", "_window_s", "_tx0", "_rx0")
+    __slots__ = ("stats", "tx_rate_avg", "rx_rate_avg", "due_s", "_window_s", "_tx0", "_rx0")
 
     def __init__(self, stats: DecodeStats) -> None:
         self.stats = stats
         self.tx_rate_avg = self.rx_rate_avg = 0.0  # bytes/s
         self._window_s = 0.0  # _bytes_timestamp (0: none yet)
+        self.due_s = 1.0  # the window ends at the first loop after this (_window_s + 1 s)
         self._tx0 = self._rx0 = 0  # the byte counts when the window began
 
     def update(self, now_s: float) -> None:
-        """The link's loop at ``now_s``: a window of more than 1 s ends here."""
-        if now_s <= self._window_s + 1.0:
+        """The link's loop at ``now_s``: a window of more than 1 s ends here (the session
+        calls it only then, once ``now_s`` is past ``due_s``)."""
+        if now_s <= self.due_s:
             return
         stats = self.stats
         tx = getattr(stats, "tx_bytes", 0)
@@ -44,6 +46,7 @@ class TelemetryStatus:
             self.rx_rate_avg = f32((stats.rx_bytes - self._rx0) / dt)
             self._tx0, self._rx0 = tx, stats.rx_bytes
         self._window_s = now_s
+        self.due_s = now_s + 1.0
 
 
 def link_node_status(enc: Encoder, s: Snapshot) -> bytes | None:

@@ -62,7 +62,7 @@ from gateway.mavlink.serial_control import SerialControlService
 from gateway.mavlink.signing import Signer, SigningClock, SigningConfig, Verifier
 from gateway.mavlink.snapshot import LinkTelemetry, SampleCache, Snapshot
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
-from gateway.mavlink.streams import NEVER, Scheduler
+from gateway.mavlink.streams import Scheduler
 from gateway.mavlink.vehicle_port import VehiclePort
 
 __all__ = ["LinkKind", "Session", "SessionStats", "SigningConfig"]
@@ -229,17 +229,17 @@ class Session:
         return out
 
     def get_timer(self) -> float | None:
-        t = min(self.params.due_s, self.mission.get_timer(), self.logs.due_s, self.ftp.due_s,
-                self.log_streaming.due_s, self.events.due_s, self.statustext.due_s)
-        next_us = self.scheduler.next_us
-        if next_us < NEVER:
-            t = min(t, next_us * 1e-6)
-        return None if math.isinf(t) else t
+        t = min(self.scheduler.next_s, self.params.due_s, self.mission.get_timer(),
+                self.logs.due_s, self.ftp.due_s, self.log_streaming.due_s, self.events.due_s,
+                self.statustext.due_s)
+        return None if t == math.inf else t
 
     def handle_timer(self, now_s: float) -> None:
         enc = self.encoder
         enc.now_s = now_s
-        self.tstatus.update(now_s)
+        tstatus = self.tstatus
+        if now_s > tstatus.due_s:
+            tstatus.update(now_s)
         due = self.scheduler.due(now_s)
         if due:
             snap = Snapshot(self.vehicle, now_s, self.boot_unix_s, self.samples,

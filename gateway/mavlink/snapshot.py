@@ -47,6 +47,11 @@ class _once(Generic[T]):
         return value
 
 
+def _stamps(now_s: float) -> tuple[int, int]:
+    """(time_boot_ms, time_usec) of ``now_s``, as every message stamps them."""
+    return int(now_s * 1000.0) & 0xFFFFFFFF, int(now_s * 1e6)
+
+
 class Sample:
     """What one vehicle's kinematics at one instant give every link: derived values, and the
     payloads that depend on nothing else (see ``_shared``). Builders read it through
@@ -58,6 +63,7 @@ class Sample:
         self.now_s = now_s
         self.kin = kin
         self.payloads: dict[object, bytes] = {}  # by message id, or (message id, key)
+        self.time_boot_ms, self.time_usec = _stamps(now_s)
 
     @_once
     def euler(self) -> tuple[float, float, float]:
@@ -131,19 +137,21 @@ class Snapshot:
         self.now_s = now_s
         self.boot_unix_s = boot_unix_s
         self.samples = samples
-        self.time_boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
-        self.time_usec = int(now_s * 1e6)
         # Nearly every wake-up sends a message of the kinematics, so the sample is taken now
-        # rather than through three lazy attributes. A vehicle whose kinematics raise leaves
-        # them lazy: each builder that needs them fails on its own, the others still send.
+        # rather than through lazy attributes; its time stamps are this instant's. A vehicle
+        # whose kinematics raise leaves it lazy: each builder that needs it fails on its own,
+        # the others still send.
         try:
             sample = (samples if samples is not None else SampleCache()).at(vehicle, now_s)
         except Exception:  # noqa: BLE001 - re-raised by the first builder that reads it
+            self.time_boot_ms, self.time_usec = _stamps(now_s)
             return
         fields = self.__dict__
         fields["sample"] = sample
         fields["kin"] = sample.kin
         fields["payloads"] = sample.payloads
+        self.time_boot_ms = sample.time_boot_ms
+        self.time_usec = sample.time_usec
 
     @_once
     def status(self) -> VehicleStatus:
@@ -163,14 +171,6 @@ class Snapshot:
     def payloads(self) -> dict[object, bytes]:
         """The sample's packed payloads (``Sample.payloads``)."""
         return self.sample.payloads
-
-    @_once
-    def geo(self) -> GeoPoint:
-        return self.sample.geo
-
-    @_once
-    def euler(self) -> tuple[float, float, float]:
-        return self.sample.euler
 
     @_once
     def home_alt_m(self) -> float:

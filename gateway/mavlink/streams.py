@@ -21,7 +21,9 @@ Rules:
 from __future__ import annotations
 
 import heapq
+import math
 from dataclasses import dataclass
+from typing import Any
 
 from pymavlink.dialects.v20 import common as M
 
@@ -163,9 +165,12 @@ NEVER = 1 << 62
 # at max"; SITL's 4 MB/s datarate asks for less), and a stream sends at most once per loop: a
 # shorter interval is accepted and reported as set, and streams at this period.
 MAVLINK_MIN_INTERVAL_US = 1500
-# A group of streams that fire together: (deadline µs, table position of its first stream,
-# interval µs, the streams in table order).
-Group = tuple[int, int, int, tuple[StreamSpec, ...]]
+# A group of streams that fire together: [deadline µs, table position of its first stream,
+# interval µs, the streams in table order]; a list, whose deadline ``due`` advances in place.
+Group = list[Any]
+
+
+_heapreplace = heapq.heapreplace
 
 
 def _interval_us(hz: float) -> int:
@@ -176,7 +181,8 @@ _ORDER = {spec.msg_id: i for i, spec in enumerate(STREAMS)}  # frames go out in 
 
 
 class Scheduler:
-    """Per-stream integer-µs deadlines; ``next_us`` is the earliest of them.
+    """Per-stream integer-µs deadlines; ``next_us`` is the earliest of them (``next_s`` in
+    seconds, inf when none).
 
     Streams with the same deadline and interval fire together until one of them is re-set, so
     they are kept as one group in a heap of (deadline, table position of the group's first
@@ -202,14 +208,19 @@ class Scheduler:
             if nxt < NEVER:
                 groups.setdefault((nxt, self._interval_us[spec.msg_id]), []).append(spec)
         # The sentinel never fires (now < NEVER), so the heap is never empty.
-        heap: list[Group] = [(NEVER, len(STREAMS), 0, ())]
-        heap += [(nxt, _ORDER[specs[0].msg_id], iv, tuple(specs))
+        heap: list[Group] = [[NEVER, len(STREAMS), 0, ()]]
+        heap += [[nxt, _ORDER[specs[0].msg_id], iv, tuple(specs)]
                  for (nxt, iv), specs in groups.items()]
         heapq.heapify(heap)
         self._heap = heap
         # Streams of the groups due together (keyed by their first positions), in table order.
         self._merged: dict[int, tuple[StreamSpec, ...]] = {}
-        self.next_us = heap[0][0]
+        self._next(heap[0][0])
+
+    def _next(self, next_us: int) -> None:
+        """The earliest deadline, in µs and as the session's timer reads it (s; inf: none)."""
+        self.next_us = next_us
+        self.next_s = next_us * 1e-6 if next_us < NEVER else math.inf
 
     def _deadlines(self) -> dict[int, int]:
         """Each stream's next deadline (NEVER: stopped), read back from the groups."""
@@ -256,29 +267,29 @@ class Scheduler:
         if now_us < self.next_us:
             return ()
         heap = self._heap
-        # The first due group; most wake-ups have no other (then no merging either).
-        nxt, first, iv, specs = heap[0]
-        nxt += iv
-        if nxt <= now_us:  # late wake-up: re-phase, never burst
-            nxt = now_us + iv
-        heapq.heapreplace(heap, (nxt, first, iv, specs))
-        if heap[0][0] > now_us:
-            self.next_us = heap[0][0]
-            return specs
-        fired = [specs]
-        mask = 1 << first
-        while heap[0][0] <= now_us:
-            nxt, first, iv, specs = heap[0]
-            nxt += iv
-            if nxt <= now_us:  # late wake-up: re-phase, never burst
-                nxt = now_us + iv
-            heapq.heapreplace(heap, (nxt, first, iv, specs))
-            fired.append(specs)
-            mask |= 1 << first
-        self.next_us = heap[0][0]
+        # The first due group; most wake-ups have no other (then no merging either). Its entry
+        # is advanced in place and sifted down.
+        group = heap[0]
+        nxt = group[0] + group[2]
+        group[0] = nxt if nxt > now_us else now_us + group[2]  # late: re-phase, never burst
+        _heapreplace(heap, group)
+        nxt = heap[0][0]
+        if nxt > now_us:
+            self.next_us = nxt  # ``_next`` inlined: this runs at every wake-up
+            self.next_s = nxt * 1e-6 if nxt < NEVER else math.inf
+            return group[3]
+        mask = 1 << group[1]
+        while nxt <= now_us:
+            group = heap[0]
+            nxt = group[0] + group[2]
+            group[0] = nxt if nxt > now_us else now_us + group[2]
+            _heapreplace(heap, group)
+            mask |= 1 << group[1]
+            nxt = heap[0][0]
+        self._next(nxt)
         out = self._merged.get(mask)
         if out is None:
-            out = tuple(sorted((spec for specs in fired for spec in specs),
+            out = tuple(sorted((spec for g in heap if mask >> g[1] & 1 for spec in g[3]),
                                key=lambda spec: _ORDER[spec.msg_id]))
             self._merged[mask] = out
         return out

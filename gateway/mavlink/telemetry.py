@@ -150,35 +150,31 @@ def _home_alt_m(s: Snapshot) -> float:
 
 @_shared(M.MAVLink_attitude_message)
 def attitude(s: Snapshot) -> tuple:
-    roll, pitch, yaw = s.euler
-    p, q, r = s.kin.rates_frd_radps
-    return (s.time_boot_ms, roll, pitch, yaw, p, q, r)
+    return (s.time_boot_ms, *s.sample.euler, *s.kin.rates_frd_radps)
 
 
 @_shared(M.MAVLink_attitude_quaternion_message)
 def attitude_quaternion(s: Snapshot) -> tuple:
-    w, x, y, z = s.kin.attitude_q
-    p, q, r = s.kin.rates_frd_radps
-    return (s.time_boot_ms, w, x, y, z, p, q, r)
+    kin = s.kin
+    return (s.time_boot_ms, *kin.attitude_q, *kin.rates_frd_radps)
 
 
 @_shared(M.MAVLink_local_position_ned_message)
 def local_position_ned(s: Snapshot) -> tuple:
-    x, y, z = s.kin.position_ned_m
-    vx, vy, vz = s.kin.velocity_ned_mps
-    return (s.time_boot_ms, x, y, z, vx, vy, vz)
+    kin = s.kin
+    return (s.time_boot_ms, *kin.position_ned_m, *kin.velocity_ned_mps)
 
 
 @_shared(M.MAVLink_global_position_int_message, key=_home_alt_m)  # relative_alt: from home
 def global_position_int(s: Snapshot) -> tuple:
     """GLOBAL_POSITION_INT.hpp: every field a C conversion of the estimate (truncating), the
     heading wrapped to [0, 360) degrees; relative_alt above home (above the origin without)."""
-    g = s.geo
+    g = s.sample.geo
     vx, vy, vz = s.kin.velocity_ned_mps
     alt = g.alt_amsl_m
     return (s.time_boot_ms, int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), int(alt * 1000.0),
             int((alt - s.home_alt_m) * 1000.0), int(vx * 100.0), int(vy * 100.0),
-            int(vz * 100.0), int(_heading_deg(s.euler[2]) * 100.0))
+            int(vz * 100.0), int(_heading_deg(s.sample.euler[2]) * 100.0))
 
 
 GPS_NO_GPS_INTERVAL_US = 1_000_000  # GPS_RAW_INT.hpp kNoGpsSendInterval
@@ -209,7 +205,7 @@ def gps_fix(s: Snapshot) -> tuple[float, float, float, float, float, float]:
     AMSL, vn, ve, vd), as GPS_RAW_INT and the Open Drone ID messages report it."""
     sensed = s.sample.sensors
     if sensed is None:
-        g = s.geo
+        g = s.sample.geo
         vn, ve, vd = s.kin.velocity_ned_mps
     else:
         g = s.vehicle.origin.offset_ned(sensed[S_GPS_POS], sensed[S_GPS_POS + 1],
@@ -241,8 +237,8 @@ def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:
     vn, ve, vd = s.kin.velocity_ned_mps
     throttle = s.status.extra.get("thrust_norm", 0.0) if s.status.armed else 0.0
     return enc.pack(M.MAVLink_vfr_hud_message, 0.0, math.hypot(vn, ve),
-                    int(_heading_deg(s.euler[2])), c_int(abs(throttle) * 100.0, 0, 0xFFFF),
-                    s.geo.alt_amsl_m, -vd)
+                    int(_heading_deg(s.sample.euler[2])), c_int(abs(throttle) * 100.0, 0, 0xFFFF),
+                    s.sample.geo.alt_amsl_m, -vd)
 
 
 @_shared(M.MAVLink_altitude_message, key=_home_alt_m)  # altitude_relative: from home
@@ -250,7 +246,7 @@ def altitude(s: Snapshot) -> tuple:
     """ALTITUDE.hpp: altitude_monotonic is the barometric altitude (vehicle_air_data
     baro_alt_meter), the others the estimate's; no range finder, so terrain and bottom
     clearance NaN."""
-    amsl = s.geo.alt_amsl_m
+    amsl = s.sample.geo.alt_amsl_m
     local = -s.kin.position_ned_m[2]
     return (s.time_usec, baro_alt_m(s), amsl, local, amsl - s.home_alt_m, math.nan, math.nan)
 
@@ -470,7 +466,7 @@ def wind_cov(enc: Encoder, s: Snapshot) -> bytes | None:
     if e is None or not s.vehicle.params.get("EKF2_DRAG_CTRL", 0):
         return None
     return enc.pack(M.MAVLink_wind_cov_message, s.time_usec, e[E_WIND], e[E_WIND + 1], 0.0,
-                    e[E_WIND_VAR], 0.0, s.geo.alt_amsl_m, 0.0, 0.0)
+                    e[E_WIND_VAR], 0.0, s.sample.geo.alt_amsl_m, 0.0, 0.0)
 
 
 def orbit_execution_status(enc: Encoder, s: Snapshot) -> bytes | None:

@@ -44,7 +44,7 @@ def baro_height_m(s: Snapshot) -> float:
     0), which PX4's gz worlds put at altitude 0; CORNET's home altitude stands in for it."""
     sensed = s.sample.sensors
     if sensed is None:
-        return s.geo.alt_amsl_m
+        return s.sample.geo.alt_amsl_m
     return s.vehicle.origin.alt_amsl_m - sensed[S_BARO_DOWN]
 
 

@@ -133,7 +133,7 @@ def utm_global_position(enc: Encoder, s: Snapshot) -> bytes | None:
     if s.boot_unix_s is not None:
         unix_us = int((s.boot_unix_s + s.now_s) * 1e6)
         flags |= M.UTM_DATA_AVAIL_FLAGS_TIME_VALID
-    g = s.geo
+    g = s.sample.geo
     vn, ve, vd = s.kin.velocity_ned_mps
     e = s.sample.estimator
     h_acc, v_acc = (e[E_ACCURACY], e[E_ACCURACY + 1]) if e is not None else (0.0, 0.0)

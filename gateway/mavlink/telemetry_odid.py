@@ -107,7 +107,7 @@ def open_drone_id_location(enc: Encoder, s: Snapshot) -> bytes:
     height = UNKNOWN_M
     home = status.home
     if home is not None and status.position_valid:
-        height = s.geo.alt_amsl_m - home.geo.alt_amsl_m
+        height = s.sample.geo.alt_amsl_m - home.geo.alt_amsl_m
     return enc.pack(M.MAVLink_open_drone_id_location_message, 0, 0, _ID_OR_MAC, odid_status,
                     direction, speed_h, speed_v, lat, lon, baro_alt_m(s), alt_geodetic,
                     M.MAV_ODID_HEIGHT_REF_OVER_TAKEOFF, height, h_acc, v_acc,
