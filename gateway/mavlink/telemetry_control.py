@@ -39,6 +39,7 @@ from vehicles.types import LandedState, NavState
 ESC_REPORTS = 8  # esc_status_s::CONNECTED_ESC_MAX
 NO_THRUST_ACCEL = (0.0, 0.0, 100.0)  # mc_pos_control: not taken off yet
 NAN3 = (math.nan, math.nan, math.nan)
+_ZEROS = [0] * 16  # SERVO_OUTPUT_RAW's unused outputs
 
 
 def _ms(t_s: float) -> int:
@@ -50,7 +51,7 @@ def attitude_target(enc: Encoder, s: Snapshot) -> bytes | None:
     if sp is None:
         return None
     p, q, r = sp.rates_frd_radps
-    return enc.pack(M.MAVLink_attitude_target_message, _ms(sp.time_s), 0, list(sp.attitude_q),
+    return enc.pack(M.MAVLink_attitude_target_message, _ms(sp.time_s), 0, sp.attitude_q,
                     p, q, r, sp.thrust_norm)
 
 
@@ -64,17 +65,27 @@ def _local_fields(sp) -> tuple[float, ...]:
     return (*pos, *vel, *acc, sp.yaw_rad, sp.yawspeed_radps)
 
 
+class _IgnoreMask(dict[tuple[bool, ...], int]):
+    """POSITION_TARGET_TYPEMASK of the fields' NaN pattern (x, y, z, vx, vy, vz, afx, afy,
+    afz, yaw, yaw_rate): the IGNORE bit of every NaN field. Few patterns ever occur, so each
+    is worked out once."""
+
+    def __missing__(self, nan: tuple[bool, ...]) -> int:
+        mask = self[nan] = sum(1 << bit for bit, is_nan in zip(_IGNORE_BITS, nan) if is_nan)
+        return mask
+
+
+_IGNORE_BITS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 10, 11)
+_IGNORE_MASK = _IgnoreMask()
+
+
 def position_target_local_ned(enc: Encoder, s: Snapshot) -> bytes | None:
     sp = s.targets
     if sp is None or not sp.position_control:
         return None
-    x, y, z, vx, vy, vz, ax, ay, az, yaw, yawspeed = f = _local_fields(sp)
-    # POSITION_TARGET_TYPEMASK: the IGNORE bit of every NaN field (x != x: NaN).
-    mask = ((x != x) | (y != y) << 1 | (z != z) << 2 | (vx != vx) << 3 | (vy != vy) << 4
-            | (vz != vz) << 5 | (ax != ax) << 6 | (ay != ay) << 7 | (az != az) << 8
-            | (yaw != yaw) << 10 | (yawspeed != yawspeed) << 11)
+    f = _local_fields(sp)
     return enc.pack(M.MAVLink_position_target_local_ned_message, _ms(sp.time_s),
-                    M.MAV_FRAME_LOCAL_NED, mask, *f)
+                    M.MAV_FRAME_LOCAL_NED, _IGNORE_MASK[tuple(map(math.isnan, f))], *f)
 
 
 def global_target(s: Snapshot, ned: tuple[float, float, float] | None
@@ -105,8 +116,8 @@ def servo_output_raw(enc: Encoder, s: Snapshot) -> bytes | None:
     sp = s.targets
     if sp is None:
         return None
-    raw = [int(v) for v in sp.outputs[:16]]  # commanded rad/s: 0..1000, within uint16
-    raw += [0] * (16 - len(raw))
+    raw = list(map(int, sp.outputs[:16]))  # commanded rad/s: 0..1000, within uint16
+    raw += _ZEROS[len(raw):]
     return enc.pack(M.MAVLink_servo_output_raw_message, s.time_usec & 0xFFFFFFFF, 0, *raw)
 
 
