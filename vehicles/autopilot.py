@@ -114,7 +114,7 @@ class Autopilot:
         self._load_gains()
         params.on_change(lambda name, value: self._load_gains())
         self._params_version = -1  # the values below are read at the first 50 Hz tick
-        self._of_loss_t_s = self._rc_loss_t_s = 0.0
+        self._of_loss_t_s = self._rc_loss_t_s = self._early_takeoff_s = 0.0
         self._battery_thresholds: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._gf_action = 0
         self._flags_inputs: tuple[object, ...] = ()  # what ``_flags`` was built from
@@ -154,6 +154,7 @@ class Autopilot:
         self._battery_thresholds = (float(p["BAT_LOW_THR"]), float(p["BAT_CRIT_THR"]),
                                     float(p["BAT_EMERGEN_THR"]))
         self._gf_action = int(p["GF_ACTION"])
+        self._early_takeoff_s = float(p["MPC_SPOOLUP_TIME"]) + 3.0
 
     def _load_gains(self) -> None:
         self.stage.set_gains(self._position_gains())
@@ -340,7 +341,7 @@ class Autopilot:
         self.last_meas = meas
         self._update_slow(now_s, meas)
         self.calibration.update(now_s)
-        if self.motor_test:
+        if self.motor_test.tests:
             self.motor_test.expire(now_s)
         return self._command()
 
@@ -350,18 +351,12 @@ class Autopilot:
         self.time_s = now_s
         if self._new_gains or self.motor_test.changed:
             return self._command()
-        cmd = self.commander  # ``_mode()``, inline: this runs at every physics step
+        cmd = self.commander  # the motor mode as ``_command`` picks it (every physics step)
         if not cmd.armed or cmd.terminated:
-            mode = MODE_OFF if cmd.armed or cmd.terminated or not self.motor_test else MODE_TEST
+            mode = MODE_OFF if cmd.armed or cmd.terminated or not self.motor_test.tests else MODE_TEST
         else:
             mode = MODE_IDLE if self.stage.idle else MODE_FLY
         return self._command() if mode != self._out.mode else None
-
-    def _mode(self) -> int:
-        cmd = self.commander
-        if not cmd.armed or cmd.terminated:
-            return MODE_OFF if cmd.armed or cmd.terminated or not self.motor_test else MODE_TEST
-        return MODE_IDLE if self.stage.idle else MODE_FLY
 
     def _command(self) -> InnerCommand:
         st = self.stage
@@ -371,12 +366,15 @@ class Autopilot:
                      float(self.params["THR_MDL_FAC"]))
             self._new_gains = False
         sp = st.attitude
-        mode = self._mode()
-        self.motor_test.changed = False
+        cmd, test = self.commander, self.motor_test  # the motor mode
+        if not cmd.armed or cmd.terminated:
+            mode = MODE_OFF if cmd.armed or cmd.terminated or not test.tests else MODE_TEST
+        else:
+            mode = MODE_IDLE if st.idle else MODE_FLY
+        test.changed = False
         self._out = InnerCommand(mode, sp.attitude_q, sp.yawspeed_radps,
                                  sp.thrust_body_norm, st.rates, self.land_detector.landed, gains,
-                                 st.reset_rates, self.motor_test.values() if mode == MODE_TEST
-                                 else ())
+                                 st.reset_rates, test.values() if mode == MODE_TEST else ())
         st.reset_rates = False
         return self._out
 
@@ -411,7 +409,7 @@ class Autopilot:
         self._fence_breach = breach
         c, fd = self.commander, self.failure_detector
         at = c.armed_at_s  # failsafe.cpp's early takeoff phase: MPC_SPOOLUP_TIME + 3 s
-        early = at is not None and now_s < at + float(self.params["MPC_SPOOLUP_TIME"]) + 3.0
+        early = at is not None and now_s < at + self._early_takeoff_s
         inputs = (c.armed, c.user_nav_state, c.gcs_lost, c.offboard_available, level,
                   breach is not None, c.manual_control_available, c.position_lost, fd.critical,
                   early)
@@ -442,7 +440,7 @@ class Autopilot:
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
         self.failure_detector.update(now_s, meas.attitude_q, attitude_control(
             cmd.nav_state, self.offboard.setpoint), self.params)
-        cmd.attitude_failure = self.failure_detector.critical
+        cmd.attitude_failure = self.failure_detector.roll or self.failure_detector.pitch
         self._refresh_requirements(now_s)
         if not cmd.mission_valid and cmd.nav_state is NavState.AUTO_MISSION:
             cmd.switch_by_vehicle(NavState.AUTO_LOITER)  # mission cleared under our feet

@@ -37,6 +37,9 @@ class FailureDetector:
         self._pitch_since: float | None = None
         self._version = -1  # the parameters' version the limits below were read at
         self._limits = (0.0, 0.0, 0.0, 0.0)  # max roll, max pitch (rad), their trigger times (s)
+        # Above this 1 - 2(x² + y²) of the attitude (the cosine of the tilt, which is at least
+        # as large as the roll and the pitch) neither checked angle can be beyond its limit.
+        self._level_cos = 2.0
 
     @property
     def critical(self) -> bool:
@@ -53,6 +56,13 @@ class FailureDetector:
             self._limits = (abs(math.radians(float(params["FD_FAIL_R"]))),
                             abs(math.radians(float(params["FD_FAIL_P"]))),
                             float(params["FD_FAIL_R_TTRI"]), float(params["FD_FAIL_P_TTRI"]))
+            checked = [lim for lim in self._limits[:2] if lim > 1e-7]
+            self._level_cos = (math.cos(min(*checked, math.pi / 2 - 0.01)) + 1e-6 if checked
+                               else -math.inf)
+        if self._roll_since is None and self._pitch_since is None:
+            _w, x, y, _z = q
+            if 1.0 - 2.0 * (x * x + y * y) > self._level_cos:  # (not NaN) within both limits
+                return  # nothing beyond, nothing held: the flags stay False
         max_roll, max_pitch, roll_ttri, pitch_ttri = self._limits
         roll, pitch, _ = q_euler_rad(q)
         self.roll, self._roll_since = _held(

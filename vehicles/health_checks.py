@@ -238,6 +238,7 @@ class HealthChecks:
         self._last_report_s = -MIN_REPORT_INTERVAL_S
         self._unreported = False
         self._mode: tuple[bool, NavState] | None = None
+        self._checked: CheckInputs | None = None  # what ``results`` were evaluated on
 
     def update(self, now_s: float, armed: bool, nav_state: NavState,
                inputs: Callable[[], CheckInputs], force: bool = False) -> bool:
@@ -248,10 +249,13 @@ class HealthChecks:
             return False
         self._next_s, self._mode = now_s + UPDATE_PERIOD_S, mode
         checked = self._with_timeouts(now_s, inputs())
-        previous, self.results = self.results, evaluate(checked)
+        previous = results = self.results
+        if results is None or checked != self._checked:  # (the checks are pure)
+            self._checked = checked
+            self.results = results = evaluate(checked)
         if self.on_results is not None:
-            self.on_results(self.results)
-        changed = self._unreported or self.results != previous
+            self.on_results(results)
+        changed = self._unreported or (results is not previous and results != previous)
         if now_s - self._last_report_s < MIN_REPORT_INTERVAL_S and not force:
             self._unreported = self._unreported or changed
             return False

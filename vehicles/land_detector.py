@@ -118,7 +118,10 @@ class LandDetector:
         vn, ve, vd = meas.velocity_ned_mps
         ax, ay, az = meas.accel_ned_mps2
         freefall = math.sqrt(ax * ax + ay * ay + (az - GRAVITY_MPS2) ** 2) < FREEFALL_ACC_MPS2
-        self.freefall = self._freefall.update(now_s, freefall)
+        # (Each hysteresis is asked only when its condition or its request differs from its
+        # state: otherwise its update changes nothing.)
+        h = self._freefall
+        self.freefall = h.state if freefall == h.state == h._requested else h.update(now_s, freefall)
 
         # _get_ground_contact_state
         landed_before = self._landed.state
@@ -137,8 +140,10 @@ class LandDetector:
                 contact = contact and self.in_descend
         else:
             self.in_descend = False
-        self.ground_contact = self._contact.update(
-            now_s, not armed or (contact and not horizontal and not vertical))
+        contact = not armed or (contact and not horizontal and not vertical)
+        h = self._contact
+        self.ground_contact = (h.state if contact == h.state == h._requested
+                               else h.update(now_s, contact))
 
         # _get_maybe_landed_state
         if climb_rate_control:
@@ -147,10 +152,14 @@ class LandDetector:
             minimum = self._man_thr_min + 0.01
         rot_thr = self._rot_max_rad * (LANDED_WIDENING if landed_before else 1.0)
         rotating = math.hypot(meas.rates_frd_radps[0], meas.rates_frd_radps[1]) > rot_thr
-        self.maybe_landed = self._maybe.update(now_s, not armed or (
-            thrust_norm <= minimum and not self.freefall and not rotating and self.ground_contact))
+        maybe = not armed or (thrust_norm <= minimum and not self.freefall and not rotating
+                              and self.ground_contact)
+        h = self._maybe
+        self.maybe_landed = h.state if maybe == h.state == h._requested else h.update(now_s, maybe)
 
-        landed = self._landed.update(now_s, not armed or self.maybe_landed)
+        maybe = not armed or self.maybe_landed
+        h = self._landed
+        landed = h.state if maybe == h.state == h._requested else h.update(now_s, maybe)
         if not landed and self.landed and armed and self._takeoff_time_s is None:
             self._takeoff_time_s = now_s
         self.landed = landed

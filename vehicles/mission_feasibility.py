@@ -235,6 +235,11 @@ class MissionCheck:
         self._on_run = on_run
         self._ids: tuple[int, int] | None = None  # (mission, fence) ids checked; None: never
         self._forced = False
+        # The plan store whose changes this check hears of (the first one it is given), and
+        # whether a plan may have changed since the ids were last read (asked at every 50 Hz
+        # tick; reading the ids is the costly part).
+        self._plans: object = None
+        self._plans_changed = True
         self._home: object = None  # the home last seen, and how often it changed (PX4's
         self._home_updates = 0  # home_position update_count, as far as these updates see it)
         self.home_counter = 0  # mission_result.home_position_counter: the count at the last run
@@ -258,7 +263,13 @@ class MissionCheck:
         if home is None:  # canRunMissionFeasibility: not before home is set
             return self.valid
         plans = ap.plans
-        ids = (plans.plan_id(PlanType.MISSION), plans.plan_id(PlanType.FENCE))
+        if self._plans is None:
+            self._plans = plans
+            plans.on_change(self._plan_changed)
+        ids = self._ids
+        if self._plans_changed or plans is not self._plans:
+            self._plans_changed = plans is not self._plans  # (another store: read every time)
+            ids = (plans.plan_id(PlanType.MISSION), plans.plan_id(PlanType.FENCE))
         if ids != self._ids or self._forced:
             self._ids, self._forced = ids, False
             self.home_counter = self._home_updates
@@ -270,6 +281,9 @@ class MissionCheck:
             if self._on_run is not None:
                 self._on_run()
         return self.valid
+
+    def _plan_changed(self, _plan_type: PlanType) -> None:
+        self._plans_changed = True
 
     def rejected(self, mission_id: int) -> bool:
         """The check ran on the mission with this id and found it infeasible."""

@@ -389,7 +389,6 @@ class Mission(NavMode):
         p = ctx.params
         x, y, z = ctx.position_ned_m
         tx, ty, tz = self._target
-        alt_rad = float(p["NAV_MC_ALT_RAD"])
         if self._phase == "done":
             return self._hold(ctx)
         if self._phase == "jump":
@@ -407,17 +406,19 @@ class Mission(NavMode):
             # without a yaw of its own "FlightTaskAuto handles yaw directly" (mission.cpp): towards
             # its target while farther than the acceptance radius, else held (auto_heading.py)
             self._yaw = self._fixed_yaw
-            at = not ctx.landed and dist < self._acc_rad and abs(z - tz) < alt_rad
-            item = self.items[self.current]
-            if at and item.command == MavCmd.NAV_LOITER_UNLIM:
-                # is_mission_item_reached_or_completed: never for LOITER_UNLIMITED, so no
-                # MISSION_ITEM_REACHED either; only a new current item ends it.
-                return NavSetpoint(self._target, self._yaw, ctx.limits(), loiter=True,
-                                   loiter_radius_m=self._loiter_radius)
-            # position, then yaw, then the hold time (its own triplet, unchanged meanwhile)
-            if self._reached.update(ctx.now_s, at, self._item_yaw(), ctx.yaw_rad, p,
-                                    forces_heading(item), time_inside_s(item)):
-                return self._advance(ctx)
+            at = (not ctx.landed and dist < self._acc_rad
+                  and abs(z - tz) < float(p["NAV_MC_ALT_RAD"]))
+            if at or self._reached.position:  # (else the reached check says no)
+                item = self.items[self.current]
+                if at and item.command == MavCmd.NAV_LOITER_UNLIM:
+                    # is_mission_item_reached_or_completed: never for LOITER_UNLIMITED, so no
+                    # MISSION_ITEM_REACHED either; only a new current item ends it.
+                    return NavSetpoint(self._target, self._yaw, ctx.limits(), loiter=True,
+                                       loiter_radius_m=self._loiter_radius)
+                # position, then yaw, then the hold time (its own triplet, unchanged meanwhile)
+                if self._reached.update(ctx.now_s, at, self._item_yaw(), ctx.yaw_rad, p,
+                                        forces_heading(item), time_inside_s(item)):
+                    return self._advance(ctx)
             return self._goto_setpoint(ctx)
         if self._phase == "delay":
             if ctx.now_s >= self._wait_until:

@@ -77,38 +77,44 @@ class ZeroOrderHoverThrustEkf:
     def fuse_acc_z(self, acc_z: float, thrust: float) -> None:
         """``acc_z``: the vertical acceleration, up positive; ``thrust``: the vertical thrust
         (normalized), up positive."""
-        h = -GRAVITY_MPS2 * thrust / (self.hover_thr * self.hover_thr)
+        # (Runs at 50 Hz: the predicted acceleration, g·T/Th − g, and the clamps are written
+        # out.)
+        hover_thr, state_var, dt = self.hover_thr, self.state_var, self.dt
+        h = -GRAVITY_MPS2 * thrust / (hover_thr * hover_thr)
         r = self.acc_var * self.acc_var_scale
-        innov_var = max(h * self.state_var * h + r, r)
-        innov = acc_z - self._predicted_acc_z(thrust)
-        k = self.state_var * h / innov_var
+        innov_var = h * state_var * h + r
+        if r > innov_var:  # max(·, r)
+            innov_var = r
+        innov = acc_z - (GRAVITY_MPS2 * thrust / hover_thr - GRAVITY_MPS2)
+        k = state_var * h / innov_var
         # computeInnovTestRatio in float arithmetic: HTE_ACC_GATE = 0 (PX4 stores it as given)
         # makes the ratio inf (0/0: NaN), so every measurement is rejected, not a fault.
         gate = self.gate_size * self.gate_size * innov_var
         test_ratio = innov * innov / gate if gate != 0.0 else math.inf if innov else math.nan
         residual = innov
         if test_ratio < 1.0:
-            self.hover_thr = _clamp(self.hover_thr + k * innov, self.hover_thr_min,
-                                    self.hover_thr_max)
-            self.state_var = _clamp((1.0 - k * h) * self.state_var, 1e-10, 1.0)
-            residual = acc_z - self._predicted_acc_z(thrust)  # the hover thrust moved
+            v, lo, hi = hover_thr + k * innov, self.hover_thr_min, self.hover_thr_max
+            self.hover_thr = hover_thr = lo if v < lo else (hi if v > hi else v)
+            v = (1.0 - k * h) * state_var
+            state_var = 1e-10 if v < 1e-10 else (1.0 if v > 1.0 else v)
+            # the hover thrust moved
+            residual = acc_z - (GRAVITY_MPS2 * thrust / hover_thr - GRAVITY_MPS2)
         elif abs(self._signed_innov_test_ratio_lpf) > 0.2:
             # Rejected for a while: the hover thrust jumped, or the filter diverges.
-            self.state_var += 1e3 * self.process_var * self.dt * self.dt
+            state_var += 1e3 * self.process_var * dt * dt
+        self.state_var = state_var
         signed = math.copysign(test_ratio, innov) if innov != 0.0 else test_ratio
-        alpha = self.dt / (LPF_TIME_CONSTANT_S + self.dt)
-        self._residual_lpf = (1.0 - alpha) * self._residual_lpf + alpha * residual
+        alpha = dt / (LPF_TIME_CONSTANT_S + dt)
+        self._residual_lpf = residual_lpf = (1.0 - alpha) * self._residual_lpf + alpha * residual
         self._signed_innov_test_ratio_lpf = ((1.0 - alpha) * self._signed_innov_test_ratio_lpf
-                                             + alpha * _clamp(signed, -1.0, 1.0))
-        alpha = self.dt / (NOISE_LEARNING_TIME_CONSTANT_S + self.dt)
-        res_no_bias = residual - self._residual_lpf
-        self.acc_var = _clamp((1.0 - alpha) * self.acc_var
-                              + alpha * (res_no_bias * res_no_bias + h * self.state_var * h),
-                              1.0, 400.0)
+                                             + alpha * (-1.0 if signed < -1.0 else
+                                                        (1.0 if signed > 1.0 else signed)))
+        alpha = dt / (NOISE_LEARNING_TIME_CONSTANT_S + dt)
+        res_no_bias = residual - residual_lpf
+        v = (1.0 - alpha) * self.acc_var + alpha * (res_no_bias * res_no_bias
+                                                     + h * state_var * h)
+        self.acc_var = 1.0 if v < 1.0 else (400.0 if v > 400.0 else v)
         self.innov, self.innov_var, self.innov_test_ratio = innov, innov_var, test_ratio
-
-    def _predicted_acc_z(self, thrust: float) -> float:
-        return GRAVITY_MPS2 * thrust / self.hover_thr - GRAVITY_MPS2
 
 
 class HoverThrustEstimator:
@@ -171,23 +177,28 @@ class HoverThrustEstimator:
         dt = 0.0 if self._last_s is None else now_s - self._last_s
         self._last_s = now_s
         if armed and self._in_air and 0.001 < dt < 1.0 and math.isfinite(accel_z_ned_mps2):
-            self.ekf.predict(dt)
+            ekf = self.ekf
+            ekf.state_var += ekf.process_var * dt * dt  # ekf.predict(dt)
+            ekf.dt = dt
             if math.isfinite(thrust_z_ned):
                 vn, ve, vd = velocity_ned_mps
                 coeff_z = max(abs(vd) - self._vz_thr + 1.0, 1.0)
                 coeff_xy = max(math.hypot(vn, ve) - self._vxy_thr + 1.0, 1.0)
-                self.ekf.set_measurement_noise_scale(max(coeff_xy, coeff_z))
-                self.ekf.fuse_acc_z(-accel_z_ned_mps2, -thrust_z_ned)
-                ok = self.ekf.state_var < VALID_VAR
+                scale = max(coeff_xy, coeff_z)
+                ekf.acc_var_scale = scale * scale  # set_measurement_noise_scale
+                ekf.fuse_acc_z(-accel_z_ned_mps2, -thrust_z_ned)
+                ok = ekf.state_var < VALID_VAR
                 if not self.valid:
-                    ok = ok and self.ekf.innov_test_ratio < 1.0
-                self._set_valid(ok, now_s)
+                    ok = ok and ekf.innov_test_ratio < 1.0
+                if not (ok and self.valid):  # (valid stays valid while ok)
+                    self._set_valid(ok, now_s)
         else:
             self._set_valid(False, now_s)
             if not armed:
                 self.reset()
         if self.valid and self._use:
-            self.hover_thrust = _clamp(self.ekf.hover_thr, 0.05, 0.9)  # setHoverThrust
+            v = self.ekf.hover_thr  # setHoverThrust
+            self.hover_thrust = 0.05 if v < 0.05 else (0.9 if v > 0.9 else v)
         return self.hover_thrust
 
     def _set_valid(self, ok: bool, now_s: float) -> None:

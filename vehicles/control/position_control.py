@@ -368,6 +368,7 @@ class PositionControl:
         self.gains = gains
         self._gains = np.array(gains.vector())
         self._gains[12] = max(gains.thrust_min, THRUST_MIN_FLOOR)
+        self._hover = float(self._gains[14])  # (read every 50 Hz tick: not off the array)
         self._vel_int = np.zeros(3)
 
     def reset_integral(self) -> None:
@@ -389,15 +390,15 @@ class PositionControl:
     def hover_thrust(self) -> float:
         """The hover thrust the controller uses now (``update_hover_thrust`` moves it; the
         frozen ``gains`` keep the one it was built with)."""
-        return float(self._gains[14])
+        return self._hover
 
     def update_hover_thrust(self, hover_thrust: float, acc_sp_z: float) -> None:
         """PositionControl::updateHoverThrust: a new hover thrust (0.05..0.9), the vertical
         integrator moved so that the thrust of the last acceleration setpoint ``acc_sp_z``
         (NED) stays the same: T = (a − g)·Th/g."""
-        previous = float(self._gains[14])
+        previous = self._hover
         new = min(max(hover_thrust, 0.05), 0.9)
-        self._gains[14] = new
+        self._gains[14] = self._hover = new
         if math.isfinite(acc_sp_z):
             self._vel_int[2] += ((acc_sp_z - GRAVITY_MPS2) * previous / new + GRAVITY_MPS2
                                  - acc_sp_z)
