@@ -60,7 +60,10 @@ class AutoWaypoints:
         and the vehicle's position."""
         t, tt = target_ned_m, self.triplet_target
         has_prev, has_next = previous_ned_m is not None, next_ned_m is not None
-        update = (_moved(tt[0], t[0]) or _moved(tt[1], t[1]) or _moved(tt[2], t[2])
+        # (``_moved`` asked only past the 1 mm: within it an axis has not moved, NaN or not)
+        update = ((not abs(tt[0] - t[0]) < _CHANGED_M and _moved(tt[0], t[0]))
+                  or (not abs(tt[1] - t[1]) < _CHANGED_M and _moved(tt[1], t[1]))
+                  or (not abs(tt[2] - t[2]) < _CHANGED_M and _moved(tt[2], t[2]))
                   or has_prev != self._prev_was_valid or has_next != self._next_was_valid)
         if update:
             x, y, _ = position_ned_m

@@ -293,6 +293,7 @@ class Failsafe:
         self._notification_required = False  # a warning was added (checkFailsafe)
         self.events: EventLog | None = None  # events::send (notifyUser), where there are events
         self.flags: FailsafeFlags | None = None  # the last update's (PX4's failsafe_flags topic)
+        self._calm: tuple[FailsafeFlags, int] | None = None  # see ``update``
 
     @property
     def in_failsafe(self) -> bool:
@@ -315,6 +316,14 @@ class Failsafe:
             del self.actions[name]
 
     def update(self, now_s: float, flags: FailsafeFlags) -> Action:
+        # The same flags object as the last pass's (the autopilot hands the same frozen one
+        # while its inputs stay), the same parameters, and that pass left no action and none
+        # selected: this pass would find the same nothing (with no action no timer counts).
+        calm = self._calm
+        if calm is not None and calm[0] is flags and calm[1] == self._params.version:
+            return self.selected
+        self._calm = None
+        given = flags
         # updateArmingState, then: input that comes back makes its later loss count again.
         if flags.armed and not self._last_armed or not flags.armed:
             self._manual_control_lost_at_arming = flags.manual_control_lost
@@ -375,6 +384,8 @@ class Failsafe:
             self._notify_user(now_s, flags.user_nav_state, action, delayed, cause)
         self._notification_required = False
         self.selected = action
+        if action is Action.NONE and not actions:
+            self._calm = (given, p.version)
         return action
 
     def _notify_user(self, now_s: float, mode: NavState, action: Action, delayed: Action,

@@ -155,8 +155,9 @@ class PositionStage:
         pc = self.position_control
         # FlightModeManager re-activates the task on the takeoff state mc_pos_control last
         # published, the one before this tick's update
-        reactivate = self.takeoff.state < RAMPUP
-        state = self._takeoff_state(True)
+        tk = self.takeoff
+        reactivate = tk.state < RAMPUP
+        state = tk.update_state(self._armed, self.land_detector.landed, True, self._now_s)
         flying = state >= FLIGHT
         no_setpoint = state < RAMPUP or (flying and self.land_detector.ground_contact)
         g, p = pc.gains, self.params
@@ -171,7 +172,7 @@ class PositionStage:
         # updateRamp ramps towards the task's constraint, the result is clipped at
         # MPC_Z_VEL_MAX_UP afterwards (mc_pos_control setVelocityLimits)
         wanted_up = speed_up_mps if math.isfinite(speed_up_mps) else up_max
-        up = min(self.takeoff.update_ramp(dt, wanted_up), up_max)
+        up = min(tk.update_ramp(dt, wanted_up), up_max)
         pc.set_limits(up, g.thrust_min if flying else 0.0, self._tilt_limit, speed_down_mps)
         # PX4 re-activates the flight task (FlightTaskAuto::reActivate) after its update until
         # the ramp starts: the smoothing restarts at the vehicle at rest but for a 0.7 m/s
