@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 EARTH_RADIUS_M = 6371000.0  # PX4 CONSTANTS_RADIUS_OF_EARTH
 _FLT_EPSILON = 1.1920929e-07  # float32 machine epsilon (C FLT_EPSILON)
+_asin, _atan2, _cos, _sin, _hypot = math.asin, math.atan2, math.cos, math.sin, math.hypot
+_degrees, _radians = math.degrees, math.radians
 
 
 def project(ref_lat_deg: float, ref_lon_deg: float, lat_deg: float, lon_deg: float
@@ -39,17 +41,23 @@ def project(ref_lat_deg: float, ref_lon_deg: float, lat_deg: float, lon_deg: flo
 def reproject(ref_lat_deg: float, ref_lon_deg: float, north_m: float, east_m: float
               ) -> tuple[float, float]:
     """(lat, lon) in degrees of a local point (PX4 MapProjection::reproject)."""
+    # The math functions as module globals, the clamp as comparisons (the same values as
+    # min(max(v, -1), 1), NaN included): the telemetry reprojects every vehicle's position.
     x = north_m / EARTH_RADIUS_M
     y = east_m / EARTH_RADIUS_M
-    c = math.hypot(x, y)
+    c = _hypot(x, y)
     if c == 0.0:
         return (ref_lat_deg, ref_lon_deg)
-    ref_lat = math.radians(ref_lat_deg)
-    sin_ref, cos_ref = math.sin(ref_lat), math.cos(ref_lat)
-    sin_c, cos_c = math.sin(c), math.cos(c)
-    lat = math.asin(min(max(cos_c * sin_ref + x * sin_c * cos_ref / c, -1.0), 1.0))
-    lon = math.radians(ref_lon_deg) + math.atan2(y * sin_c, c * cos_ref * cos_c - x * sin_ref * sin_c)
-    return (math.degrees(lat), math.degrees(lon))
+    ref_lat = _radians(ref_lat_deg)
+    sin_ref, cos_ref = _sin(ref_lat), _cos(ref_lat)
+    sin_c, cos_c = _sin(c), _cos(c)
+    s = cos_c * sin_ref + x * sin_c * cos_ref / c
+    if s < -1.0:
+        s = -1.0
+    elif s > 1.0:
+        s = 1.0
+    lon = _radians(ref_lon_deg) + _atan2(y * sin_c, c * cos_ref * cos_c - x * sin_ref * sin_c)
+    return (_degrees(_asin(s)), _degrees(lon))
 
 
 def distance_m(lat1_deg: float, lon1_deg: float, lat2_deg: float, lon2_deg: float) -> float:
@@ -114,6 +122,9 @@ def position_fault(lat_deg: float, lon_deg: float, alt_m: float) -> str | None:
     return None
 
 
+_new_object = object.__new__
+
+
 @dataclass(frozen=True)
 class GeoPoint:
     """A point on the globe: WGS-84 latitude/longitude in degrees, altitude above mean sea level."""
@@ -125,7 +136,11 @@ class GeoPoint:
     def offset_ned(self, north_m: float, east_m: float, down_m: float) -> GeoPoint:
         """The point ``(north, east, down)`` metres from this one (the local frame's origin)."""
         lat, lon = reproject(self.lat_deg, self.lon_deg, north_m, east_m)
-        return GeoPoint(lat, lon, self.alt_amsl_m - down_m)
+        # What GeoPoint(lat, lon, alt) makes, without the frozen dataclass's three
+        # object.__setattr__ calls (the telemetry asks for a vehicle's position at every send).
+        point = _new_object(GeoPoint)
+        point.__dict__.update(lat_deg=lat, lon_deg=lon, alt_amsl_m=self.alt_amsl_m - down_m)
+        return point
 
     def ned_of(self, other: GeoPoint) -> tuple[float, float, float]:
         """NED offset (m) of ``other`` relative to this point (inverse of ``offset_ned``)."""

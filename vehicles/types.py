@@ -101,11 +101,17 @@ PX4_SITL_HOME = GeoPoint(47.397742, 8.545594, 488.0)
 
 def q_euler_rad(q: tuple[float, float, float, float]) -> tuple[float, float, float]:
     """(roll, pitch, yaw) in radians of a (w, x, y, z) quaternion, ZYX as PX4's Eulerf."""
+    # The math functions as module globals and the clamp as comparisons (the same values as
+    # max(-1, min(1, s)), NaN included: min(1, NaN) is 1): every ATTITUDE and every 50 Hz tick.
     w, x, y, z = q
-    roll = math.atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y))
-    pitch = math.asin(max(-1.0, min(1.0, 2.0 * (w * y - z * x))))
-    yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-    return roll, pitch, yaw
+    s = 2.0 * (w * y - z * x)
+    s = s if s < 1.0 else 1.0
+    s = s if s > -1.0 else -1.0
+    return (_atan2(2.0 * (w * x + y * z), 1.0 - 2.0 * (x * x + y * y)), _asin(s),
+            _atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+
+
+_atan2, _asin = math.atan2, math.asin
 
 
 @dataclass(frozen=True)
