@@ -302,6 +302,9 @@ class InnerLoop:
             self.rate_state, self.saturation, self.rotors, self.plant, self.measured,
             self.estimated, self.rotor_speed, self.wind, self.forces, self.motor_ok,
             self.commanded)
+        # The rows ``load`` writes, as views: indexing a list is cheaper than a 2-D array.
+        self._setpoint_rows = list(self.setpoint)
+        self._rate_state_rows = list(self.rate_state)
 
     def add(self, spawn_enu_m: tuple[float, float, float], raw_state: tuple[float, ...]) -> int:
         """A new row for a vehicle spawned at ``spawn_enu_m`` whose PyBullet state is
@@ -316,27 +319,28 @@ class InnerLoop:
         return k
 
     def load(self, k: int, command: InnerCommand) -> None:
-        """Row ``k`` takes the autopilot's ``command``."""
-        self.mode[k] = command.mode
-        if command.gains is not None:
-            attitude, rate, thrust_model = command.gains
+        """Row ``k`` takes the autopilot's ``command`` (every 50 Hz tick of every vehicle: the
+        setpoint goes in element by element, cheaper than numpy's conversion of a sequence)."""
+        mode, attitude_q, yawspeed, thrust, rates, landed, gains, reset_rates, motor_test = command
+        self.mode[k] = mode
+        if gains is not None:
+            attitude, rate, thrust_model = gains
             self.gains[k] = (*attitude, *rate, thrust_model)
-            self.rate_state[k] = 0.0
-        if command.reset_rates:
-            self.rate_state[k] = 0.0
-        rates = command.rates_frd_radps
+            reset_rates = True
+        if reset_rates:
+            self._rate_state_rows[k].fill(0.0)
+        sp = self._setpoint_rows[k]
+        sp[SP_Q], sp[SP_Q + 1], sp[SP_Q + 2], sp[SP_Q + 3] = attitude_q
+        sp[SP_YAWSPEED] = yawspeed
+        sp[SP_THRUST] = thrust
         self.use_rates_sp[k] = rates is not None
-        if rates is None:
-            self.setpoint[k, :SP_RATES] = (*command.attitude_q, command.yawspeed_radps,
-                                           command.thrust_norm)
-        else:
-            self.setpoint[k] = (*command.attitude_q, command.yawspeed_radps, command.thrust_norm,
-                                *rates)
-        self.landed[k] = command.landed
-        if command.mode == MODE_TEST:
-            n = min(len(command.motor_test), self._rotors)
-            self.setpoint[k, :self._rotors] = math.nan
-            self.setpoint[k, :n] = command.motor_test[:n]
+        if rates is not None:
+            sp[SP_RATES], sp[SP_RATES + 1], sp[SP_RATES + 2] = rates
+        self.landed[k] = landed
+        if mode == MODE_TEST:
+            n = min(len(motor_test), self._rotors)
+            sp[:self._rotors] = math.nan
+            sp[:n] = motor_test[:n]
 
     def commanded_row(self, k: int) -> list[float]:
         """Row ``k``'s last rate setpoint and commanded rotor speeds (C_* columns)."""

@@ -203,8 +203,9 @@ class World:
         self.inner = InnerLoop(airframe, dt_s, IDLE_THRUST_NORM)  # compiles its kernels
         self.estimation = Estimation(dt_s, sensors, airframe.mass_kg,
                                      airframe.linear_drag_n_per_mps, rng_for)
-        self._after_args: tuple | None = None  # ``after_physics``' arrays, until rows are added
         self.recent = np.zeros((0, HISTORY, R_SIZE))  # the recent-steps ring (R_* columns)
+        self._vehicles: list[Vehicle] = []
+        self._bind()
         self._after_physics(np.zeros(0), 0.0, 0.0)  # compile (or load) it now, with no rows
         position_control.compile_now()
         position_smoothing.compile_now()
@@ -214,7 +215,6 @@ class World:
             log.warning("numba found no writable cache directory, so %s are compiled at every "
                         "start (a few seconds): set NUMBA_CACHE_DIR to a writable directory",
                         ", ".join(compiled.UNCACHED))
-        self._vehicles: list[Vehicle] = []
         self._body_ids: list[int] = []
         self._com_enu: list[tuple[float, float, float]] = []  # where forces are applied
         # each row's vehicle_acceleration filter: (parameter version seen, its cutoff in Hz)
@@ -244,7 +244,7 @@ class World:
                             lowpass2p(1.0 / self.dt_s, cutoff))
         # followed at every parameter change (_accel_params_changed)
         self._acc_filter.append((store.version, filter_cutoff_hz(1.0 / self.dt_s, cutoff)))
-        self._truth_rows = self._after_args = None
+        self._truth_rows = None
         self.recent = np.concatenate([self.recent, np.zeros((1, HISTORY, R_SIZE))])
         # VehicleAcceleration resets its filter to the first sample: at rest, -g along z (FRD)
         self.recent[-1, :, R_ACC_IN + 2] = self.recent[-1, :, R_ACC_LP + 2] = -GRAVITY_MPS2
@@ -254,8 +254,22 @@ class World:
         self._vehicles.append(vehicle)
         self._body_ids.append(body_id)
         self._com_enu.append(spawn)
+        self._bind()
         log.debug("vehicle %d spawned at N%.1f E%.1f (client %d)", index, north, east, self.client_id)
         return vehicle
+
+    def _bind(self) -> None:
+        """What the step and the readers take, gathered once per added row rather than looked up
+        at every step or read (the arrays are only ever written in place until the next row
+        grows them): ``after_physics``' arrays, each vehicle's step, each row's views."""
+        inner, estimation = self.inner, self.estimation
+        self._after_args = (
+            inner.spawn_enu, inner.measured, inner.estimated, inner.mode, inner.landed,
+            self.recent, self.dt_s, *estimation.kernel_args())
+        self._steppers = [(k, v.params, v.step) for k, v in enumerate(self._vehicles)]
+        self._estimated_rows = list(inner.estimated)
+        self._sensed_rows = list(estimation.sensed)
+        self._est_rows = list(estimation.est)
 
     def _read(self, body_id: int) -> tuple[float, ...]:
         pos, orn = pb.getBasePositionAndOrientation(body_id, physicsClientId=self.client_id)
@@ -266,7 +280,7 @@ class World:
         """Row ``row``'s estimated state after the last step (NED/FRD): what it flies on. One row
         converted per call: a vehicle keeps its own per step, and between the autopilot's ticks
         only the few whose telemetry is due ask."""
-        return _measurement(self.inner.estimated[row].tolist())
+        return _measurement(self._estimated_rows[row].tolist())
 
     def truth(self, row: int) -> Measurement:
         """Row ``row``'s true state after the last step (NED/FRD). Every row is converted at once:
@@ -290,19 +304,19 @@ class World:
 
     def sensors(self, row: int) -> list[float]:
         """Row ``row``'s latest sensor samples (estimation.S_* columns)."""
-        return self.estimation.sensed[row].tolist()
+        return self._sensed_rows[row].tolist()
 
     def estimator(self, row: int) -> list[float]:
         """Row ``row``'s estimator state (estimation.E_* columns)."""
-        return self.estimation.est[row].tolist()
+        return self._est_rows[row].tolist()
 
     def gps_age_s(self, row: int) -> float:
         """Row ``row``'s time since its estimator last fused a GPS fix (estimation.E_GPS_AGE)."""
-        return self.estimation.est.item(row, E_GPS_AGE)
+        return self._est_rows[row].item(E_GPS_AGE)
 
     def estimator_ratios(self, row: int) -> list[float]:
         """Row ``row``'s innovation test ratios (estimation.E_RATIOS, four columns)."""
-        return self.estimation.est[row, E_RATIOS:E_RATIOS + 4].tolist()
+        return self._est_rows[row][E_RATIOS:E_RATIOS + 4].tolist()
 
     def set_motor_off(self, row: int, motor: int, off: bool) -> None:
         """Failure injection: motor ``motor`` (0-based) of row ``row`` stops (``off``) or runs."""
@@ -334,10 +348,10 @@ class World:
             inner.wind[:] = self.wind.step(self.dt_s)
         load = inner.load
         acc_filter = self._acc_filter
-        for k, vehicle in enumerate(self._vehicles):
-            if vehicle.params.version != acc_filter[k][0]:
-                self._accel_params_changed(k, vehicle.params)
-            command = vehicle.step(now_s)
+        for k, params, vehicle_step in self._steppers:
+            if params.version != acc_filter[k][0]:
+                self._accel_params_changed(k, params)
+            command = vehicle_step(now_s)
             if command is not None:
                 load(k, command)
         inner.control()
@@ -381,15 +395,10 @@ class World:
         self._acc_filter[row] = (params.version, cutoff)
 
     def _after_physics(self, raw: np.ndarray, meas_dt_s: float, t_s: float) -> None:
-        args = self._after_args
-        if args is None:
-            inner = self.inner
-            args = self._after_args = (
-                inner.spawn_enu, inner.measured, inner.estimated, inner.mode, inner.landed,
-                self.recent, self.dt_s, *self.estimation.kernel_args())
-        hist_i, noise_j = self.estimation.begin_step()
-        after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, *args)
-        self.estimation.end_step()
+        estimation = self.estimation
+        hist_i, noise_j = estimation.begin_step()
+        after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, *self._after_args)
+        estimation.end_step()
 
     def close(self) -> None:
         if not self._closed:
@@ -397,9 +406,13 @@ class World:
             self._closed = True
 
 
+_new_tuple = tuple.__new__
+_POS, _VEL, _Q = slice(M_POS, M_POS + 3), slice(M_VEL, M_VEL + 3), slice(M_Q, M_Q + 4)
+_RATES, _ACCEL = slice(M_RATES, M_RATES + 3), slice(M_ACCEL, M_ACCEL + 3)
+
+
 def _measurement(m: list[float]) -> Measurement:
-    return Measurement((m[M_POS], m[M_POS + 1], m[M_POS + 2]),
-                       (m[M_VEL], m[M_VEL + 1], m[M_VEL + 2]),
-                       (m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3]),
-                       (m[M_RATES], m[M_RATES + 1], m[M_RATES + 2]),
-                       (m[M_ACCEL], m[M_ACCEL + 1], m[M_ACCEL + 2]))
+    """A row of M_* columns as a Measurement: slices of one tuple, and the NamedTuple made as
+    a tuple (its ``__new__`` is a Python function; the readers ask hundreds of times a second)."""
+    t = tuple(m)
+    return _new_tuple(Measurement, (t[_POS], t[_VEL], t[_Q], t[_RATES], t[_ACCEL]))

@@ -28,7 +28,7 @@ from vehicles.command_journal import CommandJournal
 from vehicles.control.quat import q_yaw
 from vehicles.events import ArmReason, EventLog
 from vehicles.health_checks import CheckInputs, HealthChecks, inputs_of
-from vehicles.inner_loop import C_OUTPUTS, C_RATE_INT, C_TORQUE_SP, InnerCommand
+from vehicles.inner_loop import C_OUTPUTS, C_RATE_INT, C_RATES_SP, C_TORQUE_SP, InnerCommand
 from vehicles.manual_control import Sticks
 from vehicles.nav_roi import Params7
 from vehicles.nav_rtl import RtlTimeEstimate
@@ -56,6 +56,9 @@ _NO_POSITION_CONTROL = frozenset({NavState.MANUAL, NavState.STAB, NavState.ACRO,
                                   NavState.TERMINATION})
 _NO_POSITION_HOLD = frozenset({NavState.ALTCTL, NavState.DESCEND})
 _NAN3 = (math.nan, math.nan, math.nan)
+# NamedTuples made as tuples where they are read hundreds of times a second (``kinematics``,
+# ``targets``): a NamedTuple's ``__new__`` is a Python function.
+_new_tuple = tuple.__new__
 IMU_INSTANCES = 3  # PX4's simulator takes instances 1..3 for the IMU (one is simulated here)
 
 
@@ -118,6 +121,7 @@ class Vehicle:
         # The 50 Hz part runs on physics steps index, index + 5, …: the World's vehicles do not
         # all do their 50 Hz work on one step.
         self._tick = -index % POSITION_CONTROL_DIVIDER
+        self._poll = self._autopilot.poll  # the other steps'
         self._cache_step = -1  # the world step the cached views below belong to
         self._meas: Measurement | None = None
         self._state: VehicleState | None = None
@@ -132,22 +136,22 @@ class Vehicle:
         None: the inner loop keeps the last command."""
         tick = self._tick
         self._tick = tick + 1 if tick + 1 < POSITION_CONTROL_DIVIDER else 0
-        if tick == 0:
-            if self.params.version != self._params_version:
-                self._params_version = self.params.version
-                timeout = self.params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000
-                self._noaid_timeout_s = timeout * 1e-6
-            aided = self._world.gps_age_s(self._row) < self._noaid_timeout_s
-            self._autopilot.set_position_aided(aided)
-            if self._autopilot.calibration.needs_sensors:
-                sensed = self._world.sensors(self._row)
-                self._autopilot.calibration.sample(sensed[est.S_ACC:est.S_ACC + 3],
-                                                   sensed[est.S_GYRO:est.S_GYRO + 3])
-            command = self._autopilot.step(self._measurement(), now_s)
-            c = self._autopilot.commander
-            self._health.update(now_s, c.armed, c.nav_state, self._check_inputs)
-            return command
-        return self._autopilot.poll(now_s)
+        if tick:
+            return self._poll(now_s)
+        if self.params.version != self._params_version:
+            self._params_version = self.params.version
+            timeout = self.params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000
+            self._noaid_timeout_s = timeout * 1e-6
+        aided = self._world.gps_age_s(self._row) < self._noaid_timeout_s
+        self._autopilot.set_position_aided(aided)
+        if self._autopilot.calibration.needs_sensors:
+            sensed = self._world.sensors(self._row)
+            self._autopilot.calibration.sample(sensed[est.S_ACC:est.S_ACC + 3],
+                                               sensed[est.S_GYRO:est.S_GYRO + 3])
+        command = self._autopilot.step(self._measurement(), now_s)
+        c = self._autopilot.commander
+        self._health.update(now_s, c.armed, c.nav_state, self._check_inputs)
+        return command
 
     def _check_inputs(self) -> CheckInputs:
         return inputs_of(self._autopilot, self.params, self._world.sensor_failures(self._row))
@@ -160,12 +164,13 @@ class Vehicle:
 
     def _measurement(self) -> Measurement:
         """The state measured after the world's last step."""
-        if self._cache_step != self._world.steps:
-            self._cache_step = self._world.steps
-            self._meas = self._state = self._kin = None
-        if self._meas is None:
-            self._meas = self._world.measurement(self._row)
-        return self._meas
+        m = self._meas
+        steps = self._world.steps
+        if self._cache_step != steps or m is None:
+            self._cache_step = steps
+            self._state = self._kin = None
+            m = self._meas = self._world.measurement(self._row)
+        return m
 
     # --- README contract ---------------------------------------------------------------------
     @property
@@ -190,11 +195,14 @@ class Vehicle:
 
     @property
     def kinematics(self) -> Kinematics:
+        kin = self._kin
+        if kin is not None and self._cache_step == self._world.steps:
+            return kin
         m = self._measurement()
-        if self._kin is None:
-            self._kin = Kinematics(self._world.time_s, m.position_ned_m, m.velocity_ned_mps,
-                                   m.attitude_q, m.rates_frd_radps)
-        return self._kin
+        kin = self._kin = _new_tuple(Kinematics, (self._world.time_s, m.position_ned_m,
+                                                  m.velocity_ned_mps, m.attitude_q,
+                                                  m.rates_frd_radps))
+        return kin
 
     @property
     def status(self) -> VehicleStatus:
@@ -222,7 +230,7 @@ class Vehicle:
         ap = self._autopilot
         st, cmd = ap.stage, ap.commander
         out = ap.last_command
-        commanded = self._world.commanded(self._row)
+        commanded = tuple(self._world.commanded(self._row))
         nav = cmd.nav_state
         if nav in _NO_POSITION_CONTROL:
             position_control = False
@@ -233,7 +241,7 @@ class Vehicle:
             pos, vel, acc = st.trajectory.position_ned_m, st.vel_sp, st.acc_sp
         yaw = st.yaw_sp
         if yaw != yaw:  # NaN: PX4 holds the present heading
-            yaw = q_yaw(self.kinematics.attitude_q)
+            yaw = q_yaw(self._measurement().attitude_q)
         target = None
         auto_sp = ap.tasks.auto.setpoint
         if position_control and auto_sp is not None and nav not in _NO_POSITION_HOLD:
@@ -241,12 +249,12 @@ class Vehicle:
             if target[2] != target[2]:  # a landing: PX4's land setpoint is at the ground's altitude
                 home = ap.home
                 target = (target[0], target[1], home.position_ned_m[2] if home else 0.0)
-        return Targets(st.tick_s, out.attitude_q, out.thrust_norm,
-                       (commanded[0], commanded[1], commanded[2]), position_control, pos, vel,
-                       acc, yaw, out.yawspeed_radps, target,
-                       tuple(commanded[C_OUTPUTS:]) if cmd.armed or ap.motor_test
-                       else (0.0,) * (len(commanded) - C_OUTPUTS),
-                       tuple(commanded[C_TORQUE_SP:C_RATE_INT]), tuple(commanded[C_RATE_INT:C_OUTPUTS]))
+        return _new_tuple(Targets, (
+            st.tick_s, out.attitude_q, out.thrust_norm, commanded[C_RATES_SP:C_TORQUE_SP],
+            position_control, pos, vel, acc, yaw, out.yawspeed_radps, target,
+            commanded[C_OUTPUTS:] if cmd.armed or ap.motor_test
+            else (0.0,) * (len(commanded) - C_OUTPUTS),
+            commanded[C_TORQUE_SP:C_RATE_INT], commanded[C_RATE_INT:C_OUTPUTS]))
 
     @property
     def truth(self) -> Measurement:
@@ -281,8 +289,7 @@ class Vehicle:
 
     @property
     def global_position(self) -> GeoPoint:
-        n, e, d = self._measurement().position_ned_m
-        return self.origin.offset_ned(n, e, d)
+        return self.origin.offset_ned(*self._measurement().position_ned_m)
 
     def status_texts(self, after_seq: int = 0) -> list[StatusText]:
         return self._autopilot.log.after(after_seq)
