@@ -21,8 +21,11 @@ Rules and invariants:
 - The controllers, the autopilot and the telemetry read the estimate (``measurement``), the
   physics and the radio's position the truth (``truth``).
 - Fixed step ``dt_s`` (default 0.004 s = 250 Hz, PX4 lockstep), one sub-step.
-- ``World.step(now_s)`` steps each vehicle (``Vehicle.step``) at ``now_s`` on the state measured at
-  ``now_s``, then integrates to ``now_s + dt_s``; the new state is stamped ``now_s + dt_s``.
+- ``World.step(now_s)`` steps each vehicle (``Vehicle.step_functions``) at ``now_s`` on the state
+  measured at ``now_s``, then integrates to ``now_s + dt_s``; the new state is stamped
+  ``now_s + dt_s``. A vehicle's 50 Hz part runs on every POSITION_CONTROL_DIVIDER-th step from
+  its index's (counted from the step it was added at), so the World's vehicles do not all do
+  their 50 Hz work on one step.
 - Vehicle ``index`` spawns where ``spawn_ned_m[index]`` says (metres north, east of home), else on
   a grid (``SPAWN_SPACING_M``, ``SPAWN_COLUMNS`` per row, rows to the north); its local NED origin
   is its spawn point on the ground (centre of mass at rest).
@@ -37,6 +40,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from vehicles.airframe import X500, Airframe
+from vehicles.autopilot import POSITION_CONTROL_DIVIDER
 from vehicles.control import compiled, position_control, position_smoothing
 from vehicles.control.compiled import njit_cached
 from vehicles.estimation import (
@@ -205,6 +209,7 @@ class World:
                                      airframe.linear_drag_n_per_mps, rng_for)
         self.recent = np.zeros((0, HISTORY, R_SIZE))  # the recent-steps ring (R_* columns)
         self._vehicles: list[Vehicle] = []
+        self._tick_phase: list[int] = []  # per row: steps % POSITION_CONTROL_DIVIDER of its ticks
         self._bind()
         self._after_physics(np.zeros(0), 0.0, 0.0)  # compile (or load) it now, with no rows
         position_control.compile_now()
@@ -254,6 +259,7 @@ class World:
         self._vehicles.append(vehicle)
         self._body_ids.append(body_id)
         self._com_enu.append(spawn)
+        self._tick_phase.append((self.steps + index) % POSITION_CONTROL_DIVIDER)
         self._bind()
         log.debug("vehicle %d spawned at N%.1f E%.1f (client %d)", index, north, east, self.client_id)
         return vehicle
@@ -261,12 +267,18 @@ class World:
     def _bind(self) -> None:
         """What the step and the readers take, gathered once per added row rather than looked up
         at every step or read (the arrays are only ever written in place until the next row
-        grows them): ``after_physics``' arrays, each vehicle's step, each row's views."""
+        grows them): ``after_physics``' arrays, which of each vehicle's step functions each
+        step of the POSITION_CONTROL_DIVIDER calls (with its row and parameters), each row's
+        views."""
         inner, estimation = self.inner, self.estimation
         self._after_args = (
             inner.spawn_enu, inner.measured, inner.estimated, inner.mode, inner.landed,
             self.recent, self.dt_s, *estimation.kernel_args())
-        self._steppers = [(k, v.params, v.step) for k, v in enumerate(self._vehicles)]
+        functions = [v.step_functions() for v in self._vehicles]
+        self._schedule = [
+            [(k, v.params, functions[k][0] if self._tick_phase[k] == phase else functions[k][1])
+             for k, v in enumerate(self._vehicles)]
+            for phase in range(POSITION_CONTROL_DIVIDER)]
         self._estimated_rows = list(inner.estimated)
         self._sensed_rows = list(estimation.sensed)
         self._est_rows = list(estimation.est)
@@ -348,7 +360,7 @@ class World:
             inner.wind[:] = self.wind.step(self.dt_s)
         load = inner.load
         acc_filter = self._acc_filter
-        for k, params, vehicle_step in self._steppers:
+        for k, params, vehicle_step in self._schedule[self.steps % POSITION_CONTROL_DIVIDER]:
             if params.version != acc_filter[k][0]:
                 self._accel_params_changed(k, params)
             command = vehicle_step(now_s)
@@ -376,7 +388,9 @@ class World:
             extend(lin)
             extend(ang)
         t = now_s + self.dt_s
-        self._after_physics(np.array(raw), t - self.time_s, t)
+        # fromiter with the dtype and count: the same doubles as np.array(raw), without its
+        # search of the list for a shape and a type
+        self._after_physics(np.fromiter(raw, float, len(raw)), t - self.time_s, t)
         self._truth_rows = None
         self.time_s = t
         self.steps += 1

@@ -15,7 +15,7 @@ This is the object the gateway talks to (vehicles/README.md contract). Rules:
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Protocol
 
 import numpy as np
@@ -23,7 +23,7 @@ import numpy as np
 from vehicles import estimation as est
 from vehicles import failure_injection
 from vehicles.airframe import Airframe
-from vehicles.autopilot import POSITION_CONTROL_DIVIDER, Autopilot
+from vehicles.autopilot import Autopilot
 from vehicles.command_journal import CommandJournal
 from vehicles.control.quat import q_yaw
 from vehicles.events import ArmReason, EventLog
@@ -118,10 +118,6 @@ class Vehicle:
         ap = self._autopilot
         ap.commander.events = ap.commander.failsafe.events = ap.log.events = self.events
         self._autopilot.calibration.on_ack = self.commands.onboard_ack
-        # The 50 Hz part runs on physics steps index, index + 5, …: the World's vehicles do not
-        # all do their 50 Hz work on one step.
-        self._tick = -index % POSITION_CONTROL_DIVIDER
-        self._poll = self._autopilot.poll  # the other steps'
         self._cache_step = -1  # the world step the cached views below belong to
         self._meas: Measurement | None = None
         self._state: VehicleState | None = None
@@ -130,26 +126,28 @@ class Vehicle:
         self._noaid_timeout_s = 5.0
 
     # --- the World's --------------------------------------------------------------------------
-    def step(self, now_s: float) -> InnerCommand | None:
-        """Once per physics step, before the inner loop runs: the autopilot's 50 Hz part on the
-        state measured at ``now_s`` when due, else only a command that is due between ticks.
-        None: the inner loop keeps the last command."""
-        tick = self._tick
-        self._tick = tick + 1 if tick + 1 < POSITION_CONTROL_DIVIDER else 0
-        if tick:
-            return self._poll(now_s)
-        if self.params.version != self._params_version:
-            self._params_version = self.params.version
-            timeout = self.params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000
+    def step_functions(self) -> tuple[Callable[[float], InnerCommand],
+                                      Callable[[float], InnerCommand | None]]:
+        """What the World calls once per physics step at ``now_s``, before the inner loop runs:
+        on every POSITION_CONTROL_DIVIDER-th step ``step`` (the autopilot's 50 Hz part), on the
+        others the autopilot's ``poll`` (only a command that is due between ticks; None: the
+        inner loop keeps the last command), directly: no call of the vehicle's between."""
+        return self.step, self._autopilot.poll
+
+    def step(self, now_s: float) -> InnerCommand:
+        """The autopilot's 50 Hz part on the state measured at ``now_s`` (``step_functions``)."""
+        ap, params, world, row = self._autopilot, self.params, self._world, self._row
+        if params.version != self._params_version:
+            self._params_version = params.version
+            timeout = params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000
             self._noaid_timeout_s = timeout * 1e-6
-        aided = self._world.gps_age_s(self._row) < self._noaid_timeout_s
-        self._autopilot.set_position_aided(aided)
-        if self._autopilot.calibration.needs_sensors:
-            sensed = self._world.sensors(self._row)
-            self._autopilot.calibration.sample(sensed[est.S_ACC:est.S_ACC + 3],
-                                               sensed[est.S_GYRO:est.S_GYRO + 3])
-        command = self._autopilot.step(self._measurement(), now_s)
-        c = self._autopilot.commander
+        ap.set_position_aided(world.gps_age_s(row) < self._noaid_timeout_s)
+        calibration = ap.calibration
+        if calibration.needs_sensors:
+            sensed = world.sensors(row)
+            calibration.sample(sensed[est.S_ACC:est.S_ACC + 3], sensed[est.S_GYRO:est.S_GYRO + 3])
+        command = ap.step(self._measurement(), now_s)
+        c = ap.commander
         self._health.update(now_s, c.armed, c.nav_state, self._check_inputs)
         return command
 
