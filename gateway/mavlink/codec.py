@@ -25,7 +25,7 @@ from __future__ import annotations
 import logging
 import math
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from operator import itemgetter
 from typing import Any
@@ -33,6 +33,7 @@ from typing import Any
 # fastcrc (a pymavlink dependency, and what pymavlink itself uses) computes the X.25 CRC.
 from fastcrc import crc16 as _fastcrc16
 from pymavlink.dialects.v20 import common as mavlink2
+from pymavlink.dialects.v20 import development
 
 from gateway.mavlink.signing import IFLAG_SIGNED, Signer, Verifier
 
@@ -58,6 +59,7 @@ COMPONENT_INFORMATION = struct.Struct("<III100s100s")
 _HEADER = struct.Struct("<BBBBBBBHB")
 _CRC = struct.Struct("<H")
 _crc_x25 = _fastcrc16.mcrf4xx
+_DEVELOPMENT_MAP = development.mavlink_map
 
 INT16_MIN, INT16_MAX = -32768, 32767
 INT32_MIN, INT32_MAX = -(2**31), 2**31 - 1
@@ -201,6 +203,31 @@ def packer_of(cls: type[mavlink2.MAVLink_message]) -> Packer:
     return packer
 
 
+def payload_of(cls: type[mavlink2.MAVLink_message]) -> Callable[..., bytes]:
+    """``(*args) -> payload`` of ``cls(*args)``, untrimmed, as ``Encoder.pack`` packs it
+    (omitted trailing extension arguments zero, a float beyond float32 ±inf): bound once per
+    message by the telemetry builders, which return payloads (``Encoder.frame_streams``)."""
+    p = packer_of(cls)
+    pack, defaults = p.pack, p.defaults
+    arity = len(defaults)
+
+    def payload(*args: Any) -> bytes:
+        if len(args) < arity:
+            args = args + defaults[len(args):]
+        try:
+            return pack(args)
+        except OverflowError:  # a float beyond float32: rare, so checked only when it happens
+            return pack(tuple(_as_float32(a) for a in args))
+
+    payload.__name__ = payload.__qualname__ = f"payload_{cls.msgname.lower()}"
+    return payload
+
+
+def crc_extra_of(msg_id: int) -> int:
+    """CRC_EXTRA of a message of PX4 SITL's dialect (development, with wip_dialect's)."""
+    return int(_DEVELOPMENT_MAP[msg_id].crc_extra)
+
+
 class Encoder:
     """Frames messages as this link's MAVLink 2 endpoint (sysid, compid, seq).
 
@@ -231,6 +258,36 @@ class Encoder:
         # Header (after the magic) and payload in one C call, then the CRC_EXTRA byte's step.
         crc = _crc_x25(out, _CRC_INIT_BEFORE_MAGIC)
         return out + _CRC.pack((crc >> 8) ^ _CRC_STEP[(crc ^ crc_extra) & 0xFF])
+
+    def frame_streams(self, specs: Iterable[Any], snapshot: Any, out: list[bytes],
+                      failed: Callable[[int], None]) -> None:
+        """Each stream of ``specs`` (streams.StreamSpec: ``builder``, ``msg_id``, ``crc_extra``)
+        built from ``snapshot`` and framed onto ``out``, in order: ``frame`` inlined into one
+        loop, as a wake-up frames a dozen messages. A builder that returns None sends nothing;
+        one that raises is reported to ``failed(msg_id)`` and skipped (no sequence number)."""
+        seq = self.seq
+        sysid, compid, incompat = self.sysid, self.compid, self._incompat
+        sign = self._sign if self.signer is not None else None
+        now_s = self.now_s
+        header, crc_x25, crc_pack, step = _HEADER.pack, _crc_x25, _CRC.pack, _CRC_STEP
+        append = out.append
+        for spec in specs:
+            try:
+                payload = spec.builder(self, snapshot)
+            except Exception:  # one broken stream must not silence the others
+                failed(spec.msg_id)
+                continue
+            if payload is None:
+                continue
+            msg_id = spec.msg_id
+            body = payload.rstrip(b"\0") or payload[:1]
+            frame = header(MAGIC_V2, len(body), incompat, 0, seq, sysid, compid, msg_id & 0xFFFF,
+                           msg_id >> 16) + body
+            crc = crc_x25(frame, _CRC_INIT_BEFORE_MAGIC)
+            frame += crc_pack((crc >> 8) ^ step[(crc ^ spec.crc_extra) & 0xFF])
+            seq = (seq + 1) & 0xFF
+            append(frame if sign is None else sign(frame, now_s))
+        self.seq = seq
 
     def _frame_signed(self, msg_id: int, crc_extra: int, payload: bytes) -> bytes:
         """``frame`` with the signature block appended."""

@@ -40,7 +40,6 @@ from gateway.mavlink.identity import px4_guid, uid
 from gateway.mavlink.link import LinkContext
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.streams import STREAMS_BY_ID, Scheduler
-from gateway.mavlink.telemetry import home_position
 from vehicles.types import CommandResult
 
 ACCEPTED = CommandResult.ACCEPTED
@@ -105,7 +104,7 @@ class MessageRequests:
         spec = STREAMS_BY_ID.get(msg_id)
         if spec is None:
             return DENIED  # e.g. AVAILABLE_MODES_MONITOR, which no PX4 stream has as its id
-        frame = spec.builder(self.encoder, self.snapshot(now_s))
+        frame = spec.frame(self.encoder, self.snapshot(now_s))
         if frame is None:
             return DENIED  # e.g. HOME_POSITION before home is set
         self.send(frame)
@@ -166,7 +165,8 @@ class MessageRequests:
         return ACCEPTED
 
     def home_position(self, now_s: float) -> int:
-        frame = home_position(self.encoder, self.snapshot(now_s))
+        frame = STREAMS_BY_ID[M.MAVLINK_MSG_ID_HOME_POSITION].frame(self.encoder,
+                                                                   self.snapshot(now_s))
         if frame is None:
             return DENIED
         self.send(frame)

@@ -27,7 +27,7 @@ import math
 from pymavlink.dialects.v20 import common as mavlink2
 from pymavlink.dialects.v20 import development
 
-from gateway.mavlink.codec import Encoder, c_int, f32_mul
+from gateway.mavlink.codec import c_int, f32_mul, payload_of
 from gateway.mavlink.modes import heartbeat_modes
 from vehicles.estimation import F_ACC, F_BARO, F_GPS_OFF, F_GYRO, F_MAG
 from vehicles.types import NavState, VehicleStatus
@@ -72,6 +72,10 @@ SENSOR_EXT_RECOVERY_SYSTEM = 0x1
 MAV_VTOL_STATE_UNDEFINED = 0
 LITHIUM_BATTERY_RECOGNITION_V = 2.1
 MSG_ID_CURRENT_MODE = development.MAVLINK_MSG_ID_CURRENT_MODE
+_HEARTBEAT = payload_of(mavlink2.MAVLink_heartbeat_message)
+_SYS_STATUS = payload_of(mavlink2.MAVLink_sys_status_message)
+_EXTENDED_SYS_STATE = payload_of(mavlink2.MAVLink_extended_sys_state_message)
+_CURRENT_MODE = payload_of(development.MAVLink_current_mode_message)
 
 # A failed sensor (off or stuck) → its SYS_STATUS health bit, as PX4's sensor checks report a
 # sensor that times out or stops changing.
@@ -119,13 +123,13 @@ def sensor_bits(status: VehicleStatus) -> tuple[int, int, int]:
     return present, enabled, health
 
 
-def build_heartbeat(enc: Encoder, status: VehicleStatus, mav_type: int) -> bytes:
+def build_heartbeat(status: VehicleStatus, mav_type: int) -> bytes:
     base, custom = heartbeat_modes(status.nav_state, status.armed)
-    return enc.pack(mavlink2.MAVLink_heartbeat_message, mav_type, MAV_AUTOPILOT_PX4, base, custom,
-                    system_status(status), MAVLINK_VERSION)
+    return _HEARTBEAT(mav_type, MAV_AUTOPILOT_PX4, base, custom,
+                      system_status(status), MAVLINK_VERSION)
 
 
-def build_sys_status(enc: Encoder, status: VehicleStatus) -> bytes:
+def build_sys_status(status: VehicleStatus) -> bytes:
     present, enabled, health = sensor_bits(status)
     bat = status.battery
     if battery_connected(bat.voltage_v):
@@ -135,14 +139,14 @@ def build_sys_status(enc: Encoder, status: VehicleStatus) -> bytes:
         remaining = c_int(math.ceil(pct), -128, 127) if math.isfinite(pct) else 0
     else:
         voltage_mv, current_ca, remaining = 65535, -1, -1
-    return enc.pack(mavlink2.MAVLink_sys_status_message, present, enabled, health,
-                    int(CPULOAD_LOAD * 1000.0), voltage_mv, current_ca, remaining, 0, 0, 0,
-                    0, 0, 0, 0, 0, SENSOR_EXT_RECOVERY_SYSTEM)
+    return _SYS_STATUS(present, enabled, health,
+                       int(CPULOAD_LOAD * 1000.0), voltage_mv, current_ca, remaining, 0, 0, 0,
+                       0, 0, 0, 0, 0, SENSOR_EXT_RECOVERY_SYSTEM)
 
 
-def build_extended_sys_state(enc: Encoder, status: VehicleStatus) -> bytes:
-    return enc.pack(mavlink2.MAVLink_extended_sys_state_message, MAV_VTOL_STATE_UNDEFINED,
-                    int(status.landed_state))
+def build_extended_sys_state(status: VehicleStatus) -> bytes:
+    return _EXTENDED_SYS_STATE(MAV_VTOL_STATE_UNDEFINED,
+                               int(status.landed_state))
 
 
 # lib/modes/standard_modes.hpp getStandardModeFromNavState: the only navigation states that map to
@@ -155,11 +159,11 @@ STANDARD_MODES: dict[NavState, int] = {
     NavState.AUTO_LAND: STANDARD_MODE_LAND, NavState.AUTO_TAKEOFF: STANDARD_MODE_TAKEOFF}
 
 
-def build_current_mode(enc: Encoder, status: VehicleStatus) -> bytes:
+def build_current_mode(status: VehicleStatus) -> bytes:
     """CURRENT_MODE.hpp (development dialect, which PX4 SITL builds with): the standard mode of
     nav_state, its custom mode, and the custom mode of the user's intention
     (nav_state_user_intention: what the user selected, whatever a failsafe flies)."""
     nav = status.nav_state
     user = status.extra.get("user_nav_state", nav)
-    return enc.pack(development.MAVLink_current_mode_message, STANDARD_MODES.get(nav, 0),
-                    heartbeat_modes(nav, False)[1], heartbeat_modes(user, False)[1])
+    return _CURRENT_MODE(STANDARD_MODES.get(nav, 0),
+                         heartbeat_modes(nav, False)[1], heartbeat_modes(user, False)[1])

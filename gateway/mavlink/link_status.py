@@ -15,10 +15,12 @@ Rules:
 
 from __future__ import annotations
 
-from gateway.mavlink.codec import DecodeStats, Encoder
+from gateway.mavlink.codec import DecodeStats, Encoder, payload_of
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.wip_dialect import LINK_NODE_STATUS
 from vehicles.cnum import f32
+
+_LINK_NODE_STATUS_PAYLOAD = payload_of(LINK_NODE_STATUS)
 
 
 class TelemetryStatus:
@@ -55,7 +57,7 @@ def link_node_status(enc: Encoder, s: Snapshot) -> bytes | None:
     if tstatus is None:
         return None
     st = tstatus.stats
-    return enc.pack(LINK_NODE_STATUS, s.time_usec, 0, 0, int(tstatus.tx_rate_avg),
-                    int(tstatus.rx_rate_avg), st.rx_bad_datagrams & 0xFFFF, 0, 0,
-                    getattr(st, "tx_datagrams", 0) & 0xFFFFFFFF, st.rx_counted & 0xFFFFFFFF,
-                    st.rx_lost & 0xFFFFFFFF)
+    return _LINK_NODE_STATUS_PAYLOAD(s.time_usec, 0, 0, int(tstatus.tx_rate_avg),
+                                     int(tstatus.rx_rate_avg), st.rx_bad_datagrams & 0xFFFF, 0, 0,
+                                     getattr(st, "tx_datagrams", 0) & 0xFFFFFFFF, st.rx_counted & 0xFFFFFFFF,
+                                     st.rx_lost & 0xFFFFFFFF)

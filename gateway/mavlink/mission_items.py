@@ -21,7 +21,7 @@ import math
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder
+from gateway.mavlink.codec import Encoder, payload_of
 from gateway.mavlink.vehicle_port import VehiclePort
 from vehicles.mission_jumps import jump_repeats, jump_target
 from vehicles.plan_types import MavCmd, MissionState, MissionStatus, PlanItem, PlanType
@@ -141,11 +141,18 @@ def mission_status_of(vehicle: VehiclePort) -> MissionStatus:
     return NO_MISSION if status is None else status
 
 
-def pack_mission_current(enc: Encoder, st: MissionStatus) -> bytes:
+_MISSION_CURRENT = payload_of(M.MAVLink_mission_current_message)
+
+
+def mission_current_payload(st: MissionStatus) -> bytes:
     total = st.count if st.count > 0 else MISSION_TOTAL_NONE
     mode = MISSION_MODE_ACTIVE if st.in_mission_mode else MISSION_MODE_SUSPENDED
-    return enc.pack(M.MAVLink_mission_current_message, max(0, st.current_seq) & 0xFFFF, total,
-                    int(st.state), mode)
+    return _MISSION_CURRENT(max(0, st.current_seq) & 0xFFFF, total, int(st.state), mode)
+
+
+def pack_mission_current(enc: Encoder, st: MissionStatus) -> bytes:
+    return enc.frame(M.MAVLINK_MSG_ID_MISSION_CURRENT, M.MAVLink_mission_current_message.crc_extra,
+                     mission_current_payload(st))
 
 
 def pack_item_reached(enc: Encoder, seq: int) -> bytes:

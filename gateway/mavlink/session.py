@@ -246,14 +246,7 @@ class Session:
                             self.link_telemetry)
             out = self._out
             sent = len(out)
-            for spec in due:
-                try:
-                    frame = spec.builder(enc, snap)
-                except Exception:  # one broken stream must not silence the others
-                    self._failed(now_s, f"building message {spec.msg_id}")
-                    continue
-                if frame is not None:
-                    out.append(frame)  # ``send`` inlined: counted once below
+            enc.frame_streams(due, snap, out, self._build_failed)  # ``send`` inlined
             self.stats.tx_frames += len(out) - sent
         try:
             self.mission.handle_timer(now_s)
@@ -284,6 +277,9 @@ class Session:
                         service.handle_timer(now_s)
                     except Exception:
                         self._failed(now_s, name)
+
+    def _build_failed(self, msg_id: int) -> None:
+        self._failed(self.encoder.now_s, f"building message {msg_id}")
 
     def _failed(self, now_s: float, what: str) -> None:
         """A service raised: counted (``handler_errors``), logged with its traceback the first

@@ -22,15 +22,17 @@ from __future__ import annotations
 
 import heapq
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.available_modes import MSG_ID_AVAILABLE_MODES, available_modes_monitor
+from gateway.mavlink.codec import Encoder, crc_extra_of
 from gateway.mavlink.heartbeat import MSG_ID_CURRENT_MODE
 from gateway.mavlink.link import LinkKind
 from gateway.mavlink.link_status import link_node_status
+from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.telemetry import (
     Builder,
     altitude,
@@ -91,13 +93,23 @@ from gateway.mavlink.wip_dialect import (
 @dataclass(frozen=True)
 class StreamSpec:
     msg_id: int
-    builder: Builder
+    builder: Builder  # (encoder, snapshot) -> the message's payload, None: nothing to send
     gcs_hz: float  # PX4 "normal" mode with the SITL px4-rc.mavlink overrides
     api_hz: float  # PX4 "onboard" mode
     silent: bool = False  # its topic is never published here: never scheduled
+    crc_extra: int = field(init=False)  # bound ahead for the framing (Encoder.frame_streams)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "crc_extra", crc_extra_of(self.msg_id))
 
     def default_hz(self, kind: LinkKind) -> float:
         return self.gcs_hz if kind is LinkKind.GCS else self.api_hz
+
+    def frame(self, enc: Encoder, snapshot: Snapshot) -> bytes | None:
+        """One message of this stream framed by ``enc`` (a REQUEST_MESSAGE's answer); None:
+        nothing to send."""
+        payload = self.builder(enc, snapshot)
+        return None if payload is None else enc.frame(self.msg_id, self.crc_extra, payload)
 
 
 STREAMS: tuple[StreamSpec, ...] = (

@@ -3,8 +3,11 @@
 Source: PX4's stream classes (src/modules/mavlink/streams/*.hpp) for the field conventions, and
 its SITL sensor simulation (sensor_gps_sim, sensor_mag_sim, the barometer) for the constants.
 Rules:
-- A builder is ``(encoder, snapshot) -> frame | None``; it returns None when it has nothing to
-  say (HOME_POSITION before home is set, ORBIT_EXECUTION_STATUS while not orbiting).
+- A builder is ``(encoder, snapshot) -> payload | None``: the packed payload of its stream's
+  message, untrimmed, which the link frames with its own sequence numbers (and signature) in one
+  loop over a wake-up's due streams (codec.Encoder.frame_streams); each message's packer is
+  bound once (codec.payload_of). It returns None when it has nothing to say (HOME_POSITION
+  before home is set, ORBIT_EXECUTION_STATUS while not orbiting).
 - Messages that depend only on the kinematics and the time are ``_shared``: their payload is
   packed once per vehicle and instant (snapshot.py) and framed per link.
 - Which builder runs when, and at what rate on which link: streams.py.
@@ -18,7 +21,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder, c_int, f32_mul, packer_of
+from gateway.mavlink.codec import Encoder, c_int, f32_mul, packer_of, payload_of
 from gateway.mavlink.heartbeat import (
     battery_connected,
     build_current_mode,
@@ -26,7 +29,7 @@ from gateway.mavlink.heartbeat import (
     build_heartbeat,
     build_sys_status,
 )
-from gateway.mavlink.mission_items import mission_status_of, pack_mission_current
+from gateway.mavlink.mission_items import mission_current_payload, mission_status_of
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.telemetry_baro import baro_alt_m, baro_sample
 from vehicles.estimation import (
@@ -73,6 +76,16 @@ MAV_BATTERY_CHARGE_STATE_OK = 1
 MAV_BATTERY_CHARGE_STATE_LOW = 2
 MAV_BATTERY_CHARGE_STATE_CRITICAL = 3
 MAV_BATTERY_CHARGE_STATE_EMERGENCY = 4
+_GPS_RAW_INT = payload_of(M.MAVLink_gps_raw_int_message)
+_VFR_HUD = payload_of(M.MAVLink_vfr_hud_message)
+_BATTERY_STATUS = payload_of(M.MAVLink_battery_status_message)
+_HOME_POSITION = payload_of(M.MAVLink_home_position_message)
+_SYSTEM_TIME = payload_of(M.MAVLink_system_time_message)
+_SCALED_PRESSURE = payload_of(M.MAVLink_scaled_pressure_message)
+_ESTIMATOR_STATUS = payload_of(M.MAVLink_estimator_status_message)
+_VIBRATION = payload_of(M.MAVLink_vibration_message)
+_WIND_COV = payload_of(M.MAVLink_wind_cov_message)
+_ORBIT_EXECUTION_STATUS = payload_of(M.MAVLink_orbit_execution_status_message)
 
 Builder = Callable[[Encoder, Snapshot], "bytes | None"]
 
@@ -90,28 +103,28 @@ def _heading_deg(rad: float) -> float:
 
 
 def heartbeat(enc: Encoder, s: Snapshot) -> bytes:
-    return build_heartbeat(enc, s.status, s.mav_type)
+    return build_heartbeat(s.status, s.mav_type)
 
 
 def sys_status(enc: Encoder, s: Snapshot) -> bytes:
-    return build_sys_status(enc, s.status)
+    return build_sys_status(s.status)
 
 
 def extended_sys_state(enc: Encoder, s: Snapshot) -> bytes:
-    return build_extended_sys_state(enc, s.status)
+    return build_extended_sys_state(s.status)
 
 
 def current_mode(enc: Encoder, s: Snapshot) -> bytes:
-    return build_current_mode(enc, s.status)
+    return build_current_mode(s.status)
 
 
 def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None = None,
             ) -> Callable[[Callable[[Snapshot], tuple]], Builder]:
     """A builder from ``args(snapshot)`` (``cls``'s constructor arguments) for a message that
     depends only on the vehicle's kinematics, the time and ``key(snapshot)``: its payload is
-    packed once per ``Sample`` and key, whichever link asks first, and framed per link."""
+    packed once per ``Sample`` and key, whichever link asks first (each link frames it)."""
     p = packer_of(cls)
-    msg_id, crc_extra, pack, defaults = p.msg_id, p.crc_extra, p.pack, p.defaults
+    msg_id, pack, defaults = p.msg_id, p.pack, p.defaults
     arity = len(defaults)
 
     def wrap(args: Callable[[Snapshot], tuple]) -> Builder:
@@ -124,7 +137,7 @@ def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None 
                     if len(a) != arity:
                         a += defaults[len(a):]
                     payload = payloads[msg_id] = pack(a)
-                return enc.frame(msg_id, crc_extra, payload)
+                return payload
         else:
             def build(enc: Encoder, s: Snapshot) -> bytes:
                 payloads = s.payloads
@@ -135,7 +148,7 @@ def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None 
                     if len(a) != arity:
                         a += defaults[len(a):]
                     payload = payloads[k] = pack(a)
-                return enc.frame(msg_id, crc_extra, payload)
+                return payload
 
         build.__name__ = build.__qualname__ = args.__name__
         build.__doc__ = args.__doc__
@@ -195,9 +208,9 @@ def gps_raw_int(enc: Encoder, s: Snapshot) -> bytes | None:
             s.time_usec <= link.gps_sent_us + GPS_NO_GPS_INTERVAL_US:
         return None
     link.gps_sent_us = s.time_usec
-    return enc.pack(M.MAVLink_gps_raw_int_message, 0, GPS_FIX_TYPE_NO_GPS, 0, 0, 0,
-                    UINT16_UNKNOWN, UINT16_UNKNOWN, UINT16_UNKNOWN, UINT16_UNKNOWN,
-                    UINT8_UNKNOWN, 0, 0, 0, 0, 0)
+    return _GPS_RAW_INT(0, GPS_FIX_TYPE_NO_GPS, 0, 0, 0,
+                        UINT16_UNKNOWN, UINT16_UNKNOWN, UINT16_UNKNOWN, UINT16_UNKNOWN,
+                        UINT8_UNKNOWN, 0, 0, 0, 0, 0)
 
 
 def gps_fix(s: Snapshot) -> tuple[float, float, float, float, float, float]:
@@ -236,7 +249,7 @@ def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:
     (|thrust setpoint| in percent while armed) are truncated as C converts them."""
     vn, ve, vd = s.kin.velocity_ned_mps
     throttle = s.status.extra.get("thrust_norm", 0.0) if s.status.armed else 0.0
-    return enc.pack(M.MAVLink_vfr_hud_message, 0.0, math.hypot(vn, ve),
+    return _VFR_HUD(0.0, math.hypot(vn, ve),
                     int(_heading_deg(s.sample.euler[2])), c_int(abs(throttle) * 100.0, 0, 0xFFFF),
                     s.sample.geo.alt_amsl_m, -vd)
 
@@ -298,18 +311,18 @@ def battery_status(enc: Encoder, s: Snapshot) -> bytes:
     (BAT1_CAPACITY unset), and -1 / unknown everywhere when no battery is recognised."""
     bat = s.status.battery
     if not battery_connected(bat.voltage_v):
-        return enc.pack(M.MAVLink_battery_status_message, 0, MAV_BATTERY_FUNCTION_ALL,
-                        MAV_BATTERY_TYPE_LIPO, INT16_MAX, _VOLTAGES_UNKNOWN, -1, -1, -1, -1, 0,
-                        _charge_state(bat.remaining, s.vehicle.params), [0, 0, 0, 0], 0, 0)
+        return _BATTERY_STATUS(0, MAV_BATTERY_FUNCTION_ALL,
+                               MAV_BATTERY_TYPE_LIPO, INT16_MAX, _VOLTAGES_UNKNOWN, -1, -1, -1, -1, 0,
+                               _charge_state(bat.remaining, s.vehicle.params), [0, 0, 0, 0], 0, 0)
     pct = f32_mul(bat.remaining, 100.0)
     # roundf: halves away from zero
     remaining = c_int(math.copysign(math.floor(abs(pct) + 0.5), pct), -128, 127) \
         if math.isfinite(pct) else 0
-    return enc.pack(M.MAVLink_battery_status_message, 0, MAV_BATTERY_FUNCTION_ALL,
-                    MAV_BATTERY_TYPE_LIPO, INT16_MAX, battery_voltages(bat.voltage_v),
-                    c_int(f32_mul(bat.current_a, 100.0), -32768, 32767),
-                    c_int(bat.consumed_mah, -(2**31), 2**31 - 1), -1, remaining, 0,
-                    _charge_state(bat.remaining, s.vehicle.params), [0, 0, 0, 0], 0, 0)
+    return _BATTERY_STATUS(0, MAV_BATTERY_FUNCTION_ALL,
+                           MAV_BATTERY_TYPE_LIPO, INT16_MAX, battery_voltages(bat.voltage_v),
+                           c_int(f32_mul(bat.current_a, 100.0), -32768, 32767),
+                           c_int(bat.consumed_mah, -(2**31), 2**31 - 1), -1, remaining, 0,
+                           _charge_state(bat.remaining, s.vehicle.params), [0, 0, 0, 0], 0, 0)
 
 
 def home_position(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -319,9 +332,9 @@ def home_position(enc: Encoder, s: Snapshot) -> bytes | None:
     x, y, z = home.position_ned_m
     q = [math.cos(home.yaw_rad / 2.0), 0.0, 0.0, math.sin(home.yaw_rad / 2.0)]
     # HOME_POSITION.hpp: lat/lon/alt converted as C does (truncating)
-    return enc.pack(M.MAVLink_home_position_message, int(home.geo.lat_deg * 1e7),
-                    int(home.geo.lon_deg * 1e7), int(f32_mul(home.geo.alt_amsl_m, 1000.0)),
-                    float(x), float(y), float(z), q, 0.0, 0.0, 0.0, int(home.time_s * 1e6))
+    return _HOME_POSITION(int(home.geo.lat_deg * 1e7),
+                          int(home.geo.lon_deg * 1e7), int(f32_mul(home.geo.alt_amsl_m, 1000.0)),
+                          float(x), float(y), float(z), q, 0.0, 0.0, 0.0, int(home.time_s * 1e6))
 
 
 SYSTEM_TIME_VALID_US = 978307200000000  # SYSTEM_TIME.hpp: 2001-01-01, else "definitely wrong"
@@ -335,12 +348,12 @@ def system_time(enc: Encoder, s: Snapshot) -> bytes | None:
     unix_us = int((s.boot_unix_s + s.now_s) * 1e6)
     if unix_us <= SYSTEM_TIME_VALID_US:
         return None
-    return enc.pack(M.MAVLink_system_time_message, unix_us, s.time_boot_ms)
+    return _SYSTEM_TIME(unix_us, s.time_boot_ms)
 
 
 def mission_current(enc: Encoder, s: Snapshot) -> bytes:
     # The 1 Hz copy; mission.py sends it on every change of the current item.
-    return pack_mission_current(enc, mission_status_of(s.vehicle))
+    return mission_current_payload(mission_status_of(s.vehicle))
 
 
 # Sensors as PX4 SITL reports them from its simulated IMU, magnetometer and barometer.
@@ -423,8 +436,8 @@ def scaled_pressure(enc: Encoder, s: Snapshot) -> bytes:
     """SCALED_PRESSURE.hpp from sensor_baro: the pressure in hPa, roundf(temperature x 100) (the
     gz bridge's 288.15: 28815); no differential pressure sensor."""
     pressure_pa, _, temp_c = baro_sample(s)
-    return enc.pack(M.MAVLink_scaled_pressure_message, s.time_boot_ms, pressure_pa * 0.01, 0.0,
-                    int(round(temp_c * 100.0)), 0)
+    return _SCALED_PRESSURE(s.time_boot_ms, pressure_pa * 0.01, 0.0,
+                            int(round(temp_c * 100.0)), 0)
 
 
 # ESTIMATOR_STATUS flags of a healthy EKF2 with GPS: attitude, horizontal and vertical velocity,
@@ -442,8 +455,8 @@ def estimator_status(enc: Encoder, s: Snapshot) -> bytes | None:
     if e is None:
         return None
     vel, pos, hgt, mag = e[E_RATIOS:E_RATIOS + 4]
-    return enc.pack(M.MAVLink_estimator_status_message, s.time_usec, ESTIMATOR_FLAGS_OK,
-                    vel, pos, hgt, mag, 0.0, 0.0, e[E_ACCURACY], e[E_ACCURACY + 1])
+    return _ESTIMATOR_STATUS(s.time_usec, ESTIMATOR_FLAGS_OK,
+                             vel, pos, hgt, mag, 0.0, 0.0, e[E_ACCURACY], e[E_ACCURACY + 1])
 
 
 def vibration(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -453,7 +466,7 @@ def vibration(enc: Encoder, s: Snapshot) -> bytes | None:
     if sensed is None:
         return None
     coning, gyro, accel = sensed[S_VIB:S_VIB + 3]
-    return enc.pack(M.MAVLink_vibration_message, s.time_usec, coning, gyro, accel, 0, 0, 0)
+    return _VIBRATION(s.time_usec, coning, gyro, accel, 0, 0, 0)
 
 
 def wind_cov(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -465,8 +478,8 @@ def wind_cov(enc: Encoder, s: Snapshot) -> bytes | None:
     e = s.sample.estimator
     if e is None or not s.vehicle.params.get("EKF2_DRAG_CTRL", 0):
         return None
-    return enc.pack(M.MAVLink_wind_cov_message, s.time_usec, e[E_WIND], e[E_WIND + 1], 0.0,
-                    e[E_WIND_VAR], 0.0, s.sample.geo.alt_amsl_m, 0.0, 0.0)
+    return _WIND_COV(s.time_usec, e[E_WIND], e[E_WIND + 1], 0.0,
+                     e[E_WIND_VAR], 0.0, s.sample.geo.alt_amsl_m, 0.0, 0.0)
 
 
 def orbit_execution_status(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -476,6 +489,6 @@ def orbit_execution_status(enc: Encoder, s: Snapshot) -> bytes | None:
     if st is None:
         return None
     g = s.vehicle.origin.offset_ned(st.center_ne_m[0], st.center_ne_m[1], st.down_m)
-    return enc.pack(M.MAVLink_orbit_execution_status_message, s.time_usec, st.radius_m,
-                    MAV_FRAME_GLOBAL, int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), g.alt_amsl_m)
+    return _ORBIT_EXECUTION_STATUS(s.time_usec, st.radius_m,
+                                   MAV_FRAME_GLOBAL, int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), g.alt_amsl_m)
 

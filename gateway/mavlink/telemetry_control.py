@@ -29,7 +29,7 @@ import math
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder, i32
+from gateway.mavlink.codec import Encoder, i32, payload_of
 from gateway.mavlink.identity import px4_guid
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.wip_dialect import ESC_INFO, ESC_STATUS
@@ -40,6 +40,13 @@ ESC_REPORTS = 8  # esc_status_s::CONNECTED_ESC_MAX
 NO_THRUST_ACCEL = (0.0, 0.0, 100.0)  # mc_pos_control: not taken off yet
 NAN3 = (math.nan, math.nan, math.nan)
 _ZEROS = [0] * 16  # SERVO_OUTPUT_RAW's unused outputs
+_ATTITUDE_TARGET = payload_of(M.MAVLink_attitude_target_message)
+_POSITION_TARGET_LOCAL_NED = payload_of(M.MAVLink_position_target_local_ned_message)
+_POSITION_TARGET_GLOBAL_INT = payload_of(M.MAVLink_position_target_global_int_message)
+_SERVO_OUTPUT_RAW = payload_of(M.MAVLink_servo_output_raw_message)
+_UTM_GLOBAL_POSITION = payload_of(M.MAVLink_utm_global_position_message)
+_ESC_INFO_PAYLOAD = payload_of(ESC_INFO)
+_ESC_STATUS_PAYLOAD = payload_of(ESC_STATUS)
 
 
 def _ms(t_s: float) -> int:
@@ -51,8 +58,8 @@ def attitude_target(enc: Encoder, s: Snapshot) -> bytes | None:
     if sp is None:
         return None
     p, q, r = sp.rates_frd_radps
-    return enc.pack(M.MAVLink_attitude_target_message, _ms(sp.time_s), 0, sp.attitude_q,
-                    p, q, r, sp.thrust_norm)
+    return _ATTITUDE_TARGET(_ms(sp.time_s), 0, sp.attitude_q,
+                            p, q, r, sp.thrust_norm)
 
 
 def _local_fields(sp) -> tuple[float, ...]:
@@ -84,8 +91,8 @@ def position_target_local_ned(enc: Encoder, s: Snapshot) -> bytes | None:
     if sp is None or not sp.position_control:
         return None
     f = _local_fields(sp)
-    return enc.pack(M.MAVLink_position_target_local_ned_message, _ms(sp.time_s),
-                    M.MAV_FRAME_LOCAL_NED, _IGNORE_MASK[tuple(map(math.isnan, f))], *f)
+    return _POSITION_TARGET_LOCAL_NED(_ms(sp.time_s),
+                                      M.MAV_FRAME_LOCAL_NED, _IGNORE_MASK[tuple(map(math.isnan, f))], *f)
 
 
 def global_target(s: Snapshot, ned: tuple[float, float, float] | None
@@ -108,8 +115,8 @@ def position_target_global_int(enc: Encoder, s: Snapshot) -> bytes | None:
         return None
     lat, lon, alt = target
     f = _local_fields(sp)
-    return enc.pack(M.MAVLink_position_target_global_int_message, s.time_boot_ms,
-                    M.MAV_FRAME_GLOBAL_INT, 0, int(lat * 1e7), int(lon * 1e7), alt, *f[3:])
+    return _POSITION_TARGET_GLOBAL_INT(s.time_boot_ms,
+                                       M.MAV_FRAME_GLOBAL_INT, 0, int(lat * 1e7), int(lon * 1e7), alt, *f[3:])
 
 
 def servo_output_raw(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -118,7 +125,7 @@ def servo_output_raw(enc: Encoder, s: Snapshot) -> bytes | None:
         return None
     raw = list(map(int, sp.outputs[:16]))  # commanded rad/s: 0..1000, within uint16
     raw += _ZEROS[len(raw):]
-    return enc.pack(M.MAVLink_servo_output_raw_message, s.time_usec & 0xFFFFFFFF, 0, *raw)
+    return _SERVO_OUTPUT_RAW(s.time_usec & 0xFFFFFFFF, 0, *raw)
 
 
 # UTM_DATA_AVAIL_FLAGS always set here: a board id, the position, its altitude, the velocity.
@@ -163,11 +170,11 @@ def utm_global_position(enc: Encoder, s: Snapshot) -> bytes | None:
             else M.UTM_FLIGHT_STATE_AIRBORNE
     else:
         state = M.UTM_FLIGHT_STATE_UNKNOWN
-    return enc.pack(M.MAVLink_utm_global_position_message, unix_us, px4_guid(enc.sysid),
-                    int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), int(g.alt_amsl_m * 1000.0), 0,
-                    int(vn * 100.0), int(ve * 100.0), int(vd * 100.0),
-                    min(int(h_acc * 1000.0), 0xFFFF), min(int(v_acc * 1000.0), 0xFFFF), 0,
-                    next_lat, next_lon, next_alt, 0, state, flags)
+    return _UTM_GLOBAL_POSITION(unix_us, px4_guid(enc.sysid),
+                                int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), int(g.alt_amsl_m * 1000.0), 0,
+                                int(vn * 100.0), int(ve * 100.0), int(vd * 100.0),
+                                min(int(h_acc * 1000.0), 0xFFFF), min(int(v_acc * 1000.0), 0xFFFF), 0,
+                                next_lat, next_lon, next_alt, 0, state, flags)
 
 
 def esc_info(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -179,8 +186,8 @@ def esc_info(enc: Encoder, s: Snapshot) -> bytes | None:
     if sp is None:
         return None
     n = min(len(sp.outputs), ESC_REPORTS)
-    return enc.pack(ESC_INFO, 0, s.time_usec, 0, n, 0, (1 << n) - 1, (0,) * 4, (0,) * 4,
-                    (0,) * 4)
+    return _ESC_INFO_PAYLOAD(0, s.time_usec, 0, n, 0, (1 << n) - 1, (0,) * 4, (0,) * 4,
+                             (0,) * 4)
 
 
 def esc_status(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -192,4 +199,4 @@ def esc_status(enc: Encoder, s: Snapshot) -> bytes | None:
         return None
     rpm = [int(v) for v in sp.outputs[:4]]
     rpm += [0] * (4 - len(rpm))
-    return enc.pack(ESC_STATUS, 0, s.time_usec, rpm, (0.0,) * 4, (0.0,) * 4)
+    return _ESC_STATUS_PAYLOAD(0, s.time_usec, rpm, (0.0,) * 4, (0.0,) * 4)

@@ -21,17 +21,21 @@ from __future__ import annotations
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder
+from gateway.mavlink.codec import Encoder, payload_of
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.wip_dialect import TIME_ESTIMATE_TO_TARGET
 from vehicles.cnum import c_int
 
 LLA_MIN_DIFF_DEG = 1e-7
 ALT_MIN_DIFF_M = 0.001
+_TIMESYNC = payload_of(M.MAVLink_timesync_message)
+_PING = payload_of(M.MAVLink_ping_message)
+_GPS_GLOBAL_ORIGIN = payload_of(M.MAVLink_gps_global_origin_message)
+_TIME_ESTIMATE_TO_TARGET_PAYLOAD = payload_of(TIME_ESTIMATE_TO_TARGET)
 
 
 def timesync(enc: Encoder, s: Snapshot) -> bytes:
-    return enc.pack(M.MAVLink_timesync_message, 0, s.time_usec * 1000)
+    return _TIMESYNC(0, s.time_usec * 1000)
 
 
 def ping(enc: Encoder, s: Snapshot) -> bytes:
@@ -40,7 +44,7 @@ def ping(enc: Encoder, s: Snapshot) -> bytes:
     if link is not None:
         seq = link.ping_seq
         link.ping_seq = (seq + 1) & 0xFFFFFFFF
-    return enc.pack(M.MAVLink_ping_message, s.time_usec, seq, 0, 0)
+    return _PING(s.time_usec, seq, 0, 0)
 
 
 def gps_global_origin(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -61,8 +65,8 @@ def gps_global_origin(enc: Encoder, s: Snapshot) -> bytes | None:
                 and abs(last[1] - lon) <= LLA_MIN_DIFF_DEG and abs(last[2] - alt) <= ALT_MIN_DIFF_M:
             return None
         link.origin_sent = (lat, lon, alt)
-    return enc.pack(M.MAVLink_gps_global_origin_message, int(round(lat * 1e7)),
-                    int(round(lon * 1e7)), int(round(alt * 1e3)), time_us)
+    return _GPS_GLOBAL_ORIGIN(int(round(lat * 1e7)),
+                              int(round(lon * 1e7)), int(round(alt * 1e3)), time_us)
 
 
 def time_estimate_to_target(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -81,5 +85,5 @@ def time_estimate_to_target(enc: Encoder, s: Snapshot) -> bytes | None:
         link.rtl_estimate_seq = seq
     elif seq == 0:
         return None
-    return enc.pack(TIME_ESTIMATE_TO_TARGET, c_int(estimate.safe_time_estimate_s), -1, -1, -1,
-                    -1)
+    return _TIME_ESTIMATE_TO_TARGET_PAYLOAD(c_int(estimate.safe_time_estimate_s), -1, -1, -1,
+                                            -1)

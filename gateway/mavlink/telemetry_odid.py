@@ -21,7 +21,7 @@ import math
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder
+from gateway.mavlink.codec import Encoder, payload_of
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.telemetry import (
     GPS_H_ACC_MM,
@@ -75,6 +75,8 @@ def _speed_accuracy(s_variance_mps: float) -> int:
 HOR_ACC = _horizontal_accuracy(GPS_H_ACC_MM / 1000.0)
 VER_ACC = _vertical_accuracy(GPS_V_ACC_MM / 1000.0)
 SPEED_ACC = _speed_accuracy(GPS_VEL_ACC_MM / 1000.0)
+_OPEN_DRONE_ID_LOCATION = payload_of(M.MAVLink_open_drone_id_location_message)
+_OPEN_DRONE_ID_SYSTEM = payload_of(M.MAVLink_open_drone_id_system_message)
 
 
 def _roundf(x: float) -> float:
@@ -108,11 +110,11 @@ def open_drone_id_location(enc: Encoder, s: Snapshot) -> bytes:
     home = status.home
     if home is not None and status.position_valid:
         height = s.sample.geo.alt_amsl_m - home.geo.alt_amsl_m
-    return enc.pack(M.MAVLink_open_drone_id_location_message, 0, 0, _ID_OR_MAC, odid_status,
-                    direction, speed_h, speed_v, lat, lon, baro_alt_m(s), alt_geodetic,
-                    M.MAV_ODID_HEIGHT_REF_OVER_TAKEOFF, height, h_acc, v_acc,
-                    M.MAV_ODID_VER_ACC_150_METER, speed_acc, float(TIMESTAMP_UNKNOWN),
-                    M.MAV_ODID_TIME_ACC_UNKNOWN)
+    return _OPEN_DRONE_ID_LOCATION(0, 0, _ID_OR_MAC, odid_status,
+                                   direction, speed_h, speed_v, lat, lon, baro_alt_m(s), alt_geodetic,
+                                   M.MAV_ODID_HEIGHT_REF_OVER_TAKEOFF, height, h_acc, v_acc,
+                                   M.MAV_ODID_VER_ACC_150_METER, speed_acc, float(TIMESTAMP_UNKNOWN),
+                                   M.MAV_ODID_TIME_ACC_UNKNOWN)
 
 
 def open_drone_id_system(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -120,9 +122,9 @@ def open_drone_id_system(enc: Encoder, s: Snapshot) -> bytes | None:
     home = status.home
     if home is None or status.extra.get("sensor_failures", 0) & F_GPS_OFF:
         return None  # no home, or no new fix
-    return enc.pack(M.MAVLink_open_drone_id_system_message, 0, 0, _ID_OR_MAC,
-                    M.MAV_ODID_OPERATOR_LOCATION_TYPE_TAKEOFF,
-                    M.MAV_ODID_CLASSIFICATION_TYPE_UNDECLARED, int(home.geo.lat_deg * 1e7),
-                    int(home.geo.lon_deg * 1e7), 1, 0, UNKNOWN_M, UNKNOWN_M,
-                    M.MAV_ODID_CATEGORY_EU_UNDECLARED, M.MAV_ODID_CLASS_EU_UNDECLARED,
-                    home.geo.alt_amsl_m, ODID_SYSTEM_TIMESTAMP)
+    return _OPEN_DRONE_ID_SYSTEM(0, 0, _ID_OR_MAC,
+                                 M.MAV_ODID_OPERATOR_LOCATION_TYPE_TAKEOFF,
+                                 M.MAV_ODID_CLASSIFICATION_TYPE_UNDECLARED, int(home.geo.lat_deg * 1e7),
+                                 int(home.geo.lon_deg * 1e7), 1, 0, UNKNOWN_M, UNKNOWN_M,
+                                 M.MAV_ODID_CATEGORY_EU_UNDECLARED, M.MAV_ODID_CLASS_EU_UNDECLARED,
+                                 home.geo.alt_amsl_m, ODID_SYSTEM_TIMESTAMP)

@@ -19,13 +19,17 @@ from __future__ import annotations
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder, i16, i32
+from gateway.mavlink.codec import Encoder, i16, i32, payload_of
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.telemetry import G, imu_sample
 
 # actuator_outputs.noutputs: MixingOutput publishes all of its channels (MixingOutput::
 # MAX_ACTUATORS, the gz bridge's ESC output module), the unassigned ones at their disarmed 0.
 ACTUATOR_OUTPUTS = 16
+_SCALED_IMU = payload_of(M.MAVLink_scaled_imu_message)
+_HIL_STATE_QUATERNION = payload_of(M.MAVLink_hil_state_quaternion_message)
+_ACTUATOR_OUTPUT_STATUS = payload_of(M.MAVLink_actuator_output_status_message)
+_FLIGHT_INFORMATION = payload_of(M.MAVLink_flight_information_message)
 
 
 def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
@@ -35,10 +39,10 @@ def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
     and sensor_mag_sim publish NaN, so it stays 0. The same samples as HIGHRES_IMU."""
     fx, fy, fz, p, q, r, mx, my, mz = imu_sample(s)
     temperature = 0
-    return enc.pack(M.MAVLink_scaled_imu_message, s.time_boot_ms,
-                    i16(fx * 1000.0 / G), i16(fy * 1000.0 / G), i16(fz * 1000.0 / G),
-                    i16(p * 1000.0), i16(q * 1000.0), i16(r * 1000.0),
-                    i16(mx * 1000.0), i16(my * 1000.0), i16(mz * 1000.0), temperature)
+    return _SCALED_IMU(s.time_boot_ms,
+                       i16(fx * 1000.0 / G), i16(fy * 1000.0 / G), i16(fz * 1000.0 / G),
+                       i16(p * 1000.0), i16(q * 1000.0), i16(r * 1000.0),
+                       i16(mx * 1000.0), i16(my * 1000.0), i16(mz * 1000.0), temperature)
 
 
 def rc_channels(enc: Encoder, s: Snapshot) -> None:
@@ -63,10 +67,10 @@ def hil_state_quaternion(enc: Encoder, s: Snapshot) -> bytes | None:
     p, q, r = truth.rates_frd_radps
     vn, ve, vd = truth.velocity_ned_mps
     an, ae, ad = truth.accel_ned_mps2
-    return enc.pack(M.MAVLink_hil_state_quaternion_message, 0, list(truth.attitude_q), p, q, r,
-                    i32(g.lat_deg * 1e7), i32(g.lon_deg * 1e7), i32(g.alt_amsl_m * 1e3),
-                    i16(vn * 100.0), i16(ve * 100.0), i16(vd * 100.0), 0, 0,
-                    i16(an), i16(ae), i16(ad))
+    return _HIL_STATE_QUATERNION(0, list(truth.attitude_q), p, q, r,
+                                 i32(g.lat_deg * 1e7), i32(g.lon_deg * 1e7), i32(g.alt_amsl_m * 1e3),
+                                 i16(vn * 100.0), i16(ve * 100.0), i16(vd * 100.0), 0, 0,
+                                 i16(an), i16(ae), i16(ad))
 
 
 def actuator_output_status(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -78,8 +82,8 @@ def actuator_output_status(enc: Encoder, s: Snapshot) -> bytes | None:
         return None
     outputs = [float(w) for w in sp.outputs[:ACTUATOR_OUTPUTS]]
     outputs += [0.0] * (32 - len(outputs))
-    return enc.pack(M.MAVLink_actuator_output_status_message, s.time_usec, ACTUATOR_OUTPUTS,
-                    outputs)
+    return _ACTUATOR_OUTPUT_STATUS(s.time_usec, ACTUATOR_OUTPUTS,
+                                   outputs)
 
 
 def flight_information(enc: Encoder, s: Snapshot) -> bytes | None:
@@ -89,6 +93,6 @@ def flight_information(enc: Encoder, s: Snapshot) -> bytes | None:
     status = s.status
     armed, takeoff = status.extra.get("armed_at_s"), status.extra.get("takeoff_at_s")
     uuid = int(s.vehicle.params.get("COM_FLIGHT_UUID", 0) or 0) % 2**64  # static_cast<uint64_t>
-    return enc.pack(M.MAVLink_flight_information_message, s.time_boot_ms,
-                    0 if armed is None else int(armed * 1e6), 0 if takeoff is None else
-                    int(takeoff * 1e6), uuid)
+    return _FLIGHT_INFORMATION(s.time_boot_ms,
+                               0 if armed is None else int(armed * 1e6), 0 if takeoff is None else
+                               int(takeoff * 1e6), uuid)

@@ -65,7 +65,7 @@ def test_fast_encoder_matches_pymavlink_pack(spec):
     snap = Snapshot(vehicle, 12.345, 1.7e9, link=LinkTelemetry(TelemetryStatus(SessionStats())))
     enc = Encoder(3, 1)
     enc.seq = 77
-    frame = spec.builder(enc, snap)
+    frame = spec.frame(enc, snap)
     msg = development.MAVLink(None, 0, 0).decode(bytearray(frame))  # CURRENT_MODE too
     mav = M.MAVLink(None, 3, 1)
     mav.seq = 77

@@ -123,7 +123,7 @@ def test_signed_frames_are_byte_identical_to_pymavlink(spec):
     snap = Snapshot(vehicle, 12.345, 1.7e9, link=LinkTelemetry(TelemetryStatus(SessionStats())))
     enc = Encoder(3, 1, Signer(KEY, 1, SigningClock(EPOCH_UNIX_S)))
     enc.seq, enc.now_s = 77, 12.345
-    frame = spec.builder(enc, snap)
+    frame = spec.frame(enc, snap)
     assert frame[2] == 1 and frame[-13] == 1 and timestamp_of(frame) == stamp(12.345)
     msg = development.MAVLink(None, 0, 0).decode(bytearray(frame))  # CURRENT_MODE too
     mav = pym(KEY, stamp(12.345), link_id=1, sysid=3, compid=1)
