@@ -33,7 +33,8 @@ class EventsService:
         self.send = ctx.send
         log = getattr(ctx.vehicle, "events", None)
         self.log: EventLog | None = log if isinstance(log, EventLog) else None
-        self._sent = self.log.latest if self.log is not None else 0  # the newest sent here
+        # the newest sent here; the session polls only once the log's moved past it or due_s
+        self.sent = self.log.latest if self.log is not None else 0
         self._started = False
         self.due_s = 0.0 if self.log is not None else float("inf")  # CURRENT_EVENT_SEQUENCE
 
@@ -41,13 +42,13 @@ class EventsService:
         log = self.log
         if log is None:
             return
-        if log.latest != self._sent:
+        if log.latest != self.sent:
             if not self._started:
                 self._started = True
                 self._send_sequence(FLAG_RESET)
-            for event in log.after(self._sent):
+            for event in log.after(self.sent):
                 self._send_event(event)
-            self._sent = log.latest
+            self.sent = log.latest
         if now_s >= self.due_s:
             self.due_s = now_s + SEQUENCE_PERIOD_S
             self._send_sequence(0 if len(log) else FLAG_RESET)

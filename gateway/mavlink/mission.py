@@ -132,6 +132,7 @@ class MissionService:
         self._download: tuple[PlanItem, ...] = ()
         self._retry_at = math.inf
         self._timeout_at = math.inf
+        self.due_s = math.inf  # the earliest of the retry, timeout and repeat times (_rearm)
         st = mission_status_of(self.vehicle)
         if uploads.current_seq is None:
             uploads.current_seq = st.current_seq
@@ -140,9 +141,10 @@ class MissionService:
         self._last_jump_count = st.jump_count
         self._last_progress: object = None  # vehicle.mission_progress at the last full poll
         # The vehicle's generations (None: it has none, progress is read at every wake-up) and
-        # the one of mission_progress when it was last read (-1: never).
+        # the one of mission_progress when it was last read (-1: never): the session calls
+        # handle_timer only once that moved or ``due_s`` has come.
         self._changes: Changes | None = getattr(self.vehicle, "changes", None)
-        self._seen_progress = -1
+        self.seen_progress = -1
         self._reached_seq = -1
         self._repeats_left = 0
         self._repeat_at = math.inf
@@ -166,6 +168,11 @@ class MissionService:
 
     def _heard(self, now_s: float) -> None:
         self._timeout_at = now_s + TIMEOUT_S
+        self._rearm()
+
+    def _rearm(self) -> None:
+        """``due_s`` after a change of the retry, timeout or repeat time."""
+        self.due_s = min(self._retry_at, self._timeout_at, self._repeat_at)
 
     def _idle(self) -> None:
         if self.phase is Phase.UPLOAD and self.uploads.owner is self:
@@ -174,6 +181,7 @@ class MissionService:
         self._items = []
         self._download = ()
         self._retry_at = self._timeout_at = math.inf
+        self._rearm()
 
     def _other_upload_active(self, now_s: float) -> bool:
         owner = self.uploads.owner
@@ -186,6 +194,7 @@ class MissionService:
         self.send(self.encoder.pack(cls, self.partner[0], self.partner[1], self.seq,
                                     self.mission_type))
         self._retry_at = now_s + RETRY_S
+        self._rearm()
 
     # --- upload -------------------------------------------------------------------------------
     def on_count(self, msg: M.MAVLink_mission_count_message, now_s: float) -> None:
@@ -403,9 +412,6 @@ class MissionService:
                             self.int_mode))
 
     # --- timers -------------------------------------------------------------------------------
-    def get_timer(self) -> float:
-        return min(self._retry_at, self._timeout_at, self._repeat_at)
-
     def handle_timer(self, now_s: float) -> None:
         phase = self.phase
         if phase is not Phase.IDLE:
@@ -416,9 +422,9 @@ class MissionService:
                 self._request(now_s)
         changes = self._changes
         if changes is not None:
-            if changes.mission_progress == self._seen_progress and now_s < self._repeat_at:
+            if changes.mission_progress == self.seen_progress and now_s < self._repeat_at:
                 return  # the usual wake-up: progress as last read, no repeat due
-            self._seen_progress = changes.mission_progress
+            self.seen_progress = changes.mission_progress
         progress = getattr(self.vehicle, "mission_progress", None)
         if progress is not None and progress == self._last_progress and now_s < self._repeat_at:
             return  # no progress and no repeat due, nothing to report
@@ -436,6 +442,7 @@ class MissionService:
         if st.reached_resets != self._last_reached_resets:  # seq_reached went back to -1
             self._last_reached_resets = st.reached_resets
             self._reached_seq, self._repeats_left, self._repeat_at = -1, 0, math.inf
+            self._rearm()
         if st.reached_count != self._last_reached_count:
             self._last_reached_count = st.reached_count
             if st.reached_seq != self._reached_seq and st.reached_seq >= 0 and st.count > 0:
@@ -443,6 +450,7 @@ class MissionService:
                 self.send(pack_item_reached(enc, st.reached_seq))
                 self._repeats_left = REACHED_REPEATS
                 self._repeat_at = now_s + REPEAT_INTERVAL_S
+                self._rearm()
         if st.jump_count != self._last_jump_count:
             self._last_jump_count = st.jump_count
             self._send_jump_item(st)
@@ -450,3 +458,4 @@ class MissionService:
             self.send(pack_item_reached(enc, self._reached_seq))
             self._repeats_left -= 1
             self._repeat_at = now_s + REPEAT_INTERVAL_S if self._repeats_left else math.inf
+            self._rearm()

@@ -64,6 +64,7 @@ from gateway.mavlink.snapshot import LinkTelemetry, SampleCache, Snapshot
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
 from gateway.mavlink.streams import Scheduler
 from gateway.mavlink.vehicle_port import VehiclePort
+from vehicles.types import Changes
 
 __all__ = ["LinkKind", "Session", "SessionStats", "SigningConfig"]
 
@@ -171,10 +172,10 @@ class Session:
         }
         if signing is not None:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing
-        # After the telemetry, every wake-up polls the mission progress and the status texts,
-        # then the paced services (bursts of PARAM_VALUE, LOG_DATA, FTP data), in this order.
-        # A paced service has nothing to do before its ``due_s`` (inf while idle), so it is
-        # only called from then on.
+        # After the telemetry, a wake-up polls the mission progress, the status texts and the
+        # events (``handle_timer``: those that can have anything to do), then the paced services
+        # (bursts of PARAM_VALUE, LOG_DATA, FTP data), in this order. A paced service has nothing
+        # to do before its ``due_s`` (inf while idle), so it is only called from then on.
         self._paced: tuple[tuple[str, ParamService | LogHandlerService | FtpService
                                  | LogStreamingService], ...] = (
             ("the parameter timer", self.params),
@@ -184,6 +185,7 @@ class Session:
         self._paced_services = (self.params, self.logs, self.ftp, self.log_streaming)
         # COMMAND_ACKs the vehicle's modules give later, on their own (vehicles/command_journal.py)
         self._journal = getattr(vehicle, "commands", None)
+        self._changes: Changes | None = getattr(vehicle, "changes", None)
         self._ack_seq = self._journal.ack_seq if self._journal is not None else 0
 
     # --- the sans-IO contract -----------------------------------------------------------------
@@ -229,7 +231,7 @@ class Session:
         return out
 
     def get_timer(self) -> float | None:
-        t = min(self.scheduler.next_s, self.params.due_s, self.mission.get_timer(),
+        t = min(self.scheduler.next_s, self.params.due_s, self.mission.due_s,
                 self.logs.due_s, self.ftp.due_s, self.log_streaming.due_s, self.events.due_s,
                 self.statustext.due_s)
         return None if t == math.inf else t
@@ -248,10 +250,17 @@ class Session:
             sent = len(out)
             enc.frame_streams(due, snap, out, self._build_failed)  # ``send`` inlined
             self.stats.tx_frames += len(out) - sent
-        try:
-            self.mission.handle_timer(now_s)
-        except Exception:
-            self._failed(now_s, "the mission timer")
+        # The change-driven services, each called only when it has something to look at: its
+        # generation of the vehicle's Changes moved, its own timer came, or (STATUSTEXT) texts
+        # wait for a listener. A vehicle without Changes has them polled at every wake-up.
+        changes = self._changes
+        mission = self.mission
+        if changes is None or changes.mission_progress != mission.seen_progress \
+                or now_s >= mission.due_s:
+            try:
+                mission.handle_timer(now_s)
+            except Exception:
+                self._failed(now_s, "the mission timer")
         # before the texts: an ACK and the text it explains go out in that order
         journal = self._journal
         if journal is not None and journal.ack_seq != self._ack_seq:
@@ -260,14 +269,20 @@ class Session:
                                    ack.target_system, ack.target_component))
                 self.log_streaming.on_logger_ack(ack.command, ack.result, now_s)
             self._ack_seq = journal.ack_seq
-        try:
-            self.statustext.poll(now_s)
-        except Exception:
-            self._failed(now_s, "STATUSTEXT")
-        try:
-            self.events.poll(now_s)
-        except Exception:
-            self._failed(now_s, "the events")
+        statustext = self.statustext
+        if changes is None or changes.status_texts != statustext.seen_texts \
+                or statustext.pending:
+            try:
+                statustext.poll(now_s)
+            except Exception:
+                self._failed(now_s, "STATUSTEXT")
+        events = self.events
+        log = events.log
+        if log is not None and (log.latest != events.sent or now_s >= events.due_s):
+            try:
+                events.poll(now_s)
+            except Exception:
+                self._failed(now_s, "the events")
         params, logs, ftp, stream = self._paced_services
         if params.due_s <= now_s or logs.due_s <= now_s or ftp.due_s <= now_s \
                 or stream.due_s <= now_s:

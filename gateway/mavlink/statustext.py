@@ -51,35 +51,37 @@ class StatusTextService:
         self.gcs_present = gcs_present
         self._cursor = -1
         self._next_id = 0  # STATUSTEXT.hpp _id
-        # (time_s, severity, text), the newest QUEUE_LENGTH
-        self._pending: deque[tuple[float, int, str]] = deque()
+        # (time_s, severity, text), the newest QUEUE_LENGTH; while any wait, the session polls
+        # at every wake-up (a listener may have come)
+        self.pending: deque[tuple[float, int, str]] = deque()
         self.missed = 0  # texts the queue lost before they could be sent
         self.due_s = math.inf  # the next stream run while texts wait
         self._next_run_s = -math.inf
         # The vehicle's generations (None: it has none, its log is asked at every poll) and the
-        # one of its texts when they were last read (-1: never).
+        # one of its texts when they were last read (-1: never); with nothing pending, the session
+        # polls only once that moved.
         self._changes: Changes | None = getattr(self.vehicle, "changes", None)
-        self._seen_texts = -1
+        self.seen_texts = -1
 
     def local(self, now_s: float, severity: Severity, text: str) -> None:
         self._queue(now_s, int(severity), text)
         self.due_s = min(self.due_s, max(now_s, self._next_run_s))
 
     def _queue(self, time_s: float, severity: int, text: str) -> None:
-        if len(self._pending) == QUEUE_LENGTH:
-            self._pending.popleft()
+        if len(self.pending) == QUEUE_LENGTH:
+            self.pending.popleft()
             self.missed += 1
-        self._pending.append((time_s, severity, text))
+        self.pending.append((time_s, severity, text))
 
     def poll(self, now_s: float) -> None:
         changes = self._changes
         if changes is not None:
-            if changes.status_texts != self._seen_texts:
-                self._seen_texts = changes.status_texts
+            if changes.status_texts != self.seen_texts:
+                self.seen_texts = changes.status_texts
                 self._drain()
         else:
             self._drain()
-        pending = self._pending
+        pending = self.pending
         if not pending:
             self.due_s = math.inf
             return
