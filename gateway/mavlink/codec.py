@@ -27,7 +27,6 @@ import math
 import struct
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from operator import itemgetter
 from typing import Any
 
 # fastcrc (a pymavlink dependency, and what pymavlink itself uses) computes the X.25 CRC.
@@ -122,56 +121,44 @@ _CRC_STEP = _crc_table()
 _CRC_INIT_BEFORE_MAGIC = _state_before(MAGIC_V2, 0xFFFF)
 
 
-def _build_packer(cls: type[mavlink2.MAVLink_message]) -> tuple[Callable[..., bytes], tuple]:
-    """Compile ``args (constructor order) -> payload bytes`` for one message class.
+def _build_packer(cls: type[mavlink2.MAVLink_message]
+                  ) -> tuple[Callable[..., bytes], Callable[..., bytes]]:
+    """Compile ``(*args in constructor order) -> payload bytes`` for one message class.
 
-    pymavlink orders wire fields by type size (``ordered_fieldnames``); ``array_lengths`` is in
-    wire order. Char arrays are ``Ns`` (one bytes value), other arrays are flattened. Each run
-    of plain fields is reordered by one ``itemgetter`` call (all of them: ``*a`` when the wire
-    order is the constructor's), not field by field.
+    A function whose parameters are the fields, each defaulting to zero (omitted trailing
+    extension arguments are zeros), handing them to the class's struct in wire order: pymavlink
+    orders wire fields by type size (``ordered_fieldnames``; ``array_lengths`` is in wire
+    order); char arrays are ``Ns`` (one bytes value), other arrays are flattened. A float beyond
+    float32 raises OverflowError, and only then are the arguments converted (``_as_float32``);
+    the second function returned is the same without that, raising.
     """
     names = list(cls.fieldnames)
+    wire_names = list(cls.ordered_fieldnames)
+    env: dict[str, Any] = {"_s": cls.unpacker.pack, "_b": _as_bytes, "_f32": _as_float32}
     parts: list[str] = []
-    run: list[int] = []  # constructor positions of the plain fields in a row, in wire order
-    env: dict[str, Any] = {"_s": cls.unpacker.pack, "_b": _as_bytes}
-
-    def end_run() -> None:
-        if len(run) == 1:
-            parts.append(f"a[{run[0]}]")
-        elif run:
-            name = f"_g{len(env)}"
-            env[name] = itemgetter(*run)
-            parts.append(f"*{name}(a)")
-        run.clear()
-
-    for wire_pos, fname in enumerate(cls.ordered_fieldnames):
+    for wire_pos, fname in enumerate(wire_names):
         i = names.index(fname)
-        n = cls.array_lengths[wire_pos]
         if cls.fieldtypes[i] == "char":
-            end_run()
-            parts.append(f"_b(a[{i}])")
-        elif n:
-            end_run()
-            parts.append(f"*a[{i}]")
+            parts.append(f"_b(f{i})")
+        elif cls.array_lengths[wire_pos]:
+            parts.append(f"*f{i}")
         else:
-            run.append(i)
-    if run == list(range(len(names))):  # no arrays, wire order = constructor order
-        parts.append("*a")
-    else:
-        end_run()
-    defaults: list[Any] = []
+            parts.append(f"f{i}")
+    params: list[str] = []
     for i, fname in enumerate(names):
-        wire_pos = list(cls.ordered_fieldnames).index(fname)
-        n = cls.array_lengths[wire_pos]
-        if cls.fieldtypes[i] == "char":
-            defaults.append(b"")
-        elif n:
-            defaults.append((0,) * n)
-        else:
-            defaults.append(0)
-    src = f"lambda a: _s({', '.join(parts)})"
-    fn = eval(src, env)  # noqa: S307 - our own template
-    return fn, tuple(defaults)
+        n = cls.array_lengths[wire_names.index(fname)]
+        env[f"_d{i}"] = b"" if cls.fieldtypes[i] == "char" else (0,) * n if n else 0
+        params.append(f"f{i}=_d{i}")
+    args = ", ".join(f"f{i}" for i in range(len(names)))
+    body = f"_s({', '.join(parts)})"
+    exec(f"def _raw({', '.join(params)}):\n"  # noqa: S102 - our own template, one compile
+         f"    return {body}\n"
+         f"def pack({', '.join(params)}):\n"
+         f"    try:\n"
+         f"        return {body}\n"
+         f"    except OverflowError:\n"
+         f"        return _raw(*map(_f32, ({args},)))\n", env)
+    return env["pack"], env["_raw"]
 
 
 def _as_bytes(v: bytes | str) -> bytes:
@@ -182,15 +169,16 @@ FLT_MAX = 3.4028234663852886e38
 
 
 class Packer:
-    """The payload encoder of one message class; ``pack(args)`` takes the constructor's
-    arguments as one tuple, all of them (``Encoder.pack`` fills omitted extensions)."""
+    """The payload encoder of one message class; ``pack(*args)`` takes the constructor's
+    arguments (omitted trailing extensions zero); ``raw(*args)`` likewise, but raises
+    OverflowError for a float beyond float32."""
 
-    __slots__ = ("msg_id", "crc_extra", "pack", "defaults")
+    __slots__ = ("msg_id", "crc_extra", "pack", "raw")
 
     def __init__(self, cls: type[mavlink2.MAVLink_message]) -> None:
         self.msg_id: int = cls.id
         self.crc_extra: int = cls.crc_extra
-        self.pack, self.defaults = _build_packer(cls)
+        self.pack, self.raw = _build_packer(cls)
 
 
 _PACKERS: dict[type, Packer] = {}  # generated code only depends on the class: share it
@@ -204,23 +192,10 @@ def packer_of(cls: type[mavlink2.MAVLink_message]) -> Packer:
 
 
 def payload_of(cls: type[mavlink2.MAVLink_message]) -> Callable[..., bytes]:
-    """``(*args) -> payload`` of ``cls(*args)``, untrimmed, as ``Encoder.pack`` packs it
-    (omitted trailing extension arguments zero, a float beyond float32 ±inf): bound once per
-    message by the telemetry builders, which return payloads (``Encoder.frame_streams``)."""
-    p = packer_of(cls)
-    pack, defaults = p.pack, p.defaults
-    arity = len(defaults)
-
-    def payload(*args: Any) -> bytes:
-        if len(args) < arity:
-            args = args + defaults[len(args):]
-        try:
-            return pack(args)
-        except OverflowError:  # a float beyond float32: rare, so checked only when it happens
-            return pack(tuple(_as_float32(a) for a in args))
-
-    payload.__name__ = payload.__qualname__ = f"payload_{cls.msgname.lower()}"
-    return payload
+    """``(*args) -> payload`` of ``cls(*args)``, untrimmed, as ``Encoder.pack`` packs it: bound
+    once per message by the telemetry builders, which return payloads
+    (``Encoder.frame_streams``)."""
+    return packer_of(cls).pack
 
 
 def crc_extra_of(msg_id: int) -> int:
@@ -296,14 +271,7 @@ class Encoder:
     def pack(self, cls: type[mavlink2.MAVLink_message], *args: Any) -> bytes:
         """Encode ``cls(*args)``; trailing (extension) arguments may be omitted → zero."""
         p = _PACKERS.get(cls) or packer_of(cls)
-        defaults = p.defaults
-        if len(args) < len(defaults):
-            args = args + defaults[len(args):]
-        try:
-            payload = p.pack(args)
-        except OverflowError:  # a float beyond float32: rare, so checked only when it happens
-            payload = p.pack(tuple(_as_float32(a) for a in args))
-        return self.frame(p.msg_id, p.crc_extra, payload)
+        return self.frame(p.msg_id, p.crc_extra, p.pack(*args))
 
 
 def _as_float32(value: Any) -> Any:

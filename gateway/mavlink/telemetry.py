@@ -124,8 +124,7 @@ def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None 
     depends only on the vehicle's kinematics, the time and ``key(snapshot)``: its payload is
     packed once per ``Sample`` and key, whichever link asks first (each link frames it)."""
     p = packer_of(cls)
-    msg_id, pack, defaults = p.msg_id, p.pack, p.defaults
-    arity = len(defaults)
+    msg_id, pack = p.msg_id, p.raw
 
     def wrap(args: Callable[[Snapshot], tuple]) -> Builder:
         if key is None:
@@ -133,10 +132,7 @@ def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None 
                 payloads = s.payloads
                 payload = payloads.get(msg_id)
                 if payload is None:
-                    a = args(s)
-                    if len(a) != arity:
-                        a += defaults[len(a):]
-                    payload = payloads[msg_id] = pack(a)
+                    payload = payloads[msg_id] = pack(*args(s))
                 return payload
         else:
             def build(enc: Encoder, s: Snapshot) -> bytes:
@@ -144,10 +140,7 @@ def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None 
                 k = (msg_id, key(s))
                 payload = payloads.get(k)
                 if payload is None:
-                    a = args(s)
-                    if len(a) != arity:
-                        a += defaults[len(a):]
-                    payload = payloads[k] = pack(a)
+                    payload = payloads[k] = pack(*args(s))
                 return payload
 
         build.__name__ = build.__qualname__ = args.__name__
