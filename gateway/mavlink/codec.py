@@ -236,15 +236,17 @@ class Encoder:
 
     def frame_streams(self, specs: Iterable[Any], snapshot: Any, out: list[bytes],
                       failed: Callable[[int], None]) -> None:
-        """Each stream of ``specs`` (streams.StreamSpec: ``builder``, ``msg_id``, ``crc_extra``)
-        built from ``snapshot`` and framed onto ``out``, in order: ``frame`` inlined into one
-        loop, as a wake-up frames a dozen messages. A builder that returns None sends nothing;
-        one that raises is reported to ``failed(msg_id)`` and skipped (no sequence number)."""
+        """Each stream of ``specs`` (streams.StreamSpec: ``builder``, ``msg_id``, ``crc_extra``,
+        the id's header fields ``id_low16`` and ``id_high8``) built from ``snapshot`` and framed
+        onto ``out``, in order: ``frame`` inlined into one loop, as a wake-up frames a dozen
+        messages. A builder that returns None sends nothing; one that raises is reported to
+        ``failed(msg_id)`` and skipped (no sequence number)."""
         seq = self.seq
         sysid, compid, incompat = self.sysid, self.compid, self._incompat
         sign = self._sign if self.signer is not None else None
         now_s = self.now_s
         header, crc_x25, crc_pack, step = _HEADER.pack, _crc_x25, _CRC.pack, _CRC_STEP
+        magic, crc_init = MAGIC_V2, _CRC_INIT_BEFORE_MAGIC
         append = out.append
         for spec in specs:
             try:
@@ -254,11 +256,10 @@ class Encoder:
                 continue
             if payload is None:
                 continue
-            msg_id = spec.msg_id
             body = payload.rstrip(b"\0") or payload[:1]
-            frame = header(MAGIC_V2, len(body), incompat, 0, seq, sysid, compid, msg_id & 0xFFFF,
-                           msg_id >> 16) + body
-            crc = crc_x25(frame, _CRC_INIT_BEFORE_MAGIC)
+            frame = header(magic, len(body), incompat, 0, seq, sysid, compid, spec.id_low16,
+                           spec.id_high8) + body
+            crc = crc_x25(frame, crc_init)
             frame += crc_pack((crc >> 8) ^ step[(crc ^ spec.crc_extra) & 0xFF])
             seq = (seq + 1) & 0xFF
             append(frame if sign is None else sign(frame, now_s))

@@ -63,7 +63,9 @@ class Sample:
         self.now_s = now_s
         self.kin = kin
         self.payloads: dict[object, bytes] = {}  # by message id, or (message id, key)
-        self.time_boot_ms, self.time_usec = _stamps(now_s)
+        # ``_stamps`` inlined: a Sample is made at every instant
+        self.time_boot_ms = int(now_s * 1000.0) & 0xFFFFFFFF
+        self.time_usec = int(now_s * 1e6)
 
     @_once
     def euler(self) -> tuple[float, float, float]:

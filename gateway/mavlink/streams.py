@@ -97,10 +97,15 @@ class StreamSpec:
     gcs_hz: float  # PX4 "normal" mode with the SITL px4-rc.mavlink overrides
     api_hz: float  # PX4 "onboard" mode
     silent: bool = False  # its topic is never published here: never scheduled
-    crc_extra: int = field(init=False)  # bound ahead for the framing (Encoder.frame_streams)
+    # Bound ahead for the framing (Encoder.frame_streams): CRC_EXTRA, the header's id fields.
+    crc_extra: int = field(init=False)
+    id_low16: int = field(init=False)
+    id_high8: int = field(init=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "crc_extra", crc_extra_of(self.msg_id))
+        object.__setattr__(self, "id_low16", self.msg_id & 0xFFFF)
+        object.__setattr__(self, "id_high8", self.msg_id >> 16)
 
     def default_hz(self, kind: LinkKind) -> float:
         return self.gcs_hz if kind is LinkKind.GCS else self.api_hz

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from operator import attrgetter
 from typing import Any
 
 from pymavlink.dialects.v20 import common as M
@@ -150,8 +151,8 @@ def _shared(cls: type[M.MAVLink_message], key: Callable[[Snapshot], Any] | None 
     return wrap
 
 
-def _home_alt_m(s: Snapshot) -> float:
-    return s.home_alt_m
+# A C-level read of the Snapshot's lazy attribute (no Python call of its own per build).
+_home_alt_m = attrgetter("home_alt_m")
 
 
 @_shared(M.MAVLink_attitude_message)
@@ -174,13 +175,14 @@ def local_position_ned(s: Snapshot) -> tuple:
 @_shared(M.MAVLink_global_position_int_message, key=_home_alt_m)  # relative_alt: from home
 def global_position_int(s: Snapshot) -> tuple:
     """GLOBAL_POSITION_INT.hpp: every field a C conversion of the estimate (truncating), the
-    heading wrapped to [0, 360) degrees; relative_alt above home (above the origin without)."""
+    heading wrapped to [0, 360) degrees (``_heading_deg`` inlined); relative_alt above home
+    (above the origin without)."""
     g = s.sample.geo
     vx, vy, vz = s.kin.velocity_ned_mps
     alt = g.alt_amsl_m
     return (s.time_boot_ms, int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), int(alt * 1000.0),
             int((alt - s.home_alt_m) * 1000.0), int(vx * 100.0), int(vy * 100.0),
-            int(vz * 100.0), int(_heading_deg(s.sample.euler[2]) * 100.0))
+            int(vz * 100.0), int(math.degrees(s.sample.euler[2] % TWO_PI) * 100.0))
 
 
 GPS_NO_GPS_INTERVAL_US = 1_000_000  # GPS_RAW_INT.hpp kNoGpsSendInterval

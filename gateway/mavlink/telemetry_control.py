@@ -49,16 +49,12 @@ _ESC_INFO_PAYLOAD = payload_of(ESC_INFO)
 _ESC_STATUS_PAYLOAD = payload_of(ESC_STATUS)
 
 
-def _ms(t_s: float) -> int:
-    return int(t_s * 1000.0) & 0xFFFFFFFF
-
-
 def attitude_target(enc: Encoder, s: Snapshot) -> bytes | None:
     sp = s.targets
     if sp is None:
         return None
     p, q, r = sp.rates_frd_radps
-    return _ATTITUDE_TARGET(_ms(sp.time_s), 0, sp.attitude_q,
+    return _ATTITUDE_TARGET(int(sp.time_s * 1000.0) & 0xFFFFFFFF, 0, sp.attitude_q,
                             p, q, r, sp.thrust_norm)
 
 
@@ -91,7 +87,7 @@ def position_target_local_ned(enc: Encoder, s: Snapshot) -> bytes | None:
     if sp is None or not sp.position_control:
         return None
     f = _local_fields(sp)
-    return _POSITION_TARGET_LOCAL_NED(_ms(sp.time_s),
+    return _POSITION_TARGET_LOCAL_NED(int(sp.time_s * 1000.0) & 0xFFFFFFFF,
                                       M.MAV_FRAME_LOCAL_NED, _IGNORE_MASK[tuple(map(math.isnan, f))], *f)
 
 
