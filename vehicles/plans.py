@@ -199,7 +199,8 @@ class PlanStore:
         return plans[plan_type] if plan_type in plans else plans[PlanType(plan_type)]
 
     def plan_id(self, plan_type: PlanType) -> int:
-        return self._ids[PlanType(plan_type)]
+        ids = self._ids  # (as ``get``: the enum call only validates a value that is no key)
+        return ids[plan_type] if plan_type in ids else ids[PlanType(plan_type)]
 
     def set(self, plan_type: PlanType, items: Sequence[PlanItem]) -> PlanResult:
         plan_type = PlanType(plan_type)

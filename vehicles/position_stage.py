@@ -46,6 +46,8 @@ from vehicles.params import ParamStore
 from vehicles.types import Measurement, Quat, Vec3
 
 _NAN3: Vec3 = (math.nan, math.nan, math.nan)
+# AttitudeSetpoint made as a tuple at every tick (a NamedTuple's ``__new__`` is a Python function)
+_new_tuple = tuple.__new__
 TILT_LIMIT_SLEW_RADPS = 0.2  # mc_pos_control _tilt_limit_slew_rate
 
 
@@ -126,7 +128,7 @@ class PositionStage:
         self.task_setpoint = None
         self.position_control.reset_integral()
         self.reset_rates = True
-        self.attitude = AttitudeSetpoint(meas.attitude_q, 0.0)
+        self.attitude = _new_tuple(AttitudeSetpoint, (meas.attitude_q, 0.0, 0.0))
 
     def start_flying(self, meas: Measurement, reset_trajectory: bool = True) -> None:
         """The position controller takes over (the trajectory starts from the state if it was
@@ -264,7 +266,7 @@ class PositionStage:
         self.acc_sp = acc_sp
         qw, qx, qy, qz = q
         self.thrust_z_ned = -thrust * (1.0 - 2.0 * (qx * qx + qy * qy))  # along body z
-        self.attitude = AttitudeSetpoint(q, thrust, yawspeed)
+        self.attitude = _new_tuple(AttitudeSetpoint, (q, thrust, yawspeed))
         self.thrust = thrust
 
     def direct(self, attitude: AttitudeSetpoint, rates: Vec3 | None = None,

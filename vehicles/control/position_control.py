@@ -372,7 +372,7 @@ class PositionControl:
         self._vel_int = np.zeros(3)
 
     def reset_integral(self) -> None:
-        self._vel_int[:] = 0.0
+        self._vel_int.fill(0.0)
 
     def set_limits(self, speed_up_mps: float, thrust_min: float, tilt_max_rad: float,
                    speed_down_mps: float = math.nan) -> None:

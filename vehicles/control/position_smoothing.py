@@ -42,6 +42,7 @@ from vehicles.control.velocity_smoothing import (
     mn,
     mx,
     new_axes,
+    reset_axes,
     vs_time_synchronization,
     vs_update_durations,
     vs_update_traj,
@@ -394,10 +395,7 @@ class PositionSmoothing:
     def reset(self, acceleration: Vec3, velocity: Vec3, position: Vec3) -> None:
         """Every axis's VelocitySmoothing.reset, in one write (the auto tasks reset every tick
         while the vehicle is not flying under the trajectory)."""
-        a, v, x = acceleration, velocity, position
-        self.axes[:, J:IX + 1] = [(0.0, a[0], v[0], x[0], 0.0, a[0], v[0], x[0]),
-                                  (0.0, a[1], v[1], x[1], 0.0, a[1], v[1], x[1]),
-                                  (0.0, a[2], v[2], x[2], 0.0, a[2], v[2], x[2])]
+        reset_axes(self.axes, acceleration, velocity, position)
 
     def force_set_position_z(self, z: float) -> None:
         """PX4 forceSetPosition({NAN, NAN, z}): VelocitySmoothing::setCurrentPosition on z."""

@@ -27,6 +27,8 @@ from typing import Any
 import numpy as np
 from numba.extending import register_jitable
 
+from vehicles.control.compiled import njit_cached
+
 _EPS = 1.1920929e-07  # FLT_EPSILON
 
 # Columns of an axis row: the state (jerk, acceleration, velocity, position), the state at the
@@ -51,6 +53,27 @@ def new_axes(n: int) -> np.ndarray:
     for col, value in DEFAULT_LIMITS.items():
         rows[:, col] = value
     return rows
+
+
+@njit_cached
+def reset_axes(rows: Any, accel: Any, vel: Any, pos: Any) -> None:
+    """Every row's ``VelocitySmoothing.reset`` to its component of the 3-vectors ``accel``,
+    ``vel``, ``pos``: one compiled call (the auto tasks reset every tick while the vehicle is not
+    flying under the trajectory; numpy's write of a nested list costs twice as much)."""
+    a0, a1, a2 = accel
+    v0, v1, v2 = vel
+    x0, x1, x2 = pos
+    _reset_row(rows[0], a0, v0, x0)
+    _reset_row(rows[1], a1, v1, x1)
+    _reset_row(rows[2], a2, v2, x2)
+
+
+@register_jitable
+def _reset_row(s: Any, accel: float, vel: float, pos: float) -> None:
+    s[J] = s[IJ] = 0.0
+    s[A] = s[IA] = accel
+    s[V] = s[IV] = vel
+    s[X] = s[IX] = pos
 
 
 # --- the row functions (compiled into position_smoothing's kernel) ------------------------------
