@@ -69,6 +69,9 @@ from vehicles.types import (
 )
 
 POSITION_CONTROL_DIVIDER = 5  # 250 Hz / 5 = 50 Hz
+# InnerCommand and TaskInput made as tuples at every tick (a NamedTuple's ``__new__`` is a Python
+# function)
+_new_tuple = tuple.__new__
 # COM_RC_OVERRIDE bit 0: sticks take over these modes (Commander: isAutoMode). Not Orbit: there
 # the sticks are part of the mode (altitude; PX4 also trims radius and speed with them).
 STICK_OVERRIDE_AUTO = frozenset({NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_RTL,
@@ -372,9 +375,10 @@ class Autopilot:
         else:
             mode = MODE_IDLE if st.idle else MODE_FLY
         test.changed = False
-        self._out = InnerCommand(mode, sp.attitude_q, sp.yawspeed_radps,
-                                 sp.thrust_body_norm, st.rates, self.land_detector.landed, gains,
-                                 st.reset_rates, test.values() if mode == MODE_TEST else ())
+        self._out = _new_tuple(InnerCommand, (
+            mode, sp.attitude_q, sp.yawspeed_radps, sp.thrust_body_norm, st.rates,
+            self.land_detector.landed, gains, st.reset_rates,
+            test.values() if mode == MODE_TEST else ()))
         st.reset_rates = False
         return self._out
 
@@ -467,8 +471,8 @@ class Autopilot:
         if not task.uses_navigator:
             self.navigator.deactivate(ctx)
             auto.setpoint = None
-        t = TaskInput(now_s, self.dt_s * POSITION_CONTROL_DIVIDER, meas, yaw, cmd.armed,
-                      cmd.terminated, state, ctx)
+        t = _new_tuple(TaskInput, (now_s, self.dt_s * POSITION_CONTROL_DIVIDER, meas, yaw,
+                                   cmd.armed, cmd.terminated, state, ctx))
         if entered:
             task.activate(t)
         task.update(t)

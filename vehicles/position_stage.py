@@ -46,7 +46,8 @@ from vehicles.params import ParamStore
 from vehicles.types import Measurement, Quat, Vec3
 
 _NAN3: Vec3 = (math.nan, math.nan, math.nan)
-# AttitudeSetpoint made as a tuple at every tick (a NamedTuple's ``__new__`` is a Python function)
+# AttitudeSetpoint and PositionSetpoint made as tuples at every tick (a NamedTuple's ``__new__``
+# is a Python function)
 _new_tuple = tuple.__new__
 TILT_LIMIT_SLEW_RADPS = 0.2  # mc_pos_control _tilt_limit_slew_rate
 
@@ -246,7 +247,7 @@ class PositionStage:
                 s, dt, previous_ned_m is not None, next_ned_m is not None,
                 traj.acceptance_radius(acceptance_radius_m), vz_cmd_mps, meas.velocity_ned_mps,
                 meas.accel_ned_mps2, yaw_sp, no_setpoint, reactivate, braking or hold)
-        self.task_setpoint = PositionSetpoint(p_sp, v_sp, self.yaw_sp, a_sp)
+        self.task_setpoint = _new_tuple(PositionSetpoint, (p_sp, v_sp, self.yaw_sp, a_sp))
         if reactivate:
             # FlightTaskAuto::reActivate → activate with no last setpoint: no emergency braking,
             # the setpoints are the state's and the heading slews on from the vehicle's
