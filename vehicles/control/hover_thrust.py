@@ -158,9 +158,11 @@ class HoverThrustEstimator:
         self._param_hover, self._use = hover, use
 
     def reset(self) -> None:
-        self.ekf.set_hover_thrust(self._param_hover)
-        self.ekf.set_hover_thrust_std_dev(self._err_init)
-        self.ekf.reset_accel_noise()
+        # (Every 50 Hz tick while disarmed: the three setters written out.)
+        ekf, hover, err = self.ekf, self._param_hover, self._err_init
+        ekf.hover_thr = 0.1 if hover < 0.1 else (0.9 if hover > 0.9 else hover)  # set_hover_thrust
+        ekf.state_var = err * err  # set_hover_thrust_std_dev
+        ekf.acc_var = 5.0  # reset_accel_noise
 
     def update(self, now_s: float, armed: bool, landed: bool, height_m: float,
                velocity_ned_mps: tuple[float, float, float], accel_z_ned_mps2: float,
@@ -193,7 +195,7 @@ class HoverThrustEstimator:
                 if not (ok and self.valid):  # (valid stays valid while ok)
                     self._set_valid(ok, now_s)
         else:
-            self._set_valid(False, now_s)
+            self.valid, self._valid_since_s = False, None  # _set_valid(False)
             if not armed:
                 self.reset()
         if self.valid and self._use:
