@@ -115,8 +115,10 @@ class AutoTrajectory:
         up, down = self._z_vel_max_up, self._z_vel_max_dn
         if self.emergency_braking:
             vz = abs(self.smoothing.velocity[2])
-            up, down = max(vz, up), max(vz, down)
-        return max(up, 1.2 * self._z_v_auto_up), max(down, 1.2 * self._z_v_auto_dn)
+            up, down = (up if up > vz else vz), (down if down > vz else vz)  # max(vz, ·)
+        # max(up, ·), max(down, ·) as comparisons (the same values, NaN included): every tick
+        min_up, min_down = 1.2 * self._z_v_auto_up, 1.2 * self._z_v_auto_dn
+        return (min_up if min_up > up else up), (min_down if min_down > down else down)
 
     def set_up(self, lim: TrajectoryLimits) -> None:
         """The smoothing's limits for this tick (what ``update`` does first; the auto task's

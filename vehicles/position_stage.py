@@ -170,12 +170,17 @@ class PositionStage:
             self._tilt_land_rad = math.radians(float(p["MPC_TILTMAX_LND"]))
         tilt = self._tilt_air_rad if flying else self._tilt_land_rad
         step = TILT_LIMIT_SLEW_RADPS * dt
-        self._tilt_limit += min(max(tilt - self._tilt_limit, -step), step)
+        # min(max(·, -step), step) and min(·, up_max) as comparisons (the same values, NaN
+        # included)
+        d = tilt - self._tilt_limit
+        d = -step if -step > d else d
+        self._tilt_limit += step if step < d else d
         up_max = g.vel_max_up_mps
         # updateRamp ramps towards the task's constraint, the result is clipped at
         # MPC_Z_VEL_MAX_UP afterwards (mc_pos_control setVelocityLimits)
         wanted_up = speed_up_mps if math.isfinite(speed_up_mps) else up_max
-        up = min(tk.update_ramp(dt, wanted_up), up_max)
+        up = tk.update_ramp(dt, wanted_up)
+        up = up_max if up_max < up else up
         pc.set_limits(up, g.thrust_min if flying else 0.0, self._tilt_limit, speed_down_mps)
         # PX4 re-activates the flight task (FlightTaskAuto::reActivate) after its update until
         # the ramp starts: the smoothing restarts at the vehicle at rest but for a 0.7 m/s

@@ -184,9 +184,12 @@ class HoverThrustEstimator:
             ekf.dt = dt
             if math.isfinite(thrust_z_ned):
                 vn, ve, vd = velocity_ned_mps
-                coeff_z = max(abs(vd) - self._vz_thr + 1.0, 1.0)
-                coeff_xy = max(math.hypot(vn, ve) - self._vxy_thr + 1.0, 1.0)
-                scale = max(coeff_xy, coeff_z)
+                # (the max() calls as comparisons, the same values, NaN included)
+                coeff_z = abs(vd) - self._vz_thr + 1.0
+                coeff_z = 1.0 if 1.0 > coeff_z else coeff_z
+                coeff_xy = math.hypot(vn, ve) - self._vxy_thr + 1.0
+                coeff_xy = 1.0 if 1.0 > coeff_xy else coeff_xy
+                scale = coeff_z if coeff_z > coeff_xy else coeff_xy
                 ekf.acc_var_scale = scale * scale  # set_measurement_noise_scale
                 ekf.fuse_acc_z(-accel_z_ned_mps2, -thrust_z_ned)
                 ok = ekf.state_var < VALID_VAR

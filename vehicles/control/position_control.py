@@ -382,9 +382,12 @@ class PositionControl:
         MPC_Z_VEL_MAX_DN when NaN, never below 0). The minimum thrust is never below
         THRUST_MIN_FLOOR."""
         g = self._gains
-        g[9], g[12], g[11] = speed_up_mps, max(thrust_min, THRUST_MIN_FLOOR), tilt_max_rad
+        # (max() as comparisons, the same values, NaN included: every tick)
+        floor = THRUST_MIN_FLOOR
+        g[9], g[12], g[11] = (speed_up_mps, floor if floor > thrust_min else thrust_min,
+                              tilt_max_rad)
         down = speed_down_mps if math.isfinite(speed_down_mps) else self.gains.vel_max_down_mps
-        g[10] = max(down, 0.0)
+        g[10] = 0.0 if 0.0 > down else down
 
     @property
     def hover_thrust(self) -> float:
