@@ -117,7 +117,10 @@ class AutoHeading:
         step = rate_max_radps * dt_s
         # a non-finite MPC_YAWRAUTO_MAX makes the step infinite and matrix::wrap_pi of it NaN
         # (the next tick starts from the yaw again)
-        dyaw = min(max(math.remainder(heading_rad - last_setpoint_rad, math.tau), -step), step)
+        # (the clamps min(max(·, -step), step) as comparisons: the same values, NaN included)
+        dyaw = math.remainder(heading_rad - last_setpoint_rad, math.tau)
+        dyaw = -step if -step > dyaw else dyaw
+        dyaw = step if step < dyaw else dyaw
         slewed = wrap_remainder(last_setpoint_rad + dyaw, math.tau)
         self.aligned = abs(math.remainder(heading_rad - slewed, math.tau)) < yaw_err_rad
         yawspeed = 0.0
@@ -126,5 +129,6 @@ class AutoHeading:
             f += dt_s / (YAWSPEED_FILTER_TAU_S + dt_s) * (dyaw / dt_s - f)
             self._yawspeed_ff = f
             self.aligned = self.aligned and abs(f) < rate_max_radps
-            yawspeed = min(max(f, -rate_max_radps), rate_max_radps)
+            yawspeed = -rate_max_radps if -rate_max_radps > f else f
+            yawspeed = rate_max_radps if rate_max_radps < yawspeed else yawspeed
         return slewed, (yawspeed if math.isfinite(yawspeed) else 0.0)

@@ -60,14 +60,16 @@ class BatterySim:
         self._state = None
 
     def update(self, now_s: float, armed: bool, thrust_norm: float) -> None:
-        dt = 0.0 if self._last_s is None else max(now_s - self._last_s, 0.0)
+        # (max(·, 0.0) as comparisons, the same values: every 50 Hz tick)
+        dt = 0.0 if self._last_s is None else now_s - self._last_s
+        dt = 0.0 if 0.0 > dt else dt
         self._last_s = now_s
         if self._params.version != self._params_version:
             self._update_params()
         if not self._enabled:
             return
         self._state = None
-        ratio = max(thrust_norm, 0.0) / self._hover
+        ratio = (0.0 if 0.0 > thrust_norm else thrust_norm) / self._hover
         self._current_a = AVIONICS_CURRENT_A + HOVER_CURRENT_A * ratio**1.5 if armed else 0.0
         self._consumed_mah += self._current_a * dt / 3.6
         if armed:
