@@ -133,7 +133,8 @@ class VehicleLogger:
         self.memo: dict[str, Any] = {}
         self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields), NESTED_FORMATS)
                          for t in self.topics]
-        self._prefixes = [ulog.data_prefix(i, st.size) for i, st in enumerate(self._structs)]
+        self._prefixes = [ulog.data_prefix(i, st.size)  # how each topic's data messages start
+                          for i, st in enumerate(self._structs)]
         # vehicle_command and vehicle_command_ack: every record of the vehicle's command journal
         n = len(self.topics)
         self._event_structs = [ulog.struct_of((("uint64_t", "timestamp"), *fields))
@@ -150,8 +151,17 @@ class VehicleLogger:
         self._last: list[Sequence[Any] | None] = [None] * len(self.topics)
         self._written_s = [-math.inf] * len(self.topics)  # when each was last written
         self._stepped = [i for i, t in enumerate(self.topics) if t.step is not None]
-        self._stepped_set = frozenset(self._stepped)
         self._step_s: list[float | None] = [None] * len(self.topics)  # last step logged
+        # what a sample looks up of each topic, in one tuple, with the packer of its whole data
+        # message (ulog.data_packer): every topic; those but the stepped ones (written by
+        # _sample_steps when the vehicle keeps its recent steps); the stepped ones
+        packers = [ulog.data_packer(i, st) for i, st in enumerate(self._structs)]
+        reads = [(i, t, t.read, packers[i], t.every_s, t.on_change, t.republish_s,
+                  bool(t.period_s)) for i, t in enumerate(self.topics)]
+        self._reads = tuple(reads)
+        self._unstepped_reads = tuple(r for r in reads if r[1].step is None)
+        self._steps = tuple((i, t, t.step, packers[i], t.interval_s)
+                            for i, t in enumerate(self.topics) if t.step is not None)
         self._params: dict[str, float] = {}
         self._text_seq = 0
         self._sessions = 0
@@ -410,30 +420,30 @@ class VehicleLogger:
                 buf += prefix
                 buf += st.pack(int(event.time_s * 1e6), *event_values(event))
             self._event_seq = events.latest
-        due, soon = self._due, now_s + 1e-9
-        stepped = self._sample_steps(view, force, buf)
-        for i, topic in enumerate(self.topics):
+        due, last, written = self._due, self._last, self._written_s
+        soon = now_s + 1e-9
+        reads = self._unstepped_reads if self._sample_steps(view, force, buf) else self._reads
+        for i, topic, read, pack, every_s, on_change, republish_s, fixed_rate in reads:
             # a topic published at a fixed rate has no record but its publications
-            if i in stepped or ((not force or topic.period_s) and soon < due[i]):
+            if soon < due[i] and (fixed_rate or not force):
                 continue
             try:
-                values = topic.read(view, us)
+                values = read(view, us)
                 if values is None:  # not published yet
                     continue
-                if topic.on_change and values == self._last[i] and not force and not (
-                        topic.republish_s and soon >= self._written_s[i] + topic.republish_s):
-                    due[i] = now_s + topic.every_s  # looked again after the interval
+                if on_change and values == last[i] and not force and not (
+                        republish_s and soon >= written[i] + republish_s):
+                    due[i] = now_s + every_s  # looked again after the interval
                     continue
-                record = self._structs[i].pack(us, *values)
+                record = pack(us, *values)
             except Exception:  # a topic that cannot be read is missing, the log goes on
                 self.errors += 1
                 if self.errors == 1:
                     log.exception("logger: topic %s could not be sampled", topic.name)
                 continue
-            self._last[i] = values
-            self._written_s[i] = now_s
-            due[i] = now_s + topic.every_s
-            buf += self._prefixes[i]  # ulog.data(i, payload), in two appends
+            last[i] = values
+            written[i] = now_s
+            due[i] = now_s + every_s
             buf += record
         if now_s - self._last_sync_s > SYNC_PERIOD_S:
             buf += SYNC
@@ -443,38 +453,34 @@ class VehicleLogger:
         if buf is self._scratch:
             buf.clear()
 
-    def _sample_steps(self, view: _Sample, force: bool, buf: bytearray) -> frozenset[int]:
+    def _sample_steps(self, view: _Sample, force: bool, buf: bytearray) -> bool:
         """The topics PX4 publishes at the sensors' rate: one record per physics step since the
         last sample, each at its step's time, keeping the topic's interval (logged_topics.py).
-        Returns the topics written here; none when the vehicle keeps no recent steps."""
-        indices = self._stepped
+        Whether they were written here: not when the vehicle keeps no recent steps."""
+        steps = self._steps
         recent = getattr(view, "recent_steps", None)
-        if not indices or recent is None:
-            return frozenset()
-        last = self._step_s
-        since = [t for t in (last[i] for i in indices) if t is not None]
-        rows = recent(None if len(since) < len(indices) else min(since))
-        due = self._due
-        for i in indices:
-            topic, after, st, prefix = self.topics[i], last[i], self._structs[i], self._prefixes[i]
-            step = topic.step
-            assert step is not None
-            for t_s, row in rows:
-                if (after is not None and t_s <= after + 1e-9) or (not force and t_s + 1e-9 < due[i]):
+        if not steps or recent is None:
+            return False
+        last, due = self._step_s, self._due
+        since = [t for t in (last[i] for i in self._stepped) if t is not None]
+        rows = [(t_s, t_s + 1e-9, round(t_s * 1e6), row)  # each step's time, also in µs
+                for t_s, row in recent(min(since) if len(since) == len(steps) else None)]
+        for i, topic, step, pack, interval_s in steps:
+            after, next_s = last[i], due[i]
+            floor = -math.inf if after is None else after + 1e-9  # logged up to here
+            for t_s, late_s, us, row in rows:
+                if t_s <= floor or (late_s < next_s and not force):
                     continue
-                us = round(t_s * 1e6)
                 try:
-                    record = st.pack(us, *step(row, us))
+                    buf += pack(us, *step(row, us))
                 except Exception:  # as for the other topics: missing, the log goes on
                     self.errors += 1
                     if self.errors == 1:
                         log.exception("logger: topic %s could not be sampled", topic.name)
                     continue
-                buf += prefix
-                buf += record
-                due[i] = t_s + topic.interval_s
-                last[i] = t_s
-        return self._stepped_set
+                next_s, after = t_s + interval_s, t_s
+            last[i], due[i] = after, next_s
+        return True
 
     def drain(self) -> list[tuple[str, bytes, bool]]:
         """What to append to which file since the last drain: (path, bytes, closed)."""

@@ -18,7 +18,8 @@ Rules:
 from __future__ import annotations
 
 import struct
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 
 Fields = Sequence[tuple[str, str]]  # (type, name) pairs
 MAGIC = b"ULog\x01\x12\x35"
@@ -127,6 +128,13 @@ def data_prefix(msg_id: int, payload_size: int) -> bytes:
     """What ``data(msg_id, payload)`` puts before a payload of ``payload_size`` bytes: a topic's
     records all have its struct's size, so the prefix is computed once per topic."""
     return struct.pack("<HBH", payload_size + 2, ord("D"), msg_id)
+
+
+def data_packer(msg_id: int, record: struct.Struct) -> Callable[..., bytes]:
+    """``data(msg_id, record.pack(*values))`` as one call of the values: the message's header
+    (``data_prefix``, the same for every record of a topic) packed with the record."""
+    whole = struct.Struct("<HBH" + record.format.removeprefix("<"))
+    return partial(whole.pack, record.size + 2, ord("D"), msg_id)
 
 
 def logged_string(level: int, timestamp_us: int, text: str) -> bytes:
