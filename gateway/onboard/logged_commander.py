@@ -22,11 +22,12 @@ def _actuator_armed(v: Any, now_us: int) -> tuple:
     """Commander's actuator_armed: prearmed only with COM_PREARM_MODE 2 after 5 s (SITL has no
     safety button), ready_to_arm the pre-flight checks (or armed), lockdown and force_failsafe
     in Termination; no kill switch, no ESC calibration."""
-    st = v.status
+    commander = v.autopilot.commander  # what status has (logged_topics.py)
     mode = v.params.get("COM_PREARM_MODE", 1)
     prearmed = mode == PREARM_ALWAYS and now_us > PREARM_AFTER_BOOT_US
-    terminated = st.nav_state is NavState.TERMINATION
-    return (bool(st.armed), prearmed, bool(st.prearm_ok or st.armed), terminated, False,
+    terminated = commander.nav_state is NavState.TERMINATION
+    armed = commander.armed
+    return (bool(armed), prearmed, bool(armed or commander.prearm_ok()), terminated, False,
             terminated, False)
 
 

@@ -26,6 +26,9 @@ Rules:
   the sampling instant ``now_us`` (the state read is the one of that instant).
 - The ``*_groundtruth`` topics are the simulator's truth (PX4 SITL logs them), the others the
   estimate or the controllers' setpoints, as PX4 logs them.
+- The topics sampled at every tick read the commander's state (``autopilot.commander``,
+  ``autopilot.landed_state``) rather than ``status``, which builds a whole VehicleStatus from
+  it at each read; the values are the same.
 """
 
 from __future__ import annotations
@@ -77,7 +80,7 @@ def _local_position(v: Any, now_us: int) -> tuple:
     k = v.kinematics
     a = v.acceleration_ned_mps2
     heading = q_yaw(k.attitude_q)
-    valid = v.status.position_valid
+    valid = v.autopilot.commander.position_valid
     e = v.estimator
     o = v.origin
     return (*k.position_ned_m, *k.velocity_ned_mps, *a, heading, valid, valid, valid, valid,
@@ -93,23 +96,24 @@ def _global_position(v: Any, now_us: int) -> tuple:
 def _status(v: Any, now_us: int) -> tuple:
     """Commander's vehicle_status of a multicopter: the user's mode beside the one flown,
     failsafe_and_user_took_over as Failsafe::userTakeoverActive, never a VTOL."""
-    st = v.status
     commander = v.autopilot.commander
     mav_type = v.params.get("MAV_TYPE", 2)
-    return (ARMING_STATE_ARMED if st.armed else ARMING_STATE_DISARMED,
-            int(commander.user_nav_state), int(st.nav_state), VEHICLE_TYPE_ROTARY_WING,
-            bool(st.failsafe), commander.failsafe.user_takeover_active, commander.gcs_lost,
+    return (ARMING_STATE_ARMED if commander.armed else ARMING_STATE_DISARMED,
+            int(commander.user_nav_state), int(commander.nav_state), VEHICLE_TYPE_ROTARY_WING,
+            bool(commander.failsafe_active), commander.failsafe.user_takeover_active,
+            commander.gcs_lost,
             False, False, False, int(mav_type if mav_type is not None else 2))
 
 
 def _failsafe_flags(v: Any, now_us: int) -> tuple | None:
     """Commander's failsafe_flags (the failsafe framework's inputs), those CORNET has; None
     until the autopilot's first pass."""
-    flags = v.autopilot.commander.failsafe.flags
+    commander = v.autopilot.commander
+    flags = commander.failsafe.flags
     if flags is None:
         return None
-    invalid = not v.status.position_valid  # the global position is the local one's (origin)
-    return (invalid, invalid, not v.autopilot.commander.mission_valid, flags.offboard_lost,
+    invalid = not commander.position_valid  # the global position is the local one's (origin)
+    return (invalid, invalid, not commander.mission_valid, flags.offboard_lost,
             v.home is None, flags.manual_control_lost, flags.gcs_lost,
             flags.battery_warning, flags.geofence_breached, flags.fd_critical_failure)
 
@@ -154,7 +158,7 @@ def _trajectory_setpoint(v: Any, now_us: int) -> tuple:
 
 
 def _land_detected(v: Any, now_us: int) -> tuple:
-    landed = int(v.status.landed_state) == 1  # MAV_LANDED_STATE_ON_GROUND
+    landed = int(v.autopilot.landed_state) == 1  # MAV_LANDED_STATE_ON_GROUND
     return (landed, landed, landed)
 
 
@@ -250,8 +254,8 @@ _RATES, _ATT, _ALT, _CLIMB, _POS, _VEL, _ACC = (1 << i for i in range(7))
 
 def _control_mode(v: Any, now_us: int) -> tuple:
     """commander's getVehicleControlMode for a multicopter (ModeUtil/control_mode.cpp)."""
-    st = v.status
-    nav = st.nav_state
+    commander = v.autopilot.commander
+    nav = commander.nav_state
     manual = auto = offboard = termination = False
     bits = 0
     if nav in _MANUAL:
@@ -280,7 +284,7 @@ def _control_mode(v: Any, now_us: int) -> tuple:
         elif sp.has_position:
             bits = _POS | _VEL | _ALT | _CLIMB | _ACC | _RATES | _ATT
     mc_position = bool(bits & (_ALT | _CLIMB | _POS | _VEL | _ACC))
-    return (st.armed, mc_position, manual, auto, offboard, bool(bits & _RATES),
+    return (commander.armed, mc_position, manual, auto, offboard, bool(bits & _RATES),
             bool(bits & _ATT), bool(bits & _ACC), bool(bits & _VEL), bool(bits & _POS),
             bool(bits & _ALT), bool(bits & _CLIMB), termination)
 

@@ -331,7 +331,7 @@ class VehicleLogger:
         mode = self.vehicle.params.get("SDLOG_MODE", SDLOG_ARMED)
         mode = SDLOG_ARMED if mode is None else int(mode)
         view = _Sample(self)
-        armed = view.status.armed
+        armed = view.autopilot.commander.armed  # status.armed, without building the status
         boot = not self._booted
         self._booted = True
         if self._path is None:
