@@ -197,12 +197,18 @@ class TraceWriter:
         self.lines += 1
 
 
+# InstantSortedTrace writes its finished instants' lines once this many entries wait: a few
+# KiB, one write and one join for many instants
+TRACE_BATCH = 256
+
+
 class InstantSortedTrace:
     """A TraceWriter whose lines of one instant (one printed time) come group by group: sorted by
     ``group(link name)``, in the order they happened within a group. A run split over several
     simulations (gateway/daemon/shard/), each simulating some groups, then writes exactly the
     lines one simulation of every group writes once its parts are merged by time. The lines
-    of the present instant are held until time moves on or ``flush`` is called."""
+    of the present instant are held until time moves on, those of the instants before it
+    until TRACE_BATCH entries wait or ``flush`` is called."""
 
     def __init__(self, out, group: Callable[[str], int]) -> None:
         self._out = out
@@ -210,9 +216,10 @@ class InstantSortedTrace:
         self._groups: dict[str, int] = {}  # ``group`` of each link name seen (a run has few)
         self._time = ""
         self._time_s = math.nan  # the float ``_time`` was printed from (an instant has many)
-        self._held: list[tuple[int, str]] = []
-        self._last_group = -math.inf  # of the last line held; a smaller one next: sort at flush
-        self._sorted = True
+        self._held: list[tuple[int, str]] = []  # not written yet, the present instant's last
+        self._start = 0  # where the present instant's entries start in ``_held``
+        self._last_group = -math.inf  # of the last line held; a smaller one next: sort them
+        self._sorted = True  # the present instant's entries
         self._written = 0  # entries written so far
         self._pairs = 0  # entries of two lines (``instant``), held or written
 
@@ -221,45 +228,63 @@ class InstantSortedTrace:
         return self._written + len(self._held) + self._pairs
 
     def __call__(self, event: str, link: str, time_s: float, size: int, detail: str) -> None:
-        group = self._group_at(link, time_s)
-        self._held.append((group, f"{self._time} {event} {link} {size} {detail}\n"))
-
-    def instant(self, link: str, time_s: float, size: int) -> None:
-        """``send`` with no delay, then ``recv``, of one packet (what an ideal link traces), as
-        one held entry: the two lines stay together whatever the sort does."""
-        group = self._group_at(link, time_s)
-        t = self._time
-        self._held.append((group, f"{t} send {link} {size} 0.000000\n{t} recv {link} {size} \n"))
-        self._pairs += 1
-
-    def _group_at(self, link: str, time_s: float) -> int:
-        """Move to the instant of ``time_s`` (writing the last one's lines if it is a new one);
-        the group of a line of ``link`` (noting whether the instant's lines are still sorted)."""
-        if time_s != self._time_s:  # printed once per float, not once per line
-            self._time_s = time_s
-            stamp = f"{time_s:.9f}"  # one instant: one printed time (floats that print alike)
-            if stamp != self._time:
-                self.flush()
-                self._time = stamp
-        group = self._groups.get(link)
+        if time_s != self._time_s:
+            self._move_to(time_s)
+        group = self._groups.get(link)  # as in ``instant``
         if group is None:
             group = self._groups[link] = self._group(link)
         if group < self._last_group:
             self._sorted = False
         self._last_group = group
-        return group
+        self._held.append((group, f"{self._time} {event} {link} {size} {detail}\n"))
 
-    def flush(self) -> None:
-        """Write the held lines (the file's own flush stays the caller's)."""
+    def instant(self, link: str, time_s: float, size: int) -> None:
+        """``send`` with no delay, then ``recv``, of one packet (what an ideal link traces), as
+        one held entry: the two lines stay together whatever the sort does."""
+        if time_s != self._time_s:  # printed once per float, not once per line
+            self._move_to(time_s)
+        group = self._groups.get(link)
+        if group is None:
+            group = self._groups[link] = self._group(link)
+        if group < self._last_group:  # the instant's lines are no longer sorted
+            self._sorted = False
+        self._last_group = group
+        t = self._time
+        self._held.append((group, f"{t} send {link} {size} 0.000000\n{t} recv {link} {size} \n"))
+        self._pairs += 1
+
+    def _move_to(self, time_s: float) -> None:
+        """The instant of ``time_s``: the last one ends there if it is a new one."""
+        self._time_s = time_s
+        stamp = f"{time_s:.9f}"  # one instant: one printed time (floats that print alike)
+        if stamp != self._time:
+            self._end_instant()
+            if len(self._held) >= TRACE_BATCH:
+                self._write()
+            self._time = stamp
+
+    def _end_instant(self) -> None:
+        """The present instant's entries sorted by group (stable: a group's keep their order)."""
+        held = self._held
+        if not self._sorted:
+            held[self._start:] = sorted(held[self._start:], key=itemgetter(0))
+            self._sorted = True
+        self._start = len(held)
+        self._last_group = -math.inf
+
+    def _write(self) -> None:
         held = self._held
         if held:
-            if not self._sorted:
-                held.sort(key=itemgetter(0))  # stable: a group's lines keep their order
-                self._sorted = True
             self._out.write("".join([line for _, line in held]))
             self._written += len(held)
             held.clear()
-            self._last_group = -math.inf
+            self._start = 0
+
+    def flush(self) -> None:
+        """Write the held lines, the present instant's too (the file's own flush stays the
+        caller's)."""
+        self._end_instant()
+        self._write()
 
 
 def fan_out(tracers: Sequence[Tracer]) -> Tracer | None:
