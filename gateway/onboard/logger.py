@@ -133,8 +133,7 @@ class VehicleLogger:
         self.memo: dict[str, Any] = {}
         self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields), NESTED_FORMATS)
                          for t in self.topics]
-        self._prefixes = [ulog.data_prefix(i, st.size)  # how each topic's data messages start
-                          for i, st in enumerate(self._structs)]
+        self._prefixes = [ulog.data_prefix(i, st.size) for i, st in enumerate(self._structs)]
         # vehicle_command and vehicle_command_ack: every record of the vehicle's command journal
         n = len(self.topics)
         self._event_structs = [ulog.struct_of((("uint64_t", "timestamp"), *fields))
@@ -152,9 +151,8 @@ class VehicleLogger:
         self._written_s = [-math.inf] * len(self.topics)  # when each was last written
         self._stepped = [i for i, t in enumerate(self.topics) if t.step is not None]
         self._step_s: list[float | None] = [None] * len(self.topics)  # last step logged
-        # what a sample looks up of each topic, in one tuple, with the packer of its whole data
-        # message (ulog.data_packer): every topic; those but the stepped ones (written by
-        # _sample_steps when the vehicle keeps its recent steps); the stepped ones
+        # what a sample looks up of each topic, with the packer of its data messages: every
+        # topic; all but the stepped (when _sample_steps writes those); the stepped
         packers = [ulog.data_packer(i, st) for i, st in enumerate(self._structs)]
         reads = [(i, t, t.read, packers[i], t.every_s, t.on_change, t.republish_s,
                   bool(t.period_s)) for i, t in enumerate(self.topics)]
@@ -463,8 +461,12 @@ class VehicleLogger:
             return False
         last, due = self._step_s, self._due
         since = [t for t in (last[i] for i in self._stepped) if t is not None]
-        rows = [(t_s, t_s + 1e-9, round(t_s * 1e6), row)  # each step's time, also in µs
-                for t_s, row in recent(min(since) if len(since) == len(steps) else None)]
+        after_s = None
+        if len(since) == len(steps):
+            newest = max(since)  # not asked for: the steps up to it that intervals skip
+            after_s = min(newest if not force and newest + 1e-9 < due[i] else t
+                          for i, t in zip(self._stepped, since))
+        rows = [(t, t + 1e-9, round(t * 1e6), row) for t, row in recent(after_s)]  # time, µs
         for i, topic, step, pack, interval_s in steps:
             after, next_s = last[i], due[i]
             floor = -math.inf if after is None else after + 1e-9  # logged up to here
