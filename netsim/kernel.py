@@ -120,22 +120,7 @@ class Kernel:
 
     def step(self) -> bool:
         """Process the next live event. False if there was none."""
-        heap = self._heap
-        while heap:
-            entry = heap[0]
-            event = entry[3]
-            if event.cancelled:
-                heapq.heappop(heap)
-                continue
-            if entry[0] > self.horizon:
-                self._cross(entry[0])
-                continue
-            heapq.heappop(heap)
-            self.now = event.time
-            self.events_processed += 1
-            event.callback(*event.args)
-            return True
-        return False
+        return self.step_until(math.inf)
 
     def step_until(self, until: float, priority: int | None = None) -> bool:
         """Process the next live event if ``run(until, priority)`` would: False (nothing run)
