@@ -60,6 +60,13 @@ from vehicles.mission_climb import MissionClimb
 from vehicles.mission_feasibility import MissionCheck
 from vehicles.mission_heading import ItemReached, forces_heading, item_yaw_rad, time_inside_s
 from vehicles.mission_jumps import JumpCounts, look_ahead, non_jump_index, triplet_next
+from vehicles.mission_landing import (
+    LAND_COMMANDS,
+    approach_near,
+    approach_yaw,
+    land_setpoint,
+    landing_start,
+)
 from vehicles.mission_progress import MissionProgress
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
 from vehicles.nav_roi import ROI_COMMANDS, Roi, RoiHeading, command_of_item
@@ -76,10 +83,7 @@ from vehicles.types import Changes, NavState, Vec3
 GOTO_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_TIME, MavCmd.NAV_LOITER_UNLIM,
                            MavCmd.NAV_LOITER_TO_ALT})
 TAKEOFF_COMMANDS = frozenset({MavCmd.NAV_TAKEOFF, 84})  # + NAV_VTOL_TAKEOFF
-LAND_COMMANDS = frozenset({MavCmd.NAV_LAND, 85})  # + NAV_VTOL_LAND
 LOITER_COMMANDS = GOTO_COMMANDS - {MavCmd.NAV_WAYPOINT}  # SETPOINT_TYPE_LOITER
-# Below this horizontal distance a landing approach no longer updates the heading.
-YAW_LOCK_DIST_M = 1.0
 
 
 class Mission(NavMode):
@@ -112,6 +116,8 @@ class Mission(NavMode):
         self._came_from: Vec3 | None = None  # the waypoint just reached (the next previous)
         self._triplet: NavSetpoint | None = None  # PX4's triplet as set last; None: reset
         self._climb = MissionClimb()  # the climb work item before the first position item
+        # its last setpoint (in the air a SETPOINT_TYPE_LOITER: LOITER_TO_ALT)
+        self._climb_setpoint: NavSetpoint | None = None
         self._running = False  # active: in Mission mode and armed (PX4 isActive())
         self._has_run = False  # PX4 _mission_has_been_activated
         self.disarmed_while_inactive = False  # PX4 _system_disarmed_while_inactive
@@ -307,11 +313,10 @@ class Mission(NavMode):
                 self._begin_goto(ctx, item, triplet_next(items, self.current, ahead))
                 return
             if cmd in LAND_COMMANDS:
-                n, e, _ = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
-                # mission.cpp: fly to the landing point at the current altitude, then descend.
-                self._target = (n, e, ctx.position_ned_m[2])
                 self._fixed_yaw = item_yaw_rad(item)  # the move's waypoint keeps param4
-                self._phase = "approach"
+                self._target, approach = landing_start(ctx, item, self._triplet,
+                                                       self._climb_setpoint)
+                self._phase = "approach" if approach else "land"
                 return
             if cmd == MavCmd.NAV_DELAY and item.param1 > 0:
                 # no setpoint of its own (_kept_setpoint); NAV_CMD_DELAY is "reached" at once
@@ -394,7 +399,7 @@ class Mission(NavMode):
         if self._phase == "jump":
             return self._kept_setpoint(ctx)
         if self._phase == "takeoff":
-            climb = self._climb.setpoint(ctx)
+            climb = self._climb_setpoint = self._climb.setpoint(ctx)
             if climb is not None:
                 return climb
             # accepted: the item it preceded comes, the climb's setpoint as its previous
@@ -425,15 +430,12 @@ class Mission(NavMode):
                 return self._advance(ctx)
             return self._kept_setpoint(ctx)
         if self._phase == "approach":
-            near = math.hypot(tx - x, ty - y) < float(p["NAV_ACC_RAD"]) / 2
-            if ctx.landed or self._reached.update(ctx.now_s, near, self._item_yaw(), ctx.yaw_rad, p):
+            if ctx.landed or self._reached.update(ctx.now_s, approach_near(ctx, self._target),
+                                                  self._item_yaw(), ctx.yaw_rad, p):
                 self._phase = "land"
                 self._roi_heading.new_item()  # the land item after its approach work item
             else:
-                if not math.isnan(self._fixed_yaw):
-                    self._yaw = self._fixed_yaw
-                elif math.hypot(tx - x, ty - y) > YAW_LOCK_DIST_M:
-                    self._yaw = math.atan2(ty - y, tx - x)
+                self._yaw = approach_yaw(ctx, self._target, self._fixed_yaw, self._yaw)
                 return NavSetpoint(self._target, self._yaw, ctx.limits())
         # land
         if ctx.landed:
@@ -441,9 +443,7 @@ class Mission(NavMode):
             if self._next_item(ctx):
                 self._start_item(ctx)
             return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
-        speed = land_speed_mps(p, -z)
-        return NavSetpoint((tx, ty, math.nan), self._yaw, ctx.limits(speed_down_mps=speed),
-                           vz_cmd_mps=speed, landing=True)
+        return land_setpoint(ctx, self._target, self._yaw)
 
     def _advance(self, ctx: NavContext) -> NavSetpoint:
         self._came_from = self._target
