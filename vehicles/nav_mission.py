@@ -18,10 +18,8 @@ Rules and invariants:
   MISSION_ITEM_REACHED for them too); camera/gimbal/actuator items are skipped. ROI items set
   the ROI as its commands do, and the heading points at it (nav_roi.py); activating the mission,
   a new mission or current item while it runs forget it (update_mission's reset_vroi).
-- Activated more than NAV_MC_ALT_RAD below its next position item, the mission first climbs
-  in place to its altitude (checkClimbRequired, handleTakeoff): a takeoff on the ground, a
-  LOITER_TO_ALT in the air, not reported (mission_climb.py). A takeoff item is a waypoint to
-  its own position (after that climb).
+- Below its next position item, the mission climbs first (mission_climb.py); a takeoff item is
+  then a waypoint to its own position (handleTakeoff). The landing item: mission_landing.py.
 - NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission.
 - Moving on from an item is goToNextItem, and MISSION_START with an index is goToItem: DO_JUMPs
   on the way are resolved at once (mission_jumps.py). Without a next item (past the last item, a
@@ -116,8 +114,7 @@ class Mission(NavMode):
         self._came_from: Vec3 | None = None  # the waypoint just reached (the next previous)
         self._triplet: NavSetpoint | None = None  # PX4's triplet as set last; None: reset
         self._climb = MissionClimb()  # the climb work item before the first position item
-        # its last setpoint (in the air a SETPOINT_TYPE_LOITER: LOITER_TO_ALT)
-        self._climb_setpoint: NavSetpoint | None = None
+        self._climb_setpoint: NavSetpoint | None = None  # its last (in the air: LOITER_TO_ALT)
         self._running = False  # active: in Mission mode and armed (PX4 isActive())
         self._has_run = False  # PX4 _mission_has_been_activated
         self.disarmed_while_inactive = False  # PX4 _system_disarmed_while_inactive
@@ -332,8 +329,9 @@ class Mission(NavMode):
                 ctx.log.event(ctx.now_s, COMMANDER_RTL)
                 ctx.switch_to(NavState.AUTO_RTL, None)
                 return
-            if cmd == MavCmd.DO_CHANGE_SPEED:
-                self._change_speed(ctx, item)
+            if cmd == MavCmd.DO_CHANGE_SPEED and int(item.param1) in (0, 1):
+                # param1 speed type: 0 air / 1 ground (horizontal); 2 climb / 3 descent ignored
+                ctx.set_cruise_mps(item.param2 if item.param2 > 0 else math.nan)
             if cmd in ROI_COMMANDS:  # issue_command: the navigator takes it as the command
                 self.roi.command(*command_of_item(item, ctx.home_alt_amsl_m))
             # Everything else (camera, gimbal, actuator, DO_SET_HOME, DO_LAND_START, ...) is
@@ -342,11 +340,6 @@ class Mission(NavMode):
             if not self._next_item(ctx):
                 return
         self._finish(ctx)
-
-    def _change_speed(self, ctx: NavContext, item: PlanItem) -> None:
-        # param1 speed type: 0 air / 1 ground (horizontal); 2 climb / 3 descent are ignored.
-        if int(item.param1) in (0, 1):
-            ctx.set_cruise_mps(item.param2 if item.param2 > 0 else math.nan)
 
     def _next_item(self, ctx: NavContext) -> bool:
         """advance_mission / goToNextItem: the item after the current one, jumps resolved (and
@@ -368,7 +361,8 @@ class Mission(NavMode):
         self._came_from = None
         self._target = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
         # mission_item_to_position_setpoint: the loiter items' setpoints are SETPOINT_TYPE_LOITER
-        self._loiter_target = self._target if item.command != MavCmd.NAV_WAYPOINT else None
+        # (a takeoff item is a NAV_CMD_WAYPOINT once handleTakeoff has seen it)
+        self._loiter_target = self._target if item.command in LOITER_COMMANDS else None
         self._loiter_radius = item_loiter_radius_m(item)
         acc = item.param2 if item.command == MavCmd.NAV_WAYPOINT else 0.0
         self._acc_rad = acc if acc > 0 else float(ctx.params["NAV_ACC_RAD"])

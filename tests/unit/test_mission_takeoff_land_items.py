@@ -1,7 +1,10 @@
-"""A mission's landing item as PX4 1.15's MissionBase::handleLanding flies it on a multicopter
-(vehicles/mission_landing.py): a move to the landing point first only from farther than
-NAV_ACC_RAD, at the current waypoint setpoint's altitude, accepted within NAV_ACC_RAD and
-NAV_MC_ALT_RAD; closer, the descent at once."""
+"""A mission's takeoff and landing items as PX4 1.15 flies them on a multicopter.
+
+- Landing (MissionBase::handleLanding, vehicles/mission_landing.py): a move to the landing point
+  first only from farther than NAV_ACC_RAD, at the current waypoint setpoint's altitude,
+  accepted within NAV_ACC_RAD and NAV_MC_ALT_RAD; closer, the descent at once.
+- Takeoff (mission.cpp handleTakeoff): a multicopter's takeoff item, in the air, is a waypoint
+  to its own position: a SETPOINT_TYPE_POSITION, not a loiter setpoint."""
 
 import math
 
@@ -10,7 +13,7 @@ import pytest
 from tests.unit.test_vehicles_flight import Sim
 from tests.unit.test_vehicles_mission import item
 from vehicles.plan_types import MavCmd, MissionState, PlanType
-from vehicles.types import CommandResult, LandedState
+from vehicles.types import CommandResult, LandedState, NavState
 
 
 @pytest.fixture
@@ -78,3 +81,21 @@ def test_a_landing_point_within_nav_acc_rad_descends_at_once(sim):
     assert v.targets.global_target_ned_m[:2] == pytest.approx((11.2, 0.0), abs=0.01)
     assert sim.run(60.0, until=lambda: v.mission_status.state is MissionState.COMPLETE)
     assert horizontal(v, 11.2, 0.0) < 0.5
+
+
+
+def test_hold_on_the_way_to_a_takeoff_item_brakes_where_the_vehicle_is(sim):
+    """In the air a takeoff item is a waypoint (Mission::handleTakeoff), a SETPOINT_TYPE_POSITION,
+    not a loiter setpoint: Hold on the way to it (a paused mission) brakes and holds where the
+    vehicle is (Loiter::set_loiter_position) instead of flying on to the item's position."""
+    o = sim.v.origin
+    v = fly(sim, [item(0, MavCmd.NAV_WAYPOINT, 0.0, 0.0, 5.0, o)])
+    assert sim.run(60.0, until=lambda: v.mission_status.state is MissionState.COMPLETE)
+    v.set_plan(sim.t, PlanType.MISSION, [item(0, MavCmd.NAV_TAKEOFF, 30.0, 0.0, 5.0, o),
+                                         item(1, MavCmd.NAV_WAYPOINT, 30.0, 30.0, 5.0, o)])
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(30.0, until=lambda: v.state.position_ned_m[0] > 8.0)
+    assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+    sim.run(10.0)
+    assert v.state.position_ned_m[0] < 16.0
+    assert horizontal(v, 30.0, 0.0) > 14.0
