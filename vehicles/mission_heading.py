@@ -78,12 +78,12 @@ class ItemReached:
     """The current item's reached flags; ``reset`` for each new item (reset_mission_item_reached)."""
 
     def __init__(self) -> None:
-        self.position_at_s = math.nan  # _time_wp_reached (NaN: the position not reached yet)
-        self.yaw = False
+        self.reset()
 
     def reset(self) -> None:
-        self.position_at_s = math.nan
+        self.position_at_s = math.nan  # _time_wp_reached (NaN: the position not reached yet)
         self.yaw = False
+        self.reported = False  # reported reached without autocontinue (the item goes on)
 
     @property
     def position(self) -> bool:

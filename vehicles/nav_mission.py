@@ -20,7 +20,8 @@ Rules and invariants:
   a new mission or current item while it runs forget it (update_mission's reset_vroi).
 - Below its next position item, the mission climbs first (mission_climb.py); a takeoff item is
   then a waypoint to its own position (handleTakeoff). The landing item: mission_landing.py.
-- NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission.
+- NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission. A waypoint
+  without autocontinue is reported reached and flown on to until a new current item is set.
 - Moving on from an item is goToNextItem, and MISSION_START with an index is goToItem: DO_JUMPs
   on the way are resolved at once (mission_jumps.py). Without a next item (past the last item, a
   jump outside the mission, an exhausted jump at the end) the mission finishes at the item flown
@@ -417,7 +418,12 @@ class Mission(NavMode):
                 # position, then yaw, then the hold time (its own triplet, unchanged meanwhile)
                 if self._reached.update(ctx.now_s, at, self._item_yaw(), ctx.yaw_rad, p,
                                         forces_heading(item), time_inside_s(item)):
-                    return self._advance(ctx)
+                    if item.autocontinue:
+                        return self._advance(ctx)
+                    # MissionBase::on_active: reached, not advanced; held till a new current item
+                    if not self._reached.reported:
+                        self._reached.reported = True
+                        self.progress.reached(self.current)
             return self._goto_setpoint(ctx)
         if self._phase == "delay":
             if ctx.now_s >= self._wait_until:

@@ -4,8 +4,11 @@
   first only from farther than NAV_ACC_RAD, at the current waypoint setpoint's altitude,
   accepted within NAV_ACC_RAD and NAV_MC_ALT_RAD; closer, the descent at once.
 - Takeoff (mission.cpp handleTakeoff): a multicopter's takeoff item, in the air, is a waypoint
-  to its own position: a SETPOINT_TYPE_POSITION, not a loiter setpoint."""
+  to its own position: a SETPOINT_TYPE_POSITION, not a loiter setpoint.
+- A waypoint without autocontinue (MissionBase::on_active) is reported reached, and the vehicle
+  stays on it: the mission goes on only from a new current item."""
 
+import dataclasses
 import math
 
 import pytest
@@ -99,3 +102,21 @@ def test_hold_on_the_way_to_a_takeoff_item_brakes_where_the_vehicle_is(sim):
     sim.run(10.0)
     assert v.state.position_ned_m[0] < 16.0
     assert horizontal(v, 30.0, 0.0) > 14.0
+
+
+def test_a_waypoint_without_autocontinue_is_reached_and_held(sim):
+    o = sim.v.origin
+    v = fly(sim, [item(0, MavCmd.NAV_WAYPOINT, 0.0, 0.0, 5.0, o),
+                  dataclasses.replace(item(1, MavCmd.NAV_WAYPOINT, 15.0, 0.0, 5.0, o),
+                                      autocontinue=0),
+                  item(2, MavCmd.NAV_WAYPOINT, 15.0, 15.0, 5.0, o)])
+    assert sim.run(60.0, until=lambda: v.mission_status.reached_seq == 1)
+    count = v.mission_progress[2]
+    sim.run(10.0)
+    assert v.mission_status.current_seq == 1 and v.mission_status.reached_seq == 1
+    assert v.mission_status.state is MissionState.ACTIVE
+    assert horizontal(v, 15.0, 0.0) < 1.0
+    assert v.mission_progress[2] == count  # reported once
+    assert v.set_current_mission_item(sim.t, 2) is True
+    assert sim.run(60.0, until=lambda: v.mission_status.state is MissionState.COMPLETE)
+    assert horizontal(v, 15.0, 15.0) < 2.0
