@@ -4,7 +4,7 @@ handleLanding, mission_block.cpp is_mission_item_reached_or_completed).
 - In the air and farther than NAV_ACC_RAD from the landing point (do_need_move_to_item), the
   landing starts with a waypoint work item (WORK_ITEM_TYPE_MOVE_TO_LAND) to it: at the altitude
   of the current position setpoint if that is a SETPOINT_TYPE_POSITION (a waypoint's), else at
-  the vehicle's, with no previous setpoint to follow a line from. It is reached within
+  the vehicle's, from the current setpoint as its previous one. It is reached within
   NAV_ACC_RAD horizontally and NAV_MC_ALT_RAD vertically, and the heading as any item's.
 - Closer, or on the ground, the descent starts at once: a SETPOINT_TYPE_LAND at the item's
   position, descending at the land speed (nav_core.land_speed_mps).
@@ -25,18 +25,25 @@ YAW_LOCK_DIST_M = 1.0
 
 
 def landing_start(ctx: NavContext, item: PlanItem, triplet: NavSetpoint | None,
-                  climb: NavSetpoint | None) -> tuple[Vec3, bool]:
-    """(the target, whether the move to the landing point comes first). ``triplet``: the
-    current position setpoint as set last (None: reset); ``climb``: the mission's climb work
-    item's last setpoint, a SETPOINT_TYPE_LOITER in the air (LOITER_TO_ALT)."""
+                  climb: NavSetpoint | None) -> tuple[Vec3, bool, Vec3 | None]:
+    """(the target, whether the move to the landing point comes first, the move's previous
+    setpoint). ``triplet``: the current position setpoint as set last (None: reset); ``climb``:
+    the mission's climb work item's last setpoint, a SETPOINT_TYPE_LOITER in the air
+    (LOITER_TO_ALT)."""
     n, e, _ = item_ned(item, ctx.origin, ctx.home_alt_amsl_m)
     x, y, z = ctx.position_ned_m
     if ctx.landed or not math.hypot(n - x, e - y) > float(ctx.params["NAV_ACC_RAD"]):
-        return (n, e, z), False
-    if triplet is not None and triplet is not climb and not (
-            triplet.loiter or triplet.landing or triplet.taking_off or triplet.idle):
-        z = triplet.target_ned_m[2]
-    return (n, e, z), True
+        return (n, e, z), False, None
+    previous = None
+    if triplet is not None:
+        # setActiveMissionItems resets the previous setpoint, then sets it to the current one
+        # all the same (the work item type it tests is still the one before the move)
+        if all(map(math.isfinite, triplet.target_ned_m)):
+            previous = triplet.target_ned_m
+        if triplet is not climb and not (
+                triplet.loiter or triplet.landing or triplet.taking_off or triplet.idle):
+            z = triplet.target_ned_m[2]
+    return (n, e, z), True, previous
 
 
 def approach_near(ctx: NavContext, target: Vec3) -> bool:

@@ -312,8 +312,8 @@ class Mission(NavMode):
                 return
             if cmd in LAND_COMMANDS:
                 self._fixed_yaw = item_yaw_rad(item)  # the move's waypoint keeps param4
-                self._target, approach = landing_start(ctx, item, self._triplet,
-                                                       self._climb_setpoint)
+                self._target, approach, self._previous = landing_start(
+                    ctx, item, self._triplet, self._climb_setpoint)
                 self._phase = "approach" if approach else "land"
                 return
             if cmd == MavCmd.NAV_DELAY and item.param1 > 0:
@@ -436,7 +436,7 @@ class Mission(NavMode):
                 self._roi_heading.new_item()  # the land item after its approach work item
             else:
                 self._yaw = approach_yaw(ctx, self._target, self._fixed_yaw, self._yaw)
-                return NavSetpoint(self._target, self._yaw, ctx.limits())
+                return NavSetpoint(self._target, self._yaw, ctx.limits(), previous_ned_m=self._previous)
         # land
         if ctx.landed:
             self.progress.reached(self.current)

@@ -54,6 +54,9 @@ def test_the_move_to_the_landing_point_keeps_the_waypoint_setpoints_altitude(sim
     assert v.status.landed_state is LandedState.IN_AIR
     assert v.targets.global_target_ned_m[:2] == pytest.approx((25.0, 20.0), abs=0.01)
     assert v.targets.global_target_ned_m[2] == waypoint_z
+    # setActiveMissionItems: the move's previous setpoint is the waypoint's (the line to follow)
+    previous = v._autopilot.tasks.auto.setpoint.previous_ned_m
+    assert previous == pytest.approx((25.0, 0.0, waypoint_z), abs=0.01)
 
 
 def test_the_descent_starts_once_within_nav_acc_rad_of_the_landing_point(sim):
