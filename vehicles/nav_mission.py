@@ -21,7 +21,7 @@ Rules and invariants:
 - Below its next position item, the mission climbs first (mission_climb.py); a takeoff item is
   then a waypoint to its own position (handleTakeoff). The landing item: mission_landing.py.
 - NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission. A waypoint
-  without autocontinue is reported reached and flown on to until a new current item is set.
+  without autocontinue is reported reached and held there until a new current item is set.
 - Moving on from an item is goToNextItem, and MISSION_START with an index is goToItem: DO_JUMPs
   on the way are resolved at once (mission_jumps.py). Without a next item (past the last item, a
   jump outside the mission, an exhausted jump at the end) the mission finishes at the item flown
