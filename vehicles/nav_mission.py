@@ -20,8 +20,8 @@ Rules and invariants:
   a new mission or current item while it runs forget it (update_mission's reset_vroi).
 - Below its next position item, the mission climbs first (mission_climb.py); a takeoff item is
   then a waypoint to its own position (handleTakeoff). The landing item: mission_landing.py.
-- NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission. A waypoint
-  without autocontinue is reported reached and held there until a new current item is set.
+- NAV_RETURN_TO_LAUNCH switches the vehicle to Return and completes the mission. A waypoint or
+  landing without autocontinue is reported reached and held there until a new current item.
 - Moving on from an item is goToNextItem, and MISSION_START with an index is goToItem: DO_JUMPs
   on the way are resolved at once (mission_jumps.py). Without a next item (past the last item, a
   jump outside the mission, an exhausted jump at the end) the mission finishes at the item flown
@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import math
 
+from vehicles import mission_landing as landing
 from vehicles.events import (
     COMMANDER_RTL,
     MISSION_EXECUTE,
@@ -59,13 +60,6 @@ from vehicles.mission_climb import MissionClimb
 from vehicles.mission_feasibility import MissionCheck
 from vehicles.mission_heading import ItemReached, forces_heading, item_yaw_rad, time_inside_s
 from vehicles.mission_jumps import JumpCounts, look_ahead, non_jump_index, triplet_next
-from vehicles.mission_landing import (
-    LAND_COMMANDS,
-    approach_near,
-    approach_yaw,
-    land_setpoint,
-    landing_start,
-)
 from vehicles.mission_progress import MissionProgress
 from vehicles.nav_core import NavContext, NavMode, NavSetpoint, land_speed_mps
 from vehicles.nav_roi import ROI_COMMANDS, Roi, RoiHeading, command_of_item
@@ -302,7 +296,7 @@ class Mission(NavMode):
                 self.current = index
                 continue
             ahead = look_ahead(ctx.log, ctx.now_s, items, self.current + 1, self._jumps_done)
-            positional = cmd in GOTO_COMMANDS or cmd in TAKEOFF_COMMANDS or cmd in LAND_COMMANDS
+            positional = cmd in GOTO_COMMANDS or cmd in TAKEOFF_COMMANDS or cmd in landing.LAND_COMMANDS
             if positional and self._climb.start(ctx):  # handleTakeoff's climb work item
                 self._target, self._yaw = self._climb.target, self._climb.yaw_rad
                 self._phase = "takeoff"
@@ -310,9 +304,9 @@ class Mission(NavMode):
             if cmd in GOTO_COMMANDS or cmd in TAKEOFF_COMMANDS:
                 self._begin_goto(ctx, item, triplet_next(items, self.current, ahead))
                 return
-            if cmd in LAND_COMMANDS:
+            if cmd in landing.LAND_COMMANDS:
                 self._fixed_yaw = item_yaw_rad(item)  # the move's waypoint keeps param4
-                self._target, approach, self._previous = landing_start(
+                self._target, approach, self._previous = landing.landing_start(
                     ctx, item, self._triplet, self._climb_setpoint)
                 self._phase = "approach" if approach else "land"
                 return
@@ -430,20 +424,22 @@ class Mission(NavMode):
                 return self._advance(ctx)
             return self._kept_setpoint(ctx)
         if self._phase == "approach":
-            if ctx.landed or self._reached.update(ctx.now_s, approach_near(ctx, self._target),
+            if ctx.landed or self._reached.update(ctx.now_s, landing.approach_near(ctx, self._target),
                                                   self._item_yaw(), ctx.yaw_rad, p):
                 self._phase = "land"
                 self._roi_heading.new_item()  # the land item after its approach work item
             else:
-                self._yaw = approach_yaw(ctx, self._target, self._fixed_yaw, self._yaw)
+                self._yaw = landing.approach_yaw(ctx, self._target, self._fixed_yaw, self._yaw)
                 return NavSetpoint(self._target, self._yaw, ctx.limits(), previous_ned_m=self._previous)
         # land
         if ctx.landed:
-            self.progress.reached(self.current)
-            if self._next_item(ctx):
-                self._start_item(ctx)
+            if not self._reached.reported:  # reached; advanced only with autocontinue
+                self._reached.reported = True
+                self.progress.reached(self.current)
+                if self.items[self.current].autocontinue and self._next_item(ctx):
+                    self._start_item(ctx)
             return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
-        return land_setpoint(ctx, self._target, self._yaw)
+        return landing.land_setpoint(ctx, self._target, self._yaw)
 
     def _advance(self, ctx: NavContext) -> NavSetpoint:
         self._came_from = self._target

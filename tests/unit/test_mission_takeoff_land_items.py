@@ -5,8 +5,8 @@
   accepted within NAV_ACC_RAD and NAV_MC_ALT_RAD; closer, the descent at once.
 - Takeoff (mission.cpp handleTakeoff): a multicopter's takeoff item, in the air, is a waypoint
   to its own position: a SETPOINT_TYPE_POSITION, not a loiter setpoint.
-- A waypoint without autocontinue (MissionBase::on_active) is reported reached, and the vehicle
-  stays on it: the mission goes on only from a new current item."""
+- A waypoint or landing without autocontinue (MissionBase::on_active) is reported reached, and
+  the vehicle stays on it: the mission goes on only from a new current item."""
 
 import dataclasses
 import math
@@ -123,3 +123,17 @@ def test_a_waypoint_without_autocontinue_is_reached_and_held(sim):
     assert v.set_current_mission_item(sim.t, 2) is True
     assert sim.run(60.0, until=lambda: v.mission_status.state is MissionState.COMPLETE)
     assert horizontal(v, 15.0, 15.0) < 2.0
+
+
+def test_a_landing_without_autocontinue_is_reached_but_does_not_finish_the_mission(sim):
+    o = sim.v.origin
+    v = fly(sim, [item(0, MavCmd.NAV_WAYPOINT, 0.0, 0.0, 5.0, o),
+                  dataclasses.replace(item(1, MavCmd.NAV_LAND, 10.0, 0.0, 0.0, o),
+                                      autocontinue=0)])
+    assert sim.run(90.0, until=lambda: v.mission_status.reached_seq == 1)
+    count = v.mission_progress[2]
+    sim.run(5.0)
+    assert v.mission_status.state is MissionState.ACTIVE and v.mission_status.current_seq == 1
+    assert v.mission_progress[2] == count
+    assert not any(t.startswith("Mission finished") for t in sim.texts())
+    assert horizontal(v, 10.0, 0.0) < 1.0
