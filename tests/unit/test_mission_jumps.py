@@ -2,19 +2,16 @@
 (navigator mission_base.cpp goToNextItem / getNonJumpItem, mission.cpp setActiveMissionItems)."""
 
 import numpy as np
-import pytest
 
-from gateway.testing import Sim, mission_item
+from gateway.testing import mission_item
+from tests.unit import lockstep_support
+from tests.unit.lockstep_support import geo
 from vehicles.plan_types import MavCmd, PlanResult
-from vehicles.types import PX4_SITL_HOME
+
+sim = lockstep_support.sim  # the fixture: one vehicle, its position estimate valid
 
 ACTIVE, COMPLETE = 3, 5  # MISSION_STATE
 READ_FAILED = "Waypoint could not be read.\t"
-
-
-def geo(n: float, e: float) -> tuple[float, float]:
-    g = PX4_SITL_HOME.offset_ned(n, e, 0.0)
-    return g.lat_deg, g.lon_deg
 
 
 def jump(target: float, repeats: float):
@@ -25,13 +22,6 @@ NAN = float("nan")
 WP0 = mission_item(MavCmd.NAV_WAYPOINT, *geo(12, 0), 6.0)
 WP1 = mission_item(MavCmd.NAV_WAYPOINT, *geo(12, 12), 6.0)
 WP2 = mission_item(MavCmd.NAV_WAYPOINT, *geo(0, 12), 6.0)
-
-
-@pytest.fixture
-def sim():
-    with Sim(1) as s:
-        assert s.run_until(lambda: s.status(0).position_valid, timeout_s=5)
-        yield s
 
 
 def fly(sim, items, mark=0, timeout_s=90.0):

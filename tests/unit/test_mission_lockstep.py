@@ -7,24 +7,16 @@ import math
 import pytest
 from pymavlink.dialects.v20 import common as M
 
-from gateway.testing import Sim, mission_item
+from gateway.testing import mission_item
+from tests.unit import lockstep_support
+from tests.unit.lockstep_support import geo
 from vehicles.plan_types import MavCmd, PlanResult
-from vehicles.types import PX4_SITL_HOME, NavState
+from vehicles.types import NavState
+
+sim = lockstep_support.sim  # the fixture: one vehicle, its position estimate valid
 
 ACTIVE, COMPLETE = 3, 5  # MISSION_STATE
 MODE_ACTIVE, MODE_SUSPENDED = 1, 2  # MISSION_CURRENT.mission_mode
-
-
-def geo(n: float, e: float) -> tuple[float, float]:
-    g = PX4_SITL_HOME.offset_ned(n, e, 0.0)
-    return g.lat_deg, g.lon_deg
-
-
-@pytest.fixture
-def sim():
-    with Sim(1) as s:
-        assert s.run_until(lambda: s.status(0).position_valid, timeout_s=5)
-        yield s
 
 
 def test_finished_mission_reentered_then_set_current_and_the_same_upload(sim):

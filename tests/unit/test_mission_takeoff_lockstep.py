@@ -10,31 +10,15 @@ import math
 import pytest
 from pymavlink.dialects.v20 import common as M
 
-from gateway.testing import Sim, mission_item
+from gateway.testing import mission_item
+from tests.unit import lockstep_support
+from tests.unit.lockstep_support import geo, height, texts
 from vehicles.plan_types import MavCmd, PlanResult
 from vehicles.types import PX4_SITL_HOME, LandedState
 
+sim = lockstep_support.sim  # the fixture: one vehicle, its position estimate valid
+
 CLIMB_TEXT = "Climb to"
-
-
-def geo(n: float, e: float) -> tuple[float, float]:
-    g = PX4_SITL_HOME.offset_ned(n, e, 0.0)
-    return g.lat_deg, g.lon_deg
-
-
-@pytest.fixture
-def sim():
-    with Sim(1) as s:
-        assert s.run_until(lambda: s.status(0).position_valid, timeout_s=5)
-        yield s
-
-
-def height(sim) -> float:
-    return -sim.state(0).position_ned_m[2]
-
-
-def texts(api, mark=0):
-    return [m.text for m in api.messages("STATUSTEXT", since=mark)]
 
 
 def reached_seqs(api, mark=0):

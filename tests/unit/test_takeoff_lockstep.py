@@ -5,26 +5,15 @@ mission started on the ground climbs to its first position item (checkClimbRequi
 
 import pytest
 
-from gateway.testing import Sim, mission_item
+from gateway.testing import mission_item
+from tests.unit import lockstep_support
+from tests.unit.lockstep_support import height, texts
 from vehicles.plan_types import MavCmd, PlanResult
 from vehicles.types import PX4_SITL_HOME, NavState
 
+sim = lockstep_support.sim  # the fixture: one vehicle, its position estimate valid
+
 ALREADY_HIGHER = "Already higher than takeoff altitude\t"
-
-
-@pytest.fixture
-def sim():
-    with Sim(1) as s:
-        assert s.run_until(lambda: s.status(0).position_valid, timeout_s=5)
-        yield s
-
-
-def height(sim) -> float:
-    return -sim.state(0).position_ned_m[2]
-
-
-def texts(api, mark=0):
-    return [m.text for m in api.messages("STATUSTEXT", since=mark)]
 
 
 def test_default_takeoff_in_the_air_climbs_mis_takeoff_alt_above_the_current_altitude(sim):
