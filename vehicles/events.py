@@ -210,6 +210,8 @@ MISSION_NOT_VALID_LOITER = EventDef("mission_not_valid_loiter", "default",
                                     "No valid mission available, loitering")
 MISSION_CLIMB = EventDef("mission_climb_before_start", "default", "Climb to {1:.1m_v} above home",
                          (("float", "arg0"),))
+MISSION_FAILURE_HEADING = EventDef("navigator_mission_failure_heading", "default",
+                                   "Mission failure: unable to reach heading within timeout")
 MISSION_READ_FAILED = EventDef("mission_failed_to_read_wp", "default",
                                "Waypoint {1} could not be read from storage",
                                (("uint16_t", "arg0"),))
@@ -327,8 +329,8 @@ DEFINITIONS: tuple[EventDef, ...] = (
     FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER, RC_OVERRIDE,
     FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED, MISSION_EXECUTE,
     MISSION_FINISHED, MISSION_FINISHED_LOITER, MISSION_NOT_VALID_REFUSE, MISSION_NOT_VALID_LOITER,
-    MISSION_READ_FAILED, MISSION_CLIMB, RTL_RETURN_AT, RTL_LAND, RTL_COMPLETED_LOITER,
-    RTL_UNSUPPORTED_FRAME, GF_INVALID_HOME, GF_INVALID_POSITION,
+    MISSION_READ_FAILED, MISSION_FAILURE_HEADING, MISSION_CLIMB, RTL_RETURN_AT, RTL_LAND,
+    RTL_COMPLETED_LOITER, RTL_UNSUPPORTED_FRAME, GF_INVALID_HOME, GF_INVALID_POSITION,
     TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, REPOSITION_OUTSIDE_FENCE,
     CHANGE_ALT_OUTSIDE_FENCE, COMMANDER_RTL, COMMANDER_LAND, MODE_NOT_AVAILABLE,
     UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, *MISSION_FEASIBILITY, *POSITION_PARAMS)

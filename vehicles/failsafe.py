@@ -138,6 +138,8 @@ class FailsafeFlags:
     # vehicle armed less than MPC_SPOOLUP_TIME + 3 s ago (PX4's early takeoff phase)
     fd_critical_failure: bool = False
     early_takeoff: bool = False
+    # mission_result.failure: the mission cannot be completed (a forced heading timed out)
+    mission_failure: bool = False
 
 
 # NAV_DLL_ACT / NAV_RCL_ACT values: 0 disabled, 1 Hold, 2 Return, 3 Land, 5 Terminate, 6 Disarm.
@@ -271,6 +273,9 @@ CHECKS: tuple[Check, ...] = (
     Check("fd_critical_failure", lambda f, p: f.fd_critical_failure, from_fd_critical_failure),
     Check("position_lost", lambda f, p: f.position_invalid and f.user_nav_state in NEEDS_POSITION,
           lambda f, p: from_position_loss(f)),
+    Check("mission_failure",
+          lambda f, p: f.mission_failure and f.user_nav_state is NavState.AUTO_MISSION,
+          lambda f, p: ActionOptions(Action.RTL)),
 )
 
 

@@ -17,8 +17,9 @@ Rules and invariants:
   rotary wing waits for the yaw: the heading within MIS_YAW_ERR of it (wrap_pi). No yaw (NaN),
   no wait. MIS_YAW_TMT at or above FLT_EPSILON accepts at once an item that does not force its
   heading (force_heading: LOITER_TIME param2 > 0, LOITER_TO_ALT param1 > 0); a forced one keeps
-  waiting (PX4 then declares a mission failure after MIS_YAW_TMT, "unable to reach heading
-  within timeout", which Commander answers with RTL: not modelled).
+  waiting, and after MIS_YAW_TMT from the position's arrival ``heading_timeout`` is set: the
+  mission fails ("unable to reach heading within timeout", mission_result.failure), and the
+  failsafe's mission_failure check answers with RTL.
 - The yaw waited for is the item's as heading_sp_update left it the tick before: a ROI's bearing
   replaces it (nav_roi.py).
 - A multicopter always waits: get_yaw_to_be_accepted waives the yaw only when
@@ -84,6 +85,7 @@ class ItemReached:
         self.position_at_s = math.nan  # _time_wp_reached (NaN: the position not reached yet)
         self.yaw = False
         self.reported = False  # reported reached without autocontinue (the item goes on)
+        self.heading_timeout = False  # a forced heading not reached within MIS_YAW_TMT
 
     @property
     def position(self) -> bool:
@@ -100,5 +102,8 @@ class ItemReached:
         if not self.yaw:
             self.yaw = yaw_accepted(yaw_rad, heading_rad, params, force)
             if not self.yaw:
+                timeout_s = float(params["MIS_YAW_TMT"])
+                if force and timeout_s >= FLT_EPSILON and now_s - self.position_at_s >= timeout_s:
+                    self.heading_timeout = True  # set_mission_failure_heading_timeout
                 return False
         return hold_s < FLT_EPSILON or now_s >= self.position_at_s + hold_s

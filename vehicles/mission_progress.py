@@ -16,8 +16,10 @@ from __future__ import annotations
 
 from collections import deque
 
+from vehicles.events import MISSION_FAILURE_HEADING, Log
 from vehicles.plan_types import REACHED_HISTORY, MissionState, MissionStatus, PlanType
 from vehicles.plans import PlanStore
+from vehicles.status_log import StatusLog
 from vehicles.types import Changes, NavState
 
 # MISSION_CURRENT.mission_mode is "active" in these (mavlink_mission.cpp update_mission_state).
@@ -33,18 +35,30 @@ class MissionProgress:
         self.seq_reached = -1  # mission_result.seq_reached: the last reached, -1 since a reset
         self.history: deque[int] = deque(maxlen=REACHED_HISTORY)
         self.reached_any = False
+        self.failure = False  # mission_result.failure: a forced heading timed out (MIS_YAW_TMT)
 
     def new_mission(self) -> None:
         """A mission stored: nothing of it reached."""
         self.reached_seq = self.seq_reached = -1
         self.reached_resets += 1
         self.reached_any = False
+        self.failure = False
 
     def reset(self) -> None:
-        """The navigator puts mission_result.seq_reached back to -1 (MissionStatus)."""
+        """The navigator puts mission_result.seq_reached back to -1 (MissionStatus), and its
+        failure to false (check_mission_valid, update_mission)."""
         self.reached_resets += 1
         self.seq_reached = -1
+        self.failure = False
         self._changes.mission_progress += 1
+
+    def fail_heading(self, now_s: float, log: StatusLog) -> None:
+        """Navigator::set_mission_failure_heading_timeout: the failure is set, and said, once."""
+        if not self.failure:
+            self.failure = True
+            self._changes.mission_progress += 1
+            log.critical(now_s, "unable to reach heading within timeout\t")
+            log.event(now_s, MISSION_FAILURE_HEADING, Log.CRITICAL, Log.WARNING)
 
     def reached(self, seq: int) -> None:
         self.reached_seq = self.seq_reached = seq

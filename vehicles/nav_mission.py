@@ -410,8 +410,11 @@ class Mission(NavMode):
                     return NavSetpoint(self._target, self._yaw, ctx.limits(), loiter=True,
                                        loiter_radius_m=self._loiter_radius)
                 # position, then yaw, then the hold time (its own triplet, unchanged meanwhile)
-                if self._reached.update(ctx.now_s, at, self._item_yaw(), ctx.yaw_rad, p,
-                                        forces_heading(item), time_inside_s(item)):
+                reached = self._reached.update(ctx.now_s, at, self._item_yaw(), ctx.yaw_rad, p,
+                                               forces_heading(item), time_inside_s(item))
+                if self._reached.heading_timeout:
+                    self.progress.fail_heading(ctx.now_s, ctx.log)
+                if reached:
                     if item.autocontinue:
                         return self._advance(ctx)
                     # MissionBase::on_active: reached, not advanced; held till a new current item

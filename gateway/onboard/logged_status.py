@@ -74,8 +74,8 @@ def _mission_result(v: Any, now_us: int) -> tuple | None:
     """The navigator's mission_result: none before its first feasibility check (PX4 runs it
     once home is set). item_do_jump_changed is set in the first result after a DO_JUMP was
     counted (Navigator::publish_mission_result clears it after each publication); failure
-    stays false (the heading timeout, MIS_YAW_TMT, is off in PX4's defaults and not modelled);
-    execution_mode 0 (normal: CORNET flies no reverse missions)."""
+    is set when a forced heading timed out (MIS_YAW_TMT); execution_mode 0 (normal: CORNET
+    flies no reverse missions)."""
     mission = v.autopilot.navigator.mission
     check = mission.check
     ids = check.checked_ids
@@ -95,7 +95,7 @@ def _mission_result(v: Any, now_us: int) -> tuple | None:
     warning = count > 0 and v.home is not None and not valid
     return (ids[0] & 0xFFFFFFFF, ids[1] & 0xFFFFFFFF, check.home_counter, mission.progress.seq_reached,
             max(0, mission.current), count, index, remaining, valid, warning,
-            mission.finished, False, changed, 0)
+            mission.finished, mission.progress.failure, changed, 0)
 
 
 def _vehicle_roi(v: Any, now_us: int) -> tuple | None:

@@ -114,8 +114,8 @@ def _failsafe_flags(v: Any, now_us: int) -> tuple | None:
         return None
     invalid = not commander.position_valid  # the global position is the local one's (origin)
     return (invalid, invalid, not commander.mission_valid, flags.offboard_lost,
-            v.home is None, flags.manual_control_lost, flags.gcs_lost,
-            flags.battery_warning, flags.geofence_breached, flags.fd_critical_failure)
+            v.home is None, flags.manual_control_lost, flags.gcs_lost, flags.battery_warning,
+            flags.geofence_breached, flags.mission_failure, flags.fd_critical_failure)
 
 
 def _attitude_step(r: Sequence[float], t_us: int) -> Sequence[float]:
@@ -435,8 +435,8 @@ TOPICS: tuple[Topic, ...] = (
         "local_position_invalid", "global_position_invalid", "auto_mission_missing",
         "offboard_control_signal_lost", "home_position_invalid", "manual_control_signal_lost",
         "gcs_connection_lost")) + (("uint8_t", "battery_warning"), (B, "geofence_breached"),
-                                   (B, "fd_critical_failure")), 0.0, _failsafe_flags,
-          on_change=True),
+                                   (B, "mission_failure"), (B, "fd_critical_failure")), 0.0,
+          _failsafe_flags, on_change=True),
     SENSOR_BARO,
     VEHICLE_IMU_STATUS,
     Topic("vehicle_torque_setpoint", ((U64, "timestamp_sample"), ("float[3]", "xyz")), 0.02,

@@ -6,7 +6,10 @@
 - Takeoff (mission.cpp handleTakeoff): a multicopter's takeoff item, in the air, is a waypoint
   to its own position: a SETPOINT_TYPE_POSITION, not a loiter setpoint.
 - A waypoint or landing without autocontinue (MissionBase::on_active) is reported reached, and
-  the vehicle stays on it: the mission goes on only from a new current item."""
+  the vehicle stays on it: the mission goes on only from a new current item.
+- A forced heading not reached within MIS_YAW_TMT fails the mission
+  (Navigator::set_mission_failure_heading_timeout), and the failsafe returns (mission_failure:
+  RTL)."""
 
 import dataclasses
 import math
@@ -137,3 +140,23 @@ def test_a_landing_without_autocontinue_is_reached_but_does_not_finish_the_missi
     assert v.mission_progress[2] == count
     assert not any(t.startswith("Mission finished") for t in sim.texts())
     assert horizontal(v, 10.0, 0.0) < 1.0
+
+
+def test_a_forced_heading_not_reached_within_mis_yaw_tmt_fails_the_mission_and_returns():
+    """LOITER_TIME with param2 (heading required) and its yaw (param4) south, 5 m from a
+    vehicle facing north that turns at MPC_YAWRAUTO_MAX = 10 deg/s: it arrives long before its
+    heading, and MIS_YAW_TMT (1 s) runs out."""
+    sim = Sim(MIS_YAW_TMT=1.0, MPC_YAWRAUTO_MAX=10.0)
+    try:
+        sim.run(1.2)
+        o = sim.v.origin
+        v = fly(sim, [item(0, MavCmd.NAV_WAYPOINT, 0.0, 0.0, 5.0, o, p4=0.0),
+                      item(1, MavCmd.NAV_LOITER_TIME, 5.0, 0.0, 5.0, o, p1=5.0, p2=1.0,
+                           p4=180.0)])
+        assert sim.run(90.0, until=lambda: "unable to reach heading within timeout\t" in sim.texts())
+        assert v.mission_status.reached_seq == 0  # item 1 never reached
+        # the failsafe framework holds COM_FAIL_ACT_T (5 s) before its action
+        assert sim.run(7.0, until=lambda: v.status.nav_state is NavState.AUTO_RTL)
+        assert "Failsafe activated, entering Hold for 5 seconds\t" in sim.texts()
+    finally:
+        sim.close()

@@ -50,6 +50,7 @@ FLAG_FOR_CHECK = {
     "manual_control_signal_lost": dict(manual_control_lost=True),
     "position_lost": dict(position_invalid=True),
     "fd_critical_failure": dict(fd_critical_failure=True),
+    "mission_failure": dict(mission_failure=True, user_nav_state=NavState.AUTO_MISSION),
 }
 
 
