@@ -16,18 +16,13 @@ import math
 
 import pytest
 
+from tests.unit import test_vehicles_mission
 from tests.unit.test_vehicles_flight import Sim
 from tests.unit.test_vehicles_mission import item
 from vehicles.plan_types import MavCmd, MissionState, PlanType
 from vehicles.types import CommandResult, LandedState, NavState
 
-
-@pytest.fixture
-def sim():
-    s = Sim()
-    s.run(1.2)
-    yield s
-    s.close()
+sim = test_vehicles_mission.sim  # the fixture: one vehicle, settled 1.2 s
 
 
 def fly(sim, items):
