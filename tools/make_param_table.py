@@ -97,6 +97,15 @@ OVERRIDES = {
     "EKF2_REQ_GPS_H": "0.5",
     "HTE_HT_NOISE": "0.0036",  # hover_thrust_estimator_params.yaml
     "RTL_CONE_ANG": "45",  # rtl_params.yaml (PX4 1.15)
+    "MPC_POS_MODE": "4",  # mc_pos_control_params.c (PX4 1.15): acceleration based
+    "MPC_ALT_MODE": "2",  # mc_pos_control_params.c (PX4 1.15): terrain following
+}
+
+# Ranges (min, max) of current PX4 where the old table has another or none.
+RANGES = {
+    "MPC_POS_MODE": ("0", "4"),
+    # flight_mode_manager/tasks/Orbit/flight_task_orbit_params.c (v1.15)
+    "MC_ORBIT_RAD_MAX": ("1.0", "10000.0"),
 }
 
 # In current PX4 but not in the old metadata table: (type, default, unit, group, description).
@@ -143,6 +152,9 @@ ADDED = {
                         "RTL time estimate safety margin factor"),
     "RTL_TIME_MARGIN": ("INT32", "100", "s", "Return To Land",
                         "RTL time estimate safety margin offset"),
+    # flight_mode_manager/tasks/Orbit/flight_task_orbit_params.c (v1.15)
+    "MC_ORBIT_RAD_MAX": ("FLOAT", "1000.0", "m", "Multicopter Position Control",
+                         "Maximum radius of orbit"),
 }
 
 # In the old metadata table but gone from PX4 v1.15 (param_find fails, as a client's get does).
@@ -167,7 +179,9 @@ def main(src: str, dst: str) -> None:
         if name not in have:
             rows.append(dict(name=name, type=typ, default=default, min="", max="", unit=unit,
                              group=group, short_desc=desc))
-    missing = set(OVERRIDES) - {r["name"] for r in rows}
+    for row in rows:
+        row["min"], row["max"] = RANGES.get(row["name"], (row["min"], row["max"]))
+    missing = (set(OVERRIDES) | set(RANGES)) - {r["name"] for r in rows}
     if missing:
         raise SystemExit(f"overrides for unknown parameters: {sorted(missing)}")
     rows.sort(key=lambda r: r["name"])

@@ -98,7 +98,7 @@ class Autopilot:
         self.plans.on_change(self._plan_changed)
         self.offboard, self.failure_detector = Offboard(), FailureDetector()
         self.manual = ManualControl(params)
-        self.orbit_task = Orbit(params)
+        self.orbit_task = Orbit(params, self.log)
         self.follow_target = FollowTarget(params)
         self.land_detector = LandDetector(params)
         self.battery = BatterySim(params, airframe.hover_thrust_norm)
@@ -285,7 +285,8 @@ class Autopilot:
 
     @property
     def orbit_status(self) -> OrbitStatus | None:
-        if self.commander.nav_state is not NavState.ORBIT or not self.stage.flying:
+        if (self.commander.nav_state is not NavState.ORBIT or not self.stage.flying
+                or self.tasks.orbit.failed is not None):  # FlightTaskFailsafe: no orbit_status
             return None
         return self.orbit_task.status()
 

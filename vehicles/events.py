@@ -316,6 +316,8 @@ DOWN_VEL_SET = EventDef("mc_pos_ctrl_down_vel_set", "default",
                         "Descent speed has been constrained by max speed", _F32)
 HOVER_THRUST_SET = EventDef("mc_pos_ctrl_hover_thrust_set", "default",
                             "Hover thrust has been constrained by min/max thrust", _F32)
+# FlightTaskOrbit::applyCommandParameters: a DO_ORBIT radius beyond [1 m, MC_ORBIT_RAD_MAX]
+ORBIT_RADIUS_EXCEEDED = EventDef("orbit_radius_exceeded", "default", "Orbit radius limit exceeded")
 POSITION_PARAMS = (TILT_SET, LAND_TILT_SET, CRUISE_SET, MAN_VEL_SET, UP_VEL_SET, DOWN_VEL_SET,
                    HOVER_THRUST_SET)
 DEFINITIONS: tuple[EventDef, ...] = (
@@ -333,7 +335,8 @@ DEFINITIONS: tuple[EventDef, ...] = (
     RTL_COMPLETED_LOITER, RTL_UNSUPPORTED_FRAME, GF_INVALID_HOME, GF_INVALID_POSITION,
     TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, REPOSITION_OUTSIDE_FENCE,
     CHANGE_ALT_OUTSIDE_FENCE, COMMANDER_RTL, COMMANDER_LAND, MODE_NOT_AVAILABLE,
-    UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, *MISSION_FEASIBILITY, *POSITION_PARAMS)
+    UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, ORBIT_RADIUS_EXCEEDED, *MISSION_FEASIBILITY,
+    *POSITION_PARAMS)
 
 
 # navigation_mode_t (events/enums.json): mode_util::navigation_mode's value of each navigation

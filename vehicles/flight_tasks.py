@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
 
 from vehicles.auto_heading import AutoHeading
 from vehicles.auto_waypoints import AutoWaypoints
@@ -30,6 +29,7 @@ from vehicles.control.attitude_control import AttitudeSetpoint, thrust_to_attitu
 from vehicles.control.hover_thrust import HoverThrustEstimator
 from vehicles.control.position_control import REACTIVATE_VEL, PositionSetpoint
 from vehicles.control.takeoff import RAMPUP
+from vehicles.flight_task import FlightTask, TaskInput, reset_from
 from vehicles.follow_target import FollowTarget
 from vehicles.manual_control import (
     CENTRED,
@@ -41,53 +41,19 @@ from vehicles.manual_control import (
     acro_thrust,
     throttle_to_thrust,
 )
-from vehicles.navigator import NavContext, Navigator, NavSetpoint, auto_limits
+from vehicles.navigator import Navigator, NavSetpoint, auto_limits
 from vehicles.offboard import Offboard, acceleration_to_thrust
 from vehicles.orbit import Orbit
+from vehicles.orbit_task import OrbitTask
 from vehicles.params import ParamStore
 from vehicles.position_stage import PositionStage
-from vehicles.types import Measurement, NavState, Vec3
+from vehicles.types import NavState, Vec3
 
 # The offboard setpoint must ask for this much climb before a landed vehicle spools up.
 TAKEOFF_TRIGGER_M = 0.2
 # FlightTaskAuto::update: an auto task wants a takeoff when its unsmoothed velocity setpoint
 # climbs faster than this (NED, m/s).
 TAKEOFF_TRIGGER_VZ_MPS = -0.3
-_ZERO3: Vec3 = (0.0, 0.0, 0.0)
-
-
-def _finite_or(v: Vec3, fallback: Vec3) -> Vec3:
-    """``v`` with each component that is not finite taken from ``fallback``."""
-    return (v[0] if math.isfinite(v[0]) else fallback[0],
-            v[1] if math.isfinite(v[1]) else fallback[1],
-            v[2] if math.isfinite(v[2]) else fallback[2])
-
-
-class TaskInput(NamedTuple):
-    """One 50 Hz tick, as every task sees it (a NamedTuple, as Measurement: built every tick)."""
-
-    now_s: float
-    dt_s: float
-    meas: Measurement
-    yaw_rad: float
-    armed: bool
-    terminated: bool
-    nav_state: NavState
-    nav: NavContext  # the navigator's view (the auto task)
-
-
-class FlightTask:
-    uses_navigator = False
-
-    def __init__(self, stage: PositionStage, params: ParamStore) -> None:
-        self.stage = stage
-        self.params = params
-
-    def activate(self, t: TaskInput) -> None:
-        """The state was just entered."""
-
-    def update(self, t: TaskInput) -> None:
-        raise NotImplementedError
 
 
 class AutoTask(FlightTask):
@@ -123,14 +89,8 @@ class AutoTask(FlightTask):
         # not finite from the vehicle's position and velocity and a zero acceleration; the
         # heading slews on from its yaw setpoint, else from the vehicle's (_yaw_sp_prev).
         last = st.task_setpoint
-        if last is None:
-            st.trajectory.reset(meas.position_ned_m, meas.velocity_ned_mps)
-            st.yaw_sp = t.yaw_rad
-            return
-        st.trajectory.reset(_finite_or(last.position_ned_m, meas.position_ned_m),
-                            _finite_or(last.velocity_ned_mps, meas.velocity_ned_mps),
-                            _finite_or(last.acceleration_ned_mps2, _ZERO3))
-        st.yaw_sp = last.yaw_rad if math.isfinite(last.yaw_rad) else t.yaw_rad
+        reset_from(st.trajectory, last, meas.position_ned_m, meas.velocity_ned_mps)
+        st.yaw_sp = t.yaw_rad if last is None or not math.isfinite(last.yaw_rad) else last.yaw_rad
 
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
@@ -339,42 +299,6 @@ class FollowTask(FlightTask):
                                                 feedforward_ned_mps=ff)
         st.apply(t.dt_s, t.meas, PositionSetpoint(p_sp, v_sp, self.follow.yaw_sp, a_sp),
                  t.yaw_rad)
-
-
-class OrbitTask(FlightTask):
-    """Orbit (orbit.py): on the circle its setpoints go straight to position control; the
-    approach to the circle goes through the smoothed trajectory (auto_trajectory.py). DO_ORBIT's
-    parameters are taken at the next tick."""
-
-    def __init__(self, stage: PositionStage, params: ParamStore, orbit: Orbit,
-                 manual: ManualControl) -> None:
-        super().__init__(stage, params)
-        self.orbit = orbit
-        self.manual = manual
-        self.pending: tuple[float, float, float, tuple[float, float] | None, float] | None = None
-
-    def activate(self, t: TaskInput) -> None:
-        self.orbit.activate(t.meas.position_ned_m, t.meas.velocity_ned_mps, t.yaw_rad)
-
-    def update(self, t: TaskInput) -> None:
-        st, orbit = self.stage, self.orbit
-        pos, vel = t.meas.position_ned_m, t.meas.velocity_ned_mps
-        if self.pending is not None:
-            orbit.command(pos, t.yaw_rad, *self.pending)
-            self.pending = None
-        if not st.take_off_or_idle(t.meas, t.armed):
-            return
-        home = t.nav.home
-        sp = orbit.update(t.dt_s, self.manual.current(t.now_s), pos, vel, t.yaw_rad, st.vel_sp,
-                          st.task_setpoint,
-                          home.position_ned_m[2] if home is not None else math.nan)
-        if sp is None:
-            p_sp, v_sp, a_sp = st.trajectory.update(t.dt_s, orbit.approach_target(pos),
-                                                    auto_limits(self.params), 0.0, pos[2])
-            sp = PositionSetpoint(p_sp, v_sp, orbit.yaw_setpoint, a_sp)
-        else:
-            st.trajectory.reset(pos, vel)
-        st.apply(t.dt_s, t.meas, sp, t.yaw_rad, orbit.yawspeed)
 
 
 class StickPositionTask(FlightTask):

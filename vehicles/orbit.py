@@ -1,22 +1,33 @@
 """Orbit: circle a point (MAV_CMD_DO_ORBIT from MAVSDK ``do_orbit`` or QGC's "Orbit at
-location"), after PX4 ``flight_mode_manager/tasks/Orbit/FlightTaskOrbit.cpp``.
+location"), after PX4 v1.15 ``flight_mode_manager/tasks/Orbit/FlightTaskOrbit.cpp`` and the
+FlightModeManager that runs it.
 
 Rules:
-- Entering the mode starts a 1 m circle at 1 m/s around the present position; a DO_ORBIT then
-  sets radius (sign: + clockwise seen from above, − counter-clockwise), tangential speed, yaw
-  behaviour, centre and altitude, each only when given (NaN keeps the present value).
-- Radius within [RADIUS_MIN, RADIUS_MAX], speed within ±VELOCITY_MAX and the centripetal
-  acceleration v²/r below ACCELERATION_MAX: the speed gives way first (PX4's constants).
-- Off the circle (more than 1 m from it, or more than NAV_MC_ALT_RAD from its altitude) the
-  vehicle first flies to the nearest point of the circle at cruise speed, nose to the centre
-  (``approach_target``, smoothed by auto_trajectory.py); on the circle it flies
-  the tangential velocity plus a radial correction, with the centripetal acceleration fed
-  forward.
+- Entering the mode (a new task, ``activate``) starts a 1 m circle at 1 m/s around the present
+  position, nose to the centre, and an approach (``approaching``) from the last task's setpoint;
+  a DO_ORBIT then sets radius (sign: + clockwise seen from above, − counter-clockwise), speed,
+  yaw behaviour, centre and altitude, each only when given (NaN keeps the present value).
+- A radius outside [RADIUS_MIN, MC_ORBIT_RAD_MAX] is refused ("Orbit radius limit exceeded"
+  and its event; the command's other fields still apply): ``command`` returns False, and
+  FlightModeManager then holds where the vehicle is (FlightTaskFailsafe's one setpoint) until a
+  new DO_ORBIT or another mode. The mode switch itself was accepted.
+- Speed within ±VELOCITY_MAX and the centripetal acceleration v²/r below ACCELERATION_MAX: the
+  speed gives way (``sanitize``, each tick, as the sticks trim them).
+- On the circle: within ACCEPTANCE_XY_M of the radius and NAV_MC_ALT_RAD of the centre's
+  altitude. The approach (to the nearest point of the circle at cruise speed, nose to the
+  centre; flown by the task through PX4's position smoothing) ends once on it, and starts
+  again only with a DO_ORBIT that finds the vehicle off the circle: a vehicle that drifts or
+  whose altitude the stick moves keeps circling with the radial correction.
+- Circling: the tangential velocity plus a radial correction, the centripetal acceleration fed
+  forward; the altitude from the throttle stick (FlightTaskManualAltitudeSmoothVel), which does
+  not move the centre: ORBIT_EXECUTION_STATUS reports the position setpoint's altitude.
+- Sticks are optional; when given, pitch trims the radius (MPC_XY_CRUISE m/s at full
+  deflection) and roll the speed (MPC_ACC_HOR m/s²); nose along the tangent, roll the radius
+  and pitch the speed, signed by the direction the orbit started in.
 - Yaw (ORBIT_YAW_BEHAVIOUR): 0 nose to the centre (default), 1 the heading at the command,
-  2 uncontrolled, 3 nose along the tangent, 4 from the yaw stick; slewed at MPC_YAWRAUTO_MAX.
-- The altitude follows the throttle stick when there is one (FlightTaskManualAltitude); the
-  pitch stick trims the radius (RADIUS_MAX / 8 per second at full deflection) and the roll
-  stick the speed (VELOCITY_MAX / 4 per second); sticks are optional in this mode.
+  2 uncontrolled, 3 nose along the tangent, 4 from the yaw stick; slewed at MPC_YAWRAUTO_MAX
+  (SlewRateYaw). Uncontrolled makes the slew's value NaN, and it stays NaN (the heading
+  uncontrolled) for this task whatever behaviour a later DO_ORBIT asks, as in PX4.
 - Pure: time and dt are arguments.
 """
 
@@ -26,14 +37,16 @@ import math
 from dataclasses import dataclass
 
 from vehicles.control.position_control import PositionSetpoint
+from vehicles.events import ORBIT_RADIUS_EXCEEDED, Log
 from vehicles.manual_control import ManualAltitude, Sticks, expo_deadzone
+from vehicles.status_log import StatusLog
 from vehicles.types import Vec3
 
+# FlightTaskOrbit's constants
 RADIUS_MIN = 1.0
-RADIUS_MAX = 100.0
 VELOCITY_MAX = 10.0
 ACCELERATION_MAX = 2.0
-ACCEPTANCE_XY_M = 1.0
+ACCEPTANCE_XY_M = 2.0  # _horizontal_acceptance_radius
 
 YAW_FRONT_TO_CENTER = 0
 YAW_HOLD_INITIAL_HEADING = 1
@@ -45,15 +58,17 @@ YAW_RC_CONTROLLED = 4
 @dataclass(frozen=True)
 class OrbitStatus:
     """ORBIT_EXECUTION_STATUS: signed radius (m), centre (local NED north, east), altitude
-    setpoint (local NED down)."""
+    setpoint (local NED down; NaN while the altitude is velocity-controlled)."""
 
     radius_m: float
     center_ne_m: tuple[float, float]
     down_m: float
 
 
-def sanitize(radius: float, velocity: float) -> tuple[float, float]:
-    radius = min(max(radius, RADIUS_MIN), RADIUS_MAX)
+def sanitize(radius: float, velocity: float, radius_max: float) -> tuple[float, float]:
+    """FlightTaskOrbit::_sanitizeParams: the radius clipped to [RADIUS_MIN, ``radius_max``]
+    (MC_ORBIT_RAD_MAX), then the speed lowered, not the radius, until v²/r < 2 m/s²."""
+    radius = min(max(radius, RADIUS_MIN), radius_max)
     velocity = min(max(velocity, -VELOCITY_MAX), VELOCITY_MAX)
     if velocity * velocity >= ACCELERATION_MAX * radius:
         velocity = math.copysign(math.sqrt(ACCELERATION_MAX * radius), velocity)
@@ -61,30 +76,45 @@ def sanitize(radius: float, velocity: float) -> tuple[float, float]:
 
 
 class Orbit:
-    def __init__(self, params) -> None:
+    def __init__(self, params, log: StatusLog | None = None) -> None:
         self.params = params
+        self.log = log
         self._altitude = ManualAltitude(params)
         self.radius = RADIUS_MIN
         self.velocity = 1.0  # signed: + clockwise
+        self.started_clockwise = True
         self.center: Vec3 = (0.0, 0.0, 0.0)
         self.yaw_behaviour = YAW_FRONT_TO_CENTER
         self._initial_heading = 0.0
         self._yaw_sp = math.nan
-        self.approaching = False
+        self.approaching = False  # _in_circle_approach
         self.yawspeed = 0.0
+        self.down_sp = math.nan  # the altitude setpoint last flown (status)
 
-    def activate(self, pos: Vec3, vel: Vec3, yaw: float) -> None:
-        self._altitude.activate(pos, vel, yaw)
-        self.radius, self.velocity = sanitize(RADIUS_MIN, 1.0)
+    def activate(self, pos: Vec3, vel: Vec3, yaw: float,
+                 last: PositionSetpoint | None = None) -> None:
+        """A new task (FlightModeManager::switchTask): FlightTaskOrbit::activate from the last
+        task's setpoint ``last`` (None: PX4's empty one). The task resets its approach's
+        smoothing from the same setpoint."""
+        self._altitude.activate(pos, vel, yaw, last)
+        self.radius, self.velocity = RADIUS_MIN, 1.0
+        self.started_clockwise = True
+        self.yaw_behaviour = YAW_FRONT_TO_CENTER
         self.center = pos
         self._initial_heading = yaw
-        self._yaw_sp = yaw
-        self.approaching = False
+        self._yaw_sp = yaw  # _slew_rate_yaw.setForcedValue(_yaw)
+        self.approaching = True
         self.yawspeed = 0.0
+        self.down_sp = pos[2]
 
-    def command(self, pos: Vec3, yaw: float, radius: float, velocity: float, yaw_behaviour: float,
-                center_ne: tuple[float, float] | None, center_down: float) -> None:
-        """applyCommandParameters: NaN (or None) keeps what is set."""
+    def command(self, now_s: float, pos: Vec3, yaw: float, radius: float, velocity: float,
+                yaw_behaviour: float, center_ne: tuple[float, float] | None,
+                center_down: float) -> bool:
+        """applyCommandParameters: NaN (or None) keeps what is set. False: the radius is out
+        of range (said once, the circle left as it was). ``approaching`` turns True when the
+        vehicle is off the new circle and was not approaching: the task then restarts its
+        smoothing from its setpoints."""
+        success = True
         clockwise = self.velocity > 0.0
         new_radius, speed = self.radius, abs(self.velocity)
         if math.isfinite(radius):
@@ -92,7 +122,16 @@ class Orbit:
             new_radius = abs(radius)
         if math.isfinite(velocity):
             speed = velocity
-        self.radius, self.velocity = sanitize(new_radius, speed if clockwise else -speed)
+        radius_max = float(self.params["MC_ORBIT_RAD_MAX"])
+        if RADIUS_MIN <= new_radius <= radius_max:
+            self.started_clockwise = clockwise
+            self.radius, self.velocity = sanitize(new_radius, speed if clockwise else -speed,
+                                                  radius_max)
+        else:
+            success = False
+            if self.log is not None:
+                self.log.critical(now_s, "Orbit radius limit exceeded\t")
+                self.log.event(now_s, ORBIT_RADIUS_EXCEEDED, Log.ALERT)
         if math.isfinite(yaw_behaviour):
             self.yaw_behaviour = int(yaw_behaviour)
         self._initial_heading = yaw
@@ -102,7 +141,9 @@ class Orbit:
         if math.isfinite(center_down):
             d = center_down
         self.center = (n, e, d)
-        self.approaching = not self.on_circle(pos)
+        if not self.on_circle(pos) and not self.approaching:
+            self.approaching = True
+        return success
 
     def on_circle(self, pos: Vec3) -> bool:
         dist = math.hypot(pos[0] - self.center[0], pos[1] - self.center[1])
@@ -116,35 +157,42 @@ class Orbit:
         k = (dist - self.radius) / dist if dist > 1e-6 else 0.0
         return (pos[0] + dn * k, pos[1] + de * k, self.center[2])
 
+    def _trim(self, dt: float, sticks: Sticks) -> None:
+        """_adjustParametersByStick, every tick: the sticks' expo'd deflection moves radius and
+        speed, which are then sanitized."""
+        p = self.params
+        dz = float(p["MPC_HOLD_DZ"])
+        e = float(p["MPC_XY_MAN_EXPO"])
+        pitch = expo_deadzone(sticks.pitch, e, dz)
+        roll = expo_deadzone(sticks.roll, e, dz)
+        cruise, acc = float(p["MPC_XY_CRUISE"]), float(p["MPC_ACC_HOR"])
+        radius, velocity = self.radius, self.velocity
+        if self.yaw_behaviour == YAW_FRONT_TANGENT:
+            sign = 1.0 if self.started_clockwise else -1.0
+            radius -= sign * roll * dt * cruise
+            velocity += sign * pitch * dt * acc
+        else:
+            radius -= pitch * dt * cruise
+            velocity -= roll * dt * acc
+        self.radius, self.velocity = sanitize(radius, velocity, float(p["MC_ORBIT_RAD_MAX"]))
+
     def update(self, dt: float, sticks: Sticks, pos: Vec3, vel: Vec3, yaw: float,
                vel_sp_feedback: Vec3, last: PositionSetpoint | None = None,
                home_z: float = math.nan) -> PositionSetpoint | None:
         """Setpoints on the circle, or None while approaching it (then fly ``approach_target``
         with nose to the centre: ``yaw_setpoint``). ``last``: the task's last setpoint (the
         approach's when it reaches the circle); ``home_z``: the home's altitude, if any."""
-        p = self.params
-        # Sticks trim the circle: pitch the radius, roll the speed (FlightTaskOrbit::update).
-        dz = float(p["MPC_HOLD_DZ"])
-        e = float(p["MPC_XY_MAN_EXPO"])
-        trim_r = expo_deadzone(sticks.pitch, e, dz)
-        trim_v = expo_deadzone(sticks.roll, e, dz)
-        if trim_r or trim_v:
-            self.radius, self.velocity = sanitize(
-                self.radius - trim_r * dt * (RADIUS_MAX / 8.0),
-                self.velocity - trim_v * dt * (VELOCITY_MAX / 4.0))
-        dn, de = pos[0] - self.center[0], pos[1] - self.center[1]
-        if self.on_circle(pos):
-            if self.approaching:
-                # FlightTaskOrbit::update: on reaching the circle the altitude's smoothing
-                # restarts from the approach's last setpoint (``last``)
-                self._altitude.reset_smoothing(pos, vel, last)
+        self._trim(dt, sticks)
+        if self.approaching and self.on_circle(pos):
+            # FlightTaskOrbit::update: on reaching the circle the altitude's smoothing restarts
+            # from the approach's last setpoint (``last``)
             self.approaching = False
-        elif not self.approaching:
-            self.approaching = True
+            self._altitude.reset_smoothing(pos, vel, last)
         self.yawspeed = 0.0
-        step = math.radians(float(p["MPC_YAWRAUTO_MAX"])) * dt
+        step = math.radians(float(self.params["MPC_YAWRAUTO_MAX"])) * dt
+        dn, de = pos[0] - self.center[0], pos[1] - self.center[1]
         if self.approaching:
-            self._slew(math.atan2(-de, -dn), step, yaw)
+            self._slew(math.atan2(-de, -dn), step)
             return None
         # FlightTaskManualAltitudeSmoothVel::update, on the circle only
         alt = self._altitude.update(dt, sticks, pos, vel, yaw, vel_sp_feedback, home_z)
@@ -154,31 +202,28 @@ class Orbit:
         vn = -ue * v + (self.radius - dist) * un
         ve = un * v + (self.radius - dist) * ue
         a = v * v / self.radius
-        target_yaw = math.nan
-        if self.yaw_behaviour == YAW_HOLD_INITIAL_HEADING:
+        behaviour = self.yaw_behaviour
+        if behaviour == YAW_HOLD_INITIAL_HEADING:
             target_yaw = self._initial_heading
-        elif self.yaw_behaviour == YAW_FRONT_TANGENT:
-            target_yaw = math.atan2(math.copysign(1.0, v) * dn, -math.copysign(1.0, v) * de)
+        elif behaviour == YAW_UNCONTROLLED:
+            target_yaw = math.nan
+        elif behaviour == YAW_FRONT_TANGENT:
+            sign = 1.0 if self.started_clockwise else -1.0
+            target_yaw = math.atan2(sign * dn, -sign * de)
             self.yawspeed = v / self.radius
-        elif self.yaw_behaviour == YAW_RC_CONTROLLED:
+        elif behaviour == YAW_RC_CONTROLLED:  # the altitude task's
             target_yaw = alt.yaw_rad
             self.yawspeed = self._altitude.yawspeed
-        elif self.yaw_behaviour != YAW_UNCONTROLLED:
+        else:
             target_yaw = math.atan2(-de, -dn)
             self.yawspeed = v / self.radius
-        if math.isnan(target_yaw):
-            self._yaw_sp = yaw
-        else:
-            self._slew(target_yaw, step, yaw)
-        down = alt.position_ned_m[2]
-        if not math.isnan(down):
-            self.center = (self.center[0], self.center[1], down)
+        self._slew(target_yaw, step)
+        down = self.down_sp = alt.position_ned_m[2]
         return PositionSetpoint((math.nan, math.nan, down), (vn, ve, alt.velocity_ned_mps[2]),
                                 self._yaw_sp, (-un * a, -ue * a, alt.acceleration_ned_mps2[2]))
 
-    def _slew(self, target: float, step: float, yaw: float) -> None:
-        if math.isnan(self._yaw_sp):
-            self._yaw_sp = yaw
+    def _slew(self, target: float, step: float) -> None:
+        """SlewRateYaw::update: a NaN target makes the value NaN, for good."""
         err = math.remainder(target - self._yaw_sp, math.tau)
         self._yaw_sp = math.remainder(self._yaw_sp + min(max(err, -step), step), math.tau)
 
@@ -188,4 +233,4 @@ class Orbit:
 
     def status(self) -> OrbitStatus:
         return OrbitStatus(math.copysign(self.radius, self.velocity),
-                           (self.center[0], self.center[1]), self.center[2])
+                           (self.center[0], self.center[1]), self.down_sp)

@@ -1,0 +1,64 @@
+"""What every flight task (flight_tasks.py) is and gets: ``FlightTask``, the tick's
+``TaskInput``, and the hand-over of the last task's setpoint to a trajectory (``reset_from``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from vehicles.auto_trajectory import AutoTrajectory
+from vehicles.control.position_control import PositionSetpoint
+from vehicles.navigator import NavContext
+from vehicles.params import ParamStore
+from vehicles.position_stage import PositionStage
+from vehicles.types import Measurement, NavState, Vec3
+
+ZERO3: Vec3 = (0.0, 0.0, 0.0)
+
+
+def finite_or(v: Vec3, fallback: Vec3) -> Vec3:
+    """``v`` with each component that is not finite taken from ``fallback``."""
+    return (v[0] if math.isfinite(v[0]) else fallback[0],
+            v[1] if math.isfinite(v[1]) else fallback[1],
+            v[2] if math.isfinite(v[2]) else fallback[2])
+
+
+def reset_from(trajectory: AutoTrajectory, last: PositionSetpoint | None, pos: Vec3,
+               vel: Vec3) -> None:
+    """The smoothing restarts from the trajectory setpoint the last task published
+    (FlightModeManager::switchTask hands it over; None: PX4's empty one, where no task ran),
+    each component that is not finite from the vehicle's position and velocity and a zero
+    acceleration (FlightTaskAuto::activate, FlightTaskOrbit::activate)."""
+    if last is None:
+        trajectory.reset(pos, vel)
+    else:
+        trajectory.reset(finite_or(last.position_ned_m, pos), finite_or(last.velocity_ned_mps, vel),
+                         finite_or(last.acceleration_ned_mps2, ZERO3))
+
+
+class TaskInput(NamedTuple):
+    """One 50 Hz tick, as every task sees it (a NamedTuple, as Measurement: built every tick)."""
+
+    now_s: float
+    dt_s: float
+    meas: Measurement
+    yaw_rad: float
+    armed: bool
+    terminated: bool
+    nav_state: NavState
+    nav: NavContext  # the navigator's view (the auto task)
+
+
+class FlightTask:
+    uses_navigator = False
+
+    def __init__(self, stage: PositionStage, params: ParamStore) -> None:
+        self.stage = stage
+        self.params = params
+
+    def activate(self, t: TaskInput) -> None:
+        """The state was just entered."""
+
+    def update(self, t: TaskInput) -> None:
+        raise NotImplementedError
