@@ -41,7 +41,7 @@ from vehicles.manual_control import (
     acro_thrust,
     throttle_to_thrust,
 )
-from vehicles.navigator import Navigator, NavSetpoint, auto_limits
+from vehicles.navigator import Navigator, NavSetpoint
 from vehicles.offboard import Offboard, acceleration_to_thrust
 from vehicles.orbit import Orbit
 from vehicles.orbit_task import OrbitTask
@@ -269,36 +269,31 @@ class DescendTask(FlightTask):
 
 
 class FollowTask(FlightTask):
-    """Follow Me (follow_target.py) through the smoothed trajectory (auto_trajectory.py), the
-    target's velocity fed forward; without a target it brakes and holds."""
+    """Follow Me (follow_target.py): its setpoints straight to position control, as PX4's
+    FlightTaskAutoFollowTarget publishes them (no smoothing); the sticks trim it while there is
+    stick input."""
 
-    def __init__(self, stage: PositionStage, params: ParamStore, follow: FollowTarget) -> None:
+    def __init__(self, stage: PositionStage, params: ParamStore, follow: FollowTarget,
+                 manual: ManualControl) -> None:
         super().__init__(stage, params)
         self.follow = follow
-        self._hold: Vec3 | None = None
+        self.manual = manual
 
     def activate(self, t: TaskInput) -> None:
-        self.follow.activate(t.meas.position_ned_m, t.yaw_rad)
-        self._hold = None
+        home = t.nav.home
+        self.follow.activate(t.meas.position_ned_m, t.yaw_rad, self.stage.task_setpoint,
+                             home.position_ned_m[2] if home is not None else math.nan)
 
     def update(self, t: TaskInput) -> None:
-        st, pos = self.stage, t.meas.position_ned_m
-        if not st.take_off_or_idle(t.meas, t.armed):
+        st, meas = self.stage, t.meas
+        st.trajectory.reset(meas.position_ned_m, meas.velocity_ned_mps)
+        if not st.take_off_or_idle(meas, t.armed):
             return
-        sp = self.follow.update(t.now_s, t.dt_s, pos, t.yaw_rad)
-        limits = auto_limits(self.params, speed_xy_mps=float(self.params["MPC_XY_VEL_MAX"]))
-        if sp is None:
-            if self._hold is None:
-                self._hold = st.trajectory.stopping_point(limits)
-            target = self._hold
-        else:
-            self._hold = None
-            target = sp.position_ned_m
-        ff = sp.velocity_ned_mps if sp is not None else None
-        p_sp, v_sp, a_sp = st.trajectory.update(t.dt_s, target, limits, 0.0, pos[2], pos,
-                                                feedforward_ned_mps=ff)
-        st.apply(t.dt_s, t.meas, PositionSetpoint(p_sp, v_sp, self.follow.yaw_sp, a_sp),
-                 t.yaw_rad)
+        manual = self.manual
+        sticks = (manual.current(t.now_s)
+                  if manual.fresh(t.now_s, float(self.params["COM_RC_LOSS_T"])) else None)
+        sp = self.follow.update(t.now_s, t.dt_s, meas.position_ned_m, sticks)
+        st.apply(t.dt_s, meas, sp, t.yaw_rad)
 
 
 class StickPositionTask(FlightTask):
@@ -412,7 +407,7 @@ def make_tasks(stage: PositionStage, params: ParamStore, navigator: Navigator,
         NavState.OFFBOARD: OffboardTask(stage, params, offboard),
         NavState.TERMINATION: TerminationTask(stage, params),
         NavState.DESCEND: DescendTask(stage, params),
-        NavState.AUTO_FOLLOW_TARGET: FollowTask(stage, params, follow),
+        NavState.AUTO_FOLLOW_TARGET: FollowTask(stage, params, follow, manual),
         NavState.ORBIT: orbit_task,
     }
     for state in NavState:  # the rest are the navigator's (Navigator.update: Hold if it has none)

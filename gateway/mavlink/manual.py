@@ -4,7 +4,7 @@ Follow Me (MAVSDK follow_me, QGC's Follow Me with the GCS's position).
 
 Source: PX4 ``mavlink_receiver.cpp`` handle_message_manual_control, handle_message_follow_target
 (no target field: every FOLLOW_TARGET on the link counts; lat/lon 1e7 deg, alt AMSL m, vel NED;
-a report with a non-finite position or velocity is ignored).
+passed on as PX4 publishes it: the vehicle's target estimator fuses only what is finite).
 Rules:
 - Taken for ``target`` 0 or this system; other targets are counted and ignored.
 - x → pitch, y → roll, r → yaw, each /1000 when within [-1000, 1000]; z (throttle) is
@@ -18,7 +18,6 @@ Rules:
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from gateway.mavlink.link import LinkContext
@@ -59,8 +58,6 @@ class ManualControlService:
         hook = getattr(self.vehicle, "set_follow_target", None)
         if hook is None:
             return
-        vel = tuple(float(v) for v in msg.vel[:3])
-        alt = float(msg.alt)
-        if not (math.isfinite(alt) and all(math.isfinite(v) for v in vel)):
-            return
-        hook(now_s, msg.lat * 1e-7, msg.lon * 1e-7, alt, vel)
+        # as PX4 publishes it: the target's estimator fuses only what is finite
+        hook(now_s, msg.lat * 1e-7, msg.lon * 1e-7, float(msg.alt),
+             tuple(float(v) for v in msg.vel[:3]))
