@@ -179,6 +179,7 @@ class Commander:
         self.health_failures: tuple[str, ...] = ()
         # failure_detector.py's verdict: failureDetectorCheck.cpp denies arming in every mode
         self.attitude_failure = False
+        self.mission_failure = False  # missionCheck.cpp: no mode can arm
         self._reject_said_s = -math.inf  # printRejectMode's last text
 
     def _update_params(self) -> None:
@@ -191,16 +192,18 @@ class Commander:
     def set_health(self, results: Results) -> None:
         """health_checks.HealthChecks' ``on_results``."""
         self.health_failures = results.preflight_texts
+        self.mission_failure = bool(results.report_texts)  # missionCheck.cpp's (its only text)
 
     # --- queries ------------------------------------------------------------------------------
     def prearm_ok(self) -> bool:
         """Arming possible in the current mode (HealthAndArmingChecks canArm(nav_state)): the
         mode allows arming and what it requires is there (mode_requirements.cpp): a position
         estimate for the modes that fly one (Stabilized, Acro, Manual and Altitude arm without
-        it), a mission, an offboard signal, stick input."""
+        it), a mission, an offboard signal, stick input; no failed mission (missionCheck)."""
         spec = MODE_TABLE[self.nav_state]
         return (int(self._params["COM_ARMABLE"]) == 1 and not self.terminated
                 and spec.arming_allowed and not self.health_failures and not self.attitude_failure
+                and not self.mission_failure
                 and (self.position_valid or not spec.needs_position)
                 and (self.mission_valid or not spec.needs_mission)
                 and (self.offboard_available or not spec.needs_offboard)

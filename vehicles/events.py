@@ -143,6 +143,8 @@ CHECK_LOCAL_POS = _check("check_modes_local_pos", "No valid local position estim
 CHECK_GLOBAL_POS = _check("check_modes_global_pos", "No valid global position estimate")
 CHECK_MISSION = _check("check_modes_mission", "No valid mission available",
                        "Upload a mission first.")
+# missionCheck.cpp: the navigator's mission_result.failure (it sends the reason itself)
+CHECK_MISSION_FAILURE = _check("check_mission_failure", "Mission cannot be completed")
 CHECK_OFFBOARD = _check("check_modes_offboard_signal", "No offboard signal",
                         "The offboard component is not sending setpoints or the required "
                         "estimate (e.g. position) is missing.")
@@ -324,7 +326,7 @@ DEFINITIONS: tuple[EventDef, ...] = (
     ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARM_DENIED_CALIBRATING,
     ARMING_SUMMARY,
     HEALTH_SUMMARY,
-    CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_OFFBOARD, CHECK_HOME,
+    CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_MISSION_FAILURE, CHECK_OFFBOARD, CHECK_HOME,
     CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF, CHECK_ACCEL_NO_DATA, CHECK_BARO_NO_DATA,
     CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA, CHECK_FD_ROLL, CHECK_FD_PITCH,
     FAILSAFE_GENERIC_HOLD, FAILSAFE_HOLD, FAILSAFE_GENERIC_WARN, FAILSAFE_GENERIC, FAILSAFE_LOW_BAT,

@@ -14,6 +14,9 @@ Rules:
   instance, 0; the barometer and the magnetometer only with SYS_HAS_BARO / SYS_HAS_MAG. A stuck
   sensor still publishes: no check fails. On an arming request each failing one says its
   "Preflight Fail: …" text (``preflight_texts``).
+- The failure detector's attitude check, then missionCheck.cpp's: the navigator's mission
+  failure (mission_result.failure, a forced heading that timed out) is an error of every mode
+  ("Mission cannot be completed"; each report also says it as a text, Report's legacy run).
 - Then modeCheck.cpp's checks, in its order: mode not suitable for arming (disarmed only), local
   position, global position, mission (every mode with COM_ARM_MIS_REQ), offboard signal, home
   position, manual control (a Warning affecting no mode unless COM_RC_IN_MODE is 4, when it is
@@ -48,12 +51,14 @@ from vehicles.events import (
     CHECK_MAG_NO_DATA,
     CHECK_MANUAL_CONTROL,
     CHECK_MISSION,
+    CHECK_MISSION_FAILURE,
     CHECK_OFFBOARD,
     HEALTH_SUMMARY,
     EventDef,
     EventLog,
     Log,
 )
+from vehicles.status_log import StatusLog
 from vehicles.types import NavState
 
 UPDATE_PERIOD_S = 0.1
@@ -136,6 +141,7 @@ class CheckInputs:
     required_sensors: int = SENSORS_OFF  # the F_*_OFF bits checked (SYS_HAS_BARO, SYS_HAS_MAG)
     sensors_no_data: int = 0  # the F_*_OFF bits off for SENSOR_TIMEOUT_S (HealthChecks.update)
     attitude_failure: int = 0  # failure_detector.py: 1 roll, 2 pitch
+    mission_failure: bool = False  # the navigator's mission_result.failure
 
 
 def inputs_of(autopilot: Any, params: Any, sensor_failures: int) -> CheckInputs:
@@ -151,7 +157,8 @@ def inputs_of(autopilot: Any, params: Any, sensor_failures: int) -> CheckInputs:
                        c.mission_valid, c.offboard_available, autopilot.home is not None,
                        int(params.get("COM_RC_IN_MODE", 0) or 0),
                        bool(params.get("COM_ARM_MIS_REQ", 0)), sensor_failures, required,
-                       attitude_failure=(1 if fd.roll else 0) | (2 if fd.pitch else 0))
+                       attitude_failure=(1 if fd.roll else 0) | (2 if fd.pitch else 0),
+                       mission_failure=autopilot.navigator.mission.progress.failure)
 
 
 @dataclass(frozen=True)
@@ -166,6 +173,7 @@ class Results:
     # (event, level, modes, component index, sensor instance or None)
     checks: tuple[tuple[EventDef, Log, int, int, int | None], ...]
     preflight_texts: tuple[str, ...] = ()  # what an arming request says of the health failures
+    report_texts: tuple[str, ...] = ()  # the legacy texts each report sends (mavlink_log_critical)
 
     def can_arm_in(self, nav_state: NavState) -> bool:
         return bool(self.can_arm & (1 << int(nav_state)))
@@ -193,6 +201,13 @@ def evaluate(i: CheckInputs) -> Results:
             can_arm = 0
             checks.append((event, Log.ERROR, ALL_MODES, component, 0))
             texts.append(text)
+    if i.attitude_failure:  # failureDetectorCheck.cpp: roll first, else pitch
+        failure(CHECK_FD_ROLL if i.attitude_failure & 1 else CHECK_FD_PITCH, Log.CRITICAL,
+                ALL_MODES, SYSTEM)
+    report_texts: tuple[str, ...] = ()
+    if i.mission_failure:  # missionCheck.cpp, before modeCheck.cpp's
+        failure(CHECK_MISSION_FAILURE, Log.ERROR, ALL_MODES, SYSTEM)
+        report_texts = ("Mission cannot be completed\t",)
     if not i.armed and REQ_PREVENT_ARMING & (1 << int(i.nav_state)):
         failure(CHECK_CANNOT_TAKEOFF, Log.INFO, REQ_PREVENT_ARMING, SYSTEM)
     if not i.position_valid:
@@ -216,21 +231,21 @@ def evaluate(i: CheckInputs) -> Results:
                 REQ_MANUAL_CONTROL if disabled else 0, REMOTE_CONTROL)
         can_arm &= ~REQ_MANUAL_CONTROL
         can_run &= ~REQ_MANUAL_CONTROL
-    if i.attitude_failure:  # failureDetectorCheck.cpp: roll first, else pitch
-        failure(CHECK_FD_ROLL if i.attitude_failure & 1 else CHECK_FD_PITCH, Log.CRITICAL,
-                ALL_MODES, SYSTEM)
     if i.sensor_failures & F_GPS_OFF:
         health_error |= 1 << INDEX["gps"]
     return Results(can_arm, can_run, error, warning, PRESENT, health_error, 0, tuple(checks),
-                   tuple(texts))
+                   tuple(texts), report_texts)
 
 
 class HealthChecks:
     """Commander's HealthAndArmingChecks and its Report (module rules)."""
 
     def __init__(self, events: EventLog,
-                 on_results: Callable[[Results], None] | None = None) -> None:
+                 on_results: Callable[[Results], None] | None = None,
+                 log: StatusLog | None = None) -> None:
+        """``log``: where each report's legacy texts go (HealthAndArmingChecks' second run)."""
         self.events = events
+        self.log = log
         self.on_results = on_results  # told every evaluation (the commander's arming)
         self._off_since: dict[int, float] = {}  # F_*_OFF bit → when its data stopped
         self.results: Results | None = None
@@ -292,3 +307,6 @@ class HealthChecks:
                 send(now_s, event, level, None, "IBB", modes, component, instance)
         send(now_s, HEALTH_SUMMARY, Log.PROTOCOL, None, "BIII", 0, r.present, r.health_error,
              r.health_warning)
+        if self.log is not None:
+            for text in r.report_texts:
+                self.log.critical(now_s, text)

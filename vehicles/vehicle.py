@@ -114,8 +114,8 @@ class Vehicle:
         self.commands = CommandJournal()  # what the logger records as vehicle_command(_ack)
         self.commander = self._autopilot.commander  # its refusals' texts (gateway commands.py)
         self.events = EventLog(boot_time_s)  # what every link sends as EVENT (vehicles/events.py)
-        self._health = HealthChecks(self.events, self._autopilot.commander.set_health)
         ap = self._autopilot
+        self._health = HealthChecks(self.events, ap.commander.set_health, ap.log)
         ap.commander.events = ap.commander.failsafe.events = ap.log.events = self.events
         self._autopilot.calibration.on_ack = self.commands.onboard_ack
         self._cache_step = -1  # the world step the cached views below belong to

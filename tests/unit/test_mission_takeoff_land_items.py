@@ -17,6 +17,7 @@ import math
 import pytest
 
 from tests.unit import test_vehicles_mission
+from tests.unit.test_vehicles_failsafe import event_name
 from tests.unit.test_vehicles_flight import Sim
 from tests.unit.test_vehicles_mission import item
 from vehicles.plan_types import MavCmd, MissionState, PlanType
@@ -153,5 +154,16 @@ def test_a_forced_heading_not_reached_within_mis_yaw_tmt_fails_the_mission_and_r
         # the failsafe framework holds COM_FAIL_ACT_T (5 s) before its action
         assert sim.run(7.0, until=lambda: v.status.nav_state is NavState.AUTO_RTL)
         assert "Failsafe activated, entering Hold for 5 seconds\t" in sim.texts()
+        # missionCheck.cpp: an arming check of every mode, with its event and text
+        assert "Mission cannot be completed\t" in sim.texts()
+        told = [event_name(e.id) for e in v.events.after(v.events.latest - len(v.events))]
+        assert "check_mission_failure" in told
+        assert not v.status.prearm_ok  # no mode could arm
+        assert sim.run(120.0, until=lambda: not v.status.armed)
+        assert v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
+        # a mission upload runs the feasibility check again, which clears the failure
+        v.set_plan(sim.t, PlanType.MISSION, [item(0, MavCmd.NAV_WAYPOINT, 0.0, 0.0, 5.0, o)])
+        sim.run(1.0)
+        assert v.status.prearm_ok and v.arm(sim.t) is CommandResult.ACCEPTED
     finally:
         sim.close()
