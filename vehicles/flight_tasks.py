@@ -326,6 +326,7 @@ class StickPositionTask(FlightTask):
         # while the takeoff state mc_pos_control last published is below the ramp
         # (FlightTask::reActivate: its vertical velocity setpoint kept)
         reactivate = st.takeoff.state < RAMPUP
+        task.tilt_limit_rad = st.tilt_limit_rad  # takeoff_status, published by the last tick
         if not t.armed or (st.land_detector.landed and not task.want_takeoff(sticks)
                            and not st.taking_off):
             task.update(t.dt_s, sticks, pos, vel, t.yaw_rad, st.vel_sp, home_z)

@@ -204,6 +204,10 @@ class ManualAltitude:
         self._vz_sp = 0.0  # the last vertical velocity setpoint (what reActivate keeps)
         self._params_version = -1
         self._z_limits: tuple[float, ...] = (0.0,) * 11
+        # takeoff_status.tilt_limit as mc_pos_control last published it (MPC_TILTMAX_LND until
+        # the flight state, then slewed to MPC_TILTMAX_AIR); NaN: MPC_TILTMAX_AIR. Position
+        # mode's StickAccelerationXY limits its acceleration with it.
+        self.tilt_limit_rad = math.nan
 
     def activate(self, pos: Vec3, vel: Vec3, yaw: float,
                  last: PositionSetpoint | None = None) -> None:
@@ -408,8 +412,10 @@ class ManualPosition(ManualAltitude):
         ax = sx_ + _clamp(ax - sx_, -jx, jx)
         ay = sy_ + _clamp(ay - sy_, -jy, jy)
         self._acc_xy = (ax, ay)
-        # applyTiltLimit
-        tilt = math.tan(math.radians(float(p["MPC_TILTMAX_AIR"]))) * GRAVITY_MPS2
+        # applyTiltLimit: takeoff_status.tilt_limit
+        limit = self.tilt_limit_rad
+        tilt = math.tan(limit if math.isfinite(limit) else math.radians(float(p["MPC_TILTMAX_AIR"]))
+                        ) * GRAVITY_MPS2
         an = math.hypot(ax, ay)
         if an > tilt:
             ax, ay = ax * tilt / an, ay * tilt / an

@@ -121,6 +121,29 @@ def test_position_mode_takes_off_from_the_ground_with_the_stick_up(sim):
     assert not sim.v.status.landed_state.name == "ON_GROUND"
 
 
+def test_position_mode_stick_tilt_is_limited_by_the_takeoff_tilt_limit(sim):
+    """StickAccelerationXY::applyTiltLimit reads takeoff_status.tilt_limit: MPC_TILTMAX_LND
+    (12 deg) until the takeoff reaches its flight state, then slewed up at 0.2 rad/s towards
+    MPC_TILTMAX_AIR (45 deg), not MPC_TILTMAX_AIR at once."""
+    sim.run(1.2)
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    assert sim.v.arm(sim.t) is CommandResult.ACCEPTED
+    fly(sim, 1.0, CENTRED)
+    stage = sim.v._autopilot.stage
+    assert fly(sim, 8.0, Sticks(throttle=0.8), until=lambda: sim.v.state.position_ned_m[2] < -0.5)
+    seen = []
+    for _ in range(20):  # full pitch forward right after lifting off
+        fly(sim, 0.05, Sticks(pitch=1.0, throttle=0.3))
+        acc = stage.task_setpoint.acceleration_ned_mps2
+        seen.append((math.hypot(acc[0], acc[1]), stage.tilt_limit_rad))
+    first_acc, first_limit = seen[0]
+    assert first_limit < math.radians(20.0)
+    for acc, limit in seen:
+        assert acc <= math.tan(limit) * 9.80665 + 1e-6
+    assert seen[-1][1] > first_limit  # slewing up
+
+
 @pytest.mark.parametrize("mode", [NavState.STAB, NavState.ALTCTL, NavState.ACRO])
 def test_attitude_modes_tilt_with_the_roll_stick(sim, mode):
     take_off(sim)
