@@ -20,6 +20,7 @@ Rules and invariants:
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 
@@ -48,6 +49,8 @@ from vehicles.orbit_task import OrbitTask
 from vehicles.params import ParamStore
 from vehicles.position_stage import PositionStage
 from vehicles.types import NavState, Vec3
+
+log = logging.getLogger(__name__)
 
 # The offboard setpoint must ask for this much climb before a landed vehicle spools up.
 TAKEOFF_TRIGGER_M = 0.2
@@ -316,6 +319,13 @@ class StickPositionTask(FlightTask):
     def update(self, t: TaskInput) -> None:
         st, meas, task = self.stage, t.meas, self.task
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
+        if isinstance(task, ManualPosition):
+            mode = self.params["MPC_POS_MODE"]
+            if mode not in (0, 3, 4):
+                # FlightModeManager::start_flight_task: PX4_ERR, then the parameter is set back
+                # to 4 and committed (0 and 3 fly as 4 here)
+                log.error("MPC_POS_MODE %d invalid, resetting", mode)
+                self.params.set("MPC_POS_MODE", 4)
         # the shared trajectory follows the state (Orbit's and Follow Me's approaches start
         # there; the auto task starts from this task's setpoint, ``task_setpoint``)
         st.trajectory.reset(pos, vel)

@@ -144,6 +144,18 @@ def test_position_mode_stick_tilt_is_limited_by_the_takeoff_tilt_limit(sim):
     assert seen[-1][1] > first_limit  # slewing up
 
 
+def test_an_invalid_mpc_pos_mode_is_reset_to_4_in_position_mode(sim):
+    """FlightModeManager: MPC_POS_MODE other than 0, 3 and 4 is set back to 4 (and committed)
+    as soon as Position mode runs; the valid ones stay."""
+    sim.run(1.2)
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    for value, kept in ((3, 3), (2, 4), (0, 0), (1, 4)):
+        assert sim.v.params.set("MPC_POS_MODE", value)
+        fly(sim, 0.1, CENTRED)
+        assert sim.v.params["MPC_POS_MODE"] == kept
+
+
 @pytest.mark.parametrize("mode", [NavState.STAB, NavState.ALTCTL, NavState.ACRO])
 def test_attitude_modes_tilt_with_the_roll_stick(sim, mode):
     take_off(sim)
