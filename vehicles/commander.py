@@ -42,6 +42,7 @@ from vehicles.events import (
     ARM_DENIED_CALIBRATING,
     ARM_REASON_TEXT,
     ARMED_BY,
+    CHECK_MISSION_FAILURE,
     COMMANDER_LAND,
     COMMANDER_RTL,
     DISARMED_BY,
@@ -192,7 +193,7 @@ class Commander:
     def set_health(self, results: Results) -> None:
         """health_checks.HealthChecks' ``on_results``."""
         self.health_failures = results.preflight_texts
-        self.mission_failure = bool(results.report_texts)  # missionCheck.cpp's (its only text)
+        self.mission_failure = any(check[0] is CHECK_MISSION_FAILURE for check in results.checks)
 
     # --- queries ------------------------------------------------------------------------------
     def prearm_ok(self) -> bool:

@@ -82,6 +82,15 @@ def _clamp(v: float, lo: float, hi: float) -> float:
     return lo if v < lo else hi if v > hi else v
 
 
+def _plus(a: Vec3, k: float, b: Vec3) -> Vec3:
+    """``a + k * b``, by component."""
+    return (a[0] + k * b[0], a[1] + k * b[1], a[2] + k * b[2])
+
+
+def _minus(a: Vec3, b: Vec3) -> Vec3:
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
 class TargetEstimator:
     """follow_target_estimator (TargetEstimator.cpp): alpha-beta-gamma on the reports."""
 
@@ -101,6 +110,11 @@ class TargetEstimator:
     @property
     def valid(self) -> bool:
         return _finite(self.pos) and _finite(self.vel) and _finite(self.acc)
+
+    @property
+    def has_report(self) -> bool:
+        """A report was fused since the last reset (follow_target_estimator's timestamp > 0)."""
+        return self._last_report_s != 0.0
 
     def _update_gains(self) -> None:
         r = _clamp(float(self.params["FLW_TGT_RS"]), 0.1, 1.0)
@@ -141,8 +155,7 @@ class TargetEstimator:
 
     def _can_fuse(self, now_s: float, value: Vec3, old: Vec3, last_s: float,
                   min_dt_s: float) -> bool:
-        changed = (not _finite(old)
-                   or math.sqrt(sum((a - b) ** 2 for a, b in zip(value, old))) > 2.0 * _EPS)
+        changed = not _finite(old) or math.hypot(*_minus(value, old)) > 2.0 * _EPS
         return (_finite(value) and now_s - last_s > min_dt_s
                 and (changed or now_s - last_s > 2.0 * min_dt_s))
 
@@ -159,23 +172,22 @@ class TargetEstimator:
                           MINIMUM_TIME_BETWEEN_POS_FUSIONS_S):
             dt = _clamp(t_s - self._last_pos_fusion_s, 1e-3, 20.0)
             self._last_pos_fusion_s = t_s
-            inn = tuple(m - e for m, e in zip(pos, self.pos))
-            self.pos = tuple(e + g_p * i for e, i in zip(self.pos, inn))  # type: ignore[assignment]
-            self.vel = tuple(e + h_p / dt * i for e, i in zip(self.vel, inn))  # type: ignore[assignment]
-            self.acc = tuple(e + 2.0 * k_p / (dt * dt) * i  # type: ignore[assignment]
-                             for e, i in zip(self.acc, inn))
+            inn = _minus(pos, self.pos)
+            self.pos = _plus(self.pos, g_p, inn)
+            self.vel = _plus(self.vel, h_p / dt, inn)
+            self.acc = _plus(self.acc, 2.0 * k_p / (dt * dt), inn)
             self._pos_old = pos
         if self._can_fuse(now_s, vel, self._vel_old, self._last_vel_fusion_s,
                           MINIMUM_TIME_BETWEEN_VEL_FUSIONS_S):
             dt = _clamp(t_s - self._last_vel_fusion_s, 1e-3, 20.0)
             self._last_vel_fusion_s = t_s
-            inn = tuple(m - e for m, e in zip(vel, self.vel))
-            self.vel = tuple(e + g_v * i for e, i in zip(self.vel, inn))  # type: ignore[assignment]
-            self.acc = tuple(e + h_v / dt * i  # type: ignore[assignment]
-                             for e, i in zip(self.acc, inn))
+            inn = _minus(vel, self.vel)
+            self.vel = _plus(self.vel, g_v, inn)
+            self.acc = _plus(self.acc, h_v / dt, inn)
             self._vel_old = vel
-        self.acc = tuple(_clamp(a, -ACCELERATION_SATURATION, ACCELERATION_SATURATION)  # type: ignore[assignment]
-                         for a in self.acc)
+        sat = ACCELERATION_SATURATION
+        ax, ay, az = self.acc
+        self.acc = (_clamp(ax, -sat, sat), _clamp(ay, -sat, sat), _clamp(az, -sat, sat))
 
 
 class ReferenceModel:
@@ -206,10 +218,9 @@ class ReferenceModel:
         b00, b01 = 0.5 * kx * t2 * inv, 0.5 * kv * t2 * inv
         b10, b11 = kx * dt * inv, kv * dt * inv
         (xs, vs), x, v = self._last, self.state, self.rate
-        self.state = tuple(a00 * x[i] + a01 * v[i] + b00 * xs[i] + b01 * vs[i]  # type: ignore[assignment]
-                           for i in range(3))
-        self.rate = tuple(a10 * x[i] + a11 * v[i] + b10 * xs[i] + b11 * vs[i]  # type: ignore[assignment]
-                          for i in range(3))
+        x0, x1, x2 = (a00 * x[i] + a01 * v[i] + b00 * xs[i] + b01 * vs[i] for i in range(3))
+        v0, v1, v2 = (a10 * x[i] + a11 * v[i] + b10 * xs[i] + b11 * vs[i] for i in range(3))
+        self.state, self.rate = (x0, x1, x2), (v0, v1, v2)
         self._last = (state, rate)
 
 
@@ -269,7 +280,7 @@ class FollowTarget:
         est = self.estimator
         sp = self.sp
         p_sp, v_sp, a_sp = sp.position_ned_m, sp.velocity_ned_mps, sp.acceleration_ned_mps2
-        if not est.valid or est._last_report_s == 0.0:
+        if not est.valid or not est.has_report:
             self.sp = PositionSetpoint(_NAN3, (0.0, 0.0, 0.0), self.yaw_sp, a_sp)
             return self.sp
         f = self.filter

@@ -40,7 +40,8 @@ class OrbitTask(FlightTask):
         self.orbit.activate(pos, vel, t.yaw_rad, last)
         reset_from(self.stage.trajectory, last, pos, vel)
 
-    def _command(self, t: TaskInput) -> None:
+    def _command(self, t: TaskInput,
+                 pending: tuple[float, float, float, tuple[float, float] | None, float]) -> None:
         st, orbit = self.stage, self.orbit
         pos, vel = t.meas.position_ned_m, t.meas.velocity_ned_mps
         if self.failed is not None:
@@ -48,8 +49,7 @@ class OrbitTask(FlightTask):
             # again, after no task (an empty last setpoint)
             self._activate(t, None)
         approaching = orbit.approaching
-        assert self.pending is not None
-        if not orbit.command(t.now_s, pos, t.yaw_rad, *self.pending):
+        if not orbit.command(t.now_s, pos, t.yaw_rad, *pending):
             # FlightModeManager::tryApplyCommandIfAny → FlightTaskFailsafe: hold the position
             # and altitude at the heading of now, no horizontal acceleration
             self.failed = PositionSetpoint(pos, ZERO3, t.yaw_rad, (0.0, 0.0, math.nan))
@@ -61,13 +61,13 @@ class OrbitTask(FlightTask):
             else:
                 st.trajectory.reset(pos, finite_or(last.velocity_ned_mps, vel),
                                     finite_or(last.acceleration_ned_mps2, ZERO3))
-        self.pending = None
 
     def update(self, t: TaskInput) -> None:
         st, orbit = self.stage, self.orbit
         pos, vel = t.meas.position_ned_m, t.meas.velocity_ned_mps
-        if self.pending is not None:
-            self._command(t)
+        pending, self.pending = self.pending, None
+        if pending is not None:
+            self._command(t, pending)
         if not st.take_off_or_idle(t.meas, t.armed):
             return
         if self.failed is not None:
