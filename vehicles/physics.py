@@ -36,6 +36,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -210,6 +211,10 @@ class World:
         self.recent = np.zeros((0, HISTORY, R_SIZE))  # the recent-steps ring (R_* columns)
         self._vehicles: list[Vehicle] = []
         self._tick_phase: list[int] = []  # per row: steps % POSITION_CONTROL_DIVIDER of its ticks
+        # per step of the POSITION_CONTROL_DIVIDER: (row, parameters, step function) of each
+        # vehicle, its 50 Hz ``step`` on its phase, its ``poll`` on the others
+        self._schedule: list[list[tuple[int, ParamStore, Callable[[float], Any]]]] = [
+            [] for _ in range(POSITION_CONTROL_DIVIDER)]
         self._bind()
         self._after_physics(np.zeros(0), 0.0, 0.0)  # compile (or load) it now, with no rows
         position_control.compile_now()
@@ -259,7 +264,11 @@ class World:
         self._vehicles.append(vehicle)
         self._body_ids.append(body_id)
         self._com_enu.append(spawn)
-        self._tick_phase.append((self.steps + index) % POSITION_CONTROL_DIVIDER)
+        tick_phase = (self.steps + index) % POSITION_CONTROL_DIVIDER
+        self._tick_phase.append(tick_phase)
+        step, poll = vehicle.step_functions()
+        for phase, entries in enumerate(self._schedule):
+            entries.append((row, store, step if phase == tick_phase else poll))
         self._bind()
         log.debug("vehicle %d spawned at N%.1f E%.1f (client %d)", index, north, east, self.client_id)
         return vehicle
@@ -267,18 +276,11 @@ class World:
     def _bind(self) -> None:
         """What the step and the readers take, gathered once per added row rather than looked up
         at every step or read (the arrays are only ever written in place until the next row
-        grows them): ``after_physics``' arrays, which of each vehicle's step functions each
-        step of the POSITION_CONTROL_DIVIDER calls (with its row and parameters), each row's
-        views."""
+        grows them): ``after_physics``' arrays, each row's views."""
         inner, estimation = self.inner, self.estimation
         self._after_args = (
             inner.spawn_enu, inner.measured, inner.estimated, inner.mode, inner.landed,
             self.recent, self.dt_s, *estimation.kernel_args())
-        functions = [v.step_functions() for v in self._vehicles]
-        self._schedule = [
-            [(k, v.params, functions[k][0] if self._tick_phase[k] == phase else functions[k][1])
-             for k, v in enumerate(self._vehicles)]
-            for phase in range(POSITION_CONTROL_DIVIDER)]
         self._estimated_rows = list(inner.estimated)
         self._sensed_rows = list(estimation.sensed)
         self._est_rows = list(estimation.est)

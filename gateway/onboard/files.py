@@ -45,9 +45,19 @@ def _errno(exc: OSError) -> FtpError:
 
 
 class VehicleFiles:
-    def __init__(self, root: Path | None, extras: dict[str, bytes] | None = None) -> None:
+    def __init__(self, root: Path | None,
+                 extras: dict[str, bytes] | Callable[[], dict[str, bytes]] | None = None
+                 ) -> None:
+        """``extras``: the files of etc/extras, or what makes them at first use."""
         self.root = Path(root) if root is not None else None
-        self.extras = dict(extras or {})
+        self._extras = extras
+
+    @property
+    def extras(self) -> dict[str, bytes]:
+        extras = self._extras
+        if callable(extras):
+            extras = self._extras = extras()
+        return extras or {}
 
     @staticmethod
     def _rel(path: str) -> str:
@@ -236,5 +246,5 @@ def attach_ftp(sim: Any, roots_for: Callable[[int], list[Path]]) -> None:
         roots = roots_for(session.sysid)
         if roots:
             roots[0].mkdir(parents=True, exist_ok=True)
-        session.ftp.root = VehicleFiles(roots[0] if roots else None, component.files)
+        session.ftp.root = VehicleFiles(roots[0] if roots else None, lambda: component.files)
         session.commands.component_metadata = component

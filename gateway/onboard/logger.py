@@ -58,6 +58,7 @@ from gateway.onboard.logged_topics import (
     event_values,
     onboard_ack_values,
 )
+from gateway.onboard.topic import records_of
 from gateway.onboard.ulog_stream import MavlinkLogWriter, UlogStreamTopic
 from vehicles.params import VOLATILE, ParamType
 from vehicles.types import CommandResult, Severity
@@ -131,15 +132,11 @@ class VehicleLogger:
         self.topics = tuple(topics)
         self.links: Sequence[Any] = ()  # the vehicle's MAVLink sessions (module rules)
         self.memo: dict[str, Any] = {}
-        self._structs = [ulog.struct_of((("uint64_t", "timestamp"), *t.fields), NESTED_FORMATS)
-                         for t in self.topics]
-        self._prefixes = [ulog.data_prefix(i, st.size) for i, st in enumerate(self._structs)]
-        # vehicle_command and vehicle_command_ack: every record of the vehicle's command journal
-        n = len(self.topics)
-        self._event_structs = [ulog.struct_of((("uint64_t", "timestamp"), *fields))
-                               for _, fields in EVENT_TOPICS]
-        self._event_prefixes = [ulog.data_prefix(n + k, st.size)
-                                for k, st in enumerate(self._event_structs)]
+        # the topics' records, then those of vehicle_command and vehicle_command_ack (every
+        # record of the vehicle's command journal) and the events: made once per process
+        layout = records_of(self.topics, NESTED_FORMATS, tuple(f for _, f in EVENT_TOPICS))
+        self._structs, self._prefixes, packers = layout.structs, layout.prefixes, layout.packers
+        self._event_structs, self._event_prefixes = layout.extra_structs, layout.extra_prefixes
         self._command_seq = self._ack_seq = 0
         self._events = getattr(vehicle, "events", None)  # its EventLog: the `event` topic
         self._event_seq = self._events.latest if self._events is not None else 0
@@ -153,7 +150,6 @@ class VehicleLogger:
         self._step_s: list[float | None] = [None] * len(self.topics)  # last step logged
         # what a sample looks up of each topic, with the packer of its data messages: every
         # topic; all but the stepped (when _sample_steps writes those); the stepped
-        packers = [ulog.data_packer(i, st) for i, st in enumerate(self._structs)]
         reads = [(i, t, t.read, packers[i], t.every_s, t.on_change, t.republish_s,
                   bool(t.period_s)) for i, t in enumerate(self.topics)]
         self._reads = tuple(reads)

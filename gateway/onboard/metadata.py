@@ -166,12 +166,33 @@ def build(table: list[ParamInfo] | None = None) -> ComponentMetadata:
         general_crc=mavlink_crc32(general))
 
 
-_SHARED: ComponentMetadata | None = None
+class SharedMetadata:
+    """The metadata of the shipped parameter table, one per process, built when a client
+    first asks for it (COMPONENT_METADATA, or a file under etc/extras): building and
+    compressing it takes ~0.1 s, which would otherwise delay the daemon's first HEARTBEAT."""
+
+    uri = GENERAL_URI
+
+    def __init__(self) -> None:
+        self._built: ComponentMetadata | None = None
+
+    def _get(self) -> ComponentMetadata:
+        if self._built is None:
+            self._built = build()
+        return self._built
+
+    @property
+    def files(self) -> dict[str, bytes]:
+        return self._get().files
+
+    @property
+    def general_crc(self) -> int:
+        return self._get().general_crc
 
 
-def shared() -> ComponentMetadata:
-    """The metadata of the shipped parameter table, built at first use."""
-    global _SHARED
-    if _SHARED is None:
-        _SHARED = build()
+_SHARED = SharedMetadata()
+
+
+def shared() -> SharedMetadata:
+    """The metadata of the shipped parameter table (built at first use)."""
     return _SHARED

@@ -10,9 +10,12 @@ add_topic_multi has one Topic per instance (``multi_id``), sharing its format.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import struct
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
+
+from gateway.onboard import ulog
 
 Fields = Sequence[tuple[str, str]]
 F, D, B, U64 = "float", "double", "bool", "uint64_t"  # ULog type names
@@ -45,3 +48,37 @@ class Topic:
     def every_s(self) -> float:
         """How often a record is written: the logger's interval or the publisher's period."""
         return max(self.interval_s, self.period_s)
+
+
+class Records(NamedTuple):
+    """How a logger writes its topics' records (``records_of``): per topic its struct (the
+    leading timestamp included), its data messages' prefix and packer; the same for the extra
+    formats logged after the topics (msg_id after theirs)."""
+
+    structs: list[struct.Struct]
+    prefixes: list[bytes]
+    packers: list[Callable[..., bytes]]
+    extra_structs: list[struct.Struct]
+    extra_prefixes: list[bytes]
+
+
+_RECORDS: dict[tuple[Any, ...], Records] = {}
+
+
+def records_of(topics: Sequence[Topic], nested: Mapping[str, Fields],
+               extra: Sequence[Fields] = ()) -> Records:
+    """The records of ``topics`` (msg_id = index) and ``extra`` (msg_id after them), made once
+    per process for each set of formats and shared (read only) by every vehicle's logger: a
+    daemon of 254 vehicles would otherwise build the same ~50 structs 254 times at its start."""
+    key = (tuple(t.fields for t in topics), tuple(nested.items()), tuple(extra))
+    records = _RECORDS.get(key)
+    if records is None:
+        stamp = ("uint64_t", "timestamp")
+        structs = [ulog.struct_of((stamp, *t.fields), nested) for t in topics]
+        extra_structs = [ulog.struct_of((stamp, *fields)) for fields in extra]
+        n = len(topics)
+        records = _RECORDS[key] = Records(
+            structs, [ulog.data_prefix(i, st.size) for i, st in enumerate(structs)],
+            [ulog.data_packer(i, st) for i, st in enumerate(structs)], extra_structs,
+            [ulog.data_prefix(n + k, st.size) for k, st in enumerate(extra_structs)])
+    return records
