@@ -106,6 +106,14 @@ RANGES = {
     "MPC_POS_MODE": ("0", "4"),
     # flight_mode_manager/tasks/Orbit/flight_task_orbit_params.c (v1.15)
     "MC_ORBIT_RAD_MAX": ("1.0", "10000.0"),
+    # mc_pos_control/multicopter_position_mode_params.c (v1.15)
+    "MPC_VEL_MAN_SIDE": ("-1", "20"),
+    "MPC_VEL_MAN_BACK": ("-1", "20"),
+    # flight_mode_manager/tasks/ManualAccelerationSlow/flight_task_acceleration_slow_params.c
+    **{f"MC_SLOW_MAP_{k}": ("0", "6") for k in ("HVEL", "VVEL", "YAWR")},
+    "MC_SLOW_MIN_HVEL": ("0.1", ""), "MC_SLOW_MIN_VVEL": ("0.1", ""),
+    "MC_SLOW_MIN_YAWR": ("1", ""), "MC_SLOW_DEF_HVEL": ("0.1", ""),
+    "MC_SLOW_DEF_VVEL": ("0.1", ""), "MC_SLOW_DEF_YAWR": ("1", ""),
 }
 
 # In current PX4 but not in the old metadata table: (type, default, unit, group, description).
@@ -155,6 +163,31 @@ ADDED = {
     # flight_mode_manager/tasks/Orbit/flight_task_orbit_params.c (v1.15)
     "MC_ORBIT_RAD_MAX": ("FLOAT", "1000.0", "m", "Multicopter Position Control",
                          "Maximum radius of orbit"),
+    # mc_pos_control/multicopter_position_mode_params.c (v1.15)
+    "MPC_VEL_MAN_SIDE": ("FLOAT", "-1.0", "m/s", "Multicopter Position Control",
+                         "Maximum sideways velocity in Position mode"),
+    "MPC_VEL_MAN_BACK": ("FLOAT", "-1.0", "m/s", "Multicopter Position Control",
+                         "Maximum backward velocity in Position mode"),
+    # flight_mode_manager/tasks/ManualAccelerationSlow/flight_task_acceleration_slow_params.c
+    # (v1.15): Position Slow mode
+    "MC_SLOW_MAP_HVEL": ("INT32", "0", "", "Multicopter Position Slow Mode",
+                         "Manual input mapped to scale horizontal velocity in position slow mode"),
+    "MC_SLOW_MAP_VVEL": ("INT32", "0", "", "Multicopter Position Slow Mode",
+                         "Manual input mapped to scale vertical velocity in position slow mode"),
+    "MC_SLOW_MAP_YAWR": ("INT32", "0", "", "Multicopter Position Slow Mode",
+                         "Manual input mapped to scale yaw rate in position slow mode"),
+    "MC_SLOW_MIN_HVEL": ("FLOAT", "0.3", "m/s", "Multicopter Position Slow Mode",
+                         "Horizontal velocity lower limit"),
+    "MC_SLOW_MIN_VVEL": ("FLOAT", "0.3", "m/s", "Multicopter Position Slow Mode",
+                         "Vertical velocity lower limit"),
+    "MC_SLOW_MIN_YAWR": ("FLOAT", "3.0", "deg/s", "Multicopter Position Slow Mode",
+                         "Yaw rate lower limit"),
+    "MC_SLOW_DEF_HVEL": ("FLOAT", "3.0", "m/s", "Multicopter Position Slow Mode",
+                         "Default horizontal velocity limit"),
+    "MC_SLOW_DEF_VVEL": ("FLOAT", "1.0", "m/s", "Multicopter Position Slow Mode",
+                         "Default vertical velocity limit"),
+    "MC_SLOW_DEF_YAWR": ("FLOAT", "45.0", "deg/s", "Multicopter Position Slow Mode",
+                         "Default yaw rate limit"),
 }
 
 # In the old metadata table but gone from PX4 v1.15 (param_find fails, as a client's get does).

@@ -54,6 +54,7 @@ from vehicles.params import ParamStore
 from vehicles.plan_types import PlanType
 from vehicles.plans import PlanStore
 from vehicles.position_params import constrain_params
+from vehicles.position_slow import VelocityLimits
 from vehicles.position_stage import PositionStage
 from vehicles.status_log import StatusLog
 from vehicles.types import (
@@ -100,6 +101,7 @@ class Autopilot:
         self.manual = ManualControl(params)
         self.orbit_task = Orbit(params, self.log)
         self.follow_target = FollowTarget(params)
+        self.velocity_limits = VelocityLimits()  # SET_VELOCITY_LIMITS (Position Slow)
         self.land_detector = LandDetector(params)
         self.battery = BatterySim(params, airframe.hover_thrust_norm)
         self.calibration = Calibration(self.log)
@@ -111,7 +113,8 @@ class Autopilot:
         self.last_meas: Measurement | None = None  # the measurement of the last 50 Hz tick
         self.stage = PositionStage(self.land_detector, self._position_gains(), params)
         self.tasks = make_tasks(self.stage, params, self.navigator, self.offboard, self.manual,
-                                self.orbit_task, self.follow_target, self.hover_thrust)
+                                self.orbit_task, self.follow_target, self.hover_thrust,
+                                self.velocity_limits)
         self._new_gains = True
         self.motor_test = ActuatorTest()
         self._load_gains()

@@ -83,7 +83,7 @@ ARMING_DENIED_TEXT = ARM_DENIED.message + "\t"  # "Arming denied: Resolve system
 class SwitchRule(enum.Enum):
     ALLOWED = "allowed"  # ACCEPTED (TEMPORARILY_REJECTED without position if it needs one)
     NEEDS_MANUAL_CONTROL = "needs_manual_control"  # rejected without fresh stick input
-    NOT_YET = "not_yet"  # not implemented (Position Slow, Precision Land) -> rejected
+    NOT_YET = "not_yet"  # not implemented (Precision Land) -> rejected
     FAILSAFE_ONLY = "failsafe_only"  # entered by the vehicle itself, never by request
 
 
@@ -131,7 +131,8 @@ MODE_TABLE: dict[NavState, ModeSpec] = {
                                     needs_mission=True),
     NavState.AUTO_LOITER: ModeSpec("Hold", SwitchRule.ALLOWED, True, True, None),
     NavState.AUTO_RTL: ModeSpec("Return", SwitchRule.ALLOWED, True, False, _L),
-    NavState.POSITION_SLOW: ModeSpec("Position Slow", SwitchRule.NOT_YET, True, True, None),
+    NavState.POSITION_SLOW: ModeSpec("Position Slow", SwitchRule.NEEDS_MANUAL_CONTROL, True, True,
+                                     None),
     NavState.ACRO: ModeSpec("Acro", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
     NavState.DESCEND: ModeSpec("Descend", SwitchRule.FAILSAFE_ONLY, False, False, _L),
     NavState.TERMINATION: ModeSpec("Termination", SwitchRule.FAILSAFE_ONLY, False, False, None),

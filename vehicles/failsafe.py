@@ -224,7 +224,7 @@ def _rcl_condition(f: FailsafeFlags, params) -> bool:
 NEEDS_POSITION = frozenset({NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_RTL,
                             NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_PRECLAND,
                             NavState.AUTO_FOLLOW_TARGET, NavState.ORBIT, NavState.POSCTL,
-                            NavState.OFFBOARD})
+                            NavState.POSITION_SLOW, NavState.OFFBOARD})
 
 
 def from_position_loss(f: FailsafeFlags) -> ActionOptions:

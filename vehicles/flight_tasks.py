@@ -32,21 +32,19 @@ from vehicles.control.position_control import REACTIVATE_VEL, PositionSetpoint
 from vehicles.control.takeoff import RAMPUP
 from vehicles.flight_task import FlightTask, TaskInput, reset_from
 from vehicles.follow_target import FollowTarget
+from vehicles.manual_attitude import Stabilized, acro_rates, acro_thrust, throttle_to_thrust
 from vehicles.manual_control import (
     CENTRED,
     ManualAltitude,
     ManualControl,
     ManualPosition,
-    Stabilized,
-    acro_rates,
-    acro_thrust,
-    throttle_to_thrust,
 )
 from vehicles.navigator import Navigator, NavSetpoint
 from vehicles.offboard import Offboard, acceleration_to_thrust
 from vehicles.orbit import Orbit
 from vehicles.orbit_task import OrbitTask
 from vehicles.params import ParamStore
+from vehicles.position_slow import ManualPositionSlow, VelocityLimits
 from vehicles.position_stage import PositionStage
 from vehicles.types import NavState, Vec3
 
@@ -319,7 +317,7 @@ class StickPositionTask(FlightTask):
     def update(self, t: TaskInput) -> None:
         st, meas, task = self.stage, t.meas, self.task
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
-        if isinstance(task, ManualPosition):
+        if task.__class__ is ManualPosition:  # Position mode (not Position Slow's task)
             mode = self.params["MPC_POS_MODE"]
             if mode not in (0, 3, 4):
                 # FlightModeManager::start_flight_task: PX4_ERR, then the parameter is set back
@@ -404,7 +402,7 @@ class Tasks:
 
 def make_tasks(stage: PositionStage, params: ParamStore, navigator: Navigator,
                offboard: Offboard, manual: ManualControl, orbit: Orbit, follow: FollowTarget,
-               hover: HoverThrustEstimator) -> Tasks:
+               hover: HoverThrustEstimator, limits: VelocityLimits) -> Tasks:
     auto = AutoTask(stage, params, navigator)
     orbit_task = OrbitTask(stage, params, orbit, manual)
     stabilized = Stabilized(params)
@@ -415,6 +413,8 @@ def make_tasks(stage: PositionStage, params: ParamStore, navigator: Navigator,
         NavState.ACRO: StickAttitudeTask(stage, params, manual, stabilized, hover, acro=True),
         NavState.ALTCTL: StickPositionTask(stage, params, manual, ManualAltitude(params)),
         NavState.POSCTL: StickPositionTask(stage, params, manual, ManualPosition(params)),
+        NavState.POSITION_SLOW: StickPositionTask(stage, params, manual,
+                                                  ManualPositionSlow(params, limits)),
         NavState.OFFBOARD: OffboardTask(stage, params, offboard),
         NavState.TERMINATION: TerminationTask(stage, params),
         NavState.DESCEND: DescendTask(stage, params),

@@ -19,11 +19,7 @@ After PX4:
   v1.13; older values run the same): sticks command horizontal acceleration (2 × MPC_ACC_HOR)
   less a drag that caps the speed at MPC_VEL_MANUAL and brakes harder with centred sticks, the
   sum jerk-limited (MPC_JERK_MAX); the position is locked once the velocity setpoint is zero.
-- ``mc_att_control`` (Stabilized, and Manual on a multicopter): roll/pitch sticks → tilt up to
-  MPC_MAN_TILT_MAX, yaw stick → heading rate, throttle → thrust through MPC_THR_CURVE (0: the
-  centred stick is hover thrust).
-- ``mc_rate_control`` (Acro): sticks → body rates (MC_ACRO_*_MAX, superexpo MC_ACRO_EXPO*,
-  MC_ACRO_SUPEXPO*), throttle → thrust.
+- Stabilized, Manual and Acro: manual_attitude.py.
 
 Sticks are PX4's ``manual_control_setpoint``: pitch forward +, roll right +, yaw right +, all in
 [-1, 1]; throttle in [-1, 1] (−1 = stick down). Pure: time and dt are arguments.
@@ -208,6 +204,10 @@ class ManualAltitude:
         # the flight state, then slewed to MPC_TILTMAX_AIR); NaN: MPC_TILTMAX_AIR. Position
         # mode's StickAccelerationXY limits its acceleration with it.
         self.tilt_limit_rad = math.nan
+        # what Position Slow sets below the parameters' limits (FlightTaskManualAltitude's
+        # _velocity_constraint_up/down, StickYaw's yawspeed constraint; position_slow.py)
+        self.velocity_constraint_up = self.velocity_constraint_down = math.inf
+        self.yawspeed_constraint = math.inf
 
     def activate(self, pos: Vec3, vel: Vec3, yaw: float,
                  last: PositionSetpoint | None = None) -> None:
@@ -258,7 +258,7 @@ class ManualAltitude:
         the heading locks where the vehicle points (updateYawLock)."""
         p = self.params
         target = (expo_deadzone(sticks.yaw, float(p["MPC_YAW_EXPO"]), float(p["MPC_HOLD_DZ"]))
-                  * math.radians(float(p["MPC_MAN_Y_MAX"])))
+                  * min(math.radians(float(p["MPC_MAN_Y_MAX"])), self.yawspeed_constraint))
         self._yawspeed = _lowpass(self._yawspeed, target, dt, float(p["MPC_MAN_Y_TAU"]))
         if abs(self._yawspeed) > EPS:
             self.yaw_sp = math.nan
@@ -282,9 +282,11 @@ class ManualAltitude:
         (z_expo_e, dz, up_max, dn_max, alt1, alt2, land_speed, tko_speed, jerk, acc_up,
          acc_dn) = self._limits()
         # FlightTaskManualAltitude::_scaleSticks: the throttle stick (down +, as PX4's
-        # positions(2)) scaled by the speed of its direction
+        # positions(2)) scaled by the speed of its direction, within the constraints
         stick_z = -sticks.throttle
-        target = (dn_max if stick_z > 0.0 else up_max) * expo_deadzone(stick_z, z_expo_e, dz)
+        target = (min(dn_max, self.velocity_constraint_down) if stick_z > 0.0
+                  else min(up_max, self.velocity_constraint_up)) * expo_deadzone(stick_z,
+                                                                                 z_expo_e, dz)
         # _respectGroundSlowdown: the height above home (the local origin without one)
         dist = -(pos[2] - home_z) if math.isfinite(home_z) else -pos[2]
         down = gradual(dist, alt2, alt1, land_speed, dn_max)
@@ -337,6 +339,8 @@ class ManualPosition(ManualAltitude):
         self._acc_xy = (0.0, 0.0)  # the jerk limit's slew rates
         self._acc_prev = (0.0, 0.0)  # the last acceleration setpoint
         self._brake_boost = 1.0
+        # StickAccelerationXY::setVelocityConstraint (Position Slow), below MPC_VEL_MANUAL
+        self.velocity_constraint = math.inf
 
     def activate(self, pos: Vec3, vel: Vec3, yaw: float,
                  last: PositionSetpoint | None = None) -> None:
@@ -374,15 +378,24 @@ class ManualPosition(ManualAltitude):
         n = math.hypot(sx, sy)
         if n > 1.0:
             sx, sy = sx / n, sy / n
+        vel_manual = float(p["MPC_VEL_MANUAL"])
+        # sideways and backwards slower (MPC_VEL_MAN_SIDE/BACK, negative: not)
+        side, back = float(p["MPC_VEL_MAN_SIDE"]), float(p["MPC_VEL_MAN_BACK"])
+        if side >= 0.0:
+            sy *= side / vel_manual
+        if back >= 0.0 and sx < 0.0:
+            sx *= back / vel_manual
         sx, sy = _rotate(sx, sy, self.yaw_sp if not math.isnan(self.yaw_sp) else yaw)
-        acc_scale = 2.0 * float(p["MPC_ACC_HOR"])  # drag halves the average acceleration
-        vel_scale = float(p["MPC_VEL_MANUAL"])
+        # the speed (and with it the acceleration) within the constraint; drag halves the
+        # average acceleration
+        vel_scale = min(vel_manual, self.velocity_constraint)
+        acc_scale = 2.0 * float(p["MPC_ACC_HOR"]) * (vel_scale / vel_manual)
         ax, ay = sx * acc_scale, sy * acc_scale
-        # calculateDrag: caps the speed at MPC_VEL_MANUAL; with centred sticks the brake boost
+        # calculateDrag: caps the speed at that scale; with centred sticks the brake boost
         # (filtered, 0.8 s) raises it and blends in a square-root drag below 1 m/s, so that
         # small speeds end (brake_scale: 0 at boost 1, 1 at boost 2).
         centred = sx * sx + sy * sy < EPS
-        boost_target = max(2.0, math.sqrt(vel_scale)) if centred else 1.0
+        boost_target = max(2.0, math.sqrt(vel_manual)) if centred else 1.0
         self._brake_boost = _lowpass(self._brake_boost, boost_target, dt, BRAKE_BOOST_TAU_S)
         coeff = acc_scale / vel_scale * self._brake_boost
         vx, vy = self._vel_xy
@@ -434,66 +447,3 @@ class ManualPosition(ManualAltitude):
         self._vel_xy = (vx, vy)
         return PositionSetpoint((self._pos_xy[0], self._pos_xy[1], self.z_sp), (vx, vy, vz),
                                 self.yaw_sp, (ax, ay, az))
-
-
-# --- Stabilized and Acro ---------------------------------------------------------------------
-def throttle_to_thrust(throttle: float, params, hover_thrust: float) -> float:
-    """mc_att_control throttle_curve: MPC_THR_CURVE 1 linear, otherwise centred = hover."""
-    lo, hi = float(params["MPC_MANTHR_MIN"]), float(params["MPC_THR_MAX"])
-    t = _clamp(throttle, -1.0, 1.0)
-    if int(params["MPC_THR_CURVE"]) == 1:
-        return lo + (hi - lo) * (t + 1.0) * 0.5
-    if t < 0.0:
-        return hover_thrust + (hover_thrust - lo) * t
-    return hover_thrust + (hi - hover_thrust) * t
-
-
-class Stabilized:
-    """mc_att_control's manual attitude: tilt from roll/pitch, heading from the yaw stick."""
-
-    def __init__(self, params) -> None:
-        self.params = params
-        self.yaw_sp = math.nan
-        self.yawspeed = 0.0
-
-    def activate(self, yaw: float) -> None:
-        self.yaw_sp = yaw
-        self.yawspeed = 0.0
-
-    def update(self, dt: float, sticks: Sticks, yaw: float, landed: bool
-               ) -> tuple[float, float, float, float]:
-        """The attitude setpoint quaternion (w, x, y, z), FRD → NED."""
-        p = self.params
-        self.yawspeed = 0.0
-        if landed or math.isnan(self.yaw_sp):
-            self.yaw_sp = yaw
-        else:
-            self.yawspeed = sticks.yaw * math.radians(float(p["MPC_MAN_Y_MAX"]))
-            self.yaw_sp = math.remainder(self.yaw_sp + self.yawspeed * dt, math.tau)
-        tilt_max = math.radians(float(p["MPC_MAN_TILT_MAX"]))
-        vx, vy = sticks.roll * tilt_max, -sticks.pitch * tilt_max
-        n = math.hypot(vx, vy)
-        if n > tilt_max:
-            vx, vy, n = vx * tilt_max / n, vy * tilt_max / n, tilt_max
-        # AxisAngle(vx, vy, 0) then the heading: q = q_yaw * q_rp.
-        if n > 0.0:
-            s = math.sin(n / 2.0) / n
-            rw, rx, ry = math.cos(n / 2.0), vx * s, vy * s
-        else:
-            rw, rx, ry = 1.0, 0.0, 0.0
-        cw, cz = math.cos(self.yaw_sp / 2.0), math.sin(self.yaw_sp / 2.0)
-        return (cw * rw, cw * rx - cz * ry, cw * ry + cz * rx, cz * rw)
-
-
-def acro_rates(sticks: Sticks, params) -> Vec3:
-    """mc_rate_control's Acro body-rate setpoint (FRD, rad/s)."""
-    p = params
-    e, g = float(p["MC_ACRO_EXPO"]), float(p["MC_ACRO_SUPEXPO"])
-    ey, gy = float(p["MC_ACRO_EXPO_Y"]), float(p["MC_ACRO_SUPEXPOY"])
-    return (superexpo(sticks.roll, e, g) * math.radians(float(p["MC_ACRO_R_MAX"])),
-            superexpo(-sticks.pitch, e, g) * math.radians(float(p["MC_ACRO_P_MAX"])),
-            superexpo(sticks.yaw, ey, gy) * math.radians(float(p["MC_ACRO_Y_MAX"])))
-
-
-def acro_thrust(sticks: Sticks) -> float:
-    return _clamp((sticks.throttle + 1.0) * 0.5, 0.0, 1.0)

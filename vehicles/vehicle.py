@@ -390,6 +390,9 @@ class Vehicle:
         """FOLLOW_TARGET: the target Follow Me follows (vehicles/follow_target.py)."""
         self._autopilot.set_follow_target(now_s, lat_deg, lon_deg, alt_amsl_m, velocity_ned_mps)
 
+    # SET_VELOCITY_LIMITS: the limits of Position Slow (vehicles/position_slow.py)
+    set_velocity_limits = property(lambda self: self._autopilot.velocity_limits.publish)
+
     @property
     def orbit_status(self) -> OrbitStatus | None:
         """ORBIT_EXECUTION_STATUS while orbiting (local NED; None otherwise)."""

@@ -1,10 +1,13 @@
 """What a pilot or a GCS feeds continuously: MANUAL_CONTROL → the vehicle's stick input (QGC
 virtual joystick / joystick, MAVSDK manual_control, pymavlink); FOLLOW_TARGET → the target of
-Follow Me (MAVSDK follow_me, QGC's Follow Me with the GCS's position).
+Follow Me (MAVSDK follow_me, QGC's Follow Me with the GCS's position); SET_VELOCITY_LIMITS → the
+limits of Position Slow (vehicles/position_slow.py).
 
 Source: PX4 ``mavlink_receiver.cpp`` handle_message_manual_control, handle_message_follow_target
 (no target field: every FOLLOW_TARGET on the link counts; lat/lon 1e7 deg, alt AMSL m, vel NED;
-passed on as PX4 publishes it: the vehicle's target estimator fuses only what is finite).
+passed on as PX4 publishes it: the vehicle's target estimator fuses only what is finite),
+handle_message_set_velocity_limits (its target fields unread: every one on the link counts;
+passed on as published, NaN where a limit is not set).
 Rules:
 - Taken for ``target`` 0 or this system; other targets are counted and ignored.
 - x → pitch, y → roll, r → yaw, each /1000 when within [-1000, 1000]; z (throttle) is
@@ -36,8 +39,8 @@ def sticks_of(msg: Any) -> Sticks:
 
 
 class ManualControlService:
-    """MANUAL_CONTROL and FOLLOW_TARGET (module docstring). Uses the vehicle, the link kind
-    (the stick source), sysid and other_target."""
+    """MANUAL_CONTROL, FOLLOW_TARGET and SET_VELOCITY_LIMITS (module docstring). Uses the
+    vehicle, the link kind (the stick source), sysid and other_target."""
 
     def __init__(self, ctx: LinkContext) -> None:
         self.vehicle = ctx.vehicle
@@ -61,3 +64,8 @@ class ManualControlService:
         # as PX4 publishes it: the target's estimator fuses only what is finite
         hook(now_s, msg.lat * 1e-7, msg.lon * 1e-7, float(msg.alt),
              tuple(float(v) for v in msg.vel[:3]))
+
+    def on_set_velocity_limits(self, msg: Any, now_s: float) -> None:
+        hook = getattr(self.vehicle, "set_velocity_limits", None)
+        if hook is not None:
+            hook(msg.horizontal_speed_limit, msg.vertical_speed_limit, msg.yaw_rate_limit)

@@ -64,6 +64,7 @@ from gateway.mavlink.snapshot import LinkTelemetry, SampleCache, Snapshot
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
 from gateway.mavlink.streams import Scheduler
 from gateway.mavlink.vehicle_port import VehiclePort
+from gateway.mavlink.wip_dialect import SET_VELOCITY_LIMITS
 from vehicles.types import Changes
 
 __all__ = ["LinkKind", "Session", "SessionStats", "SigningConfig"]
@@ -75,8 +76,10 @@ ERROR_LOG_INTERVAL_S = 10.0  # a failing service logs at most once per this (sim
 MAV_TYPE_GCS = 6
 MAV_TYPE_ONBOARD_CONTROLLER = 18
 SIGNING_LINK_ID = {LinkKind.GCS: 0, LinkKind.API: 1}
-# Handled whatever their target_system: PX4 answers a command for another target FAILED.
-_COMMANDS = frozenset({M.MAVLINK_MSG_ID_COMMAND_LONG, M.MAVLINK_MSG_ID_COMMAND_INT})
+# Handled whatever their target_system: PX4 answers a command for another target FAILED, and
+# its SET_VELOCITY_LIMITS handler reads no target field.
+_ANY_TARGET = frozenset({M.MAVLINK_MSG_ID_COMMAND_LONG, M.MAVLINK_MSG_ID_COMMAND_INT,
+                         SET_VELOCITY_LIMITS.id})
 
 
 class Session:
@@ -161,6 +164,7 @@ class Session:
             M.MAVLINK_MSG_ID_SET_ATTITUDE_TARGET: self.offboard.on_attitude_target,
             M.MAVLINK_MSG_ID_MANUAL_CONTROL: self.manual.on_manual_control,
             M.MAVLINK_MSG_ID_FOLLOW_TARGET: self.manual.on_follow_target,
+            SET_VELOCITY_LIMITS.id: self.manual.on_set_velocity_limits,
             M.MAVLINK_MSG_ID_LOG_REQUEST_LIST: self.logs.on_request_list,
             M.MAVLINK_MSG_ID_LOG_REQUEST_DATA: self.logs.on_request_data,
             M.MAVLINK_MSG_ID_LOG_REQUEST_END: self.logs.on_request_end,
@@ -199,7 +203,7 @@ class Session:
             for msg in self._decoder.feed(data, now_s):
                 self.seen.heard(self, msg.get_srcSystem(), msg.get_srcComponent())
                 target = getattr(msg, "target_system", 0)
-                if target not in (0, self.sysid) and msg.get_msgId() not in _COMMANDS:
+                if target not in (0, self.sysid) and msg.get_msgId() not in _ANY_TARGET:
                     self.stats.rx_other_target += 1
                     continue
                 self._addressed = True

@@ -120,6 +120,9 @@ class VehicleFeatures(Protocol):
     def set_follow_target(self, now_s: float, lat_deg: float, lon_deg: float,
                           alt_amsl_m: float, velocity_ned_mps: Vec3 = ...) -> None: ...
 
+    def set_velocity_limits(self, horizontal_mps: float, vertical_mps: float,
+                            yaw_rate_rps: float) -> None: ...
+
     # actions
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
              yaw_rad: float = ..., speed_mps: float = ..., what: str = ...) -> CommandResult: ...

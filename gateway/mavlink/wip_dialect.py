@@ -2,7 +2,9 @@
 marks them work in progress, which pymavlink leaves out) but PX4 builds with and sends: the
 events protocol (event_messages.py), the ESC reports ESC_INFO (290) and ESC_STATUS (291), which
 PX4 SITL with the gz bridge streams by default, TIME_ESTIMATE_TO_TARGET (380) and
-LINK_NODE_STATUS (8).
+LINK_NODE_STATUS (8); and development.xml's SET_VELOCITY_LIMITS (354), which PX4 SITL (built with
+the development dialect) takes for Position Slow's limits (registered in both maps too: the
+decoder parses with the common dialect's).
 
 ``define_message`` makes a class as mavgen makes one (wire order by field size, stable; the
 CRC_EXTRA given is mavgen's, tests recompute it from the definition) and registers it in the
@@ -80,3 +82,7 @@ LINK_NODE_STATUS = define_message(8, "LINK_NODE_STATUS", 117, (
     (U32, "rx_rate", 0), (U16, "rx_parse_err", 0), (U16, "tx_overflows", 0),
     (U16, "rx_overflows", 0), (U32, "messages_sent", 0), (U32, "messages_received", 0),
     (U32, "messages_lost", 0)))
+# development.xml SET_VELOCITY_LIMITS (a wip message: no pymavlink class), PX4's velocity_limits.
+SET_VELOCITY_LIMITS = define_message(354, "SET_VELOCITY_LIMITS", 210, (
+    (U8, "target_system", 0), (U8, "target_component", 0), (F32, "horizontal_speed_limit", 0),
+    (F32, "vertical_speed_limit", 0), (F32, "yaw_rate_limit", 0)))

@@ -13,7 +13,7 @@ from pymavlink.generator.mavcrc import x25crc
 from gateway.ci.lockstep import CLIENT_SYSID
 from gateway.mavlink import event_messages as EM
 from gateway.mavlink.session import LinkKind
-from gateway.mavlink.wip_dialect import ESC_INFO, ESC_STATUS
+from gateway.mavlink.wip_dialect import ESC_INFO, ESC_STATUS, SET_VELOCITY_LIMITS
 from gateway.onboard.metadata import events_json
 from gateway.testing import Sim
 from vehicles.events import DEFINITIONS, INITIAL_SEQUENCE, EventLog, Log, event_id
@@ -42,7 +42,8 @@ def test_event_ids_are_px4s():
 
 
 @pytest.mark.parametrize("cls", [EM.EVENT, EM.CURRENT_EVENT_SEQUENCE, EM.REQUEST_EVENT,
-                                 EM.RESPONSE_EVENT_ERROR, ESC_INFO, ESC_STATUS])
+                                 EM.RESPONSE_EVENT_ERROR, ESC_INFO, ESC_STATUS,
+                                 SET_VELOCITY_LIMITS])
 def test_message_definitions_have_mavgens_crc_extra(cls):
     """CRC_EXTRA as mavgen computes it from the definition (name, then the wire-ordered fields'
     types and names, array lengths); a frame round-trips through pymavlink's own parser."""

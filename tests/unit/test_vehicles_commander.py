@@ -18,7 +18,8 @@ REQUESTABLE = {NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, 
                NavState.AUTO_MISSION, NavState.OFFBOARD, NavState.ORBIT,
                NavState.AUTO_FOLLOW_TARGET}
 # ... and with stick input (MANUAL_CONTROL) within COM_RC_LOSS_T:
-STICK_MODES = {NavState.MANUAL, NavState.ALTCTL, NavState.POSCTL, NavState.STAB, NavState.ACRO}
+STICK_MODES = {NavState.MANUAL, NavState.ALTCTL, NavState.POSCTL, NavState.POSITION_SLOW,
+               NavState.STAB, NavState.ACRO}
 
 
 def make(nav_state=NavState.AUTO_LOITER, position_valid=True, armed=False, landed=True,
@@ -101,7 +102,8 @@ def test_mode_requests_need_a_position_estimate(target):
     expected = (CommandResult.TEMPORARILY_REJECTED if MODE_TABLE[target].needs_position
                 else CommandResult.ACCEPTED)
     assert c.request_nav_state(0.0, target) is expected
-    assert MODE_TABLE[target].needs_position is (target not in STICK_MODES - {NavState.POSCTL})
+    assert MODE_TABLE[target].needs_position is (
+        target not in STICK_MODES - {NavState.POSCTL, NavState.POSITION_SLOW})
 
 
 @pytest.mark.parametrize("mode", sorted(STICK_MODES))

@@ -10,13 +10,13 @@ import pytest
 from tests.unit.test_vehicles_flight import Sim, take_off
 from vehicles.airframe import X500
 from vehicles.events import event_id
+from vehicles.manual_attitude import throttle_to_thrust
 from vehicles.manual_control import (
     ManualAltitude,
     Sticks,
     deadzone,
     expo,
     superexpo,
-    throttle_to_thrust,
 )
 from vehicles.params import ParamStore
 from vehicles.types import CommandResult, NavState
