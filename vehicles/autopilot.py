@@ -94,7 +94,7 @@ class Autopilot:
         self.log = StatusLog(name, changes=self.changes)
         self.commander = Commander(params, self.log, boot_time_s)
         self.plans = PlanStore()
-        self.navigator = Navigator(self.plans, self.changes)
+        self.navigator = Navigator(self.plans, self.changes, self.log)
         self.geofence = Geofence(params)
         self.plans.on_change(self._plan_changed)
         self.offboard, self.failure_detector = Offboard(), FailureDetector()

@@ -83,7 +83,6 @@ ARMING_DENIED_TEXT = ARM_DENIED.message + "\t"  # "Arming denied: Resolve system
 class SwitchRule(enum.Enum):
     ALLOWED = "allowed"  # ACCEPTED (TEMPORARILY_REJECTED without position if it needs one)
     NEEDS_MANUAL_CONTROL = "needs_manual_control"  # rejected without fresh stick input
-    NOT_YET = "not_yet"  # not implemented (Precision Land) -> rejected
     FAILSAFE_ONLY = "failsafe_only"  # entered by the vehicle itself, never by request
 
 
@@ -142,7 +141,7 @@ MODE_TABLE: dict[NavState, ModeSpec] = {
     NavState.AUTO_TAKEOFF: ModeSpec("Takeoff", SwitchRule.ALLOWED, True, True, None),
     NavState.AUTO_LAND: ModeSpec("Land", SwitchRule.ALLOWED, True, False, _L),
     NavState.AUTO_FOLLOW_TARGET: ModeSpec("Follow Me", SwitchRule.ALLOWED, True, False, _L),
-    NavState.AUTO_PRECLAND: ModeSpec("Precision Land", SwitchRule.NOT_YET, True, False, _L),
+    NavState.AUTO_PRECLAND: ModeSpec("Precision Land", SwitchRule.ALLOWED, True, False, _L),
     NavState.ORBIT: ModeSpec("Orbit", SwitchRule.ALLOWED, True, False, _L),
 }
 

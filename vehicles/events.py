@@ -320,6 +320,9 @@ HOVER_THRUST_SET = EventDef("mc_pos_ctrl_hover_thrust_set", "default",
                             "Hover thrust has been constrained by min/max thrust", _F32)
 # FlightTaskOrbit::applyCommandParameters: a DO_ORBIT radius beyond [1 m, MC_ORBIT_RAD_MAX]
 ORBIT_RADIUS_EXCEEDED = EventDef("orbit_radius_exceeded", "default", "Orbit radius limit exceeded")
+LANDING_TARGET_UNSUPPORTED_FRAME = EventDef(  # mavlink_receiver.cpp handle_message_landing_target
+    "mavlink_rcv_lnd_target_unsup_coord", "default",
+    "Landing target: unsupported coordinate frame {1}", (("uint8_t", "arg0"),))
 POSITION_PARAMS = (TILT_SET, LAND_TILT_SET, CRUISE_SET, MAN_VEL_SET, UP_VEL_SET, DOWN_VEL_SET,
                    HOVER_THRUST_SET)
 DEFINITIONS: tuple[EventDef, ...] = (
@@ -337,8 +340,8 @@ DEFINITIONS: tuple[EventDef, ...] = (
     RTL_COMPLETED_LOITER, RTL_UNSUPPORTED_FRAME, GF_INVALID_HOME, GF_INVALID_POSITION,
     TAKEOFF_DEFAULT_ALT, TAKEOFF_ALREADY_HIGHER, REPOSITION_OUTSIDE_FENCE,
     CHANGE_ALT_OUTSIDE_FENCE, COMMANDER_RTL, COMMANDER_LAND, MODE_NOT_AVAILABLE,
-    UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, ORBIT_RADIUS_EXCEEDED, *MISSION_FEASIBILITY,
-    *POSITION_PARAMS)
+    UNSUPPORTED_AUTO_MODE, UNSUPPORTED_ARM_PARAM, ORBIT_RADIUS_EXCEEDED,
+    LANDING_TARGET_UNSUPPORTED_FRAME, *MISSION_FEASIBILITY, *POSITION_PARAMS)
 
 
 # navigation_mode_t (events/enums.json): mode_util::navigation_mode's value of each navigation

@@ -7,7 +7,8 @@ shared by all modes; only Mission reads the ROI, nav_roi.py).
 
 Rules and invariants:
 - One ``NavMode`` object per NavState it serves, registered in ``Navigator.modes`` (Hold, Takeoff,
-  Land in nav_core.py, Return in nav_rtl.py, Mission in nav_mission.py). Offboard and Termination
+  Land in nav_core.py, Return in nav_rtl.py, Mission in nav_mission.py, Precision Land in
+  nav_precland.py). Offboard and Termination
   have no navigator part: the autopilot bypasses the navigator for them.
 - The navigator follows the commander's nav_state: when it differs from the active mode, the old
   mode's ``on_inactive`` and the new mode's ``on_activation`` run, then ``on_active`` every tick.
@@ -31,6 +32,7 @@ from vehicles.nav_core import (  # noqa: F401  (re-exported: the autopilot and t
     land_speed_mps,
 )
 from vehicles.nav_mission import Mission
+from vehicles.nav_precland import LandingTarget, PrecLand
 from vehicles.nav_roi import Params7, Roi
 from vehicles.nav_rtl import (  # noqa: F401
     NO_ESTIMATE,
@@ -44,6 +46,7 @@ from vehicles.nav_rtl import (  # noqa: F401
     rtl_time_estimate,
 )
 from vehicles.plans import PlanStore
+from vehicles.status_log import StatusLog
 from vehicles.types import Changes, NavState
 
 # Read at every 50 Hz tick, by a module name: in Python 3.11 a member read off its class
@@ -52,19 +55,23 @@ _HOLD = NavState.AUTO_LOITER
 
 
 class Navigator:
-    def __init__(self, plans: PlanStore | None = None, changes: Changes | None = None) -> None:
+    def __init__(self, plans: PlanStore | None = None, changes: Changes | None = None,
+                 log: StatusLog | None = None) -> None:
         self.plans = plans if plans is not None else PlanStore()
         self.hold = Hold()
         self.takeoff = Takeoff()
         self.roi = Roi()
         self.mission = Mission(self.plans, changes, self.roi)
         self.rtl = Return(self.plans)
+        self.landing_target = LandingTarget(log)  # LANDING_TARGET's landing_target_pose
+        self.precland = PrecLand(self.landing_target)
         self.modes: dict[NavState, NavMode] = {
             NavState.AUTO_LOITER: self.hold,
             NavState.AUTO_TAKEOFF: self.takeoff,
             NavState.AUTO_LAND: Land(),
             NavState.AUTO_RTL: self.rtl,
             NavState.AUTO_MISSION: self.mission,
+            NavState.AUTO_PRECLAND: self.precland,
         }
         self.active_state: NavState | None = None
         self._last: NavSetpoint | None = None  # the last tick's setpoint (PX4's current one)
@@ -114,6 +121,10 @@ class Navigator:
                     self._loiter_on(ctx)
             self.active_state = nav_state
             self._reactivate = False
+            # Precision Land starts from the position setpoint it finds (the last mode's)
+            last = self._last
+            self.precland.current = last.target_ned_m if last is not None and not last.idle \
+                else None
             self.modes[nav_state].on_activation(ctx)
         sp = self._last = self.modes[nav_state].on_active(ctx)
         return sp

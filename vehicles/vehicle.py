@@ -390,12 +390,12 @@ class Vehicle:
         """FOLLOW_TARGET: the target Follow Me follows (vehicles/follow_target.py)."""
         self._autopilot.set_follow_target(now_s, lat_deg, lon_deg, alt_amsl_m, velocity_ned_mps)
 
-    # SET_VELOCITY_LIMITS: the limits of Position Slow (vehicles/position_slow.py)
+    # SET_VELOCITY_LIMITS, LANDING_TARGET: Position Slow's limits, Precision Land's target
     set_velocity_limits = property(lambda self: self._autopilot.velocity_limits.publish)
+    landing_target = property(lambda self: self._autopilot.navigator.landing_target.report)
 
     @property
-    def orbit_status(self) -> OrbitStatus | None:
-        """ORBIT_EXECUTION_STATUS while orbiting (local NED; None otherwise)."""
+    def orbit_status(self) -> OrbitStatus | None:  # ORBIT_EXECUTION_STATUS (local NED), or None
         return self._autopilot.orbit_status
 
     def change_speed(self, now_s: float, speed_mps: float) -> CommandResult:

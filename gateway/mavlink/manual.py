@@ -1,7 +1,8 @@
 """What a pilot or a GCS feeds continuously: MANUAL_CONTROL → the vehicle's stick input (QGC
 virtual joystick / joystick, MAVSDK manual_control, pymavlink); FOLLOW_TARGET → the target of
 Follow Me (MAVSDK follow_me, QGC's Follow Me with the GCS's position); SET_VELOCITY_LIMITS → the
-limits of Position Slow (vehicles/position_slow.py).
+limits of Position Slow (vehicles/position_slow.py); LANDING_TARGET → Precision Land's target
+(vehicles/nav_precland.py).
 
 Source: PX4 ``mavlink_receiver.cpp`` handle_message_manual_control, handle_message_follow_target
 (no target field: every FOLLOW_TARGET on the link counts; lat/lon 1e7 deg, alt AMSL m, vel NED;
@@ -39,8 +40,8 @@ def sticks_of(msg: Any) -> Sticks:
 
 
 class ManualControlService:
-    """MANUAL_CONTROL, FOLLOW_TARGET and SET_VELOCITY_LIMITS (module docstring). Uses the
-    vehicle, the link kind (the stick source), sysid and other_target."""
+    """MANUAL_CONTROL, FOLLOW_TARGET, SET_VELOCITY_LIMITS and LANDING_TARGET (module docstring).
+    Uses the vehicle, the link kind (the stick source), sysid and other_target."""
 
     def __init__(self, ctx: LinkContext) -> None:
         self.vehicle = ctx.vehicle
@@ -64,6 +65,12 @@ class ManualControlService:
         # as PX4 publishes it: the target's estimator fuses only what is finite
         hook(now_s, msg.lat * 1e-7, msg.lon * 1e-7, float(msg.alt),
              tuple(float(v) for v in msg.vel[:3]))
+
+    def on_landing_target(self, msg: Any, now_s: float) -> None:
+        hook = getattr(self.vehicle, "landing_target", None)
+        if hook is not None:
+            hook(now_s, bool(msg.position_valid), int(msg.frame),
+                 (float(msg.x), float(msg.y), float(msg.z)))
 
     def on_set_velocity_limits(self, msg: Any, now_s: float) -> None:
         hook = getattr(self.vehicle, "set_velocity_limits", None)

@@ -165,6 +165,7 @@ class Session:
             M.MAVLINK_MSG_ID_MANUAL_CONTROL: self.manual.on_manual_control,
             M.MAVLINK_MSG_ID_FOLLOW_TARGET: self.manual.on_follow_target,
             SET_VELOCITY_LIMITS.id: self.manual.on_set_velocity_limits,
+            M.MAVLINK_MSG_ID_LANDING_TARGET: self.manual.on_landing_target,
             M.MAVLINK_MSG_ID_LOG_REQUEST_LIST: self.logs.on_request_list,
             M.MAVLINK_MSG_ID_LOG_REQUEST_DATA: self.logs.on_request_data,
             M.MAVLINK_MSG_ID_LOG_REQUEST_END: self.logs.on_request_end,

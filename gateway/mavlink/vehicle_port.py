@@ -123,6 +123,9 @@ class VehicleFeatures(Protocol):
     def set_velocity_limits(self, horizontal_mps: float, vertical_mps: float,
                             yaw_rate_rps: float) -> None: ...
 
+    def landing_target(self, now_s: float, position_valid: bool, frame: int,
+                       position_ned_m: Vec3) -> None: ...
+
     # actions
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,
              yaw_rad: float = ..., speed_mps: float = ..., what: str = ...) -> CommandResult: ...

@@ -16,7 +16,7 @@ from vehicles.types import CommandResult, NavState
 
 REQUESTABLE = {NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_RTL,
                NavState.AUTO_MISSION, NavState.OFFBOARD, NavState.ORBIT,
-               NavState.AUTO_FOLLOW_TARGET}
+               NavState.AUTO_FOLLOW_TARGET, NavState.AUTO_PRECLAND}
 # ... and with stick input (MANUAL_CONTROL) within COM_RC_LOSS_T:
 STICK_MODES = {NavState.MANUAL, NavState.ALTCTL, NavState.POSCTL, NavState.POSITION_SLOW,
                NavState.STAB, NavState.ACRO}
