@@ -144,6 +144,12 @@ class PrecLand(NavMode):
         return NavSetpoint(self._sp, self._yaw, ctx.limits(),
                            acceptance_radius_m=float(ctx.params["NAV_ACC_RAD"]))
 
+    def _console(self, level: int, text: str, *args: object) -> None:
+        """PX4_INFO / PX4_WARN on the instance's console: the daemon's log, naming the vehicle."""
+        status_log = self.target.log
+        name = status_log.name if status_log is not None else ""
+        log.log(level, "%s " + text, name, *args)
+
     # --- the states -------------------------------------------------------------------------
     def _run_start(self, ctx: NavContext) -> None:
         if self._switch_to_horizontal_approach(ctx):
@@ -160,7 +166,8 @@ class PrecLand(NavMode):
 
     def _run_horizontal_approach(self, ctx: NavContext) -> None:
         if not self._conditions(ctx, PrecLandState.HORIZONTAL_APPROACH):
-            log.warning("Lost landing target while landing, state: %d", self.state.value)
+            self._console(logging.WARNING, "Lost landing target while landing, state: %d",
+                              self.state.value)
             self._sp = ctx.position_ned_m  # stay here to search for the target
             if not self._switch_to_start(ctx):
                 self._switch_to_fallback(ctx)
@@ -178,7 +185,8 @@ class PrecLand(NavMode):
     def _run_descend_above_target(self, ctx: NavContext) -> None:
         if not self._conditions(ctx, PrecLandState.DESCEND_ABOVE_TARGET):
             if not self._switch_to_final_approach(ctx):
-                log.warning("Lost landing target while landing, state: %d", self.state.value)
+                self._console(logging.WARNING, "Lost landing target while landing, state: %d",
+                              self.state.value)
                 self._sp = ctx.position_ned_m
                 if not self._switch_to_start(ctx):
                     self._switch_to_fallback(ctx)
@@ -197,7 +205,7 @@ class PrecLand(NavMode):
             if self._switch_to_horizontal_approach(ctx):
                 return
         if ctx.now_s - self._state_start_s > float(ctx.params["PLD_SRCH_TOUT"]):
-            log.warning("Search timed out")
+            self._console(logging.WARNING, "Search timed out")
             self._switch_to_fallback(ctx)
 
     def _target_xy(self) -> tuple[float, float]:
@@ -224,7 +232,7 @@ class PrecLand(NavMode):
     def _switch_to_horizontal_approach(self, ctx: NavContext) -> bool:
         if not self._conditions(ctx, PrecLandState.HORIZONTAL_APPROACH):
             return False
-        log.info("Precland: switching to horizontal approach")
+        self._console(logging.INFO, "Precland: switching to horizontal approach")
         self._approach_z = ctx.position_ned_m[2]
         self._point_reached_s = None
         self._set_state(ctx, PrecLandState.HORIZONTAL_APPROACH)
@@ -233,26 +241,26 @@ class PrecLand(NavMode):
     def _switch_to_descend_above_target(self, ctx: NavContext) -> bool:
         if not self._conditions(ctx, PrecLandState.DESCEND_ABOVE_TARGET):
             return False
-        log.info("Precland: switching to descend")
+        self._console(logging.INFO, "Precland: switching to descend")
         self._set_state(ctx, PrecLandState.DESCEND_ABOVE_TARGET)
         return True
 
     def _switch_to_final_approach(self, ctx: NavContext) -> bool:
         if not self._conditions(ctx, PrecLandState.FINAL_APPROACH):
             return False
-        log.info("Precland: switching to final approach")
+        self._console(logging.INFO, "Precland: switching to final approach")
         self._set_state(ctx, PrecLandState.FINAL_APPROACH)
         return True
 
     def _switch_to_search(self, ctx: NavContext) -> None:
-        log.info("Climbing to search altitude.")
+        self._console(logging.INFO, "Climbing to search altitude.")
         self._sp = (self._sp[0], self._sp[1], -float(ctx.params["PLD_SRCH_ALT"]))
         self._land = False
         self._target_acquired_s = None
         self._set_state(ctx, PrecLandState.SEARCH)
 
     def _switch_to_fallback(self, ctx: NavContext) -> None:
-        log.info("Precland: switching to fallback")
+        self._console(logging.INFO, "Precland: switching to fallback")
         self._sp, self._land = ctx.position_ned_m, True
         self._set_state(ctx, PrecLandState.FALLBACK)
 

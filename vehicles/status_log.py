@@ -30,6 +30,10 @@ class StatusLog:
         self.events: EventLog | None = None  # the vehicle's events (vehicles/events.py)
 
     @property
+    def name(self) -> str:
+        return self._name
+
+    @property
     def last_seq(self) -> int:
         return self._seq
 
