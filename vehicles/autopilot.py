@@ -466,7 +466,8 @@ class Autopilot:
         # wait until a mode asks for it.)
         ctx = NavContext(now_s, self.params, self.log, cmd.armed, ld.landed, pos, vel, yaw,
                          self.home, st.trajectory, self.origin, self._switch_by_vehicle,
-                         self.navigator.cruise_mps, self.navigator.set_cruise_mps)
+                         self.navigator.cruise_mps, self.navigator.set_cruise_mps,
+                         self.navigator.precland)
         self.navigator.publish_rtl_estimate(ctx, cmd.position_valid)
         state = cmd.nav_state
         entered = state is not self._prev_nav_state

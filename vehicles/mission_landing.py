@@ -66,8 +66,14 @@ def approach_yaw(ctx: NavContext, target: Vec3, fixed_yaw: float, yaw: float) ->
     return yaw
 
 
-def land_setpoint(ctx: NavContext, target: Vec3, yaw: float) -> NavSetpoint:
-    """The descent at the landing point's horizontal position."""
+def land_setpoint(ctx: NavContext, target: Vec3, yaw: float, item: PlanItem | None = None
+                  ) -> NavSetpoint:
+    """The descent at the landing point's horizontal position; a land item whose param2 asks
+    for a precision landing (1 opportunistic, 2 required: ``land_precision``) runs the
+    navigator's Precision Land block instead (MissionBlock::startPrecLand)."""
+    precision = item.param2 if item is not None and item.command == MavCmd.NAV_LAND else 0.0
+    if ctx.precland is not None and precision in (1.0, 2.0):
+        return ctx.precland.land(ctx, item, target, yaw, int(precision))
     speed = land_speed_mps(ctx.params, -ctx.position_ned_m[2])
     return NavSetpoint((target[0], target[1], math.nan), yaw,
                        ctx.limits(speed_down_mps=speed), vz_cmd_mps=speed, landing=True)

@@ -18,7 +18,7 @@ import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from vehicles.control.trajectory import TrajectoryLimits
 from vehicles.events import TAKEOFF_ALREADY_HIGHER, TAKEOFF_DEFAULT_ALT, Log
@@ -72,6 +72,9 @@ class NavContext:
     switch_to: Callable[[NavState, Vec3 | None], None] = field(default=lambda s, p: None)
     cruise_mps: float = math.nan  # NaN = MPC_XY_CRUISE
     set_cruise_mps: Callable[[float], None] = field(default=lambda v: None)
+    # the navigator's Precision Land block (nav_precland.PrecLand), which a mission's land item
+    # or Return's landing may run (MissionBlock::startPrecLand)
+    precland: Any = None
 
     @property
     def setpoint_ned_m(self) -> Vec3:

@@ -442,7 +442,7 @@ class Mission(NavMode):
                 if self.items[self.current].autocontinue and self._next_item(ctx):
                     self._start_item(ctx)
             return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
-        return landing.land_setpoint(ctx, self._target, self._yaw)
+        return landing.land_setpoint(ctx, self._target, self._yaw, self.items[self.current])
 
     def _advance(self, ctx: NavContext) -> NavSetpoint:
         self._came_from = self._target

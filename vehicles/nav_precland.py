@@ -1,7 +1,8 @@
 """Precision Land: land on a landing target, search for it, or land where the vehicle is.
 
 After PX4 v1.15 ``navigator/precland.cpp`` (NAVIGATION_STATE_AUTO_PRECLAND runs it in its
-Required mode, navigator_main.cpp) and mavlink_receiver's LANDING_TARGET:
+Required mode, navigator_main.cpp; mission_base.cpp and rtl_direct.cpp run it for a landing)
+and mavlink_receiver's LANDING_TARGET:
 - The target is ``landing_target_pose``: a LANDING_TARGET with ``position_valid`` in
   MAV_FRAME_LOCAL_NED gives its x, y, z (the vehicle's local frame), stamped on arrival
   (``LandingTarget``). It is valid from its first report until PLD_BTOUT passes without one.
@@ -20,6 +21,10 @@ Required mode, navigator_main.cpp) and mavlink_receiver's LANDING_TARGET:
   a valid target it goes to the final approach when within PLD_FAPPR_ALT of the target's
   height, else starts again. The final approach and the fallback land where they are.
 - On the ground: done (the commander disarms after COM_DISARM_LAND).
+- A mission's land item with param2 1 (opportunistic) or 2 (required), and Return's landing with
+  RTL_PLD_MD 1 or 2, run this block from their landing's start (``land``): Opportunistic lands
+  normally when no target is seen at once; Required behaves as the mode does, but from the
+  landing's LAND setpoint (it descends at the landing point until its 2 s there have passed).
 State changes are PX4_INFO/PX4_WARN lines on PX4's console, here the daemon's log.
 """
 
@@ -51,6 +56,10 @@ class PrecLandState(enum.Enum):
     SEARCH = 4
     FALLBACK = 5
     DONE = 6
+
+
+OPPORTUNISTIC, REQUIRED = 1, 2  # PrecLandMode (land_precision, RTL_PLD_MD)
+OWNER_GAP_S = 0.1  # a landing not run for longer than this has ended: the next one activates
 
 
 class LandingTarget:
@@ -87,6 +96,9 @@ class PrecLand(NavMode):
         self.target = target
         self.state = PrecLandState.DONE
         self.current: Vec3 | None = None  # the position setpoint handed over (navigator.py)
+        self.mode = REQUIRED
+        self._owner: object = None  # the mission item or Return running it (``land``)
+        self._owner_s = -math.inf
         self._sp: Vec3 = (0.0, 0.0, 0.0)  # the position setpoint (type POSITION or LAND)
         self._land = False  # the setpoint is a landing one
         self._yaw = 0.0
@@ -104,6 +116,27 @@ class PrecLand(NavMode):
 
     # --- NavMode ----------------------------------------------------------------------------
     def on_activation(self, ctx: NavContext) -> None:
+        if self._owner is not None:  # the mode itself (navigator_main.cpp): Required
+            self.mode, self._owner = REQUIRED, None
+        self._activate(ctx)
+
+    def land(self, ctx: NavContext, owner: object, target: Vec3, yaw: float, mode: int
+             ) -> NavSetpoint:
+        """A mission's land item or Return's landing that asks for a precision landing
+        (``mode``: OPPORTUNISTIC or REQUIRED). MissionBlock::startPrecLand activates the block
+        when that landing starts, from the setpoint before it; the landing's own LAND setpoint
+        at ``target`` then replaces the Start's (setActiveMissionItems sets the triplet after
+        it), so a Required search first descends there until its 2 s at the point have passed,
+        and an Opportunistic one without a target falls back at its first tick."""
+        if owner is not self._owner or ctx.now_s - self._owner_s > OWNER_GAP_S:
+            self._owner, self.mode = owner, mode
+            self.current = (target[0], target[1], ctx.position_ned_m[2])
+            self._activate(ctx)
+            self._sp, self._land, self._yaw = self.current, True, yaw
+        self._owner_s = ctx.now_s
+        return self.on_active(ctx)
+
+    def _activate(self, ctx: NavContext) -> None:
         self.state = PrecLandState.START
         self._search_cnt = 0
         self._last_slew_s = None
@@ -153,6 +186,9 @@ class PrecLand(NavMode):
     # --- the states -------------------------------------------------------------------------
     def _run_start(self, ctx: NavContext) -> None:
         if self._switch_to_horizontal_approach(ctx):
+            return
+        if self.mode == OPPORTUNISTIC:  # not seen at once: land normally
+            self._switch_to_fallback(ctx)
             return
         x, y, _ = ctx.position_ned_m
         if math.hypot(self._sp[0] - x, self._sp[1] - y) < float(ctx.params["NAV_ACC_RAD"]):

@@ -262,6 +262,9 @@ class Return(NavMode):
             self._land.on_activation(ctx)
             self._land.target_xy = (hx, hy)
             self._land.yaw = self.yaw
+        mode = int(p["RTL_PLD_MD"])  # rtl_direct.cpp: the landing's land_precision
+        if mode in (1, 2) and ctx.precland is not None:
+            return ctx.precland.land(ctx, self, (hx, hy, z), self.yaw, mode)
         return self._land.on_active(ctx)
 
 

@@ -118,3 +118,47 @@ def test_landing_target_on_the_wire():
         sim.run_until(lambda: False, timeout_s=0.1)
         assert lt.seq == 2
         assert sim.simulation.internal_errors == 0
+
+
+def _mission_landing(sim, precision, target=None):
+    from tests.unit.test_vehicles_mission import item
+    from vehicles.plan_types import MavCmd, MissionState, PlanType
+
+    v = sim.v
+    o = v.origin
+    items = [item(0, MavCmd.NAV_WAYPOINT, 10.0, 5.0, 6.0, o),
+             item(1, MavCmd.NAV_LAND, 15.0, 10.0, 0.0, o, p2=precision)]
+    sim.run(1.2)  # a position estimate
+    v.set_plan(sim.t, PlanType.MISSION, items)
+    assert v.start_mission(sim.t) is CommandResult.ACCEPTED
+    assert _run(sim, 90.0, target, until=lambda: not v.status.armed)
+    assert v.mission_status.state is MissionState.COMPLETE
+    return v.state.position_ned_m
+
+
+def test_a_mission_land_item_asking_for_precision_lands_on_the_target(sim):
+    # param2 2 (required): the pad 3 m from the item's position is where it lands
+    end = _mission_landing(sim, 2.0, (18.0, 10.0, 0.0))
+    assert math.hypot(end[0] - 18.0, end[1] - 10.0) < 0.3
+
+
+def test_an_opportunistic_mission_landing_without_a_target_lands_at_the_item(sim):
+    # param2 1 (opportunistic), nothing seen when the landing starts (the move to the landing
+    # point ended within NAV_ACC_RAD, 2 m): the fallback lands where the vehicle is, as PX4's
+    end = _mission_landing(sim, 1.0)
+    assert math.hypot(end[0] - 15.0, end[1] - 10.0) < 2.2
+    assert _precland(sim).state is PrecLandState.FALLBACK
+
+
+def test_return_with_rtl_pld_md_lands_on_the_target(sim):
+    sim.v.params.set("RTL_PLD_MD", 2)
+    take_off(sim)
+    v = sim.v
+    g = v.origin.offset_ned(30.0, 0.0, -10.0)
+    assert v.goto(sim.t, g.lat_deg, g.lon_deg, g.alt_amsl_m) is CommandResult.ACCEPTED
+    sim.run(12.0)
+    assert v.return_to_launch(sim.t) is CommandResult.ACCEPTED
+    pad = (2.0, 1.5, 0.0)  # next to home
+    assert _run(sim, 120.0, pad, until=lambda: not v.status.armed)
+    end = v.state.position_ned_m
+    assert math.hypot(end[0] - pad[0], end[1] - pad[1]) < 0.3
