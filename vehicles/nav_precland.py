@@ -265,28 +265,26 @@ class PrecLand(NavMode):
         self._set_state(ctx, PrecLandState.START)
         return True
 
-    def _switch_to_horizontal_approach(self, ctx: NavContext) -> bool:
-        if not self._conditions(ctx, PrecLandState.HORIZONTAL_APPROACH):
+    def _switch_if(self, ctx: NavContext, state: PrecLandState, name: str) -> bool:
+        """switch_to_state_*: to ``state`` if its conditions hold."""
+        if not self._conditions(ctx, state):
             return False
-        self._console(logging.INFO, "Precland: switching to horizontal approach")
+        self._console(logging.INFO, "Precland: switching to %s", name)
+        self._set_state(ctx, state)
+        return True
+
+    def _switch_to_horizontal_approach(self, ctx: NavContext) -> bool:
+        if not self._switch_if(ctx, PrecLandState.HORIZONTAL_APPROACH, "horizontal approach"):
+            return False
         self._approach_z = ctx.position_ned_m[2]
         self._point_reached_s = None
-        self._set_state(ctx, PrecLandState.HORIZONTAL_APPROACH)
         return True
 
     def _switch_to_descend_above_target(self, ctx: NavContext) -> bool:
-        if not self._conditions(ctx, PrecLandState.DESCEND_ABOVE_TARGET):
-            return False
-        self._console(logging.INFO, "Precland: switching to descend")
-        self._set_state(ctx, PrecLandState.DESCEND_ABOVE_TARGET)
-        return True
+        return self._switch_if(ctx, PrecLandState.DESCEND_ABOVE_TARGET, "descend")
 
     def _switch_to_final_approach(self, ctx: NavContext) -> bool:
-        if not self._conditions(ctx, PrecLandState.FINAL_APPROACH):
-            return False
-        self._console(logging.INFO, "Precland: switching to final approach")
-        self._set_state(ctx, PrecLandState.FINAL_APPROACH)
-        return True
+        return self._switch_if(ctx, PrecLandState.FINAL_APPROACH, "final approach")
 
     def _switch_to_search(self, ctx: NavContext) -> None:
         self._console(logging.INFO, "Climbing to search altitude.")
