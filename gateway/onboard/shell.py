@@ -35,6 +35,7 @@ VERSION = "1.15.2 0 (17761023)"  # what AUTOPILOT_VERSION says (v1.15.2 release)
 PROMPT = "pxh> "
 MAX_LINE = 4096
 MODES = {"manual": NavState.MANUAL, "altctl": NavState.ALTCTL, "posctl": NavState.POSCTL,
+         "position:slow": NavState.POSITION_SLOW,
          "auto:mission": NavState.AUTO_MISSION, "auto:loiter": NavState.AUTO_LOITER,
          "auto:rtl": NavState.AUTO_RTL, "auto:takeoff": NavState.AUTO_TAKEOFF,
          "auto:land": NavState.AUTO_LAND, "auto:precland": NavState.AUTO_PRECLAND,

@@ -70,6 +70,8 @@ def test_prompt_echo_and_commands():
         assert sim.status(0).armed
         # the shell's own vehicle_command: command_internal
         assert "Armed by internal command\t" in [t.text for t in sim.vehicles[0].status_texts()]
+        shell(sim, "commander mode auto:precland\n")
+        assert sim.status(0).nav_state is NavState.AUTO_PRECLAND
         shell(sim, "commander mode auto:rtl\n")
         assert sim.status(0).nav_state is NavState.AUTO_RTL or sim.status(0).armed
         assert "Command 'commander' failed" in shell(sim, "commander mode warp\n")
