@@ -39,6 +39,7 @@ from vehicles.manual_control import (
     ManualControl,
     ManualPosition,
 )
+from vehicles.manual_position_smooth import ManualPositionSmoothVel
 from vehicles.navigator import Navigator, NavSetpoint
 from vehicles.offboard import Offboard, acceleration_to_thrust
 from vehicles.orbit import Orbit
@@ -303,27 +304,43 @@ class StickPositionTask(FlightTask):
     takeoff."""
 
     def __init__(self, stage: PositionStage, params: ParamStore, manual: ManualControl,
-                 task: ManualAltitude | ManualPosition) -> None:
+                 task: ManualAltitude | ManualPosition,
+                 smooth: ManualPositionSmoothVel | None = None) -> None:
+        """``smooth``: Position mode's task for MPC_POS_MODE 3 (``task`` is its 4)."""
         super().__init__(stage, params)
         self.manual = manual
         self.task = task
+        self._by_mode = (task, smooth) if smooth is not None else None
+
+    def _choose(self) -> None:
+        """Position mode: FlightModeManager::start_flight_task's task for MPC_POS_MODE (3:
+        ManualPositionSmoothVel, 4: ManualAcceleration; 0 flies as 4 here), checked every tick
+        as PX4 does; an invalid value is set back to 4 and committed, with PX4_ERR's line."""
+        accel, smooth = self._by_mode  # type: ignore[misc]
+        mode = self.params["MPC_POS_MODE"]
+        if mode not in (0, 3, 4):
+            log.error("MPC_POS_MODE %d invalid, resetting", mode)
+            self.params.set("MPC_POS_MODE", 4)
+            mode = 4
+        self.task = smooth if mode == 3 else accel
 
     def activate(self, t: TaskInput) -> None:
         # from the trajectory setpoint the last task published (switchTask hands it over;
         # FlightTaskManualAltitudeSmoothVel / ManualAcceleration::activate)
+        if self._by_mode is not None:
+            self._choose()
         self.task.activate(t.meas.position_ned_m, t.meas.velocity_ned_mps, t.yaw_rad,
                            self.stage.task_setpoint)
 
     def update(self, t: TaskInput) -> None:
-        st, meas, task = self.stage, t.meas, self.task
+        st, meas = self.stage, t.meas
         pos, vel = meas.position_ned_m, meas.velocity_ned_mps
-        if task.__class__ is ManualPosition:  # Position mode (not Position Slow's task)
-            mode = self.params["MPC_POS_MODE"]
-            if mode not in (0, 3, 4):
-                # FlightModeManager::start_flight_task: PX4_ERR, then the parameter is set back
-                # to 4 and committed (0 and 3 fly as 4 here)
-                log.error("MPC_POS_MODE %d invalid, resetting", mode)
-                self.params.set("MPC_POS_MODE", 4)
+        if self._by_mode is not None:
+            before = self.task
+            self._choose()
+            if self.task is not before:  # switchTask: the new task from the last setpoint
+                self.task.activate(pos, vel, t.yaw_rad, st.task_setpoint)
+        task = self.task
         # the shared trajectory follows the state (Orbit's and Follow Me's approaches start
         # there; the auto task starts from this task's setpoint, ``task_setpoint``)
         st.trajectory.reset(pos, vel)
@@ -348,7 +365,7 @@ class StickPositionTask(FlightTask):
             task.reactivate(pos, vel, t.yaw_rad)
             st.task_setpoint = None  # as after set_idle: the vehicle's state
             return
-        if not isinstance(task, ManualPosition):
+        if not isinstance(task, (ManualPosition, ManualPositionSmoothVel)):
             # FlightTaskManualAltitude has no horizontal velocity setpoint (the measured one
             # here only keeps the velocity loop out): the next task takes the vehicle's
             st.task_setpoint = sp._replace(
@@ -412,7 +429,8 @@ def make_tasks(stage: PositionStage, params: ParamStore, navigator: Navigator,
         NavState.STAB: stab,
         NavState.ACRO: StickAttitudeTask(stage, params, manual, stabilized, hover, acro=True),
         NavState.ALTCTL: StickPositionTask(stage, params, manual, ManualAltitude(params)),
-        NavState.POSCTL: StickPositionTask(stage, params, manual, ManualPosition(params)),
+        NavState.POSCTL: StickPositionTask(stage, params, manual, ManualPosition(params),
+                                           ManualPositionSmoothVel(params)),
         NavState.POSITION_SLOW: StickPositionTask(stage, params, manual,
                                                   ManualPositionSlow(params, limits)),
         NavState.OFFBOARD: OffboardTask(stage, params, offboard),
