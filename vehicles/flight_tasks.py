@@ -39,6 +39,7 @@ from vehicles.manual_control import (
     ManualControl,
     ManualPosition,
 )
+from vehicles.manual_direct import ManualAltitudeDirect, ManualPositionDirect
 from vehicles.manual_position_smooth import ManualPositionSmoothVel
 from vehicles.navigator import Navigator, NavSetpoint
 from vehicles.offboard import Offboard, acceleration_to_thrust
@@ -304,25 +305,28 @@ class StickPositionTask(FlightTask):
     takeoff."""
 
     def __init__(self, stage: PositionStage, params: ParamStore, manual: ManualControl,
-                 task: ManualAltitude | ManualPosition,
-                 smooth: ManualPositionSmoothVel | None = None) -> None:
-        """``smooth``: Position mode's task for MPC_POS_MODE 3 (``task`` is its 4)."""
+                 task: ManualAltitude, by_mode: dict[int, ManualAltitude] | None = None,
+                 position: bool = False) -> None:
+        """``task``: the mode's task for MPC_POS_MODE values not in ``by_mode``; ``position``:
+        Position mode, which sets an invalid MPC_POS_MODE back to 4."""
         super().__init__(stage, params)
         self.manual = manual
-        self.task = task
-        self._by_mode = (task, smooth) if smooth is not None else None
+        self.task = self._default = task
+        self._by_mode = by_mode
+        self._position = position
 
     def _choose(self) -> None:
-        """Position mode: FlightModeManager::start_flight_task's task for MPC_POS_MODE (3:
-        ManualPositionSmoothVel, 4: ManualAcceleration; 0 flies as 4 here), checked every tick
-        as PX4 does; an invalid value is set back to 4 and committed, with PX4_ERR's line."""
-        accel, smooth = self._by_mode  # type: ignore[misc]
-        mode = self.params["MPC_POS_MODE"]
-        if mode not in (0, 3, 4):
+        """FlightModeManager::start_flight_task's task for MPC_POS_MODE, checked every tick as
+        PX4 does: Position mode 0 ManualPosition, 3 ManualPositionSmoothVel, 4 (and an invalid
+        value, set back to 4 and committed with PX4_ERR's line) ManualAcceleration; Altitude
+        mode 0 ManualAltitude, else ManualAltitudeSmoothVel."""
+        assert self._by_mode is not None
+        mode = int(self.params["MPC_POS_MODE"])
+        if self._position and mode not in (0, 3, 4):
             log.error("MPC_POS_MODE %d invalid, resetting", mode)
             self.params.set("MPC_POS_MODE", 4)
             mode = 4
-        self.task = smooth if mode == 3 else accel
+        self.task = self._by_mode.get(mode, self._default)
 
     def activate(self, t: TaskInput) -> None:
         # from the trajectory setpoint the last task published (switchTask hands it over;
@@ -365,7 +369,7 @@ class StickPositionTask(FlightTask):
             task.reactivate(pos, vel, t.yaw_rad)
             st.task_setpoint = None  # as after set_idle: the vehicle's state
             return
-        if not isinstance(task, (ManualPosition, ManualPositionSmoothVel)):
+        if not isinstance(task, (ManualPosition, ManualPositionSmoothVel, ManualPositionDirect)):
             # FlightTaskManualAltitude has no horizontal velocity setpoint (the measured one
             # here only keeps the velocity loop out): the next task takes the vehicle's
             st.task_setpoint = sp._replace(
@@ -428,9 +432,11 @@ def make_tasks(stage: PositionStage, params: ParamStore, navigator: Navigator,
         NavState.MANUAL: stab,
         NavState.STAB: stab,
         NavState.ACRO: StickAttitudeTask(stage, params, manual, stabilized, hover, acro=True),
-        NavState.ALTCTL: StickPositionTask(stage, params, manual, ManualAltitude(params)),
-        NavState.POSCTL: StickPositionTask(stage, params, manual, ManualPosition(params),
-                                           ManualPositionSmoothVel(params)),
+        NavState.ALTCTL: StickPositionTask(stage, params, manual, ManualAltitude(params),
+                                           {0: ManualAltitudeDirect(params)}),
+        NavState.POSCTL: StickPositionTask(
+            stage, params, manual, ManualPosition(params),
+            {0: ManualPositionDirect(params), 3: ManualPositionSmoothVel(params)}, position=True),
         NavState.POSITION_SLOW: StickPositionTask(stage, params, manual,
                                                   ManualPositionSlow(params, limits)),
         NavState.OFFBOARD: OffboardTask(stage, params, offboard),

@@ -22,6 +22,25 @@ from vehicles.manual_control import ManualAltitude, Sticks, _rotate, expo_deadzo
 from vehicles.types import Vec3
 
 
+def stick_velocity_xy(params, sticks: Sticks, heading: float) -> tuple[float, float]:
+    """FlightTaskManualPosition::_scaleSticks: the horizontal velocity the sticks ask for (expo
+    and deadzone, limited to unit length, MPC_VEL_MAN_SIDE/BACK, times MPC_VEL_MANUAL; no
+    estimator speed limit here), turned into the heading frame."""
+    p = params
+    dz, e = float(p["MPC_HOLD_DZ"]), float(p["MPC_XY_MAN_EXPO"])
+    sx, sy = expo_deadzone(sticks.pitch, e, dz), expo_deadzone(sticks.roll, e, dz)
+    n = math.hypot(sx, sy)
+    if n > 1.0:
+        sx, sy = sx / n, sy / n
+    vel_manual = float(p["MPC_VEL_MANUAL"])
+    side, back = float(p["MPC_VEL_MAN_SIDE"]), float(p["MPC_VEL_MAN_BACK"])
+    if side >= 0.0:
+        sy *= side / vel_manual
+    if back >= 0.0 and sx < 0.0:
+        sx *= back / vel_manual
+    return _rotate(sx * vel_manual, sy * vel_manual, heading)
+
+
 def _finite_or(value: float, fallback: float) -> float:
     return value if math.isfinite(value) else fallback
 
@@ -57,19 +76,7 @@ class ManualPositionSmoothVel(ManualAltitude):
         s.position_estimate = (pos[0], pos[1])
         self._yaw(sticks, yaw, dt)
         vz, az = self._vertical(dt, sticks, pos, vel_sp_feedback[2], home_z)
-        dz, e = float(p["MPC_HOLD_DZ"]), float(p["MPC_XY_MAN_EXPO"])
-        sx, sy = expo_deadzone(sticks.pitch, e, dz), expo_deadzone(sticks.roll, e, dz)
-        n = math.hypot(sx, sy)
-        if n > 1.0:
-            sx, sy = sx / n, sy / n
-        vel_manual = float(p["MPC_VEL_MANUAL"])
-        side, back = float(p["MPC_VEL_MAN_SIDE"]), float(p["MPC_VEL_MAN_BACK"])
-        if side >= 0.0:
-            sy *= side / vel_manual
-        if back >= 0.0 and sx < 0.0:
-            sx *= back / vel_manual
-        tx, ty = _rotate(sx * vel_manual, sy * vel_manual,
-                         self.yaw_sp if not math.isnan(self.yaw_sp) else yaw)
-        s.update(dt, (tx, ty))
+        s.update(dt, stick_velocity_xy(p, sticks, self.yaw_sp if not math.isnan(self.yaw_sp)
+                                       else yaw))
         (x, y), (vx, vy), (ax, ay) = s.position_locked, s.v, s.a
         return PositionSetpoint((x, y, self.z_sp), (vx, vy, vz), self.yaw_sp, (ax, ay, az))

@@ -1,5 +1,6 @@
-"""Position mode with MPC_POS_MODE 3 (PX4 v1.15.2 FlightTaskManualPositionSmoothVel) and its
-horizontal smoothing (ManualVelocitySmoothingXY, with ManualVelocitySmoothingXYTest's cases)."""
+"""Position and Altitude modes' other MPC_POS_MODE values, after PX4 v1.15.2: 3,
+FlightTaskManualPositionSmoothVel and its horizontal smoothing (ManualVelocitySmoothingXY, with
+ManualVelocitySmoothingXYTest's cases); 0, FlightTaskManualPosition and FlightTaskManualAltitude."""
 
 from __future__ import annotations
 
@@ -92,3 +93,45 @@ def test_changing_mpc_pos_mode_in_flight_switches_the_task_from_the_last_setpoin
     # the smoothing took over at the last setpoint's velocity: no brake, no jump
     assert sim.v.state.velocity_ned_mps[0] >= v_before - 0.3
     assert sim.v.status.nav_state is NavState.POSCTL
+
+
+def test_mode_0_position_flies_the_sticks_as_velocity_setpoints(sim):
+    """FlightTaskManualPosition: the stick's velocity as the setpoint (no smoothing), the
+    position locked once the sticks are centred and the vehicle slower than MPC_HOLD_MAX_XY."""
+    from vehicles.manual_direct import ManualPositionDirect
+
+    _position_mode(sim, 0)
+    fly(sim, 1.0, CENTRED)
+    task = sim.v._autopilot.tasks.by_state[NavState.POSCTL].task
+    assert isinstance(task, ManualPositionDirect)
+    fly(sim, 0.5, Sticks(pitch=1.0))
+    sp = sim.v._autopilot.stage.task_setpoint
+    assert sp.velocity_ned_mps[0] == pytest.approx(10.0)  # MPC_VEL_MANUAL at once
+    assert math.isnan(sp.position_ned_m[0]) and math.isnan(sp.acceleration_ned_mps2[0])
+    fly(sim, 6.0, Sticks(pitch=1.0))
+    assert sim.v.state.velocity_ned_mps[0] == pytest.approx(10.0, abs=0.5)
+    fly(sim, 8.0, CENTRED)
+    assert np.linalg.norm(sim.v.state.velocity_ned_mps) < 0.2
+    held = sim.v.state.position_ned_m.copy()
+    fly(sim, 2.0, CENTRED)
+    assert np.linalg.norm(sim.v.state.position_ned_m - held) < 0.2
+
+
+def test_mode_0_altitude_climbs_at_the_stick_rate_and_locks(sim):
+    from vehicles.manual_direct import ManualAltitudeDirect
+
+    sim.v.params.set("MPC_POS_MODE", 0)
+    take_off(sim)
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.set_nav_state(sim.t, NavState.ALTCTL) is CommandResult.ACCEPTED
+    fly(sim, 1.0, CENTRED)
+    assert isinstance(sim.v._autopilot.tasks.by_state[NavState.ALTCTL].task,
+                      ManualAltitudeDirect)
+    assert fly(sim, 15.0, Sticks(throttle=1.0), until=lambda: sim.v.state.position_ned_m[2] < -12)
+    fly(sim, 1.0, Sticks(throttle=1.0))
+    assert sim.v.state.velocity_ned_mps[2] == pytest.approx(-3.0, abs=0.3)  # MPC_Z_VEL_MAX_UP
+    fly(sim, 4.0, CENTRED)
+    z = sim.v.state.position_ned_m[2]
+    fly(sim, 3.0, CENTRED)
+    assert abs(sim.v.state.position_ned_m[2] - z) < 0.2
+    assert abs(sim.v.state.velocity_ned_mps[2]) < 0.1
