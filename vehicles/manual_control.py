@@ -184,6 +184,26 @@ class ManualControl:
 
 
 # --- Altitude and Position -------------------------------------------------------------------
+def stick_xy(params, sticks: Sticks, heading: float) -> tuple[float, float]:
+    """The horizontal sticks as Position mode's tasks take them (StickAccelerationXY,
+    FlightTaskManualPosition::_scaleSticks): expo and deadzone (MPC_XY_MAN_EXPO, MPC_HOLD_DZ),
+    limited to unit length, sideways and backwards scaled by MPC_VEL_MAN_SIDE/BACK over
+    MPC_VEL_MANUAL (negative: not), turned into the heading frame."""
+    p = params
+    dz, e = float(p["MPC_HOLD_DZ"]), float(p["MPC_XY_MAN_EXPO"])
+    sx, sy = expo_deadzone(sticks.pitch, e, dz), expo_deadzone(sticks.roll, e, dz)
+    n = math.hypot(sx, sy)
+    if n > 1.0:
+        sx, sy = sx / n, sy / n
+    vel_manual = float(p["MPC_VEL_MANUAL"])
+    side, back = float(p["MPC_VEL_MAN_SIDE"]), float(p["MPC_VEL_MAN_BACK"])
+    if side >= 0.0:
+        sy *= side / vel_manual
+    if back >= 0.0 and sx < 0.0:
+        sx *= back / vel_manual
+    return _rotate(sx, sy, heading)
+
+
 class ManualAltitude:
     """FlightTaskManualAltitudeSmoothVel (FlightTaskManualAltitude + ManualVelocitySmoothingZ, and
     StickYaw): one instance per vehicle. ``activate`` when the mode is entered (PX4 builds a new
@@ -372,20 +392,8 @@ class ManualPosition(ManualAltitude):
         p = self.params
         self._yaw(sticks, yaw, dt)
         vz, az = self._vertical(dt, sticks, pos, vel_sp_feedback[2], home_z)
-        dz = float(p["MPC_HOLD_DZ"])
-        e = float(p["MPC_XY_MAN_EXPO"])
-        sx, sy = expo_deadzone(sticks.pitch, e, dz), expo_deadzone(sticks.roll, e, dz)
-        n = math.hypot(sx, sy)
-        if n > 1.0:
-            sx, sy = sx / n, sy / n
         vel_manual = float(p["MPC_VEL_MANUAL"])
-        # sideways and backwards slower (MPC_VEL_MAN_SIDE/BACK, negative: not)
-        side, back = float(p["MPC_VEL_MAN_SIDE"]), float(p["MPC_VEL_MAN_BACK"])
-        if side >= 0.0:
-            sy *= side / vel_manual
-        if back >= 0.0 and sx < 0.0:
-            sx *= back / vel_manual
-        sx, sy = _rotate(sx, sy, self.yaw_sp if not math.isnan(self.yaw_sp) else yaw)
+        sx, sy = stick_xy(p, sticks, self.yaw_sp if not math.isnan(self.yaw_sp) else yaw)
         # the speed (and with it the acceleration) within the constraint; drag halves the
         # average acceleration
         vel_scale = min(vel_manual, self.velocity_constraint)

@@ -18,27 +18,16 @@ import math
 
 from vehicles.control.manual_velocity_smoothing_xy import ManualVelocitySmoothingXY
 from vehicles.control.position_control import PositionSetpoint
-from vehicles.manual_control import ManualAltitude, Sticks, _rotate, expo_deadzone
+from vehicles.manual_control import ManualAltitude, Sticks, stick_xy
 from vehicles.types import Vec3
 
 
 def stick_velocity_xy(params, sticks: Sticks, heading: float) -> tuple[float, float]:
-    """FlightTaskManualPosition::_scaleSticks: the horizontal velocity the sticks ask for (expo
-    and deadzone, limited to unit length, MPC_VEL_MAN_SIDE/BACK, times MPC_VEL_MANUAL; no
-    estimator speed limit here), turned into the heading frame."""
-    p = params
-    dz, e = float(p["MPC_HOLD_DZ"]), float(p["MPC_XY_MAN_EXPO"])
-    sx, sy = expo_deadzone(sticks.pitch, e, dz), expo_deadzone(sticks.roll, e, dz)
-    n = math.hypot(sx, sy)
-    if n > 1.0:
-        sx, sy = sx / n, sy / n
-    vel_manual = float(p["MPC_VEL_MANUAL"])
-    side, back = float(p["MPC_VEL_MAN_SIDE"]), float(p["MPC_VEL_MAN_BACK"])
-    if side >= 0.0:
-        sy *= side / vel_manual
-    if back >= 0.0 and sx < 0.0:
-        sx *= back / vel_manual
-    return _rotate(sx * vel_manual, sy * vel_manual, heading)
+    """FlightTaskManualPosition::_scaleSticks: the horizontal velocity the sticks ask for
+    (manual_control.stick_xy times MPC_VEL_MANUAL; no estimator speed limit here)."""
+    vel_manual = float(params["MPC_VEL_MANUAL"])
+    sx, sy = stick_xy(params, sticks, heading)
+    return sx * vel_manual, sy * vel_manual
 
 
 def _finite_or(value: float, fallback: float) -> float:
