@@ -10,13 +10,11 @@ import numpy as np
 import pytest
 
 from tests.unit.test_vehicles_flight import Sim, take_off
-from tests.unit.test_vehicles_manual import fly
+from tests.unit.test_vehicles_manual import CENTRED, fly
 from vehicles.control.manual_velocity_smoothing_xy import ManualVelocitySmoothingXY
 from vehicles.manual_control import ManualPosition, Sticks
 from vehicles.manual_position_smooth import ManualPositionSmoothVel
 from vehicles.types import CommandResult, NavState
-
-CENTRED = Sticks()
 
 
 @pytest.fixture

@@ -15,13 +15,11 @@ from pymavlink.dialects.v20 import development
 from gateway.ci.lockstep import Sim as LockstepSim
 from gateway.mavlink.wip_dialect import SET_VELOCITY_LIMITS
 from tests.unit.test_vehicles_flight import Sim, take_off
-from tests.unit.test_vehicles_manual import fly
+from tests.unit.test_vehicles_manual import CENTRED, fly
 from vehicles.manual_control import Sticks
 from vehicles.params import ParamStore
 from vehicles.position_slow import ManualPositionSlow, VelocityLimits
 from vehicles.types import CommandResult, NavState
-
-CENTRED = Sticks()
 
 
 @pytest.fixture
