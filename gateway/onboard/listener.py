@@ -2,6 +2,7 @@
 (platforms/common/uORB/uORB.cpp), over the fields CORNET logs of the topic (topic.py).
 
 Rules, as orb_print_message_internal has them:
+- ``_padding*`` fields are not printed;
 - each field ``    name: value``; an array ``[a, b, …]``; floats ``%.5f``, doubles ``%.6f``,
   bools True/False, integers as they are;
 - ``timestamp`` (a uint64_t) is followed by `` (S seconds ago)`` unless it is 0, and
@@ -37,6 +38,10 @@ def print_message(fields: Fields, values: Iterator[Any], now_us: int,
             for i in range(count):
                 out.append(f"  {name}[{i}] ({base}):\n" if size else f"  {name} ({base}):\n")
                 out.append(print_message(nested[base], values, now_us, nested))
+            continue
+        if name.startswith("_padding"):  # never printed; a record carries no trailing one
+            for _ in range(count):
+                next(values, None)
             continue
         items = [next(values) for _ in range(count)]
         text = "[" + ", ".join(_scalar(base, v) for v in items) + "]" if size \

@@ -39,3 +39,11 @@ def test_a_zero_timestamp_has_no_age_and_nested_messages_print_by_element():
                    "  esc[0] (esc_report):", "    timestamp: 2500000 (0.000000 seconds ago)",
                    "    esc_rpm: 900",
                    "  esc[1] (esc_report):", "    timestamp: 0", "    esc_rpm: 0"]
+
+
+def test_padding_is_not_printed():
+    """orb_print_message_internal skips ``_padding*`` fields; a record has no trailing one."""
+    out = lines((("uint64_t", "timestamp"), ("float", "tilt_limit"), ("uint8_t", "takeoff_state"),
+                 ("uint8_t[3]", "_padding0")), (2_000_000, 0.5, 2))
+    assert out == ["    timestamp: 2000000 (0.500000 seconds ago)", "    tilt_limit: 0.50000",
+                   "    takeoff_state: 2"]
