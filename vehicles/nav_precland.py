@@ -4,8 +4,12 @@ After PX4 v1.15 ``navigator/precland.cpp`` (NAVIGATION_STATE_AUTO_PRECLAND runs 
 Required mode, navigator_main.cpp; mission_base.cpp and rtl_direct.cpp run it for a landing)
 and mavlink_receiver's LANDING_TARGET:
 - The target is ``landing_target_pose``: a LANDING_TARGET with ``position_valid`` in
-  MAV_FRAME_LOCAL_NED gives its x, y, z (the vehicle's local frame), stamped on arrival
-  (``LandingTarget``). It is valid from its first report until PLD_BTOUT passes without one.
+  MAV_FRAME_LOCAL_NED gives its x, y, z (the vehicle's local frame), stamped with its
+  time_usec on our clock once the link's timesync has converged, on arrival before
+  (``LandingTarget``; gateway/mavlink/timesync.py). It is valid from its first report until
+  PLD_BTOUT passes without one: by hrt_elapsed_time, 0 for a stamp in the future (a client
+  clock ahead never times out), whereas the final approach's 0.5 s check subtracts unsigned (a
+  stamp in the future is never fresh there).
   Other frames are refused with PX4's critical message; reports without a position (IR-LOCK
   angles) feed the landing target estimator, which PX4 SITL does not start (LTEST_EN 0).
 - Start: the mode flies to the position setpoint it found (the previous mode's; none: where the
@@ -46,6 +50,7 @@ ACQUIRED_SETTLE_S = 1.0  # a target found while searching: climb stopped, then a
 FINAL_TIMEOUT_S = 0.5  # near the ground a report older than this is lost
 FIRST_DT_S = 0.05  # slewrate's guess of the navigator period on its first call
 MAV_FRAME_LOCAL_NED = 1
+_U64 = (1 << 64) - 1
 
 
 class PrecLandState(enum.Enum):
@@ -63,28 +68,43 @@ OWNER_GAP_S = 0.1  # a landing not run for longer than this has ended: the next 
 
 
 class LandingTarget:
-    """``landing_target_pose``: the last report (local NED, m) and when it came; ``seq`` counts
-    reports, so that a mode sees whether one came since it last looked."""
+    """``landing_target_pose``: the last report (local NED, m) and its timestamp (µs, uint64 on
+    our clock); ``seq`` counts reports, so that a mode sees whether one came since it last
+    looked."""
 
-    __slots__ = ("position_ned_m", "stamp_s", "seq", "log")
+    __slots__ = ("position_ned_m", "stamp_us", "seq", "log")
 
     def __init__(self, log: StatusLog | None = None) -> None:
         self.position_ned_m: Vec3 = (math.nan, math.nan, math.nan)
-        self.stamp_s = -math.inf
+        self.stamp_us: int | None = None  # None: never published
         self.seq = 0
         self.log = log  # the vehicle's (a refused frame's message)
 
-    def publish(self, now_s: float, position_ned_m: Vec3) -> None:
-        self.position_ned_m, self.stamp_s = position_ned_m, now_s
+    def publish(self, stamp_us: int, position_ned_m: Vec3) -> None:
+        self.position_ned_m, self.stamp_us = position_ned_m, stamp_us & _U64
         self.seq += 1
 
+    def elapsed_s(self, now_s: float) -> float:
+        """hrt_elapsed_time(&timestamp) in s: 0 for a stamp in the future; inf before any."""
+        if self.stamp_us is None:
+            return math.inf
+        return max(0, round(now_s * 1e6) - self.stamp_us) * 1e-6
+
+    def since_s(self, now_s: float) -> float:
+        """hrt_absolute_time() - timestamp in s, unsigned: a stamp in the future is ~5.8e5
+        years old; inf before any."""
+        if self.stamp_us is None:
+            return math.inf
+        return ((round(now_s * 1e6) - self.stamp_us) & _U64) * 1e-6
+
     def report(self, now_s: float, position_valid: bool, frame: int,
-               position_ned_m: Vec3) -> None:
+               position_ned_m: Vec3, stamp_us: int | None = None) -> None:
         """A LANDING_TARGET (mavlink_receiver handle_message_landing_target): published with a
         position in MAV_FRAME_LOCAL_NED, refused with a critical message in another frame; one
-        without a position is the IR-LOCK estimator's, not running (module rules)."""
+        without a position is the IR-LOCK estimator's, not running (module rules).
+        ``stamp_us``: its time_usec through the link's timesync (None: now)."""
         if position_valid and frame == MAV_FRAME_LOCAL_NED:
-            self.publish(now_s, position_ned_m)
+            self.publish(round(now_s * 1e6) if stamp_us is None else stamp_us, position_ned_m)
         elif position_valid and self.log is not None:
             log = self.log
             log.critical(now_s, f"Landing target: coordinate frame {frame} unsupported\t")
@@ -155,7 +175,7 @@ class PrecLand(NavMode):
         self._seen_seq = t.seq
         if self._updated:
             self._valid = True
-        if ctx.now_s - t.stamp_s > float(ctx.params["PLD_BTOUT"]):
+        if t.elapsed_s(ctx.now_s) > float(ctx.params["PLD_BTOUT"]):
             self._valid = False
         if ctx.landed:
             self._set_state(ctx, PrecLandState.DONE)
@@ -316,7 +336,7 @@ class PrecLand(NavMode):
         if state is PrecLandState.DESCEND_ABOVE_TARGET:
             if self.state is PrecLandState.DESCEND_ABOVE_TARGET:
                 if self._conditions(ctx, PrecLandState.FINAL_APPROACH):
-                    return ctx.now_s - self.target.stamp_s < FINAL_TIMEOUT_S
+                    return self.target.since_s(ctx.now_s) < FINAL_TIMEOUT_S
                 return self._valid
             return self._updated and above
         if state is PrecLandState.FINAL_APPROACH:

@@ -8,7 +8,8 @@ Source: PX4 ``mavlink_receiver.cpp`` handle_message_manual_control, handle_messa
 (no target field: every FOLLOW_TARGET on the link counts; lat/lon 1e7 deg, alt AMSL m, vel NED;
 passed on as PX4 publishes it: the vehicle's target estimator fuses only what is finite),
 handle_message_set_velocity_limits (its target fields unread: every one on the link counts;
-passed on as published, NaN where a limit is not set).
+passed on as published, NaN where a limit is not set), handle_message_landing_target (its
+time_usec through the link's timesync: gateway/mavlink/timesync.py).
 Rules:
 - Taken for ``target`` 0 or this system; other targets are counted and ignored.
 - x → pitch, y → roll, r → yaw, each /1000 when within [-1000, 1000]; z (throttle) is
@@ -25,6 +26,7 @@ from __future__ import annotations
 from typing import Any
 
 from gateway.mavlink.link import LinkContext
+from gateway.mavlink.timesync import Timesync
 from vehicles.manual_control import Sticks
 
 
@@ -43,11 +45,14 @@ class ManualControlService:
     """MANUAL_CONTROL, FOLLOW_TARGET, SET_VELOCITY_LIMITS and LANDING_TARGET (module docstring).
     Uses the vehicle, the link kind (the stick source), sysid and other_target."""
 
-    def __init__(self, ctx: LinkContext) -> None:
+    def __init__(self, ctx: LinkContext, timesync: Timesync | None = None) -> None:
+        """``timesync``: the link's (LANDING_TARGET's time_usec goes through it; None: none,
+        the arrival stamps it)."""
         self.vehicle = ctx.vehicle
         self.kind = ctx.kind
         self.sysid = ctx.sysid
         self.other_target = ctx.other_target
+        self.timesync = timesync
 
     def on_manual_control(self, msg: Any, now_s: float) -> None:
         if msg.target not in (0, self.sysid):
@@ -68,9 +73,11 @@ class ManualControlService:
 
     def on_landing_target(self, msg: Any, now_s: float) -> None:
         hook = getattr(self.vehicle, "landing_target", None)
-        if hook is not None:
+        if hook is not None:  # stamped as MavlinkReceiver stamps it (_mavlink_timesync)
+            ts = self.timesync
+            stamp = None if ts is None else ts.sync_stamp(msg.time_usec, round(now_s * 1e6))
             hook(now_s, bool(msg.position_valid), int(msg.frame),
-                 (float(msg.x), float(msg.y), float(msg.z)))
+                 (float(msg.x), float(msg.y), float(msg.z)), stamp)
 
     def on_set_velocity_limits(self, msg: Any, now_s: float) -> None:
         hook = getattr(self.vehicle, "set_velocity_limits", None)

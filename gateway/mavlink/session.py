@@ -63,6 +63,7 @@ from gateway.mavlink.signing import Signer, SigningClock, SigningConfig, Verifie
 from gateway.mavlink.snapshot import LinkTelemetry, SampleCache, Snapshot
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
 from gateway.mavlink.streams import Scheduler
+from gateway.mavlink.timesync import Timesync
 from gateway.mavlink.vehicle_port import VehiclePort
 from gateway.mavlink.wip_dialect import SET_VELOCITY_LIMITS
 from vehicles.types import Changes
@@ -133,10 +134,12 @@ class Session:
             seen_elsewhere=lambda system, component: self.seen.seen_elsewhere(self, system,
                                                                               component))
         self.params = ParamService(ctx)
-        self.ping = PingService(ctx)
+        # the client's clock as this link estimates it (PX4's per-instance MavlinkTimesync)
+        self.timesync = Timesync(f"sysid {self.sysid} {kind.value} link:")
+        self.ping = PingService(ctx, self.timesync)
         self.mission = MissionService(ctx, say, uploads if uploads is not None else UploadLock())
         self.offboard = OffboardService(ctx, say)
-        self.manual = ManualControlService(ctx)
+        self.manual = ManualControlService(ctx, self.timesync)
         self.logs = LogHandlerService(ctx)  # its ``store`` is attached by the shell
         self.serial = SerialControlService(ctx)  # its ``terminal_factory`` too
         self.ftp = FtpService(ctx)  # and its ``root``

@@ -1,15 +1,18 @@
 """Status topics PX4's logger writes (logged_topics.py has the rules): takeoff_status,
-vehicle_acceleration, failure_detector_status, mission_result, vehicle_roi and telemetry_status.
+vehicle_acceleration, failure_detector_status, mission_result, vehicle_roi, telemetry_status and
+timesync_status.
 
 Source: PX4 1.15 msg/TakeoffStatus.msg, VehicleAcceleration.msg, FailureDetectorStatus.msg,
-MissionResult.msg, VehicleRoi.msg, TelemetryStatus.msg; logged_topics.cpp (takeoff_status at
-1 s, vehicle_acceleration at 50 ms, failure_detector_status at 100 ms, mission_result at every
-publication, vehicle_roi at 1 s, telemetry_status at 1 s for each of up to 4 instances); the
-publishers:
+MissionResult.msg, VehicleRoi.msg, TelemetryStatus.msg, TimesyncStatus.msg; logged_topics.cpp
+(takeoff_status at 1 s, vehicle_acceleration at 50 ms, failure_detector_status at 100 ms,
+mission_result at every publication, vehicle_roi at 1 s, telemetry_status at 1 s for each of up
+to 4 instances, timesync_status at 1 s for each of up to 3); the publishers:
 MulticopterPositionControl::Run (takeoff_status when the takeoff state or the tilt limit
 changes), VehicleAcceleration::Run (every accelerometer sample), Commander::run (failure_detector
 _status with vehicle_status: every 500 ms), Navigator::publish_mission_result (when the result
-changed; vehicle_roi at each ROI command), Mavlink::task_main (telemetry_status every second).
+changed; vehicle_roi at each ROI command), Mavlink::task_main (telemetry_status every second),
+each MAVLink instance's Timesync::update (timesync_status at every TIMESYNC reply: its uORB
+instances in the order the links first published, gateway/mavlink/timesync.py).
 Rules:
 - Unlike the topics CORNET logs a subset of, these carry every field of their message, in the
   order and with the padding of PX4's generated ULog format (px_generate_uorb_topic_helper:
@@ -189,5 +192,29 @@ _TELEMETRY_FIELDS = (
     (B, "parachute_system_healthy"), ("uint8_t[2]", "_padding0"))
 TELEMETRY_STATUS = tuple(Topic("telemetry_status", _TELEMETRY_FIELDS, 1.0, _telemetry_status(k),
                                multi_id=k) for k in range(TELEMETRY_INSTANCES))
+TIMESYNC_INSTANCES = 3  # add_topic_multi("timesync_status", 1000, 3)
+
+
+def _timesync_status(instance: int):
+    def read(v: Any, now_us: int) -> tuple | None:
+        """The ``instance``-th link to publish timesync_status: its last publication, with its
+        own timestamp (the reply's arrival)."""
+        clocks = sorted((s.timesync for s in v.mavlink_links
+                         if s.timesync.published_at_us is not None),
+                        key=lambda ts: ts.published_at_us)
+        if instance >= len(clocks):
+            return None
+        st = clocks[instance].status
+        return (st.timestamp_us, st.remote_timestamp_us, st.observed_offset_us,
+                st.estimated_offset_us, st.round_trip_time_us, st.source_protocol)
+    return read
+
+
+TIMESYNC_STATUS = tuple(Topic(
+    "timesync_status", ((U64, "remote_timestamp"), ("int64_t", "observed_offset"),
+                        ("int64_t", "estimated_offset"), (U32, "round_trip_time"),
+                        (U8, "source_protocol"), ("uint8_t[3]", "_padding0")),
+    1.0, _timesync_status(k), on_change=True, multi_id=k, stamped=True)
+    for k in range(TIMESYNC_INSTANCES))
 STATUS_TOPICS = (TAKEOFF_STATUS, VEHICLE_ACCELERATION, FAILURE_DETECTOR_STATUS, MISSION_RESULT,
-                 VEHICLE_ROI, *TELEMETRY_STATUS)
+                 VEHICLE_ROI, *TELEMETRY_STATUS, *TIMESYNC_STATUS)

@@ -24,7 +24,7 @@ from typing import Any
 
 from gateway.onboard import mavlink_status
 from gateway.onboard.listener import print_message
-from gateway.onboard.logged_topics import NESTED_FORMATS, TOPICS, Topic
+from gateway.onboard.logged_topics import NESTED_FORMATS, TOPICS
 from gateway.onboard.mavlink_status import Instance
 from gateway.onboard.topic import U64
 from vehicles.faults import TYPES, UNITS
@@ -216,21 +216,30 @@ class Pxh:
         return 0 if inject(now_s, unit, kind, 0) is CommandResult.ACCEPTED else 1
 
     def _listener(self, args: list[str], now_s: float) -> int:
-        topics: dict[str, Topic] = {t.name: t for t in TOPICS}
-        if not args or args[0] not in topics:
+        """listener_main.cpp's one message: a topic's only instance, or each of its published
+        instances under "Instance N:"."""
+        instances = [t for t in TOPICS if args and t.name == args[0]]
+        if not instances:
             name = args[0] if args else ""
             self.print(f"ERROR [listener] Topic {name} did not match any known topics\n"
                        if args else "Usage: listener <topic_name> [-n <num>]\n")
             return 1
-        topic = topics[args[0]]
         us = int(now_s * 1e6)
-        values = topic.read(self.vehicle, us)
-        if values is None:
+        view = _ListenerView(self.vehicle, self.logger.links if self.logger is not None else ())
+        published = [(t, v) for t in instances if (v := t.read(view, us)) is not None]
+        if not published:
             self.print("never published\n")
             return 0
-        self.print(f"\nTOPIC: {topic.name}\n {topic.name}\n"
-                   + print_message(((U64, "timestamp"), *topic.fields), iter((us, *values)),
-                                   us, NESTED_FORMATS))
+        name = instances[0].name
+        out = [f"\nTOPIC: {name}\n" if len(published) == 1
+               else f"\nTOPIC: {name} {len(published)} instances\n"]
+        for topic, values in published:
+            if len(published) > 1:
+                out.append(f"\nInstance {topic.multi_id}:\n")
+            out.append(f" {name}\n" + print_message(
+                ((U64, "timestamp"), *topic.fields),
+                iter(values if topic.stamped else (us, *values)), us, NESTED_FORMATS))
+        self.print("".join(out))
         return 0
 
     def _logger(self, args: list[str], now_s: float) -> int:
@@ -286,3 +295,16 @@ def attach_shells(sim: Any, loggers: Callable[[int], Any] | None = None,
         logger = loggers(link.session.sysid) if loggers is not None else None
         link.session.serial.terminal_factory = \
             lambda v=vehicle, g=logger, own=links[index]: Pxh(v, VERSION, g, own)
+
+
+class _ListenerView:
+    """The vehicle as ``listener`` reads a topic: with the MAVLink instances the logger reads
+    (telemetry_status, timesync_status) and a memo of its own (the logger's is the logger's)."""
+
+    def __init__(self, vehicle: Any, links: Sequence[Any]) -> None:
+        self._vehicle = vehicle
+        self.mavlink_links = links
+        self.memo: dict[str, Any] = {}
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._vehicle, name)

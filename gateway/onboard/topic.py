@@ -2,10 +2,11 @@
 
 Rules (logged_topics.py says which topics and why): ``fields`` come after the leading
 ``uint64_t timestamp``, each a (ULog type, PX4 field name) pair with PX4 1.15's name and type;
-``read(vehicle, now_us)`` returns their values flat (an array's elements one by one), or None
-while PX4 would not have published the topic; ``step`` (row of the recent-steps ring, the
-step's time µs) reads a topic PX4 publishes at the sensors' rate. A topic PX4 logs with
-add_topic_multi has one Topic per instance (``multi_id``), sharing its format.
+``read(vehicle, now_us)`` returns their values flat (an array's elements one by one; a
+``stamped`` topic's own timestamp first), or None while PX4 would not have published the topic;
+``step`` (row of the recent-steps ring, the step's time µs) reads a topic PX4 publishes at the
+sensors' rate. A topic PX4 logs with add_topic_multi has one Topic per instance
+(``multi_id``), sharing its format.
 """
 
 from __future__ import annotations
@@ -43,6 +44,9 @@ class Topic:
     # (Commander's vehicle_status, actuator_armed, vehicle_control_mode, failure_detector_status:
     # 500 ms): logged then too, unchanged
     republish_s: float = 0.0
+    # ``read`` returns the record's timestamp first (µs: the one its publisher stamped the
+    # message with, timesync_status's), not the logger's sampling instant
+    stamped: bool = False
 
     @property
     def every_s(self) -> float:
@@ -70,7 +74,7 @@ def records_of(topics: Sequence[Topic], nested: Mapping[str, Fields],
     """The records of ``topics`` (msg_id = index) and ``extra`` (msg_id after them), made once
     per process for each set of formats and shared (read only) by every vehicle's logger: a
     daemon of 254 vehicles would otherwise build the same ~50 structs 254 times at its start."""
-    key = (tuple(t.fields for t in topics), tuple(nested.items()), tuple(extra))
+    key = (tuple((t.fields, t.stamped) for t in topics), tuple(nested.items()), tuple(extra))
     records = _RECORDS.get(key)
     if records is None:
         stamp = ("uint64_t", "timestamp")
@@ -79,6 +83,14 @@ def records_of(topics: Sequence[Topic], nested: Mapping[str, Fields],
         n = len(topics)
         records = _RECORDS[key] = Records(
             structs, [ulog.data_prefix(i, st.size) for i, st in enumerate(structs)],
-            [ulog.data_packer(i, st) for i, st in enumerate(structs)], extra_structs,
+            [_stamped(ulog.data_packer(i, st)) if t.stamped else ulog.data_packer(i, st)
+             for i, (t, st) in enumerate(zip(topics, structs))], extra_structs,
             [ulog.data_prefix(n + k, st.size) for k, st in enumerate(extra_structs)])
     return records
+
+
+def _stamped(pack: Callable[..., bytes]) -> Callable[..., bytes]:
+    """A ``stamped`` topic's packer: the timestamp its read returned, not the sampling instant."""
+    def packer(_sample_us: int, stamp_us: int, *values: Any) -> bytes:
+        return pack(stamp_us, *values)
+    return packer

@@ -63,7 +63,7 @@ PX4_SITL_INTERVALS_MS = {
     "vehicle_torque_setpoint": 20, "rate_ctrl_status": 200, "position_setpoint_triplet": 200,
     "cpuload": 0, "esc_status": 250, "actuator_armed": 0, "rtl_time_estimate": 1000,
     "takeoff_status": 1000, "vehicle_acceleration": 50, "failure_detector_status": 100,
-    "mission_result": 0, "vehicle_roi": 1000, "telemetry_status": 1000,
+    "mission_result": 0, "vehicle_roi": 1000, "telemetry_status": 1000, "timesync_status": 1000,
 }
 
 
