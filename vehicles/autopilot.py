@@ -298,7 +298,7 @@ class Autopilot:
         return CommandResult.ACCEPTED
 
     def set_roi(self, now_s: float, command: int, params: Params7) -> CommandResult:
-        self.navigator.set_roi(command, params)
+        self.navigator.set_roi(command, params, now_s)
         return CommandResult.ACCEPTED
 
     def set_home(self, now_s: float, here: Measurement, geo: GeoPoint | None = None,

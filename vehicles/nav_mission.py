@@ -328,7 +328,7 @@ class Mission(NavMode):
                 # param1 speed type: 0 air / 1 ground (horizontal); 2 climb / 3 descent ignored
                 ctx.set_cruise_mps(item.param2 if item.param2 > 0 else math.nan)
             if cmd in ROI_COMMANDS:  # issue_command: the navigator takes it as the command
-                self.roi.command(*command_of_item(item, ctx.home_alt_amsl_m))
+                self.roi.command(*command_of_item(item, ctx.home_alt_amsl_m), ctx.now_s)
             # Everything else (camera, gimbal, actuator, DO_SET_HOME, DO_LAND_START, ...) is
             # accepted and skipped.
             self.progress.reached(self.current)

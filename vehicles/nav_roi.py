@@ -107,14 +107,17 @@ def command_of_item(item: PlanItem, home_alt_amsl_m: float) -> tuple[int, Params
 class Roi:
     """The navigator's ``_vroi`` (``current``): set by commands and mission items, reset by
     the mission (Navigator::reset_vroi). ``published``: the vehicle_roi the navigator published
-    last (None: never), at each command; a reset publishes nothing."""
+    last (None: never), at each command (``published_at_s``: its timestamp); a reset publishes
+    nothing."""
 
     def __init__(self) -> None:
         self.current = NO_ROI
         self.published: VehicleRoi | None = None
+        self.published_at_s = math.nan
 
-    def command(self, command: int, params: Params7) -> None:
+    def command(self, command: int, params: Params7, now_s: float) -> None:
         self.current = self.published = roi_of_command(command, params)
+        self.published_at_s = now_s
 
     def reset(self) -> None:
         self.current = NO_ROI

@@ -90,10 +90,10 @@ class Navigator:
     def set_cruise_mps(self, speed_mps: float) -> None:
         self.cruise_mps = speed_mps if speed_mps > 0 else math.nan
 
-    def set_roi(self, command: int, params: Params7) -> None:
+    def set_roi(self, command: int, params: Params7, now_s: float) -> None:
         """DO_SET_ROI, NAV_ROI, DO_SET_ROI_LOCATION, DO_SET_ROI_WPNEXT_OFFSET, DO_SET_ROI_NONE
         (navigator_main.cpp): the command replaces the ROI, in any mode."""
-        self.roi.command(command, params)
+        self.roi.command(command, params, now_s)
 
     def deactivate(self, ctx: NavContext) -> None:
         """The vehicle left the navigator's modes (Offboard, Termination)."""

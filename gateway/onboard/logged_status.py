@@ -103,13 +103,16 @@ def _mission_result(v: Any, now_us: int) -> tuple | None:
 
 def _vehicle_roi(v: Any, now_us: int) -> tuple | None:
     """The navigator's last vehicle_roi publication (one per ROI command or mission item; none
-    before the first). Navigator::reset_vroi publishes nothing, so a mission's reset leaves the
-    last one logged."""
-    roi = v.autopilot.navigator.roi.published
+    before the first), with its own timestamp, so that a repeat of the same ROI is a record of
+    its own. Navigator::reset_vroi publishes nothing, so a mission's reset leaves the last one
+    logged."""
+    nav_roi = v.autopilot.navigator.roi
+    roi = nav_roi.published
     if roi is None:
         return None
-    return (roi.lat_deg, roi.lon_deg, f32(roi.alt_amsl_m), f32(roi.roll_offset_rad),
-            f32(roi.pitch_offset_rad), f32(roi.yaw_offset_rad), roi.mode)
+    return (round(nav_roi.published_at_s * 1e6), roi.lat_deg, roi.lon_deg, f32(roi.alt_amsl_m),
+            f32(roi.roll_offset_rad), f32(roi.pitch_offset_rad), f32(roi.yaw_offset_rad),
+            roi.mode)
 
 
 def _telemetry_status(instance: int):
@@ -169,12 +172,12 @@ MISSION_RESULT = Topic(
                        (B, "valid"), (B, "warning"), (B, "finished"), (B, "failure"),
                        (B, "item_do_jump_changed"), (U8, "execution_mode"),
                        ("uint8_t[2]", "_padding0")), 0.0, _mission_result, on_change=True)
-# VehicleRoi.msg, logged at 1 s; navigator publishes it at each ROI command. A repeat of the
-# ROI logged last is not written again (PX4 writes it once more, with the new timestamp).
+# VehicleRoi.msg, logged at 1 s; navigator publishes it at each ROI command, each publication
+# with its own timestamp (a repeat of the same ROI is written again).
 VEHICLE_ROI = Topic("vehicle_roi", ((D, "lat"), (D, "lon"), (F, "alt"), (F, "roll_offset"),
                                     (F, "pitch_offset"), (F, "yaw_offset"), (U8, "mode"),
                                     ("uint8_t[7]", "_padding0")), 1.0, _vehicle_roi,
-                    on_change=True)
+                    on_change=True, stamped=True)
 _TELEMETRY_FIELDS = (
     (F, "data_rate"), (F, "rate_multiplier"), (F, "tx_rate_avg"), (F, "tx_error_rate_avg"),
     (U32, "tx_message_count"), (U32, "tx_buffer_overruns"), (F, "rx_rate_avg"),

@@ -205,3 +205,21 @@ def test_vehicle_roi_is_logged_from_the_mission_item_that_sets_it(tmp_path, take
     assert roi["lon"][0] == pytest.approx(lon, abs=1e-7)
     assert roi["alt"][0] == pytest.approx(PX4_SITL_HOME.alt_amsl_m + 2.0, abs=0.01)
     assert not roi["yaw_offset"].any()
+
+
+def test_each_vehicle_roi_publication_is_a_record_even_a_repeat(tmp_path):
+    """navigator_main.cpp stamps and publishes vehicle_roi at every ROI command: the same ROI
+    sent again 3 s later is a second record, with the second command's time."""
+    lat, lon = geo(10, 10)
+    with Sim(log_dir=tmp_path, params={"SDLOG_MODE": 1}) as sim:
+        api = sim.api(0)
+        sim.advance(1.0)
+        sent = []
+        for _ in range(2):
+            sent.append(sim.now)
+            assert api.command_long(195, 0, 0, 0, 0, lat, lon, 500.0) == 0  # DO_SET_ROI_LOCATION
+            sim.advance(3.0)
+    roi = _log(tmp_path).get_dataset("vehicle_roi").data
+    stamps = sorted(set(roi["timestamp"]))
+    assert len(stamps) == 2 and len(set(roi["lat"])) == 1
+    assert [s * 1e-6 for s in stamps] == [pytest.approx(t, abs=0.01) for t in sent]

@@ -242,7 +242,7 @@ def test_heading_at_is_none_within_the_acceptance_radius():
 def test_roi_heading_keeps_the_heading_it_wrote_or_the_items_own_within_the_radius():
     roi = Roi()
     here = ORIGIN.offset_ned(0.0, 1.0, 0.0)
-    roi.command(DO_SET_ROI_LOCATION, (0.0, 0.0, 0.0, 0.0, here.lat_deg, here.lon_deg, 0.0))
+    roi.command(DO_SET_ROI_LOCATION, (0.0, 0.0, 0.0, 0.0, here.lat_deg, here.lon_deg, 0.0), 0.0)
     ctx = SimpleNamespace(params=ParamStore({}), origin=ORIGIN, position_ned_m=(0.0, 0.0, -5.0))
     sp = NavSetpoint((10.0, 0.0, -5.0), math.nan, None)
     h = RoiHeading(roi)
