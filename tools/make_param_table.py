@@ -114,6 +114,7 @@ RANGES = {
     "MC_SLOW_MIN_HVEL": ("0.1", ""), "MC_SLOW_MIN_VVEL": ("0.1", ""),
     "MC_SLOW_MIN_YAWR": ("1", ""), "MC_SLOW_DEF_HVEL": ("0.1", ""),
     "MC_SLOW_DEF_VVEL": ("0.1", ""), "MC_SLOW_DEF_YAWR": ("1", ""),
+    "EKF2_GPS_CTRL": ("0", "15"),
 }
 
 # In current PX4 but not in the old metadata table: (type, default, unit, group, description).
@@ -133,6 +134,8 @@ ADDED = {
     "GF_PREDICT": ("INT32", "0", "", "Geofence", "Use predictive geofence"),
     "SIM_BAT_ENABLE": ("INT32", "1", "", "SITL", "Simulator battery enabled"),
     "EKF2_EN": ("INT32", "1", "", "EKF2", "EKF2 enable"),
+    # ekf2/module.yaml (v1.15): a bitmask, 0 lon/lat, 1 altitude, 2 3D velocity, 3 dual antenna
+    "EKF2_GPS_CTRL": ("INT32", "7", "", "EKF2", "GNSS sensor aiding"),
     "LNDMC_ALT_GND": ("FLOAT", "2.0", "m", "Land Detector", "Ground effect altitude"),
     "SYS_VEHICLE_RESP": ("FLOAT", "-0.4", "", "Multicopter Position Control", "Vehicle responsiveness"),
     # Follow Me since PX4 v1.13 (flight_mode_manager/tasks/AutoFollowTarget/

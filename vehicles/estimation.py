@@ -27,8 +27,8 @@ Sensors (what PX4 SITL with Gazebo's x500 sees):
   since its last run, which at 30 Hz and every physics step they always have here.
 - Failure injection (``set_failed``, PX4 SITL's simulator: a sensor that is off publishes
   nothing, one that is stuck repeats its last sample): a GPS that is off gives no fixes, and the
-  estimator dead-reckons on the IMU and counts the age of its last fix (E_GPS_AGE), which the
-  vehicle compares with EKF2_NOAID_TOUT; gyro, accelerometer, barometer and magnetometer off or
+  estimator dead-reckons on the IMU and counts the time since it last fused one (E_AID_AGE),
+  which the vehicle compares with EKF2_NOAID_TOUT; gyro, accelerometer, barometer and magnetometer off or
   stuck keep their last sample (the estimator and the controllers fly on it, as PX4's would on
   a frozen IMU), and the estimator fuses only what arrives and passes its gate.
 - ``noise`` scales every noise and bias (1 = the models above, 0 = exact sensors); the GPS's
@@ -136,12 +136,17 @@ S_GYRO, S_ACC, S_MAG, S_BARO_DOWN, S_GPS_POS, S_GPS_VEL, S_VIB, S_PREV, S_SIZE =
 B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 # Columns of the estimator's state.
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
- E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_BARO_AGE, E_SIZE) = (
-    0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38)
+ E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_BARO_AGE, E_AID_AGE, E_SIZE) = (
+    0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 39)
 # E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the variance of
 # the raw wind samples (m²/s²);
 # E_ACCURACY: horizontal, vertical (running RMS of the innovations); E_GPS_AGE: seconds since
-# the last GPS fix was fused; E_BARO_AGE: since the last barometer sample was fused.
+# the last GPS fix came; E_BARO_AGE: since the last barometer sample was fused; E_AID_AGE: since
+# a fix's horizontal position or velocity was last fused (EKF2_NOAID_TOUT's clock).
+
+# EKF2_GPS_CTRL's bits: lon/lat, altitude, 3D velocity (dual antenna heading: no such receiver)
+GPS_CTRL_POS, GPS_CTRL_HGT, GPS_CTRL_VEL = 1, 2, 4
+GPS_CTRL_DEFAULT = GPS_CTRL_POS | GPS_CTRL_HGT | GPS_CTRL_VEL
 
 E_WIND_VAR = E_RATIOS + 4
 
@@ -228,10 +233,11 @@ def sense(measured, noise, j, dt_s, scale, baro_due, gps_due, navsat_age, hist, 
 
 @njit_cached
 def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, consts,
-             estimated, failed):  # pragma: no cover - compiled
+             estimated, failed, gps_ctrl):  # pragma: no cover - compiled
     """Every vehicle's estimate after its sensors (module rules). ``ehist``: the ring of past
     estimated positions and velocities; ``flying``: rows whose drag tells the wind; ``consts``:
-    the Earth's field (NED), the airframe's mass over its linear drag."""
+    the Earth's field (NED), the airframe's mass over its linear drag; ``gps_ctrl``: each row's
+    EKF2_GPS_CTRL (GPS_CTRL_* bits: what of a fix it fuses)."""
     g = 9.80665
     mn, me = consts[0], consts[1]  # the heading needs the horizontal field only
     mass_over_drag = consts[3]
@@ -283,6 +289,9 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
         # --- GPS: delayed innovations, corrections to the present and the ring -----------------
         e[E_GPS_AGE] += dt_s
         e[E_BARO_AGE] += dt_s
+        e[E_AID_AGE] += dt_s
+        use = gps_ctrl[v]
+        use_pos, use_vel = use & GPS_CTRL_POS != 0, use & GPS_CTRL_VEL != 0
         if f & F_GPS_OFF:
             e[E_HAVE_GPS] = 0.0  # no tilt reference until fixes come again
         elif gps_due:
@@ -291,35 +300,44 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
             ep0, ep1 = s[S_GPS_POS] - old[0], s[S_GPS_POS + 1] - old[1]
             ev0, ev1, ev2 = (s[S_GPS_VEL] - old[3], s[S_GPS_VEL + 1] - old[4],
                              s[S_GPS_VEL + 2] - old[5])
-            dp0, dp1 = L_POS * dt_gps * ep0, L_POS * dt_gps * ep1
-            dv0 = L_VEL_FROM_POS * dt_gps * ep0 + L_VEL * dt_gps * ev0
-            dv1 = L_VEL_FROM_POS * dt_gps * ep1 + L_VEL * dt_gps * ev1
-            dv2 = L_VEL * dt_gps * ev2
-            e[E_POS] += dp0
-            e[E_POS + 1] += dp1
-            e[E_VEL] += dv0
-            e[E_VEL + 1] += dv1
-            e[E_VEL + 2] += dv2
-            for k in range(len(ring)):
-                ring[k, 0] += dp0
-                ring[k, 1] += dp1
-                ring[k, 3] += dv0
-                ring[k, 4] += dv1
-                ring[k, 5] += dv2
-            # The acceleration the GPS velocity implies: the tilt reference.
-            if e[E_HAVE_GPS] > 0.0:
+            dp0 = dp1 = dv0 = dv1 = dv2 = 0.0
+            if use_pos:
+                dp0, dp1 = L_POS * dt_gps * ep0, L_POS * dt_gps * ep1
+                dv0, dv1 = L_VEL_FROM_POS * dt_gps * ep0, L_VEL_FROM_POS * dt_gps * ep1
+            if use_vel:  # (0.0 + x is x: without the position, the velocity's alone)
+                dv0, dv1 = dv0 + L_VEL * dt_gps * ev0, dv1 + L_VEL * dt_gps * ev1
+                dv2 = L_VEL * dt_gps * ev2
+            if use_pos or use_vel:
+                e[E_AID_AGE] = 0.0
+                e[E_POS] += dp0
+                e[E_POS + 1] += dp1
+                e[E_VEL] += dv0
+                e[E_VEL + 1] += dv1
+                e[E_VEL + 2] += dv2
+                for k in range(len(ring)):
+                    ring[k, 0] += dp0
+                    ring[k, 1] += dp1
+                    ring[k, 3] += dv0
+                    ring[k, 4] += dv1
+                    ring[k, 5] += dv2
+            if use_vel:
+                # The acceleration the GPS velocity implies: the tilt reference.
+                if e[E_HAVE_GPS] > 0.0:
+                    for i in range(3):
+                        acc = (s[S_GPS_VEL + i] - e[E_GPS_VEL_PREV + i]) / dt_gps
+                        e[E_A_LP + i] += a_ref * (acc - e[E_A_LP + i])
+                e[E_HAVE_GPS] = 1.0
                 for i in range(3):
-                    acc = (s[S_GPS_VEL + i] - e[E_GPS_VEL_PREV + i]) / dt_gps
-                    e[E_A_LP + i] += a_ref * (acc - e[E_A_LP + i])
-            e[E_HAVE_GPS] = 1.0
-            for i in range(3):
-                e[E_GPS_VEL_PREV + i] = s[S_GPS_VEL + i]
-            e[E_RATIOS] = (ev0 * ev0 + ev1 * ev1 + ev2 * ev2 / 2.25) / (
-                EKF2_GPS_V_GATE * GPS_OBS_VEL_MPS) ** 2
-            e[E_RATIOS + 1] = (ep0 * ep0 + ep1 * ep1) / (EKF2_GPS_P_GATE * GPS_OBS_POS_M) ** 2
-            e[E_ACCURACY] = math.sqrt(e[E_ACCURACY] ** 2
-                                      + a_acc_gps * (ep0 * ep0 + ep1 * ep1 - e[E_ACCURACY] ** 2))
-            if e[E_BARO_AGE] > BARO_TIMEOUT_S:
+                    e[E_GPS_VEL_PREV + i] = s[S_GPS_VEL + i]
+                e[E_RATIOS] = (ev0 * ev0 + ev1 * ev1 + ev2 * ev2 / 2.25) / (
+                    EKF2_GPS_V_GATE * GPS_OBS_VEL_MPS) ** 2
+            else:
+                e[E_HAVE_GPS] = 0.0  # no GPS velocity, no tilt reference
+            if use_pos:
+                e[E_RATIOS + 1] = (ep0 * ep0 + ep1 * ep1) / (EKF2_GPS_P_GATE * GPS_OBS_POS_M) ** 2
+                e[E_ACCURACY] = math.sqrt(e[E_ACCURACY] ** 2 + a_acc_gps * (
+                    ep0 * ep0 + ep1 * ep1 - e[E_ACCURACY] ** 2))
+            if e[E_BARO_AGE] > BARO_TIMEOUT_S and use & GPS_CTRL_HGT:
                 # No barometer: the height follows the GPS (EKF2's GNSS height fallback).
                 eh = s[S_GPS_POS + 2] - old[2]
                 dh, dvz = L_HGT * dt_gps * eh, L_VZ_FROM_HGT * dt_gps * eh
@@ -418,8 +436,14 @@ class Estimation:
         self.ehist = np.zeros((0, HISTORY, 6))  # estimated positions and velocities, a ring
         self.delay = np.zeros(0, np.int64)  # how late EKF2 takes a fix to be, physics steps
         self.failed = np.zeros(0, np.int64)  # failure injection: F_* bits per row
+        self.gps_ctrl = np.zeros(0, np.int64)  # EKF2_GPS_CTRL per row (GPS_CTRL_* bits)
         self.acc_lp = np.zeros((0, 5))  # each row's vehicle_acceleration filter (lowpass2p)
         self.acc_lp_reset = np.zeros(0, np.int64)  # the steps left of its reset
+
+    def set_gps_ctrl(self, row: int, value: float | None) -> None:
+        """EKF2_GPS_CTRL of the row (ekf2 reads it at each parameter update): what of a fix
+        its estimator fuses from the next one on (GPS_CTRL_* bits; None: the default)."""
+        self.gps_ctrl[row] = GPS_CTRL_DEFAULT if value is None else int(value) & 0xF
 
     def set_failed(self, row: int, bits: int, on: bool) -> None:
         """Failure injection: the row's sensors of ``bits`` (F_*) fail (``on``) or work again."""
@@ -427,9 +451,10 @@ class Estimation:
 
     def _resize(self, n: int) -> None:
         (self.sensed, self.bias, self.est, self.hist, self.ehist, self.delay, self.failed,
-         self.acc_lp, self.acc_lp_reset) = (
+         self.gps_ctrl, self.acc_lp, self.acc_lp_reset) = (
             with_rows(a, n) for a in (self.sensed, self.bias, self.est, self.hist, self.ehist,
-                                      self.delay, self.failed, self.acc_lp, self.acc_lp_reset))
+                                      self.delay, self.failed, self.gps_ctrl, self.acc_lp,
+                                      self.acc_lp_reset))
 
     def add(self, index: int, truth: np.ndarray, estimated: np.ndarray,
             gps_delay_s: float = GPS_DELAY_S,
@@ -440,6 +465,7 @@ class Estimation:
         k = len(self.est)
         self._resize(k + 1)
         self.acc_lp[k] = accel_lp
+        self.gps_ctrl[k] = GPS_CTRL_DEFAULT
         self.noise.add(index)
         # EKF2 fuses a fix as taken EKF2_GPS_DELAY and half its filter period before it arrived.
         late_s = gps_delay_s + EKF2_FILTER_PERIOD_S / 2.0
@@ -460,7 +486,7 @@ class Estimation:
         """What ``sense`` and ``estimate`` read and write, in the order the World's compiled step
         takes it (physics.py): valid until the next ``add``."""
         return (float(self.config.noise), self.noise.block, self.delay, self.hist, self.bias,
-                self.sensed, self.sense_consts, self.failed, self.est, self.ehist,
+                self.sensed, self.sense_consts, self.failed, self.gps_ctrl, self.est, self.ehist,
                 self.est_consts, self.acc_lp, self.acc_lp_reset)
 
     def begin_step(self) -> tuple[int, int]:

@@ -46,7 +46,7 @@ from vehicles.control import compiled, position_control, position_smoothing
 from vehicles.control.compiled import njit_cached
 from vehicles.estimation import (
     BARO_RATE_HZ,
-    E_GPS_AGE,
+    E_AID_AGE,
     E_RATIOS,
     GPS_RATE_HZ,
     HISTORY,
@@ -122,7 +122,7 @@ def navsat_steps_ago(t_s, dt_s):  # pragma: no cover - compiled
 @njit_cached
 def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, estimated, mode,
                   landed, recent, dt_s, scale, noise, delay, hist, bias, sensed, sense_consts,
-                  failed, est, ehist, est_consts, acc_lp, acc_lp_reset
+                  failed, gps_ctrl, est, ehist, est_consts, acc_lp, acc_lp_reset
                   ):  # pragma: no cover - compiled
     """Everything compiled that follows PyBullet's step, for every row, in one call: ``raw``
     (RAW_SIZE numbers per body, flat) into the true state, then the sensors and the estimate
@@ -142,7 +142,7 @@ def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, est
     for v in range(n):
         flying[v] = mode[v] == MODE_FLY and not landed[v]
     estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, est_consts,
-             estimated, failed)
+             estimated, failed, gps_ctrl)
     for v in range(n):
         r, s, e, m = recent[v, hist_i], sensed[v], estimated[v], measured[v]
         for i in range(3):
@@ -252,7 +252,8 @@ class World:
         self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row],
                             float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3,
                             lowpass2p(1.0 / self.dt_s, cutoff))
-        # followed at every parameter change (_accel_params_changed)
+        self.estimation.set_gps_ctrl(row, store.get("EKF2_GPS_CTRL"))
+        # followed at every parameter change (_params_changed), as EKF2_GPS_CTRL is
         self._acc_filter.append((store.version, filter_cutoff_hz(1.0 / self.dt_s, cutoff)))
         self._truth_rows = None
         self.recent = np.concatenate([self.recent, np.zeros((1, HISTORY, R_SIZE))])
@@ -324,9 +325,10 @@ class World:
         """Row ``row``'s estimator state (estimation.E_* columns)."""
         return self._est_rows[row].tolist()
 
-    def gps_age_s(self, row: int) -> float:
-        """Row ``row``'s time since its estimator last fused a GPS fix (estimation.E_GPS_AGE)."""
-        return self._est_rows[row].item(E_GPS_AGE)
+    def aiding_age_s(self, row: int) -> float:
+        """Row ``row``'s time since its estimator last fused a GPS fix's horizontal position or
+        velocity (estimation.E_AID_AGE): what EKF2_NOAID_TOUT counts."""
+        return self._est_rows[row].item(E_AID_AGE)
 
     def estimator_ratios(self, row: int) -> list[float]:
         """Row ``row``'s innovation test ratios (estimation.E_RATIOS, four columns)."""
@@ -364,7 +366,7 @@ class World:
         acc_filter = self._acc_filter
         for k, params, vehicle_step in self._schedule[self.steps % POSITION_CONTROL_DIVIDER]:
             if params.version != acc_filter[k][0]:
-                self._accel_params_changed(k, params)
+                self._params_changed(k, params)
             command = vehicle_step(now_s)
             if command is not None:
                 load(k, command)
@@ -397,10 +399,12 @@ class World:
         self.time_s = t
         self.steps += 1
 
-    def _accel_params_changed(self, row: int, params: ParamStore) -> None:
-        """VehicleAcceleration::ParametersUpdate → CheckAndUpdateFilters before row ``row``'s
-        next sample: IMU_ACCEL_CUTOFF more than 0.1 Hz from the filter's cutoff sets the filter
-        anew (lowpass2p) and resets it to the last corrected sample."""
+    def _params_changed(self, row: int, params: ParamStore) -> None:
+        """Before row ``row``'s next sample: EKF2's parameter update (EKF2_GPS_CTRL), and
+        VehicleAcceleration::ParametersUpdate → CheckAndUpdateFilters: IMU_ACCEL_CUTOFF more
+        than 0.1 Hz from the filter's cutoff sets the filter anew (lowpass2p) and resets it to
+        the last corrected sample."""
+        self.estimation.set_gps_ctrl(row, params.get("EKF2_GPS_CTRL"))
         sample_hz, param_hz = 1.0 / self.dt_s, _accel_cutoff_param(params)
         cutoff = self._acc_filter[row][1]
         new = cutoff_update(sample_hz, cutoff, param_hz)

@@ -81,7 +81,7 @@ class WorldRow(Protocol):
 
     def estimator_ratios(self, row: int) -> list[float]: ...
 
-    def gps_age_s(self, row: int) -> float: ...
+    def aiding_age_s(self, row: int) -> float: ...
 
     def set_sensor_failed(self, row: int, bits: int, on: bool) -> None: ...
 
@@ -141,7 +141,7 @@ class Vehicle:
             self._params_version = params.version
             timeout = params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000
             self._noaid_timeout_s = timeout * 1e-6
-        ap.set_position_aided(world.gps_age_s(row) < self._noaid_timeout_s)
+        ap.set_position_aided(world.aiding_age_s(row) < self._noaid_timeout_s)
         calibration = ap.calibration
         if calibration.needs_sensors:
             sensed = world.sensors(row)

@@ -417,3 +417,30 @@ def test_a_baros_ok_unblocks_it_but_leaves_it_stuck():
     off_m, stuck_m = fi.SENSOR_FAILURES[fi.FAILURE_UNIT_SENSOR_MAG]
     assert t.calls == [("sensor", off_b, False), ("sensor", off_b, True),
                        ("sensor", off_m | stuck_m, False)]
+
+
+def test_ekf2_gps_ctrl_0_unaids_the_estimator_while_the_receiver_still_reports():
+    """EKF2_GPS_CTRL 0 (ekf2/module.yaml: no lon/lat, altitude or velocity fusion) in flight:
+    the fixes still come (GPS_RAW_INT stays fresh and 3D) but the estimator stops fusing them,
+    so after EKF2_NOAID_TOUT the position is lost and the failsafe descends, as with the GPS
+    off; velocity fusion alone (4) keeps it aided."""
+    with Sim(params={"MIS_TAKEOFF_ALT": 10.0}) as sim:
+        hover(sim)
+        api = sim.api(0)
+        params = sim.vehicles[0].params
+        assert params.set("EKF2_GPS_CTRL", 4)
+        sim.advance(8.0)
+        assert sim.status(0).position_valid and sim.status(0).nav_state is NavState.AUTO_LOITER
+        t0 = sim.now
+        assert params.set("EKF2_GPS_CTRL", 0)
+        assert sim.run_until(lambda: not sim.status(0).position_valid, timeout_s=10)
+        assert 5.0 - 0.125 - 1e-9 <= sim.now - t0 < 5.5
+        assert sim.run_until(lambda: sim.status(0).nav_state is NavState.DESCEND, timeout_s=1)
+        since = len(api.frames)
+        sim.advance(1.0)
+        fixes = api.messages("GPS_RAW_INT", since)
+        assert len(fixes) >= 7 and all(m.fix_type == 3 for m in fixes)
+        assert fixes[-1].time_usec > (sim.now - 0.3) * 1e6  # fresh: the receiver works
+        # fusion back on: aided again at the next fixes
+        assert params.set("EKF2_GPS_CTRL", 7)
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=2)
