@@ -40,7 +40,6 @@ from gateway.mavlink.telemetry import (
     attitude_quaternion,
     battery_status,
     current_mode,
-    estimator_status,
     extended_sys_state,
     global_position_int,
     gps_raw_int,
@@ -55,8 +54,6 @@ from gateway.mavlink.telemetry import (
     sys_status,
     system_time,
     vfr_hud,
-    vibration,
-    wind_cov,
 )
 from gateway.mavlink.telemetry_control import (
     attitude_target,
@@ -67,6 +64,7 @@ from gateway.mavlink.telemetry_control import (
     servo_output_raw,
     utm_global_position,
 )
+from gateway.mavlink.telemetry_estimator import estimator_status, vibration, wind_cov
 from gateway.mavlink.telemetry_link import (
     gps_global_origin,
     ping,

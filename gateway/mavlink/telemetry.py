@@ -10,7 +10,8 @@ Rules:
   before home is set, ORBIT_EXECUTION_STATUS while not orbiting).
 - Messages that depend only on the kinematics and the time are ``_shared``: their payload is
   packed once per vehicle and instant (snapshot.py) and framed per link.
-- Which builder runs when, and at what rate on which link: streams.py.
+- Which builder runs when, and at what rate on which link: streams.py. The estimator's own
+  messages (ESTIMATOR_STATUS, VIBRATION, WIND_COV) are in telemetry_estimator.py.
 """
 
 from __future__ import annotations
@@ -36,9 +37,6 @@ from gateway.mavlink.telemetry_baro import baro_alt_m, baro_sample
 from vehicles.estimation import (
     E_ACCURACY,
     E_GPS_AGE,
-    E_RATIOS,
-    E_WIND,
-    E_WIND_VAR,
     F_GPS_OFF,
     GPS_EPH_M,
     GPS_EPV_M,
@@ -51,7 +49,6 @@ from vehicles.estimation import (
     S_GPS_VEL,
     S_GYRO,
     S_MAG,
-    S_VIB,
 )
 from vehicles.params import ParamStore
 
@@ -83,9 +80,6 @@ _BATTERY_STATUS = payload_of(M.MAVLink_battery_status_message)
 _HOME_POSITION = payload_of(M.MAVLink_home_position_message)
 _SYSTEM_TIME = payload_of(M.MAVLink_system_time_message)
 _SCALED_PRESSURE = payload_of(M.MAVLink_scaled_pressure_message)
-_ESTIMATOR_STATUS = payload_of(M.MAVLink_estimator_status_message)
-_VIBRATION = payload_of(M.MAVLink_vibration_message)
-_WIND_COV = payload_of(M.MAVLink_wind_cov_message)
 _ORBIT_EXECUTION_STATUS = payload_of(M.MAVLink_orbit_execution_status_message)
 
 Builder = Callable[[Encoder, Snapshot], "bytes | None"]
@@ -433,48 +427,6 @@ def scaled_pressure(enc: Encoder, s: Snapshot) -> bytes:
     pressure_pa, _, temp_c = baro_sample(s)
     return _SCALED_PRESSURE(s.time_boot_ms, pressure_pa * 0.01, 0.0,
                             int(round(temp_c * 100.0)), 0)
-
-
-# ESTIMATOR_STATUS flags of a healthy EKF2 with GPS: attitude, horizontal and vertical velocity,
-# relative and absolute horizontal position, absolute vertical position, and the predicted ones.
-ESTIMATOR_FLAGS_OK = (M.ESTIMATOR_ATTITUDE | M.ESTIMATOR_VELOCITY_HORIZ | M.ESTIMATOR_VELOCITY_VERT
-                      | M.ESTIMATOR_POS_HORIZ_REL | M.ESTIMATOR_POS_HORIZ_ABS
-                      | M.ESTIMATOR_POS_VERT_ABS | M.ESTIMATOR_PRED_POS_HORIZ_REL
-                      | M.ESTIMATOR_PRED_POS_HORIZ_ABS)
-
-
-def estimator_status(enc: Encoder, s: Snapshot) -> bytes | None:
-    """PX4's ESTIMATOR_STATUS: innovation test ratios (velocity, horizontal position, height,
-    magnetometer; no range finder or airspeed: 0) and the position accuracies."""
-    e = s.sample.estimator
-    if e is None:
-        return None
-    vel, pos, hgt, mag = e[E_RATIOS:E_RATIOS + 4]
-    return _ESTIMATOR_STATUS(s.time_usec, ESTIMATOR_FLAGS_OK,
-                             vel, pos, hgt, mag, 0.0, 0.0, e[E_ACCURACY], e[E_ACCURACY + 1])
-
-
-def vibration(enc: Encoder, s: Snapshot) -> bytes | None:
-    """PX4's VIBRATION (its own use of the fields): delta-angle coning, gyro and accelerometer
-    high-frequency vibration metrics of the primary IMU; no clipping."""
-    sensed = s.sample.sensors
-    if sensed is None:
-        return None
-    coning, gyro, accel = sensed[S_VIB:S_VIB + 3]
-    return _VIBRATION(s.time_usec, coning, gyro, accel, 0, 0, 0)
-
-
-def wind_cov(enc: Encoder, s: Snapshot) -> bytes | None:
-    """The estimated wind (NED, horizontal; from the drag while flying) and the variability of
-    the raw wind samples behind it. EKF2 publishes wind (and WIND_COV.hpp sends) only while its
-    wind states are active (EKF2::PublishWindEstimate, get_wind_status): for a multicopter only
-    with drag fusion, EKF2_DRAG_CTRL, which is off by default and which CORNET's parameter set
-    does not have, so nothing is sent."""
-    e = s.sample.estimator
-    if e is None or not s.vehicle.params.get("EKF2_DRAG_CTRL", 0):
-        return None
-    return _WIND_COV(s.time_usec, e[E_WIND], e[E_WIND + 1], 0.0,
-                     e[E_WIND_VAR], 0.0, s.sample.geo.alt_amsl_m, 0.0, 0.0)
 
 
 def orbit_execution_status(enc: Encoder, s: Snapshot) -> bytes | None:

@@ -26,7 +26,7 @@ from gateway.mavlink.signing import (
 )
 from gateway.mavlink.snapshot import LinkTelemetry, Snapshot
 from gateway.mavlink.streams import STREAMS
-from gateway.mavlink.telemetry import wind_cov
+from gateway.mavlink.telemetry_estimator import wind_cov
 from vehicles.orbit import OrbitStatus
 
 # Streams that send from the fake vehicle (RC_CHANNELS and DISTANCE_SENSOR never do in SITL).
