@@ -44,16 +44,15 @@ position and velocity fused EKF2_GPS_DELAY late, barometric height, magnetometer
 - Position and velocity: the IMU's specific force rotated by the estimated attitude, integrated
   every step; GPS innovations are formed against the estimate of EKF2_GPS_DELAY (and half
   EKF2's filter period) before the fix arrived (a ring of past estimates) and the correction
-  is applied to the present and the ring; height and a vertical accelerometer bias follow the
-  barometer. A barometer sample whose test ratio is over
-  1 (EKF2_BARO_GATE) is rejected, as a magnetometer heading over EKF2_MAG_GATE is; with no
-  barometer fused for BARO_TIMEOUT_S the height follows the GPS instead (EKF2's fallback to
-  GNSS height).
+  is applied to the present and the ring (after GNSS_RESET_S unaided, all of it: EKF2's reset
+  to the fix); height and a vertical accelerometer bias follow the barometer. A barometer
+  sample whose test ratio is over 1 (EKF2_BARO_GATE) is rejected, as a magnetometer heading
+  over EKF2_MAG_GATE is; with no barometer fused for BARO_TIMEOUT_S the height follows the GPS
+  instead (EKF2's fallback to GNSS height).
 - Wind: with the vehicle flying, the horizontal specific force in the body frame is the drag of
   the air, so the air's velocity follows (EKF2's drag fusion principle), low-passed.
 - Health: the innovation test ratios (innovation² / (gate σ)², with EKF2's noise parameters and
-  gates — for the GPS the receiver's eph and s_variance where larger, as EKF2 fuses them — as
-  estimator_status reports them) and
+  gates — for the GPS the receiver's eph and s_variance where larger, as EKF2 fuses them) and
   accuracies that ESTIMATOR_STATUS reports; PX4's vibration metrics (vehicle_imu) for VIBRATION.
 
 The estimate (``estimated``) has the columns of the inner loop's ``measured`` (inner_loop.M_*):
@@ -110,6 +109,7 @@ GPS_OBS_POS_M = max(GPS_EPH_M, EKF2_GPS_P_NOISE)
 GPS_OBS_VEL_MPS = max(GPS_S_VARIANCE_MPS, EKF2_GPS_V_NOISE)
 
 BARO_TIMEOUT_S = 0.2  # EKF2's BARO_MAX_INTERVAL: no barometer for this long → GNSS height
+GNSS_RESET_S = 7.0  # EKF2's reset_timeout_max: unaided this long, a fix resets the estimate
 
 # Failure injection (``failed``, a bit set per row; MAV_CMD_INJECT_FAILURE's units and types).
 F_GPS_OFF, F_BARO_OFF, F_BARO_STUCK, F_MAG_OFF, F_MAG_STUCK = 1, 2, 4, 8, 16
@@ -307,6 +307,9 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
             if use_vel:  # (0.0 + x is x: without the position, the velocity's alone)
                 dv0, dv1 = dv0 + L_VEL * dt_gps * ev0, dv1 + L_VEL * dt_gps * ev1
                 dv2 = L_VEL * dt_gps * ev2
+            if e[E_AID_AGE] >= GNSS_RESET_S:  # reset to the fix: the whole innovation
+                dp0, dp1 = (ep0, ep1) if use_pos else (0.0, 0.0)
+                dv0, dv1, dv2 = (ev0, ev1, ev2) if use_vel else (0.0, 0.0, 0.0)
             if use_pos or use_vel:
                 e[E_AID_AGE] = 0.0
                 e[E_POS] += dp0
@@ -441,8 +444,7 @@ class Estimation:
         self.acc_lp_reset = np.zeros(0, np.int64)  # the steps left of its reset
 
     def set_gps_ctrl(self, row: int, value: float | None) -> None:
-        """EKF2_GPS_CTRL of the row (ekf2 reads it at each parameter update): what of a fix
-        its estimator fuses from the next one on (GPS_CTRL_* bits; None: the default)."""
+        """The row's EKF2_GPS_CTRL (GPS_CTRL_* bits; None: the default), from its next fix."""
         self.gps_ctrl[row] = GPS_CTRL_DEFAULT if value is None else int(value) & 0xF
 
     def set_failed(self, row: int, bits: int, on: bool) -> None:
@@ -450,11 +452,9 @@ class Estimation:
         self.failed[row] = (self.failed[row] | bits) if on else (self.failed[row] & ~bits)
 
     def _resize(self, n: int) -> None:
-        (self.sensed, self.bias, self.est, self.hist, self.ehist, self.delay, self.failed,
-         self.gps_ctrl, self.acc_lp, self.acc_lp_reset) = (
-            with_rows(a, n) for a in (self.sensed, self.bias, self.est, self.hist, self.ehist,
-                                      self.delay, self.failed, self.gps_ctrl, self.acc_lp,
-                                      self.acc_lp_reset))
+        for name in ("sensed", "bias", "est", "hist", "ehist", "delay", "failed", "gps_ctrl",
+                     "acc_lp", "acc_lp_reset"):
+            setattr(self, name, with_rows(getattr(self, name), n))
 
     def add(self, index: int, truth: np.ndarray, estimated: np.ndarray,
             gps_delay_s: float = GPS_DELAY_S,

@@ -249,3 +249,42 @@ def test_noise_rows_refill_in_turn_yet_read_the_draws_of_whole_blocks():
         for k in range(len(ref_gens)):
             assert np.array_equal(blocks.block[k, blocks.j], ref[k][blocks.j]), (step, k)
         blocks.advance()
+
+
+@pytest.mark.parametrize("ctrl", [7, 4])
+def test_a_fix_after_7_s_unaided_resets_the_estimate_to_it(ctrl):
+    """EKF2 (gps_control.cpp): fixes back after reset_timeout_max without aiding restart GNSS
+    fusion with a reset to the fix (resetHorizontalPositionToGnss, resetVelocityToGnss), not a
+    slow convergence; with the velocity alone (EKF2_GPS_CTRL 4) only the velocity resets.
+    Before 7 s the fixes are fused as usual."""
+    from vehicles.physics import World
+    w = World()
+    w.add_vehicle(0)
+    w.estimation.set_gps_ctrl(0, ctrl)
+    for _ in range(100):
+        w.step(w.time_s)
+
+    def drift_and_restore(unaided_s: float) -> float:
+        w.set_sensor_failed(0, est.F_GPS_OFF, True)
+        while w.aiding_age_s(0) < unaided_s:
+            w.step(w.time_s)
+        e, ring = w.estimation.est[0], w.estimation.ehist[0]
+        e[est.E_POS] += 5.0  # what dead reckoning might have drifted
+        ring[:, 0] += 5.0
+        e[est.E_VEL + 1] += 0.5
+        ring[:, 4] += 0.5
+        w.set_sensor_failed(0, est.F_GPS_OFF, False)
+        while w.aiding_age_s(0) > 0.0:  # to the first fix fused
+            w.step(w.time_s)
+        return e[est.E_POS] - w.inner.measured[0, 0], e[est.E_VEL + 1]
+
+    pos_err, vel = drift_and_restore(3.0)
+    assert pos_err > 4.0 if ctrl == 7 else pos_err > 4.9  # one fix's share of it
+    for _ in range(2000):  # converged again
+        w.step(w.time_s)
+    pos_err, vel = drift_and_restore(7.0)
+    assert abs(vel) < 0.01  # the velocity reset to the fix's
+    if ctrl == 7:
+        assert abs(pos_err) < 0.01  # the position too
+    else:
+        assert pos_err > 4.9  # not fused: it stays
