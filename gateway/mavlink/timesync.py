@@ -11,7 +11,8 @@ Rules (PX4 v1.15's, with its integer types):
 - The estimate is a double exponential smoothing of the samples (offset and skew), whose gains
   go from 0.05 to 0.003 over the first CONVERGENCE_WINDOW (500) samples along a sigmoid; it has
   converged after 500 samples (50 s of PX4's 10 Hz requests, with a client that answers them:
-  MAVSDK does, pymavlink scripts and QGroundControl do not).
+  MAVROS does; MAVSDK only once its application enables timesync, which the C++ API's
+  System::enable_timesync does and MAVSDK-Python cannot; pymavlink scripts do not).
 - ``sync_stamp(usec)``: a client's timestamp on our clock once converged (uint64: a remote
   stamp of 0 lands in the far future), else the time now. MavlinkReceiver stamps
   LANDING_TARGET's landing_target_pose with it.

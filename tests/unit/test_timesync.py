@@ -126,7 +126,7 @@ def test_stamps_are_uint64():
 
 
 def test_landing_target_time_goes_through_the_link_s_timesync():
-    """A client that answers the API link's TIMESYNC requests at once (as MAVSDK does), its clock
+    """A client that answers the API link's TIMESYNC requests at once (as MAVROS does), its clock
     1000 s ahead: before 500 answers a LANDING_TARGET is stamped on arrival, after them at its
     own time_usec on our clock; timesync_status follows every answer."""
     with Sim(1) as sim:
@@ -186,7 +186,7 @@ def test_a_target_stamped_in_the_future_never_times_out(sim):  # noqa: F811
 
 
 def _answer_timesync(api, ahead_us: int = AHEAD_US):
-    """An observer that answers the link's TIMESYNC requests within 2 ms, as MAVSDK does."""
+    """An observer that answers the link's TIMESYNC requests within 2 ms, as MAVROS does."""
     answered = [0]
 
     def answer(now: float) -> None:
