@@ -36,6 +36,7 @@ from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.telemetry_baro import baro_alt_m, baro_sample
 from vehicles.estimation import (
     E_ACCURACY,
+    E_AID_AGE,
     E_GPS_AGE,
     F_GPS_OFF,
     GPS_EPH_M,
@@ -166,8 +167,20 @@ def local_position_ned(s: Snapshot) -> tuple:
     return (s.time_boot_ms, *kin.position_ned_m, *kin.velocity_ned_mps)
 
 
+def global_position_int(enc: Encoder, s: Snapshot) -> bytes | None:
+    """GLOBAL_POSITION_INT.hpp sends at each vehicle_global_position, which EKF2 publishes only
+    while the position is valid (global_position_is_valid: not dead-reckoning for longer than
+    EKF2_NOAID_TOUT): none while the estimator has fused no GPS position or velocity for that
+    long, as the commander's position_valid says."""
+    e = s.sample.estimator
+    if e is not None and e[E_AID_AGE] >= float(
+            s.vehicle.params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000) * 1e-6:
+        return None
+    return _global_position_int(enc, s)
+
+
 @_shared(M.MAVLink_global_position_int_message, key=_home_alt_m)  # relative_alt: from home
-def global_position_int(s: Snapshot) -> tuple:
+def _global_position_int(s: Snapshot) -> tuple:
     """GLOBAL_POSITION_INT.hpp: every field a C conversion of the estimate (truncating), the
     heading wrapped to [0, 360) degrees (``_heading_deg`` inlined); relative_alt above home
     (above the origin without)."""

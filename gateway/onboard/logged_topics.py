@@ -21,9 +21,9 @@ Rules:
   values change. A topic logged at every update that its module publishes at a fixed rate
   has that ``period_s`` (cpuload: load_mon's 500 ms).
 - ``read(vehicle, now_us)`` returns the field values in order, an array field's elements one by
-  one (flat, as the record is packed), or None while PX4 would not have published the topic yet
-  (home_position before home is set). A ``timestamp_sample`` is
-  the sampling instant ``now_us`` (the state read is the one of that instant).
+  one (flat, as the record is packed), or None while PX4 would not publish the topic (home_position
+  before home is set, vehicle_global_position without a valid position). A ``timestamp_sample``
+  is the sampling instant ``now_us`` (the state read is the one of that instant).
 - The ``*_groundtruth`` topics are the simulator's truth (PX4 SITL logs them), the others the
   estimate or the controllers' setpoints, as PX4 logs them.
 - The topics sampled at every tick read the commander's state (``autopilot.commander``,
@@ -87,9 +87,10 @@ def _local_position(v: Any, now_us: int) -> tuple:
             o.lat_deg, o.lon_deg, o.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1])
 
 
-def _global_position(v: Any, now_us: int) -> tuple:
-    g = v.global_position
-    e = v.estimator
+def _global_position(v: Any, now_us: int) -> tuple | None:
+    if not v.autopilot.commander.position_valid:  # EKF2 publishes it only while valid
+        return None
+    g, e = v.global_position, v.estimator
     return (g.lat_deg, g.lon_deg, g.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1])
 
 
@@ -445,8 +446,7 @@ TOPICS: tuple[Topic, ...] = (
                                (F, "yawspeed_integ")), 0.2, _rate_ctrl_status),
     Topic("position_setpoint_triplet", (("position_setpoint", "current"),), 0.2, _triplet,
           on_change=True),
-    Topic("cpuload", ((F, "load"), (F, "ram_usage")), 0.0, _cpuload,
-          period_s=LOAD_MON_PERIOD_S),
+    Topic("cpuload", ((F, "load"), (F, "ram_usage")), 0.0, _cpuload, period_s=LOAD_MON_PERIOD_S),
     Topic("esc_status", (("uint8_t", "esc_count"), ("uint8_t", "esc_online_flags"),
                          ("uint8_t", "esc_armed_flags"), (f"esc_report[{ESC_REPORTS}]", "esc")),
           0.25, _esc_status),

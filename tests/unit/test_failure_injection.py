@@ -444,3 +444,31 @@ def test_ekf2_gps_ctrl_0_unaids_the_estimator_while_the_receiver_still_reports()
         # fusion back on: aided again at the next fixes
         assert params.set("EKF2_GPS_CTRL", 7)
         assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=2)
+
+
+def test_global_position_int_stops_while_the_position_is_lost(tmp_path):
+    """EKF2 publishes vehicle_global_position only while global_position_is_valid (not
+    dead-reckoning past EKF2_NOAID_TOUT), and GLOBAL_POSITION_INT.hpp sends at each
+    publication: with the GPS off the stream stops when the position is lost, and comes back
+    with the fixes; LOCAL_POSITION_NED goes on (dead-reckoned). The log has the same gap."""
+    with Sim(params={"MIS_TAKEOFF_ALT": 10.0}, log_dir=tmp_path) as sim:
+        hover(sim)
+        api = sim.api(0)
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OFF, 0) == 0
+        assert sim.run_until(lambda: not sim.status(0).position_valid, timeout_s=10)
+        sim.advance(0.1)
+        since = len(api.frames)
+        sim.advance(2.0)
+        assert api.messages("GLOBAL_POSITION_INT", since) == []
+        assert len(api.messages("LOCAL_POSITION_NED", since)) >= 55
+        lost_at = sim.now
+        assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OK, 0) == 0
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=5)
+        since = len(api.frames)
+        sim.advance(1.0)
+        assert len(api.messages("GLOBAL_POSITION_INT", since)) >= 45
+    import pyulog
+    log = pyulog.ULog(str(sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))[0]))
+    stamps = log.get_dataset("vehicle_global_position").data["timestamp"] * 1e-6
+    assert not ((stamps > lost_at - 1.9) & (stamps < lost_at)).any()
+    assert (stamps > lost_at + 1.0).any()
