@@ -64,7 +64,6 @@ from vehicles.estimation import (
     S_GYRO,
     Estimation,
     estimate,
-    sense,
 )
 from vehicles.inner_loop import (
     IDLE_THRUST_NORM,
@@ -80,6 +79,7 @@ from vehicles.inner_loop import (
 )
 from vehicles.params import ParamStore
 from vehicles.quiet_import import import_quietly
+from vehicles.sensing import sense
 from vehicles.types import (
     EXACT_SENSORS,
     GRAVITY_MPS2,

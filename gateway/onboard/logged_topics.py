@@ -3,8 +3,9 @@
 Source: PX4 src/modules/logger/logged_topics.cpp (add_default_topics, and the SITL block that
 adds the ground truth and logs the estimator's outputs at full rate), the uORB messages of
 PX4 1.15 (msg/*.msg) for the field names, and commander's ModeUtil/control_mode.cpp for
-vehicle_control_mode. The sensor topics are in logged_sensors.py, the status topics (takeoff,
-failure detector, mission result, MAVLink links) in logged_status.py.
+vehicle_control_mode. The sensor topics are in logged_sensors.py, the ground truth in
+logged_truth.py, the status topics (takeoff, failure detector, mission result, MAVLink links) in
+logged_status.py.
 Rules:
 - Each topic has a subset of PX4's fields with PX4's names and types, as CORNET has them; a
   field is never invented. A topic's ULog format and subscription carry its uORB topic name
@@ -49,6 +50,7 @@ from gateway.onboard.logged_sensors import (
     VEHICLE_MAGNETOMETER,
 )
 from gateway.onboard.logged_status import STATUS_TOPICS
+from gateway.onboard.logged_truth import TRUTH_TOPICS
 from gateway.onboard.topic import COMMANDER_REPUBLISH_S, U64, B, D, F, Topic
 from vehicles.control.quat import q_rotate, q_yaw
 from vehicles.estimation import (
@@ -58,8 +60,6 @@ from vehicles.estimation import (
     E_WIND_VAR,
     R_Q,
     R_RATES,
-    R_TRUE_Q,
-    R_TRUE_RATES,
 )
 from vehicles.types import NavState
 
@@ -125,14 +125,6 @@ def _attitude_step(r: Sequence[float], t_us: int) -> Sequence[float]:
 
 def _angular_velocity_step(r: Sequence[float], t_us: int) -> tuple:
     return (t_us, *r[R_RATES:R_RATES + 3])
-
-
-def _attitude_truth_step(r: Sequence[float], t_us: int) -> Sequence[float]:
-    return r[R_TRUE_Q:R_TRUE_Q + 4]
-
-
-def _angular_velocity_truth_step(r: Sequence[float], t_us: int) -> tuple:
-    return (t_us, *r[R_TRUE_RATES:R_TRUE_RATES + 3])
 
 
 def _actuator_outputs(v: Any, now_us: int) -> tuple:
@@ -332,27 +324,6 @@ def _esc_status(v: Any, now_us: int) -> tuple:
     return (len(outputs), (1 << len(outputs)) - 1, armed, *reports)
 
 
-def _attitude_truth(v: Any, now_us: int) -> tuple:
-    return v.truth.attitude_q
-
-
-def _angular_velocity_truth(v: Any, now_us: int) -> tuple:
-    return (now_us, *v.truth.rates_frd_radps)
-
-
-def _local_position_truth(v: Any, now_us: int) -> tuple:
-    m = v.truth
-    o = v.origin
-    return (*m.position_ned_m, *m.velocity_ned_mps, *m.accel_ned_mps2, q_yaw(m.attitude_q),
-            o.lat_deg, o.lon_deg, o.alt_amsl_m)
-
-
-def _global_position_truth(v: Any, now_us: int) -> tuple:
-    n, e, d = v.truth.position_ned_m
-    g = v.origin.offset_ned(n, e, d)
-    return (g.lat_deg, g.lon_deg, g.alt_amsl_m)
-
-
 TOPICS: tuple[Topic, ...] = (
     Topic("vehicle_attitude", (("float[4]", "q"),), 0.0, _attitude, step=_attitude_step),
     Topic("vehicle_local_position", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"), (F, "vy"), (F, "vz"),
@@ -420,18 +391,7 @@ TOPICS: tuple[Topic, ...] = (
           _manual_control),
     VEHICLE_AIR_DATA,
     VEHICLE_MAGNETOMETER,
-    Topic("vehicle_attitude_groundtruth", (("float[4]", "q"),), 0.01, _attitude_truth,
-          step=_attitude_truth_step),
-    Topic("vehicle_angular_velocity_groundtruth", ((U64, "timestamp_sample"),
-                                                   ("float[3]", "xyz")), 0.01,
-          _angular_velocity_truth, step=_angular_velocity_truth_step),
-    Topic("vehicle_local_position_groundtruth", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"),
-                                                 (F, "vy"), (F, "vz"), (F, "ax"), (F, "ay"),
-                                                 (F, "az"), (F, "heading"), (D, "ref_lat"),
-                                                 (D, "ref_lon"), (F, "ref_alt")), 0.02,
-          _local_position_truth),
-    Topic("vehicle_global_position_groundtruth", ((D, "lat"), (D, "lon"), (F, "alt")), 0.1,
-          _global_position_truth),
+    *TRUTH_TOPICS,
     Topic("failsafe_flags", tuple((B, name) for name in (
         "local_position_invalid", "global_position_invalid", "auto_mission_missing",
         "offboard_control_signal_lost", "home_position_invalid", "manual_control_signal_lost",

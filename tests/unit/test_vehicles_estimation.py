@@ -15,6 +15,7 @@ from gateway.sim import scenario as scenario_mod
 from gateway.testing import Sim
 from vehicles import estimation as est
 from vehicles.estimation import E_RATIOS, E_WIND, S_ACC, S_GPS_POS, S_GYRO
+from vehicles.sensing import sense
 from vehicles.types import CommandResult, SensorConfig
 
 
@@ -129,7 +130,7 @@ def _gps_samples(count: int, scale: float = 1.0, failed: int = 0) -> np.ndarray:
     out = []
     for _ in range(count):
         hist_i, j = e.begin_step()
-        est.sense(measured, e.noise.block, j, e.dt_s, scale, False, True, 0, e.hist, hist_i,
+        sense(measured, e.noise.block, j, e.dt_s, scale, False, True, 0, e.hist, hist_i,
                   e.bias, e.sensed, e.sense_consts, e.failed)
         e.end_step()
         out.append(e.sensed[0, S_GPS_POS:S_GPS_POS + 6].copy())
