@@ -39,6 +39,7 @@ from vehicles.control.rate_control import RateControlGains
 from vehicles.events import ArmReason
 from vehicles.failsafe import FailsafeFlags
 from vehicles.failure_detector import FailureDetector, attitude_control
+from vehicles.flight_task import check_resets
 from vehicles.flight_tasks import TaskInput, make_tasks
 from vehicles.follow_target import FollowTarget
 from vehicles.geodesy import position_fault
@@ -108,6 +109,8 @@ class Autopilot:
         self.home: HomePosition | None = None
         self.hover_thrust = HoverThrustEstimator(params)
         self._prev_nav_state: NavState | None = None
+        # the estimator's resets (set_position_aided), the counts the tasks last saw
+        self._resets, self._resets_seen = [0.0] * 8, [0.0] * 3
         self._fence_breach: str | None = None
         self._battery_level = 0
         self.last_meas: Measurement | None = None  # the measurement of the last 50 Hz tick
@@ -391,10 +394,13 @@ class Autopilot:
         """What the inner loop flies now (the last ``step`` or ``poll`` that built one)."""
         return self._out
 
-    def set_position_aided(self, aided: bool) -> None:
+    def set_position_aided(self, aided: bool, resets: list[float] | None = None) -> None:
         """The estimator's word on its position (vehicles/estimation.py: a fix within
-        EKF2_NOAID_TOUT); the commander's ``position_valid`` follows it."""
+        EKF2_NOAID_TOUT), which the commander's ``position_valid`` follows, and its resets
+        (World.aiding: the counts and changes of E_XY_RESET, E_VXY_RESET, E_VZ_RESET)."""
         self.commander.position_aided = aided
+        if resets is not None:
+            self._resets = resets
 
     def position_setpoint_ned_m(self) -> Vec3 | None:
         """The trajectory's position setpoint while armed and flying under it."""
@@ -481,6 +487,7 @@ class Autopilot:
                                    cmd.armed, cmd.terminated, state, ctx))
         if entered:
             task.activate(t)
+        self._resets_seen = check_resets(task, t, self._resets, self._resets_seen)
         task.update(t)
 
     def _switch_by_vehicle(self, nav_state: NavState, hold_at: tuple[float, float, float] | None

@@ -136,13 +136,18 @@ S_GYRO, S_ACC, S_MAG, S_BARO_DOWN, S_GPS_POS, S_GPS_VEL, S_VIB, S_PREV, S_SIZE =
 B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 # Columns of the estimator's state.
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
- E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_BARO_AGE, E_AID_AGE, E_SIZE) = (
-    0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 39)
+ E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_BARO_AGE, E_AID_AGE, E_XY_RESET, E_VXY_RESET,
+ E_VZ_RESET, E_SIZE) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 39, 42, 45, 47)
 # E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the variance of
 # the raw wind samples (m²/s²);
 # E_ACCURACY: horizontal, vertical (running RMS of the innovations); E_GPS_AGE: seconds since
 # the last GPS fix came; E_BARO_AGE: since the last barometer sample was fused; E_AID_AGE: since
-# a fix's horizontal position or velocity was last fused (EKF2_NOAID_TOUT's clock).
+# a fix's horizontal position or velocity was last fused (EKF2_NOAID_TOUT's clock);
+# E_XY_RESET, E_VXY_RESET: how many times the horizontal position, velocity was reset, then the
+# last reset's change (north, east); E_VZ_RESET: the vertical velocity's count and change (EKF2's
+# _state_reset_status: reset_count.posNE, velNE, velD and posNE_change, velNE_change, velD_change,
+# which vehicle_local_position publishes as xy_, vxy_, vz_reset_counter and delta_xy, delta_vxy,
+# delta_vz).
 
 # EKF2_GPS_CTRL's bits: lon/lat, altitude, 3D velocity (dual antenna heading: no such receiver)
 GPS_CTRL_POS, GPS_CTRL_HGT, GPS_CTRL_VEL = 1, 2, 4
@@ -244,6 +249,15 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
             if e[E_AID_AGE] >= GNSS_RESET_S:  # reset to the fix: the whole innovation
                 dp0, dp1 = (ep0, ep1) if use_pos else (0.0, 0.0)
                 dv0, dv1, dv2 = (ev0, ev1, ev2) if use_vel else (0.0, 0.0, 0.0)
+                # resetHorizontalPositionToGnss, resetVelocityToGnss: counted, with the change
+                if use_pos:
+                    e[E_XY_RESET] += 1.0
+                    e[E_XY_RESET + 1], e[E_XY_RESET + 2] = dp0, dp1
+                if use_vel:
+                    e[E_VXY_RESET] += 1.0
+                    e[E_VXY_RESET + 1], e[E_VXY_RESET + 2] = dv0, dv1
+                    e[E_VZ_RESET] += 1.0
+                    e[E_VZ_RESET + 1] = dv2
             if use_pos or use_vel:
                 e[E_AID_AGE] = 0.0
                 e[E_POS] += dp0

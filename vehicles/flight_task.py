@@ -12,7 +12,7 @@ from vehicles.control.position_control import PositionSetpoint
 from vehicles.navigator import NavContext
 from vehicles.params import ParamStore
 from vehicles.position_stage import PositionStage
-from vehicles.types import Measurement, NavState, Vec3
+from vehicles.types import EstimatorReset, Measurement, NavState, Vec3
 
 ZERO3: Vec3 = (0.0, 0.0, 0.0)
 
@@ -37,6 +37,19 @@ def reset_from(trajectory: AutoTrajectory, last: PositionSetpoint | None, pos: V
                          finite_or(last.acceleration_ned_mps2, ZERO3))
 
 
+def check_resets(task: FlightTask, t: TaskInput, resets: list[float], seen: list[float]
+                 ) -> list[float]:
+    """FlightTask::_checkEkfResetCounters before ``task``'s update: its handlers for the
+    counts of ``resets`` (World.aiding's reset columns) that moved from ``seen``. Returns the
+    counts, which the next task starts from (FlightModeManager hands them over)."""
+    counts = resets[0::3]
+    if counts != seen:
+        task.estimator_reset(t, EstimatorReset(
+            counts[0] != seen[0], counts[1] != seen[1], counts[2] != seen[2],
+            (resets[1], resets[2]), (resets[4], resets[5]), resets[7]))
+    return counts
+
+
 class TaskInput(NamedTuple):
     """One 50 Hz tick, as every task sees it (a NamedTuple, as Measurement: built every tick)."""
 
@@ -59,6 +72,11 @@ class FlightTask:
 
     def activate(self, t: TaskInput) -> None:
         """The state was just entered."""
+
+    def estimator_reset(self, t: TaskInput, r: EstimatorReset) -> None:
+        """The estimator reset its position or velocity (``r``), before this tick's ``update``
+        (FlightTask::update → _checkEkfResetCounters): FlightTask's _ekfResetHandler*, which
+        do nothing unless a task has its own."""
 
     def update(self, t: TaskInput) -> None:
         raise NotImplementedError

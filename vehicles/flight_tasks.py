@@ -48,7 +48,7 @@ from vehicles.orbit_task import OrbitTask
 from vehicles.params import ParamStore
 from vehicles.position_slow import ManualPositionSlow, VelocityLimits
 from vehicles.position_stage import PositionStage
-from vehicles.types import NavState, Vec3
+from vehicles.types import EstimatorReset, NavState, Vec3
 
 log = logging.getLogger(__name__)
 
@@ -95,6 +95,17 @@ class AutoTask(FlightTask):
         reset_from(st.trajectory, last, meas.position_ned_m, meas.velocity_ned_mps)
         st.yaw_sp = t.yaw_rad if last is None or not math.isfinite(last.yaw_rad) else last.yaw_rad
 
+    def estimator_reset(self, t: TaskInput, r: EstimatorReset) -> None:
+        """FlightTaskAuto::_ekfResetHandlerPositionXY, VelocityXY, VelocityZ: the smoothing
+        jumps to the new estimate (forceSetPosition, forceSetVelocity); the waypoints stay (the
+        navigator's triplet is global)."""
+        pos, vel, nan = t.meas.position_ned_m, t.meas.velocity_ned_mps, math.nan
+        smoothing = self.stage.trajectory.smoothing
+        if r.xy:
+            smoothing.force_set((pos[0], pos[1], nan))
+        smoothing.force_set(velocity=(vel[0] if r.vxy else nan, vel[1] if r.vxy else nan,
+                                      vel[2] if r.vz else nan))
+
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
         nav_sp = self.setpoint = self.navigator.update(t.nav_state, t.nav)
@@ -128,7 +139,7 @@ class AutoTask(FlightTask):
             home = t.nav.home
             height = (home.position_ned_m[2] if home is not None else 0.0) - pos[2]
             if height < float(self.params["MPC_LAND_ALT1"]):
-                traj.smoothing.force_set_position_z(pos[2])
+                traj.smoothing.force_set((math.nan, math.nan, pos[2]))
         landed = st.land_detector.landed and not st.taking_off
         if landed:
             # FlightTaskAuto::update: the task wants a takeoff when its unsmoothed velocity
@@ -195,6 +206,12 @@ class OffboardTask(FlightTask):
 
     def activate(self, t: TaskInput) -> None:
         self.offboard.on_entry(t.yaw_rad)
+
+    def estimator_reset(self, t: TaskInput, r: EstimatorReset) -> None:
+        """No flight task runs in Offboard: mc_pos_control's adjustSetpointForEKFResets moves
+        the setpoint it holds (the last one received, older than the estimate) by the changes,
+        until the next one arrives."""
+        self.offboard.shift(t.now_s, r)
 
     def update(self, t: TaskInput) -> None:
         st, meas = self.stage, t.meas
@@ -335,6 +352,9 @@ class StickPositionTask(FlightTask):
             self._choose()
         self.task.activate(t.meas.position_ned_m, t.meas.velocity_ned_mps, t.yaw_rad,
                            self.stage.task_setpoint)
+
+    def estimator_reset(self, t: TaskInput, r: EstimatorReset) -> None:
+        self.task.estimator_reset(t.meas.position_ned_m, t.meas.velocity_ned_mps, r)
 
     def update(self, t: TaskInput) -> None:
         st, meas = self.stage, t.meas

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 from vehicles.control.manual_velocity_smoothing_z import ManualVelocitySmoothingZ
 from vehicles.control.position_control import PositionSetpoint
-from vehicles.types import GRAVITY_MPS2, Vec3
+from vehicles.types import GRAVITY_MPS2, EstimatorReset, Vec3
 
 EPS = 1.1920929e-07  # FLT_EPSILON
 UNIT_EPS = 1e-5  # matrix::Vector::unit_or_zero's
@@ -263,6 +263,12 @@ class ManualAltitude:
                              z if math.isfinite(z) else pos[2])
         self.z_sp = math.nan
 
+    def estimator_reset(self, pos: Vec3, vel: Vec3, r: EstimatorReset) -> None:
+        """FlightTaskManualAltitudeSmoothVel::_ekfResetHandlerVelocityZ: the vertical smoothing
+        takes the new velocity (setCurrentVelocity)."""
+        if r.vz:
+            self.smoothing.set_current_velocity(vel[2])
+
     @property
     def yawspeed(self) -> float:
         """The heading rate the yaw stick asks for (rad/s), fed forward to attitude control."""
@@ -378,6 +384,16 @@ class ManualPosition(ManualAltitude):
         self._vel_xy = (v[0], v[1]) if math.isfinite(v[0]) and math.isfinite(v[1]) else (0.0, 0.0)
         a = last.acceleration_ned_mps2 if last is not None else (math.nan,) * 3
         self._acc_xy = (a[0], a[1]) if math.isfinite(a[0]) and math.isfinite(a[1]) else (0.0, 0.0)
+
+    def estimator_reset(self, pos: Vec3, vel: Vec3, r: EstimatorReset) -> None:
+        """FlightTaskManualAcceleration's handlers, besides the vertical one: a position reset
+        drops the position lock (StickAccelerationXY::resetPosition), a velocity reset takes
+        the new velocity (resetVelocity, when finite)."""
+        super().estimator_reset(pos, vel, r)
+        if r.xy:
+            self._pos_xy = (math.nan, math.nan)
+        if r.vxy and math.isfinite(vel[0]) and math.isfinite(vel[1]):
+            self._vel_xy = (vel[0], vel[1])
 
     def reactivate(self, pos: Vec3, vel: Vec3, yaw: float) -> None:
         """FlightTask::reActivate → FlightTaskManualAcceleration::activate on an empty setpoint:

@@ -24,7 +24,7 @@ import math
 from vehicles.control.position_control import PositionSetpoint
 from vehicles.manual_control import EPS, ManualAltitude, Sticks, _clamp, expo_deadzone, gradual
 from vehicles.manual_position_smooth import stick_velocity_xy
-from vehicles.types import Vec3
+from vehicles.types import EstimatorReset, Vec3
 
 
 class ManualAltitudeDirect(ManualAltitude):
@@ -38,6 +38,9 @@ class ManualAltitudeDirect(ManualAltitude):
         self.yaw_sp = yaw
         self._vz_sp = 0.0
         self.z_sp = pos[2]
+
+    def estimator_reset(self, pos: Vec3, vel: Vec3, r: EstimatorReset) -> None:
+        """FlightTaskManualAltitude (and ManualPosition) handle only heading resets."""
 
     def _vertical(self, dt: float, sticks: Sticks, pos: Vec3, vel_sp_feedback_z: float,
                   home_z: float) -> tuple[float, float]:

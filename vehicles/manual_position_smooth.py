@@ -19,7 +19,7 @@ import math
 from vehicles.control.manual_velocity_smoothing_xy import ManualVelocitySmoothingXY
 from vehicles.control.position_control import PositionSetpoint
 from vehicles.manual_control import ManualAltitude, Sticks, stick_xy
-from vehicles.types import Vec3
+from vehicles.types import EstimatorReset, Vec3
 
 
 def stick_velocity_xy(params, sticks: Sticks, heading: float) -> tuple[float, float]:
@@ -48,6 +48,16 @@ class ManualPositionSmoothVel(ManualAltitude):
         self.smoothing_xy.reset((_finite_or(a[0], 0.0), _finite_or(a[1], 0.0)),
                                 (_finite_or(v[0], vel[0]), _finite_or(v[1], vel[1])),
                                 (_finite_or(p[0], pos[0]), _finite_or(p[1], pos[1])))
+
+    def estimator_reset(self, pos: Vec3, vel: Vec3, r: EstimatorReset) -> None:
+        """FlightTaskManualPositionSmoothVel's handlers: the horizontal smoothing takes the new
+        position and velocity (setCurrentPosition, setCurrentVelocity), the vertical the new
+        velocity."""
+        super().estimator_reset(pos, vel, r)
+        if r.xy:
+            self.smoothing_xy.set_current_position((pos[0], pos[1]))
+        if r.vxy:
+            self.smoothing_xy.set_current_velocity((vel[0], vel[1]))
 
     def reactivate(self, pos: Vec3, vel: Vec3, yaw: float) -> None:
         super().reactivate(pos, vel, yaw)

@@ -19,11 +19,11 @@ Rules:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from vehicles.control.position_control import limit_tilt
 from vehicles.plan_types import OffboardSetpoint
-from vehicles.types import GRAVITY_MPS2, Vec3
+from vehicles.types import GRAVITY_MPS2, EstimatorReset, Vec3
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,22 @@ class Offboard:
 
     def fresh(self, now_s: float, timeout_s: float) -> bool:
         return self.setpoint is not None and now_s - self.received_s <= timeout_s
+
+    def shift(self, now_s: float, r: EstimatorReset) -> None:
+        """mc_pos_control's adjustSetpointForEKFResets on the setpoint it holds, when older than
+        the estimate (not received at ``now_s``): the position and the velocity move by the
+        estimator's changes; a NaN component stays NaN."""
+        sp = self.setpoint
+        if sp is None or self.received_s >= now_s:
+            return
+        (px, py, pz), (vx, vy, vz) = sp.position_ned_m, sp.velocity_ned_mps
+        if r.xy:
+            px, py = px + r.delta_xy[0], py + r.delta_xy[1]
+        if r.vxy:
+            vx, vy = vx + r.delta_vxy[0], vy + r.delta_vxy[1]
+        if r.vz:
+            vz += r.delta_vz
+        self.setpoint = replace(sp, position_ned_m=(px, py, pz), velocity_ned_mps=(vx, vy, vz))
 
     def on_entry(self, yaw_rad: float) -> None:
         """Entering Offboard (nothing to keep: the yaw setpoint is the setpoint's or the present

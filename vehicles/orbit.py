@@ -40,7 +40,7 @@ from vehicles.control.position_control import PositionSetpoint
 from vehicles.events import ORBIT_RADIUS_EXCEEDED, Log
 from vehicles.manual_control import ManualAltitude, Sticks, expo_deadzone
 from vehicles.status_log import StatusLog
-from vehicles.types import Vec3
+from vehicles.types import EstimatorReset, Vec3
 
 # FlightTaskOrbit's constants
 RADIUS_MIN = 1.0
@@ -90,6 +90,10 @@ class Orbit:
         self.approaching = False  # _in_circle_approach
         self.yawspeed = 0.0
         self.down_sp = math.nan  # the altitude setpoint last flown (status)
+
+    def estimator_reset(self, pos: Vec3, vel: Vec3, r: EstimatorReset) -> None:
+        """FlightTaskOrbit's handlers are FlightTaskManualAltitudeSmoothVel's: its altitude."""
+        self._altitude.estimator_reset(pos, vel, r)
 
     def activate(self, pos: Vec3, vel: Vec3, yaw: float,
                  last: PositionSetpoint | None = None) -> None:

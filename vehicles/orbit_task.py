@@ -12,6 +12,7 @@ from vehicles.nav_core import auto_limits
 from vehicles.orbit import ACCEPTANCE_XY_M, Orbit
 from vehicles.params import ParamStore
 from vehicles.position_stage import PositionStage
+from vehicles.types import EstimatorReset
 
 
 class OrbitTask(FlightTask):
@@ -33,6 +34,9 @@ class OrbitTask(FlightTask):
 
     def activate(self, t: TaskInput) -> None:
         self._activate(t, self.stage.task_setpoint)
+
+    def estimator_reset(self, t: TaskInput, r: EstimatorReset) -> None:
+        self.orbit.estimator_reset(t.meas.position_ned_m, t.meas.velocity_ned_mps, r)
 
     def _activate(self, t: TaskInput, last: PositionSetpoint | None) -> None:
         pos, vel = t.meas.position_ned_m, t.meas.velocity_ned_mps

@@ -261,3 +261,16 @@ class SensorConfig:
 
 PX4_SENSORS = SensorConfig()  # the noise of PX4's simulated sensors
 EXACT_SENSORS = SensorConfig(noise=0.0)
+
+
+class EstimatorReset(NamedTuple):
+    """What the estimator reset since the tasks last looked (FlightTask::_checkEkfResetCounters,
+    on vehicle_local_position's xy_, vxy_, vz_reset_counter): which moved, and the last resets'
+    changes (delta_xy, delta_vxy, delta_vz)."""
+
+    xy: bool
+    vxy: bool
+    vz: bool
+    delta_xy: tuple[float, float]
+    delta_vxy: tuple[float, float]
+    delta_vz: float

@@ -1,9 +1,8 @@
 """One vehicle: autopilot + simulated GPS/home + battery, over a body owned by the physics World.
 
 This is the object the gateway talks to (vehicles/README.md contract). Rules:
-- Every method takes simulated time; nothing here touches the wall clock or PyBullet.
-- ``state`` and ``status`` are frozen snapshots built lazily (at most once per physics step) so
-  the 250 Hz loop does not allocate them for vehicles nobody is looking at.
+- Every method takes simulated time; nothing here touches the wall clock or PyBullet. ``state``
+  and ``status`` are frozen snapshots built lazily (at most once per physics step).
 - What the vehicle measures is its estimate (vehicles/estimation.py): the autopilot flies on it
   and ``kinematics``/``state`` report it; ``truth`` is the body's true state.
 - Local NED is relative to ``origin`` (the spawn point on the ground, = EKF origin).
@@ -81,7 +80,7 @@ class WorldRow(Protocol):
 
     def estimator_ratios(self, row: int) -> list[float]: ...
 
-    def aiding_age_s(self, row: int) -> float: ...
+    def aiding(self, row: int) -> list[float]: ...
 
     def set_sensor_failed(self, row: int, bits: int, on: bool) -> None: ...
 
@@ -141,7 +140,8 @@ class Vehicle:
             self._params_version = params.version
             timeout = params.get("EKF2_NOAID_TOUT", 5_000_000) or 5_000_000
             self._noaid_timeout_s = timeout * 1e-6
-        ap.set_position_aided(world.aiding_age_s(row) < self._noaid_timeout_s)
+        aid_age, *resets = world.aiding(row)
+        ap.set_position_aided(aid_age < self._noaid_timeout_s, resets)
         calibration = ap.calibration
         if calibration.needs_sensors:
             sensed = world.sensors(row)

@@ -38,6 +38,9 @@ from vehicles.estimation import (
     E_ACCURACY,
     E_AID_AGE,
     E_GPS_AGE,
+    E_VXY_RESET,
+    E_VZ_RESET,
+    E_XY_RESET,
     F_GPS_OFF,
     GPS_EPH_M,
     GPS_EPV_M,
@@ -424,14 +427,18 @@ def _odometry_covariances(s: Snapshot) -> tuple[list[float], tuple[float, ...]]:
 def odometry(s: Snapshot) -> tuple:
     """ODOMETRY.hpp from EKF2's vehicle_odometry (EKF2::PublishOdometry): position and velocity
     both in the local NED frame (pose_frame and velocity_frame NED, so child_frame_id
-    LOCAL_NED), body rates, estimator type AUTOPILOT, quality 0 (EKF2 never sets it)."""
+    LOCAL_NED), body rates, estimator type AUTOPILOT, quality 0 (EKF2 never sets it); the reset
+    counter is the sum of the estimator's reset counts (quaternion, velocity NE and D, position NE
+    and D: this estimator resets the horizontal position and the velocity), as a uint8."""
     kin = s.kin
     x, y, z = kin.position_ned_m
     vx, vy, vz = kin.velocity_ned_mps
     p, q, r = kin.rates_frd_radps
     pose, vel = _odometry_covariances(s)
+    e = s.sample.estimator
+    resets = 0 if e is None else int(e[E_XY_RESET] + e[E_VXY_RESET] + e[E_VZ_RESET]) & 0xFF
     return (s.time_usec, MAV_FRAME_LOCAL_NED, MAV_FRAME_LOCAL_NED, x, y, z, kin.attitude_q,
-            vx, vy, vz, p, q, r, pose, vel, 0, MAV_ESTIMATOR_TYPE_AUTOPILOT, 0)
+            vx, vy, vz, p, q, r, pose, vel, resets, MAV_ESTIMATOR_TYPE_AUTOPILOT, 0)
 
 
 def scaled_pressure(enc: Encoder, s: Snapshot) -> bytes:

@@ -56,8 +56,11 @@ from vehicles.control.quat import q_rotate, q_yaw
 from vehicles.estimation import (
     E_ACCURACY,
     E_RATIOS,
+    E_VXY_RESET,
+    E_VZ_RESET,
     E_WIND,
     E_WIND_VAR,
+    E_XY_RESET,
     R_Q,
     R_RATES,
 )
@@ -66,6 +69,7 @@ from vehicles.types import NavState
 __all__ = ["TOPICS", "Topic"]
 
 ARMING_STATE_DISARMED, ARMING_STATE_ARMED = 1, 2  # vehicle_status.arming_state (PX4 1.15)
+U8 = "uint8_t"
 VEHICLE_TYPE_ROTARY_WING = 1  # vehicle_status.vehicle_type
 ACTUATOR_MOTORS = 12  # actuator_motors.control: NUM_CONTROLS
 NAN3 = (math.nan, math.nan, math.nan)
@@ -84,14 +88,22 @@ def _local_position(v: Any, now_us: int) -> tuple:
     e = v.estimator
     o = v.origin
     return (*k.position_ned_m, *k.velocity_ned_mps, *a, heading, valid, valid, valid, valid,
-            o.lat_deg, o.lon_deg, o.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1])
+            o.lat_deg, o.lon_deg, o.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1],
+            *_resets(e, E_XY_RESET), *_resets(e, E_VXY_RESET), e[E_VZ_RESET + 1],
+            int(e[E_VZ_RESET]) & 0xFF)
+
+
+def _resets(e: Sequence[float], column: int) -> tuple:
+    """An estimator reset's change (north, east) and its uint8 counter (estimation.E_*_RESET)."""
+    return e[column + 1], e[column + 2], int(e[column]) & 0xFF
 
 
 def _global_position(v: Any, now_us: int) -> tuple | None:
     if not v.autopilot.commander.position_valid:  # EKF2 publishes it only while valid
         return None
     g, e = v.global_position, v.estimator
-    return (g.lat_deg, g.lon_deg, g.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1])
+    return (g.lat_deg, g.lon_deg, g.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1],
+            int(e[E_XY_RESET]) & 0xFF)
 
 
 def _status(v: Any, now_us: int) -> tuple:
@@ -330,9 +342,13 @@ TOPICS: tuple[Topic, ...] = (
                                      (F, "ax"), (F, "ay"), (F, "az"), (F, "heading"),
                                      (B, "xy_valid"), (B, "z_valid"), (B, "v_xy_valid"),
                                      (B, "v_z_valid"), (D, "ref_lat"), (D, "ref_lon"),
-                                     (F, "ref_alt"), (F, "eph"), (F, "epv")), 0.0, _local_position),
-    Topic("vehicle_global_position", ((D, "lat"), (D, "lon"), (F, "alt"), (F, "eph"), (F, "epv")),
-          0.0, _global_position),
+                                     (F, "ref_alt"), (F, "eph"), (F, "epv"),
+                                     ("float[2]", "delta_xy"), (U8, "xy_reset_counter"),
+                                     ("float[2]", "delta_vxy"), (U8, "vxy_reset_counter"),
+                                     (F, "delta_vz"), (U8, "vz_reset_counter")),
+          0.0, _local_position),
+    Topic("vehicle_global_position", ((D, "lat"), (D, "lon"), (F, "alt"), (F, "eph"), (F, "epv"),
+                                      (U8, "lat_lon_reset_counter")), 0.0, _global_position),
     Topic("vehicle_status", (("uint8_t", "arming_state"), ("uint8_t", "nav_state_user_intention"),
                              ("uint8_t", "nav_state"), ("uint8_t", "vehicle_type"),
                              (B, "failsafe"), (B, "failsafe_and_user_took_over"),

@@ -39,6 +39,7 @@ from vehicles.control.velocity_smoothing import (
     VelocitySmoothing,
     X,
     array_field,
+    force_set_axes,
     mn,
     mx,
     new_axes,
@@ -397,10 +398,9 @@ class PositionSmoothing:
         while the vehicle is not flying under the trajectory)."""
         reset_axes(self.axes, acceleration, velocity, position)
 
-    def force_set_position_z(self, z: float) -> None:
-        """PX4 forceSetPosition({NAN, NAN, z}): VelocitySmoothing::setCurrentPosition on z."""
-        self.axes[2, X] = z
-        self.axes[2, IX] = z
+    def force_set(self, position: Vec3 = _NAN3, velocity: Vec3 = _NAN3) -> None:
+        """PX4 forceSetPosition(position), forceSetVelocity(velocity): each finite component."""
+        force_set_axes(self.axes, position, velocity)
 
     @property
     def position(self) -> Vec3:

@@ -68,6 +68,19 @@ def reset_axes(rows: Any, accel: Any, vel: Any, pos: Any) -> None:
     _reset_row(rows[2], a2, v2, x2)
 
 
+
+def force_set_axes(rows: Any, position: Any, velocity: Any) -> None:
+    """PositionSmoothing::forceSetPosition and forceSetVelocity on the rows of ``rows`` (x, y,
+    z): each finite component of ``position`` is that axis's ``setCurrentPosition``, of
+    ``velocity`` its ``setCurrentVelocity`` (the state and the initial state); NaN leaves the
+    axis alone."""
+    for i in range(3):
+        if math.isfinite(position[i]):
+            rows[i, X] = rows[i, IX] = position[i]
+        if math.isfinite(velocity[i]):
+            rows[i, V] = rows[i, IV] = velocity[i]
+
+
 @register_jitable
 def _reset_row(s: Any, accel: float, vel: float, pos: float) -> None:
     s[J] = s[IJ] = 0.0

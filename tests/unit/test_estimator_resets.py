@@ -1,0 +1,161 @@
+"""Estimator resets, as EKF2 counts them and PX4's controllers take them.
+
+EKF2 (gps_control.cpp, position_fusion.cpp, velocity_fusion.cpp): a GNSS fix after
+reset_timeout_max without aiding resets the horizontal position and the velocity, counts each
+(_state_reset_status.reset_count posNE, velNE, velD) and keeps the change; vehicle_local_position
+publishes them (xy_, vxy_, vz_reset_counter, delta_xy, delta_vxy, delta_vz), vehicle_odometry's
+reset_counter is their sum (EKF2::PublishOdometry) and ODOMETRY.hpp sends it. FlightTask's
+_checkEkfResetCounters runs the task's handlers (FlightTaskAuto: the smoothing jumps to the new
+estimate), and mc_pos_control's adjustSetpointForEKFResets moves a setpoint older than the
+estimate by the change (an Offboard setpoint held since it came).
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from pymavlink.dialects.v20 import common as M
+
+from gateway.testing import Sim
+from vehicles import estimation as est
+from vehicles.manual_control import ManualPosition
+from vehicles.offboard import Offboard
+from vehicles.params import ParamStore
+from vehicles.plan_types import OffboardSetpoint
+from vehicles.types import EstimatorReset, NavState
+
+GPS, OFF, OK = 4, 1, 0  # MAV_CMD_INJECT_FAILURE: FAILURE_UNIT_SENSOR_GPS, FAILURE_TYPE_OFF / OK
+NAN = math.nan
+
+
+def test_a_gnss_reset_is_counted_with_its_change():
+    """A fix fused within reset_timeout_max counts nothing; after 7 s unaided the reset counts
+    the position and the velocity (north-east and down) once each, with the change each made."""
+    from vehicles.physics import World
+    w = World()
+    w.add_vehicle(0)
+    for _ in range(100):
+        w.step(w.time_s)
+    assert w.aiding(0)[1:] == [0.0] * 8
+
+    def unaided(seconds: float) -> None:
+        w.set_sensor_failed(0, est.F_GPS_OFF, True)
+        while w.aiding_age_s(0) < seconds:
+            w.step(w.time_s)
+        e, ring = w.estimation.est[0], w.estimation.ehist[0]
+        e[est.E_POS] += 5.0  # what dead reckoning might have drifted
+        ring[:, 0] += 5.0
+        e[est.E_VEL + 1] += 0.5
+        ring[:, 4] += 0.5
+        w.set_sensor_failed(0, est.F_GPS_OFF, False)
+
+    unaided(3.0)
+    while w.aiding_age_s(0) > 0.0:
+        w.step(w.time_s)
+    assert w.aiding(0)[1:] == [0.0] * 8  # fused as usual: no reset
+    for _ in range(2000):
+        w.step(w.time_s)
+    unaided(7.0)
+    while w.aiding_age_s(0) > 0.0:
+        before = w.estimation.est[0].copy()
+        w.step(w.time_s)
+    after = w.estimation.est[0]
+    xy_n, dx, dy, vxy_n, dvx, dvy, vz_n, dvz = w.aiding(0)[1:]
+    assert (xy_n, vxy_n, vz_n) == (1.0, 1.0, 1.0)
+    # the changes the reset made (the step's own integration is a few mm)
+    assert dx == pytest.approx(after[est.E_POS] - before[est.E_POS], abs=0.01)
+    assert dy == pytest.approx(after[est.E_POS + 1] - before[est.E_POS + 1], abs=0.01)
+    assert dx < -4.5 and dvy < -0.4
+    assert dvy == pytest.approx(after[est.E_VEL + 1] - before[est.E_VEL + 1], abs=0.01)
+    assert abs(dvx) < 0.2 and abs(dvz) < 0.3
+
+
+def drift_and_reset(sim: Sim) -> float:
+    """Hover in Hold, the GPS off with EKF2_NOAID_TOUT at its 10 s maximum (still aided), the
+    estimate drifted 5 m north (the vehicle follows it south), the GPS back after 7.5 s
+    unaided: returns when the reset came."""
+    assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+    api = sim.api(0)
+    assert api.arm() == 0 and api.takeoff() == 0
+    assert sim.run_until(lambda: sim.status(0).nav_state is NavState.AUTO_LOITER, timeout_s=30)
+    sim.advance(3.0)
+    world = sim.vehicles[0]._world
+    assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OFF, 0) == 0
+    sim.advance(0.5)
+    e, ring = world.estimation.est[0], world.estimation.ehist[0]
+    e[est.E_POS] += 5.0
+    ring[:, 0] += 5.0
+    assert sim.run_until(lambda: world.aiding_age_s(0) > 7.5, timeout_s=10)
+    assert sim.status(0).nav_state is NavState.AUTO_LOITER and sim.status(0).position_valid
+    assert sim.vehicles[0].truth.position_ned_m[0] == pytest.approx(-5.0, abs=0.3)
+    assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OK, 0) == 0
+    assert sim.run_until(lambda: world.aiding(0)[1] >= 1.0, timeout_s=1)
+    return sim.now
+
+
+def test_after_a_gnss_reset_hold_flies_back_smoothly_and_the_wire_and_log_count_it(tmp_path):
+    """FlightTaskAuto::_ekfResetHandlerPositionXY / VelocityXY / VelocityZ: the smoothing
+    restarts at the new estimate, so the vehicle flies back to the hold point at the
+    trajectory's jerk and acceleration (without them the 5 m jump became a 4.75 m/s velocity
+    setpoint at once). ODOMETRY's reset_counter and the logged counters follow."""
+    with Sim(params={"MIS_TAKEOFF_ALT": 10.0, "EKF2_NOAID_TOUT": 10_000_000},
+             log_dir=tmp_path) as sim:
+        api = sim.api(0)
+        stage = sim.vehicles[0].autopilot.stage
+        since = len(api.frames)
+        t_reset = drift_and_reset(sim)
+        speeds: list[float] = []
+
+        def record() -> bool:
+            vx, vy, _ = stage.vel_sp
+            speeds.append(math.hypot(vx, vy))
+            return False
+
+        sim.run_until(record, timeout_s=0.5)
+        assert max(speeds) < 0.5
+        assert sim.run_until(lambda: abs(sim.vehicles[0].truth.position_ned_m[0]) < 0.5,
+                             timeout_s=10)
+        counters = [(t, m.reset_counter) for t, m in api.timed_messages("ODOMETRY", since)]
+        assert {c for t, c in counters if t < t_reset - 0.1} == {0}
+        assert counters[-1][1] == 3  # position NE, velocity NE and D
+    import pyulog
+    log = pyulog.ULog(str(sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))[0]))
+    lpos = log.get_dataset("vehicle_local_position").data
+    assert set(lpos["xy_reset_counter"]) == {0, 1} and set(lpos["vz_reset_counter"]) == {0, 1}
+    assert lpos["delta_xy[0]"][-1] < -4.5 and lpos["vxy_reset_counter"][-1] == 1
+    gpos = log.get_dataset("vehicle_global_position").data
+    assert gpos["lat_lon_reset_counter"][-1] == 1
+
+
+def test_an_offboard_setpoint_held_moves_with_the_reset():
+    """adjustSetpointForEKFResets: a setpoint older than the estimate moves by delta_xy,
+    delta_vxy, delta_vz (NaN stays NaN); one received at the reset's tick does not."""
+    off = Offboard()
+    off.set(1.0, OffboardSetpoint(position_ned_m=(10.0, 20.0, -5.0),
+                                  velocity_ned_mps=(1.0, NAN, 0.5)))
+    r = EstimatorReset(True, True, True, (-2.0, 3.0), (0.5, 0.25), -0.1)
+    off.shift(1.0, r)
+    assert off.setpoint is not None and off.setpoint.position_ned_m == (10.0, 20.0, -5.0)
+    off.shift(1.02, r)
+    sp = off.setpoint
+    assert sp.position_ned_m == (8.0, 23.0, -5.0)
+    assert sp.velocity_ned_mps[0] == 1.5 and math.isnan(sp.velocity_ned_mps[1])
+    assert sp.velocity_ned_mps[2] == pytest.approx(0.4)
+    off.shift(1.04, EstimatorReset(False, False, True, (9.0, 9.0), (9.0, 9.0), 0.1))
+    assert off.setpoint.position_ned_m == (8.0, 23.0, -5.0)
+    assert off.setpoint.velocity_ned_mps[2] == pytest.approx(0.5)
+
+
+def test_position_mode_drops_its_lock_and_takes_the_new_velocity():
+    """FlightTaskManualAcceleration: StickAccelerationXY::resetPosition (no lock) on a position
+    reset, resetVelocity(the estimate's) on a velocity reset; the vertical smoothing takes the
+    new vertical velocity (FlightTaskManualAltitudeSmoothVel)."""
+    task = ManualPosition(ParamStore())
+    task.activate((0.0, 0.0, -10.0), (0.0, 0.0, 0.0), 0.0)
+    task._pos_xy = (1.0, 2.0)
+    task.estimator_reset((4.0, 5.0, -10.0), (0.3, -0.2, 0.1),
+                         EstimatorReset(True, True, True, (3.0, 3.0), (0.3, -0.2), 0.1))
+    assert all(math.isnan(v) for v in task._pos_xy)
+    assert task._vel_xy == (0.3, -0.2)
+    assert task.smoothing.v == 0.1
