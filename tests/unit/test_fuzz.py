@@ -138,8 +138,11 @@ _SIM: list[Simulation] = []
 
 _DOWN: list[bytes] = []  # what the vehicle sent since the last check
 # Fields PX4 itself fills with NaN (no terrain estimate, unknown covariance): NaN is their value.
+# HOME_POSITION.q: DO_SET_HOME with a yaw (param4) that is not finite sets home's yaw NaN
+# (Commander.cpp), and HOME_POSITION.hpp sends Quatf(Eulerf(0, 0, home.yaw)).
 NAN_BY_DESIGN = {("ALTITUDE", "bottom_clearance"), ("ALTITUDE", "altitude_terrain"),
-                 ("ODOMETRY", "pose_covariance"), ("ODOMETRY", "velocity_covariance")}
+                 ("ODOMETRY", "pose_covariance"), ("ODOMETRY", "velocity_covariance"),
+                 ("HOME_POSITION", "q")}
 # POSITION_TARGET_*: a setpoint PX4 does not have is NaN, with its IGNORE bit in type_mask.
 _IGNORE_BITS = {"x": 1, "y": 2, "z": 4, "vx": 8, "vy": 16, "vz": 32, "afx": 64, "afy": 128,
                 "afz": 256, "yaw": 1024, "yaw_rate": 2048}
