@@ -306,6 +306,11 @@ class World:
             rows = self._truth_rows = self.inner.measured.tolist()
         return _measurement(rows[row])
 
+    def true_positions_ned_m(self) -> list[list[float]]:
+        """Every row's true position (NED from its spawn point), in row order, in one read: the
+        network asks for every vehicle's at each sync point."""
+        return self.inner.measured[:, M_POS:M_POS + 3].tolist()
+
     def recent_steps(self, row: int, after_s: float | None) -> list[tuple[float, list[float]]]:
         """Row ``row``'s ring entries (R_* columns) of the physics steps taken after ``after_s``
         (None: the last step only; at most HISTORY steps), oldest first, each with the time it

@@ -260,7 +260,8 @@ class Session:
             self.stats.tx_frames += len(out) - sent
         # The change-driven services, each called only when it has something to look at: its
         # generation of the vehicle's Changes moved, its own timer came, or (STATUSTEXT) texts
-        # wait for a listener. A vehicle without Changes has them polled at every wake-up.
+        # wait and a heartbeat came since (a listener may be back). A vehicle without Changes
+        # has them polled at every wake-up.
         changes = self._changes
         mission = self.mission
         if changes is None or changes.mission_progress != mission.seen_progress \
@@ -279,7 +280,8 @@ class Session:
             self._ack_seq = journal.ack_seq
         statustext = self.statustext
         if changes is None or changes.status_texts != statustext.seen_texts \
-                or statustext.pending:
+                or (statustext.pending and (statustext.recheck
+                                            or now_s >= statustext.due_s - 1e-9)):
             try:
                 statustext.poll(now_s)
             except Exception:
@@ -337,6 +339,7 @@ class Session:
                 or now_s - self.last_onboard_heartbeat_s <= GCS_PRESENT_S)
 
     def _on_heartbeat(self, msg: M.MAVLink_heartbeat_message, now_s: float) -> None:
+        self.statustext.recheck = True  # waiting texts may have a listener now
         if msg.type != MAV_TYPE_GCS:
             if msg.type == MAV_TYPE_ONBOARD_CONTROLLER:
                 self.last_onboard_heartbeat_s = now_s

@@ -52,8 +52,10 @@ class StatusTextService:
         self._cursor = -1
         self._next_id = 0  # STATUSTEXT.hpp _id
         # (time_s, severity, text), the newest QUEUE_LENGTH; while any wait, the session polls
-        # at every wake-up (a listener may have come)
+        # at ``due_s`` and at its first wake-up after a heartbeat (``recheck``: a listener may
+        # have come)
         self.pending: deque[tuple[float, int, str]] = deque()
+        self.recheck = False
         self.missed = 0  # texts the queue lost before they could be sent
         self.due_s = math.inf  # the next stream run while texts wait
         self._next_run_s = -math.inf
@@ -74,6 +76,7 @@ class StatusTextService:
         self.pending.append((time_s, severity, text))
 
     def poll(self, now_s: float) -> None:
+        self.recheck = False
         changes = self._changes
         if changes is not None:
             if changes.status_texts != self.seen_texts:

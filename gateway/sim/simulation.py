@@ -324,8 +324,9 @@ class Simulation:
     def vehicle_positions_ned_m(self) -> dict[str, tuple[float, float, float]]:
         """Every vehicle's position in the world frame (NED from the world's home), by node."""
         out = {}
-        for node, vehicle, (n0, e0) in zip(self._nodes, self.vehicles, self._spawn_ned):
-            n, e, d = vehicle.truth.position_ned_m  # where its radio really is
+        # where its radio really is; the world's rows are our vehicles, in order
+        for node, (n0, e0), (n, e, d) in zip(self._nodes, self._spawn_ned,
+                                             self.world.true_positions_ned_m()):
             out[node] = (n0 + n, e0 + e, d)
         return out
 
