@@ -386,7 +386,7 @@ class Sim:
             params_for=lambda i: default_params(i, overrides), tracer=tracer, home=self.home,
             physics_dt_s=physics_dt_s, link_kinds=tuple(links), wind=sc.wind,
             sensors=sc.sensors, faults=sc.faults, spawn_ned_m=sc.spawn_ned_m,
-            extra_radios=False)
+            extra_radios=False, boot_unix_s=boot_unix_s)
         # PX4's logger: <log_dir>/vehicle-<sysid>/log/…; without a log dir it only streams.
         run = self.flightlog.dir if self.flightlog is not None else None
         if self.flightlog is not None:

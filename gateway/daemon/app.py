@@ -117,8 +117,8 @@ class Daemon:
                                self.flightlog.tracer if self.flightlog else None) if t]
         self.sim = Simulation(config.vehicles, config.network, params_for=self._params_for,
                               tracer=fan_out(tracers), home=config.home, realtime=True,
-                              signing=signing, first_index=config.first_vehicle,
-                              wind=config.wind, sensors=config.sensors, faults=config.faults,
+                              signing=signing, first_index=config.first_vehicle, wind=config.wind,
+                              sensors=config.sensors, faults=config.faults, boot_unix_s=boot_unix_s,
                               spawn_ned_m=config.spawn_ned_m, commands=config.commands)
         self._restore_plans()
         if self._signing_keeper is not None:

@@ -183,7 +183,8 @@ class Simulation:
                  wind: WindConfig | None = None,
                  sensors: SensorConfig = PX4_SENSORS, faults: Sequence[Fault] = (),
                  spawn_ned_m: Sequence[tuple[float, float]] = (),
-                 extra_radios: bool = True, commands: Sequence[Command] = ()) -> None:
+                 extra_radios: bool = True, commands: Sequence[Command] = (),
+                 boot_unix_s: float | None = None) -> None:
         """``params_for(index)`` builds each vehicle's parameter store (default:
         ``default_params(index, param_overrides)``); the shell uses it to add persistence.
         ``link_kinds``: the MAVLink links each vehicle has (the daemon: both, as PX4 SITL; an
@@ -193,7 +194,9 @@ class Simulation:
         ``spawn_ned_m``: the scenario's spawn points, by instance number (World).
         ``extra_radios``: build a link per extra radio of the network (the daemon); False
         leaves them out (a lockstep run whose clients use only ``link_kinds``). ``commands``:
-        the scenario's command timeline (gateway/sim/command_timeline.py), each at its time."""
+        the scenario's command timeline (gateway/sim/command_timeline.py), each at its time.
+        ``boot_unix_s``: the Unix time of simulated t = 0, the vehicles' real-time clock
+        (SYSTEM_TIME; None: none, so none is sent)."""
         if vehicles < 1:
             raise ValueError("need at least one vehicle")
         if not link_kinds:
@@ -237,12 +240,13 @@ class Simulation:
             wake = VehicleWake(self.kernel)  # and one timer event for all its links
             for kind in self.link_kinds:
                 session = Session(vehicle, kind, now_s=0.0, signing=signing, uploads=uploads,
-                                  seen=seen)
+                                  seen=seen, boot_unix_s=boot_unix_s)
                 session.samples = samples
                 self.links[(i, kind)] = VehicleLink(self, i, kind, session, wake)
             for radio in self.radios:  # PX4's extra instances: Normal mode, GCS streams
                 session = Session(vehicle, LinkKind.GCS, now_s=0.0, signing=signing,
-                                  uploads=uploads, signing_link_id=1 + radio.number, seen=seen)
+                                  uploads=uploads, signing_link_id=1 + radio.number, seen=seen,
+                                  boot_unix_s=boot_unix_s)
                 session.samples = samples
                 self.links[(i, radio.name)] = VehicleLink(self, i, radio.name, session, wake)
         self._physics = Ticker(self.kernel, physics_dt_s, self.world.step,

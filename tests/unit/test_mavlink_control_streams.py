@@ -7,7 +7,7 @@ import math
 import pytest
 from pymavlink.dialects.v20 import common as M
 
-from gateway.ci.lockstep import Sim
+from gateway.ci.lockstep import LOCKSTEP_EPOCH_UNIX_S, Sim
 from gateway.mavlink.identity import uid
 from gateway.mavlink.session import LinkKind
 from tests.unit.test_testing_sim import geo, square_mission
@@ -148,7 +148,9 @@ def test_utm_global_position_tells_where_the_vehicle_is_and_goes(flight):
     t, utm = [(t, m) for t, m in gcs.timed_messages("UTM_GLOBAL_POSITION")
               if m is not None and m.flight_state == 3][0]
     gp = next(m for tm, m in gcs.timed_messages("GLOBAL_POSITION_INT") if tm == t)
-    assert utm.flags == 2 | 4 | 8 | 32 | 64 | 128  # no unix time without a boot epoch
+    # the time valid too: the lockstep run's clock starts at its fixed epoch
+    assert utm.flags == 1 | 2 | 4 | 8 | 32 | 64 | 128
+    assert utm.time == int((LOCKSTEP_EPOCH_UNIX_S + t) * 1e6)
     assert (utm.lat, utm.lon) == (gp.lat, gp.lon) or abs(utm.lat - gp.lat) <= 1
     assert abs(utm.alt - gp.alt) <= 1 and abs(utm.vx - gp.vx) <= 1
     assert utm.next_lat and utm.next_alt >= int(PX4_SITL_HOME.alt_amsl_m * 1000)
@@ -185,3 +187,16 @@ def test_while_landing_the_global_target_is_on_the_ground():
         targets = api.messages("POSITION_TARGET_GLOBAL_INT", since)
         assert targets and all(t.alt == pytest.approx(PX4_SITL_HOME.alt_amsl_m, abs=0.01)
                                for t in targets)
+
+
+def test_system_time_is_the_clock_of_the_run_at_1_hz_on_the_onboard_link(flight):
+    """SYSTEM_TIME.hpp: the real-time clock (past 2001) with time_boot_ms, configured at 1 Hz in
+    onboard mode and not in normal mode (mavlink_main.cpp); the clock of a run is its epoch plus
+    the simulated time (a lockstep run: its fixed epoch), what MAVSDK's unix_epoch_time reads."""
+    api, gcs = flight["api"], flight["gcs"]
+    st = api.timed_messages("SYSTEM_TIME")
+    assert len(st) >= 10 and gcs.messages("SYSTEM_TIME") == []
+    assert all(m.time_unix_usec == int((LOCKSTEP_EPOCH_UNIX_S + t) * 1e6)
+               and m.time_boot_ms == int(t * 1000) for t, m in st)
+    gaps = {round(b - a, 6) for (a, _), (b, _) in zip(st, st[1:])}
+    assert gaps == {1.0}
