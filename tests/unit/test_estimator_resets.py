@@ -18,6 +18,7 @@ import pytest
 from pymavlink.dialects.v20 import common as M
 
 from gateway.testing import Sim
+from tests.unit.test_vehicles_estimation import drift_unaided
 from vehicles import estimation as est
 from vehicles.manual_control import ManualPosition
 from vehicles.offboard import Offboard
@@ -39,24 +40,13 @@ def test_a_gnss_reset_is_counted_with_its_change():
         w.step(w.time_s)
     assert w.aiding(0)[1:] == [0.0] * 8
 
-    def unaided(seconds: float) -> None:
-        w.set_sensor_failed(0, est.F_GPS_OFF, True)
-        while w.aiding_age_s(0) < seconds:
-            w.step(w.time_s)
-        e, ring = w.estimation.est[0], w.estimation.ehist[0]
-        e[est.E_POS] += 5.0  # what dead reckoning might have drifted
-        ring[:, 0] += 5.0
-        e[est.E_VEL + 1] += 0.5
-        ring[:, 4] += 0.5
-        w.set_sensor_failed(0, est.F_GPS_OFF, False)
-
-    unaided(3.0)
+    drift_unaided(w, 3.0)
     while w.aiding_age_s(0) > 0.0:
         w.step(w.time_s)
     assert w.aiding(0)[1:] == [0.0] * 8  # fused as usual: no reset
     for _ in range(2000):
         w.step(w.time_s)
-    unaided(7.0)
+    drift_unaided(w, 7.0)
     while w.aiding_age_s(0) > 0.0:
         before = w.estimation.est[0].copy()
         w.step(w.time_s)

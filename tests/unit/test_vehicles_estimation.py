@@ -252,6 +252,20 @@ def test_noise_rows_refill_in_turn_yet_read_the_draws_of_whole_blocks():
         blocks.advance()
 
 
+def drift_unaided(w, unaided_s: float) -> None:
+    """The GPS of World ``w``'s row 0 off until ``unaided_s`` without aiding, the estimate
+    drifted 5 m north and 0.5 m/s east meanwhile (what dead reckoning might do), the GPS back."""
+    w.set_sensor_failed(0, est.F_GPS_OFF, True)
+    while w.aiding_age_s(0) < unaided_s:
+        w.step(w.time_s)
+    e, ring = w.estimation.est[0], w.estimation.ehist[0]
+    e[est.E_POS] += 5.0
+    ring[:, 0] += 5.0
+    e[est.E_VEL + 1] += 0.5
+    ring[:, 4] += 0.5
+    w.set_sensor_failed(0, est.F_GPS_OFF, False)
+
+
 @pytest.mark.parametrize("ctrl", [7, 4])
 def test_a_fix_after_7_s_unaided_resets_the_estimate_to_it(ctrl):
     """EKF2 (gps_control.cpp): fixes back after reset_timeout_max without aiding restart GNSS
@@ -266,15 +280,8 @@ def test_a_fix_after_7_s_unaided_resets_the_estimate_to_it(ctrl):
         w.step(w.time_s)
 
     def drift_and_restore(unaided_s: float) -> float:
-        w.set_sensor_failed(0, est.F_GPS_OFF, True)
-        while w.aiding_age_s(0) < unaided_s:
-            w.step(w.time_s)
-        e, ring = w.estimation.est[0], w.estimation.ehist[0]
-        e[est.E_POS] += 5.0  # what dead reckoning might have drifted
-        ring[:, 0] += 5.0
-        e[est.E_VEL + 1] += 0.5
-        ring[:, 4] += 0.5
-        w.set_sensor_failed(0, est.F_GPS_OFF, False)
+        drift_unaided(w, unaided_s)
+        e = w.estimation.est[0]
         while w.aiding_age_s(0) > 0.0:  # to the first fix fused
             w.step(w.time_s)
         return e[est.E_POS] - w.inner.measured[0, 0], e[est.E_VEL + 1]
