@@ -71,11 +71,20 @@ def _scripted_run(out: Path, *extra: str, env: dict[str, str] | None = None) -> 
     return run
 
 
-def _tlog_records(run: Path, name: str) -> list[tuple[int, bytes]]:
+def _tlog_records(run: Path, name: str) -> list[tuple[int, object]]:
     """(µs since the run's epoch, frame) of every record: the stamps are the run's wall-clock
-    epoch (meta.json boot_unix_s) plus the simulated time."""
+    epoch (meta.json boot_unix_s) plus the simulated time. A SYSTEM_TIME frame carries the
+    vehicle's clock, the same epoch plus the simulated time: it is compared as its sequence
+    number, that clock in ms since the epoch, and its time_boot_ms."""
     boot_us = round(json.loads((run / "meta.json").read_text())["boot_unix_s"] * 1e6)
-    return [(round(t * 1e6) - boot_us, frame) for t, frame in read_tlog(run / name)]
+    out: list[tuple[int, object]] = []
+    for t, frame in read_tlog(run / name):
+        record: object = frame
+        if frame[0] == 0xFD and int.from_bytes(frame[7:10], "little") == 2:  # SYSTEM_TIME
+            unix_us, boot_ms = struct.unpack("<QI", frame[10:10 + frame[1]].ljust(12, b"\0"))
+            record = (frame[4], round((unix_us - boot_us) / 1000), boot_ms)
+        out.append((round(t * 1e6) - boot_us, record))
+    return out
 
 
 def test_two_ranks_over_tcp_write_the_logs_of_one_process(tmp_path):
