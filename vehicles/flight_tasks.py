@@ -100,11 +100,9 @@ class AutoTask(FlightTask):
         jumps to the new estimate (forceSetPosition, forceSetVelocity); the waypoints stay (the
         navigator's triplet is global)."""
         pos, vel, nan = t.meas.position_ned_m, t.meas.velocity_ned_mps, math.nan
-        smoothing = self.stage.trajectory.smoothing
-        if r.xy:
-            smoothing.force_set((pos[0], pos[1], nan))
-        smoothing.force_set(velocity=(vel[0] if r.vxy else nan, vel[1] if r.vxy else nan,
-                                      vel[2] if r.vz else nan))
+        self.stage.trajectory.smoothing.force_set(
+            (pos[0], pos[1], nan) if r.xy else (nan, nan, nan),
+            (vel[0] if r.vxy else nan, vel[1] if r.vxy else nan, vel[2] if r.vz else nan))
 
     def update(self, t: TaskInput) -> None:
         st, pos = self.stage, t.meas.position_ned_m
