@@ -1,8 +1,8 @@
 """The MAVLink shell's interpreter, as PX4 SITL's pxh (the POSIX shell behind MavlinkShell).
 
 Source: PX4 platforms/posix/src/px4/common/px4_daemon/pxh.cpp (run_remote_pxh, process_line,
-the "pxh> " prompt) and the output of the modules' own commands (param, commander, listener,
-failure, ver).
+the "pxh> " prompt) and the output of the modules' own commands (param, commander, navigator,
+ekf2, gps, listener, logger, mavlink, failure, ver).
 Rules:
 - Bytes in, bytes out (``write``): every byte above 3 is echoed and added to the line; a newline
   echoes "\\n", runs the line and prints the prompt. Nothing is printed before the first newline
@@ -10,10 +10,14 @@ Rules:
 - Unknown commands: "Invalid command: X\\ntype 'help' for a list of commands"; a command that
   fails: "Command 'X' failed, returned N.".
 - The commands act on the vehicle through the same calls as MAVLink (arm, takeoff, modes,
-  parameters, failure injection); ``listener`` prints the logger's topics (logged_topics.py)
-  with PX4's topic and field names; ``logger on|off|status`` drives the vehicle's logger
-  (logger.py) as logger.cpp's commands do; ``mavlink status [streams]`` and ``mavlink stream``
-  show and set the vehicle's links (mavlink_status.py).
+  parameters, failure injection). ``commander status``, ``navigator status`` and ``ekf2 status``
+  print what Commander::print_status, Navigator::print_status (with Geofence::printStatus) and
+  EKF2::print_status say, without their perf counters (a module's CPU time per cycle, which a
+  simulated vehicle does not have). ``gps status``: SITL never starts the gps driver (sensor_gps
+  comes from sensor_gps_sim), so ModuleBase says "not running". ``listener`` prints the
+  logger's topics (logged_topics.py) with PX4's topic and field names. ``logger on|off|status``
+  drives the vehicle's logger (logger.py) as logger.cpp's commands do. ``mavlink status
+  [streams]`` and ``mavlink stream`` show and set the vehicle's links (mavlink_status.py).
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import fnmatch
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from gateway.mavlink.available_modes import NAV_STATE_NAMES
 from gateway.onboard import mavlink_status
 from gateway.onboard.listener import print_message
 from gateway.onboard.logged_topics import NESTED_FORMATS, TOPICS
@@ -44,16 +49,18 @@ MODES = {"manual": NavState.MANUAL, "altctl": NavState.ALTCTL, "posctl": NavStat
 
 class Pxh:
     def __init__(self, vehicle: Any, version: str, logger: Any = None,
-                 instances: Sequence[Instance] = ()) -> None:
+                 instances: Sequence[Instance] = (), ekf_dt_s: float = 0.004) -> None:
         self.vehicle = vehicle
+        self.ekf_dt_s = ekf_dt_s  # the estimator's update period (the physics step's)
         self.version = version
         self.logger = logger  # the vehicle's VehicleLogger; None: no storage, no logger
         self.instances = tuple(Instance(i.session, i.transport) for i in instances)  # its links
         self._line = bytearray()
         self._commands: dict[str, Callable[[list[str], float], int]] = {
-            "commander": self._commander, "failure": self._failure,
-            "listener": self._listener, "logger": self._logger,
-            "mavlink": self._mavlink, "param": self._param, "ver": self._ver,
+            "commander": self._commander, "ekf2": self._ekf2, "failure": self._failure,
+            "gps": self._gps, "listener": self._listener, "logger": self._logger,
+            "mavlink": self._mavlink, "navigator": self._navigator, "param": self._param,
+            "ver": self._ver,
         }
         self._out: list[str] = []
 
@@ -188,10 +195,14 @@ class Pxh:
             ok = v.status.prearm_ok
             self.print(f"INFO  [commander] Preflight check: {'OK' if ok else 'FAILED'}\n")
             return 0
-        elif cmd == "status":
-            st = v.status
-            self.print(f"arming state: {'ARMED' if st.armed else 'DISARMED'}\n"
-                       f"navigation state: {st.nav_state.name}\n")
+        elif cmd == "status":  # Commander::print_status (no external modes registered)
+            c = v.autopilot.commander
+            self.print(f"INFO  [commander] {'Armed' if c.armed else 'Disarmed'}\n"
+                       f"INFO  [commander] navigation mode: {NAV_STATE_NAMES[c.nav_state]}\n"
+                       "INFO  [commander] user intended navigation mode: "
+                       f"{NAV_STATE_NAMES[c.user_nav_state]}\n"
+                       f"INFO  [commander] in failsafe: {'yes' if c.failsafe.in_failsafe else 'no'}"
+                       "\n")
             return 0
         else:
             self.print(f"ERROR [commander] unknown command: {cmd}\n")
@@ -200,6 +211,47 @@ class Pxh:
             self.print(f"WARN  [commander] {cmd} {CommandResult(result).name.lower()}\n")
             return 1
         return 0
+
+    def _navigator(self, args: list[str], now_s: float) -> int:
+        """Navigator::print_status: "Running" and Geofence::printStatus's counts of the areas
+        it kept (a circle has no vertices)."""
+        if args[:1] != ["status"]:
+            self.print("Usage: navigator <command> [arguments...]\n Commands:\n   start\n"
+                       "   fencefile     load a geofence file from SD card, stored at "
+                       "etc/geofence.txt\n   fake_traffic  publishes 4 fake transponder_report_s "
+                       "uORB messages\n   stop\n   status        print status info\n")
+            return 1
+        areas = self.vehicle.autopilot.geofence.areas
+        polygons = [a for a in areas if a.polygon]
+        circles = [a for a in areas if not a.polygon]
+        self.print("INFO  [navigator] Running\n"
+                   f"INFO  [navigator] Geofence: {sum(a.inclusion for a in polygons)} inclusion, "
+                   f"{sum(not a.inclusion for a in polygons)} exclusion polygons, "
+                   f"{sum(a.inclusion for a in circles)} inclusion circles, "
+                   f"{sum(not a.inclusion for a in circles)} exclusion circles, "
+                   f"{sum(a.vertex_count for a in polygons)} total vertices\n")
+        return 0
+
+    def _ekf2(self, args: list[str], now_s: float) -> int:
+        """ekf2_main's ``status``: one instance (multi-EKF is off in SITL), EKF2::print_status's
+        line: the filter period and whether attitude, local and global position are valid."""
+        if args[:1] != ["status"]:
+            self.print("Usage: ekf2 <command> [arguments...]\n Commands:\n   start\n"
+                       "   stop\n   status        print status info\n     [-v]        "
+                       "verbose (print all states and full covariance matrix)\n")
+            return 1
+        valid = int(bool(self.vehicle.autopilot.commander.position_valid))
+        self.print(f"\nekf2:0 EKF dt: {self.ekf_dt_s:.4f}s, attitude: 1, local position: {valid}, "
+                   f"global position: {valid}\n")
+        return 0
+
+    def _gps(self, args: list[str], now_s: float) -> int:
+        """The gps driver is built into SITL but never started (sensor_gps_sim publishes)."""
+        if args[:1] == ["status"]:
+            self.print("INFO  [gps] not running\n")
+            return -1
+        self.print("WARN  [gps] not running\n")
+        return 1
 
     def _failure(self, args: list[str], now_s: float) -> int:
         if len(args) < 2:
@@ -286,6 +338,7 @@ def attach_shells(sim: Any, loggers: Callable[[int], Any] | None = None,
     ``transport(index, tag)``: a link's (local port, remote port, broadcast) for ``mavlink
     status``, None without sockets."""
     links: dict[int, list[Instance]] = {}
+    dt_s = sim.world.dt_s
     for (index, tag), link in sim.links.items():
         get = (lambda i=index, t=tag: transport(i, t)) if transport is not None else \
             (lambda: None)
@@ -294,7 +347,7 @@ def attach_shells(sim: Any, loggers: Callable[[int], Any] | None = None,
         vehicle = link.session.vehicle
         logger = loggers(link.session.sysid) if loggers is not None else None
         link.session.serial.terminal_factory = \
-            lambda v=vehicle, g=logger, own=links[index]: Pxh(v, VERSION, g, own)
+            lambda v=vehicle, g=logger, own=links[index]: Pxh(v, VERSION, g, own, dt_s)
 
 
 class _ListenerView:

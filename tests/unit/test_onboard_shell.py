@@ -170,3 +170,35 @@ def test_mavlink_status_streams_and_stream_rates():
         rate = float(second.split("\tULog rate: ")[1].split("%")[0])
         assert 0.0 < rate < 70.0 and "% of max 70.0%\n" in second
         assert "Usage: mavlink" in shell(sim, "mavlink frobnicate\n")
+
+
+def test_module_status_commands():
+    """``commander status`` as Commander::print_status, ``navigator status`` with
+    Geofence::printStatus's counts, ``ekf2 status`` as EKF2::print_status's line, and ``gps
+    status`` as SITL answers it (the driver is never started there)."""
+    from tests.unit.test_geofence import C_OUT, P_IN, SQUARE, fence, polygon
+    from vehicles.plan_types import PlanType
+
+    with Sim() as sim:
+        sim.advance(1.0)
+        out = shell(sim, "commander status\n")
+        assert ("INFO  [commander] Disarmed\nINFO  [commander] navigation mode: Hold\n"
+                "INFO  [commander] user intended navigation mode: Hold\n"
+                "INFO  [commander] in failsafe: no\n") in out
+        sim.run_until(lambda: sim.status(0).position_valid, timeout_s=30)
+        assert "\nekf2:0 EKF dt: 0.0040s, attitude: 1, local position: 1, global position: 1\n" \
+            in shell(sim, "ekf2 status\n")
+        assert "INFO  [navigator] Running\nINFO  [navigator] Geofence: 0 inclusion, 0 exclusion " \
+            "polygons, 0 inclusion circles, 0 exclusion circles, 0 total vertices\n" in \
+            shell(sim, "navigator status\n")
+        v = sim.vehicles[0]
+        v.set_plan(sim.now, PlanType.FENCE, fence(*polygon(P_IN, SQUARE), (C_OUT, 5.0, 5.0, 2.0)))
+        assert "Geofence: 1 inclusion, 0 exclusion polygons, 0 inclusion circles, 1 exclusion " \
+            "circles, 4 total vertices\n" in shell(sim, "navigator status\n")
+        out = shell(sim, "gps status\n")
+        assert "INFO  [gps] not running\nCommand 'gps' failed, returned -1.\n" in out
+        sim.api(0).arm()
+        sim.api(0).takeoff()
+        sim.advance(1.0)
+        out = shell(sim, "commander status\n")
+        assert "INFO  [commander] Armed\nINFO  [commander] navigation mode: Takeoff\n" in out
