@@ -164,6 +164,11 @@ class Pxh:
         return 1
 
     def _commander(self, args: list[str], now_s: float) -> int:
+        """Commander::custom_command: ``arm``, ``disarm``, ``takeoff``, ``land`` and ``mode``
+        publish a vehicle_command and return 0 without a word; the answer (an arming refusal,
+        a rejected mode) reaches the console and the links as commander's own texts, not this
+        shell session. ``takeoff`` arms once NAV_TAKEOFF is accepted
+        (wait_for_vehicle_command_reply)."""
         v = self.vehicle
         if not args:
             self.print("Usage: commander <command> [arguments...]\n")
@@ -172,30 +177,37 @@ class Pxh:
         if cmd == "arm":
             # Commander's custom_command sends an internal vehicle_command: "Armed by internal
             # command", as PX4's shell reports it.
-            result = v.arm(now_s, forced="-f" in args, internal=True)
-        elif cmd == "disarm":
-            result = v.disarm(now_s, forced="-f" in args, internal=True)
-        elif cmd == "takeoff":
-            result = v.takeoff(now_s)
-        elif cmd == "land":
-            result = v.land(now_s)
-        elif cmd == "mode" and len(args) > 1:
+            v.arm(now_s, forced="-f" in args[1:2], internal=True)
+            return 0
+        if cmd == "disarm":
+            v.disarm(now_s, forced="-f" in args[1:2], internal=True)
+            return 0
+        if cmd == "takeoff":
+            if v.takeoff(now_s) is CommandResult.ACCEPTED:
+                v.arm(now_s, internal=True)
+            return 0
+        if cmd == "land":
+            v.land(now_s)
+            return 0
+        if cmd == "mode" and len(args) > 1:
             mode = MODES.get(args[1])
             if mode is None:
                 self.print(f"ERROR [commander] argument {args[1]} unsupported.\n")
-                return 1
-            result = v.set_nav_state(now_s, mode)
-        elif cmd == "calibrate" and len(args) > 1:
+            else:
+                v.set_nav_state(now_s, mode)
+            return 0
+        if cmd == "calibrate" and len(args) > 1:
             if args[1] not in ("gyro", "mag", "accel", "level", "baro", "esc"):
                 self.print(f"ERROR [commander] argument {args[1]} unsupported.\n")
                 return 1
             quick = args[1] == "accel" and args[2:3] == ["quick"]  # param5 4
-            result = v.calibrate(now_s, "accel_quick" if quick else args[1])
-        elif cmd == "check":  # Commander's custom_command "check" (runs the pre-arm checks)
+            v.calibrate(now_s, "accel_quick" if quick else args[1])
+            return 0
+        if cmd == "check":  # Commander's custom_command "check" (runs the pre-arm checks)
             ok = v.status.prearm_ok
             self.print(f"INFO  [commander] Preflight check: {'OK' if ok else 'FAILED'}\n")
             return 0
-        elif cmd == "status":  # Commander::print_status (no external modes registered)
+        if cmd == "status":  # Commander::print_status (no external modes registered)
             c = v.autopilot.commander
             self.print(f"INFO  [commander] {'Armed' if c.armed else 'Disarmed'}\n"
                        f"INFO  [commander] navigation mode: {NAV_STATE_NAMES[c.nav_state]}\n"
@@ -204,13 +216,11 @@ class Pxh:
                        f"INFO  [commander] in failsafe: {'yes' if c.failsafe.in_failsafe else 'no'}"
                        "\n")
             return 0
-        else:
-            self.print(f"ERROR [commander] unknown command: {cmd}\n")
-            return 1
-        if result is not CommandResult.ACCEPTED:
-            self.print(f"WARN  [commander] {cmd} {CommandResult(result).name.lower()}\n")
-            return 1
-        return 0
+        if cmd in ("mode", "calibrate"):
+            self.print("ERROR [commander] missing argument\n")
+        self.print("WARN  [commander] unknown command\n\nUsage: commander <command> "
+                   "[arguments...]\n")
+        return 1
 
     def _navigator(self, args: list[str], now_s: float) -> int:
         """Navigator::print_status: "Running" and Geofence::printStatus's counts of the areas

@@ -74,7 +74,9 @@ def test_prompt_echo_and_commands():
         assert sim.status(0).nav_state is NavState.AUTO_PRECLAND
         shell(sim, "commander mode auto:rtl\n")
         assert sim.status(0).nav_state is NavState.AUTO_RTL or sim.status(0).armed
-        assert "Command 'commander' failed" in shell(sim, "commander mode warp\n")
+        # custom_command: an unknown mode is said, and the command still returns 0
+        out = shell(sim, "commander mode warp\n")
+        assert "ERROR [commander] argument warp unsupported.\n" in out and "failed" not in out
         long = shell(sim, "x" * 10_000 + "\n")
         assert long.endswith("pxh> ") and "Invalid command" in long
 
@@ -197,8 +199,7 @@ def test_module_status_commands():
             "circles, 4 total vertices\n" in shell(sim, "navigator status\n")
         out = shell(sim, "gps status\n")
         assert "INFO  [gps] not running\nCommand 'gps' failed, returned -1.\n" in out
-        sim.api(0).arm()
-        sim.api(0).takeoff()
+        assert shell(sim, "commander takeoff\n") == "commander takeoff\npxh> "  # and arms
         sim.advance(1.0)
         out = shell(sim, "commander status\n")
         assert "INFO  [commander] Armed\nINFO  [commander] navigation mode: Takeoff\n" in out
