@@ -200,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.command == "run":
         # The daemon builds long-lived objects only until it serves, and then freezes them out
-        # of the collector and turns it on (gateway.daemon.app.settle_heap).
+        # of the collector and turns it on (gateway.daemon.heap.settle_heap).
         gc.disable()
         try:
             return _run(parser, args, sys.argv[1:] if argv is None else argv)

@@ -14,7 +14,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import errno
-import gc
 import ipaddress
 import logging
 import math
@@ -34,6 +33,7 @@ from gateway.daemon import state
 from gateway.daemon.admission import Admission
 from gateway.daemon.config import RunConfig  # re-exported: the daemon's settings
 from gateway.daemon.endpoint import UdpEndpoint
+from gateway.daemon.heap import settle_heap
 from gateway.daemon.metrics import Exporter, MetricsServer
 from gateway.daemon.pacer import Pacer
 from gateway.daemon.progress import ProgressLine
@@ -385,16 +385,6 @@ class Daemon:
                 except OSError as exc:  # a full disk must not stop the flight
                     log.error("flight log: %s", exc)
             self.notifier.status(self.short_status())
-
-
-def settle_heap() -> None:
-    """Everything built so far (modules, PyBullet, parameter tables, the vehicles) lives as long
-    as the process: keep it out of the cyclic collector's passes, which would otherwise stall
-    the loop for milliseconds at a time as the simulation allocates. ``cornet run`` starts with
-    the collector off (gateway/cli.py), since its passes over a growing heap of long-lived
-    objects are up to 40 % of building many vehicles; this turns it on."""
-    gc.freeze()
-    gc.enable()
 
 
 async def serve(config: RunConfig, ready_out=sys.stdout, *,

@@ -9,7 +9,8 @@ import signal
 from dataclasses import replace
 from pathlib import Path
 
-from gateway.daemon.app import Daemon, PortInUse, RunConfig, settle_heap
+from gateway.daemon.app import Daemon, PortInUse, RunConfig
+from gateway.daemon.heap import settle_heap
 from gateway.daemon.metrics import SNAPSHOT_PERIOD_S, Exporter
 from gateway.daemon.shard.channel import START_TIMEOUT_S, STOP_TIMEOUT_S, Channel
 from gateway.daemon.shard.outlets import RelayPublisher
