@@ -204,6 +204,13 @@ def main(argv: list[str] | None = None) -> int:
         gc.disable()
         try:
             return _run(parser, args, sys.argv[1:] if argv is None else argv)
+        except SystemExit as exc:  # a flag or file refused: in a rank, the whole job ends
+            if exc.code not in (0, None):
+                from gateway.daemon.shard.launch import abort_job, in_mpi_job
+
+                if in_mpi_job():
+                    abort_job(exc.code if isinstance(exc.code, int) else 2)
+            raise
         finally:
             gc.enable()
     if args.command == "fly":

@@ -1,7 +1,8 @@
 """`cornet run --shards 2`: the vehicles split across two worker ranks of an MPI job in lockstep;
-MAVSDK flies one vehicle of each shard at once; the daemon stops cleanly; a worker's start error
-and a missing MPI are exit-2 errors. A scripted flight on two ranks that talk over TCP (as on
-two hosts) writes the same logs as one process; --state-dir keeps each shard's vehicles."""
+MAVSDK flies one vehicle of each shard at once; the daemon stops cleanly; a worker's start error,
+a flag one rank refuses and a missing MPI are exit-2 errors. A scripted flight on two ranks that
+talk over TCP (as on two hosts) writes the same logs as one process; --state-dir keeps each
+shard's vehicles."""
 
 import asyncio
 import json
@@ -352,6 +353,28 @@ def test_a_port_in_use_in_one_shard_is_an_error_of_the_whole_run():
     assert r.returncode == 2, r.stderr
     assert "cornet: shard 1: UDP port" in r.stderr and "already in use" in r.stderr, r.stderr
     assert "cornet ready" not in r.stdout
+
+
+def test_a_flag_one_rank_refuses_ends_the_whole_job_with_exit_2(tmp_path):
+    """Every rank checks the command line, as ranks on other hosts must: one whose host refuses
+    the log directory (here rank 1's, given another one, as mpiexec -hosts a,b would give the
+    same path on a machine without it) ends the job with exit 2 and its message, at once,
+    rather than leave the other ranks waiting for it; the directory the others share is
+    checked by all of them at the same moment, and none of them trips over another's probe."""
+    from gateway.daemon.shard.launch import mpiexec_command
+
+    shared = tmp_path / "logs"
+    script = ("import os, sys; from gateway.cli import main; "
+              "bad = os.environ.get('PMI_RANK') == '1'; "
+              f"sys.exit(main(['run', '--vehicles', '2', '--shards', '2', '--port-offset', "
+              f"'{free_port_offset(2)}', '--duration', '5', '--speed', 'max', '--log-dir', "
+              f"'/proc/no-such-dir' if bad else {str(shared)!r}]))")
+    mpiexec = mpiexec_command(2, [])[:3]
+    r = subprocess.run([*mpiexec, sys.executable, "-c", script], capture_output=True, text=True,
+                       timeout=60, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert r.returncode == 2, r.stderr[-3000:]
+    assert "--log-dir /proc/no-such-dir: not a writable directory" in r.stderr, r.stderr[-3000:]
+    assert "--log-dir " + str(shared) not in r.stderr
 
 
 def test_without_mpi4py_sharding_says_how_to_get_it():

@@ -61,6 +61,17 @@ def in_mpi_job(environ: dict[str, str] | None = None) -> bool:
     return any(name in env for name in MPI_RANK_VARIABLES)
 
 
+def abort_job(code: int) -> None:
+    """In a rank that cannot start (a flag or file its host refuses, checked by each rank, as
+    the ranks may run on other machines): end the whole job with ``code`` (MPI_Abort, which
+    mpiexec turns into the end of every rank), rather than exit alone and leave the others
+    waiting for it in the job's first exchange."""
+    from mpi4py import MPI
+
+    sys.stderr.flush()
+    MPI.COMM_WORLD.Abort(code)
+
+
 def mpiexec_command(shards: int, argv: list[str]) -> list[str]:
     """The MPI job that runs ``cornet <argv>`` with ``shards`` workers on this machine.
     Raises ShardError (code 2) when mpi4py or mpiexec is missing."""
