@@ -119,17 +119,50 @@ class Pxh:
             self.print("Usage: param <command> [arguments...]\n")
             return 1
         cmd, rest = args[0], args[1:]
-        if cmd == "show":
-            pattern = rest[-1] if rest and not rest[-1].startswith("-") else "*"
+        if cmd == "show":  # param_main's show [-c | -a | -q NAME | PATTERN]
+            if rest[:1] == ["-q"]:
+                if len(rest) < 2 or rest[1] not in params:
+                    return 1
+                self.print(_param_text(params.info(rest[1]).type, params[rest[1]]) + "\n")
+                return 0
+            only_changed = rest[:1] == ["-c"]
+            pattern = None if rest[:1] == ["-a"] else (rest[1:2] if only_changed else rest[:1])
             self.print("Symbols: x = used, + = saved, * = unsaved\n")
-            shown = 0
             for i, (info, value) in enumerate(params.items()):
-                if fnmatch.fnmatchcase(info.name, pattern):
-                    text = f"{int(value)}" if info.type is ParamType.INT32 else f"{value:.4f}"
-                    self.print(f"x   {info.name} [{i},{i}] : {text}\n")
-                    shown += 1
-            self.print(f"\n {len(params)}/{len(params)} parameters used.\n")
+                if only_changed and value == params.default_of(info.name):
+                    continue
+                if pattern and not self._param_matches(pattern[0], info.name):
+                    continue
+                mark = " " if value == params.default_of(info.name) else "+"  # SITL autosaves
+                self.print(f"x {mark} {info.name} [{i},{i}] : "
+                           f"{_param_text(info.type, value)}\n")
+            self.print(f"\n {len(params)} parameters total, {len(params)} used.\n"
+                       if rest[:1] == ["-a"] else f"\n {len(params)}/{len(params)} parameters used.\n")
             return 0
+        if cmd in ("compare", "greater"):  # do_compare: 0 when one of the values matches
+            silent = rest[:1] == ["-s"] and len(rest) >= 3
+            if silent:
+                name, values = rest[1], rest[2:]
+            else:
+                name, values = (rest[0] if rest else ""), rest[1:]
+            if not values:
+                self.print(f"ERROR [param] not enough arguments.\nTry 'param {cmd} "
+                           f"{name or 'PARAM_NAME'} 3'\n")
+                return 1
+            if name not in params:
+                if not silent:
+                    self.print(f"ERROR [param] Parameter {name} not found\n")
+                return 1
+            current, is_int = params[name], params.info(name).type is ParamType.INT32
+            for text in values:
+                try:  # strtol / strtod: what does not parse is 0
+                    value = float(int(float(text))) if is_int else float(text)
+                except (ValueError, OverflowError):
+                    value = 0.0
+                if (current > value) if cmd == "greater" else (
+                        current == value if is_int else abs(current - value) < 1e-7):
+                    return 0
+            return 1
         if cmd == "set" and len(rest) >= 2:
             name = rest[0]
             if name not in params:
@@ -162,6 +195,23 @@ class Pxh:
             return 0
         self.print(f"ERROR [param] unknown command: {cmd}\n")
         return 1
+
+    def _param_matches(self, pattern: str, name: str) -> bool:
+        """param.cpp do_show_print's search: case-insensitive, a ``*`` only at the end (one
+        elsewhere is warned about for each name it is reached in, and matches nothing)."""
+        ss, pp = 0, 0
+        while ss < len(pattern) and pp < len(name):
+            if pattern[ss].upper() == name[pp]:
+                ss += 1
+                pp += 1
+            elif pattern[ss] == "*":
+                if ss + 1 < len(pattern):
+                    self.print("WARN  [param] * symbol only allowed at end of search string\n")
+                    return False
+                pp += 1
+            else:
+                return False
+        return (ss == len(pattern) or pattern[ss] == "*") and pp == len(name)
 
     def _commander(self, args: list[str], now_s: float) -> int:
         """Commander::custom_command: ``arm``, ``disarm``, ``takeoff``, ``land`` and ``mode``
@@ -339,6 +389,11 @@ class Pxh:
             return ret
         self.print(mavlink_status.USAGE)
         return 1
+
+
+def _param_text(kind: ParamType, value: float) -> str:
+    """A value as param.cpp prints it: "%ld" for INT32, "%4.4f" for FLOAT."""
+    return f"{int(value)}" if kind is ParamType.INT32 else f"{value:.4f}"
 
 
 def attach_shells(sim: Any, loggers: Callable[[int], Any] | None = None,

@@ -203,3 +203,28 @@ def test_module_status_commands():
         sim.advance(1.0)
         out = shell(sim, "commander status\n")
         assert "INFO  [commander] Armed\nINFO  [commander] navigation mode: Takeoff\n" in out
+
+
+def test_param_show_variants_and_compare():
+    """param.cpp: ``show`` matches case-insensitively with a trailing ``*`` and marks a value
+    off its default ``+`` (SITL saves at once); ``show -c`` the changed ones, ``show -q`` the
+    bare value (scripts read it); ``compare``/``greater`` answer by their return code only."""
+    with Sim() as sim:
+        sim.advance(1.0)
+        shell(sim, "\n")
+        shell(sim, "param set MPC_XY_CRUISE 7\n")
+        out = shell(sim, "param show mpc_xy_cru*\n")
+        assert "x + MPC_XY_CRUISE [" in out and "] : 7.0000\n" in out
+        assert "x   MPC_XY_VEL_MAX [" not in out
+        assert "x   MPC_XY_VEL_MAX [" in shell(sim, "param show MPC_XY_VEL_MAX\n")
+        assert "* symbol only allowed at end of search string" in shell(sim, "param show MPC*CRUISE\n")
+        changed = shell(sim, "param show -c\n")
+        assert "x + MPC_XY_CRUISE [" in changed and "MPC_XY_VEL_MAX" not in changed
+        assert shell(sim, "param show -q MPC_XY_CRUISE\n") == "param show -q MPC_XY_CRUISE\n7.0000\npxh> "
+        assert shell(sim, "param show -q COM_ARMABLE\n").endswith("\n1\npxh> ")
+        assert shell(sim, "param compare MPC_XY_CRUISE 7\n") == "param compare MPC_XY_CRUISE 7\npxh> "
+        assert "Command 'param' failed, returned 1." in shell(sim, "param compare MPC_XY_CRUISE 5\n")
+        assert "Command 'param' failed" not in shell(sim, "param greater MPC_XY_CRUISE 5 9\n")
+        assert "Command 'param' failed" not in shell(sim, "param compare COM_ARMABLE 0 1\n")
+        assert "ERROR [param] Parameter NOPE not found\n" in shell(sim, "param compare NOPE 1\n")
+        assert "not found" not in shell(sim, "param compare -s NOPE 1\n")
