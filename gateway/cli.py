@@ -204,12 +204,10 @@ def main(argv: list[str] | None = None) -> int:
         gc.disable()
         try:
             return _run(parser, args, sys.argv[1:] if argv is None else argv)
-        except SystemExit as exc:  # a flag or file refused: in a rank, the whole job ends
-            if exc.code not in (0, None):
-                from gateway.daemon.shard.launch import abort_job, in_mpi_job
+        except (SystemExit, Exception) as exc:  # in a rank, the whole job ends (shard.launch)
+            from gateway.daemon.shard.launch import end_job_if_rank
 
-                if in_mpi_job():
-                    abort_job(exc.code if isinstance(exc.code, int) else 2)
+            end_job_if_rank(exc)
             raise
         finally:
             gc.enable()

@@ -71,3 +71,23 @@ def test_without_mpi4py_the_launcher_says_how_to_get_it(monkeypatch):
     with pytest.raises(ShardError, match=r"pip install 'cornet\[mpi\]'") as caught:
         mpiexec_command(2, ["run", "--shards", "2"])
     assert caught.value.code == 2
+
+
+def test_a_rank_that_fails_ends_the_job(monkeypatch, capsys):
+    """end_job_if_rank: in a rank, a refused flag (SystemExit 2) aborts the job with 2 and an
+    exception with 1 (its traceback printed); outside an MPI job, or on exit 0, nothing."""
+    import importlib
+
+    launch = importlib.import_module("gateway.daemon.shard.launch")  # the module, not launch()
+    aborted: list[int] = []
+    monkeypatch.setattr(launch, "abort_job", aborted.append)
+    for name in launch.MPI_RANK_VARIABLES:
+        monkeypatch.delenv(name, raising=False)
+    launch.end_job_if_rank(SystemExit(2))
+    assert aborted == []
+    monkeypatch.setenv("PMI_RANK", "1")
+    launch.end_job_if_rank(SystemExit(0))
+    launch.end_job_if_rank(SystemExit(2))
+    launch.end_job_if_rank(ValueError("boom"))
+    assert aborted == [2, 1]
+    assert "ValueError: boom" in capsys.readouterr().err

@@ -11,6 +11,7 @@ import socket
 import subprocess
 import sys
 import tempfile
+import traceback
 import uuid
 from pathlib import Path
 
@@ -70,6 +71,21 @@ def abort_job(code: int) -> None:
 
     sys.stderr.flush()
     MPI.COMM_WORLD.Abort(code)
+
+
+def end_job_if_rank(exc: BaseException) -> None:
+    """``cornet run`` failing in a rank of an MPI job (a refused flag's SystemExit, code 2; an
+    exception, code 1, its traceback printed): ``abort_job``. Elsewhere, or exit code 0:
+    nothing."""
+    if not in_mpi_job():
+        return
+    if isinstance(exc, SystemExit):
+        if exc.code in (0, None):
+            return
+        abort_job(exc.code if isinstance(exc.code, int) else 2)
+        return
+    traceback.print_exception(exc)
+    abort_job(1)
 
 
 def mpiexec_command(shards: int, argv: list[str]) -> list[str]:
