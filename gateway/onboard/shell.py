@@ -239,6 +239,14 @@ class Pxh:
         if cmd == "land":
             v.land(now_s)
             return 0
+        if cmd == "lockdown":  # DO_FLIGHTTERMINATION 2 (on) or 0 (off): terminates if armed
+            if len(args) < 2:
+                self.print("WARN  [commander] not enough arguments, missing [on, off]\n\n"
+                           "Usage: commander <command> [arguments...]\n")
+                return 1
+            if args[1] != "off":
+                v.terminate(now_s)
+            return 0
         if cmd == "mode" and len(args) > 1:
             mode = MODES.get(args[1])
             if mode is None:

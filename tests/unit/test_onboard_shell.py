@@ -203,6 +203,11 @@ def test_module_status_commands():
         sim.advance(1.0)
         out = shell(sim, "commander status\n")
         assert "INFO  [commander] Armed\nINFO  [commander] navigation mode: Takeoff\n" in out
+        shell(sim, "commander lockdown off\n")  # DO_FLIGHTTERMINATION 0: denied
+        assert not sim.status(0).terminated
+        shell(sim, "commander lockdown on\n")
+        assert sim.status(0).terminated
+        assert "navigation mode: Termination\n" in shell(sim, "commander status\n")
 
 
 def test_param_show_variants_and_compare():
