@@ -84,5 +84,6 @@ def main() -> None:
     ratios = " ".join(f"{h[2] / d[2]:.2f}" for d, h in zip(low, high))
     print(f"  CPU per vehicle-s at {YOUNG_GC_THRESHOLD} / at {defaults[0]}, round by round: {ratios}")
 
+
 if __name__ == "__main__":
     main()

@@ -32,6 +32,7 @@ from gateway.onboard.listener import print_message
 from gateway.onboard.logged_topics import NESTED_FORMATS, TOPICS
 from gateway.onboard.mavlink_status import Instance
 from gateway.onboard.topic import U64
+from gateway.sim.simulation import PHYSICS_DT_S
 from vehicles.faults import TYPES, UNITS
 from vehicles.params import ParamType
 from vehicles.types import CommandResult, NavState
@@ -49,7 +50,7 @@ MODES = {"manual": NavState.MANUAL, "altctl": NavState.ALTCTL, "posctl": NavStat
 
 class Pxh:
     def __init__(self, vehicle: Any, version: str, logger: Any = None,
-                 instances: Sequence[Instance] = (), ekf_dt_s: float = 0.004) -> None:
+                 instances: Sequence[Instance] = (), ekf_dt_s: float = PHYSICS_DT_S) -> None:
         self.vehicle = vehicle
         self.ekf_dt_s = ekf_dt_s  # the estimator's update period (the physics step's)
         self.version = version
@@ -129,11 +130,11 @@ class Pxh:
             pattern = None if rest[:1] == ["-a"] else (rest[1:2] if only_changed else rest[:1])
             self.print("Symbols: x = used, + = saved, * = unsaved\n")
             for i, (info, value) in enumerate(params.items()):
-                if only_changed and value == params.default_of(info.name):
+                changed = value != params.default_of(info.name)
+                if (only_changed and not changed) or (
+                        pattern and not self._param_matches(pattern[0], info.name)):
                     continue
-                if pattern and not self._param_matches(pattern[0], info.name):
-                    continue
-                mark = " " if value == params.default_of(info.name) else "+"  # SITL autosaves
+                mark = "+" if changed else " "  # SITL saves a change at once
                 self.print(f"x {mark} {info.name} [{i},{i}] : "
                            f"{_param_text(info.type, value)}\n")
             self.print(f"\n {len(params)} parameters total, {len(params)} used.\n"
@@ -175,12 +176,11 @@ class Pxh:
                 self.print(f"ERROR [param] Parameter {name}: bad value {rest[1]}\n")
                 return 1
             old = params[name]
-            fmt = (lambda v: f"{int(v)}") if info.type is ParamType.INT32 else \
-                (lambda v: f"{v:.4f}")
             if not params.set(name, new):
                 self.print(f"ERROR [param] Parameter {name}: value {rest[1]} refused\n")
                 return 1
-            self.print(f"  {name}: curr: {fmt(old)} -> new: {fmt(params[name])}\n")
+            self.print(f"  {name}: curr: {_param_text(info.type, old)} -> new: "
+                       f"{_param_text(info.type, params[name])}\n")
             return 0
         if cmd == "reset" and rest:  # param_reset_specific: names, "*" wildcards allowed
             params.reset(lambda n: any(fnmatch.fnmatchcase(n, p) for p in rest))
