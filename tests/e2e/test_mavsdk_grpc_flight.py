@@ -46,3 +46,18 @@ def test_mavsdk_grpc_square_mission_with_return(daemon_factory):
     d = daemon_factory("--speed", "4")
     stdout = fly("mission", d.api_port(0), d)
     assert "RESULT ok items=4 finished=True" in stdout, stdout
+
+
+def test_mavsdk_grpc_services_and_an_offboard_leg(daemon_factory, tmp_path):
+    """The v4 core's info, param, shell (whose send takes the device since v4), geofence, ftp
+    and log_files plugins, then Offboard velocity north for 4 s of wall time."""
+    d = daemon_factory("--state-dir", str(tmp_path / "state"), "--speed", "2")
+    stdout = fly("services", d.api_port(0), d)
+    m = re.search(r"RESULT ok cruise=([\d.]+) takeoff_alt=([\d.]+) shell=(\w+) "
+                  r"fence_vertices=(\d+) ftp_entries=(\d+) logs=(\d+) "
+                  r"offboard_north_m=(-?[\d.]+)", stdout)
+    assert m, stdout
+    assert float(m.group(1)) == 5.0 and float(m.group(2)) == 4.0, stdout  # MPC_XY_CRUISE, set
+    assert m.group(3) == "True" and int(m.group(4)) == 4, stdout
+    assert int(m.group(5)) >= 1 and int(m.group(6)) >= 1, stdout  # the root, the boot's log
+    assert float(m.group(7)) > 4.0, stdout  # 2 m/s north for 8 simulated seconds

@@ -1,7 +1,7 @@
 """MAVSDK-Python on the gRPC wrapper published as ``mavsdk-grpc`` 4.x (import ``mavsdk_grpc``,
 its bundled mavsdk_server v4), run in its own venv by the e2e test.
 
-Usage: python mavsdk_grpc_flight.py takeoff_land|mission UDP_PORT GRPC_PORT
+Usage: python mavsdk_grpc_flight.py takeoff_land|mission|services UDP_PORT GRPC_PORT
 Prints one line per phase and "RESULT ok ..." on success; exits 1 otherwise.
 """
 
@@ -11,7 +11,10 @@ import math
 import sys
 
 from mavsdk_grpc import System
+from mavsdk_grpc.geofence import FenceType, GeofenceData, Point, Polygon
 from mavsdk_grpc.mission import MissionItem, MissionPlan
+from mavsdk_grpc.offboard import VelocityNedYaw
+from mavsdk_grpc.shell import Device
 
 # The square of the persona tests, 20 m sides, 2 m north-east of PX4's SITL home.
 HOME_LAT, HOME_LON = 47.397742, 8.545594
@@ -100,6 +103,65 @@ async def mission(drone):
     return f"items={progress.total} finished={finished}"
 
 
+async def services(drone):
+    """The v4 core's other plugins a ground-station script uses: info, param, shell, geofence,
+    ftp, log_files, then an Offboard velocity leg."""
+    version = await drone.info.get_version()
+    print(f"ok: version {version.flight_sw_major}.{version.flight_sw_minor}", flush=True)
+    cruise = await drone.param.get_param_float("MPC_XY_CRUISE")
+    await drone.param.set_param_float("MIS_TAKEOFF_ALT", 4.0)
+    takeoff_alt = await drone.param.get_param_float("MIS_TAKEOFF_ALT")
+    print("ok: params", flush=True)
+
+    texts = []
+
+    async def shell_out():
+        async for received in drone.shell.receive():  # v4: text and device
+            texts.append(received.data)
+
+    reader = asyncio.ensure_future(shell_out())
+    await asyncio.sleep(0.5)
+    await drone.shell.send("ver all", Device.SHELL)  # v4: the device too
+    for _ in range(50):
+        if "PX4_SITL" in "".join(texts):
+            break
+        await asyncio.sleep(0.1)
+    reader.cancel()
+    shell_ok = "HW arch: PX4_SITL" in "".join(texts)
+    print("ok: shell", flush=True)
+
+    corners = [offset_deg(n, e) for n, e in [(-50, -50), (50, -50), (50, 50), (-50, 50)]]
+    polygon = Polygon([Point(lat, lon) for lat, lon in corners], FenceType.INCLUSION)
+    await drone.geofence.upload_geofence(GeofenceData([polygon], []))
+    fence = await drone.geofence.download_geofence()
+    print("ok: geofence", flush=True)
+
+    listing = await drone.ftp.list_directory("/")
+    entries = await drone.log_files.get_entries()
+    print("ok: ftp and log_files", flush=True)
+
+    await drone.action.arm()
+    await drone.action.takeoff()
+    await first(drone.telemetry.position(), lambda p: p.relative_altitude_m > 3.5, 30,
+                "takeoff altitude")
+    start = await first(drone.telemetry.position_velocity_ned(), lambda p: True, 5, "position")
+    await drone.offboard.set_velocity_ned(VelocityNedYaw(0.0, 0.0, 0.0, 0.0))
+    await drone.offboard.start()
+    await drone.offboard.set_velocity_ned(VelocityNedYaw(2.0, 0.0, 0.0, 0.0))
+    await first(drone.telemetry.flight_mode(), lambda m: m.name == "OFFBOARD", 10, "offboard")
+    await asyncio.sleep(4.0)
+    await drone.offboard.stop()
+    end = await first(drone.telemetry.position_velocity_ned(), lambda p: True, 5, "position")
+    north_m = end.position.north_m - start.position.north_m
+    await drone.action.land()
+    await first(drone.telemetry.in_air(), lambda x: not x, 60, "landed")
+    await first(drone.telemetry.armed(), lambda a: not a, 15, "auto-disarm")
+    return (f"cruise={cruise:.1f} takeoff_alt={takeoff_alt:.1f} shell={shell_ok} "
+            f"fence_vertices={sum(len(p.points) for p in fence.polygons)} "
+            f"ftp_entries={len(listing.entries)} logs={len(entries)} "
+            f"offboard_north_m={north_m:.1f}")
+
+
 async def main(flow, udp_port, grpc_port):
     drone = System(port=grpc_port)
     await drone.connect(system_address=f"udpin://0.0.0.0:{udp_port}")
@@ -107,7 +169,8 @@ async def main(flow, udp_port, grpc_port):
         await first(drone.core.connection_state(), lambda s: s.is_connected, 30, "connected")
         await first(drone.telemetry.health(),
                     lambda h: h.is_global_position_ok and h.is_home_position_ok, 30, "health")
-        result = await {"takeoff_land": takeoff_land, "mission": mission}[flow](drone)
+        result = await {"takeoff_land": takeoff_land, "mission": mission,
+                        "services": services}[flow](drone)
         print(f"RESULT ok {result}", flush=True)
     finally:
         drone._stop_mavsdk_server()
