@@ -79,11 +79,12 @@ class Daemon:
     def __init__(self, config: RunConfig, notifier: Notifier | None = None, *,
                  boot_unix_s: float | None = None, run_dir: Path | None = None,
                  part: int | None = None, publisher: Publisher | None = None) -> None:
-        """A shard of a sharded run (gateway/daemon/shard/) is given the run's
-        ``boot_unix_s`` and flight log ``run_dir`` (the coordinator's), and writes the files
-        that hold every vehicle as its ``part`` (gateway/sim/logparts.py merges them), and
-        publishes into the ``publisher`` it is given (the coordinator's socket publishes)."""
+        """A shard of a sharded run (gateway/daemon/shard/) is given the flight log ``run_dir``
+        (the coordinator's), and the run's epoch with its first grant (``set_epoch``); it writes
+        its ``part`` of the files (gateway/sim/logparts.py merges them) and publishes into the
+        ``publisher`` it is given (the coordinator's socket publishes)."""
         self.config = config
+        self.part = part
         self.notifier = notifier or Notifier()  # no socket: notifications are no-ops
         self.publisher = publisher if publisher is not None else \
             Publisher(config.zmq_pub) if config.zmq_pub or config.web else None
@@ -91,8 +92,8 @@ class Daemon:
         self._trace_file = open(trace.with_name(part_name(trace.name, part)), "w") \
             if trace is not None else None
         self.flightlog = None
-        if boot_unix_s is None:
-            boot_unix_s = time.time()  # the wall-clock moment of simulated t = 0 (logs, signing)
+        if boot_unix_s is None:  # simulated t = 0 on the wall clock until time starts (set_epoch)
+            boot_unix_s = time.time()
         if config.log_dir is not None:
             run = run_dir if run_dir is not None else new_run_dir(
                 config.log_dir, time.strftime("run-%Y%m%d-%H%M%S"))
@@ -249,10 +250,19 @@ class Daemon:
         for endpoint in self.endpoints.values():
             if endpoint.sock is not None:
                 waiting.register(endpoint.sock.fileno(), select.EPOLLIN)
-        # Simulated time starts now that the ports are bound; the vehicle talks first (as PX4
-        # SITL does): the first telemetry goes out as soon as the pacer runs.
+        # Simulated time starts now that the ports are bound (a shard's: at the coordinator's
+        # first grant); the vehicles talk first, as PX4 SITL does.
         self.pacer = Pacer(self.sim.kernel, speed=cfg.speed, input_pending=self._input_pending,
                            end_s=cfg.duration)
+        if self.part is None:
+            self.set_epoch(time.time())
+
+    def set_epoch(self, boot_unix_s: float) -> None:
+        """Simulated t = 0 is Unix time ``boot_unix_s``: SYSTEM_TIME, signing, the logs' stamps."""
+        self.sim.set_epoch(boot_unix_s)
+        self.logs.set_epoch(boot_unix_s)
+        if self.flightlog is not None:
+            self.flightlog.set_epoch(boot_unix_s)
 
     def _input_pending(self) -> bool:
         waiting = self._waiting

@@ -238,6 +238,15 @@ class Session:
         self.stats.tx_bytes += sum(map(len, out))
         return out
 
+    def set_epoch(self, boot_unix_s: float) -> None:
+        """The Unix time of simulated t = 0, once the shell knows it (time starts after the
+        vehicles are built and their ports bound): SYSTEM_TIME's clock and the signing clock."""
+        if self.boot_unix_s is not None:
+            self.boot_unix_s = boot_unix_s
+        signer = self.encoder.signer
+        if signer is not None:
+            signer.clock.rebase(boot_unix_s)  # the verifier's clock too: one per link
+
     def get_timer(self) -> float | None:
         t = min(self.scheduler.next_s, self.params.due_s, self.mission.due_s,
                 self.logs.due_s, self.ftp.due_s, self.log_streaming.due_s, self.events.due_s,

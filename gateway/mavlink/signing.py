@@ -219,6 +219,13 @@ class SigningClock:
         self.shared = shared if shared is not None else SigningState()
         self.timestamp = self.shared.newest  # newest timestamp sent or accepted on this link
 
+    def rebase(self, epoch_unix_s: float) -> None:
+        """Simulated t = 0 is ``epoch_unix_s`` from now on (the shell learns it once time
+        starts); timestamps already sent or accepted stay the floor."""
+        if not math.isfinite(epoch_unix_s) or epoch_unix_s < MAVLINK_EPOCH_UNIX_S:
+            raise ValueError("the signing epoch must be a Unix time after 2015-01-01")
+        self._base = round((epoch_unix_s - MAVLINK_EPOCH_UNIX_S) * TICKS_PER_S)
+
     def advance(self, ts: int) -> None:
         """``ts`` was sent or accepted on this link (newer than ``timestamp``)."""
         self.timestamp = ts

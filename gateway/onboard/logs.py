@@ -56,6 +56,13 @@ class Logs:
         sim.every(TICK_S, self._tick)
         sim.every(FLUSH_S, lambda now: self.flush())
 
+    def set_epoch(self, boot_unix_s: float) -> None:
+        """Simulated t = 0 is the Unix time ``boot_unix_s``: the logs' names (PX4 names them by
+        the real-time clock)."""
+        for logger in self.loggers.values():
+            if logger.boot_unix_s is not None:
+                logger.boot_unix_s = boot_unix_s
+
     def _tick(self, now_s: float) -> None:
         for sysid, logger in self.loggers.items():
             stream = logger.stream

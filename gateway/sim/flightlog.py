@@ -191,15 +191,25 @@ class FlightLog:
         self._state_file: io.TextIOWrapper | None = None
         self._state_csv: Any = None  # a csv.writer (the type csv does not export)
         self._sim: Simulation | None = None
+        self._extra_meta: dict = {}
         self._tickers: list = []
         self.frames = {UP: 0, DOWN: 0}
         self.closed = False
+
+    def set_epoch(self, boot_unix_s: float) -> None:
+        """Simulated t = 0 is the Unix time ``boot_unix_s`` (stamped by the shell when time
+        starts): the stamps of every record from now on and meta.json's ``boot_unix_s``."""
+        self.boot_unix_s = boot_unix_s
+        self._boot_us = int(round(boot_unix_s * 1e6))
+        if self._sim is not None:
+            self._write_meta(self._sim, self._extra_meta)
 
     # --- wiring -------------------------------------------------------------------------------
     def attach(self, sim: Simulation, extra_meta: dict | None = None) -> None:
         """Write meta.json, start the state log and the periodic flush on ``sim``'s clock."""
         self._sim = sim
-        self._write_meta(sim, extra_meta or {})
+        self._extra_meta = extra_meta or {}
+        self._write_meta(sim, self._extra_meta)
         self._state_file = open(self.dir / part_name(STATE_FILE, self.part), "w",
                                 encoding="ascii", newline="")
         self._state_csv = csv.writer(self._state_file, lineterminator="\n")
@@ -250,17 +260,19 @@ class FlightLog:
         """``record_datagram`` bound to one link and direction, for those who record every
         datagram of a link: ``record(frames, t)``, with the datagram's ``split_frames``."""
         write = self._tlog(index, kind).write
-        boot_us = self._boot_us
         stamp_of = _TLOG_STAMP.pack
         counts = self.frames
-        last_t, stamp = math.nan, b""  # the frames of one instant share their stamp
+        # the frames of one instant share their stamp (of one epoch: set_epoch may come at t = 0)
+        last_t, last_boot_us, stamp = math.nan, 0, b""
 
         def record(frames: Sequence[bytes], t: float) -> None:
-            nonlocal last_t, stamp
+            nonlocal last_t, last_boot_us, stamp
             if self.closed:
                 return
-            if t != last_t:
-                last_t, stamp = t, stamp_of(boot_us + round(t * 1e6))
+            boot_us = self._boot_us
+            if t != last_t or boot_us != last_boot_us:
+                last_t, last_boot_us = t, boot_us
+                stamp = stamp_of(boot_us + round(t * 1e6))
             for frame in frames:
                 write(stamp)
                 write(frame)

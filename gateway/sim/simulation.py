@@ -196,7 +196,7 @@ class Simulation:
         leaves them out (a lockstep run whose clients use only ``link_kinds``). ``commands``:
         the scenario's command timeline (gateway/sim/command_timeline.py), each at its time.
         ``boot_unix_s``: the Unix time of simulated t = 0, the vehicles' real-time clock
-        (SYSTEM_TIME; None: none, so none is sent)."""
+        (SYSTEM_TIME; None: none, so none is sent); ``set_epoch`` moves it before time starts."""
         if vehicles < 1:
             raise ValueError("need at least one vehicle")
         if not link_kinds:
@@ -378,6 +378,12 @@ class Simulation:
             self._next_error_log_s = self.kernel.now + 10.0
             log.error("%s: error %s (%d so far)", link, what, self._outer_errors,
                       exc_info=self._outer_errors == 1)
+
+    def set_epoch(self, boot_unix_s: float) -> None:
+        """Every link's clocks (SYSTEM_TIME, signing) take simulated t = 0 to be the Unix time
+        ``boot_unix_s``: the shell stamps it when its pacer starts time."""
+        for link in self.links.values():
+            link.session.set_epoch(boot_unix_s)
 
     def every(self, period_s: float, callback: Callable[[float], None]) -> Ticker:
         """Call ``callback(now)`` every ``period_s`` of simulated time (observers: logs, ZMQ)."""

@@ -38,12 +38,15 @@ core):
     {"stopped": {counter: value}, "t": t} after a stop: final counters; then it exits 0
   coordinator → worker
     {"setup": {"boot_unix_s": e, "run_dir": path or None}}
-                                          first: the run's epoch (simulated t = 0 on the wall
-                                          clock: logs, signing) and --log-dir's run directory
+                                          first: the run's provisional epoch (simulated t = 0
+                                          on the wall clock: logs, signing) and --log-dir's
+                                          run directory
     {"horizon": h, "priority": p, "t": t, "positions": {...}}
                                           every vehicle was at these positions at sync point t;
                                           run up to h = t' (events at h itself only up to
-                                          priority p: physics and the mobility update)
+                                          priority p: physics and the mobility update);
+                                          the first (t = 0) also "epoch": the wall clock as
+                                          it lets time run, the run's epoch from then on
     {"wants_packets": bool}               --zmq-pub: someone subscribes to cornet.packet (or
                                           no longer): build packet events (or stop)
     {"stop": true}

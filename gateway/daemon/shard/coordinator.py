@@ -148,9 +148,12 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
                 # Through the next sync point (the same on every shard: one period grid),
                 # held right after its positions are reported.
                 horizon = min(report["next"] for report in reported.values())
+                grant = {"horizon": horizon, "priority": PRIORITY_PHYSICS, "t": t,
+                         "positions": everyone, "reload": change}
+                if t == 0.0:  # the first grant starts time: its wall-clock moment is t = 0's
+                    grant["epoch"] = time.time()
                 for s in range(k):
-                    channel.send(s + 1, {"horizon": horizon, "priority": PRIORITY_PHYSICS,
-                                         "t": t, "positions": everyone, "reload": change})
+                    channel.send(s + 1, grant)
                 if not announced and t > 0:  # every shard has run its first sync period
                     announced = True
                     print(f"cornet ready: {config.vehicles} vehicle(s) in {k} shards, "

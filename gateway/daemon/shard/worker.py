@@ -80,6 +80,8 @@ async def work(config: RunConfig, shard: int, channel: Channel) -> int:
                     k: tuple(v) for k, v in msg["positions"].items() if k not in own})
                 if not started[0]:
                     started[0] = True
+                    if "epoch" in msg:
+                        daemon.set_epoch(msg["epoch"])
                     pacer.reanchor()
                 pacer.set_horizon(msg["horizon"], msg.get("priority"))
 
