@@ -56,20 +56,38 @@ async def test_two_shards_fly_a_vehicle_each_and_stop_cleanly(daemon_factory):
     assert m and float(m.group(1)) > 10.0, stop_line
 
 
-def _scripted_run(out: Path, *extra: str, env: dict[str, str] | None = None) -> Path:
+def _udp_bound(port: int) -> bool:
+    """Whether some socket of this host is bound to UDP ``port`` (/proc/net/udp, read only)."""
+    with open("/proc/net/udp") as f:
+        return any(int(line.split()[1].split(":")[1], 16) == port for line in list(f)[1:])
+
+
+def _scripted_run(out: Path, *extra: str, env: dict[str, str] | None = None
+                  ) -> tuple[Path, float]:
     """scenarios/adhoc-fleet.toml for 30 simulated seconds, flat out, logged to ``out``: the
-    run directory."""
+    run directory, and a wall-clock time at which the last vehicle's port was not bound yet
+    (the run's clock cannot have started before it)."""
     out.mkdir()
-    r = subprocess.run(cornet_command() + [
+    offset = free_port_offset(4)
+    last_port = VEHICLE_GCS_PORT + offset + 3
+    proc = subprocess.Popen(cornet_command() + [
         "run", "--scenario", str(ROOT / "scenarios" / "adhoc-fleet.toml"), "--seed", "19",
         "--speed", "max", "--duration", "30", "--log-dir", str(out / "logs"),
-        "--packet-trace", str(out / "trace.txt"), "--port-offset", str(free_port_offset(4)),
-        *extra], capture_output=True, text=True, timeout=240, stdin=subprocess.DEVNULL,
-        env={**os.environ, **(env or {})})
-    assert r.returncode == 0, r.stderr[-3000:]
-    assert "stopping after" in r.stderr and "sim_t=30.0s" in r.stderr, r.stderr[-3000:]
+        "--packet-trace", str(out / "trace.txt"), "--port-offset", str(offset),
+        *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        stdin=subprocess.DEVNULL, env={**os.environ, **(env or {})})
+    unbound_at = time.time()
+    while proc.poll() is None:
+        t = time.time()  # taken before the look: the port was free at t or later
+        if _udp_bound(last_port):
+            break
+        unbound_at = t
+        time.sleep(0.002)
+    _, stderr = proc.communicate(timeout=240)
+    assert proc.returncode == 0, stderr[-3000:]
+    assert "stopping after" in stderr and "sim_t=30.0s" in stderr, stderr[-3000:]
     (run,) = (out / "logs").iterdir()
-    return run
+    return run, unbound_at
 
 
 def _tlog_records(run: Path, name: str) -> list[tuple[int, object]]:
@@ -89,8 +107,8 @@ def _tlog_records(run: Path, name: str) -> list[tuple[int, object]]:
 
 
 def test_two_ranks_over_tcp_write_the_logs_of_one_process(tmp_path):
-    one = _scripted_run(tmp_path / "one")
-    two = _scripted_run(tmp_path / "two", "--shards", "2", env=NETWORK_PATH)
+    one, one_unbound = _scripted_run(tmp_path / "one")
+    two, two_unbound = _scripted_run(tmp_path / "two", "--shards", "2", env=NETWORK_PATH)
     files = sorted(p.name for p in one.iterdir() if p.is_file())
     assert files == sorted(p.name for p in two.iterdir() if p.is_file()) == [
         "meta.json", "packets.trace", "state.csv", *(f"v{i}-{k}.tlog" for i in range(1, 5)
@@ -104,6 +122,9 @@ def test_two_ranks_over_tcp_write_the_logs_of_one_process(tmp_path):
     # The wall clock's only marks: the epoch in meta.json, the tlogs' stamps (epoch + simulated
     # time) and the onboard logs' names (vehicle-N/log/<date>/<time>.ulg).
     metas = [json.loads((run / "meta.json").read_text()) for run in (one, two)]
+    # The epoch is when simulated time starts, after every port is bound (sharded: after every
+    # worker built its vehicles), so that SYSTEM_TIME reads the host's clock, not one behind it.
+    assert metas[0]["boot_unix_s"] > one_unbound and metas[1]["boot_unix_s"] > two_unbound
     for meta in metas:
         del meta["boot_unix_s"]
     assert metas[0] == metas[1] and [v["sysid"] for v in metas[0]["vehicles"]] == [1, 2, 3, 4]
