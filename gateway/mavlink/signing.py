@@ -7,8 +7,9 @@ SHA-256(secret_key + header + payload + CRC + link_id + timestamp).
 
 Rules and invariants:
 - Time is an argument. A link's timestamps come from simulated time mapped onto a wall-clock
-  epoch the shell passes in (``SigningConfig.epoch_unix_s`` = Unix time at simulated t = 0);
-  nothing here reads a clock.
+  epoch the shell passes in (``SigningConfig.epoch_unix_s`` = Unix time at simulated t = 0, and
+  ``SigningClock.rebase`` when the shell stamps it again as time starts); nothing here reads a
+  clock.
 - One ``SigningClock`` per link is shared by its ``Signer`` and ``Verifier``, as the C library
   shares ``signing->timestamp``: outgoing timestamps strictly increase, and an accepted incoming
   timestamp that is ahead of ours pulls ours forward. So after a client with a wall clock ahead
@@ -199,8 +200,9 @@ class SigningState:
 @dataclass(frozen=True)
 class SigningConfig:
     """What a Session needs to sign and verify: the key, the wall-clock time (Unix seconds) at
-    simulated t = 0, the message ids accepted unsigned, and the key's replay state shared by
-    every session given this config."""
+    simulated t = 0 as the sessions are built (``Session.set_epoch`` moves their clocks), the
+    message ids accepted unsigned, and the key's replay state shared by every session given
+    this config."""
 
     key: SigningKey
     epoch_unix_s: float
