@@ -37,11 +37,12 @@ def non_negative(kind: type, what: str):
 
 def delay_ms(what: str):
     """``--latency-ms``/``--jitter-ms``: >= 0 and within the link models' longest delay."""
-    from netsim.models.base import MAX_DELAY_S
-
     at_least_zero = non_negative(float, what)
 
     def parse(text: str) -> float:
+        # imported when the flag is given: `cornet --help` and the parser stay free of numpy
+        from netsim.models.base import MAX_DELAY_S
+
         value = at_least_zero(text)
         if value > MAX_DELAY_S * 1e3:
             raise argparse.ArgumentTypeError(f"{what} must be at most {MAX_DELAY_S * 1e3:g} ms "

@@ -1,8 +1,13 @@
 """`cornet --help` and every subcommand's help say what each option and argument is for."""
 
 import argparse
+import subprocess
+import sys
+from pathlib import Path
 
 from gateway.cli import build_parser
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def walk(parser: argparse.ArgumentParser, path: str):
@@ -22,3 +27,14 @@ def test_every_subcommand_option_and_argument_has_help():
     assert "cornet run --param-file" in seen and "cornet fly plan" in seen  # the walk works
     missing = sorted(name for name, helped in seen.items() if not helped)
     assert missing == [], missing
+
+
+def test_the_parser_imports_nothing_of_the_simulation():
+    """`cornet --help` and a refused flag answer at once: building the parser loads neither
+    numpy nor the simulation (a fresh interpreter, as a user runs it)."""
+    probe = ("import sys, gateway.cli; gateway.cli.build_parser(); "
+             "print(sorted(m for m in ('numpy', 'pybullet', 'numba', 'netsim', 'vehicles') "
+             "if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         cwd=ROOT, check=True).stdout
+    assert out.strip() == "[]"
