@@ -105,4 +105,6 @@ def test_the_wheel_block_is_what_test_wheel_runs():
     lines = [re.sub(r"\s+#.*$", "", line).strip() for line in block.group(1).splitlines()]
     assert lines == ["pip install cornet-0.1.0-py3-none-any.whl", "cornet --version",
                      "cornet scenarios", "cornet run --scenario lossy-wifi",
-                     "cornet fly square && cornet plot logs/"], lines
+                     "cornet fly square && cornet plot logs/",
+                     "pip install 'cornet-0.1.0-py3-none-any.whl[mpi]'",
+                     "cornet run --vehicles 4 --shards 2"], lines

@@ -1,6 +1,6 @@
 """What a new user gets from ``pip install cornet``: the wheel built from this tree, installed
 alone in a fresh venv (no system site-packages; its dependencies from PyPI or pip's cache), used
-from a directory outside the repository."""
+from a directory outside the repository; and with ``cornet[mpi]``, a sharded daemon."""
 
 import os
 import shutil
@@ -26,8 +26,8 @@ def sh(args, cwd, timeout=120, env=None):
 
 
 @pytest.fixture(scope="module")
-def installed(tmp_path_factory):
-    """(the venv's bin/, a working directory outside the repository, its environment)."""
+def wheel(tmp_path_factory):
+    """The wheel built from a clean copy of this tree."""
     tmp = tmp_path_factory.mktemp("wheel")
     src = tmp / "src"
     src.mkdir()
@@ -38,12 +38,23 @@ def installed(tmp_path_factory):
             shutil.copytree(path, src / name, ignore=ignore)
         else:
             shutil.copy2(path, src / name)
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    env = _clean_env()
     dist = tmp / "dist"
     out = sh([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", dist, src], tmp,
              timeout=INSTALL_TIMEOUT_S, env=env)
     assert out.returncode == 0, out.stderr
-    (wheel,) = dist.glob("cornet-*.whl")
+    (built,) = dist.glob("cornet-*.whl")
+    return built
+
+
+def _clean_env() -> dict[str, str]:
+    return {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+
+
+def _install(tmp: Path, requirement: str) -> tuple[Path, Path, dict[str, str]]:
+    """``requirement`` in a fresh venv: (its bin/, a working directory outside the
+    repository, its environment)."""
+    env = _clean_env()
     venv = tmp / "venv"
     out = sh([sys.executable, "-m", "venv", venv], tmp, env=env)
     assert out.returncode == 0, out.stderr
@@ -51,13 +62,25 @@ def installed(tmp_path_factory):
     # --no-compile: the same files, without pip byte-compiling every installed module
     # (Python does that on first import); it halves the install.
     out = sh([venv / "bin" / "python", "-m", "pip", "install", "-q", "--no-compile",
-              "--disable-pip-version-check", wheel], tmp,
+              "--disable-pip-version-check", requirement], tmp,
              timeout=INSTALL_TIMEOUT_S, env=env)
     assert out.returncode == 0, out.stderr
     work = tmp / "elsewhere"
     work.mkdir()
     env["NUMBA_CACHE_DIR"] = str(tmp / "numba-cache")
     return venv / "bin", work, env
+
+
+@pytest.fixture(scope="module")
+def installed(wheel, tmp_path_factory):
+    """``pip install cornet``: the wheel alone."""
+    return _install(tmp_path_factory.mktemp("base"), str(wheel))
+
+
+@pytest.fixture(scope="module")
+def installed_mpi(wheel, tmp_path_factory):
+    """``pip install 'cornet[mpi]'``: with mpi4py and MPICH's wheel (mpiexec in the venv)."""
+    return _install(tmp_path_factory.mktemp("mpi"), f"{wheel}[mpi]")
 
 
 def test_version(installed):
@@ -105,3 +128,30 @@ def test_fly_then_plot_a_shipped_plan(installed):
     assert out.returncode == 0, out.stdout + out.stderr
     assert {"track.png", "altitude_speed.png", "link.png"} <= {p.name for p in
                                                                (work / "logs").iterdir()}
+
+
+def test_without_the_mpi_extra_shards_say_how_to_get_it(installed):
+    bin_dir, work, env = installed
+    out = sh([bin_dir / "cornet", "run", "--vehicles", "2", "--shards", "2", "--port-offset",
+              str(free_port_offset(2))], work, env=env)
+    assert out.returncode == 2, out.stdout + out.stderr
+    assert "pip install 'cornet[mpi]'" in out.stderr, out.stderr
+
+
+def test_the_mpi_extra_runs_a_sharded_daemon(installed_mpi):
+    """The venv's own mpiexec (MPICH's wheel) starts the job; nothing else is installed."""
+    bin_dir, work, env = installed_mpi
+    assert (bin_dir / "mpiexec").exists()
+    offset = free_port_offset(4)
+    cmd = [str(bin_dir / "cornet"), "run", "--vehicles", "4", "--shards", "2",
+           "--port-offset", str(offset)]
+    proc = subprocess.Popen(cmd, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, stdin=subprocess.DEVNULL)
+    daemon = CornetDaemon(proc, cmd, offset, 4, None)
+    try:
+        assert daemon.wait_ready(120), daemon.log_tail()
+    finally:
+        code = daemon.stop()
+    assert code == 0, daemon.log_tail()
+    assert daemon.stdout_lines[0].startswith("cornet ready: 4 vehicle(s) in 2 shards"), \
+        daemon.stdout_lines
