@@ -40,9 +40,15 @@ class Ns3BuildMissing(Ns3Error):
     pass
 
 
+NS3_DEBS = "libns3-dev libzmq3-dev cppzmq-dev libgsl-dev pkg-config g++"
+
+
 def build_missing_message(binary: pathlib.Path = BINARY) -> str:
-    return (f"ns-3 build missing: {binary} not found; run `make ns3` "
-            "(needs libns3-dev, libzmq3-dev, cppzmq-dev, libgsl-dev: `make ns3-deps`)")
+    """Where the build is missing and how to make it, in a checkout (`make ns3`) and in an
+    installed package alike: the sources and their Makefile are next to this module."""
+    return (f"ns-3 build missing: {binary} not found; build it with `make -C {HERE}` (`make ns3` "
+            f"in a checkout), after Debian's ns-3 3.37 development files: `apt-get install "
+            f"{NS3_DEBS}` (`make ns3-deps`)")
 
 
 def die_with_parent() -> None:

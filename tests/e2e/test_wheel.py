@@ -3,6 +3,7 @@ alone in a fresh venv (no system site-packages; its dependencies from PyPI or pi
 from a directory outside the repository; and with ``cornet[mpi]``, a sharded daemon."""
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -155,3 +156,36 @@ def test_the_mpi_extra_runs_a_sharded_daemon(installed_mpi):
     assert code == 0, daemon.log_tail()
     assert daemon.stdout_lines[0].startswith("cornet ready: 4 vehicle(s) in 2 shards"), \
         daemon.stdout_lines
+
+
+def test_the_ns3_engine_builds_from_the_installed_sources(installed):
+    """An ns-3 scenario without the engine's build says how to make it from the sources the
+    wheel carries; with Debian's ns-3 3.37 development files here, that command builds it in
+    the installed package and the scenario then runs."""
+    bin_dir, work, env = installed
+    offset = free_port_offset(1)
+    cmd = [str(bin_dir / "cornet"), "run", "--scenario", "ns3-wifi", "--port-offset",
+           str(offset)]
+    out = sh(cmd, work, env=env)
+    assert out.returncode == 2, out.stdout + out.stderr
+    m = re.search(r"build it with `make -C ([^`]+)`", out.stderr)
+    assert m, out.stderr
+    sources = Path(m.group(1))
+    assert "site-packages" in sources.parts
+    assert {"Makefile", "cornet_ns3.cc", "lte.cc", "lte.h", "json.h"} <= \
+        {p.name for p in sources.iterdir()}
+    if sh(["pkg-config", "--exists", "ns3-core", "ns3-wifi", "ns3-lte"], work).returncode != 0 \
+            or not Path("/usr/include/zmq.hpp").exists():
+        pytest.skip("ns-3 3.37's development files are not installed (make ns3-deps): the "
+                    "build from the installed sources is not tried")
+    built = sh(["make", "-C", sources], work, timeout=900, env=env)
+    assert built.returncode == 0, built.stdout + built.stderr
+    proc = subprocess.Popen(cmd, cwd=work, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, stdin=subprocess.DEVNULL)
+    daemon = CornetDaemon(proc, cmd, offset, 1, None)
+    try:
+        assert daemon.wait_ready(120), daemon.log_tail()
+    finally:
+        code = daemon.stop()
+    assert code == 0, daemon.log_tail()
+    assert "network=ns3" in daemon.stdout_lines[0], daemon.stdout_lines

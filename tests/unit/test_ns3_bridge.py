@@ -219,7 +219,7 @@ def test_strict_raises_when_the_engine_is_lost(kernel):
 
 
 def test_missing_build_is_an_error_that_says_how_to_build(kernel, tmp_path):
-    with pytest.raises(Ns3BuildMissing, match="make ns3"):
+    with pytest.raises(Ns3BuildMissing, match="make -C .*netsim/ns3` .*apt-get install libns3-dev"):
         Ns3Backend(kernel, {"binary": str(tmp_path / "cornet-ns3")})
 
 
