@@ -120,7 +120,14 @@ class CornetDaemon:
         return GCS_CLIENT_PORT + self.offset
 
     def gcs_url(self) -> str:
+        """The GCS link in MAVSDK's form (every vehicle; QGroundControl listens there)."""
         return f"udpin://0.0.0.0:{self.gcs_port()}"
+
+    def pymavlink_url(self, index: int | None = None) -> str:
+        """For pymavlink's ``mavutil.mavlink_connection`` (its own form, ``udpin:HOST:PORT``):
+        the GCS link of every vehicle, or with ``index`` that vehicle's API link."""
+        port = self.gcs_port() if index is None else self.mavsdk_port(index)
+        return f"udpin:0.0.0.0:{port}"
 
     def vehicle_port(self, index: int, kind: str) -> int:
         """The port vehicle ``index`` binds for its ``"gcs"`` or ``"api"`` link."""

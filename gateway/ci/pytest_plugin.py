@@ -12,7 +12,9 @@ Fixtures (both are factories; everything they start is stopped at the end of the
     directory and ``args`` passed through (``"--speed", "10"``, ``"--scenario", FILE`` ...).
     Returns once the daemon printed its ``ready`` line: a :class:`CornetDaemon` with
     ``mavsdk_url(i)`` (``udpin://0.0.0.0:<port>`` for MAVSDK's ``connect``), ``gcs_url()``,
-    ``log_dir`` and ``stop()``. At teardown it is sent SIGTERM and must exit with code 0.
+    ``pymavlink_url(i=None)`` (``udpin:0.0.0.0:<port>``, pymavlink's form: the GCS link, or
+    vehicle i's API link), ``log_dir`` and ``stop()``. At teardown it is sent SIGTERM and must
+    exit with code 0.
 
 ``cornet_sim(vehicles=1, **kwargs)``
     a lockstep :class:`gateway.ci.lockstep.Sim` (no sockets, simulated clock) logging to a directory

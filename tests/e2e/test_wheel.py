@@ -1,6 +1,7 @@
 """What a new user gets from ``pip install cornet``: the wheel built from this tree, installed
 alone in a fresh venv (no system site-packages; its dependencies from PyPI or pip's cache), used
-from a directory outside the repository; and with ``cornet[mpi]``, a sharded daemon."""
+from a directory outside the repository: the CLI, the pytest plugin, the ns-3 engine built from
+the sources it carries; and with ``cornet[mpi]``, a sharded daemon."""
 
 import os
 import re
@@ -189,3 +190,44 @@ def test_the_ns3_engine_builds_from_the_installed_sources(installed):
         code = daemon.stop()
     assert code == 0, daemon.log_tail()
     assert "network=ns3" in daemon.stdout_lines[0], daemon.stdout_lines
+
+
+def test_the_pytest_plugin_of_the_installed_wheel(installed, tmp_path):
+    """A CI user's test file, run by pytest installed beside the wheel: the plugin comes from
+    the wheel's entry point; a daemon flown with pymavlink and a lockstep flight, then the
+    plugin's assertions on their logs."""
+    bin_dir, work, env = installed
+    out = sh([bin_dir / "python", "-m", "pip", "install", "-q", "--no-compile",
+              "--disable-pip-version-check", "pytest"], work, timeout=INSTALL_TIMEOUT_S, env=env)
+    assert out.returncode == 0, out.stderr
+    suite = tmp_path / "ci"
+    suite.mkdir()
+    (suite / "test_flight.py").write_text('''
+from pymavlink import mavutil
+
+from gateway.ci.pytest_plugin import landed_within
+
+
+def test_daemon_heartbeat(cornet_daemon):
+    d = cornet_daemon()
+    link = mavutil.mavlink_connection(d.pymavlink_url(), source_system=255)
+    assert link.wait_heartbeat(timeout=20) is not None
+    assert link.target_system == 1
+
+
+def test_lockstep_takeoff_and_land(cornet_sim):
+    sim = cornet_sim()
+    api = sim.api(0)
+    assert sim.run_until(lambda: sim.status(0).prearm_ok, timeout_s=30)
+    assert api.arm() == 0
+    assert api.takeoff() == 0
+    assert sim.run_until(lambda: -sim.state(0).position_ned_m[2] > 2.0, timeout_s=60)
+    assert api.land() == 0
+    assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=120)
+    sim.close()
+    assert landed_within(sim, "home", 2)
+''')
+    out = sh([bin_dir / "python", "-m", "pytest", "-q", "-p", "no:cacheprovider", suite], work,
+             timeout=600, env=env)
+    assert out.returncode == 0, out.stdout[-4000:] + out.stderr[-2000:]
+    assert "2 passed" in out.stdout, out.stdout[-2000:]
