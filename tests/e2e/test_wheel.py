@@ -3,17 +3,19 @@ alone in a fresh venv (no system site-packages; its dependencies from PyPI or pi
 from a directory outside the repository: the CLI, the pytest plugin, the ns-3 engine built from
 the sources it carries; and with ``cornet[mpi]``, a sharded daemon."""
 
+import json
 import os
 import re
 import shutil
 import subprocess
 import sys
+import urllib.request
 from pathlib import Path
 
 import pytest
 
 from gateway.ci.launcher import CornetDaemon
-from gateway.ci.ports import free_port_offset
+from gateway.ci.ports import free_port_offset, free_tcp_port
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
@@ -80,9 +82,10 @@ def installed(wheel, tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def installed_mpi(wheel, tmp_path_factory):
-    """``pip install 'cornet[mpi]'``: with mpi4py and MPICH's wheel (mpiexec in the venv)."""
-    return _install(tmp_path_factory.mktemp("mpi"), f"{wheel}[mpi]")
+def installed_extras(wheel, tmp_path_factory):
+    """``pip install 'cornet[mpi,web]'``: with mpi4py and MPICH's wheel (mpiexec in the venv),
+    and aiohttp for the live view."""
+    return _install(tmp_path_factory.mktemp("extras"), f"{wheel}[mpi,web]")
 
 
 def test_version(installed):
@@ -140,9 +143,9 @@ def test_without_the_mpi_extra_shards_say_how_to_get_it(installed):
     assert "pip install 'cornet[mpi]'" in out.stderr, out.stderr
 
 
-def test_the_mpi_extra_runs_a_sharded_daemon(installed_mpi):
+def test_the_mpi_extra_runs_a_sharded_daemon(installed_extras):
     """The venv's own mpiexec (MPICH's wheel) starts the job; nothing else is installed."""
-    bin_dir, work, env = installed_mpi
+    bin_dir, work, env = installed_extras
     assert (bin_dir / "mpiexec").exists()
     offset = free_port_offset(4)
     cmd = [str(bin_dir / "cornet"), "run", "--vehicles", "4", "--shards", "2",
@@ -231,3 +234,30 @@ def test_lockstep_takeoff_and_land(cornet_sim):
              timeout=600, env=env)
     assert out.returncode == 0, out.stdout[-4000:] + out.stderr[-2000:]
     assert "2 passed" in out.stdout, out.stdout[-2000:]
+
+
+def test_the_web_extra_serves_the_live_view(installed_extras):
+    """The page and its script and style come from the installed package."""
+    bin_dir, work, env = installed_extras
+    offset = free_port_offset(1)
+    port = free_tcp_port()
+    cmd = [str(bin_dir / "cornet"), "run", "--port-offset", str(offset), "--web", str(port)]
+    proc = subprocess.Popen(cmd, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, stdin=subprocess.DEVNULL)
+    daemon = CornetDaemon(proc, cmd, offset, 1, None)
+    try:
+        assert daemon.wait_ready(120), daemon.log_tail()
+        page = urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=10).read().decode()
+        assert "<canvas" in page, page[:500]
+        names = re.findall(r'(?:src|href)="/static/([^"]+)"', page)
+        assert {"live.js", "live.css"} <= set(names), names
+        for name in names:
+            body = urllib.request.urlopen(f"http://127.0.0.1:{port}/static/{name}",
+                                          timeout=10).read()
+            assert body, name
+        state = json.loads(urllib.request.urlopen(f"http://127.0.0.1:{port}/state.json",
+                                                  timeout=10).read())
+        assert state, state
+    finally:
+        code = daemon.stop()
+    assert code == 0, daemon.log_tail()
