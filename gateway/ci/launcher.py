@@ -124,7 +124,7 @@ class CornetDaemon:
         return f"udpin://0.0.0.0:{self.gcs_port()}"
 
     def pymavlink_url(self, index: int | None = None) -> str:
-        """For pymavlink's ``mavutil.mavlink_connection`` (its own form, ``udpin:HOST:PORT``):
+        """For pymavlink's ``mavlink_connection`` (its own form, ``udpin:HOST:PORT``):
         the GCS link of every vehicle, or with ``index`` that vehicle's API link."""
         port = self.gcs_port() if index is None else self.mavsdk_port(index)
         return f"udpin:0.0.0.0:{port}"
