@@ -37,6 +37,16 @@ from vehicles.faults import TYPES, UNITS
 from vehicles.params import ParamType
 from vehicles.types import CommandResult, NavState
 
+# listener_main.cpp's usage(), as PRINT_MODULE_DESCRIPTION / _USAGE_NAME / _ARG / _PARAM_INT
+# print it (platforms/common/module.cpp)
+LISTENER_USAGE = (
+    "\nUtility to listen on uORB topics and print the data to the console.\n\nThe listener can "
+    "be exited any time by pressing Ctrl+C, Esc, or Q.\n\n\n"
+    "Usage: listener <command> [arguments...]\n Commands:\n"
+    "     <topic_name> uORB topic name\n"
+    "     [-i <val>]  Topic instance\n                 default: 0\n"
+    "     [-n <val>]  Number of messages\n                 default: 1\n"
+    "     [-r <val>]  Subscription rate (unlimited if 0)\n                 default: 0\n")
 VERSION = "1.15.2 0 (17761023)"  # what AUTOPILOT_VERSION says (v1.15.2 release)
 PROMPT = "pxh> "
 MAX_LINE = 4096
@@ -337,13 +347,15 @@ class Pxh:
 
     def _listener(self, args: list[str], now_s: float) -> int:
         """listener_main.cpp's one message: a topic's only instance, or each of its published
-        instances under "Instance N:"."""
-        instances = [t for t in TOPICS if args and t.name == args[0]]
-        if not instances:
-            name = args[0] if args else ""
-            self.print(f"ERROR [listener] Topic {name} did not match any known topics\n"
-                       if args else "Usage: listener <topic_name> [-n <num>]\n")
+        instances under "Instance N:"; its usage without a topic, and its words for a topic it
+        does not know (returning -1)."""
+        if not args:
+            self.print(LISTENER_USAGE)
             return 1
+        instances = [t for t in TOPICS if t.name == args[0]]
+        if not instances:
+            self.print(f"Topic {args[0]} did not match any known topics\n")
+            return -1
         us = int(now_s * 1e6)
         view = _ListenerView(self.vehicle, self.logger.links if self.logger is not None else ())
         published = [(t, v) for t in instances if (v := t.read(view, us)) is not None]

@@ -52,6 +52,14 @@ def test_prompt_echo_and_commands():
         shell(sim, "param set COM_ARMABLE 0\n")
         assert "INFO  [commander] Preflight check: FAILED\n" in shell(sim, "commander check\n")
         shell(sim, "param set COM_ARMABLE 1\n")
+        # listener_main.cpp's usage and its words for an unknown topic (returning -1)
+        usage = shell(sim, "listener\n")
+        assert "Usage: listener <command> [arguments...]\n Commands:\n" \
+            "     <topic_name> uORB topic name\n     [-i <val>]  Topic instance\n" in usage
+        assert usage.endswith("Command 'listener' failed, returned 1.\npxh> ")
+        assert shell(sim, "listener nope\n").endswith(
+            "Topic nope did not match any known topics\nCommand 'listener' failed, returned -1.\n"
+            "pxh> ")
         listened = shell(sim, "listener vehicle_attitude\n")
         assert "TOPIC: vehicle_attitude" in listened and "    q: [" in listened
         assert "    thrust_body: [" in shell(sim, "listener vehicle_rates_setpoint\n")
