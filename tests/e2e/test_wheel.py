@@ -3,6 +3,7 @@ alone in a fresh venv (no system site-packages; its dependencies from PyPI or pi
 from a directory outside the repository: the CLI, the pytest plugin, the ns-3 engine built from
 the sources it carries; and with ``cornet[mpi]``, a sharded daemon."""
 
+import contextlib
 import json
 import os
 import re
@@ -75,6 +76,24 @@ def _install(tmp: Path, requirement: str) -> tuple[Path, Path, dict[str, str]]:
     return venv / "bin", work, env
 
 
+@contextlib.contextmanager
+def _serving(venv: tuple[Path, Path, dict[str, str]], vehicles: int, *args: str):
+    """``cornet run ARGS`` from the venv, on a free port offset: the daemon once it is ready;
+    stopped afterwards, and it must exit 0."""
+    bin_dir, work, env = venv
+    offset = free_port_offset(vehicles)
+    cmd = [str(bin_dir / "cornet"), "run", *args, "--port-offset", str(offset)]
+    proc = subprocess.Popen(cmd, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, stdin=subprocess.DEVNULL)
+    daemon = CornetDaemon(proc, cmd, offset, vehicles, None)
+    try:
+        assert daemon.wait_ready(120), daemon.log_tail()
+        yield daemon
+    finally:
+        code = daemon.stop()
+    assert code == 0, daemon.log_tail()
+
+
 @pytest.fixture(scope="module")
 def installed(wheel, tmp_path_factory):
     """``pip install cornet``: the wheel alone."""
@@ -108,18 +127,8 @@ def test_scenarios_lists_the_shipped_ones_and_check_finds_them_by_name(installed
 
 
 def test_run_a_shipped_scenario_by_name(installed):
-    bin_dir, work, env = installed
-    offset = free_port_offset(2)
-    cmd = [str(bin_dir / "cornet"), "run", "--scenario", "lossy-wifi", "--port-offset",
-           str(offset)]
-    proc = subprocess.Popen(cmd, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, stdin=subprocess.DEVNULL)
-    daemon = CornetDaemon(proc, cmd, offset, 2, None)
-    try:
-        assert daemon.wait_ready(120), daemon.log_tail()
-    finally:
-        code = daemon.stop()
-    assert code == 0, daemon.log_tail()
+    with _serving(installed, 2, "--scenario", "lossy-wifi") as daemon:
+        pass
     # Nothing before the ready line on stdout (no PyBullet build banner), nor on stderr.
     assert daemon.stdout_lines[0].startswith("cornet ready: 2 vehicle(s)"), daemon.stdout_lines
     assert not any("pybullet build time" in line for line in daemon.output), daemon.log_tail()
@@ -145,19 +154,9 @@ def test_without_the_mpi_extra_shards_say_how_to_get_it(installed):
 
 def test_the_mpi_extra_runs_a_sharded_daemon(installed_extras):
     """The venv's own mpiexec (MPICH's wheel) starts the job; nothing else is installed."""
-    bin_dir, work, env = installed_extras
-    assert (bin_dir / "mpiexec").exists()
-    offset = free_port_offset(4)
-    cmd = [str(bin_dir / "cornet"), "run", "--vehicles", "4", "--shards", "2",
-           "--port-offset", str(offset)]
-    proc = subprocess.Popen(cmd, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, stdin=subprocess.DEVNULL)
-    daemon = CornetDaemon(proc, cmd, offset, 4, None)
-    try:
-        assert daemon.wait_ready(120), daemon.log_tail()
-    finally:
-        code = daemon.stop()
-    assert code == 0, daemon.log_tail()
+    assert (installed_extras[0] / "mpiexec").exists()
+    with _serving(installed_extras, 4, "--vehicles", "4", "--shards", "2") as daemon:
+        pass
     assert daemon.stdout_lines[0].startswith("cornet ready: 4 vehicle(s) in 2 shards"), \
         daemon.stdout_lines
 
@@ -184,14 +183,8 @@ def test_the_ns3_engine_builds_from_the_installed_sources(installed):
                     "build from the installed sources is not tried")
     built = sh(["make", "-C", sources], work, timeout=900, env=env)
     assert built.returncode == 0, built.stdout + built.stderr
-    proc = subprocess.Popen(cmd, cwd=work, env=env, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, stdin=subprocess.DEVNULL)
-    daemon = CornetDaemon(proc, cmd, offset, 1, None)
-    try:
-        assert daemon.wait_ready(120), daemon.log_tail()
-    finally:
-        code = daemon.stop()
-    assert code == 0, daemon.log_tail()
+    with _serving(installed, 1, "--scenario", "ns3-wifi") as daemon:
+        pass
     assert "network=ns3" in daemon.stdout_lines[0], daemon.stdout_lines
 
 
@@ -238,15 +231,8 @@ def test_lockstep_takeoff_and_land(cornet_sim):
 
 def test_the_web_extra_serves_the_live_view(installed_extras):
     """The page and its script and style come from the installed package."""
-    bin_dir, work, env = installed_extras
-    offset = free_port_offset(1)
     port = free_tcp_port()
-    cmd = [str(bin_dir / "cornet"), "run", "--port-offset", str(offset), "--web", str(port)]
-    proc = subprocess.Popen(cmd, cwd=work, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, stdin=subprocess.DEVNULL)
-    daemon = CornetDaemon(proc, cmd, offset, 1, None)
-    try:
-        assert daemon.wait_ready(120), daemon.log_tail()
+    with _serving(installed_extras, 1, "--web", str(port)):
         page = urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=10).read().decode()
         assert "<canvas" in page, page[:500]
         names = re.findall(r'(?:src|href)="/static/([^"]+)"', page)
@@ -258,6 +244,3 @@ def test_the_web_extra_serves_the_live_view(installed_extras):
         state = json.loads(urllib.request.urlopen(f"http://127.0.0.1:{port}/state.json",
                                                   timeout=10).read())
         assert state, state
-    finally:
-        code = daemon.stop()
-    assert code == 0, daemon.log_tail()
