@@ -250,9 +250,10 @@ def read_telemetry(buf: bytearray, n: int, sim_t: list[float], armed: list[int],
     by sysid: simulated time from ATTITUDE's time_boot_ms, the armed flag from the autopilot's
     HEARTBEAT base_mode, relative_alt from GLOBAL_POSITION_INT. MAVLink 2 trims a payload's
     trailing zeros, so a short payload reads as zero-padded. CRC and signature are not checked;
-    the walk stops at a byte that does not start a MAVLink 2 frame. True if a HEARTBEAT was
-    among the frames."""
-    heartbeat = False
+    the walk stops at a byte that does not start a MAVLink 2 frame. Returns the sysid of an
+    autopilot HEARTBEAT among the frames (PX4 sends each message in a datagram of its own), else
+    0."""
+    heartbeat = 0
     i = 0
     while i + 10 <= n and buf[i] == 0xFD:
         length = buf[i + 1]
@@ -269,7 +270,7 @@ def read_telemetry(buf: bytearray, n: int, sim_t: list[float], armed: list[int],
             elif msg_id == MSG_ID_HEARTBEAT and buf[i + 6] == MAV_COMP_ID_AUTOPILOT1:
                 armed[buf[i + 5]] = (1 if length > 6 and buf[start + 6] & MAV_MODE_FLAG_SAFETY_ARMED
                                      else 0)
-                heartbeat = True
+                heartbeat = buf[i + 5]
             elif msg_id == MSG_ID_GLOBAL_POSITION_INT:
                 mm = (_I32(buf, start + 16)[0] if length >= 20
                       else _I32(bytes(buf[start:end]).ljust(20, b"\0"), 16)[0])
@@ -279,13 +280,16 @@ def read_telemetry(buf: bytearray, n: int, sim_t: list[float], armed: list[int],
 
 
 def listener(offset: int, vehicles: int, counts, telemetry, clock, commands, bound,
-             stop, leave_first_api_port: bool = False) -> None:
+             stop, gaps, leave_first_api_port: bool = False) -> None:
     """Drain the GCS and API client ports; count datagrams (counts[0]) and bytes (counts[1]);
     read every datagram's telemetry (read_telemetry). Every PUBLISH_PERIOD_S it hands the
     parent each vehicle's armed flag (telemetry[0:N]) and relative altitude (telemetry[N:2N])
     and, under the lock of ``clock``, [its monotonic time, the minimum simulated time across
     vehicles 1..N (-1 until each has sent an ATTITUDE)]; clock[2] is the monotonic time of the
-    first HEARTBEAT (stamped when read, so up to LISTENER_NAP_S late). Sysid lists on
+    first HEARTBEAT (stamped when read, so up to LISTENER_NAP_S late). While ``gaps[2]`` is
+    non-zero (the measurement window), ``gaps[0]`` and ``gaps[1]`` hold the longest wall time
+    between two HEARTBEATs of one vehicle on the GCS client port, over every vehicle and of
+    vehicle 1 (what a client's link time-out sees: MAVSDK drops a system after 3 s). Sysid lists on
     ``commands`` get arm + takeoff, sent from the vehicle's API client port so the vehicle keeps
     talking to this process. ``leave_first_api_port``: vehicle 1's API client port is left to
     a MAVSDK client (--mavsdk)."""
@@ -301,6 +305,10 @@ def listener(offset: int, vehicles: int, counts, telemetry, clock, commands, bou
     datagrams = nbytes = 0
     sim_t, armed, rel_alt = [-1.0] * 256, [0] * 256, [0.0] * 256  # by sysid (one byte)
     first_heartbeat = False
+    gcs_fd = socks[GCS_CLIENT_PORT + offset].fileno()
+    last_heartbeat = [0.0] * 256  # by sysid: when its latest HEARTBEAT came to the GCS port
+    longest = [0.0, 0.0]
+    window = False
     next_publish = 0.0
     bound.set()
     try:
@@ -314,10 +322,20 @@ def listener(offset: int, vehicles: int, counts, telemetry, clock, commands, bou
                         break
                     datagrams += 1
                     nbytes += n
-                    if read_telemetry(buf, n, sim_t, armed, rel_alt) and not first_heartbeat:
+                    sysid = read_telemetry(buf, n, sim_t, armed, rel_alt)
+                    if not sysid:
+                        continue
+                    if not first_heartbeat:
                         first_heartbeat = True
                         with clock.get_lock():
                             clock[2] = time.monotonic()
+                    if fd == gcs_fd:
+                        now = time.monotonic()
+                        last, last_heartbeat[sysid] = last_heartbeat[sysid], now
+                        if window and last:
+                            longest[0] = max(longest[0], now - last)
+                            if sysid == 1:
+                                longest[1] = max(longest[1], now - last)
             counts[0], counts[1] = datagrams, nbytes
             now = time.monotonic()
             if now < next_publish:
@@ -329,6 +347,9 @@ def listener(offset: int, vehicles: int, counts, telemetry, clock, commands, bou
             t_min = min(sim_t[1:vehicles + 1])
             with clock.get_lock():
                 clock[0], clock[1] = now, t_min
+            window = bool(gaps[2])
+            if window:
+                gaps[0], gaps[1] = longest
             if stop.is_set():
                 break
             try:
@@ -562,6 +583,8 @@ class Point:
     lo_p99_ms: float = math.nan
     added_p50_ms: float = math.nan
     added_p99_ms: float = math.nan
+    heartbeat_gap_s: float = math.nan  # the longest wall time between one vehicle's HEARTBEATs
+    heartbeat_gap_v1_s: float = math.nan  # vehicle 1's, over the MAVSDK example's run (--mavsdk)
     pings: int = 0
     pings_lost: int = 0
     exit_code: int | None = None
@@ -668,12 +691,14 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
     counts = ctx.Array("d", 6, lock=False)
     telemetry = ctx.Array("d", 2 * n, lock=False)
     clock_shared = ctx.Array("d", [math.nan, -1.0, math.nan])  # with a lock
+    gaps = ctx.Array("d", 3, lock=False)  # listener(): longest HEARTBEAT gaps, window flag
     commands, rtt_out = ctx.Queue(), ctx.Queue()
     listen_bound, ping_bound = ctx.Event(), ctx.Event()
     go, stop_pings, stop = ctx.Event(), ctx.Event(), ctx.Event()
     helpers = [
         ctx.Process(target=listener, args=(offset, n, counts, telemetry, clock_shared, commands,
-                                           listen_bound, stop, mavsdk), daemon=True),
+                                           listen_bound, stop, gaps, bool(mavsdk)),
+                    daemon=True),
         ctx.Process(target=pinger, args=(VEHICLE_API_PORT + (1 if mavsdk else 0) + offset,
                                           echo_port, counts,
                                           ping_bound, go, stop_pings, stop, rtt_out),
@@ -718,12 +743,15 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
         cpu0, lcpu0, w0 = tree_cpu_s(pid), tree_cpu_s(helpers[0].pid), time.monotonic()
         ecpu0 = engine_cpu_s(pid)
         go.set()
+        gaps[2] = 1.0
         example = None
         if mavsdk:
             example = ThreadPool(1).apply_async(run_mavsdk_example,
                                                 (mavsdk, offset, MAVSDK_TIMEOUT_S))
         time.sleep(seconds)
         cpu1, lcpu1, w1 = tree_cpu_s(pid), tree_cpu_s(helpers[0].pid), time.monotonic()
+        time.sleep(2 * PUBLISH_PERIOD_S)  # the listener's figures of the window
+        point.heartbeat_gap_s = gaps[0]
         ecpu1 = engine_cpu_s(pid)
         if scenario is not None:
             point.notes.append(f"ns-3 engine CPU {(ecpu1 - ecpu0) / (w1 - w0) * 100:.0f} %, "
@@ -754,10 +782,13 @@ def measure(n: int, shards: int, seconds: float, flying: bool, bare_s: float, ec
                                                  / (n * point.sim_s) / 1e3)
         if example is not None:
             passed, took, tail = example.get(MAVSDK_TIMEOUT_S + 10)
+            time.sleep(2 * PUBLISH_PERIOD_S)  # the listener's last figures
+            point.heartbeat_gap_v1_s = gaps[1]
             others = len([sysid for sysid in clock.flying()[0] if sysid != 1])
             point.notes.append(f"MAVSDK {mavsdk}.py on vehicle 1 while "
                                f"{others} others fly: {'PASS' if passed else 'FAIL'} in "
-                               f"{took:.0f} s")
+                               f"{took:.0f} s; longest wall time between its HEARTBEATs "
+                               f"{gaps[1]:.2f} s (MAVSDK drops a system after 3 s)")
             print(f"    mavsdk: {'PASS' if passed else 'FAIL'} in {took:.1f} s: {tail}",
                   file=sys.stderr, flush=True)
         try:
@@ -836,8 +867,8 @@ def markdown_table(points: list[Point]) -> str:
     head = ["vehicles", "shards", "launch", "first HEARTBEAT", "flying (wait)", "real-time factor",
             "CPU per vehicle-s", "bare PyBullet per body-s", "÷ bare", "UDP sends alone per vehicle-s",
             "RSS", "RSS per vehicle",
-            "datagrams/s out", "MB/s out", "ping RTT gateway p50 / p99", "loopback p50 / p99",
-            "added p50 / p99", "notes"]
+            "datagrams/s out", "MB/s out", "longest HEARTBEAT gap", "ping RTT gateway p50 / p99",
+            "loopback p50 / p99", "added p50 / p99", "notes"]
     rows = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for p in points:
         flying = (f"{p.flying}/{p.vehicles} ({_f(p.fly_wait_s, '.0f')} s)"
@@ -856,6 +887,7 @@ def markdown_table(points: list[Point]) -> str:
             _f(p.rss_mb, ".0f") + " MB",
             _f(p.rss_per_vehicle_mb, ".2f") + " MB" if p.vehicles > 1 else "-",
             _f(p.datagrams_per_s, ",.0f"), _f(p.mbytes_per_s, ".2f"),
+            _f(p.heartbeat_gap_s, ".2f") + " s",
             f"{_f(p.gw_p50_ms, '.2f')} / {_f(p.gw_p99_ms, '.2f')} ms"
             + (f" ({', '.join(pings)})" if pings else ""),
             f"{_f(p.lo_p50_ms, '.2f')} / {_f(p.lo_p99_ms, '.2f')} ms",
@@ -1014,6 +1046,9 @@ def main() -> int:
     print()
     print("Real-time factor: minimum simulated time across vehicles (ATTITUDE time_boot_ms) "
           "per wall second. First HEARTBEAT: daemon start to the first HEARTBEAT received. "
+          "Longest HEARTBEAT gap: the most wall time between two HEARTBEATs of one vehicle on "
+          "the GCS port in the window (PX4 sends one per simulated second; MAVSDK drops a system "
+          "after 3 s without one). "
           "CPU per vehicle-s: daemon CPU (all its processes) / (N x simulated s); ÷ bare: over "
           "N PyBullet boxes stepped alone. UDP sends alone: the CPU one sendto of the daemon's "
           "mean datagram costs (measured here, to the listener's port while it drains) times "
