@@ -8,7 +8,7 @@ Rules and invariants (PX4 semantics, simplified to what SITL exercises):
   condition clears, ``WHEN_CONDITION_CLEARS`` actions go away, the others stay until a mode change
   or disarm (``ON_MODE_CHANGE_OR_DISARM``), disarm (``ON_DISARM``) or never (Terminate).
 - The selected action is the most severe one. Adding an action worse than Warn starts the
-  COM_FAIL_ACT_T hold delay: the vehicle holds first ("Failsafe activated, entering Hold for N
+  COM_FAIL_ACT_T hold delay: the vehicle holds first ("Failsafe activated: entering Hold for N
   seconds") and then takes the action ("Failsafe activated"). Terminate/Disarm skip the delay.
 - The user is told when the action gets worse or a warning is added (notifyUser): an event that
   names the action and its cause (a lost link, a battery level) and the text above.
@@ -410,7 +410,7 @@ class Failsafe:
             else:
                 events.send(now_s, FAILSAFE_HOLD, Log.CRITICAL, Log.WARNING, "IBHB", custom_mode,
                             int(delayed), wire_secs, int(cause))
-            self._log.critical(now_s, f"Failsafe activated, entering Hold for {secs} seconds\t")
+            self._log.critical(now_s, f"Failsafe activated: entering Hold for {secs} seconds\t")
             return
         if events is None:
             pass

@@ -153,7 +153,7 @@ def test_a_forced_heading_not_reached_within_mis_yaw_tmt_fails_the_mission_and_r
         assert v.mission_status.reached_seq == 0  # item 1 never reached
         # the failsafe framework holds COM_FAIL_ACT_T (5 s) before its action
         assert sim.run(7.0, until=lambda: v.status.nav_state is NavState.AUTO_RTL)
-        assert "Failsafe activated, entering Hold for 5 seconds\t" in sim.texts()
+        assert "Failsafe activated: entering Hold for 5 seconds\t" in sim.texts()
         # missionCheck.cpp: an arming check of every mode, with its event and text
         assert "Mission cannot be completed\t" in sim.texts()
         told = [event_name(e.id) for e in v.events.after(v.events.latest - len(v.events))]

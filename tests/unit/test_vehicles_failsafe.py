@@ -70,7 +70,7 @@ def test_each_check_holds_then_acts_and_clears_on_disarm(check):
     assert fs.update(0.0, FailsafeFlags(**base)) is Action.NONE
     flags = FailsafeFlags(**{**base, **FLAG_FOR_CHECK[check]})
     assert fs.update(1.0, flags) is Action.HOLD  # COM_FAIL_ACT_T = 5 s hold first
-    assert log.after(0)[-1].text == "Failsafe activated, entering Hold for 5 seconds\t"
+    assert log.after(0)[-1].text == "Failsafe activated: entering Hold for 5 seconds\t"
     expected = Action.LAND if check == "battery_warning" else Action.RTL
     assert fs.update(6.1, flags) is expected
     assert log.after(0)[-1].text == "Failsafe activated\t"
@@ -111,7 +111,7 @@ def test_the_user_is_told_what_the_failsafe_does_and_why():
         ("commander_failsafe_enter", Log.CRITICAL, Log.WARNING,
          (mission, int(Action.RTL), int(Cause.GCS_CONNECTION_LOSS)))]
     assert [t.text for t in log.after(0)] == [
-        "Failsafe activated, entering Hold for 5 seconds\t", "Failsafe activated\t"]
+        "Failsafe activated: entering Hold for 5 seconds\t", "Failsafe activated\t"]
     # As a ground station shows them: libevents (pyulog's copy) with the vehicle's metadata.
     import json
 
@@ -479,4 +479,4 @@ def test_a_hold_delay_beyond_the_events_field_is_cast_as_px4_casts_it(delay_s):
     assert fs.update(1.0, FailsafeFlags(**base, gcs_lost=True)) is Action.HOLD
     secs = int(float(fs._params["COM_FAIL_ACT_T"]) + 0.5)
     assert _told(events)[0][3][2] == secs & 0xFFFF
-    assert log.after(0)[-1].text == f"Failsafe activated, entering Hold for {secs} seconds\t"
+    assert log.after(0)[-1].text == f"Failsafe activated: entering Hold for {secs} seconds\t"

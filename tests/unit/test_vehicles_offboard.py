@@ -132,7 +132,7 @@ def test_offboard_loss_holds_then_returns(sim):
     assert sim.run(3.0, until=lambda: v.status.failsafe)
     assert v.status.nav_state is NavState.AUTO_LOITER  # COM_FAIL_ACT_T hold first
     assert sim.t - lost_at == pytest.approx(1.0, abs=0.1)  # COM_OF_LOSS_T
-    assert "Failsafe activated, entering Hold for 5 seconds\t" in sim.texts()
+    assert "Failsafe activated: entering Hold for 5 seconds\t" in sim.texts()
     assert sim.run(6.0, until=lambda: v.status.nav_state is NavState.AUTO_RTL)
     assert sim.t - lost_at == pytest.approx(6.0, abs=0.2)
     assert sim.texts()[-3:].count("Failsafe activated\t") == 1
