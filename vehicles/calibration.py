@@ -354,9 +354,7 @@ class Calibration:
         per_side_s = MAG_DURATION_S / 6
 
         def worker(orient: int) -> Routine:
-            self.log.info(self._now, "[cal] Rotate vehicle around the detected orientation")
-            self.log.info(self._now, f"[cal] Continue rotation for {SIDES[orient]} "
-                                     f"{per_side_s:.1f} s")
+            self.log.info(self._now, "[cal] Rotate vehicle")  # mag_calibration_worker, v1.11+
             deadline = self._now + per_side_s * 5
             integral, last = [0.0, 0.0, 0.0], self._now
             while max(abs(x) for x in integral) < GYRO_INT_THRESH_RAD:
