@@ -165,18 +165,19 @@ _MODE_ARG = ("uint32_t", "arg0")
 _APPEND = "append_health_and_arming_messages"
 FAILSAFE_GENERIC_HOLD = EventDef(
     "commander_failsafe_enter_generic_hold", "default",
-    "Failsafe activated, triggering {2} in {3} seconds",
+    "Failsafe activated: switching to {2} in {3} seconds",
     (_MODE_ARG, ("px4::failsafe_action_t", "arg1"), ("uint16_t", "arg2")), type=_APPEND)
 FAILSAFE_HOLD = EventDef(
     "commander_failsafe_enter_hold", "default",
-    "Failsafe activated due to {4}, triggering {2} in {3} seconds",
+    "{4}: switching to {2} in {3} seconds",
     (_MODE_ARG, ("px4::failsafe_action_t", "arg1"), ("uint16_t", "arg2"),
      ("px4::failsafe_cause_t", "arg3")))
 FAILSAFE_GENERIC_WARN = EventDef(
-    "commander_failsafe_enter_generic_warn", "default", "Failsafe warning triggered",
+    "commander_failsafe_enter_generic_warn", "default", "Failsafe warning:",
     (_MODE_ARG,), type=_APPEND, description="No action is triggered.")
 FAILSAFE_GENERIC = EventDef(
-    "commander_failsafe_enter_generic", "default", "Failsafe activated, triggering {2}",
+    "commander_failsafe_enter_generic", "default",
+    "Failsafe activated: Autopilot disengaged, switching to {2}",
     (_MODE_ARG, ("px4::failsafe_action_t", "arg1")), type=_APPEND)
 FAILSAFE_LOW_BAT = EventDef("commander_failsafe_enter_low_bat", "default",
                             "Low battery level, return advised")
@@ -185,10 +186,10 @@ FAILSAFE_CRIT_BAT = EventDef("commander_failsafe_enter_crit_bat_warn", "default"
 FAILSAFE_EMERGENCY_BAT = EventDef("commander_failsafe_enter_crit_low_bat_warn", "default",
                                   "Emergency battery level, land immediately")
 FAILSAFE_WARN = EventDef(
-    "commander_failsafe_enter_warn", "default", "Failsafe warning triggered due to {2}",
+    "commander_failsafe_enter_warn", "default", "Failsafe warning: {2}",
     (_MODE_ARG, ("px4::failsafe_cause_t", "arg1")), description="No action is triggered.")
 FAILSAFE_ENTER = EventDef(
-    "commander_failsafe_enter", "default", "Failsafe activated due to {3}, triggering {2}",
+    "commander_failsafe_enter", "default", "{3}: switching to {2}",
     (_MODE_ARG, ("px4::failsafe_action_t", "arg1"), ("px4::failsafe_cause_t", "arg2")))
 # failureDetectorCheck.cpp: the attitude beyond FD_FAIL_R / FD_FAIL_P (failure_detector.py)
 CHECK_FD_ROLL = _check("check_failure_detector_roll", "Attitude failure detected",

@@ -63,10 +63,10 @@ class Action(enum.IntEnum):
 
 # failsafe_action_t's descriptions (src/lib/events/enums.json), as the events name the actions
 ACTION_TEXT = {Action.NONE: "", Action.WARN: "warning",
-               Action.FALLBACK_POSCTRL: "fallback to position control",
-               Action.FALLBACK_ALTCTRL: "fallback to altitude control",
-               Action.FALLBACK_STABILIZED: "fallback to stabilized", Action.HOLD: "hold",
-               Action.RTL: "RTL", Action.LAND: "land", Action.DESCEND: "descend",
+               Action.FALLBACK_POSCTRL: "Position mode",
+               Action.FALLBACK_ALTCTRL: "Altitude mode",
+               Action.FALLBACK_STABILIZED: "Stabilized mode", Action.HOLD: "Hold",
+               Action.RTL: "RTL", Action.LAND: "Land", Action.DESCEND: "Descend",
                Action.DISARM: "disarm", Action.TERMINATE: "terminate"}
 
 
@@ -82,12 +82,12 @@ class Cause(enum.IntEnum):
     LOW_REMAINING_FLIGHT_TIME = 6
 
 
-CAUSE_TEXT = {Cause.GENERIC: "", Cause.MANUAL_CONTROL_LOSS: "manual control loss",
+CAUSE_TEXT = {Cause.GENERIC: "", Cause.MANUAL_CONTROL_LOSS: "Manual control loss",
               Cause.GCS_CONNECTION_LOSS: "GCS connection loss",
-              Cause.LOW_BATTERY_LEVEL: "low battery level",
-              Cause.CRITICAL_BATTERY_LEVEL: "critical battery level",
-              Cause.EMERGENCY_BATTERY_LEVEL: "emergency battery level",
-              Cause.LOW_REMAINING_FLIGHT_TIME: "low remaining flight time"}
+              Cause.LOW_BATTERY_LEVEL: "Low battery level",
+              Cause.CRITICAL_BATTERY_LEVEL: "Critical battery level",
+              Cause.EMERGENCY_BATTERY_LEVEL: "Emergency battery level",
+              Cause.LOW_REMAINING_FLIGHT_TIME: "Remaining flight time low"}
 # Warnings with a cause of their own event (notifyUser), by cause: (event, external level)
 _CAUSE_WARNINGS = {Cause.LOW_BATTERY_LEVEL: (FAILSAFE_LOW_BAT, Log.WARNING),
                    Cause.CRITICAL_BATTERY_LEVEL: (FAILSAFE_CRIT_BAT, Log.CRITICAL),

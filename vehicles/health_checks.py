@@ -104,13 +104,14 @@ N = NavState
 # navigation_mode_group_t (events/enums.json, px4): the group of each navigation state that has
 # one (Position Slow, Descend and Termination have none there).
 MODE_GROUPS = {
-    N.MANUAL: ("manual", "Manual"), N.ALTCTL: ("altctl", "Altitude"),
-    N.POSCTL: ("posctl", "Position"), N.AUTO_MISSION: ("mission", "Mission"),
-    N.AUTO_LOITER: ("loiter", "Hold"), N.AUTO_RTL: ("rtl", "RTL"), N.ACRO: ("acro", "Acro"),
+    N.MANUAL: ("manual", "Fully manual mode (w/o any controller support)"),
+    N.ALTCTL: ("altctl", "Altitude mode"), N.POSCTL: ("posctl", "Position mode"),
+    N.AUTO_MISSION: ("mission", "Mission mode"), N.AUTO_LOITER: ("loiter", "Loiter"),
+    N.AUTO_RTL: ("rtl", "RTL"), N.ACRO: ("acro", "Acro"),
     N.OFFBOARD: ("offboard", "Offboard"), N.STAB: ("stab", "Stabilized"),
     N.AUTO_TAKEOFF: ("takeoff", "Takeoff"), N.AUTO_LAND: ("land", "Land"),
     N.AUTO_FOLLOW_TARGET: ("follow_target", "Follow Target"),
-    N.AUTO_PRECLAND: ("precland", "Precision Landing"), N.ORBIT: ("orbit", "Orbit")}
+    N.AUTO_PRECLAND: ("precland", "Precision Land"), N.ORBIT: ("orbit", "Orbit")}
 # mode_requirements.cpp, rotary wing: the modes that need each.
 REQ_LOCAL_POSITION = _modes(N.AUTO_MISSION, N.AUTO_LOITER, N.AUTO_RTL, N.AUTO_TAKEOFF,
                             N.AUTO_FOLLOW_TARGET, N.AUTO_PRECLAND, N.ORBIT)

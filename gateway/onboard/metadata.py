@@ -115,7 +115,9 @@ def events_json() -> bytes:
         "namespace": "px4",
         "enums": {
             "navigation_mode_group_t": {"type": "uint32_t", "is_bitfield": True,
-                                        "description": "Navigation mode group",
+                                        "description": "Navigation/flight mode group bits. "
+                                        "All modes within a group share the same arming checks. "
+                                        "For now we directly map group == mode.",
                                         "entries": modes},
             "health_component_t": {"type": "uint32_t", "is_bitfield": True,
                                    "description": "Bitfield for subsystems & components",

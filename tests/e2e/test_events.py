@@ -72,14 +72,16 @@ async def test_mavsdk_events_say_why_the_failsafe_acts(daemon_factory):
         await drone.action.takeoff()
         await first(drone.telemetry.in_air(), bool, 30, "in the air")
         await drone.failure.inject(FailureUnit.SYSTEM_BATTERY, FailureType.OFF, 0)
-        want = ["Failsafe activated due to emergency battery level, triggering land in 5 seconds",
-                "Failsafe activated due to emergency battery level, triggering land"]
+        want = ["Emergency battery level: switching to Land in 5 seconds",
+                "Emergency battery level: switching to Land"]
         for _ in range(200):
             if all(m in messages for m in want):
                 break
             await asyncio.sleep(0.1)
         task.cancel()
-        assert [m for m in messages if m.startswith("Failsafe")] == want, messages
+        # the failsafe's events, in order, and no other ("… switching to …", "Failsafe …")
+        assert [m for m in messages if "switching to" in m or m.startswith("Failsafe")] == want, \
+            messages
         await land_and_disarm(drone)
 
 

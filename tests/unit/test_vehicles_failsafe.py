@@ -91,9 +91,9 @@ def _told(events: EventLog) -> list[tuple[str, int, int, tuple]]:
 
 
 def test_the_user_is_told_what_the_failsafe_does_and_why():
-    """framework.cpp notifyUser: a lost data link in Mission holds first ("due to GCS connection
-    loss, triggering RTL in 5 seconds"), then returns ("due to GCS connection loss, triggering
-    RTL"); each event names the user's mode by its PX4 custom mode, the action and the cause, and
+    """framework.cpp notifyUser: a lost data link in Mission holds first ("GCS connection loss:
+    switching to RTL in 5 seconds"), then returns ("GCS connection loss: switching to RTL"), as
+    v1.15 words them; each event names the user's mode by its PX4 custom mode, the action and the cause, and
     comes with the text "Failsafe activated…\t". A geofence breach (no cause) and a low battery
     (a warning with an event of its own) say it their way."""
     log, events = StatusLog(), EventLog()
@@ -124,8 +124,8 @@ def test_the_user_is_told_what_the_failsafe_does_and_why():
     parser.set_profile("dev")
     assert [parser.parse(e.id, e.arguments.ljust(25, b"\0")).message()
             for e in events.after(events.latest - len(events))] == [
-        "Failsafe activated due to GCS connection loss, triggering RTL in 5 seconds",
-        "Failsafe activated due to GCS connection loss, triggering RTL"]
+        "GCS connection loss: switching to RTL in 5 seconds",
+        "GCS connection loss: switching to RTL"]
 
     events = EventLog()
     fs = Failsafe(ParamStore({"GF_ACTION": 3, "COM_FAIL_ACT_T": 0.0}), StatusLog())
