@@ -325,10 +325,10 @@ class Commander:
             return CommandResult.ACCEPTED
         if not self.prearm_ok():
             # PX4 runs the checks for external commands even when forced.
+            # The checks that print a text of their own (mavlink_log_*); modeCheck.cpp's "No
+            # manual control input" is an event only (check_modes_manual_control).
             for text in self.health_failures:
                 self._log.critical(now_s, text)
-            if self._needs_sticks_now():
-                self._log.critical(now_s, "Preflight Fail: No manual control input\t")
             self._log.critical(now_s, ARMING_DENIED_TEXT)
             if self.events is not None:
                 self.events.send(now_s, ARM_DENIED, Log.CRITICAL, Log.INFO)
