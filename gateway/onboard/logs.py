@@ -9,7 +9,8 @@ Rules:
   simulated second and at ``close`` (a crash loses at most the last second, as flightlog.py).
 - Without storage (``storage=False``) the loggers write no file but still stream: every link of
   a vehicle gets its logger's ulog_stream (gateway/mavlink/log_streaming.py), and the link that
-  streams is woken when a tick published packets.
+  streams is woken when a tick published packets. The log list is empty (``NoStorage``), and
+  the first request for it says in the daemon's log which flags keep logs.
 - ``LogFiles`` is what a vehicle's log handler (gateway/mavlink/log_handler.py) reads: every
   ``.ulg`` under its first root's ``log/`` (earlier runs' too, as PX4 lists its SD card), oldest
   first, dated by their path (``<date>/<time>.ulg``; ``sess<N>/log<M>.ulg``: N days and M
@@ -43,12 +44,12 @@ class Logs:
             sysid = int(vehicle.params.get("MAV_SYS_ID", 1) or 1)
             self.loggers[sysid] = VehicleLogger(vehicle, boot_unix_s, file_backend=storage)
         self._failed = False
+        self.told_no_storage = False  # NoStorage's hint, once per daemon
         self._links: dict[int, list[VehicleLink]] = {}
         for link in sim.links.values():
             sysid = link.session.sysid
             if sysid in self.loggers:
-                if storage:
-                    link.session.logs.store = LogFiles(self, sysid)
+                link.session.logs.store = LogFiles(self, sysid) if storage else NoStorage(self)
                 link.session.log_streaming.topic = self.loggers[sysid].stream
                 self._links.setdefault(sysid, []).append(link)
         for sysid, links in self._links.items():  # PX4's mavlink instances: telemetry_status
@@ -98,6 +99,28 @@ class Logs:
 
 _DATED = re.compile(r"(\d{4}-\d{2}-\d{2})/(\d{2}_\d{2}_\d{2})\.ulg$")
 _SESSION = re.compile(r"sess(\d+)/log(\d+)\.ulg$")
+
+
+class NoStorage:
+    """The log list of a vehicle without storage: empty, as PX4's without an SD card. The first
+    request says, in the daemon's log, how to keep the logs."""
+
+    def __init__(self, logs: Logs) -> None:
+        self.logs = logs
+
+    def entries(self) -> list[tuple[int, int]]:
+        if not self.logs.told_no_storage:
+            self.logs.told_no_storage = True
+            log.warning("a client asked for the vehicles' logs, and there are none: without "
+                        "--state-dir DIR or --log-dir DIR the vehicles keep no ULog files "
+                        "(PX4 without its SD card); start with one of them to download logs")
+        return []
+
+    def read(self, index: int, offset: int, count: int) -> bytes:
+        return b""
+
+    def erase(self) -> None:
+        pass
 
 
 def log_time_utc(path: Path) -> int:

@@ -185,6 +185,24 @@ def test_log_download_over_mavlink_as_px4s_log_handler(tmp_path):
         assert len(list((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))) == 1
 
 
+def test_without_storage_the_list_is_empty_and_the_daemon_says_how_to_keep_logs(caplog):
+    """No --state-dir or --log-dir: no ULog files (PX4 without its SD card), so LOG_REQUEST_LIST
+    gets PX4's empty answer (one LOG_ENTRY, num_logs 0); the first request, once per daemon,
+    says in its log which flags keep logs."""
+    from pymavlink.dialects.v20 import common as M
+
+    with Sim(vehicles=2) as sim:
+        sim.advance(1.0)
+        for index in (0, 1, 0):
+            sim.api(index).send(M.MAVLink_log_request_list_message(index + 1, 1, 0, 0xFFFF))
+            sim.advance(0.2)
+        for index, requests in ((0, 2), (1, 1)):
+            assert [(e.id, e.num_logs, e.last_log_num)
+                    for e in sim.api(index).messages("LOG_ENTRY")] == [(0, 0, 0)] * requests
+    hints = [r.getMessage() for r in caplog.records if "--log-dir" in r.getMessage()]
+    assert len(hints) == 1 and "--state-dir DIR" in hints[0]
+
+
 def test_parameter_defaults_as_px4s_logger_writes_them(tmp_path):
     """'Q' messages (logger.cpp write_parameter_defaults): a launch value (``param
     set-default``) is the current setup's default, PX4's own the system default; a parameter at
