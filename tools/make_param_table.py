@@ -61,7 +61,7 @@ OVERRIDES = {
     "MPC_Z_VEL_MAX_UP": "3.0",
     "RTL_LAND_DELAY": "0",
     "COM_RC_IN_MODE": "1",
-    "COM_LOW_BAT_ACT": "3",
+    "COM_LOW_BAT_ACT": "2",  # init.d-posix/rcS (v1.15): Land at the critical level
     "NAV_ACC_RAD": "2.0",
     "RTL_RETURN_ALT": "30",
     "RTL_DESCEND_ALT": "10",
@@ -92,6 +92,11 @@ OVERRIDES = {
     "CAL_GYRO0_ID": "1310988",
     "CAL_MAG0_ID": "197388",
     "SDLOG_MODE": "1",
+    "SDLOG_PROFILE": "131",  # init.d-posix/rcS: default, estimator replay, vision/avoidance
+    "CBRK_SUPPLY_CHK": "894281",  # init.d-posix/rcS
+    "IMU_INTEG_RATE": "250",  # init.d-posix/px4-rc.simulator: the simulator's IMU rate
+    "IMU_GYRO_RATEMAX": "800",  # init.d/rc.mc_defaults: 400 (v1.15's default) → 800
+    "GPS_UBX_DYNMODEL": "6",  # init.d/rc.mc_defaults
     "SYS_FAILURE_EN": "1",
     "LNDMC_Z_VEL_MAX": "0.25",
     "EKF2_REQ_GPS_H": "0.5",

@@ -61,7 +61,7 @@ async def test_mavsdk_events_say_why_the_failsafe_acts(daemon_factory):
     """The battery emptied in flight (failure injection): PX4's failsafe framework tells the
     user what it does and why (commander_failsafe_enter_hold, then commander_failsafe_enter),
     libevents naming the action and the cause from the metadata's enums; PX4 SITL's
-    COM_LOW_BAT_ACT 3 lands at the emergency level after the COM_FAIL_ACT_T hold."""
+    COM_LOW_BAT_ACT 2 lands at the emergency level after the COM_FAIL_ACT_T hold."""
     from mavsdk.failure import FailureType, FailureUnit
 
     d = daemon_factory()

@@ -153,7 +153,7 @@ async def test_mavsdk_component_metadata_gets_px4s_parameter_metadata(daemon_fac
 @pytest.mark.asyncio
 async def test_mavsdk_battery_failure_empties_the_battery_and_the_vehicle_lands(daemon_factory):
     """MAVSDK's failure plugin, battery off (PX4's battery simulator forced empty): the
-    battery reads empty, the emergency level lands the vehicle (COM_LOW_BAT_ACT 3); a barometer
+    battery reads empty, the emergency level lands the vehicle (COM_LOW_BAT_ACT 2, SITL rcS); a barometer
     stuck is accepted and shows in MAVSDK's health."""
     from mavsdk.failure import FailureError, FailureType, FailureUnit
 

@@ -258,7 +258,7 @@ def test_gyro_stuck_loses_attitude_control():
 
 def test_battery_off_is_an_empty_battery_and_the_vehicle_lands():
     """PX4's battery simulator forced empty: BAT1_V_EMPTY per cell, remaining 0 → the
-    emergency level → COM_LOW_BAT_ACT 3 lands; ok, disarmed: a full battery again."""
+    emergency level → COM_LOW_BAT_ACT 2 (SITL: Land) lands; ok, disarmed: a full battery again."""
     with Sim(params={"MIS_TAKEOFF_ALT": 10.0}) as sim:
         hover(sim)
         api = sim.api(0)
