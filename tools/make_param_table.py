@@ -160,6 +160,11 @@ ADDED = {
                    "Vertical velocity threshold for sensitivity reduction"),
     "HTE_THR_RANGE": ("FLOAT", "0.2", "normalized_thrust", "Hover Thrust Estimator",
                       "Max deviation from MPC_THR_HOVER"),
+    # commander/commander_params.c (v1.15): the sticks may disarm in flight in Stabilized/Acro
+    "COM_DISARM_MAN": ("INT32", "1", "", "Commander", "Allow disarming via switch/stick/button "
+                       "on multicopters in manual thrust modes"),
+    # manual_control/manual_control_params.c (v1.15)
+    "MAN_ARM_GESTURE": ("INT32", "1", "", "Manual Control", "Enable arm/disarm stick gesture"),
     # land_detector_params_mc.c (v1.15)
     "LNDMC_TRIG_TIME": ("FLOAT", "1.0", "s", "Land Detector",
                         "Multicopter land detection trigger time"),

@@ -47,6 +47,7 @@ from vehicles.geofence import Geofence
 from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF, MODE_TEST, InnerCommand
 from vehicles.land_detector import LandDetector
 from vehicles.manual_control import ManualControl, Sticks
+from vehicles.mode_table import STICK_OVERRIDE_AUTO, ArmEvent
 from vehicles.nav_roi import Params7
 from vehicles.navigator import NavContext, Navigator
 from vehicles.offboard import Offboard
@@ -74,11 +75,6 @@ POSITION_CONTROL_DIVIDER = 5  # 250 Hz / 5 = 50 Hz
 # InnerCommand and TaskInput made as tuples at every tick (a NamedTuple's ``__new__`` is a Python
 # function)
 _new_tuple = tuple.__new__
-# COM_RC_OVERRIDE bit 0: sticks take over these modes (Commander: isAutoMode). Not Orbit: there
-# the sticks are part of the mode (altitude; PX4 also trims radius and speed with them).
-STICK_OVERRIDE_AUTO = frozenset({NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_RTL,
-                                 NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_PRECLAND,
-                                 NavState.AUTO_FOLLOW_TARGET, NavState.DESCEND})
 BATTERY_TEXTS = {1: (Severity.CRITICAL, "Low battery\t"), 2: (Severity.CRITICAL, "Critical battery\t"),
                  3: (Severity.EMERGENCY, "Emergency battery level\t")}  # batteryCheck.cpp's
 
@@ -232,19 +228,21 @@ class Autopilot:
         c.manual_control_available = self.manual.fresh(now_s, self._rc_loss_t_s)
         c.home_valid = self.home is not None
 
-    def manual_control(self, now_s: float, sticks: Sticks, source: object = None) -> None:
+    def manual_control(self, now_s: float, sticks: Sticks, source: object = None
+                       ) -> ArmEvent | None:
         """Stick input (MANUAL_CONTROL) from ``source``. Moving the sticks in an auto mode
         (COM_RC_OVERRIDE bit 0) or in Offboard (bit 1) switches to Position, as Commander's
-        stick override does."""
-        self.manual.set(now_s, sticks, source)
+        stick override does. Returns the arming request a stick gesture completed."""
+        if not self.manual.set(now_s, sticks, source):
+            return None
         c = self.commander
-        if not (self.manual.moving and c.armed) or c.terminated:
-            return
-        bits = int(self.params["COM_RC_OVERRIDE"])
-        state = c.nav_state
-        if (bits & 1 and state in STICK_OVERRIDE_AUTO) or (bits & 2 and state is NavState.OFFBOARD):
+        c.throttle_above_center, c.throttle_low = sticks.throttle > 0.2, sticks.throttle < -0.8
+        bits, state = int(self.params["COM_RC_OVERRIDE"]), c.nav_state
+        if self.manual.moving and c.armed and not c.terminated and (
+                (bits & 1 and state in STICK_OVERRIDE_AUTO) or (bits & 2 and state is NavState.OFFBOARD)):
             self._refresh_requirements(now_s)
             c.stick_override(now_s)
+        return self.manual.gesture
 
     def start_mission(self, now_s: float, here: Measurement, first_seq: float = -1) -> CommandResult:
         """MISSION_START (Commander.cpp): Mission mode and arm. ``first_seq`` is the command's

@@ -4,15 +4,18 @@ After PX4 ``src/modules/commander/Commander.cpp`` (arm/disarm, handle_command, a
 COM_DISARM_LAND / COM_DISARM_PRFLT) and ``ModeUtil/mode_requirements.cpp``.
 
 Rules and invariants:
-- ``MODE_TABLE`` has one row per NavState (a test proves it): how a request to switch to it is
-  answered, whether it needs a position estimate, whether arming is allowed in it, and which mode
-  the vehicle falls back to after a disarm (Land/RTL -> Hold).
+- The modes' rules are mode_table.py's ``MODE_TABLE``: how a request to switch is answered, what
+  a mode needs, whether it arms, where a disarm leaves it (Land/RTL -> Hold).
 - Boot in AUTO_LOITER (Hold). ``position_valid`` becomes true POSITION_VALID_DELAY_S after boot
   (stands in for EKF2 + GPS convergence) while the estimator is aided (``position_aided``: a GPS
   fix within EKF2_NOAID_TOUT); the autopilot sets home the first time and on every arming.
   Losing it later (GPS off) is ``position_lost``, the failsafes' input.
-- Arming always runs the pre-arm checks (also when forced, like PX4 for external commands).
-  Already armed -> ACCEPTED. Disarm in the air only when forced (kill).
+- Arming always runs the pre-arm checks (also when forced, like PX4 for external commands):
+  first, with stick input, the throttle's (Commander::arm: above centre in Altitude/Position, not
+  low in the modes where it sets the thrust), or, asked by the sticks in a mode without them,
+  "switch to manual mode first"; then the health checks. Already armed -> ACCEPTED.
+- Disarm in the air only when forced (kill), or asked by the sticks in a mode where the throttle
+  sets the thrust (COM_DISARM_MAN); the sticks' refusal says nothing (Commander::disarm).
 - Mission and Offboard have extra requirements (``needs_mission`` / ``needs_offboard``, PX4
   mode_req_mission / mode_req_offboard_signal): the autopilot keeps ``mission_valid`` and
   ``offboard_available`` current.
@@ -31,20 +34,23 @@ Rules and invariants:
 
 from __future__ import annotations
 
-import enum
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from vehicles.custom_mode import custom_mode_of
 from vehicles.events import (
     ARM_DENIED,
     ARM_DENIED_CALIBRATING,
+    ARM_DENIED_NOT_MANUAL,
+    ARM_DENIED_THROTTLE_CENTER,
+    ARM_DENIED_THROTTLE_HIGH,
     ARM_REASON_TEXT,
     ARMED_BY,
     CHECK_MISSION_FAILURE,
     COMMANDER_LAND,
     COMMANDER_RTL,
+    DISARM_DENIED_NOT_LANDED,
     DISARMED_BY,
     FAILSAFE_RC_OVERRIDE,
     GCS_LOST,
@@ -64,6 +70,7 @@ from vehicles.events import (
     Log,
 )
 from vehicles.failsafe import Action, Failsafe, FailsafeFlags
+from vehicles.mode_table import ACTION_NAV_STATE, MODE_TABLE, SwitchRule
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, NavState
 
@@ -76,74 +83,16 @@ POSITION_VALID_DELAY_S = 1.0
 # printRejectMode says it at most once in this long (Commander.cpp: elapsed > 1_s)
 REJECT_MODE_QUIET_S = 1.0
 
+# Why the sticks arm or disarm (manual_control.py's gestures; PX4's switches and buttons too)
+RC_REASONS = frozenset({ArmReason.RC_STICK, ArmReason.RC_SWITCH, ArmReason.RC_BUTTON})
+
 # PX4 ends a mavlink_log text that it also sends as an event with a tab (QGC then shows the event).
 ARMING_DENIED_TEXT = ARM_DENIED.message + "\t"  # "Arming denied: Resolve system health failures first"
 
 
-class SwitchRule(enum.Enum):
-    ALLOWED = "allowed"  # ACCEPTED (TEMPORARILY_REJECTED without position if it needs one)
-    NEEDS_MANUAL_CONTROL = "needs_manual_control"  # rejected without fresh stick input
-    FAILSAFE_ONLY = "failsafe_only"  # entered by the vehicle itself, never by request
-
-
-class ArmEvent(enum.Enum):
-    """Commander events other than mode requests (the coverage test crosses them with modes)."""
-
-    ARM = "arm"
-    DISARM = "disarm"
-    KILL = "kill"
-    AUTO_DISARM = "auto_disarm"
-
-
-@dataclass(frozen=True)
-class ModeSpec:
-    name: str
-    switch: SwitchRule
-    needs_position: bool
-    arming_allowed: bool
-    after_disarm: NavState | None  # fallback once disarmed; None = stay
-    needs_mission: bool = False  # a valid mission must be stored
-    needs_offboard: bool = False  # an offboard setpoint younger than COM_OF_LOSS_T
-
-
-_L = NavState.AUTO_LOITER
 # Read at every 50 Hz tick (``_update_failsafe``), by module names: in Python 3.11 a member read
 # off its class (``Action.TERMINATE``) goes through EnumType.__getattr__ (~0.2 us).
 _TERMINATE, _DISARM, _WARN = Action.TERMINATE, Action.DISARM, Action.WARN
-
-# What a failsafe action makes the vehicle fly (failsafe.cpp modeFromAction).
-ACTION_NAV_STATE: dict[Action, NavState] = {
-    Action.HOLD: NavState.AUTO_LOITER,
-    Action.RTL: NavState.AUTO_RTL,
-    Action.LAND: NavState.AUTO_LAND,
-    Action.DESCEND: NavState.DESCEND,
-    Action.TERMINATE: NavState.TERMINATION,
-    Action.FALLBACK_POSCTRL: NavState.POSCTL,
-    Action.FALLBACK_ALTCTRL: NavState.ALTCTL,
-    Action.FALLBACK_STABILIZED: NavState.STAB,
-}
-MODE_TABLE: dict[NavState, ModeSpec] = {
-    NavState.MANUAL: ModeSpec("Manual", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
-    NavState.ALTCTL: ModeSpec("Altitude", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
-    NavState.POSCTL: ModeSpec("Position", SwitchRule.NEEDS_MANUAL_CONTROL, True, True, None),
-    NavState.AUTO_MISSION: ModeSpec("Mission", SwitchRule.ALLOWED, True, True, None,
-                                    needs_mission=True),
-    NavState.AUTO_LOITER: ModeSpec("Hold", SwitchRule.ALLOWED, True, True, None),
-    NavState.AUTO_RTL: ModeSpec("Return", SwitchRule.ALLOWED, True, False, _L),
-    NavState.POSITION_SLOW: ModeSpec("Position Slow", SwitchRule.NEEDS_MANUAL_CONTROL, True, True,
-                                     None),
-    NavState.ACRO: ModeSpec("Acro", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
-    NavState.DESCEND: ModeSpec("Descend", SwitchRule.FAILSAFE_ONLY, False, False, _L),
-    NavState.TERMINATION: ModeSpec("Termination", SwitchRule.FAILSAFE_ONLY, False, False, None),
-    NavState.OFFBOARD: ModeSpec("Offboard", SwitchRule.ALLOWED, True, True, None,
-                                needs_offboard=True),
-    NavState.STAB: ModeSpec("Stabilized", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None),
-    NavState.AUTO_TAKEOFF: ModeSpec("Takeoff", SwitchRule.ALLOWED, True, True, None),
-    NavState.AUTO_LAND: ModeSpec("Land", SwitchRule.ALLOWED, True, False, _L),
-    NavState.AUTO_FOLLOW_TARGET: ModeSpec("Follow Me", SwitchRule.ALLOWED, True, False, _L),
-    NavState.AUTO_PRECLAND: ModeSpec("Precision Land", SwitchRule.ALLOWED, True, False, _L),
-    NavState.ORBIT: ModeSpec("Orbit", SwitchRule.ALLOWED, True, False, _L),
-}
 
 
 class Commander:
@@ -182,6 +131,9 @@ class Commander:
         self.attitude_failure = False
         self.mission_failure = False  # missionCheck.cpp: no mode can arm
         self._reject_said_s = -math.inf  # printRejectMode's last text
+        # manualControlCheck: the last valid stick sample's throttle (-1 down .. 1 up)
+        self.throttle_above_center = False  # > 0.2
+        self.throttle_low = False  # < -0.8
 
     def _update_params(self) -> None:
         p = self._params
@@ -323,6 +275,19 @@ class Commander:
             reason: ArmReason = ArmReason.COMMAND_EXTERNAL) -> CommandResult:
         if self.armed:
             return CommandResult.ACCEPTED
+        spec = MODE_TABLE[self.nav_state]
+        sticks = self.manual_control_available  # !manual_control_signal_lost
+        refused = (ARM_DENIED_THROTTLE_CENTER if spec.manual and not spec.stick_thrust and sticks
+                   and self.throttle_above_center
+                   else ARM_DENIED_THROTTLE_HIGH if spec.stick_thrust and sticks
+                   and not self.throttle_low
+                   else ARM_DENIED_NOT_MANUAL if not spec.manual and reason in RC_REASONS
+                   else None)
+        if refused is not None:
+            self._log.critical(now_s, refused.message + "\t")
+            if self.events is not None:
+                self.events.send(now_s, refused, Log.CRITICAL, Log.INFO)
+            return CommandResult.TEMPORARILY_REJECTED
         if not self.prearm_ok():
             # PX4 runs the checks for external commands even when forced.
             # The checks that print a text of their own (mavlink_log_*); modeCheck.cpp's "No
@@ -351,8 +316,13 @@ class Commander:
                reason: ArmReason = ArmReason.COMMAND_EXTERNAL) -> CommandResult:
         if not self.armed:
             return CommandResult.ACCEPTED
-        if not self.landed and not forced:
-            self._log.critical(now_s, "Disarming denied: not landed")
+        if not self.landed and not forced and not (
+                MODE_TABLE[self.nav_state].stick_thrust and reason in RC_REASONS
+                and int(self._params["COM_DISARM_MAN"])):
+            if reason is not ArmReason.RC_STICK:
+                self._log.critical(now_s, DISARM_DENIED_NOT_LANDED.message + "\t")
+                if self.events is not None:
+                    self.events.send(now_s, DISARM_DENIED_NOT_LANDED, Log.CRITICAL, Log.INFO)
             return CommandResult.TEMPORARILY_REJECTED
         self._disarm(now_s, reason)
         return CommandResult.ACCEPTED

@@ -129,6 +129,15 @@ ARM_DENIED = EventDef("commander_arm_denied_resolve_failures", "default",
                       "Arming denied: Resolve system health failures first")
 ARM_DENIED_CALIBRATING = EventDef("commander_arm_denied_calibrating", "default",
                                   "Arming denied: calibrating")
+# Commander::arm with stick input, Commander::disarm in the air
+ARM_DENIED_THROTTLE_CENTER = EventDef("commander_arm_denied_throttle_center", "default",
+                                      "Arming denied: throttle above center")
+ARM_DENIED_THROTTLE_HIGH = EventDef("commander_arm_denied_throttle_high", "default",
+                                    "Arming denied: high throttle")
+ARM_DENIED_NOT_MANUAL = EventDef("commander_arm_denied_not_manual", "default",
+                                 "Arming denied: switch to manual mode first")
+DISARM_DENIED_NOT_LANDED = EventDef("commander_disarm_denied_not_landed", "default",
+                                    "Disarming denied: not landed")
 ARMING_SUMMARY = EventDef(
     "commander_arming_check_summary", "arming_check", "Arming check summary event",
     (("uint8_t", "chunk_idx"), (HEALTH, "error"), (HEALTH, "warning"),
@@ -328,7 +337,8 @@ POSITION_PARAMS = (TILT_SET, LAND_TILT_SET, CRUISE_SET, MAN_VEL_SET, UP_VEL_SET,
                    HOVER_THRUST_SET)
 DEFINITIONS: tuple[EventDef, ...] = (
     ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARM_DENIED_CALIBRATING,
-    ARMING_SUMMARY,
+    ARM_DENIED_THROTTLE_CENTER, ARM_DENIED_THROTTLE_HIGH, ARM_DENIED_NOT_MANUAL,
+    DISARM_DENIED_NOT_LANDED, ARMING_SUMMARY,
     HEALTH_SUMMARY,
     CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_MISSION_FAILURE, CHECK_OFFBOARD, CHECK_HOME,
     CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF, CHECK_ACCEL_NO_DATA, CHECK_BARO_NO_DATA,

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 
 from vehicles.cnum import f32
+from vehicles.hysteresis import Hysteresis
 from vehicles.types import GRAVITY_MPS2, Measurement
 
 FREEFALL_TRIGGER_S = 0.3  # MulticopterLandDetector.h FREEFALL_TRIGGER_TIME_US
@@ -40,29 +41,6 @@ MIN_THRUST_THRESHOLD = 0.1  # ... maybe landed, under climb-rate control
 LANDED_WIDENING = 2.5  # the movement thresholds while landed
 
 
-class _Hysteresis:
-    """systemlib::Hysteresis with a delay from false only: true once the condition has held
-    ``delay_s`` (from when it was first asked for), false at once."""
-
-    def __init__(self, state: bool, delay_s: float) -> None:
-        self.delay_s = delay_s
-        self.state = state
-        self._requested = state
-        self._since = 0.0
-
-    def update(self, now_s: float, condition: bool) -> bool:
-        if condition != self.state:
-            if condition != self._requested:
-                self._requested = condition
-                self._since = now_s
-        else:
-            self._requested = self.state
-        if self._requested != self.state:
-            if not self._requested or now_s >= self._since + self.delay_s - 1e-9:
-                self.state = self._requested
-        return self.state
-
-
 class LandDetector:
     def __init__(self, params) -> None:
         self._params = params
@@ -70,11 +48,11 @@ class LandDetector:
         self._z_vel_max = self._xy_vel_max = self._rot_max_rad = 0.0
         self._thr_min = self._man_thr_min = 0.0
         self._use_hte = False
-        self._freefall = _Hysteresis(False, FREEFALL_TRIGGER_S)
+        self._freefall = Hysteresis(False, FREEFALL_TRIGGER_S)
         # Each stage LNDMC_TRIG_TIME / 3 (set with the parameters, _set_hysteresis_factor(1))
-        self._contact = _Hysteresis(True, 0.0)
-        self._maybe = _Hysteresis(True, 0.0)
-        self._landed = _Hysteresis(True, 0.0)
+        self._contact = Hysteresis(True, 0.0)
+        self._maybe = Hysteresis(True, 0.0)
+        self._landed = Hysteresis(True, 0.0)
         self.landed = self.ground_contact = self.maybe_landed = True
         self.freefall = False
         self.in_descend = False

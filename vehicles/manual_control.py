@@ -5,7 +5,8 @@ After PX4:
 - ``modules/manual_control`` (ManualControl.cpp, lib MovingDiff): the input is valid for
   COM_RC_LOSS_T after the last message; "sticks moving" is any stick's rate of change (low-passed
   over 0.1 s) above COM_RC_STICK_OV percent of full travel per second; that is what lets a pilot
-  take over an auto mode or Offboard (COM_RC_OVERRIDE, autopilot.py).
+  take over an auto mode or Offboard (COM_RC_OVERRIDE, autopilot.py); the arm and disarm gestures
+  (stick_gestures.py).
 - ``flight_mode_manager/tasks/Utility/Sticks.cpp``: expo + deadzone (MPC_*_EXPO, MPC_HOLD_DZ);
   lost input reads as centred sticks.
 - ``tasks/ManualAltitudeSmoothVel`` (Altitude mode, and the vertical of Position mode with the
@@ -32,6 +33,8 @@ from dataclasses import dataclass
 
 from vehicles.control.manual_velocity_smoothing_z import ManualVelocitySmoothingZ
 from vehicles.control.position_control import PositionSetpoint
+from vehicles.mode_table import ArmEvent
+from vehicles.stick_gestures import StickGestures
 from vehicles.types import GRAVITY_MPS2, EstimatorReset, Vec3
 
 EPS = 1.1920929e-07  # FLT_EPSILON
@@ -151,18 +154,23 @@ class ManualControl:
         self.source: object = None
         self._diffs = (_MovingDiff(), _MovingDiff(), _MovingDiff(), _MovingDiff())
         self.moving = False  # a stick moved faster than COM_RC_STICK_OV with the last input
+        self._gestures = StickGestures(params)
+        self.gesture: ArmEvent | None = None  # what the last input's gesture asks for
 
-    def set(self, now_s: float, sticks: Sticks, source: object = None) -> None:
+    def set(self, now_s: float, sticks: Sticks, source: object = None) -> bool:
         """``source``: who sent it (the gateway: link and sender). As PX4's
         ManualControlSelector, the first source keeps control while its input is fresh; another
-        one is ignored until then."""
+        one is ignored until then (returns False)."""
         fresh = self.fresh(now_s, float(self._params["COM_RC_LOSS_T"]))
         if fresh and source != self.source:
-            return
+            return False
         self.source = source
         if not fresh:
             for d in self._diffs:
                 d.reset()
+            self._gestures.reset(now_s)
+        self.gesture = self._gestures.update(now_s, sticks.pitch, sticks.roll, sticks.throttle,
+                                             sticks.yaw)
         dt = 0.0 if self.sticks is None else now_s - self.received_s
         threshold = 0.01 * float(self._params["COM_RC_STICK_OV"])
         self.moving = False
@@ -171,6 +179,7 @@ class ManualControl:
                 self.moving = True
         self.sticks = sticks
         self.received_s = now_s
+        return True
 
     def fresh(self, now_s: float, timeout_s: float) -> bool:
         return self.sticks is not None and now_s - self.received_s <= timeout_s

@@ -29,6 +29,7 @@ from vehicles.events import ArmReason, EventLog
 from vehicles.health_checks import CheckInputs, HealthChecks, inputs_of
 from vehicles.inner_loop import C_OUTPUTS, C_RATE_INT, C_RATES_SP, C_TORQUE_SP, InnerCommand
 from vehicles.manual_control import Sticks
+from vehicles.mode_table import NO_POSITION_CONTROL, NO_POSITION_HOLD, ArmEvent
 from vehicles.nav_roi import Params7
 from vehicles.nav_rtl import RtlTimeEstimate
 from vehicles.orbit import OrbitStatus
@@ -49,11 +50,6 @@ from vehicles.types import (
     VehicleStatus,
 )
 
-# vehicle_control_mode: the navigation states without flag_multicopter_position_control_enabled,
-# and those with it but without flag_control_position_enabled (no horizontal position).
-_NO_POSITION_CONTROL = frozenset({NavState.MANUAL, NavState.STAB, NavState.ACRO,
-                                  NavState.TERMINATION})
-_NO_POSITION_HOLD = frozenset({NavState.ALTCTL, NavState.DESCEND})
 _NAN3 = (math.nan, math.nan, math.nan)
 # NamedTuples made as tuples where they are read hundreds of times a second (``kinematics``,
 # ``targets``): a NamedTuple's ``__new__`` is a Python function.
@@ -230,7 +226,7 @@ class Vehicle:
         out = ap.last_command
         commanded = tuple(self._world.commanded(self._row))
         nav = cmd.nav_state
-        if nav in _NO_POSITION_CONTROL:
+        if nav in NO_POSITION_CONTROL:
             position_control = False
         else:  # Offboard attitude and rates bypass the position controller
             position_control = nav is not NavState.OFFBOARD or st.flying
@@ -242,7 +238,7 @@ class Vehicle:
             yaw = q_yaw(self._measurement().attitude_q)
         target = None
         auto_sp = ap.tasks.auto.setpoint
-        if position_control and auto_sp is not None and nav not in _NO_POSITION_HOLD:
+        if position_control and auto_sp is not None and nav not in NO_POSITION_HOLD:
             target = auto_sp.target_ned_m
             if target[2] != target[2]:  # a landing: PX4's land setpoint is at the ground's altitude
                 home = ap.home
@@ -367,9 +363,13 @@ class Vehicle:
 
     # --- manual control -----------------------------------------------------------------------
     def manual_control(self, now_s: float, sticks: Sticks, source: object = None) -> None:
-        """Stick input (MANUAL_CONTROL; PX4 manual_control_setpoint ranges, manual_control.py);
-        the first ``source`` keeps control while its input is fresh."""
-        self._autopilot.manual_control(now_s, sticks, source)
+        """Stick input (MANUAL_CONTROL; PX4 manual_control_setpoint ranges, manual_control.py),
+        from the first ``source`` while its input is fresh; its gestures arm and disarm (RC)."""
+        gesture = self._autopilot.manual_control(now_s, sticks, source)
+        if gesture is ArmEvent.ARM:
+            self._autopilot.arm(now_s, self._measurement(), reason=ArmReason.RC_STICK)
+        elif gesture is ArmEvent.DISARM:
+            self._autopilot.commander.disarm(now_s, reason=ArmReason.RC_STICK)
 
     # --- actions ------------------------------------------------------------------------------
     def goto(self, now_s: float, lat_deg: float, lon_deg: float, alt_amsl_m: float,

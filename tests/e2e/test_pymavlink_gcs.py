@@ -89,3 +89,62 @@ def test_parameters_survive_a_restart_with_state_dir(daemon_factory, tmp_path):
         assert values["MPC_XY_CRUISE"] == pytest.approx(5.0)  # --param is set at boot, never saved
     finally:
         conn.close()
+
+
+def test_a_joysticks_stick_gestures_arm_and_disarm(daemon_factory):
+    """A joystick through the GCS (MANUAL_CONTROL at 20 Hz): in Position mode the left stick held
+    to the lower right for COM_RC_ARM_HYST arms ("Armed by RC"), to the lower left disarms, as
+    PX4's manual_control module and Commander do."""
+    d = daemon_factory()
+    conn = gcs(d.gcs_port())
+    try:
+        conn.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID,
+                                0, 0, 0)
+        assert heartbeats_by_sysid(conn, {1})
+        texts: list[str] = []
+        beat = [0.0]  # when the next GCS HEARTBEAT is due
+
+        def joystick(z: int, r: int, seconds: float, until) -> bool:
+            """MANUAL_CONTROL (x, y centred) every 50 ms, a GCS HEARTBEAT every second (PX4 sends
+            STATUSTEXT while one is heard), for ``seconds`` or until ``until(msg)``."""
+            deadline = time.monotonic() + seconds
+            next_s = 0.0
+            while time.monotonic() < deadline:
+                if time.monotonic() >= next_s:
+                    conn.mav.manual_control_send(1, 0, 0, z, r, 0)
+                    next_s = time.monotonic() + 0.05
+                    if next_s >= beat[0]:
+                        conn.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS,
+                                                mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+                        beat[0] = next_s + 1.0
+                msg = conn.recv_match(blocking=True, timeout=0.01)
+                if msg is None or msg.get_srcSystem() != 1:
+                    continue
+                if msg.get_type() == "STATUSTEXT":
+                    texts.append(msg.text)
+                if until(msg):
+                    return True
+            return False
+
+        def armed(want: bool):
+            return lambda m: (m.get_type() == "HEARTBEAT" and bool(
+                m.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED) is want)
+
+        custom = mavutil.mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+        pos_ctl = lambda m: m.get_type() == "HEARTBEAT" and m.custom_mode == 0x00030000  # noqa: E731
+        for _ in range(10):  # Position needs fresh stick input: send it while asking
+            conn.mav.command_long_send(1, 1, mavutil.mavlink.MAV_CMD_DO_SET_MODE, 0, custom, 3,
+                                       0, 0, 0, 0, 0)
+            if joystick(500, 0, 1.0, pos_ctl):
+                break
+        else:
+            raise AssertionError("no Position mode")
+        def said(text: str):
+            return lambda m: m.get_type() == "STATUSTEXT" and m.text.startswith(text)
+
+        assert joystick(0, 1000, 8.0, said("Armed by RC")), texts
+        assert joystick(0, 1000, 3.0, armed(True)), texts
+        assert joystick(0, -1000, 8.0, said("Disarmed by RC")), texts
+        assert joystick(0, -1000, 3.0, armed(False)), texts
+    finally:
+        conn.close()

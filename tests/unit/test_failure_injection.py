@@ -66,8 +66,8 @@ def test_without_gps_arming_is_denied_in_hold_and_allowed_in_stabilized():
         assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OFF, 0) == 0
         assert sim.run_until(lambda: not sim.status(0).position_valid, timeout_s=10)
         assert api.arm() == M.MAV_RESULT_TEMPORARILY_REJECTED
-        sticks = sim.every(0.05, lambda t: api.send(
-            M.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0)))
+        sticks = sim.every(0.05, lambda t: api.send(  # the throttle down: Stabilized arms so
+            M.MAVLink_manual_control_message(1, 0, 0, 0, 0, 0)))
         sim.advance(0.2)
         assert api.set_mode(NavState.STAB) == 0
         assert not sim.status(0).position_valid and sim.status(0).prearm_ok

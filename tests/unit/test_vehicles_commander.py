@@ -2,14 +2,9 @@
 
 import pytest
 
-from vehicles.commander import (
-    ARMING_DENIED_TEXT,
-    MODE_TABLE,
-    POSITION_VALID_DELAY_S,
-    ArmEvent,
-    Commander,
-    SwitchRule,
-)
+from vehicles.commander import ARMING_DENIED_TEXT, POSITION_VALID_DELAY_S, Commander
+from vehicles.events import ARM_DENIED_THROTTLE_CENTER, ARM_DENIED_THROTTLE_HIGH, ArmReason, EventLog
+from vehicles.mode_table import MODE_TABLE, ArmEvent, SwitchRule
 from vehicles.params import ParamStore
 from vehicles.status_log import StatusLog
 from vehicles.types import CommandResult, NavState
@@ -27,6 +22,7 @@ def make(nav_state=NavState.AUTO_LOITER, position_valid=True, armed=False, lande
     log = StatusLog()
     c = Commander(ParamStore(), log)
     c.manual_control_available = manual_control_available
+    c.throttle_low = True  # the sticks' throttle down, where a pilot arms from
     c.position_valid = position_valid
     c.mission_valid = mission_valid
     c.offboard_available = offboard_available
@@ -116,6 +112,57 @@ def test_arming_in_a_stick_mode_needs_stick_input(mode):
     assert c.arm(0.0) is CommandResult.ACCEPTED
 
 
+@pytest.mark.parametrize("mode", sorted(STICK_MODES))
+def test_arming_with_the_throttle_up_is_denied_as_commander_arm_says(mode):
+    """Commander::arm: with stick input, above centre (> 0.2) in Altitude and Position, not low
+    (>= -0.8) where the stick sets the thrust (Manual, Stabilized, Acro); text and event."""
+    c, log = make(mode, manual_control_available=True)
+    events = EventLog()
+    c.events = events
+    thrust = MODE_TABLE[mode].stick_thrust
+    c.throttle_low = False  # centred: the thrust modes refuse, the climb-rate modes arm
+    if thrust:
+        assert c.arm(0.0) is CommandResult.TEMPORARILY_REJECTED
+        assert [t.text for t in log.after(0)] == ["Arming denied: high throttle\t"]
+        assert events.get(events.latest).id == ARM_DENIED_THROTTLE_HIGH.id
+        c.throttle_low = True
+        assert c.arm(0.0) is CommandResult.ACCEPTED
+        return
+    c.throttle_above_center = True
+    assert c.arm(0.0) is CommandResult.TEMPORARILY_REJECTED
+    assert [t.text for t in log.after(0)] == ["Arming denied: throttle above center\t"]
+    assert events.get(events.latest).id == ARM_DENIED_THROTTLE_CENTER.id
+    c.manual_control_available = False  # lost: no throttle check (then the mode's own)
+    c.nav_state = NavState.AUTO_LOITER
+    assert c.arm(0.0) is CommandResult.ACCEPTED
+
+
+def test_the_sticks_arm_only_in_a_manual_mode():
+    c, log = make(NavState.AUTO_LOITER, manual_control_available=True)
+    assert c.arm(0.0, reason=ArmReason.RC_STICK) is CommandResult.TEMPORARILY_REJECTED
+    assert [t.text for t in log.after(0)] == ["Arming denied: switch to manual mode first\t"]
+    assert c.arm(0.0) is CommandResult.ACCEPTED  # a command may
+    c, log = make(NavState.POSCTL, manual_control_available=True)
+    assert c.arm(0.0, reason=ArmReason.RC_STICK) is CommandResult.ACCEPTED
+    assert log.after(0)[-1].text == "Armed by RC\t"
+
+
+@pytest.mark.parametrize("mode", [NavState.POSCTL, NavState.STAB])
+def test_the_sticks_disarm_in_the_air_only_where_they_set_the_thrust(mode):
+    """Commander::disarm: not landed, the sticks' request passes in Stabilized/Acro/Manual with
+    COM_DISARM_MAN 1, and is refused silently elsewhere; a command's refusal says why."""
+    c, log = make(mode, armed=True, landed=False, manual_control_available=True)
+    if mode is NavState.STAB:
+        c2, _ = make(mode, armed=True, landed=False, manual_control_available=True)
+        c2._params.set("COM_DISARM_MAN", 0)
+        assert c2.disarm(0.0, reason=ArmReason.RC_STICK) is CommandResult.TEMPORARILY_REJECTED
+        assert c.disarm(0.0, reason=ArmReason.RC_STICK) is CommandResult.ACCEPTED
+        assert log.after(0)[-1].text == "Disarmed by RC\t"
+        return
+    assert c.disarm(0.0, reason=ArmReason.RC_STICK) is CommandResult.TEMPORARILY_REJECTED
+    assert c.armed and log.after(0) == []
+
+
 @pytest.mark.parametrize("current", list(NavState))
 @pytest.mark.parametrize("event", list(ArmEvent))
 def test_every_mode_times_every_arming_event(current, event):
@@ -181,7 +228,7 @@ def test_disarm_denied_in_air_unless_forced():
     c, log = make(armed=True, landed=False)
     assert c.disarm(0.0) is CommandResult.TEMPORARILY_REJECTED
     assert c.armed
-    assert log.after(0)[-1].text == "Disarming denied: not landed"
+    assert log.after(0)[-1].text == "Disarming denied: not landed\t"
     assert c.disarm(0.0, forced=True) is CommandResult.ACCEPTED
     assert not c.armed
     assert log.after(0)[-1].text == "Disarmed by external command\t"

@@ -242,6 +242,52 @@ def test_arming_in_position_mode_without_sticks_is_denied(sim):
     assert not any("manual control" in text for text in sim.texts())  # an event, no text
 
 
+ARM_GESTURE = Sticks(throttle=-1.0, yaw=1.0)  # left stick lower right, right stick centred
+DISARM_GESTURE = Sticks(throttle=-1.0, yaw=-1.0)  # lower left
+
+
+def test_the_stick_gestures_arm_and_disarm_after_com_rc_arm_hyst(sim):
+    """ManualControl::processStickArming: held COM_RC_ARM_HYST (1 s) the gesture asks once;
+    Commander::arm refuses it outside a manual mode, and the sticks disarm once landed."""
+    sim.run(1.2)
+    fly(sim, 1.5, ARM_GESTURE)  # Hold: not a manual mode
+    assert not sim.v.status.armed
+    assert sim.texts()[-1] == "Arming denied: switch to manual mode first\t"
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    fly(sim, 0.2, CENTRED)  # released: the next hold starts again
+    fly(sim, 0.9, ARM_GESTURE)  # samples 0.0 .. 0.85 s into the hold
+    assert not sim.v.status.armed
+    fly(sim, 0.2, ARM_GESTURE)
+    assert sim.v.status.armed
+    assert sim.texts()[-1] == "Armed by RC\t"
+    fly(sim, 1.2, DISARM_GESTURE)  # landed: the sticks disarm
+    assert not sim.v.status.armed
+    assert sim.texts()[-1] == "Disarmed by RC\t"
+
+
+def test_man_arm_gesture_zero_ignores_the_gesture():
+    s = Sim(MAN_ARM_GESTURE=0)
+    try:
+        s.run(1.2)
+        s.v.manual_control(s.t, CENTRED)
+        assert s.v.set_nav_state(s.t, NavState.POSCTL) is CommandResult.ACCEPTED
+        fly(s, 3.0, ARM_GESTURE)
+        assert not s.v.status.armed
+    finally:
+        s.close()
+
+
+def test_the_throttle_stick_up_denies_arming_in_position_mode(sim):
+    """Commander::arm: "throttle above center" (> 0.2) while a climb-rate mode has sticks."""
+    sim.run(1.2)
+    sim.v.manual_control(sim.t, Sticks(throttle=0.5))
+    assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
+    assert sim.v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
+    assert sim.texts()[-1] == "Arming denied: throttle above center\t"
+    sim.v.manual_control(sim.t, CENTRED)
+    assert sim.v.arm(sim.t) is CommandResult.ACCEPTED
+
+
 def test_sys_status_reports_the_joystick(sim):
     """SYS_STATUS RC_RECEIVER (MAVSDK's rc_status, QGC's RC indicator): present and healthy
     with sticks; without them, never there or lost, absent (rcAndDataLinkCheck sets it present
