@@ -109,6 +109,7 @@ OVERRIDES = {
 # Ranges (min, max) of current PX4 where the old table has another or none.
 RANGES = {
     "MPC_POS_MODE": ("0", "4"),
+    "COM_RC_IN_MODE": ("0", "4"),  # commander_params.c (v1.15): 3 keep first, 4 disabled
     # flight_mode_manager/tasks/Orbit/flight_task_orbit_params.c (v1.15)
     "MC_ORBIT_RAD_MAX": ("1.0", "10000.0"),
     # mc_pos_control/multicopter_position_mode_params.c (v1.15)

@@ -156,14 +156,20 @@ class ManualControl:
         self.moving = False  # a stick moved faster than COM_RC_STICK_OV with the last input
         self._gestures = StickGestures(params)
         self.gesture: ArmEvent | None = None  # what the last input's gesture asks for
+        self._first_source: object = None  # COM_RC_IN_MODE 3 keeps it until reboot
 
     def set(self, now_s: float, sticks: Sticks, source: object = None) -> bool:
-        """``source``: who sent it (the gateway: link and sender). As PX4's
+        """``source``: where it came from (the gateway: the link). As PX4's
         ManualControlSelector, the first source keeps control while its input is fresh; another
-        one is ignored until then (returns False)."""
+        one is ignored until then, and COM_RC_IN_MODE 0 (RC only) and 4 (disabled) ignore all,
+        3 all but the first source since boot (returns False when ignored)."""
+        mode = int(self._params["COM_RC_IN_MODE"])
         fresh = self.fresh(now_s, float(self._params["COM_RC_LOSS_T"]))
-        if fresh and source != self.source:
+        if (fresh and source != self.source) or mode in (0, 4) or (
+                mode == 3 and self._first_source not in (None, source)):
             return False
+        if self._first_source is None:
+            self._first_source = source
         self.source = source
         if not fresh:
             for d in self._diffs:

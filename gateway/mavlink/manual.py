@@ -16,9 +16,10 @@ Rules:
   [0, 1000] → [-1, 1] (500 = centred, what MAVSDK's 0.5 gives). A field out of its range
   reads as 0 (centred), as PX4's zero-initialised setpoint does.
 - Every valid message refreshes the input (its loss after COM_RC_LOSS_T is the vehicle's
-  business: vehicles/manual_control.py); its source is the link and the sender, so a second
-  joystick (QGC on the GCS link and a MAVSDK app on the API link) cannot fight the first.
-  Never raises.
+  business: vehicles/manual_control.py); its source is the link (PX4's data_source
+  SOURCE_MAVLINK_0 + the MAVLink instance), so a joystick on another link (QGC on the GCS link,
+  a MAVSDK app on the API link) cannot take over while the first is fresh, and two senders on
+  one link are one source, their samples interleaved, as in PX4. Never raises.
 """
 
 from __future__ import annotations
@@ -59,9 +60,8 @@ class ManualControlService:
             self.other_target()
             return
         hook = getattr(self.vehicle, "manual_control", None)
-        if hook is not None:  # the source: this link and the sender (PX4: one per link)
-            hook(now_s, sticks_of(msg), (self.kind.value, msg.get_srcSystem(),
-                                        msg.get_srcComponent()))
+        if hook is not None:  # the source: this link (PX4: one per MAVLink instance)
+            hook(now_s, sticks_of(msg), self.kind.value)
 
     def on_follow_target(self, msg: Any, now_s: float) -> None:
         hook = getattr(self.vehicle, "set_follow_target", None)

@@ -337,3 +337,31 @@ def test_once_the_takeoff_ramp_starts_it_runs_whatever_the_sticks_ask(sim):
         fly(sim, 0.05, CENTRED)
         idle.append(stage.idle)
     assert not any(idle) and stage.taking_off
+
+
+@pytest.mark.parametrize("mode", [0, 4])
+def test_com_rc_in_mode_rc_only_or_disabled_ignores_mavlink_sticks(mode):
+    """ManualControlSelector::isInputValid: 0 takes RC only (there is none), 4 no input."""
+    s = Sim(COM_RC_IN_MODE=mode)
+    try:
+        s.run(1.2)
+        s.v.manual_control(s.t, CENTRED, source="gcs")
+        assert s.v.set_nav_state(s.t, NavState.POSCTL) is CommandResult.TEMPORARILY_REJECTED
+    finally:
+        s.close()
+
+
+def test_com_rc_in_mode_3_keeps_the_first_source_until_reboot():
+    """COM_RC_IN_MODE 3 (PX4's default; SITL sets 1): the first source is the only one, even
+    once its input is lost, where 1 falls back to another."""
+    for mode, other_takes_over in ((3, False), (1, True)):
+        s = Sim(COM_RC_IN_MODE=mode)
+        try:
+            s.run(1.2)
+            s.v.manual_control(s.t, CENTRED, source="gcs")
+            s.run(1.0)  # lost (COM_RC_LOSS_T 0.5 s)
+            s.v.manual_control(s.t, CENTRED, source="api")
+            result = s.v.set_nav_state(s.t, NavState.POSCTL)
+            assert (result is CommandResult.ACCEPTED) is other_takes_over
+        finally:
+            s.close()
