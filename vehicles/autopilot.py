@@ -184,8 +184,6 @@ class Autopilot:
         return result
 
     def takeoff(self, now_s: float, alt_amsl_m: float = math.nan) -> CommandResult:
-        if not self.commander.position_valid:
-            return CommandResult.TEMPORARILY_REJECTED
         result = self.commander.request_nav_state(now_s, NavState.AUTO_TAKEOFF)
         if result is CommandResult.ACCEPTED:
             self.navigator.takeoff.requested_alt_amsl_m = alt_amsl_m
@@ -197,8 +195,7 @@ class Autopilot:
         return self.commander.command_mode(now_s, NavState.AUTO_LAND)
 
     def return_to_launch(self, now_s: float) -> CommandResult:
-        if self.home is None:
-            return CommandResult.TEMPORARILY_REJECTED
+        self._refresh_requirements(now_s)  # home_valid: Return needs a home (armed)
         return self.commander.command_mode(now_s, NavState.AUTO_RTL)
 
     def reposition(self, now_s: float, target_ned_m: tuple[float, float, float]) -> CommandResult:
@@ -211,8 +208,6 @@ class Autopilot:
 
     def set_nav_state(self, now_s: float, nav_state: NavState) -> CommandResult:
         self._refresh_requirements(now_s)
-        if nav_state is NavState.AUTO_RTL and self.home is None:
-            return CommandResult.TEMPORARILY_REJECTED
         if nav_state is NavState.AUTO_TAKEOFF:
             return self.takeoff(now_s)
         return self.commander.request_nav_state(now_s, nav_state)
@@ -237,6 +232,7 @@ class Autopilot:
             return None
         c = self.commander
         c.throttle_above_center, c.throttle_low = sticks.throttle > 0.2, sticks.throttle < -0.8
+        c.sticks_seen_disarmed()
         bits, state = int(self.params["COM_RC_OVERRIDE"]), c.nav_state
         if self.manual.moving and c.armed and not c.terminated and (
                 (bits & 1 and state in STICK_OVERRIDE_AUTO) or (bits & 2 and state is NavState.OFFBOARD)):
@@ -455,7 +451,8 @@ class Autopilot:
             cmd.nav_state, self.offboard.setpoint), self.params)
         cmd.attitude_failure = self.failure_detector.roll or self.failure_detector.pitch
         self._refresh_requirements(now_s)
-        if not cmd.mission_valid and cmd.nav_state is NavState.AUTO_MISSION:
+        if (not cmd.mission_valid and cmd.nav_state is NavState.AUTO_MISSION and cmd.armed
+                and not ld.landed):
             cmd.switch_by_vehicle(NavState.AUTO_LOITER)  # mission cleared under our feet
         if cmd.update(now_s, ld.landed, self._failsafe_flags(now_s, pos)):
             self._set_home(meas, now_s)

@@ -21,6 +21,11 @@ Rules and invariants:
   ``offboard_available`` current.
 - ``user_nav_state`` is the mode the user (or the vehicle itself) asked for; ``nav_state`` is what
   runs: the failsafe state machine (failsafe.py) may override it while a failsafe is active.
+- Mode requests follow UserModeIntention: while disarmed any mode a command names is granted
+  (arming then says what it lacks), armed it must be able to run. A disarm goes back to the
+  last mode asked for that does not prevent arming (after Return or Land: the Mission, Hold, …
+  before them). Stick input while disarmed, before any mode change since boot, makes the mode
+  Position (manualControlCheck).
 - Stick input (MANUAL_CONTROL, manual_control.py): the stick modes (``NEEDS_MANUAL_CONTROL``)
   are entered and armed in only while it is fresh (``manual_control_available``); once seen, its
   loss and return are announced as events ("Manual control lost" / "... regained after N.N s").
@@ -103,6 +108,8 @@ class Commander:
         self.armed = False
         self.nav_state = NavState.AUTO_LOITER
         self.user_nav_state = NavState.AUTO_LOITER
+        self._after_disarm = NavState.AUTO_LOITER  # UserModeIntention's _nav_state_after_disarming
+        self._ever_changed = False  # everHadModeChange
         self.mission_valid = False
         self.offboard_available = False
         self.manual_control_available = False
@@ -180,9 +187,15 @@ class Commander:
         return self.armed and self.failsafe.in_failsafe
 
     def mode_request_result(self, target: NavState) -> CommandResult:
-        """How a request to switch to ``target`` would be answered right now (pure query)."""
+        """How a request to switch to ``target`` would be answered right now (pure query):
+        UserModeIntention::change allows any mode a command names while disarmed (arming then
+        says what is missing); armed, the mode must be able to run (canRun)."""
         spec = MODE_TABLE[target]
-        if self.terminated:
+        if self.terminated or spec.switch is SwitchRule.FAILSAFE_ONLY:
+            return CommandResult.TEMPORARILY_REJECTED
+        if not self.armed:
+            return CommandResult.ACCEPTED
+        if spec.needs_home and not self.home_valid:
             return CommandResult.TEMPORARILY_REJECTED
         if spec.switch is SwitchRule.NEEDS_MANUAL_CONTROL:
             if not self.manual_control_available:
@@ -198,11 +211,26 @@ class Commander:
 
     # --- requests -----------------------------------------------------------------------------
     def request_nav_state(self, now_s: float, target: NavState) -> CommandResult:
+        self._ever_changed = True  # UserModeIntention: any request counts, granted or not
         result = self.mode_request_result(target)
         if result is CommandResult.ACCEPTED:
-            self.nav_state = self.user_nav_state = target
+            self._intend(target)
             self.failsafe.user_mode_changed()
         return result
+
+    def _intend(self, target: NavState) -> None:
+        """UserModeIntention::change, granted: the mode flown (unless a failsafe acts), and the
+        one a disarm comes back to unless it prevents arming (Return, Land, ...: onDisarm)."""
+        self.nav_state = self.user_nav_state = target
+        if MODE_TABLE[target].arming_allowed:
+            self._after_disarm = target
+
+    def sticks_seen_disarmed(self) -> None:
+        """manualControlCheck, disarmed, with valid MAVLink stick input: a vehicle whose mode
+        nobody has changed since boot takes Position (forced)."""
+        if not self.armed and not self._ever_changed and not self.terminated:
+            self._ever_changed = True
+            self._intend(NavState.POSCTL)
 
     def command_mode(self, now_s: float, target: NavState) -> CommandResult:
         """NAV_RETURN_TO_LAUNCH / NAV_LAND: the mode, and Commander's answer when it is taken
@@ -336,10 +364,8 @@ class Commander:
         # PX4 counts flights in COM_FLIGHT_UUID at every disarm (an int32: it wraps).
         uuid = int(self._params.get("COM_FLIGHT_UUID", 0) or 0)
         self._params.set("COM_FLIGHT_UUID", (uuid + 1 + 2**31) % 2**32 - 2**31, notify=False)
-        fallback = MODE_TABLE[self.nav_state].after_disarm
-        if fallback is not None:
-            self.nav_state = self.user_nav_state = fallback
-        elif not self.terminated:
+        self.user_nav_state = self._after_disarm  # UserModeIntention::onDisarm
+        if not self.terminated:
             self.nav_state = self.user_nav_state
 
     # --- periodic -----------------------------------------------------------------------------
@@ -427,7 +453,7 @@ class Commander:
         if before <= _WARN < action and self.user_nav_state is NavState.ORBIT:
             # modifyUserIntendedMode: a failsafe that engages during an orbit leaves Hold, not
             # the orbit, to come back to once it clears.
-            self.user_nav_state = NavState.AUTO_LOITER
+            self.user_nav_state = self._after_disarm = NavState.AUTO_LOITER
         if self.terminated:
             return
         if action is _TERMINATE:
@@ -459,4 +485,5 @@ class Commander:
 
     def switch_by_vehicle(self, target: NavState) -> None:
         """A switch the vehicle makes itself (takeoff done -> Hold): no request rules apply."""
-        self.nav_state = self.user_nav_state = target
+        self._ever_changed = True
+        self._intend(target)

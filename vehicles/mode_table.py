@@ -1,6 +1,6 @@
-"""The flight modes as Commander sees them: how a request to switch to each is answered, what
-it needs, whether it can arm, where a disarm leaves it, which control-mode flags it sets, and the
-mode a failsafe action flies.
+"""The flight modes as Commander sees them: how a request to switch to each is answered while
+armed, what it needs, whether it can arm (mode_req_prevent_arming), which control-mode flags it
+sets, and the mode a failsafe action flies.
 
 After PX4 ``src/modules/commander`` (ModeUtil/mode_requirements.cpp, ModeUtil/control_mode.cpp,
 failsafe/failsafe.cpp modeFromAction). ``MODE_TABLE`` has one row per NavState (a test proves it).
@@ -36,17 +36,15 @@ class ModeSpec:
     switch: SwitchRule
     needs_position: bool
     arming_allowed: bool
-    after_disarm: NavState | None  # fallback once disarmed; None = stay
     needs_mission: bool = False  # a valid mission must be stored
     needs_offboard: bool = False  # an offboard setpoint younger than COM_OF_LOSS_T
+    needs_home: bool = False  # mode_req_home_position (Return)
     # vehicle_control_mode (control_mode.cpp): flag_control_manual_enabled, and with it whether
     # the throttle stick sets the thrust (no flag_control_climb_rate_enabled: Manual,
     # Stabilized, Acro) rather than a climb rate (Altitude, Position)
     manual: bool = False
     stick_thrust: bool = False
 
-
-_L = NavState.AUTO_LOITER
 
 # What a failsafe action makes the vehicle fly (failsafe.cpp modeFromAction).
 ACTION_NAV_STATE: dict[Action, NavState] = {
@@ -60,31 +58,31 @@ ACTION_NAV_STATE: dict[Action, NavState] = {
     Action.FALLBACK_STABILIZED: NavState.STAB,
 }
 MODE_TABLE: dict[NavState, ModeSpec] = {
-    NavState.MANUAL: ModeSpec("Manual", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None,
+    NavState.MANUAL: ModeSpec("Manual", SwitchRule.NEEDS_MANUAL_CONTROL, False, True,
                               manual=True, stick_thrust=True),
-    NavState.ALTCTL: ModeSpec("Altitude", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None,
+    NavState.ALTCTL: ModeSpec("Altitude", SwitchRule.NEEDS_MANUAL_CONTROL, False, True,
                               manual=True),
-    NavState.POSCTL: ModeSpec("Position", SwitchRule.NEEDS_MANUAL_CONTROL, True, True, None,
+    NavState.POSCTL: ModeSpec("Position", SwitchRule.NEEDS_MANUAL_CONTROL, True, True,
                               manual=True),
-    NavState.AUTO_MISSION: ModeSpec("Mission", SwitchRule.ALLOWED, True, True, None,
+    NavState.AUTO_MISSION: ModeSpec("Mission", SwitchRule.ALLOWED, True, True,
                                     needs_mission=True),
-    NavState.AUTO_LOITER: ModeSpec("Hold", SwitchRule.ALLOWED, True, True, None),
-    NavState.AUTO_RTL: ModeSpec("Return", SwitchRule.ALLOWED, True, False, _L),
+    NavState.AUTO_LOITER: ModeSpec("Hold", SwitchRule.ALLOWED, True, True),
+    NavState.AUTO_RTL: ModeSpec("Return", SwitchRule.ALLOWED, True, False, needs_home=True),
     NavState.POSITION_SLOW: ModeSpec("Position Slow", SwitchRule.NEEDS_MANUAL_CONTROL, True, True,
-                                     None, manual=True),
-    NavState.ACRO: ModeSpec("Acro", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None,
+                                     manual=True),
+    NavState.ACRO: ModeSpec("Acro", SwitchRule.NEEDS_MANUAL_CONTROL, False, True,
                             manual=True, stick_thrust=True),
-    NavState.DESCEND: ModeSpec("Descend", SwitchRule.FAILSAFE_ONLY, False, False, _L),
-    NavState.TERMINATION: ModeSpec("Termination", SwitchRule.FAILSAFE_ONLY, False, False, None),
-    NavState.OFFBOARD: ModeSpec("Offboard", SwitchRule.ALLOWED, True, True, None,
+    NavState.DESCEND: ModeSpec("Descend", SwitchRule.FAILSAFE_ONLY, False, False),
+    NavState.TERMINATION: ModeSpec("Termination", SwitchRule.FAILSAFE_ONLY, False, False),
+    NavState.OFFBOARD: ModeSpec("Offboard", SwitchRule.ALLOWED, True, True,
                                 needs_offboard=True),
-    NavState.STAB: ModeSpec("Stabilized", SwitchRule.NEEDS_MANUAL_CONTROL, False, True, None,
+    NavState.STAB: ModeSpec("Stabilized", SwitchRule.NEEDS_MANUAL_CONTROL, False, True,
                             manual=True, stick_thrust=True),
-    NavState.AUTO_TAKEOFF: ModeSpec("Takeoff", SwitchRule.ALLOWED, True, True, None),
-    NavState.AUTO_LAND: ModeSpec("Land", SwitchRule.ALLOWED, True, False, _L),
-    NavState.AUTO_FOLLOW_TARGET: ModeSpec("Follow Me", SwitchRule.ALLOWED, True, False, _L),
-    NavState.AUTO_PRECLAND: ModeSpec("Precision Land", SwitchRule.ALLOWED, True, False, _L),
-    NavState.ORBIT: ModeSpec("Orbit", SwitchRule.ALLOWED, True, False, _L),
+    NavState.AUTO_TAKEOFF: ModeSpec("Takeoff", SwitchRule.ALLOWED, True, True),
+    NavState.AUTO_LAND: ModeSpec("Land", SwitchRule.ALLOWED, True, False),
+    NavState.AUTO_FOLLOW_TARGET: ModeSpec("Follow Me", SwitchRule.ALLOWED, True, False),
+    NavState.AUTO_PRECLAND: ModeSpec("Precision Land", SwitchRule.ALLOWED, True, False),
+    NavState.ORBIT: ModeSpec("Orbit", SwitchRule.ALLOWED, True, False),
 }
 
 # COM_RC_OVERRIDE bit 0: sticks take over these modes (Commander: isAutoMode). Not Orbit: there

@@ -12,6 +12,7 @@ Rules and invariants:
   have no navigator part: the autopilot bypasses the navigator for them.
 - The navigator follows the commander's nav_state: when it differs from the active mode, the old
   mode's ``on_inactive`` and the new mode's ``on_activation`` run, then ``on_active`` every tick.
+  Disarmed, no mode runs (the active one's ``on_inactive`` runs once); arming starts the mode.
 - A mode asks for a mode change (takeoff done -> Hold) through ``ctx.switch_to``; the commander
   applies it.
 - Targets are local NED; a NaN target z means vertical velocity control at ``vz_cmd_mps``.
@@ -109,8 +110,15 @@ class Navigator:
     def update(self, nav_state: NavState, ctx: NavContext) -> NavSetpoint:
         if nav_state not in self.modes:
             nav_state = NavState.AUTO_LOITER  # modes without a navigator part behave as Hold
-        if not ctx.armed:  # PX4 runs no mode then: the mission notes it in on_inactive
+        if not ctx.armed:
+            # navigator_main.cpp: "Do not execute any state machine while we are disarmed" (the
+            # mission notes it in on_inactive); the mode starts once armed.
             self.mission.disarmed_while_inactive = True
+            if self.active_state is not None:
+                self.modes[self.active_state].on_inactive(ctx)
+                self.active_state = None
+            self._last = None
+            return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
         if nav_state is not _HOLD:
             self.hold.hint = self.hold.reposition = None  # a hand-over target is stale now
             self.hold.hint_yaw = math.nan

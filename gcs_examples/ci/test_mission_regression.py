@@ -61,7 +61,7 @@ def test_square_mission_lockstep(cornet_sim):
 
     log = FlightLogView.load(sim)  # flushes the logs first
     modes = [mode for _, mode in log.modes()]
-    if modes[-1] == "AUTO_LOITER":  # PX4 falls back to Hold once disarmed after a return
+    if modes[-1] == "AUTO_MISSION":  # once disarmed, PX4 goes back to the mode before Return
         modes.pop()
     assert modes[-1] == "AUTO_RTL"  # the plan ends with a return-to-launch item
     assert_flew_the_square(log)

@@ -6,7 +6,7 @@ import time
 import pytest
 from pymavlink import mavutil
 
-from tests.e2e.gcs import gcs, heartbeats_by_sysid, read_all_params
+from tests.e2e.gcs import command_long, gcs, heartbeats_by_sysid, read_all_params
 
 pytestmark = [pytest.mark.e2e]
 
@@ -146,5 +146,26 @@ def test_a_joysticks_stick_gestures_arm_and_disarm(daemon_factory):
         assert joystick(0, 1000, 3.0, armed(True)), texts
         assert joystick(0, -1000, 8.0, said("Disarmed by RC")), texts
         assert joystick(0, -1000, 3.0, armed(False)), texts
+    finally:
+        conn.close()
+
+
+def test_disarmed_the_gcs_may_pick_any_mode_and_arming_says_what_it_lacks(daemon_factory):
+    """Commander's UserModeIntention: disarmed, DO_SET_MODE to Mission with no mission is
+    ACCEPTED and the HEARTBEAT shows it; arming there is TEMPORARILY_REJECTED."""
+    d = daemon_factory()
+    conn = gcs(d.gcs_port())
+    try:
+        assert heartbeats_by_sysid(conn, {1})
+        custom = mavutil.mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+        assert command_long(conn, mavutil.mavlink.MAV_CMD_DO_SET_MODE, custom, 4, 4) == 0
+        deadline = time.monotonic() + 5
+        while True:
+            hb = conn.recv_match(type="HEARTBEAT", blocking=True, timeout=1)
+            if hb is not None and hb.get_srcSystem() == 1 and hb.custom_mode == 0x04040000:
+                break
+            assert time.monotonic() < deadline, "no Mission in the HEARTBEAT"
+        assert command_long(conn, mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == \
+            mavutil.mavlink.MAV_RESULT_TEMPORARILY_REJECTED
     finally:
         conn.close()

@@ -322,27 +322,60 @@ def test_a_refused_mode_switch_is_said_to_qgc_only(sim):
     from vehicles.events import MODE_NOT_AVAILABLE
 
     sim.advance(1.1)
-    result, texts, events = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 6, 0, source_component=191)
-    assert result == M.MAV_RESULT_TEMPORARILY_REJECTED and texts == [] and events == []
-    result, texts, events = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 6, 0)  # Offboard, no setpoints
-    assert result == M.MAV_RESULT_TEMPORARILY_REJECTED
-    assert texts == ["Switching to Offboard is currently not available\t"]
-    assert [(e.id, e.arguments) for e in events] == [
-        (MODE_NOT_AVAILABLE.id, (6 << 16).to_bytes(4, "little") + bytes([7]))]
-    result, texts, _ = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 4, 4)  # Mission: none uploaded
-    assert result == M.MAV_RESULT_TEMPORARILY_REJECTED and texts == []  # within the second
-    sim.advance(1.0)
-    _, texts, _ = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 4, 4)
-    assert texts == ["Switching to Mission is currently not available\t"]
-    assert sim.status(0).nav_state.name == "AUTO_LOITER"
+    api = sim.api(0)
+    assert api.arm() == 0  # armed, a mode must be able to run (disarmed, PX4 grants any)
+    sim.advance(0.5)  # its text out
+    try:
+        result, texts, events = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 6, 0,
+                                       source_component=191)
+        assert result == M.MAV_RESULT_TEMPORARILY_REJECTED and texts == [] and events == []
+        result, texts, events = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 6, 0)  # Offboard, no sp
+        assert result == M.MAV_RESULT_TEMPORARILY_REJECTED
+        assert texts == ["Switching to Offboard is currently not available\t"]
+        assert [(e.id, e.arguments) for e in events] == [
+            (MODE_NOT_AVAILABLE.id, (6 << 16).to_bytes(4, "little") + bytes([7]))]
+        result, texts, _ = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 4, 4)  # Mission: none
+        assert result == M.MAV_RESULT_TEMPORARILY_REJECTED and texts == []  # within the second
+        sim.advance(1.0)
+        _, texts, _ = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, 4, 4)
+        assert texts == ["Switching to Mission is currently not available\t"]
+        assert sim.status(0).nav_state.name == "AUTO_LOITER"
+    finally:
+        assert api.disarm() == 0
+        sim.advance(0.5)
+
+
+def test_disarmed_any_mode_a_command_names_is_granted(sim):
+    """UserModeIntention::change: always allowed while disarmed, Offboard without setpoints and
+    Mission without a mission too; arming in them is what is refused."""
+    for custom_main, sub, name in ((6, 0, "OFFBOARD"), (4, 4, "AUTO_MISSION"),
+                                   (4, 3, "AUTO_LOITER")):
+        result, texts, _ = answer(sim, M.MAV_CMD_DO_SET_MODE, 1, custom_main, sub)
+        assert result == M.MAV_RESULT_ACCEPTED and texts == []
+        sim.advance(0.1)
+        assert sim.status(0).nav_state.name == name
+        if name != "AUTO_LOITER":
+            assert sim.api(0).arm() == M.MAV_RESULT_TEMPORARILY_REJECTED
+            sim.advance(0.5)  # its texts out
+
+
+def armed_without_position(sim):
+    """Armed in Hold, then the GPS off (MAV_CMD_INJECT_FAILURE) until the position is lost."""
+    sim.vehicles[0].params.set("SYS_FAILURE_EN", 1)
+    assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+    assert sim.api(0).arm() == 0
+    assert sim.api(0).command_long(M.MAV_CMD_INJECT_FAILURE, 4, 1, 0) == 0
+    assert sim.run_until(lambda: not sim.status(0).position_valid, timeout_s=10)
+    sim.advance(0.5)  # "Failsafe activated" (Descend) out
 
 
 def test_commands_that_switch_modes_say_a_refusal_to_everyone():
     """NAV_TAKEOFF, NAV_LAND, NAV_RETURN_TO_LAUNCH and DO_REPOSITION: printRejectMode whoever
-    sends them (here before the position estimate is valid, which each mode needs)."""
+    sends them (here armed without a position estimate, which each mode needs)."""
     from gateway.testing import Sim
 
     with Sim(1) as sim:
+        armed_without_position(sim)
         for command, params, name in (
                 (M.MAV_CMD_NAV_TAKEOFF, [NAN] * 7, "Takeoff"),
                 (M.MAV_CMD_NAV_LAND, [NAN] * 7, "Land"),
@@ -381,7 +414,8 @@ def test_a_refused_orbit_is_said():
     rejected" (critical)."""
     from gateway.testing import Sim
 
-    with Sim(1) as sim:  # no position estimate yet
+    with Sim(1) as sim:
+        armed_without_position(sim)
         result, texts, _ = answer(sim, M.MAV_CMD_DO_ORBIT, 10, 2, 0, NAN, NAN, NAN, NAN,
                                   wait_s=0.1)
         assert result == M.MAV_RESULT_TEMPORARILY_REJECTED

@@ -131,7 +131,9 @@ def test_set_velocity_limits_on_the_wire_and_do_set_mode_position_slow():
         sim.run_until(lambda: False, timeout_s=0.2)
         assert sim.vehicles[0]._autopilot.velocity_limits.last[:2] == (math.inf,
                                                                      pytest.approx(3e38))
-        # QGC's or MAVSDK's mode change: custom main mode POSCTL (3), sub mode SLOW (2)
+        # QGC's or MAVSDK's mode change: custom main mode POSCTL (3), sub mode SLOW (2); armed
+        # it needs stick input (disarmed, PX4 grants any mode)
+        assert api.arm() == 0
         assert api.command_long(176, 1, 3, 2) == 1  # TEMPORARILY_REJECTED: no sticks yet
         api.send(api.mav.manual_control_encode(1, 0, 0, 500, 0, 0))
         assert api.command_long(176, 1, 3, 2) == 0

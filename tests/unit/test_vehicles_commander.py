@@ -23,10 +23,10 @@ def make(nav_state=NavState.AUTO_LOITER, position_valid=True, armed=False, lande
     c = Commander(ParamStore(), log)
     c.manual_control_available = manual_control_available
     c.throttle_low = True  # the sticks' throttle down, where a pilot arms from
-    c.position_valid = position_valid
+    c.position_valid = c.home_valid = position_valid  # (home is set where the position is)
     c.mission_valid = mission_valid
     c.offboard_available = offboard_available
-    c.nav_state = c.user_nav_state = nav_state
+    c._intend(nav_state)  # as a granted request leaves it
     c.armed = armed
     c.landed = landed
     return c, log
@@ -48,7 +48,8 @@ def test_boot_state_is_hold_disarmed_without_position():
 @pytest.mark.parametrize("current", list(NavState))
 @pytest.mark.parametrize("target", list(NavState))
 def test_every_mode_request_from_every_mode_has_a_defined_answer(current, target, sticks):
-    c, _ = make(current, manual_control_available=sticks)
+    """Armed (UserModeIntention::change checks canRun): as the table says."""
+    c, _ = make(current, armed=True, landed=False, manual_control_available=sticks)
     result = c.request_nav_state(0.0, target)
     if target in REQUESTABLE or (sticks and target in STICK_MODES):
         assert result is CommandResult.ACCEPTED
@@ -59,11 +60,35 @@ def test_every_mode_request_from_every_mode_has_a_defined_answer(current, target
         assert c.nav_state is current
 
 
+@pytest.mark.parametrize("current", list(NavState))
+@pytest.mark.parametrize("target", list(NavState))
+def test_disarmed_every_requestable_mode_is_granted(current, target):
+    """UserModeIntention::change: always_allow while disarmed (a command can name every mode
+    but Descend and Termination); arming then says what the mode lacks."""
+    c, _ = make(current, position_valid=False, mission_valid=False, offboard_available=False)
+    result = c.request_nav_state(0.0, target)
+    if MODE_TABLE[target].switch is SwitchRule.FAILSAFE_ONLY:
+        assert result is CommandResult.TEMPORARILY_REJECTED and c.nav_state is current
+    else:
+        assert result is CommandResult.ACCEPTED and c.nav_state is target
+
+
+def test_a_disarm_comes_back_to_the_last_mode_asked_that_can_arm():
+    """UserModeIntention::onDisarm: Mission, then Return (which prevents arming), landed and
+    disarmed: Mission again; a failsafe's Return leaves the asked mode alone too."""
+    c, _ = make(NavState.AUTO_MISSION, armed=True, landed=False)
+    assert c.request_nav_state(0.0, NavState.AUTO_RTL) is CommandResult.ACCEPTED
+    c.landed = True
+    assert c.disarm(1.0) is CommandResult.ACCEPTED
+    assert c.nav_state is c.user_nav_state is NavState.AUTO_MISSION
+
+
 @pytest.mark.parametrize("mission_valid", [False, True])
 @pytest.mark.parametrize("offboard_available", [False, True])
 @pytest.mark.parametrize("target", list(NavState))
 def test_mission_and_offboard_requirements(target, mission_valid, offboard_available):
-    c, _ = make(mission_valid=mission_valid, offboard_available=offboard_available)
+    c, _ = make(mission_valid=mission_valid, offboard_available=offboard_available, armed=True,
+                landed=False)
     spec = MODE_TABLE[target]
     result = c.request_nav_state(0.0, target)
     blocked = (spec.needs_mission and not mission_valid) or (
@@ -94,7 +119,7 @@ def test_termination_from_every_mode(current, armed):
 
 @pytest.mark.parametrize("target", sorted(REQUESTABLE | STICK_MODES))
 def test_mode_requests_need_a_position_estimate(target):
-    c, _ = make(position_valid=False, manual_control_available=True)
+    c, _ = make(position_valid=False, manual_control_available=True, armed=True, landed=False)
     expected = (CommandResult.TEMPORARILY_REJECTED if MODE_TABLE[target].needs_position
                 else CommandResult.ACCEPTED)
     assert c.request_nav_state(0.0, target) is expected
@@ -184,8 +209,9 @@ def test_every_mode_times_every_arming_event(current, event):
     else:  # AUTO_DISARM: preflight timeout
         c.update(100.0, landed=True)
     assert not c.armed
-    fallback = MODE_TABLE[current].after_disarm
-    assert c.nav_state is (fallback if fallback is not None else current)
+    # onDisarm: the last mode asked for that does not prevent arming (make's: Hold before)
+    assert c.nav_state is (current if MODE_TABLE[current].arming_allowed
+                           else NavState.AUTO_LOITER)
 
 
 def test_arming_denied_before_position_valid():
@@ -256,3 +282,12 @@ def test_a_failsafe_during_an_orbit_comes_back_to_hold():
     assert c.nav_state is NavState.ORBIT
     c.update(0.1, False, FailsafeFlags(**{**flags.__dict__, "geofence_breached": True}))
     assert c.nav_state is NavState.AUTO_LOITER and c.user_nav_state is NavState.AUTO_LOITER
+
+
+def test_armed_return_needs_a_home():
+    """mode_req_home_position: armed without home, Return cannot run."""
+    c, _ = make(NavState.AUTO_LOITER, armed=True, landed=False)
+    c.home_valid = False
+    assert c.request_nav_state(0.0, NavState.AUTO_RTL) is CommandResult.TEMPORARILY_REJECTED
+    c.home_valid = True
+    assert c.request_nav_state(0.0, NavState.AUTO_RTL) is CommandResult.ACCEPTED

@@ -187,12 +187,21 @@ def test_disarm_denied_in_air_unless_forced(sim):
     assert sim.v.state.velocity_ned_mps[2] > 1.0  # motors off: falling
 
 
-def test_manual_modes_mission_and_offboard_are_rejected(sim):
+def test_manual_modes_mission_and_offboard_are_rejected_armed_and_granted_disarmed(sim):
+    """UserModeIntention::change: armed, a mode must be able to run (sticks, a mission, an
+    offboard signal); disarmed any is granted and arming in it is what is refused."""
     sim.run(1.2)
-    for mode in (NavState.MANUAL, NavState.POSCTL, NavState.ALTCTL, NavState.STAB, NavState.ACRO,
-                 NavState.AUTO_MISSION, NavState.OFFBOARD):
+    modes = (NavState.MANUAL, NavState.POSCTL, NavState.ALTCTL, NavState.STAB, NavState.ACRO,
+             NavState.AUTO_MISSION, NavState.OFFBOARD)
+    assert sim.v.arm(sim.t) is CommandResult.ACCEPTED
+    for mode in modes:
         assert sim.v.set_nav_state(sim.t, mode) is CommandResult.TEMPORARILY_REJECTED
     assert sim.v.status.nav_state is NavState.AUTO_LOITER
+    assert sim.v.disarm(sim.t) is CommandResult.ACCEPTED
+    for mode in modes:
+        assert sim.v.set_nav_state(sim.t, mode) is CommandResult.ACCEPTED
+        assert sim.v.status.nav_state is mode
+        assert sim.v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
 
 
 def test_rtl_returns_home_and_lands():

@@ -250,7 +250,8 @@ def test_the_stick_gestures_arm_and_disarm_after_com_rc_arm_hyst(sim):
     """ManualControl::processStickArming: held COM_RC_ARM_HYST (1 s) the gesture asks once;
     Commander::arm refuses it outside a manual mode, and the sticks disarm once landed."""
     sim.run(1.2)
-    fly(sim, 1.5, ARM_GESTURE)  # Hold: not a manual mode
+    assert sim.v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+    fly(sim, 1.5, ARM_GESTURE)  # Hold, asked for: not a manual mode
     assert not sim.v.status.armed
     assert sim.texts()[-1] == "Arming denied: switch to manual mode first\t"
     assert sim.v.set_nav_state(sim.t, NavState.POSCTL) is CommandResult.ACCEPTED
@@ -346,9 +347,21 @@ def test_com_rc_in_mode_rc_only_or_disabled_ignores_mavlink_sticks(mode):
     try:
         s.run(1.2)
         s.v.manual_control(s.t, CENTRED, source="gcs")
-        assert s.v.set_nav_state(s.t, NavState.POSCTL) is CommandResult.TEMPORARILY_REJECTED
+        assert s.v._autopilot.manual.sticks is None
+        assert s.v.status.nav_state is NavState.AUTO_LOITER  # no input: no Position either
     finally:
         s.close()
+
+
+def test_stick_input_before_any_mode_change_makes_the_mode_position(sim):
+    """Commander::manualControlCheck: disarmed, valid MAVLink sticks and no mode change since
+    boot force Position (once); after a mode change they do not."""
+    sim.run(1.2)
+    fly(sim, 0.2, CENTRED)
+    assert sim.v.status.nav_state is NavState.POSCTL
+    assert sim.v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+    fly(sim, 0.2, CENTRED)
+    assert sim.v.status.nav_state is NavState.AUTO_LOITER
 
 
 def test_com_rc_in_mode_3_keeps_the_first_source_until_reboot():
@@ -361,7 +374,6 @@ def test_com_rc_in_mode_3_keeps_the_first_source_until_reboot():
             s.v.manual_control(s.t, CENTRED, source="gcs")
             s.run(1.0)  # lost (COM_RC_LOSS_T 0.5 s)
             s.v.manual_control(s.t, CENTRED, source="api")
-            result = s.v.set_nav_state(s.t, NavState.POSCTL)
-            assert (result is CommandResult.ACCEPTED) is other_takes_over
+            assert (s.v._autopilot.manual.source == "api") is other_takes_over
         finally:
             s.close()

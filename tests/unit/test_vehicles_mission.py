@@ -150,9 +150,15 @@ def test_plan_validation(plan_type, items, expected):
 
 # --- mission mode ----------------------------------------------------------------------------
 def test_mission_mode_rejected_without_mission(sim):
+    """Armed, Mission needs a valid mission (canRun); disarmed it is granted, arming refused."""
     v = sim.v
-    assert v.set_nav_state(sim.t, NavState.AUTO_MISSION) is CommandResult.TEMPORARILY_REJECTED
     assert v.start_mission(sim.t) is CommandResult.DENIED
+    assert v.set_nav_state(sim.t, NavState.AUTO_MISSION) is CommandResult.ACCEPTED
+    assert v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
+    assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+    assert v.set_nav_state(sim.t, NavState.AUTO_MISSION) is CommandResult.TEMPORARILY_REJECTED
+    assert v.disarm(sim.t) is CommandResult.ACCEPTED
     assert "Mission start denied! No valid mission" in sim.texts()
     assert not v.status.armed
 
@@ -198,7 +204,8 @@ def test_square_mission_from_the_ground_with_rtl(sim):
     assert "Returning to launch\t" in texts and "Disarmed by landing\t" in texts
     p = v.state.position_ned_m
     assert math.hypot(p[0], p[1]) < 2.0
-    assert v.status.nav_state is NavState.AUTO_LOITER
+    # disarmed, the mode asked for before Return (UserModeIntention::onDisarm)
+    assert v.status.nav_state is NavState.AUTO_MISSION
     assert v.mission_status.state is MissionState.COMPLETE
 
 

@@ -33,8 +33,11 @@ def stream(sim, sp, seconds, until=None):
 
 
 def start_offboard(sim, sp):
+    """Disarmed, Offboard is granted without a setpoint; arming needs one (offboard signal)."""
     v = sim.v
-    assert v.set_nav_state(sim.t, NavState.OFFBOARD) is CommandResult.TEMPORARILY_REJECTED
+    if not v.status.armed:
+        assert v.set_nav_state(sim.t, NavState.OFFBOARD) is CommandResult.ACCEPTED
+        assert v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED
     v.set_offboard_setpoint(sim.t, sp)
     assert v.set_nav_state(sim.t, NavState.OFFBOARD) is CommandResult.ACCEPTED
     assert v.arm(sim.t) is CommandResult.ACCEPTED
@@ -42,6 +45,7 @@ def start_offboard(sim, sp):
 
 def test_offboard_refused_with_stale_setpoint(sim):
     v = sim.v
+    assert v.arm(sim.t) is CommandResult.ACCEPTED  # (disarmed, any mode is granted)
     v.set_offboard_setpoint(sim.t, OffboardSetpoint(position_ned_m=(0, 0, -5)))
     sim.run(1.5)  # older than COM_OF_LOSS_T = 1 s
     assert v.set_nav_state(sim.t, NavState.OFFBOARD) is CommandResult.TEMPORARILY_REJECTED
@@ -139,7 +143,8 @@ def test_offboard_loss_holds_then_returns(sim):
     assert sim.run(60.0, until=lambda: not v.status.armed)
     p = v.state.position_ned_m
     assert math.hypot(p[0], p[1]) < 1.5
-    assert v.status.nav_state is NavState.AUTO_LOITER and not v.status.failsafe
+    # disarmed: the failsafe is gone and the mode is the one asked for, Offboard (onDisarm)
+    assert v.status.nav_state is NavState.OFFBOARD and not v.status.failsafe
 
 
 # --- actions ---------------------------------------------------------------------------------
