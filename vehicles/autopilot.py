@@ -487,6 +487,9 @@ class Autopilot:
 
     def _switch_by_vehicle(self, nav_state: NavState, hold_at: tuple[float, float, float] | None
                            ) -> None:
+        if (nav_state is NavState.AUTO_LOITER and self.commander.nav_state is NavState.AUTO_TAKEOFF
+                and int(self.params["COM_TAKEOFF_ACT"]) == 1 and self.commander.mission_valid):
+            nav_state = NavState.AUTO_MISSION  # Commander: takeoff done, COM_TAKEOFF_ACT 1
         if nav_state is NavState.AUTO_LOITER:
             self.navigator.hold.hint = hold_at
         if nav_state is NavState.AUTO_RTL and self.home is None:

@@ -292,7 +292,7 @@ class Takeoff(NavMode):
         # takeoff.cpp: done once is_mission_item_reached_or_completed accepts the takeoff (in
         # the air); Hold then keeps the takeoff point as its target (the setpoint closes the rest).
         if not ctx.landed and takeoff_reached(ctx, self.target[2]):
-            # COM_TAKEOFF_ACT = 0: hold at the takeoff point.
+            # COM_TAKEOFF_ACT 0: hold at the takeoff point (1: Mission, if valid: the autopilot)
             ctx.switch_to(NavState.AUTO_LOITER, self.target)
         return NavSetpoint(self.target, self.yaw, limits)
 

@@ -513,3 +513,17 @@ def test_a_new_home_alone_does_not_run_the_check_but_activation_does(sim):
     sim.run(0.5)
     assert any(t.startswith("First waypoint too far away") for t in sim.texts())
     assert v.status.nav_state is not NavState.AUTO_MISSION
+
+
+def test_com_takeoff_act_1_flies_the_mission_after_the_takeoff(sim):
+    """Commander: the takeoff done, COM_TAKEOFF_ACT 1 switches to Mission when a valid one is
+    stored (0, the default: Hold; test_vehicles_flight)."""
+    v = sim.v
+    v.params.set("COM_TAKEOFF_ACT", 1)
+    assert v.set_plan(sim.t, PlanType.MISSION, waypoints(v, [(15.0, 0.0, 10.0)])) \
+        is PlanResult.ACCEPTED
+    assert v.arm(sim.t) is CommandResult.ACCEPTED
+    assert v.takeoff(sim.t) is CommandResult.ACCEPTED
+    assert sim.run(30.0, until=lambda: v.status.nav_state is not NavState.AUTO_TAKEOFF)
+    assert v.status.nav_state is NavState.AUTO_MISSION
+    assert sim.run(30.0, until=lambda: v.mission_status.reached_count >= 1)
