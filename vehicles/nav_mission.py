@@ -316,10 +316,11 @@ class Mission(NavMode):
                 self._phase = "delay"
                 return
             if cmd == MavCmd.NAV_RETURN_TO_LAUNCH:
-                self.progress.reached(self.current)
-                self.finished = True
+                # issue_command: PX4's mission sends NAV_RETURN_TO_LAUNCH and stays on the item,
+                # never reached (is_mission_item_reached_or_completed waits for its position)
+                # nor finished; MAVSDK counts on that (is_mission_finished's rtl_correction).
                 self._phase = "done"
-                # PX4's mission sends NAV_RETURN_TO_LAUNCH: Commander's answer
+                # Commander's answer
                 ctx.log.info(ctx.now_s, "Returning to launch\t")
                 ctx.log.event(ctx.now_s, COMMANDER_RTL)
                 ctx.switch_to(NavState.AUTO_RTL, None)

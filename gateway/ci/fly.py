@@ -6,7 +6,8 @@ Mission mode as MAVSDK does; the run ends when the vehicle has landed and disarm
 criterion is already lost (a geofence breach), or at the time limit. As fast as the CPU allows.
 
 Pass criteria (every one must hold):
-- the mission finished: MISSION_CURRENT said COMPLETE, or every item was reported reached;
+- the mission finished: every item was reported reached (but a last Return-to-launch item, which
+  PX4 hands over to Return mode instead);
 - the vehicle landed and disarmed;
 - no geofence breach: every position sampled at GEOFENCE_SAMPLE_S is checked against the plan's
   own fence (vehicles.geofence geometry) as PX4 checks it: every area must allow it (inside each
@@ -48,7 +49,6 @@ GEOFENCE_SAMPLE_S = 0.02  # the position-control rate
 TRACK_SAMPLE_S = 0.1  # the flown track kept in FlyResult.track (baselines compare it)
 POSITION_VALID_TIMEOUT_S = 10.0
 PROGRESS_PERIOD_S = 0.5  # simulated time between progress reports (ProgressLine throttles)
-MISSION_STATE_COMPLETE = 5
 POSITION_COMMANDS = frozenset({MavCmd.NAV_WAYPOINT, MavCmd.NAV_LOITER_UNLIM,
                                MavCmd.NAV_LOITER_TURNS, MavCmd.NAV_LOITER_TIME,
                                MavCmd.NAV_LOITER_TO_ALT})
@@ -450,8 +450,11 @@ def _collect(api, res: FlyResult, plan: QgcPlan) -> None:
         res.item_times.setdefault(int(m.seq), round(t, 3))
     reached = set(res.item_times)
     res.items_reached = len(reached & set(range(len(plan.mission))))
-    res.mission_finished = res.mission_finished or res.items_reached == len(plan.mission) or \
-        any(m.mission_state == MISSION_STATE_COMPLETE for m in api.messages("MISSION_CURRENT"))
+    # A last Return-to-launch item is never reported reached: PX4 hands over to Return on it
+    # (MAVSDK's is_mission_finished makes the same allowance).
+    rtl_last = bool(plan.mission) and plan.mission[-1].command == MavCmd.NAV_RETURN_TO_LAUNCH
+    needed = set(range(len(plan.mission) - rtl_last))
+    res.mission_finished = res.mission_finished or (bool(plan.mission) and needed <= reached)
     res.vehicle_texts = [m.text for m in api.messages("STATUSTEXT") if m.severity <= 4]
     res.failsafes = [f"t={t:.1f} s {m.text}" for t, m in api.timed_messages("STATUSTEXT")
                      if "ailsafe" in m.text]

@@ -31,8 +31,6 @@ from vehicles.plans import vertex_count
 GLOBAL_FRAMES = frozenset({0, 3, 5, 6, 10, 11})
 RELATIVE_FRAMES = frozenset({3, 6})
 MISSION_TOTAL_NONE = 65535  # MISSION_CURRENT.total while no mission is stored
-MISSION_MODE_ACTIVE = 1  # MISSION_CURRENT.mission_mode: in Mission/Takeoff/Land
-MISSION_MODE_SUSPENDED = 2
 
 NO_MISSION = MissionStatus(current_seq=0, count=0, state=MissionState.NO_MISSION,
                            in_mission_mode=False, reached_seq=-1, reached_count=0,
@@ -145,9 +143,11 @@ _MISSION_CURRENT = payload_of(M.MAVLink_mission_current_message)
 
 
 def mission_current_payload(st: MissionStatus) -> bytes:
+    """MavlinkMissionManager::send_mission_current (v1.15): seq and total (UINT16_MAX without a
+    mission); mission_state and mission_mode stay 0 (UNKNOWN: v1.15 does not fill them in, so
+    MAVSDK judges a mission finished by MISSION_ITEM_REACHED, as with PX4)."""
     total = st.count if st.count > 0 else MISSION_TOTAL_NONE
-    mode = MISSION_MODE_ACTIVE if st.in_mission_mode else MISSION_MODE_SUSPENDED
-    return _MISSION_CURRENT(max(0, st.current_seq) & 0xFFFF, total, int(st.state), mode)
+    return _MISSION_CURRENT(max(0, st.current_seq) & 0xFFFF, total, 0, 0)
 
 
 def pack_mission_current(enc: Encoder, st: MissionStatus) -> bytes:

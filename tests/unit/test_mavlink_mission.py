@@ -187,9 +187,9 @@ def test_mavsdk_upload_is_prompt_and_sets_current():
     set_plan = [c for c in vehicle.calls if c[0] == "set_plan"]
     assert len(set_plan) == 1 and [i.command for i in set_plan[0][3]] == [
         16, 178, 16, 178, 16, 178, 20]
-    # MISSION_CURRENT now reports the mission: total 7, not started
+    # MISSION_CURRENT now reports the mission: total 7 (v1.15 leaves mission_state, _mode 0)
     mc = of_type(client.run_until(1.5), "MISSION_CURRENT")[-1]
-    assert (mc.seq, mc.total, mc.mission_state, mc.mission_mode) == (0, 7, 2, 2)
+    assert (mc.seq, mc.total, mc.mission_state, mc.mission_mode) == (0, 7, 0, 0)
 
 
 def test_legacy_float_client():
@@ -506,13 +506,13 @@ def test_mission_current_stream_and_change_sent_once_for_the_vehicle():
     s2 = Session(vehicle, LinkKind.GCS, uploads=uploads)
     c1, c2 = Client(s1), Client(s2)
     mc = of_type(c1.run_until(0.5), "MISSION_CURRENT")
-    assert [(m.seq, m.total, m.mission_state) for m in mc] == [(0, 65535, 1)]
+    assert [(m.seq, m.total, m.mission_state) for m in mc] == [(0, 65535, 0)]
     upload(c1, mavsdk_mission())
     c2.run_until(0.9)
     vehicle.nav_state = NavState.AUTO_MISSION
     vehicle.current_seq = 2  # the navigator moved on
     got = of_type(c1.run_until(0.95), "MISSION_CURRENT")
-    assert [(m.seq, m.total, m.mission_state, m.mission_mode) for m in got] == [(2, 7, 3, 1)]
+    assert [(m.seq, m.total, m.mission_state, m.mission_mode) for m in got] == [(2, 7, 0, 0)]
     # the static _current_seq: the first link to see the change sends it, the others have it
     # from their 1 Hz stream
     assert of_type(c2.run_until(0.95), "MISSION_CURRENT") == []
@@ -534,12 +534,13 @@ def test_item_reached_then_ten_repeats():
     got = client.run_until(20.0)
     reached = of_type(got, "MISSION_ITEM_REACHED")
     assert [m.seq for m in reached] == [0] * mission.REACHED_REPEATS
-    # a new reach restarts the repeats with the new seq; COMPLETE at the end (MAVSDK finished)
+    # a new reach restarts the repeats with the new seq (the last item reached: MAVSDK's
+    # is_mission_finished, as MISSION_CURRENT's mission_state is 0 in v1.15)
     vehicle.reach(6)
     vehicle.mission_finished = True
     got = client.run_until(22.5)
     assert [m.seq for m in of_type(got, "MISSION_ITEM_REACHED")] == [6, 6, 6]
-    assert of_type(got, "MISSION_CURRENT")[-1].mission_state == 5
+    assert of_type(got, "MISSION_CURRENT")[-1].mission_state == 0
 
 
 def test_the_same_item_reached_again_is_sent_only_after_a_reset():

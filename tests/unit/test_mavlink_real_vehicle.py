@@ -16,7 +16,7 @@ from test_mavlink_support import Client, acks, of_type  # noqa: E402
 
 from gateway.mavlink.session import LinkKind, Session  # noqa: E402
 from vehicles.params import ParamStore  # noqa: E402
-from vehicles.plan_types import PlanType  # noqa: E402
+from vehicles.plan_types import MissionState, PlanType  # noqa: E402
 from vehicles.world import World  # noqa: E402
 
 
@@ -88,7 +88,7 @@ def test_mavsdk_mission_over_mavlink():
         msgs = _fly(world, client, 60.0)
         assert [m.seq for m in of_type(msgs, "MISSION_ITEM_REACHED")][:1] == [0]
         assert 1 in {m.seq for m in of_type(msgs, "MISSION_ITEM_REACHED")}
-        assert of_type(msgs, "MISSION_CURRENT")[-1].mission_state == 5  # COMPLETE
+        assert vehicle.mission_status.state is MissionState.COMPLETE
     finally:
         world.close()
 

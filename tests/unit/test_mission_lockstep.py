@@ -10,13 +10,15 @@ from pymavlink.dialects.v20 import common as M
 from gateway.testing import mission_item
 from tests.unit import lockstep_support
 from tests.unit.lockstep_support import geo
-from vehicles.plan_types import MavCmd, PlanResult
+from vehicles.plan_types import MavCmd, MissionState, PlanResult
 from vehicles.types import NavState
 
 sim = lockstep_support.sim  # the fixture: one vehicle, its position estimate valid
 
-ACTIVE, COMPLETE = 3, 5  # MISSION_STATE
-MODE_ACTIVE, MODE_SUSPENDED = 1, 2  # MISSION_CURRENT.mission_mode
+# The mission's state and whether Mission mode flies it, as the vehicle knows them (PX4 v1.15's
+# MISSION_CURRENT leaves mission_state and mission_mode 0)
+ACTIVE, COMPLETE = MissionState.ACTIVE, MissionState.COMPLETE
+MODE_ACTIVE, MODE_SUSPENDED = True, False
 
 
 def test_finished_mission_reentered_then_set_current_and_the_same_upload(sim):
@@ -31,12 +33,14 @@ def test_finished_mission_reentered_then_set_current_and_the_same_upload(sim):
     assert api.arm() == 0 and api.start_mission() == 0
 
     def state(st, mode):
-        m = api.last("MISSION_CURRENT")
-        return m is not None and (m.mission_state, m.mission_mode) == (st, mode)
+        status = sim.vehicles[0].mission_status
+        return (status.state, status.in_mission_mode) == (st, mode)
 
     assert sim.run_until(lambda: state(COMPLETE, MODE_ACTIVE), timeout_s=60)
+    sim.advance(1.5)  # loitering at the end ("Mission finished, loitering")
     assert api.set_mode(NavState.AUTO_LOITER) == 0
     assert sim.run_until(lambda: state(COMPLETE, MODE_SUSPENDED), timeout_s=3)
+    sim.advance(0.5)  # holding
     mark = len(api.frames)
     assert api.set_mode(NavState.AUTO_MISSION) == 0
     sim.advance(3.0)
@@ -51,7 +55,7 @@ def test_finished_mission_reentered_then_set_current_and_the_same_upload(sim):
     assert api.upload_mission(items) == PlanResult.ACCEPTED  # the same again: nothing changes
     sim.advance(1.5)
     m = api.last("MISSION_CURRENT")
-    assert (m.seq, m.mission_state) == (1, ACTIVE)
+    assert (m.seq, m.mission_state, m.mission_mode) == (1, 0, 0) and state(ACTIVE, MODE_ACTIVE)
     assert sim.run_until(lambda: state(COMPLETE, MODE_ACTIVE), timeout_s=30)
 
 

@@ -163,7 +163,9 @@ def test_mission_mode_rejected_without_mission(sim):
     assert not v.status.armed
 
 
-def fly_mission(sim, items, timeout_s=120.0, visit=None):
+def fly_mission(sim, items, timeout_s=120.0, visit=None, rtl=False):
+    """Until the mission is complete and the vehicle disarmed (``rtl``: disarmed, a mission
+    that hands over to Return on its last item is never complete)."""
     v = sim.v
     reached, closest = [], {}
     last = 0
@@ -178,7 +180,7 @@ def fly_mission(sim, items, timeout_s=120.0, visit=None):
             for i in new:
                 if visit and i < len(visit):  # where the vehicle was when the item was reached
                     closest[i] = (math.hypot(p[0] - visit[i][0], p[1] - visit[i][1]), -p[2])
-        return st.state is MissionState.COMPLETE and not v.status.armed
+        return (rtl or st.state is MissionState.COMPLETE) and not v.status.armed
     done = sim.run(timeout_s, until=watch)
     return done, reached, closest
 
@@ -190,10 +192,10 @@ def test_square_mission_from_the_ground_with_rtl(sim):
     assert v.mission_status.state is MissionState.ACTIVE
     assert v.arm(sim.t) is CommandResult.ACCEPTED
     t0 = sim.t
-    done, reached, closest = fly_mission(sim, None, visit=SQUARE)
+    done, reached, closest = fly_mission(sim, None, visit=SQUARE, rtl=True)
     assert done, (v.status, v.mission_status, sim.texts()[-5:])
     assert sim.t - t0 < 110
-    assert reached == [0, 1, 2, 3, 4]
+    assert reached == [0, 1, 2, 3]  # the RTL item hands over to Return: never reached
     for i, (_n, _e, alt) in enumerate(SQUARE):
         d, h = closest[i]
         assert d < 2.0, (i, d)  # NAV_ACC_RAD
@@ -204,9 +206,10 @@ def test_square_mission_from_the_ground_with_rtl(sim):
     assert "Returning to launch\t" in texts and "Disarmed by landing\t" in texts
     p = v.state.position_ned_m
     assert math.hypot(p[0], p[1]) < 2.0
-    # disarmed, the mode asked for before Return (UserModeIntention::onDisarm)
+    # disarmed, the mode asked for before Return (UserModeIntention::onDisarm), the mission
+    # still on its RTL item
     assert v.status.nav_state is NavState.AUTO_MISSION
-    assert v.mission_status.state is MissionState.COMPLETE
+    assert v.mission_status.current_seq == 4 and v.mission_status.state is MissionState.ACTIVE
 
 
 def test_mission_start_arms_takeoff_item_speed_change_and_loiter_at_end(sim):
