@@ -52,6 +52,21 @@ class NavSetpoint(NamedTuple):
     loiter_radius_m: float = math.nan
 
 
+def braking_stop(position_ned_m: Vec3, velocity_ned_mps: Vec3, params) -> Vec3:
+    """Navigator::calculate_breaking_stop: ``position_ned_m`` moved along the horizontal course
+    by computeBrakingDistanceFromVelocity(speed, MPC_JERK_AUTO, MPC_ACC_HOR, 0.6 x
+    MPC_JERK_AUTO), its altitude kept."""
+    x, y, z = position_ned_m
+    vx, vy = velocity_ned_mps[0], velocity_ned_mps[1]
+    speed = math.hypot(vx, vy)
+    acc = float(params["MPC_ACC_HOR"])
+    if not speed > 0.0 or not acc > 0.0:
+        return (x, y, z)
+    # v (v / 2a + accel_delay_max / jerk), accel_delay_max = 0.6 x MPC_JERK_AUTO
+    distance = speed * (speed / (2.0 * acc) + 0.6)
+    return (x + vx / speed * distance, y + vy / speed * distance, z)
+
+
 @dataclass
 class NavContext:
     """What a mode may look at and do during one tick (built by the autopilot)."""
@@ -87,16 +102,7 @@ class NavContext:
         MPC_ACC_HOR, an acceleration delay of 0.6 x MPC_JERK_AUTO) on its horizontal speed, at
         its present altitude (setLoiterItemFromCurrentPositionWithBreaking). The vehicle's state,
         not the setpoint's: a vehicle lagging its setpoint overshoots and flies back."""
-        x, y, z = self.position_ned_m
-        vx, vy = self.velocity_ned_mps[0], self.velocity_ned_mps[1]
-        speed = math.hypot(vx, vy)
-        p = self.params
-        acc = float(p["MPC_ACC_HOR"])
-        if not speed > 0.0 or not acc > 0.0:
-            return (x, y, z)
-        # v (v / 2a + accel_delay_max / jerk), accel_delay_max = 0.6 x MPC_JERK_AUTO
-        distance = speed * (speed / (2.0 * acc) + 0.6)
-        return (x + vx / speed * distance, y + vy / speed * distance, z)
+        return braking_stop(self.position_ned_m, self.velocity_ned_mps, self.params)
 
     @property
     def speed_xy_mps(self) -> float:

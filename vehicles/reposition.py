@@ -8,8 +8,9 @@ Rules:
   outside the geofence, while GF_ACTION is neither None nor Warning, is dropped with the
   navigator's critical text and event: the command stays ACCEPTED and the vehicle holds.
 - Without a position: the current setpoint's (a mission's waypoint, Hold's target) when only
-  the altitude or the yaw is given, where the vehicle is when nothing is (pause) or for an
-  altitude change (PX4: its braking point).
+  the altitude or the yaw is given; the braking point (Navigator::calculate_breaking_stop: the
+  position moved along the course by the braking distance) when nothing is (QGC's Pause) or
+  for an altitude change, where the vehicle is while the setpoint is a takeoff's.
 - The target's horizontal speed is the command's when above 0; else MPC_XY_CRUISE when the
   vehicle enters Hold with it, the navigator's cruising speed when it holds already. It is the
   reposition setpoint's own: the cruising speed DO_CHANGE_SPEED or a mission set is unchanged.
@@ -24,6 +25,7 @@ from vehicles.commander import Commander
 from vehicles.events import CHANGE_ALT_OUTSIDE_FENCE, REPOSITION_OUTSIDE_FENCE, Log
 from vehicles.flight_tasks import Tasks
 from vehicles.geofence import Geofence
+from vehicles.nav_core import braking_stop
 from vehicles.navigator import Navigator
 from vehicles.params import ParamStore
 from vehicles.status_log import StatusLog
@@ -64,6 +66,9 @@ def goto(ap: Autopilot, now_s: float, here: Measurement, lat_deg: float, lon_deg
     if not ap.commander.position_valid:
         return CommandResult.TEMPORARILY_REJECTED
     holding = ap.commander.nav_state is NavState.AUTO_LOITER
+    sp = ap.tasks.auto.setpoint
+    taking_off = ap.commander.nav_state is NavState.AUTO_TAKEOFF or (
+        sp is not None and sp.taking_off)  # the triplet's current is a takeoff setpoint
     result = ap.set_nav_state(now_s, NavState.AUTO_LOITER)
     if result is not CommandResult.ACCEPTED or not ap.commander.armed:
         return result
@@ -73,9 +78,12 @@ def goto(ap: Autopilot, now_s: float, here: Measurement, lat_deg: float, lon_deg
     elif what == "Reposition" and not (math.isnan(alt_amsl_m) and math.isnan(yaw_rad)):
         # "Position is not changing, thus we keep the setpoint": the current setpoint's (a
         # mission's waypoint, Hold's target), else where the vehicle is
-        sp = ap.tasks.auto.setpoint
         if sp is not None and math.isfinite(sp.target_ned_m[0]) and math.isfinite(sp.target_ned_m[1]):
             n, e = sp.target_ned_m[0], sp.target_ned_m[1]
+    elif not taking_off:
+        # a pause (all NaN) or an altitude change: a multicopter stops where it can brake to
+        # (calculate_breaking_stop), not where it was, unless the setpoint is a takeoff's
+        n, e, _ = braking_stop(here.position_ned_m, here.velocity_ned_mps, ap.params)
     if not math.isnan(alt_amsl_m):
         d = ap.origin.alt_amsl_m - alt_amsl_m
     gf_action = int(ap.params["GF_ACTION"])

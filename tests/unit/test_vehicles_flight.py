@@ -288,3 +288,28 @@ def test_battery_current_is_zero_disarmed_and_follows_thrust_armed(sim):
     after = sim.v.status.battery.consumed_mah
     sim.run(2.0)
     assert sim.v.status.battery.consumed_mah == after > consumed
+
+
+def test_pause_stops_at_the_braking_point_without_flying_back():
+    """QGC's Pause (DO_REPOSITION, all NaN) on a multicopter: Navigator::calculate_breaking_stop,
+    the position moved along the course by computeBrakingDistanceFromVelocity; the vehicle
+    stops there, not back at where the command found it."""
+    sim = Sim()
+    try:
+        take_off(sim)
+        v = sim.v
+        far = v.origin.offset_ned(200.0, 0.0, 0.0)
+        assert v.goto(sim.t, far.lat_deg, far.lon_deg, v.origin.alt_amsl_m + 5.0) \
+            is CommandResult.ACCEPTED
+        assert sim.run(60.0, until=lambda: v.state.position_ned_m[0] > 80.0)  # cruising
+        n0, speed = v.state.position_ned_m[0], v.state.velocity_ned_mps[0]
+        expected = speed * (speed / (2.0 * float(v.params["MPC_ACC_HOR"])) + 0.6)
+        nan = float("nan")
+        assert v.goto(sim.t, nan, nan, nan) is CommandResult.ACCEPTED
+        furthest = [n0]
+        sim.run(15.0, until=lambda: furthest.append(v.state.position_ned_m[0]) and False)
+        stop = v.state.position_ned_m[0]
+        assert stop - n0 == pytest.approx(expected, abs=1.5)
+        assert max(furthest) - stop < 1.0  # no overshoot to fly back from
+    finally:
+        sim.close()
