@@ -36,7 +36,7 @@ from vehicles.control.hover_thrust import HoverThrustEstimator
 from vehicles.control.position_control import PositionControl, PositionControlGains
 from vehicles.control.quat import q_yaw
 from vehicles.control.rate_control import RateControlGains
-from vehicles.events import ArmReason
+from vehicles.events import MISSION_START_DENIED, ArmReason, Log
 from vehicles.failsafe import FailsafeFlags
 from vehicles.failure_detector import FailureDetector, attitude_control
 from vehicles.flight_task import check_resets
@@ -246,7 +246,8 @@ class Autopilot:
         first item (navigator_main.cpp), below 0 the mission goes on where it is."""
         mission = self.navigator.mission
         if not (mission.check.update(now_s, self) and mission.valid()):
-            self.log.critical(now_s, "Mission start denied! No valid mission")
+            self.log.critical(now_s, MISSION_START_DENIED.message + "\t")
+            self.log.event(now_s, MISSION_START_DENIED, Log.CRITICAL, Log.INFO)
             return CommandResult.DENIED
         if not (math.isfinite(first_seq) and -1 <= first_seq < len(mission.items)):
             return CommandResult.DENIED

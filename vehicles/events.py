@@ -136,6 +136,8 @@ ARM_DENIED_THROTTLE_HIGH = EventDef("commander_arm_denied_throttle_high", "defau
                                     "Arming denied: high throttle")
 ARM_DENIED_NOT_MANUAL = EventDef("commander_arm_denied_not_manual", "default",
                                  "Arming denied: switch to manual mode first")
+MISSION_START_DENIED = EventDef("commander_mission_start_denied_no_mission", "default",
+                                "Mission start denied! No valid mission")
 DISARM_DENIED_NOT_LANDED = EventDef("commander_disarm_denied_not_landed", "default",
                                     "Disarming denied: not landed")
 ARMING_SUMMARY = EventDef(
@@ -338,7 +340,7 @@ POSITION_PARAMS = (TILT_SET, LAND_TILT_SET, CRUISE_SET, MAN_VEL_SET, UP_VEL_SET,
 DEFINITIONS: tuple[EventDef, ...] = (
     ARMED_BY, DISARMED_BY, TAKEOFF_DETECTED, LANDING_DETECTED, ARM_DENIED, ARM_DENIED_CALIBRATING,
     ARM_DENIED_THROTTLE_CENTER, ARM_DENIED_THROTTLE_HIGH, ARM_DENIED_NOT_MANUAL,
-    DISARM_DENIED_NOT_LANDED, ARMING_SUMMARY,
+    DISARM_DENIED_NOT_LANDED, MISSION_START_DENIED, ARMING_SUMMARY,
     HEALTH_SUMMARY,
     CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_MISSION_FAILURE, CHECK_OFFBOARD, CHECK_HOME,
     CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF, CHECK_ACCEL_NO_DATA, CHECK_BARO_NO_DATA,

@@ -190,19 +190,20 @@ class Geofence:
 
     def check(self, position_ned_m: Sequence[float], home_ned_m: Sequence[float] | None
               ) -> str | None:
-        """None when the position is allowed, else PX4's reason text."""
+        """None when the position is allowed, else the text geofenceCheck.cpp says for the
+        first limit broken, in its order (distance to home, altitude, the fence's areas)."""
         n, e, d = position_ned_m[0], position_ned_m[1], position_ned_m[2]
         p = self._params
         if home_ned_m is not None:
             max_ver, max_hor = float(p["GF_MAX_VER_DIST"]), float(p["GF_MAX_HOR_DIST"])
             # isBelowMaxAltitude / isCloserThanMaxDistToHome: on from FLT_EPSILON, inside only
             # strictly below the limit
-            dz = home_ned_m[2] - d
-            if max_ver > FLT_EPSILON and not dz < max_ver:
-                return f"Geofence exceeded max vertical distance by {dz - max_ver:.1f} m"
             dxy = math.hypot(n - home_ned_m[0], e - home_ned_m[1])
             if max_hor > FLT_EPSILON and not dxy < max_hor:
-                return f"Geofence exceeded max horizontal distance by {dxy - max_hor:.1f} m"
+                return "Geofence violation: exceeding maximum distance to Home"
+            dz = home_ned_m[2] - d
+            if max_ver > FLT_EPSILON and not dz < max_ver:
+                return "Geofence violation: exceeding maximum altitude above Home"
         if not self.inside_areas(n, e):
-            return "Geofence violation"
+            return "Geofence violation: approaching or outside geofence"
         return None

@@ -151,7 +151,7 @@ def test_an_infeasible_mission_is_uploaded_but_cannot_start_and_says_why(sim):
     assert v.start_mission(sim.t) is CommandResult.DENIED
     said = [t.text for t in v.status_texts(0)]
     assert "Mission rejected: item 2: unsupported cmd: 112\t" in said
-    assert "Mission start denied! No valid mission" in said
+    assert "Mission start denied! No valid mission\t" in said
     assert v.set_nav_state(sim.t, NavState.AUTO_MISSION) is CommandResult.ACCEPTED  # disarmed
     assert v.arm(sim.t) is CommandResult.TEMPORARILY_REJECTED  # missionCheck: no mode arms
     assert v.set_nav_state(sim.t, NavState.AUTO_LOITER) is CommandResult.ACCEPTED

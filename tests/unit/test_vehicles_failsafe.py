@@ -342,7 +342,7 @@ def test_geofence_circle_violation_holds(sim):
         v.set_offboard_setpoint(sim.t, sp)
         return v.status.failsafe
     assert sim.run(10.0, until=out)
-    assert "Geofence violation" in sim.texts()
+    assert "Geofence violation: approaching or outside geofence" in sim.texts()  # geofenceCheck
     assert v.status.nav_state is NavState.AUTO_LOITER
     sim.run(3.0, until=lambda: v.set_offboard_setpoint(sim.t, sp))  # stream on: no offboard loss
     assert v.status.nav_state is NavState.AUTO_LOITER

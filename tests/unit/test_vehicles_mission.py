@@ -159,7 +159,7 @@ def test_mission_mode_rejected_without_mission(sim):
     assert v.arm(sim.t) is CommandResult.ACCEPTED
     assert v.set_nav_state(sim.t, NavState.AUTO_MISSION) is CommandResult.TEMPORARILY_REJECTED
     assert v.disarm(sim.t) is CommandResult.ACCEPTED
-    assert "Mission start denied! No valid mission" in sim.texts()
+    assert "Mission start denied! No valid mission\t" in sim.texts()
     assert not v.status.armed
 
 
