@@ -23,10 +23,14 @@ Rules:
 from __future__ import annotations
 
 import fnmatch
+import os
+import re
 from collections.abc import Callable, Sequence
 from typing import Any
 
 from gateway.mavlink.available_modes import NAV_STATE_NAMES
+from gateway.mavlink.command_requests import GIT_VERSION_BINARY
+from gateway.mavlink.identity import px4_guid
 from gateway.onboard import mavlink_status
 from gateway.onboard.listener import print_message
 from gateway.onboard.logged_topics import NESTED_FORMATS, TOPICS
@@ -47,7 +51,13 @@ LISTENER_USAGE = (
     "     [-i <val>]  Topic instance\n                 default: 0\n"
     "     [-n <val>]  Number of messages\n                 default: 1\n"
     "     [-r <val>]  Subscription rate (unlimited if 0)\n                 default: 0\n")
-VERSION = "1.15.2 0 (17761023)"  # what AUTOPILOT_VERSION says (v1.15.2 release)
+# ver.cpp: a release (type byte 0xFF) prints "Release"; the rest as a v1.15.2 SITL build says it:
+# the git hash whose first 16 digits AUTOPILOT_VERSION carries, the tag's date (__DATE__ pads
+# the day), the toolchain of PX4's Ubuntu 22.04 build image
+VERSION = "Release 1.15.2 (17761023)"  # what AUTOPILOT_VERSION says (v1.15.2 release)
+GIT_HASH = f"{GIT_VERSION_BINARY:016x}e4dfa60d81f7845d2eec36c1"
+BUILD_DATETIME = "Nov  6 2024 12:20:00"
+GCC_VERSION = "11.4.0"
 PROMPT = "pxh> "
 MAX_LINE = 4096
 MODES = {"manual": NavState.MANUAL, "altctl": NavState.ALTCTL, "posctl": NavState.POSCTL,
@@ -116,12 +126,32 @@ class Pxh:
             self.print("Usage: ver <command>\n  hw, hwcmp, git, bdate, gcc, all, uid, mfguid, "
                        "uri, px4guid\n")
             return 1
-        if args[0] in ("all", "hw"):
-            self.print("HW arch: PX4_SITL\n")
-        if args[0] in ("all", "git", "px4ver"):
-            self.print(f"PX4 version: {self.version}\n")
-        if args[0] == "all":
-            self.print("OS: Linux\nBuild variant: CORNET\n")
+        arg, show_all, out = args[0], args[0] == "all", []
+        if show_all or arg == "hw":
+            out.append("HW arch: PX4_SITL")
+        if show_all or arg == "git":  # the git-hash, PX4's version, the host's kernel (posix)
+            release = [int(m) for m in re.findall(r"\d+", os.uname().release)[:3]]
+            major, minor, patch = (release + [0, 0, 0])[:3]
+            os_ver = (major << 24 | minor << 16 | patch << 8 | 0xFF) & 0xFFFFFFFF
+            out += [f"PX4 git-hash: {GIT_HASH}", f"PX4 version: {self.version}", "OS: Linux",
+                    f"OS version: Release {major}.{minor}.{patch} ({os_ver})"]
+        if show_all or arg == "bdate":
+            out.append(f"Build datetime: {BUILD_DATETIME}")
+        if show_all or arg == "uri":
+            out.append("Build uri: localhost")
+        if show_all:
+            out.append("Build variant: default")
+        if show_all or arg == "gcc":
+            out.append(f"Toolchain: GNU GCC, {GCC_VERSION}")
+        if show_all or arg == "px4guid":
+            sysid = int(self.vehicle.params.get("MAV_SYS_ID", 1) or 1)
+            out.append(f"PX4GUID: {bytes(px4_guid(sysid)).hex()}")
+        if show_all or arg == "mcu":
+            out.append("UNKNOWN MCU")  # posix: board_mcu_version is -1
+        if not out:
+            self.print("ERROR [ver] unknown command\n")
+            return 1
+        self.print("".join(line + "\n" for line in out))
         return 0
 
     def _param(self, args: list[str], now_s: float) -> int:

@@ -32,6 +32,8 @@ def test_prompt_echo_and_commands():
         assert shell(sim, "\n") == "\npxh> "
         out = shell(sim, "ver all\n")
         assert out.startswith("ver all\n") and "HW arch: PX4_SITL" in out and out.endswith("pxh> ")
+        # ver.cpp: a release build (type byte 0xFF) says "Release"; posix has no MCU
+        assert "PX4 version: Release 1.15.2 (17761023)\n" in out and "UNKNOWN MCU\n" in out
         assert "x   MPC_XY_CRUISE [" in shell(sim, "param show MPC_XY_CRU*\n")
         assert "  MPC_XY_CRUISE: curr: 5.0000 -> new: 7.0000" in \
             shell(sim, "param set MPC_XY_CRUISE 7\n")
