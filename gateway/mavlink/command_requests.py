@@ -182,11 +182,13 @@ class MessageRequests:
 
     def get_message_interval(self, p: Params) -> int:
         """MavlinkReceiver: ``get_message_interval((int)roundf(param1))``, always ACCEPTED; an
-        id no stream has (NaN: INT_MIN, message_id 0 on the wire) is answered with interval 0."""
+        id no stream has (NaN: INT_MIN, message_id 0 on the wire) is answered with interval 0,
+        and so is a stream this link's mode does not configure or a client stopped (PX4 deletes
+        a stream set to rate 0: it is not in the list the answer is looked up in)."""
         return self._send_interval(c_int(roundf(p[0])))
 
     def _send_interval(self, msg_id: int) -> int:
-        interval = self.scheduler.interval_us(msg_id)
+        interval = max(0, self.scheduler.interval_us(msg_id))
         self.send(self.encoder.pack(M.MAVLink_message_interval_message, msg_id & 0xFFFF,
                                     interval))
         return ACCEPTED

@@ -281,9 +281,9 @@ def test_message_interval_commands():
 
 @pytest.mark.parametrize("interval_us, expected_hz, reported_us", [
     (1.0, 1e6 / 1500, 1),  # accepted as set; Mavlink's loop sends at most every 1500 µs
-    (0.4, 0.0, -1),  # under 1 µs: configure_stream's interval truncates to 0, stopped
-    (math.inf, 0.0, -1), (3e38, 0.0, -1),  # a rate of ~0: stopped
-    (-math.inf, 0.0, -1), (-3e38, 0.0, -1),  # negative: stopped
+    (0.4, 0.0, 0),  # under 1 µs: configure_stream's interval truncates to 0, stopped
+    (math.inf, 0.0, 0), (3e38, 0.0, 0),  # a rate of ~0: stopped (deleted: GET says 0)
+    (-math.inf, 0.0, 0), (-3e38, 0.0, 0),  # negative: stopped
     (math.nan, 50.0, 20_000), (1e-6, 50.0, 20_000),  # neither: the default
 ])
 def test_hostile_message_intervals_get_px4s_reading_and_never_flood(interval_us, expected_hz,
