@@ -113,10 +113,9 @@ class Navigator:
         if not ctx.armed:
             # navigator_main.cpp: "Do not execute any state machine while we are disarmed" (the
             # mission notes it in on_inactive); the mode starts once armed.
-            self.mission.disarmed_while_inactive = True
             if self.active_state is not None:
-                self.modes[self.active_state].on_inactive(ctx)
-                self.active_state = None
+                self.deactivate(ctx)  # (on_inactive; hand-over targets dropped)
+            self.mission.disarmed_while_inactive = True
             self._last = None
             return NavSetpoint(ctx.position_ned_m, ctx.yaw_rad, ctx.limits(), idle=True)
         if nav_state is not _HOLD:
