@@ -121,6 +121,8 @@ RANGES = {
     "MC_SLOW_MIN_YAWR": ("1", ""), "MC_SLOW_DEF_HVEL": ("0.1", ""),
     "MC_SLOW_DEF_VVEL": ("0.1", ""), "MC_SLOW_DEF_YAWR": ("1", ""),
     "EKF2_GPS_CTRL": ("0", "15"),
+    "EKF2_HGT_REF": ("0", "3"),
+    "EKF2_BARO_CTRL": ("0", "1"),
 }
 
 # In current PX4 but not in the old metadata table: (type, default, unit, group, description).
@@ -142,6 +144,11 @@ ADDED = {
     "EKF2_EN": ("INT32", "1", "", "EKF2", "EKF2 enable"),
     # ekf2/module.yaml (v1.15): a bitmask, 0 lon/lat, 1 altitude, 2 3D velocity, 3 dual antenna
     "EKF2_GPS_CTRL": ("INT32", "7", "", "EKF2", "GNSS sensor aiding"),
+    # ekf2/module.yaml (v1.15): EKF2_HGT_MODE's successors (v1.14). The height converges to the
+    # reference (0 barometer, 1 GPS, 2 range sensor, 3 vision); the barometer aids it
+    "EKF2_HGT_REF": ("INT32", "1", "", "EKF2",
+                     "Determines the reference source of height data used by the EKF"),
+    "EKF2_BARO_CTRL": ("INT32", "1", "", "EKF2", "Barometric sensor height aiding"),
     "LNDMC_ALT_GND": ("FLOAT", "2.0", "m", "Land Detector", "Ground effect altitude"),
     "SYS_VEHICLE_RESP": ("FLOAT", "-0.4", "", "Multicopter Position Control", "Vehicle responsiveness"),
     # Follow Me since PX4 v1.13 (flight_mode_manager/tasks/AutoFollowTarget/
@@ -207,6 +214,7 @@ ADDED = {
 # In the old metadata table but gone from PX4 v1.15 (param_find fails, as a client's get does).
 REMOVED = {
     "LNDMC_ALT_MAX",  # not in v1.15's land_detector_params_mc.c
+    "EKF2_HGT_MODE",  # EKF2_HGT_REF and the *_CTRL switches since v1.14 (no translation)
 }
 
 FIELDS = ["name", "type", "default", "min", "max", "unit", "group", "short_desc"]

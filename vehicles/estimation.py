@@ -45,10 +45,13 @@ position and velocity fused EKF2_GPS_DELAY late, barometric height, magnetometer
   every step; GPS innovations are formed against the estimate of EKF2_GPS_DELAY (and half
   EKF2's filter period) before the fix arrived (a ring of past estimates) and the correction
   is applied to the present and the ring (after GNSS_RESET_S unaided, all of it: EKF2's reset
-  to the fix); height and a vertical accelerometer bias follow the barometer. A barometer
-  sample whose test ratio is over 1 (EKF2_BARO_GATE) is rejected, as a magnetometer heading
-  over EKF2_MAG_GATE is; with no barometer fused for BARO_TIMEOUT_S the height follows the GPS
-  instead (EKF2's fallback to GNSS height).
+  to the fix); height and a vertical accelerometer bias follow the barometer (EKF2_BARO_CTRL),
+  less its offset from the reference height: with EKF2_HGT_REF 1 (GPS, v1.15's default) the
+  offset follows the GPS height (EKF2's baro bias estimator), so the height converges to the
+  GPS's; with 0 (barometer) it stays. A barometer sample whose test ratio is over 1
+  (EKF2_BARO_GATE) is rejected, as a magnetometer heading over EKF2_MAG_GATE is; with no
+  barometer fused for BARO_TIMEOUT_S the GPS height is fused directly, with gains for its
+  noise (checkHeightSensorRefFallback: a barometer reference falls back to the GNSS height).
 - Wind: with the vehicle flying, the horizontal specific force in the body frame is the drag of
   the air, so the air's velocity follows (EKF2's drag fusion principle), low-passed.
 - Health: the innovation test ratios (innovation² / (gate σ)², with EKF2's noise parameters and
@@ -137,7 +140,8 @@ B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 # Columns of the estimator's state.
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
  E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_BARO_AGE, E_AID_AGE, E_XY_RESET, E_VXY_RESET,
- E_VZ_RESET, E_SIZE) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 39, 42, 45, 47)
+ E_VZ_RESET, E_BARO_BIAS, E_SIZE) = (
+    0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 39, 42, 45, 47, 48)
 # E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the variance of
 # the raw wind samples (m²/s²);
 # E_ACCURACY: horizontal, vertical (running RMS of the innovations); E_GPS_AGE: seconds since
@@ -147,11 +151,27 @@ B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 # last reset's change (north, east); E_VZ_RESET: the vertical velocity's count and change (EKF2's
 # _state_reset_status: reset_count.posNE, velNE, velD and posNE_change, velNE_change, velD_change,
 # which vehicle_local_position publishes as xy_, vxy_, vz_reset_counter and delta_xy, delta_vxy,
-# delta_vz).
+# delta_vz); E_BARO_BIAS: the barometer's offset from the reference height (EKF2's baro bias
+# estimator: the barometer aids a GPS-referenced height through it).
 
 # EKF2_GPS_CTRL's bits: lon/lat, altitude, 3D velocity (dual antenna heading: no such receiver)
 GPS_CTRL_POS, GPS_CTRL_HGT, GPS_CTRL_VEL = 1, 2, 4
 GPS_CTRL_DEFAULT = GPS_CTRL_POS | GPS_CTRL_HGT | GPS_CTRL_VEL
+# Each row's aiding word: EKF2_GPS_CTRL's bits, then EKF2_BARO_CTRL (the barometer fused) and
+# EKF2_HGT_REF 1 (the GPS the height reference; 0 the barometer; 2 range sensor and 3 vision,
+# which this vehicle lacks, fall back to the barometer as checkHeightSensorRefFallback does).
+AID_BARO, AID_HGT_REF_GPS = 16, 32
+AID_DEFAULT = GPS_CTRL_DEFAULT | AID_BARO | AID_HGT_REF_GPS  # ekf2/module.yaml's defaults
+
+
+def aiding_word(gps_ctrl: float | None, baro_ctrl: float | None, hgt_ref: float | None) -> int:
+    """The aiding word of EKF2_GPS_CTRL, EKF2_BARO_CTRL and EKF2_HGT_REF (None: the default)."""
+    word = GPS_CTRL_DEFAULT if gps_ctrl is None else int(gps_ctrl) & 0xF
+    if baro_ctrl is None or int(baro_ctrl) == 1:
+        word |= AID_BARO
+    if hgt_ref is None or int(hgt_ref) == 1:
+        word |= AID_HGT_REF_GPS
+    return word
 
 E_WIND_VAR = E_RATIOS + 4
 
@@ -159,6 +179,10 @@ E_WIND_VAR = E_RATIOS + 4
 K_TILT, K_HEADING, K_GYRO_BIAS = 0.2, 0.2, 0.002
 L_POS, L_VEL_FROM_POS, L_VEL = 1.0, 0.5, 0.5
 L_HGT, L_VZ_FROM_HGT, L_ACC_BIAS = 2.8, 4.0, 0.4
+# The GPS height (σ 0.5 m, 2.5 times the horizontal 0.2 m): the horizontal position's gains
+# scaled by that ratio (the position's) and its square (the velocity's); the barometer's offset
+# follows the GPS height with a 10 s time constant.
+L_GPS_HGT, L_VZ_FROM_GPS_HGT, L_BARO_BIAS = L_POS / 2.5, L_VEL_FROM_POS / 2.5 ** 2, 0.1
 TAU_ACCEL_REF_S = 0.3
 TAU_WIND_S = 5.0
 TAU_ACCURACY_S = 5.0
@@ -172,11 +196,12 @@ def _gm(dt_s: float, tau_s: float, sigma: float) -> tuple[float, float]:
 
 @njit_cached
 def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, consts,
-             estimated, failed, gps_ctrl):  # pragma: no cover - compiled
+             estimated, failed, aiding):  # pragma: no cover - compiled
     """Every vehicle's estimate after its sensors (module rules). ``ehist``: the ring of past
     estimated positions and velocities; ``flying``: rows whose drag tells the wind; ``consts``:
-    the Earth's field (NED), the airframe's mass over its linear drag; ``gps_ctrl``: each row's
-    EKF2_GPS_CTRL (GPS_CTRL_* bits: what of a fix it fuses)."""
+    the Earth's field (NED), the airframe's mass over its linear drag; ``aiding``: each row's
+    aiding word (``aiding_word``: what of a fix it fuses, whether the barometer aids, which is
+    the height reference)."""
     g = 9.80665
     mn, me = consts[0], consts[1]  # the heading needs the horizontal field only
     mass_over_drag = consts[3]
@@ -229,7 +254,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
         e[E_GPS_AGE] += dt_s
         e[E_BARO_AGE] += dt_s
         e[E_AID_AGE] += dt_s
-        use = gps_ctrl[v]
+        use = aiding[v]
         use_pos, use_vel = use & GPS_CTRL_POS != 0, use & GPS_CTRL_VEL != 0
         if f & F_GPS_OFF:
             e[E_HAVE_GPS] = 0.0  # no tilt reference until fixes come again
@@ -288,18 +313,27 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
                 e[E_RATIOS + 1] = (ep0 * ep0 + ep1 * ep1) / (EKF2_GPS_P_GATE * GPS_OBS_POS_M) ** 2
                 e[E_ACCURACY] = math.sqrt(e[E_ACCURACY] ** 2 + a_acc_gps * (
                     ep0 * ep0 + ep1 * ep1 - e[E_ACCURACY] ** 2))
-            if e[E_BARO_AGE] > BARO_TIMEOUT_S and use & GPS_CTRL_HGT:
-                # No barometer: the height follows the GPS (EKF2's GNSS height fallback).
+            if use & GPS_CTRL_HGT and (use & AID_HGT_REF_GPS
+                                       or e[E_BARO_AGE] > BARO_TIMEOUT_S):
+                # The GPS height, the reference: with the barometer fused, through the
+                # barometer's offset (what it reads above the fix, both taken at the fix's time);
+                # without, directly (checkHeightSensorRefFallback: also a barometer reference
+                # whose barometer is gone).
                 eh = s[S_GPS_POS + 2] - old[2]
-                dh, dvz = L_HGT * dt_gps * eh, L_VZ_FROM_HGT * dt_gps * eh
+                baro_fused = use & AID_BARO and e[E_BARO_AGE] <= BARO_TIMEOUT_S
+                if use & AID_HGT_REF_GPS and baro_fused:
+                    e[E_BARO_BIAS] += L_BARO_BIAS * dt_gps * (
+                        s[S_BARO_DOWN] - e[E_POS + 2] - eh - e[E_BARO_BIAS])
+                    eh = 0.0
+                dh, dvz = L_GPS_HGT * dt_gps * eh, L_VZ_FROM_GPS_HGT * dt_gps * eh
                 e[E_POS + 2] += dh
                 e[E_VEL + 2] += dvz
                 for k in range(len(ring)):
                     ring[k, 2] += dh
                     ring[k, 5] += dvz
         # --- barometer and magnetometer (50 Hz): height, attitude corrections, wind -----------
-        if baro_due and not f & F_BARO_OFF:
-            eh = s[S_BARO_DOWN] - e[E_POS + 2]
+        if baro_due and use & AID_BARO and not f & F_BARO_OFF:
+            eh = s[S_BARO_DOWN] - e[E_BARO_BIAS] - e[E_POS + 2]
             e[E_RATIOS + 2] = eh * eh / (EKF2_BARO_GATE * EKF2_BARO_NOISE) ** 2
             if e[E_RATIOS + 2] <= 1.0:  # else rejected by the innovation gate
                 e[E_BARO_AGE] = 0.0
@@ -387,20 +421,22 @@ class Estimation:
         self.ehist = np.zeros((0, HISTORY, 6))  # estimated positions and velocities, a ring
         self.delay = np.zeros(0, np.int64)  # how late EKF2 takes a fix to be, physics steps
         self.failed = np.zeros(0, np.int64)  # failure injection: F_* bits per row
-        self.gps_ctrl = np.zeros(0, np.int64)  # EKF2_GPS_CTRL per row (GPS_CTRL_* bits)
+        self.aiding = np.zeros(0, np.int64)  # each row's aiding word (aiding_word)
         self.acc_lp = np.zeros((0, 5))  # each row's vehicle_acceleration filter (lowpass2p)
         self.acc_lp_reset = np.zeros(0, np.int64)  # the steps left of its reset
 
-    def set_gps_ctrl(self, row: int, value: float | None) -> None:
-        """The row's EKF2_GPS_CTRL (GPS_CTRL_* bits; None: the default), from its next fix."""
-        self.gps_ctrl[row] = GPS_CTRL_DEFAULT if value is None else int(value) & 0xF
+    def set_aiding(self, row: int, gps_ctrl: float | None, baro_ctrl: float | None,
+                   hgt_ref: float | None) -> None:
+        """The row's EKF2_GPS_CTRL, EKF2_BARO_CTRL and EKF2_HGT_REF (None: the default), from
+        its next samples (EKF2 takes them at its parameter update)."""
+        self.aiding[row] = aiding_word(gps_ctrl, baro_ctrl, hgt_ref)
 
     def set_failed(self, row: int, bits: int, on: bool) -> None:
         """Failure injection: the row's sensors of ``bits`` (F_*) fail (``on``) or work again."""
         self.failed[row] = (self.failed[row] | bits) if on else (self.failed[row] & ~bits)
 
     def _resize(self, n: int) -> None:
-        for name in ("sensed", "bias", "est", "hist", "ehist", "delay", "failed", "gps_ctrl",
+        for name in ("sensed", "bias", "est", "hist", "ehist", "delay", "failed", "aiding",
                      "acc_lp", "acc_lp_reset"):
             setattr(self, name, with_rows(getattr(self, name), n))
 
@@ -413,7 +449,7 @@ class Estimation:
         k = len(self.est)
         self._resize(k + 1)
         self.acc_lp[k] = accel_lp
-        self.gps_ctrl[k] = GPS_CTRL_DEFAULT
+        self.aiding[k] = AID_DEFAULT
         self.noise.add(index)
         # EKF2 fuses a fix as taken EKF2_GPS_DELAY and half its filter period before it arrived.
         late_s = gps_delay_s + EKF2_FILTER_PERIOD_S / 2.0
@@ -434,7 +470,7 @@ class Estimation:
         """What ``sense`` and ``estimate`` read and write, in the order the World's compiled step
         takes it (physics.py): valid until the next ``add``."""
         return (float(self.config.noise), self.noise.block, self.delay, self.hist, self.bias,
-                self.sensed, self.sense_consts, self.failed, self.gps_ctrl, self.est, self.ehist,
+                self.sensed, self.sense_consts, self.failed, self.aiding, self.est, self.ehist,
                 self.est_consts, self.acc_lp, self.acc_lp_reset)
 
     def begin_step(self) -> tuple[int, int]:

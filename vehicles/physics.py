@@ -123,7 +123,7 @@ def navsat_steps_ago(t_s, dt_s):  # pragma: no cover - compiled
 @njit_cached
 def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, estimated, mode,
                   landed, recent, dt_s, scale, noise, delay, hist, bias, sensed, sense_consts,
-                  failed, gps_ctrl, est, ehist, est_consts, acc_lp, acc_lp_reset
+                  failed, aiding, est, ehist, est_consts, acc_lp, acc_lp_reset
                   ):  # pragma: no cover - compiled
     """Everything compiled that follows PyBullet's step, for every row, in one call: ``raw``
     (RAW_SIZE numbers per body, flat) into the true state, then the sensors and the estimate
@@ -143,7 +143,7 @@ def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, est
     for v in range(n):
         flying[v] = mode[v] == MODE_FLY and not landed[v]
     estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, est_consts,
-             estimated, failed, gps_ctrl)
+             estimated, failed, aiding)
     for v in range(n):
         r, s, e, m = recent[v, hist_i], sensed[v], estimated[v], measured[v]
         for i in range(3):
@@ -253,8 +253,8 @@ class World:
         self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row],
                             float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3,
                             lowpass2p(1.0 / self.dt_s, cutoff))
-        self.estimation.set_gps_ctrl(row, store.get("EKF2_GPS_CTRL"))
-        # followed at every parameter change (_params_changed), as EKF2_GPS_CTRL is
+        self._set_aiding(row, store)
+        # followed at every parameter change (_params_changed), as EKF2's parameters are
         self._acc_filter.append((store.version, filter_cutoff_hz(1.0 / self.dt_s, cutoff)))
         self._truth_rows = None
         self.recent = np.concatenate([self.recent, np.zeros((1, HISTORY, R_SIZE))])
@@ -410,12 +410,17 @@ class World:
         self.time_s = t
         self.steps += 1
 
+    def _set_aiding(self, row: int, params: ParamStore) -> None:
+        self.estimation.set_aiding(row, params.get("EKF2_GPS_CTRL"), params.get("EKF2_BARO_CTRL"),
+                                   params.get("EKF2_HGT_REF"))
+
     def _params_changed(self, row: int, params: ParamStore) -> None:
-        """Before row ``row``'s next sample: EKF2's parameter update (EKF2_GPS_CTRL), and
+        """Before row ``row``'s next sample: EKF2's parameter update (EKF2_GPS_CTRL, EKF2_BARO_CTRL,
+        EKF2_HGT_REF), and
         VehicleAcceleration::ParametersUpdate → CheckAndUpdateFilters: IMU_ACCEL_CUTOFF more
         than 0.1 Hz from the filter's cutoff sets the filter anew (lowpass2p) and resets it to
         the last corrected sample."""
-        self.estimation.set_gps_ctrl(row, params.get("EKF2_GPS_CTRL"))
+        self._set_aiding(row, params)
         sample_hz, param_hz = 1.0 / self.dt_s, _accel_cutoff_param(params)
         cutoff = self._acc_filter[row][1]
         new = cutoff_update(sample_hz, cutoff, param_hz)

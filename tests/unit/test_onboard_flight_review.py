@@ -211,7 +211,8 @@ def test_esc_status_is_the_gz_bridges_report_of_the_commanded_rotor_speeds(fligh
     flying = esc["esc_armed_flags"] == 0b1111
     assert flying.any() and (esc["esc_armed_flags"][:3] == 0).all()  # disarmed at the start
     rpm = esc["esc[0].esc_rpm"][flying]
-    assert rpm.min() > 0 and rpm.max() <= motors["output[0]"].max()
+    # (the two topics are logged at their own instants: a maximum the other's sample missed)
+    assert rpm.min() > 0 and rpm.max() <= 1.02 * motors["output[0]"].max()
     assert (esc["esc[4].esc_rpm"] == 0).all() and (esc["esc[0].timestamp"] == esc["timestamp"]).all()
 
 

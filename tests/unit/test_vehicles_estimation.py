@@ -275,7 +275,7 @@ def test_a_fix_after_7_s_unaided_resets_the_estimate_to_it(ctrl):
     from vehicles.physics import World
     w = World()
     w.add_vehicle(0)
-    w.estimation.set_gps_ctrl(0, ctrl)
+    w.estimation.set_aiding(0, ctrl, None, None)
     for _ in range(100):
         w.step(w.time_s)
 
