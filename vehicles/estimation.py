@@ -69,6 +69,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from vehicles import height_fusion as hf
 from vehicles.control.compiled import njit_cached
 from vehicles.control.rotation import dcm
 from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_VEL
@@ -140,8 +141,8 @@ B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 # Columns of the estimator's state.
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
  E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_BARO_AGE, E_AID_AGE, E_XY_RESET, E_VXY_RESET,
- E_VZ_RESET, E_BARO_BIAS, E_SIZE) = (
-    0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 39, 42, 45, 47, 48)
+ E_VZ_RESET, E_HGT) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 39, 42, 45, 47)
+E_SIZE = E_HGT + hf.H_SIZE
 # E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the variance of
 # the raw wind samples (m²/s²);
 # E_ACCURACY: horizontal, vertical (running RMS of the innovations); E_GPS_AGE: seconds since
@@ -151,8 +152,7 @@ B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 # last reset's change (north, east); E_VZ_RESET: the vertical velocity's count and change (EKF2's
 # _state_reset_status: reset_count.posNE, velNE, velD and posNE_change, velNE_change, velD_change,
 # which vehicle_local_position publishes as xy_, vxy_, vz_reset_counter and delta_xy, delta_vxy,
-# delta_vz); E_BARO_BIAS: the barometer's offset from the reference height (EKF2's baro bias
-# estimator: the barometer aids a GPS-referenced height through it).
+# delta_vz); E_HGT: the vertical channel's filter (height_fusion.py's H_* columns).
 
 # EKF2_GPS_CTRL's bits: lon/lat, altitude, 3D velocity (dual antenna heading: no such receiver)
 GPS_CTRL_POS, GPS_CTRL_HGT, GPS_CTRL_VEL = 1, 2, 4
@@ -178,11 +178,6 @@ E_WIND_VAR = E_RATIOS + 4
 # Gains of the complementary filters (per second; see the module docstring).
 K_TILT, K_HEADING, K_GYRO_BIAS = 0.2, 0.2, 0.002
 L_POS, L_VEL_FROM_POS, L_VEL = 1.0, 0.5, 0.5
-L_HGT, L_VZ_FROM_HGT, L_ACC_BIAS = 2.8, 4.0, 0.4
-# The GPS height (σ 0.5 m, 2.5 times the horizontal 0.2 m): the horizontal position's gains
-# scaled by that ratio (the position's) and its square (the velocity's); the barometer's offset
-# follows the GPS height with a 10 s time constant.
-L_GPS_HGT, L_VZ_FROM_GPS_HGT, L_BARO_BIAS = L_POS / 2.5, L_VEL_FROM_POS / 2.5 ** 2, 0.1
 TAU_ACCEL_REF_S = 0.3
 TAU_WIND_S = 5.0
 TAU_ACCURACY_S = 5.0
@@ -192,6 +187,22 @@ def _gm(dt_s: float, tau_s: float, sigma: float) -> tuple[float, float]:
     """Decay and drive of a first-order Gauss-Markov process with stationary σ ``sigma``."""
     decay = math.exp(-dt_s / tau_s)
     return decay, sigma * math.sqrt(1.0 - decay * decay)
+
+
+@njit_cached
+def _apply_height(e, ring, corr, h_then):  # pragma: no cover - compiled
+    """A height observation's corrections (``corr``: height, vertical velocity, z bias, and a
+    reset's new height for the time ``h_then`` was the estimate, NaN: none) to the present
+    estimate and the ring of past ones."""
+    dh, dv = corr[0], corr[1]
+    if not math.isnan(corr[3]):
+        dh += corr[3] - h_then
+    e[E_POS + 2] += dh
+    e[E_VEL + 2] += dv
+    e[E_ACC_BIAS_Z] += corr[2]
+    for k in range(len(ring)):
+        ring[k, 2] += dh
+        ring[k, 5] += dv
 
 
 @njit_cached
@@ -212,6 +223,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
     a_wind = dt_baro / (5.0 + dt_baro)
     a_acc_gps = dt_gps / (5.0 + dt_gps)
     a_acc_baro = dt_baro / (5.0 + dt_baro)
+    corr = np.zeros(4)  # a height observation's corrections (height_fusion.height_source)
     for v in range(len(sensed)):
         s = sensed[v]
         e = est[v]
@@ -245,6 +257,10 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
         e[E_VEL + 2] += ad * dt_s
         for i in range(3):
             e[E_POS + i] += e[E_VEL + i] * dt_s
+        use = aiding[v]
+        hgt_ref = hf.REF_GNSS if use & AID_HGT_REF_GPS else hf.REF_BARO
+        hf.predict(e, E_HGT, dt_s, r22)
+        hf.housekeeping(e, E_HGT, hgt_ref)
         ring = ehist[v]
         slot = ring[hist_i]
         for i in range(3):
@@ -254,7 +270,6 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
         e[E_GPS_AGE] += dt_s
         e[E_BARO_AGE] += dt_s
         e[E_AID_AGE] += dt_s
-        use = aiding[v]
         use_pos, use_vel = use & GPS_CTRL_POS != 0, use & GPS_CTRL_VEL != 0
         if f & F_GPS_OFF:
             e[E_HAVE_GPS] = 0.0  # no tilt reference until fixes come again
@@ -268,12 +283,16 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
             if use_pos:
                 dp0, dp1 = L_POS * dt_gps * ep0, L_POS * dt_gps * ep1
                 dv0, dv1 = L_VEL_FROM_POS * dt_gps * ep0, L_VEL_FROM_POS * dt_gps * ep1
+            dh = db = 0.0
             if use_vel:  # (0.0 + x is x: without the position, the velocity's alone)
                 dv0, dv1 = dv0 + L_VEL * dt_gps * ev0, dv1 + L_VEL * dt_gps * ev1
-                dv2 = L_VEL * dt_gps * ev2
+                # the vertical velocity: the vertical channel's filter
+                hf.fuse(e, E_HGT, 1, ev2, hf.gnss_vz_noise() ** 2, hf.EKF2_GPS_V_GATE, corr)
+                dh, dv2, db = corr[0], corr[1], corr[2]
             if e[E_AID_AGE] >= GNSS_RESET_S:  # reset to the fix: the whole innovation
                 dp0, dp1 = (ep0, ep1) if use_pos else (0.0, 0.0)
                 dv0, dv1, dv2 = (ev0, ev1, ev2) if use_vel else (0.0, 0.0, 0.0)
+                dh = db = 0.0
                 # resetHorizontalPositionToGnss, resetVelocityToGnss: counted, with the change
                 if use_pos:
                     e[E_XY_RESET] += 1.0
@@ -290,9 +309,12 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
                 e[E_VEL] += dv0
                 e[E_VEL + 1] += dv1
                 e[E_VEL + 2] += dv2
+                e[E_POS + 2] += dh
+                e[E_ACC_BIAS_Z] += db
                 for k in range(len(ring)):
                     ring[k, 0] += dp0
                     ring[k, 1] += dp1
+                    ring[k, 2] += dh
                     ring[k, 3] += dv0
                     ring[k, 4] += dv1
                     ring[k, 5] += dv2
@@ -313,38 +335,21 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
                 e[E_RATIOS + 1] = (ep0 * ep0 + ep1 * ep1) / (EKF2_GPS_P_GATE * GPS_OBS_POS_M) ** 2
                 e[E_ACCURACY] = math.sqrt(e[E_ACCURACY] ** 2 + a_acc_gps * (
                     ep0 * ep0 + ep1 * ep1 - e[E_ACCURACY] ** 2))
-            if use & GPS_CTRL_HGT and (use & AID_HGT_REF_GPS
-                                       or e[E_BARO_AGE] > BARO_TIMEOUT_S):
-                # The GPS height, the reference: with the barometer fused, through the
-                # barometer's offset (what it reads above the fix, both taken at the fix's time);
-                # without, directly (checkHeightSensorRefFallback: also a barometer reference
-                # whose barometer is gone).
-                eh = s[S_GPS_POS + 2] - old[2]
-                baro_fused = use & AID_BARO and e[E_BARO_AGE] <= BARO_TIMEOUT_S
-                if use & AID_HGT_REF_GPS and baro_fused:
-                    e[E_BARO_BIAS] += L_BARO_BIAS * dt_gps * (
-                        s[S_BARO_DOWN] - e[E_POS + 2] - eh - e[E_BARO_BIAS])
-                    eh = 0.0
-                dh, dvz = L_GPS_HGT * dt_gps * eh, L_VZ_FROM_GPS_HGT * dt_gps * eh
-                e[E_POS + 2] += dh
-                e[E_VEL + 2] += dvz
-                for k in range(len(ring)):
-                    ring[k, 2] += dh
-                    ring[k, 5] += dvz
+            # the GPS height: the vertical channel's (as taken, against the estimate then)
+            hf.height_source(e, E_HGT, hf.GNSS, s[S_GPS_POS + 2], old[2],
+                             use & GPS_CTRL_HGT != 0, hgt_ref, corr)
+            _apply_height(e, ring, corr, old[2])
         # --- barometer and magnetometer (50 Hz): height, attitude corrections, wind -----------
-        if baro_due and use & AID_BARO and not f & F_BARO_OFF:
-            eh = s[S_BARO_DOWN] - e[E_BARO_BIAS] - e[E_POS + 2]
-            e[E_RATIOS + 2] = eh * eh / (EKF2_BARO_GATE * EKF2_BARO_NOISE) ** 2
-            if e[E_RATIOS + 2] <= 1.0:  # else rejected by the innovation gate
+        if baro_due and not f & F_BARO_OFF:
+            eh = s[S_BARO_DOWN] - e[E_HGT + hf.H_SRC + hf.SRC_BIAS] - e[E_POS + 2]
+            ratio = hf.height_source(e, E_HGT, hf.BARO, s[S_BARO_DOWN], e[E_POS + 2],
+                                     use & AID_BARO != 0, hgt_ref, corr)
+            e[E_RATIOS + 2] = ratio
+            if e[E_HGT + hf.H_SRC + hf.SRC_AGE] == 0.0:  # fused
                 e[E_BARO_AGE] = 0.0
-                e[E_POS + 2] += L_HGT * dt_baro * eh
-                e[E_VEL + 2] += L_VZ_FROM_HGT * dt_baro * eh
-                e[E_ACC_BIAS_Z] -= L_ACC_BIAS * dt_baro * eh
-                for k in range(len(ring)):
-                    ring[k, 2] += L_HGT * dt_baro * eh
-                    ring[k, 5] += L_VZ_FROM_HGT * dt_baro * eh
                 e[E_ACCURACY + 1] = math.sqrt(
                     e[E_ACCURACY + 1] ** 2 + a_acc_baro * (eh * eh - e[E_ACCURACY + 1] ** 2))
+            _apply_height(e, ring, corr, e[E_POS + 2])
         if baro_due:
             # Tilt: the measured specific force (NED, low-passed) against the one the GPS
             # velocity implies; heading: the field against the Earth's.
@@ -442,10 +447,13 @@ class Estimation:
 
     def add(self, index: int, truth: np.ndarray, estimated: np.ndarray,
             gps_delay_s: float = GPS_DELAY_S,
-            accel_lp: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 0.0)) -> None:
+            accel_lp: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 0.0),
+            hgt_ref: float | None = None) -> None:
         """A row for vehicle ``index`` whose true state is ``truth`` (a row of ``measured``):
         its estimate starts converged there (``estimated`` is that row of the estimate);
-        ``accel_lp``: its vehicle_acceleration filter (vehicle_acceleration.lowpass2p)."""
+        ``accel_lp``: its vehicle_acceleration filter (vehicle_acceleration.lowpass2p);
+        ``hgt_ref``: EKF2_HGT_REF when it starts, the height reference in force from then on
+        (None: the default, the GPS)."""
         k = len(self.est)
         self._resize(k + 1)
         self.acc_lp[k] = accel_lp
@@ -458,6 +466,8 @@ class Estimation:
         e[E_Q:E_Q + 4] = truth[M_Q:M_Q + 4]
         e[E_POS:E_POS + 3] = truth[M_POS:M_POS + 3]
         e[E_VEL:E_VEL + 3] = truth[M_VEL:M_VEL + 3]
+        ref = hf.REF_GNSS if hgt_ref is None or int(hgt_ref) == 1 else hf.REF_BARO
+        e[E_HGT:E_HGT + hf.H_SIZE] = hf.initial_row(ref)
         self.hist[k, :, :3] = self.ehist[k, :, :3] = truth[M_POS:M_POS + 3]
         self.hist[k, :, 3:] = self.ehist[k, :, 3:] = truth[M_VEL:M_VEL + 3]
         s = self.sensed[k]

@@ -252,7 +252,7 @@ class World:
         cutoff = _accel_cutoff_param(store)
         self.estimation.add(index, self.inner.measured[row], self.inner.estimated[row],
                             float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3,
-                            lowpass2p(1.0 / self.dt_s, cutoff))
+                            lowpass2p(1.0 / self.dt_s, cutoff), store.get("EKF2_HGT_REF"))
         self._set_aiding(row, store)
         # followed at every parameter change (_params_changed), as EKF2's parameters are
         self._acc_filter.append((store.version, filter_cutoff_hz(1.0 / self.dt_s, cutoff)))

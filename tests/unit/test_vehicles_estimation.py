@@ -60,9 +60,10 @@ def test_hover_imu_noise_and_position_estimate_match_the_x500_models():
         assert statistics.pstdev(gyro) == pytest.approx(est.GYRO_NOISE_RADPS, rel=0.2)
     for axis in range(2):
         assert statistics.pstdev(s[S_ACC + axis] for s, _, _ in samples) < 0.02
-    # The estimate is within centimetres of the truth and varies less than the GPS fixes.
+    # The estimate is within centimetres of the truth and varies less than the GPS fixes (its
+    # height follows the GPS's, σ 0.5 m, the height reference).
     errors = [math.dist(k.position_ned_m, t.position_ned_m) for _, t, k in samples]
-    assert max(errors) < 0.15
+    assert max(errors) < 0.25
     north = [k.position_ned_m[0] for _, _, k in samples]
     fixes = [s[S_GPS_POS] for s, _, _ in samples]
     assert 0.001 < statistics.pstdev(north) < statistics.pstdev(fixes)

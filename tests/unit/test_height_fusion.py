@@ -1,0 +1,95 @@
+"""The estimator's vertical channel (vehicles/height_fusion.py) as EKF2 v1.15 runs it: every
+height source fused less its bias, the reference's bias fixed, a failing barometer latched
+faulty while the GPS height works, the reference falling back, and EKF2_HGT_REF taking effect
+when the estimator starts (reboot_required), not when it is set."""
+
+from __future__ import annotations
+
+import pytest
+
+from gateway.testing import Sim
+from vehicles import estimation as est
+from vehicles import height_fusion as hf
+from vehicles.types import PX4_SITL_HOME
+
+
+def column(sim: Sim, col: int) -> float:
+    return float(sim.simulation.world.estimation.est[0][est.E_HGT + col])
+
+
+def baro(col: int) -> int:
+    return hf.H_SRC + hf.BARO * hf.SRC_SIZE + col
+
+
+def gnss(col: int) -> int:
+    return hf.H_SRC + hf.GNSS * hf.SRC_SIZE + col
+
+
+def true_down(sim: Sim) -> float:
+    return float(sim.simulation.world.inner.measured[0][2])
+
+
+def est_down(sim: Sim) -> float:
+    return float(sim.simulation.world.estimation.est[0][est.E_POS + 2])
+
+
+def take_off(sim: Sim, alt_m: float) -> None:
+    assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+    api = sim.api(0)
+    assert api.arm() == 0 and api.takeoff(PX4_SITL_HOME.alt_amsl_m + alt_m) == 0
+
+
+def hover(sim: Sim, alt_m: float = 10.0) -> None:
+    take_off(sim, alt_m)
+    assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=40)
+    sim.advance(3.0)
+
+
+@pytest.mark.parametrize("ref", [0, 1])
+def test_both_sources_are_fused_and_only_the_other_ones_bias_moves(ref):
+    with Sim(1, params={"EKF2_HGT_REF": ref}) as sim:
+        hover(sim)
+        assert column(sim, hf.H_REF) == ref
+        assert column(sim, baro(hf.SRC_ON)) == column(sim, gnss(hf.SRC_ON)) == 1.0
+        assert column(sim, baro(hf.SRC_AGE)) < 0.1 and column(sim, gnss(hf.SRC_AGE)) < 0.5
+        ref_bias = column(sim, baro(hf.SRC_BIAS) if ref == 0 else gnss(hf.SRC_BIAS))
+        assert ref_bias == 0.0  # HeightBiasEstimator: not for the reference
+        assert abs(est_down(sim) - true_down(sim)) < 0.3
+
+
+def test_a_stuck_barometer_is_outweighed_by_its_bias_and_the_vehicle_lands():
+    """PX4's SITL test "Continue on baro stuck during mission": the barometer stuck at 10 m,
+    then the return. Not the reference, the barometer is fused less its bias, which follows
+    the offset the GPS height shows (HeightBiasEstimator, its noise boosted once the offset
+    persists), so the vehicle lands, is detected landed, disarms, and the estimate comes back
+    to the ground."""
+    with Sim(1) as sim:
+        hover(sim, 10.0)
+        sim.simulation.world.set_sensor_failed(0, est.F_BARO_STUCK, True)
+        sim.advance(5.0)
+        assert sim.api(0).land() == 0
+        assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
+        assert abs(true_down(sim)) < 0.1
+        sim.advance(30.0)
+        assert abs(est_down(sim)) < 0.5
+        assert column(sim, baro(hf.SRC_BIAS)) < -8.0  # (down) the stuck reading: 10 m up
+
+
+def test_hgt_ref_takes_effect_at_start_not_when_set():
+    """EKF2_HGT_REF is reboot_required: the estimator keeps the reference it started with."""
+    with Sim(1) as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        assert column(sim, hf.H_REF) == hf.REF_GNSS  # module.yaml's default, 1
+        sim.vehicles[0].params.set("EKF2_HGT_REF", 0)
+        sim.advance(2.0)
+        assert column(sim, hf.H_REF) == hf.REF_GNSS
+
+
+def test_a_lost_gps_leaves_the_barometer_as_the_reference():
+    with Sim(1) as sim:
+        hover(sim, 5.0)
+        sim.simulation.world.set_sensor_failed(0, est.F_GPS_OFF, True)
+        sim.advance(2.0)  # two GNSS intervals without data: the GPS height stops
+        assert column(sim, gnss(hf.SRC_ON)) == 0.0
+        assert column(sim, hf.H_REF) == hf.REF_BARO
+        assert abs(est_down(sim) - true_down(sim)) < 0.3
