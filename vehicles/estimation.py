@@ -45,13 +45,10 @@ position and velocity fused EKF2_GPS_DELAY late, barometric height, magnetometer
   every step; GPS innovations are formed against the estimate of EKF2_GPS_DELAY (and half
   EKF2's filter period) before the fix arrived (a ring of past estimates) and the correction
   is applied to the present and the ring (after GNSS_RESET_S unaided, all of it: EKF2's reset
-  to the fix); height and a vertical accelerometer bias follow the barometer (EKF2_BARO_CTRL),
-  less its offset from the reference height: with EKF2_HGT_REF 1 (GPS, v1.15's default) the
-  offset follows the GPS height (EKF2's baro bias estimator), so the height converges to the
-  GPS's; with 0 (barometer) it stays. A barometer sample whose test ratio is over 1
-  (EKF2_BARO_GATE) is rejected, as a magnetometer heading over EKF2_MAG_GATE is; with no
-  barometer fused for BARO_TIMEOUT_S the GPS height is fused directly, with gains for its
-  noise (checkHeightSensorRefFallback: a barometer reference falls back to the GNSS height).
+  to the fix). Height, vertical velocity and the accelerometer's z bias: the vertical channel of
+  height_fusion.py (EKF2's: the barometer, the GPS height and vertical velocity in a Kalman
+  filter, each height source less its bias but the reference's, EKF2_HGT_REF's fallbacks). A
+  magnetometer heading whose test ratio is over 1 (EKF2_MAG_GATE) is rejected.
 - Wind: with the vehicle flying, the horizontal specific force in the body frame is the drag of
   the air, so the air's velocity follows (EKF2's drag fusion principle), low-passed.
 - Health: the innovation test ratios (innovation² / (gate σ)², with EKF2's noise parameters and
