@@ -203,7 +203,7 @@ def _apply_height(e, ring, corr, h_then):  # pragma: no cover - compiled
 
 
 @njit_cached
-def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, consts,
+def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, flying, consts,
              estimated, failed, aiding):  # pragma: no cover - compiled
     """Every vehicle's estimate after its sensors (module rules). ``ehist``: the ring of past
     estimated positions and velocities; ``flying``: rows whose drag tells the wind; ``consts``:
@@ -219,7 +219,8 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
     a_f = dt_s / (0.3 + dt_s)
     a_wind = dt_baro / (5.0 + dt_baro)
     a_acc_gps = dt_gps / (5.0 + dt_gps)
-    a_acc_baro = dt_baro / (5.0 + dt_baro)
+    dt_air = 1.0 / hf.SENS_BARO_RATE_HZ  # the barometer as EKF2 receives it
+    a_acc_baro = dt_air / (5.0 + dt_air)
     corr = np.zeros(4)  # a height observation's corrections (height_fusion.height_source)
     for v in range(len(sensed)):
         s = sensed[v]
@@ -337,9 +338,11 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying,
                              use & GPS_CTRL_HGT != 0, hgt_ref, corr)
             _apply_height(e, ring, corr, old[2])
         # --- barometer and magnetometer (50 Hz): height, attitude corrections, wind -----------
-        if baro_due and not f & F_BARO_OFF:
-            eh = s[S_BARO_DOWN] - e[E_HGT + hf.H_SRC + hf.SRC_BIAS] - e[E_POS + 2]
-            ratio = hf.height_source(e, E_HGT, hf.BARO, s[S_BARO_DOWN], e[E_POS + 2],
+        air = hf.air_data(e, E_HGT, s[S_BARO_DOWN], t_s) if baro_due and not f & F_BARO_OFF \
+            else math.nan
+        if not math.isnan(air):
+            eh = air - e[E_HGT + hf.H_SRC + hf.SRC_BIAS] - e[E_POS + 2]
+            ratio = hf.height_source(e, E_HGT, hf.BARO, air, e[E_POS + 2],
                                      use & AID_BARO != 0, hgt_ref, corr)
             e[E_RATIOS + 2] = ratio
             if e[E_HGT + hf.H_SRC + hf.SRC_AGE] == 0.0:  # fused

@@ -4,6 +4,8 @@ Source: PX4 v1.15.2 src/modules/ekf2/EKF: height_control.cpp (checkHeightSensorR
 baro_height_control.cpp, gnss_height_control.cpp, bias_estimator.cpp / height_bias_estimator.hpp,
 common.h's parameters; ekf2/module.yaml for the noise and gate parameters.
 
+- The barometer's samples reach EKF2 through vehicle_air_data, averaged to at most
+  SENS_BARO_RATE (20 Hz; VehicleAirData.cpp).
 - A Kalman filter over height (down), vertical velocity and the accelerometer's z bias, predicted
   at the IMU rate with EKF2_ACC_NOISE and EKF2_ACC_B_NOISE (their variances per EKF2_PREDICT_US
   update), corrected by the barometer (EKF2_BARO_NOISE, EKF2_BARO_GATE), the GPS height (the
@@ -47,6 +49,7 @@ OFFSET_TAU_S, OFFSET_RATIO, OFFSET_BOOST = 10.0, 0.2, 1.0e3
 HGT_FUSION_TIMEOUT_S = 5.0  # hgt_fusion_timeout_max
 BARO_MAX_INTERVAL_S, GNSS_MAX_INTERVAL_S = 0.2, 0.5
 EKF_DT_S = 0.01  # EKF2_PREDICT_US
+SENS_BARO_RATE_HZ = 20.0  # vehicle_air_data's maximum rate (sensors/vehicle_air_data/params.c)
 
 REF_UNKNOWN, REF_BARO, REF_GNSS = -1.0, 0.0, 1.0
 BARO, GNSS = 0, 1  # the sources' blocks of columns
@@ -57,12 +60,17 @@ SRC_BIAS, SRC_BIAS_VAR, SRC_AGE, SRC_ON, SRC_LPF, SRC_T_POS, SRC_T_NEG, SRC_SIZE
 H_BARO_FAULTY = H_SRC + 2 * SRC_SIZE
 H_REF = H_BARO_FAULTY + 1
 H_DATA_AGE = H_REF + 1  # per source: time since its last sample came
-H_SIZE = H_DATA_AGE + 2
+# VehicleAirData's averaging of the barometer's samples: their sum, their times' sum, how many,
+# the last publication's sample time
+H_AIR_SUM, H_AIR_TSUM, H_AIR_N, H_AIR_LAST = H_DATA_AGE + 2, H_DATA_AGE + 3, H_DATA_AGE + 4, \
+    H_DATA_AGE + 5
+H_SIZE = H_DATA_AGE + 6
 
 
 def initial_row(ref: float) -> list[float]:
     """A converged estimate's columns: small variances, both sources on, ``ref`` in force."""
     row = [0.0] * H_SIZE
+    row[H_AIR_LAST] = -1.0
     row[H_P + 0], row[H_P + 4], row[H_P + 8] = 0.01, 0.01, 1e-4
     for src in (BARO, GNSS):
         row[H_SRC + src * SRC_SIZE + SRC_BIAS_VAR] = 0.01
@@ -221,6 +229,24 @@ def height_source(e, base, src, meas, h, enabled, ref_param, out):  # pragma: no
         e[c + SRC_AGE] = 0.0
         e[c + SRC_ON] = 1.0
     return ratio
+
+
+@njit_cached
+def air_data(e, base, down_m, t_s):  # pragma: no cover - compiled
+    """VehicleAirData: a barometer sample (height down, taken at ``t_s``) into the average it
+    publishes once the samples' mean time is SENS_BARO_RATE's interval after the last
+    publication's (and what EKF2 fuses). Returns the published height, NaN if none."""
+    e[base + H_AIR_SUM] += down_m
+    e[base + H_AIR_TSUM] += t_s
+    e[base + H_AIR_N] += 1.0
+    n = e[base + H_AIR_N]
+    t_mean = e[base + H_AIR_TSUM] / n
+    if t_mean < e[base + H_AIR_LAST] + 1.0 / SENS_BARO_RATE_HZ - 1e-9:
+        return math.nan
+    out = e[base + H_AIR_SUM] / n
+    e[base + H_AIR_LAST] = t_mean
+    e[base + H_AIR_SUM] = e[base + H_AIR_TSUM] = e[base + H_AIR_N] = 0.0
+    return out
 
 
 @njit_cached

@@ -142,7 +142,7 @@ def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, est
     flying = np.empty(n, np.bool_)  # the rows whose drag tells the wind
     for v in range(n):
         flying[v] = mode[v] == MODE_FLY and not landed[v]
-    estimate(sensed, est, ehist, hist_i, delay, dt_s, baro_due, gps_due, flying, est_consts,
+    estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, flying, est_consts,
              estimated, failed, aiding)
     for v in range(n):
         r, s, e, m = recent[v, hist_i], sensed[v], estimated[v], measured[v]

@@ -176,16 +176,7 @@ async def test_continue_on_baro_lost_during_mission(tester, height_source):
     await _mission_with_failure(tester, height_source, tester.execute_mission_and_lose_baro)
 
 
-BARO_STUCK_BARO_REFERENCE = pytest.mark.xfail(strict=True, reason=(
-    "PX4 passes this case; here the return's climb with the barometer stuck at 10 m pulls the "
-    "height estimate away from the GPS height (the barometer, 50 Hz at EKF2_BARO_NOISE, "
-    "outweighs the GPS height at 8 Hz while its bias catches up), the GPS height fails its "
-    "gate for 5 s and stops, and EKF2_HGT_REF 0's fallback list makes the stuck barometer the "
-    "reference: the climb never ends"))
-
-
-@pytest.mark.parametrize("height_source", [
-    pytest.param(HEIGHT_SOURCE_BARO, marks=BARO_STUCK_BARO_REFERENCE), HEIGHT_SOURCE_GPS],
-    ids=["baro_height", "gps_height"])
+@pytest.mark.parametrize("height_source", [HEIGHT_SOURCE_BARO, HEIGHT_SOURCE_GPS],
+                         ids=["baro_height", "gps_height"])
 async def test_continue_on_baro_stuck_during_mission(tester, height_source):
     await _mission_with_failure(tester, height_source, tester.execute_mission_and_get_baro_stuck)

@@ -127,6 +127,7 @@ def test_off_the_circle_by_the_altitude_stick_it_circles_on_until_a_new_command(
     assert v.orbit(sim.t, 10.0, 2.0, math.nan, center.lat_deg, center.lon_deg, alt) \
         is CommandResult.ACCEPTED
     task = v._autopilot.orbit_task
+    assert sim.run(0.1, until=lambda: task.approaching)  # the next autopilot tick starts it
     assert sim.run(20.0, until=lambda: not task.approaching)
     end = sim.t + 1.0
     while sim.t < end:  # climb at the stick's MPC_Z_VEL_MAX_UP
@@ -154,6 +155,7 @@ def test_an_uncontrolled_heading_stays_uncontrolled_in_that_orbit(sim):
     take_off(sim)
     task = sim.v._autopilot.orbit_task
     assert sim.v.orbit(sim.t, 3.0, 1.0, 2.0) is CommandResult.ACCEPTED
+    assert sim.run(0.1, until=lambda: task.approaching)  # the next autopilot tick starts it
     assert sim.run(10.0, until=lambda: not task.approaching)
     sim.run(0.1)
     assert math.isnan(task.yaw_setpoint)
