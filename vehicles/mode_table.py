@@ -85,11 +85,13 @@ MODE_TABLE: dict[NavState, ModeSpec] = {
     NavState.ORBIT: ModeSpec("Orbit", SwitchRule.ALLOWED, True, False),
 }
 
-# COM_RC_OVERRIDE bit 0: sticks take over these modes (Commander: isAutoMode). Not Orbit: there
-# the sticks are part of the mode (altitude; PX4 also trims radius and speed with them).
+# COM_RC_OVERRIDE bit 0: sticks take over these modes (Commander: flag_control_auto_enabled).
+# Not Orbit nor Follow Me: there the sticks are part of the mode (Orbit's altitude, radius and
+# speed; Follow Me's height, distance and angle), and control_mode.cpp clears the auto flag
+# ("Follow Target supports RC adjustment").
 STICK_OVERRIDE_AUTO = frozenset({NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_RTL,
                                  NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_PRECLAND,
-                                 NavState.AUTO_FOLLOW_TARGET, NavState.DESCEND})
+                                 NavState.DESCEND})
 
 # vehicle_control_mode: the navigation states without flag_multicopter_position_control_enabled,
 # and those with it but without flag_control_position_enabled (no horizontal position).

@@ -94,11 +94,12 @@ def test_a_report_without_velocity_is_still_followed(sim):
 
 
 def test_the_throttle_stick_raises_the_follow_height():
-    """With COM_RC_OVERRIDE 0 (by default a moved stick takes over an auto mode, Follow Me
-    included) the throttle trims the follow height at 1.5 m/s."""
+    """The throttle trims the follow height at 1.5 m/s. The sticks do not take Follow Me over
+    (COM_RC_OVERRIDE's default 1 is for the auto modes; control_mode.cpp clears Follow Target's
+    auto flag: "Follow Target supports RC adjustment")."""
     from vehicles.manual_control import Sticks
 
-    sim = Sim(COM_RC_OVERRIDE=0)
+    sim = Sim()
     take_off(sim)
     assert sim.v.set_nav_state(sim.t, NavState.AUTO_FOLLOW_TARGET) is CommandResult.ACCEPTED
     report(sim, 5.0, 0.0)
