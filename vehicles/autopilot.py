@@ -44,7 +44,7 @@ from vehicles.flight_tasks import TaskInput, make_tasks
 from vehicles.follow_target import FollowTarget
 from vehicles.geodesy import position_fault
 from vehicles.geofence import Geofence
-from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF, MODE_TEST, InnerCommand
+from vehicles.inner_loop import MODE_OFF, MODE_TEST, InnerCommand
 from vehicles.land_detector import LandDetector
 from vehicles.manual_control import ManualControl, Sticks
 from vehicles.mode_table import STICK_OVERRIDE_AUTO, ArmEvent
@@ -360,7 +360,7 @@ class Autopilot:
         if not cmd.armed or cmd.terminated:
             mode = MODE_OFF if cmd.armed or cmd.terminated or not self.motor_test.tests else MODE_TEST
         else:
-            mode = MODE_IDLE if self.stage.idle else MODE_FLY
+            mode = self.stage.motor_mode()
         return self._command() if mode != self._out.mode else None
 
     def _command(self) -> InnerCommand:
@@ -375,7 +375,7 @@ class Autopilot:
         if not cmd.armed or cmd.terminated:
             mode = MODE_OFF if cmd.armed or cmd.terminated or not test.tests else MODE_TEST
         else:
-            mode = MODE_IDLE if st.idle else MODE_FLY
+            mode = st.motor_mode()
         test.changed = False
         self._out = _new_tuple(InnerCommand, (
             mode, sp.attitude_q, sp.yawspeed_radps, sp.thrust_body_norm, st.rates,

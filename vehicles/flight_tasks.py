@@ -248,7 +248,12 @@ class OffboardTask(FlightTask):
         thrust_norm = 0.0 if math.isnan(sp.thrust) else min(max(sp.thrust, 0.0), 1.0)
         if oc.kind == "attitude":
             q = sp.attitude_q if sp.attitude_q is not None else meas.attitude_q
-            st.direct(AttitudeSetpoint(q, thrust_norm))
+            # SET_ATTITUDE_TARGET's body yaw rate: mc_att_control's yaw_sp_move_rate feed-forward
+            yawspeed = sp.body_rates_frd_radps[2]
+            stop = math.isnan(q[0])  # a degenerate quaternion: the motors stop (see offboard)
+            st.direct(AttitudeSetpoint(meas.attitude_q if stop else q, 0.0 if stop else thrust_norm,
+                                       0.0 if math.isnan(yawspeed) else yawspeed))
+            st.motors_stopped = stop
         else:
             r = sp.body_rates_frd_radps
             st.direct(AttitudeSetpoint(meas.attitude_q, thrust_norm),

@@ -181,7 +181,8 @@ class OffboardSetpoint:
         _finite_or_nan(self.body_rates_frd_radps, "body rates")
         if self.attitude_q is not None:
             _finite_or_nan(self.attitude_q, "attitude")
-            if any(math.isnan(v) for v in self.attitude_q):
+            nans = sum(math.isnan(v) for v in self.attitude_q)
+            if nans not in (0, 4):  # all NaN: a degenerate quaternion (the motors stop)
                 raise ValueError("attitude quaternion has NaN")
         if not (self.has_position or self.has_velocity or self.has_acceleration
                 or self.attitude_q is not None or self.has_body_rates):

@@ -41,6 +41,7 @@ from vehicles.control.position_control import (
 )
 from vehicles.control.takeoff import FLIGHT, RAMPUP, TakeoffHandling, TakeoffState
 from vehicles.control.trajectory import TrajectoryLimits
+from vehicles.inner_loop import MODE_FLY, MODE_IDLE, MODE_OFF
 from vehicles.land_detector import LandDetector
 from vehicles.params import ParamStore
 from vehicles.types import Measurement, Quat, Vec3
@@ -69,6 +70,7 @@ class PositionStage:
         self.rates: Vec3 | None = None  # a body-rate setpoint that replaces attitude control
         self.reset_rates = False  # the inner loop restarts its rate controller (then clears it)
         self.idle = True  # motors at idle (on the ground, or nothing to fly)
+        self.motors_stopped = False  # a non-finite attitude setpoint: motor commands NaN, stopped
         self.flying = False  # the trajectory and the position controller are live
         self.thrust = 0.0  # the collective thrust asked for (battery model, land detector)
         self.vel_sp_z = 0.0  # the task's vertical velocity setpoint (the land detector's input)
@@ -116,9 +118,15 @@ class PositionStage:
         asks: a task on the ground keeps flying its setpoint meanwhile)."""
         return self.takeoff.state is RAMPUP
 
+    def motor_mode(self) -> int:
+        """The inner loop's mode while armed: OFF for a non-finite attitude setpoint (PX4's
+        mixer sends a NaN motor command as the disarmed value), IDLE or FLY."""
+        return MODE_OFF if self.motors_stopped else MODE_IDLE if self.idle else MODE_FLY
+
     def set_idle(self, meas: Measurement) -> None:
         self._takeoff_state(False)
         self.idle = True
+        self.motors_stopped = False
         self.flying = False
         self.thrust = 0.0
         self.vel_sp_z = 0.0
@@ -283,6 +291,7 @@ class PositionStage:
         control there is no takeoff ramp (PX4 skip_takeoff)."""
         self._takeoff_state(False, skip=True)
         self.idle = False
+        self.motors_stopped = False
         self.flying = flying
         self.task_setpoint = None  # PX4 runs no flight task in these modes
         self.vel_sp_z = math.nan

@@ -56,7 +56,6 @@ THROTTLE_IGNORE = 0x40
 ATTITUDE_IGNORE = 0x80
 
 TEXT_INTERVAL_S = 1.0  # at most one "unsupported frame" text per second per link
-MIN_QUATERNION_NORM = 1e-3
 
 
 def _finite(*values: float) -> None:
@@ -143,11 +142,12 @@ def attitude_setpoint(mask: int, q: Any, rates: Vec3, thrust: float) -> Offboard
     _finite(*rates, thrust)
     attitude = None
     if not mask & ATTITUDE_IGNORE:
-        _finite(*q)
+        # PX4 takes any quaternion (mavlink_receiver.cpp: the offboard heartbeat is published
+        # and AttitudeControl normalizes q_d): a zero, NaN or infinite one normalizes to NaN, and
+        # the non-finite motor commands it gives stop the motors (MixingOutput).
         norm = math.sqrt(sum(float(c) * float(c) for c in q))
-        if not norm >= MIN_QUATERNION_NORM:  # also catches NaN
-            raise ValueError("degenerate attitude quaternion")
-        attitude = tuple(float(c) / norm for c in q)
+        attitude = tuple(float(c) / norm for c in q) if 0.0 < norm < math.inf \
+            else (NAN, NAN, NAN, NAN)
     body_rates = tuple(NAN if mask & bit else r for r, bit in zip(rates, BODY_RATE_IGNORE))
     use_thrust = not mask & (THROTTLE_IGNORE | THRUST_BODY_SET) and not math.isnan(thrust)
     return OffboardSetpoint(attitude_q=attitude, body_rates_frd_radps=body_rates,  # type: ignore[arg-type]

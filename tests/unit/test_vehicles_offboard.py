@@ -10,6 +10,8 @@ from vehicles.control.quat import q_yaw
 from vehicles.plan_types import OffboardSetpoint
 from vehicles.types import CommandResult, GeoPoint, LandedState, NavState
 
+NAN = math.nan
+
 
 @pytest.fixture
 def sim():
@@ -114,6 +116,39 @@ def test_offboard_attitude_and_thrust(sim):
     stream(sim, OffboardSetpoint(attitude_q=q, thrust=hover / math.cos(pitch)), 2.0)
     assert v.state.euler_rad()[1] == pytest.approx(pitch, abs=0.03)
     assert v.state.velocity_ned_mps[0] > 1.5
+
+
+def test_offboard_attitude_yaw_rate_is_fed_forward(sim):
+    """SET_ATTITUDE_TARGET's body yaw rate with an attitude: mavlink_receiver.cpp makes it
+    yaw_sp_move_rate, which AttitudeControl adds to the rate setpoint about the world z axis
+    (MAVROS's yaw-rate test flies on it)."""
+    v = sim.v
+    take_off(sim)
+    level = (1.0, 0.0, 0.0, 0.0)
+    sp = OffboardSetpoint(attitude_q=level, body_rates_frd_radps=(NAN, NAN, 0.3),
+                          thrust=v.airframe.hover_thrust_norm)
+    start_offboard(sim, sp)
+    stream(sim, sp, 3.0)
+    # the feed-forward turns it until the heading error's pull back matches it (a steady
+    # offset from the setpoint's heading, no steady rate); without it the heading stays 0
+    assert 0.08 < v.state.euler_rad()[2] < 0.4
+    assert abs(v.state.rates_frd_radps[2]) < 0.05
+
+
+def test_offboard_degenerate_attitude_stops_the_motors(sim):
+    """A zero quaternion normalizes to NaN in AttitudeControl; the NaN motor commands go out as
+    the disarmed value (MixingOutput::output_limit_calc_single): the vehicle falls while they
+    last, and flies again on the next valid setpoint."""
+    v = sim.v
+    take_off(sim)
+    hover = v.airframe.hover_thrust_norm
+    start_offboard(sim, OffboardSetpoint(attitude_q=(1.0, 0.0, 0.0, 0.0), thrust=hover))
+    z0 = v.state.position_ned_m[2]
+    stream(sim, OffboardSetpoint(attitude_q=(NAN, NAN, NAN, NAN), thrust=hover), 0.5)
+    assert v.state.velocity_ned_mps[2] > 2.0 and v.state.position_ned_m[2] > z0 + 0.5
+    assert v.status.armed and max(sim.world.rotor_speeds(0)) < 0.5 * 769
+    stream(sim, OffboardSetpoint(attitude_q=(1.0, 0.0, 0.0, 0.0), thrust=hover + 0.2), 0.5)
+    assert v.state.velocity_ned_mps[2] < 2.0
 
 
 def test_offboard_body_rates(sim):
