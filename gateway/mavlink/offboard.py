@@ -149,6 +149,9 @@ def attitude_setpoint(mask: int, q: Any, rates: Vec3, thrust: float) -> Offboard
         attitude = tuple(float(c) / norm for c in q) if 0.0 < norm < math.inf \
             else (NAN, NAN, NAN, NAN)
     body_rates = tuple(NAN if mask & bit else r for r, bit in zip(rates, BODY_RATE_IGNORE))
+    if attitude is None and mask & (BODY_RATE_IGNORE[0] | BODY_RATE_IGNORE[1]):
+        # mavlink_receiver.cpp: body rates need roll and pitch (a yaw rate alone is none)
+        raise ValueError("no attitude and no roll and pitch rates")
     use_thrust = not mask & (THROTTLE_IGNORE | THRUST_BODY_SET) and not math.isnan(thrust)
     return OffboardSetpoint(attitude_q=attitude, body_rates_frd_radps=body_rates,  # type: ignore[arg-type]
                             thrust=min(1.0, max(0.0, thrust)) if use_thrust else NAN)

@@ -165,11 +165,12 @@ def test_attitude_target():
     n = len(vehicle.setpoints)
     for mask, quat, rates, thrust in [
         (7 | 128, q, (0, 0, 0), 0.5),  # thrust alone commands nothing
+        (1 | 128, q, (0, 0, 0.3), 0.5),  # body rates need roll and pitch (PX4)
         (128, q, (math.inf, 0, 0), 0.5),
         (7, q, (0, 0, 0), math.inf),
     ]:
         client.send(M.MAVLink_set_attitude_target_message(0, 1, 1, mask, quat, *rates, thrust))
-    assert len(vehicle.setpoints) == n and session.stats.offboard_dropped == 3
+    assert len(vehicle.setpoints) == n and session.stats.offboard_dropped == 4
 
 
 def test_geo_projection_matches_vehicle_origin():
