@@ -204,12 +204,12 @@ def _apply_height(e, ring, corr, h_then):  # pragma: no cover - compiled
 
 @njit_cached
 def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, flying, consts,
-             estimated, failed, aiding):  # pragma: no cover - compiled
+             estimated, failed, aiding, hparams):  # pragma: no cover - compiled
     """Every vehicle's estimate after its sensors (module rules). ``ehist``: the ring of past
     estimated positions and velocities; ``flying``: rows whose drag tells the wind; ``consts``:
     the Earth's field (NED), the airframe's mass over its linear drag; ``aiding``: each row's
     aiding word (``aiding_word``: what of a fix it fuses, whether the barometer aids, which is
-    the height reference)."""
+    the height reference); ``hparams``: each row's height_fusion.PARAMS."""
     g = 9.80665
     mn, me = consts[0], consts[1]  # the heading needs the horizontal field only
     mass_over_drag = consts[3]
@@ -219,8 +219,6 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
     a_f = dt_s / (0.3 + dt_s)
     a_wind = dt_baro / (5.0 + dt_baro)
     a_acc_gps = dt_gps / (5.0 + dt_gps)
-    dt_air = 1.0 / hf.SENS_BARO_RATE_HZ  # the barometer as EKF2 receives it
-    a_acc_baro = dt_air / (5.0 + dt_air)
     corr = np.zeros(4)  # a height observation's corrections (height_fusion.height_source)
     for v in range(len(sensed)):
         s = sensed[v]
@@ -257,7 +255,8 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
             e[E_POS + i] += e[E_VEL + i] * dt_s
         use = aiding[v]
         hgt_ref = hf.REF_GNSS if use & AID_HGT_REF_GPS else hf.REF_BARO
-        hf.predict(e, E_HGT, dt_s, r22)
+        hp = hparams[v]
+        hf.predict(e, E_HGT, dt_s, r22, hp)
         hf.housekeeping(e, E_HGT, hgt_ref)
         ring = ehist[v]
         slot = ring[hist_i]
@@ -285,7 +284,8 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
             if use_vel:  # (0.0 + x is x: without the position, the velocity's alone)
                 dv0, dv1 = dv0 + L_VEL * dt_gps * ev0, dv1 + L_VEL * dt_gps * ev1
                 # the vertical velocity: the vertical channel's filter
-                hf.fuse(e, E_HGT, 1, ev2, hf.gnss_vz_noise() ** 2, hf.EKF2_GPS_V_GATE, corr)
+                hf.fuse(e, E_HGT, 1, ev2, hf.gnss_vz_noise(hp) ** 2,
+                        max(hp[hf.P_GPS_V_GATE], 1.0), corr)
                 dh, dv2, db = corr[0], corr[1], corr[2]
             if e[E_AID_AGE] >= GNSS_RESET_S:  # reset to the fix: the whole innovation
                 dp0, dp1 = (ep0, ep1) if use_pos else (0.0, 0.0)
@@ -335,18 +335,19 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
                     ep0 * ep0 + ep1 * ep1 - e[E_ACCURACY] ** 2))
             # the GPS height: the vertical channel's (as taken, against the estimate then)
             hf.height_source(e, E_HGT, hf.GNSS, s[S_GPS_POS + 2], old[2],
-                             use & GPS_CTRL_HGT != 0, hgt_ref, corr)
+                             use & GPS_CTRL_HGT != 0, hgt_ref, hp, corr)
             _apply_height(e, ring, corr, old[2])
         # --- barometer and magnetometer (50 Hz): height, attitude corrections, wind -----------
-        air = hf.air_data(e, E_HGT, s[S_BARO_DOWN], t_s) if baro_due and not f & F_BARO_OFF \
-            else math.nan
+        air = hf.air_data(e, E_HGT, s[S_BARO_DOWN], t_s, hp[hf.P_BARO_RATE]) \
+            if baro_due and not f & F_BARO_OFF else math.nan
         if not math.isnan(air):
             eh = air - e[E_HGT + hf.H_SRC + hf.SRC_BIAS] - e[E_POS + 2]
             ratio = hf.height_source(e, E_HGT, hf.BARO, air, e[E_POS + 2],
-                                     use & AID_BARO != 0, hgt_ref, corr)
+                                     use & AID_BARO != 0, hgt_ref, hp, corr)
             e[E_RATIOS + 2] = ratio
             if e[E_HGT + hf.H_SRC + hf.SRC_AGE] == 0.0:  # fused
                 e[E_BARO_AGE] = 0.0
+                a_acc_baro = 1.0 / (5.0 * hp[hf.P_BARO_RATE] + 1.0)  # dt / (5 s + dt), as fused
                 e[E_ACCURACY + 1] = math.sqrt(
                     e[E_ACCURACY + 1] ** 2 + a_acc_baro * (eh * eh - e[E_ACCURACY + 1] ** 2))
             _apply_height(e, ring, corr, e[E_POS + 2])
@@ -427,6 +428,7 @@ class Estimation:
         self.delay = np.zeros(0, np.int64)  # how late EKF2 takes a fix to be, physics steps
         self.failed = np.zeros(0, np.int64)  # failure injection: F_* bits per row
         self.aiding = np.zeros(0, np.int64)  # each row's aiding word (aiding_word)
+        self.hparams = np.zeros((0, len(hf.PARAMS)))  # each row's height_fusion.PARAMS
         self.acc_lp = np.zeros((0, 5))  # each row's vehicle_acceleration filter (lowpass2p)
         self.acc_lp_reset = np.zeros(0, np.int64)  # the steps left of its reset
 
@@ -436,12 +438,16 @@ class Estimation:
         its next samples (EKF2 takes them at its parameter update)."""
         self.aiding[row] = aiding_word(gps_ctrl, baro_ctrl, hgt_ref)
 
+    def set_height_params(self, row: int, get: Callable[[str], float | None]) -> None:
+        """The row's vertical channel parameters (height_fusion.PARAMS) from ``get(name)``."""
+        self.hparams[row] = hf.params_row(get)
+
     def set_failed(self, row: int, bits: int, on: bool) -> None:
         """Failure injection: the row's sensors of ``bits`` (F_*) fail (``on``) or work again."""
         self.failed[row] = (self.failed[row] | bits) if on else (self.failed[row] & ~bits)
 
     def _resize(self, n: int) -> None:
-        for name in ("sensed", "bias", "est", "hist", "ehist", "delay", "failed", "aiding",
+        for name in ("sensed", "bias", "est", "hist", "ehist", "delay", "failed", "aiding", "hparams",
                      "acc_lp", "acc_lp_reset"):
             setattr(self, name, with_rows(getattr(self, name), n))
 
@@ -458,6 +464,7 @@ class Estimation:
         self._resize(k + 1)
         self.acc_lp[k] = accel_lp
         self.aiding[k] = AID_DEFAULT
+        self.hparams[k] = hf.params_row(lambda name: None)
         self.noise.add(index)
         # EKF2 fuses a fix as taken EKF2_GPS_DELAY and half its filter period before it arrived.
         late_s = gps_delay_s + EKF2_FILTER_PERIOD_S / 2.0
@@ -480,7 +487,7 @@ class Estimation:
         """What ``sense`` and ``estimate`` read and write, in the order the World's compiled step
         takes it (physics.py): valid until the next ``add``."""
         return (float(self.config.noise), self.noise.block, self.delay, self.hist, self.bias,
-                self.sensed, self.sense_consts, self.failed, self.aiding, self.est, self.ehist,
+                self.sensed, self.sense_consts, self.failed, self.aiding, self.hparams, self.est, self.ehist,
                 self.est_consts, self.acc_lp, self.acc_lp_reset)
 
     def begin_step(self) -> tuple[int, int]:

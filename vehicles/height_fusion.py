@@ -36,11 +36,13 @@ import math
 
 from vehicles.control.compiled import njit_cached
 
-# ekf2/module.yaml and EKF/common.h (v1.15) defaults
-EKF2_ACC_NOISE, EKF2_ACC_B_NOISE = 0.35, 0.003
-EKF2_BARO_NOISE, EKF2_BARO_GATE = 3.5, 5.0
-EKF2_GPS_P_NOISE, EKF2_GPS_P_GATE = 0.5, 5.0
-EKF2_GPS_V_NOISE, EKF2_GPS_V_GATE = 0.3, 5.0
+# Each row's parameters (``params_row``), in this order: ekf2/module.yaml's noises and gates,
+# vehicle_air_data's SENS_BARO_RATE (defaults: v1.15's)
+PARAMS = (("EKF2_ACC_NOISE", 0.35), ("EKF2_ACC_B_NOISE", 0.003), ("EKF2_BARO_NOISE", 3.5),
+          ("EKF2_BARO_GATE", 5.0), ("EKF2_GPS_P_NOISE", 0.5), ("EKF2_GPS_P_GATE", 5.0),
+          ("EKF2_GPS_V_NOISE", 0.3), ("EKF2_GPS_V_GATE", 5.0), ("SENS_BARO_RATE", 20.0))
+(P_ACC_NOISE, P_ACC_B_NOISE, P_BARO_NOISE, P_BARO_GATE, P_GPS_P_NOISE, P_GPS_P_GATE,
+ P_GPS_V_NOISE, P_GPS_V_GATE, P_BARO_RATE) = range(len(PARAMS))
 HGT_BIAS_NSD = 0.13  # baro_bias_nsd, gps_hgt_bias_nsd
 BIAS_GATE = 3.0  # BiasEstimator::_gate_size
 # BiasEstimator's offset detection: the signed test ratios' average (AlphaFilter, 10 s) over
@@ -49,7 +51,6 @@ OFFSET_TAU_S, OFFSET_RATIO, OFFSET_BOOST = 10.0, 0.2, 1.0e3
 HGT_FUSION_TIMEOUT_S = 5.0  # hgt_fusion_timeout_max
 BARO_MAX_INTERVAL_S, GNSS_MAX_INTERVAL_S = 0.2, 0.5
 EKF_DT_S = 0.01  # EKF2_PREDICT_US
-SENS_BARO_RATE_HZ = 20.0  # vehicle_air_data's maximum rate (sensors/vehicle_air_data/params.c)
 
 REF_UNKNOWN, REF_BARO, REF_GNSS = -1.0, 0.0, 1.0
 BARO, GNSS = 0, 1  # the sources' blocks of columns
@@ -67,6 +68,17 @@ H_AIR_SUM, H_AIR_TSUM, H_AIR_N, H_AIR_LAST = H_DATA_AGE + 2, H_DATA_AGE + 3, H_D
 H_SIZE = H_DATA_AGE + 6
 
 
+def params_row(get) -> list[float]:
+    """A row's parameters (PARAMS) from ``get(name)`` (None: the default)."""
+    out = []
+    for name, default in PARAMS:
+        value = get(name)
+        out.append(default if value is None or not math.isfinite(float(value))
+                   else float(value))
+    out[P_BARO_RATE] = max(out[P_BARO_RATE], 1e-3)
+    return out
+
+
 def initial_row(ref: float) -> list[float]:
     """A converged estimate's columns: small variances, both sources on, ``ref`` in force."""
     row = [0.0] * H_SIZE
@@ -80,7 +92,7 @@ def initial_row(ref: float) -> list[float]:
 
 
 @njit_cached
-def predict(e, base, dt_s, r22):  # pragma: no cover - compiled
+def predict(e, base, dt_s, r22, hp):  # pragma: no cover - compiled
     """P = F P Fᵀ + Q over one IMU step (F: height from velocity, velocity from the z bias
     through the attitude's r22), the bias estimators' variances grown; the ages advanced."""
     p = e[base + H_P:base + H_P + 9]
@@ -100,15 +112,15 @@ def predict(e, base, dt_s, r22):  # pragma: no cover - compiled
     p[7] = a[7] + a[8] * f12
     p[8] = a[8]
     # EKF2's variances per filter update (EKF2_PREDICT_US, 10 ms), spread over the IMU steps
-    p[4] += EKF2_ACC_NOISE ** 2 * EKF_DT_S * dt_s
-    p[8] += EKF2_ACC_B_NOISE ** 2 * EKF_DT_S * dt_s
+    p[4] += hp[P_ACC_NOISE] ** 2 * EKF_DT_S * dt_s
+    p[8] += hp[P_ACC_B_NOISE] ** 2 * EKF_DT_S * dt_s
     ref = e[base + H_REF]
     for src in range(2):
         c = base + H_SRC + src * SRC_SIZE
         e[c + SRC_AGE] += dt_s
         e[base + H_DATA_AGE + src] += dt_s
         if e[c + SRC_ON] > 0.0 and ref != float(src):
-            max_var = max(1e-4, (EKF2_BARO_NOISE if src == BARO else gnss_hgt_noise()) ** 2)
+            max_var = max(1e-4, (hp[P_BARO_NOISE] if src == BARO else gnss_hgt_noise(hp)) ** 2)
             grow = HGT_BIAS_NSD ** 2 * dt_s
             if abs(e[c + SRC_LPF]) > OFFSET_RATIO or e[c + SRC_T_POS] > OFFSET_TAU_S \
                     or e[c + SRC_T_NEG] > OFFSET_TAU_S:
@@ -117,16 +129,16 @@ def predict(e, base, dt_s, r22):  # pragma: no cover - compiled
 
 
 @njit_cached
-def gnss_hgt_noise():  # pragma: no cover - compiled
+def gnss_hgt_noise(hp):  # pragma: no cover - compiled
     """gnss_height_control.cpp: the receiver's vacc, at least 1.5 x EKF2_GPS_P_NOISE (SITL's
     receiver reports vacc = epv = 1.78 m)."""
-    return max(1.78, 1.5 * EKF2_GPS_P_NOISE)
+    return max(1.78, 1.5 * hp[P_GPS_P_NOISE])
 
 
 @njit_cached
-def gnss_vz_noise():  # pragma: no cover - compiled
+def gnss_vz_noise(hp):  # pragma: no cover - compiled
     """The vertical velocity's: 1.5 x max(sacc 0.4 m/s, EKF2_GPS_V_NOISE)."""
-    return 1.5 * max(0.4, EKF2_GPS_V_NOISE)
+    return 1.5 * max(0.4, hp[P_GPS_V_NOISE])
 
 
 @njit_cached
@@ -182,14 +194,14 @@ def fuse_bias(e, base, src, offset, var):  # pragma: no cover - compiled
 
 
 @njit_cached
-def height_source(e, base, src, meas, h, enabled, ref_param, out):  # pragma: no cover
+def height_source(e, base, src, meas, h, enabled, ref_param, hp, out):  # pragma: no cover
     """One sample of source ``src`` (down, m), against the estimate's height ``h`` at its
     time: controlBaroHeightFusion / controlGnssHeightFusion. ``out``: the corrections to apply
     (height, vertical velocity, z bias) and, in out[3], a height reset's new height (NaN: none).
     Returns the sample's test ratio."""
     c = base + H_SRC + src * SRC_SIZE
-    noise = EKF2_BARO_NOISE if src == BARO else gnss_hgt_noise()
-    gate = EKF2_BARO_GATE if src == BARO else EKF2_GPS_P_GATE
+    noise = hp[P_BARO_NOISE] if src == BARO else gnss_hgt_noise(hp)
+    gate = max(hp[P_BARO_GATE] if src == BARO else hp[P_GPS_P_GATE], 1.0)
     var = noise * noise
     e[base + H_DATA_AGE + src] = 0.0
     innov = meas - e[c + SRC_BIAS] - h
@@ -232,7 +244,7 @@ def height_source(e, base, src, meas, h, enabled, ref_param, out):  # pragma: no
 
 
 @njit_cached
-def air_data(e, base, down_m, t_s):  # pragma: no cover - compiled
+def air_data(e, base, down_m, t_s, rate_hz):  # pragma: no cover - compiled
     """VehicleAirData: a barometer sample (height down, taken at ``t_s``) into the average it
     publishes once the samples' mean time is SENS_BARO_RATE's interval after the last
     publication's (and what EKF2 fuses). Returns the published height, NaN if none."""
@@ -241,7 +253,7 @@ def air_data(e, base, down_m, t_s):  # pragma: no cover - compiled
     e[base + H_AIR_N] += 1.0
     n = e[base + H_AIR_N]
     t_mean = e[base + H_AIR_TSUM] / n
-    if t_mean < e[base + H_AIR_LAST] + 1.0 / SENS_BARO_RATE_HZ - 1e-9:
+    if t_mean < e[base + H_AIR_LAST] + 1.0 / rate_hz - 1e-9:
         return math.nan
     out = e[base + H_AIR_SUM] / n
     e[base + H_AIR_LAST] = t_mean

@@ -123,7 +123,7 @@ def navsat_steps_ago(t_s, dt_s):  # pragma: no cover - compiled
 @njit_cached
 def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, estimated, mode,
                   landed, recent, dt_s, scale, noise, delay, hist, bias, sensed, sense_consts,
-                  failed, aiding, est, ehist, est_consts, acc_lp, acc_lp_reset
+                  failed, aiding, hparams, est, ehist, est_consts, acc_lp, acc_lp_reset
                   ):  # pragma: no cover - compiled
     """Everything compiled that follows PyBullet's step, for every row, in one call: ``raw``
     (RAW_SIZE numbers per body, flat) into the true state, then the sensors and the estimate
@@ -143,7 +143,7 @@ def after_physics(raw, meas_dt_s, t_s, hist_i, noise_j, spawn_enu, measured, est
     for v in range(n):
         flying[v] = mode[v] == MODE_FLY and not landed[v]
     estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, flying, est_consts,
-             estimated, failed, aiding)
+             estimated, failed, aiding, hparams)
     for v in range(n):
         r, s, e, m = recent[v, hist_i], sensed[v], estimated[v], measured[v]
         for i in range(3):
@@ -413,6 +413,7 @@ class World:
     def _set_aiding(self, row: int, params: ParamStore) -> None:
         self.estimation.set_aiding(row, params.get("EKF2_GPS_CTRL"), params.get("EKF2_BARO_CTRL"),
                                    params.get("EKF2_HGT_REF"))
+        self.estimation.set_height_params(row, params.get)
 
     def _params_changed(self, row: int, params: ParamStore) -> None:
         """Before row ``row``'s next sample: EKF2's parameter update (EKF2_GPS_CTRL, EKF2_BARO_CTRL,

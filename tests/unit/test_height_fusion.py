@@ -93,3 +93,23 @@ def test_a_lost_gps_leaves_the_barometer_as_the_reference():
         assert column(sim, gnss(hf.SRC_ON)) == 0.0
         assert column(sim, hf.H_REF) == hf.REF_BARO
         assert abs(est_down(sim) - true_down(sim)) < 0.3
+
+
+def test_the_noise_parameters_are_followed():
+    """EKF2_BARO_NOISE, EKF2_GPS_P_NOISE...: the vertical channel's weights are the vehicle's
+    parameters, changed in flight as EKF2's updateParameters takes them; SENS_BARO_RATE sets
+    how often the barometer reaches it."""
+    with Sim(1) as sim:
+        hover(sim, 5.0)
+        est_rows = sim.simulation.world.estimation
+        assert est_rows.hparams[0][hf.P_BARO_NOISE] == pytest.approx(3.5)
+        sim.vehicles[0].params.set("EKF2_BARO_NOISE", 0.5)
+        sim.vehicles[0].params.set("SENS_BARO_RATE", 5.0)
+        sim.advance(1.0)
+        assert est_rows.hparams[0][hf.P_BARO_NOISE] == pytest.approx(0.5)
+        fused = []
+        for _ in range(250):
+            sim.advance(0.004)
+            if column(sim, baro(hf.SRC_AGE)) == 0.0 and (not fused or sim.now - fused[-1] > 0.01):
+                fused.append(sim.now)
+        assert len(fused) == pytest.approx(5, abs=1)  # 5 Hz, not 20
