@@ -53,6 +53,7 @@ class ParamInfo:
     unit: str
     group: str
     description: str
+    reboot_required: bool = False  # PX4's @reboot_required (data/px4_reboot_required.txt)
 
 
 FLT_EPSILON = 1.1920929e-07
@@ -95,7 +96,9 @@ def _coerce(ptype: ParamType, value: float) -> int | float:
 
 def load_param_table() -> list[ParamInfo]:
     """The shipped PX4 parameter table, sorted by name."""
-    text = resources.files("vehicles").joinpath("data/px4_params.csv").read_text()
+    data = resources.files("vehicles").joinpath("data")
+    text = data.joinpath("px4_params.csv").read_text()
+    reboot = set(data.joinpath("px4_reboot_required.txt").read_text().split())
     infos = []
     for row in csv.DictReader(text.splitlines()):
         ptype = ParamType.INT32 if row["type"] == "INT32" else ParamType.REAL32
@@ -109,6 +112,7 @@ def load_param_table() -> list[ParamInfo]:
                 unit=row["unit"],
                 group=row["group"],
                 description=row["short_desc"],
+                reboot_required=row["name"] in reboot,
             )
         )
     infos.sort(key=lambda i: i.name)

@@ -8,7 +8,8 @@ jsonout.py) and answers MAV_CMD_REQUEST_MESSAGE(COMPONENT_METADATA) with
 (mavlink/streams/COMPONENT_METADATA.hpp). Here:
 
 - ``parameters.json``: version 1, one entry per parameter of the vehicle's table with PX4's
-  schema keys (name, type "Int32"/"Float", default, group, category, shortDesc, units, min, max),
+  schema keys (name, type "Int32"/"Float", default, group, category, shortDesc, units, min, max,
+  rebootRequired),
   sorted keys, indent 2, as jsonout.py writes it;
 - ``component_general.json``: version 1, ``metadataTypes`` = the parameter type
   (COMP_METADATA_TYPE_PARAMETER) with its mftp URI and ``fileCrc``, the MAVLink CRC-32 of the
@@ -75,6 +76,8 @@ def parameter_entry(info: ParamInfo) -> dict[str, object]:
         entry["min"] = _typed(info, info.min)
     if info.max is not None:
         entry["max"] = _typed(info, info.max)
+    if info.reboot_required:  # QGC: "requires a reboot to take effect" after a change
+        entry["rebootRequired"] = True
     return entry
 
 

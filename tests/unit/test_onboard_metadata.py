@@ -107,3 +107,16 @@ def test_the_metadata_flow_qgc_and_mavsdk_follow(tmp_path):
                                                           info.ljust(212, b"\0"))
         assert general_crc == crc and general_uri.rstrip(b"\0") == uri.rstrip(b"\0")
         assert sim.simulation.internal_errors == 0
+
+
+def test_reboot_required_parameters_say_so():
+    """jsonout.py's rebootRequired, from PX4's @reboot_required / reboot_required: QGC asks for a
+    reboot after changing one (EKF2_HGT_REF, SYS_AUTOSTART, MAV_SYS_ID...), not after others."""
+    from gateway.onboard.metadata import parameter_entry
+    from vehicles.params import param_table
+
+    entries = {i.name: parameter_entry(i) for i in param_table()}
+    for name in ("EKF2_HGT_REF", "SYS_AUTOSTART", "MAV_SYS_ID", "EKF2_GPS_DELAY", "SDLOG_MODE"):
+        assert entries[name]["rebootRequired"] is True, name
+    for name in ("MPC_XY_VEL_MAX", "EKF2_BARO_NOISE", "COM_RC_OVERRIDE", "EKF2_GPS_CTRL"):
+        assert "rebootRequired" not in entries[name], name
