@@ -10,6 +10,9 @@ Rules:
 - ``onboard_ack`` is an answer a module gives later, on its own (PX4's calibration routine
   ACCEPTs the cancel that Commander had TEMPORARILY_REJECTED): every link of the vehicle sends
   it as COMMAND_ACK (``acks_after``), and the logger records it.
+- ``log_message``: a log_message publication from outside the autopilot (a STATUSTEXT of the
+  vehicle's own system, gateway/mavlink/statustext_in.py), which the logger writes as a logged
+  string; numbered as the records (``log_seq``, ``log_messages_after``).
 """
 
 from __future__ import annotations
@@ -32,6 +35,14 @@ class CommandRecord:
 
 
 @dataclass(frozen=True)
+class LogMessage:
+    seq: int
+    timestamp_us: int
+    severity: int
+    text: str
+
+
+@dataclass(frozen=True)
 class OnboardAck:
     seq: int
     time_s: float
@@ -47,6 +58,17 @@ class CommandJournal:
         self.seq = 0
         self._acks: deque[OnboardAck] = deque(maxlen=KEEP)
         self.ack_seq = 0
+        self._logs: deque[LogMessage] = deque(maxlen=KEEP)
+        self.log_seq = 0
+
+    def log_message(self, timestamp_us: int, severity: int, text: str) -> None:
+        self.log_seq += 1
+        self._logs.append(LogMessage(self.log_seq, timestamp_us, severity, text))
+
+    def log_messages_after(self, seq: int) -> list[LogMessage]:
+        if seq >= self.log_seq:
+            return []
+        return [m for m in self._logs if m.seq > seq]
 
     def onboard_ack(self, now_s: float, command: int, result: int, target: tuple[int, int]
                     ) -> None:

@@ -62,6 +62,7 @@ from gateway.mavlink.serial_control import SerialControlService
 from gateway.mavlink.signing import Signer, SigningClock, SigningConfig, Verifier
 from gateway.mavlink.snapshot import LinkTelemetry, SampleCache, Snapshot
 from gateway.mavlink.statustext import GCS_PRESENT_S, StatusTextService
+from gateway.mavlink.statustext_in import StatustextInService
 from gateway.mavlink.streams import Scheduler
 from gateway.mavlink.timesync import Timesync
 from gateway.mavlink.vehicle_port import VehiclePort
@@ -143,6 +144,7 @@ class Session:
         self.logs = LogHandlerService(ctx)  # its ``store`` is attached by the shell
         self.serial = SerialControlService(ctx)  # its ``terminal_factory`` too
         self.ftp = FtpService(ctx)  # and its ``root``
+        self.statustext_in = StatustextInService(ctx)
         self._routes: dict[int, Callable[[Any, float], None]] = {
             M.MAVLINK_MSG_ID_HEARTBEAT: self._on_heartbeat,
             M.MAVLINK_MSG_ID_COMMAND_LONG: self.commands.on_command_long,
@@ -177,6 +179,7 @@ class Session:
             M.MAVLINK_MSG_ID_SERIAL_CONTROL: self.serial.on_serial_control,
             M.MAVLINK_MSG_ID_FILE_TRANSFER_PROTOCOL: self.ftp.on_file_transfer_protocol,
             REQUEST_EVENT.id: self.events.on_request_event,
+            M.MAVLINK_MSG_ID_STATUSTEXT: self.statustext_in.on_statustext,
         }
         if signing is not None:
             self._routes[M.MAVLINK_MSG_ID_SETUP_SIGNING] = self._on_setup_signing

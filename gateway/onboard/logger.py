@@ -137,7 +137,7 @@ class VehicleLogger:
         layout = records_of(self.topics, NESTED_FORMATS, tuple(f for _, f in EVENT_TOPICS))
         self._structs, self._prefixes, packers = layout.structs, layout.prefixes, layout.packers
         self._event_structs, self._event_prefixes = layout.extra_structs, layout.extra_prefixes
-        self._command_seq = self._ack_seq = 0
+        self._command_seq = self._ack_seq = self._log_seq = 0
         self._events = getattr(vehicle, "events", None)  # its EventLog: the `event` topic
         self._event_seq = self._events.latest if self._events is not None else 0
         self._path: str | None = None
@@ -253,6 +253,7 @@ class VehicleLogger:
         journal = self._journal
         self._command_seq = journal.seq if journal is not None else 0
         self._ack_seq = journal.ack_seq if journal is not None else 0
+        self._log_seq = journal.log_seq if journal is not None else 0
         if self._events is not None:
             self._event_seq = self._events.latest
 
@@ -391,6 +392,9 @@ class VehicleLogger:
                                       int(text.time_s * 1e6), text.text)
             self._text_seq = text.seq
         journal = self._journal
+        for m in journal.log_messages_after(self._log_seq) if journal is not None else ():
+            buf += ulog.logged_string(ord("0") + m.severity, m.timestamp_us, m.text)  # log_message
+            self._log_seq = m.seq
         if journal is not None and journal.seq > self._command_seq:
             command, ack = self._event_structs[:2]
             for record in journal.after(self._command_seq):

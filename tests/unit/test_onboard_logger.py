@@ -346,3 +346,29 @@ def test_stick_input_is_logged_once_it_comes(tmp_path):
     # aux1 and aux2 with the sticks)
     assert sticks["buttons"][0] == 0b101
     assert not any(sticks[f"aux{i}"].any() for i in range(1, 7)) and not sticks["flaps"].any()
+
+
+def test_statustext_of_the_vehicles_own_system_is_logged(tmp_path):
+    """MavlinkReceiver::handle_message_statustext: a STATUSTEXT from the vehicle's own system
+    (its companion computer) becomes a log_message, which the logger writes; chunks are put
+    together (MavlinkStatustextHandler). Another system's is not logged."""
+    from pymavlink.dialects.v20 import common as M
+
+    with Sim(log_dir=tmp_path) as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        api = sim.api(0)
+        companion = M.MAVLink(None, srcSystem=1, srcComponent=191)
+        other = M.MAVLink(None, srcSystem=CLIENT_SYSID, srcComponent=190)
+        api.send_bytes(companion.statustext_encode(4, b"companion up").pack(companion))
+        api.send_bytes(other.statustext_encode(4, b"from the GCS").pack(other))
+        for seq, part in enumerate((b"x" * 50, b"y" * 10)):
+            api.send_bytes(companion.statustext_encode(6, part, 7, seq).pack(companion))
+        sim.advance(1.0)
+        assert api.arm() == 0
+        sim.advance(1.0)
+        assert api.disarm() == 0
+        sim.advance(1.0)
+    log = pyulog.ULog(str(sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))[0]))
+    logged = [(m.log_level, m.message) for m in log.logged_messages]
+    assert (ord("4"), "companion up") in logged and (ord("6"), "x" * 50 + "y" * 10) in logged
+    assert not any(text == "from the GCS" for _, text in logged)
