@@ -53,9 +53,8 @@ HEIGHT_SOURCE_BARO, HEIGHT_SOURCE_GPS = 0, 1  # EKF2_HGT_REF
 
 # The streams kept (attribute of drone.telemetry / drone.mission → the getter's name).
 _STREAMS = {
-    "telemetry": ("attitude_quaternion", "attitude_euler", "armed", "in_air", "landed_state",
-                  "flight_mode", "position", "position_velocity_ned", "ground_truth", "health",
-                  "health_all_ok", "raw_gps", "home"),
+    "telemetry": ("attitude_quaternion", "armed", "in_air", "landed_state", "flight_mode",
+                  "position", "position_velocity_ned", "health", "health_all_ok", "home"),
     "mission": ("mission_progress",),
 }
 
@@ -96,6 +95,7 @@ class AutopilotTester(ManualFlights):
         self._latest: dict[str, Any] = {}
         self._callbacks: dict[str, Callable[[Any], None] | None] = {}
         self._tasks: list[asyncio.Task] = []
+        self._started: set[str] = set()
         self._home = None
 
     # --- Catch2 ----------------------------------------------------------------------------
@@ -120,10 +120,18 @@ class AutopilotTester(ManualFlights):
 
     # --- the latest values -----------------------------------------------------------------
     def get(self, name: str) -> Any:
+        self._start(name)
         return self._latest.get(name)
 
     def subscribe(self, name: str, callback: Callable[[Any], None] | None) -> None:
+        self._start(name)
         self._callbacks[name] = callback
+
+    def _start(self, name: str) -> None:
+        """The other telemetry streams start at their first read (each costs at speed 20)."""
+        if name not in self._started and self.drone is not None:
+            self._started.add(name)
+            self._tasks.append(asyncio.ensure_future(self._keep(self.drone.telemetry, name)))
 
     async def _keep(self, plugin: Any, name: str) -> None:
         async for value in getattr(plugin, name)():
@@ -199,6 +207,7 @@ class AutopilotTester(ManualFlights):
         for plugin_name, names in _STREAMS.items():
             plugin = getattr(drone, plugin_name)
             for name in names:
+                self._started.add(name)
                 self._tasks.append(asyncio.ensure_future(self._keep(plugin, name)))
 
     async def close(self) -> None:
@@ -383,47 +392,6 @@ class AutopilotTester(ManualFlights):
             return "SUCCESS"
         except FailureError as exc:
             return exc._result.result.name
-
-    async def create_failure_plugin(self) -> None:
-        """What autopilot_tester.cpp's connect does with ``new Failure(system)``: MAVSDK's
-        Failure plugin exists from then on, following SYS_FAILURE_EN's changes. mavsdk_server
-        creates a plugin at its first call, so here one call that changes nothing: no
-        failure (OK) of every motor."""
-        await self._inject(FailureUnit.SYSTEM_MOTOR, FailureType.OK, 0)
-
-    async def inject_failure(self, unit: FailureUnit, kind: FailureType, instance: int,
-                             expected: str) -> None:
-        got = await self._inject(unit, kind, instance)
-        self.check(got == expected, f"inject {unit.name} {kind.name} {instance}: {got}, "
-                                    f"expected {expected}")
-
-    async def _mission_continues_after(self, unit: FailureUnit, kind: FailureType,
-                                       timeout_s: float = 90) -> None:
-        await self.set_param_int("SYS_FAILURE_EN", 1)
-        await self.start_and_wait_for_mission_sequence(1)
-        await self.inject_failure(unit, kind, 0, "SUCCESS")
-
-        def finished() -> bool:
-            p = self.get("mission_progress")
-            return p is not None and p.current == p.total
-
-        self.require(await self.poll_condition_with_timeout(finished, timeout_s),
-                     f"mission finished after {unit.name} {kind.name}")
-
-    async def execute_mission_and_lose_gps(self) -> None:
-        await self.set_param_int("SYS_FAILURE_EN", 1)
-        await self.start_and_wait_for_mission_sequence(1)
-        await self.inject_failure(FailureUnit.SENSOR_GPS, FailureType.OFF, 0, "SUCCESS")
-        await self.wait_for_flight_mode(FlightMode.LAND, 30)  # a blind land
-
-    async def execute_mission_and_lose_mag(self) -> None:
-        await self._mission_continues_after(FailureUnit.SENSOR_MAG, FailureType.OFF)
-
-    async def execute_mission_and_lose_baro(self) -> None:
-        await self._mission_continues_after(FailureUnit.SENSOR_BARO, FailureType.OFF)
-
-    async def execute_mission_and_get_baro_stuck(self) -> None:
-        await self._mission_continues_after(FailureUnit.SENSOR_BARO, FailureType.STUCK)
 
     async def check_tracks_mission(self, corridor_radius_m: float = 1.5) -> None:
         """Every position (5 Hz) while between two items: within ``corridor_radius_m`` of the

@@ -1,14 +1,60 @@
-"""autopilot_tester.cpp's flights on sticks and attitude setpoints (fly_forward_in_posctl,
-fly_forward_in_altctl, fly_forward_in_offboard_attitude), for AutopilotTester (whose clock,
-checks and latest values they use)."""
+"""autopilot_tester.cpp's failure injection (inject_failure, execute_mission_and_lose_*) and
+flights on sticks and attitude setpoints (fly_forward_in_posctl, fly_forward_in_altctl,
+fly_forward_in_offboard_attitude), for AutopilotTester (whose clock, checks and latest values
+they use)."""
 
 from __future__ import annotations
 
 from typing import Any
 
+from mavsdk.failure import FailureType, FailureUnit
+from mavsdk.telemetry import FlightMode
+
 
 class ManualFlights:
     drone: Any
+
+    # --- failure injection -------------------------------------------------------------------
+    async def create_failure_plugin(self) -> None:
+        """What autopilot_tester.cpp's connect does with ``new Failure(system)``: MAVSDK's
+        Failure plugin exists from then on, following SYS_FAILURE_EN's changes. mavsdk_server
+        creates a plugin at its first call, so here one call that changes nothing: no
+        failure (OK) of every motor."""
+        await self._inject(FailureUnit.SYSTEM_MOTOR, FailureType.OK, 0)
+
+    async def inject_failure(self, unit: FailureUnit, kind: FailureType, instance: int,
+                             expected: str) -> None:
+        got = await self._inject(unit, kind, instance)
+        self.check(got == expected, f"inject {unit.name} {kind.name} {instance}: {got}, "
+                                    f"expected {expected}")
+
+    async def _mission_continues_after(self, unit: FailureUnit, kind: FailureType,
+                                       timeout_s: float = 90) -> None:
+        await self.set_param_int("SYS_FAILURE_EN", 1)
+        await self.start_and_wait_for_mission_sequence(1)
+        await self.inject_failure(unit, kind, 0, "SUCCESS")
+
+        def finished() -> bool:
+            p = self.get("mission_progress")
+            return p is not None and p.current == p.total
+
+        self.require(await self.poll_condition_with_timeout(finished, timeout_s),
+                     f"mission finished after {unit.name} {kind.name}")
+
+    async def execute_mission_and_lose_gps(self) -> None:
+        await self.set_param_int("SYS_FAILURE_EN", 1)
+        await self.start_and_wait_for_mission_sequence(1)
+        await self.inject_failure(FailureUnit.SENSOR_GPS, FailureType.OFF, 0, "SUCCESS")
+        await self.wait_for_flight_mode(FlightMode.LAND, 30)  # a blind land
+
+    async def execute_mission_and_lose_mag(self) -> None:
+        await self._mission_continues_after(FailureUnit.SENSOR_MAG, FailureType.OFF)
+
+    async def execute_mission_and_lose_baro(self) -> None:
+        await self._mission_continues_after(FailureUnit.SENSOR_BARO, FailureType.OFF)
+
+    async def execute_mission_and_get_baro_stuck(self) -> None:
+        await self._mission_continues_after(FailureUnit.SENSOR_BARO, FailureType.STUCK)
 
     # --- manual control ----------------------------------------------------------------------
     async def _sticks(self, x: float, y: float, z: float, r: float, seconds: float,
