@@ -137,9 +137,11 @@ S_GYRO, S_ACC, S_MAG, S_BARO_DOWN, S_GPS_POS, S_GPS_VEL, S_VIB, S_PREV, S_SIZE =
 B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 # Columns of the estimator's state.
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
- E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_BARO_AGE, E_AID_AGE, E_XY_RESET, E_VXY_RESET,
- E_VZ_RESET, E_HGT) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 39, 42, 45, 47)
+ E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_AID_AGE, E_XY_RESET, E_VXY_RESET,
+ E_VZ_RESET, E_HGT) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 41, 44, 46)
 E_SIZE = E_HGT + hf.H_SIZE
+# since the barometer was last fused: the vertical channel's own clock of it
+E_BARO_AGE = E_HGT + hf.H_SRC + hf.BARO * hf.SRC_SIZE + hf.SRC_AGE
 # E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the variance of
 # the raw wind samples (m²/s²);
 # E_ACCURACY: horizontal, vertical (running RMS of the innovations); E_GPS_AGE: seconds since
@@ -265,7 +267,6 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
             slot[3 + i] = e[E_VEL + i]
         # --- GPS: delayed innovations, corrections to the present and the ring -----------------
         e[E_GPS_AGE] += dt_s
-        e[E_BARO_AGE] += dt_s
         e[E_AID_AGE] += dt_s
         use_pos, use_vel = use & GPS_CTRL_POS != 0, use & GPS_CTRL_VEL != 0
         if f & F_GPS_OFF:
@@ -345,8 +346,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
             ratio = hf.height_source(e, E_HGT, hf.BARO, air, e[E_POS + 2],
                                      use & AID_BARO != 0, hgt_ref, hp, corr)
             e[E_RATIOS + 2] = ratio
-            if e[E_HGT + hf.H_SRC + hf.SRC_AGE] == 0.0:  # fused
-                e[E_BARO_AGE] = 0.0
+            if e[E_BARO_AGE] == 0.0:  # fused
                 a_acc_baro = 1.0 / (5.0 * hp[hf.P_BARO_RATE] + 1.0)  # dt / (5 s + dt), as fused
                 e[E_ACCURACY + 1] = math.sqrt(
                     e[E_ACCURACY + 1] ** 2 + a_acc_baro * (eh * eh - e[E_ACCURACY + 1] ** 2))

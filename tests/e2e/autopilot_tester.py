@@ -16,6 +16,7 @@ As there:
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 import time
 from dataclasses import dataclass
@@ -86,6 +87,16 @@ def mission_item(lat: float, lon: float, rel_alt_m: float, fly_through: bool) ->
     return MissionItem(lat, lon, rel_alt_m, NAN, fly_through, NAN, NAN,
                        MissionItem.CameraAction.NONE, NAN, 1.0, NAN, NAN, NAN,
                        MissionItem.VehicleAction.NONE)
+
+
+@contextlib.asynccontextmanager
+async def connected(tester: AutopilotTester, udp_port: int):
+    """``tester`` connected to a vehicle's link on ``udp_port``, closed afterwards."""
+    await tester.connect(udp_port)
+    try:
+        yield tester
+    finally:
+        await tester.close()
 
 
 class AutopilotTester(ManualFlights):

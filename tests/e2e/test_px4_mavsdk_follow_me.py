@@ -14,6 +14,7 @@ from __future__ import annotations
 import pytest
 import pytest_asyncio
 
+from tests.e2e.autopilot_tester import connected
 from tests.e2e.autopilot_tester_follow_me import AutopilotTesterFollowMe
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow, pytest.mark.asyncio]
@@ -36,12 +37,8 @@ UNTIL_DISARMED_TIMEOUT_S = 300
 async def tester(daemon_factory, request):
     speed = RC_ADJUSTMENT_SPEED if "rc_adjustment" in request.node.name else SPEED
     d = daemon_factory("--speed", speed)
-    t = AutopilotTesterFollowMe()
-    await t.connect(d.api_port(0))
-    try:
+    async with connected(AutopilotTesterFollowMe(), d.api_port(0)) as t:
         yield t
-    finally:
-        await t.close()
 
 
 def _no_failures(t: AutopilotTesterFollowMe) -> None:

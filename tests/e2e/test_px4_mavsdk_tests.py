@@ -19,6 +19,7 @@ from tests.e2e.autopilot_tester import (
     RC_LOSS_EXCEPTION_OFFBOARD,
     AutopilotTester,
     MissionOptions,
+    connected,
 )
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow, pytest.mark.asyncio]
@@ -29,12 +30,8 @@ SPEED = "20"
 @pytest_asyncio.fixture
 async def tester(daemon_factory):
     d = daemon_factory("--speed", SPEED)
-    t = AutopilotTester()
-    await t.connect(d.api_port(0))
-    try:
+    async with connected(AutopilotTester(), d.api_port(0)) as t:
         yield t
-    finally:
-        await t.close()
     assert not t.failures, t.failures
 
 
