@@ -102,8 +102,10 @@ class MessageRequests:
         if msg_id == MSG_ID_AVAILABLE_MODES:
             return self.available_modes(p[1])
         spec = STREAMS_BY_ID.get(msg_id)
-        if spec is None:
-            return DENIED  # e.g. AVAILABLE_MODES_MONITOR, which no PX4 stream has as its id
+        if spec is None or not spec.stream:
+            # e.g. AVAILABLE_MODES_MONITOR, which no PX4 stream has as its id, or
+            # MISSION_CURRENT, which the mission manager sends
+            return DENIED
         frame = spec.frame(self.encoder, self.snapshot(now_s))
         if frame is None:
             return DENIED  # e.g. HOME_POSITION before home is set
@@ -188,7 +190,7 @@ class MessageRequests:
         return self._send_interval(c_int(roundf(p[0])))
 
     def _send_interval(self, msg_id: int) -> int:
-        interval = max(0, self.scheduler.interval_us(msg_id))
+        interval = self.scheduler.interval_us(msg_id)  # −1: unlimited, as PX4's int says
         self.send(self.encoder.pack(M.MAVLink_message_interval_message, msg_id & 0xFFFF,
                                     interval))
         return ACCEPTED

@@ -125,7 +125,10 @@ class Session:
         self.link_telemetry = LinkTelemetry(self.tstatus)
         ctx = LinkContext(vehicle, kind, self.sysid, self.encoder, self.stats, self.send,
                           self._other_target)
-        self.statustext = StatusTextService(ctx, self._text_listener_present)
+        scheduler = self.scheduler
+        self.statustext = StatusTextService(
+            ctx, self._text_listener_present,
+            lambda: scheduler.period_s(M.MAVLINK_MSG_ID_STATUSTEXT))
         self.events = EventsService(ctx)
         say = self.statustext.local
         self.log_streaming = LogStreamingService(ctx, say)  # its ``topic`` too

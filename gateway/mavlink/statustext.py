@@ -7,7 +7,9 @@ Rules:
   keeps the newest QUEUE_LENGTH texts as the mavlink_log topic's uORB queue does (an older one
   is lost, counted in ``missed``). A vehicle with ``changes`` is asked only once its
   ``status_texts`` generation has moved.
-- The stream runs at PX4's 20 Hz (mavlink_main.cpp: STATUSTEXT at 20/s): each run sends the
+- The stream runs at PX4's 20 Hz (mavlink_main.cpp: STATUSTEXT at 20/s), or at what
+  SET_MESSAGE_INTERVAL set (``period_s``; stopped, the texts wait as for no listener): each run
+  sends the
   oldest queued text younger than MAX_AGE_S (older ones are skipped), one text per run, and only
   while a MAV_TYPE_GCS or MAV_TYPE_ONBOARD_CONTROLLER heartbeat arrived on this link within
   GCS_PRESENT_S (``is_gcs_connected() || is_onboard_controller_connected()``); while none
@@ -44,8 +46,11 @@ class StatusTextService:
     """``gcs_present(now_s)``: whether a GCS (or onboard controller) heartbeat arrived on this
     link lately."""
 
-    def __init__(self, ctx: LinkContext, gcs_present: Callable[[float], bool]) -> None:
+    def __init__(self, ctx: LinkContext, gcs_present: Callable[[float], bool],
+                 period_s: Callable[[], float] = lambda: PERIOD_S) -> None:
+        """``period_s()``: the stream's period (s; inf: stopped)."""
         self.vehicle = ctx.vehicle
+        self.period_s = period_s
         self.encoder = ctx.encoder
         self.send = ctx.send
         self.gcs_present = gcs_present
@@ -91,10 +96,11 @@ class StatusTextService:
         if now_s < self._next_run_s - 1e-9:
             self.due_s = self._next_run_s
             return
-        if not self.gcs_present(now_s):  # the queue waits for a listener
+        period_s = self.period_s()
+        if not self.gcs_present(now_s) or period_s == math.inf:  # the queue waits
             self.due_s = math.inf
             return
-        self._next_run_s = now_s + PERIOD_S
+        self._next_run_s = now_s + period_s
         while pending:
             time_s, severity, text = pending.popleft()
             if now_s - time_s < MAX_AGE_S:

@@ -6,16 +6,29 @@ Rules:
 - Deadlines are integer microseconds of simulated time, so streams of commensurate rates fire
   in the same wake-up (all 50 Hz streams go out together) and counts are exact.
 - A late wake-up sends each due stream once and re-phases it; it never bursts to catch up.
-- SET_MESSAGE_INTERVAL may enable any message that has a builder, on either link; HEARTBEAT's
-  rate is fixed. Messages PX4 has no stream for (RAW_IMU, ACTUATOR_CONTROL_TARGET: not in
-  mavlink_messages.cpp streams_list) have no entry, so their request FAILS as in PX4.
+- The table has every stream of PX4 v1.15's mavlink_messages.cpp streams_list that PX4 SITL's
+  dialect and ours share: SET_MESSAGE_INTERVAL may set any of them (ACCEPTED, as
+  Mavlink::configure_stream finds it) but HEARTBEAT, whose rate is fixed. Messages PX4 has no
+  stream for (RAW_IMU, ACTUATOR_CONTROL_TARGET, UTM_GLOBAL_POSITION — which PX4 #21663 took out
+  of the list before v1.15 — MISSION_CURRENT, which the mission manager sends on its own) FAIL
+  as in PX4.
 - Due streams come out in table order, so a wake-up's frames are always in the same order.
-- A ``silent`` stream is one PX4 configures (MESSAGE_INTERVAL reports its rate) whose uORB topic
-  nothing publishes in this simulation, so its send() never sends (RC_CHANNELS: no RC input;
-  DISTANCE_SENSOR: no range finder; AVAILABLE_MODES, whose send() waits for a change of the mode
-  list): it is never scheduled.
-- Absent on purpose: UTM_GLOBAL_POSITION is not a default stream since PX4 v1.15 (only on
-  request); WIND_COV is a default stream but EKF2 publishes no wind without drag fusion.
+- A ``silent`` stream is one whose uORB topic nothing publishes in this simulation, so its
+  send() never sends: RC_CHANNELS (no RC input), DISTANCE_SENSOR (no range finder),
+  NAV_CONTROLLER_OUTPUT (position_controller_status: fixed-wing only), MOUNT_ORIENTATION and the
+  gimbal streams (no mount), GPS_STATUS (sensor_gps_sim publishes no satellite_info), the second
+  and third sensors' streams, AVAILABLE_MODES (its send() waits for a change of the mode
+  list)… It is never scheduled; PX4 configures many of them all the same (MESSAGE_INTERVAL
+  reports their rate, ``mavlink status streams`` lists them, telemetry_status counts them) and a
+  REQUEST_MESSAGE for one is DENIED, as its send() has nothing.
+- UNLIMITED (configure_stream's rate −1: every loop that has an update; MESSAGE_INTERVAL says
+  −1) is what the onboard mode gives GPS_RAW_INT, GPS2_RAW, ADSB_VEHICLE, COLLISION and the
+  camera's streams. Such a stream with data runs at its topic's rate (``data_hz``).
+- ``boot`` streams (STATUSTEXT at 20 Hz, COMMAND_LONG unlimited) are configured on every link by
+  Mavlink::task_main, not by the mode: a request for the default rate stops them, as
+  configure_streams_to_default does with any stream the mode's list lacks. STATUSTEXT is sent by
+  statustext.py at the interval set here.
+- WIND_COV is a default stream but EKF2 publishes no wind without drag fusion.
 """
 
 from __future__ import annotations
@@ -62,7 +75,6 @@ from gateway.mavlink.telemetry_control import (
     position_target_global_int,
     position_target_local_ned,
     servo_output_raw,
-    utm_global_position,
 )
 from gateway.mavlink.telemetry_estimator import estimator_status, vibration, wind_cov
 from gateway.mavlink.telemetry_link import (
@@ -79,6 +91,7 @@ from gateway.mavlink.telemetry_requested import (
     hil_state_quaternion,
     rc_channels,
     scaled_imu,
+    unpublished,
 )
 from gateway.mavlink.wip_dialect import (
     ESC_INFO,
@@ -87,14 +100,19 @@ from gateway.mavlink.wip_dialect import (
     TIME_ESTIMATE_TO_TARGET,
 )
 
+UNLIMITED = -1.0  # configure_stream's unlimited_rate
+
 
 @dataclass(frozen=True)
 class StreamSpec:
     msg_id: int
     builder: Builder  # (encoder, snapshot) -> the message's payload, None: nothing to send
-    gcs_hz: float  # PX4 "normal" mode with the SITL px4-rc.mavlink overrides
+    gcs_hz: float  # PX4 "normal" mode with the SITL px4-rc.mavlink overrides (0: not configured)
     api_hz: float  # PX4 "onboard" mode
     silent: bool = False  # its topic is never published here: never scheduled
+    data_hz: float = 0.0  # at UNLIMITED rate: how often its topic updates, which it runs at
+    boot: bool = False  # configured by Mavlink::task_main on every link, not by the mode
+    stream: bool = True  # False: sent by another part of PX4's mavlink (no stream to set)
     # Bound ahead for the framing (Encoder.frame_streams): CRC_EXTRA, the header's id fields.
     crc_extra: int = field(init=False)
     id_low16: int = field(init=False)
@@ -106,7 +124,13 @@ class StreamSpec:
         object.__setattr__(self, "id_high8", self.msg_id >> 16)
 
     def default_hz(self, kind: LinkKind) -> float:
+        """The rate the link starts with."""
         return self.gcs_hz if kind is LinkKind.GCS else self.api_hz
+
+    def mode_hz(self, kind: LinkKind) -> float:
+        """The rate a request for the default gives (configure_streams_to_default of this one
+        stream: the mode's rate, 0 — stopped — for a stream the mode does not configure)."""
+        return 0.0 if self.boot else self.default_hz(kind)
 
     def frame(self, enc: Encoder, snapshot: Snapshot) -> bytes | None:
         """One message of this stream framed by ``enc`` (a REQUEST_MESSAGE's answer); None:
@@ -139,13 +163,14 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(ESC_STATUS.id, esc_status, 1.0, 10.0),
     # Onboard sends GPS_RAW_INT on every sensor_gps update: SITL's sensor_gps_sim publishes at
     # 8 Hz (SensorGpsSim ScheduleOnInterval 125 ms; gz's navsat only feeds the ground truth).
-    StreamSpec(M.MAVLINK_MSG_ID_GPS_RAW_INT, gps_raw_int, 5.0, 8.0),
+    StreamSpec(M.MAVLINK_MSG_ID_GPS_RAW_INT, gps_raw_int, 5.0, UNLIMITED, data_hz=8.0),
     StreamSpec(M.MAVLINK_MSG_ID_HOME_POSITION, home_position, 0.5, 0.5),
     StreamSpec(M.MAVLINK_MSG_ID_VFR_HUD, vfr_hud, 4.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_ALTITUDE, altitude, 1.0, 10.0),
     StreamSpec(M.MAVLINK_MSG_ID_BATTERY_STATUS, battery_status, 0.5, 0.5),
     StreamSpec(M.MAVLINK_MSG_ID_SYSTEM_TIME, system_time, 0.0, 1.0),
-    StreamSpec(M.MAVLINK_MSG_ID_MISSION_CURRENT, mission_current, 1.0, 1.0),
+    # MavlinkMissionManager's, at its 1 Hz slow rate: no stream of PX4's.
+    StreamSpec(M.MAVLINK_MSG_ID_MISSION_CURRENT, mission_current, 1.0, 1.0, stream=False),
     StreamSpec(M.MAVLINK_MSG_ID_ORBIT_EXECUTION_STATUS, orbit_execution_status, 2.0, 5.0),
     StreamSpec(M.MAVLINK_MSG_ID_HIGHRES_IMU, highres_imu, 0.0, 50.0),
     StreamSpec(M.MAVLINK_MSG_ID_ODOMETRY, odometry, 0.0, 30.0),
@@ -159,17 +184,57 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_OPEN_DRONE_ID_SYSTEM, open_drone_id_system, 1.0, 1.0),
     StreamSpec(TIME_ESTIMATE_TO_TARGET.id, time_estimate_to_target, 1.0, 1.0),
     StreamSpec(LINK_NODE_STATUS.id, link_node_status, 1.0, 1.0),
-    # Default streams whose topic nothing publishes here (px4-rc.mavlink sets RC_CHANNELS to 20 Hz
-    # on the GCS link).
-    StreamSpec(M.MAVLINK_MSG_ID_RC_CHANNELS, rc_channels, 20.0, 20.0, silent=True),
-    StreamSpec(M.MAVLINK_MSG_ID_DISTANCE_SENSOR, distance_sensor, 0.5, 10.0, silent=True),
     # Not streamed by default; PX4 SITL sends them once asked (MAVSDK's telemetry.set_rate_*).
-    # UTM_GLOBAL_POSITION left the default streams in v1.15 (PX4 #21663).
-    StreamSpec(M.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION, utm_global_position, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_SCALED_IMU, scaled_imu, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_HIL_STATE_QUATERNION, hil_state_quaternion, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, actuator_output_status, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION, flight_information, 0.0, 0.0),
+    # Streams whose topic nothing publishes here (the module docstring). px4-rc.mavlink sets
+    # RC_CHANNELS to 20 Hz and OPTICAL_FLOW_RAD to 10 Hz on the GCS link.
+    # STATUSTEXT: statustext.py sends the texts at this stream's interval.
+    StreamSpec(M.MAVLINK_MSG_ID_STATUSTEXT, unpublished, 20.0, 20.0, silent=True, boot=True),
+    StreamSpec(M.MAVLINK_MSG_ID_COMMAND_LONG, unpublished, UNLIMITED, UNLIMITED, silent=True,
+               boot=True),
+    StreamSpec(M.MAVLINK_MSG_ID_RC_CHANNELS, rc_channels, 20.0, 20.0, silent=True),
+    StreamSpec(M.MAVLINK_MSG_ID_DISTANCE_SENSOR, distance_sensor, 0.5, 10.0, silent=True),
+    *(StreamSpec(msg_id, unpublished, gcs_hz, api_hz, silent=True) for msg_id, gcs_hz, api_hz in (
+        (M.MAVLINK_MSG_ID_GPS_STATUS, 1.0, 1.0),
+        (M.MAVLINK_MSG_ID_GPS2_RAW, 1.0, UNLIMITED),
+        (M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT, 1.0, 10.0),
+        (M.MAVLINK_MSG_ID_MOUNT_ORIENTATION, 10.0, 10.0),
+        (M.MAVLINK_MSG_ID_GIMBAL_DEVICE_ATTITUDE_STATUS, 1.0, 1.0),
+        (M.MAVLINK_MSG_ID_GIMBAL_DEVICE_SET_ATTITUDE, 5.0, 5.0),
+        (M.MAVLINK_MSG_ID_GIMBAL_MANAGER_STATUS, 0.5, 0.5),
+        (M.MAVLINK_MSG_ID_OPTICAL_FLOW_RAD, 10.0, 10.0),
+        (M.MAVLINK_MSG_ID_OBSTACLE_DISTANCE, 1.0, 10.0),
+        (M.MAVLINK_MSG_ID_RAW_RPM, 2.0, 5.0),
+        (M.MAVLINK_MSG_ID_EFI_STATUS, 2.0, 2.0),
+        (M.MAVLINK_MSG_ID_HYGROMETER_SENSOR, 0.1, 1.0),
+        (M.MAVLINK_MSG_ID_TRAJECTORY_REPRESENTATION_WAYPOINTS, 0.0, 5.0),
+        (M.MAVLINK_MSG_ID_ADSB_VEHICLE, UNLIMITED, UNLIMITED),
+        (M.MAVLINK_MSG_ID_COLLISION, UNLIMITED, UNLIMITED),
+        (M.MAVLINK_MSG_ID_CAMERA_TRIGGER, 0.0, UNLIMITED),
+        (M.MAVLINK_MSG_ID_CAMERA_IMAGE_CAPTURED, UNLIMITED, UNLIMITED),
+        (M.MAVLINK_MSG_ID_DEBUG, 1.0, 10.0),
+        (M.MAVLINK_MSG_ID_DEBUG_VECT, 1.0, 10.0),
+        (M.MAVLINK_MSG_ID_DEBUG_FLOAT_ARRAY, 1.0, 10.0),
+        (M.MAVLINK_MSG_ID_NAMED_VALUE_FLOAT, 1.0, 10.0),
+        # in the list, configured by no mode of these links
+        (M.MAVLINK_MSG_ID_SCALED_IMU2, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_SCALED_IMU3, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_SCALED_PRESSURE2, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_SCALED_PRESSURE3, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_LANDING_TARGET, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_MAG_CAL_REPORT, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_GIMBAL_MANAGER_INFORMATION, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_GIMBAL_DEVICE_INFORMATION, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_AUTOPILOT_STATE_FOR_GIMBAL_DEVICE, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_HIL_ACTUATOR_CONTROLS, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_MANUAL_CONTROL, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_HIGH_LATENCY2, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_OPEN_DRONE_ID_BASIC_ID, 0.0, 0.0),
+        (M.MAVLINK_MSG_ID_GPS_RTCM_DATA, 0.0, 0.0),
+    )),
 )
 STREAMS_BY_ID: dict[int, StreamSpec] = {spec.msg_id: spec for spec in STREAMS}
 # HEARTBEAT rate is fixed (PX4: SET_MESSAGE_INTERVAL on it → FAILED).
@@ -189,7 +254,19 @@ _heapreplace = heapq.heapreplace
 
 
 def _interval_us(hz: float) -> int:
-    return int(round(1e6 / hz)) if hz > 0 else 0
+    """Mavlink::configure_stream's interval: µs for a rate above 1e-6 Hz (truncated), −1 for a
+    negative rate (unlimited), 0 (no stream) otherwise."""
+    return int(1e6 / hz) if hz > 1e-6 else -1 if hz < 0 else 0
+
+
+def _period_us(spec: StreamSpec, interval_us: int) -> int:
+    """How often a stream set to ``interval_us`` is sent here (0: never): its interval, no
+    shorter than the main loop's; unlimited, as often as its topic updates."""
+    if spec.silent:
+        return 0
+    if interval_us > 0:
+        return max(interval_us, MAVLINK_MIN_INTERVAL_US)
+    return _interval_us(spec.data_hz) if interval_us < 0 else 0
 
 
 _ORDER = {spec.msg_id: i for i, spec in enumerate(STREAMS)}  # frames go out in table order
@@ -199,21 +276,25 @@ class Scheduler:
     """Per-stream integer-µs deadlines; ``next_us`` is the earliest of them (``next_s`` in
     seconds, inf when none).
 
-    Streams with the same deadline and interval fire together until one of them is re-set, so
+    Streams with the same deadline and period fire together until one of them is re-set, so
     they are kept as one group in a heap of (deadline, table position of the group's first
-    stream, interval, streams): a wake-up touches the groups that are due, not every stream.
+    stream, period, streams): a wake-up touches the groups that are due, not every stream.
     """
 
     def __init__(self, kind: LinkKind, now_s: float) -> None:
         self.kind = kind
         start = int(round(now_s * 1e6))
-        self._interval_us: dict[int, int] = {}  # what the streams run at
-        self._requested_us: dict[int, int] = {}  # what SET_MESSAGE_INTERVAL set (MESSAGE_INTERVAL)
+        # Each stream's interval as PX4 keeps it (µs; −1 unlimited; 0 no stream), and how often
+        # it is sent here (µs; 0 never).
+        self._interval_us: dict[int, int] = {}
+        self._period_us: dict[int, int] = {}
         nexts: dict[int, int] = {}
         for spec in STREAMS:
             iv = _interval_us(spec.default_hz(kind))
-            self._interval_us[spec.msg_id] = iv
-            nexts[spec.msg_id] = start if iv and not spec.silent else NEVER
+            # A message no stream sends (MISSION_CURRENT) has no interval to report.
+            self._interval_us[spec.msg_id] = iv if spec.stream else 0
+            period = self._period_us[spec.msg_id] = _period_us(spec, iv)
+            nexts[spec.msg_id] = start if period else NEVER
         self._group(nexts)
 
     def _group(self, next_us: dict[int, int]) -> None:
@@ -221,11 +302,11 @@ class Scheduler:
         for spec in STREAMS:
             nxt = next_us[spec.msg_id]
             if nxt < NEVER:
-                groups.setdefault((nxt, self._interval_us[spec.msg_id]), []).append(spec)
+                groups.setdefault((nxt, self._period_us[spec.msg_id]), []).append(spec)
         # The sentinel never fires (now < NEVER), so the heap is never empty.
         heap: list[Group] = [[NEVER, len(STREAMS), 0, ()]]
-        heap += [[nxt, _ORDER[specs[0].msg_id], iv, tuple(specs)]
-                 for (nxt, iv), specs in groups.items()]
+        heap += [[nxt, _ORDER[specs[0].msg_id], period, tuple(specs)]
+                 for (nxt, period), specs in groups.items()]
         heapq.heapify(heap)
         self._heap = heap
         # Streams of the groups due together (keyed by their first positions), in table order.
@@ -246,33 +327,38 @@ class Scheduler:
         return out
 
     def interval_us(self, msg_id: int) -> int:
-        """MESSAGE_INTERVAL semantics: µs, −1 disabled, 0 unknown/not available."""
-        if msg_id not in self._interval_us:
-            return 0
-        return self._requested_us.get(msg_id, self._interval_us[msg_id]) or -1
+        """What MESSAGE_INTERVAL reports (MavlinkReceiver::get_message_interval): the stream's
+        interval in µs, −1 for an unlimited one, 0 when the link has no such stream (none in
+        PX4's list, not configured by the link's mode, or stopped: PX4 deletes a stream set to
+        rate 0)."""
+        return self._interval_us.get(msg_id, 0)
+
+    def period_s(self, msg_id: int) -> float:
+        """How often the stream is sent (s; 0 as often as the loop runs, inf never), for a
+        stream that is sent by a service of its own (STATUSTEXT)."""
+        iv = self._interval_us.get(msg_id, 0)
+        return math.inf if iv == 0 else 0.0 if iv < 0 \
+            else max(iv, MAVLINK_MIN_INTERVAL_US) * 1e-6
 
     def set_interval(self, msg_id: int, interval_us: float, now_s: float) -> bool:
         """SET_MESSAGE_INTERVAL p2 as MavlinkReceiver::set_message_interval reads it: below
         -1e-5 stop; above 1e-5 the rate 1e6 / p2, whose interval (Mavlink::configure_stream,
         truncated to whole µs) is 0, i.e. stopped, for rates of 1e-6 Hz and less and for
-        intervals under 1 µs (inf, 3e38 …); anything else (0, NaN) the default. False if the
-        message has no stream or is HEARTBEAT."""
+        intervals under 1 µs (inf, 3e38 …); anything else (0, NaN) the mode's default
+        (``StreamSpec.mode_hz``). False if the message has no stream or is HEARTBEAT."""
         spec = STREAMS_BY_ID.get(msg_id)
-        if spec is None or msg_id in FIXED_RATE_IDS:
+        if spec is None or not spec.stream or msg_id in FIXED_RATE_IDS:
             return False
         if interval_us < -1e-5:
             iv = 0
         elif interval_us > 1e-5:
-            rate = 1e6 / interval_us
-            iv = int(1e6 / rate) if rate > 1e-6 else 0
+            iv = _interval_us(1e6 / interval_us)
         else:  # 0, tiny or NaN
-            iv = _interval_us(spec.default_hz(self.kind))
+            iv = _interval_us(spec.mode_hz(self.kind))
         nexts = self._deadlines()
-        self._requested_us[msg_id] = iv
-        if 0 < iv < MAVLINK_MIN_INTERVAL_US:
-            iv = MAVLINK_MIN_INTERVAL_US
         self._interval_us[msg_id] = iv
-        nexts[msg_id] = int(round(now_s * 1e6)) if iv and not spec.silent else NEVER
+        period = self._period_us[msg_id] = _period_us(spec, iv)
+        nexts[msg_id] = int(round(now_s * 1e6)) if period else NEVER
         self._group(nexts)
         return True
 

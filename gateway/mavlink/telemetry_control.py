@@ -1,7 +1,6 @@
 """What the controllers aim for and what the motors are told: ATTITUDE_TARGET,
 POSITION_TARGET_LOCAL_NED, POSITION_TARGET_GLOBAL_INT, SERVO_OUTPUT_RAW (port 0), ESC_INFO and
-ESC_STATUS, from the vehicle's ``targets`` (vehicles/types.py Targets); and UTM_GLOBAL_POSITION,
-where the vehicle is and where it goes next.
+ESC_STATUS, from the vehicle's ``targets`` (vehicles/types.py Targets).
 
 Source: PX4's stream classes src/modules/mavlink/streams/<MESSAGE>.hpp, streamed by default
 (mavlink_main.cpp configure_streams_to_default, and px4-rc.mavlink's SITL overrides for the GCS
@@ -29,12 +28,9 @@ import math
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder, i32, payload_of
-from gateway.mavlink.identity import px4_guid
+from gateway.mavlink.codec import Encoder, payload_of
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.wip_dialect import ESC_INFO, ESC_STATUS
-from vehicles.estimation import E_ACCURACY
-from vehicles.types import LandedState, NavState
 
 ESC_REPORTS = 8  # esc_status_s::CONNECTED_ESC_MAX
 NO_THRUST_ACCEL = (0.0, 0.0, 100.0)  # mc_pos_control: not taken off yet
@@ -44,7 +40,6 @@ _ATTITUDE_TARGET = payload_of(M.MAVLink_attitude_target_message)
 _POSITION_TARGET_LOCAL_NED = payload_of(M.MAVLink_position_target_local_ned_message)
 _POSITION_TARGET_GLOBAL_INT = payload_of(M.MAVLink_position_target_global_int_message)
 _SERVO_OUTPUT_RAW = payload_of(M.MAVLink_servo_output_raw_message)
-_UTM_GLOBAL_POSITION = payload_of(M.MAVLink_utm_global_position_message)
 _ESC_INFO_PAYLOAD = payload_of(ESC_INFO)
 _ESC_STATUS_PAYLOAD = payload_of(ESC_STATUS)
 
@@ -122,55 +117,6 @@ def servo_output_raw(enc: Encoder, s: Snapshot) -> bytes | None:
     raw = list(map(int, sp.outputs[:16]))  # commanded rad/s: 0..1000, within uint16
     raw += _ZEROS[len(raw):]
     return _SERVO_OUTPUT_RAW(s.time_usec & 0xFFFFFFFF, 0, *raw)
-
-
-# UTM_DATA_AVAIL_FLAGS always set here: a board id, the position, its altitude, the velocity.
-_UTM_ALWAYS = (M.UTM_DATA_AVAIL_FLAGS_UAS_ID_AVAILABLE | M.UTM_DATA_AVAIL_FLAGS_POSITION_AVAILABLE
-               | M.UTM_DATA_AVAIL_FLAGS_ALTITUDE_AVAILABLE
-               | M.UTM_DATA_AVAIL_FLAGS_HORIZONTAL_VELO_AVAILABLE
-               | M.UTM_DATA_AVAIL_FLAGS_VERTICAL_VELO_AVAILABLE)
-_UTM_AUTO = frozenset({NavState.AUTO_FOLLOW_TARGET, NavState.AUTO_LAND, NavState.AUTO_PRECLAND,
-                       NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF,
-                       NavState.AUTO_RTL})
-
-
-def utm_global_position(enc: Encoder, s: Snapshot) -> bytes | None:
-    """UTM_GLOBAL_POSITION.hpp (a default stream up to PX4 v1.14; in v1.15 only once a client
-    asks for it), sent while vehicle_global_position is published: once the estimator has a
-    position. The GPS altitude is the ellipsoid's, as in GPS_RAW_INT; no range finder, so no
-    relative altitude; the velocity accuracy is not modelled (0)."""
-    status = s.status
-    if not status.position_valid:
-        return None
-    flags = _UTM_ALWAYS
-    unix_us = 0
-    if s.boot_unix_s is not None:
-        unix_us = int((s.boot_unix_s + s.now_s) * 1e6)
-        flags |= M.UTM_DATA_AVAIL_FLAGS_TIME_VALID
-    g = s.sample.geo
-    vn, ve, vd = s.kin.velocity_ned_mps
-    e = s.sample.estimator
-    h_acc, v_acc = (e[E_ACCURACY], e[E_ACCURACY + 1]) if e is not None else (0.0, 0.0)
-    next_lat = next_lon = next_alt = 0
-    tg = s.targets
-    target = None
-    if status.nav_state in _UTM_AUTO and tg is not None:
-        target = global_target(s, tg.global_target_ned_m)
-    if target is not None:
-        lat, lon, alt = target
-        if math.isfinite(alt):  # a client's setpoint: any finite altitude (DO_REPOSITION)
-            next_lat, next_lon, next_alt = i32(lat * 1e7), i32(lon * 1e7), i32(alt * 1000.0)
-            flags |= M.UTM_DATA_AVAIL_FLAGS_NEXT_WAYPOINT_AVAILABLE
-    if status.armed:
-        state = M.UTM_FLIGHT_STATE_GROUND if status.landed_state == LandedState.ON_GROUND \
-            else M.UTM_FLIGHT_STATE_AIRBORNE
-    else:
-        state = M.UTM_FLIGHT_STATE_UNKNOWN
-    return _UTM_GLOBAL_POSITION(unix_us, px4_guid(enc.sysid),
-                                int(g.lat_deg * 1e7), int(g.lon_deg * 1e7), int(g.alt_amsl_m * 1000.0), 0,
-                                int(vn * 100.0), int(ve * 100.0), int(vd * 100.0),
-                                min(int(h_acc * 1000.0), 0xFFFF), min(int(v_acc * 1000.0), 0xFFFF), 0,
-                                next_lat, next_lon, next_alt, 0, state, flags)
 
 
 def esc_info(enc: Encoder, s: Snapshot) -> bytes | None:

@@ -56,6 +56,12 @@ def distance_sensor(enc: Encoder, s: Snapshot) -> None:
     return None
 
 
+def unpublished(enc: Encoder, s: Snapshot) -> None:
+    """A stream whose uORB topic nothing here publishes (streams.py's ``silent`` ones): its
+    send() has nothing, so a REQUEST_MESSAGE for it is DENIED."""
+    return None
+
+
 def hil_state_quaternion(enc: Encoder, s: Snapshot) -> bytes | None:
     """HIL_STATE_QUATERNION.hpp: the simulator's ground truth (vehicle_*_groundtruth): attitude,
     body rates, position (degE7, mm AMSL), NED velocity in cm/s, acceleration (m/s², as PX4

@@ -138,7 +138,7 @@ def _telemetry_status(instance: int):
             lost_rate = math.nan
         else:
             lost_rate = f32(st.rx_lost / st.rx_counted)
-        streams = sum(1 for spec in STREAMS if s.scheduler.interval_us(spec.msg_id) > 0)
+        streams = sum(1 for spec in STREAMS if s.scheduler.interval_us(spec.msg_id) != 0)
         gcs = now_s - s.last_gcs_heartbeat_s <= HEARTBEAT_TIMEOUT_S
         onboard = now_s - s.last_onboard_heartbeat_s <= HEARTBEAT_TIMEOUT_S
         mode = MAVLINK_MODE_ONBOARD if s.kind is LinkKind.API else MAVLINK_MODE_NORMAL

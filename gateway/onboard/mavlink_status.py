@@ -105,11 +105,14 @@ def _streams(inst: Instance) -> str:
     lines = [f"\t{'Name':<20}{'Rate Config (current) [Hz]':<16} Message Size (if active) [B]\n"]
     for spec in STREAMS:
         interval = scheduler.interval_us(spec.msg_id)
-        if interval <= 0:
+        if interval == 0:  # no such stream on this link
             continue
         cls = M.mavlink_map[spec.msg_id]
-        rate = 1e6 / interval
-        rate_str = f"{rate:6.2f} ({rate:.3f})"
+        if interval < 0:
+            rate_str = "unlimited"
+        else:
+            rate = 1e6 / interval
+            rate_str = f"{rate:6.2f} ({rate:.3f})"
         # A stream whose get_size() is 0 (no topic advertised; AVAILABLE_MODES before a change
         # of the mode list): no size printed
         size = "" if spec.silent else f" {cls.unpacker.size + NON_PAYLOAD_BYTES:3d}"

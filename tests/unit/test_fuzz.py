@@ -350,15 +350,12 @@ def test_every_served_command_with_each_parameter_hostile_in_turn():
 @pytest.mark.parametrize("alt_m", [1e12, 3e38, -1e12, 3.4028234663852886e38, -3.4028234663852886e38])
 def test_a_reposition_to_a_hostile_altitude_never_stops_a_stream(alt_m):
     """DO_REPOSITION takes any finite altitude (PX4's navigator checks only that it is finite).
-    The streams that carry the setpoint as an integer (UTM_GLOBAL_POSITION's next_alt, mm in an
-    int32) clamp it as the field allows; none of them may fail and fall silent."""
+    The streams that carry the setpoint (POSITION_TARGET_GLOBAL_INT's float altitude) send it
+    as it is; none of them may fail and fall silent."""
     from gateway.ci.lockstep import Sim
 
     with Sim(1) as sim:
         api = sim.api(0)
-        # no default stream in PX4 v1.15: asked for, at 1 Hz
-        assert api.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL,
-                                M.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION, 1e6) == 0
         assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
         assert api.arm() == 0 and api.takeoff() == 0
         assert sim.run_until(lambda: sim.status(0).nav_state.name == "AUTO_LOITER", timeout_s=20)
@@ -368,9 +365,7 @@ def test_a_reposition_to_a_hostile_altitude_never_stops_a_stream(alt_m):
         since = len(api.frames)
         sim.run_until(lambda: False, timeout_s=3)
         assert sim.simulation.internal_errors == 0
-        utm = api.messages("UTM_GLOBAL_POSITION", since)
-        assert len(utm) >= 2
-        assert utm[-1].next_alt == (2**31 - 1 if alt_m > 0 else -(2**31))
+        assert len(api.messages("POSITION_TARGET_GLOBAL_INT", since)) >= 20
         alt = api.messages("POSITION_TARGET_GLOBAL_INT", since)[-1].alt
         assert math.isfinite(alt) and alt == pytest.approx(alt_m, rel=1e-6)
 

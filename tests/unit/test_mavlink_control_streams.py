@@ -8,7 +8,6 @@ import pytest
 from pymavlink.dialects.v20 import common as M
 
 from gateway.ci.lockstep import LOCKSTEP_EPOCH_UNIX_S, Sim
-from gateway.mavlink.identity import uid
 from gateway.mavlink.session import LinkKind
 from tests.unit.test_testing_sim import geo, square_mission
 from vehicles.plan_types import PlanResult
@@ -22,9 +21,6 @@ def flight():
     """One vehicle with both links: 3 s on the ground, then 15 s into the square mission."""
     with Sim(1, links=(LinkKind.API, LinkKind.GCS)) as sim:
         gcs, api = sim.gcs(0), sim.api(0)
-        # UTM_GLOBAL_POSITION is no default stream in PX4 v1.15: asked for on the GCS link
-        assert gcs.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL,
-                                M.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION, 2_000_000) == 0
         assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=5)
         sim.advance(3.0)
         ground = {name: gcs.last(name) for name in (
@@ -37,7 +33,7 @@ def flight():
             "SERVO_OUTPUT_RAW", "LOCAL_POSITION_NED")}
         start = {name: (len(gcs.messages(name)), len(api.messages(name))) for name in (
             "ATTITUDE_TARGET", "POSITION_TARGET_LOCAL_NED", "POSITION_TARGET_GLOBAL_INT",
-            "SERVO_OUTPUT_RAW", "TIMESYNC", "PING", "UTM_GLOBAL_POSITION")}
+            "SERVO_OUTPUT_RAW", "TIMESYNC", "PING")}
         sim.advance(10.0)
         rates = {name: ((len(gcs.messages(name)) - g) / 10.0, (len(api.messages(name)) - a) / 10.0)
                  for name, (g, a) in start.items()}
@@ -49,8 +45,7 @@ def test_rates_are_px4_sitls(flight):
     assert flight["rates"] == {
         "ATTITUDE_TARGET": (50.0, 10.0), "POSITION_TARGET_LOCAL_NED": (50.0, 10.0),
         "POSITION_TARGET_GLOBAL_INT": (1.0, 10.0), "SERVO_OUTPUT_RAW": (50.0, 10.0),
-        "TIMESYNC": (0.0, 10.0), "PING": (0.1, 1.0),
-        "UTM_GLOBAL_POSITION": (0.5, 0.0)}  # only where asked for (0.5 Hz on the GCS link)
+        "TIMESYNC": (0.0, 10.0), "PING": (0.1, 1.0)}
 
 
 def test_on_the_ground_disarmed_the_setpoint_is_no_thrust_and_the_motors_are_off(flight):
@@ -140,28 +135,6 @@ def test_timesync_ping_and_origin(flight):
             round(PX4_SITL_HOME.alt_amsl_m * 1e3))
     assert api.command_long(M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN) == 0
     assert len(api.messages("GPS_GLOBAL_ORIGIN")) == 2  # a request always gets it
-
-
-def test_utm_global_position_tells_where_the_vehicle_is_and_goes(flight):
-    gcs = flight["gcs"]
-    # The last UTM_GLOBAL_POSITION of the mission snapshot and the GLOBAL_POSITION_INT sent
-    # with it (the same instant).
-    t, utm = [(t, m) for t, m in gcs.timed_messages("UTM_GLOBAL_POSITION")
-              if m is not None and m.flight_state == 3][0]
-    gp = next(m for tm, m in gcs.timed_messages("GLOBAL_POSITION_INT") if tm == t)
-    # the time valid too: the lockstep run's clock starts at its fixed epoch
-    assert utm.flags == 1 | 2 | 4 | 8 | 32 | 64 | 128
-    assert utm.time == int((LOCKSTEP_EPOCH_UNIX_S + t) * 1e6)
-    assert (utm.lat, utm.lon) == (gp.lat, gp.lon) or abs(utm.lat - gp.lat) <= 1
-    assert abs(utm.alt - gp.alt) <= 1 and abs(utm.vx - gp.vx) <= 1
-    assert utm.next_lat and utm.next_alt >= int(PX4_SITL_HOME.alt_amsl_m * 1000)
-    assert bytes(utm.uas_id[:8]) == uid(1).to_bytes(8, "little") and not any(utm.uas_id[8:])
-    first = gcs.messages("UTM_GLOBAL_POSITION")[0]
-    # Disarmed in Hold: flight state unknown; the next waypoint is where Hold keeps it (the
-    # estimate of home, within the GPS noise's few cm)
-    assert first.flight_state == 1 and first.flags & 128
-    assert abs(first.next_lat - PX4_SITL_HOME.lat_deg * 1e7) < 20
-    assert abs(first.next_lon - PX4_SITL_HOME.lon_deg * 1e7) < 20
 
 
 def test_clients_answer_the_vehicles_pings_as_mavsdk_and_qgc_do(flight):

@@ -162,3 +162,93 @@ def test_flight_information_as_px4_on_request():
         assert api.command_long(M.MAV_CMD_REQUEST_FLIGHT_INFORMATION, 1) == 0
         sim.advance(0.05)
         assert api.messages("FLIGHT_INFORMATION", since)[-1].flight_uuid == 1
+
+
+# PX4 v1.15.2's configure_streams_to_default: (msg_id, NORMAL with px4-rc.mavlink's GCS link
+# overrides, ONBOARD) in µs as MESSAGE_INTERVAL reports them; −1 is unlimited_rate.
+SILENT_DEFAULTS = [
+    (M.MAVLINK_MSG_ID_NAV_CONTROLLER_OUTPUT, 1_000_000, 100_000),
+    (M.MAVLINK_MSG_ID_GPS_STATUS, 1_000_000, 1_000_000),
+    (M.MAVLINK_MSG_ID_GPS2_RAW, 1_000_000, -1),
+    (M.MAVLINK_MSG_ID_MOUNT_ORIENTATION, 100_000, 100_000),
+    (M.MAVLINK_MSG_ID_GIMBAL_MANAGER_STATUS, 2_000_000, 2_000_000),
+    (M.MAVLINK_MSG_ID_OPTICAL_FLOW_RAD, 100_000, 100_000),  # the GCS link: px4-rc.mavlink's 10 Hz
+    (M.MAVLINK_MSG_ID_HYGROMETER_SENSOR, 10_000_000, 1_000_000),
+    (M.MAVLINK_MSG_ID_TRAJECTORY_REPRESENTATION_WAYPOINTS, 0, 200_000),
+    (M.MAVLINK_MSG_ID_ADSB_VEHICLE, -1, -1),
+    (M.MAVLINK_MSG_ID_CAMERA_TRIGGER, 0, -1),
+    (M.MAVLINK_MSG_ID_STATUSTEXT, 50_000, 50_000),  # Mavlink::task_main, on every link
+    (M.MAVLINK_MSG_ID_COMMAND_LONG, -1, -1),
+]
+
+
+@pytest.mark.parametrize("kind", [LinkKind.GCS, LinkKind.API], ids=["gcs", "api"])
+@pytest.mark.parametrize("msg_id, gcs_us, api_us", SILENT_DEFAULTS,
+                         ids=[M.mavlink_map[m].msgname for m, _, _ in SILENT_DEFAULTS])
+def test_px4s_streams_without_data_here_are_configured_as_in_px4(kind, msg_id, gcs_us, api_us):
+    """Every stream of PX4's list can be set (ACCEPTED), and MESSAGE_INTERVAL reports what the
+    link's mode configured, though nothing publishes the topic here: the stream sends nothing,
+    and a REQUEST_MESSAGE for it is DENIED (its send() has nothing)."""
+    vehicle, session, client = make(kind)
+    vehicle.become_ready()
+    got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id)
+    assert got[0].interval_us == (gcs_us if kind is LinkKind.GCS else api_us)
+    assert _enable(client, msg_id, 4.0) == ACCEPTED
+    assert client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id)[0].interval_us == 250_000
+    assert acks(client.command_long(M.MAV_CMD_REQUEST_MESSAGE, msg_id))[0].result == 2  # DENIED
+    msgs = client.run_until(client.now_s + 2.0)
+    assert [m for m in msgs if m.get_msgId() == msg_id] == []
+
+
+def test_gps_raw_int_onboard_is_unlimited_and_comes_with_each_fix():
+    """ONBOARD configures GPS_RAW_INT at unlimited_rate: MESSAGE_INTERVAL says −1, and it goes
+    out with every sensor_gps sample (8 Hz); a rate set by a client paces it as any stream."""
+    vehicle, session, client = make(LinkKind.API)
+    vehicle.become_ready()
+    got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_GPS_RAW_INT)
+    assert got[0].interval_us == -1
+    assert abs(len(of_type(client.run_until(2.0), "GPS_RAW_INT")) - 16) <= 1
+    assert _enable(client, M.MAVLINK_MSG_ID_GPS_RAW_INT, 2.0) == ACCEPTED
+    assert abs(len(of_type(client.run_until(4.0), "GPS_RAW_INT")) - 4) <= 1
+    # the default again: unlimited
+    assert acks(client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL,
+                                    M.MAVLINK_MSG_ID_GPS_RAW_INT, 0))[0].result == ACCEPTED
+    got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_GPS_RAW_INT)
+    assert got[0].interval_us == -1
+
+
+def test_boot_streams_stop_on_a_request_for_their_default():
+    """STATUSTEXT is configured by Mavlink::task_main, not by the mode: a SET_MESSAGE_INTERVAL
+    for the default rate runs configure_streams_to_default for it, which finds it in no list
+    and stops it (MESSAGE_INTERVAL 0); texts then wait, and go out once a rate is set again."""
+    vehicle, session, client = make(LinkKind.GCS)
+    vehicle.become_ready()
+    client.heartbeat()
+    assert acks(client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL,
+                                    M.MAVLINK_MSG_ID_STATUSTEXT, 0))[0].result == ACCEPTED
+    got = client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_STATUSTEXT)
+    assert got[0].interval_us == 0
+    vehicle.say(client.now_s, "first")
+    vehicle.say(client.now_s, "second")
+    assert of_type(client.run_until(client.now_s + 0.5), "STATUSTEXT") == []
+    client.heartbeat()
+    assert _enable(client, M.MAVLINK_MSG_ID_STATUSTEXT, 2.0) == ACCEPTED
+    sent = of_type(client.run_until(client.now_s + 0.1), "STATUSTEXT")
+    assert [m.text for m in sent] == ["first"]  # one text per run, 0.5 s apart
+    sent = of_type(client.run_until(client.now_s + 0.55), "STATUSTEXT")
+    assert [m.text for m in sent] == ["second"]
+
+
+@pytest.mark.parametrize("msg_id", [M.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION,
+                                    M.MAVLINK_MSG_ID_MISSION_CURRENT])
+def test_messages_no_px4_stream_sends_cannot_be_set_or_requested(msg_id):
+    """PX4 #21663 took UTM_GLOBAL_POSITION out of the stream list before v1.15; MISSION_CURRENT
+    is the mission manager's. SET_MESSAGE_INTERVAL FAILS, REQUEST_MESSAGE is DENIED,
+    MESSAGE_INTERVAL says 0 — MISSION_CURRENT still comes at its own 1 Hz."""
+    vehicle, session, client = make(LinkKind.API)
+    vehicle.become_ready()
+    assert _enable(client, msg_id, 10.0) == FAILED
+    assert acks(client.command_long(M.MAV_CMD_REQUEST_MESSAGE, msg_id))[0].result == 2
+    assert client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id)[0].interval_us == 0
+    sent = [m for m in client.run_until(client.now_s + 3.0) if m.get_msgId() == msg_id]
+    assert len(sent) == (0 if msg_id == M.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION else 3)

@@ -149,13 +149,12 @@ def test_current_mode_is_streamed_with_the_standard_and_the_intended_mode():
 
 
 @pytest.mark.parametrize("name, gcs_hz, api_hz", [
-    ("UTM_GLOBAL_POSITION", 0.0, 0.0),  # left the defaults in v1.15 (PX4 #21663)
     ("GPS_GLOBAL_ORIGIN", 1.0, 1.0),
     ("RC_CHANNELS", 20.0, 20.0),  # px4-rc.mavlink: 20 Hz on the GCS link
     ("DISTANCE_SENSOR", 0.5, 10.0),
     ("CURRENT_MODE", 0.5, 0.5),
     ("AVAILABLE_MODES", 0.3, 0.3),  # its stream sends nothing until the mode list changes
-    ("GPS_RAW_INT", 5.0, 8.0),  # onboard: every fix of sensor_gps_sim, 8 Hz
+    ("GPS_RAW_INT", 5.0, -1.0),  # onboard: unlimited, every fix of sensor_gps_sim (8 Hz)
 ])
 def test_default_rates_are_configure_streams_to_default(name, gcs_hz, api_hz):
     from pymavlink.dialects.v20 import development

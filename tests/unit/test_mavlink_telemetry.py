@@ -23,27 +23,37 @@ class ReferenceScheduler:
     def __init__(self, kind: LinkKind, now_s: float) -> None:
         self.kind = kind
         start = int(round(now_s * 1e6))
-        self.interval = {s.msg_id: streams._interval_us(s.default_hz(kind)) for s in STREAMS}
-        self.next = {i: start if iv and not STREAMS_BY_ID[i].silent else NEVER
-                     for i, iv in self.interval.items()}
-        self.requested = dict(self.interval)  # what MESSAGE_INTERVAL reports
+        # What PX4 keeps (MESSAGE_INTERVAL: µs, −1 unlimited, 0 no stream) and how often it goes
+        self.requested = {s.msg_id: streams._interval_us(s.default_hz(kind)) if s.stream else 0
+                          for s in STREAMS}
+        self.interval = {s.msg_id: self._period(s, streams._interval_us(s.default_hz(kind)))
+                         for s in STREAMS}
+        self.next = {i: start if iv else NEVER for i, iv in self.interval.items()}
+
+    @staticmethod
+    def _period(spec, iv: int) -> int:
+        if spec.silent:
+            return 0
+        if iv > 0:  # one send per MAVLink loop at most
+            return max(iv, streams.MAVLINK_MIN_INTERVAL_US)
+        if iv < 0:  # unlimited: at each update of its topic
+            return int(1e6 / spec.data_hz) if spec.data_hz > 0 else 0
+        return 0
 
     def set_interval(self, msg_id: int, interval_us: float, now_s: float) -> bool:
         spec = STREAMS_BY_ID.get(msg_id)
-        if spec is None or msg_id in streams.FIXED_RATE_IDS:
+        if spec is None or not spec.stream or msg_id in streams.FIXED_RATE_IDS:
             return False
         if interval_us < -1e-5:  # MavlinkReceiver::set_message_interval: stop
             iv = 0
         elif interval_us > 1e-5:  # a rate, back to whole µs (Mavlink::configure_stream)
             rate = 1e6 / interval_us
             iv = int(1e6 / rate) if rate > 1e-6 else 0
-        else:  # 0, NaN: the default
-            iv = streams._interval_us(spec.default_hz(self.kind))
+        else:  # 0, NaN: the mode's default; a stream the mode does not configure stops
+            iv = 0 if spec.boot else streams._interval_us(spec.default_hz(self.kind))
         self.requested[msg_id] = iv
-        if 0 < iv < streams.MAVLINK_MIN_INTERVAL_US:  # one send per MAVLink loop at most
-            iv = streams.MAVLINK_MIN_INTERVAL_US
-        self.interval[msg_id] = iv
-        self.next[msg_id] = int(round(now_s * 1e6)) if iv and not spec.silent else NEVER
+        self.interval[msg_id] = self._period(spec, iv)
+        self.next[msg_id] = int(round(now_s * 1e6)) if self.interval[msg_id] else NEVER
         return True
 
     def due(self, now_s: float) -> list[int]:
@@ -88,8 +98,7 @@ def test_grouped_scheduler_matches_the_per_stream_reference(kind, seed):
         assert [s.msg_id for s in ours.due(now_s)] == ref.due(now_s)
         assert ours.next_us == ref.next_us
         for msg_id in ids:
-            assert ours.interval_us(msg_id) == (
-                0 if msg_id not in ref.interval else ref.requested[msg_id] or -1)
+            assert ours.interval_us(msg_id) == ref.requested.get(msg_id, 0)
 
 
 def test_streams_due_together_go_out_in_table_order():
