@@ -44,16 +44,20 @@ position and velocity fused EKF2_GPS_DELAY late, barometric height, magnetometer
 - Position and velocity: the IMU's specific force rotated by the estimated attitude, integrated
   every step; GPS innovations are formed against the estimate of EKF2_GPS_DELAY (and half
   EKF2's filter period) before the fix arrived (a ring of past estimates) and the correction
-  is applied to the present and the ring (after GNSS_RESET_S unaided, all of it: EKF2's reset
-  to the fix). Height, vertical velocity and the accelerometer's z bias: the vertical channel of
-  height_fusion.py (EKF2's: the barometer, the GPS height and vertical velocity in a Kalman
-  filter, each height source less its bias but the reference's, EKF2_HGT_REF's fallbacks). A
-  magnetometer heading whose test ratio is over 1 (EKF2_MAG_GATE) is rejected.
+  is applied to the present and the ring; a fix's velocity or position whose test ratio is
+  over 1 on any axis is not fused, and after GNSS_RESET_S with neither fused, or twice that
+  without the position, the whole innovation is (EKF2's reset to the fix). Height, vertical
+  velocity and the accelerometer's z bias: the vertical channel of height_fusion.py (EKF2's:
+  the barometer, the GPS height and vertical velocity in a Kalman filter, each height source
+  less its bias but the reference's, EKF2_HGT_REF's fallbacks). A magnetometer heading whose
+  test ratio is over 1 (EKF2_MAG_GATE) is rejected.
 - Wind: with the vehicle flying, the horizontal specific force in the body frame is the drag of
   the air, so the air's velocity follows (EKF2's drag fusion principle), low-passed.
-- Health: the innovation test ratios (innovation² / (gate σ)², with EKF2's noise parameters and
-  gates — for the GPS the receiver's eph and s_variance where larger, as EKF2 fuses them) and
-  accuracies that ESTIMATOR_STATUS reports; PX4's vibration metrics (vehicle_imu) for VIBRATION.
+- Health: the innovation test ratios as estimator_status has them (√(innovation² / (gate² ·
+  innovation variance)) of the worst axis, with EKF2's noise parameters and gates — for the GPS
+  the receiver's eph and s_variance where larger, as EKF2 fuses them; horizontally the
+  observation's variance stands for the innovation's) and the accuracies that ESTIMATOR_STATUS
+  reports; PX4's vibration metrics (vehicle_imu) for VIBRATION.
 
 The estimate (``estimated``) has the columns of the inner loop's ``measured`` (inner_loop.M_*):
 the controllers and the telemetry read it; ``measured`` stays the ground truth the physics uses.
@@ -67,6 +71,15 @@ from collections.abc import Callable
 import numpy as np
 
 from vehicles import height_fusion as hf
+from vehicles.aiding import (
+    AID_BARO,
+    AID_DEFAULT,
+    AID_HGT_REF_GPS,
+    GPS_CTRL_HGT,
+    GPS_CTRL_POS,
+    GPS_CTRL_VEL,
+    aiding_word,
+)
 from vehicles.control.compiled import njit_cached
 from vehicles.control.rotation import dcm
 from vehicles.inner_loop import M_ACCEL, M_POS, M_Q, M_RATES, M_VEL
@@ -100,14 +113,8 @@ EKF2_FILTER_PERIOD_S = 0.01  # setGpsData also takes off half of it (_dt_ekf_avg
 # declination 3° east (WMM; sensor_mag_sim uses the same model at the home position).
 MAG_NED_GAUSS = (0.2145, 0.0112, 0.4296)
 
-# EKF2's measurement noise parameters and innovation gates (defaults), for the test ratios.
-EKF2_GPS_P_NOISE, EKF2_GPS_V_NOISE, EKF2_BARO_NOISE, EKF2_MAG_NOISE = 0.5, 0.3, 3.5, 0.05
-EKF2_GPS_P_GATE, EKF2_GPS_V_GATE, EKF2_BARO_GATE, EKF2_MAG_GATE = 5.0, 5.0, 5.0, 3.0
-# The GPS observation noise EKF2 fuses with (Ekf::updateGnssPos, updateGnssVel): the receiver's
-# eph and s_variance_m_s where larger than EKF2_GPS_P_NOISE and EKF2_GPS_V_NOISE (the vertical
-# velocity's 1.5 times that).
-GPS_OBS_POS_M = max(GPS_EPH_M, EKF2_GPS_P_NOISE)
-GPS_OBS_VEL_MPS = max(GPS_S_VARIANCE_MPS, EKF2_GPS_V_NOISE)
+# EKF2's magnetometer noise and gate (the GPS's and the barometer's: height_fusion.PARAMS).
+EKF2_MAG_NOISE, EKF2_MAG_GATE = 0.05, 3.0
 
 BARO_TIMEOUT_S = 0.2  # EKF2's BARO_MAX_INTERVAL: no barometer for this long → GNSS height
 GNSS_RESET_S = 7.0  # EKF2's reset_timeout_max: unaided this long, a fix resets the estimate
@@ -137,8 +144,8 @@ S_GYRO, S_ACC, S_MAG, S_BARO_DOWN, S_GPS_POS, S_GPS_VEL, S_VIB, S_PREV, S_SIZE =
 B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 # Columns of the estimator's state.
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
- E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_AID_AGE, E_XY_RESET, E_VXY_RESET,
- E_VZ_RESET, E_HGT) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 41, 44, 46)
+ E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_AID_AGE, E_XY_RESET, E_VXY_RESET, E_VZ_RESET,
+ E_POS_AGE, E_HGT) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 41, 44, 46, 47)
 E_SIZE = E_HGT + hf.H_SIZE
 # since the barometer was last fused: the vertical channel's own clock of it
 E_BARO_AGE = E_HGT + hf.H_SRC + hf.BARO * hf.SRC_SIZE + hf.SRC_AGE
@@ -153,33 +160,12 @@ E_BARO_AGE = E_HGT + hf.H_SRC + hf.BARO * hf.SRC_SIZE + hf.SRC_AGE
 # which vehicle_local_position publishes as xy_, vxy_, vz_reset_counter and delta_xy, delta_vxy,
 # delta_vz); E_HGT: the vertical channel's filter (height_fusion.py's H_* columns).
 
-# EKF2_GPS_CTRL's bits: lon/lat, altitude, 3D velocity (dual antenna heading: no such receiver)
-GPS_CTRL_POS, GPS_CTRL_HGT, GPS_CTRL_VEL = 1, 2, 4
-GPS_CTRL_DEFAULT = GPS_CTRL_POS | GPS_CTRL_HGT | GPS_CTRL_VEL
-# Each row's aiding word: EKF2_GPS_CTRL's bits, then EKF2_BARO_CTRL (the barometer fused) and
-# EKF2_HGT_REF 1 (the GPS the height reference; 0 the barometer; 2 range sensor and 3 vision,
-# which this vehicle lacks, fall back to the barometer as checkHeightSensorRefFallback does).
-AID_BARO, AID_HGT_REF_GPS = 16, 32
-AID_DEFAULT = GPS_CTRL_DEFAULT | AID_BARO | AID_HGT_REF_GPS  # ekf2/module.yaml's defaults
-
-
-def aiding_word(gps_ctrl: float | None, baro_ctrl: float | None, hgt_ref: float | None) -> int:
-    """The aiding word of EKF2_GPS_CTRL, EKF2_BARO_CTRL and EKF2_HGT_REF (None: the default)."""
-    word = GPS_CTRL_DEFAULT if gps_ctrl is None else int(gps_ctrl) & 0xF
-    if baro_ctrl is None or int(baro_ctrl) == 1:
-        word |= AID_BARO
-    if hgt_ref is None or int(hgt_ref) == 1:
-        word |= AID_HGT_REF_GPS
-    return word
-
 E_WIND_VAR = E_RATIOS + 4
 
 # Gains of the complementary filters (per second; see the module docstring).
 K_TILT, K_HEADING, K_GYRO_BIAS = 0.2, 0.2, 0.002
 L_POS, L_VEL_FROM_POS, L_VEL = 1.0, 0.5, 0.5
-TAU_ACCEL_REF_S = 0.3
-TAU_WIND_S = 5.0
-TAU_ACCURACY_S = 5.0
+TAU_ACCEL_REF_S, TAU_WIND_S, TAU_ACCURACY_S = 0.3, 5.0, 5.0
 
 
 def _gm(dt_s: float, tau_s: float, sigma: float) -> tuple[float, float]:
@@ -217,10 +203,10 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
     mass_over_drag = consts[3]
     dt_gps = 1.0 / GPS_RATE_HZ
     dt_baro = 1.0 / 50.0
-    a_ref = dt_gps / (0.3 + dt_gps)
-    a_f = dt_s / (0.3 + dt_s)
-    a_wind = dt_baro / (5.0 + dt_baro)
-    a_acc_gps = dt_gps / (5.0 + dt_gps)
+    a_ref = dt_gps / (TAU_ACCEL_REF_S + dt_gps)
+    a_f = dt_s / (TAU_ACCEL_REF_S + dt_s)
+    a_wind = dt_baro / (TAU_WIND_S + dt_baro)
+    a_acc_gps = dt_gps / (TAU_ACCURACY_S + dt_gps)
     corr = np.zeros(4)  # a height observation's corrections (height_fusion.height_source)
     for v in range(len(sensed)):
         s = sensed[v]
@@ -268,6 +254,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
         # --- GPS: delayed innovations, corrections to the present and the ring -----------------
         e[E_GPS_AGE] += dt_s
         e[E_AID_AGE] += dt_s
+        e[E_POS_AGE] += dt_s
         use_pos, use_vel = use & GPS_CTRL_POS != 0, use & GPS_CTRL_VEL != 0
         if f & F_GPS_OFF:
             e[E_HAVE_GPS] = 0.0  # no tilt reference until fixes come again
@@ -277,18 +264,28 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
             ep0, ep1 = s[S_GPS_POS] - old[0], s[S_GPS_POS + 1] - old[1]
             ev0, ev1, ev2 = (s[S_GPS_VEL] - old[3], s[S_GPS_VEL + 1] - old[4],
                              s[S_GPS_VEL + 2] - old[5])
-            dp0 = dp1 = dv0 = dv1 = dv2 = 0.0
-            if use_pos:
+            # EKF2's test ratios (innovation² / (gate² · innovation variance); horizontally the
+            # observations' variances) per axis: a velocity or position failing on any axis is not
+            # fused (updateGnssVel, updateGnssPos, setEstimatorAidStatusTestRatio)
+            vnoise, vgate = max(GPS_S_VARIANCE_MPS, hp[hf.P_GPS_V_NOISE]), max(hp[hf.P_GPS_V_GATE], 1.0)
+            pnoise, pgate = max(GPS_EPH_M, hp[hf.P_GPS_P_NOISE]), max(hp[hf.P_GPS_P_GATE], 1.0)
+            r_vel = max(max(ev0 * ev0, ev1 * ev1) / (vgate * vnoise) ** 2, ev2 * ev2 / (
+                vgate * vgate * (e[E_HGT + hf.H_P + 4] + hf.gnss_vz_noise(hp) ** 2)))
+            r_pos = max(ep0 * ep0, ep1 * ep1) / (pgate * pnoise) ** 2
+            fuse_pos, fuse_vel = use_pos and r_pos <= 1.0, use_vel and r_vel <= 1.0
+            dp0 = dp1 = dv0 = dv1 = dv2 = dh = db = 0.0
+            if fuse_pos:
                 dp0, dp1 = L_POS * dt_gps * ep0, L_POS * dt_gps * ep1
                 dv0, dv1 = L_VEL_FROM_POS * dt_gps * ep0, L_VEL_FROM_POS * dt_gps * ep1
-            dh = db = 0.0
-            if use_vel:  # (0.0 + x is x: without the position, the velocity's alone)
+            if fuse_vel:  # (0.0 + x is x); vertically the vertical channel's filter
                 dv0, dv1 = dv0 + L_VEL * dt_gps * ev0, dv1 + L_VEL * dt_gps * ev1
-                # the vertical velocity: the vertical channel's filter
-                hf.fuse(e, E_HGT, 1, ev2, hf.gnss_vz_noise(hp) ** 2,
-                        max(hp[hf.P_GPS_V_GATE], 1.0), corr)
+                hf.fuse(e, E_HGT, 1, ev2, hf.gnss_vz_noise(hp) ** 2, vgate, corr)
                 dh, dv2, db = corr[0], corr[1], corr[2]
-            if e[E_AID_AGE] >= GNSS_RESET_S:  # reset to the fix: the whole innovation
+            fused = fuse_pos or fuse_vel
+            # shouldResetGpsFusion: neither fused for reset_timeout_max, or no position for twice
+            # that: reset to the fix, the whole innovation
+            if e[E_AID_AGE] >= GNSS_RESET_S or use_pos and e[E_POS_AGE] >= 2.0 * GNSS_RESET_S:
+                fused, fuse_pos = use_pos or use_vel, use_pos
                 dp0, dp1 = (ep0, ep1) if use_pos else (0.0, 0.0)
                 dv0, dv1, dv2 = (ev0, ev1, ev2) if use_vel else (0.0, 0.0, 0.0)
                 dh = db = 0.0
@@ -301,7 +298,9 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
                     e[E_VXY_RESET + 1], e[E_VXY_RESET + 2] = dv0, dv1
                     e[E_VZ_RESET] += 1.0
                     e[E_VZ_RESET + 1] = dv2
-            if use_pos or use_vel:
+            if fuse_pos:
+                e[E_POS_AGE] = 0.0
+            if fused:
                 e[E_AID_AGE] = 0.0
                 e[E_POS] += dp0
                 e[E_POS + 1] += dp1
@@ -326,26 +325,26 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
                 e[E_HAVE_GPS] = 1.0
                 for i in range(3):
                     e[E_GPS_VEL_PREV + i] = s[S_GPS_VEL + i]
-                e[E_RATIOS] = (ev0 * ev0 + ev1 * ev1 + ev2 * ev2 / 2.25) / (
-                    EKF2_GPS_V_GATE * GPS_OBS_VEL_MPS) ** 2
+                e[E_RATIOS] = math.sqrt(r_vel)  # get_innovation_test_status's
             else:
                 e[E_HAVE_GPS] = 0.0  # no GPS velocity, no tilt reference
             if use_pos:
-                e[E_RATIOS + 1] = (ep0 * ep0 + ep1 * ep1) / (EKF2_GPS_P_GATE * GPS_OBS_POS_M) ** 2
+                e[E_RATIOS + 1] = math.sqrt(r_pos)
                 e[E_ACCURACY] = math.sqrt(e[E_ACCURACY] ** 2 + a_acc_gps * (
                     ep0 * ep0 + ep1 * ep1 - e[E_ACCURACY] ** 2))
             # the GPS height: the vertical channel's (as taken, against the estimate then)
             hf.height_source(e, E_HGT, hf.GNSS, s[S_GPS_POS + 2], old[2],
                              use & GPS_CTRL_HGT != 0, hgt_ref, hp, corr)
             _apply_height(e, ring, corr, old[2])
+            e[E_RATIOS + 2] = hf.innovation_ratio(e, E_HGT)
         # --- barometer and magnetometer (50 Hz): height, attitude corrections, wind -----------
         air = hf.air_data(e, E_HGT, s[S_BARO_DOWN], t_s, hp[hf.P_BARO_RATE]) \
             if baro_due and not f & F_BARO_OFF else math.nan
         if not math.isnan(air):
             eh = air - e[E_HGT + hf.H_SRC + hf.SRC_BIAS] - e[E_POS + 2]
-            ratio = hf.height_source(e, E_HGT, hf.BARO, air, e[E_POS + 2],
-                                     use & AID_BARO != 0, hgt_ref, hp, corr)
-            e[E_RATIOS + 2] = ratio
+            hf.height_source(e, E_HGT, hf.BARO, air, e[E_POS + 2], use & AID_BARO != 0, hgt_ref,
+                             hp, corr)
+            e[E_RATIOS + 2] = hf.innovation_ratio(e, E_HGT)
             if e[E_BARO_AGE] == 0.0:  # fused
                 a_acc_baro = 1.0 / (5.0 * hp[hf.P_BARO_RATE] + 1.0)  # dt / (5 s + dt), as fused
                 e[E_ACCURACY + 1] = math.sqrt(
@@ -369,7 +368,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
                 yaw_err = math.atan2(mn * fe_ - me * fn_, mn * fn_ + me * fe_)
                 # As a field innovation (gauss): the heading error across the horizontal field.
                 field_err = yaw_err * math.sqrt(mn * mn + me * me)
-                e[E_RATIOS + 3] = field_err * field_err / (EKF2_MAG_GATE * EKF2_MAG_NOISE) ** 2
+                e[E_RATIOS + 3] = abs(field_err) / (EKF2_MAG_GATE * EKF2_MAG_NOISE)  # √ratio
                 if e[E_RATIOS + 3] > 1.0:
                     yaw_err = 0.0  # rejected by the innovation gate
             w0, w1, w2 = -K_TILT * c0, -K_TILT * c1, -K_HEADING * yaw_err

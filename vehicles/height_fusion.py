@@ -27,7 +27,8 @@ common.h's parameters; ekf2/module.yaml for the noise and gate parameters.
 
 Columns H_* of a row, from ``base`` (estimation.E_HGT): the covariance (3 x 3, row-major), then
 per source (baro, GNSS) its bias, bias variance, time since it was last fused, whether it runs,
-and the barometer's fault latch; the reference in force (REF_*).
+its offset detection, its last sample's test ratio, and the barometer's fault latch; the
+reference in force (REF_*).
 """
 
 from __future__ import annotations
@@ -57,7 +58,8 @@ BARO, GNSS = 0, 1  # the sources' blocks of columns
 
 H_P = 0  # 9 columns
 H_SRC = 9  # per source: bias, bias variance, time since fused, running; the baro's fault latch
-SRC_BIAS, SRC_BIAS_VAR, SRC_AGE, SRC_ON, SRC_LPF, SRC_T_POS, SRC_T_NEG, SRC_SIZE = range(8)
+SRC_BIAS, SRC_BIAS_VAR, SRC_AGE, SRC_ON, SRC_LPF, SRC_T_POS, SRC_T_NEG, SRC_RATIO, SRC_SIZE = \
+    range(9)
 H_BARO_FAULTY = H_SRC + 2 * SRC_SIZE
 H_REF = H_BARO_FAULTY + 1
 H_DATA_AGE = H_REF + 1  # per source: time since its last sample came
@@ -212,11 +214,12 @@ def height_source(e, base, src, meas, h, enabled, ref_param, hp, out):  # pragma
     go_on = enabled and not faulty
     ratio = innov * innov / (gate * gate * (e[base + H_P] + var + e[c + SRC_BIAS_VAR]))
     other = base + H_SRC + (1 - src) * SRC_SIZE
+    e[c + SRC_RATIO] = ratio
     if e[c + SRC_ON] > 0.0:
         if not go_on:
             stop(e, base, src)
             return ratio
-        ratio = fuse(e, base, 0, innov, var + e[c + SRC_BIAS_VAR], gate, out)
+        ratio = e[c + SRC_RATIO] = fuse(e, base, 0, innov, var + e[c + SRC_BIAS_VAR], gate, out)
         if ratio <= 1.0:
             e[c + SRC_AGE] = 0.0
         elif e[c + SRC_AGE] > HGT_FUSION_TIMEOUT_S:
@@ -241,6 +244,19 @@ def height_source(e, base, src, meas, h, enabled, ref_param, hp, out):  # pragma
         e[c + SRC_AGE] = 0.0
         e[c + SRC_ON] = 1.0
     return ratio
+
+
+@njit_cached
+def innovation_ratio(e, base):  # pragma: no cover - compiled
+    """Ekf::get_innovation_test_status's height ratio: the mean of the square roots of the
+    running sources' test ratios (NaN: none runs)."""
+    total, n = 0.0, 0
+    for src in range(2):
+        c = base + H_SRC + src * SRC_SIZE
+        if e[c + SRC_ON] > 0.0:
+            total += math.sqrt(e[c + SRC_RATIO])
+            n += 1
+    return total / n if n else math.nan
 
 
 @njit_cached

@@ -207,7 +207,7 @@ class Vehicle:
             world.time_s, c.armed, c.nav_state, ap.landed_state, c.position_valid,
             c.prearm_ok(), c.failsafe_active, c.terminated, ap.battery.state(), ap.home,
             {"thrust_norm": ap.thrust_norm,
-             "estimator_ok": max(world.estimator_ratios(row)) <= 1.0,
+             "estimator_ok": not any(r > 1.0 for r in world.estimator_ratios(row)),
              "rotor_speed_radps": world.rotor_speeds(row),
              "manual_control": c.manual_control_state, "user_nav_state": c.user_nav_state,
              "sensor_failures": world.sensor_failures(row),

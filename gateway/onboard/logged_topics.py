@@ -39,6 +39,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from gateway.mavlink.heartbeat import CPULOAD_LOAD, CPULOAD_RAM_USAGE
+from gateway.mavlink.telemetry_estimator import gps_ctrl_of, innovation_test_ratios
 from gateway.onboard.logged_commander import ACTUATOR_ARMED, RTL_TIME_ESTIMATE
 from gateway.onboard.logged_sensors import (
     BATTERY_STATUS,
@@ -55,7 +56,6 @@ from gateway.onboard.topic import COMMANDER_REPUBLISH_S, U64, B, D, F, Topic
 from vehicles.control.quat import q_rotate, q_yaw
 from vehicles.estimation import (
     E_ACCURACY,
-    E_RATIOS,
     E_VXY_RESET,
     E_VZ_RESET,
     E_WIND,
@@ -171,7 +171,7 @@ def _estimator_status(v: Any, now_us: int) -> tuple:
     """The innovation test ratios and accuracies; EKF2 1.15 leaves health_flags and
     timeout_flags 0, and time_slip (IMU time missed) is 0 in lockstep."""
     e = v.estimator
-    return (*e[E_RATIOS:E_RATIOS + 4], e[E_ACCURACY], e[E_ACCURACY + 1], 0.0, 0, 0)
+    return (*innovation_test_ratios(e, gps_ctrl_of(v.params)), e[E_ACCURACY], e[E_ACCURACY + 1], 0.0, 0, 0)
 
 
 def _wind(v: Any, now_us: int) -> tuple:

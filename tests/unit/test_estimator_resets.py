@@ -149,3 +149,32 @@ def test_position_mode_drops_its_lock_and_takes_the_new_velocity():
     assert all(math.isnan(v) for v in task._pos_xy)
     assert task._vel_xy == (0.3, -0.2)
     assert task.smoothing.v == 0.1
+
+
+def test_a_position_glitch_is_rejected_then_reset_after_twice_reset_timeout_max():
+    """An estimate 20 m off the fixes (a GNSS position glitch, as EKF2 sees one): each fix's
+    position fails its innovation gate (test ratio √(innovation² / (gate² · variance)) over 1,
+    ESTIMATOR_STATUS's pos_horiz_ratio) and is not fused, its velocity still is (aided, no
+    reset); once no position was fused for 2 × reset_timeout_max (shouldResetGpsFusion), the
+    position and the velocity reset to the fix, counted once each."""
+    from vehicles.physics import World
+    w = World()
+    w.add_vehicle(0)
+    for _ in range(250):
+        w.step(w.time_s)
+    e, ring = w.estimation.est[0], w.estimation.ehist[0]
+    assert e[est.E_RATIOS + 1] < 0.2 and e[est.E_RATIOS] < 0.5
+    e[est.E_POS] += 20.0
+    ring[:, 0] += 20.0
+    for _ in range(int(13.5 * 250)):
+        w.step(w.time_s)
+        assert w.aiding_age_s(0) < 0.2  # the velocity is fused all along
+    assert e[est.E_POS_AGE] > 13.0
+    assert w.aiding(0)[1] == 0.0  # no reset yet
+    assert e[est.E_RATIOS + 1] == pytest.approx(20.0 / 4.5, rel=1e-3)  # |−20 m| / (5 × 0.9 m)
+    for _ in range(250):
+        w.step(w.time_s)
+    xy_n, dx, _, vxy_n = w.aiding(0)[1:5]
+    assert (xy_n, vxy_n) == (1.0, 1.0)
+    assert dx == pytest.approx(-20.0, abs=1.0)
+    assert e[est.E_RATIOS + 1] < 0.3 and e[est.E_POS_AGE] < 0.2

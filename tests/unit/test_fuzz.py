@@ -142,7 +142,10 @@ _DOWN: list[bytes] = []  # what the vehicle sent since the last check
 # (Commander.cpp), and HOME_POSITION.hpp sends Quatf(Eulerf(0, 0, home.yaw)).
 NAN_BY_DESIGN = {("ALTITUDE", "bottom_clearance"), ("ALTITUDE", "altitude_terrain"),
                  ("ODOMETRY", "pose_covariance"), ("ODOMETRY", "velocity_covariance"),
-                 ("HOME_POSITION", "q")}
+                 ("HOME_POSITION", "q"),
+                 # estimator_status: NaN for what EKF2 does not fuse (get_innovation_test_status)
+                 ("ESTIMATOR_STATUS", "vel_ratio"), ("ESTIMATOR_STATUS", "pos_horiz_ratio"),
+                 ("ESTIMATOR_STATUS", "pos_vert_ratio")}
 # POSITION_TARGET_*: a setpoint PX4 does not have is NaN, with its IGNORE bit in type_mask.
 _IGNORE_BITS = {"x": 1, "y": 2, "z": 4, "vx": 8, "vy": 16, "vz": 32, "afx": 64, "afy": 128,
                 "afz": 256, "yaw": 1024, "yaw_rate": 2048}

@@ -3,6 +3,8 @@ ekf_helper.cpp; gps_control.cpp for when GNSS fusion runs), from CORNET's estima
 
 from __future__ import annotations
 
+import math
+
 from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.telemetry_estimator import ESTIMATOR_FLAGS_OK, solution_status
@@ -64,3 +66,18 @@ def test_the_flags_on_the_wire_when_the_gps_fails_and_when_its_fusion_is_turned_
         assert sim.vehicles[0].params.set("EKF2_GPS_CTRL", 0)
         sim.advance(1.5)
         assert not api.last("ESTIMATOR_STATUS").flags & M.ESTIMATOR_POS_HORIZ_ABS
+
+
+def test_the_test_ratios_are_ekf2s_published_ones():
+    """Ekf::get_innovation_test_status: velocity and position NaN without GNSS fusion (EKF2_GPS_CTRL
+    without its position and velocity bits, or no fix for 7 s), the height NaN with no height
+    source running; what is published is never under FLT_MIN."""
+    from gateway.mavlink.telemetry_estimator import FLT_MIN, innovation_test_ratios
+
+    e = state(ratios=(0.25, 0.0, 0.5, 0.75))
+    assert innovation_test_ratios(e, 7) == (0.25, FLT_MIN, 0.5, 0.75)
+    vel, pos, hgt, mag = innovation_test_ratios(e, 2)  # the GPS's height only
+    assert math.isnan(vel) and math.isnan(pos) and (hgt, mag) == (0.5, 0.75)
+    vel, pos, _, _ = innovation_test_ratios(state(gps_age_s=7.5), 7)
+    assert math.isnan(vel) and math.isnan(pos)
+    assert math.isnan(innovation_test_ratios(state(ratios=(0.1, 0.1, math.nan, 0.1)), 7)[2])

@@ -156,9 +156,9 @@ def test_gps_noise_is_sensor_gps_sims_white_noise_per_axis():
 
 
 def test_gps_raw_int_reports_sensor_gps_sims_accuracies_and_ekf2_fuses_them():
-    # Ekf::updateGnssPos/updateGnssVel: max(eph, EKF2_GPS_P_NOISE), max(s_variance,
-    # EKF2_GPS_V_NOISE): the test ratios' GPS noise.
-    assert (est.GPS_OBS_POS_M, est.GPS_OBS_VEL_MPS) == (0.9, 0.4)
+    # Ekf::updateGnssPos/updateGnssVel fuse max(eph, EKF2_GPS_P_NOISE), max(s_variance,
+    # EKF2_GPS_V_NOISE): with the defaults, the receiver's.
+    assert (est.GPS_EPH_M, est.GPS_S_VARIANCE_MPS) == (0.9, 0.4)
     from gateway.mavlink import telemetry
     assert (telemetry.GPS_EPH_CM, telemetry.GPS_EPV_CM) == (70, 110)  # hdop, vdop x 100
     assert (telemetry.GPS_H_ACC_MM, telemetry.GPS_V_ACC_MM, telemetry.GPS_VEL_ACC_MM) == (
