@@ -170,6 +170,24 @@ CHECK_ACCEL_NO_DATA = _health("check_accel_no_data", "No valid data from Acceler
 CHECK_BARO_NO_DATA = _health("check_baro_no_data", "No valid data from barometer {3}")
 CHECK_GYRO_NO_DATA = _health("check_gyro_no_data", "No valid data from Gyro {3}")
 CHECK_MAG_NO_DATA = _health("check_mag_no_data", "No valid data from Compass {3}")
+# estimatorCheck.cpp checkEstimatorStatus: an innovation test ratio of estimator_status over its
+# COM_ARM_EKF_* limit while disarmed (the ratio and the limit follow the modes and the component).
+def _ratio_check(name: str, message: str, param: str) -> EventDef:
+    return EventDef(name, "arming_check", message,
+                    (MODES, COMPONENT_INDEX, ("float", "arg0"), ("float", "arg1")),
+                    description=f'<profile name="dev">\nTest ratio: {{3:.3}}, limit: {{4:.3}}.\n\n'
+                    f"This check can be configured via <param>{param}</param> parameter.\n"
+                    "</profile>")
+
+
+CHECK_EST_HGT = _ratio_check("check_estimator_hgt_est_err", "Height estimate error",
+                             "COM_ARM_EKF_HGT")
+CHECK_EST_VEL = _ratio_check("check_estimator_vel_est_err", "Velocity estimate error",
+                             "COM_ARM_EKF_VEL")
+CHECK_EST_POS = _ratio_check("check_estimator_pos_est_err", "Position estimate error",
+                             "COM_ARM_EKF_POS")
+CHECK_EST_YAW = _ratio_check("check_estimator_yaw_est_err", "Yaw estimate error",
+                             "COM_ARM_EKF_YAW")
 # framework.cpp FailsafeBase::notifyUser: the first argument is the user's mode (its PX4 custom
 # mode), then the action (failsafe_action_t), the hold's seconds, the cause (failsafe_cause_t).
 _MODE_ARG = ("uint32_t", "arg0")
@@ -344,7 +362,8 @@ DEFINITIONS: tuple[EventDef, ...] = (
     HEALTH_SUMMARY,
     CHECK_LOCAL_POS, CHECK_GLOBAL_POS, CHECK_MISSION, CHECK_MISSION_FAILURE, CHECK_OFFBOARD, CHECK_HOME,
     CHECK_MANUAL_CONTROL, CHECK_CANNOT_TAKEOFF, CHECK_ACCEL_NO_DATA, CHECK_BARO_NO_DATA,
-    CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA, CHECK_FD_ROLL, CHECK_FD_PITCH,
+    CHECK_GYRO_NO_DATA, CHECK_MAG_NO_DATA, CHECK_EST_HGT, CHECK_EST_VEL, CHECK_EST_POS,
+    CHECK_EST_YAW, CHECK_FD_ROLL, CHECK_FD_PITCH,
     FAILSAFE_GENERIC_HOLD, FAILSAFE_HOLD, FAILSAFE_GENERIC_WARN, FAILSAFE_GENERIC, FAILSAFE_LOW_BAT,
     FAILSAFE_CRIT_BAT, FAILSAFE_EMERGENCY_BAT, FAILSAFE_WARN, FAILSAFE_ENTER, RC_OVERRIDE,
     FAILSAFE_RC_OVERRIDE, RC_LOST, RC_REGAINED, GCS_LOST, GCS_REGAINED, MISSION_EXECUTE,

@@ -8,12 +8,18 @@ Rules:
   of the modes that have it; modeCheck.cpp's check reports its event (the modes, then the health
   component's index; "no modes" is reported as all, so that the UI still shows it), clears those
   modes' can_arm bits and marks its component's arming error (level <= Error) or warning.
-- The sensor checks first (HealthAndArmingChecks' order: accelerometer, barometer, gyro,
-  magnetometer): a sensor whose data stopped (failure injection "off") SENSOR_TIMEOUT_S ago is a
-  health failure of its component (Report::healthFailure: an error, no mode can arm) with its
-  instance, 0; the barometer and the magnetometer only with SYS_HAS_BARO / SYS_HAS_MAG. A stuck
-  sensor still publishes: no check fails. On an arming request each failing one says its
-  "Preflight Fail: …" text (``preflight_texts``).
+- The checks run in HealthAndArmingChecks' order: accelerometer, barometer, estimator, failure
+  detector, gyro, magnetometer, mission, modes. The sensor checks: a sensor whose data stopped
+  (failure injection "off") SENSOR_TIMEOUT_S ago is a health failure of its component
+  (Report::healthFailure: an error, no mode can arm) with its instance, 0; the barometer and
+  the magnetometer only with SYS_HAS_BARO / SYS_HAS_MAG. A stuck sensor still publishes: no
+  check fails. On an arming request each failing one says its "Preflight Fail: …" text
+  (``preflight_texts``).
+- estimatorCheck.cpp's checkEstimatorStatus: disarmed, estimator_status's height, velocity and
+  position test ratios (vehicles/aiding.py) each over its COM_ARM_EKF_HGT, _VEL, _POS limit is
+  an Error of the local position estimate in the modes that need an attitude, the ratio and the
+  limit its event's arguments, "Preflight Fail: … estimate error" what an arming request says
+  (the magnetometer's, COM_ARM_EKF_YAW: not checked, see ESTIMATOR_CHECKS).
 - The failure detector's attitude check, then missionCheck.cpp's: the navigator's mission
   failure (mission_result.failure, a forced heading that timed out) is an error of every mode
   ("Mission cannot be completed"; each report also says it as a text, Report's legacy run).
@@ -32,16 +38,28 @@ Rules:
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from typing import Any
 
-from vehicles.estimation import F_ACC_OFF, F_BARO_OFF, F_GPS_OFF, F_GYRO_OFF, F_MAG_OFF
+from vehicles.aiding import gps_ctrl_of, published_ratios
+from vehicles.estimation import (
+    E_GPS_AGE,
+    E_RATIOS,
+    F_ACC_OFF,
+    F_BARO_OFF,
+    F_GPS_OFF,
+    F_GYRO_OFF,
+    F_MAG_OFF,
+)
 from vehicles.events import (
     ARMING_SUMMARY,
     CHECK_ACCEL_NO_DATA,
     CHECK_BARO_NO_DATA,
     CHECK_CANNOT_TAKEOFF,
+    CHECK_EST_HGT,
+    CHECK_EST_POS,
+    CHECK_EST_VEL,
     CHECK_FD_PITCH,
     CHECK_FD_ROLL,
     CHECK_GLOBAL_POS,
@@ -83,6 +101,7 @@ HEALTH_COMPONENTS = (
     ("accel", "Accelerometer"), ("gyro", "Gyroscope"), ("open_drone_id", "Open Drone ID system"))
 INDEX = {name: i for i, (name, _label) in enumerate(HEALTH_COMPONENTS)}
 SYSTEM, REMOTE_CONTROL = INDEX["system"], INDEX["remote_control"]
+LOCAL_POSITION_ESTIMATE = INDEX["local_position_estimate"]
 PRESENT = sum(1 << INDEX[c] for c in ("accel", "gyro", "magnetometer", "absolute_pressure", "gps",
                                       "battery"))
 # (failure bit, event, component, the arming request's text); in the checks' order.
@@ -94,6 +113,16 @@ SENSOR_CHECKS = (
     (F_MAG_OFF, CHECK_MAG_NO_DATA, INDEX["magnetometer"],
      "Preflight Fail: No valid data from Compass 0"))
 SENSORS_OFF = F_ACC_OFF | F_BARO_OFF | F_GYRO_OFF | F_MAG_OFF
+# estimatorCheck.cpp checkEstimatorStatus, in its order: estimator_status's ratio (vehicles/aiding.py
+# published_ratios: height, velocity, position, magnetometer), its limit parameter and default,
+# the event and the arming request's text.
+ESTIMATOR_CHECKS = (
+    (2, "COM_ARM_EKF_HGT", 1.0, CHECK_EST_HGT, "Preflight Fail: height estimate error"),
+    (0, "COM_ARM_EKF_VEL", 0.5, CHECK_EST_VEL, "Preflight Fail: velocity estimate error"),
+    (1, "COM_ARM_EKF_POS", 0.5, CHECK_EST_POS, "Preflight Fail: position estimate error"))
+# Not COM_ARM_EKF_YAW's: the magnetometer's ratio here is a heading-only stand-in for EKF2's
+# 3-axis field innovations (whose variance holds EKF2's field states), and its noise alone would
+# cross 0.5 every few minutes on the ground, where EKF2's does not.
 
 
 def _modes(*states: NavState) -> int:
@@ -121,6 +150,7 @@ REQ_MISSION = _modes(N.AUTO_MISSION)
 REQ_OFFBOARD = _modes(N.OFFBOARD)
 REQ_HOME = _modes(N.AUTO_RTL)
 REQ_MANUAL_CONTROL = _modes(N.MANUAL, N.ALTCTL, N.POSCTL, N.POSITION_SLOW, N.ACRO, N.STAB)
+REQ_ATTITUDE = ALL_MODES & ~_modes(N.MANUAL, N.ACRO, N.TERMINATION)
 REQ_PREVENT_ARMING = _modes(N.AUTO_RTL, N.DESCEND, N.TERMINATION, N.AUTO_LAND,
                             N.AUTO_FOLLOW_TARGET, N.AUTO_PRECLAND, N.ORBIT)
 
@@ -143,10 +173,15 @@ class CheckInputs:
     sensors_no_data: int = 0  # the F_*_OFF bits off for SENSOR_TIMEOUT_S (HealthChecks.update)
     attitude_failure: int = 0  # failure_detector.py: 1 roll, 2 pitch
     mission_failure: bool = False  # the navigator's mission_result.failure
+    # disarmed: (ESTIMATOR_CHECKS index, ratio, limit) of each test ratio over its limit
+    estimator_failing: tuple[tuple[int, float, float], ...] = ()
 
 
-def inputs_of(autopilot: Any, params: Any, sensor_failures: int) -> CheckInputs:
-    """The checks' inputs from a vehicle's autopilot (its commander and home) and params."""
+def inputs_of(autopilot: Any, params: Any, sensor_failures: int,
+              estimator: Sequence[float] = ()) -> CheckInputs:
+    """The checks' inputs from a vehicle's autopilot (its commander and home), params and
+    estimator state (estimation.E_*: its test ratios as estimator_status publishes them; none:
+    not checked)."""
     c = autopilot.commander
     required = F_ACC_OFF | F_GYRO_OFF
     if params.get("SYS_HAS_BARO", 1):
@@ -154,12 +189,22 @@ def inputs_of(autopilot: Any, params: Any, sensor_failures: int) -> CheckInputs:
     if params.get("SYS_HAS_MAG", 1):
         required |= F_MAG_OFF
     fd = autopilot.failure_detector
+    failing = []
+    if len(estimator) and not c.armed:
+        ratios = published_ratios(estimator[E_RATIOS:E_RATIOS + 4], estimator[E_GPS_AGE],
+                                  gps_ctrl_of(params))
+        for k, (column, name, default, _, _) in enumerate(ESTIMATOR_CHECKS):
+            limit = params.get(name, default)
+            limit = default if limit is None else float(limit)
+            if ratios[column] > limit:  # (NaN: not fused, never over)
+                failing.append((k, float(ratios[column]), limit))
     return CheckInputs(c.armed, c.nav_state, c.position_valid, c.manual_control_available,
                        c.mission_valid, c.offboard_available, autopilot.home is not None,
                        int(params.get("COM_RC_IN_MODE", 0) or 0),
                        bool(params.get("COM_ARM_MIS_REQ", 0)), sensor_failures, required,
                        attitude_failure=(1 if fd.roll else 0) | (2 if fd.pitch else 0),
-                       mission_failure=autopilot.navigator.mission.progress.failure)
+                       mission_failure=autopilot.navigator.mission.progress.failure,
+                       estimator_failing=tuple(failing))
 
 
 @dataclass(frozen=True)
@@ -175,6 +220,9 @@ class Results:
     checks: tuple[tuple[EventDef, Log, int, int, int | None], ...]
     preflight_texts: tuple[str, ...] = ()  # what an arming request says of the health failures
     report_texts: tuple[str, ...] = ()  # the legacy texts each report sends (mavlink_log_critical)
+    # Per check, its float arguments after the modes and the component (None: none). Not
+    # compared: a report goes out when the results change (Report's), not their values.
+    check_args: tuple[tuple[float, ...] | None, ...] = field(default=(), compare=False)
 
     def can_arm_in(self, nav_state: NavState) -> bool:
         return bool(self.can_arm & (1 << int(nav_state)))
@@ -185,9 +233,11 @@ def evaluate(i: CheckInputs) -> Results:
     can_arm = can_run = ALL_MODES
     error = warning = health_error = 0
     checks: list[tuple[EventDef, Log, int, int, int | None]] = []
+    args: list[tuple[float, ...] | None] = []
     texts: list[str] = []
 
-    def failure(event: EventDef, level: Log, modes: int, component: int) -> None:
+    def failure(event: EventDef, level: Log, modes: int, component: int,
+                values: tuple[float, ...] | None = None) -> None:
         nonlocal can_arm, error, warning
         if level <= Log.ERROR:
             error |= 1 << component
@@ -195,16 +245,27 @@ def evaluate(i: CheckInputs) -> Results:
             warning |= 1 << component
         can_arm &= ~modes
         checks.append((event, level, modes or ALL_MODES, component, None))
+        args.append(values)
 
-    for bit, event, component, text in SENSOR_CHECKS:  # Report::healthFailure, Error, all modes
-        if i.sensors_no_data & i.required_sensors & bit:
-            health_error |= 1 << component
-            can_arm = 0
-            checks.append((event, Log.ERROR, ALL_MODES, component, 0))
-            texts.append(text)
+    def sensors(first: int, last: int) -> None:
+        nonlocal can_arm, health_error
+        for bit, event, component, text in SENSOR_CHECKS[first:last]:  # Report::healthFailure
+            if i.sensors_no_data & i.required_sensors & bit:  # an Error of every mode
+                health_error |= 1 << component
+                can_arm = 0
+                checks.append((event, Log.ERROR, ALL_MODES, component, 0))
+                args.append(None)
+                texts.append(text)
+
+    sensors(0, 2)  # HealthAndArmingChecks' order: accelerometer, barometer, the estimator …
+    for k, ratio, limit in i.estimator_failing:
+        _, _, _, event, text = ESTIMATOR_CHECKS[k]
+        failure(event, Log.ERROR, REQ_ATTITUDE, LOCAL_POSITION_ESTIMATE, (ratio, limit))
+        texts.append(text)
     if i.attitude_failure:  # failureDetectorCheck.cpp: roll first, else pitch
         failure(CHECK_FD_ROLL if i.attitude_failure & 1 else CHECK_FD_PITCH, Log.CRITICAL,
                 ALL_MODES, SYSTEM)
+    sensors(2, 4)  # … the failure detector, the gyro, the magnetometer
     report_texts: tuple[str, ...] = ()
     if i.mission_failure:  # missionCheck.cpp, before modeCheck.cpp's
         failure(CHECK_MISSION_FAILURE, Log.ERROR, ALL_MODES, SYSTEM)
@@ -235,7 +296,7 @@ def evaluate(i: CheckInputs) -> Results:
     if i.sensor_failures & F_GPS_OFF:
         health_error |= 1 << INDEX["gps"]
     return Results(can_arm, can_run, error, warning, PRESENT, health_error, 0, tuple(checks),
-                   tuple(texts), report_texts)
+                   tuple(texts), report_texts, tuple(args))
 
 
 class HealthChecks:
@@ -301,8 +362,12 @@ class HealthChecks:
         send = self.events.send
         send(now_s, ARMING_SUMMARY, Log.PROTOCOL, None, "BIIII", 0, r.error, r.warning,
              r.can_arm, r.can_run)
-        for event, level, modes, component, instance in r.checks:
-            if instance is None:
+        for k, (event, level, modes, component, instance) in enumerate(r.checks):
+            values = r.check_args[k] if k < len(r.check_args) else None
+            if values is not None:
+                send(now_s, event, level, None, "IB" + "f" * len(values), modes, component,
+                     *values)
+            elif instance is None:
                 send(now_s, event, level, None, "IB", modes, component)
             else:
                 send(now_s, event, level, None, "IBB", modes, component, instance)

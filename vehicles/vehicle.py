@@ -148,7 +148,8 @@ class Vehicle:
         return command
 
     def _check_inputs(self) -> CheckInputs:
-        return inputs_of(self._autopilot, self.params, self._world.sensor_failures(self._row))
+        w, row = self._world, self._row
+        return inputs_of(self._autopilot, self.params, w.sensor_failures(row), w.estimator(row))
 
     def run_prearm_checks(self, now_s: float) -> CommandResult:
         """MAV_CMD_RUN_PREARM_CHECKS: the health and arming report, at once (health_checks.py)."""
@@ -296,8 +297,7 @@ class Vehicle:
 
     @property
     def changes(self) -> Changes:
-        """Generations of ``mission_progress`` and ``status_texts``: the same object for the
-        vehicle's life, so a poller may keep it."""
+        """Generations of ``mission_progress`` and ``status_texts`` (one object: keep it)."""
         return self._autopilot.changes
 
     def arm(self, now_s: float, forced: bool = False, internal: bool = False) -> CommandResult:

@@ -9,14 +9,18 @@ both are cleared or the fixes stopped for reset_timeout_max, 7 s), VIBRATION.hpp
 
 from __future__ import annotations
 
-import math
-from typing import Any
-
 from pymavlink.dialects.v20 import common as M
 
 from gateway.mavlink.codec import Encoder, payload_of
 from gateway.mavlink.snapshot import Snapshot
-from vehicles.aiding import GPS_CTRL_DEFAULT, GPS_CTRL_HGT, GPS_CTRL_POS, GPS_CTRL_VEL
+from vehicles.aiding import (
+    GNSS_STOP_S,
+    GPS_CTRL_HGT,
+    GPS_CTRL_POS,
+    GPS_CTRL_VEL,
+    gps_ctrl_of,
+    published_ratios,
+)
 from vehicles.estimation import (
     BARO_TIMEOUT_S,
     E_ACCURACY,
@@ -27,9 +31,6 @@ from vehicles.estimation import (
     E_WIND_VAR,
     S_VIB,
 )
-
-GNSS_STOP_S = 7.0  # EKF2's reset_timeout_max: fixes missing this long stop GNSS fusion
-FLT_MIN = 1.1754943508222875e-38
 
 # ESTIMATOR_STATUS flags of a healthy EKF2 with GPS: attitude, horizontal and vertical velocity,
 # relative and absolute horizontal position, absolute vertical position, and the predicted ones.
@@ -66,21 +67,8 @@ def solution_status(e: list[float], gps_ctrl: int) -> int:
 
 
 def innovation_test_ratios(e: list[float], gps_ctrl: int) -> tuple[float, float, float, float]:
-    """estimator_status's velocity, horizontal position, height and magnetometer test ratios
-    as Ekf::get_innovation_test_status gives them: the square roots of the largest axis's
-    (the height's: their mean over the running height sources), at least FLT_MIN, and NaN for
-    what is not fused (no GNSS fusion; no height source)."""
-    vel, pos, hgt, mag = e[E_RATIOS:E_RATIOS + 4]
-    if not (gps_ctrl & (GPS_CTRL_POS | GPS_CTRL_VEL) and e[E_GPS_AGE] < GNSS_STOP_S):
-        vel = pos = math.nan
-    return (max(vel, FLT_MIN) if vel == vel else vel, max(pos, FLT_MIN) if pos == pos else pos,
-            max(hgt, FLT_MIN) if hgt == hgt else hgt, mag)
-
-
-def gps_ctrl_of(params: Any) -> int:
-    """EKF2_GPS_CTRL (its default when unset)."""
-    ctrl = params.get("EKF2_GPS_CTRL", GPS_CTRL_DEFAULT)
-    return GPS_CTRL_DEFAULT if ctrl is None else int(ctrl)
+    """estimator_status's test ratios of an estimator state (vehicles/aiding.py)."""
+    return published_ratios(e[E_RATIOS:E_RATIOS + 4], e[E_GPS_AGE], gps_ctrl)
 
 
 def estimator_status(enc: Encoder, s: Snapshot) -> bytes | None:

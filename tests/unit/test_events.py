@@ -314,3 +314,50 @@ def test_the_navigators_texts_come_with_their_events():
             "RTL: land at destination", "Landing detected", "Disarmed by landing"]
     finally:
         sim.close()
+
+
+def test_estimator_test_ratios_over_their_limits_deny_arming_in_the_modes_needing_attitude():
+    """estimatorCheck.cpp checkEstimatorStatus: disarmed, each estimator_status test ratio over
+    its COM_ARM_EKF_* limit is an arming check Error of the local position estimate, in the
+    modes that need an attitude (not Manual, Acro, Termination), with the ratio and the limit as
+    the event's arguments; the arming request says PX4's "Preflight Fail" text. It runs after
+    the accelerometer's and the barometer's checks, before the failure detector's and the
+    gyro's (HealthAndArmingChecks' order)."""
+    from vehicles.estimation import F_GYRO_OFF
+    from vehicles.health_checks import LOCAL_POSITION_ESTIMATE, REQ_ATTITUDE
+
+    log = EventLog()
+    seen = []
+    checks = HealthChecks(log, seen.append)
+    failing = ((0, 1.5, 1.0), (2, 0.75, 0.5))  # height, then position (ESTIMATOR_CHECKS')
+    checks.update(0.0, False, NavState.AUTO_LOITER, lambda: inputs(
+        sensor_failures=F_GYRO_OFF, estimator_failing=failing), force=True)
+    checks.update(1.0, False, NavState.AUTO_LOITER, lambda: inputs(
+        sensor_failures=F_GYRO_OFF, estimator_failing=failing), force=True)
+    r = seen[-1]
+    assert names(r) == ["Height estimate error", "Position estimate error",
+                        "No valid data from Gyro {3}"]
+    assert r.error == 1 << LOCAL_POSITION_ESTIMATE
+    assert r.preflight_texts == ("Preflight Fail: height estimate error",
+                                 "Preflight Fail: position estimate error",
+                                 "Preflight Fail: No valid data from Gyro 0")
+    event = [e for e in log.after(INITIAL_SEQUENCE)
+             if e.id == event_id("check_estimator_pos_est_err")][-1]
+    assert event.arguments == struct.pack("<IBff", REQ_ATTITUDE, LOCAL_POSITION_ESTIMATE, 0.75, 0.5)
+    checks.update(2.0, False, NavState.MANUAL, lambda: inputs(estimator_failing=failing))
+    r = seen[-1]
+    assert r.can_arm & (1 << int(NavState.MANUAL)) and r.can_arm & (1 << int(NavState.ACRO))
+    assert not r.can_arm & (1 << int(NavState.AUTO_LOITER))
+    assert not r.can_arm & (1 << int(NavState.STAB))
+
+
+def test_a_new_ratio_alone_is_no_new_report():
+    """Report sends when the results change, not the values of a failing check's arguments."""
+    log = EventLog()
+    seen = []
+    checks = HealthChecks(log, seen.append)
+    assert checks.update(0.0, False, NavState.AUTO_LOITER,
+                         lambda: inputs(estimator_failing=((2, 0.75, 0.5),)))
+    assert not checks.update(2.5, False, NavState.AUTO_LOITER,
+                             lambda: inputs(estimator_failing=((2, 0.8, 0.5),)))
+    assert seen[-1].check_args == ((0.8, 0.5),)

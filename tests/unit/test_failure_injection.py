@@ -14,6 +14,7 @@ from pymavlink.dialects.v20 import common as M
 from gateway.mavlink.link import LinkKind
 from gateway.testing import Sim
 from vehicles import failure_injection as fi
+from vehicles.estimation import E_POS
 from vehicles.types import NavState
 
 GPS, OFF, OK = 4, 1, 0
@@ -472,3 +473,27 @@ def test_global_position_int_stops_while_the_position_is_lost(tmp_path):
     stamps = log.get_dataset("vehicle_global_position").data["timestamp"] * 1e-6
     assert not ((stamps > lost_at - 1.9) & (stamps < lost_at)).any()
     assert (stamps > lost_at + 1.0).any()
+
+
+def test_a_position_glitch_on_the_ground_denies_arming_until_the_reset():
+    """An estimate 20 m off the fixes while disarmed: estimator_status's pos_test_ratio
+    (20 m / (5 × 0.9 m) ≈ 4.4) over COM_ARM_EKF_POS denies arming with "Preflight Fail: position
+    estimate error"; the reset to the fix 14 s later (shouldResetGpsFusion) clears it."""
+    with Sim() as sim:
+        assert sim.run_until(lambda: sim.status(0).position_valid, timeout_s=10)
+        api = sim.api(0)
+        api.start_heartbeat()
+        world = sim.vehicles[0]._world
+        e, ring = world.estimation.est[0], world.estimation.ehist[0]
+        e[E_POS] += 20.0
+        ring[:, 0] += 20.0
+        assert sim.run_until(lambda: not sim.status(0).prearm_ok, timeout_s=1.0)
+        assert api.arm() == M.MAV_RESULT_TEMPORARILY_REJECTED
+        sim.advance(0.1)
+        texts = [m.text for m in api.messages("STATUSTEXT")]
+        assert "Preflight Fail: position estimate error" in texts, texts
+        sim.advance(1.0)  # ESTIMATOR_STATUS: 1 Hz on the API link
+        status = api.messages("ESTIMATOR_STATUS")[-1]
+        assert 4.0 < status.pos_horiz_ratio < 5.0
+        assert sim.run_until(lambda: sim.status(0).prearm_ok, timeout_s=15.0)
+        assert api.arm() == 0

@@ -72,7 +72,8 @@ def test_the_test_ratios_are_ekf2s_published_ones():
     """Ekf::get_innovation_test_status: velocity and position NaN without GNSS fusion (EKF2_GPS_CTRL
     without its position and velocity bits, or no fix for 7 s), the height NaN with no height
     source running; what is published is never under FLT_MIN."""
-    from gateway.mavlink.telemetry_estimator import FLT_MIN, innovation_test_ratios
+    from gateway.mavlink.telemetry_estimator import innovation_test_ratios
+    from vehicles.aiding import FLT_MIN
 
     e = state(ratios=(0.25, 0.0, 0.5, 0.75))
     assert innovation_test_ratios(e, 7) == (0.25, FLT_MIN, 0.5, 0.75)
