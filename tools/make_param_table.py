@@ -96,6 +96,7 @@ OVERRIDES = {
     "CBRK_SUPPLY_CHK": "894281",  # init.d-posix/rcS
     "IMU_INTEG_RATE": "250",  # init.d-posix/px4-rc.simulator: the simulator's IMU rate
     "IMU_GYRO_RATEMAX": "800",  # init.d/rc.mc_defaults: 400 (v1.15's default) → 800
+    "SENS_MAG_RATE": "15.0",  # sensor_params_mag.c (v1.15): 15 Hz
     "GPS_UBX_DYNMODEL": "6",  # init.d/rc.mc_defaults
     "SYS_FAILURE_EN": "1",
     "LNDMC_Z_VEL_MAX": "0.25",

@@ -10,8 +10,8 @@ Sensors (what PX4 SITL with Gazebo's x500 sees):
   σ 0.01 Pa / (ρ₀ g) with ISA sea-level density), which PX4 v1.15's gz bridge publishes as
   sensor_baro (barometerCallback; 4001_gz_x500 sets SENS_EN_BAROSIM 0); the telemetry turns the
   height into gz-sensors' pressure (gateway/mavlink/telemetry.py ``baro_sample``).
-- Magnetometer at 50 Hz: the Earth's field rotated into the body frame plus white noise
-  σ (0.02, 0.02, 0.03) gauss (PX4 src/modules/simulation/sensor_mag_sim).
+- Magnetometer at 50 Hz: the Earth's field in the body frame plus white noise σ (0.02, 0.02,
+  0.03) gauss (sensor_mag_sim); EKF2 takes vehicle_magnetometer's means (mag_fusion.py).
 - GPS at 8 Hz as PX4 v1.15's SITL for gz_x500 has it: the airframe (4001_gz_x500) sets
   SENS_EN_GPSSIM, so sensor_gps comes from src/modules/simulation/sensor_gps_sim (the gz bridge's
   navSatCallback only publishes the ground truth, vehicle_global_position_groundtruth, at the
@@ -71,6 +71,7 @@ from collections.abc import Callable
 import numpy as np
 
 from vehicles import height_fusion as hf
+from vehicles import mag_fusion as mf
 from vehicles.aiding import (
     AID_BARO,
     AID_DEFAULT,
@@ -146,7 +147,8 @@ B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
  E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_AID_AGE, E_XY_RESET, E_VXY_RESET, E_VZ_RESET,
  E_POS_AGE, E_HGT) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 41, 44, 46, 47)
-E_SIZE = E_HGT + hf.H_SIZE
+E_MAG = E_HGT + hf.H_SIZE  # the magnetometer's way in (mag_fusion.py's MAG_* columns)
+E_SIZE = E_MAG + mf.MAG_SIZE
 # since the barometer was last fused: the vertical channel's own clock of it
 E_BARO_AGE = E_HGT + hf.H_SRC + hf.BARO * hf.SRC_SIZE + hf.SRC_AGE
 # E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the variance of
@@ -208,6 +210,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
     a_wind = dt_baro / (TAU_WIND_S + dt_baro)
     a_acc_gps = dt_gps / (TAU_ACCURACY_S + dt_gps)
     corr = np.zeros(4)  # a height observation's corrections (height_fusion.height_source)
+    mag = np.zeros(3)  # a vehicle_magnetometer publication
     for v in range(len(sensed)):
         s = sensed[v]
         e = est[v]
@@ -360,17 +363,14 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
                 rr = r0 * r0 + r1 * r1 + r2 * r2
                 c0 = (r1 * m2 - r2 * m1) / rr
                 c1 = (r2 * m0 - r0 * m2) / rr
+            # vehicle_magnetometer's mean of n samples: the correction of the n, once (gated)
+            n = 0 if f & F_MAG_OFF else mf.publish(e, E_MAG, s[S_MAG], s[S_MAG + 1], s[S_MAG + 2],
+                                                   t_s, hp[hf.P_MAG_RATE], mag)
             yaw_err = 0.0
-            if not f & F_MAG_OFF:
-                b0, b1, b2 = s[S_MAG], s[S_MAG + 1], s[S_MAG + 2]
-                fn_ = r00 * b0 + r01 * b1 + r02 * b2
-                fe_ = r10 * b0 + r11 * b1 + r12 * b2
-                yaw_err = math.atan2(mn * fe_ - me * fn_, mn * fn_ + me * fe_)
-                # As a field innovation (gauss): the heading error across the horizontal field.
-                field_err = yaw_err * math.sqrt(mn * mn + me * me)
+            if n:
+                yaw_err, field_err = mf.heading_error(mag, r00, r01, r02, r10, r11, r12, mn, me)
                 e[E_RATIOS + 3] = abs(field_err) / (EKF2_MAG_GATE * EKF2_MAG_NOISE)  # √ratio
-                if e[E_RATIOS + 3] > 1.0:
-                    yaw_err = 0.0  # rejected by the innovation gate
+                yaw_err = n * yaw_err if e[E_RATIOS + 3] <= 1.0 else 0.0
             w0, w1, w2 = -K_TILT * c0, -K_TILT * c1, -K_HEADING * yaw_err
             # Into the body frame: Rᵀ ω.
             bx = r00 * w0 + r10 * w1 + r20 * w2
@@ -474,6 +474,7 @@ class Estimation:
         e[E_VEL:E_VEL + 3] = truth[M_VEL:M_VEL + 3]
         ref = hf.REF_GNSS if hgt_ref is None or int(hgt_ref) == 1 else hf.REF_BARO
         e[E_HGT:E_HGT + hf.H_SIZE] = hf.initial_row(ref)
+        e[E_MAG:E_MAG + mf.MAG_SIZE] = mf.initial_row()
         self.hist[k, :, :3] = self.ehist[k, :, :3] = truth[M_POS:M_POS + 3]
         self.hist[k, :, 3:] = self.ehist[k, :, 3:] = truth[M_VEL:M_VEL + 3]
         s = self.sensed[k]

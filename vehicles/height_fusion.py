@@ -37,13 +37,15 @@ import math
 
 from vehicles.control.compiled import njit_cached
 
-# Each row's parameters (``params_row``), in this order: ekf2/module.yaml's noises and gates,
-# vehicle_air_data's SENS_BARO_RATE (defaults: v1.15's)
+# Each row's parameters (``params_row``; the estimator's, this channel's and the others'), in
+# this order: ekf2/module.yaml's noises and gates, vehicle_air_data's SENS_BARO_RATE,
+# vehicle_magnetometer's SENS_MAG_RATE (defaults: v1.15's)
 PARAMS = (("EKF2_ACC_NOISE", 0.35), ("EKF2_ACC_B_NOISE", 0.003), ("EKF2_BARO_NOISE", 3.5),
           ("EKF2_BARO_GATE", 5.0), ("EKF2_GPS_P_NOISE", 0.5), ("EKF2_GPS_P_GATE", 5.0),
-          ("EKF2_GPS_V_NOISE", 0.3), ("EKF2_GPS_V_GATE", 5.0), ("SENS_BARO_RATE", 20.0))
+          ("EKF2_GPS_V_NOISE", 0.3), ("EKF2_GPS_V_GATE", 5.0), ("SENS_BARO_RATE", 20.0),
+          ("SENS_MAG_RATE", 15.0))
 (P_ACC_NOISE, P_ACC_B_NOISE, P_BARO_NOISE, P_BARO_GATE, P_GPS_P_NOISE, P_GPS_P_GATE,
- P_GPS_V_NOISE, P_GPS_V_GATE, P_BARO_RATE) = range(len(PARAMS))
+ P_GPS_V_NOISE, P_GPS_V_GATE, P_BARO_RATE, P_MAG_RATE) = range(len(PARAMS))
 HGT_BIAS_NSD = 0.13  # baro_bias_nsd, gps_hgt_bias_nsd
 BIAS_GATE = 3.0  # BiasEstimator::_gate_size
 # BiasEstimator's offset detection: the signed test ratios' average (AlphaFilter, 10 s) over
@@ -78,6 +80,7 @@ def params_row(get) -> list[float]:
         out.append(default if value is None or not math.isfinite(float(value))
                    else float(value))
     out[P_BARO_RATE] = max(out[P_BARO_RATE], 1e-3)
+    out[P_MAG_RATE] = max(out[P_MAG_RATE], 1e-3)
     return out
 
 

@@ -55,7 +55,7 @@ def test_disarmed_vehicle_rests_still_on_the_ground(sim):
     s = sim.v.state
     assert np.allclose(s.position_ned_m, 0.0, atol=2e-3)
     assert np.allclose(s.velocity_ned_mps, 0.0, atol=1e-3)
-    assert abs(s.euler_rad()[2]) < 1e-6  # spawned facing north
+    assert abs(s.euler_rad()[2]) < 1e-5  # spawned facing north (a few µrad of settling)
     st = sim.v.status
     assert st.landed_state is LandedState.ON_GROUND and not st.armed
     assert st.nav_state is NavState.AUTO_LOITER
