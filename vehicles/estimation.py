@@ -177,11 +177,12 @@ def _gm(dt_s: float, tau_s: float, sigma: float) -> tuple[float, float]:
 
 
 @njit_cached
-def _apply_height(e, ring, corr, h_then):  # pragma: no cover - compiled
-    """A height observation's corrections (``corr``: height, vertical velocity, z bias, and a
-    reset's new height for the time ``h_then`` was the estimate, NaN: none) to the present
-    estimate and the ring of past ones."""
-    dh, dv = corr[0], corr[1]
+def _apply_height(e, ring, corr, h_then, v_then):  # pragma: no cover - compiled
+    """A height observation's corrections (``corr``: height, vertical velocity, z bias; a reset's
+    height and vertical velocity, NaN: none, against ``h_then``, ``v_then``) to now and the ring."""
+    dh, dv = corr[0], corr[1] + (0.0 if math.isnan(corr[4]) else corr[4] - v_then)
+    if not math.isnan(corr[4]):
+        e[E_VZ_RESET], e[E_VZ_RESET + 1] = e[E_VZ_RESET] + 1.0, corr[4] - v_then
     if not math.isnan(corr[3]):
         dh += corr[3] - h_then
     e[E_POS + 2] += dh
@@ -209,7 +210,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
     a_f = dt_s / (TAU_ACCEL_REF_S + dt_s)
     a_wind = dt_baro / (TAU_WIND_S + dt_baro)
     a_acc_gps = dt_gps / (TAU_ACCURACY_S + dt_gps)
-    corr = np.zeros(4)  # a height observation's corrections (height_fusion.height_source)
+    corr = np.zeros(5)  # a height observation's corrections (height_fusion.height_source)
     mag = np.zeros(3)  # a vehicle_magnetometer publication
     for v in range(len(sensed)):
         s = sensed[v]
@@ -285,8 +286,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
                 hf.fuse(e, E_HGT, 1, ev2, hf.gnss_vz_noise(hp) ** 2, vgate, corr)
                 dh, dv2, db = corr[0], corr[1], corr[2]
             fused = fuse_pos or fuse_vel
-            # shouldResetGpsFusion: neither fused for reset_timeout_max, or no position for twice
-            # that: reset to the fix, the whole innovation
+            # shouldResetGpsFusion (none fused for 7 s, or no position for 14 s): reset to the fix
             if e[E_AID_AGE] >= GNSS_RESET_S or use_pos and e[E_POS_AGE] >= 2.0 * GNSS_RESET_S:
                 fused, fuse_pos = use_pos or use_vel, use_pos
                 dp0, dp1 = (ep0, ep1) if use_pos else (0.0, 0.0)
@@ -336,23 +336,23 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
                 e[E_ACCURACY] = math.sqrt(e[E_ACCURACY] ** 2 + a_acc_gps * (
                     ep0 * ep0 + ep1 * ep1 - e[E_ACCURACY] ** 2))
             # the GPS height: the vertical channel's (as taken, against the estimate then)
-            hf.height_source(e, E_HGT, hf.GNSS, s[S_GPS_POS + 2], old[2],
-                             use & GPS_CTRL_HGT != 0, hgt_ref, hp, corr)
-            _apply_height(e, ring, corr, old[2])
+            hf.height_source(e, E_HGT, hf.GNSS, s[S_GPS_POS + 2], old[2], s[S_GPS_VEL + 2]
+                             if use_vel else math.nan, use & GPS_CTRL_HGT != 0, hgt_ref, hp, corr)
+            _apply_height(e, ring, corr, old[2], old[5])
             e[E_RATIOS + 2] = hf.innovation_ratio(e, E_HGT)
         # --- barometer and magnetometer (50 Hz): height, attitude corrections, wind -----------
         air = hf.air_data(e, E_HGT, s[S_BARO_DOWN], t_s, hp[hf.P_BARO_RATE]) \
             if baro_due and not f & F_BARO_OFF else math.nan
         if not math.isnan(air):
             eh = air - e[E_HGT + hf.H_SRC + hf.SRC_BIAS] - e[E_POS + 2]
-            hf.height_source(e, E_HGT, hf.BARO, air, e[E_POS + 2], use & AID_BARO != 0, hgt_ref,
-                             hp, corr)
+            hf.height_source(e, E_HGT, hf.BARO, air, e[E_POS + 2], math.nan, use & AID_BARO != 0,
+                             hgt_ref, hp, corr)
             e[E_RATIOS + 2] = hf.innovation_ratio(e, E_HGT)
             if e[E_BARO_AGE] == 0.0:  # fused
                 a_acc_baro = 1.0 / (5.0 * hp[hf.P_BARO_RATE] + 1.0)  # dt / (5 s + dt), as fused
                 e[E_ACCURACY + 1] = math.sqrt(
                     e[E_ACCURACY + 1] ** 2 + a_acc_baro * (eh * eh - e[E_ACCURACY + 1] ** 2))
-            _apply_height(e, ring, corr, e[E_POS + 2])
+            _apply_height(e, ring, corr, e[E_POS + 2], e[E_VEL + 2])
         if baro_due:
             # Tilt: the measured specific force (NED, low-passed) against the one the GPS
             # velocity implies; heading: the field against the Earth's.

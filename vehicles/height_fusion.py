@@ -18,7 +18,8 @@ common.h's parameters; ekf2/module.yaml for the noise and gate parameters.
   for the height reference's (EKF2_HGT_REF), whose bias stays.
 - A source whose samples stop (2 sample intervals) stops; one whose every sample fails its gate
   for hgt_fusion_timeout_max (5 s) stops while another source works, and a barometer is then
-  faulty until the estimator restarts; with none working it resets the height to its own. A
+  faulty until the estimator restarts; with none working it resets the height to its own (the
+  other source's bias following the jump) and the vertical velocity to the fix's, or to 0. A
   reference that stops leaves none until checkHeightSensorRefFallback picks the next source that
   runs: the barometer, then the GPS, for a barometer reference; the GPS, then the barometer, for a
   GPS reference; the barometer, then the GPS, for the range sensor and vision this vehicle lacks.
@@ -173,6 +174,16 @@ def fuse(e, base, col, innov, var, gate, out):  # pragma: no cover - compiled
 
 
 @njit_cached
+def uncorrelate(e, base, col, var):  # pragma: no cover - compiled
+    """P.uncorrelateCovarianceSetVariance: state ``col``'s row and column zeroed, its variance
+    ``var`` (at least 0.01²)."""
+    p = e[base + H_P:base + H_P + 9]
+    for k in range(3):
+        p[col * 3 + k] = p[k * 3 + col] = 0.0
+    p[col * 3 + col] = max(var, 1e-4)
+
+
+@njit_cached
 def fuse_bias(e, base, src, offset, var):  # pragma: no cover - compiled
     """BiasEstimator::fuseBias with the source's offset from the estimate (not for the
     reference's, nor a source that is off)."""
@@ -199,11 +210,12 @@ def fuse_bias(e, base, src, offset, var):  # pragma: no cover - compiled
 
 
 @njit_cached
-def height_source(e, base, src, meas, h, enabled, ref_param, hp, out):  # pragma: no cover
+def height_source(e, base, src, meas, h, vz, enabled, ref_param, hp, out):  # pragma: no cover
     """One sample of source ``src`` (down, m), against the estimate's height ``h`` at its
-    time: controlBaroHeightFusion / controlGnssHeightFusion. ``out``: the corrections to apply
-    (height, vertical velocity, z bias) and, in out[3], a height reset's new height (NaN: none).
-    Returns the sample's test ratio."""
+    time: controlBaroHeightFusion / controlGnssHeightFusion. ``vz``: the fix's vertical velocity
+    where EKF2_GPS_CTRL fuses it (NaN: none; the barometer's). ``out``: the corrections to apply
+    (height, vertical velocity, z bias), in out[3] a height reset's new height and in out[4] a
+    vertical velocity reset's new velocity (NaN: none). Returns the sample's test ratio."""
     c = base + H_SRC + src * SRC_SIZE
     noise = hp[P_BARO_NOISE] if src == BARO else gnss_hgt_noise(hp)
     gate = max(hp[P_BARO_GATE] if src == BARO else hp[P_GPS_P_GATE], 1.0)
@@ -212,7 +224,7 @@ def height_source(e, base, src, meas, h, enabled, ref_param, hp, out):  # pragma
     innov = meas - e[c + SRC_BIAS] - h
     fuse_bias(e, base, src, meas - h, var + e[base + H_P])
     out[0] = out[1] = out[2] = 0.0
-    out[3] = math.nan
+    out[3] = out[4] = math.nan
     faulty = src == BARO and e[base + H_BARO_FAULTY] > 0.0
     go_on = enabled and not faulty
     ratio = innov * innov / (gate * gate * (e[base + H_P] + var + e[c + SRC_BIAS_VAR]))
@@ -230,9 +242,16 @@ def height_source(e, base, src, meas, h, enabled, ref_param, hp, out):  # pragma
                 stop(e, base, src)  # another source still works
                 if src == BARO:
                     e[base + H_BARO_FAULTY] = 1.0
-            else:  # every height source failing: reset to this one
+            else:  # every height source failing: reset to this one, and the vertical velocity
                 out[3] = meas - e[c + SRC_BIAS]
-                e[base + H_P] = var
+                # resetVerticalPositionTo: the other source's bias follows the jump
+                e[other + SRC_BIAS] -= out[3] - h
+                # resetVerticalVelocityTo: the fix's (EKF2's variance: max(1.5 sacc,
+                # EKF2_GPS_V_NOISE)²), else resetVerticalVelocityToZero's 0 with variance 10
+                out[4] = vz if not math.isnan(vz) else 0.0
+                uncorrelate(e, base, 1, max(1.5 * 0.4, hp[P_GPS_V_NOISE]) ** 2
+                            if not math.isnan(vz) else 10.0)
+                uncorrelate(e, base, 0, var)
                 e[c + SRC_AGE] = 0.0
         return ratio
     if go_on:  # start

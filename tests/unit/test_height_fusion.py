@@ -113,3 +113,36 @@ def test_the_noise_parameters_are_followed():
             if column(sim, baro(hf.SRC_AGE)) == 0.0 and (not fused or sim.now - fused[-1] > 0.01):
                 fused.append(sim.now)
         assert len(fused) == pytest.approx(5, abs=1)  # 5 Hz, not 20
+
+
+def test_every_height_source_failing_resets_the_height_and_the_vertical_velocity():
+    """height_control.cpp: every height source failing its gate for hgt_fusion_timeout_max (the
+    estimate 50 m off both), the next sample resets the height to its source
+    (resetVerticalPositionTo: the other source's bias follows the jump, so that one stays as far
+    off as it was) and the vertical velocity (resetVerticalVelocityTo: the fix's, else zero;
+    counted as EKF2 counts velD resets)."""
+    from vehicles.physics import World
+    w = World()
+    w.add_vehicle(0)
+    for _ in range(500):
+        w.step(w.time_s)
+    e, ring = w.estimation.est[0], w.estimation.ehist[0]
+    e[est.E_POS + 2] -= 50.0
+    ring[:, 2] -= 50.0
+    resets = e[est.E_VZ_RESET]
+    for _ in range(int(4.5 * 250)):
+        w.step(w.time_s)
+    assert e[est.E_POS + 2] - w.inner.measured[0][2] < -49.0  # nothing fused
+    assert e[est.E_VZ_RESET] == resets
+    h = e[est.E_HGT:est.E_HGT + hf.H_SIZE]
+    for _ in range(250):
+        before = (e[est.E_POS + 2], h[baro(hf.SRC_BIAS)], h[gnss(hf.SRC_BIAS)])
+        w.step(w.time_s)
+        if e[est.E_VZ_RESET] != resets:
+            break
+    assert e[est.E_VZ_RESET] == resets + 1 and abs(e[est.E_VEL + 2]) < 0.5
+    assert abs(e[est.E_POS + 2] - w.inner.measured[0][2]) < 1.0
+    # the bias of the source not reset to moved against the jump (as EKF2's estimators do)
+    jump = e[est.E_POS + 2] - before[0]
+    moved = (h[baro(hf.SRC_BIAS)] - before[1], h[gnss(hf.SRC_BIAS)] - before[2])
+    assert jump > 45.0 and min(moved) == pytest.approx(-jump, abs=0.5), (jump, moved)
