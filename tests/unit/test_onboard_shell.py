@@ -170,6 +170,9 @@ def test_mavlink_status_streams_and_stream_rates():
         # get_size() 0: no size (no range finder advertised; the mode list never changed)
         assert "\tDISTANCE_SENSOR                10.00 (10.000) \n" in streams
         assert "\tAVAILABLE_MODES                 0.30 (0.300)  \n" in streams
+        # onboard's unlimited_rate: every GPS sample (Mavlink::display_status_streams)
+        assert "\tGPS_RAW_INT                   unlimited         64\n" in streams
+        assert "\tCOMMAND_LONG                  unlimited       \n" in streams
         assert shell(sim, "mavlink stream -u 14580 -s ATTITUDE -r 5\n").endswith("pxh> ")
         assert sim.simulation.links[(0, LinkKind.API)].session.scheduler.interval_us(
             M.MAVLINK_MSG_ID_ATTITUDE) == 200_000
