@@ -106,7 +106,7 @@ class Autopilot:
         self.hover_thrust = HoverThrustEstimator(params)
         self._prev_nav_state: NavState | None = None
         # the estimator's resets (set_position_aided), the counts the tasks last saw
-        self._resets, self._resets_seen = [0.0] * 8, [0.0] * 3
+        self._resets, self._resets_seen = [0.0] * 10, [0.0] * 4
         self._fence_breach: str | None = None
         self._battery_level = 0
         self.last_meas: Measurement | None = None  # the measurement of the last 50 Hz tick

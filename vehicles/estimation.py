@@ -113,10 +113,8 @@ EKF2_FILTER_PERIOD_S = 0.01  # setGpsData also takes off half of it (_dt_ekf_avg
 # The Earth's field at PX4's SITL home (Zurich), gauss NED: 48 µT, inclination 63.5°,
 # declination 3° east (WMM; sensor_mag_sim uses the same model at the home position).
 MAG_NED_GAUSS = (0.2145, 0.0112, 0.4296)
-
 # EKF2's magnetometer noise and gate (the GPS's and the barometer's: height_fusion.PARAMS).
 EKF2_MAG_NOISE, EKF2_MAG_GATE = 0.05, 3.0
-
 BARO_TIMEOUT_S = 0.2  # EKF2's BARO_MAX_INTERVAL: no barometer for this long → GNSS height
 GNSS_RESET_S = 7.0  # EKF2's reset_timeout_max: unaided this long, a fix resets the estimate
 
@@ -146,7 +144,8 @@ B_GYRO, B_ACC, B_SIZE = 0, 3, 6
 # Columns of the estimator's state.
 (E_Q, E_GYRO_BIAS, E_POS, E_VEL, E_ACC_BIAS_Z, E_CORR, E_F_LP, E_A_LP, E_GPS_VEL_PREV, E_WIND,
  E_RATIOS, E_ACCURACY, E_HAVE_GPS, E_GPS_AGE, E_AID_AGE, E_XY_RESET, E_VXY_RESET, E_VZ_RESET,
- E_POS_AGE, E_HGT) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 41, 44, 46, 47)
+ E_Z_RESET, E_POS_AGE, E_HGT) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 41, 44,
+                                 46, 48, 49)
 E_MAG = E_HGT + hf.H_SIZE  # the magnetometer's way in (mag_fusion.py's MAG_* columns)
 E_SIZE = E_MAG + mf.MAG_SIZE
 # since the barometer was last fused: the vertical channel's own clock of it
@@ -157,10 +156,10 @@ E_BARO_AGE = E_HGT + hf.H_SRC + hf.BARO * hf.SRC_SIZE + hf.SRC_AGE
 # the last GPS fix came; E_BARO_AGE: since the last barometer sample was fused; E_AID_AGE: since
 # a fix's horizontal position or velocity was last fused (EKF2_NOAID_TOUT's clock);
 # E_XY_RESET, E_VXY_RESET: how many times the horizontal position, velocity was reset, then the
-# last reset's change (north, east); E_VZ_RESET: the vertical velocity's count and change (EKF2's
-# _state_reset_status: reset_count.posNE, velNE, velD and posNE_change, velNE_change, velD_change,
-# which vehicle_local_position publishes as xy_, vxy_, vz_reset_counter and delta_xy, delta_vxy,
-# delta_vz); E_HGT: the vertical channel's filter (height_fusion.py's H_* columns).
+# last reset's change (north, east); E_VZ_RESET, E_Z_RESET: the vertical velocity's, the height's
+# count and change (EKF2's _state_reset_status: reset_count posNE, velNE, velD, posD and their
+# changes, vehicle_local_position's xy_, vxy_, vz_, z_reset_counter and delta_xy, _vxy, _vz, _z);
+# E_HGT: the vertical channel's filter (height_fusion.py's H_* columns).
 
 E_WIND_VAR = E_RATIOS + 4
 
@@ -183,7 +182,8 @@ def _apply_height(e, ring, corr, h_then, v_then):  # pragma: no cover - compiled
     dh, dv = corr[0], corr[1] + (0.0 if math.isnan(corr[4]) else corr[4] - v_then)
     if not math.isnan(corr[4]):
         e[E_VZ_RESET], e[E_VZ_RESET + 1] = e[E_VZ_RESET] + 1.0, corr[4] - v_then
-    if not math.isnan(corr[3]):
+    if not math.isnan(corr[3]):  # resetVerticalPositionTo, counted
+        e[E_Z_RESET], e[E_Z_RESET + 1] = e[E_Z_RESET] + 1.0, corr[3] - h_then
         dh += corr[3] - h_then
     e[E_POS + 2] += dh
     e[E_VEL + 2] += dv

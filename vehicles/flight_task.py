@@ -42,11 +42,12 @@ def check_resets(task: FlightTask, t: TaskInput, resets: list[float], seen: list
     """FlightTask::_checkEkfResetCounters before ``task``'s update: its handlers for the
     counts of ``resets`` (World.aiding's reset columns) that moved from ``seen``. Returns the
     counts, which the next task starts from (FlightModeManager hands them over)."""
-    counts = resets[0::3]
+    counts = [resets[0], resets[3], resets[6], resets[8]]  # xy, vxy, vz, z
     if counts != seen:
         task.estimator_reset(t, EstimatorReset(
             counts[0] != seen[0], counts[1] != seen[1], counts[2] != seen[2],
-            (resets[1], resets[2]), (resets[4], resets[5]), resets[7]))
+            (resets[1], resets[2]), (resets[4], resets[5]), resets[7], counts[3] != seen[3],
+            resets[9]))
     return counts
 
 

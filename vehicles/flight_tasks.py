@@ -96,12 +96,12 @@ class AutoTask(FlightTask):
         st.yaw_sp = t.yaw_rad if last is None or not math.isfinite(last.yaw_rad) else last.yaw_rad
 
     def estimator_reset(self, t: TaskInput, r: EstimatorReset) -> None:
-        """FlightTaskAuto::_ekfResetHandlerPositionXY, VelocityXY, VelocityZ: the smoothing
-        jumps to the new estimate (forceSetPosition, forceSetVelocity); the waypoints stay (the
-        navigator's triplet is global)."""
+        """FlightTaskAuto::_ekfResetHandlerPositionXY, VelocityXY, PositionZ, VelocityZ: the
+        smoothing jumps to the new estimate (forceSetPosition, forceSetVelocity); the waypoints
+        stay (the navigator's triplet is global)."""
         pos, vel, nan = t.meas.position_ned_m, t.meas.velocity_ned_mps, math.nan
         self.stage.trajectory.smoothing.force_set(
-            (pos[0], pos[1], nan) if r.xy else (nan, nan, nan),
+            (pos[0] if r.xy else nan, pos[1] if r.xy else nan, pos[2] if r.z else nan),
             (vel[0] if r.vxy else nan, vel[1] if r.vxy else nan, vel[2] if r.vz else nan))
 
     def update(self, t: TaskInput) -> None:

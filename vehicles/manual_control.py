@@ -279,8 +279,10 @@ class ManualAltitude:
         self.z_sp = math.nan
 
     def estimator_reset(self, pos: Vec3, vel: Vec3, r: EstimatorReset) -> None:
-        """FlightTaskManualAltitudeSmoothVel::_ekfResetHandlerVelocityZ: the vertical smoothing
-        takes the new velocity (setCurrentVelocity)."""
+        """FlightTaskManualAltitudeSmoothVel::_ekfResetHandlerPositionZ, VelocityZ: the vertical
+        smoothing takes the new height and velocity (setCurrentPosition, setCurrentVelocity)."""
+        if r.z:
+            self.smoothing.set_current_position(pos[2])
         if r.vz:
             self.smoothing.set_current_velocity(vel[2])
 

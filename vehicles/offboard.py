@@ -71,6 +71,8 @@ class Offboard:
             vx, vy = vx + r.delta_vxy[0], vy + r.delta_vxy[1]
         if r.vz:
             vz += r.delta_vz
+        if r.z:
+            pz += r.delta_z
         self.setpoint = replace(sp, position_ned_m=(px, py, pz), velocity_ned_mps=(vx, vy, vz))
 
     def on_entry(self, yaw_rad: float) -> None:

@@ -48,7 +48,7 @@ from vehicles.estimation import (
     BARO_RATE_HZ,
     E_AID_AGE,
     E_RATIOS,
-    E_VZ_RESET,
+    E_Z_RESET,
     GPS_RATE_HZ,
     HISTORY,
     NAVSAT_RATE_HZ,
@@ -338,8 +338,8 @@ class World:
 
     def aiding(self, row: int) -> list[float]:
         """Row ``row``'s ``aiding_age_s``, then its estimator's reset counts and changes
-        (estimation.E_XY_RESET, E_VXY_RESET, E_VZ_RESET: 8 columns)."""
-        return self._est_rows[row][E_AID_AGE:E_VZ_RESET + 2].tolist()
+        (estimation.E_XY_RESET, E_VXY_RESET, E_VZ_RESET, E_Z_RESET: 10 columns)."""
+        return self._est_rows[row][E_AID_AGE:E_Z_RESET + 2].tolist()
 
     def estimator_ratios(self, row: int) -> list[float]:
         """Row ``row``'s innovation test ratios (estimation.E_RATIOS, four columns)."""

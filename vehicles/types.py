@@ -265,8 +265,8 @@ EXACT_SENSORS = SensorConfig(noise=0.0)
 
 class EstimatorReset(NamedTuple):
     """What the estimator reset since the tasks last looked (FlightTask::_checkEkfResetCounters,
-    on vehicle_local_position's xy_, vxy_, vz_reset_counter): which moved, and the last resets'
-    changes (delta_xy, delta_vxy, delta_vz)."""
+    on vehicle_local_position's xy_, vxy_, vz_, z_reset_counter): which moved, and the last
+    resets' changes (delta_xy, delta_vxy, delta_vz, delta_z)."""
 
     xy: bool
     vxy: bool
@@ -274,3 +274,5 @@ class EstimatorReset(NamedTuple):
     delta_xy: tuple[float, float]
     delta_vxy: tuple[float, float]
     delta_vz: float
+    z: bool = False
+    delta_z: float = 0.0

@@ -41,6 +41,7 @@ from vehicles.estimation import (
     E_VXY_RESET,
     E_VZ_RESET,
     E_XY_RESET,
+    E_Z_RESET,
     F_GPS_OFF,
     GPS_EPH_M,
     GPS_EPV_M,
@@ -436,7 +437,8 @@ def odometry(s: Snapshot) -> tuple:
     p, q, r = kin.rates_frd_radps
     pose, vel = _odometry_covariances(s)
     e = s.sample.estimator
-    resets = 0 if e is None else int(e[E_XY_RESET] + e[E_VXY_RESET] + e[E_VZ_RESET]) & 0xFF
+    resets = 0 if e is None else int(e[E_XY_RESET] + e[E_VXY_RESET] + e[E_VZ_RESET]
+                                     + e[E_Z_RESET]) & 0xFF
     return (s.time_usec, MAV_FRAME_LOCAL_NED, MAV_FRAME_LOCAL_NED, x, y, z, kin.attitude_q,
             vx, vy, vz, p, q, r, pose, vel, resets, MAV_ESTIMATOR_TYPE_AUTOPILOT, 0)
 

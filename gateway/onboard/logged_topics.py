@@ -61,6 +61,7 @@ from vehicles.estimation import (
     E_WIND,
     E_WIND_VAR,
     E_XY_RESET,
+    E_Z_RESET,
     R_Q,
     R_RATES,
 )
@@ -89,8 +90,8 @@ def _local_position(v: Any, now_us: int) -> tuple:
     o = v.origin
     return (*k.position_ned_m, *k.velocity_ned_mps, *a, heading, valid, valid, valid, valid,
             o.lat_deg, o.lon_deg, o.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1],
-            *_resets(e, E_XY_RESET), *_resets(e, E_VXY_RESET), e[E_VZ_RESET + 1],
-            int(e[E_VZ_RESET]) & 0xFF)
+            *_resets(e, E_XY_RESET), e[E_Z_RESET + 1], int(e[E_Z_RESET]) & 0xFF,
+            *_resets(e, E_VXY_RESET), e[E_VZ_RESET + 1], int(e[E_VZ_RESET]) & 0xFF)
 
 
 def _resets(e: Sequence[float], column: int) -> tuple:
@@ -103,7 +104,7 @@ def _global_position(v: Any, now_us: int) -> tuple | None:
         return None
     g, e = v.global_position, v.estimator
     return (g.lat_deg, g.lon_deg, g.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1],
-            int(e[E_XY_RESET]) & 0xFF)
+            int(e[E_XY_RESET]) & 0xFF, -e[E_Z_RESET + 1], int(e[E_Z_RESET]) & 0xFF)
 
 
 def _status(v: Any, now_us: int) -> tuple:
@@ -344,11 +345,13 @@ TOPICS: tuple[Topic, ...] = (
                                      (B, "v_z_valid"), (D, "ref_lat"), (D, "ref_lon"),
                                      (F, "ref_alt"), (F, "eph"), (F, "epv"),
                                      ("float[2]", "delta_xy"), (U8, "xy_reset_counter"),
+                                     (F, "delta_z"), (U8, "z_reset_counter"),
                                      ("float[2]", "delta_vxy"), (U8, "vxy_reset_counter"),
                                      (F, "delta_vz"), (U8, "vz_reset_counter")),
           0.0, _local_position),
     Topic("vehicle_global_position", ((D, "lat"), (D, "lon"), (F, "alt"), (F, "eph"), (F, "epv"),
-                                      (U8, "lat_lon_reset_counter")), 0.0, _global_position),
+                                      (U8, "lat_lon_reset_counter"), (F, "delta_alt"),
+                                      (U8, "alt_reset_counter")), 0.0, _global_position),
     Topic("vehicle_status", (("uint8_t", "arming_state"), ("uint8_t", "nav_state_user_intention"),
                              ("uint8_t", "nav_state"), ("uint8_t", "vehicle_type"),
                              (B, "failsafe"), (B, "failsafe_and_user_took_over"),

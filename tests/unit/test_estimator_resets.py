@@ -38,12 +38,14 @@ def test_a_gnss_reset_is_counted_with_its_change():
     w.add_vehicle(0)
     for _ in range(100):
         w.step(w.time_s)
-    assert w.aiding(0)[1:] == [0.0] * 8
+    assert w.aiding(0)[1:] == [0.0] * 10
 
     drift_unaided(w, 3.0)
     while w.aiding_age_s(0) > 0.0:
         w.step(w.time_s)
-    assert w.aiding(0)[1:] == [0.0] * 8  # fused as usual: no reset
+    # fused as usual: no reset; but the GPS height, the reference, starts again after its data
+    # stopped: the height resets to it (gnss_height_control.cpp: "resetting height"), counted
+    assert w.aiding(0)[1:9] == [0.0] * 8 and w.aiding(0)[9] == 1.0
     for _ in range(2000):
         w.step(w.time_s)
     drift_unaided(w, 7.0)
@@ -51,8 +53,8 @@ def test_a_gnss_reset_is_counted_with_its_change():
         before = w.estimation.est[0].copy()
         w.step(w.time_s)
     after = w.estimation.est[0]
-    xy_n, dx, dy, vxy_n, dvx, dvy, vz_n, dvz = w.aiding(0)[1:]
-    assert (xy_n, vxy_n, vz_n) == (1.0, 1.0, 1.0)
+    xy_n, dx, dy, vxy_n, dvx, dvy, vz_n, dvz, z_n, _ = w.aiding(0)[1:]
+    assert (xy_n, vxy_n, vz_n, z_n) == (1.0, 1.0, 1.0, 2.0)  # the height: its restart again
     # the changes the reset made (the step's own integration is a few mm)
     assert dx == pytest.approx(after[est.E_POS] - before[est.E_POS], abs=0.01)
     assert dy == pytest.approx(after[est.E_POS + 1] - before[est.E_POS + 1], abs=0.01)
@@ -108,19 +110,23 @@ def test_after_a_gnss_reset_hold_flies_back_smoothly_and_the_wire_and_log_count_
                              timeout_s=10)
         counters = [(t, m.reset_counter) for t, m in api.timed_messages("ODOMETRY", since)]
         assert {c for t, c in counters if t < t_reset - 0.1} == {0}
-        assert counters[-1][1] == 3  # position NE, velocity NE and D
+        # position NE, velocity NE and D, and the height (the GPS height restarting as the
+        # reference resets it: posD)
+        assert counters[-1][1] == 4
     import pyulog
     log = pyulog.ULog(str(sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))[0]))
     lpos = log.get_dataset("vehicle_local_position").data
     assert set(lpos["xy_reset_counter"]) == {0, 1} and set(lpos["vz_reset_counter"]) == {0, 1}
     assert lpos["delta_xy[0]"][-1] < -4.5 and lpos["vxy_reset_counter"][-1] == 1
+    assert lpos["z_reset_counter"][-1] == 1
     gpos = log.get_dataset("vehicle_global_position").data
-    assert gpos["lat_lon_reset_counter"][-1] == 1
+    assert gpos["lat_lon_reset_counter"][-1] == 1 and gpos["alt_reset_counter"][-1] == 1
+    assert gpos["delta_alt"][-1] == pytest.approx(-lpos["delta_z"][-1])
 
 
 def test_an_offboard_setpoint_held_moves_with_the_reset():
     """adjustSetpointForEKFResets: a setpoint older than the estimate moves by delta_xy,
-    delta_vxy, delta_vz (NaN stays NaN); one received at the reset's tick does not."""
+    delta_vxy, delta_vz, delta_z (NaN stays NaN); one received at the reset's tick does not."""
     off = Offboard()
     off.set(1.0, OffboardSetpoint(position_ned_m=(10.0, 20.0, -5.0),
                                   velocity_ned_mps=(1.0, NAN, 0.5)))
@@ -135,6 +141,9 @@ def test_an_offboard_setpoint_held_moves_with_the_reset():
     off.shift(1.04, EstimatorReset(False, False, True, (9.0, 9.0), (9.0, 9.0), 0.1))
     assert off.setpoint.position_ned_m == (8.0, 23.0, -5.0)
     assert off.setpoint.velocity_ned_mps[2] == pytest.approx(0.5)
+    # a height reset (z_reset_counter): setpoint.position[2] += delta_z
+    off.shift(1.06, EstimatorReset(False, False, False, (9.0, 9.0), (9.0, 9.0), 9.0, True, 0.75))
+    assert off.setpoint.position_ned_m == (8.0, 23.0, -4.25)
 
 
 def test_position_mode_drops_its_lock_and_takes_the_new_velocity():
@@ -149,6 +158,10 @@ def test_position_mode_drops_its_lock_and_takes_the_new_velocity():
     assert all(math.isnan(v) for v in task._pos_xy)
     assert task._vel_xy == (0.3, -0.2)
     assert task.smoothing.v == 0.1
+    # a height reset: the vertical smoothing takes the new height (setCurrentPosition)
+    task.estimator_reset((4.0, 5.0, -12.5), (0.3, -0.2, 0.1),
+                         EstimatorReset(False, False, False, (0, 0), (0, 0), 0, True, -2.5))
+    assert task.smoothing.x == -12.5
 
 
 def test_a_position_glitch_is_rejected_then_reset_after_twice_reset_timeout_max():
