@@ -38,6 +38,12 @@ def gps_ctrl_of(params: Any) -> int:
     return GPS_CTRL_DEFAULT if ctrl is None else int(ctrl)
 
 
+def gnss_fusing(gps_ctrl: int, gps_age_s: float) -> bool:
+    """Whether EKF2 runs GNSS fusion (gps_control.cpp): EKF2_GPS_CTRL with its position or
+    velocity bit, and a fix within GNSS_STOP_S."""
+    return bool(gps_ctrl & (GPS_CTRL_POS | GPS_CTRL_VEL)) and gps_age_s < GNSS_STOP_S
+
+
 def published_ratios(ratios: Sequence[float], gps_age_s: float, gps_ctrl: int
                      ) -> tuple[float, float, float, float]:
     """estimator_status's velocity, horizontal position, height and magnetometer test ratios
@@ -46,7 +52,7 @@ def published_ratios(ratios: Sequence[float], gps_age_s: float, gps_ctrl: int
     fused (no GNSS fusion: EKF2_GPS_CTRL without its position and velocity bits, or no fix for
     GNSS_STOP_S; no height source, which the estimator's height ratio already says)."""
     vel, pos, hgt, mag = ratios
-    if not (gps_ctrl & (GPS_CTRL_POS | GPS_CTRL_VEL) and gps_age_s < GNSS_STOP_S):
+    if not gnss_fusing(gps_ctrl, gps_age_s):
         vel = pos = math.nan
     return (max(vel, FLT_MIN) if vel == vel else vel, max(pos, FLT_MIN) if pos == pos else pos,
             max(hgt, FLT_MIN) if hgt == hgt else hgt, mag)

@@ -14,10 +14,8 @@ from pymavlink.dialects.v20 import common as M
 from gateway.mavlink.codec import Encoder, payload_of
 from gateway.mavlink.snapshot import Snapshot
 from vehicles.aiding import (
-    GNSS_STOP_S,
     GPS_CTRL_HGT,
-    GPS_CTRL_POS,
-    GPS_CTRL_VEL,
+    gnss_fusing,
     gps_ctrl_of,
     published_ratios,
 )
@@ -55,7 +53,7 @@ def solution_status(e: list[float], gps_ctrl: int) -> int:
     accel_error stay clear. gps_glitch as PX4 has it: a GNSS innovation over its gate while
     the magnetometer's test ratio is not under 1 (PX4's own inverted test: never, with a
     healthy magnetometer)."""
-    gnss = bool(gps_ctrl & (GPS_CTRL_POS | GPS_CTRL_VEL)) and e[E_GPS_AGE] < GNSS_STOP_S
+    gnss = gnss_fusing(gps_ctrl, e[E_GPS_AGE])
     flags = M.ESTIMATOR_ATTITUDE
     flags |= _HORIZONTAL if gnss else M.ESTIMATOR_CONST_POS_MODE
     if e[E_BARO_AGE] <= BARO_TIMEOUT_S or (gnss and gps_ctrl & GPS_CTRL_HGT):
