@@ -5,6 +5,7 @@ talk over TCP (as on two hosts) writes the same logs as one process; --state-dir
 shard's vehicles."""
 
 import asyncio
+import contextlib
 import json
 import os
 import re
@@ -413,6 +414,45 @@ def test_sigint_stops_every_rank_with_exit_0(daemon_factory):
     d.proc.send_signal(signal.SIGINT)  # the launcher's pid: relayed to mpiexec, then the ranks
     assert d.proc.wait(timeout=10) == 0, d.log_tail()
     assert d.stop() == 0
+    assert any("stopping after" in ln and "shards=2" in ln for ln in d.stderr_lines), d.log_tail()
+
+
+def _ranks(root: int) -> dict[int, int]:
+    """The pids of an MPI job's ranks under process ``root``, by rank (MPICH's PMI_RANK)."""
+    parents: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            with contextlib.suppress(OSError):
+                stat = Path(f"/proc/{entry}/stat").read_text()
+                parents.setdefault(int(stat.rsplit(")", 1)[1].split()[1]), []).append(int(entry))
+    found, todo = {}, [root]
+    while todo:
+        for child in parents.get(todo.pop(), []):
+            todo.append(child)
+            with contextlib.suppress(OSError):
+                for var in Path(f"/proc/{child}/environ").read_bytes().split(b"\0"):
+                    if var.startswith(b"PMI_RANK="):
+                        found[int(var[9:])] = child
+    return found
+
+
+def test_a_rank_signalled_after_the_job_stopped_still_exits_0(daemon_factory):
+    """mpiexec forwards a SIGINT to each rank in its own time: on a loaded machine a worker may
+    hear it only after the coordinator has stopped everyone and the worker's event loop has
+    closed. Such a late signal must not kill the rank (the job would then end "BAD
+    TERMINATION ... Interrupt (signal 2)"). Here the coordinator alone is signalled, and the
+    workers get SIGINT again and again until the job has exited."""
+    d = daemon_factory("--shards", "2", vehicles=2)
+    ranks = _ranks(d.proc.pid)
+    assert sorted(ranks) == [0, 1, 2], ranks
+    os.kill(ranks[0], signal.SIGINT)
+    deadline = time.monotonic() + 10
+    while d.proc.poll() is None and time.monotonic() < deadline:
+        for rank in (1, 2):
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(ranks[rank], signal.SIGINT)
+        time.sleep(0.002)
+    assert d.proc.wait(timeout=5) == 0, d.log_tail()
     assert any("stopping after" in ln and "shards=2" in ln for ln in d.stderr_lines), d.log_tail()
 
 

@@ -84,8 +84,8 @@ every shard runs the new network.
 Stopping: mpiexec forwards SIGINT and SIGTERM to every rank. The coordinator then sends
 "stop" to every worker; a worker that gets the signal asks the coordinator to ("interrupt"),
 so one signalled rank is enough. Workers answer with their final counters, the coordinator
-logs the stop line, every rank exits 0. A rank that fails unexpectedly aborts the whole job
-(MPI_Abort).
+logs the stop line, every rank exits 0; a rank whose run has ended ignores the signals that
+reach it late (signals.py). A rank that fails unexpectedly aborts the whole job (MPI_Abort).
 
 Limits: the embedded network only (an ns-3 engine belongs to one process), and no shared
 channel (``network.channel`` queues every vehicle's frames in one place); vehicles of different

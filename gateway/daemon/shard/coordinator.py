@@ -23,6 +23,7 @@ from gateway.daemon.shard.channel import START_TIMEOUT_S, STOP_TIMEOUT_S, Channe
 from gateway.daemon.shard.launch import ShardError
 from gateway.daemon.shard.outlets import BusMerger, ShardedExporter
 from gateway.daemon.shard.reload import ReloadFlag, prepare
+from gateway.daemon.shard.signals import RankSignals
 from gateway.daemon.status import STATUS_PERIOD_S, format_status, ports_summary
 from gateway.sim import logparts
 from gateway.sim.flightlog import new_run_dir
@@ -42,20 +43,17 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
                        reload: Callable[[], RunConfig] | None = None) -> int:
     notifier = notifier if notifier is not None else Notifier.from_env()
     k = config.shards
-    loop = asyncio.get_running_loop()
     stop = asyncio.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        loop.add_signal_handler(sig, stop.set)
     reloading = asyncio.Event()  # SIGHUP (relayed by the launcher as SIGUSR1 + flag)
-    loop.add_signal_handler(signal.SIGHUP, reloading.set)
-
     flag = ReloadFlag()
 
     def on_sigusr1() -> None:  # not a relayed SIGHUP: the workers log link stats
         if flag.requested():
             reloading.set()
 
-    loop.add_signal_handler(signal.SIGUSR1, on_sigusr1)
+    signals = RankSignals(asyncio.get_running_loop(), {
+        signal.SIGINT: stop.set, signal.SIGTERM: stop.set, signal.SIGHUP: reloading.set,
+        signal.SIGUSR1: on_sigusr1})
     t0 = time.monotonic()
     # One epoch and one flight log directory for the whole run, chosen here.
     run_dir = None
@@ -174,10 +172,9 @@ async def coordinate(config: RunConfig, channel: Channel, ready_out=sys.stdout,
             await channel.wait()  # a worker's message rings, else the poll period
         return 0
     finally:
+        signals.close()  # everyone stops: a late signal from mpiexec must not kill this rank
         notifier.stopping(status="stopping")
         final = await _stop_workers(channel, k, ready, failed, sim_t)
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP, signal.SIGUSR1):
-            loop.remove_signal_handler(sig)
         t_min = min(sim_t.values(), default=0.0)
         wall = time.monotonic() - t0
         log.info("stopping after %.1f s: %s", wall,

@@ -15,6 +15,7 @@ from gateway.daemon.metrics import SNAPSHOT_PERIOD_S, Exporter
 from gateway.daemon.shard.channel import START_TIMEOUT_S, STOP_TIMEOUT_S, Channel
 from gateway.daemon.shard.outlets import RelayPublisher
 from gateway.daemon.shard.reload import ReloadFlag
+from gateway.daemon.shard.signals import RankSignals
 from gateway.daemon.status import STATUS_PERIOD_S
 from netsim.kernel import PRIORITY_PHYSICS
 
@@ -23,15 +24,23 @@ log = logging.getLogger(__name__)
 
 
 async def work(config: RunConfig, shard: int, channel: Channel) -> int:
-    loop = asyncio.get_running_loop()
-    stop = asyncio.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):  # the coordinator decides when everyone stops
-        loop.add_signal_handler(sig, lambda: channel.send(0, {"interrupt": True}))
-    loop.add_signal_handler(signal.SIGHUP, lambda: None)  # the coordinator answers SIGHUP
     daemon_ref: list[Daemon] = []
     flag = ReloadFlag()
-    loop.add_signal_handler(signal.SIGUSR1, lambda: None if flag.requested() or
-                            not daemon_ref else daemon_ref[0].log_link_stats())
+
+    def interrupt() -> None:  # the coordinator decides when everyone stops
+        channel.send(0, {"interrupt": True})
+
+    handlers = {signal.SIGINT: interrupt, signal.SIGTERM: interrupt,
+                signal.SIGHUP: lambda: None,  # the coordinator answers SIGHUP
+                signal.SIGUSR1: lambda: None if flag.requested() or not daemon_ref
+                else daemon_ref[0].log_link_stats()}
+    with RankSignals(asyncio.get_running_loop(), handlers):
+        return await _run(config, shard, channel, daemon_ref)
+
+
+async def _run(config: RunConfig, shard: int, channel: Channel,
+               daemon_ref: list[Daemon]) -> int:
+    stop = asyncio.Event()
     try:
         setup = await _setup(channel)
         if setup is None:  # stopped before it started (the coordinator could not start)
