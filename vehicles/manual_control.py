@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 from vehicles.control.manual_velocity_smoothing_z import ManualVelocitySmoothingZ
 from vehicles.control.position_control import PositionSetpoint
+from vehicles.manual_setpoint import SetpointPublications
 from vehicles.mode_table import ArmEvent
 from vehicles.stick_gestures import StickGestures
 from vehicles.types import GRAVITY_MPS2, EstimatorReset, Vec3
@@ -157,6 +158,8 @@ class ManualControl:
         self._gestures = StickGestures(params)
         self.gesture: ArmEvent | None = None  # what the last input's gesture asks for
         self._first_source: object = None  # COM_RC_IN_MODE 3 keeps it until reboot
+        # manual_control_setpoint, as ManualControl publishes it (MANUAL_CONTROL echoes it)
+        self.setpoint: SetpointPublications[Sticks] = SetpointPublications(CENTRED)
 
     def set(self, now_s: float, sticks: Sticks, source: object = None) -> bool:
         """``source``: where it came from (the gateway: the link). As PX4's
@@ -185,7 +188,13 @@ class ManualControl:
                 self.moving = True
         self.sticks = sticks
         self.received_s = now_s
+        self.setpoint.on_input(now_s, sticks, float(self._params["COM_RC_LOSS_T"]))
         return True
+
+    def published(self, now_s: float) -> tuple[int, Sticks]:
+        """manual_control_setpoint by ``now_s``: how many publications, the last one's sticks."""
+        loss_s = float(self._params["COM_RC_LOSS_T"])
+        return self.setpoint.count(now_s, loss_s), self.setpoint.sticks
 
     def fresh(self, now_s: float, timeout_s: float) -> bool:
         return self.sticks is not None and now_s - self.received_s <= timeout_s

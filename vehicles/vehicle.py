@@ -6,9 +6,8 @@ This is the object the gateway talks to (vehicles/README.md contract). Rules:
 - What the vehicle measures is its estimate (vehicles/estimation.py): the autopilot flies on it
   and ``kinematics``/``state`` report it; ``truth`` is the body's true state.
 - Local NED is relative to ``origin`` (the spawn point on the ground, = EKF origin).
-- The World owns the body and the inner loop (vehicles/inner_loop.py); the vehicle reads its
-  measurement from the World lazily, once per physics step at most, and hands it down to the
-  autopilot (``step`` and the commands that need the position); the autopilot never reads it.
+- The World owns the body and inner loop (vehicles/inner_loop.py); the vehicle reads its measurement
+  at most once per physics step and hands it to the autopilot (which never reads it itself).
 """
 
 from __future__ import annotations
@@ -390,9 +389,10 @@ class Vehicle:
         """FOLLOW_TARGET: the target Follow Me follows (vehicles/follow_target.py)."""
         self._autopilot.set_follow_target(now_s, lat_deg, lon_deg, alt_amsl_m, velocity_ned_mps)
 
-    # SET_VELOCITY_LIMITS, LANDING_TARGET: Position Slow's limits, Precision Land's target
+    # SET_VELOCITY_LIMITS, LANDING_TARGET; manual_control_setpoint, which MANUAL_CONTROL echoes
     set_velocity_limits = property(lambda self: self._autopilot.velocity_limits.publish)
     landing_target = property(lambda self: self._autopilot.navigator.landing_target.report)
+    manual_control_setpoint = property(lambda self: self._autopilot.manual.published)
 
     @property
     def orbit_status(self) -> OrbitStatus | None:  # ORBIT_EXECUTION_STATUS (local NED), or None

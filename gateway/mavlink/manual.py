@@ -13,7 +13,8 @@ time_usec through the link's timesync: gateway/mavlink/timesync.py).
 Rules:
 - Taken for ``target`` 0 or this system; other targets are counted and ignored.
 - x → pitch, y → roll, r → yaw, each /1000 when within [-1000, 1000]; z (throttle) is
-  [0, 1000] → [-1, 1] (500 = centred, what MAVSDK's 0.5 gives). A field out of its range
+  [0, 1000] → [-1, 1] (500 = centred, what MAVSDK's 0.5 gives), each in float32 arithmetic as
+  PX4 computes it (MANUAL_CONTROL's echo shows them). A field out of its range
   reads as 0 (centred), as PX4's zero-initialised setpoint does.
 - Every valid message refreshes the input (its loss after COM_RC_LOSS_T is the vehicle's
   business: vehicles/manual_control.py); its source is the link (PX4's data_source
@@ -24,20 +25,28 @@ Rules:
 
 from __future__ import annotations
 
+import struct
 from typing import Any
 
 from gateway.mavlink.link import LinkContext
 from gateway.mavlink.timesync import Timesync
 from vehicles.manual_control import Sticks
 
+_F32 = struct.Struct("<f")
+
+
+def _f32(value: float) -> float:
+    return _F32.unpack(_F32.pack(value))[0]
+
 
 def _axis(value: int) -> float:
-    return value / 1000.0 if -1000 <= value <= 1000 else 0.0
+    return _f32(value / 1000.0) if -1000 <= value <= 1000 else 0.0  # x / 1000.f
 
 
 def sticks_of(msg: Any) -> Sticks:
+    """The float32 values PX4 computes: x / 1000.f, and the throttle (z / 1000.f) * 2.f - 1.f."""
     z = msg.z
-    throttle = z / 500.0 - 1.0 if 0 <= z <= 1000 else 0.0
+    throttle = _f32(_f32(z / 1000.0) * 2.0 - 1.0) if 0 <= z <= 1000 else 0.0
     return Sticks(pitch=_axis(msg.x), roll=_axis(msg.y), throttle=throttle, yaw=_axis(msg.r),
                   buttons=int(msg.buttons))
 

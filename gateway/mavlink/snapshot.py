@@ -91,7 +91,7 @@ class LinkTelemetry:
     """What one link remembers of the streams it sent (the fields of PX4's stream objects)."""
 
     __slots__ = ("ping_seq", "origin_sent", "origin_time_us", "gps_sent_us", "rtl_estimate_seq",
-                 "tstatus")
+                 "manual_seq", "tstatus")
 
     def __init__(self, tstatus: Any = None) -> None:
         """``tstatus``: the link's telemetry_status (link_status.TelemetryStatus; None: none,
@@ -102,6 +102,7 @@ class LinkTelemetry:
         self.origin_sent: tuple[float, float, float] | None = None  # (lat, lon, alt) last sent
         self.origin_time_us = 0  # when the origin became global (0: not yet)
         self.rtl_estimate_seq = 0  # the last rtl_time_estimate publication sent
+        self.manual_seq = 0  # the last manual_control_setpoint publication sent
 
 
 class SampleCache:

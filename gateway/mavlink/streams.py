@@ -89,6 +89,7 @@ from gateway.mavlink.telemetry_requested import (
     distance_sensor,
     flight_information,
     hil_state_quaternion,
+    manual_control,
     rc_channels,
     scaled_imu,
     unpublished,
@@ -189,6 +190,7 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_HIL_STATE_QUATERNION, hil_state_quaternion, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, actuator_output_status, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION, flight_information, 0.0, 0.0),
+    StreamSpec(M.MAVLINK_MSG_ID_MANUAL_CONTROL, manual_control, 0.0, 0.0),  # the sticks' echo
     # Streams whose topic nothing publishes here (the module docstring). px4-rc.mavlink sets
     # RC_CHANNELS to 20 Hz and OPTICAL_FLOW_RAD to 10 Hz on the GCS link.
     # STATUSTEXT: statustext.py sends the texts at this stream's interval.
@@ -230,7 +232,6 @@ STREAMS: tuple[StreamSpec, ...] = (
         (M.MAVLINK_MSG_ID_GIMBAL_DEVICE_INFORMATION, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_AUTOPILOT_STATE_FOR_GIMBAL_DEVICE, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_HIL_ACTUATOR_CONTROLS, 0.0, 0.0),
-        (M.MAVLINK_MSG_ID_MANUAL_CONTROL, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_HIGH_LATENCY2, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_OPEN_DRONE_ID_BASIC_ID, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_GPS_RTCM_DATA, 0.0, 0.0),

@@ -1,6 +1,6 @@
 """Messages PX4 SITL sends only when a client asks for them (SET_MESSAGE_INTERVAL), from a
 ``Snapshot`` of the vehicle: SCALED_IMU, RC_CHANNELS, DISTANCE_SENSOR, HIL_STATE_QUATERNION,
-ACTUATOR_OUTPUT_STATUS.
+ACTUATOR_OUTPUT_STATUS, MANUAL_CONTROL.
 
 Source: PX4's stream classes src/modules/mavlink/streams/<MESSAGE>.hpp. Each is compiled into
 SITL, so MavlinkReceiver::set_message_interval accepts it, and it sends only when its uORB topic
@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.codec import Encoder, i16, i32, payload_of
+from gateway.mavlink.codec import Encoder, f32_mul, i16, i32, payload_of
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.telemetry import G, imu_sample
 
@@ -30,6 +30,7 @@ _SCALED_IMU = payload_of(M.MAVLink_scaled_imu_message)
 _HIL_STATE_QUATERNION = payload_of(M.MAVLink_hil_state_quaternion_message)
 _ACTUATOR_OUTPUT_STATUS = payload_of(M.MAVLink_actuator_output_status_message)
 _FLIGHT_INFORMATION = payload_of(M.MAVLink_flight_information_message)
+_MANUAL_CONTROL = payload_of(M.MAVLink_manual_control_message)
 
 
 def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
@@ -43,6 +44,29 @@ def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
                        i16(fx * 1000.0 / G), i16(fy * 1000.0 / G), i16(fz * 1000.0 / G),
                        i16(p * 1000.0), i16(q * 1000.0), i16(r * 1000.0),
                        i16(mx * 1000.0), i16(my * 1000.0), i16(mz * 1000.0), temperature)
+
+
+def manual_control(enc: Encoder, s: Snapshot) -> bytes | None:
+    """MANUAL_CONTROL.hpp: each manual_control_setpoint publication once (the latest one since
+    the last send; vehicles/manual_setpoint.py says when ManualControl publishes), target this
+    system, pitch/roll/throttle/yaw × 1000 in float32 truncated (the throttle in PX4's [-1, 1]
+    range, so MAVSDK's centred 500 comes back as 0), buttons 0: without RC there is no
+    manual_control_switches to copy. The link's first send is the latest publication (its
+    subscription sees it, as a new uORB subscription does); a request sends only a publication
+    the link has not sent yet, as the stream's send() does."""
+    published = getattr(s.vehicle, "manual_control_setpoint", None)
+    if published is None:
+        return None
+    seq, sticks = published(s.now_s)
+    link = s.link
+    if link is not None:
+        if seq == link.manual_seq:
+            return None
+        link.manual_seq = seq
+    return _MANUAL_CONTROL(enc.sysid, i16(f32_mul(sticks.pitch, 1000.0)),
+                           i16(f32_mul(sticks.roll, 1000.0)),
+                           i16(f32_mul(sticks.throttle, 1000.0)),
+                           i16(f32_mul(sticks.yaw, 1000.0)), 0)
 
 
 def rc_channels(enc: Encoder, s: Snapshot) -> None:

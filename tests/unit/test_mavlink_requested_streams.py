@@ -252,3 +252,53 @@ def test_messages_no_px4_stream_sends_cannot_be_set_or_requested(msg_id):
     assert client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id)[0].interval_us == 0
     sent = [m for m in client.run_until(client.now_s + 3.0) if m.get_msgId() == msg_id]
     assert len(sent) == (0 if msg_id == M.MAVLINK_MSG_ID_UTM_GLOBAL_POSITION else 3)
+
+
+def test_setpoint_publications_follow_manual_controls_run():
+    """ManualControl publishes at boot (the zero setpoint, invalid), on every accepted sample,
+    again at each 200 ms timer Run while the sample is younger than COM_RC_LOSS_T, and once
+    more, invalid, at the first Run after that."""
+    from vehicles.manual_control import CENTRED, Sticks
+    from vehicles.manual_setpoint import SetpointPublications
+
+    pub = SetpointPublications(CENTRED)
+    assert (pub.count(10.0, 0.5), pub.sticks) == (1, CENTRED)
+    held = Sticks(pitch=0.5)
+    pub.on_input(1.0, held, 0.5)
+    counts = [pub.count(t, 0.5) for t in (1.0, 1.19, 1.21, 1.41, 1.59, 1.61, 5.0)]
+    assert counts == [2, 2, 3, 4, 4, 5, 5]  # Runs at 1.2 and 1.4 valid, 1.6 invalid, then none
+    assert pub.sticks == held  # the selector keeps the last sticks when the input is lost
+    pub.on_input(6.0, CENTRED, 0.5)
+    assert pub.count(6.0, 0.5) == 6
+    pub.on_input(6.1, CENTRED, 0.5)  # a sample every 100 ms: no timer Run between
+    assert pub.count(6.1, 0.5) == 7
+    assert pub.count(6.3, 1.0) == 7 and pub.count(6.31, 1.0) == 8  # COM_RC_LOSS_T 1 s
+
+
+def test_manual_control_echoes_each_manual_control_setpoint_as_px4():
+    """MANUAL_CONTROL.hpp, once asked: first the boot's zero setpoint, then each stick sample a
+    client sends, in PX4's float32 arithmetic (x 511 → 0.511f → 510; z 45 → throttle -0.91 →
+    -909; MAVSDK's centred 750 → 500), target this system, buttons 0 (no RC switches); after
+    the sender stops, the timer's two republications and the invalid one, then nothing."""
+    from gateway.testing import Sim
+
+    with Sim() as sim:
+        sim.advance(3.0)
+        api = sim.api(0)
+        since = len(api.frames)
+        assert api.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_MANUAL_CONTROL,
+                                50_000) == 0
+        sim.advance(1.0)
+        boot = api.messages("MANUAL_CONTROL", since)
+        assert [(m.target, m.x, m.y, m.z, m.r, m.buttons) for m in boot] == [(1, 0, 0, 0, 0, 0)]
+        since = len(api.frames)
+        samples = [(511, -253, 45, 100), (300, 0, 750, -1000)] * 5
+        for x, y, z, r in samples:  # 10 Hz, as MAVSDK's example sends
+            api.send(api.mav.manual_control_encode(1, x, y, z, r, 0))
+            sim.advance(0.1)
+        sent_at = sim.now
+        sim.advance(2.0)
+        echoed = [(m.x, m.y, m.z, m.r) for m in api.messages("MANUAL_CONTROL", since)]
+        expected = [(510, -252, -909, 100), (300, 0, 500, -1000)] * 5
+        assert echoed == expected + [expected[-1]] * 3, echoed
+        assert sim.now - sent_at > 1.5  # nothing after the invalid publication

@@ -16,6 +16,7 @@ from pymavlink.dialects.v20 import development
 
 from gateway.mavlink.session import LinkKind, Session
 from gateway.mavlink.signing import SigningConfig
+from vehicles.manual_control import Sticks
 from vehicles.nav_rtl import RtlTimeEstimate
 from vehicles.orbit import OrbitStatus
 from vehicles.params import ParamStore
@@ -157,6 +158,8 @@ class FakeVehicle:
         self.home = HomePosition(self.origin, (0.0, 0.0, 0.0), 0.0)
         # RTL has published one estimate (navigator.py): TIME_ESTIMATE_TO_TARGET sends it once
         self.rtl_time_estimate = (1, RtlTimeEstimate(True, 12.5, 113.75))
+        # a client's stick sample, published (MANUAL_CONTROL echoes it once asked)
+        self.manual_control_setpoint = lambda now_s: (2, Sticks(0.25, -0.5, 0.0, 1.0))
 
     def arm(self, now_s: float, forced: bool = False, internal: bool = False) -> CommandResult:
         self.calls.append(("arm", now_s, forced))
