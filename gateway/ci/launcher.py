@@ -45,9 +45,9 @@ STARTED: weakref.WeakSet[CornetDaemon] = weakref.WeakSet()
 
 
 def cornet_command() -> list[str]:
-    """``cornet`` next to this interpreter (a venv's bin/), else ``python -m gateway.cli``."""
+    """``cornet`` next to this interpreter (a venv's bin/), else ``python -m gateway.entry``."""
     exe = Path(sys.executable).with_name("cornet")
-    return [str(exe)] if exe.exists() else [sys.executable, "-m", "gateway.cli"]
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "gateway.entry"]
 
 
 def option(args: Sequence[str], name: str) -> str | None:

@@ -15,7 +15,8 @@ Rules:
 - x → pitch, y → roll, r → yaw, each /1000 when within [-1000, 1000]; z (throttle) is
   [0, 1000] → [-1, 1] (500 = centred, what MAVSDK's 0.5 gives), each in float32 arithmetic as
   PX4 computes it (MANUAL_CONTROL's echo shows them). A field out of its range
-  reads as 0 (centred), as PX4's zero-initialised setpoint does.
+  reads as 0 (centred): PX4's receiver range-checks each field since after v1.15 (v1.15.2
+  passed them on unchecked, e.g. pitch 32.767) and leaves the zero-initialised setpoint's.
 - Every valid message refreshes the input (its loss after COM_RC_LOSS_T is the vehicle's
   business: vehicles/manual_control.py); its source is the link (PX4's data_source
   SOURCE_MAVLINK_0 + the MAVLink instance), so a joystick on another link (QGC on the GCS link,

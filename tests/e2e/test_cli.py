@@ -1,8 +1,10 @@
 """The command line as a user meets it: bad flags, busy ports, clean stop."""
 
+import signal
 import socket
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -54,6 +56,27 @@ def test_ready_then_sigterm_exits_0_quickly():
     took = d.stop_took_s
     assert code == 0, d.log_tail()
     assert took < 2.0
+
+
+@pytest.mark.parametrize("shards", [[], ["--shards", "2"]], ids=["one-process", "shards"])
+def test_ctrl_c_while_starting_exits_130_with_one_line(shards):
+    """A Ctrl-C before the daemon serves ends it as a shell reports an interrupted command
+    (130), saying so in one line, with no traceback. Sharded, the ranks that were still
+    starting end the MPI job with that code; a job already serving stops with 0."""
+    k = free_port_offset(2)
+    proc = subprocess.Popen(cornet_command() + ["run", "--vehicles", "2", "--port-offset",
+                                                str(k), *shards],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(0.3)  # importing: long before it is ready
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert "Traceback" not in out + err, err
+    if not shards:
+        assert proc.returncode == 130, err
+        assert err.strip() == "cornet: interrupted", err
+    else:
+        assert proc.returncode in (0, 130), err
+        assert proc.returncode == 0 or "interrupted" in err, err
 
 
 def test_check_accepts_shipped_scenarios_and_names_bad_keys(tmp_path):

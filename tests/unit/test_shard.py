@@ -62,7 +62,7 @@ def test_a_process_started_by_an_mpi_launcher_is_a_rank():
 def test_the_launcher_runs_the_same_command_line_in_k_plus_one_ranks():
     command = mpiexec_command(3, ["run", "--vehicles", "6", "--shards", "3"])
     assert Path(command[0]).name == "mpiexec" and command[1:3] == ["-n", "4"]
-    assert command[3:] == [sys.executable, "-m", "gateway.cli",
+    assert command[3:] == [sys.executable, "-m", "gateway.entry",
                            "run", "--vehicles", "6", "--shards", "3"]
 
 

@@ -8,7 +8,7 @@ vehicles in its own PyBullet world and event kernel, binds those vehicles' PX4 p
 paces itself on the wall clock — the same ``Daemon`` as one process runs, given
 ``first_vehicle`` and its share of ``vehicles``.
 
-On one machine ``cornet run --shards K`` runs ``mpiexec -n K+1 <python> -m gateway.cli run
+On one machine ``cornet run --shards K`` runs ``mpiexec -n K+1 <python> -m gateway.entry run
 <the same arguments>`` as its child (the mpiexec next to the Python interpreter first: the
 ``mpich`` wheel's, from ``pip install 'cornet[mpi]'``) and stays its parent: it relays SIGINT,
 SIGTERM and SIGUSR1 to mpiexec (which forwards them to every rank), turns SIGHUP — of which
@@ -156,6 +156,11 @@ def serve_rank(config: RunConfig, log_level: str,
         shard_config = replace(config, vehicles=n, first_vehicle=first, shards=1)
         return asyncio.run(work(shard_config, rank - 1, channel))
     except ShardError:
+        raise
+    except KeyboardInterrupt:  # mpiexec's Ctrl-C before this rank's handlers were in place
+        log.error("rank %d interrupted while starting; ending the MPI job", rank)
+        sys.stderr.flush()
+        comm.Abort(130)
         raise
     except BaseException:
         log.exception("rank %d failed; ending the MPI job", rank)

@@ -100,7 +100,7 @@ def mpiexec_command(shards: int, argv: list[str]) -> list[str]:
     if mpiexec is None:
         raise ShardError("--shards needs mpiexec (none next to Python or on PATH): "
                          "pip install 'cornet[mpi]'", 2)
-    return [mpiexec, "-n", str(shards + 1), sys.executable, "-m", "gateway.cli", *argv]
+    return [mpiexec, "-n", str(shards + 1), sys.executable, "-m", "gateway.entry", *argv]
 
 
 def _end_with_parent() -> None:
