@@ -35,24 +35,30 @@ class SetpointPublications(Generic[T]):
     def __init__(self, zero: T) -> None:
         """``zero``: the zero setpoint, which the first Run at boot publishes (invalid)."""
         self._settled = 1
-        self._input_s: float | None = None  # the last accepted sample
+        self.input_s: float | None = None  # when the last accepted sample came
         self.sticks = zero
 
     def on_input(self, now_s: float, sticks: T, timeout_s: float) -> None:
         """An accepted sample at ``now_s``: its Run publishes it."""
         self._settled = self.count(now_s, timeout_s) + 1
-        self._input_s = now_s
+        self.input_s = now_s
         self.sticks = sticks
 
     def count(self, now_s: float, timeout_s: float) -> int:
-        """The publications by ``now_s``: the settled ones, then the timer's Runs since the last
-        sample (strictly before ``now_s``). Each Run while the sample is younger than
-        ``timeout_s`` (COM_RC_LOSS_T) publishes it again, and the first later Run publishes the
-        invalid setpoint."""
-        if self._input_s is None:
-            return self._settled
-        gap_us = _us(now_s - self._input_s)
+        """The publications by ``now_s`` (``latest``'s count)."""
+        return self.latest(now_s, timeout_s)[0]
+
+    def latest(self, now_s: float, timeout_s: float) -> tuple[int, float, bool]:
+        """(how many publications by ``now_s``, when the last one was, whether it was valid):
+        the settled ones, then the timer's Runs since the last sample (strictly before
+        ``now_s``). Each Run while the sample is younger than ``timeout_s`` (COM_RC_LOSS_T)
+        publishes it again, and the first later Run publishes the invalid setpoint."""
+        if self.input_s is None:
+            return self._settled, 0.0, False
+        gap_us = _us(now_s - self.input_s)
         runs = (gap_us - 1) // RUN_PERIOD_US if gap_us > 0 else 0
         timeout_us = _us(timeout_s)
         valid_runs = (timeout_us - 1) // RUN_PERIOD_US if timeout_us > 0 else 0
-        return self._settled + min(runs, valid_runs) + (1 if runs > valid_runs else 0)
+        lost = runs > valid_runs
+        n = min(runs, valid_runs) + (1 if lost else 0)
+        return self._settled + n, self.input_s + n * RUN_PERIOD_US * 1e-6, not lost

@@ -295,17 +295,20 @@ def _control_mode(v: Any, now_us: int) -> tuple:
             bool(bits & _ALT), bool(bits & _CLIMB), termination)
 
 
-def _manual_control(v: Any, now_us: int) -> tuple | None:
-    """The stick input the vehicle flies on (PX4's ManualControl publishes once one came)."""
+def _manual_control(v: Any, now_us: int) -> tuple:
+    """manual_control_setpoint as ManualControl publishes it (vehicles/manual_setpoint.py),
+    stamped with its publication: the zero setpoint, invalid, from boot; each stick sample the
+    vehicle flies on (timestamp_sample: when it came), again at each 200 ms timer Run while it
+    is fresh; once lost, the last sticks marked invalid, then nothing new."""
     manual = v.autopilot.manual
-    if manual.sticks is None:
-        return None
-    now_s = now_us * 1e-6
-    sticks = manual.current(now_s)
-    valid = manual.fresh(now_s, float(v.params["COM_RC_LOSS_T"]))
+    published = manual.setpoint
+    _, at_s, valid = published.latest(now_us * 1e-6, float(v.params["COM_RC_LOSS_T"]))
+    sticks = published.sticks
+    sample_s = published.input_s
     # mavlink_receiver's MANUAL_CONTROL: flaps and aux1-6 0, the buttons passed on
-    return (now_us, valid, sticks.roll, sticks.pitch, sticks.yaw, sticks.throttle, 0.0,
-            *_AUX, manual.moving, sticks.buttons & 0xFFFF)
+    return (round(at_s * 1e6), 0 if sample_s is None else round(sample_s * 1e6), valid,
+            sticks.roll, sticks.pitch, sticks.yaw, sticks.throttle, 0.0, *_AUX, manual.moving,
+            sticks.buttons & 0xFFFF)
 
 
 _AUX = (0.0,) * 6
@@ -407,7 +410,7 @@ TOPICS: tuple[Topic, ...] = (
                                       (F, "pitch"), (F, "yaw"), (F, "throttle"), (F, "flaps"),
                                       *((F, f"aux{i}") for i in range(1, 7)),
                                       (B, "sticks_moving"), ("uint16_t", "buttons")), 0.2,
-          _manual_control),
+          _manual_control, on_change=True, stamped=True),
     VEHICLE_AIR_DATA,
     VEHICLE_MAGNETOMETER,
     *TRUTH_TOPICS,

@@ -325,9 +325,10 @@ def test_an_on_change_topic_with_an_interval_is_looked_at_once_per_interval():
     assert len(reads) == 5 and data.count(logger._prefixes[0]) == 1
 
 
-def test_stick_input_is_logged_once_it_comes(tmp_path):
-    """manual_control_setpoint (200 ms): not in the log before any stick input, then the sticks
-    the vehicle flies on, invalid (and centred) once the input is lost."""
+def test_stick_input_is_logged_as_manual_control_publishes_it(tmp_path):
+    """manual_control_setpoint (200 ms), each record a publication of PX4's ManualControl: the
+    zero setpoint, invalid, from boot; the sticks the vehicle flies on; once the input is lost,
+    one record of the last sticks marked invalid (the selector keeps them), then none."""
     from pymavlink.dialects.v20 import common as M
 
     with Sim(log_dir=tmp_path, params={"SDLOG_MODE": 2}) as sim:
@@ -336,15 +337,23 @@ def test_stick_input_is_logged_once_it_comes(tmp_path):
         for _ in range(20):
             api.send(M.MAVLink_manual_control_message(1, 300, -200, 500, 100, 0b101))
             sim.advance(0.05)
+        last_sample_us = round(sim.now * 1e6) - 50_000
         sim.advance(3.0)  # COM_RC_LOSS_T later: lost
     log = pyulog.ULog(str(sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))[0]))
     sticks = log.get_dataset("manual_control_setpoint").data
-    assert sticks["timestamp"][0] >= 2_000_000
-    assert sticks["valid"][0] == 1 and sticks["pitch"][0] == pytest.approx(0.3)
-    assert sticks["valid"][-1] == 0 and sticks["pitch"][-1] == 0.0
+    assert (sticks["timestamp"][0], sticks["timestamp_sample"][0], sticks["valid"][0]) == (0, 0, 0)
+    assert sticks["pitch"][0] == 0.0 and sticks["throttle"][0] == 0.0
+    assert sticks["timestamp"][1] >= 2_000_000
+    assert sticks["valid"][1] == 1 and sticks["pitch"][1] == pytest.approx(0.3)
+    # the invalid publication, 600 ms after the last sample (Runs at +200 and +400 ms still
+    # valid), is the last record
+    assert sticks["valid"][-1] == 0 and sticks["pitch"][-1] == pytest.approx(0.3)
+    assert sticks["timestamp"][-1] == last_sample_us + 600_000
+    assert sticks["timestamp_sample"][-1] == last_sample_us
+    assert list(sticks["valid"]).count(0) == 2
     # mavlink_receiver: the buttons passed on, flaps and aux channels 0 (Flight Review plots
     # aux1 and aux2 with the sticks)
-    assert sticks["buttons"][0] == 0b101
+    assert sticks["buttons"][1] == 0b101
     assert not any(sticks[f"aux{i}"].any() for i in range(1, 7)) and not sticks["flaps"].any()
 
 
