@@ -36,10 +36,10 @@ from gateway.mavlink.codec import (
     MSG_ID_PROTOCOL_VERSION,
     PROTOCOL_VERSION_PAYLOAD,
 )
-from gateway.mavlink.identity import px4_guid, uid
 from gateway.mavlink.link import LinkContext
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.streams import STREAMS_BY_ID, Scheduler
+from gateway.mavlink.telemetry_version import autopilot_version_payload, storage_information
 from vehicles.types import CommandResult
 
 ACCEPTED = CommandResult.ACCEPTED
@@ -47,24 +47,6 @@ DENIED = CommandResult.DENIED
 FAILED = CommandResult.FAILED
 
 Params = tuple[float, float, float, float, float, float, float]
-
-# STORAGE_INFORMATION of the storage directory's file system (MiB): a host's in PX4 SITL
-STORAGE_TOTAL_MIB = 102400.0
-STORAGE_FREE_MIB = 51200.0
-
-# AUTOPILOT_VERSION as PX4 SITL fills it (MAVLink FTP included: gateway/mavlink/ftp.py).
-CAPABILITIES = 59647
-FLIGHT_SW_VERSION = 0x010F02FF  # v1.15.2 release
-# PX4_GIT_VERSION_BINARY is the first 16 hex digits of the build's git commit as a uint64; ours is
-# a fixed one (the start of SHA-1("CORNET")). mavlink_main.cpp send_autopilot_capabilities keeps
-# its top 5 bytes, puts the vendor version (0 for a release build) in the low 3 and copies the
-# uint64 little-endian. MAVSDK's flight_sw_git_hash prints bytes 3..7 back to front in hex, and
-# (info_impl.cpp swap_and_translate_binary_to_str, its buffer one short) loses the last digit to
-# the terminating NUL, with PX4 as with us: "3fccf9453\0".
-GIT_VERSION_BINARY = 0x3FCCF9453A2543FF
-FLIGHT_CUSTOM_VERSION = list((GIT_VERSION_BINARY & 0xFFFFFFFFFF000000).to_bytes(8, "little"))
-MIDDLEWARE_CUSTOM_VERSION = FLIGHT_CUSTOM_VERSION  # the same masked hash, no vendor version
-
 
 class MetadataFiles(Protocol):
     """What COMPONENT_METADATA points at (gateway/onboard/metadata.py serves it over FTP)."""
@@ -125,10 +107,9 @@ class MessageRequests:
         id is DENIED. MAV_CMD_REQUEST_STORAGE_INFORMATION asks for storage 0."""
         if c_int(roundf(storage_id)) not in (0, 1):
             return DENIED
-        used = STORAGE_TOTAL_MIB - STORAGE_FREE_MIB
-        self.send(self.encoder.pack(M.MAVLink_storage_information_message,
-                                    int(now_s * 1000.0) & 0xFFFFFFFF, 1, 1, 2,
-                                    STORAGE_TOTAL_MIB, used, STORAGE_FREE_MIB, 0.0, 0.0, 0, b"", 0))
+        self.send(self.encoder.frame(M.MAVLINK_MSG_ID_STORAGE_INFORMATION,
+                                     M.MAVLink_storage_information_message.crc_extra,
+                                     storage_information(self.encoder, self.snapshot(now_s))))
         return ACCEPTED
 
     def available_modes(self, param2: float) -> int:
@@ -196,11 +177,9 @@ class MessageRequests:
         return ACCEPTED
 
     def autopilot_version(self) -> bytes:
-        return self.encoder.pack(
-            M.MAVLink_autopilot_version_message, CAPABILITIES, FLIGHT_SW_VERSION,
-            FLIGHT_SW_VERSION, 0, 0, FLIGHT_CUSTOM_VERSION, MIDDLEWARE_CUSTOM_VERSION, [0] * 8,
-            0, 0,
-            uid(self.sysid), px4_guid(self.sysid))
+        return self.encoder.frame(M.MAVLINK_MSG_ID_AUTOPILOT_VERSION,
+                                  M.MAVLink_autopilot_version_message.crc_extra,
+                                  autopilot_version_payload(self.sysid))
 
 
 def roundf(value: float) -> float:

@@ -11,7 +11,9 @@ Rules:
   Mavlink::configure_stream finds it) but HEARTBEAT, whose rate is fixed. Messages PX4 has no
   stream for (RAW_IMU, ACTUATOR_CONTROL_TARGET, UTM_GLOBAL_POSITION — which PX4 #21663 took out
   of the list before v1.15 — MISSION_CURRENT, which the mission manager sends on its own) FAIL
-  as in PX4.
+  as in PX4. PROTOCOL_VERSION and COMPONENT_INFORMATION/METADATA, streams of PX4's that
+  pymavlink's dialect lacks, answer requests only (command_requests.py); PX4 streams the first
+  at a set rate and never the other two.
 - Due streams come out in table order, so a wake-up's frames are always in the same order.
 - A ``silent`` stream is one whose uORB topic nothing publishes in this simulation, so its
   send() never sends: RC_CHANNELS (no RC input), DISTANCE_SENSOR (no range finder),
@@ -94,6 +96,7 @@ from gateway.mavlink.telemetry_requested import (
     scaled_imu,
     unpublished,
 )
+from gateway.mavlink.telemetry_version import autopilot_version, storage_information
 from gateway.mavlink.wip_dialect import (
     ESC_INFO,
     ESC_STATUS,
@@ -191,6 +194,9 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, actuator_output_status, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION, flight_information, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_MANUAL_CONTROL, manual_control, 0.0, 0.0),  # the sticks' echo
+    # What a request answers, sent at every interval once a client sets one.
+    StreamSpec(M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, autopilot_version, 0.0, 0.0),
+    StreamSpec(M.MAVLINK_MSG_ID_STORAGE_INFORMATION, storage_information, 0.0, 0.0),
     # Streams whose topic nothing publishes here (the module docstring). px4-rc.mavlink sets
     # RC_CHANNELS to 20 Hz and OPTICAL_FLOW_RAD to 10 Hz on the GCS link.
     # STATUSTEXT: statustext.py sends the texts at this stream's interval.

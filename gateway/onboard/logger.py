@@ -45,7 +45,7 @@ from typing import Any
 
 from pymavlink.dialects.v20 import common as M
 
-from gateway.mavlink.command_requests import FLIGHT_SW_VERSION
+from gateway.mavlink.telemetry_version import FLIGHT_SW_VERSION
 from gateway.mavlink.vehicle_port import VehiclePort
 from gateway.onboard import metadata, ulog
 from gateway.onboard.logged_topics import (

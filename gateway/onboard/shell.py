@@ -29,8 +29,8 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from gateway.mavlink.available_modes import NAV_STATE_NAMES
-from gateway.mavlink.command_requests import GIT_VERSION_BINARY
 from gateway.mavlink.identity import px4_guid
+from gateway.mavlink.telemetry_version import GIT_VERSION_BINARY
 from gateway.onboard import mavlink_status
 from gateway.onboard.listener import print_message
 from gateway.onboard.logged_topics import NESTED_FORMATS, TOPICS

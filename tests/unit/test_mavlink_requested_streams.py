@@ -302,3 +302,31 @@ def test_manual_control_echoes_each_manual_control_setpoint_as_px4():
         expected = [(510, -252, -909, 100), (300, 0, 500, -1000)] * 5
         assert echoed == expected + [expected[-1]] * 3, echoed
         assert sim.now - sent_at > 1.5  # nothing after the invalid publication
+
+
+@pytest.mark.parametrize("kind", [LinkKind.GCS, LinkKind.API], ids=["gcs", "api"])
+def test_autopilot_version_and_storage_information_stream_at_a_set_rate(kind):
+    """PX4's stream list has AUTOPILOT_VERSION (send_autopilot_capabilities at every interval)
+    and STORAGE_INFORMATION (a stream object's storage 0: the first storage): not streamed by
+    default, SET_MESSAGE_INTERVAL ACCEPTED, then each at the rate, as a request answers it."""
+    vehicle, session, client = make(kind)
+    vehicle.become_ready()
+    for msg_id, name in ((M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, "AUTOPILOT_VERSION"),
+                         (M.MAVLINK_MSG_ID_STORAGE_INFORMATION, "STORAGE_INFORMATION")):
+        assert client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id)[0].interval_us == 0
+        assert of_type(client.run_until(client.now_s + 2.0), name) == []
+        asked = of_type(client.command_long(M.MAV_CMD_REQUEST_MESSAGE, msg_id), name)
+        assert _enable(client, msg_id, 2.0) == ACCEPTED
+        assert client.command_long(M.MAV_CMD_GET_MESSAGE_INTERVAL, msg_id)[0].interval_us \
+            == 500_000
+        got = of_type(client.run_until(client.now_s + 3.0), name)
+        assert abs(len(got) - 6) <= 1
+        first, last = asked[0].to_dict(), got[-1].to_dict()
+        if name == "STORAGE_INFORMATION":
+            assert last["time_boot_ms"] > first["time_boot_ms"]
+            assert (last["storage_id"], last["storage_count"], last["status"]) == (1, 1, 2)
+            first.pop("time_boot_ms"), last.pop("time_boot_ms")
+        assert last == first  # what a request answers
+        stop = client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, -1)  # -1: stop
+        assert acks(stop)[0].result == ACCEPTED
+        assert of_type(client.run_until(client.now_s + 2.0), name) == []
