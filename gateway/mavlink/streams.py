@@ -88,6 +88,7 @@ from gateway.mavlink.telemetry_link import (
 from gateway.mavlink.telemetry_odid import open_drone_id_location, open_drone_id_system
 from gateway.mavlink.telemetry_requested import (
     actuator_output_status,
+    autopilot_state_for_gimbal_device,
     distance_sensor,
     flight_information,
     hil_state_quaternion,
@@ -194,6 +195,8 @@ STREAMS: tuple[StreamSpec, ...] = (
     StreamSpec(M.MAVLINK_MSG_ID_ACTUATOR_OUTPUT_STATUS, actuator_output_status, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_FLIGHT_INFORMATION, flight_information, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_MANUAL_CONTROL, manual_control, 0.0, 0.0),  # the sticks' echo
+    StreamSpec(M.MAVLINK_MSG_ID_AUTOPILOT_STATE_FOR_GIMBAL_DEVICE,
+               autopilot_state_for_gimbal_device, 0.0, 0.0),
     # What a request answers, sent at every interval once a client sets one.
     StreamSpec(M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, autopilot_version, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_STORAGE_INFORMATION, storage_information, 0.0, 0.0),
@@ -236,7 +239,6 @@ STREAMS: tuple[StreamSpec, ...] = (
         (M.MAVLINK_MSG_ID_MAG_CAL_REPORT, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_GIMBAL_MANAGER_INFORMATION, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_GIMBAL_DEVICE_INFORMATION, 0.0, 0.0),
-        (M.MAVLINK_MSG_ID_AUTOPILOT_STATE_FOR_GIMBAL_DEVICE, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_HIL_ACTUATOR_CONTROLS, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_HIGH_LATENCY2, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_OPEN_DRONE_ID_BASIC_ID, 0.0, 0.0),

@@ -1,6 +1,6 @@
 """Messages PX4 SITL sends only when a client asks for them (SET_MESSAGE_INTERVAL), from a
 ``Snapshot`` of the vehicle: SCALED_IMU, RC_CHANNELS, DISTANCE_SENSOR, HIL_STATE_QUATERNION,
-ACTUATOR_OUTPUT_STATUS, MANUAL_CONTROL.
+ACTUATOR_OUTPUT_STATUS, MANUAL_CONTROL, AUTOPILOT_STATE_FOR_GIMBAL_DEVICE.
 
 Source: PX4's stream classes src/modules/mavlink/streams/<MESSAGE>.hpp. Each is compiled into
 SITL, so MavlinkReceiver::set_message_interval accepts it, and it sends only when its uORB topic
@@ -22,6 +22,8 @@ from pymavlink.dialects.v20 import common as M
 from gateway.mavlink.codec import Encoder, f32_mul, i16, i32, payload_of
 from gateway.mavlink.snapshot import Snapshot
 from gateway.mavlink.telemetry import G, imu_sample
+from gateway.mavlink.telemetry_estimator import gps_ctrl_of, solution_status
+from vehicles.types import LandedState
 
 # actuator_outputs.noutputs: MixingOutput publishes all of its channels (MixingOutput::
 # MAX_ACTUATORS, the gz bridge's ESC output module), the unassigned ones at their disarmed 0.
@@ -31,6 +33,7 @@ _HIL_STATE_QUATERNION = payload_of(M.MAVLink_hil_state_quaternion_message)
 _ACTUATOR_OUTPUT_STATUS = payload_of(M.MAVLink_actuator_output_status_message)
 _FLIGHT_INFORMATION = payload_of(M.MAVLink_flight_information_message)
 _MANUAL_CONTROL = payload_of(M.MAVLink_manual_control_message)
+_AUTOPILOT_STATE_FOR_GIMBAL_DEVICE = payload_of(M.MAVLink_autopilot_state_for_gimbal_device_message)
 
 
 def scaled_imu(enc: Encoder, s: Snapshot) -> bytes:
@@ -67,6 +70,24 @@ def manual_control(enc: Encoder, s: Snapshot) -> bytes | None:
                            i16(f32_mul(sticks.roll, 1000.0)),
                            i16(f32_mul(sticks.throttle, 1000.0)),
                            i16(f32_mul(sticks.yaw, 1000.0)), 0)
+
+
+def autopilot_state_for_gimbal_device(enc: Encoder, s: Snapshot) -> bytes:
+    """AUTOPILOT_STATE_FOR_GIMBAL_DEVICE.hpp, on each vehicle_attitude (a new one at any rate):
+    target 0/0 (PX4's TODO), time_boot_us the attitude's timestamp, its quaternion, the local
+    velocity, vehicle_attitude_setpoint's yaw_sp_move_rate as the feed-forward yaw rate, EKF2's
+    solution status flags, landed as on the ground or in the air (take-off and landing count as
+    in the air: PX4 reads only vehicle_land_detected.landed); the delays and angular_velocity_z
+    0, as PX4 leaves them."""
+    kin = s.kin
+    targets = s.targets
+    e = s.sample.estimator
+    flags = 0 if e is None else solution_status(e, gps_ctrl_of(s.vehicle.params))
+    landed = s.status.landed_state is LandedState.ON_GROUND
+    return _AUTOPILOT_STATE_FOR_GIMBAL_DEVICE(
+        0, 0, s.time_usec, kin.attitude_q, 0, *kin.velocity_ned_mps, 0,
+        0.0 if targets is None else targets.yawspeed_radps, flags,
+        LandedState.ON_GROUND if landed else LandedState.IN_AIR)
 
 
 def rc_channels(enc: Encoder, s: Snapshot) -> None:

@@ -330,3 +330,33 @@ def test_autopilot_version_and_storage_information_stream_at_a_set_rate(kind):
         stop = client.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL, msg_id, -1)  # -1: stop
         assert acks(stop)[0].result == ACCEPTED
         assert of_type(client.run_until(client.now_s + 2.0), name) == []
+
+
+def test_autopilot_state_for_gimbal_device_as_px4_fills_it():
+    """AUTOPILOT_STATE_FOR_GIMBAL_DEVICE.hpp once asked: the attitude (the same quaternion and
+    instant as ATTITUDE_QUATERNION), the local velocity, the solution flags ESTIMATOR_STATUS
+    carries, on the ground (1) then in the air (2, take-off included), target 0/0, delays 0."""
+    from gateway.testing import Sim
+
+    with Sim() as sim:
+        sim.advance(6.0)
+        api = sim.api(0)
+        assert api.command_long(M.MAV_CMD_SET_MESSAGE_INTERVAL,
+                                M.MAVLINK_MSG_ID_AUTOPILOT_STATE_FOR_GIMBAL_DEVICE, 100_000) == 0
+        since = len(api.frames)
+        sim.advance(1.0)
+        got = api.messages("AUTOPILOT_STATE_FOR_GIMBAL_DEVICE", since)
+        assert abs(len(got) - 10) <= 1
+        ground = got[-1]
+        quats = {m.time_boot_ms * 1000: m for m in api.messages("ATTITUDE_QUATERNION", since)}
+        att = quats[ground.time_boot_us]
+        assert list(ground.q) == pytest.approx([att.q1, att.q2, att.q3, att.q4])
+        status = api.messages("ESTIMATOR_STATUS", since)[-1]
+        assert ground.estimator_status == status.flags
+        assert (ground.target_system, ground.target_component, ground.landed_state) == (0, 0, 1)
+        assert (ground.q_estimated_delay_us, ground.v_estimated_delay_us) == (0, 0)
+        assert api.arm() == 0 and api.takeoff() == 0
+        sim.run_until(lambda: sim.state(0).position_ned_m[2] < -1.0, 20.0)
+        climbing = api.messages("AUTOPILOT_STATE_FOR_GIMBAL_DEVICE")[-1]
+        assert climbing.landed_state == 2 and climbing.vz < -0.3
+        assert math.isfinite(climbing.feed_forward_angular_velocity_z)
