@@ -77,6 +77,11 @@ _F32 = struct.Struct("<f")
 _f32_pack, _f32_unpack = _F32.pack, _F32.unpack
 
 
+def f32(value: float) -> float:
+    """``value`` rounded to float32, as PX4 stores it (finite, within the float32 range)."""
+    return _f32_unpack(_f32_pack(value))[0]
+
+
 def f32_mul(value: float, factor: float) -> float:
     """``value * factor`` as PX4 computes it on a float field: both in float32, the product
     rounded to float32. A C conversion of the product to an integer then sees what PX4 sees

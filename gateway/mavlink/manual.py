@@ -26,28 +26,22 @@ Rules:
 
 from __future__ import annotations
 
-import struct
 from typing import Any
 
+from gateway.mavlink.codec import f32
 from gateway.mavlink.link import LinkContext
 from gateway.mavlink.timesync import Timesync
 from vehicles.manual_control import Sticks
 
-_F32 = struct.Struct("<f")
-
-
-def _f32(value: float) -> float:
-    return _F32.unpack(_F32.pack(value))[0]
-
 
 def _axis(value: int) -> float:
-    return _f32(value / 1000.0) if -1000 <= value <= 1000 else 0.0  # x / 1000.f
+    return f32(value / 1000.0) if -1000 <= value <= 1000 else 0.0  # x / 1000.f
 
 
 def sticks_of(msg: Any) -> Sticks:
     """The float32 values PX4 computes: x / 1000.f, and the throttle (z / 1000.f) * 2.f - 1.f."""
     z = msg.z
-    throttle = _f32(_f32(z / 1000.0) * 2.0 - 1.0) if 0 <= z <= 1000 else 0.0
+    throttle = f32(f32(z / 1000.0) * 2.0 - 1.0) if 0 <= z <= 1000 else 0.0
     return Sticks(pitch=_axis(msg.x), roll=_axis(msg.y), throttle=throttle, yaw=_axis(msg.r),
                   buttons=int(msg.buttons))
 
