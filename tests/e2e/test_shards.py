@@ -456,6 +456,72 @@ def test_a_rank_signalled_after_the_job_stopped_still_exits_0(daemon_factory):
     assert any("stopping after" in ln and "shards=2" in ln for ln in d.stderr_lines), d.log_tail()
 
 
+def _started_job(extra: tuple[str, ...] = ()) -> tuple[subprocess.Popen, float]:
+    """``cornet run --shards 2`` started as a user starts it, returned as soon as its launcher
+    has started mpiexec (the ranks' interpreters are then starting): (process, that moment)."""
+    offset = free_port_offset()
+    proc = subprocess.Popen(
+        [*cornet_command(), "run", "--vehicles", "2", "--shards", "2",
+         "--port-offset", str(offset), *extra],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline:
+        with contextlib.suppress(OSError):
+            if Path(f"/proc/{proc.pid}/task/{proc.pid}/children").read_text().split():
+                return proc, time.monotonic()
+        time.sleep(0.002)
+    proc.kill()
+    raise AssertionError("the launcher never started mpiexec")
+
+
+def _communicate(proc: subprocess.Popen) -> tuple[str, str]:
+    try:
+        return proc.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        raise AssertionError(f"the job did not end: {err[-3000:]}") from None
+
+
+@pytest.mark.parametrize("signals", [("SIGINT",), ("SIGTERM",), ("SIGUSR1", "SIGHUP", "SIGINT")])
+@pytest.mark.parametrize("after_s", [0.0, 0.15, 0.4])
+def test_a_signal_while_the_ranks_start_is_held_until_they_can_take_it(signals, after_s):
+    """Ctrl-C (or systemd's SIGTERM, or a SIGHUP/SIGUSR1) right after `cornet run --shards 2`
+    starts, while the ranks' interpreters are still starting: the launcher holds it until every
+    rank's handlers are in place, then relays it. The job stops as a running one does, exit 0,
+    with no "Fatal Python error", traceback or failed rank (it used to end in those, exit 2 or
+    a signal); a SIGUSR1 or SIGHUP held that way does not stop it."""
+    proc, started = _started_job()
+    with proc:
+        time.sleep(max(0.0, started + after_s - time.monotonic()))
+        for name in signals[:-1]:
+            proc.send_signal(getattr(signal, name))
+        if len(signals) > 1:  # the job outlives a SIGUSR1 and a SIGHUP, relayed once armed
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                proc.wait(timeout=4)
+                raise AssertionError(f"exit {proc.returncode} on {signals[:-1]}: "
+                                     f"{proc.stderr.read()[-3000:]}")
+        proc.send_signal(getattr(signal, signals[-1]))
+        _, err = _communicate(proc)
+    assert proc.returncode == 0, err[-3000:]
+    for bad in ("Fatal Python error", "Traceback", "BAD TERMINATION", "KeyboardInterrupt"):
+        assert bad not in err, err[-3000:]
+    assert any("stopping after" in ln and "shards=2" in ln for ln in err.splitlines()), err[-3000:]
+
+
+def test_a_second_ctrl_c_while_the_ranks_start_is_relayed_at_once():
+    """A user who presses Ctrl-C again while the first one is held: both relayed at once (a
+    rank that hangs while starting must not keep the job), and the ranks end as a Ctrl-C in
+    their start ends them: the job is interrupted (not the clean stop, exit 0, of one)."""
+    proc, _ = _started_job()
+    with proc:
+        proc.send_signal(signal.SIGINT)
+        time.sleep(0.01)
+        proc.send_signal(signal.SIGINT)
+        _, err = _communicate(proc)
+    assert proc.returncode != 0, err[-3000:]
+
+
 CHANNEL_SCRIPT = """
 import asyncio, socket, sys, time
 from mpi4py import MPI

@@ -1,3 +1,4 @@
+import importlib
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -91,3 +92,58 @@ def test_a_rank_that_fails_ends_the_job(monkeypatch, capsys):
     launch.end_job_if_rank(ValueError("boom"))
     assert aborted == [2, 1]
     assert "ValueError: boom" in capsys.readouterr().err
+
+
+class _Job:
+    def __init__(self) -> None:
+        self.sent: list[int] = []
+
+    def send_signal(self, signum: int) -> None:
+        self.sent.append(signum)
+
+
+def test_the_launcher_holds_signals_until_every_rank_is_armed(tmp_path, monkeypatch):
+    """launch._Relay: a signal that comes while a rank is still starting waits until every rank
+    has said (mark_armed) that its handlers are in place, then goes out in order; a SIGHUP goes
+    out as SIGUSR1 once the reload flag counts it; afterwards signals go out at once."""
+    import signal
+
+    L = importlib.import_module("gateway.daemon.shard.launch")  # the module, not launch()
+
+    armed = tmp_path / "armed"
+    armed.mkdir()
+    flag = str(tmp_path / "reload")
+    relay = L._Relay(3, flag, str(armed))
+    relay.job = job = _Job()
+    relay._on_signal(signal.SIGHUP, None)
+    relay._on_signal(signal.SIGINT, None)
+    relay.poll()
+    assert job.sent == [] and not (tmp_path / "reload").exists()
+    for pid in (11, 12, 12):  # a rank that says it twice counts once
+        monkeypatch.setattr(L.os, "getpid", lambda pid=pid: pid)
+        L.mark_armed({L.ARMED_DIR_VARIABLE: str(armed)})
+    relay.poll()
+    assert job.sent == []  # two of three
+    monkeypatch.setattr(L.os, "getpid", lambda: 13)
+    L.mark_armed({L.ARMED_DIR_VARIABLE: str(armed)})
+    relay.poll()
+    assert job.sent == [signal.SIGUSR1, signal.SIGINT]
+    assert (tmp_path / "reload").read_text() == "1"
+    relay._on_signal(signal.SIGHUP, None)
+    assert job.sent[-1] == signal.SIGUSR1 and (tmp_path / "reload").read_text() == "2"
+    L.mark_armed({})  # outside a launched job: nothing
+    assert len(list(armed.iterdir())) == 3
+
+
+def test_a_second_ctrl_c_goes_out_at_once_with_what_was_held(tmp_path):
+    import signal
+
+    L = importlib.import_module("gateway.daemon.shard.launch")  # the module, not launch()
+
+    relay = L._Relay(3, str(tmp_path / "reload"), str(tmp_path))
+    relay.job = job = _Job()
+    relay._on_signal(signal.SIGUSR1, None)
+    relay._on_signal(signal.SIGTERM, None)
+    assert job.sent == []
+    relay._on_signal(signal.SIGINT, None)
+    assert job.sent == [signal.SIGUSR1, signal.SIGTERM, signal.SIGINT]

@@ -13,6 +13,7 @@ import sys
 import tempfile
 import traceback
 import uuid
+from collections.abc import Callable
 from pathlib import Path
 
 from gateway.daemon.config import RunConfig
@@ -21,6 +22,8 @@ from gateway.daemon.sdnotify import socket_address
 MPI_RANK_VARIABLES = ("PMI_RANK", "OMPI_COMM_WORLD_RANK", "PMIX_RANK")
 MPI_MISSING = "--shards needs MPI (mpi4py and an MPI library): pip install 'cornet[mpi]'"
 RELOAD_FLAG_VARIABLE = "CORNET_RELOAD_FLAG"  # the job's reload flag file (shard/reload.py)
+ARMED_DIR_VARIABLE = "CORNET_ARMED_DIR"  # where the ranks say their handlers are in place
+POLL_S = 0.05  # how often the launcher looks for held signals to relay
 
 
 class ShardError(RuntimeError):
@@ -111,43 +114,102 @@ def _end_with_parent() -> None:
         ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
 
 
+def mark_armed(environ: dict[str, str] | None = None) -> None:
+    """In a rank of a job ``launch`` started: its signal handlers are in place (a file of its
+    own in ``$CORNET_ARMED_DIR``), so the launcher may relay signals to it from now on."""
+    env = os.environ if environ is None else environ
+    directory = env.get(ARMED_DIR_VARIABLE)
+    if directory:
+        with contextlib.suppress(OSError):
+            Path(directory, f"rank-{os.getpid()}").touch()
+
+
+class _Relay:
+    """The launcher's signals, relayed to the job (mpiexec forwards them to every rank) once
+    every rank is armed (``mark_armed``). A rank still starting has Python's default handlers,
+    or none yet: a SIGINT there ends it in a KeyboardInterrupt or Python's "Fatal Python
+    error" while initialising, a SIGUSR1 or SIGTERM kills it, and mpiexec reports the job as
+    failed. So a signal that comes before that is held and relayed as soon as every rank is
+    armed, in the order it came; a second SIGINT or SIGTERM while one is held is relayed at
+    once with everything held (the user insists: a rank that hangs while starting is ended).
+    SIGHUP, of which mpiexec would die, is relayed as SIGUSR1 after the job's reload flag
+    counts it (gateway/daemon/shard/reload.py)."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGHUP)
+
+    def __init__(self, ranks: int, flag: str, armed_dir: str) -> None:
+        self.ranks = ranks
+        self.flag = flag
+        self.armed_dir = armed_dir
+        self.job: subprocess.Popen | None = None
+        self.held: list[int] = []
+        self.hups = 0
+        self._all_armed = False
+
+    def install(self) -> None:
+        for sig in self.SIGNALS:
+            signal.signal(sig, self._on_signal)
+
+    def uninstall(self) -> None:
+        for sig in self.SIGNALS:
+            signal.signal(sig, signal.SIG_DFL)
+
+    def armed(self) -> bool:
+        if not self._all_armed:
+            with contextlib.suppress(OSError):
+                self._all_armed = len(os.listdir(self.armed_dir)) >= self.ranks
+        return self._all_armed
+
+    def _on_signal(self, signum: int, frame: object) -> None:
+        insists = signum in (signal.SIGINT, signal.SIGTERM) and any(
+            s in (signal.SIGINT, signal.SIGTERM) for s in self.held)
+        self.held.append(signum)
+        if insists or self.armed():
+            self.release()
+
+    def poll(self) -> None:
+        """Held signals relayed if every rank is armed now (called while the job runs)."""
+        if self.held and self.armed():
+            self.release()
+
+    def release(self) -> None:
+        held, self.held = self.held, []
+        for signum in held:
+            if signum == signal.SIGHUP:
+                self.hups += 1
+                with open(self.flag + ".tmp", "w") as f:
+                    f.write(str(self.hups))
+                os.replace(self.flag + ".tmp", self.flag)
+                signum = signal.SIGUSR1
+            if self.job is not None:
+                with contextlib.suppress(ProcessLookupError):
+                    self.job.send_signal(signum)
+
+
 def launch(shards: int, argv: list[str]) -> int:
     """Run the MPI job as a child, in a session of its own, and relay the signals this process
-    gets to mpiexec: SIGINT, SIGTERM and SIGUSR1 as they are (mpiexec forwards them to every
-    rank); SIGHUP — of which mpiexec would die — as SIGUSR1 after creating the job's reload flag
-    (gateway/daemon/shard/reload.py). The job's exit code (128 + n if it died of signal n).
-    Raises ShardError."""
+    gets to mpiexec (``_Relay``): SIGINT, SIGTERM and SIGUSR1 as they are (mpiexec forwards
+    them to every rank); SIGHUP as SIGUSR1 with the job's reload flag. The job's exit code
+    (128 + n if it died of signal n). Raises ShardError."""
     command = mpiexec_command(shards, argv)
-    flag_dir = tempfile.mkdtemp(prefix="cornet-")
-    flag = os.path.join(flag_dir, "reload")
+    job_dir = tempfile.mkdtemp(prefix="cornet-")
+    flag = os.path.join(job_dir, "reload")
+    armed_dir = os.path.join(job_dir, "armed")
+    os.mkdir(armed_dir)
     sys.stdout.flush()
     sys.stderr.flush()
-    relayed = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1, signal.SIGHUP)
-    job: list[subprocess.Popen] = []
-    hups = [0]
-
-    def relay(signum: int, frame: object) -> None:
-        if signum == signal.SIGHUP:
-            hups[0] += 1
-            with open(flag + ".tmp", "w") as f:
-                f.write(str(hups[0]))
-            os.replace(flag + ".tmp", flag)
-            signum = signal.SIGUSR1
-        if job:
-            with contextlib.suppress(ProcessLookupError):
-                job[0].send_signal(signum)
-
-    for sig in relayed:
-        signal.signal(sig, relay)
+    relay = _Relay(shards + 1, flag, armed_dir)
+    relay.install()
     notify, env = _notify_relay(dict(os.environ))
     try:
-        job.append(subprocess.Popen(command, env={**env, RELOAD_FLAG_VARIABLE: flag},
-                                    start_new_session=True, preexec_fn=_end_with_parent))
-        code = _wait(job[0], notify, os.environ.get("NOTIFY_SOCKET", ""))
+        relay.job = subprocess.Popen(
+            command, env={**env, RELOAD_FLAG_VARIABLE: flag, ARMED_DIR_VARIABLE: armed_dir},
+            start_new_session=True, preexec_fn=_end_with_parent)
+        relay.poll()  # a signal that came before the job existed
+        code = _wait(relay.job, relay.poll, notify, os.environ.get("NOTIFY_SOCKET", ""))
     finally:
-        for sig in relayed:
-            signal.signal(sig, signal.SIG_DFL)
-        shutil.rmtree(flag_dir, ignore_errors=True)
+        relay.uninstall()
+        shutil.rmtree(job_dir, ignore_errors=True)
         if notify is not None:
             notify.close()
     return code if code >= 0 else 128 - code
@@ -169,20 +231,25 @@ def _notify_relay(environ: dict[str, str]) -> tuple[socket.socket | None, dict[s
     return relay, env
 
 
-def _wait(job: subprocess.Popen, notify: socket.socket | None, notify_socket: str) -> int:
-    """The job's exit code; meanwhile, the ranks' notifications relayed to systemd."""
+def _wait(job: subprocess.Popen, poll: Callable[[], None], notify: socket.socket | None,
+          notify_socket: str) -> int:
+    """The job's exit code; meanwhile ``poll()`` every POLL_S, and the ranks' notifications
+    relayed to systemd."""
     address = socket_address(notify_socket)
     if notify is None or address is None:
-        return job.wait()
+        while True:
+            try:
+                return job.wait(POLL_S)
+            except subprocess.TimeoutExpired:
+                poll()
     with socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM) as out:
         while True:
             code = job.poll()
-            while select.select([notify], [], [], 0.0 if code is not None else 0.2)[0]:
+            while select.select([notify], [], [], 0.0 if code is not None else POLL_S)[0]:
                 with contextlib.suppress(OSError):  # the last ones too (STOPPING=1)
                     out.sendto(notify.recv(4096), address)
                 if code is None:
                     break
             if code is not None:
                 return code
-
-
+            poll()

@@ -8,6 +8,10 @@ SIGTERM's default action) and mpiexec would report the whole job as failed. A ra
 installs its handlers with ``signal.signal`` (each hands its work to the loop), and when its run
 has ended it ignores them: the coordinator has already decided that everyone stops, and a rank
 that hangs is ended by mpiexec (a second Ctrl-C) or MPI_Abort, not by these signals.
+
+Before its handlers are in place a rank would die of those signals too, so it tells the launcher
+when they are (``launch.mark_armed``): ``cornet run --shards K`` holds a signal that comes while
+a rank is still starting, and relays it once every rank can take it.
 """
 
 from __future__ import annotations
@@ -16,6 +20,8 @@ import asyncio
 import signal
 from collections.abc import Callable
 from types import FrameType
+
+from gateway.daemon.shard.launch import mark_armed
 
 __all__ = ["RankSignals"]
 
@@ -31,6 +37,7 @@ class RankSignals:
         self._closed = False
         for sig in self._handlers:
             signal.signal(sig, self._on_signal)
+        mark_armed()  # the launcher relays signals once every rank is here
 
     def _on_signal(self, signum: int, frame: FrameType | None) -> None:
         # Python runs this in the main thread between bytecodes, also while the loop waits in
