@@ -123,6 +123,7 @@ class Session:
         self.samples = SampleCache()
         self.tstatus = TelemetryStatus(self.stats)
         self.link_telemetry = LinkTelemetry(self.tstatus)
+        self.link_telemetry.scheduler = self.scheduler
         ctx = LinkContext(vehicle, kind, self.sysid, self.encoder, self.stats, self.send,
                           self._other_target)
         scheduler = self.scheduler

@@ -91,7 +91,7 @@ class LinkTelemetry:
     """What one link remembers of the streams it sent (the fields of PX4's stream objects)."""
 
     __slots__ = ("ping_seq", "origin_sent", "origin_time_us", "gps_sent_us", "rtl_estimate_seq",
-                 "manual_seq", "tstatus")
+                 "manual_seq", "tstatus", "scheduler", "hl2")
 
     def __init__(self, tstatus: Any = None) -> None:
         """``tstatus``: the link's telemetry_status (link_status.TelemetryStatus; None: none,
@@ -103,6 +103,8 @@ class LinkTelemetry:
         self.origin_time_us = 0  # when the origin became global (0: not yet)
         self.rtl_estimate_seq = 0  # the last rtl_time_estimate publication sent
         self.manual_seq = 0  # the last manual_control_setpoint publication sent
+        self.scheduler: Any = None  # the link's streams (streams.Scheduler; None: a one-off)
+        self.hl2: Any = None  # its HIGH_LATENCY2 stream's state (telemetry_high_latency.py)
 
 
 class SampleCache:

@@ -79,6 +79,8 @@ from gateway.mavlink.telemetry_control import (
     servo_output_raw,
 )
 from gateway.mavlink.telemetry_estimator import estimator_status, vibration, wind_cov
+from gateway.mavlink.telemetry_high_latency import SAMPLE_PERIOD_US as HL2_SAMPLE_US
+from gateway.mavlink.telemetry_high_latency import high_latency2
 from gateway.mavlink.telemetry_link import (
     gps_global_origin,
     ping,
@@ -118,6 +120,9 @@ class StreamSpec:
     data_hz: float = 0.0  # at UNLIMITED rate: how often its topic updates, which it runs at
     boot: bool = False  # configured by Mavlink::task_main on every link, not by the mode
     stream: bool = True  # False: sent by another part of PX4's mavlink (no stream to set)
+    # update_data's cadence (µs; 0: none): a stream that samples its topics between sends is
+    # woken this often while it exists, and its builder decides when it sends
+    sample_us: int = 0
     # Bound ahead for the framing (Encoder.frame_streams): CRC_EXTRA, the header's id fields.
     crc_extra: int = field(init=False)
     id_low16: int = field(init=False)
@@ -200,6 +205,8 @@ STREAMS: tuple[StreamSpec, ...] = (
     # What a request answers, sent at every interval once a client sets one.
     StreamSpec(M.MAVLINK_MSG_ID_AUTOPILOT_VERSION, autopilot_version, 0.0, 0.0),
     StreamSpec(M.MAVLINK_MSG_ID_STORAGE_INFORMATION, storage_information, 0.0, 0.0),
+    # Samples its topics between sends (telemetry_high_latency.py)
+    StreamSpec(M.MAVLINK_MSG_ID_HIGH_LATENCY2, high_latency2, 0.0, 0.0, sample_us=HL2_SAMPLE_US),
     # Streams whose topic nothing publishes here (the module docstring). px4-rc.mavlink sets
     # RC_CHANNELS to 20 Hz and OPTICAL_FLOW_RAD to 10 Hz on the GCS link.
     # STATUSTEXT: statustext.py sends the texts at this stream's interval.
@@ -240,7 +247,6 @@ STREAMS: tuple[StreamSpec, ...] = (
         (M.MAVLINK_MSG_ID_GIMBAL_MANAGER_INFORMATION, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_GIMBAL_DEVICE_INFORMATION, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_HIL_ACTUATOR_CONTROLS, 0.0, 0.0),
-        (M.MAVLINK_MSG_ID_HIGH_LATENCY2, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_OPEN_DRONE_ID_BASIC_ID, 0.0, 0.0),
         (M.MAVLINK_MSG_ID_GPS_RTCM_DATA, 0.0, 0.0),
     )),
@@ -273,6 +279,9 @@ def _period_us(spec: StreamSpec, interval_us: int) -> int:
     shorter than the main loop's; unlimited, as often as its topic updates."""
     if spec.silent:
         return 0
+    if spec.sample_us and interval_us != 0:
+        return min(max(interval_us, MAVLINK_MIN_INTERVAL_US), spec.sample_us) \
+            if interval_us > 0 else spec.sample_us
     if interval_us > 0:
         return max(interval_us, MAVLINK_MIN_INTERVAL_US)
     return _interval_us(spec.data_hz) if interval_us < 0 else 0
@@ -297,6 +306,7 @@ class Scheduler:
         # it is sent here (µs; 0 never).
         self._interval_us: dict[int, int] = {}
         self._period_us: dict[int, int] = {}
+        self._deletions: dict[int, int] = {}  # how often each stream was set to rate 0
         nexts: dict[int, int] = {}
         for spec in STREAMS:
             iv = _interval_us(spec.default_hz(kind))
@@ -342,6 +352,11 @@ class Scheduler:
         rate 0)."""
         return self._interval_us.get(msg_id, 0)
 
+    def deletions(self, msg_id: int) -> int:
+        """How many times the stream was stopped (PX4 deletes a stream set to rate 0: one
+        set again later is a new object, with fresh state)."""
+        return self._deletions.get(msg_id, 0)
+
     def period_s(self, msg_id: int) -> float:
         """How often the stream is sent (s; 0 as often as the loop runs, inf never), for a
         stream that is sent by a service of its own (STATUSTEXT)."""
@@ -365,6 +380,8 @@ class Scheduler:
         else:  # 0, tiny or NaN
             iv = _interval_us(spec.mode_hz(self.kind))
         nexts = self._deadlines()
+        if iv == 0 and self._interval_us.get(msg_id, 0) != 0:
+            self._deletions[msg_id] = self._deletions.get(msg_id, 0) + 1
         self._interval_us[msg_id] = iv
         period = self._period_us[msg_id] = _period_us(spec, iv)
         nexts[msg_id] = int(round(now_s * 1e6)) if period else NEVER
