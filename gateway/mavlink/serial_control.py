@@ -14,10 +14,13 @@ Rules:
 - A message without the RESPOND flag closes the shell (PX4: "no response requested, assume the
   shell is no longer used"); the next one starts a new one.
 - At most ``MAX_PENDING`` bytes of output are kept per call (a flood of output is cut, counted).
+- A command that runs on (``listener -n``) prints at its terminal's ``next_s``: the service's
+  ``due_s``, when the session calls ``handle_timer``.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Protocol
 
@@ -31,6 +34,11 @@ MAX_PENDING = 64 * 1024
 
 class Terminal(Protocol):
     def write(self, data: bytes, now_s: float) -> bytes: ...  # input → what the shell printed
+
+    @property
+    def next_s(self) -> float: ...  # when a command still running prints next (inf: none)
+
+    def poll(self, now_s: float) -> bytes: ...  # what it printed since
 
 
 class SerialControlService:
@@ -53,15 +61,26 @@ class SerialControlService:
             self._terminal = self.terminal_factory()
         count = max(0, min(int(msg.count), len(msg.data)))
         if count:
-            out = self._terminal.write(bytes(msg.data[:count]), now_s)
-            if len(out) > MAX_PENDING:
-                self.truncated += len(out) - MAX_PENDING
-                out = out[:MAX_PENDING]
-            for i in range(0, len(out), DATA_LEN):
-                chunk = out[i:i + DATA_LEN]
-                self.send(self.encoder.pack(
-                    M.MAVLink_serial_control_message, M.SERIAL_CONTROL_DEV_SHELL,
-                    M.SERIAL_CONTROL_FLAG_REPLY, 0, 0, len(chunk),
-                    list(chunk.ljust(DATA_LEN, b"\0"))))
+            self._reply(self._terminal.write(bytes(msg.data[:count]), now_s))
         if not msg.flags & M.SERIAL_CONTROL_FLAG_RESPOND:
             self._terminal = None
+
+    @property
+    def due_s(self) -> float:
+        """When the shell's running command prints next (``listener -n``; inf: none)."""
+        return self._terminal.next_s if self._terminal is not None else math.inf
+
+    def handle_timer(self, now_s: float) -> None:
+        if self._terminal is not None:
+            self._reply(self._terminal.poll(now_s))
+
+    def _reply(self, out: bytes) -> None:
+        if len(out) > MAX_PENDING:
+            self.truncated += len(out) - MAX_PENDING
+            out = out[:MAX_PENDING]
+        for i in range(0, len(out), DATA_LEN):
+            chunk = out[i:i + DATA_LEN]
+            self.send(self.encoder.pack(
+                M.MAVLink_serial_control_message, M.SERIAL_CONTROL_DEV_SHELL,
+                M.SERIAL_CONTROL_FLAG_REPLY, 0, 0, len(chunk),
+                list(chunk.ljust(DATA_LEN, b"\0"))))

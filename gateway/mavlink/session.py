@@ -192,12 +192,14 @@ class Session:
         # (bursts of PARAM_VALUE, LOG_DATA, FTP data), in this order. A paced service has nothing
         # to do before its ``due_s`` (inf while idle), so it is only called from then on.
         self._paced: tuple[tuple[str, ParamService | LogHandlerService | FtpService
-                                 | LogStreamingService], ...] = (
+                                 | LogStreamingService | SerialControlService], ...] = (
             ("the parameter timer", self.params),
             ("the log download", self.logs),
             ("the FTP burst", self.ftp),
-            ("the log stream", self.log_streaming))
-        self._paced_services = (self.params, self.logs, self.ftp, self.log_streaming)
+            ("the log stream", self.log_streaming),
+            ("the shell", self.serial))
+        self._paced_services = (self.params, self.logs, self.ftp, self.log_streaming,
+                                self.serial)
         # COMMAND_ACKs the vehicle's modules give later, on their own (vehicles/command_journal.py)
         self._journal = getattr(vehicle, "commands", None)
         self._changes: Changes | None = getattr(vehicle, "changes", None)
@@ -257,7 +259,7 @@ class Session:
     def get_timer(self) -> float | None:
         t = min(self.scheduler.next_s, self.params.due_s, self.mission.due_s,
                 self.logs.due_s, self.ftp.due_s, self.log_streaming.due_s, self.events.due_s,
-                self.statustext.due_s)
+                self.statustext.due_s, self.serial.due_s)
         return None if t == math.inf else t
 
     def handle_timer(self, now_s: float) -> None:
@@ -309,9 +311,9 @@ class Session:
                 events.poll(now_s)
             except Exception:
                 self._failed(now_s, "the events")
-        params, logs, ftp, stream = self._paced_services
+        params, logs, ftp, stream, serial = self._paced_services
         if params.due_s <= now_s or logs.due_s <= now_s or ftp.due_s <= now_s \
-                or stream.due_s <= now_s:
+                or stream.due_s <= now_s or serial.due_s <= now_s:
             for name, service in self._paced:
                 if service.due_s <= now_s:
                     try:

@@ -15,7 +15,8 @@ Rules:
   EKF2::print_status say, without their perf counters (a module's CPU time per cycle, which a
   simulated vehicle does not have). ``gps status``: SITL never starts the gps driver (sensor_gps
   comes from sensor_gps_sim), so ModuleBase says "not running". ``listener`` prints the
-  logger's topics (logged_topics.py) with PX4's topic and field names. ``logger on|off|status``
+  logger's topics (logged_topics.py) with PX4's topic and field names, once or, with -n/-r/-i,
+  over time (the prompt waits for its end; any key ends it). ``logger on|off|status``
   drives the vehicle's logger (logger.py) as logger.cpp's commands do. ``mavlink status
   [streams]`` and ``mavlink stream`` show and set the vehicle's links (mavlink_status.py).
 """
@@ -23,6 +24,7 @@ Rules:
 from __future__ import annotations
 
 import fnmatch
+import math
 import os
 import re
 from collections.abc import Callable, Sequence
@@ -32,25 +34,14 @@ from gateway.mavlink.available_modes import NAV_STATE_NAMES
 from gateway.mavlink.identity import px4_guid
 from gateway.mavlink.telemetry_version import GIT_VERSION_BINARY
 from gateway.onboard import mavlink_status
-from gateway.onboard.listener import print_message
-from gateway.onboard.logged_topics import NESTED_FORMATS, TOPICS
+from gateway.onboard.listener import Listening
+from gateway.onboard.listener_command import listener
 from gateway.onboard.mavlink_status import Instance
-from gateway.onboard.topic import U64
 from gateway.sim.simulation import PHYSICS_DT_S
 from vehicles.faults import TYPES, UNITS
 from vehicles.params import ParamType
 from vehicles.types import CommandResult, NavState
 
-# listener_main.cpp's usage(), as PRINT_MODULE_DESCRIPTION / _USAGE_NAME / _ARG / _PARAM_INT
-# print it (platforms/common/module.cpp)
-LISTENER_USAGE = (
-    "\nUtility to listen on uORB topics and print the data to the console.\n\nThe listener can "
-    "be exited any time by pressing Ctrl+C, Esc, or Q.\n\n\n"
-    "Usage: listener <command> [arguments...]\n Commands:\n"
-    "     <topic_name> uORB topic name\n"
-    "     [-i <val>]  Topic instance\n                 default: 0\n"
-    "     [-n <val>]  Number of messages\n                 default: 1\n"
-    "     [-r <val>]  Subscription rate (unlimited if 0)\n                 default: 0\n")
 # ver.cpp: a release (type byte 0xFF) prints "Release"; the rest as a v1.15.2 SITL build says it:
 # the git hash whose first 16 digits AUTOPILOT_VERSION carries, the tag's date (__DATE__ pads
 # the day), the toolchain of PX4's Ubuntu 22.04 build image
@@ -84,17 +75,22 @@ class Pxh:
             "ver": self._ver,
         }
         self._out: list[str] = []
+        self._listening: Listening | None = None  # a ``listener -n`` running
 
     def print(self, text: str) -> None:
         self._out.append(text)
 
     def write(self, data: bytes, now_s: float) -> bytes:
         for b in data:
-            if b == 0x0A:
+            if self._listening is not None:  # listener reads a byte: any one ends it
+                self._listening = None
+                self.print(PROMPT)
+            elif b == 0x0A:
                 self.print("\n")
                 self.run(self._line.decode("utf-8", "replace"), now_s)
                 self._line.clear()
-                self.print(PROMPT)
+                if self._listening is None:  # else the prompt waits for its end
+                    self.print(PROMPT)
             elif b > 3:
                 self.print(chr(b) if b < 0x80 else "?")
                 if len(self._line) < MAX_LINE:
@@ -376,33 +372,27 @@ class Pxh:
         return 0 if inject(now_s, unit, kind, 0) is CommandResult.ACCEPTED else 1
 
     def _listener(self, args: list[str], now_s: float) -> int:
-        """listener_main.cpp's one message: a topic's only instance, or each of its published
-        instances under "Instance N:"; its usage without a topic, and its words for a topic it
-        does not know (returning -1)."""
-        if not args:
-            self.print(LISTENER_USAGE)
-            return 1
-        instances = [t for t in TOPICS if t.name == args[0]]
-        if not instances:
-            self.print(f"Topic {args[0]} did not match any known topics\n")
-            return -1
-        us = int(now_s * 1e6)
-        view = _ListenerView(self.vehicle, self.logger.links if self.logger is not None else ())
-        published = [(t, v) for t in instances if (v := t.read(view, us)) is not None]
-        if not published:
-            self.print("never published\n")
-            return 0
-        name = instances[0].name
-        out = [f"\nTOPIC: {name}\n" if len(published) == 1
-               else f"\nTOPIC: {name} {len(published)} instances\n"]
-        for topic, values in published:
-            if len(published) > 1:
-                out.append(f"\nInstance {topic.multi_id}:\n")
-            out.append(f" {name}\n" + print_message(
-                ((U64, "timestamp"), *topic.fields),
-                iter(values if topic.stamped else (us, *values)), us, NESTED_FORMATS))
-        self.print("".join(out))
-        return 0
+        """listener_command.py; a listening over time holds the prompt until it ends."""
+        ret, self._listening = listener(args, now_s, self.vehicle, self.logger.links
+                                        if self.logger is not None else (), self.print)
+        return ret
+
+    @property
+    def next_s(self) -> float:
+        """When a running ``listener -n`` looks for its topic next (inf: none runs)."""
+        return self._listening.due_s if self._listening is not None else math.inf
+
+    def poll(self, now_s: float) -> bytes:
+        """A running listener's output since the last call, and the prompt once it ends."""
+        if self._listening is not None and now_s >= self._listening.due_s:
+            text, done = self._listening.poll(now_s)
+            self.print(text)
+            if done:
+                self._listening = None
+                self.print(PROMPT)
+        out = "".join(self._out).encode("utf-8", "replace")
+        self._out.clear()
+        return out
 
     def _logger(self, args: list[str], now_s: float) -> int:
         """logger's custom_command and print_status (logger.cpp)."""
@@ -463,16 +453,3 @@ def attach_shells(sim: Any, loggers: Callable[[int], Any] | None = None,
         logger = loggers(link.session.sysid) if loggers is not None else None
         link.session.serial.terminal_factory = \
             lambda v=vehicle, g=logger, own=links[index]: Pxh(v, VERSION, g, own, dt_s)
-
-
-class _ListenerView:
-    """The vehicle as ``listener`` reads a topic: with the MAVLink instances the logger reads
-    (telemetry_status, timesync_status) and a memo of its own (the logger's is the logger's)."""
-
-    def __init__(self, vehicle: Any, links: Sequence[Any]) -> None:
-        self._vehicle = vehicle
-        self.mavlink_links = links
-        self.memo: dict[str, Any] = {}
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._vehicle, name)

@@ -135,7 +135,8 @@ def test_mavproxy_log_list_and_ftp_list(daemon_factory, tmp_path):
 
 def test_mavproxy_nsh_is_the_mavlink_shell(daemon_factory, tmp_path):
     """MAVProxy's nsh module (SERIAL_CONTROL, device SHELL, as PX4's Tools/mavlink_shell.py
-    speaks it): `ver all` and `param show` answer as PX4's pxh, `.` leaves the shell."""
+    speaks it): `ver all`, `param show` and `listener -n` answer as PX4's pxh, `.` leaves the
+    shell."""
     exe = mavproxy_exe()
     d = daemon_factory()
     mp = Prompt([sys.executable, exe, f"--master=udpin:127.0.0.1:{d.gcs_port()}", "--no-state"],
@@ -149,6 +150,8 @@ def test_mavproxy_nsh_is_the_mavlink_shell(daemon_factory, tmp_path):
         mp.wait_for("HW arch: PX4_SITL", 20, mark)
         mark = mp.type("param show MPC_XY_CRUISE")
         mp.wait_for("MPC_XY_CRUISE [", 20, mark)
+        mark = mp.type("listener vehicle_local_position -n 3 -r 2")  # over 1 s, as PX4's
+        mp.wait_for("TOPIC: vehicle_local_position instance 0 #3", 20, mark)
         mark = mp.type("nosuchcommand")
         mp.wait_for("Invalid command: nosuchcommand", 20, mark)
         mp.type(".")

@@ -246,3 +246,65 @@ def test_param_show_variants_and_compare():
         assert "Command 'param' failed" not in shell(sim, "param compare COM_ARMABLE 0 1\n")
         assert "ERROR [param] Parameter NOPE not found\n" in shell(sim, "param compare NOPE 1\n")
         assert "not found" not in shell(sim, "param compare -s NOPE 1\n")
+
+
+def _listened(sim: Sim, line: str, seconds: float) -> tuple[str, list[float]]:
+    """The shell's output over ``seconds`` after ``line``, and the instants (s) of the replies
+    that carry a "TOPIC:" header."""
+    api = sim.api(0)
+    since = len(api.frames)
+    first = shell(sim, line)
+    sim.advance(seconds)
+    replies = [(t, m) for t, m in api.timed_messages("SERIAL_CONTROL", since)
+               if m.flags & M.SERIAL_CONTROL_FLAG_REPLY]
+    text = b"".join(bytes(m.data[:m.count]) for _, m in replies).decode()
+    assert text.startswith(first)
+    return text, [t for t, m in replies if b"TOPIC:" in bytes(m.data[:m.count])]
+
+
+def test_listener_n_r_i_listen_over_time_as_listener_main():
+    """listener_main.cpp: -n N messages of instance -i (default 0) each as it is published,
+    headed "TOPIC: <name> instance <i> #<k>", the first at once, the prompt after the last;
+    -r R at most R a second (and 30 s worth of messages without -n); an on-change topic only
+    when it changes; 2 s without one: "Waited for 2.0 seconds without a message. Giving up.";
+    any key ends it; an unknown option: the usage and -1; an instance never published."""
+    with Sim() as sim:
+        shell(sim, "\n")
+        text, at = _listened(sim, "listener vehicle_attitude -n 3\n", 1.0)
+        heads = [ln for ln in text.splitlines() if ln.startswith("TOPIC:")]
+        assert heads == [f"TOPIC: vehicle_attitude instance 0 #{k}" for k in (1, 2, 3)]
+        assert text.endswith("pxh> ") and text.count("pxh> ") == 1
+        assert text.count("    q: [") == 3
+
+        text, at = _listened(sim, "listener vehicle_local_position -r 5 -n 4\n", 2.0)
+        assert [ln for ln in text.splitlines() if ln.startswith("TOPIC:")][-1] == \
+            "TOPIC: vehicle_local_position instance 0 #4"
+        gaps = [b - a for a, b in zip(at, at[1:])]
+        assert len(gaps) == 3 and all(0.19 < g < 0.25 for g in gaps), gaps  # 1000 / 5 ms
+
+        # vehicle_status: on change, and commander's republication every 500 ms
+        text, at = _listened(sim, "listener vehicle_status -n 3\n", 1.5)
+        gaps = [b - a for a, b in zip(at, at[1:])]
+        assert len(gaps) == 2 and all(0.45 < g < 0.55 for g in gaps), gaps
+
+        # a topic that never changes on the ground (home_position): one, then it gives up
+        text, _ = _listened(sim, "listener home_position -n 2\n", 2.5)
+        assert text.count("TOPIC: home_position instance 0 #") == 1
+        assert text.endswith("Waited for 2.0 seconds without a message. Giving up.\npxh> ")
+
+        # any key ends it (listener reads one byte and returns), then the prompt
+        api = sim.api(0)
+        shell(sim, "listener vehicle_attitude -r 10\n")  # 300 messages at 10 Hz
+        out = shell(sim, "x")
+        assert out == "pxh> "
+        sim.advance(0.5)
+        assert shell(sim, "") == ""  # nothing more comes
+        assert api is sim.api(0)
+
+        usage = shell(sim, "listener vehicle_attitude -x 3\n")
+        assert "Usage: listener" in usage and "failed, returned -1." in usage
+        assert shell(sim, "listener vehicle_attitude -i 3\n").endswith(
+            "never published\npxh> ")
+        one = shell(sim, "listener vehicle_attitude -i 0\n")  # -i alone: the timed form, #1
+        assert "TOPIC: vehicle_attitude instance 0 #1\n vehicle_attitude\n" in one
+        assert one.endswith("pxh> ")
