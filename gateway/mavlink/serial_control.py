@@ -50,6 +50,7 @@ class SerialControlService:
         self.terminal_factory: Callable[[], Terminal] | None = None  # attached by the shell
         self._terminal: Terminal | None = None
         self.truncated = 0  # output bytes dropped (MAX_PENDING)
+        self.due_s = math.inf  # when the shell's running command prints next (``_next``)
 
     def on_serial_control(self, msg: M.MAVLink_serial_control_message, now_s: float) -> None:
         if msg.device != M.SERIAL_CONTROL_DEV_SHELL or msg.flags & M.SERIAL_CONTROL_FLAG_REPLY:
@@ -64,15 +65,17 @@ class SerialControlService:
             self._reply(self._terminal.write(bytes(msg.data[:count]), now_s))
         if not msg.flags & M.SERIAL_CONTROL_FLAG_RESPOND:
             self._terminal = None
-
-    @property
-    def due_s(self) -> float:
-        """When the shell's running command prints next (``listener -n``; inf: none)."""
-        return self._terminal.next_s if self._terminal is not None else math.inf
+        self._next()
 
     def handle_timer(self, now_s: float) -> None:
         if self._terminal is not None:
             self._reply(self._terminal.poll(now_s))
+        self._next()
+
+    def _next(self) -> None:
+        """``due_s``: when the shell's running command prints next (``listener -n``; inf:
+        none), read after each call into the terminal (only those change it)."""
+        self.due_s = self._terminal.next_s if self._terminal is not None else math.inf
 
     def _reply(self, out: bytes) -> None:
         if len(out) > MAX_PENDING:
