@@ -97,7 +97,7 @@ def _deg_e7(deg: float) -> int:
 TWO_PI = 2.0 * math.pi
 
 
-def _heading_deg(rad: float) -> float:
+def heading_deg(rad: float) -> float:
     """math::degrees(matrix::wrap_2pi(heading)): [0, 360) degrees, for C to truncate."""
     return math.degrees(rad % TWO_PI)
 
@@ -186,7 +186,7 @@ def global_position_int(enc: Encoder, s: Snapshot) -> bytes | None:
 @_shared(M.MAVLink_global_position_int_message, key=_home_alt_m)  # relative_alt: from home
 def _global_position_int(s: Snapshot) -> tuple:
     """GLOBAL_POSITION_INT.hpp: every field a C conversion of the estimate (truncating), the
-    heading wrapped to [0, 360) degrees (``_heading_deg`` inlined); relative_alt above home
+    heading wrapped to [0, 360) degrees (``heading_deg`` inlined); relative_alt above home
     (above the origin without)."""
     g = s.sample.geo
     vx, vy, vz = s.kin.velocity_ned_mps
@@ -233,6 +233,13 @@ def gps_fix(s: Snapshot) -> tuple[float, float, float, float, float, float]:
     return g.lat_deg, g.lon_deg, g.alt_amsl_m, vn, ve, vd
 
 
+def gps_fix_us(s: Snapshot) -> int:
+    """When the latest GPS fix was published (µs): sensor_gps's timestamp; now for a vehicle
+    without an estimator."""
+    e = s.sample.estimator
+    return s.time_usec if e is None else max(0, s.time_usec - int(round(e[E_GPS_AGE] * 1e6)))
+
+
 @_shared(M.MAVLink_gps_raw_int_message)
 def _gps_fix(s: Snapshot) -> tuple:
     lat_deg, lon_deg, alt_amsl_m, vn, ve, _ = gps_fix(s)
@@ -242,8 +249,7 @@ def _gps_fix(s: Snapshot) -> tuple:
     cog = int(math.degrees(math.atan2(ve, vn)) % 360.0 * 100.0) % 36000
     alt_mm = int(round(alt_amsl_m * 1000.0))
     # time_usec is the fix's sensor_gps timestamp (when the receiver published it), not now.
-    e = s.sample.estimator
-    fix_us = s.time_usec if e is None else max(0, s.time_usec - int(round(e[E_GPS_AGE] * 1e6)))
+    fix_us = gps_fix_us(s)
     return (fix_us, GPS_FIX_TYPE_3D, _deg_e7(lat_deg), _deg_e7(lon_deg), alt_mm,
             GPS_EPH_CM, GPS_EPV_CM, speed_cm, cog, GPS_SATELLITES, alt_mm,
             GPS_H_ACC_MM, GPS_V_ACC_MM, GPS_VEL_ACC_MM, 0, 0)
@@ -256,7 +262,7 @@ def vfr_hud(enc: Encoder, s: Snapshot) -> bytes:
     vn, ve, vd = s.kin.velocity_ned_mps
     throttle = s.status.extra.get("thrust_norm", 0.0) if s.status.armed else 0.0
     return _VFR_HUD(0.0, math.hypot(vn, ve),
-                    int(_heading_deg(s.sample.euler[2])), c_int(abs(throttle) * 100.0, 0, 0xFFFF),
+                    int(heading_deg(s.sample.euler[2])), c_int(abs(throttle) * 100.0, 0, 0xFFFF),
                     s.sample.geo.alt_amsl_m, -vd)
 
 

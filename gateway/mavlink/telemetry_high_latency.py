@@ -47,10 +47,10 @@ from gateway.mavlink.codec import FLT_MAX, Encoder, c_int, f32, payload_of
 from gateway.mavlink.heartbeat import battery_connected
 from gateway.mavlink.mission_items import mission_status_of
 from gateway.mavlink.snapshot import Snapshot
-from gateway.mavlink.telemetry import GPS_EPH_M, GPS_EPV_M
+from gateway.mavlink.telemetry import GPS_EPH_M, GPS_EPV_M, gps_fix_us, heading_deg
 from gateway.mavlink.telemetry_estimator import gps_ctrl_of, innovation_test_ratios
 from vehicles.custom_mode import custom_mode_of
-from vehicles.estimation import E_GPS_AGE, F_ACC, F_BARO, F_GYRO, F_MAG
+from vehicles.estimation import F_ACC, F_BARO, F_GYRO, F_MAG
 from vehicles.types import q_euler_rad
 
 HL2 = M.MAVLINK_MSG_ID_HIGH_LATENCY2
@@ -118,7 +118,7 @@ class HighLatencyStream:
     battery: Analyzer = field(default_factory=lambda: Analyzer(True))
     throttle: Analyzer = field(default_factory=lambda: Analyzer(True))
     battery_connected: bool = False
-    gps_fix_us: int = -1  # the last vehicle_gps_position sampled
+    gps_fix_us: int = -1  # the last vehicle_gps_position sampled (its timestamp)
     status_seen: tuple | None = None  # the last vehicle_status sampled, and when
     status_us: int = 0
     mission_seen: tuple | None = None  # the last mission_result send() saw
@@ -139,8 +139,8 @@ class HighLatencyStream:
         vn, ve, vd = s.kin.velocity_ned_mps
         self.climb_rate.add(abs(vd), r)
         self.groundspeed.add(math.sqrt(f32(f32(vn * vn) + f32(ve * ve))), r)
-        fix_us = _gps_fix_us(s)
-        if fix_us is not None and fix_us != self.gps_fix_us:
+        fix_us = gps_fix_us(s)
+        if fix_us != self.gps_fix_us:
             self.gps_fix_us = fix_us
             self.eph.add(GPS_EPH_M, r)
             self.epv.add(GPS_EPV_M, r)
@@ -261,16 +261,6 @@ def _failure_flags(s: Snapshot, fresh: bool) -> int:
     return flags
 
 
-def _gps_fix_us(s: Snapshot) -> int | None:
-    """When the latest GPS fix was published (µs), None: no fix yet."""
-    e = s.sample.estimator
-    if e is None:
-        return s.time_usec
-    if not math.isfinite(e[E_GPS_AGE]):
-        return None
-    return max(0, s.time_usec - int(round(e[E_GPS_AGE] * 1e6)))
-
-
 def _float(x: float) -> float:
     """``x`` as a C float: rounded to float32, ±inf beyond its range, NaN as it is."""
     if not math.isfinite(x) or abs(x) > FLT_MAX:
@@ -280,8 +270,7 @@ def _float(x: float) -> float:
 
 def _half_degrees(rad: float) -> int:
     """static_cast<uint8_t>(math::degrees(matrix::wrap_2pi(x)) * 0.5f) (0 for NaN)."""
-    return c_int(f32(math.degrees(rad % (2.0 * math.pi))) * 0.5, 0, UINT8_MAX) \
-        if math.isfinite(rad) else 0
+    return c_int(f32(heading_deg(rad)) * 0.5, 0, UINT8_MAX) if math.isfinite(rad) else 0
 
 
 def _int16(x: float) -> int:
