@@ -212,6 +212,101 @@ ADDED = {
                          "Default yaw rate limit"),
 }
 
+# In current PX4, not in the old table, with a range: (type, default, min, max, unit, group,
+# description). Instanced parameters (a module.yaml's ``${i}``) are built by _each.
+Spec = tuple[str, str, str, str, str, str, str]
+
+
+def _each(name: str, numbers: range, typ: str, default: str, lo: str, hi: str, unit: str,
+          group: str, desc: str) -> dict[str, Spec]:
+    """The instances of a module.yaml ``${i}`` parameter, ``${i}`` replaced in name and text."""
+    return {name.replace("${i}", str(i)):
+            (typ, default, lo, hi, unit, group, desc.replace("${i}", str(i))) for i in numbers}
+
+
+def _outputs(prefix: str, module: str, label: str, channels: range,
+             standard: tuple[str, str] | None, rev_max: str) -> dict[str, Spec]:
+    """An output driver's parameters as Tools/module_config/generate_params.py makes them from its
+    module.yaml ``actuator_output``, group "Actuator Outputs": ``<prefix>_FUNCn`` per channel (the
+    output function: 0 disabled, 101.. motors); with ``standard`` = (disarmed default, maximum)
+    also _DISn, _MINn, _MAXn and _FAILn (-1: by function); ``<prefix>_REV``, the bitmask of the
+    channels whose output range is reversed."""
+    group, channel = "Actuator Outputs", module + " " + label + " ${i} "
+    params = _each(prefix + "_FUNC${i}", channels, "INT32", "0", "", "", "", group,
+                   channel + "Output Function")
+    if standard is not None:
+        disarmed, top = standard
+        for suffix, default, lo, text in (("DIS", disarmed, "0", "Disarmed"),
+                                          ("MIN", "0", "0", "Minimum"),
+                                          ("MAX", top, "0", "Maximum"),
+                                          ("FAIL", "-1", "-1", "Failsafe")):
+            params |= _each(prefix + "_" + suffix + "${i}", channels, "INT32", default, lo, top,
+                            "", group, channel + text + " Value")
+    params[prefix + "_REV"] = ("INT32", "0", "0", rev_max, "", group,
+                               "Reverse Output Range for " + module)
+    return params
+
+
+_GEOMETRY = "Geometry"
+_ROTORS, _SERVOS = range(12), range(8)  # control_allocator: max_num_mc_motors, max_num_servos
+
+
+def _rotor_geometry() -> dict[str, Spec]:
+    """CA_ROTORn_PX/PY/PZ (m), _AX/AY/AZ (the thrust axis, default -z), _CT and _KM."""
+    params: dict[str, Spec] = {}
+    for axis in "XYZ":
+        params |= _each("CA_ROTOR${i}_P" + axis, _ROTORS, "FLOAT", "0.0", "-100", "100", "m",
+                        _GEOMETRY, f"Position of rotor ${{i}} along {axis} body axis relative "
+                        "to center of gravity")
+        params |= _each("CA_ROTOR${i}_A" + axis, _ROTORS, "FLOAT",
+                        "-1.0" if axis == "Z" else "0.0", "-100", "100", "", _GEOMETRY,
+                        f"Axis of rotor ${{i}} thrust vector, {axis} body axis component")
+    return params | _each("CA_ROTOR${i}_CT", _ROTORS, "FLOAT", "6.5", "0", "100", "", _GEOMETRY,
+                          "Thrust coefficient of rotor ${i}") \
+        | _each("CA_ROTOR${i}_KM", _ROTORS, "FLOAT", "0.05", "-1", "1", "", _GEOMETRY,
+                "Moment coefficient of rotor ${i}")
+
+
+ADDED_RANGED: dict[str, Spec] = {
+    # control_allocator/module.yaml (v1.15): the allocation's airframe and rotor geometry (what
+    # QGC's Actuators page shows, from the actuators metadata)
+    "CA_AIRFRAME": ("INT32", "0", "", "", "", _GEOMETRY, "Airframe selection"),
+    "CA_METHOD": ("INT32", "2", "", "", "", _GEOMETRY, "Control allocation method"),
+    "CA_FAILURE_MODE": ("INT32", "0", "", "", "", _GEOMETRY, "Motor failure handling mode"),
+    "CA_R_REV": ("INT32", "0", "0", "4095", "", _GEOMETRY, "Bidirectional/Reversible motors"),
+    **_each("CA_R${i}_SLEW", _ROTORS, "FLOAT", "0.0", "0", "10", "", _GEOMETRY,
+            "Motor ${i} slew rate limit"),
+    **_each("CA_SV${i}_SLEW", _SERVOS, "FLOAT", "0.0", "0", "10", "", _GEOMETRY,
+            "Servo ${i} slew rate limit"),
+    "CA_ROTOR_COUNT": ("INT32", "0", "0", "12", "", _GEOMETRY, "Total number of rotors"),
+    **_rotor_geometry(),
+    # simulation/gz_bridge/module.yaml (v1.15): the gz bridge's outputs, ESCs and servos 1..8
+    # (0..1000), wheels 1..2 (0..200); the x500's four motors are ESCs 1..4
+    **_outputs("SIM_GZ_EC", "SIM_GZ", "ESC", range(1, 9), ("0", "1000"), "255"),
+    **_outputs("SIM_GZ_SV", "SIM_GZ", "Servo", range(1, 9), ("500", "1000"), "255"),
+    **_outputs("SIM_GZ_WH", "SIM_GZ", "Wheels", range(1, 3), ("100", "200"), "3"),
+    # simulation/gz_bridge/parameters.c (v1.15): @boolean, @reboot_required true, @group UAVCAN
+    "SIM_GZ_EN": ("INT32", "0", "", "", "", "UAVCAN", "Simulator Gazebo bridge enable"),
+    # drivers/pwm_out_sim/module_sim.yaml (v1.15): pwm_out_sim's 16 channels, functions only
+    **_outputs("PWM_MAIN", "SIM", "Channel", range(1, 17), None, "65535"),
+}
+
+# The airframe's own values (ROMFS/px4fmu_common/init.d-posix/airframes/4001_gz_x500): the gz
+# bridge on, four rotors of the x500 (CA_ROTORn_PX, _PY, _KM; vehicles/airframe.py
+# allocation_rotors) on ESCs 1..4 as motors 1..4, spinning from 150 to 1000 rad/s.
+AIRFRAME = {
+    "SIM_GZ_EN": "1",
+    "CA_ROTOR_COUNT": "4",
+    **{f"CA_ROTOR{i}_{k}": v for i, rotor in enumerate((("0.13", "0.22", "0.05"),
+                                                         ("-0.13", "-0.20", "0.05"),
+                                                         ("0.13", "-0.22", "-0.05"),
+                                                         ("-0.13", "0.20", "-0.05")))
+       for k, v in zip(("PX", "PY", "KM"), rotor)},
+    **{f"SIM_GZ_EC_{k}{n}": v for n in range(1, 5)
+       for k, v in (("FUNC", str(100 + n)), ("MIN", "150"), ("MAX", "1000"))},
+}
+
+
 # In the old metadata table but gone from PX4 v1.15 (param_find fails, as a client's get does).
 REMOVED = {
     "LNDMC_ALT_MAX",  # not in v1.15's land_detector_params_mc.c
@@ -235,9 +330,13 @@ def main(src: str, dst: str) -> None:
         if name not in have:
             rows.append(dict(name=name, type=typ, default=default, min="", max="", unit=unit,
                              group=group, short_desc=desc))
+    for name, (typ, default, lo, hi, unit, group, desc) in ADDED_RANGED.items():
+        if name not in have:
+            rows.append(dict(name=name, type=typ, default=AIRFRAME.get(name, default), min=lo,
+                             max=hi, unit=unit, group=group, short_desc=desc))
     for row in rows:
         row["min"], row["max"] = RANGES.get(row["name"], (row["min"], row["max"]))
-    missing = (set(OVERRIDES) | set(RANGES)) - {r["name"] for r in rows}
+    missing = (set(OVERRIDES) | set(RANGES) | set(AIRFRAME)) - {r["name"] for r in rows}
     if missing:
         raise SystemExit(f"overrides for unknown parameters: {sorted(missing)}")
     rows.sort(key=lambda r: r["name"])

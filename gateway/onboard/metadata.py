@@ -1,20 +1,25 @@
 """Component metadata as PX4 serves it: the files behind COMPONENT_METADATA (and the older
 COMPONENT_INFORMATION), read over MAVLink FTP from ``etc/extras/`` — how QGC and MAVSDK's
-component_metadata plugin learn every parameter's description, units, range and group.
+component_metadata plugin learn every parameter's description, units, range and group, the
+events and the actuators.
 
 PX4 builds them into its ROMFS (src/lib/component_information, src/lib/parameters/px4params
 jsonout.py) and answers MAV_CMD_REQUEST_MESSAGE(COMPONENT_METADATA) with
 ``mftp://etc/extras/component_general.json.xz`` and that file's CRC
-(mavlink/streams/COMPONENT_METADATA.hpp). Here:
+(mavlink/streams/COMPONENT_METADATA.hpp, generate_crc.py: over the uncompressed file). Here:
 
 - ``parameters.json``: version 1, one entry per parameter of the vehicle's table with PX4's
   schema keys (name, type "Int32"/"Float", default, group, category, shortDesc, units, min, max,
   rebootRequired),
   sorted keys, indent 2, as jsonout.py writes it;
-- ``component_general.json``: version 1, ``metadataTypes`` = the parameter type
-  (COMP_METADATA_TYPE_PARAMETER) with its mftp URI and ``fileCrc``, the MAVLink CRC-32 of the
-  uncompressed file (generate_component_general.py);
-- both served xz-compressed (``*.json.xz``) like PX4's ROMFS; read-only (PX4's ROMFS is).
+- ``all_events.json``: the events metadata (libevents' schema, below);
+- ``actuators.json``: the actuators metadata, QGC's Actuators page (gateway/onboard/actuators.py);
+- ``component_general.json``: version 1, ``metadataTypes`` = the parameter, events and actuators
+  types (COMP_METADATA_TYPE_PARAMETER, _EVENTS, _ACTUATORS), each with its mftp URI and
+  ``fileCrc``, the MAVLink CRC-32 of the served ``.json.xz`` file: PX4's
+  generate_component_general.py reads the compressed files the build passes it (``--type
+  1,parameters.json.xz,...``);
+- all served xz-compressed (``*.json.xz``) like PX4's ROMFS; read-only (PX4's ROMFS is).
 
 ``ComponentMetadata`` is built once per process (the table is the same for every vehicle) and
 holds the files as bytes: nothing is written to disk.
@@ -27,6 +32,7 @@ import lzma
 from dataclasses import dataclass
 
 from gateway.mavlink.modes import custom_mode_of
+from gateway.onboard.actuators import actuators_json
 from vehicles.events import (
     ARM_REASON_TEXT,
     COMPONENT_AUTOPILOT,
@@ -43,8 +49,10 @@ EXTRAS_DIR = "etc/extras"
 GENERAL_URI = f"mftp://{EXTRAS_DIR}/component_general.json.xz"
 PARAMETERS_URI = f"mftp://{EXTRAS_DIR}/parameters.json.xz"
 EVENTS_URI = f"mftp://{EXTRAS_DIR}/all_events.json.xz"
+ACTUATORS_URI = f"mftp://{EXTRAS_DIR}/actuators.json.xz"
 COMP_METADATA_TYPE_PARAMETER = 1
 COMP_METADATA_TYPE_EVENTS = 4
+COMP_METADATA_TYPE_ACTUATORS = 5
 
 
 def mavlink_crc32(data: bytes, crc: int = 0) -> int:
@@ -141,12 +149,14 @@ def events_json() -> bytes:
                       indent=2, sort_keys=True).encode()
 
 
-def general_json(parameters: bytes, events: bytes) -> bytes:
+def general_json(parameters_xz: bytes, events_xz: bytes, actuators_xz: bytes) -> bytes:
+    """component_general.json naming the three served files, each with the CRC of its
+    compressed bytes (generate_component_general.py's ``fileCrc``)."""
     doc = {"version": 1, "metadataTypes": [
-        {"type": COMP_METADATA_TYPE_PARAMETER, "uri": PARAMETERS_URI,
-         "fileCrc": mavlink_crc32(parameters)},
-        {"type": COMP_METADATA_TYPE_EVENTS, "uri": EVENTS_URI, "fileCrc": mavlink_crc32(events)},
-    ]}
+        {"type": kind, "uri": uri, "fileCrc": mavlink_crc32(data)}
+        for kind, uri, data in ((COMP_METADATA_TYPE_PARAMETER, PARAMETERS_URI, parameters_xz),
+                                (COMP_METADATA_TYPE_EVENTS, EVENTS_URI, events_xz),
+                                (COMP_METADATA_TYPE_ACTUATORS, ACTUATORS_URI, actuators_xz))]}
     return json.dumps(doc).encode()
 
 
@@ -159,15 +169,18 @@ class ComponentMetadata:
     uri: str = GENERAL_URI
 
 
+def _xz(data: bytes) -> bytes:
+    return lzma.compress(data, format=lzma.FORMAT_XZ)
+
+
 def build(table: list[ParamInfo] | None = None) -> ComponentMetadata:
-    parameters = parameters_json(param_table() if table is None else table)
-    events = events_json()
-    general = general_json(parameters, events)
-    xz = lzma.FORMAT_XZ
+    parameters = _xz(parameters_json(param_table() if table is None else table))
+    events = _xz(events_json())
+    actuators = _xz(actuators_json())
+    general = general_json(parameters, events, actuators)
     return ComponentMetadata(
-        files={"component_general.json.xz": lzma.compress(general, format=xz),
-               "parameters.json.xz": lzma.compress(parameters, format=xz),
-               "all_events.json.xz": lzma.compress(events, format=xz)},
+        files={"component_general.json.xz": _xz(general), "parameters.json.xz": parameters,
+               "all_events.json.xz": events, "actuators.json.xz": actuators},
         general_crc=mavlink_crc32(general))
 
 

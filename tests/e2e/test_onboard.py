@@ -126,7 +126,8 @@ async def test_mavsdk_ftp_lists_downloads_uploads_and_compares(daemon_factory, t
 async def test_mavsdk_component_metadata_gets_px4s_parameter_metadata(daemon_factory):
     """MAVSDK's component_metadata plugin (QGC's flow): COMPONENT_METADATA, then
     etc/extras/component_general.json.xz and parameters.json.xz over MAVLink FTP, decompressed,
-    with every parameter's description, units and range — also without a state dir."""
+    with every parameter's description, units and range — also without a state dir; and the
+    actuators metadata."""
     import json
 
     from mavsdk.component_metadata import MetadataType
@@ -148,6 +149,9 @@ async def test_mavsdk_component_metadata_gets_px4s_parameter_metadata(daemon_fac
         assert by_name["SYS_FAILURE_EN"]["type"] == "Int32"
         data = await drone.component_metadata.get_metadata(1, MetadataType.PARAMETER)
         assert json.loads(data.json_metadata) == params
+        assert MetadataType.ACTUATORS in got, got  # actuators.json.xz, QGC's Actuators page
+        actuators = json.loads(got[MetadataType.ACTUATORS].json_metadata)
+        assert [c["type"] for c in actuators["mixer_v1"]["config"]] == ["multirotor"]
 
 
 @pytest.mark.asyncio

@@ -1,7 +1,8 @@
 """Component metadata as PX4 serves it: COMPONENT_METADATA (and COMPONENT_INFORMATION) point at
-mftp://etc/extras/component_general.json.xz; that file names parameters.json.xz with its CRC;
-both are read over MAVLink FTP (burst read, as QGC and MAVSDK do) and decompress to PX4's
-schema; the ROMFS part is read-only."""
+mftp://etc/extras/component_general.json.xz; that file names parameters.json.xz,
+all_events.json.xz and actuators.json.xz, each with the CRC of its compressed bytes; all are read
+over MAVLink FTP (burst read, as QGC and MAVSDK do) and decompress to PX4's schema; the ROMFS
+part is read-only."""
 
 from __future__ import annotations
 
@@ -64,20 +65,26 @@ def test_the_metadata_flow_qgc_and_mavsdk_follow(tmp_path):
         assert b"Detc\0" in f.one(ftp.OP_LIST, b"/")[1] and \
             b"Dlog\0" in f.one(ftp.OP_LIST, b"/")[1]
         listing = f.one(ftp.OP_LIST, b"/etc/extras")[1]
-        assert b"Fcomponent_general.json.xz\t" in listing and b"Fparameters.json.xz\t" in listing
+        for name in (b"component_general", b"parameters", b"all_events", b"actuators"):
+            assert b"F" + name + b".json.xz\t" in listing
         general_raw = lzma.decompress(fetch(f, b"etc/extras/component_general.json.xz"))
-        assert metadata.mavlink_crc32(general_raw) == crc
+        assert metadata.mavlink_crc32(general_raw) == crc  # generate_crc.py: uncompressed
         general = json.loads(general_raw)
         assert general["version"] == 1
-        ptype, etype = general["metadataTypes"]
+        ptype, etype, atype = general["metadataTypes"]
         assert ptype["type"] == 1 and ptype["uri"] == "mftp://etc/extras/parameters.json.xz"
         assert etype["type"] == 4 and etype["uri"] == "mftp://etc/extras/all_events.json.xz"
-        events_raw = lzma.decompress(fetch(f, b"/etc/extras/all_events.json.xz"))
-        assert metadata.mavlink_crc32(events_raw) == etype["fileCrc"]
-        assert json.loads(events_raw)["components"]["1"]["namespace"] == "px4"
-        params_raw = lzma.decompress(fetch(f, b"/etc/extras/parameters.json.xz"))
-        assert metadata.mavlink_crc32(params_raw) == ptype["fileCrc"]
-        params = json.loads(params_raw)
+        assert atype["type"] == 5 and atype["uri"] == "mftp://etc/extras/actuators.json.xz"
+        # generate_component_general.py: each fileCrc is over the served (compressed) file
+        events_xz = fetch(f, b"/etc/extras/all_events.json.xz")
+        assert metadata.mavlink_crc32(events_xz) == etype["fileCrc"]
+        assert json.loads(lzma.decompress(events_xz))["components"]["1"]["namespace"] == "px4"
+        actuators_xz = fetch(f, b"/etc/extras/actuators.json.xz")
+        assert metadata.mavlink_crc32(actuators_xz) == atype["fileCrc"]
+        assert json.loads(lzma.decompress(actuators_xz))["version"] == 1
+        params_xz = fetch(f, b"/etc/extras/parameters.json.xz")
+        assert metadata.mavlink_crc32(params_xz) == ptype["fileCrc"]
+        params = json.loads(lzma.decompress(params_xz))
         assert params["version"] == 1
         by_name = {p["name"]: p for p in params["parameters"]}
         assert set(by_name) == {i.name for i in param_table()}
