@@ -5,8 +5,11 @@ Source: PX4 src/modules/commander/Commander.cpp (handleCommandActuatorTest), src
 Rules:
 - ``command`` maps the command's function: 1..12 motor 1..12 (MAVLink's ACTUATOR_OUTPUT_FUNCTION),
   33..40 a servo (accepted; a quadrotor has none), 1000 + n PX4's own function n (101: motor 1);
-  anything else UNSUPPORTED. The caller checks arming and COM_MOT_TEST_EN first.
-- A motor holds ``value`` (0..1 over the ESC range; below 0 or NaN: stopped) for the timeout,
+  anything else UNSUPPORTED. The caller checks arming and COM_MOT_TEST_EN first. The motor
+  spins on the outputs whose function it is (SIM_GZ_EC_FUNCn; none: the test is accepted and
+  nothing moves, as in PX4).
+- A motor holds ``value`` (0..1 over its output's range; below 0 or NaN: its output at the
+  disarmed value) for the timeout,
   at most MAX_TIMEOUT_S (PX4's 3 s, also when none is given); a timeout of 0 releases it.
 - ``changed`` says the inner loop needs a new command (the autopilot clears it).
 """
@@ -15,6 +18,7 @@ from __future__ import annotations
 
 import math
 
+from vehicles.inner_loop import MAX_MOTORS
 from vehicles.types import CommandResult
 
 MAX_TIMEOUT_S = 3.0
@@ -29,8 +33,8 @@ class ActuatorTest:
     def __bool__(self) -> bool:
         return bool(self.tests)
 
-    def command(self, now_s: float, function: int, value: float, timeout_s: float,
-                rotor_count: int) -> CommandResult:
+    def command(self, now_s: float, function: int, value: float, timeout_s: float
+                ) -> CommandResult:
         if function >= 1000:
             motor = function - 1000 - FUNCTION_MOTOR1
         elif 1 <= function <= 12:
@@ -40,7 +44,7 @@ class ActuatorTest:
         else:
             return CommandResult.UNSUPPORTED
         timeout_ms = int(timeout_s * 1000.0 + 0.5) if math.isfinite(timeout_s) else 0
-        if 0 <= motor < rotor_count:
+        if 0 <= motor < MAX_MOTORS:
             if timeout_ms <= 0:
                 self.tests.pop(motor, None)
             else:

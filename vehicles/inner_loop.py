@@ -32,15 +32,21 @@ import numpy as np
 from vehicles.airframe import Airframe
 from vehicles.control.attitude_control import attitude_rates
 from vehicles.control.compiled import njit_cached
-from vehicles.control.mixer import mix_into, mixer_rows_with_effectiveness
+from vehicles.control.mixer import (
+    ROW_SIZE,
+    allocation_rows,
+    clip_into,
+    desaturate_into,
+    pseudo_inverse_into,
+)
 from vehicles.control.rate_control import STATE_INTEGRAL, STATE_SIZE, d_filter_alpha, rate_pid
 from vehicles.control.rotation import dcm
 
 MODE_OFF = 0
 MODE_IDLE = 1
 MODE_FLY = 2
-# Disarmed, with PX4's actuator test (MAV_CMD_ACTUATOR_TEST) driving motors: ``setpoint``'s first
-# columns hold each rotor's test value (0..1 over the ESC range; NaN: the motor stays stopped).
+# Disarmed, with PX4's actuator test (MAV_CMD_ACTUATOR_TEST) driving motors: ``tests`` holds each
+# motor's test value (0..1 over its output's range; NaN: the output stays at its disarmed value).
 MODE_TEST = 3
 # The mixer's lowest motor command when armed: PX4's allocation gives 0 (actuator_motors); the
 # armed motor still spins, at the ESC's minimum (Airframe.esc_min_radps).
@@ -62,10 +68,23 @@ SP_Q, SP_YAWSPEED, SP_THRUST, SP_RATES, SP_SIZE = 0, 4, 5, 6, 9
 # Columns of ``InnerLoop.gains``: ``attitude_rates``' seven coefficients, then ``rate_pid``'s 15,
 # then THR_MDL_FAC (the motors' thrust model).
 G_ATT, G_RATE, G_THR_MDL_FAC, G_SIZE = 0, 7, 22, 23
-# Columns of ``InnerLoop.rotors`` (one row per rotor): the mixer's six numbers (roll, pitch and
-# yaw factors, then the rotor's normalized effectiveness: mixer.mixer_rows_with_effectiveness),
+# Columns of ``InnerLoop.rotors`` (one row per rotor of the airframe, where the thrust acts):
 # the rotor's x and y (FRD, m), its reaction torque per newton of thrust (signed, m).
-R_MIX, R_X, R_Y, R_YAW_K, R_SIZE = 0, 6, 7, 8, 9
+R_X, R_Y, R_YAW_K, R_SIZE = 0, 1, 2, 3
+# ``InnerLoop.alloc``: per row, the allocation PX4's control_allocator makes from CA_ROTOR_COUNT
+# and CA_ROTORn_* (mixer.allocation_rows): item 0 holds the motor count (column A_COUNT) and
+# CA_METHOD (A_METHOD), items 1.. the rows ``mix_into`` takes, one per motor (at most
+# MAX_MOTORS: NUM_ROTORS_MAX), with the motor's CA_Rn_SLEW (s; 0: none) in column A_SLEW.
+MAX_MOTORS, A_COUNT, A_METHOD, A_SLEW, A_SIZE = 12, 0, 1, ROW_SIZE, ROW_SIZE + 1
+CA_METHOD_PSEUDO_INVERSE = 0  # with output clipping; 1 and 2 (automatic): sequential desaturation
+FLT_EPSILON = 1.1920929e-07
+# Columns of ``InnerLoop.outputs`` (per row, one per rotor: the gz bridge's ESC outputs, which
+# the x500 model's motors 0.. take): SIM_GZ_EC_FUNCn, _MINn, _MAXn, _DISn, and 1.0 where
+# SIM_GZ_EC_REV has the output's bit.
+O_FUNCTION, O_MIN, O_MAX, O_DISARMED, O_REVERSE, O_SIZE = 0, 1, 2, 3, 4, 5
+# Output functions (PX4's output_functions.yaml): Constant Min, Constant Max, Motor 1 (..12).
+FUNCTION_CONSTANT_MIN, FUNCTION_CONSTANT_MAX, FUNCTION_MOTOR1 = 1, 2, 101
+CA_ROTOR_CT_DEFAULT, CA_METHOD_DEFAULT = 6.5, 2  # control_allocator/module.yaml
 # Numbers per body of a raw PyBullet state (``measure``): position, orientation xyzw, linear and
 # angular velocity, ENU.
 RAW_SIZE = 13
@@ -88,7 +107,31 @@ class InnerCommand(NamedTuple):
     # (attitude, rate) coefficients and THR_MDL_FAC
     gains: tuple[tuple[float, ...], tuple[float, ...], float] | None
     reset_rates: bool
-    motor_test: tuple[float, ...] = ()  # MODE_TEST: each rotor's test value (NaN: stopped)
+    motor_test: tuple[float, ...] = ()  # MODE_TEST: each motor's test value (NaN: none)
+
+
+@njit_cached
+def esc_output(o, u, flying: bool) -> float:  # pragma: no cover
+    """One ESC output of the gz bridge (MixingOutput): ``o`` its O_* configuration (uint16
+    values, minimum ≤ maximum: allocation_params.esc_outputs), ``u`` the motors' commands (0..1,
+    NaN: none); ``flying``: armed, not in the actuator test (the constant functions then hold
+    too). A motor's command over SIM_GZ_EC_MIN..MAX (output_limit_calc_single: the range
+    reversed by SIM_GZ_EC_REV, the result rounded as lroundf and kept within 0..65535); no value
+    (disarmed, no function, a motor beyond CA_ROTOR_COUNT): SIM_GZ_EC_DIS."""
+    f = o[O_FUNCTION]
+    x = math.nan
+    if FUNCTION_MOTOR1 <= f < FUNCTION_MOTOR1 + MAX_MOTORS:
+        x = u[int(f) - FUNCTION_MOTOR1]
+    elif flying and f == FUNCTION_CONSTANT_MIN:
+        x = 0.0
+    elif flying and f == FUNCTION_CONSTANT_MAX:
+        x = 1.0
+    if math.isnan(x):
+        return o[O_DISARMED]
+    if o[O_REVERSE] != 0.0:
+        x = 1.0 - x
+    x = max(0.0, min(x, 1.0))
+    return max(0.0, min(math.floor(o[O_MIN] + (o[O_MAX] - o[O_MIN]) * x + 0.5), 65535.0))
 
 
 @njit_cached
@@ -110,22 +153,28 @@ def thrust_model(control: float, factor: float) -> float:  # pragma: no cover
 
 @njit_cached
 def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, saturation,
-                       rotors, plant, measured, estimated, rotor_speed, wind, forces,
-                       motor_ok, commanded):  # pragma: no cover
+                       rotors, alloc, last_sp, outputs, tests, plant, measured, estimated,
+                       rotor_speed, wind, forces, motor_ok, commanded):  # pragma: no cover
     """One physics step of every vehicle's inner loop (module rules). The controllers fly on
     ``estimated`` (attitude, gyro rates less their bias); the physics acts on ``measured``, the
-    truth. ``plant``: max rotor speed, motor constant, lag coefficient up, lag coefficient down,
-    linear drag, idle thrust, the D term's filter coefficient, the step (s); ``wind``: the air's
-    velocity (NED), which the drag acts against; ``motor_ok``: 0 for a rotor whose motor has
-    failed (failure injection: it spins down). ``commanded`` (out): per row the rate controller's
-    setpoint (C_RATES_SP, PX4 vehicle_rates_setpoint; 0 when it does not run), its torque and
-    integrator (C_TORQUE_SP, C_RATE_INT; 0 when it does not run) and each rotor's
-    commanded speed (C_OUTPUTS, rad/s: PX4's actuator_outputs as the gz bridge's ESC outputs
-    carry them, before the motor's lag and whatever failure injection did to the motor)."""
+    truth. ``rotors``: the airframe's rotors (R_* columns: where they push); ``alloc``: each
+    row's allocation (A_* items: the count, CA_METHOD, ``mix_into``'s rows and CA_Rn_SLEW, one
+    per motor of CA_ROTOR_COUNT); ``last_sp``: each motor's last allocated setpoint (the slew
+    rate limit's _prev_actuator_sp); ``outputs``: each row's ESC outputs (O_* columns, one per
+    rotor: SIM_GZ_EC_FUNCn, _MINn, _MAXn, _DISn and the SIM_GZ_EC_REV bit); ``tests``: each
+    motor's actuator test value (MODE_TEST; NaN: not tested); ``plant``: max rotor speed, motor
+    constant, lag coefficient up, lag coefficient down, linear drag, idle thrust, the D term's
+    filter coefficient, the step (s); ``wind``: the air's velocity (NED), which the drag acts
+    against; ``motor_ok``: 0 for a rotor whose motor has failed (failure injection: it spins
+    down). ``commanded`` (out): per row the rate controller's setpoint (C_RATES_SP, PX4
+    vehicle_rates_setpoint; 0 when it does not run), its torque and integrator (C_TORQUE_SP,
+    C_RATE_INT; 0 when it does not run) and each output's value (C_OUTPUTS, rad/s: PX4's
+    actuator_outputs as the gz bridge's ESC outputs carry them, before the motor's lag and
+    whatever failure injection did to the motor)."""
     w_max, k_motor, alpha_up, alpha_down, drag = plant[0], plant[1], plant[2], plant[3], plant[4]
-    idle, alpha, dt_s, esc_min, esc_span = plant[5], plant[6], plant[7], plant[8], plant[9]
+    idle, alpha, dt_s = plant[5], plant[6], plant[7]
     n_rotors = len(rotors)
-    u = np.zeros(n_rotors)
+    u = np.zeros(MAX_MOTORS)  # actuator_motors: each motor's command, NaN: none
     for v in range(len(mode)):
         m = measured[v]
         q = (m[M_Q], m[M_Q + 1], m[M_Q + 2], m[M_Q + 3])
@@ -134,20 +183,21 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
         out_cmd = commanded[v]
         for i in range(C_OUTPUTS):
             out_cmd[i] = 0.0
+        count = int(alloc[v, 0, A_COUNT])
+        rows = alloc[v, 1:count + 1]
+        motors = u[:count]
+        u[:] = math.nan
         armed = mode[v] != MODE_OFF
-        if not armed:
-            for i in range(n_rotors):
-                u[i] = 0.0
-        elif mode[v] == MODE_TEST:
+        if mode[v] == MODE_TEST:
             rate_state[v, :] = 0.0
-            for i in range(n_rotors):
-                x = setpoint[v, i]
+            for i in range(MAX_MOTORS):
+                x = tests[v, i]
                 # NaN (or below 0): stopped; the test value goes through the thrust model too
-                u[i] = thrust_model(min(x, 1.0), gains[v, G_THR_MDL_FAC]) if x >= 0.0 else -1.0
-        else:
+                u[i] = thrust_model(min(x, 1.0), gains[v, G_THR_MDL_FAC]) if x >= 0.0 else math.nan
+        elif armed:
+            thrust = roll = pitch = yaw = 0.0
             if mode[v] == MODE_IDLE:
                 rate_state[v, :] = 0.0
-                mix_into(0.0, 0.0, 0.0, 0.0, rotors, idle, u)
             else:
                 c = setpoint[v]
                 g = gains[v]
@@ -161,29 +211,45 @@ def control_and_forces(mode, setpoint, use_rates_sp, landed, gains, rate_state, 
                 torque = rate_pid(dt_s, alpha, (est[M_RATES], est[M_RATES + 1], est[M_RATES + 2]), sp,
                                   landed[v], (s[0], s[1], s[2]), (s[3], s[4], s[5]), g[G_RATE:],
                                   rate_state[v])
-                flags = mix_into(c[SP_THRUST], torque[0], torque[1], torque[2], rotors, idle, u)
+                thrust, roll, pitch, yaw = c[SP_THRUST], torque[0], torque[1], torque[2]
                 for i in range(3):
                     out_cmd[C_TORQUE_SP + i] = torque[i]
                     out_cmd[C_RATE_INT + i] = rate_state[v, STATE_INTEGRAL + i]
+            # ControlAllocator::Run: allocate, the slew rate limit, clip
+            if alloc[v, 0, A_METHOD] == CA_METHOD_PSEUDO_INVERSE:
+                pseudo_inverse_into(thrust, roll, pitch, yaw, rows, motors)
+            else:
+                desaturate_into(thrust, roll, pitch, yaw, rows, motors)
+            prev = last_sp[v]
+            for i in range(count):
+                slew_s = rows[i, A_SLEW]
+                if slew_s > FLT_EPSILON:
+                    step = dt_s / slew_s
+                    motors[i] = max(prev[i] - step, min(motors[i], prev[i] + step))
+            flags = clip_into(roll, pitch, yaw, rows, idle, motors)
+            for i in range(count):
+                prev[i] = motors[i]
+            if mode[v] == MODE_FLY:
                 for i in range(6):
-                    s[i] = flags[i]
+                    saturation[v, i] = flags[i]
             factor = gains[v, G_THR_MDL_FAC]
             if factor > 0.0:
-                for i in range(n_rotors):
+                for i in range(count):
                     u[i] = thrust_model(u[i], factor)
+        if not armed or mode[v] == MODE_TEST:
+            last_sp[v, :] = 0.0  # the allocator's zero thrust and torque while disarmed
         # Motor lag (first order, faster up than down) and the rotors' thrust and torque.
         speeds = rotor_speed[v]
         total = tx = ty = tz = 0.0
         for i in range(n_rotors):
-            # MixingOutput::output_limit_calc_single: the ESC output is a whole number (lroundf).
-            cmd = (min(math.floor(esc_min + esc_span * u[i] + 0.5), w_max)
-                   if armed and u[i] >= 0.0 else 0.0)
+            cmd = esc_output(outputs[v, i], u, armed and mode[v] != MODE_TEST)
             out_cmd[C_OUTPUTS + i] = cmd
-            cmd *= motor_ok[v, i]
+            # the gz model's MulticopterMotorModel: at most maxRotVelocity either way
+            cmd = max(-w_max, min(cmd, w_max)) * motor_ok[v, i]
             w = speeds[i]
             w += (cmd - w) * (alpha_up if cmd > w else alpha_down)
             speeds[i] = w
-            t = k_motor * w * w
+            t = k_motor * w * abs(w)
             total += t
             tx -= rotors[i, R_Y] * t
             ty += rotors[i, R_X] * t
@@ -248,17 +314,23 @@ class InnerLoop:
         self.dt_s = dt_s
         self.idle_thrust_norm = idle_thrust_norm
         self.alpha = d_filter_alpha(dt_s)
-        mixer = mixer_rows_with_effectiveness(*airframe.mixer_rows())
         self.rotors = np.array([
-            (*mixer[i], r.position_frd_m[0], r.position_frd_m[1],
-             r.yaw_sign * airframe.moment_constant_m) for i, r in enumerate(airframe.rotors)],
-            dtype=float)
+            (r.position_frd_m[0], r.position_frd_m[1], r.yaw_sign * airframe.moment_constant_m)
+            for r in airframe.rotors], dtype=float)
+        # What a new row starts with: 4001_gz_x500's allocation (CA_ROTOR_COUNT and CA_ROTORn_*,
+        # CA_ROTORn_CT at its default) and ESC outputs (SIM_GZ_EC_FUNCn = Motor n, MIN, MAX).
+        self.default_alloc = np.zeros((MAX_MOTORS + 1, A_SIZE))
+        self.set_allocation_into(self.default_alloc, [
+            (px, py, 0.0, 0.0, 0.0, -1.0, CA_ROTOR_CT_DEFAULT, km)
+            for px, py, km in airframe.allocation_rotors], CA_METHOD_DEFAULT, ())
+        self.default_outputs = np.array([
+            (FUNCTION_MOTOR1 + i, airframe.esc_min_radps, airframe.esc_max_radps, 0.0, 0.0)
+            for i in range(airframe.rotor_count)], dtype=float)
         self.plant = np.array([
             airframe.max_rotor_speed_radps, airframe.motor_constant_n_per_radps2,
             1.0 - math.exp(-dt_s / airframe.motor_time_constant_up_s),
             1.0 - math.exp(-dt_s / airframe.motor_time_constant_down_s),
             airframe.linear_drag_n_per_mps, idle_thrust_norm, self.alpha, dt_s,
-            airframe.esc_min_radps, airframe.esc_max_radps - airframe.esc_min_radps,
         ])
         self._rotors = airframe.rotor_count
         self.wind = np.zeros(3)  # the air's velocity, NED (wind.py); World.step sets it
@@ -294,14 +366,19 @@ class InnerLoop:
         self.spawn_enu = grow(get("spawn_enu"), (n, 3))
         self.forces = grow(get("forces"), (n, F_SIZE))
         self.commanded = grow(get("commanded"), (n, C_OUTPUTS + self._rotors))
+        self.alloc = grow(get("alloc"), (n, MAX_MOTORS + 1, A_SIZE))
+        self.last_sp = grow(get("last_sp"), (n, MAX_MOTORS))
+        self.outputs = grow(get("outputs"), (n, self._rotors, O_SIZE))
+        self.tests = grow(get("tests"), (n, MAX_MOTORS))
         # ``control_and_forces``' arguments, gathered once per resize rather than looked up
         # attribute by attribute at every step (the arrays are only ever written in place), and
         # few: numba checks the type of every argument at every call.
         self._control_args = (
             self.mode, self.setpoint, self.use_rates_sp, self.landed, self.gains,
-            self.rate_state, self.saturation, self.rotors, self.plant, self.measured,
-            self.estimated, self.rotor_speed, self.wind, self.forces, self.motor_ok,
-            self.commanded)
+            self.rate_state, self.saturation, self.rotors, self.alloc, self.last_sp, self.outputs,
+            self.tests,
+            self.plant, self.measured, self.estimated, self.rotor_speed, self.wind, self.forces,
+            self.motor_ok, self.commanded)
         # The rows ``load`` writes, as views: indexing a list is cheaper than a 2-D array.
         self._setpoint_rows = list(self.setpoint)
         self._rate_state_rows = list(self.rate_state)
@@ -313,6 +390,9 @@ class InnerLoop:
         self._resize(k + 1)
         self.count = k + 1
         self.setpoint[k, SP_Q] = 1.0
+        self.alloc[k] = self.default_alloc
+        self.outputs[k] = self.default_outputs
+        self.tests[k] = math.nan
         self.spawn_enu[k] = spawn_enu_m
         measure(np.array([raw_state]), self.spawn_enu[k:k + 1], 0.0, self.measured[k:k + 1])
         self.estimated[k] = self.measured[k]
@@ -338,9 +418,34 @@ class InnerLoop:
             sp[SP_RATES], sp[SP_RATES + 1], sp[SP_RATES + 2] = rates
         self.landed[k] = landed
         if mode == MODE_TEST:
-            n = min(len(motor_test), self._rotors)
-            sp[:self._rotors] = math.nan
-            sp[:n] = motor_test[:n]
+            n = min(len(motor_test), MAX_MOTORS)
+            tests = self.tests[k]
+            tests[:] = math.nan
+            tests[:n] = motor_test[:n]
+
+    @staticmethod
+    def set_allocation_into(alloc: np.ndarray, geometry: list[tuple[float, ...]], method: int,
+                            slews_s: tuple[float, ...]) -> None:
+        """``alloc`` (one row's A_* items) for rotors given as (CA_ROTORn_PX, _PY, _PZ, _AX, _AY,
+        _AZ, _CT, _KM), at most MAX_MOTORS, allocated by CA_METHOD ``method`` with the motors'
+        CA_Rn_SLEW ``slews_s`` (ControlAllocator's update of the effectiveness and parameters)."""
+        geometry = geometry[:MAX_MOTORS]
+        n = len(geometry)
+        alloc[:] = 0.0
+        alloc[0, A_COUNT], alloc[0, A_METHOD] = n, method
+        alloc[1:n + 1, :ROW_SIZE] = allocation_rows(geometry)
+        for i, slew_s in enumerate(slews_s[:n]):
+            alloc[1 + i, A_SLEW] = slew_s
+
+    def set_allocation(self, k: int, geometry: list[tuple[float, ...]], method: int,
+                       slews_s: tuple[float, ...]) -> None:
+        """Row ``k``'s allocation (``set_allocation_into``)."""
+        self.set_allocation_into(self.alloc[k], geometry, method, slews_s)
+
+    def set_outputs(self, k: int, outputs: list[tuple[float, ...]]) -> None:
+        """Row ``k``'s ESC outputs (O_* columns, one per rotor: SIM_GZ_EC_FUNCn, _MINn, _MAXn,
+        _DISn, the SIM_GZ_EC_REV bit)."""
+        self.outputs[k] = outputs
 
     def commanded_row(self, k: int) -> list[float]:
         """Row ``k``'s last rate setpoint and commanded rotor speeds (C_* columns)."""

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from vehicles.airframe import X500, Airframe
+from vehicles.allocation_params import allocation, esc_outputs
 from vehicles.autopilot import POSITION_CONTROL_DIVIDER
 from vehicles.control import compiled, position_control, position_smoothing
 from vehicles.control.compiled import njit_cached
@@ -74,6 +75,7 @@ from vehicles.inner_loop import (
     M_RATES,
     M_VEL,
     MODE_FLY,
+    O_DISARMED,
     RAW_SIZE,
     InnerLoop,
     measure,
@@ -230,6 +232,8 @@ class World:
         self._com_enu: list[tuple[float, float, float]] = []  # where forces are applied
         # each row's vehicle_acceleration filter: (parameter version seen, its cutoff in Hz)
         self._acc_filter: list[tuple[int, float]] = []
+        # each row's allocation parameters as last applied (_set_allocation)
+        self._allocation: list[tuple | None] = []
         self._truth_rows: list[list[float]] | None = None  # ``inner.measured`` as lists
         self._closed = False
 
@@ -254,6 +258,8 @@ class World:
                             float(store.get("EKF2_GPS_DELAY", 110.0) or 0.0) * 1e-3,
                             lowpass2p(1.0 / self.dt_s, cutoff), store.get("EKF2_HGT_REF"))
         self._set_aiding(row, store)
+        self._allocation.append(None)
+        self._set_allocation(row, store)
         # followed at every parameter change (_params_changed), as EKF2's parameters are
         self._acc_filter.append((store.version, filter_cutoff_hz(1.0 / self.dt_s, cutoff)))
         self._truth_rows = None
@@ -415,6 +421,25 @@ class World:
                                    params.get("EKF2_HGT_REF"))
         self.estimation.set_height_params(row, params.get)
 
+    def _set_allocation(self, row: int, params: ParamStore) -> None:
+        """ControlAllocator's and the gz bridge's parameter update: the row's allocation anew
+        when CA_ROTOR_COUNT, a CA_ROTORn_*, CA_METHOD or a CA_Rn_SLEW changed, its ESC outputs
+        when a SIM_GZ_EC_* did."""
+        configured = allocation(params.get)
+        outputs = esc_outputs(params.get, self.airframe.rotor_count)
+        if (configured, outputs) == self._allocation[row]:
+            return
+        if configured is not None and (self._allocation[row] or (None,))[0] != configured:
+            geometry, method, slews = configured
+            self.inner.set_allocation(row, list(geometry), method, slews)
+        if outputs is not None:
+            self.inner.set_outputs(row, list(outputs))
+        self._allocation[row] = (configured, outputs)
+
+    def disarmed_outputs(self, row: int) -> tuple[float, ...]:
+        """Row ``row``'s ESC outputs' disarmed values (SIM_GZ_EC_DISn), as sent while disarmed."""
+        return tuple(self.inner.outputs[row, :, O_DISARMED].tolist())
+
     def _params_changed(self, row: int, params: ParamStore) -> None:
         """Before row ``row``'s next sample: EKF2's parameter update (EKF2_GPS_CTRL, EKF2_BARO_CTRL,
         EKF2_HGT_REF), and
@@ -422,6 +447,7 @@ class World:
         than 0.1 Hz from the filter's cutoff sets the filter anew (lowpass2p) and resets it to
         the last corrected sample."""
         self._set_aiding(row, params)
+        self._set_allocation(row, params)
         sample_hz, param_hz = 1.0 / self.dt_s, _accel_cutoff_param(params)
         cutoff = self._acc_filter[row][1]
         new = cutoff_update(sample_hz, cutoff, param_hz)

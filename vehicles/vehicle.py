@@ -87,6 +87,8 @@ class WorldRow(Protocol):
 
     def commanded(self, row: int) -> list[float]: ...
 
+    def disarmed_outputs(self, row: int) -> tuple[float, ...]: ...
+
 
 def _reason(internal: bool) -> ArmReason:
     return ArmReason.COMMAND_INTERNAL if internal else ArmReason.COMMAND_EXTERNAL
@@ -223,8 +225,8 @@ class Vehicle:
         """The controllers' setpoints and the motors' commands, as PX4 publishes them."""
         ap = self._autopilot
         st, cmd = ap.stage, ap.commander
-        out = ap.last_command
-        commanded = tuple(self._world.commanded(self._row))
+        out, world, row = ap.last_command, self._world, self._row
+        commanded = tuple(world.commanded(row))
         nav = cmd.nav_state
         if nav in NO_POSITION_CONTROL:
             position_control = False
@@ -246,8 +248,7 @@ class Vehicle:
         return _new_tuple(Targets, (
             st.tick_s, out.attitude_q, out.thrust_norm, commanded[C_RATES_SP:C_TORQUE_SP],
             position_control, pos, vel, acc, yaw, out.yawspeed_radps, target,
-            commanded[C_OUTPUTS:] if cmd.armed or ap.motor_test
-            else (0.0,) * (len(commanded) - C_OUTPUTS),
+            commanded[C_OUTPUTS:] if cmd.armed or ap.motor_test else world.disarmed_outputs(row),
             commanded[C_TORQUE_SP:C_RATE_INT], commanded[C_RATE_INT:C_OUTPUTS]))
 
     @property
@@ -453,8 +454,7 @@ class Vehicle:
         """MAV_CMD_ACTUATOR_TEST (vehicles/actuator_test.py); DENIED unless allowed."""
         if not self.motor_test_allowed():
             return CommandResult.DENIED
-        return self._autopilot.motor_test.command(now_s, function, value, timeout_s,
-                                                  self.airframe.rotor_count)
+        return self._autopilot.motor_test.command(now_s, function, value, timeout_s)
 
     def param_storage(self, now_s: float, action: int) -> CommandResult | None:
         """MAV_CMD_PREFLIGHT_STORAGE param1, as PX4's commander worker: 0 load and 1 save (the

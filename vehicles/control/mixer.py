@@ -36,15 +36,49 @@ from typing import NamedTuple
 import numpy as np
 from numba.extending import register_jitable
 
+_FLT_EPSILON = 1.1920929e-07
+
 
 def rotor_effectiveness(rotors) -> np.ndarray:
     """ActuatorEffectivenessRotors::computeEffectivenessMatrix for rotors whose thrust points up
     (axis (0, 0, -1) FRD, CA_ROTORn_CT 1): one (roll, pitch, yaw, thrust x, y, z) column per
     rotor given as (CA_ROTORn_PX, _PY, _KM), moment = CT·(position × axis) − CT·KM·axis."""
+    return geometry_effectiveness([(px, py, 0.0, 0.0, 0.0, -1.0, 1.0, km) for px, py, km in rotors])
+
+
+def geometry_effectiveness(rotors) -> np.ndarray:
+    """ActuatorEffectivenessRotors::computeEffectivenessMatrix for rotors given as
+    (CA_ROTORn_PX, _PY, _PZ, _AX, _AY, _AZ, _CT, _KM): the axis normalized (a rotor whose axis is
+    shorter than FLT_EPSILON, or whose CT is below it, keeps a zero column), thrust = CT·axis,
+    moment = CT·(position × axis) − CT·KM·axis; one (roll, pitch, yaw, thrust x, y, z) column
+    per rotor."""
     effectiveness = np.zeros((6, len(rotors)))
-    for i, (px, py, km) in enumerate(rotors):
-        effectiveness[:, i] = (-py, px, km, 0.0, 0.0, -1.0)
+    for i, (px, py, pz, ax, ay, az, ct, km) in enumerate(rotors):
+        norm = math.sqrt(ax * ax + ay * ay + az * az)
+        if not norm > _FLT_EPSILON or not abs(ct) >= _FLT_EPSILON:
+            continue
+        ax, ay, az = ax / norm, ay / norm, az / norm
+        moment = (py * az - pz * ay, pz * ax - px * az, px * ay - py * ax)
+        column = (ct * moment[0] - ct * km * ax, ct * moment[1] - ct * km * ay,
+                  ct * moment[2] - ct * km * az, ct * ax, ct * ay, ct * az)
+        # A non-finite parameter (NaN, or a product past the double range) leaves the rotor out
+        # rather than poisoning the whole pseudo-inverse.
+        if all(math.isfinite(c) for c in column):
+            effectiveness[:, i] = column
     return effectiveness
+
+
+def allocation_rows(rotors) -> np.ndarray:
+    """The rows ``mix_into`` takes for rotors given as ``geometry_effectiveness``'s: PX4's
+    normalized pseudo-inverse (``pseudo_inverse_mix``), its roll, pitch and yaw columns and the
+    thrust column (collective thrust upwards: −thrust z), with the effectiveness the allocation
+    inverts (``mixer_rows_with_effectiveness``). No rotors: no rows."""
+    if not len(rotors):
+        return np.zeros((0, ROW_SIZE))
+    with np.errstate(all="ignore"):
+        mix = pseudo_inverse_mix(geometry_effectiveness(rotors))
+        rows = mixer_rows_with_effectiveness(mix[:, 0], mix[:, 1], mix[:, 2], -mix[:, 5])
+    return np.where(np.isfinite(rows), rows, 0.0)
 
 
 def pseudo_inverse_mix(effectiveness: np.ndarray, normalize: bool = True) -> np.ndarray:
@@ -85,14 +119,17 @@ class MixerOutput(NamedTuple):
     saturation_negative: tuple[bool, bool, bool]
 
 
-def mixer_rows_with_effectiveness(roll, pitch, yaw) -> np.ndarray:
+def mixer_rows_with_effectiveness(roll, pitch, yaw, thrust=None) -> np.ndarray:
     """The rows ``mix_into`` takes, one per rotor: its roll, pitch and yaw factors (the
     normalized allocation columns), then the normalized roll, pitch and yaw effectiveness of the
     rotor, which the allocation inverts: the first three rows of the pseudo-inverse of [roll,
-    pitch, yaw, thrust 1 per rotor] (PX4 ControlAllocation::getAllocatedControl uses the scaled
-    effectiveness; the same matrix up to the entries the normalization rounds to 0)."""
-    mix = np.column_stack([roll, pitch, yaw, np.ones(len(roll))]).astype(float)
-    return np.ascontiguousarray(np.hstack([mix[:, :3], np.linalg.pinv(mix)[:3].T]))
+    pitch, yaw, thrust] (PX4 ControlAllocation::getAllocatedControl uses the scaled
+    effectiveness; the same matrix up to the entries the normalization rounds to 0); last the
+    rotor's share of the collective thrust (``thrust``; None: 1 each, a flat multicopter's)."""
+    thrust = np.ones(len(roll)) if thrust is None else np.asarray(thrust, dtype=float)
+    mix = np.column_stack([roll, pitch, yaw, thrust]).astype(float)
+    effectiveness = np.linalg.pinv(mix)[:3].T
+    return np.ascontiguousarray(np.hstack([mix[:, :3], effectiveness, thrust[:, None]]))
 
 
 # ControlAllocationSequentialDesaturation::MINIMUM_YAW_MARGIN: yaw may use this fraction of the
@@ -100,13 +137,13 @@ def mixer_rows_with_effectiveness(roll, pitch, yaw) -> np.ndarray:
 MINIMUM_YAW_MARGIN = 0.15
 # computeDesaturationGain leaves out actuators that move less than this along the vector.
 _WEAK_EFFECTIVENESS = 0.2
-_THRUST = -1  # ``rows`` column meaning the collective thrust (1 per motor)
-_FLT_EPSILON = 1.1920929e-07
+_THRUST = 6  # ``rows`` column: the rotor's share of the collective thrust
+ROW_SIZE = 7  # numbers per row of ``mixer_rows_with_effectiveness``
 
 
 @register_jitable
 def _along(rows, i: int, col: int) -> float:
-    return 1.0 if col == _THRUST else rows[i][col]
+    return rows[i][col]
 
 
 @register_jitable
@@ -146,16 +183,13 @@ def _desaturate(out, rows, col: int, top: float, reduce_only: bool) -> None:
 
 
 @register_jitable
-def mix_into(thrust: float, roll: float, pitch: float, yaw: float, rows, idle: float, out
-             ) -> tuple[bool, bool, bool, bool, bool, bool]:
-    """PX4's mixAirmodeDisabled and mixYaw (module docstring): normalized rotor thrusts into
-    ``out``, at least ``idle``; returns the saturation flags (roll+, pitch+, yaw+, roll−,
-    pitch−, yaw−). ``rows``: ``mixer_rows_with_effectiveness``'s, one per rotor. Plain Python
-    from Python, compiled into vehicles/inner_loop.py."""
+def desaturate_into(thrust: float, roll: float, pitch: float, yaw: float, rows, out) -> None:
+    """ControlAllocationSequentialDesaturation::allocate (CA_METHOD 1, and 2 on a multicopter):
+    PX4's mixAirmodeDisabled and mixYaw (module docstring), unclipped, into ``out``."""
     n = len(rows)
     thrust = 0.0 if thrust < 0.0 else (1.0 if thrust > 1.0 else thrust)
     for i in range(n):
-        out[i] = thrust + roll * rows[i][0] + pitch * rows[i][1]
+        out[i] = thrust * rows[i][_THRUST] + roll * rows[i][0] + pitch * rows[i][1]
     _desaturate(out, rows, _THRUST, 1.0, True)
     _desaturate(out, rows, 0, 1.0, False)
     _desaturate(out, rows, 1, 1.0, False)
@@ -163,11 +197,28 @@ def mix_into(thrust: float, roll: float, pitch: float, yaw: float, rows, idle: f
         out[i] += yaw * rows[i][2]
     _desaturate(out, rows, 2, 1.0 + MINIMUM_YAW_MARGIN, False)
     _desaturate(out, rows, _THRUST, 1.0, True)
-    # ControlAllocator: the outputs clipped to 0..1, the torque they allocate (effectiveness ·
-    # outputs) and the unallocated torque (setpoint − allocated); MulticopterRateControl's
-    # saturation flags from it, none while the torque is met (|unallocated|² < 1e-6).
+
+
+@register_jitable
+def pseudo_inverse_into(thrust: float, roll: float, pitch: float, yaw: float, rows, out) -> None:
+    """ControlAllocationPseudoInverse::allocate (CA_METHOD 0): the allocation matrix times the
+    setpoint, unclipped, into ``out``."""
+    thrust = 0.0 if thrust < 0.0 else (1.0 if thrust > 1.0 else thrust)
+    for i in range(len(rows)):
+        out[i] = (thrust * rows[i][_THRUST] + roll * rows[i][0] + pitch * rows[i][1]
+                  + yaw * rows[i][2])
+
+
+@register_jitable
+def clip_into(roll: float, pitch: float, yaw: float, rows, idle: float, out
+              ) -> tuple[bool, bool, bool, bool, bool, bool]:
+    """ControlAllocator after the allocation: ``out`` clipped to 0..1 (clipActuatorSetpoint),
+    then at least ``idle``; returns MulticopterRateControl's saturation flags (roll+, pitch+,
+    yaw+, roll−, pitch−, yaw−) from the unallocated torque (the setpoint less the torque the
+    clipped outputs allocate, effectiveness · outputs), none while the torque is met
+    (|unallocated|² < 1e-6)."""
     e_roll, e_pitch, e_yaw = roll, pitch, yaw
-    for i in range(n):
+    for i in range(len(rows)):
         t = out[i]
         t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
         e_roll -= rows[i][3] * t
@@ -178,6 +229,17 @@ def mix_into(thrust: float, roll: float, pitch: float, yaw: float, rows, idle: f
         return (False, False, False, False, False, False)
     return (e_roll > _FLT_EPSILON, e_pitch > _FLT_EPSILON, e_yaw > _FLT_EPSILON,
             e_roll < -_FLT_EPSILON, e_pitch < -_FLT_EPSILON, e_yaw < -_FLT_EPSILON)
+
+
+@register_jitable
+def mix_into(thrust: float, roll: float, pitch: float, yaw: float, rows, idle: float, out
+             ) -> tuple[bool, bool, bool, bool, bool, bool]:
+    """The sequential desaturation and the clipping: normalized rotor thrusts into ``out``, at
+    least ``idle``; returns the saturation flags (``clip_into``). ``rows``:
+    ``mixer_rows_with_effectiveness``'s, one per rotor. Plain Python from Python, compiled into
+    vehicles/inner_loop.py."""
+    desaturate_into(thrust, roll, pitch, yaw, rows, out)
+    return clip_into(roll, pitch, yaw, rows, idle, out)
 
 
 class Mixer:
