@@ -50,7 +50,8 @@ position and velocity fused EKF2_GPS_DELAY late, barometric height, magnetometer
   velocity and the accelerometer's z bias: the vertical channel of height_fusion.py (EKF2's:
   the barometer, the GPS height and vertical velocity in a Kalman filter, each height source
   less its bias but the reference's, EKF2_HGT_REF's fallbacks). A magnetometer heading whose
-  test ratio is over 1 (EKF2_MAG_GATE) is rejected.
+  test ratio is over 1 (EKF2_MAG_GATE) is rejected. The resets EKF2 makes at start-up and once
+  per flight are made and counted as it counts them (ekf_resets.py).
 - Wind: with the vehicle flying, the horizontal specific force in the body frame is the drag of
   the air, so the air's velocity follows (EKF2's drag fusion principle), low-passed.
 - Health: the innovation test ratios as estimator_status has them (√(innovation² / (gate² ·
@@ -70,6 +71,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from vehicles import ekf_resets as rs
 from vehicles import height_fusion as hf
 from vehicles import mag_fusion as mf
 from vehicles.aiding import (
@@ -121,10 +123,8 @@ GNSS_RESET_S = 7.0  # EKF2's reset_timeout_max: unaided this long, a fix resets 
 # Failure injection (``failed``, a bit set per row; MAV_CMD_INJECT_FAILURE's units and types).
 F_GPS_OFF, F_BARO_OFF, F_BARO_STUCK, F_MAG_OFF, F_MAG_STUCK = 1, 2, 4, 8, 16
 F_GYRO_OFF, F_GYRO_STUCK, F_ACC_OFF, F_ACC_STUCK = 32, 64, 128, 256
-F_GYRO = F_GYRO_OFF | F_GYRO_STUCK
-F_ACC = F_ACC_OFF | F_ACC_STUCK
-F_BARO = F_BARO_OFF | F_BARO_STUCK
-F_MAG = F_MAG_OFF | F_MAG_STUCK
+F_GYRO, F_ACC = F_GYRO_OFF | F_GYRO_STUCK, F_ACC_OFF | F_ACC_STUCK
+F_BARO, F_MAG = F_BARO_OFF | F_BARO_STUCK, F_MAG_OFF | F_MAG_STUCK
 
 HISTORY = 64  # steps of past states kept: delays up to 63 physics steps (252 ms at 250 Hz)
 # The World's recent-steps ring (physics.py): per row and physics step, what PX4's logger records
@@ -147,19 +147,19 @@ B_GYRO, B_ACC, B_SIZE = 0, 3, 6
  E_Z_RESET, E_POS_AGE, E_HGT) = (0, 4, 7, 10, 13, 14, 17, 20, 23, 26, 28, 33, 35, 36, 37, 38, 41, 44,
                                  46, 48, 49)
 E_MAG = E_HGT + hf.H_SIZE  # the magnetometer's way in (mag_fusion.py's MAG_* columns)
-E_SIZE = E_MAG + mf.MAG_SIZE
+E_RS = E_MAG + mf.MAG_SIZE  # EKF2's start-up and in-flight resets (ekf_resets.py's columns)
+E_SIZE = E_RS + rs.SIZE
+E_QUAT_RESET = E_RS + rs.Q_RESET  # the heading's reset count, then its last change
 # since the barometer was last fused: the vertical channel's own clock of it
 E_BARO_AGE = E_HGT + hf.H_SRC + hf.BARO * hf.SRC_SIZE + hf.SRC_AGE
-# E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the variance of
-# the raw wind samples (m²/s²);
-# E_ACCURACY: horizontal, vertical (running RMS of the innovations); E_GPS_AGE: seconds since
-# the last GPS fix came; E_BARO_AGE: since the last barometer sample was fused; E_AID_AGE: since
-# a fix's horizontal position or velocity was last fused (EKF2_NOAID_TOUT's clock);
-# E_XY_RESET, E_VXY_RESET: how many times the horizontal position, velocity was reset, then the
-# last reset's change (north, east); E_VZ_RESET, E_Z_RESET: the vertical velocity's, the height's
-# count and change (EKF2's _state_reset_status: reset_count posNE, velNE, velD, posD and their
-# changes, vehicle_local_position's xy_, vxy_, vz_, z_reset_counter and delta_xy, _vxy, _vz, _z);
-# E_HGT: the vertical channel's filter (height_fusion.py's H_* columns).
+# E_RATIOS: velocity, horizontal position, height, magnetometer heading, then the raw wind
+# samples' variance (m²/s²); E_ACCURACY: horizontal, vertical (running RMS of the innovations);
+# E_GPS_AGE: s since the last fix came; E_BARO_AGE: since the barometer was last fused;
+# E_AID_AGE: since a fix's horizontal position or velocity was (EKF2_NOAID_TOUT's clock);
+# E_XY_RESET, E_VXY_RESET, E_VZ_RESET, E_Z_RESET (RESET_COLUMNS): EKF2's _state_reset_status
+# reset_count posNE, velNE, velD, posD, each with its last change (north and east for the first
+# two: vehicle_local_position's *_reset_counter and delta_*); E_HGT: height_fusion.py's H_*.
+RESET_COLUMNS = (E_XY_RESET, E_VXY_RESET, E_VZ_RESET, E_Z_RESET)
 
 E_WIND_VAR = E_RATIOS + 4
 
@@ -217,6 +217,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
         e = est[v]
         out = estimated[v]
         f = failed[v]
+        rs.step(e, E_RS, dt_s, RESET_COLUMNS)
         # --- attitude: integrate the corrected rates --------------------------------------------
         wx = s[S_GYRO] - e[E_GYRO_BIAS] + e[E_CORR]
         wy = s[S_GYRO + 1] - e[E_GYRO_BIAS + 1] + e[E_CORR + 1]
@@ -286,21 +287,18 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
                 hf.fuse(e, E_HGT, 1, ev2, hf.gnss_vz_noise(hp) ** 2, vgate, corr)
                 dh, dv2, db = corr[0], corr[1], corr[2]
             fused = fuse_pos or fuse_vel
-            # shouldResetGpsFusion (none fused for 7 s, or no position for 14 s): reset to the fix
-            if e[E_AID_AGE] >= GNSS_RESET_S or use_pos and e[E_POS_AGE] >= 2.0 * GNSS_RESET_S:
+            # "starting GPS fusion" (ekf_resets.py), or shouldResetGpsFusion (none fused for 7 s,
+            # or no position for 14 s): reset to the fix
+            starting = (use_pos or use_vel) and rs.gnss_starting(e, E_RS)
+            if starting or e[E_AID_AGE] >= GNSS_RESET_S or use_pos and e[E_POS_AGE] >= 2.0 * GNSS_RESET_S:
                 fused, fuse_pos = use_pos or use_vel, use_pos
                 dp0, dp1 = (ep0, ep1) if use_pos else (0.0, 0.0)
                 dv0, dv1, dv2 = (ev0, ev1, ev2) if use_vel else (0.0, 0.0, 0.0)
                 dh = db = 0.0
-                # resetHorizontalPositionToGnss, resetVelocityToGnss: counted, with the change
-                if use_pos:
-                    e[E_XY_RESET] += 1.0
-                    e[E_XY_RESET + 1], e[E_XY_RESET + 2] = dp0, dp1
-                if use_vel:
-                    e[E_VXY_RESET] += 1.0
-                    e[E_VXY_RESET + 1], e[E_VXY_RESET + 2] = dv0, dv1
-                    e[E_VZ_RESET] += 1.0
-                    e[E_VZ_RESET + 1] = dv2
+                rs.gnss_reset(e, E_RS, RESET_COLUMNS, use_pos, use_vel, dp0, dp1, dv0, dv1, dv2,
+                              starting, use & GPS_CTRL_HGT != 0)
+                if use_vel:  # resetVelocityTo: the velocity's variance the observation's
+                    hf.uncorrelate(e, E_HGT, 1, hf.gnss_vz_noise(hp) ** 2)
             if fuse_pos:
                 e[E_POS_AGE] = 0.0
             if fused:
@@ -391,6 +389,7 @@ def estimate(sensed, est, ehist, hist_i, delay, dt_s, t_s, baro_due, gps_due, fl
                 e[E_WIND] += a_wind * dn
                 e[E_WIND + 1] += a_wind * de
                 e[E_WIND_VAR] += a_wind * (dn * dn + de * de - e[E_WIND_VAR])
+        rs.in_flight_heading_reset(e, E_RS, flying[v], e[E_POS + 2], not f & F_MAG_OFF)
         # --- the estimate, in the columns of ``measured`` -------------------------------------
         for i in range(3):
             out[M_POS + i] = e[E_POS + i]
@@ -454,11 +453,9 @@ class Estimation:
             gps_delay_s: float = GPS_DELAY_S,
             accel_lp: tuple[float, ...] = (1.0, 0.0, 0.0, 0.0, 0.0),
             hgt_ref: float | None = None) -> None:
-        """A row for vehicle ``index`` whose true state is ``truth`` (a row of ``measured``):
-        its estimate starts converged there (``estimated`` is that row of the estimate);
-        ``accel_lp``: its vehicle_acceleration filter (vehicle_acceleration.lowpass2p);
-        ``hgt_ref``: EKF2_HGT_REF when it starts, the height reference in force from then on
-        (None: the default, the GPS)."""
+        """A row for vehicle ``index`` at ``truth`` (a row of ``measured``), its estimate
+        converged there (``estimated``: its row of the estimate); ``accel_lp``: its
+        vehicle_acceleration filter (lowpass2p); ``hgt_ref``: EKF2_HGT_REF (None: the GPS)."""
         k = len(self.est)
         self._resize(k + 1)
         self.acc_lp[k] = accel_lp
@@ -475,6 +472,7 @@ class Estimation:
         ref = hf.REF_GNSS if hgt_ref is None or int(hgt_ref) == 1 else hf.REF_BARO
         e[E_HGT:E_HGT + hf.H_SIZE] = hf.initial_row(ref)
         e[E_MAG:E_MAG + mf.MAG_SIZE] = mf.initial_row()
+        e[E_RS:E_RS + rs.SIZE] = rs.initial_row()
         self.hist[k, :, :3] = self.ehist[k, :, :3] = truth[M_POS:M_POS + 3]
         self.hist[k, :, 3:] = self.ehist[k, :, 3:] = truth[M_VEL:M_VEL + 3]
         s = self.sensed[k]

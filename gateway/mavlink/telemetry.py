@@ -38,6 +38,7 @@ from vehicles.estimation import (
     E_ACCURACY,
     E_AID_AGE,
     E_GPS_AGE,
+    E_QUAT_RESET,
     E_VXY_RESET,
     E_VZ_RESET,
     E_XY_RESET,
@@ -436,7 +437,7 @@ def odometry(s: Snapshot) -> tuple:
     both in the local NED frame (pose_frame and velocity_frame NED, so child_frame_id
     LOCAL_NED), body rates, estimator type AUTOPILOT, quality 0 (EKF2 never sets it); the reset
     counter is the sum of the estimator's reset counts (quaternion, velocity NE and D, position NE
-    and D: this estimator resets the horizontal position and the velocity), as a uint8."""
+    and D; 9 once the GNSS fusion started: vehicles/ekf_resets.py), as a uint8."""
     kin = s.kin
     x, y, z = kin.position_ned_m
     vx, vy, vz = kin.velocity_ned_mps
@@ -444,7 +445,7 @@ def odometry(s: Snapshot) -> tuple:
     pose, vel = _odometry_covariances(s)
     e = s.sample.estimator
     resets = 0 if e is None else int(e[E_XY_RESET] + e[E_VXY_RESET] + e[E_VZ_RESET]
-                                     + e[E_Z_RESET]) & 0xFF
+                                     + e[E_Z_RESET] + e[E_QUAT_RESET]) & 0xFF
     return (s.time_usec, MAV_FRAME_LOCAL_NED, MAV_FRAME_LOCAL_NED, x, y, z, kin.attitude_q,
             vx, vy, vz, p, q, r, pose, vel, resets, MAV_ESTIMATOR_TYPE_AUTOPILOT, 0)
 

@@ -56,6 +56,7 @@ from gateway.onboard.topic import COMMANDER_REPUBLISH_S, U64, B, D, F, Topic
 from vehicles.control.quat import q_rotate, q_yaw
 from vehicles.estimation import (
     E_ACCURACY,
+    E_QUAT_RESET,
     E_VXY_RESET,
     E_VZ_RESET,
     E_WIND,
@@ -88,7 +89,8 @@ def _local_position(v: Any, now_us: int) -> tuple:
     valid = v.autopilot.commander.position_valid
     e = v.estimator
     o = v.origin
-    return (*k.position_ned_m, *k.velocity_ned_mps, *a, heading, valid, valid, valid, valid,
+    return (*k.position_ned_m, *k.velocity_ned_mps, *a, heading, e[E_QUAT_RESET + 1],
+            int(e[E_QUAT_RESET]) & 0xFF, valid, valid, valid, valid,
             o.lat_deg, o.lon_deg, o.alt_amsl_m, e[E_ACCURACY], e[E_ACCURACY + 1],
             *_resets(e, E_XY_RESET), e[E_Z_RESET + 1], int(e[E_Z_RESET]) & 0xFF,
             *_resets(e, E_VXY_RESET), e[E_VZ_RESET + 1], int(e[E_VZ_RESET]) & 0xFF)
@@ -344,6 +346,7 @@ TOPICS: tuple[Topic, ...] = (
     Topic("vehicle_attitude", (("float[4]", "q"),), 0.0, _attitude, step=_attitude_step),
     Topic("vehicle_local_position", ((F, "x"), (F, "y"), (F, "z"), (F, "vx"), (F, "vy"), (F, "vz"),
                                      (F, "ax"), (F, "ay"), (F, "az"), (F, "heading"),
+                                     (F, "delta_heading"), (U8, "heading_reset_counter"),
                                      (B, "xy_valid"), (B, "z_valid"), (B, "v_xy_valid"),
                                      (B, "v_z_valid"), (D, "ref_lat"), (D, "ref_lon"),
                                      (F, "ref_alt"), (F, "eph"), (F, "epv"),

@@ -19,6 +19,7 @@ from pymavlink.dialects.v20 import common as M
 
 from gateway.testing import Sim
 from tests.unit.test_vehicles_estimation import drift_unaided
+from vehicles import ekf_resets as rs
 from vehicles import estimation as est
 from vehicles.manual_control import ManualPosition
 from vehicles.offboard import Offboard
@@ -36,16 +37,16 @@ def test_a_gnss_reset_is_counted_with_its_change():
     from vehicles.physics import World
     w = World()
     w.add_vehicle(0)
-    for _ in range(100):
+    for _ in range(500):  # 2 s: past the start-up resets (test_start_up_resets_...)
         w.step(w.time_s)
-    assert w.aiding(0)[1:] == [0.0] * 10
+    assert counts(w) == [2.0, 2.0, 2.0, 2.0]
 
     drift_unaided(w, 3.0)
     while w.aiding_age_s(0) > 0.0:
         w.step(w.time_s)
     # fused as usual: no reset; but the GPS height, the reference, starts again after its data
     # stopped: the height resets to it (gnss_height_control.cpp: "resetting height"), counted
-    assert w.aiding(0)[1:9] == [0.0] * 8 and w.aiding(0)[9] == 1.0
+    assert counts(w) == [2.0, 2.0, 2.0, 3.0]
     for _ in range(2000):
         w.step(w.time_s)
     drift_unaided(w, 7.0)
@@ -54,13 +55,56 @@ def test_a_gnss_reset_is_counted_with_its_change():
         w.step(w.time_s)
     after = w.estimation.est[0]
     xy_n, dx, dy, vxy_n, dvx, dvy, vz_n, dvz, z_n, _ = w.aiding(0)[1:]
-    assert (xy_n, vxy_n, vz_n, z_n) == (1.0, 1.0, 1.0, 2.0)  # the height: its restart again
+    assert (xy_n, vxy_n, vz_n, z_n) == (3.0, 3.0, 3.0, 4.0)  # the height: its restart again
     # the changes the reset made (the step's own integration is a few mm)
     assert dx == pytest.approx(after[est.E_POS] - before[est.E_POS], abs=0.01)
     assert dy == pytest.approx(after[est.E_POS + 1] - before[est.E_POS + 1], abs=0.01)
     assert dx < -4.5 and dvy < -0.4
     assert dvy == pytest.approx(after[est.E_VEL + 1] - before[est.E_VEL + 1], abs=0.01)
     assert abs(dvx) < 0.2 and abs(dvz) < 0.3
+
+
+def counts(w) -> list[float]:
+    """World ``w``'s row 0 reset counts: posNE, velNE, velD, posD."""
+    a = w.aiding(0)
+    return [a[1], a[4], a[7], a[9]]
+
+
+def quat_resets(w) -> float:
+    return float(w.estimation.est[0][est.E_RS + rs.Q_RESET])
+
+
+def test_start_up_resets_are_counted_as_ekf2_counts_them_and_the_heading_once_per_flight():
+    """PX4 v1.15.2's EKF2 in SITL: the fake height and position start at its first step
+    (posD, velD, posNE, velNE), then the GNSS fusion starts, about a second later: the GNSS
+    height as the reference (posD), the heading's alignment (quat), the velocity and position
+    reset to the fix (velNE, velD, posNE); before take-off 2, 2, 2, 2 and 1, ODOMETRY's
+    reset_counter 9. Each take-off adds the in-flight heading reset 1.4 m up (quat), and
+    landing nothing."""
+    with Sim(params={"MIS_TAKEOFF_ALT": 5.0}) as sim:
+        w = sim.vehicles[0]._world
+        sim.advance(0.1)
+        assert counts(w) == [1.0, 1.0, 1.0, 1.0] and quat_resets(w) == 0.0
+        assert w.aiding(0)[1:] == [1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0]
+        assert sim.run_until(lambda: counts(w)[0] == 2.0, timeout_s=1.5)
+        assert 1.0 <= sim.now < 1.2 and counts(w) == [2.0] * 4 and quat_resets(w) == 1.0
+        _, dx, dy, _, dvx, dvy, _, dvz, _, dz = w.aiding(0)[1:]
+        assert 0.0 < math.hypot(dx, dy) < 1.5 and abs(dvx) + abs(dvy) + abs(dvz) < 1.0
+        assert dz == 0.0
+        api = sim.api(0)
+        sim.advance(1.0)
+        assert api.last("ODOMETRY").reset_counter == 9
+        for flight in (1, 2):
+            assert api.arm() == 0 and api.takeoff() == 0
+            assert sim.run_until(lambda: -sim.state(0).position_ned_m[2] > 1.0, timeout_s=15)
+            assert quat_resets(w) == flight
+            assert sim.run_until(lambda n=flight + 1: quat_resets(w) == n, timeout_s=5)
+            assert 1.3 < -sim.state(0).position_ned_m[2] < 1.9
+            assert api.land() == 0
+            assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=30)
+            assert counts(w) == [2.0] * 4 and quat_resets(w) == flight + 1
+        sim.advance(0.5)
+        assert api.last("ODOMETRY").reset_counter == 11
 
 
 def drift_and_reset(sim: Sim) -> float:
@@ -80,9 +124,10 @@ def drift_and_reset(sim: Sim) -> float:
     ring[:, 0] += 5.0
     assert sim.run_until(lambda: world.aiding_age_s(0) > 7.5, timeout_s=10)
     assert sim.status(0).nav_state is NavState.AUTO_LOITER and sim.status(0).position_valid
-    assert sim.vehicles[0].truth.position_ned_m[0] == pytest.approx(-5.0, abs=0.3)
+    # the vehicle followed the estimate 5 m south (give or take 7.5 s of dead reckoning)
+    assert sim.vehicles[0].truth.position_ned_m[0] == pytest.approx(-5.0, abs=0.6)
     assert api.command_long(M.MAV_CMD_INJECT_FAILURE, GPS, OK, 0) == 0
-    assert sim.run_until(lambda: world.aiding(0)[1] >= 1.0, timeout_s=1)
+    assert sim.run_until(lambda: world.aiding(0)[1] >= 3.0, timeout_s=1)  # after start-up's 2
     return sim.now
 
 
@@ -109,18 +154,21 @@ def test_after_a_gnss_reset_hold_flies_back_smoothly_and_the_wire_and_log_count_
         assert sim.run_until(lambda: abs(sim.vehicles[0].truth.position_ned_m[0]) < 0.5,
                              timeout_s=10)
         counters = [(t, m.reset_counter) for t, m in api.timed_messages("ODOMETRY", since)]
-        assert {c for t, c in counters if t < t_reset - 0.1} == {0}
+        # the start-up's 9, the in-flight heading reset's 1
+        assert [c for t, c in counters if t < t_reset - 0.1][-1] == 10
         # position NE, velocity NE and D, and the height (the GPS height restarting as the
         # reference resets it: posD)
-        assert counters[-1][1] == 4
+        assert counters[-1][1] == 14
     import pyulog
     log = pyulog.ULog(str(sorted((tmp_path / "vehicle-1" / "log").rglob("*.ulg"))[0]))
     lpos = log.get_dataset("vehicle_local_position").data
-    assert set(lpos["xy_reset_counter"]) == {0, 1} and set(lpos["vz_reset_counter"]) == {0, 1}
-    assert lpos["delta_xy[0]"][-1] < -4.5 and lpos["vxy_reset_counter"][-1] == 1
-    assert lpos["z_reset_counter"][-1] == 1
+    # from boot: the fake starts' 1, the GNSS start's 2, the reset's 3
+    assert set(lpos["xy_reset_counter"]) == {1, 2, 3} and set(lpos["vz_reset_counter"]) == {1, 2, 3}
+    assert lpos["delta_xy[0]"][-1] < -4.5 and lpos["vxy_reset_counter"][-1] == 3
+    assert lpos["z_reset_counter"][-1] == 3
+    assert lpos["heading_reset_counter"][-1] == 2 and lpos["delta_heading"][-1] == 0.0
     gpos = log.get_dataset("vehicle_global_position").data
-    assert gpos["lat_lon_reset_counter"][-1] == 1 and gpos["alt_reset_counter"][-1] == 1
+    assert gpos["lat_lon_reset_counter"][-1] == 3 and gpos["alt_reset_counter"][-1] == 3
     assert gpos["delta_alt"][-1] == pytest.approx(-lpos["delta_z"][-1])
 
 
@@ -183,11 +231,11 @@ def test_a_position_glitch_is_rejected_then_reset_after_twice_reset_timeout_max(
         w.step(w.time_s)
         assert w.aiding_age_s(0) < 0.2  # the velocity is fused all along
     assert e[est.E_POS_AGE] > 13.0
-    assert w.aiding(0)[1] == 0.0  # no reset yet
+    assert w.aiding(0)[1] == 2.0  # no reset yet but the start-up's
     assert e[est.E_RATIOS + 1] == pytest.approx(20.0 / 4.5, rel=1e-3)  # |−20 m| / (5 × 0.9 m)
     for _ in range(250):
         w.step(w.time_s)
     xy_n, dx, _, vxy_n = w.aiding(0)[1:5]
-    assert (xy_n, vxy_n) == (1.0, 1.0)
+    assert (xy_n, vxy_n) == (3.0, 3.0)
     assert dx == pytest.approx(-20.0, abs=1.0)
     assert e[est.E_RATIOS + 1] < 0.3 and e[est.E_POS_AGE] < 0.2
