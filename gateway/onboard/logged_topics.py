@@ -171,10 +171,14 @@ def _land_detected(v: Any, now_us: int) -> tuple:
 
 
 def _estimator_status(v: Any, now_us: int) -> tuple:
-    """The innovation test ratios and accuracies; EKF2 1.15 leaves health_flags and
-    timeout_flags 0, and time_slip (IMU time missed) is 0 in lockstep."""
+    """The innovation test ratios and accuracies, the state resets' counts (uint8, wrapping);
+    EKF2 1.15 leaves health_flags and timeout_flags 0, and time_slip (IMU time missed) is 0 in
+    lockstep."""
     e = v.estimator
-    return (*innovation_test_ratios(e, gps_ctrl_of(v.params)), e[E_ACCURACY], e[E_ACCURACY + 1], 0.0, 0, 0)
+    resets = (int(e[c]) & 0xFF for c in (E_VXY_RESET, E_VZ_RESET, E_XY_RESET, E_Z_RESET,
+                                          E_QUAT_RESET))
+    return (*innovation_test_ratios(e, gps_ctrl_of(v.params)), e[E_ACCURACY], e[E_ACCURACY + 1],
+            0.0, *resets, 0, 0)
 
 
 def _wind(v: Any, now_us: int) -> tuple:
@@ -381,7 +385,10 @@ TOPICS: tuple[Topic, ...] = (
     Topic("estimator_status", ((F, "vel_test_ratio"), (F, "pos_test_ratio"),
                                (F, "hgt_test_ratio"), (F, "mag_test_ratio"),
                                (F, "pos_horiz_accuracy"), (F, "pos_vert_accuracy"),
-                               (F, "time_slip"), ("uint8_t", "health_flags"),
+                               (F, "time_slip"), (U8, "reset_count_vel_ne"),
+                               (U8, "reset_count_vel_d"), (U8, "reset_count_pos_ne"),
+                               (U8, "reset_count_pod_d"), (U8, "reset_count_quat"),
+                               ("uint8_t", "health_flags"),
                                ("uint8_t", "timeout_flags")), 0.0, _estimator_status),
     Topic("wind", ((F, "windspeed_north"), (F, "windspeed_east"), (F, "variance_north"),
                    (F, "variance_east")), 0.0, _wind),

@@ -167,6 +167,9 @@ def test_after_a_gnss_reset_hold_flies_back_smoothly_and_the_wire_and_log_count_
     assert lpos["delta_xy[0]"][-1] < -4.5 and lpos["vxy_reset_counter"][-1] == 3
     assert lpos["z_reset_counter"][-1] == 3
     assert lpos["heading_reset_counter"][-1] == 2 and lpos["delta_heading"][-1] == 0.0
+    status = log.get_dataset("estimator_status").data
+    assert [int(status[f"reset_count_{k}"][-1]) for k in ("pos_ne", "vel_ne", "vel_d", "pod_d",
+                                                          "quat")] == [3, 3, 3, 3, 2]
     gpos = log.get_dataset("vehicle_global_position").data
     assert gpos["lat_lon_reset_counter"][-1] == 3 and gpos["alt_reset_counter"][-1] == 3
     assert gpos["delta_alt"][-1] == pytest.approx(-lpos["delta_z"][-1])
