@@ -67,7 +67,6 @@ OVERRIDES = {
     "RTL_DESCEND_ALT": "10",
     "NAV_LOITER_RAD": "80",
     "RTL_MIN_DIST": "10",
-    "MIS_DIST_1WP": "10000",
     "MIS_TAKEOFF_ALT": "2.5",
     "MPC_XY_CRUISE": "5.0",
     "MPC_XY_VEL_MAX": "12.0",
@@ -92,6 +91,7 @@ OVERRIDES = {
     "CAL_GYRO0_ID": "1310988",
     "CAL_MAG0_ID": "197388",
     "SDLOG_MODE": "1",
+    "SDLOG_DIRS_MAX": "7",  # init.d-posix/rcS
     "SDLOG_PROFILE": "131",  # init.d-posix/rcS: default, estimator replay, vision/avoidance
     "CBRK_SUPPLY_CHK": "894281",  # init.d-posix/rcS
     "IMU_INTEG_RATE": "250",  # init.d-posix/px4-rc.simulator: the simulator's IMU rate
@@ -133,13 +133,10 @@ ADDED = {
     "MPC_Z_V_AUTO_DN": ("FLOAT", "1.5", "m/s", "Multicopter Position Control", "Automatic descent velocity"),
     "MPC_LAND_CRWL": ("FLOAT", "0.3", "m/s", "Multicopter Position Control", "Land crawl descend rate"),
     "COM_RCL_EXCEPT": ("INT32", "0", "", "Commander", "RC loss exceptions"),
-    "COM_DLL_EXCEPT": ("INT32", "0", "", "Commander", "Datalink loss exceptions"),
     "COM_OBC_LOSS_T": ("FLOAT", "5.0", "s", "Commander", "Offboard computer loss timeout"),
     "COM_FAIL_ACT_T": ("FLOAT", "5.0", "s", "Commander", "Delay between failsafe condition and action"),
     "COM_HOME_EN": ("INT32", "1", "", "Commander", "Allows setting the home position"),
     "COM_ARMABLE": ("INT32", "1", "", "Commander", "Flag to allow arming"),
-    "COM_RAM_MAX": ("FLOAT", "-1", "%", "Commander", "Maximum allowed RAM usage to pass checks"),
-    "COM_MODE_ARM_CHK": ("INT32", "1", "", "Commander", "Enable mode-specific arming checks"),
     "GF_PREDICT": ("INT32", "0", "", "Geofence", "Use predictive geofence"),
     "SIM_BAT_ENABLE": ("INT32", "1", "", "SITL", "Simulator battery enabled"),
     "EKF2_EN": ("INT32", "1", "", "EKF2", "EKF2 enable"),
@@ -313,7 +310,34 @@ REMOVED = {
     "EKF2_HGT_MODE",  # EKF2_HGT_REF and the *_CTRL switches since v1.14 (no translation)
 }
 
-FIELDS = ["name", "type", "default", "min", "max", "unit", "group", "short_desc"]
+# PX4 v1.15.2's firmware defaults (the PARAM_DEFINE / module.yaml value, parameters.json's
+# "default") of the parameters whose SITL default above is set by the start-up scripts with
+# ``param set-default`` (init.d-posix/rcS and px4-rc.*, the airframe and init.d/rc.mc_defaults):
+# the "firmware_default" column. The AIRFRAME values' firmware defaults are ADDED_RANGED's.
+FIRMWARE_DEFAULTS: dict[str, str] = {
+    "MAV_PROTO_VER": "0",  # set by init.d-posix/rcS (mavlink_params.c)
+    "MAV_TYPE": "0",  # init.d/rc.mc_defaults (mavlink_params.c)
+    "COM_RC_IN_MODE": "3",  # rcS (commander_params.c)
+    "COM_LOW_BAT_ACT": "0",  # rcS
+    "COM_CPU_MAX": "95.0",  # rcS
+    "NAV_ACC_RAD": "10.0",  # rc.mc_defaults (navigator_params.c)
+    "RTL_RETURN_ALT": "60.0",  # rc.mc_defaults (rtl_params.c)
+    "RTL_DESCEND_ALT": "30.0",  # rc.mc_defaults
+    "MPC_THR_HOVER": "0.5",  # the airframe (multicopter_position_control_params.c)
+    "BAT1_N_CELLS": "0",  # rcS (lib/battery/module.yaml)
+    "SDLOG_MODE": "0",  # rcS (logger/params.c)
+    "SDLOG_PROFILE": "1",  # rcS
+    "SDLOG_DIRS_MAX": "0",  # rcS
+    "CBRK_SUPPLY_CHK": "0",  # rcS (circuit_breaker_params.c)
+    "IMU_INTEG_RATE": "200",  # init.d-posix/px4-rc.simulator (imu_parameters.c)
+    "IMU_GYRO_RATEMAX": "400",  # rc.mc_defaults (imu_gyro_parameters.c)
+    "GPS_UBX_DYNMODEL": "7",  # rc.mc_defaults (drivers/gps/params.c)
+    "SYS_FAILURE_EN": "0",  # rcS (system_params.c)
+    "EKF2_REQ_GPS_H": "10.0",  # rcS (ekf2/module.yaml)
+}
+
+FIELDS = ["name", "type", "default", "firmware_default", "min", "max", "unit", "group",
+          "short_desc"]
 
 
 def main(src: str, dst: str) -> None:
@@ -324,19 +348,23 @@ def main(src: str, dst: str) -> None:
                     row["type"] not in ("INT32", "FLOAT") or row["name"] in REMOVED:
                 continue
             row["default"] = OVERRIDES.get(row["name"], row["default"])
+            row["firmware_default"] = FIRMWARE_DEFAULTS.get(row["name"], "")
             rows.append({k: row[k] for k in FIELDS})
     have = {r["name"] for r in rows}
     for name, (typ, default, unit, group, desc) in ADDED.items():
         if name not in have:
-            rows.append(dict(name=name, type=typ, default=default, min="", max="", unit=unit,
-                             group=group, short_desc=desc))
+            rows.append(dict(name=name, type=typ, default=default,
+                             firmware_default=FIRMWARE_DEFAULTS.get(name, ""), min="", max="",
+                             unit=unit, group=group, short_desc=desc))
     for name, (typ, default, lo, hi, unit, group, desc) in ADDED_RANGED.items():
         if name not in have:
-            rows.append(dict(name=name, type=typ, default=AIRFRAME.get(name, default), min=lo,
+            rows.append(dict(name=name, type=typ, default=AIRFRAME.get(name, default),
+                             firmware_default=default if name in AIRFRAME else "", min=lo,
                              max=hi, unit=unit, group=group, short_desc=desc))
     for row in rows:
         row["min"], row["max"] = RANGES.get(row["name"], (row["min"], row["max"]))
-    missing = (set(OVERRIDES) | set(RANGES) | set(AIRFRAME)) - {r["name"] for r in rows}
+    missing = (set(OVERRIDES) | set(RANGES) | set(AIRFRAME) | set(FIRMWARE_DEFAULTS)) \
+        - {r["name"] for r in rows}
     if missing:
         raise SystemExit(f"overrides for unknown parameters: {sorted(missing)}")
     rows.sort(key=lambda r: r["name"])

@@ -192,12 +192,11 @@ def from_gf_act(params) -> ActionOptions:
     return table.get(int(params["GF_ACTION"]), ActionOptions(Action.NONE))
 
 
-# COM_DLL_EXCEPT / COM_RCL_EXCEPT bits (failsafe.cpp isFailsafeIgnored): which user modes
-# ignore a data-link or manual-control loss.
+# COM_RCL_EXCEPT bits (v1.15 failsafe.cpp checkStateAndMode's rc_loss_ignored_*): which user
+# modes ignore a manual-control loss (Hold covers the takeoff too).
 _LINK_LOSS_EXCEPT_MODES = {
     1: {NavState.AUTO_MISSION},
-    2: {NavState.AUTO_LOITER, NavState.AUTO_RTL, NavState.AUTO_TAKEOFF, NavState.AUTO_LAND,
-        NavState.AUTO_PRECLAND, NavState.DESCEND, NavState.AUTO_FOLLOW_TARGET, NavState.ORBIT},
+    2: {NavState.AUTO_LOITER, NavState.AUTO_TAKEOFF},
     4: {NavState.OFFBOARD},
 }
 
@@ -207,9 +206,9 @@ def _ignored(mode: NavState, bits: int) -> bool:
 
 
 def _dll_condition(f: FailsafeFlags, params) -> bool:
-    if not f.gcs_lost or f.user_nav_state in (NavState.AUTO_LAND, NavState.AUTO_PRECLAND):
-        return False
-    return not _ignored(f.user_nav_state, int(params["COM_DLL_EXCEPT"]))
+    """GCS connection lost, ignored only in Land and Precision land (v1.15 has no
+    COM_DLL_EXCEPT: gcs_connection_loss_ignored)."""
+    return f.gcs_lost and f.user_nav_state not in (NavState.AUTO_LAND, NavState.AUTO_PRECLAND)
 
 
 def _rcl_condition(f: FailsafeFlags, params) -> bool:

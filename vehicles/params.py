@@ -54,6 +54,9 @@ class ParamInfo:
     group: str
     description: str
     reboot_required: bool = False  # PX4's @reboot_required (data/px4_reboot_required.txt)
+    # The firmware's default (PARAM_DEFINE / module.yaml: what PX4's parameters.json says) where
+    # SITL's start-up sets another with ``param set-default`` (``default``); None: the same.
+    firmware_default: int | float | None = None
 
 
 FLT_EPSILON = 1.1920929e-07
@@ -113,6 +116,8 @@ def load_param_table() -> list[ParamInfo]:
                 group=row["group"],
                 description=row["short_desc"],
                 reboot_required=row["name"] in reboot,
+                firmware_default=(_coerce(ptype, float(row["firmware_default"]))
+                                  if row.get("firmware_default") else None),
             )
         )
     infos.sort(key=lambda i: i.name)

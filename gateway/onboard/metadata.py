@@ -10,7 +10,9 @@ jsonout.py) and answers MAV_CMD_REQUEST_MESSAGE(COMPONENT_METADATA) with
 
 - ``parameters.json``: version 1, one entry per parameter of the vehicle's table with PX4's
   schema keys (name, type "Int32"/"Float", default, group, category, shortDesc, units, min, max,
-  rebootRequired),
+  rebootRequired); the default is the firmware's (the PARAM_DEFINE's), not the one SITL's
+  start-up sets (``param set-default``: what the vehicle boots with and resets to), so QGC
+  shows, say, CA_ROTOR_COUNT's default as 0 and the x500's 4 as a change, as with PX4 SITL,
   sorted keys, indent 2, as jsonout.py writes it;
 - ``all_events.json``: the events metadata (libevents' schema, below);
 - ``actuators.json``: the actuators metadata, QGC's Actuators page (gateway/onboard/actuators.py);
@@ -69,7 +71,8 @@ def parameter_entry(info: ParamInfo) -> dict[str, object]:
     entry: dict[str, object] = {
         "name": info.name,
         "type": "Int32" if info.type is ParamType.INT32 else "Float",
-        "default": _typed(info, info.default),
+        "default": _typed(info, info.default if info.firmware_default is None
+                          else info.firmware_default),
         "group": info.group or "Miscellaneous",
         "category": "Standard",
     }

@@ -11,6 +11,7 @@ import json
 import lzma
 import struct
 
+import pytest
 from pymavlink.dialects.v20 import common as M
 from test_onboard_ftp import Ftp
 
@@ -127,3 +128,18 @@ def test_reboot_required_parameters_say_so():
         assert entries[name]["rebootRequired"] is True, name
     for name in ("MPC_XY_VEL_MAX", "EKF2_BARO_NOISE", "COM_RC_OVERRIDE", "EKF2_GPS_CTRL"):
         assert "rebootRequired" not in entries[name], name
+
+
+def test_the_metadata_defaults_are_the_firmwares_the_vehicle_boots_with_sitls():
+    """parameters.json's default is the PARAM_DEFINE's (jsonout.py), while the vehicle boots
+    with, and resets to, what SITL's start-up sets with ``param set-default`` (4001_gz_x500:
+    four rotors on ESCs 1..4): QGC then shows those as changed from their defaults, as it
+    does against PX4 SITL."""
+    doc = json.loads(metadata.parameters_json(param_table()))
+    default = {p["name"]: p["default"] for p in doc["parameters"]}
+    store = {i.name: i.default for i in param_table()}
+    for name, firmware, sitl in (("CA_ROTOR_COUNT", 0, 4), ("SIM_GZ_EC_FUNC1", 0, 101),
+                                 ("SIM_GZ_EC_MIN2", 0, 150), ("SIM_GZ_EN", 0, 1),
+                                 ("CA_ROTOR1_PY", 0.0, -0.2)):
+        assert default[name] == firmware and store[name] == pytest.approx(sitl), name
+    assert default["CA_METHOD"] == store["CA_METHOD"] == 2  # the same: one value

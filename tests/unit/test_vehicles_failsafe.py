@@ -204,15 +204,17 @@ def test_already_landing_a_return_only_warns():
 
 
 def test_the_same_flags_are_checked_again_after_a_parameter_change():
-    """A data-link loss ignored in Mission (COM_DLL_EXCEPT bit 0) acts on the very same flags
-    once the exception is taken away."""
-    params = ParamStore({"NAV_DLL_ACT": 2, "COM_DLL_EXCEPT": 1, "COM_FAIL_ACT_T": 0.0})
+    """A data-link loss with NAV_DLL_ACT 0 does nothing; the very same flags act once it is
+    set. PX4 v1.15 has no COM_DLL_EXCEPT (it came later): no mode but Land and Precision land
+    ignores the loss, and the name does not exist."""
+    params = ParamStore({"NAV_DLL_ACT": 0, "COM_FAIL_ACT_T": 0.0})
+    assert params.get("COM_DLL_EXCEPT") is None and not params.set("COM_DLL_EXCEPT", 1)
     fs = Failsafe(params, StatusLog())
     flags = FailsafeFlags(armed=True, user_nav_state=NavState.AUTO_MISSION, gcs_lost=True,
                           manual_control_lost=False, manual_control_lost_at_arming=False)
     assert fs.update(0.0, flags) is Action.NONE
     assert fs.update(0.1, flags) is Action.NONE
-    params.set("COM_DLL_EXCEPT", 0)
+    params.set("NAV_DLL_ACT", 2)
     assert fs.update(0.2, flags) is Action.RTL
 
 
@@ -263,6 +265,7 @@ def test_manual_control_missing_at_arming_is_no_failsafe_until_it_came_and_went(
 @pytest.mark.parametrize("bits, mode, ignored", [
     (1, NavState.AUTO_MISSION, True), (1, NavState.AUTO_LOITER, False),
     (2, NavState.AUTO_LOITER, True), (2, NavState.AUTO_TAKEOFF, True), (2, NavState.POSCTL, False),
+    (2, NavState.AUTO_RTL, False), (2, NavState.ORBIT, False),  # v1.15's Hold bit: Hold, takeoff
     (4, NavState.OFFBOARD, True), (0, NavState.AUTO_MISSION, False)])
 def test_com_rcl_except(bits, mode, ignored):
     fs = Failsafe(ParamStore({"COM_RCL_EXCEPT": bits}), StatusLog())
