@@ -419,10 +419,10 @@ class Autopilot:
         c, fd = self.commander, self.failure_detector
         at = c.armed_at_s  # failsafe.cpp's early takeoff phase: MPC_SPOOLUP_TIME + 3 s
         early = at is not None and now_s < at + self._early_takeoff_s
-        failure = self.navigator.mission.progress.failure
+        failure, finished = self.navigator.mission.progress.failure, self.navigator.mission.finished
         inputs = (c.armed, c.user_nav_state, c.gcs_lost, c.offboard_available, level,
                   breach is not None, c.manual_control_available, c.position_lost, fd.critical,
-                  early, failure)
+                  early, failure, finished)
         if inputs != self._flags_inputs:  # the flags are frozen: the last ones serve again
             self._flags_inputs = inputs
             self._flags = FailsafeFlags(
@@ -431,7 +431,7 @@ class Autopilot:
                 geofence_breached=breach is not None,
                 manual_control_lost=not c.manual_control_available,
                 position_invalid=c.position_lost, fd_critical_failure=fd.critical,
-                early_takeoff=early, mission_failure=failure)
+                early_takeoff=early, mission_failure=failure, mission_finished=finished)
         return self._flags
 
     def _update_slow(self, now_s: float, meas: Measurement) -> None:

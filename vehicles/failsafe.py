@@ -140,6 +140,8 @@ class FailsafeFlags:
     early_takeoff: bool = False
     # mission_result.failure: the mission cannot be completed (a forced heading timed out)
     mission_failure: bool = False
+    # mission_result.finished: the mission flew its last item
+    mission_finished: bool = False
 
 
 # NAV_DLL_ACT / NAV_RCL_ACT values: 0 disabled, 1 Hold, 2 Return, 3 Land, 5 Terminate, 6 Disarm.
@@ -219,6 +221,19 @@ def _rcl_condition(f: FailsafeFlags, params) -> bool:
     return not _ignored(f.user_nav_state, int(params["COM_RCL_EXCEPT"]))
 
 
+RC_IN_MODE_STICK_INPUT_DISABLED = 4  # COM_RC_IN_MODE
+
+
+def _mission_control_lost(f: FailsafeFlags, params) -> bool:
+    """checkStateAndMode's last resort in Mission: with no manual-control failsafe (sticks
+    disabled, or their loss ignored in Mission) and no data-link one (NAV_DLL_ACT 0), a finished
+    mission whose GCS link is lost returns, rather than hover until the battery runs out."""
+    return (f.user_nav_state is NavState.AUTO_MISSION and f.mission_finished and f.gcs_lost
+            and int(params["NAV_DLL_ACT"]) == 0
+            and (int(params["COM_RC_IN_MODE"]) == RC_IN_MODE_STICK_INPUT_DISABLED
+                 or int(params["COM_RCL_EXCEPT"]) & 1 != 0))
+
+
 # The user modes that need a position estimate (PX4 mode_requirements: global or local position).
 NEEDS_POSITION = frozenset({NavState.AUTO_MISSION, NavState.AUTO_LOITER, NavState.AUTO_RTL,
                             NavState.AUTO_TAKEOFF, NavState.AUTO_LAND, NavState.AUTO_PRECLAND,
@@ -275,6 +290,7 @@ CHECKS: tuple[Check, ...] = (
     Check("mission_failure",
           lambda f, p: f.mission_failure and f.user_nav_state is NavState.AUTO_MISSION,
           lambda f, p: ActionOptions(Action.RTL)),
+    Check("mission_control_lost", _mission_control_lost, lambda f, p: ActionOptions(Action.RTL)),
 )
 
 

@@ -51,6 +51,9 @@ FLAG_FOR_CHECK = {
     "position_lost": dict(position_invalid=True),
     "fd_critical_failure": dict(fd_critical_failure=True),
     "mission_failure": dict(mission_failure=True, user_nav_state=NavState.AUTO_MISSION),
+    # only with NAV_DLL_ACT 0 (test_a_finished_mission_returns_when_every_command_link_is_lost)
+    "mission_control_lost": dict(gcs_lost=True, mission_finished=True,
+                                 user_nav_state=NavState.AUTO_MISSION),
 }
 
 
@@ -59,7 +62,8 @@ def test_every_check_has_a_trigger_in_this_test():
 
 
 @pytest.mark.parametrize("check", [c.name for c in CHECKS
-                                   if c.name not in ("position_lost", "fd_critical_failure")])
+                                   if c.name not in ("position_lost", "fd_critical_failure",
+                                                     "mission_control_lost")])
 def test_each_check_holds_then_acts_and_clears_on_disarm(check):
     params = ParamStore({"NAV_DLL_ACT": 2, "GF_ACTION": 3, "COM_LOW_BAT_ACT": 3})
     log = StatusLog()
@@ -483,3 +487,18 @@ def test_a_hold_delay_beyond_the_events_field_is_cast_as_px4_casts_it(delay_s):
     secs = int(float(fs._params["COM_FAIL_ACT_T"]) + 0.5)
     assert _told(events)[0][3][2] == secs & 0xFFFF
     assert log.after(0)[-1].text == f"Failsafe activated: entering Hold for {secs} seconds\t"
+
+
+@pytest.mark.parametrize("params, finished, expected", [
+    ({"COM_RCL_EXCEPT": 1}, True, Action.RTL),  # sticks' loss ignored in Mission
+    ({"COM_RC_IN_MODE": 4}, True, Action.RTL),  # sticks disabled
+    ({"COM_RCL_EXCEPT": 1}, False, Action.NONE),  # the mission still flying
+    ({}, True, Action.NONE),  # COM_RC_IN_MODE 1, no exception: the sticks' failsafe would act
+])
+def test_a_finished_mission_returns_when_every_command_link_is_lost(params, finished, expected):
+    """failsafe.cpp's last resort in Mission (v1.15): with no manual-control failsafe and
+    NAV_DLL_ACT 0, a finished mission whose GCS link is lost takes Return."""
+    fs = Failsafe(ParamStore({"COM_FAIL_ACT_T": 0.0, **params}), StatusLog())
+    flags = FailsafeFlags(armed=True, user_nav_state=NavState.AUTO_MISSION, gcs_lost=True,
+                          mission_finished=finished)
+    assert fs.update(0.0, flags) is expected
