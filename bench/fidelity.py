@@ -3,7 +3,7 @@
 figure printed beside what PX4's own algorithms give for the same inputs, with plots.
 
 - takeoff to MIS_TAKEOFF_ALT: time to 90 % of the altitude after the command (given at arming);
-  PX4's profile is MPC_SPOOLUP_TIME at idle, then the MPC_TKO_RAMP_T ramp (TakeoffHandling),
+  PX4's profile is COM_SPOOLUP_TIME at idle, then the MPC_TKO_RAMP_T ramp (TakeoffHandling),
   then the climb at MPC_TKO_SPEED, and from NAV_MC_ALT_RAD below the altitude Loiter's approach
   (PositionSmoothing); the reference runs those and PositionControl (PX4's gains,
   MPC_THR_HOVER) on a point mass with the x500's thrust curve and instant motors;
@@ -76,7 +76,7 @@ def px4_takeoff_time(p) -> float:
     hover = float(p["MPC_THR_HOVER"])
     gains = PositionControlGains.from_params(p, hover_thrust=hover)
     pc = PositionControl(gains)
-    tk = TakeoffHandling(float(p["MPC_SPOOLUP_TIME"]), float(p["MPC_TKO_RAMP_T"]),
+    tk = TakeoffHandling(float(p["COM_SPOOLUP_TIME"]), float(p["MPC_TKO_RAMP_T"]),
                          float(p["MPC_Z_VEL_P_ACC"]))
     s = smoothing(p)
     s.set_max_velocity((5.0, 5.0, float(p["MPC_TKO_SPEED"])))

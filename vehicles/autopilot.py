@@ -159,7 +159,7 @@ class Autopilot:
         self._battery_thresholds = (float(p["BAT_LOW_THR"]), float(p["BAT_CRIT_THR"]),
                                     float(p["BAT_EMERGEN_THR"]))
         self._gf_action = int(p["GF_ACTION"])
-        self._early_takeoff_s = float(p["MPC_SPOOLUP_TIME"]) + 3.0
+        self._early_takeoff_s = float(p["COM_SPOOLUP_TIME"]) + 3.0
 
     def _load_gains(self) -> None:
         self.stage.set_gains(self._position_gains())
@@ -417,7 +417,7 @@ class Autopilot:
             self.log.critical(now_s, breach)
         self._fence_breach = breach
         c, fd = self.commander, self.failure_detector
-        at = c.armed_at_s  # failsafe.cpp's early takeoff phase: MPC_SPOOLUP_TIME + 3 s
+        at = c.armed_at_s  # failsafe.cpp's early takeoff phase: COM_SPOOLUP_TIME + 3 s
         early = at is not None and now_s < at + self._early_takeoff_s
         failure, finished = self.navigator.mission.progress.failure, self.navigator.mission.finished
         inputs = (c.armed, c.user_nav_state, c.gcs_lost, c.offboard_available, level,

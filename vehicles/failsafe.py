@@ -135,7 +135,7 @@ class FailsafeFlags:
     # The position estimate was valid and is lost (no aiding for EKF2_NOAID_TOUT: GPS off).
     position_invalid: bool = False
     # failure_detector.py: roll or pitch beyond its limit (fd_critical_failure), and whether the
-    # vehicle armed less than MPC_SPOOLUP_TIME + 3 s ago (PX4's early takeoff phase)
+    # vehicle armed less than COM_SPOOLUP_TIME + 3 s ago (PX4's early takeoff phase)
     fd_critical_failure: bool = False
     early_takeoff: bool = False
     # mission_result.failure: the mission cannot be completed (a forced heading timed out)

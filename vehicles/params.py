@@ -134,11 +134,17 @@ def param_table() -> list[ParamInfo]:
     return _TABLE
 
 
-# @volatile in PX4's parameter definitions: commander_params.c (COM_FLIGHT_UUID),
-# land_detector_params.c (LND_FLIGHT_T_HI/_LO), ekf2_params.c (EKF2_MAGBIAS_X/Y/Z) and the
-# airspeed sensor's params.c (SENS_DPRES_OFF).
-VOLATILE = frozenset({"COM_FLIGHT_UUID", "LND_FLIGHT_T_HI", "LND_FLIGHT_T_LO", "EKF2_MAGBIAS_X",
-                      "EKF2_MAGBIAS_Y", "EKF2_MAGBIAS_Z", "SENS_DPRES_OFF"})
+# volatile in PX4 v1.15.2's parameter definitions (those of this table): commander_params.c
+# (COM_FLIGHT_UUID), land_detector_params.c (LND_FLIGHT_T_HI/_LO), ekf2/module.yaml
+# (EKF2_MAG_DECL), the airspeed sensor's params.c (SENS_DPRES_OFF) and sensors/module.yaml's
+# calibration offsets, scales and compensations (CAL_ACCn_*OFF/*SCALE, CAL_GYROn_*OFF,
+# CAL_MAGn_*OFF/*SCALE/*ODIAG/*COMP, n = 0..3).
+VOLATILE = frozenset({
+    "COM_FLIGHT_UUID", "LND_FLIGHT_T_HI", "LND_FLIGHT_T_LO", "EKF2_MAG_DECL", "SENS_DPRES_OFF",
+    *(f"CAL_ACC{n}_{a}{k}" for n in range(4) for a in "XYZ" for k in ("OFF", "SCALE")),
+    *(f"CAL_GYRO{n}_{a}OFF" for n in range(4) for a in "XYZ"),
+    *(f"CAL_MAG{n}_{a}{k}" for n in range(4) for a in "XYZ"
+      for k in ("OFF", "SCALE", "ODIAG", "COMP"))})
 
 
 def crc32part(data: bytes, crc: int = 0) -> int:

@@ -16,7 +16,7 @@ Rules and invariants:
   PX4 runs no flight task (Offboard, Stabilized, Acro, Manual, Termination) and while the
   motors idle.
 - Takeoff as PX4's mc_pos_control does it (control/takeoff.py): after arming the motors idle for
-  MPC_SPOOLUP_TIME; until a task wants to take off and the ramp starts the controller gets no
+  COM_SPOOLUP_TIME; until a task wants to take off and the ramp starts the controller gets no
   setpoint (zero thrust, integrators held); then the upward speed limit ramps over MPC_TKO_RAMP_T;
   until the flight state the tilt limit is MPC_TILTMAX_LND (slewed at 0.2 rad/s) and the minimum
   thrust 0. Flying with ground contact (landing) the setpoint is dropped for a downward one, so
@@ -87,7 +87,7 @@ class PositionStage:
         """New parameters: PX4 rebuilds the controller (its integrator starts at zero)."""
         self.position_control = PositionControl(gains)
         p, tk = self.params, self.takeoff
-        tk.spoolup_time_s = float(p["MPC_SPOOLUP_TIME"])
+        tk.spoolup_time_s = float(p["COM_SPOOLUP_TIME"])
         tk.ramp_time_s = float(p["MPC_TKO_RAMP_T"])
         tk.set_velocity_p_gain(float(p["MPC_Z_VEL_P_ACC"]))
 

@@ -268,7 +268,7 @@ def test_battery_off_is_an_empty_battery_and_the_vehicle_lands():
         sim.advance(1.0)
         status = api.last("SYS_STATUS")
         assert status.battery_remaining == 0
-        assert status.voltage_battery == 4 * (3600 - 300)  # 4 × (BAT1_V_EMPTY - BAT1_V_LOAD_DROP)
+        assert status.voltage_battery == 4 * (3600 - 100)  # 4 × (BAT1_V_EMPTY - BAT1_V_LOAD_DROP)
         assert sim.run_until(lambda: not sim.status(0).armed, timeout_s=60)
         texts = [m.text for m in api.messages("STATUSTEXT")]
         assert any("battery" in t.lower() for t in texts), texts

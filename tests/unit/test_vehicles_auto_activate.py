@@ -181,7 +181,7 @@ def test_auto_after_offboard_starts_from_the_vehicle():
 
 
 def test_heading_setpoint_follows_the_vehicle_on_the_ground_until_the_takeoff_ramps(sim):
-    """Armed with a goto 30 m east at 10 m: during MPC_SPOOLUP_TIME the task wants to take off
+    """Armed with a goto 30 m east at 10 m: during COM_SPOOLUP_TIME the task wants to take off
     but is re-activated after every update, and activate's _yaw_sp_prev is then the vehicle's
     heading; the turn towards the target (MPC_YAW_MODE 0, at MPC_YAWRAUTO_MAX 45 deg/s) starts
     from the vehicle's heading when the ramp starts, not a second of slewing ahead of it."""

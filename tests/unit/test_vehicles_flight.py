@@ -125,7 +125,7 @@ def test_landed_state_is_takeoff_during_the_climb(sim):
     sim.run(1.2)
     sim.v.arm(sim.t)
     sim.v.takeoff(sim.t)
-    sim.run(0.5)  # spooling up (MPC_SPOOLUP_TIME): still on the ground, as PX4 reports it
+    sim.run(0.5)  # spooling up (COM_SPOOLUP_TIME): still on the ground, as PX4 reports it
     assert sim.v.status.landed_state is LandedState.ON_GROUND
     assert sim.run(6.0, until=lambda: -sim.v.state.position_ned_m[2] > 0.5)
     assert sim.v.status.landed_state is LandedState.TAKEOFF

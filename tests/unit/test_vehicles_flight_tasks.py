@@ -67,7 +67,7 @@ def test_takeoff_flies_and_the_command_says_so():
     assert ap.arm(1.2, AT_REST) is CommandResult.ACCEPTED
     assert ap.takeoff(1.2) is CommandResult.ACCEPTED
     cmd = ap.step(AT_REST, 1.22)
-    # spooling up (MPC_SPOOLUP_TIME): PX4's floor of the minimum thrust, no more
+    # spooling up (COM_SPOOLUP_TIME): PX4's floor of the minimum thrust, no more
     assert cmd.mode == MODE_FLY and cmd.thrust_norm == 1e-3
     thrusts = [ap.step(AT_REST, 1.22 + 0.02 * k).thrust_norm for k in range(1, 250)]
     assert max(thrusts) > 0.3 and not any(math.isnan(t) for t in thrusts)  # the ramp

@@ -116,7 +116,7 @@ def test_position_mode_takes_off_from_the_ground_with_the_stick_up(sim):
     assert sim.v.arm(sim.t) is CommandResult.ACCEPTED
     fly(sim, 1.0, CENTRED)
     assert abs(sim.v.state.position_ned_m[2]) < 0.05  # centred on the ground: stays there
-    # PX4's takeoff: MPC_SPOOLUP_TIME, then the MPC_TKO_RAMP_T ramp, then the climb.
+    # PX4's takeoff: COM_SPOOLUP_TIME, then the MPC_TKO_RAMP_T ramp, then the climb.
     assert fly(sim, 8.0, Sticks(throttle=0.8), until=lambda: sim.v.state.position_ned_m[2] < -2.0)
     fly(sim, 2.0, CENTRED)
     assert not sim.v.status.landed_state.name == "ON_GROUND"

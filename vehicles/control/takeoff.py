@@ -1,6 +1,6 @@
 """Pure library: PX4's smooth takeoff (src/modules/mc_pos_control/Takeoff, TakeoffHandling).
 
-After arming the motors spin at idle for MPC_SPOOLUP_TIME; once a flight task wants to take off
+After arming the motors spin at idle for COM_SPOOLUP_TIME; once a flight task wants to take off
 the upward velocity limit ramps over MPC_TKO_RAMP_T from -g / MPC_Z_VEL_P_ACC (a limit that asks
 for no thrust at all) to the task's climb speed, so the thrust rises smoothly from zero and the
 vehicle leaves the ground part-way through the ramp. Until the ramp starts the position
