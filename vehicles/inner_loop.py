@@ -307,6 +307,10 @@ def measure(raw, spawn_enu, dt_s, measured):  # pragma: no cover - compiled
         m[M_RATES + 2] = r02 * wn + r12 * we + r22 * wd
 
 
+# Allocations made, by geometry (set_allocation_into; at most 64 kept)
+_ALLOCATIONS: dict[tuple[tuple[float, ...], ...], np.ndarray] = {}
+
+
 class InnerLoop:
     """The arrays of every vehicle's inner loop and the two kernels over them (module rules)."""
 
@@ -429,11 +433,16 @@ class InnerLoop:
         """``alloc`` (one row's A_* items) for rotors given as (CA_ROTORn_PX, _PY, _PZ, _AX, _AY,
         _AZ, _CT, _KM), at most MAX_MOTORS, allocated by CA_METHOD ``method`` with the motors'
         CA_Rn_SLEW ``slews_s`` (ControlAllocator's update of the effectiveness and parameters)."""
-        geometry = geometry[:MAX_MOTORS]
-        n = len(geometry)
+        key = tuple(tuple(float(v) for v in rotor) for rotor in geometry[:MAX_MOTORS])
+        rows = _ALLOCATIONS.get(key)
+        if rows is None:  # a World's vehicles share their geometry: one pseudo-inverse
+            rows = _ALLOCATIONS[key] = allocation_rows(key)
+            if len(_ALLOCATIONS) > 64:
+                _ALLOCATIONS.pop(next(iter(_ALLOCATIONS)))
+        n = len(key)
         alloc[:] = 0.0
         alloc[0, A_COUNT], alloc[0, A_METHOD] = n, method
-        alloc[1:n + 1, :ROW_SIZE] = allocation_rows(geometry)
+        alloc[1:n + 1, :ROW_SIZE] = rows
         for i, slew_s in enumerate(slews_s[:n]):
             alloc[1 + i, A_SLEW] = slew_s
 
