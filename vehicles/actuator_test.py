@@ -18,11 +18,10 @@ from __future__ import annotations
 
 import math
 
-from vehicles.inner_loop import MAX_MOTORS
+from vehicles.inner_loop import FUNCTION_MOTOR1, MAX_MOTORS
 from vehicles.types import CommandResult
 
 MAX_TIMEOUT_S = 3.0
-FUNCTION_MOTOR1 = 101  # actuator_test FUNCTION_MOTOR1
 
 
 class ActuatorTest:

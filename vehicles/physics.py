@@ -427,9 +427,10 @@ class World:
         when a SIM_GZ_EC_* did."""
         configured = allocation(params.get)
         outputs = esc_outputs(params.get, self.airframe.rotor_count)
-        if (configured, outputs) == self._allocation[row]:
+        previous = self._allocation[row]
+        if (configured, outputs) == previous:
             return
-        if configured is not None and (self._allocation[row] or (None,))[0] != configured:
+        if configured is not None and (previous is None or previous[0] != configured):
             geometry, method, slews = configured
             self.inner.set_allocation(row, list(geometry), method, slews)
         if outputs is not None:
